@@ -1,0 +1,238 @@
+"""Exact discretization of linear models with in-step linear input extrapolation.
+
+Over a step of length ``h`` the input is taken as ``u(t_k + tau) = u_k + du_k tau``
+(its value and its rate at the step start; for a seat, the displacement's
+rate is the seat velocity). For an LTI system the update is then exact:
+
+    x_{k+1} = Phi x_k + Gamma0 u_k + Gamma1 du_k
+
+with ``Phi = e^{A h}``, ``Gamma0 = int_0^h e^{A s} ds B`` and
+``Gamma1 = int_0^h e^{A (h - tau)} B tau dtau``, read off one matrix
+exponential of the augmented matrix ``[[A, B, 0], [0, 0, I], [0, 0, 0]] h``.
+Compared with a zero-order hold this cuts the error about 100-fold at 1 ms
+(DESIGN.md section 6). It is also what the stiff ISO 7962 model needs: its
+fastest pole is near -1.1e8 1/s, which any explicit integrator would follow.
+
+Numpy only (no scipy): this module runs inside the FMUs.
+"""
+
+import math
+from typing import Dict, Optional, Tuple
+
+import numpy as np
+
+from .errors import BodyvibError
+from .network import LinearModel, Network, linear_model
+
+__all__ = ["expm", "discretize", "Discretization", "input_rates", "simulate"]
+
+# Pade(13) coefficients and the scaling threshold of Higham (2005).
+_B13 = (64764752532480000., 32382376266240000., 7771770303897600.,
+        1187353796428800., 129060195264000., 10559470521600., 670442572800.,
+        33522128640., 1323241920., 40840800., 960960., 16380., 182., 1.)
+_THETA13 = 5.371920351148152
+
+
+def expm(M: np.ndarray) -> np.ndarray:
+    """Matrix exponential by scaling and squaring with a degree-13 Pade approximant.
+
+    Parameters
+    ----------
+    M : (n, n) ndarray
+        Real square matrix.
+
+    Returns
+    -------
+    (n, n) ndarray
+
+    References
+    ----------
+    N. J. Higham, "The scaling and squaring method for the matrix exponential
+    revisited", SIAM J. Matrix Anal. Appl. 26(4), 2005.
+    A. H. Al-Mohy, N. J. Higham, "A new scaling and squaring algorithm for the
+    matrix exponential", SIAM J. Matrix Anal. Appl. 31(3), 2009.
+    """
+    M = np.asarray(M, dtype=float)
+    # Scaling from norms of powers (Al-Mohy & Higham 2009, eta_5): for the
+    # non-normal, stiff matrices of massless-node models ||M|| overstates the
+    # needed scaling by orders of magnitude, and every extra squaring costs
+    # accuracy. The matrices are small, so the powers are formed exactly.
+    M2 = M @ M
+    M4 = M2 @ M2
+    M6 = M4 @ M2
+    d6 = np.linalg.norm(M6, 1) ** (1 / 6)
+    d8 = np.linalg.norm(M4 @ M4, 1) ** (1 / 8)
+    d10 = np.linalg.norm(M4 @ M6, 1) ** (1 / 10)
+    eta = min(max(d6, d8), max(d8, d10))
+    s = max(0, int(math.ceil(math.log2(eta / _THETA13)))) if eta > 0 else 0
+    A = M / (2.0 ** s)
+    b = _B13
+    ident = np.eye(A.shape[0])
+    A2, A4, A6 = M2 / 4.0 ** s, M4 / 16.0 ** s, M6 / 64.0 ** s
+    U = A @ (A6 @ (b[13] * A6 + b[11] * A4 + b[9] * A2)
+             + b[7] * A6 + b[5] * A4 + b[3] * A2 + b[1] * ident)
+    V = (A6 @ (b[12] * A6 + b[10] * A4 + b[8] * A2)
+         + b[6] * A6 + b[4] * A4 + b[2] * A2 + b[0] * ident)
+    E = np.linalg.solve(V - U, V + U)
+    for _ in range(s):
+        E = E @ E
+    return E
+
+
+def discretize(A: np.ndarray, B: np.ndarray, h: float) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Exact step matrices ``Phi, Gamma0, Gamma1`` for input ``u_k + du_k tau``.
+
+    Parameters
+    ----------
+    A : (n, n) ndarray
+    B : (n, m) ndarray
+    h : float
+        Step length in seconds, positive and finite.
+
+    Returns
+    -------
+    Phi : (n, n) ndarray
+    Gamma0 : (n, m) ndarray
+        Zero-order-hold input matrix.
+    Gamma1 : (n, m) ndarray
+        Input-rate matrix (multiplies ``du_k``).
+
+    Raises
+    ------
+    BodyvibError
+        If ``h`` is not a positive finite number.
+    """
+    if not (isinstance(h, (int, float, np.floating)) and math.isfinite(h) and h > 0):
+        raise BodyvibError(f"step size must be a positive finite number of seconds, got {h!r}")
+    n, m = B.shape
+    M = np.zeros((n + 2 * m, n + 2 * m))
+    M[:n, :n] = A
+    M[:n, n:n + m] = B
+    M[n:n + m, n + m:] = np.eye(m)
+    E = expm(M * h)
+    return E[:n, :n], E[:n, n:n + m], E[:n, n + m:]
+
+
+class Discretization:
+    """Exact discrete-time stepping of a linear model, cached per step size.
+
+    Parameters
+    ----------
+    model : Network or LinearModel
+        The continuous-time model.
+    cache_digits : int
+        Step sizes are compared rounded to this many significant digits, since
+        communication steps computed by hosts are rarely bit-equal.
+
+    Examples
+    --------
+    >>> from bodyvib.models import load_model
+    >>> d = Discretization(load_model("reduced-paper"))
+    >>> x = d.step(d.zero_state(), [0.01, 0.0], [0.0, 0.0], 1e-3)
+    >>> x.shape
+    (5,)
+    """
+
+    def __init__(self, model, cache_digits: int = 12):
+        self.model: LinearModel = linear_model(model) if isinstance(model, Network) else model
+        self._digits = cache_digits
+        self._cache: Dict[float, Tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+    def zero_state(self) -> np.ndarray:
+        """The equilibrium state (all zeros)."""
+        return np.zeros(self.model.A.shape[0])
+
+    def matrices(self, h: float):
+        """``(Phi, Gamma0, Gamma1)`` for step ``h`` (computed once per rounded h)."""
+        if not (isinstance(h, (int, float, np.floating)) and math.isfinite(h) and h > 0):
+            raise BodyvibError(f"step size must be a positive finite number of seconds, got {h!r}")
+        key = float(f"{h:.{self._digits}g}")
+        mats = self._cache.get(key)
+        if mats is None:
+            if len(self._cache) > 64:  # varying steps: keep memory bounded
+                self._cache.clear()
+            mats = discretize(self.model.A, self.model.B, key)
+            self._cache[key] = mats
+        return mats
+
+    def step(self, x, u, du, h: float) -> np.ndarray:
+        """State after one step of length ``h`` from ``x`` with input ``u + du tau``."""
+        Phi, G0, G1 = self.matrices(h)
+        return Phi @ x + G0 @ np.asarray(u, float) + G1 @ np.asarray(du, float)
+
+    def outputs(self, x, u) -> np.ndarray:
+        """Outputs ``C x + D u``."""
+        return self.model.C @ x + self.model.D @ np.asarray(u, float)
+
+
+def input_rates(model: LinearModel, u: np.ndarray) -> np.ndarray:
+    """Default in-step input rates: base displacement rises at the base velocity.
+
+    Parameters
+    ----------
+    model : LinearModel
+    u : (n, m) ndarray
+        Input samples.
+
+    Returns
+    -------
+    (n, m) ndarray
+        Rate of each input over the step that starts at each sample: the base
+        velocity for the base displacement, zero for the others.
+    """
+    du = np.zeros_like(u)
+    du[:, 0] = u[:, 1]
+    return du
+
+
+def simulate(model, t, u, du: Optional[np.ndarray] = None, x0=None):
+    """Exact discrete simulation on a time grid (uniform or not).
+
+    Parameters
+    ----------
+    model : Network or LinearModel
+    t : (n,) array_like
+        Strictly increasing times in s.
+    u : (n, m) array_like
+        Inputs at those times, columns as ``model.inputs`` (base displacement
+        in m, base velocity in m/s, forces in N).
+    du : (n, m) array_like, optional
+        In-step input rates; by default the base velocity drives the base
+        displacement and the other inputs are held (:func:`input_rates`).
+    x0 : (ns,) array_like, optional
+        Initial state (zero by default).
+
+    Returns
+    -------
+    x : (n, ns) ndarray
+        States at the grid times.
+    y : (n, no) ndarray
+        Outputs at the grid times (with the inputs at those times).
+
+    Raises
+    ------
+    BodyvibError
+        Non-finite input, a grid that does not increase, or mismatched shapes.
+    """
+    d = model if isinstance(model, Discretization) else Discretization(model)
+    lm = d.model
+    t = np.asarray(t, dtype=float)
+    u = np.asarray(u, dtype=float)
+    if u.ndim != 2 or u.shape != (t.size, len(lm.inputs)):
+        raise BodyvibError(
+            f"inputs must have shape ({t.size}, {len(lm.inputs)}) for inputs "
+            f"{', '.join(lm.inputs)}; got {u.shape}"
+        )
+    if not np.all(np.isfinite(u)):
+        k = int(np.argwhere(~np.isfinite(u))[0, 0])
+        raise BodyvibError(f"input is not finite at t = {t[k]:g} s; clean the input signal")
+    h = np.diff(t)
+    if np.any(~(h > 0)):
+        raise BodyvibError("time grid must be strictly increasing")
+    du = input_rates(lm, u) if du is None else np.asarray(du, dtype=float)
+    x = np.zeros((t.size, lm.A.shape[0]))
+    x[0] = d.zero_state() if x0 is None else x0
+    for k in range(t.size - 1):
+        x[k + 1] = d.step(x[k], u[k], du[k], float(h[k]))
+    y = x @ lm.C.T + u @ lm.D.T
+    return x, y

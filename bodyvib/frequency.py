@@ -1,0 +1,187 @@
+"""Frequency responses of networks: transmissibility, apparent mass, peaks.
+
+For harmonic base motion ``x_b = X_b e^{j w t}`` the base velocity input is
+``j w X_b``, so the response of output ``y`` per unit base displacement is
+
+    H(jw) = C (jw I - A)^{-1} (B_x + jw B_v) + D_x + jw D_v
+
+where ``B_x, B_v`` (``D_x, D_v``) are the displacement and velocity columns.
+The seat-to-head *transmissibility* is ``T = X_head / X_seat = A_head / A_seat``.
+"""
+
+from typing import List, Sequence
+
+import numpy as np
+
+from .errors import BodyvibError
+from .network import LinearModel, Network, control_labels, linear_model
+
+__all__ = [
+    "frequency_response",
+    "transmissibility",
+    "apparent_mass",
+    "find_peaks",
+    "displacement_input_statespace",
+]
+
+
+def _model(model) -> LinearModel:
+    return linear_model(model) if isinstance(model, Network) else model
+
+
+def frequency_response(model, frequencies_hz, output: str) -> np.ndarray:
+    """Complex response of one output per unit base displacement.
+
+    Parameters
+    ----------
+    model : Network or LinearModel
+        The model.
+    frequencies_hz : array_like
+        Frequencies in Hz.
+    output : str
+        Output name, e.g. ``"head.x"`` (a role may replace the mass name),
+        ``"m2.a"`` or ``"seat_force"``.
+
+    Returns
+    -------
+    ndarray of complex
+        Output amplitude per metre of base displacement (output unit per m).
+
+    Examples
+    --------
+    >>> from bodyvib.models import load_model
+    >>> T = frequency_response(load_model("reduced-paper"), [0.0], "head.x")
+    >>> round(abs(T[0]), 12)
+    1.0
+    """
+    lm = _model(model)
+    f = np.atleast_1d(np.asarray(frequencies_hz, dtype=float))
+    i = lm.output_index(output)
+    s = 2j * np.pi * f
+    n = lm.A.shape[0]
+    rhs = lm.B[:, 0][None, :] + s[:, None] * lm.B[:, 1][None, :]  # (nf, n)
+    lhs = s[:, None, None] * np.eye(n)[None] - lm.A[None]
+    x = np.linalg.solve(lhs, rhs[..., None])[..., 0]
+    return x @ lm.C[i] + lm.D[i, 0] + s * lm.D[i, 1]
+
+
+def transmissibility(model, frequencies_hz, point: str = "head") -> np.ndarray:
+    """Seat-to-point transmissibility ``X_point / X_base`` (dimensionless, complex).
+
+    Parameters
+    ----------
+    model : Network or LinearModel
+    frequencies_hz : array_like
+        Frequencies in Hz.
+    point : str
+        Role or mass name; the head by default.
+
+    Returns
+    -------
+    ndarray of complex
+    """
+    return frequency_response(model, frequencies_hz, f"{point}.x")
+
+
+def apparent_mass(model, frequencies_hz) -> np.ndarray:
+    """Apparent mass ``F_base / A_base`` in kg (complex), for frequencies > 0 Hz.
+
+    As the frequency goes to 0 it tends to the total mass (the static
+    apparent mass).
+
+    Raises
+    ------
+    BodyvibError
+        If a frequency is not positive.
+    """
+    f = np.atleast_1d(np.asarray(frequencies_hz, dtype=float))
+    if np.any(f <= 0):
+        raise BodyvibError("apparent mass needs frequencies above 0 Hz")
+    lm = _model(model)
+    w = 2 * np.pi * f
+    return frequency_response(lm, f, f"{lm.network.base}_force") / (-(w ** 2))
+
+
+def find_peaks(frequencies_hz: Sequence[float], modulus: Sequence[float],
+               min_prominence: float = 0.01) -> List[dict]:
+    """Local maxima of a modulus curve, refined by a parabola through 3 points.
+
+    Parameters
+    ----------
+    frequencies_hz : sequence of float
+        Increasing frequencies in Hz.
+    modulus : sequence of float
+        ``|T|`` at those frequencies.
+    min_prominence : float
+        A maximum counts when it stands this much (absolute) above the lowest
+        value between it and the next higher ground on either side.
+
+    Returns
+    -------
+    list of dict
+        ``{"frequency_hz": F, "modulus": M}``, in increasing frequency.
+    """
+    f = np.asarray(frequencies_hz, dtype=float)
+    m = np.asarray(modulus, dtype=float)
+    peaks = []
+    for i in range(1, len(m) - 1):
+        if not (m[i] > m[i - 1] and m[i] >= m[i + 1]):
+            continue
+        left = m[: i + 1]
+        higher_left = np.nonzero(left > m[i])[0]
+        lmin = left[higher_left[-1]:].min() if higher_left.size else left.min()
+        right = m[i:]
+        higher_right = np.nonzero(right > m[i])[0]
+        rmin = right[: higher_right[0] + 1].min() if higher_right.size else right.min()
+        if m[i] - max(lmin, rmin) < min_prominence:
+            continue
+        # parabolic refinement (uniform or not: fit through the three points)
+        x, y = f[i - 1:i + 2], m[i - 1:i + 2]
+        a, b, c = np.polyfit(x - f[i], y, 2)
+        if a < 0:
+            dx = -b / (2 * a)
+            fp, mp = f[i] + dx, c - b * b / (4 * a)
+            if not (x[0] <= fp <= x[2]):
+                fp, mp = f[i], m[i]
+        else:
+            fp, mp = f[i], m[i]
+        peaks.append({"frequency_hz": float(fp), "modulus": float(mp)})
+    return peaks
+
+
+def displacement_input_statespace(model):
+    """Single-input python-control ``StateSpace`` driven by base displacement.
+
+    Eliminates the base-velocity input by the state change
+    ``w = x - B_v x_b``: ``w' = A w + (A B_v + B_x) x_b``,
+    ``y = C w + (C B_v + D_x) x_b``. Exact when ``D_v = 0`` (no damper from
+    the base straight into an acceleration or force output).
+
+    Parameters
+    ----------
+    model : Network or LinearModel
+
+    Returns
+    -------
+    control.StateSpace
+        One input (base displacement), all outputs, named.
+
+    Raises
+    ------
+    BodyvibError
+        If some output depends on base velocity directly (improper in x_b).
+    """
+    import control
+
+    lm = _model(model)
+    Bx, Bv = lm.B[:, 0], lm.B[:, 1]
+    if np.any(lm.D[:, 1] != 0):
+        bad = [lm.outputs[i] for i in np.nonzero(lm.D[:, 1])[0]]
+        raise BodyvibError(
+            "outputs " + ", ".join(bad) + " depend on base velocity directly; "
+            "use frequency_response() instead"
+        )
+    B = (lm.A @ Bv + Bx)[:, None]
+    D = (lm.C @ Bv + lm.D[:, 0])[:, None]
+    return control.ss(lm.A, B, lm.C, D, inputs=control_labels(lm.inputs[:1]),
+                      outputs=control_labels(lm.outputs), name=lm.network.name)

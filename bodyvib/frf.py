@@ -1,0 +1,149 @@
+"""Seat-to-head transmissibility of several models side by side: the ``frf`` command.
+
+The comparison of the paper's Fig. 3 (without its experimental points):
+modulus and phase of ``T = X_head / X_seat`` over 0.5-31.5 Hz, the range of
+ISO 7962's data, with each model's resonance peaks.
+"""
+
+import numpy as np
+
+from .errors import BodyvibError
+from .fileio import write_json
+from .frequency import find_peaks, transmissibility
+from .models import load_model
+
+__all__ = [
+    "THIRD_OCTAVE_HZ",
+    "compare_transmissibility",
+    "format_table",
+    "plot_transmissibility",
+    "add_command",
+]
+
+#: One-third-octave centre frequencies of ISO 7962's range, Hz.
+THIRD_OCTAVE_HZ = (0.5, 0.63, 0.8, 1.0, 1.25, 1.6, 2.0, 2.5, 3.15, 4.0, 5.0, 6.3,
+                   8.0, 10.0, 12.5, 16.0, 20.0, 25.0, 31.5)
+
+DEFAULT_MODELS = ("reduced-paper", "iso7962")
+
+
+def compare_transmissibility(models=DEFAULT_MODELS, f_min=0.5, f_max=31.5, points=1200):
+    """Transmissibility of each model on a common logarithmic frequency grid.
+
+    Parameters
+    ----------
+    models : sequence of str or Network
+        Shipped model names, parameter-file paths, or networks.
+    f_min, f_max : float
+        Frequency range in Hz.
+    points : int
+        Number of grid points (logarithmically spaced).
+
+    Returns
+    -------
+    dict
+        ``{"frequency_hz": [...], "models": {NAME: {"modulus": [...],
+        "phase_deg": [...], "peaks": [{"frequency_hz": F, "modulus": M}]}}}``;
+        phase unwrapped, in degrees (negative = head lags seat).
+
+    Examples
+    --------
+    >>> r = compare_transmissibility(["reduced-paper"], points=200)
+    >>> round(r["models"]["reduced-paper"]["peaks"][0]["frequency_hz"], 1)
+    4.4
+    """
+    if not (0 < f_min < f_max) or points < 10:
+        raise BodyvibError(
+            f"frequency range must satisfy 0 < fmin < fmax with at least 10 points; "
+            f"got fmin={f_min}, fmax={f_max}, points={points}"
+        )
+    f = np.geomspace(f_min, f_max, points)
+    out = {"frequency_hz": f.tolist(), "models": {}}
+    for m in models:
+        net = load_model(m) if isinstance(m, str) else m
+        T = transmissibility(net, f)
+        mod = np.abs(T)
+        out["models"][net.name] = {
+            "modulus": mod.tolist(),
+            "phase_deg": np.degrees(np.unwrap(np.angle(T))).tolist(),
+            "peaks": find_peaks(f, mod),
+        }
+    return out
+
+
+def format_table(result, frequencies_hz=THIRD_OCTAVE_HZ) -> str:
+    """A text table: |T| and phase per model at the given frequencies, then the peaks."""
+    names = list(result["models"])
+    f = np.asarray(result["frequency_hz"])
+    head = f"{'f [Hz]':>7}" + "".join(f" | {n[:20]:>20}" for n in names)
+    sub = f"{'':>7}" + "".join(f" | {'|T| [-]':>8} {'phase[deg]':>11}" for _ in names)
+    lines = [head, sub, "-" * len(sub)]
+    for fq in frequencies_hz:
+        row = f"{fq:7.2f}"
+        for n in names:
+            r = result["models"][n]
+            mod = np.interp(np.log(fq), np.log(f), r["modulus"])
+            ph = np.interp(np.log(fq), np.log(f), r["phase_deg"])
+            row += f" | {mod:8.3f} {ph:11.1f}"
+        lines.append(row)
+    lines.append("")
+    for n in names:
+        peaks = ", ".join(
+            f"{p['modulus']:.3f} at {p['frequency_hz']:.2f} Hz" for p in result["models"][n]["peaks"]
+        )
+        lines.append(f"peaks of {n}: {peaks or 'none'}")
+    return "\n".join(lines)
+
+
+def plot_transmissibility(result, path, title="Seat-to-head transmissibility"):
+    """Modulus and phase of every model in ``result``, peaks marked; saved to ``path``."""
+    from .plotting import new_figure, save_figure
+
+    fig, (ax1, ax2) = new_figure(2, 1, sharex=True, figsize=(7, 6))
+    f = result["frequency_hz"]
+    for name, r in result["models"].items():
+        line, = ax1.plot(f, r["modulus"], label=name)
+        for p in r["peaks"]:
+            ax1.plot(p["frequency_hz"], p["modulus"], "o", color=line.get_color(), ms=4)
+        ax2.plot(f, r["phase_deg"], color=line.get_color(), label=name)
+    ax1.set_xscale("log")
+    ax1.set_ylabel("|T| = |X_head / X_seat|  [-]")
+    ax1.set_title(title)
+    ax1.grid(True, which="both", alpha=0.3)
+    ax1.legend()
+    ax2.set_xlabel("frequency [Hz]")
+    ax2.set_ylabel("phase [deg]")
+    ax2.grid(True, which="both", alpha=0.3)
+    save_figure(fig, path)
+
+
+def _run(args):
+    result = compare_transmissibility(args.models, args.fmin, args.fmax, args.points)
+    print(format_table(result))
+    if args.json:
+        write_json(args.json, result)
+        print(f"wrote {args.json}")
+    if args.plot:
+        plot_transmissibility(result, args.plot)
+        print(f"wrote {args.plot}")
+    return 0
+
+
+def add_command(subparsers):
+    """Register ``bodyvib frf``."""
+    p = subparsers.add_parser(
+        "frf",
+        help="seat-to-head transmissibility of models (table, JSON, plot)",
+        description="Seat-to-head transmissibility (modulus and phase) of body models "
+        "over 0.5-31.5 Hz, with each model's peaks.",
+    )
+    p.add_argument("--models", nargs="+", default=list(DEFAULT_MODELS), metavar="MODEL",
+                   help="shipped model names or parameter-file paths (default: %(default)s)")
+    p.add_argument("--fmin", type=float, default=0.5, help="lowest frequency, Hz (default 0.5)")
+    p.add_argument("--fmax", type=float, default=31.5, help="highest frequency, Hz (default 31.5)")
+    p.add_argument("--points", type=int, default=1200, help="grid points (default 1200)")
+    p.add_argument("--plot", metavar="FILE.png", help="write the comparison plot")
+    p.add_argument("--json", metavar="FILE", help="write the curves and peaks as JSON")
+    p.set_defaults(func=_run)
+    return p
+

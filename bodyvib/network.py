@@ -1,0 +1,479 @@
+"""Lumped mass-spring-damper networks and their linear state-space form.
+
+A *network* is a vibration model written as data: named masses, named
+massless nodes, and two-terminal elements between named points, driven by the
+prescribed vertical motion of one *base* point (``seat`` for a human-body
+model, ``road`` for a vehicle). Optional external forces act on listed masses
+(the occupant's seat force on a car body, for example).
+
+Every element is expanded into primitive springs and dampers:
+
+============== ============================== ==================================
+kind           parameters                     meaning (``from`` -> ``to``)
+============== ============================== ==================================
+spring         k [N/m]                        k
+damper         c [N s/m]                      c
+kelvin         k, c                           k parallel c
+series_kelvin  k_series, k, c                 k_series, then node, then (k || c)
+zener          k, c, k_series                 k parallel (c in series with k_series)
+============== ============================== ==================================
+
+``series_kelvin`` and ``zener`` create a massless internal node, named by the
+element's ``node`` field (``<element>.node`` by default).
+
+Equations (SI units, z up, perturbations about static equilibrium): a mass
+obeys ``m a = sum of element forces (+ external force)``; a massless node
+obeys ``0 = sum of element forces``, which, since every node touches at
+least one damper, is a first-order equation for its displacement. The state
+vector is ``[x of each mass, v of each mass, y of each node]``; the input
+vector is ``[base displacement, base velocity, external forces...]`` (the base
+velocity is an input of its own so that dampers attached to the base are
+exact). Outputs are every mass's displacement, velocity and absolute
+acceleration, every node's displacement and the *base force*: the force the
+network exerts on the base, positive in compression (pushing the base down).
+
+This module is numpy-only and uses relative imports only, so that FMUs can
+ship it under a private name (see ``build_fmu.py``).
+"""
+
+from dataclasses import dataclass, field, replace
+from typing import Dict, Mapping, Optional, Tuple, Union
+
+import numpy as np
+
+from .errors import BodyvibError
+
+__all__ = [
+    "ELEMENT_KINDS",
+    "Element",
+    "Network",
+    "LinearModel",
+    "linear_model",
+    "control_labels",
+    "mount",
+]
+
+#: Element kinds and the parameters each needs (all in SI: N/m, N s/m).
+ELEMENT_KINDS: Dict[str, Tuple[str, ...]] = {
+    "spring": ("k",),
+    "damper": ("c",),
+    "kelvin": ("k", "c"),
+    "series_kelvin": ("k_series", "k", "c"),
+    "zener": ("k", "c", "k_series"),
+}
+
+Value = Union[str, float]
+
+
+@dataclass(frozen=True)
+class Element:
+    """A two-terminal element between points ``a`` (``from``) and ``b`` (``to``).
+
+    Parameters
+    ----------
+    name : str
+        Unique element name.
+    kind : str
+        One of :data:`ELEMENT_KINDS`.
+    a, b : str
+        The two points it connects (mass, node or base names).
+    values : dict
+        Element parameter -> parameter name (str, looked up in the network's
+        ``parameters``) or a literal number in SI units.
+    node : str, optional
+        Name of the internal massless node of a ``series_kelvin`` or ``zener``
+        element; ``"<name>.node"`` by default.
+    """
+
+    name: str
+    kind: str
+    a: str
+    b: str
+    values: Mapping[str, Value]
+    node: Optional[str] = None
+
+    @property
+    def internal_node(self) -> Optional[str]:
+        """Name of the internal node, or None for kinds without one."""
+        if self.kind in ("series_kelvin", "zener"):
+            return self.node or f"{self.name}.node"
+        return None
+
+
+@dataclass(frozen=True)
+class Network:
+    """A lumped vibration model as data: topology plus named parameter values.
+
+    Parameters
+    ----------
+    name : str
+        Model name.
+    parameters : dict of str to float
+        Named parameter values in SI units (kg, N/m, N s/m). These are the
+        numbers a fit changes and an FMU exposes.
+    masses : dict of str to str or float
+        Mass point name -> parameter name (or literal mass in kg).
+    elements : sequence of Element
+        The springs, dampers and compound elements.
+    nodes : sequence of str
+        Declared massless nodes (internal nodes of compound elements are added
+        automatically).
+    base : str
+        The driven point (``"seat"`` for a body model).
+    force_inputs : sequence of str
+        Masses on which an external force input acts (N, positive up).
+    roles : dict of str to str
+        Field names for points, e.g. ``{"head": "m1", "torso": "m2"}``.
+    description : str
+        One paragraph on what the model is.
+    provenance : dict
+        Where the numbers come from (source, assumptions, fit settings).
+    """
+
+    name: str
+    parameters: Mapping[str, float]
+    masses: Mapping[str, Value]
+    elements: Tuple[Element, ...]
+    nodes: Tuple[str, ...] = ()
+    base: str = "seat"
+    force_inputs: Tuple[str, ...] = ()
+    roles: Mapping[str, str] = field(default_factory=dict)
+    description: str = ""
+    provenance: Mapping[str, object] = field(default_factory=dict)
+
+    # -- derived views -----------------------------------------------------
+    @property
+    def mass_names(self) -> Tuple[str, ...]:
+        """Mass point names, in state order."""
+        return tuple(self.masses)
+
+    @property
+    def node_names(self) -> Tuple[str, ...]:
+        """Declared and internal massless node names, in state order."""
+        names = list(self.nodes)
+        for el in self.elements:
+            if el.internal_node is not None and el.internal_node not in names:
+                names.append(el.internal_node)
+        return tuple(names)
+
+    def value(self, ref: Value) -> float:
+        """Resolve a parameter reference (name or literal) to a float."""
+        if isinstance(ref, str):
+            return float(self.parameters[ref])
+        return float(ref)
+
+    def mass_values(self) -> Dict[str, float]:
+        """Mass point name -> mass in kg."""
+        return {m: self.value(ref) for m, ref in self.masses.items()}
+
+    def total_mass(self) -> float:
+        """Sum of all masses in kg (the static apparent mass on the base)."""
+        return float(sum(self.mass_values().values()))
+
+    def with_parameters(self, **values: float) -> "Network":
+        """Return a copy with some parameter values replaced.
+
+        Raises
+        ------
+        BodyvibError
+            If a name is not a parameter of this network.
+        """
+        unknown = sorted(set(values) - set(self.parameters))
+        if unknown:
+            raise BodyvibError(
+                f"model '{self.name}' has no parameter(s) {', '.join(unknown)}; "
+                f"its parameters are {', '.join(self.parameters)}"
+            )
+        params = dict(self.parameters)
+        params.update({k: float(v) for k, v in values.items()})
+        return replace(self, parameters=params)
+
+    def point(self, role_or_name: str) -> str:
+        """Resolve a role (``"head"``) or a point name to a point name."""
+        return self.roles.get(role_or_name, role_or_name)
+
+    def primitives(self):
+        """Expand elements into primitive springs and dampers.
+
+        Returns
+        -------
+        springs, dampers : list of (a, b, value)
+            Point pairs with stiffness in N/m or damping in N s/m.
+        """
+        springs, dampers = [], []
+        for el in self.elements:
+            v = {p: self.value(r) for p, r in el.values.items()}
+            n = el.internal_node
+            if el.kind == "spring":
+                springs.append((el.a, el.b, v["k"]))
+            elif el.kind == "damper":
+                dampers.append((el.a, el.b, v["c"]))
+            elif el.kind == "kelvin":
+                springs.append((el.a, el.b, v["k"]))
+                dampers.append((el.a, el.b, v["c"]))
+            elif el.kind == "series_kelvin":
+                springs.append((el.a, n, v["k_series"]))
+                springs.append((n, el.b, v["k"]))
+                dampers.append((n, el.b, v["c"]))
+            elif el.kind == "zener":
+                springs.append((el.a, el.b, v["k"]))
+                springs.append((el.a, n, v["k_series"]))
+                dampers.append((n, el.b, v["c"]))
+            else:  # pragma: no cover - validated on load
+                raise BodyvibError(f"element '{el.name}': unknown kind '{el.kind}'")
+        return springs, dampers
+
+
+@dataclass(frozen=True)
+class LinearModel:
+    """Continuous-time state space ``x' = A x + B u``, ``y = C x + D u``.
+
+    Attributes
+    ----------
+    A, B, C, D : ndarray
+        System matrices (SI units).
+    states, inputs, outputs : tuple of str
+        Names: states ``"<mass>.x"``, ``"<mass>.v"``, ``"<node>.y"``; inputs
+        ``"<base>_displacement"``, ``"<base>_velocity"``, ``"<mass>.force"``;
+        outputs ``"<mass>.x"``, ``"<mass>.v"``, ``"<mass>.a"``,
+        ``"<node>.y"``, ``"<base>_force"``.
+    network : Network
+        The network it was built from.
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    states: Tuple[str, ...]
+    inputs: Tuple[str, ...]
+    outputs: Tuple[str, ...]
+    network: Network
+
+    def output_index(self, name: str) -> int:
+        """Index of an output by name; a role may stand for a mass (``"head.a"``)."""
+        point, _, quantity = name.rpartition(".")
+        if point:
+            name = f"{self.network.point(point)}.{quantity}"
+        try:
+            return self.outputs.index(name)
+        except ValueError:
+            raise BodyvibError(
+                f"no output '{name}'; outputs are {', '.join(self.outputs)}"
+            ) from None
+
+    def input_index(self, name: str) -> int:
+        """Index of an input by name."""
+        try:
+            return self.inputs.index(name)
+        except ValueError:
+            raise BodyvibError(
+                f"no input '{name}'; inputs are {', '.join(self.inputs)}"
+            ) from None
+
+    def to_statespace(self):
+        """The model as a python-control ``StateSpace`` with named signals.
+
+        Returns
+        -------
+        control.StateSpace
+            All inputs (base displacement, base velocity, forces) and outputs;
+            python-control forbids '.' in signal names, so ``m1.x`` is
+            labelled ``m1_x`` there.
+
+        Notes
+        -----
+        For a transmissibility, the base velocity input must be driven by
+        ``s`` times the displacement; see
+        :func:`bodyvib.frequency.displacement_input_statespace`.
+        """
+        import control  # not needed at FMU run time
+
+        return control.ss(
+            self.A, self.B, self.C, self.D,
+            inputs=control_labels(self.inputs), outputs=control_labels(self.outputs),
+            states=control_labels(self.states), name=self.network.name,
+        )
+
+
+def control_labels(names) -> list:
+    """Signal names as python-control accepts them ('.' replaced by '_')."""
+    return [n.replace(".", "_") for n in names]
+
+
+def linear_model(network: Network) -> LinearModel:
+    """Assemble the state-space matrices of a network.
+
+    Parameters
+    ----------
+    network : Network
+        A validated network (see :func:`bodyvib.models.network_from_dict`).
+
+    Returns
+    -------
+    LinearModel
+        Matrices and signal names; see the module docstring for the equations.
+
+    Raises
+    ------
+    BodyvibError
+        If a massless node has no damper path (its equation would be algebraic).
+
+    Examples
+    --------
+    >>> from bodyvib.models import load_model
+    >>> lm = linear_model(load_model("reduced-paper"))
+    >>> lm.A.shape
+    (5, 5)
+    """
+    masses = network.mass_names
+    nodes = network.node_names
+    nm, nn = len(masses), len(nodes)
+    ns = 2 * nm + nn
+    base = network.base
+    inputs = (f"{base}_displacement", f"{base}_velocity") + tuple(
+        f"{m}.force" for m in network.force_inputs
+    )
+    ni = len(inputs)
+    nz = ns + ni  # every signal is a linear map of z = [states, inputs]
+
+    def unit(i):
+        e = np.zeros(nz)
+        e[i] = 1.0
+        return e
+
+    pos = {m: unit(i) for i, m in enumerate(masses)}
+    pos.update({n: unit(2 * nm + j) for j, n in enumerate(nodes)})
+    pos[base] = unit(ns)
+    vel = {m: unit(nm + i) for i, m in enumerate(masses)}
+    vel[base] = unit(ns + 1)
+
+    springs, dampers = network.primitives()
+
+    # Node velocities: for node n, sum_k k (x_q - x_n) + sum_c c (v_q - v_n) = 0,
+    # a linear system M V = R in the unknown node velocities V.
+    node_idx = {n: j for j, n in enumerate(nodes)}
+    M = np.zeros((nn, nn))
+    R = np.zeros((nn, nz))
+    for a, b, k in springs:
+        for p, q in ((a, b), (b, a)):
+            if p in node_idx:
+                R[node_idx[p]] -= k * (pos[q] - pos[p])
+    for a, b, c in dampers:
+        for p, q in ((a, b), (b, a)):
+            if p in node_idx:
+                j = node_idx[p]
+                M[j, j] -= c
+                if q in node_idx:
+                    M[j, node_idx[q]] += c
+                else:
+                    R[j] -= c * vel[q]
+    if nn:
+        try:
+            V = np.linalg.solve(M, R)
+        except np.linalg.LinAlgError:
+            raise BodyvibError(
+                f"model '{network.name}': a massless node has no damper path to a "
+                "mass or the base, so its motion is undetermined; give every node "
+                "a damper (or merge springs in series)"
+            ) from None
+        vel.update({n: V[j] for n, j in node_idx.items()})
+
+    force_on = {p: np.zeros(nz) for p in list(masses) + list(nodes) + [base]}
+    for a, b, k in springs:
+        f = k * (pos[b] - pos[a])  # force on a, up when b is above a
+        force_on[a] += f
+        force_on[b] -= f
+    for a, b, c in dampers:
+        f = c * (vel[b] - vel[a])
+        force_on[a] += f
+        force_on[b] -= f
+
+    mvals = network.mass_values()
+    acc = {}
+    for m in masses:
+        total = force_on[m].copy()
+        if m in network.force_inputs:
+            total += unit(ns + inputs.index(f"{m}.force"))
+        acc[m] = total / mvals[m]
+
+    rows = [vel[m] for m in masses] + [acc[m] for m in masses] + [vel[n] for n in nodes]
+    AB = np.array(rows).reshape(ns, nz)
+    out_rows, out_names = [], []
+    for m in masses:
+        out_rows += [pos[m], vel[m], acc[m]]
+        out_names += [f"{m}.x", f"{m}.v", f"{m}.a"]
+    for n in nodes:
+        out_rows.append(pos[n])
+        out_names.append(f"{n}.y")
+    out_rows.append(-force_on[base])
+    out_names.append(f"{base}_force")
+    CD = np.array(out_rows)
+    states = tuple(f"{m}.x" for m in masses) + tuple(f"{m}.v" for m in masses) + tuple(
+        f"{n}.y" for n in nodes
+    )
+    return LinearModel(
+        A=AB[:, :ns], B=AB[:, ns:], C=CD[:, :ns], D=CD[:, ns:],
+        states=states, inputs=inputs, outputs=tuple(out_names), network=network,
+    )
+
+
+def mount(carrier: Network, occupant: Network, at: str, prefix: str = "body.") -> Network:
+    """Seat an occupant network on a point of a carrier network (two-way coupled).
+
+    The occupant's base becomes the carrier's point ``at``; the occupant's
+    points and parameters are renamed with ``prefix``. The result is one
+    network driven by the carrier's base: the monolithic form of a coupled
+    vehicle-occupant system.
+
+    Parameters
+    ----------
+    carrier : Network
+        The vehicle (its base is the road).
+    occupant : Network
+        The body model (its base is the seat).
+    at : str
+        Carrier mass (or role) the occupant sits on.
+    prefix : str
+        Prefix for the occupant's point, element and parameter names.
+
+    Returns
+    -------
+    Network
+    """
+    at = carrier.point(at)
+    if at not in carrier.masses and at not in carrier.node_names:
+        raise BodyvibError(f"carrier '{carrier.name}' has no point '{at}' to mount on")
+
+    def rename(p):
+        return at if p == occupant.base else prefix + p
+
+    def ref(r):
+        return prefix + r if isinstance(r, str) else r
+
+    elements = tuple(
+        Element(
+            name=prefix + el.name, kind=el.kind, a=rename(el.a), b=rename(el.b),
+            values={k: ref(v) for k, v in el.values.items()},
+            node=prefix + el.internal_node if el.internal_node else None,
+        )
+        for el in occupant.elements
+    )
+    params = dict(carrier.parameters)
+    params.update({prefix + k: v for k, v in occupant.parameters.items()})
+    masses = dict(carrier.masses)
+    masses.update({prefix + m: ref(r) for m, r in occupant.masses.items()})
+    roles = dict(carrier.roles)
+    roles.update({prefix + r: prefix + p for r, p in occupant.roles.items()})
+    return Network(
+        name=f"{carrier.name}+{occupant.name}",
+        parameters=params,
+        masses=masses,
+        elements=carrier.elements + elements,
+        nodes=carrier.nodes + tuple(prefix + n for n in occupant.nodes),
+        base=carrier.base,
+        force_inputs=tuple(m for m in carrier.force_inputs if m != at),
+        roles=roles,
+        description=f"{occupant.name} seated on {carrier.name} at '{at}'",
+    )
+

@@ -1,0 +1,91 @@
+"""Parameter files: loading, validation errors, round trip (bodyvib.models)."""
+
+import copy
+import json
+import os
+
+import pytest
+
+from bodyvib.errors import BodyvibError
+from bodyvib.models import (available_models, load_model, network_from_dict,
+                            network_to_dict, save_model)
+
+
+def reduced_dict():
+    return network_to_dict(load_model("reduced-paper"))
+
+
+def test_shipped_models_load_by_name():
+    assert {"reduced-paper", "iso7962"} <= set(available_models())
+    red = load_model("reduced-paper")
+    assert red.parameters == {"m1": 4.88, "m2": 65.0, "k1": 6.18e4, "k2": 6.41e4,
+                              "ks": 8e5, "c1": 333.0, "c2": 2935.0}
+    iso = load_model("iso7962")
+    assert iso.node_names == ("y1", "y2", "y3", "y4")
+    assert "reconstructed" in iso.provenance["topology"]
+
+
+def test_round_trip_through_file(tmp_path):
+    net = load_model("iso7962")
+    path = tmp_path / "copy.json"
+    save_model(net, path)
+    again = load_model(str(path))
+    assert again == net
+    assert not [p for p in os.listdir(tmp_path) if p.startswith(".tmp")]
+
+
+def mutate(fn):
+    d = reduced_dict()
+    fn(d)
+    return d
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda d: d["parameters"].update(m1=-4.88), "parameters.m1 = -4.88 must be positive"),
+    (lambda d: d["parameters"].update(m2=0), "parameters.m2 = 0 must be positive"),
+    (lambda d: d["parameters"].update(k1="stiff"), "parameters.k1: expected a number"),
+    (lambda d: d["parameters"].update(c1=float("nan")), "parameters.c1: must be finite"),
+    (lambda d: d.pop("masses"), "missing field(s) masses"),
+    (lambda d: d.update(colour="red"), "unknown field(s) colour"),
+    (lambda d: d["elements"][2].update(to="m9"), "connects unknown point 'm9'"),
+    (lambda d: d["elements"][1].update(k="k7"), "unknown parameter 'k7'"),
+    (lambda d: d["elements"][1].pop("c"), "a kelvin needs field(s) c"),
+    (lambda d: d["elements"][0].update(c="c1"), "unknown field(s) c for a spring"),
+    (lambda d: d["elements"][0].update(kind="rubber"), "unknown kind 'rubber'"),
+    (lambda d: (d["masses"].update(m3="m1"), d["parameters"].update()),
+     "m3 not connected to the seat"),
+    (lambda d: d["parameters"].update(k9=1.0), "parameter(s) k9 not used"),
+    (lambda d: d["roles"].update(head="m7"), "roles.head names unknown point 'm7'"),
+])
+def test_invalid_files_name_the_field(change, message):
+    with pytest.raises(BodyvibError) as exc:
+        network_from_dict(mutate(change), source="bad.json")
+    assert message in str(exc.value)
+    assert str(exc.value).startswith("bad.json")
+
+
+def test_unreadable_and_malformed_files(tmp_path):
+    with pytest.raises(BodyvibError, match="does not exist"):
+        load_model(str(tmp_path / "none.json"))
+    bad = tmp_path / "bad.json"
+    bad.write_text("{\"name\": 1,,}")
+    with pytest.raises(BodyvibError, match="not valid JSON .line 1"):
+        load_model(str(bad))
+    with pytest.raises(BodyvibError, match="unknown model 'nope'.*iso7962"):
+        load_model("nope")
+
+
+def test_with_parameters_rejects_unknown_names():
+    net = load_model("reduced-paper")
+    assert net.with_parameters(m1=5.0).parameters["m1"] == 5.0
+    assert net.parameters["m1"] == 4.88
+    with pytest.raises(BodyvibError, match="no parameter.*mass"):
+        net.with_parameters(mass=5.0)
+
+
+def test_shipped_files_are_plain_json():
+    from bodyvib.models import MODEL_DIR
+    for name in available_models():
+        with open(os.path.join(MODEL_DIR, name + ".json")) as f:
+            data = json.load(f)
+        network_from_dict(copy.deepcopy(data), source=name)
