@@ -29,8 +29,11 @@ vector is ``[x of each mass, v of each mass, y of each node]``; the input
 vector is ``[base displacement, base velocity, external forces...]`` (the base
 velocity is an input of its own so that dampers attached to the base are
 exact). Outputs are every mass's displacement, velocity and absolute
-acceleration, every node's displacement and the *base force*: the force the
-network exerts on the base, positive in compression (pushing the base down).
+acceleration, every node's displacement, every element's deflection
+(``x_to - x_from``, positive when it lengthens) and force (the force it
+exerts on its ``to`` point, positive in compression, i.e. pushing ``to``
+up), and the *base force*: the force the network exerts on the base,
+positive in compression (pushing the base down).
 
 This module is numpy-only and uses relative imports only, so that FMUs can
 ship it under a private name (see ``build_fmu.py``).
@@ -192,35 +195,40 @@ class Network:
         """Resolve a role (``"head"``) or a point name to a point name."""
         return self.roles.get(role_or_name, role_or_name)
 
-    def primitives(self):
-        """Expand elements into primitive springs and dampers.
+    def element_primitives(self, el: Element):
+        """Expand one element into primitive springs and dampers.
 
         Returns
         -------
         springs, dampers : list of (a, b, value)
             Point pairs with stiffness in N/m or damping in N s/m.
         """
+        v = {p: self.value(r) for p, r in el.values.items()}
+        n = el.internal_node
+        if el.kind == "spring":
+            return [(el.a, el.b, v["k"])], []
+        if el.kind == "damper":
+            return [], [(el.a, el.b, v["c"])]
+        if el.kind == "kelvin":
+            return [(el.a, el.b, v["k"])], [(el.a, el.b, v["c"])]
+        if el.kind == "series_kelvin":
+            return [(el.a, n, v["k_series"]), (n, el.b, v["k"])], [(n, el.b, v["c"])]
+        if el.kind == "zener":
+            return [(el.a, el.b, v["k"]), (el.a, n, v["k_series"])], [(n, el.b, v["c"])]
+        raise BodyvibError(f"element '{el.name}': unknown kind '{el.kind}'")
+
+    def primitives(self):
+        """All elements expanded into primitive springs and dampers.
+
+        Returns
+        -------
+        springs, dampers : list of (a, b, value)
+        """
         springs, dampers = [], []
         for el in self.elements:
-            v = {p: self.value(r) for p, r in el.values.items()}
-            n = el.internal_node
-            if el.kind == "spring":
-                springs.append((el.a, el.b, v["k"]))
-            elif el.kind == "damper":
-                dampers.append((el.a, el.b, v["c"]))
-            elif el.kind == "kelvin":
-                springs.append((el.a, el.b, v["k"]))
-                dampers.append((el.a, el.b, v["c"]))
-            elif el.kind == "series_kelvin":
-                springs.append((el.a, n, v["k_series"]))
-                springs.append((n, el.b, v["k"]))
-                dampers.append((n, el.b, v["c"]))
-            elif el.kind == "zener":
-                springs.append((el.a, el.b, v["k"]))
-                springs.append((el.a, n, v["k_series"]))
-                dampers.append((n, el.b, v["c"]))
-            else:  # pragma: no cover - validated on load
-                raise BodyvibError(f"element '{el.name}': unknown kind '{el.kind}'")
+            s, d = self.element_primitives(el)
+            springs += s
+            dampers += d
         return springs, dampers
 
 
@@ -236,7 +244,8 @@ class LinearModel:
         Names: states ``"<mass>.x"``, ``"<mass>.v"``, ``"<node>.y"``; inputs
         ``"<base>_displacement"``, ``"<base>_velocity"``, ``"<mass>.force"``;
         outputs ``"<mass>.x"``, ``"<mass>.v"``, ``"<mass>.a"``,
-        ``"<node>.y"``, ``"<base>_force"``.
+        ``"<node>.y"``, ``"<element>.deflection"``, ``"<element>.force"``,
+        ``"<base>_force"``.
     network : Network
         The network it was built from.
     """
@@ -380,14 +389,19 @@ def linear_model(network: Network) -> LinearModel:
         vel.update({n: V[j] for n, j in node_idx.items()})
 
     force_on = {p: np.zeros(nz) for p in list(masses) + list(nodes) + [base]}
-    for a, b, k in springs:
-        f = k * (pos[b] - pos[a])  # force on a, up when b is above a
-        force_on[a] += f
-        force_on[b] -= f
-    for a, b, c in dampers:
-        f = c * (vel[b] - vel[a])
-        force_on[a] += f
-        force_on[b] -= f
+    element_force = {}  # compression-positive force each element exerts on its 'to' point
+    for el in network.elements:
+        el_springs, el_dampers = network.element_primitives(el)
+        f_el = np.zeros(nz)
+        for (a, b, k), is_spring in [(p, True) for p in el_springs] + [(p, False) for p in el_dampers]:
+            f = k * (pos[b] - pos[a]) if is_spring else k * (vel[b] - vel[a])  # force on a, up
+            force_on[a] += f
+            force_on[b] -= f
+            if b == el.b:
+                f_el -= f
+            elif a == el.b:
+                f_el += f
+        element_force[el.name] = f_el
 
     mvals = network.mass_values()
     acc = {}
@@ -406,6 +420,9 @@ def linear_model(network: Network) -> LinearModel:
     for n in nodes:
         out_rows.append(pos[n])
         out_names.append(f"{n}.y")
+    for el in network.elements:
+        out_rows += [pos[el.b] - pos[el.a], element_force[el.name]]
+        out_names += [f"{el.name}.deflection", f"{el.name}.force"]
     out_rows.append(-force_on[base])
     out_names.append(f"{base}_force")
     CD = np.array(out_rows)

@@ -149,3 +149,31 @@ def test_mount_rejects_unknown_point():
 def test_statespace_object_has_named_signals():
     ss = linear_model(load_model("reduced-paper")).to_statespace()
     assert ss.ninputs == 2 and "m1_a" in ss.output_labels and "seat_force" in ss.output_labels
+
+
+def test_element_outputs_of_the_quarter_car():
+    """Tire force = kt (x_road - x_wheel) (compression +); suspension deflection
+    = x_sprung - x_wheel; and the force the suspension puts on the sprung mass
+    is ks*(x_u - x_s) + cs*(v_u - v_s): checked against the nodal solution."""
+    car = load_car()
+    p = car.parameters
+    f = np.geomspace(0.5, 20, 15)
+    s = 2j * np.pi * f
+    xs = dynamic_stiffness_response(car, f, "sprung")
+    xu = dynamic_stiffness_response(car, f, "unsprung")
+    np.testing.assert_allclose(frequency_response(car, f, "tire.force"), p["kt"] * (1 - xu),
+                               rtol=1e-9)
+    np.testing.assert_allclose(frequency_response(car, f, "suspension.deflection"), xs - xu,
+                               rtol=1e-9)
+    np.testing.assert_allclose(frequency_response(car, f, "suspension.force"),
+                               (p["ks"] + p["cs"] * s) * (xu - xs), rtol=1e-9)
+
+
+def test_series_element_force_equals_seat_force():
+    """The ISO model's element e3 is the only one on the seat: its force is the seat force."""
+    lm = linear_model(load_model("iso7962"))
+    i, j = lm.output_index("e3.force"), lm.output_index("seat_force")
+    f = np.geomspace(0.5, 30, 10)
+    np.testing.assert_allclose(frequency_response(lm, f, "e3.force"),
+                               frequency_response(lm, f, "seat_force"), rtol=1e-9)
+    assert i != j
