@@ -51,7 +51,7 @@ def frequency_response(model, frequencies_hz, output: str) -> np.ndarray:
     --------
     >>> from bodyvib.models import load_model
     >>> T = frequency_response(load_model("reduced-paper"), [0.0], "head.x")
-    >>> round(abs(T[0]), 12)
+    >>> float(round(abs(T[0]), 12))
     1.0
     """
     lm = _model(model)
