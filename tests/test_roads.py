@@ -1,0 +1,116 @@
+"""Road profiles: the ISO 8608 PSD of a generated profile, bump and sweep shapes."""
+
+import numpy as np
+import pytest
+from scipy.signal import welch
+
+from bodyvib.errors import BodyvibError
+from vehicle.roads import (
+    BumpRoad, SweepRoad, class_psd_n0, displacement_psd, make_road, random_road, road_input,
+)
+
+
+def test_class_levels_follow_iso8608():
+    # ISO 8608: Gd(n0) geometric means 16, 64, 256, ... 262144 x 1e-6 m^3 for A ... H
+    assert [class_psd_n0(c) / 1e-6 for c in "ABCDEFGH"] == pytest.approx(
+        [16, 64, 256, 1024, 4096, 16384, 65536, 262144])
+    assert displacement_psd(0.2, "C") == pytest.approx(256e-6 / 4)
+
+
+@pytest.mark.parametrize("road_class, seed", [("C", 3), ("A", 11), ("F", 5)])
+def test_generated_profile_has_the_class_psd(road_class, seed):
+    """Welch estimate of a 3 km profile against Gd(n) = Gd(n0) (n/n0)^-2, averaged
+    over octave bands 0.1-2 cycle/m. Tolerance: 5 standard deviations of the band
+    average, from the estimator's variance (each Welch bin of K Hann segments with
+    50 % overlap has relative variance about 1/(0.95 K)... taken as 1/K; a band of
+    M bins averages about M/1.5 independent bins for the Hann window's 1.5-bin
+    width), plus 3 % for the Hann window's bias on the curved n^-2 spectrum."""
+    L, dx = 3000.0, 0.05
+    road = random_road(road_class, length=L, seed=seed)
+    x = np.arange(0, L, dx)
+    z = road.displacement(x)
+    nperseg = 4096
+    n, G = welch(z, fs=1 / dx, nperseg=nperseg)  # one-sided PSD, m^2/(cycle/m) = m^3
+    K = 2 * len(x) // nperseg - 1
+    edges = 0.1 * 2.0 ** np.arange(0, 5)  # 0.1-0.2-0.4-0.8-1.6 cycle/m
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        sel = (n >= lo) & (n < hi)
+        ratio = np.mean(G[sel] / displacement_psd(n[sel], road_class))
+        sigma = 1 / np.sqrt(K * sel.sum() / 1.5)
+        assert abs(ratio - 1) <= 5 * sigma + 0.03, (lo, hi, ratio, sigma)
+    # and the whole-band level is within the class limits (factor 2 about the mean)
+    sel = (n >= 0.1) & (n < 2.0)
+    gd_n0 = np.exp(np.mean(np.log(G[sel] * (n[sel] / 0.1) ** 2)))
+    assert 0.5 < gd_n0 / class_psd_n0(road_class) < 2.0
+
+
+def test_variance_is_the_integral_of_the_psd():
+    """sum a_i^2 / 2 is the midpoint rule of int Gd dn over the harmonics' cells;
+    for Gd = Gd(n0) n0^2 / n^2 that integral is Gd(n0) n0^2 (1/a - 1/b), and the
+    midpoint rule's error on the first cell, (dn/n)^2 / 4, is below 0.05 % here."""
+    road = random_road("D", length=2000.0, seed=2)
+    dn = 1 / 2000.0
+    a, b = road.n[0] - dn / 2, road.n[-1] + dn / 2
+    expected = class_psd_n0("D") * 0.1 ** 2 * (1 / a - 1 / b)
+    assert np.sum(road.amplitude ** 2) / 2 == pytest.approx(expected, rel=5e-4)
+    z = road.displacement(np.arange(0, 2000.0, 0.05))
+    # over whole periods on a uniform grid the cross terms vanish: sum a_i^2 / 2 exactly
+    assert np.var(z) == pytest.approx(np.sum(road.amplitude ** 2) / 2, rel=1e-9)
+
+
+def test_seed_reproduces_and_differs():
+    a = random_road("C", 100.0, seed=1).displacement(np.arange(0, 100, 0.5))
+    b = random_road("C", 100.0, seed=1).displacement(np.arange(0, 100, 0.5))
+    c = random_road("C", 100.0, seed=2).displacement(np.arange(0, 100, 0.5))
+    assert np.array_equal(a, b)
+    assert not np.allclose(a, c)
+
+
+@pytest.mark.parametrize("road", [random_road("C", 50.0, seed=4), BumpRoad(start=2.0),
+                                  SweepRoad(length=50.0, n_start=0.1, n_stop=2.0)])
+def test_slope_is_the_derivative_of_the_profile(road):
+    """Central differences with h = 1e-4 m: truncation error h^2/6 |z'''| < 1e-6 of the slope scale."""
+    x = np.linspace(0.5, 45.0, 997)
+    h = 1e-4
+    fd = (road.displacement(x + h) - road.displacement(x - h)) / (2 * h)
+    scale = np.max(np.abs(road.slope(x)))
+    assert np.max(np.abs(fd - road.slope(x))) <= 1e-4 * scale
+
+
+def test_bump_shape():
+    b = BumpRoad(height=0.04, bump_length=2.0, start=5.0)
+    z = b.displacement([4.9, 5.0, 5.5, 6.0, 7.0, 7.1])
+    assert z == pytest.approx([0, 0, 0.02, 0.04, 0, 0], abs=1e-15)
+    t = np.linspace(0, 2, 2001)
+    zt, vt = road_input(b, 5.0, t)  # at 5 m/s: on the bump from 1.0 to 1.4 s
+    assert np.max(zt) == pytest.approx(0.04)
+    assert t[np.argmax(zt)] == pytest.approx(1.2, abs=1e-3)
+    assert np.max(vt) == pytest.approx(0.02 * np.pi / 2.0 * 2 * 5.0, rel=1e-5)
+
+
+def test_sweep_frequency_rises_as_specified():
+    """Zero crossings of the sweep give the local frequency n(x) = n0 (n1/n0)^(x/L)."""
+    s = SweepRoad(amplitude=0.01, n_start=0.1, n_stop=1.0, length=200.0)
+    x = np.linspace(0, 200, 400001)
+    z = s.displacement(x)
+    zc = x[:-1][np.sign(z[:-1]) != np.sign(z[1:])]
+    mid = 0.5 * (zc[1:] + zc[:-1])
+    n_est = 0.5 / np.diff(zc)
+    n_th = 0.1 * 10 ** (mid / 200)
+    assert np.max(np.abs(n_est / n_th - 1)) < 0.01
+    assert np.max(np.abs(z)) == pytest.approx(0.01, rel=1e-3)
+
+
+def test_make_road_and_errors():
+    assert make_road("c", 20.0, 10.0).length >= 200.0
+    assert isinstance(make_road("bump", 20.0, 10.0), BumpRoad)
+    sweep = make_road("sweep", 20.0, 10.0)
+    assert sweep.n_start * 20 == pytest.approx(0.5) and sweep.n_stop * 20 == pytest.approx(20)
+    with pytest.raises(BodyvibError, match="road class|unknown road"):
+        make_road("Z", 20.0, 10.0)
+    with pytest.raises(BodyvibError, match="speed"):
+        make_road("C", -1.0, 10.0)
+    with pytest.raises(BodyvibError, match="duration"):
+        make_road("C", 20.0, 0.0)
+    with pytest.raises(BodyvibError, match="road class"):
+        class_psd_n0("I")

@@ -1,0 +1,419 @@
+"""Road profiles as functions of distance, and the road input a car sees at a speed.
+
+A road is a vertical profile ``z(x)`` [m] over the distance ``x`` [m]; a car
+driving at a constant speed ``V`` [m/s] sees ``z(V t)`` and the road velocity
+``V dz/dx(V t)`` (the ``road_velocity`` input of the quarter car, which the
+exact discretization uses as the in-step slope).
+
+* :class:`RandomRoad` -- ISO 8608:2016 classes A-H. The displacement PSD
+  (one-sided, in spatial frequency ``n`` [cycle/m]) is
+  ``Gd(n) = Gd(n0) (n / n0)^(-w)``, ``n0 = 0.1 cycle/m``, waviness ``w = 2``,
+  with the class's geometric-mean ``Gd(n0) = 16 * 4^i * 1e-6 m^3`` (i = 0 for
+  A ... 7 for H; the class limits are a factor 2 either side). The profile is
+  the classical sum of harmonics on the grid ``n_i = i / L``::
+
+      z(x) = sum_i sqrt(2 Gd(n_i) dn) cos(2 pi n_i x + phi_i),   dn = 1 / L
+
+  with independent uniform phases from a seeded generator, over
+  ``0.011 <= n <= 2.83 cycle/m`` (the band of ISO 8608's classification), so its
+  PSD is the class's. Its slope is the same sum differentiated term by term:
+  no numerical differentiation.
+* :class:`BumpRoad` -- a single (1 - cos) bump: smooth slope.
+* :class:`SweepRoad` -- a sine whose spatial frequency rises exponentially
+  along the road: at a speed, a logarithmic frequency sweep.
+
+:func:`make_road` builds any of them from a short name (``"C"``, ``"bump"``,
+``"sweep"``) for a speed and a duration.
+"""
+
+import math
+from dataclasses import dataclass, field
+from typing import Tuple
+
+import numpy as np
+
+from bodyvib.errors import BodyvibError
+
+__all__ = [
+    "ISO8608_CLASSES",
+    "N0",
+    "class_psd_n0",
+    "displacement_psd",
+    "Road",
+    "RandomRoad",
+    "BumpRoad",
+    "SweepRoad",
+    "random_road",
+    "make_road",
+    "road_input",
+]
+
+#: ISO 8608 road classes, smoothest first.
+ISO8608_CLASSES = "ABCDEFGH"
+#: Reference spatial frequency of ISO 8608, cycle/m.
+N0 = 0.1
+#: Band of spatial frequencies synthesized by default, cycle/m (ISO 8608's).
+N_BAND = (0.011, 2.83)
+
+
+def _class_index(road_class: str) -> int:
+    c = str(road_class).strip().upper()
+    if len(c) != 1 or c not in ISO8608_CLASSES:
+        raise BodyvibError(
+            f"unknown ISO 8608 road class '{road_class}'; use one of "
+            + ", ".join(ISO8608_CLASSES)
+        )
+    return ISO8608_CLASSES.index(c)
+
+
+def class_psd_n0(road_class: str) -> float:
+    """Geometric-mean displacement PSD ``Gd(n0)`` of an ISO 8608 class, in m^3.
+
+    Parameters
+    ----------
+    road_class : str
+        ``"A"`` (very good) ... ``"H"`` (very poor).
+
+    Returns
+    -------
+    float
+        ``16 * 4^i * 1e-6`` m^3 (i = 0 for A); the class spans half to twice this.
+
+    Examples
+    --------
+    >>> class_psd_n0("C")
+    0.000256
+    """
+    return 16e-6 * 4 ** _class_index(road_class)
+
+
+def displacement_psd(n, road_class: str, waviness: float = 2.0) -> np.ndarray:
+    """ISO 8608 displacement PSD ``Gd(n) = Gd(n0) (n/n0)^-w`` in m^3 (one-sided).
+
+    Parameters
+    ----------
+    n : array_like
+        Spatial frequencies in cycle/m, positive.
+    road_class : str
+        ``"A"`` ... ``"H"``.
+    waviness : float
+        Exponent ``w`` (2 in ISO 8608).
+
+    Returns
+    -------
+    ndarray
+    """
+    n = np.asarray(n, dtype=float)
+    return class_psd_n0(road_class) * (n / N0) ** (-waviness)
+
+
+class Road:
+    """A road profile: ``displacement(x)`` [m] and ``slope(x)`` [-] over distance x [m]."""
+
+    length: float = math.inf
+    name: str = "road"
+
+    def displacement(self, x) -> np.ndarray:  # pragma: no cover - interface
+        """Profile height at distances ``x`` (m), in m."""
+        raise NotImplementedError
+
+    def slope(self, x) -> np.ndarray:  # pragma: no cover - interface
+        """Profile slope ``dz/dx`` at distances ``x`` (m), dimensionless."""
+        raise NotImplementedError
+
+    def describe(self) -> dict:
+        """Parameters of the road for reports (JSON-serializable)."""
+        return {"name": self.name}
+
+
+@dataclass
+class RandomRoad(Road):
+    """A random road as a finite sum of harmonics (see the module docstring).
+
+    Parameters
+    ----------
+    n : (k,) ndarray
+        Spatial frequencies, cycle/m.
+    amplitude : (k,) ndarray
+        Harmonic amplitudes, m.
+    phase : (k,) ndarray
+        Phases, rad.
+    length : float
+        Length over which the profile is defined (it repeats after that), m.
+    name : str
+        Label, e.g. ``"ISO 8608 class C"``.
+    info : dict
+        Class, seed and band for reports.
+    """
+
+    n: np.ndarray
+    amplitude: np.ndarray
+    phase: np.ndarray
+    length: float
+    name: str = "random road"
+    info: dict = field(default_factory=dict)
+
+    _CHUNK = 2048
+
+    def _sum(self, x, derivative: bool) -> np.ndarray:
+        x = np.asarray(x, dtype=float)
+        flat = x.ravel()
+        k = 2 * np.pi * self.n
+        weights = self.amplitude * k if derivative else self.amplitude
+        if flat.size >= 64:
+            dx = (flat[-1] - flat[0]) / (flat.size - 1)
+            if dx > 0 and np.max(np.abs(np.diff(flat) - dx)) <= 1e-9 * dx:
+                return self._uniform(flat[0], dx, flat.size, weights, derivative).reshape(x.shape)
+        out = np.empty_like(flat)
+        for s in range(0, flat.size, self._CHUNK):
+            arg = np.outer(flat[s:s + self._CHUNK], k) + self.phase
+            out[s:s + self._CHUNK] = (-np.sin(arg) if derivative else np.cos(arg)) @ weights
+        return out.reshape(x.shape)
+
+    def _uniform(self, x0, dx, count, weights, derivative):
+        """The harmonic sum on ``x0 + j dx`` by a chirp-z transform (exact, O(N log N)).
+
+        With ``n_i = (i0 + m) / L``, ``z_j = Re[e^{2 pi i (i0 j dx / L)}
+        sum_m c_m e^{2 pi i m j dx / L}]``: a chirp-z transform of the complex
+        amplitudes ``c_m`` along the unit circle.
+        """
+        from scipy.signal import czt
+
+        c = weights * np.exp(1j * (self.phase + 2 * np.pi * self.n * x0))
+        if derivative:
+            c = 1j * c
+        step = dx / self.length
+        i0 = round(self.n[0] * self.length)
+        j = np.arange(count)
+        sums = czt(c, m=count, w=np.exp(2j * np.pi * step), a=1.0)
+        return np.real(np.exp(2j * np.pi * ((i0 * step * j) % 1.0)) * sums)
+
+    def displacement(self, x) -> np.ndarray:
+        """Profile height at distances ``x`` (m), in m."""
+        return self._sum(x, derivative=False)
+
+    def slope(self, x) -> np.ndarray:
+        """Exact slope ``dz/dx`` (term-by-term derivative of the harmonic sum)."""
+        return self._sum(x, derivative=True)
+
+    def describe(self) -> dict:
+        return {"name": self.name, "length_m": self.length, **self.info}
+
+
+def random_road(road_class: str = "C", length: float = 600.0, seed: int = 0,
+                band: Tuple[float, float] = N_BAND, waviness: float = 2.0) -> RandomRoad:
+    """An ISO 8608 random road of a class, reproducible from a seed.
+
+    Parameters
+    ----------
+    road_class : str
+        ``"A"`` ... ``"H"``.
+    length : float
+        Road length in m (the harmonic spacing is ``1/length``).
+    seed : int
+        Seed of the phase generator (numpy ``default_rng``).
+    band : (float, float)
+        Spatial-frequency band in cycle/m.
+    waviness : float
+        PSD exponent (2 in ISO 8608).
+
+    Returns
+    -------
+    RandomRoad
+
+    Raises
+    ------
+    BodyvibError
+        Unknown class, non-positive length, or a band that holds no harmonic.
+
+    Examples
+    --------
+    >>> road = random_road("C", length=200.0, seed=1)
+    >>> road.displacement([0.0, 1.0]).shape
+    (2,)
+    """
+    idx = _class_index(road_class)
+    if not (math.isfinite(length) and length > 0):
+        raise BodyvibError(f"road length must be a positive number of metres, got {length!r}")
+    lo, hi = band
+    if not (0 < lo < hi):
+        raise BodyvibError(f"spatial-frequency band must satisfy 0 < low < high, got {band}")
+    dn = 1.0 / length
+    i = np.arange(max(1, math.ceil(lo / dn)), math.floor(hi / dn) + 1)
+    if i.size == 0:
+        raise BodyvibError(f"a {length:g} m road holds no harmonic in {lo}-{hi} cycle/m; "
+                           "make it longer")
+    n = i * dn
+    amp = np.sqrt(2 * displacement_psd(n, road_class, waviness) * dn)
+    phase = np.random.default_rng(seed).uniform(0, 2 * np.pi, n.size)
+    cls = ISO8608_CLASSES[idx]
+    return RandomRoad(n=n, amplitude=amp, phase=phase, length=float(length),
+                      name=f"ISO 8608 class {cls}",
+                      info={"iso8608_class": cls, "Gd_n0_m3": class_psd_n0(cls), "seed": seed,
+                            "band_cycles_per_m": [lo, hi], "waviness": waviness})
+
+
+@dataclass
+class BumpRoad(Road):
+    """A single cosine bump ``z = h (1 - cos(2 pi (x - x0) / l)) / 2`` on ``[x0, x0 + l]``.
+
+    Parameters
+    ----------
+    height : float
+        Bump height h, m (negative for a pothole).
+    bump_length : float
+        Bump length l along the road, m.
+    start : float
+        Distance x0 where it begins, m.
+    """
+
+    height: float = 0.03
+    bump_length: float = 1.0
+    start: float = 10.0
+    name: str = "cosine bump"
+
+    def _phase(self, x):
+        x = np.asarray(x, dtype=float)
+        return x, (x >= self.start) & (x <= self.start + self.bump_length)
+
+    def displacement(self, x) -> np.ndarray:
+        """Profile height at distances ``x`` (m), in m."""
+        x, on = self._phase(x)
+        return np.where(on, 0.5 * self.height
+                        * (1 - np.cos(2 * np.pi * (x - self.start) / self.bump_length)), 0.0)
+
+    def slope(self, x) -> np.ndarray:
+        """Exact slope ``dz/dx``."""
+        x, on = self._phase(x)
+        w = 2 * np.pi / self.bump_length
+        return np.where(on, 0.5 * self.height * w * np.sin(w * (x - self.start)), 0.0)
+
+    def describe(self) -> dict:
+        return {"name": self.name, "height_m": self.height, "length_m": self.bump_length,
+                "start_m": self.start}
+
+
+@dataclass
+class SweepRoad(Road):
+    """A sine of constant amplitude whose spatial frequency rises exponentially.
+
+    ``z(x) = A sin(phi(x))`` with local frequency ``n(x) = n_start (n_stop/n_start)^(x/L)``
+    for ``0 <= x <= L`` (zero beyond), so that at a speed V the car sees a
+    logarithmic sweep from ``V n_start`` to ``V n_stop`` Hz.
+
+    Parameters
+    ----------
+    amplitude : float
+        A, m.
+    n_start, n_stop : float
+        Spatial frequencies at the start and the end, cycle/m.
+    length : float
+        L, m.
+    """
+
+    amplitude: float = 0.005
+    n_start: float = 0.025
+    n_stop: float = 1.0
+    length: float = 600.0
+    name: str = "logarithmic sine sweep"
+
+    def _phi(self, x):
+        r = math.log(self.n_stop / self.n_start) / self.length
+        return 2 * np.pi * self.n_start * np.expm1(r * x) / r, self.n_start * np.exp(r * x)
+
+    def displacement(self, x) -> np.ndarray:
+        """Profile height at distances ``x`` (m), in m."""
+        x = np.asarray(x, dtype=float)
+        phi, _ = self._phi(x)
+        return np.where((x >= 0) & (x <= self.length), self.amplitude * np.sin(phi), 0.0)
+
+    def slope(self, x) -> np.ndarray:
+        """Exact slope ``dz/dx``."""
+        x = np.asarray(x, dtype=float)
+        phi, n = self._phi(x)
+        return np.where((x >= 0) & (x <= self.length),
+                        self.amplitude * 2 * np.pi * n * np.cos(phi), 0.0)
+
+    def describe(self) -> dict:
+        return {"name": self.name, "amplitude_m": self.amplitude,
+                "n_start_cycles_per_m": self.n_start, "n_stop_cycles_per_m": self.n_stop,
+                "length_m": self.length}
+
+
+def make_road(spec: str, speed: float, duration: float, seed: int = 0) -> Road:
+    """A road from a short name, long enough for ``duration`` seconds at ``speed``.
+
+    Parameters
+    ----------
+    spec : str
+        ``"A"`` ... ``"H"`` (ISO 8608 class), ``"bump"`` (3 cm, 1 m long cosine
+        bump 10 m ahead) or ``"sweep"`` (5 mm sine sweeping 0.5-20 Hz at that
+        speed over the duration).
+    speed : float
+        Vehicle speed, m/s (positive).
+    duration : float
+        Simulated time, s (positive).
+    seed : int
+        Seed for a random road.
+
+    Returns
+    -------
+    Road
+
+    Raises
+    ------
+    BodyvibError
+        Unknown road, non-positive speed or duration.
+    """
+    _check_positive(speed, "speed", "m/s")
+    _check_positive(duration, "duration", "s")
+    s = str(spec).strip()
+    length = speed * duration
+    if s.lower() == "bump":
+        return BumpRoad()
+    if s.lower() == "sweep":
+        return SweepRoad(n_start=0.5 / speed, n_stop=20.0 / speed, length=length)
+    if len(s) == 1 and s.upper() in ISO8608_CLASSES:
+        # one extra metre so the last sample never wraps onto the start
+        return random_road(s.upper(), length=length + 1.0, seed=seed)
+    raise BodyvibError(
+        f"unknown road '{spec}'; use an ISO 8608 class A-H, 'bump' or 'sweep'"
+    )
+
+
+def _check_positive(value, what, unit):
+    try:
+        ok = math.isfinite(value) and value > 0
+    except TypeError:
+        ok = False
+    if not ok:
+        raise BodyvibError(f"{what} must be a positive number of {unit}, got {value!r}")
+
+
+def road_input(road: Road, speed: float, t) -> Tuple[np.ndarray, np.ndarray]:
+    """Road displacement and velocity under a wheel driving at constant speed.
+
+    Parameters
+    ----------
+    road : Road
+    speed : float
+        m/s, positive.
+    t : array_like
+        Times in s (the wheel is at x = speed * t).
+
+    Returns
+    -------
+    displacement : ndarray
+        m.
+    velocity : ndarray
+        m/s (``speed * dz/dx``).
+
+    Examples
+    --------
+    >>> z, v = road_input(BumpRoad(height=0.02, bump_length=1.0, start=0.0), 10.0, [0.05])
+    >>> round(float(z[0]), 4)
+    0.01
+    """
+    _check_positive(speed, "speed", "m/s")
+    x = speed * np.asarray(t, dtype=float)
+    return road.displacement(x), speed * road.slope(x)
