@@ -18,6 +18,7 @@ __all__ = ["COMMAND_MODULES", "main", "build_parser"]
 #: Modules that contribute sub-commands, in help order.
 COMMAND_MODULES = (
     "bodyvib.frf",
+    "bodyvib.fmu_build",
 
 )
 

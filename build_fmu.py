@@ -1,0 +1,14 @@
+#!/usr/bin/env python3
+"""Build the FMUs into dist/: HumanBody3DOF.fmu, HumanBodyISO7962.fmu, QuarterCar.fmu.
+
+    python build_fmu.py [--params FILE] [--dest DIR] [--fmus NAME ...]
+
+The same as ``bodyvib build``; the implementation is :mod:`bodyvib.fmu_build`.
+"""
+
+import sys
+
+from bodyvib.fmu_build import main
+
+if __name__ == "__main__":
+    sys.exit(main())

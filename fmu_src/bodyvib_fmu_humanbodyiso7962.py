@@ -1,0 +1,73 @@
+"""HumanBodyISO7962: the ISO 7962 four-mass seated human-body model as an FMI 2.0 co-simulation FMU.
+
+A thin pythonfmu slave: it declares the variables of ``bodyvib.fmu_core`` and
+delegates to :class:`bodyvib.fmu_core.FmuCore`, which holds the state and the
+exact stepping. Built by ``python build_fmu.py`` (or ``bodyvib build``), which
+ships the run-time modules under a private package name, rewrites ``RUNTIME``
+below to that name and puts the parameter file at ``resources/MODEL_FILE``.
+
+Status mapping (pythonfmu 0.7.0): a refused step (non-finite input, step size
+not positive) returns False, which pythonfmu reports as fmi2Discard with the
+reason logged at error level; the instance stays usable. Invalid parameters
+raise at fmi2ExitInitializationMode, the only non-OK status pythonfmu can give
+there (fmi2Fatal), with the reason in the log.
+"""
+
+import importlib
+import os
+
+from pythonfmu import DefaultExperiment, Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Real
+from pythonfmu.enums import Fmi2Status
+
+RUNTIME = "bodyvib"  # build_fmu.py: the FMU's private copy of the numpy-only modules
+MODEL_FILE = "bodyvib_model.json"
+KIND = "body"
+NAME = "HumanBodyISO7962"
+
+_core = importlib.import_module(RUNTIME + ".fmu_core")
+_models = importlib.import_module(RUNTIME + ".models")
+
+
+class HumanBodyISO7962(Fmi2Slave):
+    author = "bodyvib"
+    description = ("ISO 7962 four-mass seated human body (topology reconstructed): seat motion in, "
+                   "head acceleration and seat force out; exact discretization")
+    default_experiment = DefaultExperiment(start_time=0.0, stop_time=10.0, step_size=1e-3)
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        network = _models.network_from_file(os.path.join(self.resources, MODEL_FILE))
+        self.core = _core.FmuCore(KIND, network, NAME, log=self._log_core)
+        for vr, v in enumerate(self.core.variables):
+            var = Real(v.name, causality=getattr(Fmi2Causality, v.causality),
+                       variability=getattr(Fmi2Variability, v.variability),
+                       initial=Fmi2Initial.calculated if v.causality == "output" else None,
+                       description=v.description, start=v.start)
+            self.register_variable(var, nested=False)
+            assert var.value_reference == vr
+
+    def _log_core(self, message, level):
+        self.log(message, getattr(Fmi2Status, level))
+
+    def exit_initialization_mode(self):
+        self.core.initialize()  # an invalid parameter raises, with its reason
+
+    def do_step(self, current_time, step_size):
+        try:
+            self.core.do_step(current_time, step_size)
+        except Exception as exc:  # refuse the step, keep the instance alive
+            self.log(str(exc), Fmi2Status.error)
+            return False
+        return True
+
+    def get_real(self, vrs):
+        return self.core.get_real(vrs)
+
+    def set_real(self, vrs, values):
+        self.core.set_real(vrs, values)
+
+    def _get_fmu_state(self):
+        return self.core.get_state()
+
+    def _set_fmu_state(self, state):
+        self.core.set_state(state)

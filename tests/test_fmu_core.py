@@ -1,0 +1,341 @@
+"""The FMU run-time core (bodyvib.fmu_core) and the slave classes, in plain Python.
+
+The FMUs' outputs must equal the library's exact discrete simulation
+(bodyvib.discretize.simulate, itself checked against Radau in
+test_discretize.py) to relative 1e-9; the tolerance is many orders above the
+rounding of two differently grouped products (~1e-14 measured) and far below
+any modelling error. Physics checks (static equilibrium) are independent of
+both.
+"""
+
+import importlib.util
+import json
+import math
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+from bodyvib.discretize import simulate
+from bodyvib.errors import BodyvibError
+from bodyvib.fmu_core import FmuCore
+from bodyvib.models import load_model, save_model
+from bodyvib.network import linear_model
+from vehicle.quarter_car import load_car
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+BODY_OUT = ("head.a", "head.x", "torso.x", "seat_force")
+
+
+def seat_motion(t):
+    """A smooth seat displacement (m) and its velocity (m/s): three sines, 1.3-11 Hz."""
+    f = np.array([1.3, 4.4, 11.0])
+    a = np.array([0.004, 0.002, 0.0005])
+    w = 2 * np.pi * f
+    x = (a * np.sin(np.outer(t, w) + [0.3, 1.1, 2.0])).sum(1)
+    v = (a * w * np.cos(np.outer(t, w) + [0.3, 1.1, 2.0])).sum(1)
+    return x, v
+
+
+def run_core(core, t, s, read_before_set=False):
+    """Drive a core over a grid: set inputs, read outputs, step. Returns outputs at t."""
+    ni = len(core.interface.inputs)
+    out_vr = list(range(ni, ni + len(core.interface.outputs)))
+    y = np.empty((t.size, len(out_vr)))
+    for k in range(t.size):
+        if read_before_set and k > 0:
+            y[k] = core.get_real(out_vr)  # end-of-step outputs, before new inputs
+            core.set_real(range(ni), s[k])
+        else:
+            core.set_real(range(ni), s[k])
+            y[k] = core.get_real(out_vr)
+        if k + 1 < t.size:
+            core.do_step(t[k], t[k + 1] - t[k])
+    return y
+
+
+def rel_err(a, b):
+    return np.max(np.abs(a - b), axis=0) / np.max(np.abs(b), axis=0)
+
+
+def grids():
+    h = 1e-3
+    fixed = np.arange(0, 2.0 + h / 2, h)
+    rng = np.random.default_rng(7)
+    varying = np.concatenate([[0.0], np.cumsum(rng.uniform(2e-4, 3e-3, 1200))])
+    return {"fixed": fixed, "varying": varying}
+
+
+@pytest.mark.parametrize("grid", ["fixed", "varying"])
+@pytest.mark.parametrize("model", ["reduced-paper", "iso7962"])
+def test_body_core_equals_library_simulation(model, grid):
+    net = load_model(model)
+    t = grids()[grid]
+    x, v = seat_motion(t)
+    core = FmuCore("body", net, "Body")
+    core.initialize()
+    y = run_core(core, t, np.c_[x, v])
+    lm = linear_model(net)
+    _, ref = simulate(lm, t, np.c_[x, v])
+    ref = ref[:, [lm.output_index(o) for o in BODY_OUT]]
+    assert np.all(rel_err(y, ref) < 1e-9), rel_err(y, ref)
+
+
+@pytest.mark.parametrize("grid", ["fixed", "varying"])
+def test_car_core_equals_library_simulation(grid):
+    """seat_force enters the car as -seat_force; road displacement rises at the road
+    velocity and seat force at seat_force_rate over each step."""
+    car = load_car()
+    t = grids()[grid]
+    zr, vr = seat_motion(t)
+    fs = 300 * np.sin(2 * np.pi * 3.0 * t)
+    dfs = 300 * 2 * np.pi * 3.0 * np.cos(2 * np.pi * 3.0 * t)
+    core = FmuCore("car", car, "QuarterCar")
+    core.initialize()
+    y = run_core(core, t, np.c_[zr, vr, fs, dfs])
+    lm = linear_model(car)
+    u = np.c_[zr, vr, -fs]
+    du = np.c_[vr, np.zeros_like(t), -dfs]
+    _, ref = simulate(lm, t, u, du)
+    cols = ["sprung.x", "sprung.v", "sprung.a", "suspension.deflection", "tire.force"]
+    ref = ref[:, [lm.output_index(c) for c in cols]]
+    assert np.all(rel_err(y, ref) < 1e-9), rel_err(y, ref)
+
+
+@pytest.mark.parametrize("model", ["reduced-paper", "iso7962"])
+def test_outputs_read_before_new_inputs_are_those_of_the_step_end(model):
+    """A master that reads outputs right after doStep (libcosim) sees the
+    in-step-extrapolated input xr_k + vr_k h; on a ramp that is the true input, so
+    the outputs equal those computed after setting the new input."""
+    net = load_model(model)
+    t = np.arange(0, 0.5 + 5e-4, 1e-3)
+    s = np.c_[0.05 * t, np.full_like(t, 0.05)]
+    a = FmuCore("body", net)
+    a.initialize()
+    b = FmuCore("body", net)
+    b.initialize()
+    ya = run_core(a, t, s)
+    yb = run_core(b, t, s, read_before_set=True)
+    assert np.all(rel_err(yb, ya) < 1e-12)
+    # seat force at the step's end is consistent with the extrapolated seat displacement
+    assert yb[-1, 3] != 0.0
+
+
+def test_static_equilibrium_body_and_car():
+    """Independent physics: held seat displacement -> body follows rigidly, no seat force;
+    a constant seat force F on the car -> sprung mass sinks F (1/ks + 1/kt), tire
+    carries F."""
+    body = FmuCore("body", load_model("reduced-paper"))
+    body.initialize()
+    body.set_real([0, 1], [0.01, 0.0])
+    for k in range(100):
+        body.do_step(k * 0.05, 0.05)
+    head_x, torso_x, fs = body.get_real([3, 4, 5])
+    assert head_x == pytest.approx(0.01, rel=1e-9)
+    assert torso_x == pytest.approx(0.01, rel=1e-9)
+    assert abs(fs) < 1e-9 * 8e5 * 0.01
+
+    car_net = load_car()
+    car = FmuCore("car", car_net)
+    car.initialize()
+    F = 500.0
+    car.set_real([2], [F])
+    for k in range(400):  # 40 s: the body mode (1.2 Hz, zeta 0.23) decays by e^-68
+        car.do_step(k * 0.1, 0.1)
+    p = car_net.parameters
+    xs, _, _, defl, tire = car.get_real([4, 5, 6, 7, 8])
+    assert xs == pytest.approx(-F * (1 / p["ks"] + 1 / p["kt"]), rel=1e-9)
+    assert defl == pytest.approx(-F / p["ks"], rel=1e-9)
+    assert tire == pytest.approx(F, rel=1e-9)
+
+
+@pytest.mark.parametrize("name, value", [("m1", 0.0), ("m2", -65.0), ("k1", -1.0),
+                                         ("c2", float("nan")), ("ks", float("inf"))])
+def test_invalid_parameter_refused_at_initialization(name, value):
+    logged = []
+    core = FmuCore("body", load_model("reduced-paper"), "HumanBody3DOF",
+                   log=lambda m, lvl: logged.append(m))
+    vr = [v.name for v in core.variables].index(name)
+    core.set_real([vr], [value])
+    with pytest.raises(BodyvibError, match=rf"parameter {name} = .* invalid.*positive finite"):
+        core.initialize()
+    with pytest.raises(BodyvibError, match="before initialization"):
+        core.do_step(0.0, 1e-3)
+
+
+def test_parameters_set_before_initialization_are_used():
+    net = load_model("reduced-paper")
+    core = FmuCore("body", net)
+    names = [v.name for v in core.variables]
+    core.set_real([names.index("m1"), names.index("ks")], [6.0, 5e5])
+    core.initialize()
+    t = np.arange(0, 0.3, 1e-3)
+    x, v = seat_motion(t)
+    y = run_core(core, t, np.c_[x, v])
+    lm = linear_model(net.with_parameters(m1=6.0, ks=5e5))
+    _, ref = simulate(lm, t, np.c_[x, v])
+    ref = ref[:, [lm.output_index(o) for o in BODY_OUT]]
+    assert np.all(rel_err(y, ref) < 1e-9)
+    assert core.get_real([names.index("m1")]) == [6.0]
+
+
+def test_parameter_after_initialization_is_ignored_and_logged():
+    logged = []
+    core = FmuCore("body", load_model("reduced-paper"), "B", log=lambda m, lvl: logged.append((lvl, m)))
+    core.initialize()
+    core.set_real([6], [1.0])
+    assert core.get_real([6]) == [4.88]
+    assert logged and logged[0][0] == "error" and "fixed after initialization" in logged[0][1]
+
+
+@pytest.mark.parametrize("bad", [float("nan"), float("inf"), -float("inf")])
+def test_non_finite_input_refuses_the_step_and_keeps_the_state(bad):
+    net = load_model("reduced-paper")
+    t = np.arange(0, 0.2, 1e-3)
+    x, v = seat_motion(t)
+    ref = FmuCore("body", net)
+    ref.initialize()
+    yref = run_core(ref, t, np.c_[x, v])
+
+    core = FmuCore("body", net)
+    core.initialize()
+    y = np.empty_like(yref)
+    for k in range(t.size):
+        if k == 50:  # a bad sample: refused, nothing changes
+            before = core.get_state()
+            core.set_real([1], [bad])
+            with pytest.raises(BodyvibError, match="seat_velocity = .* not finite"):
+                core.do_step(t[k], t[k + 1] - t[k])
+            assert core.get_state()["buf"][:5] == before["buf"][:5]
+        core.set_real([0, 1], [x[k], v[k]])
+        y[k] = core.get_real([2, 3, 4, 5])
+        if k + 1 < t.size:
+            core.do_step(t[k], t[k + 1] - t[k])
+    np.testing.assert_array_equal(y, yref)
+
+
+@pytest.mark.parametrize("h", [0.0, -1e-3, float("nan"), float("inf")])
+def test_bad_step_size_is_refused(h):
+    core = FmuCore("car", load_car(), "QuarterCar")
+    core.initialize()
+    with pytest.raises(BodyvibError, match="step size must be positive and finite"):
+        core.do_step(0.0, h)
+    core.do_step(0.0, 1e-3)  # still usable
+
+
+@pytest.mark.parametrize("kind, model", [("body", "iso7962"), ("car", None)])
+def test_state_snapshot_rolls_back_and_replays_identically(kind, model):
+    net = load_car() if kind == "car" else load_model(model)
+    core = FmuCore(kind, net)
+    core.initialize()
+    ni = len(core.interface.inputs)
+    t = np.arange(0, 0.4, 1e-3)
+    x, v = seat_motion(t)
+    s = np.zeros((t.size, ni))
+    s[:, 0], s[:, 1] = x, v
+    run_core(core, t[:200], s[:200])
+    snap = json.loads(json.dumps(core.get_state()))  # serializable, round-trips exactly
+    first = run_core(core, t[199:], s[199:])
+    core.set_state(snap)
+    replay = run_core(core, t[199:], s[199:])
+    np.testing.assert_array_equal(replay, first)
+
+
+def test_interfaces_follow_the_design_table():
+    body = FmuCore("body", load_model("reduced-paper"))
+    table = [(v.name, v.causality, v.unit) for v in body.variables]
+    assert table[:6] == [
+        ("seat_displacement", "input", "m"), ("seat_velocity", "input", "m/s"),
+        ("head_acceleration", "output", "m/s2"), ("head_displacement", "output", "m"),
+        ("torso_displacement", "output", "m"), ("seat_force", "output", "N")]
+    assert [v.name for v in body.parameters] == ["m1", "m2", "k1", "k2", "ks", "c1", "c2"]
+    assert [v.unit for v in body.parameters] == ["kg", "kg", "N/m", "N/m", "N/m", "N.s/m", "N.s/m"]
+    iso = FmuCore("body", load_model("iso7962"))
+    assert sorted(v.name for v in iso.parameters) == sorted(
+        [f"m{i}" for i in range(1, 5)] + [f"k{i}" for i in range(1, 5)]
+        + [f"k{i}s" for i in range(1, 5)] + [f"c{i}" for i in range(1, 5)])
+    assert all(v.min > 0 for v in iso.parameters)
+    car = FmuCore("car", load_car())
+    assert [v.name for v in car.variables if v.causality != "parameter"] == [
+        "road_displacement", "road_velocity", "seat_force", "seat_force_rate",
+        "seat_displacement", "seat_velocity", "sprung_acceleration",
+        "suspension_deflection", "tire_force"]
+    # feedthrough: seat force on seat displacement; car acceleration on seat force,
+    # tire force on road displacement
+    assert body.output_dependencies() == [[], [], [], [0]]
+    assert car.output_dependencies() == [[], [], [2], [], [0]]
+
+
+BLOCKER = textwrap.dedent("""
+    import sys
+    class Refuse:
+        def find_spec(self, name, path=None, target=None):
+            if name.split('.')[0] in {'scipy', 'control', 'matplotlib', 'bodyvib', 'vehicle',
+                                      'pythonfmu', 'fmpy'}:
+                raise ImportError('blocked at FMU run time: ' + name)
+    sys.meta_path.insert(0, Refuse())
+""")
+
+
+def test_runtime_package_needs_numpy_only(tmp_path):
+    """The vendored package imports and steps with scipy, control, matplotlib and
+    bodyvib itself blocked (it must not import bodyvib by name)."""
+    from bodyvib.fmu_build import write_runtime_package
+
+    write_runtime_package(tmp_path, "private_rt_x")
+    save_model(load_model("iso7962"), tmp_path / "m.json")
+    code = BLOCKER + textwrap.dedent("""
+        import private_rt_x.fmu_core as c, private_rt_x.models as m
+        core = c.FmuCore('body', m.network_from_file('m.json'), 'X')
+        core.initialize()
+        core.set_real([0, 1], [0.0, 0.1])
+        core.do_step(0.0, 1e-3)
+        print(core.get_real([5])[0])
+        print(sorted(k for k in sys.modules if k.split('.')[0] in
+              {'scipy', 'control', 'matplotlib', 'bodyvib'}))
+    """)
+    env = dict(os.environ, PYTHONPATH=str(tmp_path))
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env,
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    force, mods = out.stdout.split("\n")[:2]
+    assert math.isfinite(float(force)) and float(force) != 0.0
+    assert mods == "[]"
+
+
+def load_slave_class(script):
+    spec = importlib.util.spec_from_file_location(script[:-3], os.path.join(ROOT, "fmu_src", script))
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+@pytest.mark.parametrize("script, cls, model", [
+    ("bodyvib_fmu_humanbody3dof.py", "HumanBody3DOF", "reduced-paper"),
+    ("bodyvib_fmu_humanbodyiso7962.py", "HumanBodyISO7962", "iso7962"),
+    ("bodyvib_fmu_quartercar.py", "QuarterCar", None),
+])
+def test_slave_class_in_plain_python(tmp_path, script, cls, model):
+    """pythonfmu style: the slave class without building the FMU."""
+    pytest.importorskip("pythonfmu")
+    mod = load_slave_class(script)
+    net = load_car() if model is None else load_model(model)
+    save_model(net, tmp_path / mod.MODEL_FILE)
+    slave = getattr(mod, cls)(instance_name="unit", resources=str(tmp_path))
+    names = [v.name for v in slave.vars.values()]
+    assert names == [v.name for v in slave.core.variables]
+    slave.exit_initialization_mode()
+    assert slave.do_step(0.0, 1e-3) is True
+    slave.set_real([0], [float("nan")])
+    assert slave.do_step(1e-3, 1e-3) is False           # refused, not raised
+    assert "not finite" in slave.log_queue[-1].msg
+    assert slave.do_step(1e-3, -1.0) is False
+    slave.set_real([0], [0.0])
+    assert slave.do_step(1e-3, 1e-3) is True
+    state = slave._get_fmu_state()
+    slave.do_step(2e-3, 1e-3)
+    slave._set_fmu_state(state)
+    assert slave._get_fmu_state() == state
