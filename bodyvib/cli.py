@@ -19,6 +19,7 @@ __all__ = ["COMMAND_MODULES", "main", "build_parser"]
 COMMAND_MODULES = (
     "bodyvib.frf",
     "bodyvib.fmu_build",
+    "vehicle.commands",
 
 )
 

@@ -1,0 +1,154 @@
+"""The ``bodyvib cosim`` and ``bodyvib check`` commands.
+
+``cosim`` drives the quarter car over a road with one body FMU and reports the
+head acceleration's ISO 2631-1 figures and the coupling error against the
+monolithic reference. ``check`` does the same with the reduced body and the
+ISO 7962 body and prints the verdict of the reduced model against the ISO one.
+FMUs not given on the command line are built for the run into a temporary
+folder (about a second each) and deleted afterwards.
+"""
+
+import os
+import shutil
+import sys
+
+from bodyvib.errors import BodyvibError
+from bodyvib.fileio import write_json
+
+from .check import (
+    build_default_fmus, compare, default_fmu_dir, format_report, plot_study, run_study, study_json,
+)
+from .cosim import write_csv
+
+__all__ = ["add_command"]
+
+
+def _fmus(args, want_iso: bool):
+    """Paths of (reduced body, ISO body or None, car) and a temporary folder to delete."""
+    for opt in ("body", "car_fmu", "iso_body"):
+        p = getattr(args, opt, None)
+        if p is not None and not os.path.isfile(p):
+            raise BodyvibError(f"FMU file '{p}' does not exist (option --{opt.replace('_', '-')})")
+    need = []
+    if args.body is None:
+        need.append("HumanBody3DOF")
+    if want_iso and args.iso_body is None:
+        need.append("HumanBodyISO7962")
+    if args.car_fmu is None:
+        need.append("QuarterCar")
+    tmp, built = None, {}
+    if need:
+        tmp = default_fmu_dir()
+        if not args.quiet:
+            print(f"building {', '.join(need)} into {tmp}", file=sys.stderr, flush=True)
+        try:
+            built = build_default_fmus(tmp, params=args.params, car=args.car, names=need)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
+    body = args.body or built["HumanBody3DOF"]
+    iso = (args.iso_body or built["HumanBodyISO7962"]) if want_iso else None
+    car = args.car_fmu or built["QuarterCar"]
+    return body, iso, car, tmp
+
+
+def _label(path, default):
+    base = os.path.splitext(os.path.basename(path))[0]
+    return base or default
+
+
+def _write_outputs(args, study, comparison):
+    if args.json:
+        write_json(args.json, study_json(study, comparison))
+        print(f"wrote {args.json}")
+    if args.plot:
+        plot_study(study, args.plot, comparison)
+        print(f"wrote {args.plot}")
+    if args.csv:
+        cols = {"time": study["time"], "road_displacement": study["road_displacement"],
+                "road_velocity": study["road_velocity"]}
+        many = len(study["bodies"]) > 1
+        for label, b in study["bodies"].items():
+            for k, v in b["run"].items():
+                if k in cols or (many and k not in ("head_acceleration", "head_displacement",
+                                                    "torso_displacement", "seat_force")):
+                    if k not in cols:
+                        cols[k] = v
+                    continue
+                cols[f"{label}.{k}" if many else k] = v
+            if b["reference"] is not None:
+                cols[f"{label}.reference_head_acceleration" if many
+                     else "reference_head_acceleration"] = b["reference"]["head_acceleration"]
+        write_csv(args.csv, cols)
+        print(f"wrote {args.csv}")
+
+
+def _run(args, want_iso):
+    body, iso, car, tmp = _fmus(args, want_iso)
+    try:
+        bodies = {_label(body, "body"): body}
+        if want_iso:
+            iso_label = _label(iso, "iso")
+            if iso_label in bodies:
+                iso_label += "-iso"
+            bodies[iso_label] = iso
+        study = run_study(bodies, car, road=args.road, speed=args.speed, duration=args.duration,
+                          step=args.step, seed=args.seed, extrapolate=not args.hold,
+                          progress=not args.quiet, quiet=args.quiet)
+        comparison = compare(study, *bodies) if want_iso else None
+        print(format_report(study, comparison))
+        _write_outputs(args, study, comparison)
+    finally:
+        if tmp:
+            shutil.rmtree(tmp, ignore_errors=True)
+    if comparison is not None and args.strict and comparison["verdict"] != "PASS":
+        return 1
+    return 0
+
+
+def _common(p):
+    p.add_argument("--road", default="C", help="ISO 8608 class A-H, 'bump' or 'sweep' (default C)")
+    p.add_argument("--speed", type=float, default=20.0, help="vehicle speed, m/s (default 20)")
+    p.add_argument("--duration", type=float, default=30.0, help="simulated time, s (default 30)")
+    p.add_argument("--step", type=float, default=1e-3,
+                   help="communication step, s (default 0.001)")
+    p.add_argument("--seed", type=int, default=0, help="random-road seed (default 0)")
+    p.add_argument("--body", metavar="FMU",
+                   help="body FMU with the DESIGN section 7 interface (default: HumanBody3DOF "
+                   "built from --params)")
+    p.add_argument("--params", metavar="FILE",
+                   help="body parameter file baked into the default HumanBody3DOF.fmu "
+                   "(default: the paper's Table 2)")
+    p.add_argument("--car", default="quarter-car", metavar="MODEL",
+                   help="vehicle model for the default QuarterCar.fmu: 'quarter-car', "
+                   "'quarter-car-cushion' or a parameter file (default quarter-car)")
+    p.add_argument("--car-fmu", metavar="FMU", help="a car FMU instead of building QuarterCar.fmu")
+    p.add_argument("--hold", action="store_true",
+                   help="plain master: hold the seat force over each step (first order)")
+    p.add_argument("--plot", metavar="FILE.png", help="write the plot")
+    p.add_argument("--csv", metavar="FILE", help="write the time histories as CSV")
+    p.add_argument("--json", metavar="FILE", help="write the figures as JSON")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+
+
+def add_command(subparsers):
+    """Register ``bodyvib cosim`` and ``bodyvib check``."""
+    p = subparsers.add_parser(
+        "cosim", help="quarter-car co-simulation with a body FMU (ISO 2631-1 figures)",
+        description="Drive the quarter-car FMU over a road with a body FMU (fmpy, two-way "
+        "coupled), report the head acceleration's ISO 2631-1 figures and the coupling error "
+        "against the monolithic reference.")
+    _common(p)
+    p.set_defaults(func=lambda a: _run(a, want_iso=False), iso_body=None, strict=False)
+
+    c = subparsers.add_parser(
+        "check", help="head acceleration of the reduced body against the ISO 7962 body",
+        description="Co-simulate the same road and car with the reduced body and the ISO 7962 "
+        "body; compare head-acceleration figures, time histories and transmissibility against "
+        "the README's tolerances and print the verdict.")
+    _common(c)
+    c.add_argument("--iso-body", metavar="FMU",
+                   help="ISO body FMU (default: HumanBodyISO7962 built from iso7962)")
+    c.add_argument("--strict", action="store_true", help="exit with status 1 on a FAIL verdict")
+    c.set_defaults(func=lambda a: _run(a, want_iso=True))
+    return p
