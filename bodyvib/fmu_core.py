@@ -319,6 +319,7 @@ class FmuCore:
         self._rate_pairs = iface.rate_pairs
         self._R = iface.rate_matrix()
         self._initialized = False
+        self._init_error = None
         self._build(np.array([p.start for p in self.parameters]))
         # one buffer [x | s | y] so the step and the outputs are single products
         self._buf = np.zeros(self._n + self._ni + self._no)
@@ -394,9 +395,15 @@ class FmuCore:
             An invalid parameter (see :meth:`check_parameters`) or a model the
             builder refuses.
         """
-        self.check_parameters()
-        if not np.array_equal(self._params, self._built_params):
-            self._build(self._params)
+        self._initialized = False
+        try:
+            self.check_parameters()
+            if not np.array_equal(self._params, self._built_params):
+                self._build(self._params)
+        except BodyvibError as exc:
+            self._init_error = f"{exc}; the instance refuses to step (reset and set valid parameters)"
+            raise
+        self._init_error = None
         self._stale = False
         self._initialized = True
         self._dirty = True
@@ -478,8 +485,8 @@ class FmuCore:
                                "not finite; step refused, state unchanged (set a finite value "
                                "and step again)")
         if not self._initialized:
-            raise BodyvibError(f"{self.name}: do_step before initialization; call "
-                               "fmi2ExitInitializationMode first")
+            raise BodyvibError(self._init_error or f"{self.name}: do_step before initialization; "
+                               "call fmi2ExitInitializationMode first")
         if h != self._h:
             self._M = self._step_matrix(h)
             self._h = h

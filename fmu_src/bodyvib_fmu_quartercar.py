@@ -6,11 +6,14 @@ exact stepping. Built by ``python build_fmu.py`` (or ``bodyvib build``), which
 ships the run-time modules under a private package name, rewrites ``RUNTIME``
 below to that name and puts the parameter file at ``resources/MODEL_FILE``.
 
-Status mapping (pythonfmu 0.7.0): a refused step (non-finite input, step size
-not positive) returns False, which pythonfmu reports as fmi2Discard with the
-reason logged at error level; the instance stays usable. Invalid parameters
-raise at fmi2ExitInitializationMode, the only non-OK status pythonfmu can give
-there (fmi2Fatal), with the reason in the log.
+No method raises: pythonfmu 0.7.0 turns any Python exception into fmi2Fatal
+and then releases the instance's Python objects twice (once more in
+fmi2FreeInstance), which corrupts the host's interpreter. A refused step
+(non-finite input, step size not positive) returns False, which pythonfmu
+reports as fmi2Discard, with the reason logged at error level; the instance
+stays usable. Invalid parameters are refused at fmi2ExitInitializationMode with
+the reason logged at error level (pythonfmu gives that call no error status
+short of fmi2Fatal), and every later step is refused with the same reason.
 """
 
 import importlib
@@ -50,7 +53,10 @@ class QuarterCar(Fmi2Slave):
         self.log(message, getattr(Fmi2Status, level))
 
     def exit_initialization_mode(self):
-        self.core.initialize()  # an invalid parameter raises, with its reason
+        try:
+            self.core.initialize()
+        except Exception as exc:  # invalid parameter: logged; the instance refuses to step
+            self.log(str(exc), Fmi2Status.error)
 
     def do_step(self, current_time, step_size):
         try:

@@ -162,7 +162,7 @@ def test_invalid_parameter_refused_at_initialization(name, value):
     core.set_real([vr], [value])
     with pytest.raises(BodyvibError, match=rf"parameter {name} = .* invalid.*positive finite"):
         core.initialize()
-    with pytest.raises(BodyvibError, match="before initialization"):
+    with pytest.raises(BodyvibError, match=rf"parameter {name} = .* refuses to step"):
         core.do_step(0.0, 1e-3)
 
 
@@ -339,3 +339,18 @@ def test_slave_class_in_plain_python(tmp_path, script, cls, model):
     slave.do_step(2e-3, 1e-3)
     slave._set_fmu_state(state)
     assert slave._get_fmu_state() == state
+
+
+def test_slave_with_invalid_parameter_logs_and_refuses_steps_without_raising(tmp_path):
+    """pythonfmu turns an exception into fmi2Fatal and then frees the instance's
+    Python objects twice: the slave must refuse by logging and returning False."""
+    pytest.importorskip("pythonfmu")
+    mod = load_slave_class("bodyvib_fmu_humanbody3dof.py")
+    save_model(load_model("reduced-paper"), tmp_path / mod.MODEL_FILE)
+    slave = mod.HumanBody3DOF(instance_name="unit", resources=str(tmp_path))
+    slave.set_real([6], [-4.88])  # m1
+    slave.exit_initialization_mode()  # does not raise
+    assert "parameter m1 = -4.88 kg is invalid" in slave.log_queue[-1].msg
+    assert int(slave.log_queue[-1].status) == 3  # fmi2Error
+    assert slave.do_step(0.0, 1e-3) is False
+    assert "m1" in slave.log_queue[-1].msg
