@@ -20,6 +20,7 @@ COMMAND_MODULES = (
     "bodyvib.frf",
     "bodyvib.fmu_build",
     "vehicle.commands",
+    "bodyvib.fit",
 
 )
 
