@@ -316,7 +316,6 @@ class FmuCore:
         self._pnames = [p.name for p in self.parameters]
         # value reference -> 0 input, 1 output, 2 parameter
         self._kind_of = [0] * self._ni + [1] * self._no + [2] * self._np
-        self._rate_pairs = iface.rate_pairs
         self._R = iface.rate_matrix()
         self._initialized = False
         self._init_error = None
@@ -325,6 +324,7 @@ class FmuCore:
         self._buf = np.zeros(self._n + self._ni + self._no)
         self._params = np.array([p.start for p in self.parameters])
         self._bad = [False] * self._ni
+        self._values = [0.0] * (self._ni + self._no) + self._params.tolist()  # by value reference
         self._dirty = True
         self._stale = False
         self.time = 0.0
@@ -337,7 +337,7 @@ class FmuCore:
         self._x = self._buf[:n]
         self._s = self._buf[n:n + ni]
         self._y = self._buf[n + ni:]
-        self._xnew = np.empty(n)
+        self._znew = np.empty(n + ni)
         # value reference -> index into _buf (parameters are kept apart)
         self._pos = [n + i for i in range(self._ni + self._no)]
 
@@ -359,10 +359,15 @@ class FmuCore:
         self._built_params = params.copy()
 
     def _step_matrix(self, h: float) -> np.ndarray:
+        """``[x | s]`` at the step's end ``= M @ [x | s]``: exact state update, inputs extrapolated."""
         M = self._steps.get(h)
         if M is None:
             Phi, G0, G1 = self._disc.matrices(h)
-            M = np.hstack([Phi, G0 @ self._U + G1 @ self._dU])  # x+ = M @ [x | s]
+            n, ni = self._n, self._ni
+            M = np.zeros((n + ni, n + ni))
+            M[:n, :n] = Phi
+            M[:n, n:] = G0 @ self._U + G1 @ self._dU
+            M[n:, n:] = np.eye(ni) + h * self._R
             if len(self._steps) > 64:
                 self._steps.clear()
             self._steps[h] = M
@@ -413,9 +418,8 @@ class FmuCore:
         """Values of variables by value reference (outputs computed on read)."""
         if self._dirty:
             self._outputs()
-        buf, pos, kind = self._buf, self._pos, self._kind_of
-        return [float(buf[pos[vr]]) if kind[vr] != 2 else float(self._params[vr - self._ni - self._no])
-                for vr in vrs]
+        values = self._values
+        return [values[vr] for vr in vrs]
 
     def _outputs(self):
         if self._stale:  # parameters changed before initialization: follow them if valid
@@ -426,6 +430,7 @@ class FmuCore:
                 pass
             self._stale = False
         np.dot(self._Y, self._z, out=self._y)
+        self._values[:self._ni + self._no] = self._buf[self._n:].tolist()
         self._dirty = False
 
     def set_real(self, vrs: Sequence[int], values: Sequence[float]) -> None:
@@ -447,6 +452,7 @@ class FmuCore:
                                   "initialization; set it before fmi2ExitInitializationMode (ignored)")
                 else:
                     self._params[vr - self._ni - self._no] = v
+                    self._values[vr] = float(v)
                     self._stale = True
             else:
                 self._message(f"{self.name}: {self.variables[vr].name} is an output and cannot be "
@@ -490,11 +496,8 @@ class FmuCore:
         if h != self._h:
             self._M = self._step_matrix(h)
             self._h = h
-        np.dot(self._M, self._z, out=self._xnew)
-        self._x[:] = self._xnew
-        s = self._s
-        for i, j in self._rate_pairs:  # inputs at the step's end
-            s[i] += h * s[j]
+        np.dot(self._M, self._z, out=self._znew)  # state and inputs at the step's end
+        self._z[:] = self._znew
         self._dirty = True
         self.time = current_time + h
 
@@ -513,6 +516,7 @@ class FmuCore:
         """Restore a snapshot from :meth:`get_state` (``fmi2SetFMUstate``)."""
         params = np.array(state["params"], dtype=float)
         self._params = params
+        self._values[self._ni + self._no:] = params.tolist()
         if state["initialized"] and not np.array_equal(params, self._built_params):
             self._build(params)
         self._stale = not state["initialized"] and not np.array_equal(params, self._built_params)
