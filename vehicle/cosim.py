@@ -321,6 +321,10 @@ def write_csv(path, result: Dict[str, np.ndarray]) -> None:
     """
     names = list(result)
     cols = np.column_stack([np.asarray(result[k], dtype=float) for k in names])
-    header = ",".join(f"{k} [{UNITS[k]}]" if k in UNITS else k for k in names)
+    def unit(name):  # "HumanBody3DOF.head_acceleration" has the unit of head_acceleration
+        u = UNITS.get(name.rpartition(".")[2].replace("reference_", ""))
+        return f"{name} [{u}]" if u else name
+
+    header = ",".join(unit(k) for k in names)
     lines = [header] + [",".join(f"{x:.10g}" for x in row) for row in cols]
     atomic_write_text(path, "\n".join(lines) + "\n")

@@ -1,0 +1,161 @@
+"""Co-simulation of the real FMUs in fmpy against the monolithic reference; the CLI end to end.
+
+The FMUs are built once per session, in a subprocess (an FMU's module names are
+global to the process that loads it), into a temporary folder.
+"""
+
+import csv
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from bodyvib.comfort import weighted_rms
+from bodyvib.errors import BodyvibError
+from conftest import ROOT
+from vehicle.check import coupling_error_sweep, run_study
+from vehicle.cosim import cosimulate, model_from_fmu, open_fmu, write_csv
+from vehicle.reference import nrmse, reference_run
+from vehicle.roads import make_road, road_input
+
+pytestmark = pytest.mark.integration
+
+
+@pytest.fixture(scope="session")
+def fmus(tmp_path_factory):
+    d = tmp_path_factory.mktemp("fmus")
+    subprocess.run([sys.executable, os.path.join(ROOT, "build_fmu.py"), "--dest", str(d)],
+                   check=True, cwd=ROOT, capture_output=True)
+    cushion = tmp_path_factory.mktemp("fmus_cushion")
+    subprocess.run([sys.executable, "-c",
+                    "import sys; from bodyvib.fmu_build import build_fmu; "
+                    "build_fmu('QuarterCar', sys.argv[1], 'quarter-car-cushion')", str(cushion)],
+                   check=True, cwd=ROOT, capture_output=True)
+    return {"body": str(d / "HumanBody3DOF.fmu"), "iso": str(d / "HumanBodyISO7962.fmu"),
+            "car": str(d / "QuarterCar.fmu"), "cushion": str(cushion / "QuarterCar.fmu")}
+
+
+@pytest.mark.parametrize("which", ["body", "iso"])
+def test_coupling_error_meets_target_at_1ms(fmus, which):
+    """Issue target: head-acceleration NRMSE <= 0.05 % at 1 ms on a class C road at
+    20 m/s. 10 s holds about 8 body-bounce periods and 45 periods of the 4.5 Hz body
+    resonance, enough for a stable r.m.s. The plain master (seat force held) is far
+    above the target, so the extrapolation is what meets it."""
+    study = run_study({"b": fmus[which]}, fmus["car"], "C", 20.0, 10.0, 1e-3)
+    err = study["bodies"]["b"]["coupling_nrmse"]
+    assert err <= 5e-4
+    held = run_study({"b": fmus[which]}, fmus["car"], "C", 20.0, 10.0, 1e-3, extrapolate=False)
+    assert held["bodies"]["b"]["coupling_nrmse"] > 5 * err
+
+
+def test_coupling_error_is_second_order_in_the_step(fmus):
+    """Linear extrapolation makes the coupling error O(h^2): halving the step
+    divides it by about 4 (3 to 5 allows for the higher-order terms)."""
+    rows = coupling_error_sweep([2e-3, 1e-3], fmus["body"], fmus["car"], duration=5.0)
+    ratio = rows[0]["coupling_nrmse"] / rows[1]["coupling_nrmse"]
+    assert 3.0 < ratio < 5.0
+
+
+def test_cushion_car_co_simulates_against_its_reference(fmus):
+    """The cushion puts a 3 kg pan between car and body: the pan on the body's seat
+    spring is an ~80 Hz mode that the coupling has to resolve, so at 1 ms the error
+    is about 0.06 % (README); the 0.05 % target holds at 0.5 ms (second order: 4x less)."""
+    study = run_study({"b": fmus["body"]}, fmus["cushion"], "C", 20.0, 5.0, 5e-4)
+    assert study["bodies"]["b"]["coupling_nrmse"] <= 5e-4
+    # the cushion's 3-4 Hz seat resonance changes the ride: not the rigid seat's figures
+    rigid = run_study({"b": fmus["body"]}, fmus["car"], "C", 20.0, 5.0, 5e-4)
+    assert (study["bodies"]["b"]["figures"]["weighted_rms"]
+            != pytest.approx(rigid["bodies"]["b"]["figures"]["weighted_rms"], rel=0.02))
+
+
+def test_master_outputs_match_reference_signal_by_signal(fmus):
+    h, T, V = 1e-3, 4.0, 20.0
+    t = np.arange(int(round(T / h)) + 1) * h
+    z, v = road_input(make_road("bump", V, T), V, t)
+    with open_fmu(fmus["car"], "car") as car, open_fmu(fmus["iso"], "body") as body:
+        run = cosimulate(car, body, z, v, h)
+    ref = reference_run(model_from_fmu(fmus["car"]), model_from_fmu(fmus["iso"]), z, v, h)
+    for k in ("seat_displacement", "seat_acceleration", "tire_force", "suspension_deflection",
+              "seat_force", "head_acceleration", "head_displacement", "torso_displacement"):
+        assert nrmse(run[k], ref[k]) < 2e-3, k
+
+
+def test_csv_round_trip(fmus, tmp_path):
+    h = 1e-3
+    z, v = road_input(make_road("C", 20.0, 1.0), 20.0, np.arange(1001) * h)
+    with open_fmu(fmus["car"], "car") as car, open_fmu(fmus["body"], "body") as body:
+        run = cosimulate(car, body, z, v, h)
+    path = tmp_path / "run.csv"
+    write_csv(path, run)
+    with open(path) as f:
+        rows = list(csv.reader(f))
+    assert rows[0][0] == "time [s]" and "head_acceleration [m/s2]" in rows[0]
+    col = rows[0].index("head_acceleration [m/s2]")
+    back = np.array([float(r[col]) for r in rows[1:]])
+    assert np.allclose(back, run["head_acceleration"], rtol=1e-9, atol=1e-12)
+
+
+def test_fmu_without_body_interface_is_refused(fmus):
+    with pytest.raises(BodyvibError, match="lacks the body interface"):
+        with open_fmu(fmus["car"], "body"):
+            pass
+    with pytest.raises(BodyvibError, match="does not exist"):
+        with open_fmu("/nonexistent/Body.fmu", "body"):
+            pass
+
+
+def _cli(*args, cwd):
+    return subprocess.run([sys.executable, "-m", "bodyvib.cli", *args], cwd=cwd,
+                          capture_output=True, text=True)
+
+
+def test_check_cli_end_to_end(fmus, tmp_path):
+    """`bodyvib check` with FMUs built by the command itself; JSON keys as documented
+    and consistent with the CSV written in the same run (the weighted r.m.s. is
+    recomputed from the CSV's head acceleration)."""
+    p = _cli("check", "--duration", "6", "--json", "c.json", "--plot", "c.png", "--csv", "c.csv",
+             cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert "verdict: " in p.stdout
+    doc = json.loads((tmp_path / "c.json").read_text())
+    assert set(doc["bodies"]) == {"HumanBody3DOF", "HumanBodyISO7962"}
+    for b in doc["bodies"].values():
+        for key in ("weighted_rms", "vdv", "peak", "coupling_nrmse"):
+            assert np.isfinite(b[key]), key
+        assert b["coupling_nrmse"] <= 5e-4
+    assert doc["verdict"] in ("PASS", "FAIL")
+    assert doc["verdict"] == ("PASS" if all(c["passed"] for c in doc["check"]["criteria"])
+                              else "FAIL")
+    assert (tmp_path / "c.png").stat().st_size > 10000
+    with open(tmp_path / "c.csv") as f:
+        rows = list(csv.reader(f))
+    col = rows[0].index("HumanBody3DOF.head_acceleration [m/s2]")
+    a = np.array([float(r[col]) for r in rows[1:]])
+    assert weighted_rms(a, 1000.0) == pytest.approx(doc["bodies"]["HumanBody3DOF"]["weighted_rms"],
+                                                    rel=1e-6)
+
+
+def test_cosim_cli_with_iso_body_fmu(fmus, tmp_path):
+    p = _cli("cosim", "--road", "B", "--duration", "3", "--body", fmus["iso"], "--car-fmu",
+             fmus["car"], "--json", "r.json", "--quiet", cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    doc = json.loads((tmp_path / "r.json").read_text())
+    assert list(doc["bodies"]) == ["HumanBodyISO7962"]
+    assert doc["bodies"]["HumanBodyISO7962"]["coupling_nrmse"] <= 5e-4
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--road", "Q"], "unknown road"),
+    (["--speed", "-3"], "speed must be a positive"),
+    (["--step", "0"], "step must be a positive"),
+    (["--duration", "-1"], "duration must be a positive"),
+    (["--body", "missing.fmu"], "does not exist"),
+])
+def test_cli_errors_are_one_line(tmp_path, args, words):
+    p = _cli("cosim", "--quiet", *args, cwd=tmp_path)
+    assert p.returncode == 2
+    assert words in p.stderr
+    assert len(p.stderr.strip().splitlines()) == 1, p.stderr
