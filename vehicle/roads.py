@@ -410,7 +410,7 @@ def road_input(road: Road, speed: float, t) -> Tuple[np.ndarray, np.ndarray]:
 
     Examples
     --------
-    >>> z, v = road_input(BumpRoad(height=0.02, bump_length=1.0, start=0.0), 10.0, [0.05])
+    >>> z, v = road_input(BumpRoad(height=0.02, bump_length=1.0, start=0.0), 10.0, [0.025])
     >>> round(float(z[0]), 4)
     0.01
     """
