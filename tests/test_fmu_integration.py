@@ -180,8 +180,9 @@ def test_model_description_interface(fmus, name):
     assert any(m.startswith(f"bodyvib_rt_{name.lower()}_") for m in mods)
 
 
-def test_params_file_is_baked_into_humanbody3dof(tmp_path):
-    """`bodyvib build --params FILE`: the FMU starts from the file's values and runs them."""
+def test_params_file_is_baked_into_humanbody3dof(fmus, tmp_path):
+    """`bodyvib build --params FILE`: the FMU starts from the file's values and runs them,
+    also beside the default HumanBody3DOF.fmu in the same process (different hashed names)."""
     net = load_model("reduced-paper").with_parameters(m1=5.5, c1=400.0)
     save_model(net, tmp_path / "refit.json")
     out = subprocess.run([sys.executable, "-m", "bodyvib.cli", "build", "--params",
@@ -197,17 +198,22 @@ def test_params_file_is_baked_into_humanbody3dof(tmp_path):
         from test_fmu_integration import Slave, piecewise_linear, BODY_OUT
         t = np.arange(0, 0.5, 1e-3)
         x, v = piecewise_linear(t)
-        s = Slave({str(tmp_path / 'HumanBody3DOF.fmu')!r})
-        print(json.dumps([s.get(['m1', 'c1']),
-                          s.run(t, np.c_[x, v], ['seat_displacement', 'seat_velocity'], BODY_OUT).tolist()]))
+        out = []
+        for path in sys.argv[1:]:  # the refit and the default FMU, side by side in one process
+            s = Slave(path, name=path)
+            out.append([s.get(['m1', 'c1']), s.run(t, np.c_[x, v], ['seat_displacement',
+                                                                    'seat_velocity'], BODY_OUT).tolist()])
+        print(json.dumps(out))
     """)
-    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    run = subprocess.run([sys.executable, "-c", code, str(tmp_path / "HumanBody3DOF.fmu"),
+                          fmus["HumanBody3DOF"]], capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr
-    params, y = json.loads(run.stdout.strip().splitlines()[-1])
-    assert params == [5.5, 400.0]
+    (params, y), (params0, y0) = json.loads(run.stdout.strip().splitlines()[-1])
+    assert params == [5.5, 400.0] and params0 == [4.88, 333.0]
     t = np.arange(0, 0.5, 1e-3)
     x, v = piecewise_linear(t)
     assert np.all(rel_err(np.array(y), body_reference(net, t, x, v)) < 1e-9)
+    assert np.all(rel_err(np.array(y0), body_reference("reduced-paper", t, x, v)) < 1e-9)
 
 
 def test_bad_params_file_is_refused_by_the_build_command(tmp_path):
@@ -306,6 +312,27 @@ def test_libcosimpy_runs_both_body_fmus(fmus):
         y = np.column_stack([res[path][n] for n in BODY_OUT])
         ref = body_reference(model, t, x, v)[1:]
         assert np.all(rel_err(y, ref) < 1e-6), (model, rel_err(y, ref))
+
+
+def test_readme_fmu_snippets_run(fmus):
+    """The README's fmpy and libcosimpy snippets, as written (paths pointed at this build)."""
+    import re
+
+    with open(os.path.join(ROOT, "README.md"), encoding="utf-8") as f:
+        readme = f.read()
+    section = readme[readme.index("## FMUs"):]
+    section = section[:section.index("\n## ", 5)]
+    code = "\n".join(re.findall(r"```python\n(.*?)```", section, re.S))
+    code = code.replace("dist/HumanBody3DOF.fmu", fmus["HumanBody3DOF"].replace("\\", "/"))
+    run = subprocess.run([sys.executable, "-c", code + "\nprint(float(res['seat_force'][150]), seat_force)"],
+                         capture_output=True, text=True, timeout=120, cwd=ROOT)
+    assert run.returncode == 0, run.stderr[-3000:]
+    f_fmpy, f_cosim = map(float, run.stdout.split()[-2:])
+    t = np.arange(1001) * 1e-3
+    x = 0.02 * np.clip(1 - np.abs(2 * (t - 0.1) / 0.1 - 1), 0, None)
+    ref = body_reference("reduced-paper", t, x, np.append(np.diff(x) / 1e-3, 0.0))
+    assert f_fmpy == pytest.approx(ref[150, 3], rel=1e-6)
+    assert f_cosim == pytest.approx(ref[-1, 3], rel=1e-6, abs=1e-9 * np.abs(ref[:, 3]).max())
 
 
 # -- robustness ---------------------------------------------------------------------
