@@ -26,6 +26,7 @@ import hashlib
 import io
 import json
 import re
+import subprocess
 import sys
 import tempfile
 import zipfile
@@ -139,10 +140,6 @@ def build_fmu(name: str, dest="dist", model: Optional[str] = None) -> Path:
             f"slave script {script} not found: build the FMUs from a source checkout "
             "(git clone, then pip install -e .)"
         )
-    try:
-        from pythonfmu import FmuBuilder
-    except ImportError:  # pragma: no cover - a declared dependency
-        raise BodyvibError("building FMUs needs pythonfmu: pip install pythonfmu") from None
     from .fmu_core import FmuCore
     from .models import network_to_dict
 
@@ -168,18 +165,18 @@ def build_fmu(name: str, dest="dist", model: Optional[str] = None) -> Path:
         (stage / f"{module}.py").write_text(script_text, encoding="utf-8")
         (stage / MODEL_FILE).write_bytes(model_bytes)
         out = Path(tmp) / "out"
-        saved_path = list(sys.path)
-        try:
-            built = FmuBuilder.build_FMU(
-                stage / f"{module}.py", dest=out, project_files=[pkg, stage / MODEL_FILE],
-                needsExecutionTool=False, canGetAndSetFMUstate=True, canSerializeFMUstate=True,
-            )
-        finally:
-            sys.path[:] = saved_path
-            for mod in [m for m in sys.modules if m == module or m == package
-                        or m.startswith(package + ".")]:
-                del sys.modules[mod]
-        data = _finish(Path(built), core, network)
+        # pythonfmu runs in a fresh process: in a process that has run a pythonfmu FMU,
+        # 'pythonfmu' may be the FMU's embedded copy, which has no binaries to package.
+        cmd = [sys.executable, "-m", "pythonfmu", "build", "-f", str(stage / f"{module}.py"),
+               "-d", str(out), "--no-external-tool", "--handle-state", "--serialize-state",
+               str(pkg), str(stage / MODEL_FILE)]
+        proc = subprocess.run(cmd, cwd=tmp, capture_output=True, text=True)
+        built = out / f"{name}.fmu"
+        if proc.returncode != 0 or not built.is_file():
+            tail = (proc.stderr or proc.stdout).strip().splitlines()[-3:]
+            raise BodyvibError(f"pythonfmu could not build {name}.fmu (is pythonfmu installed? "
+                               f"pip install pythonfmu): {' | '.join(tail)}")
+        data = _finish(built, core, network)
     target = dest / f"{name}.fmu"
     atomic_write_bytes(target, data)
     problems = _validate(target)
@@ -197,6 +194,9 @@ def _finish(fmu: Path, core, network) -> bytes:
     with zipfile.ZipFile(fmu) as zf:
         entries = [(info, zf.read(info)) for info in zf.infolist()]
     md = next(data for info, data in entries if info.filename == "modelDescription.xml")
+    if not any(info.filename.startswith("binaries/") for info, _ in entries):
+        raise BodyvibError(f"{fmu.name}: pythonfmu packaged no binaries (pythonfmu without "
+                           "its resources/binaries?); reinstall pythonfmu")
     root = ET.fromstring(md)
     root.set("description", f"{root.get('description', '')}. Model '{network.name}': "
              f"{network.description}".strip())

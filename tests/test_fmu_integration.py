@@ -216,6 +216,33 @@ def test_params_file_is_baked_into_humanbody3dof(fmus, tmp_path):
     assert np.all(rel_err(np.array(y0), body_reference("reduced-paper", t, x, v)) < 1e-9)
 
 
+def test_build_in_a_process_that_already_ran_an_fmu(fmus, tmp_path):
+    """Once a pythonfmu FMU has run in a process, 'pythonfmu' there is the FMU's
+    embedded copy (no binaries): building must still give a complete, working FMU."""
+    code = textwrap.dedent(f"""
+        import sys
+        sys.path.insert(0, {os.path.join(ROOT, 'tests')!r})
+        from test_fmu_integration import Slave
+        s = Slave({fmus['QuarterCar']!r}, name='first')
+        s.fmu.doStep(0.0, 1e-3)
+        import pythonfmu
+        print(pythonfmu.__file__)
+        from bodyvib.fmu_build import build_fmu
+        path = build_fmu('QuarterCar', {str(tmp_path)!r})
+        t = Slave(str(path), name='second')
+        for fmu in (s, t):  # the same inputs from the same state: identical outputs
+            fmu.set(['road_displacement', 'road_velocity', 'seat_force'], [0.01, 0.3, 100.0])
+            fmu.fmu.doStep(1e-3, 1e-3)
+        print(s.get(['tire_force'])[0] == t.get(['tire_force'])[0] != 0.0)
+    """)
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
+                         cwd=ROOT)
+    assert run.returncode == 0, run.stderr[-3000:]
+    embedded, same = run.stdout.split()[-2:]
+    assert "site-packages" not in embedded  # the situation this test is about
+    assert same == "True"
+
+
 def test_bad_params_file_is_refused_by_the_build_command(tmp_path):
     (tmp_path / "bad.json").write_text('{"name": "x"}')
     out = subprocess.run([sys.executable, "-m", "bodyvib.cli", "build", "--params",
