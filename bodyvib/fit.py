@@ -191,7 +191,8 @@ def load_config(path=None, overrides: Optional[dict] = None) -> dict:
         raise BodyvibError(f"{where}: bounds_per_kg_total_mass.m1 is the head's fraction of the "
                            "total mass and must stay below 1")
     ga = cfg["ga"]
-    for k in ("population", "generations", "parents_mating", "tournament_size", "elitism"):
+    for k in ("restarts", "population", "generations", "parents_mating", "tournament_size",
+              "elitism"):
         if not isinstance(ga[k], int) or isinstance(ga[k], bool) or ga[k] < 1:
             raise BodyvibError(f"{where}: ga.{k} must be a positive integer, got {ga[k]!r}")
     if ga["parents_mating"] > ga["population"] or ga["elitism"] > ga["population"]:
@@ -727,7 +728,7 @@ class FitResult:
     objective_table2 : float
         The paper's Table 2 parameters on the same objective, 1/s.
     ga_objective : float
-        Best objective found by the GA before the polish.
+        Best run's objective from the GA, before the polish.
     relative_error : float
         ``objective / target.energy()``.
     target : FitTarget
@@ -742,6 +743,9 @@ class FitResult:
         Best objective after each generation.
     at_bounds : list of str
         Searched ratios that ended within 0.1 % (in log) of a bound.
+    runs : list of dict
+        Per GA run (``ga.restarts`` of them): its seed, the GA's best objective
+        and the objective after the polish; the best run is the result.
     """
 
     parameters: Dict[str, float]
@@ -757,6 +761,7 @@ class FitResult:
     elapsed_s: float
     history: List[float] = field(default_factory=list)
     at_bounds: List[str] = field(default_factory=list)
+    runs: List[dict] = field(default_factory=list)
 
 
 def _log_bounds(cfg):
@@ -777,8 +782,10 @@ def fit(target: FitTarget, config: Optional[dict] = None, seed: int = 1,
     config : dict, optional
         As :func:`load_config` (bounds, GA settings, polish).
     seed : int
-        Seeds the GA (``pygad.GA(random_seed=seed)``); the same seed and
-        configuration give the same parameters.
+        Seeds the search: ``ga.restarts`` independent GA runs, each seeded
+        (``pygad.GA(random_seed=...)``) from ``numpy.random.SeedSequence(seed)``,
+        each polished, the best kept. The same seed and configuration give the
+        same parameters.
     polish : bool, optional
         Local polish from the GA's best (``config["polish"]["enabled"]`` by
         default).
@@ -815,59 +822,69 @@ def fit(target: FitTarget, config: Optional[dict] = None, seed: int = 1,
         J = objective_of_genes(np.atleast_2d(solutions))
         return np.where(np.isfinite(J), -J, -1e300)
 
+    restarts = int(ga_cfg["restarts"])
+    run_seeds = [int(v) for v in np.random.SeedSequence(int(seed)).generate_state(restarts)]
     history: List[float] = []
-    bar = tqdm(total=ga_cfg["generations"], desc="bodyvib fit (GA)", unit="gen",
+    bar = tqdm(total=restarts * ga_cfg["generations"], desc="bodyvib fit (GA)", unit="gen",
                file=sys.stderr, disable=None if progress else True, leave=False)
 
     def on_generation(ga):
         best = -float(np.max(ga.last_generation_fitness))
         history.append(best)
-        bar.set_postfix_str(f"J={best:.5g} 1/s", refresh=False)
+        bar.set_postfix_str(f"J={min(history):.5g} 1/s", refresh=False)
         bar.update(1)
 
     t0 = time.perf_counter()
-    ga = pygad.GA(
-        num_generations=ga_cfg["generations"],
-        num_parents_mating=ga_cfg["parents_mating"],
-        sol_per_pop=ga_cfg["population"],
-        num_genes=len(GENES),
-        fitness_func=fitness,
-        fitness_batch_size=ga_cfg["population"],
-        gene_space=[{"low": float(a), "high": float(b)} for a, b in zip(lo, hi)],
-        parent_selection_type=ga_cfg["parent_selection"],
-        K_tournament=ga_cfg["tournament_size"],
-        keep_elitism=ga_cfg["elitism"],
-        crossover_type=ga_cfg["crossover"],
-        mutation_type=ga_cfg["mutation"],
-        mutation_probability=ga_cfg["mutation_probability"],
-        polynomial_mutation_eta=ga_cfg["polynomial_mutation_eta"],
-        on_generation=on_generation,
-        random_seed=int(seed),
-        suppress_warnings=True,
-    )
+    runs = []
     try:
-        ga.run()
+        for run_seed in run_seeds:
+            ga = pygad.GA(
+                num_generations=ga_cfg["generations"],
+                num_parents_mating=ga_cfg["parents_mating"],
+                sol_per_pop=ga_cfg["population"],
+                num_genes=len(GENES),
+                fitness_func=fitness,
+                fitness_batch_size=ga_cfg["population"],
+                gene_space=[{"low": float(a), "high": float(b)} for a, b in zip(lo, hi)],
+                parent_selection_type=ga_cfg["parent_selection"],
+                K_tournament=ga_cfg["tournament_size"],
+                keep_elitism=ga_cfg["elitism"],
+                crossover_type=ga_cfg["crossover"],
+                mutation_type=ga_cfg["mutation"],
+                mutation_probability=ga_cfg["mutation_probability"],
+                polynomial_mutation_eta=ga_cfg["polynomial_mutation_eta"],
+                on_generation=on_generation,
+                random_seed=run_seed,
+                suppress_warnings=True,
+            )
+            ga.run()
+            genes, _, _ = ga.best_solution(ga.last_generation_fitness)
+            genes = np.clip(np.asarray(genes, dtype=float), lo, hi)
+            ga_J = float(objective_of_genes(genes))
+            J = ga_J
+            if do_polish:
+                genes, J = _polish(objective_of_genes, genes, lo, hi, cfg["polish"])
+            runs.append({"seed": run_seed, "ga_objective_per_s": ga_J,
+                         "objective_per_s": float(J), "genes": genes})
     finally:
         bar.close()
-    best_genes, best_fitness, _ = ga.best_solution(ga.last_generation_fitness)
-    best_genes = np.clip(np.asarray(best_genes, dtype=float), lo, hi)
-    ga_J = float(objective_of_genes(best_genes))
-    J = ga_J
-    if do_polish:
-        best_genes, J = _polish(objective_of_genes, best_genes, lo, hi, cfg["polish"])
     elapsed = time.perf_counter() - t0
+    best = min(runs, key=lambda r: r["objective_per_s"])
+    best_genes, J, ga_J = best["genes"], best["objective_per_s"], best["ga_objective_per_s"]
     params = genes_to_parameters(best_genes, M)
     J_paper = float(target.objective(parameter_array(load_model("reduced-paper"))))
     tol = 1e-3 * (hi - lo)
     at_bounds = [f"{g}/M at {'lower' if x - a <= t else 'upper'} bound"
                  for g, x, a, b, t in zip(GENES, best_genes, lo, hi, tol)
                  if x - a <= t or b - x <= t]
+    for r in runs:
+        del r["genes"]
     return FitResult(
         parameters=dict(zip(REDUCED_PARAMETERS, (float(v) for v in params))),
         objective=float(J), objective_table2=J_paper, ga_objective=ga_J,
         relative_error=float(J) / target.energy(), target=target, seed=int(seed), config=cfg,
         polished=do_polish, evaluations=evaluations[0], elapsed_s=elapsed, history=history,
-        at_bounds=at_bounds,
+        at_bounds=at_bounds, runs=runs,
     )
 
 
@@ -965,6 +982,7 @@ def write_parameter_file(result: FitResult, path, command: str = "") -> Network:
             "polish": (dict(result.config["polish"], enabled=True) if result.polished
                        else {"enabled": False}),
             "quadrature": dict(result.config["quadrature"]),
+            "runs": [dict(r) for r in result.runs],
             "evaluations": result.evaluations,
             "wall_time_s": round(result.elapsed_s, 3),
         },
