@@ -74,6 +74,7 @@ __all__ = [
     "load_config",
     "parse_pairs",
     "quadrature_grid",
+    "MAX_SAMPLES",
     "impulse_response",
     "objective_time_domain",
     "objective_frequency_domain",
@@ -357,35 +358,59 @@ def impulse_response(model, t_end: float, dt: float, point: str = "head"):
     h : ndarray
         Impulse response in 1/s (m of position per m s of seat impulse).
 
+    Raises
+    ------
+    BodyvibError
+        More than :data:`MAX_SAMPLES` samples, or the position moves with the
+        seat instantly (not square integrable).
+
     Examples
     --------
     >>> t, h = impulse_response(load_model("reduced-paper"), 2.0, 1e-3)
     >>> bool(abs(h.sum() * 1e-3 - 1.0) < 1e-3)   # static gain X1/Xr(0) = 1
     True
     """
+    t_parts, h_parts = [], []
+    for t, h in _impulse_blocks(model, _samples(t_end, dt), dt, point):
+        t_parts.append(t)
+        h_parts.append(h)
+    return np.concatenate(t_parts), np.concatenate(h_parts)
+
+
+#: Most samples an impulse response may take (memory stays one block; time ~ 10 s).
+MAX_SAMPLES = 50_000_000
+
+
+def _samples(t_end: float, dt: float) -> int:
+    if not (t_end > 0 and dt > 0):
+        raise BodyvibError(f"impulse response needs t_end > 0 and dt > 0, got {t_end}, {dt}")
+    n = int(math.ceil(t_end / dt)) + 1
+    if n > MAX_SAMPLES:
+        raise BodyvibError(
+            f"impulse response over {t_end:g} s at {dt:g} s would take {n} samples; a model "
+            "decays too slowly (a nearly undamped mode): give a shorter t_end or a larger dt"
+        )
+    return n
+
+
+def _impulse_blocks(model, n: int, dt: float, point: str, block: int = 512):
+    """Yield ``(t, h)`` of the exact impulse response in blocks of samples."""
     from .discretize import expm
 
     A, b, c = _displacement_statespace(model, point)
-    n = int(math.ceil(t_end / dt)) + 1
     phi = expm(A * dt)
-    block = min(n, 256)
+    block = min(n, block)
     V = np.empty((A.shape[0], block))
     V[:, 0] = b
     for k in range(1, block):
         V[:, k] = phi @ V[:, k - 1]
     phi_block = np.linalg.matrix_power(phi, block)
-    out = []
     done = 0
     while done < n:
-        out.append(c @ V)
-        done += block
+        m = min(block, n - done)
+        yield (np.arange(done, done + m) * dt, (c @ V)[:m])
+        done += m
         V = phi_block @ V
-    h = np.concatenate(out)[:n]
-    return np.arange(n) * dt, h
-
-
-def _trapezoid(y, dx: float) -> float:
-    return float(dx * (np.sum(y) - 0.5 * (y[0] + y[-1])))
 
 
 def objective_time_domain(reference, reduced, pairs: Optional[Mapping[str, float]] = None,
@@ -418,6 +443,12 @@ def objective_time_domain(reference, reduced, pairs: Optional[Mapping[str, float
     float
         ``J`` in 1/s.
 
+    Raises
+    ------
+    BodyvibError
+        A model that does not decay (unstable), or one so lightly damped that
+        the horizon needs more than :data:`MAX_SAMPLES` samples.
+
     Examples
     --------
     >>> net = load_model("reduced-paper")
@@ -430,11 +461,19 @@ def objective_time_domain(reference, reduced, pairs: Optional[Mapping[str, float
     if t_end is None:
         t_end = default_horizon(reference, reduced,
                                 time_constants=cfg["time_domain"]["decay_time_constants"])
+    n = _samples(t_end, dt)
     total = 0.0
     for role, wgt in pairs.items():
-        _, h1 = impulse_response(reference, t_end, dt, role)
-        _, h2 = impulse_response(reduced, t_end, dt, role)
-        total += wgt * _trapezoid((h1 - h2) ** 2, dt)
+        acc = 0.0  # trapezoid rule, streamed block by block: memory stays one block
+        blocks = zip(_impulse_blocks(reference, n, dt, role), _impulse_blocks(reduced, n, dt, role))
+        for (t, h1), (_, h2) in blocks:
+            g = (h1 - h2) ** 2
+            acc += float(np.sum(g))
+            if t[0] == 0.0:
+                acc -= 0.5 * float(g[0])
+            if t[-1] >= (n - 1) * dt * (1 - 1e-12):
+                acc -= 0.5 * float(g[-1])
+        total += wgt * dt * acc
     return total
 
 
