@@ -12,10 +12,11 @@ and
 over the pairs ``p`` of mass positions: the reduced model's head m1 with the
 reference's head, its torso m2 with the reference's torso (ISO m3). By default
 both, weight 1 each: the paper's "positions of the masses". The head alone
-(``pairs={"head": 1}``) leaves the torso unconstrained: its optimum is
-degenerate in the head mass, and the best one within the default bounds
-(a 3 kg head on a 72 kg torso with a 15-19 Hz seat mode) has a seat force
-far from the reference's (README, "Refitting the reduced model"). This time-domain form
+(``pairs={"head": 1}``) does not identify the head mass: the objective keeps
+falling as it grows, so the head mass runs to a bound of the search, and with
+a narrower bound the best fit flips to a 3 kg head on a 72 kg torso with a
+15-19 Hz seat mode, whose seat force is far from the reference's (README,
+"Refitting the reduced model"). This time-domain form
 is the *definition* (:func:`objective_time_domain`: exact samples
 ``C e^{A t_k} b`` of both state spaces, trapezoid rule). By Parseval the same
 number is
