@@ -11,8 +11,9 @@ process and the first loaded copy wins, so each FMU ships:
 
 * ``resources/bodyvib_rt_<fmu>_<hash>/``: a copy of the numpy-only run-time
   modules (:data:`RUNTIME_MODULES`, relative imports only);
-* ``resources/bodyvib_fmu_<fmu>_<hash>.py``: the slave script from ``fmu_src/``
-  with its ``RUNTIME`` line pointing at that package;
+* ``resources/bodyvib_fmu_<fmu>_<hash>.py``: the one slave script of
+  ``fmu_src/`` rendered for this FMU (:func:`render_slave_script`), its
+  ``RUNTIME`` line pointing at that package;
 * ``resources/bodyvib_model.json``: the parameter file baked in;
 
 where ``<hash>`` is a content hash of all three, so an FMU never picks up the
@@ -37,16 +38,27 @@ from xml.etree import ElementTree as ET
 from . import __version__
 from .errors import BodyvibError
 from .fileio import atomic_write_bytes
+from .fmu_core import MODEL_FILE
 
-__all__ = ["FMUS", "RUNTIME_MODULES", "UNITS", "build_fmu", "build_fmus", "write_runtime_package",
+__all__ = ["FMUS", "RUNTIME_MODULES", "UNITS", "build_fmu", "build_fmus", "render_slave_script",
+           "write_runtime_package",
            "add_command", "main"]
 
-#: FMU name -> (slave script in fmu_src/, kind, default model).
+#: FMU name -> (kind, default model, description).
 FMUS = {
-    "HumanBody3DOF": ("bodyvib_fmu_humanbody3dof.py", "body", "reduced-paper"),
-    "HumanBodyISO7962": ("bodyvib_fmu_humanbodyiso7962.py", "body", "iso7962"),
-    "QuarterCar": ("bodyvib_fmu_quartercar.py", "car", "quarter-car"),
+    "HumanBody3DOF": ("body", "reduced-paper",
+                      "Reduced 3-DOF seated human body (Balci & Gundogdu 2025): seat motion in, "
+                      "head acceleration and seat force out; exact discretization"),
+    "HumanBodyISO7962": ("body", "iso7962",
+                         "ISO 7962 four-mass seated human body (reconstructed topology): seat motion "
+                         "in, head acceleration and seat force out; exact discretization"),
+    "QuarterCar": ("car", "quarter-car",
+                   "Quarter car (sprung mass, suspension, unsprung mass, tire): road and seat force "
+                   "in, seat motion, suspension deflection and tire force out; exact discretization"),
 }
+
+#: The one slave script, rendered per FMU.
+SLAVE_SCRIPT = "bodyvib_fmu_slave.py"
 
 #: The numpy-only modules an FMU needs at run time (relative imports only).
 RUNTIME_MODULES = ("errors.py", "fileio.py", "network.py", "models.py", "discretize.py", "fmu_core.py")
@@ -60,7 +72,6 @@ UNITS = {
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 SOURCE_DIR = PACKAGE_DIR.parent / "fmu_src"
-MODEL_FILE = "bodyvib_model.json"
 
 
 def _load_network(kind: str, model: str):
@@ -107,6 +118,49 @@ def write_runtime_package(folder, package: str, owner: str = "an FMU") -> Path:
     return pkg
 
 
+def render_slave_script(name: str, runtime_package: str) -> str:
+    """The slave script of one FMU: ``fmu_src/bodyvib_fmu_slave.py`` rendered.
+
+    Parameters
+    ----------
+    name : str
+        FMU model name (a key of :data:`FMUS`); becomes the slave class name.
+    runtime_package : str
+        Package the script imports the run-time modules from (the FMU's
+        private copy; ``"bodyvib"`` to run the script against the library).
+
+    Returns
+    -------
+    str
+        Python source.
+
+    Raises
+    ------
+    BodyvibError
+        Unknown FMU, or ``fmu_src/`` missing (building needs a source checkout).
+    """
+    if name not in FMUS:
+        raise BodyvibError(f"unknown FMU '{name}'; FMUs are {', '.join(FMUS)}")
+    kind, _, description = FMUS[name]
+    script = SOURCE_DIR / SLAVE_SCRIPT
+    if not script.is_file():
+        raise BodyvibError(
+            f"slave script {script} not found: build the FMUs from a source checkout "
+            "(git clone, then pip install -e .)"
+        )
+    text = script.read_text(encoding="utf-8")
+    for pattern, line in (
+        (r'^RUNTIME = "bodyvib".*$', f"RUNTIME = {runtime_package!r}"),
+        (r'^KIND = .*$', f"KIND = {kind!r}"),
+        (r'^DESCRIPTION = .*$', f"DESCRIPTION = {description!r}"),
+        (r'^class BodyvibSlave\(Fmi2Slave\):.*$', f"class {name}(Fmi2Slave):"),
+    ):
+        text, count = re.subn(pattern, line.replace("\\", "\\\\"), text, count=1, flags=re.M)
+        if count != 1:
+            raise BodyvibError(f"{script}: no line matching {pattern!r} to render")
+    return text
+
+
 def build_fmu(name: str, dest="dist", model: Optional[str] = None) -> Path:
     """Build one FMU.
 
@@ -133,13 +187,7 @@ def build_fmu(name: str, dest="dist", model: Optional[str] = None) -> Path:
     """
     if name not in FMUS:
         raise BodyvibError(f"unknown FMU '{name}'; FMUs are {', '.join(FMUS)}")
-    script_name, kind, default_model = FMUS[name]
-    script = SOURCE_DIR / script_name
-    if not script.is_file():
-        raise BodyvibError(
-            f"slave script {script} not found: build the FMUs from a source checkout "
-            "(git clone, then pip install -e .)"
-        )
+    kind, default_model, _ = FMUS[name]
     from .fmu_core import FmuCore
     from .models import network_to_dict
 
@@ -148,15 +196,12 @@ def build_fmu(name: str, dest="dist", model: Optional[str] = None) -> Path:
     core.check_parameters()
 
     sources = {m: (PACKAGE_DIR / m).read_bytes() for m in RUNTIME_MODULES}
-    script_text = script.read_text(encoding="utf-8")
     model_bytes = (json.dumps(network_to_dict(network), indent=2) + "\n").encode()
-    digest = _content_hash([script_text.encode(), model_bytes] + [sources[m] for m in RUNTIME_MODULES])
+    template = render_slave_script(name, "bodyvib")
+    digest = _content_hash([template.encode(), model_bytes] + [sources[m] for m in RUNTIME_MODULES])
     package = f"bodyvib_rt_{name.lower()}_{digest}"
     module = f"bodyvib_fmu_{name.lower()}_{digest}"
-    script_text, count = re.subn(r'^RUNTIME = "bodyvib".*$', f'RUNTIME = "{package}"', script_text,
-                                 count=1, flags=re.M)
-    if count != 1:
-        raise BodyvibError(f"{script}: no line 'RUNTIME = \"bodyvib\"' to point at the private package")
+    script_text = render_slave_script(name, package)
 
     dest = Path(dest)
     with tempfile.TemporaryDirectory(prefix="bodyvib_build_") as tmp:
@@ -291,7 +336,7 @@ def build_fmus(dest="dist", params: Optional[str] = None, names: Optional[Iterab
         model = params if (name == "HumanBody3DOF" and params) else None
         out[name] = build_fmu(name, dest, model)
         if echo:
-            echo(f"wrote {out[name]} (model {model or FMUS[name][2]}; fmpy validate: no problems)")
+            echo(f"wrote {out[name]} (model {model or FMUS[name][1]}; fmpy validate: no problems)")
     return out
 
 

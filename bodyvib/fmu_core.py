@@ -47,7 +47,10 @@ from .errors import BodyvibError
 from .network import Network, linear_model
 
 __all__ = ["Variable", "Interface", "body_interface", "car_interface", "FmuCore", "KINDS",
-           "PARAMETER_UNITS", "POSITIVE_MIN"]
+           "MODEL_FILE", "PARAMETER_UNITS", "POSITIVE_MIN"]
+
+#: Where the build puts the parameter file, inside the FMU's resources.
+MODEL_FILE = "bodyvib_model.json"
 
 #: Unit of a network parameter by the element field (or mass) that uses it.
 PARAMETER_UNITS = {"mass": "kg", "k": "N/m", "k_series": "N/m", "c": "N.s/m"}

@@ -492,6 +492,31 @@ def test_two_instances_and_all_three_fmus_in_one_process(fmus):
     assert np.all(rel_err(ycar, ref[:, [lm.output_index(s) for s in CAR_SIG]]) < 1e-9)
 
 
+def test_many_instances_in_one_process(fmus):
+    """pythonfmu 0.7.0 drops a reference to the slave module's dictionary per
+    instantiation; the slave script must survive many (a script without its own
+    methods failed at the second). Run in a fresh process: a failure may crash it."""
+    code = textwrap.dedent(f"""
+        import sys
+        sys.path.insert(0, {os.path.join(ROOT, 'tests')!r})
+        from test_fmu_integration import Slave
+        alive = []
+        for i in range(25):
+            s = Slave({fmus['HumanBody3DOF']!r}, name=f'n{{i}}')
+            s.set(['seat_displacement', 'seat_velocity'], [0.01, 0.0])
+            s.fmu.doStep(0.0, 1e-3)
+            if i % 2:
+                s.close()
+            else:
+                alive.append(s)
+        print(len(alive), alive[-1].get(['seat_force'])[0] > 0)
+    """)
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
+                         cwd=ROOT)
+    assert run.returncode == 0, run.stderr[-3000:]
+    assert run.stdout.split() == ["13", "True"]
+
+
 def test_host_with_another_bodyvib_already_imported(fmus, tmp_path):
     """A host that imported a different 'bodyvib' (here a fake 9.9 whose modules
     fail if used) runs the FMUs unchanged, and keeps its own bodyvib."""

@@ -1,10 +1,18 @@
-"""HumanBody3DOF: the reduced 3-DOF seated human-body model as an FMI 2.0 co-simulation FMU.
+"""The pythonfmu slave of every bodyvib FMU (HumanBody3DOF, HumanBodyISO7962, QuarterCar).
 
-A thin pythonfmu slave: it declares the variables of ``bodyvib.fmu_core`` and
-delegates to :class:`bodyvib.fmu_core.FmuCore`, which holds the state and the
-exact stepping. Built by ``python build_fmu.py`` (or ``bodyvib build``), which
-ships the run-time modules under a private package name, rewrites ``RUNTIME``
-below to that name and puts the parameter file at ``resources/MODEL_FILE``.
+A thin slave: it declares the variables of ``bodyvib.fmu_core`` and delegates
+to :class:`bodyvib.fmu_core.FmuCore`, which holds the state and the exact
+stepping. ``python build_fmu.py`` (or ``bodyvib build``) renders this one
+source per FMU (:func:`bodyvib.fmu_build.render_slave_script`): it renames the
+class to the FMU's model name, sets ``KIND`` and ``DESCRIPTION``, points
+``RUNTIME`` at the FMU's private copy of the run-time modules, and puts the
+parameter file at ``resources/bodyvib_model.json``.
+
+Why one rendered script and not a shared base class: pythonfmu 0.7.0 releases
+one reference to the slave module's ``__dict__`` per instantiation that it
+does not own; the methods defined here hold references to that dictionary and
+keep it alive. A script whose class only inherits its methods lost its
+dictionary at the second instantiation (measured).
 
 No method raises: pythonfmu 0.7.0 turns any Python exception into fmi2Fatal
 and then releases the instance's Python objects twice (once more in
@@ -23,24 +31,22 @@ from pythonfmu import DefaultExperiment, Fmi2Causality, Fmi2Initial, Fmi2Slave, 
 from pythonfmu.enums import Fmi2Status
 
 RUNTIME = "bodyvib"  # build_fmu.py: the FMU's private copy of the numpy-only modules
-MODEL_FILE = "bodyvib_model.json"
-KIND = "body"
-NAME = "HumanBody3DOF"
+KIND = "body"  # build_fmu.py: "body" or "car"
+DESCRIPTION = "bodyvib FMU"  # build_fmu.py: the FMU's one-line description
 
 _core = importlib.import_module(RUNTIME + ".fmu_core")
 _models = importlib.import_module(RUNTIME + ".models")
 
 
-class HumanBody3DOF(Fmi2Slave):
+class BodyvibSlave(Fmi2Slave):  # build_fmu.py: renamed to the FMU's model name
     author = "bodyvib"
-    description = ("Reduced 3-DOF seated human body (Balci & Gundogdu 2025): seat motion in, "
-                   "head acceleration and seat force out; exact discretization")
+    description = DESCRIPTION
     default_experiment = DefaultExperiment(start_time=0.0, stop_time=10.0, step_size=1e-3)
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        network = _models.network_from_file(os.path.join(self.resources, MODEL_FILE))
-        self.core = _core.FmuCore(KIND, network, NAME, log=self._log_core)
+        network = _models.network_from_file(os.path.join(self.resources, _core.MODEL_FILE))
+        self.core = _core.FmuCore(KIND, network, type(self).__name__, log=self._log_core)
         for vr, v in enumerate(self.core.variables):
             var = Real(v.name, causality=getattr(Fmi2Causality, v.causality),
                        variability=getattr(Fmi2Variability, v.variability),
