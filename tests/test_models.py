@@ -89,3 +89,15 @@ def test_shipped_files_are_plain_json():
         with open(os.path.join(MODEL_DIR, name + ".json")) as f:
             data = json.load(f)
         network_from_dict(copy.deepcopy(data), source=name)
+
+
+def test_atomic_write_gives_ordinary_file_mode(tmp_path):
+    """Files written atomically get the mode open() would give (umask applied), not 0600."""
+    from bodyvib.fileio import atomic_write_text
+    umask = os.umask(0o022)
+    try:
+        atomic_write_text(tmp_path / "a.txt", "x")
+    finally:
+        os.umask(umask)
+    assert (os.stat(tmp_path / "a.txt").st_mode & 0o777) == 0o644
+    assert (tmp_path / "a.txt").read_text() == "x"
