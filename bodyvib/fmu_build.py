@@ -254,6 +254,8 @@ def _finish(fmu: Path, core, network) -> bytes:
         v = by_name[sv.get("name")]
         real = sv.find("Real")
         real.set("unit", v.unit)
+        if real.get("start") is not None and v.start is not None:
+            real.set("start", _num(v.start))  # pythonfmu writes 16 digits: may be 1 ulp off
         if v.min is not None:
             real.set("min", _num(v.min))
         if v.max is not None:
