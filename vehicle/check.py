@@ -30,7 +30,7 @@ from .roads import make_road, road_input
 
 __all__ = [
     "TOLERANCES", "TRANSMISSIBILITY_BAND_HZ", "estimate_transmissibility", "build_default_fmus",
-    "run_study", "compare", "format_report", "plot_study", "study_json", "coupling_error_sweep",
+    "check_settings", "run_study", "compare", "format_report", "plot_study", "study_json", "coupling_error_sweep",
 ]
 
 #: Check tolerances: relative difference of the reduced body's figure from the
@@ -126,6 +126,34 @@ def _say(msg, quiet):
         print(msg, file=sys.stderr, flush=True)
 
 
+def check_settings(road: str, speed: float, duration: float, step: float, seed: int = 0):
+    """Validate run settings before any work is done; returns the road.
+
+    Parameters
+    ----------
+    road, speed, duration, step, seed
+        As :func:`run_study`.
+
+    Returns
+    -------
+    vehicle.roads.Road
+
+    Raises
+    ------
+    BodyvibError
+        A speed, duration or step that is not a positive number, a step longer
+        than half the duration, or an unknown road.
+    """
+    for value, what, unit in ((speed, "speed", "m/s"), (duration, "duration", "s"),
+                              (step, "step", "s")):
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+            raise BodyvibError(f"{what} must be a positive number of {unit}, got {value!r}")
+    if step > duration / 2:
+        raise BodyvibError(f"step {step:g} s is too long for a {duration:g} s run; use a step "
+                           "of at most half the duration")
+    return make_road(road, speed, duration, seed=seed)
+
+
 def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: float = 20.0,
               duration: float = 30.0, step: float = 1e-3, seed: int = 0,
               extrapolate: bool = True, reference: bool = True, progress: bool = False,
@@ -169,16 +197,9 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
     BodyvibError
         Bad settings, missing or unsuitable FMUs.
     """
-    for value, what, unit in ((speed, "speed", "m/s"), (duration, "duration", "s"),
-                              (step, "step", "s")):
-        if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-            raise BodyvibError(f"{what} must be a positive number of {unit}, got {value!r}")
-    if step > duration / 2:
-        raise BodyvibError(f"step {step:g} s is too long for a {duration:g} s run; use a step "
-                           "of at most half the duration")
+    rd = check_settings(road, speed, duration, step, seed)
     n = int(round(duration / step)) + 1
     t = np.arange(n) * step
-    rd = make_road(road, speed, duration, seed=seed)
     z, v = road_input(rd, speed, t)
     fs = 1.0 / step
     car_net = model_from_fmu(car_fmu) if reference else None

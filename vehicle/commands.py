@@ -16,7 +16,8 @@ from bodyvib.errors import BodyvibError
 from bodyvib.fileio import write_json
 
 from .check import (
-    build_default_fmus, compare, default_fmu_dir, format_report, plot_study, run_study, study_json,
+    build_default_fmus, check_settings, compare, default_fmu_dir, format_report, plot_study,
+    run_study, study_json,
 )
 from .cosim import write_csv
 
@@ -84,6 +85,7 @@ def _write_outputs(args, study, comparison):
 
 
 def _run(args, want_iso):
+    check_settings(args.road, args.speed, args.duration, args.step, args.seed)  # before building
     body, iso, car, tmp = _fmus(args, want_iso)
     try:
         bodies = {_label(body, "body"): body}
