@@ -1,13 +1,15 @@
-"""Atomic file writing: a crash or a full disk never leaves half a file behind.
+"""Atomic file writing (a crash or a full disk never leaves half a file behind) and JSON reading.
 
-Numpy-free and dependency-free, so FMUs can ship it.
+Numpy-free and dependency-free (relative imports only), so FMUs can ship it.
 """
 
 import json
 import os
 import tempfile
 
-__all__ = ["atomic_write_text", "atomic_write_bytes", "write_json"]
+from .errors import BodyvibError
+
+__all__ = ["atomic_write_text", "atomic_write_bytes", "write_json", "read_json"]
 
 
 def atomic_write_bytes(path, data: bytes) -> None:
@@ -48,3 +50,38 @@ def atomic_write_text(path, text: str) -> None:
 def write_json(path, obj) -> None:
     """Write ``obj`` as indented JSON to ``path`` atomically."""
     atomic_write_text(path, json.dumps(obj, indent=2, sort_keys=False) + "\n")
+
+
+def read_json(path, what: str = "file"):
+    """Read a JSON file, turning every way it can be unreadable into one clear error.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+    what : str
+        What the file is, for the message (``"model file"``, ``"configuration"``).
+
+    Returns
+    -------
+    object
+        The parsed JSON value.
+
+    Raises
+    ------
+    BodyvibError
+        The file cannot be opened, is not UTF-8 text, or is not valid JSON
+        (with the line and column).
+    """
+    path = os.fspath(path)
+    try:
+        with open(path, encoding="utf-8") as f:
+            return json.load(f)
+    except OSError as exc:
+        raise BodyvibError(f"cannot read {what} '{path}': {exc.strerror}") from None
+    except UnicodeDecodeError:
+        raise BodyvibError(f"{path}: not a text (UTF-8) JSON {what}") from None
+    except json.JSONDecodeError as exc:
+        raise BodyvibError(
+            f"{path}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})"
+        ) from None

@@ -52,7 +52,6 @@ a parameter file of the reduced model, with its provenance, that
 
 import copy
 import datetime
-import json
 import math
 import os
 import sys
@@ -65,6 +64,7 @@ import numpy as np
 from . import __version__
 from .analytic import head_transmissibility, torso_transmissibility
 from .errors import BodyvibError
+from .fileio import read_json
 from .models import MODEL_DIR, load_model, save_model
 from .network import Network
 
@@ -126,13 +126,7 @@ def _merge(base: dict, over: dict, where: str) -> dict:
 
 
 def _read_json(path: str) -> dict:
-    try:
-        with open(path, encoding="utf-8") as f:
-            data = json.load(f)
-    except OSError as exc:
-        raise BodyvibError(f"cannot read configuration '{path}': {exc.strerror}") from None
-    except json.JSONDecodeError as exc:
-        raise BodyvibError(f"{path}: not valid JSON (line {exc.lineno}: {exc.msg})") from None
+    data = read_json(path, "configuration")
     if not isinstance(data, dict):
         raise BodyvibError(f"{path}: expected a JSON object")
     return data

@@ -29,13 +29,12 @@ see its ``provenance``).
 Numpy-free apart from what :mod:`bodyvib.network` needs; relative imports only.
 """
 
-import json
 import math
 import os
 from typing import Dict, List, Union
 
 from .errors import BodyvibError
-from .fileio import write_json
+from .fileio import read_json, write_json
 from .network import ELEMENT_KINDS, Element, Network
 
 __all__ = [
@@ -101,16 +100,7 @@ def load_model(name_or_path: Union[str, os.PathLike]) -> Network:
 def network_from_file(path: Union[str, os.PathLike]) -> Network:
     """Read and validate a parameter file; see :func:`network_from_dict`."""
     path = os.fspath(path)
-    try:
-        with open(path, encoding="utf-8") as f:
-            data = json.load(f)
-    except OSError as exc:
-        raise BodyvibError(f"cannot read model file '{path}': {exc.strerror}") from None
-    except json.JSONDecodeError as exc:
-        raise BodyvibError(
-            f"{path}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})"
-        ) from None
-    return network_from_dict(data, source=path)
+    return network_from_dict(read_json(path, "model file"), source=path)
 
 
 def _number(value, where: str) -> float:

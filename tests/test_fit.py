@@ -223,6 +223,9 @@ def test_bad_configuration_is_refused(tmp_path):
     p.write_text("{not json")
     with pytest.raises(BodyvibError, match="not valid JSON"):
         load_config(p)
+    p.write_bytes(b"\xd0\xff{}")
+    with pytest.raises(BodyvibError, match="not a text .UTF-8. JSON configuration"):
+        load_config(p)
 
 
 # -- measured data ------------------------------------------------------------

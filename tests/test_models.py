@@ -73,6 +73,10 @@ def test_unreadable_and_malformed_files(tmp_path):
         load_model(str(bad))
     with pytest.raises(BodyvibError, match="unknown model 'nope'.*iso7962"):
         load_model("nope")
+    binary = tmp_path / "model.bin"
+    binary.write_bytes(b"\x7fELF\x02\x01\x01\x00\xd0\xff")  # e.g. an FMU or a program
+    with pytest.raises(BodyvibError, match="not a text .UTF-8. JSON model file"):
+        load_model(str(binary))
 
 
 def test_with_parameters_rejects_unknown_names():
