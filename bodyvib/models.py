@@ -185,10 +185,7 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
         raise BodyvibError(f"{where}: 'masses' must be an object of point: parameter")
     masses = {}
     for m, r in masses_raw.items():
-        masses[m] = ref(r, f"{where}: masses.{m}")
-        mval = params[masses[m]] if isinstance(masses[m], str) else masses[m]
-        if mval <= 0:  # pragma: no cover - guarded by parameter check
-            raise BodyvibError(f"{where}: mass '{m}' must be positive")
+        masses[m] = ref(r, f"{where}: masses.{m}")  # positive: ref() and the parameters checked
     nodes = data.get("nodes", [])
     if not isinstance(nodes, list) or not all(isinstance(n, str) for n in nodes):
         raise BodyvibError(f"{where}: 'nodes' must be a list of node names")
@@ -208,6 +205,9 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
         miss = [k for k in _ELEMENT_FIELDS if k not in e]
         if miss:
             raise BodyvibError(f"{ew}: missing field(s) {', '.join(miss)}")
+        for k in _ELEMENT_FIELDS + (("node",) if "node" in e else ()):
+            if not isinstance(e[k], str) or not e[k]:
+                raise BodyvibError(f"{ew}.{k}: expected a non-empty string, got {e[k]!r}")
         ew = f"{where}: element '{e['name']}'"
         if e["name"] in names:
             raise BodyvibError(f"{ew}: duplicate element name")
@@ -270,13 +270,14 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
         )
 
     force_inputs = data.get("force_inputs", [])
-    if not isinstance(force_inputs, list) or any(f not in masses for f in force_inputs):
+    if not isinstance(force_inputs, list) or any(
+            not isinstance(f, str) or f not in masses for f in force_inputs):
         raise BodyvibError(f"{where}: 'force_inputs' must list mass names")
     roles = data.get("roles", {})
     if not isinstance(roles, dict):
         raise BodyvibError(f"{where}: 'roles' must be an object of role: point")
     for r, p in roles.items():
-        if p not in points:
+        if not isinstance(p, str) or p not in points:
             raise BodyvibError(f"{where}: roles.{r} names unknown point '{p}'")
     unused = [p for p in params if p not in used]
     if unused:

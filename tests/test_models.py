@@ -56,6 +56,12 @@ def mutate(fn):
      "m3 not connected to the seat"),
     (lambda d: d["parameters"].update(k9=1.0), "parameter(s) k9 not used"),
     (lambda d: d["roles"].update(head="m7"), "roles.head names unknown point 'm7'"),
+    # wrong JSON types: a clear message, not a TypeError from hashing a list
+    (lambda d: d["elements"][0].update(name=["neck"]), "elements[0].name: expected a non-empty string"),
+    (lambda d: d["elements"][0].update(kind=["spring"]), "elements[0].kind: expected a non-empty string"),
+    (lambda d: d["elements"][0].update(to={"m": 1}), "elements[0].to: expected a non-empty string"),
+    (lambda d: d["roles"].update(head=["m1"]), "roles.head names unknown point"),
+    (lambda d: d.update(force_inputs=[["m1"]]), "'force_inputs' must list mass names"),
 ])
 def test_invalid_files_name_the_field(change, message):
     with pytest.raises(BodyvibError) as exc:
