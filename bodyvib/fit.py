@@ -830,6 +830,11 @@ def fit(target: FitTarget, config: Optional[dict] = None, seed: int = 1,
     -------
     FitResult
 
+    Raises
+    ------
+    BodyvibError
+        A seed that is not a non-negative integer.
+
     Examples
     --------
     >>> cfg = load_config(overrides={"ga": {"population": 20, "generations": 5,
@@ -841,6 +846,8 @@ def fit(target: FitTarget, config: Optional[dict] = None, seed: int = 1,
     import pygad
     from tqdm import tqdm
 
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise BodyvibError(f"seed must be a non-negative integer, got {seed!r}")
     cfg = config or load_config()
     ga_cfg = cfg["ga"]
     do_polish = cfg["polish"]["enabled"] if polish is None else bool(polish)

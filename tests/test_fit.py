@@ -173,6 +173,8 @@ def test_same_seed_same_result_other_seed_other_path():
     assert a.parameters == b.parameters and a.history == b.history
     c = fit(target, cfg, seed=8)
     assert c.history != a.history
+    with pytest.raises(BodyvibError, match="seed must be a non-negative integer"):
+        fit(target, cfg, seed=-1)  # SeedSequence raised a bare ValueError
 
 
 def test_committed_refit_beats_table2_and_is_what_the_command_makes(iso, paper):

@@ -112,5 +112,7 @@ def test_make_road_and_errors():
         make_road("C", -1.0, 10.0)
     with pytest.raises(BodyvibError, match="duration"):
         make_road("C", 20.0, 0.0)
+    with pytest.raises(BodyvibError, match="seed must be a non-negative integer"):
+        make_road("C", 20.0, 10.0, seed=-1)  # numpy's default_rng raised a bare ValueError
     with pytest.raises(BodyvibError, match="road class"):
         class_psd_n0("I")

@@ -142,7 +142,7 @@ def check_settings(road: str, speed: float, duration: float, step: float, seed: 
     ------
     BodyvibError
         A speed, duration or step that is not a positive number, a step longer
-        than half the duration, or an unknown road.
+        than half the duration, an unknown road, or a negative seed.
     """
     for value, what, unit in ((speed, "speed", "m/s"), (duration, "duration", "s"),
                               (step, "step", "s")):

@@ -224,7 +224,8 @@ def random_road(road_class: str = "C", length: float = 600.0, seed: int = 0,
     Raises
     ------
     BodyvibError
-        Unknown class, non-positive length, or a band that holds no harmonic.
+        Unknown class, non-positive length, a negative seed, or a band that
+        holds no harmonic.
 
     Examples
     --------
@@ -235,6 +236,8 @@ def random_road(road_class: str = "C", length: float = 600.0, seed: int = 0,
     idx = _class_index(road_class)
     if not (math.isfinite(length) and length > 0):
         raise BodyvibError(f"road length must be a positive number of metres, got {length!r}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise BodyvibError(f"road seed must be a non-negative integer, got {seed!r}")
     lo, hi = band
     if not (0 < lo < hi):
         raise BodyvibError(f"spatial-frequency band must satisfy 0 < low < high, got {band}")
@@ -363,7 +366,7 @@ def make_road(spec: str, speed: float, duration: float, seed: int = 0) -> Road:
     Raises
     ------
     BodyvibError
-        Unknown road, non-positive speed or duration.
+        Unknown road, non-positive speed or duration, or a negative seed.
     """
     _check_positive(speed, "speed", "m/s")
     _check_positive(duration, "duration", "s")
