@@ -52,6 +52,7 @@ a parameter file of the reduced model, with its provenance, that
 
 import copy
 import datetime
+import logging
 import math
 import os
 import sys
@@ -72,6 +73,7 @@ __all__ = [
     "REDUCED_PARAMETERS",
     "GENES",
     "DEFAULT_CONFIG_PATH",
+    "POLISH_METHODS",
     "load_config",
     "parse_pairs",
     "quadrature_grid",
@@ -103,6 +105,9 @@ DEFAULT_CONFIG_PATH = os.path.join(MODEL_DIR, "fit", "default-config.json")
 
 #: The reduced model's analytic position responses, by role.
 _REDUCED_TF = {"head": head_transmissibility, "torso": torso_transmissibility}
+
+#: Local polish methods of ``scipy.optimize.minimize`` that honour bounds.
+POLISH_METHODS = ("L-BFGS-B", "TNC", "SLSQP", "Powell", "Nelder-Mead", "trust-constr")
 
 #: Total mass (kg) pinned for measured data unless the user gives one.
 DEFAULT_MEASURED_TOTAL_MASS = 75.0
@@ -152,7 +157,8 @@ def load_config(path=None, overrides: Optional[dict] = None) -> dict:
     Raises
     ------
     BodyvibError
-        Unknown key, wrong type, or a bound that is not ``0 < low < high``
+        Unknown key, wrong type, a size or step that is not positive, an
+        unknown polish method, or a bound that is not ``0 < low < high``
         (``m1`` also below 1, a fraction of the total mass).
 
     Examples
@@ -186,19 +192,42 @@ def load_config(path=None, overrides: Optional[dict] = None) -> dict:
     if bounds["m1"][1] >= 1:
         raise BodyvibError(f"{where}: bounds_per_kg_total_mass.m1 is the head's fraction of the "
                            "total mass and must stay below 1")
+    def positive(section, key, integer=False):
+        v = cfg[section][key]
+        kind = int if integer else (int, float)
+        if isinstance(v, bool) or not isinstance(v, kind) or not (math.isfinite(v) and v > 0):
+            raise BodyvibError(f"{where}: {section}.{key} must be a positive "
+                               f"{'integer' if integer else 'number'}, got {v!r}")
+
     ga = cfg["ga"]
     for k in ("restarts", "population", "generations", "parents_mating", "tournament_size",
               "elitism"):
-        if not isinstance(ga[k], int) or isinstance(ga[k], bool) or ga[k] < 1:
-            raise BodyvibError(f"{where}: ga.{k} must be a positive integer, got {ga[k]!r}")
+        positive("ga", k, integer=True)
     if ga["parents_mating"] > ga["population"] or ga["elitism"] > ga["population"]:
         raise BodyvibError(f"{where}: ga.parents_mating and ga.elitism must not exceed "
                            "ga.population")
+    positive("ga", "mutation_probability")
+    positive("ga", "polynomial_mutation_eta")
+    for k in ("parent_selection", "crossover", "mutation"):
+        if not isinstance(ga[k], str):
+            raise BodyvibError(f"{where}: ga.{k} must be the name of a PyGAD operator, "
+                               f"got {ga[k]!r}")
+    pol = cfg["polish"]
+    if not isinstance(pol["enabled"], bool):
+        raise BodyvibError(f"{where}: polish.enabled must be true or false")
+    if pol["method"] not in POLISH_METHODS:
+        raise BodyvibError(f"{where}: polish.method must be one of {', '.join(POLISH_METHODS)} "
+                           f"(bounded scipy.optimize.minimize methods), got {pol['method']!r}")
+    positive("polish", "max_iterations", integer=True)
+    for k in ("f_first_panel_hz", "f_split_hz"):
+        positive("quadrature", k)
+    for k in ("panels", "nodes_per_panel", "tail_nodes"):
+        positive("quadrature", k, integer=True)
     q = cfg["quadrature"]
-    if not (0 < q["f_first_panel_hz"] < q["f_split_hz"]):
+    if not q["f_first_panel_hz"] < q["f_split_hz"]:
         raise BodyvibError(f"{where}: quadrature needs 0 < f_first_panel_hz < f_split_hz")
-    if cfg["time_domain"]["dt_s"] <= 0:
-        raise BodyvibError(f"{where}: time_domain.dt_s must be positive")
+    positive("time_domain", "dt_s")
+    positive("time_domain", "decay_time_constants")
     return cfg
 
 
@@ -833,7 +862,8 @@ def fit(target: FitTarget, config: Optional[dict] = None, seed: int = 1,
     Raises
     ------
     BodyvibError
-        A seed that is not a non-negative integer.
+        A seed that is not a non-negative integer, or GA settings PyGAD refuses
+        (an unknown operator name).
 
     Examples
     --------
@@ -879,7 +909,8 @@ def fit(target: FitTarget, config: Optional[dict] = None, seed: int = 1,
     runs = []
     try:
         for run_seed in run_seeds:
-            ga = pygad.GA(
+            ga = _ga(
+                pygad,
                 num_generations=ga_cfg["generations"],
                 num_parents_mating=ga_cfg["parents_mating"],
                 sol_per_pop=ga_cfg["population"],
@@ -927,6 +958,22 @@ def fit(target: FitTarget, config: Optional[dict] = None, seed: int = 1,
         polished=do_polish, evaluations=evaluations[0], elapsed_s=elapsed, history=history,
         at_bounds=at_bounds, runs=runs,
     )
+
+
+def _ga(pygad, **settings):
+    """``pygad.GA(**settings)``; settings it refuses (an unknown operator name) are a user error.
+
+    PyGAD's own logger would print the refusal with a traceback before raising
+    it; a silent logger leaves the message to the one line of the command.
+    """
+    logger = logging.getLogger("bodyvib.fit.pygad")
+    if not logger.handlers:
+        logger.addHandler(logging.NullHandler())
+        logger.propagate = False
+    try:
+        return pygad.GA(logger=logger, **settings)
+    except (TypeError, ValueError) as exc:
+        raise BodyvibError(f"configuration 'ga': PyGAD refuses the settings: {exc}") from None
 
 
 def _polish(objective_of_genes, x0, lo, hi, pcfg):

@@ -166,7 +166,7 @@ def test_small_ga_beats_table2_on_the_time_domain_definition(iso, paper):
     assert r.objective <= r.ga_objective  # the polish never makes it worse
 
 
-def test_same_seed_same_result_other_seed_other_path():
+def test_same_seed_same_result_other_seed_other_path(capsys):
     cfg = load_config(overrides={"ga": {**SMALL["ga"], "restarts": 2}})
     target = model_target("iso7962", config=cfg)
     a, b = fit(target, cfg, seed=7), fit(target, cfg, seed=7)
@@ -175,6 +175,11 @@ def test_same_seed_same_result_other_seed_other_path():
     assert c.history != a.history
     with pytest.raises(BodyvibError, match="seed must be a non-negative integer"):
         fit(target, cfg, seed=-1)  # SeedSequence raised a bare ValueError
+    bad = load_config(overrides={"ga": {**SMALL["ga"], "mutation": "nope"}})
+    capsys.readouterr()
+    with pytest.raises(BodyvibError, match="PyGAD refuses.*mutation_type 'nope'"):
+        fit(target, bad, seed=1)
+    assert "Traceback" not in capsys.readouterr().err  # PyGAD's logger printed one
 
 
 def test_committed_refit_beats_table2_and_is_what_the_command_makes(iso, paper):
@@ -217,6 +222,13 @@ def test_bad_configuration_is_refused(tmp_path):
         ({"bounds_per_kg_total_mass": {"k1": [10, 1]}}, "k1"),
         ({"bounds_per_kg_total_mass": {"m1": [0.1, 1.5]}}, "below 1"),
         ({"pairs": {"elbow": 1}}, "unknown role"),
+        # wrong types and names were TypeError/ValueError tracebacks (from a comparison,
+        # PyGAD or scipy) instead of one line naming the setting
+        ({"quadrature": {"f_split_hz": "a"}}, "quadrature.f_split_hz must be a positive number"),
+        ({"time_domain": {"dt_s": None}}, "time_domain.dt_s must be a positive number"),
+        ({"quadrature": {"panels": 2.5}}, "quadrature.panels must be a positive integer"),
+        ({"polish": {"method": "nope"}}, "polish.method must be one of"),
+        ({"ga": {"mutation": 3}}, "ga.mutation must be the name of a PyGAD operator"),
     ):
         p = tmp_path / "c.json"
         p.write_text(json.dumps(content))
