@@ -52,9 +52,9 @@ def compare_transmissibility(models=DEFAULT_MODELS, f_min=0.5, f_max=31.5, point
     >>> round(r["models"]["reduced-paper"]["peaks"][0]["frequency_hz"], 1)
     4.4
     """
-    if not (0 < f_min < f_max) or points < 10:
+    if not (0 < f_min < f_max < np.inf) or points < 10:
         raise BodyvibError(
-            f"frequency range must satisfy 0 < fmin < fmax with at least 10 points; "
+            f"frequency range must satisfy 0 < fmin < fmax < inf with at least 10 points; "
             f"got fmin={f_min}, fmax={f_max}, points={points}"
         )
     f = np.geomspace(f_min, f_max, points)
@@ -72,9 +72,22 @@ def compare_transmissibility(models=DEFAULT_MODELS, f_min=0.5, f_max=31.5, point
 
 
 def format_table(result, frequencies_hz=THIRD_OCTAVE_HZ) -> str:
-    """A text table: |T| and phase per model at the given frequencies, then the peaks."""
+    """A text table: |T| and phase per model at the given frequencies, then the peaks.
+
+    Parameters
+    ----------
+    result : dict
+        From :func:`compare_transmissibility`.
+    frequencies_hz : sequence of float
+        Rows, Hz; those outside the computed range are left out (not extrapolated).
+
+    Returns
+    -------
+    str
+    """
     names = list(result["models"])
     f = np.asarray(result["frequency_hz"])
+    frequencies_hz = [fq for fq in frequencies_hz if f[0] <= fq <= f[-1]]
     head = f"{'f [Hz]':>7}" + "".join(f" | {n[:20]:>20}" for n in names)
     sub = f"{'':>7}" + "".join(f" | {'|T| [-]':>8} {'phase[deg]':>11}" for _ in names)
     lines = [head, sub, "-" * len(sub)]

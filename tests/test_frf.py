@@ -7,7 +7,7 @@ import sys
 import numpy as np
 import pytest
 
-from bodyvib.frequency import find_peaks
+from bodyvib.frequency import find_peaks, transmissibility
 from bodyvib.frf import compare_transmissibility, format_table
 from conftest import dynamic_stiffness_response
 from bodyvib.models import load_model
@@ -51,6 +51,7 @@ def test_frf_accepts_a_parameter_file(tmp_path):
 @pytest.mark.parametrize("args, message", [
     (["frf", "--models", "nope"], "unknown model 'nope'"),
     (["frf", "--fmin", "-1"], "0 < fmin < fmax"),
+    (["frf", "--fmax", "inf"], "fmax < inf"),  # ran on with NaN and exit status 0
     (["frf", "--plot", "x.bmp"], "must end in .png"),
 ])
 def test_frf_errors_are_one_line(tmp_path, args, message):
@@ -73,3 +74,13 @@ def test_peak_refinement_against_dense_grid():
 def test_table_lists_third_octaves():
     text = format_table(compare_transmissibility(points=100))
     assert text.count("\n") > 20 and "31.50" in text
+
+
+def test_table_rows_stay_inside_the_computed_range():
+    """Rows outside [fmin, fmax] used to show the edge value (np.interp clamps)."""
+    result = compare_transmissibility(["reduced-paper"], f_min=2.0, f_max=10.0, points=400)
+    rows = [ln.split("|") for ln in format_table(result).splitlines()[3:] if "|" in ln]
+    f_rows = [float(r[0]) for r in rows]
+    assert f_rows == [2.0, 2.5, 3.15, 4.0, 5.0, 6.3, 8.0, 10.0]
+    exact = np.abs(transmissibility(load_model("reduced-paper"), f_rows))
+    assert [float(r[1].split()[0]) for r in rows] == pytest.approx(exact, abs=6e-4)
