@@ -21,8 +21,21 @@ def atomic_write_bytes(path, data: bytes) -> None:
         Destination. Its folder is created if missing.
     data : bytes
         Content.
+
+    Raises
+    ------
+    OSError
+        The file cannot be written; its ``filename`` is ``path`` (not the
+        temporary file), so the message names what the user asked for.
     """
     path = os.fspath(path)
+    try:
+        _write_replace(path, data)
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror or str(exc), path) from exc
+
+
+def _write_replace(path: str, data: bytes) -> None:
     folder = os.path.dirname(os.path.abspath(path))
     os.makedirs(folder, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=os.path.basename(path))

@@ -111,3 +111,12 @@ def test_atomic_write_gives_ordinary_file_mode(tmp_path):
         os.umask(umask)
     assert (os.stat(tmp_path / "a.txt").st_mode & 0o777) == 0o644
     assert (tmp_path / "a.txt").read_text() == "x"
+
+
+def test_atomic_write_error_names_the_destination(tmp_path):
+    """A failed write used to report the hidden temporary file ('.tmp-...') as the culprit."""
+    from bodyvib.fileio import atomic_write_text
+    with pytest.raises(IsADirectoryError) as exc:
+        atomic_write_text(tmp_path, "x")  # the destination is a folder
+    assert exc.value.filename == str(tmp_path)
+    assert not [p for p in os.listdir(tmp_path.parent) if p.startswith(".tmp-")]
