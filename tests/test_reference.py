@@ -85,6 +85,14 @@ def test_transmissibility_estimated_from_a_run_is_the_models():
     assert est["peak"]["frequency_hz"] == pytest.approx(4.43, abs=0.5)
 
 
+def test_too_short_record_for_a_transmissibility_is_a_clear_error():
+    """0.1 s at 1 kHz: 25-sample segments resolve 40 Hz, no bin in 0.5-20 Hz; this was a
+    bare 'argmax of an empty sequence' ValueError at the end of 'bodyvib cosim --duration 0.1'."""
+    a = np.sin(np.arange(101) * 0.1)
+    with pytest.raises(BodyvibError, match="too coarse.*simulate longer"):
+        estimate_transmissibility(a, a, 1000.0)
+
+
 def test_nrmse_definition_and_errors():
     ref = np.sin(np.linspace(0, 20, 1000))
     assert nrmse(ref, ref) == 0

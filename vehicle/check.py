@@ -68,6 +68,11 @@ def estimate_transmissibility(seat_acceleration, head_acceleration, fs: float,
         ``frequency_hz``, ``modulus``, ``phase_deg``, ``coherence`` (lists over
         :data:`TRANSMISSIBILITY_BAND_HZ`) and ``peak`` (``frequency_hz``,
         ``modulus`` of the highest peak).
+
+    Raises
+    ------
+    BodyvibError
+        A record too short to resolve three frequencies in the band.
     """
     from scipy.signal import coherence, csd, welch
 
@@ -81,9 +86,13 @@ def estimate_transmissibility(seat_acceleration, head_acceleration, fs: float,
     _, coh = coherence(x, y, fs=fs, nperseg=nperseg)
     lo, hi = TRANSMISSIBILITY_BAND_HZ
     sel = (f >= lo) & (f <= hi) & (pxx > 0)
+    if sel.sum() < 3:
+        raise BodyvibError(
+            f"a {x.size / fs:g} s record resolves only {fs / nperseg:.3g} Hz, too coarse for "
+            f"the transmissibility over {lo:g}-{hi:g} Hz; simulate longer (a few seconds)")
     H = pxy[sel] / pxx[sel]
     mod = np.abs(H)
-    peaks = find_peaks(f[sel], mod) if sel.sum() >= 3 else []
+    peaks = find_peaks(f[sel], mod)
     top = max(peaks, key=lambda p: p["modulus"]) if peaks else {
         "frequency_hz": float(f[sel][np.argmax(mod)]), "modulus": float(mod.max())}
     return {
