@@ -153,12 +153,22 @@ def test_cosim_cli_with_iso_body_fmu(fmus, tmp_path):
     (["--step", "0"], "step must be a positive"),
     (["--duration", "-1"], "duration must be a positive"),
     (["--body", "missing.fmu"], "does not exist"),
+    (["--seed", "-1"], "seed must be a non-negative integer"),
+    (["--car", "nope"], "unknown vehicle model 'nope'"),
+    (["--params", "missing.json"], "model file 'missing.json' does not exist"),
 ])
 def test_cli_errors_are_one_line(tmp_path, args, words):
     p = _cli("cosim", "--quiet", *args, cwd=tmp_path)
     assert p.returncode == 2
     assert words in p.stderr
     assert len(p.stderr.strip().splitlines()) == 1, p.stderr
+
+
+def test_bad_car_model_is_refused_before_any_fmu_is_built(tmp_path):
+    """A mistyped --car used to cost a HumanBody3DOF build before it was noticed."""
+    p = _cli("cosim", "--car", "nope", cwd=tmp_path)
+    assert p.returncode == 2 and "unknown vehicle model" in p.stderr
+    assert "building" not in p.stderr
 
 
 def test_example_coupling_sweep_runs():

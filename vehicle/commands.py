@@ -14,12 +14,14 @@ import sys
 
 from bodyvib.errors import BodyvibError
 from bodyvib.fileio import write_json
+from bodyvib.models import load_model
 
 from .check import (
     build_default_fmus, check_settings, compare, default_fmu_dir, format_report, plot_study,
     run_study, study_json,
 )
 from .cosim import write_csv
+from .quarter_car import load_car
 
 __all__ = ["add_command"]
 
@@ -37,6 +39,11 @@ def _fmus(args, want_iso: bool):
         need.append("HumanBodyISO7962")
     if args.car_fmu is None:
         need.append("QuarterCar")
+    # refuse a bad --params/--car now, not after building the FMUs before it
+    if "HumanBody3DOF" in need and args.params:
+        load_model(args.params)
+    if "QuarterCar" in need:
+        load_car(args.car)
     tmp, built = None, {}
     if need:
         tmp = default_fmu_dir()
