@@ -140,6 +140,19 @@ def weighted_acceleration(acceleration, fs: float) -> np.ndarray:
     return np.fft.irfft(spec * wk_response(f), nfft)[:n]
 
 
+# The figures of a weighted record, defined once (ISO 2631-1 clause 6).
+def _rms(aw) -> float:
+    return float(np.sqrt(np.mean(aw ** 2)))
+
+
+def _vdv(aw, fs: float) -> float:
+    return float((np.sum(aw ** 4) / fs) ** 0.25)
+
+
+def _peak(aw) -> float:
+    return float(np.max(np.abs(aw)))
+
+
 def weighted_rms(acceleration, fs: float) -> float:
     """ISO 2631-1 frequency-weighted r.m.s. acceleration (Wk) in m/s2.
 
@@ -161,8 +174,7 @@ def weighted_rms(acceleration, fs: float) -> float:
     >>> round(float(weighted_rms(np.sin(2 * np.pi * 5 * t), 1000.0) * np.sqrt(2)), 2)
     1.04
     """
-    aw = weighted_acceleration(acceleration, fs)
-    return float(np.sqrt(np.mean(aw ** 2)))
+    return _rms(weighted_acceleration(acceleration, fs))
 
 
 def vdv(acceleration, fs: float) -> float:
@@ -180,8 +192,7 @@ def vdv(acceleration, fs: float) -> float:
     float
         ``(sum(a_w^4) / fs)^(1/4)``, the fourth-power dose over the record.
     """
-    aw = weighted_acceleration(acceleration, fs)
-    return float((np.sum(aw ** 4) / fs) ** 0.25)
+    return _vdv(weighted_acceleration(acceleration, fs), fs)
 
 
 def peak(acceleration, fs: float) -> float:
@@ -198,7 +209,7 @@ def peak(acceleration, fs: float) -> float:
     -------
     float
     """
-    return float(np.max(np.abs(weighted_acceleration(acceleration, fs))))
+    return _peak(weighted_acceleration(acceleration, fs))
 
 
 def comfort_category(weighted_rms_value: float) -> str:
@@ -244,11 +255,10 @@ def comfort_figures(acceleration, fs: float) -> Dict[str, float]:
         ``crest_factor`` [-], ``comfort`` (ISO 2631-1 Annex C words).
     """
     aw = weighted_acceleration(acceleration, fs)
-    rms = float(np.sqrt(np.mean(aw ** 2)))
-    pk = float(np.max(np.abs(aw)))
+    rms, pk = _rms(aw), _peak(aw)
     return {
         "weighted_rms": rms,
-        "vdv": float((np.sum(aw ** 4) / fs) ** 0.25),
+        "vdv": _vdv(aw, fs),
         "peak": pk,
         "crest_factor": pk / rms if rms > 0 else float("nan"),
         "comfort": comfort_category(rms),
