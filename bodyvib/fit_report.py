@@ -23,11 +23,6 @@ __all__ = ["F_MIN_HZ", "F_MAX_HZ", "compare_fit", "format_comparison", "plot_com
 F_MIN_HZ, F_MAX_HZ = 0.5, 31.5
 
 
-def _peaks(f, modulus):
-    return [{"frequency_hz": p["frequency_hz"], "modulus": p["modulus"]}
-            for p in find_peaks(f, modulus)]
-
-
 def compare_fit(result, refit):
     """Numbers comparing Table 2 with the refit on the fit's own target.
 
@@ -72,21 +67,21 @@ def compare_fit(result, refit):
             out["objective"][key]["time_domain_per_s"] = objective_time_domain(
                 t.reference, net, t.pairs, config=result.config)
         f = np.geomspace(F_MIN_HZ, F_MAX_HZ, 3000)
-        out["transmissibility_peaks"]["target"] = _peaks(
+        out["transmissibility_peaks"]["target"] = find_peaks(
             f, np.abs(transmissibility(t.reference, f)))
         am_ref = np.abs(apparent_mass(t.reference, f))
-        am = {"target": {"peaks_kg": _peaks(f, am_ref)}}
+        am = {"target": {"peaks_kg": find_peaks(f, am_ref)}}
         for key, net in models.items():
             a = np.abs(apparent_mass(net, f))
-            am[key] = {"peaks_kg": _peaks(f, a),
+            am[key] = {"peaks_kg": find_peaks(f, a),
                        "rms_relative_difference": float(np.sqrt(np.mean((a / am_ref - 1) ** 2)))}
         out["apparent_mass"] = am
     else:
         f = np.geomspace(t.frequency_hz[0], t.frequency_hz[-1], 3000)
-        out["transmissibility_peaks"]["target"] = _peaks(t.measured.frequency_hz,
+        out["transmissibility_peaks"]["target"] = find_peaks(t.measured.frequency_hz,
                                                          t.measured.modulus)
     for key, net in models.items():
-        out["transmissibility_peaks"][key] = _peaks(f, np.abs(transmissibility(net, f)))
+        out["transmissibility_peaks"][key] = find_peaks(f, np.abs(transmissibility(net, f)))
     return out
 
 

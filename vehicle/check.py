@@ -293,6 +293,7 @@ def compare(study: dict, reduced: str, iso: str) -> dict:
 
 
 _WORDS = {
+    "crest_factor": "crest factor [-]",
     "weighted_rms": "Wk-weighted r.m.s. [m/s2]",
     "vdv": "VDV [m/s^1.75]",
     "peak": "weighted peak [m/s2]",
@@ -310,11 +311,10 @@ def format_report(study: dict, comparison: Optional[dict] = None) -> str:
     labels = list(study["bodies"])
     w = max(24, *(len(label) for label in labels))
     lines.append(f"{'head acceleration':<28}" + "".join(f"{label:>{w}}" for label in labels))
-    rows = [("Wk-weighted r.m.s. [m/s2]", "weighted_rms", "{:.4f}"),
-            ("VDV [m/s^1.75]", "vdv", "{:.4f}"), ("weighted peak [m/s2]", "peak", "{:.4f}"),
-            ("crest factor [-]", "crest_factor", "{:.2f}")]
-    for words, key, fmt in rows:
-        lines.append(f"{words:<28}" + "".join(
+    rows = [("weighted_rms", "{:.4f}"), ("vdv", "{:.4f}"), ("peak", "{:.4f}"),
+            ("crest_factor", "{:.2f}")]
+    for key, fmt in rows:
+        lines.append(f"{_WORDS[key]:<28}" + "".join(
             f"{fmt.format(study['bodies'][b]['figures'][key]):>{w}}" for b in labels))
     lines.append(f"{'comfort (ISO 2631-1 C)':<28}" + "".join(
         f"{study['bodies'][b]['figures']['comfort']:>{w}}" for b in labels))
@@ -393,8 +393,6 @@ def plot_study(study: dict, path, comparison: Optional[dict] = None, window_s: f
         T = b["transmissibility"]
         line, = ax2.plot(T["frequency_hz"], T["modulus"], label=f"{label} (estimated from run)")
         if b["model"] is not None:
-            from .cosim import model_from_fmu
-
             net = model_from_fmu(b["fmu"])
             f = np.asarray(T["frequency_hz"])
             ax2.plot(f, np.abs(transmissibility(net, f)), "--", color=line.get_color(), lw=0.8,
