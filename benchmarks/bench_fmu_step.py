@@ -22,7 +22,7 @@ FMU step at most 2x the numpy update.
 """
 
 import argparse
-import ctypes
+import contextlib
 import statistics
 import sys
 import tempfile
@@ -33,6 +33,7 @@ import numpy as np
 from bodyvib.fmu_build import build_fmu
 from bodyvib.models import load_model
 from bodyvib.discretize import Discretization
+from vehicle.cosim import open_fmu
 
 OUT = ["head_acceleration", "head_displacement", "torso_displacement", "seat_force"]
 SIG = ["head.a", "head.x", "torso.x", "seat_force"]
@@ -41,21 +42,6 @@ SIG = ["head.a", "head.x", "torso.x", "seat_force"]
 def seat(n, h):
     t = np.arange(n + 1) * h
     return t, 0.01 * np.sin(2 * np.pi * 4.4 * t), 0.01 * 2 * np.pi * 4.4 * np.cos(2 * np.pi * 4.4 * t)
-
-
-def open_fmu(path, name):
-    from fmpy import extract, read_model_description
-    from fmpy.fmi2 import FMU2Slave
-
-    md = read_model_description(path)
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path),
-                    modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
-    fmu.instantiate()
-    fmu.setupExperiment(startTime=0.0)
-    fmu.enterInitializationMode()
-    fmu.exitInitializationMode()
-    return fmu, vr
 
 
 def run_fmpy(fmu, vr, t, xr, vs, h):
@@ -149,10 +135,11 @@ def main(argv=None):
     args = p.parse_args(argv)
 
     h = args.step_size
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as tmp, contextlib.ExitStack() as stack:
         path = str(build_fmu("HumanBody3DOF", tmp))
-        fmu_a, vr = open_fmu(path, "convenience")
-        fmu_b, _ = open_fmu(path, "raw")
+        slave_a = stack.enter_context(open_fmu(path, "body", "convenience"))
+        slave_b = stack.enter_context(open_fmu(path, "body", "raw"))
+        fmu_a, fmu_b, vr = slave_a.fmu, slave_b.fmu, slave_a.vr
         lm = Discretization(load_model("reduced-paper"))
         idx = [lm.model.output_index(s) for s in SIG]
         mats = lm.matrices(h)
@@ -167,9 +154,6 @@ def main(argv=None):
             times["plain numpy"].append(run_numpy(mats, C, D, t, xr, vs, h)[0])
             times["lean numpy"].append(run_numpy_lean(mats, C, D, t, xr, vs, h)[0])
             times["FMU core alone"].append(run_core(t, xr, vs, h)[0])
-        for fmu in (fmu_a, fmu_b):
-            fmu.terminate()
-            fmu.freeInstance()
 
     med = {k: statistics.median(v) for k, v in times.items()}
     print(f"one communication step (set 2 inputs, doStep, get 4 outputs), HumanBody3DOF, "
