@@ -78,6 +78,8 @@ __all__ = [
     "parse_pairs",
     "quadrature_grid",
     "MAX_SAMPLES",
+    "DEFAULT_MEASURED_TOTAL_MASS",
+    "default_horizon",
     "impulse_response",
     "objective_time_domain",
     "objective_frequency_domain",
@@ -346,6 +348,23 @@ def default_horizon(*models, time_constants: float = 40.0) -> float:
 
     ``time_constants / min |Re(pole)|``: with the default 40, the squared
     response has decayed by e^-80 relative to its size at the start.
+
+    Parameters
+    ----------
+    *models : Network or LinearModel
+        The models.
+    time_constants : float
+        How many time constants of the slowest pole.
+
+    Returns
+    -------
+    float
+        Horizon in s.
+
+    Raises
+    ------
+    BodyvibError
+        If a model is not asymptotically stable.
     """
     from .network import linear_model
 
@@ -1107,8 +1126,8 @@ def _command_line(args) -> str:
         parts += ["--config", args.config]
     if args.pairs:
         parts += ["--pairs", args.pairs]
-    if args.polish is False:
-        parts += ["--no-polish"]
+    if args.polish is not None:
+        parts += ["--polish" if args.polish else "--no-polish"]
     return " ".join(parts)
 
 
@@ -1152,7 +1171,8 @@ def add_command(subparsers):
         "fit",
         help="refit the reduced model by a genetic algorithm (paper Eq. 3)",
         description="Refit the reduced 3-DOF model's parameters by a genetic algorithm "
-        "(PyGAD) to the head impulse response of a reference model (the paper's Eq. 3) or to "
+        "(PyGAD) to the head and torso impulse responses of a reference model (the paper's "
+        "Eq. 3; --pairs chooses) or to "
         "a measured seat-to-head transmissibility, and write a parameter file with its "
         "provenance that build_fmu.py --params bakes into the FMU.",
     )

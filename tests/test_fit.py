@@ -417,3 +417,18 @@ def test_cli_refuses_conflicting_options(tmp_path):
     assert r.returncode == 2 and "--total-mass" in r.stderr
     r = run_cli("fit", "--reference", "nosuchmodel", "--quiet", "--out", str(tmp_path / "x.json"))
     assert r.returncode == 2 and "unknown model" in r.stderr
+
+
+def test_recorded_command_reproduces_the_polish_choice():
+    """The provenance's command dropped an explicit --polish, so with a configuration that
+    disables the polish it would not remake the file."""
+    from bodyvib.cli import build_parser
+    from bodyvib.fit import _command_line
+
+    parser = build_parser()
+    for extra in ([], ["--polish"], ["--no-polish"]):
+        args = parser.parse_args(["fit", "--config", "c.json", "--out", "o.json"] + extra)
+        again = parser.parse_args(_command_line(args).split()[1:])
+        assert again.polish == args.polish and again.config == "c.json"
+    assert _command_line(parser.parse_args(["fit", "--out", "params/refit-iso7962.json"])) \
+        == COMMITTED_COMMAND
