@@ -22,7 +22,7 @@ from typing import Dict, Optional, Tuple
 import numpy as np
 
 from .errors import BodyvibError
-from .network import LinearModel, Network, linear_model
+from .network import LinearModel, as_linear_model
 
 __all__ = ["expm", "discretize", "Discretization", "input_rates", "simulate"]
 
@@ -134,7 +134,7 @@ class Discretization:
     """
 
     def __init__(self, model, cache_digits: int = 12):
-        self.model: LinearModel = linear_model(model) if isinstance(model, Network) else model
+        self.model: LinearModel = as_linear_model(model)
         self._digits = cache_digits
         self._cache: Dict[float, Tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 

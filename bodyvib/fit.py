@@ -331,9 +331,9 @@ def quadrature_grid(f_first_panel_hz=0.05, f_split_hz=50.0, panels=30, nodes_per
 def _displacement_statespace(model, point: str):
     """``(A, b, c)`` with ``h(t) = c e^{At} b`` the position impulse response."""
     from .frequency import displacement_input_statespace
-    from .network import linear_model
+    from .network import as_linear_model
 
-    lm = linear_model(model) if isinstance(model, Network) else model
+    lm = as_linear_model(model)
     ss = displacement_input_statespace(lm)
     i = lm.output_index(f"{point}.x")
     d = float(np.asarray(ss.D)[i, 0])
@@ -366,10 +366,9 @@ def default_horizon(*models, time_constants: float = 40.0) -> float:
     BodyvibError
         If a model is not asymptotically stable.
     """
-    from .network import linear_model
+    from .network import as_linear_model
 
-    sigma = min(float(np.min(-np.linalg.eigvals(
-        (linear_model(m) if isinstance(m, Network) else m).A).real)) for m in models)
+    sigma = min(float(np.min(-np.linalg.eigvals(as_linear_model(m).A).real)) for m in models)
     if sigma <= 0:
         raise BodyvibError("a model is not asymptotically stable; its impulse response "
                            "does not decay")

@@ -14,7 +14,7 @@ from typing import List, Sequence
 import numpy as np
 
 from .errors import BodyvibError
-from .network import LinearModel, Network, control_labels, linear_model
+from .network import as_linear_model, control_labels
 
 __all__ = [
     "frequency_response",
@@ -23,10 +23,6 @@ __all__ = [
     "find_peaks",
     "displacement_input_statespace",
 ]
-
-
-def _model(model) -> LinearModel:
-    return linear_model(model) if isinstance(model, Network) else model
 
 
 def frequency_response(model, frequencies_hz, output: str) -> np.ndarray:
@@ -54,7 +50,7 @@ def frequency_response(model, frequencies_hz, output: str) -> np.ndarray:
     >>> float(round(abs(T[0]), 12))
     1.0
     """
-    lm = _model(model)
+    lm = as_linear_model(model)
     f = np.atleast_1d(np.asarray(frequencies_hz, dtype=float))
     i = lm.output_index(output)
     s = 2j * np.pi * f
@@ -97,7 +93,7 @@ def apparent_mass(model, frequencies_hz) -> np.ndarray:
     f = np.atleast_1d(np.asarray(frequencies_hz, dtype=float))
     if np.any(f <= 0):
         raise BodyvibError("apparent mass needs frequencies above 0 Hz")
-    lm = _model(model)
+    lm = as_linear_model(model)
     w = 2 * np.pi * f
     return frequency_response(lm, f, f"{lm.network.base}_force") / (-(w ** 2))
 
@@ -173,7 +169,7 @@ def displacement_input_statespace(model):
     """
     import control
 
-    lm = _model(model)
+    lm = as_linear_model(model)
     Bx, Bv = lm.B[:, 0], lm.B[:, 1]
     if np.any(lm.D[:, 1] != 0):
         bad = [lm.outputs[i] for i in np.nonzero(lm.D[:, 1])[0]]

@@ -52,6 +52,7 @@ __all__ = [
     "Network",
     "LinearModel",
     "linear_model",
+    "as_linear_model",
     "control_labels",
     "mount",
 ]
@@ -433,6 +434,20 @@ def linear_model(network: Network) -> LinearModel:
         A=AB[:, :ns], B=AB[:, ns:], C=CD[:, :ns], D=CD[:, ns:],
         states=states, inputs=inputs, outputs=tuple(out_names), network=network,
     )
+
+
+def as_linear_model(model) -> LinearModel:
+    """A model as its state space: a :class:`Network` is assembled, a :class:`LinearModel` kept.
+
+    Parameters
+    ----------
+    model : Network or LinearModel
+
+    Returns
+    -------
+    LinearModel
+    """
+    return linear_model(model) if isinstance(model, Network) else model
 
 
 def mount(carrier: Network, occupant: Network, at: str, prefix: str = "body.") -> Network:
