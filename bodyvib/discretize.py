@@ -171,8 +171,9 @@ def input_rates(model: LinearModel, u: np.ndarray) -> np.ndarray:
     Parameters
     ----------
     model : LinearModel
+        Names the inputs (``<base>_displacement``, ``<base>_velocity``).
     u : (n, m) ndarray
-        Input samples.
+        Input samples, columns as ``model.inputs``.
 
     Returns
     -------
@@ -180,8 +181,9 @@ def input_rates(model: LinearModel, u: np.ndarray) -> np.ndarray:
         Rate of each input over the step that starts at each sample: the base
         velocity for the base displacement, zero for the others.
     """
+    base = model.network.base
     du = np.zeros_like(u)
-    du[:, 0] = u[:, 1]
+    du[:, model.input_index(f"{base}_displacement")] = u[:, model.input_index(f"{base}_velocity")]
     return du
 
 
