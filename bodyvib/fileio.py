@@ -56,12 +56,24 @@ def _write_replace(path: str, data: bytes) -> None:
 
 
 def atomic_write_text(path, text: str) -> None:
-    """Write UTF-8 ``text`` to ``path`` atomically; see :func:`atomic_write_bytes`."""
+    """Write UTF-8 ``text`` to ``path`` atomically; see :func:`atomic_write_bytes`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    text : str
+    """
     atomic_write_bytes(path, text.encode("utf-8"))
 
 
 def write_json(path, obj) -> None:
-    """Write ``obj`` as indented JSON to ``path`` atomically."""
+    """Write ``obj`` as indented JSON to ``path`` atomically.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    obj : JSON-serializable object
+    """
     atomic_write_text(path, json.dumps(obj, indent=2, sort_keys=False) + "\n")
 
 

@@ -85,6 +85,17 @@ def apparent_mass(model, frequencies_hz) -> np.ndarray:
     As the frequency goes to 0 it tends to the total mass (the static
     apparent mass).
 
+    Parameters
+    ----------
+    model : Network or LinearModel
+    frequencies_hz : array_like
+        Frequencies in Hz, all above 0.
+
+    Returns
+    -------
+    ndarray of complex
+        Base force per base acceleration, kg.
+
     Raises
     ------
     BodyvibError

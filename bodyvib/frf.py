@@ -109,7 +109,21 @@ def format_table(result, frequencies_hz=THIRD_OCTAVE_HZ) -> str:
 
 
 def plot_transmissibility(result, path, title="Seat-to-head transmissibility"):
-    """Modulus and phase of every model in ``result``, peaks marked; saved to ``path``."""
+    """Modulus and phase of every model in ``result``, peaks marked; saved to ``path``.
+
+    Parameters
+    ----------
+    result : dict
+        From :func:`compare_transmissibility`.
+    path : str or os.PathLike
+        Plot file (.png, .pdf or .svg).
+    title : str
+
+    Raises
+    ------
+    BodyvibError
+        An unsupported plot file extension.
+    """
     from .plotting import new_figure, save_figure
 
     fig, (ax1, ax2) = new_figure(2, 1, sharex=True, figsize=(7, 6))

@@ -56,7 +56,13 @@ _ELEMENT_FIELDS = ("name", "kind", "from", "to")
 
 
 def available_models() -> List[str]:
-    """Names of the shipped models."""
+    """Names of the shipped models.
+
+    Returns
+    -------
+    list of str
+        Sorted names (file stems in :data:`MODEL_DIR`).
+    """
     return sorted(f[:-5] for f in os.listdir(MODEL_DIR) if f.endswith(".json"))
 
 
@@ -98,7 +104,22 @@ def load_model(name_or_path: Union[str, os.PathLike]) -> Network:
 
 
 def network_from_file(path: Union[str, os.PathLike]) -> Network:
-    """Read and validate a parameter file; see :func:`network_from_dict`."""
+    """Read and validate a parameter file; see :func:`network_from_dict`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A JSON parameter file.
+
+    Returns
+    -------
+    Network
+
+    Raises
+    ------
+    BodyvibError
+        Unreadable file, not UTF-8, not valid JSON, or invalid content.
+    """
     path = os.fspath(path)
     return network_from_dict(read_json(path, "model file"), source=path)
 
@@ -306,7 +327,17 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
 
 
 def network_to_dict(net: Network) -> dict:
-    """The parameter-file dictionary of a network (inverse of :func:`network_from_dict`)."""
+    """The parameter-file dictionary of a network (inverse of :func:`network_from_dict`).
+
+    Parameters
+    ----------
+    net : Network
+
+    Returns
+    -------
+    dict
+        JSON-serializable.
+    """
     elements = []
     for el in net.elements:
         d = {"name": el.name, "kind": el.kind, "from": el.a, "to": el.b}
@@ -331,5 +362,12 @@ def network_to_dict(net: Network) -> dict:
 
 
 def save_model(net: Network, path: Union[str, os.PathLike]) -> None:
-    """Write a network as a parameter file, atomically."""
+    """Write a network as a parameter file, atomically.
+
+    Parameters
+    ----------
+    net : Network
+    path : str or os.PathLike
+        Destination (its folder is created if missing).
+    """
     write_json(path, network_to_dict(net))

@@ -304,7 +304,19 @@ _WORDS = {
 
 
 def format_report(study: dict, comparison: Optional[dict] = None) -> str:
-    """Text report: per-body head figures, coupling error, and the check's lines."""
+    """Text report: per-body head figures, coupling error, and the check's lines.
+
+    Parameters
+    ----------
+    study : dict
+        From :func:`run_study`.
+    comparison : dict, optional
+        From :func:`compare`.
+
+    Returns
+    -------
+    str
+    """
     s = study["settings"]
     lines = [f"road {study['road']['name']}, {s['speed_m_s']:g} m/s, {s['duration_s']:g} s, "
              f"step {s['step_s']:g} s ({s['master']})", ""]
@@ -349,7 +361,19 @@ def _pct(x):
 
 
 def study_json(study: dict, comparison: Optional[dict] = None) -> dict:
-    """The JSON document of a study (figures, no time histories); keys in the README."""
+    """The JSON document of a study (figures, no time histories); keys in the README.
+
+    Parameters
+    ----------
+    study : dict
+        From :func:`run_study`.
+    comparison : dict, optional
+        From :func:`compare`.
+
+    Returns
+    -------
+    dict
+    """
     doc = {"settings": study["settings"], "road": study["road"], "bodies": {}}
     for label, b in study["bodies"].items():
         f = b["figures"]
@@ -370,7 +394,24 @@ def study_json(study: dict, comparison: Optional[dict] = None) -> dict:
 
 
 def plot_study(study: dict, path, comparison: Optional[dict] = None, window_s: float = 5.0):
-    """Head acceleration side by side (a window mid-run) and transmissibility estimates."""
+    """Head acceleration side by side (a window mid-run) and transmissibility estimates.
+
+    Parameters
+    ----------
+    study : dict
+        From :func:`run_study`.
+    path : str or os.PathLike
+        Plot file (.png, .pdf or .svg).
+    comparison : dict, optional
+        From :func:`compare` (its verdict goes into the title).
+    window_s : float
+        Length of the time window shown, s.
+
+    Raises
+    ------
+    BodyvibError
+        An unsupported plot file extension.
+    """
     from bodyvib.frequency import transmissibility
     from bodyvib.plotting import new_figure, save_figure
 

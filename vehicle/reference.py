@@ -52,6 +52,17 @@ def seat_force_weights(lm, body: Network, seat: str, prefix: str = "body.") -> n
     force, minus those that end on it (an element force pushes its ``to``
     point up).
 
+    Parameters
+    ----------
+    lm : LinearModel
+        The monolithic car-plus-occupant model.
+    body : Network
+        The occupant.
+    seat : str
+        The car point the occupant sits on.
+    prefix : str
+        Prefix of the occupant's names in ``lm`` (see :func:`bodyvib.network.mount`).
+
     Returns
     -------
     (n_outputs,) ndarray
@@ -140,6 +151,15 @@ def reference_run(car: Network, body: Network, road_displacement, road_velocity,
 
 def nrmse(estimate, reference) -> float:
     """Normalized r.m.s. error ``rms(estimate - reference) / rms(reference)`` (a fraction).
+
+    Parameters
+    ----------
+    estimate, reference : array_like
+        Signals of the same shape.
+
+    Returns
+    -------
+    float
 
     Raises
     ------
