@@ -61,7 +61,8 @@ FMUS = {
 SLAVE_SCRIPT = "bodyvib_fmu_slave.py"
 
 #: The numpy-only modules an FMU needs at run time (relative imports only).
-RUNTIME_MODULES = ("errors.py", "fileio.py", "network.py", "models.py", "discretize.py", "fmu_core.py")
+RUNTIME_MODULES = ("errors.py", "fileio.py", "network.py", "models.py", "discretize.py", "fmu_core.py",
+                   "fmu_teardown.py")
 
 #: SI units used by the FMUs, as exponents of the FMI base units.
 UNITS = {

@@ -22,6 +22,10 @@ reports as fmi2Discard, with the reason logged at error level; the instance
 stays usable. Invalid parameters are refused at fmi2ExitInitializationMode with
 the reason logged at error level (pythonfmu gives that call no error status
 short of fmi2Fatal), and every later step is refused with the same reason.
+
+Each instance registers its FMU binary with ``bodyvib.fmu_teardown``, which releases
+pythonfmu's interpreter state when a Python host exits: pythonfmu 0.7.0's own exit-time
+teardown writes into freed memory and sometimes aborts the host after its work is done.
 """
 
 import importlib
@@ -36,6 +40,7 @@ DESCRIPTION = "bodyvib FMU"  # build_fmu.py: the FMU's one-line description
 
 _core = importlib.import_module(RUNTIME + ".fmu_core")
 _models = importlib.import_module(RUNTIME + ".models")
+_teardown = importlib.import_module(RUNTIME + ".fmu_teardown")
 
 
 class BodyvibSlave(Fmi2Slave):  # build_fmu.py: renamed to the FMU's model name
@@ -45,6 +50,7 @@ class BodyvibSlave(Fmi2Slave):  # build_fmu.py: renamed to the FMU's model name
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
+        _teardown.release_at_exit(self.resources, type(self).__name__)  # pythonfmu 0.7.0 exit bug
         network = _models.network_from_file(os.path.join(self.resources, _core.MODEL_FILE))
         self.core = _core.FmuCore(KIND, network, type(self).__name__, log=self._log_core)
         for vr, v in enumerate(self.core.variables):

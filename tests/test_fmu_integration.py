@@ -517,6 +517,39 @@ def test_many_instances_in_one_process(fmus):
     assert run.stdout.split() == ["13", "True"]
 
 
+def test_python_host_exit_does_not_touch_freed_memory(fmus):
+    """pythonfmu 0.7.0's exit-time teardown writes into a freed block (the likely cause of
+    the abort test_many_instances_in_one_process used to show in a few runs out of ten);
+    each instance registers its binary with bodyvib.fmu_teardown, whose atexit handler
+    releases the state before that. Under valgrind an fmpy host exits with no invalid
+    access in finalizePythonInterpreter; with the handler unregistered the same script has
+    one, so the check sees the bug when it is there."""
+    from memcheck import freed_memory_errors, memcheck
+
+    code = textwrap.dedent(f"""
+        import atexit, sys
+        sys.path.insert(0, {os.path.join(ROOT, 'tests')!r})
+        from test_fmu_integration import Slave
+        s = Slave({fmus['HumanBody3DOF']!r}, name='exit')
+        s.set(['seat_displacement', 'seat_velocity'], [0.01, 0.0])
+        s.fmu.doStep(0.0, 1e-3)
+        s.close()
+        (teardown,) = {{m for n, m in sys.modules.items() if n.endswith('.fmu_teardown')}}
+        assert len(teardown.registered_binaries()) == 1
+        if sys.argv[1] == 'unregister':
+            atexit.unregister(teardown.release_python_states)
+        print('ok')
+    """)
+    runs = {mode: memcheck([sys.executable, "-c", code, mode], cwd=ROOT)
+            for mode in ("as built", "unregister")}
+    logs = {}
+    for mode, proc in runs.items():
+        stdout, logs[mode] = proc.communicate(timeout=600)
+        assert proc.returncode == 0 and stdout.split() == ["ok"], logs[mode][-3000:]
+    assert freed_memory_errors(logs["as built"], "finalizePythonInterpreter") == []
+    assert len(freed_memory_errors(logs["unregister"], "finalizePythonInterpreter")) >= 1
+
+
 def test_host_with_another_bodyvib_already_imported(fmus, tmp_path):
     """A host that imported a different 'bodyvib' (here a fake 9.9 whose modules
     fail if used) runs the FMUs unchanged, and keeps its own bodyvib."""

@@ -6,7 +6,7 @@
  * outputs, so the test can check that a C program (no Python of its own) runs the pythonfmu
  * FMUs and exits cleanly.
  *
- *   fmi2_host [--nan-step K] [--exit-normally]
+ *   fmi2_host [--nan-step K] [--skip-finalize]
  *             FMU_DIR MODEL_IDENTIFIER GUID IN_VRS OUT_VRS STEP_SIZE N_STEPS
  *
  *   FMU_DIR           extracted FMU folder (modelDescription.xml, binaries/, resources/)
@@ -16,7 +16,7 @@
  *   N_STEPS           number of doStep calls; communication points t_k = k h, k = 0..N_STEPS
  *   --nan-step K      before the normal step from t_K, set seat_displacement = NaN and call
  *                     fmi2DoStep once, printing the status it returns; then go on as usual.
- *   --exit-normally   return from main at the end instead of _exit(0) (see "Exit" below).
+ *   --skip-finalize   do not call finalizePythonInterpreter before exiting (see "Exit" below).
  *
  * Seat motion (computed here, in C): a triangular bump of height BUMP_HEIGHT that rises from
  * BUMP_START over BUMP_LENGTH/2 and falls back over BUMP_LENGTH/2:
@@ -29,21 +29,23 @@
  * the step from t_k taken; the final point takes no step and prints status -1):
  *     k t_k x_k v_k y_1 ... y_m status_of_fmi2DoStep
  * with %.17g values; "refused K status" for the NaN step; "terminate status", "done" after
- * fmi2FreeInstance and "closed" after dlclose. The FMU's log messages go to stderr as
+ * fmi2FreeInstance, "finalized" after finalizePythonInterpreter and "closed" after dlclose. The FMU's log messages go to stderr as
  *     [log] <instance> <status> <category>: <message>
  *
  * Exit. pythonfmu 0.7.0's linux64 binary cannot be unloaded (dlclose leaves it loaded: it
  * has STB_GNU_UNIQUE symbols), so its teardown runs at process exit, in the wrong order: the
- * exit handlers first destroy its static std::shared_ptr<PyState> (finalizing Python), then
- * its __attribute__((destructor)) assigns nullptr to that destroyed pointer, touching freed
- * memory (valgrind: invalid read in finalizePythonInterpreter). Whether that aborts the
- * process depends on the heap's history. So by default this host ends with _exit(0) once
- * everything is released, which skips the teardown (Python is not finalized; nothing of the
- * FMU needs it); --exit-normally returns from main to show the difference.
+ * exit handlers first destroy its static std::shared_ptr<PyState>, then its
+ * __attribute__((destructor)) assigns nullptr to that destroyed pointer, touching freed
+ * memory (valgrind: invalid read in finalizePythonInterpreter); whether that aborts the
+ * process depends on the heap's history. The binary exports that function, and calling it
+ * once every instance is freed releases the state (finalizing the Python it started) and
+ * empties the pointer, after which the exit-time teardown has nothing to do. So this host
+ * calls finalizePythonInterpreter after fmi2FreeInstance and then returns from main
+ * normally; --skip-finalize leaves the call out, to show the difference.
  *
  * Exit status: 0 success, 1 usage, 2 cannot load the FMU binary or a function, 3 an FMI call
- * returned an unexpected status (named on stderr). Once the binary is loaded, every exit
- * but --exit-normally's goes through _exit.
+ * returned an unexpected status (named on stderr). The error exits after the binary is
+ * loaded go through _exit (an instance may still be alive; nothing is released).
  *
  * Build: gcc -std=c99 -O2 -ffp-contract=off -I<fmpy>/c-code fmi2_host.c -o fmi2_host -ldl -lm
  * (the FMI 2.0 headers are the ones shipped with fmpy, in its c-code folder).
@@ -97,7 +99,7 @@ static void logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status
     fflush(stderr);
 }
 
-/* Leave without pythonfmu's exit-time teardown (see "Exit" above). */
+/* Leave on an error, without pythonfmu's exit-time teardown (see "Exit" above). */
 static void finish(int code)
 {
     fflush(stdout);
@@ -183,7 +185,8 @@ int main(int argc, char **argv)
     fmi2DoStepTYPE *do_step;
     fmi2TerminateTYPE *terminate;
     fmi2FreeInstanceTYPE *free_instance;
-    int exit_normally = 0;
+    void (*finalize)(void);
+    int skip_finalize = 0;
 
     while (argc > 1 && strncmp(argv[1], "--", 2) == 0) {
         if (strcmp(argv[1], "--nan-step") == 0 && argc > 2) {
@@ -194,8 +197,8 @@ int main(int argc, char **argv)
             }
             argv += 2;
             argc -= 2;
-        } else if (strcmp(argv[1], "--exit-normally") == 0) {
-            exit_normally = 1;
+        } else if (strcmp(argv[1], "--skip-finalize") == 0) {
+            skip_finalize = 1;
             argv++;
             argc--;
         } else {
@@ -204,7 +207,7 @@ int main(int argc, char **argv)
         }
     }
     if (argc != 8) {
-        fprintf(stderr, "usage: fmi2_host [--nan-step K] [--exit-normally] FMU_DIR "
+        fprintf(stderr, "usage: fmi2_host [--nan-step K] [--skip-finalize] FMU_DIR "
                         "MODEL_IDENTIFIER GUID IN_VRS OUT_VRS STEP_SIZE N_STEPS\n");
         return 1;
     }
@@ -245,6 +248,7 @@ int main(int argc, char **argv)
     *(void **)&do_step = load(lib, "fmi2DoStep");
     *(void **)&terminate = load(lib, "fmi2Terminate");
     *(void **)&free_instance = load(lib, "fmi2FreeInstance");
+    *(void **)&finalize = load(lib, "finalizePythonInterpreter"); /* pythonfmu's, see "Exit" */
 
     if (snprintf(path, sizeof path, "%s/resources", dir) >= (int)sizeof path) {
         fprintf(stderr, "fmi2_host: path too long\n");
@@ -292,14 +296,15 @@ int main(int argc, char **argv)
     printf("terminate %d\n", (int)terminate(c));
     free_instance(c);
     printf("done\n");
+    if (!skip_finalize) {
+        finalize(); /* release pythonfmu's interpreter state now, not at exit */
+        printf("finalized\n");
+    }
     fflush(stdout);
     if (dlclose(lib) != 0) {
         fprintf(stderr, "fmi2_host: dlclose failed: %s\n", dlerror());
         finish(2);
     }
     printf("closed\n");
-    if (exit_normally)
-        return 0; /* runs pythonfmu's teardown through the exit handlers */
-    finish(0);
-    return 0;
+    return 0; /* the exit handlers run pythonfmu's teardown */
 }
