@@ -45,12 +45,15 @@ SIGNALS = (
 
 
 def seat_force_weights(lm, body: Network, seat: str, prefix: str = "body.") -> np.ndarray:
-    """Row combining element-force outputs into the occupant's seat force.
+    """Row combining outputs of the seated system into the occupant's seat force.
 
-    The seat force (+ in compression, the occupant pushing the seat down) is
-    the sum over the occupant's elements that start on the seat of their
-    force, minus those that end on it (an element force pushes its ``to``
-    point up).
+    The occupant's own state space (:func:`bodyvib.network.linear_model`) has the
+    seat force as its output ``<base>_force`` (+ in compression, the occupant
+    pushing the seat down): a row of C over the occupant's states plus a row of D
+    over the seat's displacement and velocity. In the seated system every one of
+    those is an output (the occupant's states under ``prefix``, the seat as
+    ``<seat>.x`` and ``<seat>.v``), so the same row, moved onto ``lm.outputs``,
+    gives the seat force; the rule that defines it stays in one place, the builder.
 
     Parameters
     ----------
@@ -67,15 +70,23 @@ def seat_force_weights(lm, body: Network, seat: str, prefix: str = "body.") -> n
     -------
     (n_outputs,) ndarray
         Weights on ``lm.outputs``.
+
+    Raises
+    ------
+    BodyvibError
+        The occupant's seat force depends on an input other than the seat motion.
     """
+    own = linear_model(body)
+    row = own.output_index(f"{body.base}_force")
     w = np.zeros(len(lm.outputs))
-    for el in body.elements:
-        if el.a == body.base:
-            w[lm.output_index(f"{prefix}{el.name}.force")] += 1.0
-        elif el.b == body.base:
-            w[lm.output_index(f"{prefix}{el.name}.force")] -= 1.0
-    if not w.any():  # pragma: no cover - a body always touches its seat
-        raise BodyvibError(f"body '{body.name}' has no element on its seat")
+    for j, state in enumerate(own.states):
+        w[lm.output_index(prefix + state)] += own.C[row, j]
+    seat_motion = {f"{body.base}_displacement": f"{seat}.x", f"{body.base}_velocity": f"{seat}.v"}
+    for j, name in enumerate(own.inputs):
+        if name in seat_motion:
+            w[lm.output_index(seat_motion[name])] += own.D[row, j]
+        elif own.D[row, j] != 0.0:  # pragma: no cover - a force on a mass never reaches the seat directly
+            raise BodyvibError(f"body '{body.name}': the seat force depends on input '{name}'")
     return w
 
 
