@@ -28,39 +28,25 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 OUTPUTS = {"head_acceleration": "head.a", "head_displacement": "head.x",
            "torso_displacement": "torso.x", "seat_force": "seat_force"}
 
-RUN_FMU = textwrap.dedent("""
+RUN_FMU = textwrap.dedent(f"""
     import json, sys
     import numpy as np
-    from fmpy import extract, read_model_description
-    from fmpy.fmi2 import FMU2Slave
+    sys.path.insert(0, {os.path.join(ROOT, "tests")!r})
+    from test_fmu_integration import Slave
 
     path, outputs = sys.argv[1], sys.argv[2].split(",")
-    md = read_model_description(path)
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path),
-                    modelIdentifier=md.coSimulation.modelIdentifier, instanceName="refit")
-    fmu.instantiate()
-    fmu.setupExperiment(startTime=0.0)
-    fmu.enterInitializationMode()
-    fmu.exitInitializationMode()
-    params = dict(zip(["m1", "m2", "k1", "k2", "c1", "c2", "ks"],
-                      fmu.getReal([vr[p] for p in ["m1", "m2", "k1", "k2", "c1", "c2", "ks"]])))
-    h = 1e-3
-    t = np.arange(0, 1.5, h)
+    fmu = Slave(path, name="refit")
+    names = ["m1", "m2", "k1", "k2", "c1", "c2", "ks"]
+    params = dict(zip(names, fmu.get(names)))
+    t = np.arange(0, 1.5, 1e-3)
     w = 2 * np.pi * np.array([1.3, 4.3, 17.8])  # around the refit's two resonances
     a = np.array([0.004, 0.002, 0.0005])
     x = (a * np.sin(np.outer(t, w))).sum(1)
     v = (a * w * np.cos(np.outer(t, w))).sum(1)
-    y = []
-    for k in range(t.size):
-        fmu.setReal([vr["seat_displacement"], vr["seat_velocity"]], [x[k], v[k]])
-        y.append(fmu.getReal([vr[o] for o in outputs]))
-        if k + 1 < t.size:
-            fmu.doStep(currentCommunicationPoint=t[k], communicationStepSize=h)
-    fmu.terminate()
-    fmu.freeInstance()
-    print(json.dumps({"params": params, "t": t.tolist(), "x": x.tolist(), "v": v.tolist(),
-                      "y": y}))
+    y = fmu.run(t, np.c_[x, v], ["seat_displacement", "seat_velocity"], outputs)
+    fmu.close()
+    print(json.dumps({{"params": params, "t": t.tolist(), "x": x.tolist(), "v": v.tolist(),
+                      "y": y.tolist()}}))
 """)
 
 

@@ -320,23 +320,22 @@ def format_report(study: dict, comparison: Optional[dict] = None) -> str:
     s = study["settings"]
     lines = [f"road {study['road']['name']}, {s['speed_m_s']:g} m/s, {s['duration_s']:g} s, "
              f"step {s['step_s']:g} s ({s['master']})", ""]
-    labels = list(study["bodies"])
+    bodies = study["bodies"]
+    labels = list(bodies)
     w = max(24, *(len(label) for label in labels))
+
+    def row(title, cell):  # one line: a title, then cell(body) right-aligned per body
+        return f"{title:<28}" + "".join(f"{cell(bodies[b]):>{w}}" for b in labels)
+
     lines.append(f"{'head acceleration':<28}" + "".join(f"{label:>{w}}" for label in labels))
-    rows = [("weighted_rms", "{:.4f}"), ("vdv", "{:.4f}"), ("peak", "{:.4f}"),
-            ("crest_factor", "{:.2f}")]
-    for key, fmt in rows:
-        lines.append(f"{_WORDS[key]:<28}" + "".join(
-            f"{fmt.format(study['bodies'][b]['figures'][key]):>{w}}" for b in labels))
-    lines.append(f"{'comfort (ISO 2631-1 C)':<28}" + "".join(
-        f"{study['bodies'][b]['figures']['comfort']:>{w}}" for b in labels))
-    lines.append(f"{'transmissibility peak':<28}" + "".join(
-        f"{'{:.3f} at {:.2f} Hz'.format(study['bodies'][b]['transmissibility']['peak']['modulus'], study['bodies'][b]['transmissibility']['peak']['frequency_hz']):>{w}}"
-        for b in labels))
-    lines.append(f"{'coupling NRMSE vs reference':<28}" + "".join(
-        f"{_pct(study['bodies'][b]['coupling_nrmse']):>{w}}" for b in labels))
-    lines.append(f"{'real-time factor':<28}" + "".join(
-        f"{study['bodies'][b]['real_time_factor']:>{w}.1f}" for b in labels))
+    for key, fmt in (("weighted_rms", "{:.4f}"), ("vdv", "{:.4f}"), ("peak", "{:.4f}"),
+                     ("crest_factor", "{:.2f}")):
+        lines.append(row(_WORDS[key], lambda b: fmt.format(b["figures"][key])))
+    lines.append(row("comfort (ISO 2631-1 C)", lambda b: b["figures"]["comfort"]))
+    lines.append(row("transmissibility peak", lambda b: "{modulus:.3f} at {frequency_hz:.2f} Hz".format(
+        **b["transmissibility"]["peak"])))
+    lines.append(row("coupling NRMSE vs reference", lambda b: _pct(b["coupling_nrmse"])))
+    lines.append(row("real-time factor", lambda b: f"{b['real_time_factor']:.1f}"))
     seat = study["bodies"][labels[0]]["seat_figures"]["weighted_rms"]
     lines.append(f"seat Wk-weighted r.m.s. ({labels[0]} run): {seat:.4f} m/s2")
     if comparison:
