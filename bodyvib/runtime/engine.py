@@ -14,7 +14,20 @@ advanced exactly: ``x <- Phi x + Gamma0 u + Gamma1 du``. At the end of the step
 the inputs are set to their extrapolated values, so outputs read right after
 ``do_step`` (before the host sets new inputs) are those of the step's end;
 outputs are ``C x + D u`` computed when read, so feedthrough outputs follow a
-newly set input at once.
+newly set input at once. An output declared as the rate of a model output
+(:data:`bodyvib.runtime.contract.RATE_PREFIX`) is its exact time derivative
+from the same state space, ``C (A x + B u) + D du``, with ``du`` the input
+rates of the in-step extrapolation (``seat_force_rate`` of a body FMU).
+
+Unconnected velocity (:attr:`bodyvib.runtime.contract.Interface.slope_fallback`):
+for a displacement input paired with a velocity input, if the velocity has
+never been set to a non-zero value since instantiation (or reset) and a
+``do_step`` sees the displacement differ from its value at the previous
+``do_step``, the engine switches, for the rest of the run or until a non-zero
+velocity is set, to the slope ``(x_now - x_prev) / h_prev`` as the in-step
+rate, and logs one warning naming the input. Before that first detected move
+the velocity (0) is used. A master that leaves ``seat_velocity`` unconnected
+then gets a first-order coupling instead of a held (and silently wrong) seat.
 
 
 Numpy only, relative imports only: the FMUs ship this module under a private
@@ -26,7 +39,7 @@ from typing import Callable, List, Optional, Sequence
 
 import numpy as np
 
-from .contract import fmu_variables
+from .contract import RATE_PREFIX, fmu_variables
 from .discretize import Discretization
 from .errors import BodyvibError
 from .network import Network, linear_model
@@ -92,6 +105,14 @@ class FmuCore:
         self._stale = False
         self.time = 0.0
         self._views()
+        self._fallback = list(iface.slope_fallback)
+        nf = len(self._fallback)
+        self._velocity_of = {j: p for p, (_, j) in enumerate(self._fallback)}
+        self._vel_seen = [False] * nf  # a non-zero velocity was set
+        self._slope_on = [False] * nf  # the slope replaces the velocity
+        self._warned = [False] * nf
+        self._x_prev = [None] * nf     # displacement at the previous do_step
+        self._h_prev = [None] * nf
 
     # -- set-up ------------------------------------------------------------
     def _views(self):
@@ -110,12 +131,19 @@ class FmuCore:
         lm = linear_model(net)
         iface = self.interface
         U = iface.input_map
-        idx = [lm.output_index(sig) for sig in iface.output_signals]
         self._n = lm.A.shape[0]
         self._disc = Discretization(lm)
         self._U = U
         self._dU = U @ self._R                      # du = dU @ s
-        self._Y = np.hstack([lm.C[idx], lm.D[idx] @ U])  # y = Y @ [x | s]
+        rows = []
+        for sig in iface.output_signals:            # y = Y @ [x | s]
+            if sig.startswith(RATE_PREFIX):         # d/dt (C x + D u) = C (A x + B u) + D du
+                i = lm.output_index(sig[len(RATE_PREFIX):])
+                rows.append(np.concatenate([lm.C[i] @ lm.A, lm.C[i] @ lm.B @ U + lm.D[i] @ self._dU]))
+            else:
+                i = lm.output_index(sig)
+                rows.append(np.concatenate([lm.C[i], lm.D[i] @ U]))
+        self._Y = np.array(rows)
         self._steps = {}
         self._h = None
         self._M = None
@@ -194,6 +222,9 @@ class FmuCore:
             self._stale = False
         np.dot(self._Y, self._z, out=self._y)
         self._values[:self._ni + self._no] = self._buf[self._n:].tolist()
+        for p, (_, j) in enumerate(self._fallback):
+            if self._slope_on[p]:  # an input reads back as set (never non-zero), not the slope
+                self._values[j] = 0.0
         self._dirty = False
 
     def set_real(self, vrs: Sequence[int], values: Sequence[float]) -> None:
@@ -209,6 +240,10 @@ class FmuCore:
             if k == 0:
                 buf[pos[vr]] = v
                 self._bad[vr] = not math.isfinite(v)
+                p = self._velocity_of.get(vr)
+                if p is not None and v != 0.0:
+                    self._vel_seen[p] = True
+                    self._slope_on[p] = False
             elif k == 2:
                 if self._initialized:
                     self._message(f"{self.name}: parameter {self.variables[vr].name} is fixed after "
@@ -256,6 +291,8 @@ class FmuCore:
         if not self._initialized:
             raise BodyvibError(self._init_error or f"{self.name}: do_step before initialization; "
                                "call fmi2ExitInitializationMode first")
+        if self._fallback:
+            self._slope_fallback(current_time, h)
         if h != self._h:
             self._M = self._step_matrix(h)
             self._h = h
@@ -263,6 +300,27 @@ class FmuCore:
         self._z[:] = self._znew
         self._dirty = True
         self.time = current_time + h
+
+    def _slope_fallback(self, current_time: float, h: float) -> None:
+        """The unconnected-velocity rule (module docstring), before a step."""
+        s = self._s
+        for p, (i, j) in enumerate(self._fallback):
+            if self._vel_seen[p]:
+                continue
+            x, x_prev = float(s[i]), self._x_prev[p]
+            if x_prev is not None and x != x_prev and not self._slope_on[p]:
+                self._slope_on[p] = True
+                if not self._warned[p]:
+                    self._warned[p] = True
+                    names = self.interface.inputs
+                    self._message(
+                        f"{self.name}: {names[i].name} moves (t = {current_time:g} s) but "
+                        f"{names[j].name} was never set: using the slope of successive "
+                        f"{names[i].name} values as its in-step rate; connect {names[j].name} "
+                        "for the exact coupling", "warning")
+            if self._slope_on[p]:
+                s[j] = (x - x_prev) / self._h_prev[p]
+            self._x_prev[p], self._h_prev[p] = x, float(h)
 
     # -- snapshots -------------------------------------------------------------
     def get_state(self) -> dict:
@@ -273,6 +331,9 @@ class FmuCore:
             "bad": list(self._bad),
             "initialized": self._initialized,
             "time": self.time,
+            "fallback": {"seen": list(self._vel_seen), "on": list(self._slope_on),
+                         "warned": list(self._warned), "x_prev": list(self._x_prev),
+                         "h_prev": list(self._h_prev)},
         }
 
     def set_state(self, state: dict) -> None:
@@ -287,6 +348,10 @@ class FmuCore:
         self._bad = list(state["bad"])
         self._initialized = bool(state["initialized"])
         self.time = float(state["time"])
+        fb = state.get("fallback")
+        if fb is not None:
+            self._vel_seen, self._slope_on = list(fb["seen"]), list(fb["on"])
+            self._warned, self._x_prev, self._h_prev = list(fb["warned"]), list(fb["x_prev"]), list(fb["h_prev"])
         self._dirty = True
 
     # -- introspection ---------------------------------------------------------
