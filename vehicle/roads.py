@@ -420,3 +420,89 @@ def road_input(road: Road, speed: float, t) -> Tuple[np.ndarray, np.ndarray]:
     _check_positive(speed, "speed", "m/s")
     x = speed * np.asarray(t, dtype=float)
     return road.displacement(x), speed * road.slope(x)
+
+
+#: Row spacing of a road table, m (:func:`road_table`): cubic Hermite between rows
+#: with exact slopes; at ISO 8608's shortest wavelength (0.35 m) the interpolation
+#: error is ~(2 pi dx / lambda)^4 / 384 of that harmonic's amplitude (README, "Road.fmu").
+TABLE_SPACING = 0.02
+
+
+def road_table(road: Road, length: float, spacing: float = TABLE_SPACING):
+    """A road as a table of heights and slopes over ``[0, length]`` (what ``Road.fmu`` carries).
+
+    Parameters
+    ----------
+    road : Road
+        Any road; a :class:`RandomRoad` whose period equals ``length`` is
+        tabulated as periodic (its harmonic sum repeats exactly), any other
+        road holds its end value beyond the table.
+    length : float
+        Extent of the table, m.
+    spacing : float
+        Row spacing, m (rounded so that the rows end at ``length``).
+
+    Returns
+    -------
+    bodyvib.runtime.source.HermiteTable
+
+    Raises
+    ------
+    BodyvibError
+        A length or spacing that is not a positive number.
+    """
+    from bodyvib.runtime.source import HermiteTable
+
+    _check_positive(length, "road table length", "m")
+    _check_positive(spacing, "road table spacing", "m")
+    rows = max(2, int(math.ceil(length / spacing))) + 1
+    x = np.linspace(0.0, float(length), rows)
+    periodic = isinstance(road, RandomRoad) and abs(road.length - length) <= 1e-12 * length
+    z, s = road.displacement(x), road.slope(x)
+    if periodic:  # the sum is periodic: make the end row the start row, bit for bit
+        z[-1], s[-1] = z[0], s[0]
+    return HermiteTable(x, z, s, periodic=periodic)
+
+
+def road_source(road: Road, length: float, speed: float = 20.0,
+                spacing: float = TABLE_SPACING):
+    """The source description and table of a road FMU (``Road.fmu``).
+
+    Parameters
+    ----------
+    road : Road
+    length : float
+        Table extent, m.
+    speed : float
+        Default of the FMU's ``speed`` parameter, m/s.
+    spacing : float
+        Row spacing, m.
+
+    Returns
+    -------
+    meta : dict
+        For :func:`bodyvib.fmu_build.build_source_fmu`.
+    table : bodyvib.runtime.source.HermiteTable
+    """
+    _check_positive(speed, "speed", "m/s")
+    table = road_table(road, length, spacing)
+    beyond = ("repeats (the harmonic sum's period)" if table.periodic
+              else "holds its end value")
+    meta = {
+        "name": road.name,
+        "description": (f"{road.name}, {table.length:g} m tabulated every "
+                        f"{table.length / (table.position.size - 1):g} m (heights and exact slopes, "
+                        f"cubic Hermite between rows); beyond the table the profile {beyond}"),
+        "coordinate": {"name": "distance", "unit": "m"},
+        "speed": {"name": "speed", "unit": "m/s", "start": float(speed),
+                  "description": "Vehicle speed: the wheel is at distance speed * time"},
+        "signals": [{
+            "name": "road_displacement", "unit": "m",
+            "description": "Road profile height under the wheel (z up)",
+            "rate": {"name": "road_velocity", "unit": "m/s",
+                     "description": "Time derivative of road_displacement (speed * profile "
+                                    "slope of the same interpolant)"},
+        }],
+        "provenance": dict(road.describe(), generator="vehicle.roads"),
+    }
+    return meta, table

@@ -164,6 +164,10 @@ class FmuCore:
             self._steps[h] = M
         return M
 
+    def setup_experiment(self, start_time: float) -> None:
+        """Start time of the run (``fmi2SetupExperiment``); the state is not touched."""
+        self.time = float(start_time)
+
     # -- parameters ----------------------------------------------------------
     def check_parameters(self, params=None) -> None:
         """Refuse non-finite or non-positive parameters.
