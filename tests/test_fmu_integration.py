@@ -155,6 +155,7 @@ def test_model_description_interface(fmus, name):
         files = zf.namelist()
     svs = {sv.get("name"): sv for sv in root.iter("ScalarVariable")}
     expected = ({"seat_displacement": ("input", "m"), "seat_velocity": ("input", "m/s"),
+                 "seat_acceleration": ("input", "m/s2"), "seat_force_rate": ("output", "N/s"),
                  "head_acceleration": ("output", "m/s2"), "head_displacement": ("output", "m"),
                  "torso_displacement": ("output", "m"), "seat_force": ("output", "N")}
                 if name != "QuarterCar" else

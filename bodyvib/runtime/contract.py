@@ -10,7 +10,8 @@ master and the tests import these definitions; nobody restates them
 Interfaces (SI units; ``vr`` = value reference = position in :attr:`FmuCore.variables`):
 
 * body (``kind="body"``): inputs ``seat_displacement`` [m], ``seat_velocity``
-  [m/s]; outputs ``head_acceleration`` [m/s2] (absolute), ``head_displacement``
+  [m/s], ``seat_acceleration`` [m/s2] (optional, start 0: the seat velocity
+  rises at it over the coming step; 0 keeps the seat motion linear); outputs ``head_acceleration`` [m/s2] (absolute), ``head_displacement``
   [m], ``torso_displacement`` [m], ``seat_force`` [N] (force the body exerts on
   the seat, positive in compression), ``seat_force_rate`` [N/s] (its exact time
   derivative, for a master that feeds the car's ``seat_force_rate``);
@@ -195,6 +196,9 @@ def body_interface(network: Network) -> Interface:
         _input("seat_displacement", "m", "Seat vertical displacement xr (z up, about static equilibrium)"),
         _input("seat_velocity", "m/s", "Seat vertical velocity; also the slope of "
                "seat_displacement over the coming step (in-step extrapolation)"),
+        _input("seat_acceleration", "m/s2", "Optional seat vertical acceleration: the slope of "
+               "seat_velocity over the coming step, so the seat follows a parabola (0, the "
+               "default, keeps the seat motion linear over the step)"),
     )
     outputs = (
         _output("head_acceleration", "m/s2", f"Head ({network.point('head')}) absolute vertical acceleration"),
@@ -207,8 +211,8 @@ def body_interface(network: Network) -> Interface:
     )
     return Interface(
         kind="body", inputs=inputs, outputs=outputs,
-        input_map=np.eye(2),
-        rate_pairs=((0, 1),),
+        input_map=np.eye(2, 3),  # the model's inputs: seat displacement and velocity
+        rate_pairs=((0, 1), (1, 2)),
         slope_fallback=((0, 1),),
         output_signals=("head.a", "head.x", "torso.x", f"{base}_force",
                         rate_signal(f"{base}_force")),
@@ -334,8 +338,8 @@ def fmu_variables(kind: str, network: Network):
     --------
     >>> from bodyvib.models import load_model
     >>> _, _, variables = fmu_variables("body", load_model("reduced-paper"))
-    >>> [v.name for v in variables[:3]]
-    ['seat_displacement', 'seat_velocity', 'head_acceleration']
+    >>> [v.name for v in variables[:4]]
+    ['seat_displacement', 'seat_velocity', 'seat_acceleration', 'head_acceleration']
     """
     if kind not in KINDS:
         raise BodyvibError(f"unknown FMU kind '{kind}'; kinds are {', '.join(KINDS)}")

@@ -10,7 +10,10 @@ matrices from :class:`bodyvib.runtime.discretize.Discretization`
 Stepping: over a communication step ``h`` each input is extrapolated linearly
 from its value and its rate (a displacement rises at its velocity input, the
 seat force at ``seat_force_rate``, every other input is held), and the state is
-advanced exactly: ``x <- Phi x + Gamma0 u + Gamma1 du``. At the end of the step
+advanced exactly: ``x <- Phi x + Gamma0 u + Gamma1 du``. A rate that itself has
+a rate (a body's ``seat_velocity`` rising at ``seat_acceleration``) makes the
+input a parabola over the step, advanced exactly with ``Gamma2 d2u``
+(:func:`bodyvib.runtime.discretize.discretize_quadratic`). At the end of the step
 the inputs are set to their extrapolated values, so outputs read right after
 ``do_step`` (before the host sets new inputs) are those of the step's end;
 outputs are ``C x + D u`` computed when read, so feedthrough outputs follow a
@@ -40,7 +43,7 @@ from typing import Callable, List, Optional, Sequence
 import numpy as np
 
 from .contract import RATE_PREFIX, fmu_variables
-from .discretize import Discretization
+from .discretize import Discretization, discretize_quadratic
 from .errors import BodyvibError
 from .network import Network, linear_model
 
@@ -76,8 +79,8 @@ class FmuCore:
     >>> core.initialize()
     >>> core.set_real([0, 1], [0.0, 0.01])
     >>> core.do_step(0.0, 1e-3)
-    >>> len(core.get_real([2, 3, 4, 5]))
-    4
+    >>> len(core.get_real([3, 4, 5, 6, 7]))
+    5
     """
 
     def __init__(self, kind: str, network: Network, name: str = "FMU",
@@ -159,6 +162,11 @@ class FmuCore:
             M[:n, :n] = Phi
             M[:n, n:] = G0 @ self._U + G1 @ self._dU
             M[n:, n:] = np.eye(ni) + h * self._R
+            R2 = self._R @ self._R  # a rate that itself rises (seat velocity at seat_acceleration)
+            if R2.any():
+                lm = self._disc.model
+                M[:n, n:] += discretize_quadratic(lm.A, lm.B, float(f"{h:.12g}")) @ self._U @ R2
+                M[n:, n:] += 0.5 * h * h * R2
             if len(self._steps) > 64:
                 self._steps.clear()
             self._steps[h] = M
