@@ -3,14 +3,19 @@
 import sys
 
 from vehicle.fmus import FMUS, ROAD_DEFAULTS, build_fmus
+from vehicle.ssp import COMPONENTS, SSP_NAME, write_ssp
 
 __all__ = ["add_command", "main"]
 
 
 def _run(args) -> int:
     road = {"road": args.road, "seed": args.road_seed, "length": args.road_length,
-            "speed": args.road_speed}
-    build_fmus(args.dest, args.params, names=args.fmus, echo=print, road=road)
+            "speed": args.road_speed, "taper": args.road_taper}
+    built = build_fmus(args.dest, args.params, names=args.fmus, echo=print, road=road)
+    if all(name in built for name in COMPONENTS.values()):
+        path = write_ssp(f"{args.dest}/{SSP_NAME}.ssp",
+                         {comp: str(built[name]) for comp, name in COMPONENTS.items()})
+        print(f"wrote {path} (Road -> QuarterCar <-> HumanBody3DOF, parameter set, 1 ms step)")
     return 0
 
 
@@ -19,7 +24,8 @@ def add_command(subparsers):
     p = subparsers.add_parser(
         "build", help="build the FMUs (HumanBody3DOF, HumanBodyISO7962, QuarterCar, Road) into dist/",
         description="Build HumanBody3DOF.fmu, HumanBodyISO7962.fmu, QuarterCar.fmu and Road.fmu "
-        "with pythonfmu and check them with fmpy validate. --params bakes a parameter file into "
+        "with pythonfmu and check them with fmpy validate, and the coupled system of Road, "
+        "QuarterCar and HumanBody3DOF as QuarterCarWithOccupant.ssp (SSP 1.0). --params bakes a parameter file into "
         "HumanBody3DOF.fmu (default: the paper's Table 2); --road, --road-seed and --road-length "
         "choose the road Road.fmu tabulates.",
     )
@@ -37,6 +43,9 @@ def add_command(subparsers):
                    "road repeats after it)")
     p.add_argument("--road-speed", type=float, default=ROAD_DEFAULTS["speed"], metavar="V",
                    help="Road.fmu: default of its speed parameter, m/s (default: 20)")
+    p.add_argument("--road-taper", type=float, default=ROAD_DEFAULTS["taper"], metavar="M",
+                   help="Road.fmu: a random road fades in from level over its first M metres and "
+                   "out over its last (default: 5; 0: none)")
     p.set_defaults(func=_run)
     return p
 

@@ -20,7 +20,8 @@ SIGNALS = (("Body", "head_acceleration"), ("Body", "seat_force"), ("Car", "seat_
            ("Road", "road_displacement"))
 
 
-def run(ssp_path="dist/QuarterCarWithOccupant.ssp", duration=30.0, step=None, signals=SIGNALS):
+def run(ssp_path="dist/QuarterCarWithOccupant.ssp", duration=30.0, step=None, signals=SIGNALS,
+        log_level="ERROR"):
     """Simulate the SSP in libcosim.
 
     Parameters
@@ -33,6 +34,8 @@ def run(ssp_path="dist/QuarterCarWithOccupant.ssp", duration=30.0, step=None, si
         Communication step, s (whole nanoseconds); None takes the SSP's (1 ms).
     signals : sequence of (str, str)
         Component and variable names to record.
+    log_level : str
+        libcosim's log level (``"WARNING"`` shows the FMUs' warnings).
 
     Returns
     -------
@@ -44,7 +47,7 @@ def run(ssp_path="dist/QuarterCarWithOccupant.ssp", duration=30.0, step=None, si
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
     from libcosimpy.CosimObserver import CosimObserver
 
-    log_output_level(CosimLogLevel.ERROR)
+    log_output_level(getattr(CosimLogLevel, log_level))
     execution = (CosimExecution.from_ssp_file(str(ssp_path)) if step is None else
                  CosimExecution.from_ssp_file(str(ssp_path), step_size=int(round(step * 1e9))))
     observer = CosimObserver.create_last_value()

@@ -16,14 +16,15 @@ from bodyvib.models import load_model
 from bodyvib.runtime.errors import BodyvibError
 
 from .quarter_car import load_car
-from .roads import ISO8608_CLASSES, make_road, random_road, road_source
+from .roads import ISO8608_CLASSES, TaperedRoad, make_road, random_road, road_source
 
 __all__ = ["FMUS", "ROAD_DEFAULTS", "build_fmus", "build_project_fmu", "build_road_fmu",
            "fmu_road", "load_fmu_model", "temporary_fmu_dir"]
 
 #: Road.fmu's defaults: ISO 8608 class C, seed 0, 601 m (30 s at 20 m/s and a metre
-#: to spare, the road of ``bodyvib check``), speed parameter 20 m/s.
-ROAD_DEFAULTS = {"road": "C", "seed": 0, "length": 601.0, "speed": 20.0}
+#: to spare, the road of ``bodyvib check``), faded in and out over 5 m, speed
+#: parameter 20 m/s.
+ROAD_DEFAULTS = {"road": "C", "seed": 0, "length": 601.0, "speed": 20.0, "taper": 5.0}
 
 #: FMU name -> (kind, default model, description).
 FMUS = {
@@ -42,7 +43,8 @@ FMUS = {
 }
 
 
-def fmu_road(spec: str = "C", length: float = 601.0, seed: int = 0, speed: float = 20.0):
+def fmu_road(spec: str = "C", length: float = 601.0, seed: int = 0, speed: float = 20.0,
+             taper: float = 5.0):
     """The road a ``Road.fmu`` tabulates.
 
     Parameters
@@ -56,6 +58,11 @@ def fmu_road(spec: str = "C", length: float = 601.0, seed: int = 0, speed: float
         Seed of a random road.
     speed : float
         Design speed of a sweep, m/s.
+    taper : float
+        A random road fades in from level over its first ``taper`` metres and
+        out over its last (:class:`vehicle.roads.TaperedRoad`; 0: none): the car
+        starts at rest on a level road, as in hosts that exchange values only
+        after their first step (fmpy's SSP runner). Bump and sweep start level.
 
     Returns
     -------
@@ -68,18 +75,19 @@ def fmu_road(spec: str = "C", length: float = 601.0, seed: int = 0, speed: float
     """
     s = str(spec).strip()
     if len(s) == 1 and s.upper() in ISO8608_CLASSES:
-        return random_road(s.upper(), length=length, seed=seed)
+        road = random_road(s.upper(), length=length, seed=seed)
+        return TaperedRoad(road, length, taper) if taper else road
     return make_road(s, speed, length / speed if length > 0 else length, seed=seed)
 
 
 def build_road_fmu(dest="dist", road: str = "C", seed: int = 0, length: float = 601.0,
-                   speed: float = 20.0) -> Path:
+                   speed: float = 20.0, taper: float = 5.0) -> Path:
     """Build ``Road.fmu``: a road of :mod:`vehicle.roads` as a table, driven at a speed.
 
     Parameters
     ----------
     dest : str or path
-    road, seed, length
+    road, seed, length, taper
         As :func:`fmu_road`.
     speed : float
         Start value of the FMU's ``speed`` parameter (and a sweep's design speed), m/s.
@@ -89,7 +97,7 @@ def build_road_fmu(dest="dist", road: str = "C", seed: int = 0, length: float = 
     Path
         ``dest/Road.fmu``.
     """
-    meta, table = road_source(fmu_road(road, length, seed, speed), length, speed)
+    meta, table = road_source(fmu_road(road, length, seed, speed, taper), length, speed)
     return build_source_fmu(meta, table, "Road", FMUS["Road"][2], dest)
 
 
@@ -192,7 +200,7 @@ def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-ca
     road = dict(ROAD_DEFAULTS, **(road or {}))
     for n in names:  # refuse a bad model (or road) before building anything
         if n in FMUS and FMUS[n][0] == "source":
-            fmu_road(road["road"], road["length"], road["seed"], road["speed"])
+            fmu_road(road["road"], road["length"], road["seed"], road["speed"], road["taper"])
         else:
             load_fmu_model(n, chosen.get(n))
     out = {}

@@ -43,7 +43,10 @@ __all__ = [
     "RandomRoad",
     "BumpRoad",
     "SweepRoad",
+    "TaperedRoad",
     "random_road",
+    "road_source",
+    "road_table",
     "make_road",
     "road_input",
 ]
@@ -422,6 +425,58 @@ def road_input(road: Road, speed: float, t) -> Tuple[np.ndarray, np.ndarray]:
     return road.displacement(x), speed * road.slope(x)
 
 
+@dataclass
+class TaperedRoad(Road):
+    """A road faded in from level over its first metres and out over its last.
+
+    ``z(x) = w(x) z_road(x)`` with ``w = sin^2(pi x / (2 d))`` over ``[0, d]``,
+    1 in between and the mirror image over ``[L - d, L]`` (0 beyond): a car
+    starting at rest at ``x = 0`` meets a level road with zero slope (no
+    step at ``t = 0``, which hosts that exchange values only after their first
+    step would miss), and a road repeated with period ``L`` stays smooth.
+
+    Parameters
+    ----------
+    road : Road
+    length : float
+        L, m.
+    taper : float
+        d, m (``2 d <= L``).
+    """
+
+    road: Road = None
+    length: float = 601.0
+    taper: float = 5.0
+
+    def __post_init__(self):
+        _check_positive(self.taper, "road taper", "m")
+        if 2 * self.taper > self.length:
+            raise BodyvibError(f"a {self.length:g} m road cannot taper over {self.taper:g} m at "
+                               "each end; shorten the taper or lengthen the road")
+        self.name = f"{self.road.name}, tapered over {self.taper:g} m at each end"
+
+    def _window(self, x):
+        x = np.asarray(x, dtype=float)
+        d, L = self.taper, self.length
+        u = np.clip(np.minimum(x, L - x) / d, 0.0, 1.0)
+        w = np.sin(0.5 * np.pi * u) ** 2
+        du = np.where((u > 0) & (u < 1), np.where(x < L / 2, 1.0, -1.0) / d, 0.0)
+        return w, 0.5 * np.pi * np.sin(np.pi * u) * du
+
+    def displacement(self, x) -> np.ndarray:
+        """Profile height at distances ``x`` (m), in m."""
+        w, _ = self._window(x)
+        return w * self.road.displacement(x)
+
+    def slope(self, x) -> np.ndarray:
+        """Exact slope ``dz/dx`` (product rule)."""
+        w, dw = self._window(x)
+        return dw * self.road.displacement(x) + w * self.road.slope(x)
+
+    def describe(self) -> dict:
+        return dict(self.road.describe(), taper_m=self.taper, tapered_length_m=self.length)
+
+
 #: Row spacing of a road table, m (:func:`road_table`): cubic Hermite between rows
 #: with exact slopes; at ISO 8608's shortest wavelength (0.35 m) the interpolation
 #: error is ~(2 pi dx / lambda)^4 / 384 of that harmonic's amplitude (README, "Road.fmu").
@@ -434,9 +489,9 @@ def road_table(road: Road, length: float, spacing: float = TABLE_SPACING):
     Parameters
     ----------
     road : Road
-        Any road; a :class:`RandomRoad` whose period equals ``length`` is
-        tabulated as periodic (its harmonic sum repeats exactly), any other
-        road holds its end value beyond the table.
+        Any road; a :class:`RandomRoad` (or a :class:`TaperedRoad`) whose
+        period equals ``length`` is tabulated as periodic (its harmonic sum
+        repeats exactly), any other road holds its end value beyond the table.
     length : float
         Extent of the table, m.
     spacing : float
@@ -457,7 +512,8 @@ def road_table(road: Road, length: float, spacing: float = TABLE_SPACING):
     _check_positive(spacing, "road table spacing", "m")
     rows = max(2, int(math.ceil(length / spacing))) + 1
     x = np.linspace(0.0, float(length), rows)
-    periodic = isinstance(road, RandomRoad) and abs(road.length - length) <= 1e-12 * length
+    periodic = (isinstance(road, RandomRoad) or isinstance(road, TaperedRoad)) and \
+        abs(road.length - length) <= 1e-12 * length
     z, s = road.displacement(x), road.slope(x)
     if periodic:  # the sum is periodic: make the end row the start row, bit for bit
         z[-1], s[-1] = z[0], s[0]

@@ -12,11 +12,15 @@ FMUs in parallel and holds every input over a step (libcosim, Ecos, fmpy.ssp):
 
 * ``Road.road_displacement``, ``Road.road_velocity`` -> ``Car``: the car's road
   rises at the road velocity over the step, as in the monolithic reference;
-* ``Car.seat_displacement``, ``Car.seat_velocity`` -> ``Body``: the seat rises
-  at its velocity over the step;
+* ``Car.seat_displacement``, ``Car.seat_velocity``, ``Car.sprung_acceleration``
+  -> ``Body``: the seat follows the parabola of its displacement, velocity and
+  acceleration over the step, so the seat force the body reports right after
+  the step is that of (nearly) the car's seat (with a line only it misses the
+  seat by ``a h^2 / 2``, which the stiff seat feeds straight into the force);
 * ``Body.seat_force``, ``Body.seat_force_rate`` -> ``Car``: the seat force rises
-  at its exact rate over the step (without the rate it is held, first order:
-  README, "Co-simulation in any host (SSP)").
+  at its exact rate over the step (without the rate it is held, first order).
+
+Measured head-acceleration errors per host: README, "Co-simulation in any host (SSP)".
 """
 
 import io
@@ -45,6 +49,7 @@ CONNECTIONS = (
     ("Road", "road_velocity", "Car", "road_velocity"),
     ("Car", "seat_displacement", "Body", "seat_displacement"),
     ("Car", "seat_velocity", "Body", "seat_velocity"),
+    ("Car", "sprung_acceleration", "Body", "seat_acceleration"),
     ("Body", "seat_force", "Car", "seat_force"),
     ("Body", "seat_force_rate", "Car", "seat_force_rate"),
 )
@@ -97,7 +102,8 @@ def _units(root_parent, tag_prefix, used):
         ET.SubElement(unit, _q("ssc", "BaseUnit"), {k: str(e) for k, e in UNITS[u].items()})
 
 
-def system_structure(fmus: Dict[str, str], stop_time: float = 30.0, step: float = 1e-3) -> bytes:
+def system_structure(fmus: Dict[str, str], stop_time: float = 30.0, step: float = 1e-3,
+                     connections=CONNECTIONS) -> bytes:
     """``SystemStructure.ssd`` of the coupled system.
 
     Parameters
@@ -109,6 +115,8 @@ def system_structure(fmus: Dict[str, str], stop_time: float = 30.0, step: float 
     step : float
         Communication step suggested to hosts that read it (libcosim's OSP
         annotation), s.
+    connections : sequence of (str, str, str, str)
+        :data:`CONNECTIONS` (a subset only to show what a missing one costs).
 
     Returns
     -------
@@ -135,9 +143,9 @@ def system_structure(fmus: Dict[str, str], stop_time: float = 30.0, step: float 
                     used.append(unit)
         binds = ET.SubElement(el, _q("ssd", "ParameterBindings"))
         ET.SubElement(binds, _q("ssd", "ParameterBinding"), source=f"resources/{comp}.ssv")
-    connections = ET.SubElement(system, _q("ssd", "Connections"))
-    for a, ac, b, bc in CONNECTIONS:
-        ET.SubElement(connections, _q("ssd", "Connection"), startElement=a, startConnector=ac,
+    wires = ET.SubElement(system, _q("ssd", "Connections"))
+    for a, ac, b, bc in connections:
+        ET.SubElement(wires, _q("ssd", "Connection"), startElement=a, startConnector=ac,
                       endElement=b, endConnector=bc)
     _units(root, "ssd", used)
     experiment = ET.SubElement(root, _q("ssd", "DefaultExperiment"), startTime="0.0",
@@ -174,7 +182,8 @@ def parameter_values(fmu_path) -> bytes:
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
 
 
-def write_ssp(path, fmus: Dict[str, str], stop_time: float = 30.0, step: float = 1e-3) -> Path:
+def write_ssp(path, fmus: Dict[str, str], stop_time: float = 30.0, step: float = 1e-3,
+              connections=CONNECTIONS) -> Path:
     """Write the SSP of the coupled system.
 
     Parameters
@@ -183,7 +192,7 @@ def write_ssp(path, fmus: Dict[str, str], stop_time: float = 30.0, step: float =
         ``.../QuarterCarWithOccupant.ssp``.
     fmus : dict of str to str
         Component name (``Road``, ``Car``, ``Body``) -> FMU path.
-    stop_time, step : float
+    stop_time, step, connections
         See :func:`system_structure`.
 
     Returns
@@ -192,7 +201,7 @@ def write_ssp(path, fmus: Dict[str, str], stop_time: float = 30.0, step: float =
     """
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
-        zf.writestr("SystemStructure.ssd", system_structure(fmus, stop_time, step))
+        zf.writestr("SystemStructure.ssd", system_structure(fmus, stop_time, step, connections))
         for comp, fmu in fmus.items():
             zf.writestr(f"resources/{comp}.ssv", parameter_values(fmu))
             zf.write(fmu, f"resources/{Path(fmu).name}")
@@ -230,7 +239,8 @@ def ssp_reference(duration: float = 30.0, step: float = 1e-3, body: str = "reduc
     from .roads import road_table
 
     r = dict(ROAD_DEFAULTS, **(road or {}))
-    table = road_table(fmu_road(r["road"], r["length"], r["seed"], r["speed"]), r["length"])
+    table = road_table(fmu_road(r["road"], r["length"], r["seed"], r["speed"], r["taper"]),
+                       r["length"])
     t = np.arange(int(round(duration / step)) + 1) * step
     z, dz = table.evaluate(r["speed"] * t)
     return reference_run(load_car(car), load_model(body), z[:, 0], r["speed"] * dz[:, 0], step)
