@@ -108,3 +108,30 @@ def test_source_refuses_bad_speed_and_step():
     core.do_step(0.0, 1.0)
     core.set_state(state)
     assert core.time == 0.0
+
+
+def test_road_slave_in_plain_python(tmp_path):
+    """The rendered slave script of kind "source" (Road.fmu's), without building the FMU:
+    it reads the table from its resources, starts at the experiment's start time, refuses
+    a bad step by returning False (pythonfmu's fmi2Discard), never raises."""
+    pytest.importorskip("pythonfmu")
+    import types
+
+    from bodyvib.fmu_build import render_slave_script
+    from vehicle.fmus import FMUS
+
+    mod = types.ModuleType("slave_Road")
+    exec(compile(render_slave_script("Road", "source", FMUS["Road"][2], "bodyvib.runtime"),
+                 "<Road slave>", "exec"), mod.__dict__)
+    meta, tab = road_source(BumpRoad(), 30.0, speed=10.0)
+    write_source(tmp_path, meta, tab)
+    slave = mod.Road(instance_name="unit", resources=str(tmp_path))
+    assert [v.name for v in slave.vars.values()] == ["road_displacement", "road_velocity", "speed"]
+    slave.setup_experiment(1.0)
+    slave.exit_initialization_mode()
+    assert slave.do_step(1.0, 0.05) is True          # 10.5 m: inside the bump
+    z, v = slave.get_real([0, 1])
+    zr, vr = road_input(BumpRoad(), 10.0, [1.05])
+    assert z == pytest.approx(zr[0], rel=1e-6) and v == pytest.approx(vr[0], rel=1e-4)
+    assert slave.do_step(1.05, -1.0) is False
+    assert "step size must be positive" in slave.log_queue[-1].msg
