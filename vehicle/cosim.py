@@ -32,7 +32,6 @@ reference (:mod:`vehicle.reference`) at h = 1 ms is about 0.43 % held and
 """
 
 import contextlib
-import math
 import os
 import shutil
 import tempfile
@@ -41,6 +40,7 @@ from typing import Dict, Optional
 
 import numpy as np
 
+from bodyvib.runtime.discretize import check_step
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.fileio import atomic_write_text
 
@@ -222,8 +222,7 @@ def cosimulate(car: Slave, body: Slave, road_displacement, road_velocity, step: 
     """
     z = np.asarray(road_displacement, dtype=float)
     v = np.asarray(road_velocity, dtype=float)
-    if not (isinstance(step, (int, float)) and math.isfinite(step) and step > 0):
-        raise BodyvibError(f"communication step must be a positive number of seconds, got {step!r}")
+    check_step(step, "communication step")
     if z.shape != v.shape or z.ndim != 1 or z.size < 2:
         raise BodyvibError("road displacement and velocity must be 1-D arrays of equal length >= 2")
     if not (np.all(np.isfinite(z)) and np.all(np.isfinite(v))):

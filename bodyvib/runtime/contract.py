@@ -36,7 +36,8 @@ import numpy as np
 from .errors import BodyvibError
 from .network import Network
 
-__all__ = ["Variable", "Interface", "body_interface", "car_interface", "parameter_variables",
+__all__ = ["Variable", "Interface", "body_interface", "car_interface", "seat_point",
+           "parameter_variables",
            "fmu_variables", "KINDS", "MODEL_FILE", "PARAMETER_UNITS", "POSITIVE_MIN", "UNITS"]
 
 #: Where the build puts the parameter file, inside the FMU's resources.
@@ -175,6 +176,33 @@ def body_interface(network: Network) -> Interface:
     )
 
 
+def seat_point(network: Network) -> str:
+    """The mass a vehicle model seats the occupant on: its ``seat`` role.
+
+    Parameters
+    ----------
+    network : Network
+        A vehicle model.
+
+    Returns
+    -------
+    str
+        The mass with role ``seat``.
+
+    Raises
+    ------
+    BodyvibError
+        No ``seat`` role, or its mass takes no force input (``force_inputs``).
+    """
+    seat = network.roles.get("seat")
+    if seat is None or seat not in network.force_inputs:
+        raise BodyvibError(
+            f"vehicle model '{network.name}' needs a 'seat' role naming a mass listed in "
+            "force_inputs (the occupant's seat force acts there)"
+        )
+    return seat
+
+
 def car_interface(network: Network) -> Interface:
     """The interface of the quarter-car FMU (docs/architecture.md, "The FMU contract").
 
@@ -193,12 +221,7 @@ def car_interface(network: Network) -> Interface:
     BodyvibError
         If the model lacks the seat role, its force input, or the elements.
     """
-    seat = network.roles.get("seat")
-    if seat is None or seat not in network.force_inputs:
-        raise BodyvibError(
-            f"vehicle model '{network.name}' needs a 'seat' role naming a mass listed in "
-            "force_inputs (the occupant's seat force acts there)"
-        )
+    seat = seat_point(network)
     names = {el.name for el in network.elements}
     missing = [e for e in ("suspension", "tire") if e not in names]
     if missing:
