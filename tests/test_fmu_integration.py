@@ -22,22 +22,22 @@ import zipfile
 import numpy as np
 import pytest
 
+from bodyvib.runtime.contract import BODY_OUTPUTS, CAR_INPUTS, CAR_OUTPUTS
 from bodyvib.runtime.discretize import simulate
 from bodyvib.models import load_model
 from bodyvib.runtime.modelfile import save_model
 from bodyvib.runtime.network import linear_model
-from vehicle.quarter_car import load_car
+from vehicle.quarter_car import CAR_FMU_OUTPUTS, load_car
 
 pytestmark = pytest.mark.integration
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 NAMES = ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar")
 MODEL_OF = {"HumanBody3DOF": "reduced-paper", "HumanBodyISO7962": "iso7962"}
-BODY_OUT = ["head_acceleration", "head_displacement", "torso_displacement", "seat_force"]
+BODY_OUT = list(BODY_OUTPUTS)
 BODY_SIG = ["head.a", "head.x", "torso.x", "seat_force"]
-CAR_IN = ["road_displacement", "road_velocity", "seat_force", "seat_force_rate"]
-CAR_OUT = ["seat_displacement", "seat_velocity", "sprung_acceleration", "suspension_deflection",
-           "tire_force"]
+CAR_IN = list(CAR_INPUTS)
+CAR_OUT = list(CAR_OUTPUTS + CAR_FMU_OUTPUTS)
 CAR_SIG = ["sprung.x", "sprung.v", "sprung.a", "suspension.deflection", "tire.force"]
 FMI_DISCARD = 2
 

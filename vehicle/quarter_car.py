@@ -14,10 +14,15 @@ from bodyvib.models import load_network
 from bodyvib.runtime.contract import seat_point
 from bodyvib.runtime.network import Network, mount
 
-__all__ = ["CAR_DIR", "load_car", "seated_system"]
+__all__ = ["CAR_DIR", "CAR_FMU_OUTPUTS", "load_car", "seated_system"]
 
 #: Folder of the shipped vehicle parameter files.
 CAR_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
+
+#: Car FMU outputs beyond the contract's seat motion that the co-simulation
+#: master records (``seat_acceleration`` is ``sprung_acceleration``). The shipped
+#: cars declare them, in this order, in their parameter files' ``fmu_outputs``.
+CAR_FMU_OUTPUTS = ("sprung_acceleration", "suspension_deflection", "tire_force")
 
 
 def load_car(name_or_path: str = "quarter-car") -> Network:
