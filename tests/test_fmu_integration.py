@@ -81,6 +81,10 @@ class Slave:
     """fmpy FMU2Slave with captured log messages."""
 
     def __init__(self, path, name="instance", params=None, initialize=True):
+        import shutil
+        import tempfile
+        import weakref
+
         from fmpy import calloc, extract, free, read_model_description
         from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                                fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
@@ -93,7 +97,11 @@ class Slave:
             lambda env, inst, status, cat, msg: self.messages.append((status, msg.decode())))
         cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
         cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=extract(path),
+        # extracted into a folder of its own, deleted by close() (or, at the latest,
+        # when the Slave is collected or the process exits)
+        unzipdir = extract(path, unzipdir=tempfile.mkdtemp(prefix="bodyvib-test-fmu-"))
+        self._cleanup = weakref.finalize(self, shutil.rmtree, unzipdir, True)
+        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=unzipdir,
                              modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
         self.fmu.instantiate(callbacks=cb, loggingOn=True)
         if initialize:
@@ -126,8 +134,11 @@ class Slave:
         return y
 
     def close(self):
-        self.fmu.terminate()
-        self.fmu.freeInstance()
+        try:
+            self.fmu.terminate()
+            self.fmu.freeInstance()
+        finally:
+            self._cleanup()
 
 
 def smooth_seat(t):
@@ -562,7 +573,7 @@ def test_host_with_another_bodyvib_already_imported(fmus, tmp_path):
     t = np.arange(0, 0.3, 1e-3)
     x, v = smooth_seat(t)
     code = textwrap.dedent(f"""
-        import json, sys
+        import json, sys, tempfile
         sys.path.insert(0, {str(tmp_path / 'fake')!r})
         import bodyvib
         assert bodyvib.__version__ == '9.9-fake'
@@ -575,7 +586,7 @@ def test_host_with_another_bodyvib_already_imported(fmus, tmp_path):
         for path in sys.argv[2:]:
             md = read_model_description(path)
             vr = {{m.name: m.valueReference for m in md.modelVariables}}
-            fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path),
+            fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path, unzipdir=tempfile.mkdtemp(dir='.')),
                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName='host')
             fmu.instantiate()
             fmu.setupExperiment(startTime=0.0)
