@@ -11,6 +11,7 @@ from the index.
 """
 
 import os
+import shutil
 import site
 import subprocess
 import sys
@@ -24,22 +25,34 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PACKAGES = ("bodyvib", "bodyvib_cli", "fmu_src", "vehicle")
 
 
-def _package_files():
-    """Tracked (or, outside git, present) files of the packages, relative to ROOT."""
-    out = subprocess.run(["git", "ls-files", *PACKAGES], cwd=ROOT, capture_output=True, text=True)
+def _tracked(*paths):
+    """Tracked files (as in the working tree; outside git, the files present), relative to ROOT."""
+    out = subprocess.run(["git", "ls-files", *paths], cwd=ROOT, capture_output=True, text=True)
     if out.returncode == 0 and out.stdout.strip():
         files = out.stdout.split()
     else:
         files = [os.path.relpath(os.path.join(d, f), ROOT)
-                 for p in PACKAGES for d, _, fs in os.walk(os.path.join(ROOT, p)) for f in fs]
+                 for p in paths or (".",) for d, ds, fs in os.walk(os.path.join(ROOT, p))
+                 if not {".git", ".venv", "build"} & set(os.path.relpath(d, ROOT).split(os.sep))
+                 for f in fs]
     return sorted(f for f in files if "__pycache__" not in f and not f.endswith(".pyc")
                   and os.path.isfile(os.path.join(ROOT, f)))
 
 
+def _package_files():
+    return _tracked(*PACKAGES)
+
+
 @pytest.fixture(scope="module")
 def wheel(tmp_path_factory):
+    # built from a copy of the tracked files: setuptools writes build/ next to the
+    # sources, and the checkout stays untouched
+    src = tmp_path_factory.mktemp("src")
+    for f in _tracked():
+        os.makedirs(os.path.dirname(src / f), exist_ok=True)
+        shutil.copy2(os.path.join(ROOT, f), src / f)
     dest = tmp_path_factory.mktemp("wheel")
-    out = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", ROOT,
+    out = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", str(src),
                           "-w", str(dest)], capture_output=True, text=True, timeout=600,
                          cwd=str(dest))
     assert out.returncode == 0, out.stdout + out.stderr
