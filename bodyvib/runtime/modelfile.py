@@ -36,6 +36,7 @@ import math
 import os
 from typing import Dict, Union
 
+from .contract import UNITS
 from .errors import BodyvibError
 from .fileio import read_json, write_json
 from .network import ELEMENT_KINDS, Element, Network
@@ -52,8 +53,6 @@ _OPTIONAL = ("description", "provenance", "base", "nodes", "force_inputs", "role
              "fmu_outputs")
 _ELEMENT_FIELDS = ("name", "kind", "from", "to")
 _FMU_OUTPUT_FIELDS = ("name", "signal", "unit", "description")
-#: Units an FMU output may declare (the FMU contract's unit definitions).
-_OUTPUT_UNITS = ("m", "m/s", "m/s2", "N", "N/s")
 
 
 def network_from_file(path: Union[str, os.PathLike]) -> Network:
@@ -302,8 +301,8 @@ def _fmu_outputs(items, where, masses, points, element_names, roles, base):
         if not name.isidentifier() or name in names:
             raise BodyvibError(f"{w}.name '{name}' must be a unique identifier")
         names.add(name)
-        if unit not in _OUTPUT_UNITS:
-            raise BodyvibError(f"{w}.unit '{unit}' is not one of {', '.join(_OUTPUT_UNITS)}")
+        if unit not in UNITS:  # the units the FMU contract defines
+            raise BodyvibError(f"{w}.unit '{unit}' is not one of {', '.join(UNITS)}")
         point, _, quantity = signal.rpartition(".")
         point = roles.get(point, point)
         ok = (signal == f"{base}_force"
