@@ -1,7 +1,7 @@
 """The design lives in the project: references point at sections and files that exist.
 
-Code, tests and docs cite ``docs/architecture.md, "Section"``; each such section must be a
-heading of that file. Paths the README and the design name must exist in the tree, and the
+Code, tests and docs cite the design file followed by a section title in double quotes;
+each such section must be a heading of that file. Paths the README and the design name must exist in the tree, and the
 README's layout section must list every top-level entry of the repository.
 """
 
