@@ -216,11 +216,13 @@ def build_fmu(network: Network, kind: str, name: str, description: str, dest="di
             raise BodyvibError(f"pythonfmu could not build {name}.fmu (is pythonfmu installed? "
                                f"pip install pythonfmu): {' | '.join(tail)}")
         data = _finish(built, core, network)
+        checked = Path(tmp) / f"{name}.fmu"  # validated before it may replace a good FMU
+        checked.write_bytes(data)
+        problems = _validate(checked)
     target = dest / f"{name}.fmu"
-    atomic_write_bytes(target, data)
-    problems = _validate(target)
     if problems:
         raise BodyvibError(f"{target}: fmpy validate found problems: " + "; ".join(problems))
+    atomic_write_bytes(target, data)
     return target
 
 

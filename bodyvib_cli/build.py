@@ -1,13 +1,19 @@
 """``bodyvib build`` (and ``python build_fmu.py``): build the project's FMUs into dist/."""
 
+import os
 import sys
 
+from bodyvib.runtime.fileio import check_outputs
 from vehicle.fmus import FMUS, build_fmus
 
 __all__ = ["add_command", "main"]
 
 
 def _run(args) -> int:
+    inputs = [("--params", args.params)] if args.params and os.path.isfile(args.params) else []
+    check_outputs([("--dest", args.dest, None, True)]
+                  + [(f"--dest {n}.fmu", os.path.join(args.dest, f"{n}.fmu"), None)
+                     for n in (args.fmus or FMUS)], inputs)
     build_fmus(args.dest, args.params, names=args.fmus, echo=print)
     return 0
 

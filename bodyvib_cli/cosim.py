@@ -14,7 +14,7 @@ import sys
 
 from bodyvib.models import load_model
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib.runtime.fileio import write_json
+from bodyvib.runtime.fileio import check_outputs, staged_writes, write_json
 from vehicle.check import compare
 from vehicle.cosim import write_csv
 from vehicle.fmus import build_fmus, temporary_fmu_dir
@@ -23,7 +23,25 @@ from vehicle.quarter_car import load_car
 from vehicle.report import format_report, study_json
 from vehicle.study import check_settings, run_study
 
+from .outputs import CSV_EXTENSIONS, JSON_EXTENSIONS, PLOT_EXTENSIONS
+
 __all__ = ["add_command"]
+
+
+def _check_options(args):
+    """Refuse options that would be silently ignored, and outputs that cannot be written."""
+    if args.body is not None and args.params is not None:
+        raise BodyvibError("--params bakes a parameter file into the HumanBody3DOF.fmu built for "
+                           "the run; with --body FMU it would be ignored: give one of them")
+    if args.car_fmu is not None and args.car is not None:
+        raise BodyvibError("--car chooses the model of the QuarterCar.fmu built for the run; with "
+                           "--car-fmu FMU it would be ignored: give one of them")
+    inputs = [("--body", args.body), ("--car-fmu", args.car_fmu),
+              ("--iso-body", getattr(args, "iso_body", None)), ("--params", args.params),
+              ("--car", args.car)]
+    check_outputs([("--json", args.json, JSON_EXTENSIONS), ("--plot", args.plot, PLOT_EXTENSIONS),
+                   ("--csv", args.csv, CSV_EXTENSIONS)],
+                  inputs=[(o, p) for o, p in inputs if p is not None and os.path.isfile(p)])
 
 
 def _fmus(args, want_iso: bool):
@@ -43,14 +61,15 @@ def _fmus(args, want_iso: bool):
     if "HumanBody3DOF" in need and args.params:
         load_model(args.params)
     if "QuarterCar" in need:
-        load_car(args.car)
+        load_car(args.car or "quarter-car")
     tmp, built = None, {}
     if need:
         tmp = temporary_fmu_dir()
         if not args.quiet:
             print(f"building {', '.join(need)} into {tmp}", file=sys.stderr, flush=True)
         try:
-            built = {n: str(p) for n, p in build_fmus(tmp, args.params, args.car, need).items()}
+            built = {n: str(p) for n, p in build_fmus(tmp, args.params, args.car or "quarter-car",
+                                                       need).items()}
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
             raise
@@ -66,12 +85,17 @@ def _label(path, default):
 
 
 def _write_outputs(args, study, comparison):
+    with staged_writes() as written:  # all outputs or none
+        _stage_outputs(args, study, comparison)
+    for path in written.paths:
+        print(f"wrote {path}")
+
+
+def _stage_outputs(args, study, comparison):
     if args.json:
         write_json(args.json, study_json(study, comparison))
-        print(f"wrote {args.json}")
     if args.plot:
         plot_study(study, args.plot, comparison)
-        print(f"wrote {args.plot}")
     if args.csv:
         cols = {"time": study["time"], "road_displacement": study["road_displacement"],
                 "road_velocity": study["road_velocity"]}
@@ -88,10 +112,10 @@ def _write_outputs(args, study, comparison):
                 cols[f"{label}.reference_head_acceleration" if many
                      else "reference_head_acceleration"] = b["reference"]["head_acceleration"]
         write_csv(args.csv, cols)
-        print(f"wrote {args.csv}")
 
 
 def _run(args, want_iso):
+    _check_options(args)
     check_settings(args.road, args.speed, args.duration, args.step, args.seed)  # before building
     body, iso, car, tmp = _fmus(args, want_iso)
     try:
@@ -128,7 +152,7 @@ def _common(p):
     p.add_argument("--params", metavar="FILE",
                    help="body parameter file baked into the default HumanBody3DOF.fmu "
                    "(default: the paper's Table 2)")
-    p.add_argument("--car", default="quarter-car", metavar="MODEL",
+    p.add_argument("--car", metavar="MODEL",
                    help="vehicle model for the default QuarterCar.fmu: 'quarter-car', "
                    "'quarter-car-cushion' or a parameter file (default quarter-car)")
     p.add_argument("--car-fmu", metavar="FMU", help="a car FMU instead of building QuarterCar.fmu")

@@ -107,6 +107,38 @@ def _check_interface(md, path, kind):
         raise BodyvibError(f"FMU '{path}' is not a co-simulation FMU (FMI 2.0 CS needed)")
 
 
+def _check_tree(unzipdir, md, path):
+    """Refuse an extracted FMU that lacks what its binary loads at instantiation.
+
+    pythonfmu's binary reads ``resources/slavemodule.txt`` and imports the module it
+    names from ``resources/``; without them it crashed the host (a segfault) instead
+    of failing ``fmi2Instantiate``.
+    """
+    import platform
+
+    system = {"Linux": "linux", "Windows": "win", "Darwin": "darwin"}.get(platform.system(), "")
+    ext = {"linux": ".so", "win": ".dll", "darwin": ".dylib"}.get(system, "")
+    binary = os.path.join(unzipdir, "binaries", f"{system}64",
+                          md.coSimulation.modelIdentifier + ext)
+    if not os.path.isfile(binary):
+        raise BodyvibError(f"FMU '{path}' has no binary for this platform "
+                           f"(binaries/{system}64/{md.coSimulation.modelIdentifier}{ext})")
+    if not (md.generationTool or "").startswith("PythonFMU"):
+        return
+    resources = os.path.join(unzipdir, "resources")
+    listing = os.path.join(resources, "slavemodule.txt")
+    try:
+        with open(listing, encoding="utf-8") as f:
+            module = f.read().strip()
+    except OSError:
+        raise BodyvibError(f"FMU '{path}' is incomplete: no resources/slavemodule.txt (a "
+                           "pythonfmu FMU needs its resources folder); rebuild it") from None
+    if not module or not any(os.path.isfile(os.path.join(resources, module + e))
+                             for e in (".py", "")):
+        raise BodyvibError(f"FMU '{path}' is incomplete: resources/{module or '?'}.py (its "
+                           "slave script) is missing; rebuild it")
+
+
 @contextlib.contextmanager
 def open_fmu(path, kind: str, instance_name: Optional[str] = None):
     """Instantiate and initialize an FMU of the body or car interface.
@@ -127,7 +159,8 @@ def open_fmu(path, kind: str, instance_name: Optional[str] = None):
     ------
     BodyvibError
         Missing file, not an FMI 2.0 co-simulation FMU, missing interface
-        variables, or a failure to instantiate or initialize.
+        variables, no binary for this platform, a pythonfmu FMU without its
+        resources, or a failure to instantiate or initialize.
     """
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave
@@ -145,6 +178,7 @@ def open_fmu(path, kind: str, instance_name: Optional[str] = None):
     unzipdir = extract(path, unzipdir=tempfile.mkdtemp(prefix="bodyvib-fmu-"))
     fmu = None
     try:
+        _check_tree(unzipdir, md, path)
         fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
                         modelIdentifier=md.coSimulation.modelIdentifier,
                         instanceName=instance_name or kind)
@@ -152,11 +186,13 @@ def open_fmu(path, kind: str, instance_name: Optional[str] = None):
         fmu.setupExperiment(startTime=0.0)
         fmu.enterInitializationMode()
         fmu.exitInitializationMode()
-    except Exception as exc:
+    except BaseException as exc:
         if fmu is not None:
             with contextlib.suppress(Exception):
                 fmu.freeInstance()
         shutil.rmtree(unzipdir, ignore_errors=True)
+        if isinstance(exc, BodyvibError) or not isinstance(exc, Exception):
+            raise
         raise BodyvibError(f"FMU '{path}' failed to initialize: {exc}") from None
     slave = Slave(fmu, {v.name: v.valueReference for v in md.modelVariables}, path, unzipdir)
     try:

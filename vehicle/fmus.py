@@ -12,6 +12,7 @@ from typing import Dict, Iterable, Optional
 from bodyvib.fmu_build import build_fmu
 from bodyvib.models import load_model
 from bodyvib.runtime.errors import BodyvibError
+from bodyvib.runtime.fileio import staged_writes
 
 from .quarter_car import load_car
 
@@ -122,9 +123,11 @@ def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-ca
     for n in names:  # refuse a bad model before building anything
         load_fmu_model(n, chosen.get(n))
     out = {}
-    for n in names:
-        out[n] = build_project_fmu(n, dest, chosen.get(n))
-        if echo:
+    with staged_writes():  # all FMUs or none: a failed build leaves the folder as it was
+        for n in names:
+            out[n] = build_project_fmu(n, dest, chosen.get(n))
+    if echo:
+        for n in names:
             echo(f"wrote {out[n]} (model {chosen.get(n) or FMUS[n][1]}; fmpy validate: no problems)")
     return out
 
