@@ -28,8 +28,8 @@ from typing import Dict, List, Optional
 import numpy as np
 
 from .comfort import WK_PARAMETERS, comfort_category
-from .discretize import discretize
-from .errors import BodyvibError
+from .runtime.discretize import discretize
+from .runtime.errors import BodyvibError
 
 __all__ = ["wk_statespace", "WkFilter", "ComfortStream", "stream_comfort_figures"]
 
