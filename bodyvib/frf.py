@@ -7,8 +7,9 @@ ISO 7962's data, with each model's resonance peaks.
 
 import numpy as np
 
-from .runtime.errors import BodyvibError
 from .frequency import find_peaks, transmissibility
+from .limits import require_memory
+from .runtime.errors import BodyvibError
 from .models import load_model
 
 __all__ = [
@@ -22,6 +23,11 @@ __all__ = [
 #: One-third-octave centre frequencies of ISO 7962's range, Hz.
 THIRD_OCTAVE_HZ = (0.5, 0.63, 0.8, 1.0, 1.25, 1.6, 2.0, 2.5, 3.15, 4.0, 5.0, 6.3,
                    8.0, 10.0, 12.5, 16.0, 20.0, 25.0, 31.5)
+
+#: Working memory per frequency point and model in :func:`compare_transmissibility`,
+#: bytes: the complex response, modulus and phase arrays, the two lists of Python floats,
+#: the JSON text and the plot's copies (measured peak RSS of 1e6 points: about 150 B).
+BYTES_PER_POINT = 200
 
 #: Models compared by default.
 DEFAULT_MODELS = ("reduced-paper", "iso7962")
@@ -64,9 +70,13 @@ def compare_transmissibility(models=DEFAULT_MODELS, f_min=0.5, f_max=31.5, point
             f"frequency range must satisfy 0 < fmin < fmax < inf with at least 10 points; "
             f"got fmin={f_min}, fmax={f_max}, points={points}"
         )
+    nets = [(m, load_model(m) if isinstance(m, str) else m) for m in models]
+    # per point and model: complex T, modulus, phase, and each as a list of Python floats
+    require_memory(points * (16 + len(nets) * BYTES_PER_POINT), f"{points} frequency points "
+                   f"for {len(nets)} model(s)", "use fewer points (--points; 1200 resolve "
+                   "every peak of the shipped models)")
     f = np.geomspace(f_min, f_max, points)
     out = {"frequency_hz": f.tolist(), "models": {}}
-    nets = [(m, load_model(m) if isinstance(m, str) else m) for m in models]
     for (m, net), label in zip(nets, _labels(nets)):
         T = transmissibility(net, f)
         if not np.all(np.isfinite(T)):

@@ -116,7 +116,8 @@ def _stage_outputs(args, study, comparison):
 
 def _run(args, want_iso):
     _check_options(args)
-    check_settings(args.road, args.speed, args.duration, args.step, args.seed)  # before building
+    check_settings(args.road, args.speed, args.duration, args.step, args.seed,  # before building
+                   bodies=2 if want_iso else 1)
     body, iso, car, tmp = _fmus(args, want_iso)
     try:
         bodies = {_label(body, "body"): body}

@@ -109,3 +109,18 @@ def test_fmu_without_its_resources_is_refused_not_a_segfault(built, tmp_path, dr
              str(built / "QuarterCar.fmu"), cwd=tmp_path)
     _one_line_error(p, words)
     assert not [f for f in os.listdir(tmp_path) if f.startswith("core")]
+
+
+@pytest.mark.parametrize("command, args, words", [
+    ("frf", ["--points", "100000000"], "100000000 frequency points for 2 model(s) needs about"),
+    ("cosim", ["--duration", "1e9"], "(1e+12 steps, 1 body/bodies) needs about"),
+    ("cosim", ["--speed", "1e300"], "harmonics) needs about"),
+    ("cosim", ["--road", "bump", "--duration", "1e9"], "steps, 1 body/bodies) needs about"),
+    ("check", ["--road", "bump", "--duration", "1e8"], "2 body/bodies) needs about"),
+])
+def test_sizes_beyond_memory_are_refused_up_front_naming_the_limit(tmp_path, command, args, words):
+    """frf --points 1e8 took 22 GB and a traceback, 1e9 met the OOM killer; cosim --duration 1e9
+    and --speed 1e300 gave tracebacks."""
+    p = _cli(command, *args, cwd=tmp_path)
+    _one_line_error(p, words)
+    assert "the limit is" in p.stderr and "half the memory available" in p.stderr

@@ -32,6 +32,7 @@ from typing import Tuple
 
 import numpy as np
 
+from bodyvib.limits import require_memory
 from bodyvib.runtime.errors import BodyvibError
 
 __all__ = [
@@ -52,6 +53,10 @@ __all__ = [
 ISO8608_CLASSES = "ABCDEFGH"
 #: Reference spatial frequency of ISO 8608, cycle/m.
 N0 = 0.1
+#: Working memory per harmonic of a random road, bytes: its index, frequency, amplitude
+#: and phase, the complex amplitudes and the chirp-z transform's padded buffers.
+BYTES_PER_HARMONIC = 200
+
 #: Band of spatial frequencies synthesized by default, cycle/m (ISO 8608's).
 N_BAND = (0.011, 2.83)
 
@@ -242,6 +247,9 @@ def random_road(road_class: str = "C", length: float = 600.0, seed: int = 0,
     if not (0 < lo < hi):
         raise BodyvibError(f"spatial-frequency band must satisfy 0 < low < high, got {band}")
     dn = 1.0 / length
+    count = (hi - lo) * length
+    require_memory(count * BYTES_PER_HARMONIC, f"an ISO 8608 road of {length:.4g} m "
+                   f"({count:.3g} harmonics)", "shorten the run (--duration) or lower --speed")
     i = np.arange(max(1, math.ceil(lo / dn)), math.floor(hi / dn) + 1)
     if i.size == 0:
         raise BodyvibError(f"a {length:g} m road holds no harmonic in {lo}-{hi} cycle/m; "

@@ -20,6 +20,7 @@ import numpy as np
 
 from bodyvib.comfort import ComfortFigures, comfort_figures
 from bodyvib.estimate import TransmissibilityEstimate, estimate_transmissibility
+from bodyvib.limits import require_memory
 from bodyvib.runtime.errors import BodyvibError
 
 from .cosim import cosimulate, model_from_fmu, open_fmu
@@ -134,13 +135,21 @@ def _say(msg, quiet):
         print(msg, file=sys.stderr, flush=True)
 
 
-def check_settings(road: str, speed: float, duration: float, step: float, seed: int = 0):
+#: Working memory of a study per communication step and body, bytes: every signal of the
+#: co-simulation and of the reference kept at full length (measured about 0.6 kB).
+BYTES_PER_STEP = 800
+
+
+def check_settings(road: str, speed: float, duration: float, step: float, seed: int = 0,
+                   bodies: int = 1):
     """Validate run settings before any work is done; returns the road.
 
     Parameters
     ----------
     road, speed, duration, step, seed
         As :func:`run_study`.
+    bodies : int
+        Number of bodies the study will run (for its memory estimate).
 
     Returns
     -------
@@ -150,7 +159,8 @@ def check_settings(road: str, speed: float, duration: float, step: float, seed: 
     ------
     BodyvibError
         A speed, duration or step that is not a positive number, a step longer
-        than half the duration, an unknown road, or a negative seed.
+        than half the duration, an unknown road, a negative seed, or a run
+        (or a road) too long for the memory at hand.
     """
     for value, what, unit in ((speed, "speed", "m/s"), (duration, "duration", "s"),
                               (step, "step", "s")):
@@ -159,6 +169,10 @@ def check_settings(road: str, speed: float, duration: float, step: float, seed: 
     if step > duration / 2:
         raise BodyvibError(f"step {step:g} s is too long for a {duration:g} s run; use a step "
                            "of at most half the duration")
+    steps = duration / step + 1
+    require_memory(steps * BYTES_PER_STEP * max(1, bodies),
+                   f"a {duration:g} s run at a {step:g} s step ({steps:.3g} steps, "
+                   f"{max(1, bodies)} body/bodies)", "shorten --duration or lengthen --step")
     return make_road(road, speed, duration, seed=seed)
 
 
@@ -204,7 +218,7 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
     BodyvibError
         Bad settings, missing or unsuitable FMUs.
     """
-    rd = check_settings(road, speed, duration, step, seed)
+    rd = check_settings(road, speed, duration, step, seed, bodies=len(body_fmus))
     n = int(round(duration / step)) + 1
     t = np.arange(n) * step
     z, v = road_input(rd, speed, t)
