@@ -258,7 +258,8 @@ class FmuCore:
             raise BodyvibError(self._init_error or f"{self.name}: do_step before initialization; "
                                "call fmi2ExitInitializationMode first")
         if h != self._h:
-            M = self._step_matrix(h)
+            with np.errstate(all="ignore"):  # an overflow is refused below, not warned about
+                M = self._step_matrix(h)
             if not np.all(np.isfinite(M)):
                 self._steps.pop(h, None)
                 raise BodyvibError(f"{self.name}: a step of {h!r} s overflows the exact "
