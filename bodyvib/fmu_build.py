@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import Dict, Iterable
 from xml.etree import ElementTree as ET
 
-from . import __version__
+from . import __version__, interrupts
 from .runtime.errors import BodyvibError
 from .runtime.contract import MODEL_FILE, UNITS
 from .runtime.fileio import atomic_write_bytes
@@ -210,6 +210,7 @@ def build_fmu(network: Network, kind: str, name: str, description: str, dest="di
                "-d", str(out), "--no-external-tool", "--handle-state", "--serialize-state",
                str(pkg), str(stage / MODEL_FILE)]
         proc = subprocess.run(cmd, cwd=tmp, capture_output=True, text=True)
+        interrupts.check()  # Ctrl-C reached pythonfmu's process too: not a build failure
         built = out / f"{name}.fmu"
         if proc.returncode != 0 or not built.is_file():
             tail = (proc.stderr or proc.stdout).strip().splitlines()[-3:]

@@ -13,6 +13,7 @@ from typing import List, Sequence
 
 import numpy as np
 
+from . import interrupts
 from .runtime.errors import BodyvibError
 from .runtime.network import as_linear_model
 
@@ -106,6 +107,7 @@ def frequency_response(model, frequencies_hz, output: str) -> np.ndarray:
     n = lm.A.shape[0]
     out = np.empty(s.shape, dtype=complex)
     for a in range(0, s.size, _CHUNK):  # (chunk, n, n) at a time: memory independent of nf
+        interrupts.check()
         sc = s[a:a + _CHUNK]
         rhs = lm.B[:, 0][None, :] + sc[:, None] * lm.B[:, 1][None, :]  # (nf, n)
         lhs = sc[:, None, None] * np.eye(n)[None] - lm.A[None]

@@ -14,6 +14,7 @@ import sys
 
 from bodyvib.models import load_model
 from bodyvib.runtime.errors import BodyvibError
+from bodyvib import interrupts
 from bodyvib.runtime.fileio import check_outputs, staged_writes, write_json
 from vehicle.check import compare
 from vehicle.cosim import write_csv
@@ -85,8 +86,9 @@ def _label(path, default):
 
 
 def _write_outputs(args, study, comparison):
-    with staged_writes() as written:  # all outputs or none
+    with staged_writes(guard=interrupts.critical) as written:  # all outputs or none
         _stage_outputs(args, study, comparison)
+        interrupts.check()  # Ctrl-C while rendering: discard, keep the old files
     for path in written.paths:
         print(f"wrote {path}")
 

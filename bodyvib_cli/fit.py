@@ -7,6 +7,7 @@ from bodyvib.fit_objective import measured_target, model_target
 from bodyvib.fit_result import write_parameter_file
 from bodyvib.fit_search import fit
 from bodyvib.runtime.errors import BodyvibError
+from bodyvib import interrupts
 from bodyvib.runtime.fileio import check_outputs, staged_writes
 
 from .outputs import JSON_EXTENSIONS, PLOT_EXTENSIONS
@@ -67,12 +68,13 @@ def _run(args):
     log(f"fitting the reduced model to {target.description}; total mass pinned to "
         f"{target.total_mass:g} kg; seed {args.seed}")
     result = fit(target, cfg, seed=args.seed, polish=args.polish, progress=not args.quiet)
-    with staged_writes() as written:  # the parameter file and the report: all or none
+    with staged_writes(guard=interrupts.critical) as written:  # the parameter file and the report: all or none
         net = write_parameter_file(result, args.out, command=_command_line(args))
         if args.report:
             from bodyvib.fit_report import write_report
 
             write_report(args.report, result, net)
+        interrupts.check()  # Ctrl-C while rendering: discard, keep the old files
     log(f"objective J: Table 2 {result.objective_table2:.6g} 1/s, refit "
         f"{result.objective:.6g} 1/s ({result.objective / result.objective_table2:.1%} of "
         f"Table 2; GA {result.ga_objective:.6g} before polish), {result.evaluations} "

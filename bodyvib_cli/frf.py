@@ -3,6 +3,7 @@
 import os
 
 from bodyvib.frf import DEFAULT_MODELS, compare_transmissibility, format_table, plot_transmissibility
+from bodyvib import interrupts
 from bodyvib.runtime.fileio import check_outputs, staged_writes, write_json
 
 from .outputs import JSON_EXTENSIONS, PLOT_EXTENSIONS
@@ -15,11 +16,12 @@ def _run(args):
                   inputs=[("--models", m) for m in args.models if os.path.isfile(m)])
     result = compare_transmissibility(args.models, args.fmin, args.fmax, args.points)
     print(format_table(result))
-    with staged_writes() as written:  # all outputs or none
+    with staged_writes(guard=interrupts.critical) as written:  # all outputs or none
         if args.json:
             write_json(args.json, result)
         if args.plot:
             plot_transmissibility(result, args.plot)
+        interrupts.check()  # Ctrl-C while rendering: discard, keep the old files
     for path in written.paths:
         print(f"wrote {path}")
     return 0

@@ -41,6 +41,7 @@ from typing import Dict, Optional
 
 import numpy as np
 
+from bodyvib import interrupts
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.fileio import atomic_write_text
 
@@ -162,12 +163,21 @@ def open_fmu(path, kind: str, instance_name: Optional[str] = None):
         variables, no binary for this platform, a pythonfmu FMU without its
         resources, or a failure to instantiate or initialize.
     """
-    from fmpy import extract, read_model_description
-    from fmpy.fmi2 import FMU2Slave
-
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise BodyvibError(f"FMU file '{path}' does not exist")
+    # from instantiation to freeInstance, a second Ctrl-C stays deferred too: a
+    # KeyboardInterrupt inside the FMU's Python code is fmi2Fatal and a double free
+    with interrupts.critical():
+        with _instantiated(path, kind, instance_name) as slave:
+            yield slave
+
+
+@contextlib.contextmanager
+def _instantiated(path, kind, instance_name):
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
     try:
         md = read_model_description(path)
     except Exception as exc:
@@ -285,7 +295,7 @@ def cosimulate(car: Slave, body: Slave, road_displacement, road_velocity, step: 
     F, a1, x1, x2 = b_get(body_out)
     F_prev = F
     bar = _progress(n - 1, progress)
-    report = max(1, (n - 1) // 200)
+    report = min(256, max(1, (n - 1) // 200))  # progress and interrupt checks
     k = 0
     try:
         for k in range(n - 1):
@@ -306,8 +316,11 @@ def cosimulate(car: Slave, body: Slave, road_displacement, road_velocity, step: 
             b_set(body_in, [xn, vn])
             F_prev = F
             F, a1, x1, x2 = b_get(body_out)
-            if bar is not None and k % report == 0:
-                bar.update(min(report, n - 1 - k))
+            if k % report == 0:
+                if interrupts.requested():  # a safe point: no FMU call is running
+                    raise KeyboardInterrupt
+                if bar is not None:
+                    bar.update(min(report, n - 1 - k))
         k = n - 1
         c_set(car_in, [zl[k], vl[k], F] + ([0.0] if has_rate else []))
         rows[k] = list(c_get(car_out)) + [a1, x1, x2, F]

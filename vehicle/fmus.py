@@ -9,6 +9,7 @@ import tempfile
 from pathlib import Path
 from typing import Dict, Iterable, Optional
 
+from bodyvib import interrupts
 from bodyvib.fmu_build import build_fmu
 from bodyvib.models import load_model
 from bodyvib.runtime.errors import BodyvibError
@@ -123,9 +124,10 @@ def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-ca
     for n in names:  # refuse a bad model before building anything
         load_fmu_model(n, chosen.get(n))
     out = {}
-    with staged_writes():  # all FMUs or none: a failed build leaves the folder as it was
-        for n in names:
+    with staged_writes(guard=interrupts.critical):  # all FMUs or none: a failed (or
+        for n in names:                                 # interrupted) build keeps the old ones
             out[n] = build_project_fmu(n, dest, chosen.get(n))
+        interrupts.check()
     if echo:
         for n in names:
             echo(f"wrote {out[n]} (model {chosen.get(n) or FMUS[n][1]}; fmpy validate: no problems)")

@@ -20,6 +20,7 @@ import numpy as np
 
 from bodyvib.comfort import ComfortFigures, comfort_figures
 from bodyvib.estimate import TransmissibilityEstimate, estimate_transmissibility
+from bodyvib import interrupts
 from bodyvib.limits import require_memory
 from bodyvib.runtime.errors import BodyvibError
 
@@ -236,6 +237,7 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
             t0 = time.perf_counter()
             run = cosimulate(car, body, z, v, step, extrapolate=extrapolate, progress=progress)
             wall = time.perf_counter() - t0
+        interrupts.check()
         ref, err = None, None
         body_net = model_from_fmu(path) if reference else None
         if reference and body_net is not None and car_net is not None:
