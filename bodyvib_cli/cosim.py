@@ -17,12 +17,11 @@ from bodyvib.runtime.errors import BodyvibError
 from bodyvib import interrupts
 from bodyvib.runtime.fileio import check_outputs, staged_writes, write_json
 from vehicle.check import compare
-from vehicle.cosim import write_csv
 from vehicle.fmus import build_fmus, temporary_fmu_dir
 from vehicle.plots import plot_study
 from vehicle.quarter_car import load_car
 from vehicle.report import format_report, study_json
-from vehicle.study import check_settings, run_study
+from vehicle.study import StudyCsv, check_settings, run_study
 
 from .outputs import CSV_EXTENSIONS, JSON_EXTENSIONS, PLOT_EXTENSIONS
 
@@ -85,35 +84,17 @@ def _label(path, default):
     return base or default
 
 
-def _write_outputs(args, study, comparison):
+def _write_outputs(args, study, comparison, csv):
     with staged_writes(guard=interrupts.critical) as written:  # all outputs or none
-        _stage_outputs(args, study, comparison)
+        if args.json:
+            write_json(args.json, study_json(study, comparison))
+        if args.plot:
+            plot_study(study, args.plot, comparison)
+        if csv is not None:
+            csv.place()  # streamed during the run, staged with the others
         interrupts.check()  # Ctrl-C while rendering: discard, keep the old files
     for path in written.paths:
         print(f"wrote {path}")
-
-
-def _stage_outputs(args, study, comparison):
-    if args.json:
-        write_json(args.json, study_json(study, comparison))
-    if args.plot:
-        plot_study(study, args.plot, comparison)
-    if args.csv:
-        cols = {"time": study.time, "road_displacement": study.road_displacement,
-                "road_velocity": study.road_velocity}
-        many = len(study.bodies) > 1
-        for label, b in study.bodies.items():
-            for k, v in b.run.items():
-                if k in cols or (many and k not in ("head_acceleration", "head_displacement",
-                                                    "torso_displacement", "seat_force")):
-                    if k not in cols:
-                        cols[k] = v
-                    continue
-                cols[f"{label}.{k}" if many else k] = v
-            if b.reference is not None:
-                cols[f"{label}.reference_head_acceleration" if many
-                     else "reference_head_acceleration"] = b.reference["head_acceleration"]
-        write_csv(args.csv, cols)
 
 
 def _run(args, want_iso):
@@ -128,12 +109,18 @@ def _run(args, want_iso):
             if iso_label in bodies:
                 iso_label += "-iso"
             bodies[iso_label] = iso
-        study = run_study(bodies, car, road=args.road, speed=args.speed, duration=args.duration,
-                          step=args.step, seed=args.seed, extrapolate=not args.hold,
-                          progress=not args.quiet, quiet=args.quiet)
-        comparison = compare(study, *bodies) if want_iso else None
-        print(format_report(study, comparison))
-        _write_outputs(args, study, comparison)
+        csv = StudyCsv(args.csv, list(bodies)) if args.csv else None
+        try:
+            study = run_study(bodies, car, road=args.road, speed=args.speed,
+                              duration=args.duration, step=args.step, seed=args.seed,
+                              extrapolate=not args.hold, progress=not args.quiet,
+                              quiet=args.quiet, csv=csv)
+            comparison = compare(study, *bodies) if want_iso else None
+            print(format_report(study, comparison))
+            _write_outputs(args, study, comparison, csv)
+        finally:
+            if csv is not None:
+                csv.discard()  # no-op once placed
     finally:
         if tmp:
             shutil.rmtree(tmp, ignore_errors=True)

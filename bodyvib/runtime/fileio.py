@@ -23,7 +23,7 @@ import threading
 from .errors import BodyvibError
 
 __all__ = ["atomic_write_text", "atomic_write_bytes", "write_json", "read_json",
-           "staged_writes", "StagedWrites", "open_staged", "check_output_path",
+           "staged_writes", "StagedWrites", "open_staged", "PendingFile", "check_output_path",
            "check_outputs"]
 
 _KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
@@ -180,6 +180,68 @@ def open_staged(path, mode: str = "w", encoding: str = "utf-8"):
             raise _oserror(exc, path) from exc
         raise
     _place(tmp, real, path)
+
+
+class PendingFile:
+    """A file being written beside its destination, placed there by :meth:`place`.
+
+    For outputs streamed during a long computation (a CSV of a co-simulation): the
+    content goes to a temporary file beside ``path`` and replaces ``path`` only when
+    :meth:`place` is called (inside :func:`staged_writes`, with the block's other
+    outputs); :meth:`discard` (or leaving a ``with`` block by an exception) deletes it.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Destination (the rules of :func:`atomic_write_bytes`).
+    mode : str
+        ``"w"`` (text, UTF-8, no newline translation) or ``"wb"``.
+
+    Attributes
+    ----------
+    file : file object
+        Where to write.
+    """
+
+    def __init__(self, path, mode: str = "w"):
+        self.path = os.fspath(path)
+        self._real, keep = _destination(self.path)
+        try:
+            fd, self._tmp = _temporary(self._real, keep)
+        except OSError as exc:
+            raise _oserror(exc, self.path) from exc
+        self.file = os.fdopen(fd, mode, **({} if "b" in mode else {"encoding": "utf-8",
+                                                                    "newline": ""}))
+
+    def place(self) -> None:
+        """Flush, close and rename the file onto its destination (or stage it)."""
+        try:
+            self.file.flush()
+            os.fsync(self.file.fileno())
+            self.file.close()
+        except BaseException as exc:
+            self.discard()
+            if isinstance(exc, OSError):
+                raise _oserror(exc, self.path) from exc
+            raise
+        _place(self._tmp, self._real, self.path)
+        self._tmp = None
+
+    def discard(self) -> None:
+        """Close and delete the file; the destination keeps its old content."""
+        with contextlib.suppress(OSError):
+            self.file.close()
+        if self._tmp is not None:
+            _unlink(self._tmp)
+            self._tmp = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        if exc_type is not None or self._tmp is not None:
+            self.discard()
+        return False
 
 
 class StagedWrites:
