@@ -44,6 +44,24 @@ def _check_options(args):
                   inputs=[(o, p) for o, p in inputs if p is not None and os.path.isfile(p)])
 
 
+#: CSV bytes per communication point and body: 9 to 13 columns of up to 17 characters.
+CSV_BYTES_PER_ROW = 220
+
+
+def _check_disk(path, rows):
+    """Refuse a CSV the disk cannot hold, before the run."""
+    from bodyvib.limits import format_bytes
+
+    folder = os.path.dirname(os.path.abspath(path))
+    while not os.path.isdir(folder):
+        folder = os.path.dirname(folder)
+    need, free = rows * CSV_BYTES_PER_ROW, shutil.disk_usage(folder).free
+    if need > free:
+        raise BodyvibError(f"--csv '{path}': {rows:.3g} rows need about {format_bytes(need)} of "
+                           f"disk, {format_bytes(free)} free there: shorten the run or write "
+                           "the CSV elsewhere")
+
+
 def _fmus(args, want_iso: bool):
     """Paths of (reduced body, ISO body or None, car) and a temporary folder to delete."""
     for opt in ("body", "car_fmu", "iso_body"):
@@ -101,6 +119,8 @@ def _run(args, want_iso):
     _check_options(args)
     check_settings(args.road, args.speed, args.duration, args.step, args.seed,  # before building
                    bodies=2 if want_iso else 1)
+    if args.csv:
+        _check_disk(args.csv, (args.duration / args.step + 1) * (2 if want_iso else 1))
     body, iso, car, tmp = _fmus(args, want_iso)
     try:
         bodies = {_label(body, "body"): body}

@@ -176,13 +176,18 @@ def _say(msg, quiet):
         print(msg, file=sys.stderr, flush=True)
 
 
-#: Working memory of a study per communication step and body, bytes: every signal of the
-#: co-simulation and of the reference kept at full length (measured about 0.6 kB).
+#: Memory per communication step and body of a study that keeps its histories
+#: (``run_study(..., histories=True)``), bytes: every signal of the co-simulation and of
+#: the reference at full length (measured about 0.6 kB). A streamed study needs none.
 BYTES_PER_STEP = 800
+
+#: Most communication points of one run: 1e9 is 11.6 simulated days at 1 ms, about 9 hours
+#: of wall time per body at the master's 30 us per macro-step.
+MAX_STEPS = 1e9
 
 
 def check_settings(road: str, speed: float, duration: float, step: float, seed: int = 0,
-                   bodies: int = 1):
+                   bodies: int = 1, histories: bool = False):
     """Validate run settings before any work is done; returns the road.
 
     Parameters
@@ -191,6 +196,8 @@ def check_settings(road: str, speed: float, duration: float, step: float, seed: 
         As :func:`run_study`.
     bodies : int
         Number of bodies the study will run (for its memory estimate).
+    histories : bool
+        The study keeps its histories (memory grows with the run).
 
     Returns
     -------
@@ -211,9 +218,15 @@ def check_settings(road: str, speed: float, duration: float, step: float, seed: 
         raise BodyvibError(f"step {step:g} s is too long for a {duration:g} s run; use a step "
                            "of at most half the duration")
     steps = duration / step + 1
-    require_memory(steps * BYTES_PER_STEP * max(1, bodies),
-                   f"a {duration:g} s run at a {step:g} s step ({steps:.3g} steps, "
-                   f"{max(1, bodies)} body/bodies)", "shorten --duration or lengthen --step")
+    if steps > MAX_STEPS:
+        raise BodyvibError(f"a {duration:g} s run at a {step:g} s step has {steps:.3g} "
+                           f"communication points; the limit is {MAX_STEPS:.3g} (about 9 hours "
+                           "of wall time per body): shorten --duration or lengthen --step")
+    if histories:
+        require_memory(steps * BYTES_PER_STEP * max(1, bodies),
+                       f"a {duration:g} s run at a {step:g} s step ({steps:.3g} steps, "
+                       f"{max(1, bodies)} body/bodies) with its histories",
+                       "shorten the run or do not keep the histories")
     return make_road(road, speed, duration, seed=seed)
 
 
@@ -270,7 +283,8 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
     BodyvibError
         Bad settings, missing or unsuitable FMUs.
     """
-    rd = check_settings(road, speed, duration, step, seed, bodies=len(body_fmus))
+    rd = check_settings(road, speed, duration, step, seed, bodies=len(body_fmus),
+                        histories=histories)
     n = int(round(duration / step)) + 1
     fs = 1.0 / step
     labels = list(body_fmus)
