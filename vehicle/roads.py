@@ -53,9 +53,10 @@ __all__ = [
 ISO8608_CLASSES = "ABCDEFGH"
 #: Reference spatial frequency of ISO 8608, cycle/m.
 N0 = 0.1
-#: Working memory per harmonic of a random road, bytes: its index, frequency, amplitude
-#: and phase, the complex amplitudes and the chirp-z transform's padded buffers.
-BYTES_PER_HARMONIC = 200
+#: Memory per harmonic of a random road, bytes: its index, frequency, amplitude and phase
+#: while it is made, then frequency, amplitude, phase and the weights of an evaluation (the
+#: chirp-z transform works through the harmonics 16384 at a time).
+BYTES_PER_HARMONIC = 64
 
 #: Band of spatial frequencies synthesized by default, cycle/m (ISO 8608's).
 N_BAND = (0.011, 2.83)
@@ -159,6 +160,7 @@ class RandomRoad(Road):
     info: dict = field(default_factory=dict)
 
     _CHUNK = 2048
+    _HARMONICS = 16384
 
     def _sum(self, x, derivative: bool) -> np.ndarray:
         x = np.asarray(x, dtype=float)
@@ -184,14 +186,21 @@ class RandomRoad(Road):
         """
         from scipy.signal import czt
 
-        c = weights * np.exp(1j * (self.phase + 2 * np.pi * self.n * x0))
-        if derivative:
-            c = 1j * c
         step = dx / self.length
-        i0 = round(self.n[0] * self.length)
         j = np.arange(count)
-        sums = czt(c, m=count, w=np.exp(2j * np.pi * step), a=1.0)
-        return np.real(np.exp(2j * np.pi * ((i0 * step * j) % 1.0)) * sums)
+        out = np.zeros(count)
+        # harmonics a chunk at a time: the transform's buffers stay (chunk + count) long
+        # however long the road (a run's length sets the number of harmonics)
+        for a in range(0, self.n.size, self._HARMONICS):
+            n = self.n[a:a + self._HARMONICS]
+            c = weights[a:a + self._HARMONICS] * np.exp(
+                1j * (self.phase[a:a + self._HARMONICS] + 2 * np.pi * n * x0))
+            if derivative:
+                c = 1j * c
+            i0 = round(n[0] * self.length)
+            sums = czt(c, m=count, w=np.exp(2j * np.pi * step), a=1.0)
+            out += np.real(np.exp(2j * np.pi * ((i0 * step * j) % 1.0)) * sums)
+        return out
 
     def displacement(self, x) -> np.ndarray:
         """Profile height at distances ``x`` (m), in m."""
