@@ -183,7 +183,13 @@ class TransmissibilityStream:
         self.segments = 0
 
     def update(self, seat_acceleration, head_acceleration) -> None:
-        """Add the next samples of both signals (m/s2)."""
+        """Add the next samples of both signals.
+
+        Parameters
+        ----------
+        seat_acceleration, head_acceleration : (m,) array_like
+            The next samples, m/s2 (equal lengths).
+        """
         x = np.concatenate([self._x, np.asarray(seat_acceleration, dtype=float)])
         y = np.concatenate([self._y, np.asarray(head_acceleration, dtype=float)])
         n, hop = self.nperseg, self._hop

@@ -51,7 +51,18 @@ def available_memory() -> int:
 
 
 def format_bytes(n: float) -> str:
-    """``1.5 GB``-style text for a byte count."""
+    """``1.5 GB``-style text for a byte count.
+
+    Parameters
+    ----------
+    n : float
+        Bytes.
+
+    Returns
+    -------
+    str
+        Three significant digits and a decimal unit (kB = 1000 B).
+    """
     n = float(n)
     for unit in ("B", "kB", "MB", "GB", "TB", "PB"):
         if n < 1000 or unit == "PB":

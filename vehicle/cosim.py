@@ -475,7 +475,19 @@ class CsvStream:
         self.names = None
 
     def write(self, columns: Dict[str, np.ndarray]) -> None:
-        """Append rows: equal-length columns by name (the same names every block)."""
+        """Append rows.
+
+        Parameters
+        ----------
+        columns : dict of str to ndarray
+            Equal-length columns by name; the same names, in the same order, every block
+            (the first block writes the header).
+
+        Raises
+        ------
+        BodyvibError
+            Other column names than the first block's.
+        """
         names = list(columns)
         if self.names is None:
             self.names = names

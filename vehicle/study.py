@@ -427,11 +427,26 @@ class StudyCsv:
         self._blocks = {}
 
     def add(self, label, signals, reference):
-        """The block's signals of one body (and its reference's, or None)."""
+        """Hold one body's signals of the current block.
+
+        Parameters
+        ----------
+        label : str
+        signals : dict of str to ndarray
+            The block's :data:`vehicle.cosim.MASTER_SIGNALS`.
+        reference : dict of str to ndarray or None
+            The reference's signals of the block.
+        """
         self._blocks[label] = (signals, reference)
 
     def flush(self, t, z, v):
-        """Write the block once every body has added its signals."""
+        """Write the current block, once every body has added its signals.
+
+        Parameters
+        ----------
+        t, z, v : ndarray
+            The block's times (s), road displacement (m) and road velocity (m/s).
+        """
         many = len(self._labels) > 1
         cols = {"time": t, "road_displacement": z, "road_velocity": v}
         for label in self._labels:
