@@ -14,6 +14,7 @@ from typing import List, Optional
 
 import numpy as np
 
+from . import interrupts
 from .fit_config import load_config
 from .fit_objective import FitTarget, parameter_array
 from .fit_result import FitResult
@@ -86,6 +87,7 @@ def fit(target: FitTarget, config: Optional[dict] = None, seed: int = 1,
     evaluations = [0]
 
     def objective_of_genes(genes):
+        interrupts.check()  # Ctrl-C: every GA generation and polish step passes here
         evaluations[0] += int(np.prod(np.shape(genes)[:-1]))
         return target.objective(genes_to_parameters(genes, M))
 

@@ -37,7 +37,7 @@ from pathlib import Path
 from typing import Dict, Iterable
 from xml.etree import ElementTree as ET
 
-from . import __version__
+from . import __version__, interrupts
 from .runtime.errors import BodyvibError
 from .runtime.contract import MODEL_FILE, UNITS
 from .runtime.fileio import atomic_write_bytes
@@ -253,17 +253,20 @@ def _build(core, kind: str, name: str, description: str, resources: Dict[str, by
                "-d", str(out), "--no-external-tool", "--handle-state", "--serialize-state",
                str(pkg)] + [str(stage / fname) for fname in resources]
         proc = subprocess.run(cmd, cwd=tmp, capture_output=True, text=True)
+        interrupts.check()  # Ctrl-C reached pythonfmu's process too: not a build failure
         built = out / f"{name}.fmu"
         if proc.returncode != 0 or not built.is_file():
             tail = (proc.stderr or proc.stdout).strip().splitlines()[-3:]
             raise BodyvibError(f"pythonfmu could not build {name}.fmu (is pythonfmu installed? "
                                f"pip install pythonfmu): {' | '.join(tail)}")
         data = _finish(built, core, about)
+        checked = Path(tmp) / f"{name}.fmu"  # validated before it may replace a good FMU
+        checked.write_bytes(data)
+        problems = _validate(checked)
     target = dest / f"{name}.fmu"
-    atomic_write_bytes(target, data)
-    problems = _validate(target)
     if problems:
         raise BodyvibError(f"{target}: fmpy validate found problems: " + "; ".join(problems))
+    atomic_write_bytes(target, data)
     return target
 
 

@@ -13,6 +13,7 @@ from typing import List, Sequence
 
 import numpy as np
 
+from . import interrupts
 from .runtime.errors import BodyvibError
 from .runtime.network import as_linear_model
 
@@ -104,10 +105,19 @@ def frequency_response(model, frequencies_hz, output: str) -> np.ndarray:
     i = lm.output_index(output)
     s = 2j * np.pi * f
     n = lm.A.shape[0]
-    rhs = lm.B[:, 0][None, :] + s[:, None] * lm.B[:, 1][None, :]  # (nf, n)
-    lhs = s[:, None, None] * np.eye(n)[None] - lm.A[None]
-    x = np.linalg.solve(lhs, rhs[..., None])[..., 0]
-    return x @ lm.C[i] + lm.D[i, 0] + s * lm.D[i, 1]
+    out = np.empty(s.shape, dtype=complex)
+    for a in range(0, s.size, _CHUNK):  # (chunk, n, n) at a time: memory independent of nf
+        interrupts.check()
+        sc = s[a:a + _CHUNK]
+        rhs = lm.B[:, 0][None, :] + sc[:, None] * lm.B[:, 1][None, :]  # (nf, n)
+        lhs = sc[:, None, None] * np.eye(n)[None] - lm.A[None]
+        x = np.linalg.solve(lhs, rhs[..., None])[..., 0]
+        out[a:a + _CHUNK] = x @ lm.C[i] + lm.D[i, 0] + sc * lm.D[i, 1]
+    return out
+
+
+#: Frequencies solved at once by :func:`frequency_response`.
+_CHUNK = 4096
 
 
 def transmissibility(model, frequencies_hz, point: str = "head") -> np.ndarray:

@@ -7,8 +7,9 @@ ISO 7962's data, with each model's resonance peaks.
 
 import numpy as np
 
-from .runtime.errors import BodyvibError
 from .frequency import find_peaks, transmissibility
+from .limits import require_memory
+from .runtime.errors import BodyvibError
 from .models import load_model
 
 __all__ = [
@@ -22,6 +23,11 @@ __all__ = [
 #: One-third-octave centre frequencies of ISO 7962's range, Hz.
 THIRD_OCTAVE_HZ = (0.5, 0.63, 0.8, 1.0, 1.25, 1.6, 2.0, 2.5, 3.15, 4.0, 5.0, 6.3,
                    8.0, 10.0, 12.5, 16.0, 20.0, 25.0, 31.5)
+
+#: Working memory per frequency point and model in :func:`compare_transmissibility`,
+#: bytes: the complex response, modulus and phase arrays, the two lists of Python floats,
+#: the JSON text and the plot's copies (measured peak RSS of 1e6 points: about 150 B).
+BYTES_PER_POINT = 200
 
 #: Models compared by default.
 DEFAULT_MODELS = ("reduced-paper", "iso7962")
@@ -44,7 +50,14 @@ def compare_transmissibility(models=DEFAULT_MODELS, f_min=0.5, f_max=31.5, point
     dict
         ``{"frequency_hz": [...], "models": {NAME: {"modulus": [...],
         "phase_deg": [...], "peaks": [{"frequency_hz": F, "modulus": M}]}}}``;
-        phase unwrapped, in degrees (negative = head lags seat).
+        phase unwrapped, in degrees (negative = head lags seat). NAME is the
+        model's name; models sharing one get their file name appended.
+
+    Raises
+    ------
+    BodyvibError
+        A bad range, an unknown or invalid model, or a model whose
+        transmissibility is not finite (parameter values that overflow).
 
     Examples
     --------
@@ -57,18 +70,50 @@ def compare_transmissibility(models=DEFAULT_MODELS, f_min=0.5, f_max=31.5, point
             f"frequency range must satisfy 0 < fmin < fmax < inf with at least 10 points; "
             f"got fmin={f_min}, fmax={f_max}, points={points}"
         )
+    nets = [(m, load_model(m) if isinstance(m, str) else m) for m in models]
+    # per point and model: complex T, modulus, phase, and each as a list of Python floats
+    require_memory(points * (16 + len(nets) * BYTES_PER_POINT), f"{points} frequency points "
+                   f"for {len(nets)} model(s)", "use fewer points (--points; 1200 resolve "
+                   "every peak of the shipped models)")
     f = np.geomspace(f_min, f_max, points)
     out = {"frequency_hz": f.tolist(), "models": {}}
-    for m in models:
-        net = load_model(m) if isinstance(m, str) else m
+    for (m, net), label in zip(nets, _labels(nets)):
         T = transmissibility(net, f)
+        if not np.all(np.isfinite(T)):
+            k = int(np.argmin(np.isfinite(T)))
+            raise BodyvibError(
+                f"model '{label}': the transmissibility is not finite at {f[k]:.4g} Hz (the "
+                "parameter values overflow the computation); check the parameter file")
         mod = np.abs(T)
-        out["models"][net.name] = {
+        out["models"][label] = {
             "modulus": mod.tolist(),
             "phase_deg": np.degrees(np.unwrap(np.angle(T))).tolist(),
             "peaks": find_peaks(f, mod),
         }
     return out
+
+
+def _labels(nets):
+    """One label per model: its name, made unique by the file it came from when two share it.
+
+    Every GA refit is named ``reduced-refit-<target>``; two such files compared in one
+    call kept one curve under one key. Equal names get `` (file name)``, then ``#2``...
+    """
+    import os
+
+    names = [net.name for _, net in nets]
+    labels = []
+    for (src, net), name in zip(nets, names):
+        label = name
+        if names.count(name) > 1:
+            where = os.path.basename(os.fspath(src)) if isinstance(src, (str, os.PathLike)) else ""
+            label = f"{name} ({where})" if where and where != name else name
+        base, i = label, 2
+        while label in labels:
+            label = f"{base} #{i}"
+            i += 1
+        labels.append(label)
+    return labels
 
 
 def format_table(result, frequencies_hz=THIRD_OCTAVE_HZ) -> str:
@@ -88,8 +133,9 @@ def format_table(result, frequencies_hz=THIRD_OCTAVE_HZ) -> str:
     names = list(result["models"])
     f = np.asarray(result["frequency_hz"])
     frequencies_hz = [fq for fq in frequencies_hz if f[0] <= fq <= f[-1]]
-    head = f"{'f [Hz]':>7}" + "".join(f" | {n[:20]:>20}" for n in names)
-    sub = f"{'':>7}" + "".join(f" | {'|T| [-]':>8} {'phase[deg]':>11}" for _ in names)
+    w = max([20] + [len(n) for n in names])  # whole names: two may differ only at the end
+    head = f"{'f [Hz]':>7}" + "".join(f" | {n:>{w}}" for n in names)
+    sub = f"{'':>7}" + "".join(f" | {'|T| [-]':>{w - 12}} {'phase[deg]':>11}" for _ in names)
     lines = [head, sub, "-" * len(sub)]
     for fq in frequencies_hz:
         row = f"{fq:7.2f}"
@@ -97,7 +143,7 @@ def format_table(result, frequencies_hz=THIRD_OCTAVE_HZ) -> str:
             r = result["models"][n]
             mod = np.interp(np.log(fq), np.log(f), r["modulus"])
             ph = np.interp(np.log(fq), np.log(f), r["phase_deg"])
-            row += f" | {mod:8.3f} {ph:11.1f}"
+            row += f" | {mod:{w - 12}.3f} {ph:11.1f}"
         lines.append(row)
     lines.append("")
     for n in names:

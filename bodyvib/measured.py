@@ -11,8 +11,9 @@ The file is plain CSV with a header row naming the columns::
 (``|X_head / X_seat|``, dimensionless, not negative) are required;
 ``phase_deg`` (degrees, negative when the head lags the seat) is optional.
 Further columns are ignored; blank lines and lines starting with ``#`` are
-skipped. Every problem (a missing column, a value that is not a number, a NaN,
-a frequency that does not increase, a negative modulus, too few rows) is a
+skipped. Every problem (a missing or doubled column, a value that is not a number,
+a NaN, a frequency that does not increase, a negative modulus, one above
+:data:`MAX_MODULUS`, all moduli zero, too few rows) is a
 :class:`~bodyvib.runtime.errors.BodyvibError` naming the line and the fix.
 
 The GA refit (:mod:`bodyvib.fit_objective`) fits the reduced model to such data: to the
@@ -30,11 +31,15 @@ import numpy as np
 
 from .runtime.errors import BodyvibError
 
-__all__ = ["MIN_ROWS", "MeasuredTransmissibility", "read_transmissibility_csv",
+__all__ = ["MIN_ROWS", "MAX_MODULUS", "MeasuredTransmissibility", "read_transmissibility_csv",
            "write_transmissibility_csv"]
 
 #: Fewest data rows accepted: the reduced model has six free ratios.
 MIN_ROWS = 8
+
+#: Largest modulus accepted. A seated body's seat-to-head |T| stays below about 3; a value
+#: above this is not a transmissibility ratio (a percentage, a force, a wrong column).
+MAX_MODULUS = 100.0
 
 _REQUIRED = ("frequency_hz", "modulus")
 _OPTIONAL = ("phase_deg",)
@@ -107,9 +112,11 @@ def read_transmissibility_csv(path) -> MeasuredTransmissibility:
     Raises
     ------
     BodyvibError
-        Unreadable file, no header, a missing required column, a non-numeric
-        or non-finite value, a non-positive or non-increasing frequency, a
-        negative modulus, or fewer than :data:`MIN_ROWS` rows.
+        Unreadable file, no header, a missing required column, a column named
+        twice, a non-numeric or non-finite value, a non-positive or
+        non-increasing frequency, a negative modulus or one above
+        :data:`MAX_MODULUS`, every modulus zero, or fewer than
+        :data:`MIN_ROWS` rows.
 
     Examples
     --------
@@ -143,6 +150,11 @@ def read_transmissibility_csv(path) -> MeasuredTransmissibility:
             f"must name the columns frequency_hz, modulus and optionally phase_deg "
             f"(found: {', '.join(header) or 'nothing'})"
         )
+    twice = sorted({h for h in header if h and header.count(h) > 1})
+    if twice:
+        raise BodyvibError(f"{src}: line {lines[0][0]}: column(s) {', '.join(twice)} named more "
+                           "than once; which one holds the data is ambiguous: rename or remove "
+                           "the extra column")
     cols = {c: header.index(c) for c in _REQUIRED + _OPTIONAL if c in header}
     data = {c: [] for c in cols}
     for (lineno, _), row in zip(lines[1:], rows[1:]):
@@ -175,6 +187,19 @@ def read_transmissibility_csv(path) -> MeasuredTransmissibility:
         raise BodyvibError(
             f"{src}: line {data_lines[k]}: modulus = {mod[k]:g} is negative; the modulus "
             "|X_head/X_seat| is >= 0 (put the sign into phase_deg)"
+        )
+    big = np.nonzero(mod > MAX_MODULUS)[0]
+    if big.size:
+        k = int(big[0])
+        raise BodyvibError(
+            f"{src}: line {data_lines[k]}: modulus = {mod[k]:g} is not a plausible seat-to-head "
+            f"transmissibility (at most {MAX_MODULUS:g}; a seated body's stays below about 3): "
+            "give |X_head/X_seat| as a ratio, not in percent or dB"
+        )
+    if not np.any(mod > 0):
+        raise BodyvibError(
+            f"{src}: every modulus is 0 (the head never moves); a seat-to-head "
+            "transmissibility is about 1 at low frequency: check the modulus column"
         )
     phase = np.array(data["phase_deg"]) if "phase_deg" in data else None
     return MeasuredTransmissibility(f, mod, phase, src)

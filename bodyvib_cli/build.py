@@ -1,7 +1,9 @@
 """``bodyvib build`` (and ``python build_fmu.py``): build the project's FMUs into dist/."""
 
+import os
 import sys
 
+from bodyvib.runtime.fileio import check_outputs
 from vehicle.fmus import FMUS, ROAD_DEFAULTS, build_fmus
 from vehicle.ssp import COMPONENTS, SSP_NAME, write_ssp
 
@@ -9,10 +11,17 @@ __all__ = ["add_command", "main"]
 
 
 def _run(args) -> int:
+    inputs = [("--params", args.params)] if args.params and os.path.isfile(args.params) else []
+    names = list(args.fmus or FMUS)
+    ssp = all(name in names for name in COMPONENTS.values())
+    check_outputs([("--dest", args.dest, None, True)]
+                  + [(f"--dest {n}.fmu", os.path.join(args.dest, f"{n}.fmu"), None) for n in names]
+                  + ([(f"--dest {SSP_NAME}.ssp", os.path.join(args.dest, f"{SSP_NAME}.ssp"), None)]
+                     if ssp else []), inputs)
     road = {"road": args.road, "seed": args.road_seed, "length": args.road_length,
             "speed": args.road_speed, "taper": args.road_taper}
     built = build_fmus(args.dest, args.params, names=args.fmus, echo=print, road=road)
-    if all(name in built for name in COMPONENTS.values()):
+    if ssp:
         path = write_ssp(f"{args.dest}/{SSP_NAME}.ssp",
                          {comp: str(built[name]) for comp, name in COMPONENTS.items()})
         print(f"wrote {path} (Road -> QuarterCar <-> HumanBody3DOF, parameter set, 1 ms step)")

@@ -14,16 +14,52 @@ import sys
 
 from bodyvib.models import load_model
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib.runtime.fileio import write_json
+from bodyvib import interrupts
+from bodyvib.runtime.fileio import check_outputs, staged_writes, write_json
 from vehicle.check import compare
-from vehicle.cosim import write_csv
 from vehicle.fmus import build_fmus, temporary_fmu_dir
 from vehicle.plots import plot_study
 from vehicle.quarter_car import load_car
 from vehicle.report import format_report, study_json
-from vehicle.study import check_settings, run_study
+from vehicle.study import StudyCsv, check_settings, run_study
+
+from .outputs import CSV_EXTENSIONS, JSON_EXTENSIONS, PLOT_EXTENSIONS
 
 __all__ = ["add_command"]
+
+
+def _check_options(args):
+    """Refuse options that would be silently ignored, and outputs that cannot be written."""
+    if args.body is not None and args.params is not None:
+        raise BodyvibError("--params bakes a parameter file into the HumanBody3DOF.fmu built for "
+                           "the run; with --body FMU it would be ignored: give one of them")
+    if args.car_fmu is not None and args.car is not None:
+        raise BodyvibError("--car chooses the model of the QuarterCar.fmu built for the run; with "
+                           "--car-fmu FMU it would be ignored: give one of them")
+    inputs = [("--body", args.body), ("--car-fmu", args.car_fmu),
+              ("--iso-body", getattr(args, "iso_body", None)), ("--params", args.params),
+              ("--car", args.car)]
+    check_outputs([("--json", args.json, JSON_EXTENSIONS), ("--plot", args.plot, PLOT_EXTENSIONS),
+                   ("--csv", args.csv, CSV_EXTENSIONS)],
+                  inputs=[(o, p) for o, p in inputs if p is not None and os.path.isfile(p)])
+
+
+#: CSV bytes per communication point and body: 9 to 13 columns of up to 17 characters.
+CSV_BYTES_PER_ROW = 220
+
+
+def _check_disk(path, rows):
+    """Refuse a CSV the disk cannot hold, before the run."""
+    from bodyvib.limits import format_bytes
+
+    folder = os.path.dirname(os.path.abspath(path))
+    while not os.path.isdir(folder):
+        folder = os.path.dirname(folder)
+    need, free = rows * CSV_BYTES_PER_ROW, shutil.disk_usage(folder).free
+    if need > free:
+        raise BodyvibError(f"--csv '{path}': {rows:.3g} rows need about {format_bytes(need)} of "
+                           f"disk, {format_bytes(free)} free there: shorten the run or write "
+                           "the CSV elsewhere")
 
 
 def _fmus(args, want_iso: bool):
@@ -43,14 +79,15 @@ def _fmus(args, want_iso: bool):
     if "HumanBody3DOF" in need and args.params:
         load_model(args.params)
     if "QuarterCar" in need:
-        load_car(args.car)
+        load_car(args.car or "quarter-car")
     tmp, built = None, {}
     if need:
         tmp = temporary_fmu_dir()
         if not args.quiet:
             print(f"building {', '.join(need)} into {tmp}", file=sys.stderr, flush=True)
         try:
-            built = {n: str(p) for n, p in build_fmus(tmp, args.params, args.car, need).items()}
+            built = {n: str(p) for n, p in build_fmus(tmp, args.params, args.car or "quarter-car",
+                                                       need).items()}
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
             raise
@@ -65,34 +102,25 @@ def _label(path, default):
     return base or default
 
 
-def _write_outputs(args, study, comparison):
-    if args.json:
-        write_json(args.json, study_json(study, comparison))
-        print(f"wrote {args.json}")
-    if args.plot:
-        plot_study(study, args.plot, comparison)
-        print(f"wrote {args.plot}")
-    if args.csv:
-        cols = {"time": study.time, "road_displacement": study.road_displacement,
-                "road_velocity": study.road_velocity}
-        many = len(study.bodies) > 1
-        for label, b in study.bodies.items():
-            for k, v in b.run.items():
-                if k in cols or (many and k not in ("head_acceleration", "head_displacement",
-                                                    "torso_displacement", "seat_force")):
-                    if k not in cols:
-                        cols[k] = v
-                    continue
-                cols[f"{label}.{k}" if many else k] = v
-            if b.reference is not None:
-                cols[f"{label}.reference_head_acceleration" if many
-                     else "reference_head_acceleration"] = b.reference["head_acceleration"]
-        write_csv(args.csv, cols)
-        print(f"wrote {args.csv}")
+def _write_outputs(args, study, comparison, csv):
+    with staged_writes(guard=interrupts.critical) as written:  # all outputs or none
+        if args.json:
+            write_json(args.json, study_json(study, comparison))
+        if args.plot:
+            plot_study(study, args.plot, comparison)
+        if csv is not None:
+            csv.place()  # streamed during the run, staged with the others
+        interrupts.check()  # Ctrl-C while rendering: discard, keep the old files
+    for path in written.paths:
+        print(f"wrote {path}")
 
 
 def _run(args, want_iso):
-    check_settings(args.road, args.speed, args.duration, args.step, args.seed)  # before building
+    _check_options(args)
+    check_settings(args.road, args.speed, args.duration, args.step, args.seed,  # before building
+                   bodies=2 if want_iso else 1)
+    if args.csv:
+        _check_disk(args.csv, (args.duration / args.step + 1) * (2 if want_iso else 1))
     body, iso, car, tmp = _fmus(args, want_iso)
     try:
         bodies = {_label(body, "body"): body}
@@ -101,12 +129,18 @@ def _run(args, want_iso):
             if iso_label in bodies:
                 iso_label += "-iso"
             bodies[iso_label] = iso
-        study = run_study(bodies, car, road=args.road, speed=args.speed, duration=args.duration,
-                          step=args.step, seed=args.seed, extrapolate=not args.hold,
-                          progress=not args.quiet, quiet=args.quiet)
-        comparison = compare(study, *bodies) if want_iso else None
-        print(format_report(study, comparison))
-        _write_outputs(args, study, comparison)
+        csv = StudyCsv(args.csv, list(bodies)) if args.csv else None
+        try:
+            study = run_study(bodies, car, road=args.road, speed=args.speed,
+                              duration=args.duration, step=args.step, seed=args.seed,
+                              extrapolate=not args.hold, progress=not args.quiet,
+                              quiet=args.quiet, csv=csv)
+            comparison = compare(study, *bodies) if want_iso else None
+            print(format_report(study, comparison))
+            _write_outputs(args, study, comparison, csv)
+        finally:
+            if csv is not None:
+                csv.discard()  # no-op once placed
     finally:
         if tmp:
             shutil.rmtree(tmp, ignore_errors=True)
@@ -128,7 +162,7 @@ def _common(p):
     p.add_argument("--params", metavar="FILE",
                    help="body parameter file baked into the default HumanBody3DOF.fmu "
                    "(default: the paper's Table 2)")
-    p.add_argument("--car", default="quarter-car", metavar="MODEL",
+    p.add_argument("--car", metavar="MODEL",
                    help="vehicle model for the default QuarterCar.fmu: 'quarter-car', "
                    "'quarter-car-cushion' or a parameter file (default quarter-car)")
     p.add_argument("--car-fmu", metavar="FMU", help="a car FMU instead of building QuarterCar.fmu")

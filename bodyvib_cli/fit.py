@@ -1,10 +1,21 @@
 """``bodyvib fit``: refit the reduced model by a genetic algorithm and write a parameter file."""
 
+import os
+
 from bodyvib.fit_config import load_config, parse_pairs
 from bodyvib.fit_objective import measured_target, model_target
 from bodyvib.fit_result import write_parameter_file
 from bodyvib.fit_search import fit
 from bodyvib.runtime.errors import BodyvibError
+from bodyvib import interrupts
+from bodyvib.runtime.fileio import check_outputs, staged_writes
+
+from .outputs import JSON_EXTENSIONS, PLOT_EXTENSIONS
+
+#: Files ``--report DIR`` writes (bodyvib.fit_report.write_report).
+REPORT_FILES = (("comparison.md", None), ("comparison.json", JSON_EXTENSIONS),
+                ("transmissibility.png", PLOT_EXTENSIONS),
+                ("impulse_response.png", PLOT_EXTENSIONS))
 
 __all__ = ["add_command"]
 
@@ -27,7 +38,20 @@ def _command_line(args) -> str:
     return " ".join(parts)
 
 
+def _check_files(args):
+    inputs = [("--reference", args.reference if not args.measured else None),
+              ("--measured", args.measured), ("--config", args.config)]
+    inputs = [(o, p) for o, p in inputs if p is not None and os.path.isfile(p)]
+    outputs = [("--out", args.out, JSON_EXTENSIONS)]
+    if args.report:
+        outputs.append(("--report", args.report, None, True))
+        outputs += [(f"--report {name}", os.path.join(args.report, name), ext)
+                    for name, ext in REPORT_FILES]
+    check_outputs(outputs, inputs)
+
+
 def _run(args):
+    _check_files(args)
     cfg = load_config(args.config)
     if args.measured:
         if args.pairs:
@@ -44,7 +68,13 @@ def _run(args):
     log(f"fitting the reduced model to {target.description}; total mass pinned to "
         f"{target.total_mass:g} kg; seed {args.seed}")
     result = fit(target, cfg, seed=args.seed, polish=args.polish, progress=not args.quiet)
-    net = write_parameter_file(result, args.out, command=_command_line(args))
+    with staged_writes(guard=interrupts.critical) as written:  # the parameter file and the report: all or none
+        net = write_parameter_file(result, args.out, command=_command_line(args))
+        if args.report:
+            from bodyvib.fit_report import write_report
+
+            write_report(args.report, result, net)
+        interrupts.check()  # Ctrl-C while rendering: discard, keep the old files
     log(f"objective J: Table 2 {result.objective_table2:.6g} 1/s, refit "
         f"{result.objective:.6g} 1/s ({result.objective / result.objective_table2:.1%} of "
         f"Table 2; GA {result.ga_objective:.6g} before polish), {result.evaluations} "
@@ -52,12 +82,7 @@ def _run(args):
     log("parameters: " + ", ".join(f"{k} {v:.5g}" for k, v in result.parameters.items()))
     if result.at_bounds:
         log("at a bound of the search: " + "; ".join(result.at_bounds))
-    log(f"wrote {args.out}")
-    if args.report:
-        from bodyvib.fit_report import write_report
-
-        files = write_report(args.report, result, net)
-        log("wrote " + ", ".join(files))
+    log("wrote " + ", ".join(written.paths))
     return 0
 
 

@@ -1,20 +1,29 @@
 """``bodyvib frf``: seat-to-head transmissibility of models side by side."""
 
+import os
+
 from bodyvib.frf import DEFAULT_MODELS, compare_transmissibility, format_table, plot_transmissibility
-from bodyvib.runtime.fileio import write_json
+from bodyvib import interrupts
+from bodyvib.runtime.fileio import check_outputs, staged_writes, write_json
+
+from .outputs import JSON_EXTENSIONS, PLOT_EXTENSIONS
 
 __all__ = ["add_command"]
 
 
 def _run(args):
+    check_outputs([("--json", args.json, JSON_EXTENSIONS), ("--plot", args.plot, PLOT_EXTENSIONS)],
+                  inputs=[("--models", m) for m in args.models if os.path.isfile(m)])
     result = compare_transmissibility(args.models, args.fmin, args.fmax, args.points)
     print(format_table(result))
-    if args.json:
-        write_json(args.json, result)
-        print(f"wrote {args.json}")
-    if args.plot:
-        plot_transmissibility(result, args.plot)
-        print(f"wrote {args.plot}")
+    with staged_writes(guard=interrupts.critical) as written:  # all outputs or none
+        if args.json:
+            write_json(args.json, result)
+        if args.plot:
+            plot_transmissibility(result, args.plot)
+        interrupts.check()  # Ctrl-C while rendering: discard, keep the old files
+    for path in written.paths:
+        print(f"wrote {path}")
     return 0
 
 

@@ -2,15 +2,23 @@
 
 Each sub-command is a module of :mod:`bodyvib_cli` that registers itself through
 an ``add_command(subparsers)`` function listed in :data:`COMMAND_MODULES`. Errors a user can cause (:class:`BodyvibError`,
-unreadable files) print one line and exit with status 2, without a traceback.
+unreadable files) print one line and exit with status 2, without a traceback. Ctrl-C
+ends any command with the single line ``interrupted`` and status 130: the command runs
+inside :func:`bodyvib.interrupts.deferred`, so the interrupt is taken at a safe point,
+never inside an FMU, and outputs are committed all together or not at all.
 """
 
-import argparse
-import importlib
+import signal
 import sys
+import threading
 
-from bodyvib import __version__
-from bodyvib.runtime.errors import BodyvibError
+# SIGINTs that arrive while the modules load (before bodyvib.interrupts takes over)
+_early = []
+
+
+def _early_handler(signum, frame):
+    _early.append(signum)
+
 
 __all__ = ["COMMAND_MODULES", "main", "build_parser"]
 
@@ -23,8 +31,18 @@ COMMAND_MODULES = (
 )
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argument parser with every sub-command registered."""
+def build_parser():
+    """The argument parser with every sub-command registered.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+    """
+    import argparse
+    import importlib
+
+    from bodyvib import __version__
+
     parser = argparse.ArgumentParser(
         prog="bodyvib",
         description="Seated human-body vibration models: frequency responses, FMUs, "
@@ -43,30 +61,54 @@ def main(argv=None) -> int:
     Parameters
     ----------
     argv : list of str, optional
-        Arguments (``sys.argv[1:]`` by default).
+        Arguments (``sys.argv[1:]`` by default: the process's command line, after which
+        the process exits, so SIGINT is left ignored; with ``argv`` given, the previous
+        SIGINT handler is restored).
 
     Returns
     -------
     int
         0 on success, 2 on a user error, 130 when interrupted.
     """
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if not getattr(args, "func", None):
-        parser.print_help()
-        return 2
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, _early_handler) if main_thread else None
     try:
-        return int(args.func(args) or 0)
-    except BodyvibError as exc:
-        print(f"bodyvib {args.command}: error: {exc}", file=sys.stderr)
-        return 2
-    except OSError as exc:
-        where = f" '{exc.filename}'" if exc.filename else ""
-        print(f"bodyvib {args.command}: error:{where} {exc.strerror or exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print(f"bodyvib {args.command}: interrupted", file=sys.stderr)
-        return 130
+        from bodyvib import interrupts
+        from bodyvib.runtime.errors import BodyvibError
+    finally:
+        if main_thread:
+            signal.signal(signal.SIGINT, previous)
+    command = "bodyvib"
+    with interrupts.deferred(exiting=argv is None):  # argv None: the process's own command
+        interrupts.pending_from(len(_early))
+        _early.clear()
+        try:
+            interrupts.check()
+            parser = build_parser()
+            args = parser.parse_args(argv)
+            if not getattr(args, "func", None):
+                parser.print_help()
+                return 2
+            command = f"bodyvib {args.command}"
+            status = int(args.func(args) or 0)
+            interrupts.check()  # pressed during the last step: the outputs are all written
+            return status
+        except BodyvibError as exc:
+            if interrupts.requested():
+                print("interrupted", file=sys.stderr)
+                return 130
+            print(f"{command}: error: {exc}", file=sys.stderr)
+            return 2
+        except OSError as exc:
+            if interrupts.requested():
+                print("interrupted", file=sys.stderr)
+                return 130
+            where = f" '{exc.filename}'" if exc.filename else ""
+            print(f"{command}: error:{where} {exc.strerror or exc}", file=sys.stderr)
+            return 2
+        except KeyboardInterrupt:
+            print("interrupted", file=sys.stderr)
+            return 130
 
 
 if __name__ == "__main__":  # pragma: no cover

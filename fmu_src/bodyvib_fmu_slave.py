@@ -24,6 +24,11 @@ stays usable. Invalid parameters are refused at fmi2ExitInitializationMode with
 the reason logged at error level (pythonfmu gives that call no error status
 short of fmi2Fatal), and every later step is refused with the same reason.
 
+A state that is not one of this FMU's (another FMU's, bytes that are no serialized
+state, invalid parameters) is refused with the reason logged at error level and the
+instance's state unchanged; fmi2SetFMUstate and fmi2DeSerializeFMUstate still return
+fmi2OK, for the same reason.
+
 Each instance registers its FMU binary with ``bodyvib.runtime.teardown``, which releases
 pythonfmu's interpreter state when a Python host exits: pythonfmu 0.7.0's own exit-time
 teardown writes into freed memory and sometimes aborts the host after its work is done.
@@ -98,4 +103,14 @@ class BodyvibSlave(Fmi2Slave):  # build_fmu.py: renamed to the FMU's model name
         return self.core.get_state()
 
     def _set_fmu_state(self, state):
-        self.core.set_state(state)
+        try:
+            self.core.set_state(state)
+        except Exception as exc:  # a state of another FMU, or invalid: refused, logged
+            self.log(str(exc), Fmi2Status.error)
+
+    @staticmethod
+    def _fmu_state_from_bytes(state):
+        try:
+            return Fmi2Slave._fmu_state_from_bytes(state)
+        except Exception as exc:  # not a serialized state: _set_fmu_state refuses it
+            return {"error": f"not a serialized FMU state ({exc})"}

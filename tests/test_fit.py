@@ -278,6 +278,14 @@ GOOD_ROWS = "".join(f"{f},{1 + f / 50},{-f}\n" for f in range(1, MIN_ROWS + 2))
     ("frequency_hz,modulus\n1,1\n2\n" + "".join(f"{f},1\n" for f in range(3, 10)),
      "line 3: 1 value"),
     ("", "empty file"),
+    # all-zero modulus: a ZeroDivisionError traceback in the fit
+    ("frequency_hz,modulus\n" + "".join(f"{f},0\n" for f in range(1, 11)), "every modulus is 0"),
+    # a modulus of 1e300 wrote a parameter file holding Infinity
+    ("frequency_hz,modulus\n1,1\n2,1e300\n" + "".join(f"{f},1\n" for f in range(3, 11)),
+     "line 3: modulus = 1e.300 is not a plausible"),
+    # a duplicated column was accepted (the first one silently used)
+    ("frequency_hz,modulus,modulus\n" + "".join(f"{f},1,2\n" for f in range(1, 11)),
+     "column.s. modulus named more than once"),
 ])
 def test_malformed_measured_csv_is_refused(tmp_path, text, match):
     p = write_csv(tmp_path / "t.csv", text)
@@ -294,6 +302,32 @@ def test_measured_csv_reads_comments_extra_columns_and_optional_phase(tmp_path):
     p2 = write_csv(tmp_path / "u.csv", "frequency_hz,modulus\n"
                    + "".join(f"{f},{1 + f / 50}\n" for f in range(1, 11)))
     assert not read_transmissibility_csv(p2).has_phase
+
+
+@pytest.mark.parametrize("rows", ["".join(f"{f},0\n" for f in range(1, 11)),
+                                  "1,1\n2,1e300\n" + "".join(f"{f},1\n" for f in range(3, 11))])
+def test_cli_refuses_zero_or_huge_moduli_and_writes_nothing(tmp_path, rows):
+    p = write_csv(tmp_path / "m.csv", "frequency_hz,modulus\n" + rows)
+    r = run_cli("fit", "--measured", str(p), "--out", str(tmp_path / "x.json"), "--quiet")
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "Traceback" not in r.stderr
+    assert not (tmp_path / "x.json").exists()
+
+
+@pytest.mark.parametrize("option", ["--reference", "--config"])
+def test_fit_output_equal_to_an_input_is_refused_before_work(tmp_path, option):
+    """fit --reference r.json --out r.json (or --config c.json --out c.json) destroyed the input
+    with exit status 0."""
+    inp = tmp_path / "in.json"
+    save = load_model("iso7962") if option == "--reference" else None
+    if save is not None:
+        from bodyvib.runtime.modelfile import save_model
+        save_model(save, inp)
+    else:
+        inp.write_text("{}\n")
+    before = inp.read_bytes()
+    r = run_cli("fit", option, str(inp), "--out", str(inp), "--quiet", cwd=tmp_path)
+    assert r.returncode == 2 and f"is the input of {option}" in r.stderr
+    assert r.stderr.count("\n") == 1 and inp.read_bytes() == before
 
 
 def test_cli_reports_a_bad_csv_in_one_line(tmp_path):

@@ -246,6 +246,74 @@ def test_state_snapshot_rolls_back_and_replays_identically(kind, model):
     np.testing.assert_array_equal(replay, first)
 
 
+@pytest.mark.parametrize("h", [1e100, 1e300])
+def test_absurd_step_is_refused_not_a_nan_state(h):
+    """A step of 1e100 s returned OK with a NaN state, and every later step too."""
+    core = FmuCore("body", load_model("iso7962"))
+    core.initialize()
+    core.set_real([0, 1], [0.01, 0.1])
+    core.do_step(0.0, 1e-3)
+    before = core.get_state()
+    try:
+        core.do_step(1e-3, h)
+    except BodyvibError as exc:
+        assert "step refused, state unchanged" in str(exc)
+        assert core.get_state() == before
+    out = core.get_real(range(2, 6))
+    assert all(math.isfinite(v) for v in out)  # either refused, or a finite exact state
+    core.do_step(core.time, 1e-3)
+    assert all(math.isfinite(v) for v in core.get_real(range(2, 6)))
+
+
+def test_overflowing_state_is_refused_and_kept():
+    core = FmuCore("body", load_model("reduced-paper"))
+    core.initialize()
+    core.set_real([0, 1], [1e300, 1e300])  # finite inputs, an overflowing state
+    before = core.get_state()
+    with pytest.raises(BodyvibError, match="not finite .* step refused, state unchanged"):
+        core.do_step(0.0, 1e-3)
+    assert core.get_state() == before
+
+
+def _states():
+    body = FmuCore("body", load_model("reduced-paper"))
+    body.initialize()
+    return body, body.get_state()
+
+
+@pytest.mark.parametrize("change, words", [
+    (lambda s: s.update(kind="car"), "belongs to another FMU"),
+    (lambda s: s.update(parameter_names=s["parameter_names"][::-1]), "belongs to another FMU"),
+    (lambda s: s.update(buf=s["buf"][:-1]), "buf has shape"),
+    (lambda s: s.update(params=s["params"] + [1.0]), "params has shape"),
+    (lambda s: s["params"].__setitem__(0, -4.88), "parameter m1 = -4.88 kg is invalid"),
+    (lambda s: s["params"].__setitem__(2, float("nan")), "parameter k1 = nan"),
+    (lambda s: s["buf"].__setitem__(0, float("inf")), "not finite"),
+    (lambda s: s.pop("time"), "not a state of a bodyvib FMU"),
+    (lambda s: s.update(bad="no"), "malformed input flags"),
+    (lambda s: s.update(buf=["x"] * len(s["buf"])), "non-numeric"),
+])
+def test_foreign_or_invalid_state_is_refused_and_nothing_changes(change, words):
+    """A deserialized state with negative parameters was accepted."""
+    core, state = _states()
+    core.set_real([0, 1], [0.01, 0.2])
+    core.do_step(0.0, 1e-3)
+    mine = core.get_state()
+    bad = json.loads(json.dumps(state))
+    change(bad)
+    with pytest.raises(BodyvibError, match=words):
+        core.set_state(bad)
+    assert core.get_state() == mine
+
+
+def test_state_of_another_model_is_refused():
+    iso = FmuCore("body", load_model("iso7962"))
+    iso.initialize()
+    core, _ = _states()
+    with pytest.raises(BodyvibError, match="belongs to another FMU"):
+        core.set_state(iso.get_state())
+
+
 def test_interfaces_follow_the_design_table():
     body = FmuCore("body", load_model("reduced-paper"))
     table = [(v.name, v.causality, v.unit) for v in body.variables]

@@ -623,3 +623,51 @@ def test_host_with_another_bodyvib_already_imported(fmus, tmp_path):
     res = json.loads(run.stdout.strip().splitlines()[-1])
     for path, model in zip(paths, ["reduced-paper", "iso7962"]):
         assert np.all(rel_err(np.array(res[path]), body_reference(model, t, x, v)) < 1e-9)
+
+
+def test_step_of_1e100_s_is_refused_not_ok_with_nan(fmus):
+    """A step of 1e100 s returned fmi2OK with a NaN state, and every later step too."""
+    from fmpy.fmi1 import FMICallException
+
+    s = Slave(fmus["HumanBodyISO7962"])
+    s.set(["seat_displacement", "seat_velocity"], [0.01, 0.0])
+    s.fmu.doStep(0.0, 1e-3)
+    before = s.get(BODY_OUT)
+    try:
+        s.fmu.doStep(1e-3, 1e100)
+        refused = False
+    except FMICallException as exc:
+        assert exc.status == FMI_DISCARD and "step refused" in s.messages[-1][1]
+        refused = True
+    after = s.get(BODY_OUT)
+    assert all(np.isfinite(after)) and (not refused or after == before)
+    s.fmu.doStep(1e-3, 1e-3)  # the instance goes on
+    assert all(np.isfinite(s.get(BODY_OUT)))
+    s.close()
+
+
+def test_state_of_another_fmu_or_with_bad_parameters_is_refused(fmus):
+    """A deserialized FMU state with negative parameters was accepted; a state of another FMU
+    must not be taken either. Refused with an error logged, the instance keeps its own state
+    and stays usable (pythonfmu 0.7.0 can only answer fmi2OK or fmi2Fatal here)."""
+    import json
+
+    iso = Slave(fmus["HumanBodyISO7962"])
+    foreign = iso.fmu.serializeFMUstate(iso.fmu.getFMUstate())
+    s = Slave(fmus["HumanBody3DOF"])
+    s.set(["seat_displacement", "seat_velocity"], [0.01, 0.1])
+    s.fmu.doStep(0.0, 1e-3)
+    mine = s.get(BODY_OUT)
+    state = json.loads(bytes(s.fmu.serializeFMUstate(s.fmu.getFMUstate())).decode())
+    state["params"][0] = -4.88
+    negative = json.dumps(state).encode()
+    for blob, words in ((foreign, "belongs to another FMU"), (negative, "m1 = -4.88"),
+                        (b"\x00not json", "not a state of a bodyvib FMU")):
+        s.messages.clear()
+        s.fmu.setFMUstate(s.fmu.deSerializeFMUstate(blob))
+        assert any(words in m and st == 3 for st, m in s.messages), s.messages
+        assert s.get(BODY_OUT) == mine
+    s.fmu.doStep(1e-3, 1e-3)
+    assert all(np.isfinite(s.get(BODY_OUT)))
+    s.close()
+    iso.close()

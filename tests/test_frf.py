@@ -84,3 +84,52 @@ def test_table_rows_stay_inside_the_computed_range():
     assert f_rows == [2.0, 2.5, 3.15, 4.0, 5.0, 6.3, 8.0, 10.0]
     exact = np.abs(transmissibility(load_model("reduced-paper"), f_rows))
     assert [float(r[1].split()[0]) for r in rows] == pytest.approx(exact, abs=6e-4)
+
+
+def test_models_with_one_name_keep_both_curves(tmp_path):
+    """Every refit is named reduced-refit-<target>: two of them used to share one key, one
+    curve, one table column."""
+    from dataclasses import replace
+
+    from bodyvib.runtime.modelfile import save_model
+    base = load_model("reduced-paper")
+    save_model(replace(base, name="refit"), tmp_path / "a.json")
+    save_model(replace(base.with_parameters(m1=6.0), name="refit"), tmp_path / "b.json")
+    r = compare_transmissibility([str(tmp_path / "a.json"), str(tmp_path / "b.json")], points=50)
+    assert list(r["models"]) == ["refit (a.json)", "refit (b.json)"]
+    a, b = (np.array(m["modulus"]) for m in r["models"].values())
+    assert np.max(np.abs(a - b)) > 0.01  # two different curves
+    table = format_table(r)
+    assert "refit (a.json)" in table and "refit (b.json)" in table
+    r2 = compare_transmissibility(["reduced-paper", "reduced-paper"], points=50)
+    assert list(r2["models"]) == ["reduced-paper", "reduced-paper #2"]
+
+
+def test_absurd_parameters_are_refused_not_printed(tmp_path):
+    """Parameters of 1e300 printed |T| of 1e277 and wrote bare NaN into the JSON; every digit
+    of such a result is lost (scaling all parameters leaves |T| unchanged, yet it came out
+    0.03 instead of 1)."""
+    import json as _json
+    from bodyvib.runtime.modelfile import network_to_dict
+    net = load_model("reduced-paper")
+    data = network_to_dict(net)
+    data["parameters"]["k1"] = 1e300
+    (tmp_path / "big.json").write_text(_json.dumps(data))
+    js = tmp_path / "out.json"
+    r = run_cli("frf", "--models", str(tmp_path / "big.json"), "--json", str(js))
+    assert r.returncode == 2 and "k1 = 1e+300 is outside" in r.stderr
+    assert r.stderr.count("\n") == 1 and not js.exists()
+
+
+def test_frf_outputs_checked_before_work_and_all_or_none(tmp_path):
+    """--json keep.json --plot result.txt replaced keep.json, then failed on the plot."""
+    keep = tmp_path / "keep.json"
+    keep.write_text("old")
+    r = run_cli("frf", "--json", str(keep), "--plot", str(tmp_path / "result.txt"))
+    assert r.returncode == 2 and "must end in .png" in r.stderr and r.stdout == ""
+    assert keep.read_text() == "old"
+    model = tmp_path / "m.json"
+    from bodyvib.runtime.modelfile import save_model
+    save_model(load_model("reduced-paper"), model)
+    r = run_cli("frf", "--models", str(model), "--json", str(model))
+    assert r.returncode == 2 and "is the input of --models" in r.stderr

@@ -133,7 +133,65 @@ def test_atomic_write_gives_ordinary_file_mode(tmp_path):
 def test_atomic_write_error_names_the_destination(tmp_path):
     """A failed write used to report the hidden temporary file ('.tmp-...') as the culprit."""
     from bodyvib.runtime.fileio import atomic_write_text
-    with pytest.raises(IsADirectoryError) as exc:
-        atomic_write_text(tmp_path, "x")  # the destination is a folder
-    assert exc.value.filename == str(tmp_path)
-    assert not [p for p in os.listdir(tmp_path.parent) if p.startswith(".tmp-")]
+    folder = tmp_path / "ro"
+    folder.mkdir()
+    folder.chmod(0o500)
+    try:
+        if os.access(folder, os.W_OK):  # root writes anywhere
+            pytest.skip("running as root")
+        with pytest.raises(PermissionError) as exc:
+            atomic_write_text(folder / "x.txt", "x")
+    finally:
+        folder.chmod(0o700)
+    assert exc.value.filename == str(folder / "x.txt")
+    assert not [p for p in os.listdir(folder) if p.startswith(".tmp-")]
+
+
+_NAMES = ["m1", "k_seat", "_c2", "K1s", "m 1", "1m", "k-1", "k\n1", "k.1", "k[1]", "'k1'", "",
+          "k\t", "m\u00e9"]
+
+
+def _fmpy_accepts(name):
+    """fmpy's own check of a variable name under the FMUs' "structured" convention."""
+    from fmpy.model_description import ModelDescription, ScalarVariable
+    from fmpy.validation import _validate_variable_names
+
+    md = ModelDescription()
+    md.variableNamingConvention = "structured"
+    md.modelVariables.append(ScalarVariable(name=name, valueReference=0))
+    return not _validate_variable_names(md)
+
+
+@pytest.mark.parametrize("name", _NAMES)
+def test_parameter_names_are_valid_fmu_variable_names(name):
+    """A parameter name becomes an FMU variable name: one fmpy validate refuses used to pass
+    the file check and fail only in the built FMU. Every accepted name passes fmpy's check,
+    every name fmpy refuses is refused at load."""
+    data = json.loads(json.dumps(reduced_dict()))
+    data["parameters"][name] = data["parameters"].pop("m1")
+    data["masses"]["m1"] = name
+    if "m1" in data.get("units", {}):
+        data["units"][name] = data["units"].pop("m1")
+    try:
+        network_from_dict(data, source="t.json")
+        accepted = True
+    except BodyvibError as exc:
+        assert "not a valid FMU variable name" in str(exc)
+        accepted = False
+    if accepted:
+        assert _fmpy_accepts(name)
+    if not _fmpy_accepts(name):
+        assert not accepted
+
+
+def test_parameter_named_like_an_interface_variable_is_refused():
+    from bodyvib.runtime.engine import FmuCore
+
+    data = reduced_dict()
+    data["parameters"]["seat_force"] = data["parameters"].pop("m1")
+    data["masses"]["m1"] = "seat_force"
+    if "m1" in data.get("units", {}):
+        data["units"]["seat_force"] = data["units"].pop("m1")
+    net = network_from_dict(data, source="t.json")
+    with pytest.raises(BodyvibError, match="seat_force are variables of the body FMU"):
+        FmuCore("body", net, "X")

@@ -37,21 +37,24 @@ import contextlib
 import os
 import shutil
 import tempfile
+import time
 import zipfile
 from typing import Dict, Optional
 
 import numpy as np
 
+from bodyvib import interrupts
 from bodyvib.runtime import contract
 from bodyvib.runtime.discretize import check_step
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib.runtime.fileio import atomic_write_text
+from bodyvib.runtime.fileio import PendingFile
 
 from .quarter_car import CAR_FMU_OUTPUTS
 
 __all__ = [
     "BODY_INPUTS", "BODY_OUTPUTS", "CAR_INPUTS", "CAR_OUTPUTS",
-    "Slave", "open_fmu", "model_from_fmu", "cosimulate", "write_csv",
+    "MASTER_SIGNALS", "Master", "Slave", "open_fmu", "model_from_fmu", "cosimulate", "write_csv",
+    "CsvStream",
 ]
 
 #: What the master sets and reads (names from the FMU contract): the body
@@ -114,6 +117,38 @@ def _check_interface(md, path, kind):
         raise BodyvibError(f"FMU '{path}' is not a co-simulation FMU (FMI 2.0 CS needed)")
 
 
+def _check_tree(unzipdir, md, path):
+    """Refuse an extracted FMU that lacks what its binary loads at instantiation.
+
+    pythonfmu's binary reads ``resources/slavemodule.txt`` and imports the module it
+    names from ``resources/``; without them it crashed the host (a segfault) instead
+    of failing ``fmi2Instantiate``.
+    """
+    import platform
+
+    system = {"Linux": "linux", "Windows": "win", "Darwin": "darwin"}.get(platform.system(), "")
+    ext = {"linux": ".so", "win": ".dll", "darwin": ".dylib"}.get(system, "")
+    binary = os.path.join(unzipdir, "binaries", f"{system}64",
+                          md.coSimulation.modelIdentifier + ext)
+    if not os.path.isfile(binary):
+        raise BodyvibError(f"FMU '{path}' has no binary for this platform "
+                           f"(binaries/{system}64/{md.coSimulation.modelIdentifier}{ext})")
+    if not (md.generationTool or "").startswith("PythonFMU"):
+        return
+    resources = os.path.join(unzipdir, "resources")
+    listing = os.path.join(resources, "slavemodule.txt")
+    try:
+        with open(listing, encoding="utf-8") as f:
+            module = f.read().strip()
+    except OSError:
+        raise BodyvibError(f"FMU '{path}' is incomplete: no resources/slavemodule.txt (a "
+                           "pythonfmu FMU needs its resources folder); rebuild it") from None
+    if not module or not any(os.path.isfile(os.path.join(resources, module + e))
+                             for e in (".py", "")):
+        raise BodyvibError(f"FMU '{path}' is incomplete: resources/{module or '?'}.py (its "
+                           "slave script) is missing; rebuild it")
+
+
 @contextlib.contextmanager
 def open_fmu(path, kind: str, instance_name: Optional[str] = None):
     """Instantiate and initialize an FMU of the body or car interface.
@@ -134,14 +169,24 @@ def open_fmu(path, kind: str, instance_name: Optional[str] = None):
     ------
     BodyvibError
         Missing file, not an FMI 2.0 co-simulation FMU, missing interface
-        variables, or a failure to instantiate or initialize.
+        variables, no binary for this platform, a pythonfmu FMU without its
+        resources, or a failure to instantiate or initialize.
     """
-    from fmpy import extract, read_model_description
-    from fmpy.fmi2 import FMU2Slave
-
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise BodyvibError(f"FMU file '{path}' does not exist")
+    # from instantiation to freeInstance, a second Ctrl-C stays deferred too: a
+    # KeyboardInterrupt inside the FMU's Python code is fmi2Fatal and a double free
+    with interrupts.critical():
+        with _instantiated(path, kind, instance_name) as slave:
+            yield slave
+
+
+@contextlib.contextmanager
+def _instantiated(path, kind, instance_name):
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
     try:
         md = read_model_description(path)
     except Exception as exc:
@@ -152,6 +197,7 @@ def open_fmu(path, kind: str, instance_name: Optional[str] = None):
     unzipdir = extract(path, unzipdir=tempfile.mkdtemp(prefix="bodyvib-fmu-"))
     fmu = None
     try:
+        _check_tree(unzipdir, md, path)
         fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
                         modelIdentifier=md.coSimulation.modelIdentifier,
                         instanceName=instance_name or kind)
@@ -159,11 +205,13 @@ def open_fmu(path, kind: str, instance_name: Optional[str] = None):
         fmu.setupExperiment(startTime=0.0)
         fmu.enterInitializationMode()
         fmu.exitInitializationMode()
-    except Exception as exc:
+    except BaseException as exc:
         if fmu is not None:
             with contextlib.suppress(Exception):
                 fmu.freeInstance()
         shutil.rmtree(unzipdir, ignore_errors=True)
+        if isinstance(exc, BodyvibError) or not isinstance(exc, Exception):
+            raise
         raise BodyvibError(f"FMU '{path}' failed to initialize: {exc}") from None
     slave = Slave(fmu, {v.name: v.valueReference for v in md.modelVariables}, path, unzipdir)
     try:
@@ -197,9 +245,151 @@ def model_from_fmu(path):
     return network_from_dict(data, source=f"{path}:resources/bodyvib_model.json")
 
 
+#: Signals of a block from :meth:`Master.advance`, in column order.
+MASTER_SIGNALS = ("seat_displacement", "seat_velocity", "seat_acceleration",
+                  "suspension_deflection", "tire_force", "head_acceleration",
+                  "head_displacement", "torso_displacement", "seat_force")
+
+
+class Master:
+    """The two-way coupled master, advanced block by block (memory independent of the run).
+
+    One macro-step per road sample, as in the module docstring. :meth:`advance` takes
+    the next road samples and returns the signals at those communication points; the
+    state between blocks is the master's few numbers and the FMUs' own, so a run of any
+    length is the same whatever the block sizes (bit for bit).
+
+    Parameters
+    ----------
+    car, body : Slave
+        Initialized FMUs (:func:`open_fmu`), at rest.
+    step : float
+        Communication step h, s.
+    samples : int
+        Communication points of the whole run, ``n``: the last one records the car's
+        outputs without a step.
+    extrapolate : bool
+        Extrapolate the seat force linearly over each step (default); False holds it.
+
+    Attributes
+    ----------
+    k : int
+        Communication points recorded so far.
+    wall_s : float
+        Wall time spent in :meth:`advance`, s.
+
+    Raises
+    ------
+    BodyvibError
+        A step that is not a positive number, or fewer than two samples.
+    """
+
+    def __init__(self, car: Slave, body: Slave, step: float, samples: int,
+                 extrapolate: bool = True):
+        check_step(step, "communication step")
+        if int(samples) < 2:
+            raise BodyvibError("a co-simulation needs at least 2 communication points")
+        self.h = float(step)
+        self.n = int(samples)
+        self.extrapolate = bool(extrapolate)
+        self.k = 0
+        self.wall_s = 0.0
+        self._car, self._body = car, body
+        self._has_rate = "seat_force_rate" in car.vr
+        self._car_in = [car.vr[k] for k in CAR_INPUTS] + (
+            [car.vr["seat_force_rate"]] if self._has_rate else [])
+        self._car_out = [car.vr[k] for k in CAR_OUTPUTS]
+        self._body_in = [body.vr[k] for k in BODY_INPUTS]
+        self._body_out = [body.vr[k] for k in ("seat_force",) + BODY_OUTPUTS[:3]]
+        body.fmu.setReal(self._body_in, [0.0, 0.0])  # the body at rest at t = 0
+        self._F, self._a1, self._x1, self._x2 = body.fmu.getReal(self._body_out)
+        self._F_prev = self._F
+
+    def advance(self, road_displacement, road_velocity) -> np.ndarray:
+        """Co-simulate the next communication points.
+
+        Parameters
+        ----------
+        road_displacement, road_velocity : (m,) array_like
+            Road input at the next ``m`` communication points (m, m/s).
+
+        Returns
+        -------
+        (m, 9) ndarray
+            The :data:`MASTER_SIGNALS` at those points.
+
+        Raises
+        ------
+        BodyvibError
+            Non-finite road, more samples than the run has, or an FMU refusing a step.
+        KeyboardInterrupt
+            Ctrl-C (:mod:`bodyvib.interrupts`), taken between macro-steps.
+        """
+        z = np.asarray(road_displacement, dtype=float)
+        v = np.asarray(road_velocity, dtype=float)
+        if z.shape != v.shape or z.ndim != 1:
+            raise BodyvibError("road displacement and velocity must be 1-D arrays of equal "
+                               "length")
+        if self.k + z.size > self.n:
+            raise BodyvibError(f"the run has {self.n} communication points; {self.k + z.size} "
+                               "given")
+        if not (np.all(np.isfinite(z)) and np.all(np.isfinite(v))):
+            raise BodyvibError("road input is not finite; check the road profile")
+        t0 = time.perf_counter()
+        rows = [None] * z.size
+        h, last, extrapolate, has_rate = self.h, self.n - 1, self.extrapolate, self._has_rate
+        cf, bf = self._car.fmu, self._body.fmu
+        car_in, car_out, body_in, body_out = (self._car_in, self._car_out, self._body_in,
+                                              self._body_out)
+        car_motion = car_out[:2]
+        c_set, c_get, c_step = cf.setReal, cf.getReal, cf.doStep
+        b_set, b_get, b_step = bf.setReal, bf.getReal, bf.doStep
+        F, F_prev, a1, x1, x2 = self._F, self._F_prev, self._a1, self._x1, self._x2
+        k = self.k
+        try:
+            for j, (zk, vk) in enumerate(zip(z.tolist(), v.tolist())):
+                k = self.k + j
+                if k == last:  # the last point: the car's outputs, no step
+                    c_set(car_in, [zk, vk, F] + ([0.0] if has_rate else []))
+                    rows[j] = list(c_get(car_out)) + [a1, x1, x2, F]
+                    break
+                t = k * h
+                dF = (F - F_prev) if extrapolate else 0.0
+                if has_rate:
+                    c_set(car_in, [zk, vk, F, dF / h])
+                else:
+                    c_set(car_in, [zk, vk, F + 0.5 * dF])
+                # car outputs at t_k with the inputs of t_k (tire force and seat
+                # acceleration are feedthrough of road and seat force)
+                xs, vs, a_s, sd, tf = c_get(car_out)
+                rows[j] = [xs, vs, a_s, sd, tf, a1, x1, x2, F]
+                c_step(t, h)
+                xn, vn = c_get(car_motion)  # states only: exact right after the step
+                b_set(body_in, [xs, (xn - xs) / h])
+                b_step(t, h)
+                b_set(body_in, [xn, vn])
+                F_prev = F
+                F, a1, x1, x2 = b_get(body_out)
+                if not j & 255 and interrupts.requested():  # a safe point: no FMU call runs
+                    raise KeyboardInterrupt
+        except BodyvibError:
+            raise
+        except Exception as exc:
+            raise BodyvibError(f"co-simulation stopped at t = {k * h:g} s: {exc}") from None
+        finally:
+            self.wall_s += time.perf_counter() - t0
+        self._F, self._F_prev, self._a1, self._x1, self._x2 = F, F_prev, a1, x1, x2
+        self.k += z.size
+        return np.array(rows, dtype=float).reshape(z.size, len(MASTER_SIGNALS))
+
+
 def cosimulate(car: Slave, body: Slave, road_displacement, road_velocity, step: float,
-               extrapolate: bool = True, progress: bool = False) -> Dict[str, np.ndarray]:
-    """Run the two-way coupled co-simulation over a sampled road.
+               extrapolate: bool = True, progress: bool = False,
+               block: int = 4096) -> Dict[str, np.ndarray]:
+    """Run the two-way coupled co-simulation over a sampled road, keeping every signal.
+
+    :class:`Master` over the whole record; :func:`vehicle.study.run_study` uses the
+    master block by block without keeping the histories.
 
     Parameters
     ----------
@@ -214,6 +404,8 @@ def cosimulate(car: Slave, body: Slave, road_displacement, road_velocity, step: 
         holds it (the plain master, first order).
     progress : bool
         Show a tqdm progress bar on stderr (hidden when stderr is not a terminal).
+    block : int
+        Communication points per :meth:`Master.advance` call.
 
     Returns
     -------
@@ -232,78 +424,26 @@ def cosimulate(car: Slave, body: Slave, road_displacement, road_velocity, step: 
     check_step(step, "communication step")
     if z.shape != v.shape or z.ndim != 1 or z.size < 2:
         raise BodyvibError("road displacement and velocity must be 1-D arrays of equal length >= 2")
-    if not (np.all(np.isfinite(z)) and np.all(np.isfinite(v))):
-        raise BodyvibError("road input is not finite; check the road profile")
+    master = Master(car, body, step, z.size, extrapolate)
     n = z.size
-    h = float(step)
-    zl, vl = z.tolist(), v.tolist()
-    out = np.zeros((n, 9))  # seat x, v, a, deflection, tire force, head a, head x, torso x, F
-    rows = out.tolist()
-
-    cf, bf = car.fmu, body.fmu
-    has_rate = _SEAT_FORCE_RATE in car.vr
-    car_in = [car.vr[k] for k in CAR_INPUTS] + ([car.vr[_SEAT_FORCE_RATE]] if has_rate else [])
-    car_out = [car.vr[k] for k in CAR_OUTPUTS]
-    body_in = [body.vr[k] for k in BODY_INPUTS]
-    body_out = [body.vr[k] for k in ("seat_force", "head_acceleration", "head_displacement",
-                                     "torso_displacement")]
-    c_set, c_get, c_step = cf.setReal, cf.getReal, cf.doStep
-    b_set, b_get, b_step = bf.setReal, bf.getReal, bf.doStep
-
-    car_motion = car_out[:2]
-    # the body at rest at t = 0
-    b_set(body_in, [0.0, 0.0])
-    F, a1, x1, x2 = b_get(body_out)
-    F_prev = F
     bar = _progress(n - 1, progress)
-    report = max(1, (n - 1) // 200)
-    k = 0
+    parts = []
     try:
-        for k in range(n - 1):
-            t = k * h
-            dF = (F - F_prev) if extrapolate else 0.0
-            if has_rate:
-                c_set(car_in, [zl[k], vl[k], F, dF / h])
-            else:
-                c_set(car_in, [zl[k], vl[k], F + 0.5 * dF])
-            # car outputs at t_k with the inputs of t_k (tire force and seat
-            # acceleration are feedthrough of road and seat force)
-            xs, vs, a_s, sd, tf = c_get(car_out)
-            rows[k] = [xs, vs, a_s, sd, tf, a1, x1, x2, F]
-            c_step(t, h)
-            xn, vn = c_get(car_motion)  # states only: exact right after the step
-            b_set(body_in, [xs, (xn - xs) / h])
-            b_step(t, h)
-            b_set(body_in, [xn, vn])
-            F_prev = F
-            F, a1, x1, x2 = b_get(body_out)
-            if bar is not None and k % report == 0:
-                bar.update(min(report, n - 1 - k))
-        k = n - 1
-        c_set(car_in, [zl[k], vl[k], F] + ([0.0] if has_rate else []))
-        rows[k] = list(c_get(car_out)) + [a1, x1, x2, F]
-    except BodyvibError:
-        raise
-    except Exception as exc:
-        raise BodyvibError(f"co-simulation stopped at t = {k * h:g} s: {exc}") from None
+        for a in range(0, n, block):
+            parts.append(master.advance(z[a:a + block], v[a:a + block]))
+            if bar is not None:
+                bar.update(min(block, n - 1 - a))
     finally:
         if bar is not None:
             bar.close()
-    out = np.array(rows)
-    return {
-        "time": np.arange(n) * h,
-        "road_displacement": z,
-        "road_velocity": v,
-        "seat_displacement": out[:, 0],
-        "seat_velocity": out[:, 1],
-        "seat_acceleration": out[:, 2],
-        "suspension_deflection": out[:, 3],
-        "tire_force": out[:, 4],
-        "seat_force": out[:, 8],
-        "head_acceleration": out[:, 5],
-        "head_displacement": out[:, 6],
-        "torso_displacement": out[:, 7],
-    }
+    out = np.concatenate(parts)
+    signals = {"time": np.arange(n) * master.h, "road_displacement": z, "road_velocity": v}
+    signals.update({name: out[:, i] for i, name in enumerate(MASTER_SIGNALS)})
+    return {k: signals[k] for k in ("time", "road_displacement", "road_velocity",
+                                    "seat_displacement", "seat_velocity", "seat_acceleration",
+                                    "suspension_deflection", "tire_force", "seat_force",
+                                    "head_acceleration", "head_displacement",
+                                    "torso_displacement")}
 
 
 def _progress(total, enabled):
@@ -317,6 +457,62 @@ def _progress(total, enabled):
                 desc="co-simulation", mininterval=0.5)
 
 
+def _header(name: str) -> str:
+    """``name [unit]``; ``HumanBody3DOF.head_acceleration`` has head_acceleration's unit."""
+    u = UNITS.get(name.rpartition(".")[2].replace("reference_", ""))
+    return f"{name} [{u}]" if u else name
+
+
+class CsvStream:
+    """Time histories written to CSV block by block (header ``name [unit]``), placed at the end.
+
+    The rows go to a temporary file beside ``path`` (:class:`bodyvib.runtime.fileio.PendingFile`),
+    so a run of any length keeps no history in memory; :meth:`place` puts the file at
+    ``path`` (with the other outputs, inside :func:`bodyvib.runtime.fileio.staged_writes`);
+    an error or Ctrl-C before that leaves ``path`` as it was.
+
+    Parameters
+    ----------
+    path : str
+    """
+
+    def __init__(self, path):
+        self._file = PendingFile(path)
+        self.names = None
+
+    def write(self, columns: Dict[str, np.ndarray]) -> None:
+        """Append rows.
+
+        Parameters
+        ----------
+        columns : dict of str to ndarray
+            Equal-length columns by name; the same names, in the same order, every block
+            (the first block writes the header).
+
+        Raises
+        ------
+        BodyvibError
+            Other column names than the first block's.
+        """
+        names = list(columns)
+        if self.names is None:
+            self.names = names
+            self._file.file.write(",".join(_header(k) for k in names) + "\n")
+        elif names != self.names:
+            raise BodyvibError("CSV columns changed between blocks")
+        cols = np.column_stack([np.asarray(columns[k], dtype=float) for k in names])
+        self._file.file.write("".join(",".join(f"{x:.10g}" for x in row) + "\n"
+                                      for row in cols.tolist()))
+
+    def place(self) -> None:
+        """Put the file at its path (or stage it)."""
+        self._file.place()
+
+    def discard(self) -> None:
+        """Delete the unfinished file."""
+        self._file.discard()
+
+
 def write_csv(path, result: Dict[str, np.ndarray]) -> None:
     """Write a run as CSV (header ``name [unit]``), atomically.
 
@@ -326,12 +522,10 @@ def write_csv(path, result: Dict[str, np.ndarray]) -> None:
     result : dict of str to ndarray
         Equal-length columns (:func:`cosimulate`, :func:`vehicle.reference.reference_run`).
     """
-    names = list(result)
-    cols = np.column_stack([np.asarray(result[k], dtype=float) for k in names])
-    def unit(name):  # "HumanBody3DOF.head_acceleration" has the unit of head_acceleration
-        u = UNITS.get(name.rpartition(".")[2].replace("reference_", ""))
-        return f"{name} [{u}]" if u else name
-
-    header = ",".join(unit(k) for k in names)
-    lines = [header] + [",".join(f"{x:.10g}" for x in row) for row in cols]
-    atomic_write_text(path, "\n".join(lines) + "\n")
+    out = CsvStream(path)
+    try:
+        out.write(result)
+        out.place()
+    except BaseException:
+        out.discard()
+        raise

@@ -11,9 +11,11 @@ import tempfile
 from pathlib import Path
 from typing import Dict, Iterable, Optional
 
+from bodyvib import interrupts
 from bodyvib.fmu_build import build_fmu, build_source_fmu
 from bodyvib.models import load_model
 from bodyvib.runtime.errors import BodyvibError
+from bodyvib.runtime.fileio import staged_writes
 
 from .quarter_car import load_car
 from .roads import ISO8608_CLASSES, TaperedRoad, make_road, random_road, road_source
@@ -204,15 +206,19 @@ def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-ca
         else:
             load_fmu_model(n, chosen.get(n))
     out = {}
-    for n in names:
-        if FMUS[n][0] == "source":
-            out[n] = build_road_fmu(dest, **road)
-            what = f"road {road['road']}, seed {road['seed']}, {road['length']:g} m"
-        else:
-            out[n] = build_project_fmu(n, dest, chosen.get(n))
-            what = f"model {chosen.get(n) or FMUS[n][1]}"
-        if echo:
-            echo(f"wrote {out[n]} ({what}; fmpy validate: no problems)")
+    what = {}
+    with staged_writes(guard=interrupts.critical):  # all FMUs or none: a failed (or
+        for n in names:                                 # interrupted) build keeps the old ones
+            if FMUS[n][0] == "source":
+                out[n] = build_road_fmu(dest, **road)
+                what[n] = f"road {road['road']}, seed {road['seed']}, {road['length']:g} m"
+            else:
+                out[n] = build_project_fmu(n, dest, chosen.get(n))
+                what[n] = f"model {chosen.get(n) or FMUS[n][1]}"
+        interrupts.check()
+    if echo:
+        for n in names:
+            echo(f"wrote {out[n]} ({what[n]}; fmpy validate: no problems)")
     return out
 
 

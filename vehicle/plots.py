@@ -23,7 +23,8 @@ def plot_study(study: Study, path, comparison: Optional[Comparison] = None, wind
     comparison : Comparison, optional
         From :func:`vehicle.check.compare` (its verdict goes into the title).
     window_s : float
-        Length of the time window shown, s.
+        Length of the time window shown, s, if the study kept none
+        (it shows the window :func:`vehicle.study.run_study` kept).
 
     Raises
     ------
@@ -35,11 +36,10 @@ def plot_study(study: Study, path, comparison: Optional[Comparison] = None, wind
 
     fig, (ax1, ax2) = new_figure(2, 1, figsize=(8, 8))
     fig.subplots_adjust(hspace=0.35)
-    t = study.time
-    t0 = max(0.0, t[-1] / 2 - window_s / 2)
-    sel = (t >= t0) & (t <= t0 + window_s)
+    t = study.window_time  # the window the study kept (run_study's window_s)
+    window_s = float(t[-1] - t[0]) if t.size > 1 else window_s
     for label, b in study.bodies.items():
-        ax1.plot(t[sel], b.run["head_acceleration"][sel], lw=0.9,
+        ax1.plot(t, b.head_window, lw=0.9,
                  label=f"{label}: a_w = {b.figures.weighted_rms:.3f} m/s2")
     ax1.set_xlabel("time [s]")
     ax1.set_ylabel("head acceleration [m/s2]")

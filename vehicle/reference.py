@@ -25,7 +25,7 @@ from bodyvib.runtime.network import Network, linear_model
 
 from .quarter_car import seated_system
 
-__all__ = ["SIGNALS", "reference_run", "seat_force_weights", "nrmse"]
+__all__ = ["SIGNALS", "reference_run", "ReferenceStream", "seat_force_weights", "nrmse"]
 
 #: Signals of a run (reference or co-simulation), SI units.
 SIGNALS = (
@@ -158,6 +158,89 @@ def reference_run(car: Network, body: Network, road_displacement, road_velocity,
         "head_displacement": out("body.head.x"),
         "torso_displacement": out("body.torso.x"),
     }
+
+
+class ReferenceStream:
+    """The monolithic reference advanced block by block (memory independent of the run).
+
+    The same computation as :func:`reference_run`, carrying the state from one block to
+    the next: the signals of each block equal the matching rows of :func:`reference_run`
+    to rounding.
+
+    Parameters
+    ----------
+    car : Network
+    body : Network
+        As :func:`reference_run`.
+    step : float
+        Time step, s.
+
+    Raises
+    ------
+    BodyvibError
+        A body without head/torso roles.
+    """
+
+    def __init__(self, car: Network, body: Network, step: float):
+        from bodyvib.runtime.discretize import Discretization
+
+        for role in ("head", "torso"):
+            if role not in body.roles:
+                raise BodyvibError(f"body model '{body.name}' has no '{role}' role")
+        net = seated_system(car, body)
+        self._lm = lm = linear_model(net)
+        self._disc = Discretization(lm)
+        self._h = float(step)
+        self._x = self._disc.zero_state()
+        seat = car.roles["seat"]
+        self._rows = {name: lm.output_index(sig) for name, sig in (
+            ("seat_displacement", f"{seat}.x"), ("seat_velocity", f"{seat}.v"),
+            ("seat_acceleration", f"{seat}.a"), ("suspension_deflection", "suspension.deflection"),
+            ("tire_force", "tire.force"), ("head_acceleration", "body.head.a"),
+            ("head_displacement", "body.head.x"), ("torso_displacement", "body.torso.x"))}
+        self._seat_force = seat_force_weights(lm, body, seat)
+
+    def advance(self, road_displacement, road_velocity) -> Dict[str, np.ndarray]:
+        """The reference at the next samples of the road.
+
+        Parameters
+        ----------
+        road_displacement, road_velocity : (m,) array_like
+            m, m/s; over each step the road is ``z_k + v_k tau``.
+
+        Returns
+        -------
+        dict of str to ndarray
+            The :data:`SIGNALS` but time and road, at those samples.
+
+        Raises
+        ------
+        BodyvibError
+            Non-finite road input or mismatched lengths.
+        """
+        from bodyvib.runtime.discretize import input_rates
+
+        z = np.asarray(road_displacement, dtype=float)
+        v = np.asarray(road_velocity, dtype=float)
+        if z.shape != v.shape or z.ndim != 1:
+            raise BodyvibError("road displacement and velocity must be 1-D arrays of equal "
+                               "length")
+        if not (np.all(np.isfinite(z)) and np.all(np.isfinite(v))):
+            raise BodyvibError("road input is not finite; check the road profile")
+        lm, d, h = self._lm, self._disc, self._h
+        u = np.zeros((z.size, len(lm.inputs)))
+        u[:, 0], u[:, 1] = z, v
+        du = input_rates(lm, u)
+        x = np.empty((z.size, lm.A.shape[0]))
+        xk = self._x
+        for k in range(z.size):
+            x[k] = xk
+            xk = d.step(xk, u[k], du[k], h)
+        self._x = xk
+        y = x @ lm.C.T + u @ lm.D.T
+        out = {name: y[:, i] for name, i in self._rows.items()}
+        out["seat_force"] = y @ self._seat_force
+        return out
 
 
 def nrmse(estimate, reference) -> float:

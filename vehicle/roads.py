@@ -32,6 +32,7 @@ from typing import Tuple
 
 import numpy as np
 
+from bodyvib.limits import require_memory
 from bodyvib.runtime.errors import BodyvibError
 
 __all__ = [
@@ -55,6 +56,11 @@ __all__ = [
 ISO8608_CLASSES = "ABCDEFGH"
 #: Reference spatial frequency of ISO 8608, cycle/m.
 N0 = 0.1
+#: Memory per harmonic of a random road, bytes: its index, frequency, amplitude and phase
+#: while it is made, then frequency, amplitude, phase and the weights of an evaluation (the
+#: chirp-z transform works through the harmonics 16384 at a time).
+BYTES_PER_HARMONIC = 64
+
 #: Band of spatial frequencies synthesized by default, cycle/m (ISO 8608's).
 N_BAND = (0.011, 2.83)
 
@@ -157,6 +163,7 @@ class RandomRoad(Road):
     info: dict = field(default_factory=dict)
 
     _CHUNK = 2048
+    _HARMONICS = 16384
 
     def _sum(self, x, derivative: bool) -> np.ndarray:
         x = np.asarray(x, dtype=float)
@@ -182,14 +189,21 @@ class RandomRoad(Road):
         """
         from scipy.signal import czt
 
-        c = weights * np.exp(1j * (self.phase + 2 * np.pi * self.n * x0))
-        if derivative:
-            c = 1j * c
         step = dx / self.length
-        i0 = round(self.n[0] * self.length)
         j = np.arange(count)
-        sums = czt(c, m=count, w=np.exp(2j * np.pi * step), a=1.0)
-        return np.real(np.exp(2j * np.pi * ((i0 * step * j) % 1.0)) * sums)
+        out = np.zeros(count)
+        # harmonics a chunk at a time: the transform's buffers stay (chunk + count) long
+        # however long the road (a run's length sets the number of harmonics)
+        for a in range(0, self.n.size, self._HARMONICS):
+            n = self.n[a:a + self._HARMONICS]
+            c = weights[a:a + self._HARMONICS] * np.exp(
+                1j * (self.phase[a:a + self._HARMONICS] + 2 * np.pi * n * x0))
+            if derivative:
+                c = 1j * c
+            i0 = round(n[0] * self.length)
+            sums = czt(c, m=count, w=np.exp(2j * np.pi * step), a=1.0)
+            out += np.real(np.exp(2j * np.pi * ((i0 * step * j) % 1.0)) * sums)
+        return out
 
     def displacement(self, x) -> np.ndarray:
         """Profile height at distances ``x`` (m), in m."""
@@ -245,6 +259,9 @@ def random_road(road_class: str = "C", length: float = 600.0, seed: int = 0,
     if not (0 < lo < hi):
         raise BodyvibError(f"spatial-frequency band must satisfy 0 < low < high, got {band}")
     dn = 1.0 / length
+    count = (hi - lo) * length
+    require_memory(count * BYTES_PER_HARMONIC, f"an ISO 8608 road of {length:.4g} m "
+                   f"({count:.3g} harmonics)", "shorten the run (--duration) or lower --speed")
     i = np.arange(max(1, math.ceil(lo / dn)), math.floor(hi / dn) + 1)
     if i.size == 0:
         raise BodyvibError(f"a {length:g} m road holds no harmonic in {lo}-{hi} cycle/m; "

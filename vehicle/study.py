@@ -9,24 +9,27 @@ and the seat-to-head transmissibility estimated from the run
 their ``to_dict()`` is the JSON form (figures, no time histories).
 """
 
+import contextlib
 import math
 import os
 import sys
-import time
 from dataclasses import asdict, dataclass, field
 from typing import Dict, List, Optional
 
 import numpy as np
 
-from bodyvib.comfort import ComfortFigures, comfort_figures
-from bodyvib.estimate import TransmissibilityEstimate, estimate_transmissibility
+from bodyvib.comfort import ComfortFigures
+from bodyvib.comfort_stream import ComfortStream
+from bodyvib.estimate import TransmissibilityEstimate, TransmissibilityStream
+from bodyvib import interrupts
+from bodyvib.limits import require_memory
 from bodyvib.runtime.errors import BodyvibError
 
-from .cosim import cosimulate, model_from_fmu, open_fmu
-from .reference import nrmse, reference_run
+from .cosim import MASTER_SIGNALS, CsvStream, Master, model_from_fmu, open_fmu
+from .reference import ReferenceStream
 from .roads import make_road, road_input
 
-__all__ = ["StudySettings", "BodyRun", "Study", "check_settings", "run_study",
+__all__ = ["StudySettings", "BodyRun", "Study", "StudyCsv", "check_settings", "run_study",
            "coupling_error_sweep"]
 
 
@@ -68,10 +71,13 @@ class BodyRun:
         Body FMU path.
     model : str or None
         Name of the model baked into the FMU (None for a foreign FMU).
-    run : dict of str to ndarray
-        Recorded histories of the co-simulation (:func:`vehicle.cosim.cosimulate`).
+    run : dict of str to ndarray or None
+        Histories of the co-simulation (the signals of :func:`vehicle.cosim.cosimulate`),
+        kept only with ``run_study(..., histories=True)``.
     reference : dict of str to ndarray or None
-        Monolithic reference histories (:func:`vehicle.reference.reference_run`).
+        Histories of the monolithic reference, kept only with ``histories=True``.
+    head_window : ndarray
+        The head acceleration inside :attr:`Study.window_time` (the plot's window), m/s2.
     figures, seat_figures : ComfortFigures
         ISO 2631-1 figures of the head and of the seat acceleration.
     coupling_nrmse : float or None
@@ -84,13 +90,14 @@ class BodyRun:
 
     fmu: str
     model: Optional[str]
-    run: Dict[str, np.ndarray]
+    run: Optional[Dict[str, np.ndarray]]
     reference: Optional[Dict[str, np.ndarray]]
     figures: ComfortFigures
     seat_figures: ComfortFigures
     coupling_nrmse: Optional[float]
     transmissibility: TransmissibilityEstimate
     real_time_factor: float
+    head_window: np.ndarray = field(default_factory=lambda: np.empty(0))
 
     def to_dict(self) -> dict:
         """The body's entry of the JSON document (figures, no histories; README "JSON output")."""
@@ -110,18 +117,52 @@ class Study:
     settings : StudySettings
     road : dict
         The road's description (:meth:`vehicle.roads.Road.describe`).
-    time, road_displacement, road_velocity : ndarray
-        Communication points (s) and the road input under the tire (m, m/s).
+    time, road_displacement, road_velocity : ndarray or None
+        Communication points (s) and the road input under the tire (m, m/s), kept only
+        with ``run_study(..., histories=True)``.
     bodies : dict of str to BodyRun
         Label -> the body's run, in the order given.
+    window_time : ndarray
+        Times of the plot's window (s), mid-run.
+    history_sums : dict of (str, str) to (float, float)
+        For each ordered pair of labels ``(a, b)``: ``sum((a_head - b_head)^2)`` and
+        ``sum(b_head^2)`` over the run, for :meth:`history_nrmse`.
     """
 
     settings: StudySettings
     road: dict
-    time: np.ndarray
-    road_displacement: np.ndarray
-    road_velocity: np.ndarray
+    time: Optional[np.ndarray] = None
+    road_displacement: Optional[np.ndarray] = None
+    road_velocity: Optional[np.ndarray] = None
     bodies: Dict[str, BodyRun] = field(default_factory=dict)
+    window_time: np.ndarray = field(default_factory=lambda: np.empty(0))
+    history_sums: Dict[tuple, tuple] = field(default_factory=dict)
+
+    def history_nrmse(self, estimate: str, reference: str) -> float:
+        """NRMSE of one body's head acceleration against another's over the whole run.
+
+        Parameters
+        ----------
+        estimate, reference : str
+            Body labels.
+
+        Returns
+        -------
+        float
+            ``rms(a_estimate - a_reference) / rms(a_reference)`` (a fraction).
+
+        Raises
+        ------
+        BodyvibError
+            Unknown labels, or a reference that is zero throughout.
+        """
+        try:
+            num, den = self.history_sums[(estimate, reference)]
+        except KeyError:
+            raise BodyvibError(f"no bodies '{estimate}' and '{reference}' in this study") from None
+        if den == 0:
+            raise BodyvibError("reference signal is zero throughout; NRMSE undefined")
+        return math.sqrt(num / den)
 
     def to_dict(self) -> dict:
         """The study as JSON: ``settings``, ``road`` and ``bodies`` (figures, no histories)."""
@@ -134,13 +175,28 @@ def _say(msg, quiet):
         print(msg, file=sys.stderr, flush=True)
 
 
-def check_settings(road: str, speed: float, duration: float, step: float, seed: int = 0):
+#: Memory per communication step and body of a study that keeps its histories
+#: (``run_study(..., histories=True)``), bytes: every signal of the co-simulation and of
+#: the reference at full length (measured about 0.6 kB). A streamed study needs none.
+BYTES_PER_STEP = 800
+
+#: Most communication points of one run: 1e9 is 11.6 simulated days at 1 ms, about 9 hours
+#: of wall time per body at the master's 30 us per macro-step.
+MAX_STEPS = 1e9
+
+
+def check_settings(road: str, speed: float, duration: float, step: float, seed: int = 0,
+                   bodies: int = 1, histories: bool = False):
     """Validate run settings before any work is done; returns the road.
 
     Parameters
     ----------
     road, speed, duration, step, seed
         As :func:`run_study`.
+    bodies : int
+        Number of bodies the study will run (for its memory estimate).
+    histories : bool
+        The study keeps its histories (memory grows with the run).
 
     Returns
     -------
@@ -150,7 +206,8 @@ def check_settings(road: str, speed: float, duration: float, step: float, seed: 
     ------
     BodyvibError
         A speed, duration or step that is not a positive number, a step longer
-        than half the duration, an unknown road, or a negative seed.
+        than half the duration, an unknown road, a negative seed, or a run
+        (or a road) too long for the memory at hand.
     """
     for value, what, unit in ((speed, "speed", "m/s"), (duration, "duration", "s"),
                               (step, "step", "s")):
@@ -159,13 +216,24 @@ def check_settings(road: str, speed: float, duration: float, step: float, seed: 
     if step > duration / 2:
         raise BodyvibError(f"step {step:g} s is too long for a {duration:g} s run; use a step "
                            "of at most half the duration")
+    steps = duration / step + 1
+    if steps > MAX_STEPS:
+        raise BodyvibError(f"a {duration:g} s run at a {step:g} s step has {steps:.3g} "
+                           f"communication points; the limit is {MAX_STEPS:.3g} (about 9 hours "
+                           "of wall time per body): shorten --duration or lengthen --step")
+    if histories:
+        require_memory(steps * BYTES_PER_STEP * max(1, bodies),
+                       f"a {duration:g} s run at a {step:g} s step ({steps:.3g} steps, "
+                       f"{max(1, bodies)} body/bodies) with its histories",
+                       "shorten the run or do not keep the histories")
     return make_road(road, speed, duration, seed=seed)
 
 
 def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: float = 20.0,
               duration: float = 30.0, step: float = 1e-3, seed: int = 0,
               extrapolate: bool = True, reference: bool = True, progress: bool = False,
-              quiet: bool = True) -> Study:
+              quiet: bool = True, histories: bool = False, csv: "StudyCsv" = None,
+              block: int = 4096, window_s: float = 5.0) -> Study:
     """Co-simulate the car with each body FMU on one road; figures, references, transmissibility.
 
     Parameters
@@ -192,6 +260,16 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
         tqdm progress bars on stderr.
     quiet : bool
         No stage messages on stderr.
+    histories : bool
+        Keep every signal of every run at full length (``BodyRun.run``,
+        ``BodyRun.reference``, ``Study.time``): memory grows with the run. By default
+        only the figures, running sums and the plot window are kept.
+    csv : StudyCsv, optional
+        Receives the time histories block by block (streamed to disk).
+    block : int
+        Communication points per block.
+    window_s : float
+        Length of the plot window kept mid-run, s.
 
     Returns
     -------
@@ -204,43 +282,198 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
     BodyvibError
         Bad settings, missing or unsuitable FMUs.
     """
-    rd = check_settings(road, speed, duration, step, seed)
+    rd = check_settings(road, speed, duration, step, seed, bodies=len(body_fmus),
+                        histories=histories)
     n = int(round(duration / step)) + 1
-    t = np.arange(n) * step
-    z, v = road_input(rd, speed, t)
     fs = 1.0 / step
+    labels = list(body_fmus)
     car_net = model_from_fmu(car_fmu) if reference else None
+    nets = {label: model_from_fmu(path) if reference else None
+            for label, path in body_fmus.items()}
+    refs = {label: ReferenceStream(car_net, net, step)
+            for label, net in nets.items() if net is not None and car_net is not None}
+    comfort = {label: ComfortStream(fs, 2) for label in labels}       # head, seat
+    trans = {label: TransmissibilityStream(fs, n) for label in labels}
+    err = {label: [0.0, 0.0] for label in refs}                        # sum (a - r)^2, sum r^2
+    pairs = {(a, b): [0.0, 0.0] for a in labels for b in labels if a != b}
+    w0 = max(0.0, (n - 1) * step / 2 - window_s / 2)                   # the plot's window
+    k0, k1 = int(math.ceil(w0 / step - 1e-9)), int(math.floor((w0 + window_s) / step + 1e-9))
+    windows = {label: [] for label in labels}
+    kept = {label: [] for label in labels} if histories else None
+    kept_ref = {label: [] for label in refs} if histories else None
+    _say(f"co-simulating {', '.join(f'{b} ({os.path.basename(p)})' for b, p in body_fmus.items())}"
+         f" on {rd.name} at {speed:g} m/s, {duration:g} s, step {step:g} s"
+         + (" with the monolithic reference" if refs else ""), quiet)
+    bar = _bar(n, progress)
+    with contextlib.ExitStack() as stack:
+        masters = {}
+        for label, path in body_fmus.items():
+            car = stack.enter_context(open_fmu(car_fmu, "car", "car"))
+            body = stack.enter_context(open_fmu(path, "body", label))
+            masters[label] = Master(car, body, step, n, extrapolate=extrapolate)
+        try:
+            for a in range(0, n, block):
+                t = np.arange(a, min(n, a + block)) * step
+                z, v = road_input(rd, speed, t)
+                heads = {}
+                for label in labels:
+                    rows = masters[label].advance(z, v)
+                    sig = {name: rows[:, i] for i, name in enumerate(MASTER_SIGNALS)}
+                    head, seat = sig["head_acceleration"], sig["seat_acceleration"]
+                    heads[label] = head
+                    comfort[label].update(np.vstack([head, seat]))
+                    trans[label].update(seat, head)
+                    ref = None
+                    if label in refs:
+                        interrupts.check()
+                        ref = refs[label].advance(z, v)
+                        r = ref["head_acceleration"]
+                        err[label][0] += float(np.dot(head - r, head - r))
+                        err[label][1] += float(np.dot(r, r))
+                    lo, hi = max(k0, a) - a, min(k1 + 1, a + t.size) - a
+                    if hi > lo:
+                        windows[label].append(head[lo:hi])
+                    if histories:
+                        kept[label].append(sig)
+                        if ref is not None:
+                            kept_ref[label].append(ref)
+                    if csv is not None:
+                        csv.add(label, sig, ref)
+                for (x, y), acc in pairs.items():
+                    d = heads[x] - heads[y]
+                    acc[0] += float(np.dot(d, d))
+                    acc[1] += float(np.dot(heads[y], heads[y]))
+                if csv is not None:
+                    csv.flush(t, z, v)
+                if bar is not None:
+                    bar.update(t.size)
+        finally:
+            if bar is not None:
+                bar.close()
     out = Study(
         settings=StudySettings(road=str(road), speed_m_s=speed, duration_s=duration,
                                step_s=step, seed=seed, master="gauss-seidel, seat force "
                                + ("extrapolated linearly" if extrapolate else "held")),
-        road=rd.describe(), time=t, road_displacement=z, road_velocity=v)
+        road=rd.describe(), window_time=np.arange(k0, k1 + 1) * step,
+        history_sums={k: tuple(v) for k, v in pairs.items()})
+    if histories:
+        out.time = np.arange(n) * step
+        out.road_displacement, out.road_velocity = road_input(rd, speed, out.time)
     for label, path in body_fmus.items():
-        _say(f"co-simulating {label} ({os.path.basename(path)}) on {rd.name} at {speed:g} m/s, "
-             f"{duration:g} s, step {step:g} s", quiet)
-        with open_fmu(car_fmu, "car", "car") as car, open_fmu(path, "body", label) as body:
-            t0 = time.perf_counter()
-            run = cosimulate(car, body, z, v, step, extrapolate=extrapolate, progress=progress)
-            wall = time.perf_counter() - t0
-        ref, err = None, None
-        body_net = model_from_fmu(path) if reference else None
-        if reference and body_net is not None and car_net is not None:
-            _say(f"monolithic reference of {label}", quiet)
-            ref = reference_run(car_net, body_net, z, v, step)
-            err = nrmse(run["head_acceleration"], ref["head_acceleration"])
+        figs = comfort[label].figures()
+        head_fig, seat_fig = (ComfortFigures(**{k: (v[i] if k == "comfort" else float(v[i]))
+                                                for k, v in figs.items()}) for i in (0, 1))
+        run = ref_hist = None
+        if histories:
+            run = {"time": out.time, "road_displacement": out.road_displacement,
+                   "road_velocity": out.road_velocity}
+            run.update({k: np.concatenate([b[k] for b in kept[label]]) for k in MASTER_SIGNALS})
+            if label in refs:
+                ref_hist = {"time": out.time, "road_displacement": out.road_displacement,
+                            "road_velocity": out.road_velocity}
+                ref_hist.update({k: np.concatenate([b[k] for b in kept_ref[label]])
+                                 for k in kept_ref[label][0]})
+        coupling = None
+        if label in err:
+            if err[label][1] == 0:
+                raise BodyvibError("reference signal is zero throughout; NRMSE undefined")
+            coupling = math.sqrt(err[label][0] / err[label][1])
+        net = nets[label]
         out.bodies[label] = BodyRun(
             fmu=os.fspath(path),
-            model=body_net.name if body_net is not None else None,
+            model=net.name if net is not None else None,
             run=run,
-            reference=ref,
-            figures=comfort_figures(run["head_acceleration"], fs),
-            seat_figures=comfort_figures(run["seat_acceleration"], fs),
-            coupling_nrmse=err,
-            transmissibility=estimate_transmissibility(run["seat_acceleration"],
-                                                       run["head_acceleration"], fs),
-            real_time_factor=duration / wall,
+            reference=ref_hist,
+            figures=head_fig,
+            seat_figures=seat_fig,
+            coupling_nrmse=coupling,
+            transmissibility=trans[label].result(),
+            real_time_factor=duration / max(masters[label].wall_s, 1e-12),
+            head_window=np.concatenate(windows[label]) if windows[label] else np.empty(0),
         )
     return out
+
+
+def _bar(total, enabled):
+    if not enabled:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=total, unit="step", file=sys.stderr, disable=None, leave=False,
+                desc="co-simulation", mininterval=0.5)
+
+
+class StudyCsv:
+    """A study's time histories streamed to CSV, one row per communication point.
+
+    Columns: ``time``, the road, the car's signals, and per body its head acceleration,
+    head and torso displacement, seat force and the reference's head acceleration
+    (prefixed ``<label>.`` when the study has several bodies); header ``name [unit]``.
+    Nothing is placed at the path before :meth:`place` (see :class:`vehicle.cosim.CsvStream`).
+
+    Parameters
+    ----------
+    path : str
+    labels : sequence of str
+        The study's bodies, in order.
+    """
+
+    _BODY = ("seat_force", "head_acceleration", "head_displacement", "torso_displacement")
+
+    def __init__(self, path, labels):
+        self._out = CsvStream(path)
+        self._labels = list(labels)
+        self._blocks = {}
+
+    def add(self, label, signals, reference):
+        """Hold one body's signals of the current block.
+
+        Parameters
+        ----------
+        label : str
+        signals : dict of str to ndarray
+            The block's :data:`vehicle.cosim.MASTER_SIGNALS`.
+        reference : dict of str to ndarray or None
+            The reference's signals of the block.
+        """
+        self._blocks[label] = (signals, reference)
+
+    def flush(self, t, z, v):
+        """Write the current block, once every body has added its signals.
+
+        Parameters
+        ----------
+        t, z, v : ndarray
+            The block's times (s), road displacement (m) and road velocity (m/s).
+        """
+        many = len(self._labels) > 1
+        cols = {"time": t, "road_displacement": z, "road_velocity": v}
+        for label in self._labels:
+            sig, ref = self._blocks[label]
+            for k in MASTER_SIGNALS_CSV:
+                if many and k not in self._BODY:
+                    cols.setdefault(k, sig[k])
+                elif not many or k in self._BODY:
+                    cols[f"{label}.{k}" if many else k] = sig[k]
+            if ref is not None:
+                cols[f"{label}.reference_head_acceleration" if many
+                     else "reference_head_acceleration"] = ref["head_acceleration"]
+        self._out.write(cols)
+        self._blocks = {}
+
+    def place(self):
+        """Put the file at its path (or stage it with the other outputs)."""
+        self._out.place()
+
+    def discard(self):
+        """Delete the unfinished file."""
+        self._out.discard()
+
+
+#: Signal order of the CSV (that of :func:`vehicle.cosim.cosimulate`'s result).
+MASTER_SIGNALS_CSV = ("seat_displacement", "seat_velocity", "seat_acceleration",
+                      "suspension_deflection", "tire_force", "seat_force", "head_acceleration",
+                      "head_displacement", "torso_displacement")
 
 
 def coupling_error_sweep(steps, body_fmu: str, car_fmu: str, road: str = "C", speed: float = 20.0,

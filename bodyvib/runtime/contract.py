@@ -369,7 +369,8 @@ def fmu_variables(kind: str, network: Network):
     Raises
     ------
     BodyvibError
-        An unknown kind, or a model that lacks what the kind needs.
+        An unknown kind, a model that lacks what the kind needs, or a parameter
+        named like an interface variable.
 
     Examples
     --------
@@ -383,6 +384,11 @@ def fmu_variables(kind: str, network: Network):
     interface = KINDS[kind](network)
     parameters = parameter_variables(network)
     variables = interface.inputs + interface.outputs + parameters
+    taken = {v.name for v in interface.inputs + interface.outputs}
+    clash = [p.name for p in parameters if p.name in taken]
+    if clash:
+        raise BodyvibError(f"model '{network.name}': parameter name(s) {', '.join(clash)} are "
+                           f"variables of the {kind} FMU's interface; rename the parameter(s)")
     seen = set()
     for v in variables:
         if v.name in seen:

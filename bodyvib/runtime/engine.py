@@ -125,6 +125,7 @@ class FmuCore:
         self._s = self._buf[n:n + ni]
         self._y = self._buf[n + ni:]
         self._znew = np.empty(n + ni)
+        self._zdot = self._znew.dot  # the after-step check: z.z is finite iff z is (no overflow)
         # value reference -> index into _buf (parameters are kept apart)
         self._pos = [n + i for i in range(self._ni + self._no)]
 
@@ -306,9 +307,20 @@ class FmuCore:
         if self._fallback:
             self._slope_fallback(current_time, h)
         if h != self._h:
-            self._M = self._step_matrix(h)
+            with np.errstate(all="ignore"):  # an overflow is refused below, not warned about
+                M = self._step_matrix(h)
+            if not np.all(np.isfinite(M)):
+                self._steps.pop(h, None)
+                raise BodyvibError(f"{self.name}: a step of {h!r} s overflows the exact "
+                                   "discretization (not finite); step refused, state unchanged "
+                                   "(use shorter steps)")
+            self._M = M
             self._h = h
         np.dot(self._M, self._z, out=self._znew)  # state and inputs at the step's end
+        if not math.isfinite(self._zdot(self._znew)):  # NaN or overflow: keep the old state
+            raise BodyvibError(f"{self.name}: the state after the step from t = "
+                               f"{current_time:g} s is not finite (inputs or state too large); "
+                               "step refused, state unchanged")
         self._z[:] = self._znew
         self._dirty = True
         self.time = current_time + h
@@ -338,6 +350,8 @@ class FmuCore:
     def get_state(self) -> dict:
         """A JSON-serializable snapshot of everything that evolves (``fmi2GetFMUstate``)."""
         return {
+            "kind": self.kind,
+            "parameter_names": list(self._pnames),
             "buf": self._buf.tolist(),
             "params": self._params.tolist(),
             "bad": list(self._bad),
@@ -348,8 +362,60 @@ class FmuCore:
                          "h_prev": list(self._h_prev)},
         }
 
+    def check_state(self, state) -> None:
+        """Refuse a snapshot that is not one of this FMU's, or holds invalid values.
+
+        Raises
+        ------
+        BodyvibError
+            Not a snapshot of :meth:`get_state`, another FMU kind, other
+            parameter names, sizes that differ from this model's, a non-finite
+            value, or invalid parameters (:meth:`check_parameters`).
+        """
+        where = f"{self.name}: FMU state refused, state unchanged"
+        fields = ("kind", "parameter_names", "buf", "params", "bad", "initialized", "time")
+        if not isinstance(state, dict) or any(k not in state for k in fields):
+            raise BodyvibError(f"{where}: not a state of a bodyvib FMU (fields "
+                               f"{', '.join(fields)} expected)")
+        if state["kind"] != self.kind or list(state["parameter_names"]) != self._pnames:
+            raise BodyvibError(f"{where}: it belongs to another FMU (kind {state['kind']!r}, "
+                               f"parameters {state['parameter_names']!r}; this one is "
+                               f"{self.kind!r} with {self._pnames!r})")
+        try:
+            buf = np.array(state["buf"], dtype=float)
+            params = np.array(state["params"], dtype=float)
+            t = float(state["time"])
+        except (TypeError, ValueError):
+            raise BodyvibError(f"{where}: non-numeric values") from None
+        sizes = ((buf, self._buf.size, "buf"), (params, self._np, "params"))
+        for arr, size, name in sizes:
+            if arr.shape != (size,):
+                raise BodyvibError(f"{where}: {name} has shape {arr.shape}, this model needs "
+                                   f"({size},)")
+        bad = state["bad"]
+        if not isinstance(bad, list) or len(bad) != self._ni or \
+                not all(isinstance(b, bool) for b in bad) or \
+                not isinstance(state["initialized"], bool):
+            raise BodyvibError(f"{where}: malformed input flags")
+        # inputs flagged bad may hold NaN (refused at the next step); nothing else may
+        finite = np.isfinite(buf)
+        finite[self._n:self._n + self._ni] |= np.array(bad, dtype=bool)
+        if not (finite.all() and math.isfinite(t)):
+            raise BodyvibError(f"{where}: it holds values that are not finite")
+        try:
+            self.check_parameters(params)
+        except BodyvibError as exc:
+            raise BodyvibError(f"{where}: {exc}") from None
+
     def set_state(self, state: dict) -> None:
-        """Restore a snapshot from :meth:`get_state` (``fmi2SetFMUstate``)."""
+        """Restore a snapshot from :meth:`get_state` (``fmi2SetFMUstate``).
+
+        Raises
+        ------
+        BodyvibError
+            A snapshot :meth:`check_state` refuses; nothing is changed.
+        """
+        self.check_state(state)
         params = np.array(state["params"], dtype=float)
         self._params = params
         self._values[self._ni + self._no:] = params.tolist()

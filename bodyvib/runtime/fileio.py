@@ -1,58 +1,444 @@
 """Atomic file writing (a crash or a full disk never leaves half a file behind) and JSON reading.
 
+Writes go to a temporary file in the destination's folder, then replace the
+destination in one rename. A symlink is written through (its target is
+replaced, the link stays); an existing file keeps its permission bits; a
+destination that is a folder, a FIFO, a device or another special file, or a
+read-only file, is refused. :func:`staged_writes` collects every write of a
+block and commits them together at its end (all of them or, if the block
+fails, none); :func:`check_output_path` checks an output before any work is
+done.
+
 Numpy-free and dependency-free (relative imports only), so FMUs can ship it.
 """
 
+import contextlib
 import json
+import math
 import os
+import stat
 import tempfile
+import threading
 
 from .errors import BodyvibError
 
-__all__ = ["atomic_write_text", "atomic_write_bytes", "write_json", "read_json"]
+__all__ = ["atomic_write_text", "atomic_write_bytes", "write_json", "read_json",
+           "staged_writes", "StagedWrites", "open_staged", "PendingFile", "check_output_path",
+           "check_outputs"]
+
+_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+          (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+          (stat.S_ISSOCK, "a socket"))
+
+_local = threading.local()  # the active StagedWrites of this thread, if any
+
+
+def _kind(mode: int) -> str:
+    for test, words in _KINDS:
+        if test(mode):
+            return words
+    return "not a regular file"
+
+
+def _destination(path: str):
+    """``(real path, mode to keep or None)`` of a write to ``path``.
+
+    Follows symlinks (the target is what gets replaced) and refuses anything
+    but a regular, writable file or a missing one.
+    """
+    real = os.path.realpath(path)
+    try:
+        st = os.stat(real)
+    except FileNotFoundError:
+        return real, None
+    if not stat.S_ISREG(st.st_mode):
+        raise BodyvibError(f"'{path}' is {_kind(st.st_mode)}, not a file; give a file path "
+                           "to write")
+    if not os.access(real, os.W_OK):
+        raise BodyvibError(f"'{path}' is read-only; make it writable or write elsewhere")
+    return real, stat.S_IMODE(st.st_mode)
+
+
+def _temporary(real: str, mode):
+    """A new temporary file beside ``real`` with the mode the result should have: ``(fd, path)``."""
+    folder = os.path.dirname(real)
+    os.makedirs(folder, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=os.path.basename(real))
+    try:
+        if mode is None:  # mkstemp makes the file private (0600); give it a plain open()'s mode
+            umask = os.umask(0)
+            os.umask(umask)
+            mode = 0o666 & ~umask
+        os.chmod(tmp, mode)
+    except BaseException:
+        os.close(fd)
+        os.unlink(tmp)
+        raise
+    return fd, tmp
+
+
+def _oserror(exc: OSError, path: str) -> OSError:
+    return OSError(exc.errno, exc.strerror or str(exc), path)
 
 
 def atomic_write_bytes(path, data: bytes) -> None:
     """Write ``data`` to ``path`` atomically (temporary file, then rename).
 
+    Inside :func:`staged_writes` the rename waits for the block's commit.
+
     Parameters
     ----------
     path : str or os.PathLike
-        Destination. Its folder is created if missing.
+        Destination. Its folder is created if missing. A symlink is written
+        through to its target; an existing file keeps its permission bits.
     data : bytes
         Content.
 
     Raises
     ------
+    BodyvibError
+        The destination is a folder, a FIFO, a device or another special file,
+        or a read-only file.
     OSError
         The file cannot be written; its ``filename`` is ``path`` (not the
         temporary file), so the message names what the user asked for.
     """
     path = os.fspath(path)
+    real, mode = _destination(path)
     try:
-        _write_replace(path, data)
+        fd, tmp = _temporary(real, mode)
     except OSError as exc:
-        raise OSError(exc.errno, exc.strerror or str(exc), path) from exc
-
-
-def _write_replace(path: str, data: bytes) -> None:
-    folder = os.path.dirname(os.path.abspath(path))
-    os.makedirs(folder, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=os.path.basename(path))
+        raise _oserror(exc, path) from exc
     try:
-        # mkstemp makes the file private (0600); give it the mode a plain open() would
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
         with os.fdopen(fd, "wb") as f:
             f.write(data)
             f.flush()
             os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    except BaseException as exc:
+        _unlink(tmp)
+        if isinstance(exc, OSError):
+            raise _oserror(exc, path) from exc
         raise
+    _place(tmp, real, path)
+
+
+def _place(tmp: str, real: str, path: str) -> None:
+    stage = getattr(_local, "stage", None)
+    if stage is not None:
+        stage._add(tmp, real, path)
+        return
+    try:
+        os.replace(tmp, real)
+    except BaseException as exc:
+        _unlink(tmp)
+        if isinstance(exc, OSError):
+            raise _oserror(exc, path) from exc
+        raise
+
+
+def _unlink(tmp: str) -> None:
+    with contextlib.suppress(OSError):
+        os.unlink(tmp)
+
+
+@contextlib.contextmanager
+def open_staged(path, mode: str = "w", encoding: str = "utf-8"):
+    """A file opened for streaming, placed at ``path`` atomically when done.
+
+    The content goes to a temporary file beside ``path``; when the block ends
+    normally the file replaces ``path`` (or, inside :func:`staged_writes`, is
+    committed with the other outputs); if the block fails it is deleted.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Destination (the rules of :func:`atomic_write_bytes`).
+    mode : str
+        ``"w"`` (text) or ``"wb"`` (binary).
+    encoding : str
+        Text encoding.
+
+    Yields
+    ------
+    file object
+    """
+    path = os.fspath(path)
+    real, keep = _destination(path)
+    try:
+        fd, tmp = _temporary(real, keep)
+    except OSError as exc:
+        raise _oserror(exc, path) from exc
+    try:
+        with os.fdopen(fd, mode, **({} if "b" in mode else {"encoding": encoding,
+                                                              "newline": ""})) as f:
+            yield f
+            f.flush()
+            os.fsync(f.fileno())
+    except BaseException as exc:
+        _unlink(tmp)
+        if isinstance(exc, OSError):
+            raise _oserror(exc, path) from exc
+        raise
+    _place(tmp, real, path)
+
+
+class PendingFile:
+    """A file being written beside its destination, placed there by :meth:`place`.
+
+    For outputs streamed during a long computation (a CSV of a co-simulation): the
+    content goes to a temporary file beside ``path`` and replaces ``path`` only when
+    :meth:`place` is called (inside :func:`staged_writes`, with the block's other
+    outputs); :meth:`discard` (or leaving a ``with`` block by an exception) deletes it.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Destination (the rules of :func:`atomic_write_bytes`).
+    mode : str
+        ``"w"`` (text, UTF-8, no newline translation) or ``"wb"``.
+
+    Attributes
+    ----------
+    file : file object
+        Where to write.
+    """
+
+    def __init__(self, path, mode: str = "w"):
+        self.path = os.fspath(path)
+        self._real, keep = _destination(self.path)
+        try:
+            fd, self._tmp = _temporary(self._real, keep)
+        except OSError as exc:
+            raise _oserror(exc, self.path) from exc
+        self.file = os.fdopen(fd, mode, **({} if "b" in mode else {"encoding": "utf-8",
+                                                                    "newline": ""}))
+
+    def place(self) -> None:
+        """Flush, close and rename the file onto its destination (or stage it)."""
+        try:
+            self.file.flush()
+            os.fsync(self.file.fileno())
+            self.file.close()
+        except BaseException as exc:
+            self.discard()
+            if isinstance(exc, OSError):
+                raise _oserror(exc, self.path) from exc
+            raise
+        _place(self._tmp, self._real, self.path)
+        self._tmp = None
+
+    def discard(self) -> None:
+        """Close and delete the file; the destination keeps its old content."""
+        with contextlib.suppress(OSError):
+            self.file.close()
+        if self._tmp is not None:
+            _unlink(self._tmp)
+            self._tmp = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        if exc_type is not None or self._tmp is not None:
+            self.discard()
+        return False
+
+
+class StagedWrites:
+    """Writes collected by :func:`staged_writes`, committed together.
+
+    Attributes
+    ----------
+    paths : list of str
+        The destinations staged so far, as given.
+    """
+
+    def __init__(self):
+        self._entries = []
+        self.paths = []
+
+    def _add(self, tmp, real, path):
+        for i, (old, r, _) in enumerate(self._entries):
+            if r == real:  # written twice: the last write wins
+                _unlink(old)
+                del self._entries[i]
+                break
+        self._entries.append((tmp, real, path))
+        self.paths.append(path)
+
+    def commit(self) -> None:
+        """Rename every staged file onto its destination."""
+        entries, self._entries = self._entries, []
+        for i, (tmp, real, path) in enumerate(entries):
+            try:
+                os.replace(tmp, real)
+            except OSError as exc:
+                for t, _, _ in entries[i:]:
+                    _unlink(t)
+                raise _oserror(exc, path) from exc
+
+    def discard(self) -> None:
+        """Delete every staged file; the destinations stay as they were."""
+        entries, self._entries = self._entries, []
+        for tmp, _, _ in entries:
+            _unlink(tmp)
+
+
+@contextlib.contextmanager
+def staged_writes(guard=None):
+    """Collect the atomic writes of a block and commit them together at its end.
+
+    Inside the block, :func:`atomic_write_bytes` (and everything built on it)
+    writes each file to a temporary beside its destination; when the block
+    ends normally all of them are renamed onto their destinations, one after
+    the other; if it fails (an error, an interrupt) all are deleted and every
+    destination keeps its old content.
+
+    Parameters
+    ----------
+    guard : callable, optional
+        A context-manager factory the commit runs in (e.g. one that defers
+        interrupts for the few renames).
+
+    Yields
+    ------
+    StagedWrites
+    """
+    outer = getattr(_local, "stage", None)
+    stage = StagedWrites()
+    _local.stage = stage
+    try:
+        yield stage
+    except BaseException:
+        _local.stage = outer
+        stage.discard()
+        raise
+    _local.stage = outer
+    try:
+        with (guard() if guard is not None else contextlib.nullcontext()):
+            stage.commit()
+    except BaseException:
+        stage.discard()
+        raise
+
+
+def _same(a: str, b: str) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return os.path.realpath(a) == os.path.realpath(b)
+
+
+def check_output_path(path, option: str, extensions=None, inputs=(), folder: bool = False) -> str:
+    """Refuse an output path that cannot be written, before any work is done.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The output.
+    option : str
+        The option that named it (``"--json"``), for the message.
+    extensions : sequence of str, optional
+        Allowed extensions, lower case with the dot (``(".json",)``).
+    inputs : iterable of (str, str)
+        ``(option, path)`` of the command's inputs; the output must be none of them.
+    folder : bool
+        The output is a folder (``fit --report DIR``, ``build --dest DIR``)
+        rather than a file.
+
+    Returns
+    -------
+    str
+        The real path (symlinks followed) of the output.
+
+    Raises
+    ------
+    BodyvibError
+        A wrong extension; the output is an input of the command; an existing
+        folder, FIFO, device or other special file where a file is written
+        (or a file where a folder is); a read-only file; a folder that cannot
+        be created or written.
+    """
+    path = os.fspath(path)
+    if not path:
+        raise BodyvibError(f"{option}: empty path")
+    for opt, inp in inputs:
+        if inp is not None and os.path.exists(os.fspath(inp)) and _same(path, os.fspath(inp)):
+            raise BodyvibError(f"{option} '{path}' is the input of {opt}; writing it would "
+                               "destroy the input: give another output path")
+    if extensions and os.path.splitext(path)[1].lower() not in extensions:
+        raise BodyvibError(f"{option} '{path}' must end in {' or '.join(extensions)}")
+    real = os.path.realpath(path)
+    where = f"{option} '{path}'"
+    if os.path.exists(real):
+        mode = os.stat(real).st_mode
+        if folder:
+            if not stat.S_ISDIR(mode):
+                raise BodyvibError(f"{where} is {_kind(mode) if not stat.S_ISREG(mode) else 'a file'}"
+                                   ", not a folder")
+            if not os.access(real, os.W_OK | os.X_OK):
+                raise BodyvibError(f"{where}: folder is not writable")
+            return real
+        if not stat.S_ISREG(mode):
+            raise BodyvibError(f"{where} is {_kind(mode)}, not a file; give a file path")
+        if not os.access(real, os.W_OK):
+            raise BodyvibError(f"{where} is read-only; make it writable or write elsewhere")
+    # the nearest existing folder must be a writable folder (missing ones are created)
+    parent = os.path.dirname(real) if not folder else real
+    while not os.path.exists(parent):
+        parent = os.path.dirname(parent)
+    if not os.path.isdir(parent):
+        raise BodyvibError(f"{where}: '{parent}' is a file, not a folder")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise BodyvibError(f"{where}: folder '{parent}' is not writable")
+    return real
+
+
+def check_outputs(outputs, inputs=()) -> None:
+    """Check several outputs of one command: each by :func:`check_output_path`, all different.
+
+    Parameters
+    ----------
+    outputs : iterable of tuple
+        ``(option, path, extensions)`` or ``(option, path, extensions, folder)``;
+        entries whose path is None are skipped.
+    inputs : iterable of (str, str)
+        ``(option, path)`` of the command's inputs.
+
+    Raises
+    ------
+    BodyvibError
+        See :func:`check_output_path`; or two outputs naming the same file.
+    """
+    inputs = [(o, p) for o, p in inputs if p is not None]
+    seen = {}
+    for entry in outputs:
+        option, path, exts = entry[:3]
+        folder = entry[3] if len(entry) > 3 else False
+        if path is None:
+            continue
+        real = check_output_path(path, option, exts, inputs, folder)
+        if real in seen:
+            raise BodyvibError(f"{option} and {seen[real]} name the same file '{path}'; give "
+                               "each output its own path")
+        seen[real] = option
+
+
+def _refuse_nonfinite(obj, where="$"):
+    """The JSON path of the first non-finite number in ``obj``, or None."""
+    if isinstance(obj, float):
+        return None if math.isfinite(obj) else where
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            bad = _refuse_nonfinite(v, f"{where}.{k}")
+            if bad:
+                return bad
+    elif isinstance(obj, (list, tuple)):
+        for i, v in enumerate(obj):
+            bad = _refuse_nonfinite(v, f"{where}[{i}]")
+            if bad:
+                return bad
+    return None
 
 
 def atomic_write_text(path, text: str) -> None:
@@ -67,14 +453,27 @@ def atomic_write_text(path, text: str) -> None:
 
 
 def write_json(path, obj) -> None:
-    """Write ``obj`` as indented JSON to ``path`` atomically.
+    """Write ``obj`` as indented, standard JSON to ``path`` atomically.
 
     Parameters
     ----------
     path : str or os.PathLike
     obj : JSON-serializable object
+        Finite numbers only: JSON has no NaN or Infinity.
+
+    Raises
+    ------
+    BodyvibError
+        ``obj`` holds NaN or an infinity (named by its place in the document);
+        nothing is written.
     """
-    atomic_write_text(path, json.dumps(obj, indent=2, sort_keys=False) + "\n")
+    try:
+        text = json.dumps(obj, indent=2, sort_keys=False, allow_nan=False)
+    except ValueError:
+        bad = _refuse_nonfinite(obj) or "a value"
+        raise BodyvibError(f"{os.fspath(path)}: {bad} is not a finite number; JSON cannot hold "
+                           "NaN or Infinity, nothing written") from None
+    atomic_write_text(path, text + "\n")
 
 
 def read_json(path, what: str = "file"):

@@ -34,6 +34,7 @@ the FMUs read their baked parameter file with this module.
 
 import math
 import os
+import re
 from typing import Dict, Union
 
 from .contract import UNITS
@@ -53,6 +54,16 @@ _OPTIONAL = ("description", "provenance", "base", "nodes", "force_inputs", "role
              "fmu_outputs")
 _ELEMENT_FIELDS = ("name", "kind", "from", "to")
 _FMU_OUTPUT_FIELDS = ("name", "signal", "unit", "description")
+
+#: A parameter name: it becomes an FMU variable name, so it must be a plain name of the
+#: FMI 2.0 "structured" naming convention the FMUs declare (a letter or _, then letters,
+#: digits or _), which is also a Python identifier.
+PARAMETER_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
+
+#: Parameter values accepted (SI: kg, N/m, N s/m). Far outside any body or vehicle
+#: (the stiffest element shipped is 2.2e9 N/m), the state space and the frequency responses
+#: lose every digit: 1e300 gave |T| of 1e280 or 3e-279 where the true value is about 1.
+PARAMETER_RANGE = (1e-6, 1e12)
 
 
 def network_from_file(path: Union[str, os.PathLike]) -> Network:
@@ -102,8 +113,9 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
     Raises
     ------
     BodyvibError
-        Missing or extra field, non-numeric or non-finite value, non-positive
-        parameter or mass, unknown element kind, unknown point or parameter,
+        Missing or extra field, a parameter name that is not a valid FMU
+        variable name, non-numeric or non-finite value, non-positive
+        parameter or mass, a parameter outside :data:`PARAMETER_RANGE`, unknown element kind, unknown point or parameter,
         a mass not connected to the base, or an unused parameter.
     """
     where = source
@@ -126,11 +138,22 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
         raise BodyvibError(f"{where}: 'parameters' must be an object of name: value")
     params: Dict[str, float] = {}
     for k, v in raw_params.items():
+        if not PARAMETER_NAME.match(k):
+            raise BodyvibError(
+                f"{where}: parameter name {k!r} is not a valid FMU variable name; use letters, "
+                "digits and _ only, starting with a letter or _ (e.g. k_seat)"
+            )
         val = _number(v, f"{where}: parameters.{k}")
         if val <= 0:
             raise BodyvibError(
                 f"{where}: parameters.{k} = {val:g} must be positive "
                 "(masses in kg, stiffnesses in N/m, damping in N s/m)"
+            )
+        lo, hi = PARAMETER_RANGE
+        if not lo <= val <= hi:
+            raise BodyvibError(
+                f"{where}: parameters.{k} = {val:g} is outside {lo:g} to {hi:g}, the range in "
+                "which the model's computations keep their accuracy (SI units: kg, N/m, N s/m)"
             )
         params[k] = val
     used = set()

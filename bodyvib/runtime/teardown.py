@@ -32,6 +32,7 @@ Run-time module of the FMUs: standard library only (ctypes), no numpy, no scipy.
 import atexit
 import ctypes
 import os
+import signal
 import sys
 import threading
 
@@ -128,6 +129,10 @@ def release_python_states():
     """
     if threading.get_native_id() != os.getpid():  # not the process's main thread
         return 0
+    try:  # the process is exiting: a Ctrl-C now must not leave a traceback behind
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    except (ValueError, OSError):
+        pass
     released = 0
     for path in registered_binaries():
         try:
