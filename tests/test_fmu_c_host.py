@@ -111,13 +111,9 @@ def host(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def fmus(tmp_path_factory):
-    """The two body FMUs, built once in a subprocess: name -> .fmu path."""
-    dest = tmp_path_factory.mktemp("c_host_fmus")
-    out = subprocess.run([sys.executable, "build_fmu.py", "--dest", str(dest), "--fmus"]
-                         + list(MODEL_OF), cwd=ROOT, capture_output=True, text=True, timeout=300)
-    assert out.returncode == 0, out.stdout + out.stderr
-    return {name: str(dest / f"{name}.fmu") for name in MODEL_OF}
+def fmus(project_fmus):
+    """The two body FMUs (built once per session, tests/conftest.py): name -> .fmu path."""
+    return {name: project_fmus[name] for name in MODEL_OF}
 
 
 def extracted(path, folder):
