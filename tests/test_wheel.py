@@ -103,8 +103,8 @@ def test_installed_wheel_builds_fmus_and_runs_the_check(wheel, tmp_path):
     build = subprocess.run([exe, "build", "--dest", "fmus"], cwd=work, env=env,
                            capture_output=True, text=True, timeout=600)
     assert build.returncode == 0, build.stdout + build.stderr
-    assert sorted(p.name for p in (work / "fmus").iterdir()) == [
-        "HumanBody3DOF.fmu", "HumanBodyISO7962.fmu", "QuarterCar.fmu"]
+    built = {p.name for p in (work / "fmus").iterdir()}
+    assert {"HumanBody3DOF.fmu", "HumanBodyISO7962.fmu", "QuarterCar.fmu"} <= built, built
     check = subprocess.run([exe, "check", "--duration", "2", "--quiet"], cwd=work, env=env,
                            capture_output=True, text=True, timeout=600)
     assert check.returncode == 0, check.stdout + check.stderr
