@@ -2,6 +2,7 @@
 
 import os
 import shutil
+import subprocess
 import sys
 import tempfile
 
@@ -40,6 +41,17 @@ def dynamic_stiffness_response(net, f_hz, point):
         X = np.linalg.solve(K, F)
         out.append(X[idx[net.point(point)]])
     return np.array(out)
+
+
+@pytest.fixture(scope="session")
+def project_fmus(tmp_path_factory):
+    """The project's three FMUs, built once per session as a user does (``python
+    build_fmu.py`` in a subprocess): name -> .fmu path."""
+    dest = tmp_path_factory.mktemp("fmus")
+    out = subprocess.run([sys.executable, os.path.join(ROOT, "build_fmu.py"), "--dest", str(dest)],
+                         cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stdout + out.stderr
+    return {n: str(dest / f"{n}.fmu") for n in ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar")}
 
 
 @pytest.fixture

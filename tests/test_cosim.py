@@ -26,17 +26,14 @@ pytestmark = pytest.mark.integration
 
 
 @pytest.fixture(scope="session")
-def fmus(tmp_path_factory):
-    d = tmp_path_factory.mktemp("fmus")
-    subprocess.run([sys.executable, os.path.join(ROOT, "build_fmu.py"), "--dest", str(d)],
-                   check=True, cwd=ROOT, capture_output=True)
+def fmus(project_fmus, tmp_path_factory):
     cushion = tmp_path_factory.mktemp("fmus_cushion")
     subprocess.run([sys.executable, "-c",
                     "import sys; from vehicle.fmus import build_project_fmu; "
                     "build_project_fmu('QuarterCar', sys.argv[1], 'quarter-car-cushion')", str(cushion)],
                    check=True, cwd=ROOT, capture_output=True)
-    return {"body": str(d / "HumanBody3DOF.fmu"), "iso": str(d / "HumanBodyISO7962.fmu"),
-            "car": str(d / "QuarterCar.fmu"), "cushion": str(cushion / "QuarterCar.fmu")}
+    return {"body": project_fmus["HumanBody3DOF"], "iso": project_fmus["HumanBodyISO7962"],
+            "car": project_fmus["QuarterCar"], "cushion": str(cushion / "QuarterCar.fmu")}
 
 
 @pytest.mark.parametrize("which", ["body", "iso"])

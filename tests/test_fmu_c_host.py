@@ -52,7 +52,7 @@ pytestmark = pytest.mark.integration
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 HOST_SOURCE = os.path.join(ROOT, "tests", "c_host", "fmi2_host.c")
 MODEL_OF = {"HumanBody3DOF": "reduced-paper", "HumanBodyISO7962": "iso7962"}
-BODY_OUT = list(BODY_OUTPUTS[:4])  # the outputs with a model signal (not seat_force_rate)
+BODY_OUT = list(BODY_OUTPUTS[:4])  # the four the host reads (not seat_force_rate)
 BODY_SIG = ["head.a", "head.x", "torso.x", "seat_force"]
 BUMP = (0.02, 0.1, 0.1)  # height m, start s, length s: BUMP_* in fmi2_host.c
 STEP, N_STEPS = 1e-3, 400
@@ -111,13 +111,9 @@ def host(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def fmus(tmp_path_factory):
-    """The two body FMUs, built once in a subprocess: name -> .fmu path."""
-    dest = tmp_path_factory.mktemp("c_host_fmus")
-    out = subprocess.run([sys.executable, "build_fmu.py", "--dest", str(dest), "--fmus"]
-                         + list(MODEL_OF), cwd=ROOT, capture_output=True, text=True, timeout=300)
-    assert out.returncode == 0, out.stdout + out.stderr
-    return {name: str(dest / f"{name}.fmu") for name in MODEL_OF}
+def fmus(project_fmus):
+    """The two body FMUs (built once per session, tests/conftest.py): name -> .fmu path."""
+    return {name: project_fmus[name] for name in MODEL_OF}
 
 
 def extracted(path, folder):

@@ -44,12 +44,8 @@ FMI_DISCARD = 2
 
 
 @pytest.fixture(scope="session")
-def fmus(tmp_path_factory):
-    dest = tmp_path_factory.mktemp("fmus")
-    out = subprocess.run([sys.executable, "build_fmu.py", "--dest", str(dest)], cwd=ROOT,
-                         capture_output=True, text=True, timeout=300)
-    assert out.returncode == 0, out.stdout + out.stderr
-    return {n: str(dest / f"{n}.fmu") for n in NAMES}
+def fmus(project_fmus):
+    return {n: project_fmus[n] for n in NAMES}
 
 
 def piecewise_linear(t, every=25, scale=0.01, seed=3):

@@ -17,6 +17,7 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 import textwrap
 import zipfile
 
@@ -56,8 +57,12 @@ def host_run(module, ssp, duration=DURATION, **kwargs):
         res = run(sys.argv[1], {duration!r}, **json.loads(sys.argv[2]))
         print(json.dumps({{k: v.tolist() for k, v in res.items()}}))
     """)
-    proc = subprocess.run([sys.executable, "-c", code, str(ssp), json.dumps(kwargs)],
-                          capture_output=True, text=True, timeout=600, cwd=ROOT)
+    # a temporary directory of its own, removed after: Ecos extracts the SSP into
+    # TMPDIR (ecos_ssp_<uuid>) and leaves it there
+    with tempfile.TemporaryDirectory(prefix="bodyvib-ssp-host-") as tmp:
+        proc = subprocess.run([sys.executable, "-c", code, str(ssp), json.dumps(kwargs)],
+                              capture_output=True, text=True, timeout=600, cwd=ROOT,
+                              env=dict(os.environ, TMPDIR=tmp))
     assert proc.returncode == 0, proc.stderr[-3000:]
     res = json.loads(proc.stdout.strip().splitlines()[-1])
     return {k: np.array(v) for k, v in res.items()}, proc.stdout + proc.stderr

@@ -57,10 +57,11 @@ __all__ = [
     "CsvStream",
 ]
 
-#: What the master sets and reads (names from the FMU contract): the body
-#: interface whole; of the car's, ``seat_force_rate`` is optional (used if present).
-BODY_INPUTS = contract.BODY_INPUTS[:2]  # the master drives seat displacement and velocity
-BODY_OUTPUTS = contract.BODY_OUTPUTS[:4]  # and reads these (seat_force_rate is for Jacobi hosts)
+#: What the master sets and reads (names from the FMU contract): of the body's, the
+#: seat motion and the first four outputs; of the car's, ``seat_force_rate`` is
+#: optional (used if present).
+BODY_INPUTS = contract.BODY_INPUTS[:2]    # seat_acceleration: optional, left at 0 (linear seat)
+BODY_OUTPUTS = contract.BODY_OUTPUTS[:4]  # seat_force_rate: not read by this master
 CAR_INPUTS = contract.CAR_INPUTS[:3]
 _SEAT_FORCE_RATE = contract.CAR_INPUTS[3]
 CAR_OUTPUTS = contract.CAR_OUTPUTS + CAR_FMU_OUTPUTS

@@ -150,8 +150,7 @@ def discretize_quadratic(A: np.ndarray, B: np.ndarray, h: float) -> np.ndarray:
     BodyvibError
         If ``h`` is not a positive finite number.
     """
-    if not (isinstance(h, (int, float, np.floating)) and math.isfinite(h) and h > 0):
-        raise BodyvibError(f"step size must be a positive finite number of seconds, got {h!r}")
+    check_step(h)
     n, m = B.shape
     M = np.zeros((n + 3 * m, n + 3 * m))
     M[:n, :n] = A
