@@ -41,13 +41,16 @@ from typing import Callable, List, Optional
 
 import numpy as np
 
-from .errors import BodyvibError
+from .runtime.errors import BodyvibError
 
-__all__ = ["METHODS", "SearchSpace", "SearchResult", "search", "ga_search", "cmaes_search",
+__all__ = ["METHODS", "COORDINATES", "SearchSpace", "SearchResult", "search", "describe", "ga_search", "cmaes_search",
            "de_search"]
 
 #: Search methods of ``bodyvib fit --method``, the default first.
 METHODS = ("ga", "cmaes", "de")
+
+#: Coordinates a method can search (``coordinates`` of its settings; :class:`SearchSpace`).
+COORDINATES = ("aligned", "genes")
 
 
 class SearchSpace:
@@ -200,6 +203,20 @@ def ga_search(objective: Callable, space: SearchSpace, settings: dict, seed: int
     eta = float(settings["crossover_eta"])
     p_mut, scale = float(settings["mutation_probability"]), float(settings["mutation_scale"])
     rng = np.random.default_rng(seed)
+    tournament = int(settings["tournament_size"])
+
+    def breed(pop):
+        """``n`` children of one population: tournaments, SBX, the local mutation."""
+        parents = tools.selTournament(pop, n + n % 2, tournsize=tournament)
+        children = [Individual(p) for p in parents]
+        for a, b in zip(children[::2], children[1::2]):
+            tools.cxSimulatedBinaryBounded(a, b, eta, low, up)
+        C = np.array(children[:n])
+        spread = np.array(pop).std(axis=0)
+        mutate = rng.random(len(C)) < p_mut
+        C[mutate] += scale * spread * rng.standard_normal((int(mutate.sum()), 6))
+        return np.clip(C, space.zlo, space.zhi)
+
     saved = random.getstate()
     random.seed(seed)
     try:
@@ -207,16 +224,7 @@ def ga_search(objective: Callable, space: SearchSpace, settings: dict, seed: int
         pop = _individuals(X, f(X))
         history, stopped, gen = [], f"{settings['generations']} generations", 0
         for gen in range(1, int(settings["generations"]) + 1):
-            parents = tools.selTournament(pop, n + n % 2,
-                                          tournsize=int(settings["tournament_size"]))
-            children = [Individual(p) for p in parents]
-            for a, b in zip(children[::2], children[1::2]):
-                tools.cxSimulatedBinaryBounded(a, b, eta, low, up)
-            C = np.array(children)
-            spread = np.array(pop).std(axis=0)
-            mutate = rng.random(len(C)) < p_mut
-            C[mutate] += scale * spread * rng.standard_normal((int(mutate.sum()), 6))
-            C = np.clip(C, space.zlo, space.zhi)
+            C = breed(pop)
             pop = tools.selBest(pop, elite) + tools.selBest(_individuals(C, f(C)), n - elite)
             history.append(f.best_J)
             if on_generation is not None:
@@ -388,3 +396,29 @@ def search(method: str, objective: Callable, lo, hi, settings: dict, seed: int,
         raise BodyvibError(f"unknown search method '{method}'; methods are {', '.join(METHODS)}")
     space = SearchSpace(lo, hi, aligned=settings.get("coordinates", "aligned") == "aligned")
     return _SEARCH[method](objective, space, settings, int(seed), on_generation)
+
+
+def describe(method: str) -> str:
+    """One line naming a method's library and version, for provenance.
+
+    Parameters
+    ----------
+    method : str
+        One of :data:`METHODS`.
+
+    Returns
+    -------
+    str
+    """
+    from importlib.metadata import version
+
+    if method == "ga":
+        return (f"deap {version('deap')} (tools.selTournament, tools.cxSimulatedBinaryBounded, "
+                "tools.selBest) with bodyvib.fit_methods' Gaussian mutation scaled by the "
+                "population's spread: a real-coded generational GA with elitism")
+    if method == "cmaes":
+        return f"cma {version('cma')} (cma.CMAEvolutionStrategy, ask/tell, bounds [0, 1]^6)"
+    if method == "de":
+        return (f"scipy {version('scipy')} (scipy.optimize.differential_evolution, vectorized, "
+                "deferred updating, no polish of its own)")
+    raise BodyvibError(f"unknown search method '{method}'; methods are {', '.join(METHODS)}")

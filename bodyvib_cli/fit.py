@@ -1,6 +1,7 @@
 """``bodyvib fit``: refit the reduced model by a genetic algorithm and write a parameter file."""
 
 from bodyvib.fit_config import load_config, parse_pairs
+from bodyvib.fit_methods import METHODS
 from bodyvib.fit_objective import measured_target, model_target
 from bodyvib.fit_result import write_parameter_file
 from bodyvib.fit_search import fit
@@ -22,6 +23,8 @@ def _command_line(args) -> str:
         parts += ["--config", args.config]
     if args.pairs:
         parts += ["--pairs", args.pairs]
+    if args.method is not None:
+        parts += ["--method", args.method]
     if args.polish is not None:
         parts += ["--polish" if args.polish else "--no-polish"]
     return " ".join(parts)
@@ -43,11 +46,12 @@ def _run(args):
     log = (lambda *a: None) if args.quiet else print
     log(f"fitting the reduced model to {target.description}; total mass pinned to "
         f"{target.total_mass:g} kg; seed {args.seed}")
-    result = fit(target, cfg, seed=args.seed, polish=args.polish, progress=not args.quiet)
+    result = fit(target, cfg, seed=args.seed, polish=args.polish, progress=not args.quiet,
+                 method=args.method)
     net = write_parameter_file(result, args.out, command=_command_line(args))
     log(f"objective J: Table 2 {result.objective_table2:.6g} 1/s, refit "
         f"{result.objective:.6g} 1/s ({result.objective / result.objective_table2:.1%} of "
-        f"Table 2; GA {result.ga_objective:.6g} before polish), {result.evaluations} "
+        f"Table 2; {result.method} {result.ga_objective:.6g} before polish), {result.evaluations} "
         f"evaluations in {result.elapsed_s:.1f} s")
     log("parameters: " + ", ".join(f"{k} {v:.5g}" for k, v in result.parameters.items()))
     if result.at_bounds:
@@ -67,7 +71,7 @@ def add_command(subparsers):
         "fit",
         help="refit the reduced model by a genetic algorithm (paper Eq. 3)",
         description="Refit the reduced 3-DOF model's parameters by a genetic algorithm "
-        "(PyGAD) to the head and torso impulse responses of a reference model (the paper's "
+        "(default; CMA-ES or differential evolution with --method) to the head and torso impulse responses of a reference model (the paper's "
         "Eq. 3; --pairs chooses) or to "
         "a measured seat-to-head transmissibility, and write a parameter file with its "
         "provenance that build_fmu.py --params bakes into the FMU.",
@@ -80,7 +84,10 @@ def add_command(subparsers):
                           "[,phase_deg]")
     p.add_argument("--total-mass", type=float, metavar="KG",
                    help="with --measured: total mass m1 + m2 to pin, kg (default 75)")
-    p.add_argument("--seed", type=int, default=1, help="GA seed (default 1)")
+    p.add_argument("--seed", type=int, default=1, help="search seed (default 1)")
+    p.add_argument("--method", choices=METHODS,
+                   help="search: ga (genetic algorithm), cmaes or de (comparators); default "
+                        "per the configuration, ga")
     p.add_argument("--out", default="params/refit.json", metavar="FILE.json",
                    help="parameter file to write (default params/refit.json)")
     p.add_argument("--config", metavar="FILE.json",
