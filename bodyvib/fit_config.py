@@ -79,7 +79,8 @@ def load_config(path=None, overrides: Optional[dict] = None) -> dict:
         Keys ``pairs``, ``bounds_per_kg_total_mass``, ``method`` (the search:
         ``ga``, ``cmaes`` or ``de``), ``restarts`` (``{"model": N, "measured":
         N}``; an integer in a file sets both), one section per method
-        (``ga``, ``cmaes``, ``de``), ``polish``, ``quadrature``, ``time_domain``.
+        (``ga``, ``cmaes``, ``de``), ``pareto`` (NSGA-II), ``polish``, ``quadrature``,
+        ``time_domain``.
 
     Raises
     ------
@@ -165,6 +166,10 @@ def load_config(path=None, overrides: Optional[dict] = None) -> dict:
     if cfg["de"]["strategy"] not in DE_STRATEGIES:
         raise BodyvibError(f"{where}: de.strategy must be one of {', '.join(DE_STRATEGIES)}, "
                            f"got {cfg['de']['strategy']!r}")
+    for k in ("population", "generations"):
+        positive("pareto", k, integer=True)
+    positive("pareto", "crossover_eta")
+    positive("pareto", "mutation_eta")
     for m in METHODS:
         if cfg[m]["coordinates"] not in COORDINATES:
             raise BodyvibError(f"{where}: {m}.coordinates must be one of "

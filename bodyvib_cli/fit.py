@@ -1,5 +1,7 @@
 """``bodyvib fit``: refit the reduced model by a genetic algorithm and write a parameter file."""
 
+import os
+
 from bodyvib.fit_config import load_config, parse_pairs
 from bodyvib.fit_methods import METHODS
 from bodyvib.fit_objective import measured_target, model_target
@@ -27,10 +29,28 @@ def _command_line(args) -> str:
         parts += ["--method", args.method]
     if args.polish is not None:
         parts += ["--polish" if args.polish else "--no-polish"]
+    if args.pareto:
+        parts += ["--pareto", "--report", args.report]
     return " ".join(parts)
 
 
+def _check_outputs(args):
+    """Refuse unwritable outputs before the search, in one line."""
+    for path, what in ((os.path.dirname(os.path.abspath(args.out)), "--out's folder"),
+                       (args.report and os.path.abspath(args.report), "--report")):
+        if path and os.path.exists(path) and not os.path.isdir(path):
+            raise BodyvibError(f"{what} '{path}' is a file, not a folder")
+    if os.path.isdir(args.out):
+        raise BodyvibError(f"--out '{args.out}' is a folder; give a .json file name")
+
+
 def _run(args):
+    if args.pareto and not args.report:
+        raise BodyvibError("--pareto writes its front into --report DIR: give --report")
+    if args.pareto and args.measured:
+        raise BodyvibError("--pareto needs a reference model (the peak error is against its "
+                           "transmissibility), not --measured data")
+    _check_outputs(args)
     cfg = load_config(args.config)
     if args.measured:
         if args.pairs:
@@ -61,6 +81,21 @@ def _run(args):
         from bodyvib.fit_report import write_report
 
         files = write_report(args.report, result, net)
+        log("wrote " + ", ".join(files))
+    if args.pareto:
+        from bodyvib.fit_pareto import chosen_points, pareto_front, write_pareto
+        from bodyvib.fit_space import REDUCED_PARAMETERS
+
+        start = [result.parameters[k] for k in REDUCED_PARAMETERS]
+        front = pareto_front(target, cfg, seed=args.seed, start=start, progress=not args.quiet)
+        files = write_pareto(args.report, front, command=_command_line(args))
+        ref = front.reference_peak
+        log(f"Pareto front (NSGA-II, {front.evaluations} evaluations in {front.elapsed_s:.1f} s): "
+            f"{len(front.objective)} points; reference |T| peak {ref[0]:.3f} at {ref[1]:.2f} Hz")
+        for name, i in chosen_points(front).items():
+            m, f = front.peak[i]
+            log(f"  {name:<15} J {front.objective[i]:.4g} 1/s, peak error "
+                f"{front.peak_error[i]:.3g}: |T| peak {m:.3f} at {f:.2f} Hz")
         log("wrote " + ", ".join(files))
     return 0
 
@@ -101,6 +136,9 @@ def add_command(subparsers):
                    help="local polish after the GA (default: per the configuration, on)")
     p.add_argument("--no-polish", dest="polish", action="store_false",
                    help="skip the local polish")
+    p.add_argument("--pareto", action="store_true",
+                   help="also draw the trade-off of J against the transmissibility peak error "
+                        "(NSGA-II) into --report DIR: table, plot, parameter files")
     p.add_argument("--quiet", action="store_true", help="no progress bar and no messages")
     p.set_defaults(func=_run)
     return p
