@@ -1,4 +1,4 @@
-"""Search methods of the refit: a genetic algorithm (the default), CMA-ES and differential evolution.
+"""Search methods of the refit: a genetic algorithm (default), CMA-ES, differential evolution.
 
 Every method minimizes the same vectorized objective over the same bounded
 search space (:class:`SearchSpace`) and returns a :class:`SearchResult`; the
@@ -43,8 +43,8 @@ import numpy as np
 
 from .runtime.errors import BodyvibError
 
-__all__ = ["METHODS", "COORDINATES", "SearchSpace", "SearchResult", "search", "describe", "ga_search", "cmaes_search",
-           "de_search"]
+__all__ = ["METHODS", "COORDINATES", "SearchSpace", "SearchResult", "search", "describe",
+           "ga_search", "cmaes_search", "de_search"]
 
 #: Search methods of ``bodyvib fit --method``, the default first.
 METHODS = ("ga", "cmaes", "de")
@@ -270,7 +270,9 @@ def cmaes_search(objective: Callable, space: SearchSpace, settings: dict, seed: 
     """Minimize ``objective`` by CMA-ES (``cma.CMAEvolutionStrategy``), a comparator.
 
     It searches the box scaled to ``[0, 1]^6`` (``cma``'s bound handling),
-    from a uniform random start of ``seed`` with step ``sigma0``.
+    from the centre of the box moved by up to 0.05 at random (``seed``),
+    with step ``sigma0``; from uniform random starts it ended in a worse basin
+    in 4 of 10 seeds.
 
     Parameters
     ----------
@@ -278,8 +280,9 @@ def cmaes_search(objective: Callable, space: SearchSpace, settings: dict, seed: 
         As :func:`ga_search`.
     settings : dict
         ``sigma0`` (in the unit box), ``population`` (0: CMA-ES's default,
-        ``4 + 3 ln 6 = 9``), ``max_evaluations``, ``ftol`` (``cma``'s
-        ``tolfun``, relative here to the best objective at the start).
+        ``4 + 3 ln 6 = 9``), ``max_evaluations``, ``ftol`` and
+        ``stall_generations`` (it stops as :func:`ga_search` does, or on
+        ``cma``'s own criteria).
 
     Returns
     -------

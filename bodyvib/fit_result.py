@@ -100,7 +100,8 @@ def write_parameter_file(result: FitResult, path, command: str = "") -> Network:
     t = result.target
     name = f"reduced-refit-{t.name}"
     prov = {
-        "source": f"{'GA' if result.method == 'ga' else result.method} refit of the reduced 3-DOF model of Balci & Gundogdu (2025), Fig. 2, by "
+        "source": f"{'GA' if result.method == 'ga' else result.method} refit of the reduced "
+                  "3-DOF model of Balci & Gundogdu (2025), Fig. 2, by "
                   "'bodyvib fit' (bodyvib.fit_search)",
         "command": command,
         "date": datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0).isoformat(),

@@ -106,7 +106,8 @@ def add_command(subparsers):
         "fit",
         help="refit the reduced model by a genetic algorithm (paper Eq. 3)",
         description="Refit the reduced 3-DOF model's parameters by a genetic algorithm "
-        "(default; CMA-ES or differential evolution with --method) to the head and torso impulse responses of a reference model (the paper's "
+        "(default; CMA-ES or differential evolution with --method) to the head and torso "
+        "impulse responses of a reference model (the paper's "
         "Eq. 3; --pairs chooses) or to "
         "a measured seat-to-head transmissibility, and write a parameter file with its "
         "provenance that build_fmu.py --params bakes into the FMU.",

@@ -1,4 +1,4 @@
-"""The refit's search methods: the GA reaches the best known objective by itself; CMA-ES and DE too."""
+"""The refit's search methods: the GA reaches the best known J by itself, CMA-ES and DE too."""
 
 from importlib.metadata import version
 
