@@ -122,21 +122,24 @@ def test_cli_pareto_errors_are_one_line(tmp_path):
 
 
 def test_check_report_points_to_the_front_when_the_peak_fails():
+    from types import SimpleNamespace as NS
+
+    from vehicle.check import Comparison, Criterion
     from vehicle.report import PEAK_HINT, format_report
 
-    figures = {"weighted_rms": 1.0, "vdv": 3.0, "peak": 4.0, "crest_factor": 4.0,
-               "comfort": "uncomfortable"}
-    body = {"figures": figures, "transmissibility": {"peak": {"modulus": 1.45,
-                                                              "frequency_hz": 4.3}},
-            "coupling_nrmse": 3e-4, "real_time_factor": 30.0,
-            "seat_figures": {"weighted_rms": 0.9}}
-    study = {"settings": {"speed_m_s": 20, "duration_s": 30, "step_s": 1e-3, "master": "m"},
-             "road": {"name": "C"}, "bodies": {"A": body, "B": body}}
+    peak = NS(to_dict=lambda: {"modulus": 1.45, "frequency_hz": 4.3})
+    body = NS(figures=NS(weighted_rms=1.0, vdv=3.0, peak=4.0, crest_factor=4.0,
+                         comfort="uncomfortable"),
+              transmissibility=NS(peak=peak), coupling_nrmse=3e-4, real_time_factor=30.0,
+              seat_figures=NS(weighted_rms=0.9))
+    study = NS(settings=NS(speed_m_s=20, duration_s=30, step_s=1e-3, master="m"),
+               road={"name": "C"}, bodies={"A": body, "B": body})
 
     def comparison(passed):
-        return {"reduced": "A", "iso": "B", "verdict": "PASS" if passed else "FAIL",
-                "criteria": [{"name": "transmissibility_peak", "reduced": 1.45, "iso": 1.67,
-                              "difference": 0.13, "tolerance": 0.1, "unit": "", "passed": passed}]}
+        c = Criterion(name="transmissibility_peak", reduced=1.45, iso=1.67, difference=0.13,
+                      tolerance=0.1, unit="", passed=passed)
+        return Comparison(reduced="A", iso="B", criteria=[c],
+                          verdict="PASS" if passed else "FAIL")
 
     assert PEAK_HINT in format_report(study, comparison(False)).splitlines()
     assert "--pareto" not in format_report(study, comparison(True))
