@@ -583,7 +583,7 @@ def test_host_with_another_bodyvib_already_imported(fmus, tmp_path):
     t = np.arange(0, 0.3, 1e-3)
     x, v = smooth_seat(t)
     code = textwrap.dedent(f"""
-        import json, sys, tempfile
+        import json, os, sys, tempfile
         sys.path.insert(0, {str(tmp_path / 'fake')!r})
         import bodyvib
         assert bodyvib.__version__ == '9.9-fake'
@@ -596,7 +596,7 @@ def test_host_with_another_bodyvib_already_imported(fmus, tmp_path):
         for path in sys.argv[2:]:
             md = read_model_description(path)
             vr = {{m.name: m.valueReference for m in md.modelVariables}}
-            fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path, unzipdir=tempfile.mkdtemp(dir='.')),
+            fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path, unzipdir=tempfile.mkdtemp(dir=os.getcwd())),
                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName='host')
             fmu.instantiate()
             fmu.setupExperiment(startTime=0.0)

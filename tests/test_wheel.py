@@ -104,7 +104,8 @@ def test_installed_wheel_builds_fmus_and_runs_the_check(wheel, tmp_path):
                            capture_output=True, text=True, timeout=600)
     assert build.returncode == 0, build.stdout + build.stderr
     assert sorted(p.name for p in (work / "fmus").iterdir()) == [
-        "HumanBody3DOF.fmu", "HumanBodyISO7962.fmu", "QuarterCar.fmu"]
+        "HumanBody3DOF.fmu", "HumanBodyISO7962.fmu", "QuarterCar.fmu", "QuarterCarWithOccupant.ssp",
+        "Road.fmu"]
     check = subprocess.run([exe, "check", "--duration", "2", "--quiet"], cwd=work, env=env,
                            capture_output=True, text=True, timeout=600)
     assert check.returncode == 0, check.stdout + check.stderr

@@ -56,8 +56,8 @@ __all__ = [
 
 #: What the master sets and reads (names from the FMU contract): the body
 #: interface whole; of the car's, ``seat_force_rate`` is optional (used if present).
-BODY_INPUTS = contract.BODY_INPUTS
-BODY_OUTPUTS = contract.BODY_OUTPUTS
+BODY_INPUTS = contract.BODY_INPUTS[:2]  # the master drives seat displacement and velocity
+BODY_OUTPUTS = contract.BODY_OUTPUTS[:4]  # and reads these (seat_force_rate is for Jacobi hosts)
 CAR_INPUTS = contract.CAR_INPUTS[:3]
 _SEAT_FORCE_RATE = contract.CAR_INPUTS[3]
 CAR_OUTPUTS = contract.CAR_OUTPUTS + CAR_FMU_OUTPUTS
@@ -245,7 +245,8 @@ def cosimulate(car: Slave, body: Slave, road_displacement, road_velocity, step: 
     car_in = [car.vr[k] for k in CAR_INPUTS] + ([car.vr[_SEAT_FORCE_RATE]] if has_rate else [])
     car_out = [car.vr[k] for k in CAR_OUTPUTS]
     body_in = [body.vr[k] for k in BODY_INPUTS]
-    body_out = [body.vr[k] for k in BODY_OUTPUTS[3:] + BODY_OUTPUTS[:3]]  # F, head a, x, torso x
+    body_out = [body.vr[k] for k in ("seat_force", "head_acceleration", "head_displacement",
+                                     "torso_displacement")]
     c_set, c_get, c_step = cf.setReal, cf.getReal, cf.doStep
     b_set, b_get, b_step = bf.setReal, bf.getReal, bf.doStep
 
