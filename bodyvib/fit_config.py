@@ -12,6 +12,9 @@ import math
 import os
 from typing import Dict, Optional
 
+import numpy as np
+
+from .fit_methods import COORDINATES, METHODS
 from .fit_space import GENES, PAIR_ROLES
 from .models import MODEL_DIR
 from .runtime.errors import BodyvibError
@@ -20,7 +23,9 @@ from .runtime.fileio import read_json
 __all__ = [
     "DEFAULT_CONFIG_PATH",
     "POLISH_METHODS",
+    "DE_STRATEGIES",
     "load_config",
+    "log_bounds",
     "parse_pairs",
 ]
 
@@ -30,13 +35,18 @@ DEFAULT_CONFIG_PATH = os.path.join(MODEL_DIR, "fit", "default-config.json")
 #: Local polish methods of ``scipy.optimize.minimize`` that honour bounds.
 POLISH_METHODS = ("L-BFGS-B", "TNC", "SLSQP", "Powell", "Nelder-Mead", "trust-constr")
 
+#: Strategies of ``scipy.optimize.differential_evolution`` (``de.strategy``).
+DE_STRATEGIES = ("best1bin", "best1exp", "rand1bin", "rand1exp", "rand2bin", "rand2exp",
+                 "randtobest1bin", "randtobest1exp", "currenttobest1bin", "currenttobest1exp",
+                 "best2bin", "best2exp")
+
 
 def _merge(base: dict, over: dict, where: str) -> dict:
     out = copy.deepcopy(base)
     for k, v in over.items():
         if k not in base:
             raise BodyvibError(f"{where}: unknown key '{k}'; keys are {', '.join(base)}")
-        if isinstance(base[k], dict) and k != "pairs":
+        if isinstance(base[k], dict) and k != "pairs" and (k != "restarts" or isinstance(v, dict)):
             if not isinstance(v, dict):
                 raise BodyvibError(f"{where}: '{k}' must be an object")
             out[k] = _merge(base[k], v, f"{where}: {k}")
@@ -66,14 +76,17 @@ def load_config(path=None, overrides: Optional[dict] = None) -> dict:
     Returns
     -------
     dict
-        Keys ``pairs``, ``bounds_per_kg_total_mass``, ``ga``, ``polish``,
-        ``quadrature``, ``time_domain``.
+        Keys ``pairs``, ``bounds_per_kg_total_mass``, ``method`` (the search:
+        ``ga``, ``cmaes`` or ``de``), ``restarts`` (``{"model": N, "measured":
+        N}``; an integer in a file sets both), one section per method
+        (``ga``, ``cmaes``, ``de``), ``pareto`` (NSGA-II), ``polish``, ``quadrature``,
+        ``time_domain``.
 
     Raises
     ------
     BodyvibError
         Unknown key, wrong type, a size or step that is not positive, an
-        unknown polish method, or a bound that is not ``0 < low < high``
+        unknown method, polish method or coordinates, or a bound that is not ``0 < low < high``
         (``m1`` also below 1, a fraction of the total mass).
 
     Examples
@@ -107,6 +120,7 @@ def load_config(path=None, overrides: Optional[dict] = None) -> dict:
     if bounds["m1"][1] >= 1:
         raise BodyvibError(f"{where}: bounds_per_kg_total_mass.m1 is the head's fraction of the "
                            "total mass and must stay below 1")
+
     def positive(section, key, integer=False):
         v = cfg[section][key]
         kind = int if integer else (int, float)
@@ -114,19 +128,52 @@ def load_config(path=None, overrides: Optional[dict] = None) -> dict:
             raise BodyvibError(f"{where}: {section}.{key} must be a positive "
                                f"{'integer' if integer else 'number'}, got {v!r}")
 
-    ga = cfg["ga"]
-    for k in ("restarts", "population", "generations", "parents_mating", "tournament_size",
-              "elitism"):
+    if cfg["method"] not in METHODS:
+        raise BodyvibError(f"{where}: method must be one of {', '.join(METHODS)}, "
+                           f"got {cfg['method']!r}")
+    r = cfg["restarts"]
+    if isinstance(r, int) and not isinstance(r, bool):
+        r = cfg["restarts"] = {"model": r, "measured": r}
+    if not (isinstance(r, dict) and set(r) == {"model", "measured"} and all(
+            isinstance(v, int) and not isinstance(v, bool) and v >= 1 for v in r.values())):
+        raise BodyvibError(f"{where}: restarts must be a positive integer or "
+                           '{"model": N, "measured": N} (reference model / measured data), '
+                           f"got {cfg['restarts']!r}")
+    for k in ("population", "generations", "tournament_size", "elitism", "stall_generations"):
         positive("ga", k, integer=True)
-    if ga["parents_mating"] > ga["population"] or ga["elitism"] > ga["population"]:
-        raise BodyvibError(f"{where}: ga.parents_mating and ga.elitism must not exceed "
-                           "ga.population")
-    positive("ga", "mutation_probability")
-    positive("ga", "polynomial_mutation_eta")
-    for k in ("parent_selection", "crossover", "mutation"):
-        if not isinstance(ga[k], str):
-            raise BodyvibError(f"{where}: ga.{k} must be the name of a PyGAD operator, "
-                               f"got {ga[k]!r}")
+    if cfg["ga"]["elitism"] >= cfg["ga"]["population"]:
+        raise BodyvibError(f"{where}: ga.elitism must be below ga.population")
+    for k in ("crossover_eta", "mutation_probability", "mutation_scale", "ftol"):
+        positive("ga", k)
+    for k in ("max_evaluations", "stall_generations"):
+        positive("cmaes", k, integer=True)
+    positive("cmaes", "sigma0")
+    positive("cmaes", "ftol")
+    p = cfg["cmaes"]["population"]
+    if isinstance(p, bool) or not isinstance(p, int) or p < 0:
+        raise BodyvibError(f"{where}: cmaes.population must be a non-negative integer (0: "
+                           f"CMA-ES's default), got {p!r}")
+    for k in ("population_per_gene", "generations"):
+        positive("de", k, integer=True)
+    positive("de", "tol")
+    positive("de", "recombination")
+    mut = cfg["de"]["mutation"]
+    if not (isinstance(mut, list) and len(mut) == 2 and all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) for v in mut)
+            and 0 <= mut[0] <= mut[1] < 2):
+        raise BodyvibError(f"{where}: de.mutation must be [low, high] with 0 <= low <= high < 2, "
+                           f"got {mut!r}")
+    if cfg["de"]["strategy"] not in DE_STRATEGIES:
+        raise BodyvibError(f"{where}: de.strategy must be one of {', '.join(DE_STRATEGIES)}, "
+                           f"got {cfg['de']['strategy']!r}")
+    for k in ("population", "generations"):
+        positive("pareto", k, integer=True)
+    positive("pareto", "crossover_eta")
+    positive("pareto", "mutation_eta")
+    for m in METHODS:
+        if cfg[m]["coordinates"] not in COORDINATES:
+            raise BodyvibError(f"{where}: {m}.coordinates must be one of "
+                               f"{', '.join(COORDINATES)}, got {cfg[m]['coordinates']!r}")
     pol = cfg["polish"]
     if not isinstance(pol["enabled"], bool):
         raise BodyvibError(f"{where}: polish.enabled must be true or false")
@@ -144,6 +191,23 @@ def load_config(path=None, overrides: Optional[dict] = None) -> dict:
     positive("time_domain", "dt_s")
     positive("time_domain", "decay_time_constants")
     return cfg
+
+
+def log_bounds(cfg: dict):
+    """Bounds of the genes (``log10`` of the ratios per kg of total mass).
+
+    Parameters
+    ----------
+    cfg : dict
+        As :func:`load_config`.
+
+    Returns
+    -------
+    lo, hi : ndarray, shape (6,)
+        In :data:`bodyvib.fit_space.GENES` order.
+    """
+    b = cfg["bounds_per_kg_total_mass"]
+    return np.log10([b[g][0] for g in GENES]), np.log10([b[g][1] for g in GENES])
 
 
 def parse_pairs(text: str) -> Dict[str, float]:

@@ -130,17 +130,16 @@ def quadrature_grid(f_first_panel_hz=0.05, f_split_hz=50.0, panels=30, nodes_per
 
 def _displacement_statespace(model, point: str):
     """``(A, b, c)`` with ``h(t) = c e^{At} b`` the position impulse response."""
-    from .frequency import displacement_input_statespace
+    from .frequency import displacement_input_matrices
     from .runtime.network import as_linear_model
 
     lm = as_linear_model(model)
-    ss = displacement_input_statespace(lm)
+    A, B, C, D = displacement_input_matrices(lm)
     i = lm.output_index(f"{point}.x")
-    d = float(np.asarray(ss.D)[i, 0])
-    if d != 0.0:
+    if float(D[i, 0]) != 0.0:
         raise BodyvibError(f"{point} position of '{lm.network.name}' moves with the seat "
                            "instantly; its impulse response is not square integrable")
-    return np.asarray(ss.A), np.asarray(ss.B)[:, 0], np.asarray(ss.C)[i]
+    return A, B[:, 0], C[i]
 
 
 def default_horizon(*models, time_constants: float = 40.0) -> float:

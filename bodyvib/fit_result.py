@@ -36,7 +36,8 @@ class FitResult:
     objective_table2 : float
         The paper's Table 2 parameters on the same objective, 1/s.
     ga_objective : float
-        Best run's objective from the GA, before the polish.
+        Best run's objective from the search (the GA by default), before the
+        polish.
     relative_error : float
         ``objective / target.energy()``.
     target : FitTarget
@@ -52,8 +53,11 @@ class FitResult:
     at_bounds : list of str
         Searched ratios that ended within 0.1 % (in log) of a bound.
     runs : list of dict
-        Per GA run (``ga.restarts`` of them): its seed, the GA's best objective
-        and the objective after the polish; the best run is the result.
+        Per search (``restarts`` of them): its seed, its best objective, the
+        objective after the polish, its evaluations, generations and why it
+        stopped; the best run is the result.
+    method : str
+        The search method (:data:`bodyvib.fit_methods.METHODS`).
     """
 
     parameters: Dict[str, float]
@@ -70,6 +74,7 @@ class FitResult:
     history: List[float] = field(default_factory=list)
     at_bounds: List[str] = field(default_factory=list)
     runs: List[dict] = field(default_factory=list)
+    method: str = "ga"
 
     def to_dict(self) -> dict:
         """The result as a JSON-ready dict.
@@ -98,6 +103,7 @@ class FitResult:
             "history": [float(x) for x in self.history],
             "at_bounds": list(self.at_bounds),
             "runs": [dict(r) for r in self.runs],
+            "method": self.method,
         }
 
 
@@ -120,12 +126,13 @@ def write_parameter_file(result: FitResult, path, command: str = "") -> Network:
     Network
         The model as written.
     """
-    import pygad
+    from .fit_methods import describe
 
     t = result.target
     name = f"reduced-refit-{t.name}"
     prov = {
-        "source": "GA refit of the reduced 3-DOF model of Balci & Gundogdu (2025), Fig. 2, by "
+        "source": f"{'GA' if result.method == 'ga' else result.method} refit of the reduced "
+                  "3-DOF model of Balci & Gundogdu (2025), Fig. 2, by "
                   "'bodyvib fit' (bodyvib.fit_search)",
         "command": command,
         "date": datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0).isoformat(),
@@ -144,7 +151,7 @@ def write_parameter_file(result: FitResult, path, command: str = "") -> Network:
             "value_per_s": result.objective,
             "relative_to_target_energy": result.relative_error,
             "table2_value_per_s": result.objective_table2,
-            "ga_value_before_polish_per_s": result.ga_objective,
+            "search_value_before_polish_per_s": result.ga_objective,
         },
         "scale_pinning": {
             "total_mass_kg": t.total_mass,
@@ -156,11 +163,16 @@ def write_parameter_file(result: FitResult, path, command: str = "") -> Network:
                      "c1/M, c2/M",
         },
         "algorithm": {
-            "library": f"pygad {pygad.__version__} (pygad.GA), real-coded, batch fitness",
+            "method": result.method,
+            "library": describe(result.method),
             "seed": result.seed,
-            "ga": dict(result.config["ga"]),
+            "restarts": result.config["restarts"][t.kind],
+            "settings": dict(result.config[result.method]),
             "bounds_per_kg_total_mass": dict(result.config["bounds_per_kg_total_mass"]),
-            "search_space": "log10 of the six ratios, uniform within the bounds",
+            "search_space": ("log10 of the six ratios within the bounds, searched as "
+                             + ("log(m1/M), log(k1/m1), log(k2/M), log(ks/M), log(c1/m1), "
+                                "log(c2/M)" if result.config[result.method]["coordinates"]
+                                == "aligned" else "themselves")),
             "polish": (dict(result.config["polish"], enabled=True) if result.polished
                        else {"enabled": False}),
             "quadrature": dict(result.config["quadrature"]),
@@ -177,7 +189,8 @@ def write_parameter_file(result: FitResult, path, command: str = "") -> Network:
     description = (
         f"Reduced 3-DOF seated human-body model (topology of Balci & Gundogdu 2025, Fig. 2: "
         f"seat --ks-- platform --(k2 || c2)-- torso m2 --(k1 || c1)-- head m1), parameters "
-        f"refitted by a genetic algorithm to {t.description}; total mass pinned to "
+        f"refitted by {'a genetic algorithm' if result.method == 'ga' else result.method} "
+        f"to {t.description}; total mass pinned to "
         f"{t.total_mass:g} kg."
     )
     net = reduced_network(result.parameters, name=name, description=description, provenance=prov)

@@ -1,13 +1,18 @@
-"""The search of the refit: a seeded genetic algorithm, then an optional local polish.
+"""The search of the refit: seeded searches (a genetic algorithm by default), each polished.
 
-The genetic algorithm is PyGAD's (``pygad.GA``): real-coded, seeded, batch
-fitness (the whole population per call), a progress bar; an optional local
-polish (``scipy.optimize.minimize``, L-BFGS-B in the same log-space, bounded)
-starts from the GA's best. The objective is :mod:`bodyvib.fit_objective`, the
-genes :mod:`bodyvib.fit_space`, the result :class:`bodyvib.fit_result.FitResult`.
+The search methods are :mod:`bodyvib.fit_methods` (the genetic algorithm, and
+CMA-ES and differential evolution to compare it with); an optional local
+polish (:func:`polish`: ``scipy.optimize.minimize``, L-BFGS-B in the same
+log-space, bounded) starts from each search's best. The objective is
+:mod:`bodyvib.fit_objective`, the genes :mod:`bodyvib.fit_space`, the result
+:class:`bodyvib.fit_result.FitResult`.
+
+BLAS runs on one thread during the search (``threadpoolctl``): the objective's
+products are small (a population by 196 quadrature nodes), and OpenBLAS's
+threads only cost there; the polish, which evaluates one to twelve points at a
+time, is about ten times faster so (``benchmarks/bench_fit_methods.py``).
 """
 
-import logging
 import sys
 import time
 from typing import List, Optional
@@ -15,7 +20,8 @@ from typing import List, Optional
 import numpy as np
 
 from . import interrupts
-from .fit_config import load_config
+from .fit_config import load_config, log_bounds
+from .fit_methods import METHODS, search
 from .fit_objective import FitTarget, parameter_array
 from .fit_result import FitResult
 from .fit_space import GENES, REDUCED_PARAMETERS, genes_to_parameters
@@ -24,36 +30,34 @@ from .runtime.errors import BodyvibError
 
 __all__ = [
     "fit",
+    "polish",
 ]
 
 
-def _log_bounds(cfg):
-    b = cfg["bounds_per_kg_total_mass"]
-    lo = np.log10([b[g][0] for g in GENES])
-    hi = np.log10([b[g][1] for g in GENES])
-    return lo, hi
-
-
 def fit(target: FitTarget, config: Optional[dict] = None, seed: int = 1,
-        polish: Optional[bool] = None, progress: bool = False) -> FitResult:
-    """Fit the reduced model to a target with PyGAD's genetic algorithm.
+        polish: Optional[bool] = None, progress: bool = False,
+        method: Optional[str] = None) -> FitResult:
+    """Fit the reduced model to a target by a seeded search (the genetic algorithm by default).
 
     Parameters
     ----------
     target : FitTarget
         From :func:`model_target` or :func:`measured_target`.
     config : dict, optional
-        As :func:`load_config` (bounds, GA settings, polish).
+        As :func:`load_config` (bounds, method and its settings, restarts, polish).
     seed : int
-        Seeds the search: ``ga.restarts`` independent GA runs, each seeded
-        (``pygad.GA(random_seed=...)``) from ``numpy.random.SeedSequence(seed)``,
-        each polished, the best kept. The same seed and configuration give the
-        same parameters.
+        Seeds the search: ``restarts`` independent searches (per target kind:
+        one for a reference model, eight for measured data), each seeded from
+        ``numpy.random.SeedSequence(seed)``, each polished, the best kept. The
+        same seed and configuration give the same parameters.
     polish : bool, optional
-        Local polish from the GA's best (``config["polish"]["enabled"]`` by
-        default).
+        Local polish from each search's best (``config["polish"]["enabled"]``
+        by default).
     progress : bool
         Show a progress bar on stderr (tqdm; off when stderr is not a terminal).
+    method : str, optional
+        ``"ga"``, ``"cmaes"`` or ``"de"`` (:data:`bodyvib.fit_methods.METHODS`);
+        ``config["method"]`` by default.
 
     Returns
     -------
@@ -62,27 +66,28 @@ def fit(target: FitTarget, config: Optional[dict] = None, seed: int = 1,
     Raises
     ------
     BodyvibError
-        A seed that is not a non-negative integer, or GA settings PyGAD refuses
-        (an unknown operator name).
+        A seed that is not a non-negative integer, or an unknown method.
 
     Examples
     --------
     >>> from bodyvib.fit_objective import model_target
-    >>> cfg = load_config(overrides={"ga": {"population": 20, "generations": 5,
-    ...                                     "parents_mating": 10}})
+    >>> cfg = load_config(overrides={"ga": {"population": 20, "generations": 5}})
     >>> r = fit(model_target("iso7962"), cfg, seed=1)
     >>> bool(r.objective < r.objective_table2)
     True
     """
-    import pygad
+    from threadpoolctl import threadpool_limits
     from tqdm import tqdm
 
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise BodyvibError(f"seed must be a non-negative integer, got {seed!r}")
     cfg = config or load_config()
-    ga_cfg = cfg["ga"]
+    method = cfg["method"] if method is None else method
+    if method not in METHODS:
+        raise BodyvibError(f"unknown search method '{method}'; methods are {', '.join(METHODS)}")
+    settings = cfg[method]
     do_polish = cfg["polish"]["enabled"] if polish is None else bool(polish)
-    lo, hi = _log_bounds(cfg)
+    lo, hi = log_bounds(cfg)
     M = target.total_mass
     evaluations = [0]
 
@@ -91,60 +96,39 @@ def fit(target: FitTarget, config: Optional[dict] = None, seed: int = 1,
         evaluations[0] += int(np.prod(np.shape(genes)[:-1]))
         return target.objective(genes_to_parameters(genes, M))
 
-    def fitness(_ga, solutions, _idx):
-        J = objective_of_genes(np.atleast_2d(solutions))
-        return np.where(np.isfinite(J), -J, -1e300)
-
-    restarts = int(ga_cfg["restarts"])
+    restarts = int(cfg["restarts"][target.kind])
     run_seeds = [int(v) for v in np.random.SeedSequence(int(seed)).generate_state(restarts)]
     history: List[float] = []
-    bar = tqdm(total=restarts * ga_cfg["generations"], desc="bodyvib fit (GA)", unit="gen",
-               file=sys.stderr, disable=None if progress else True, leave=False)
+    total = restarts * settings["generations"] if "generations" in settings else None
+    bar = tqdm(total=total, desc=f"bodyvib fit ({method})", unit="gen", file=sys.stderr,
+               disable=None if progress else True, leave=False)
 
-    def on_generation(ga):
-        best = -float(np.max(ga.last_generation_fitness))
+    def on_generation(best):
         history.append(best)
         bar.set_postfix_str(f"J={min(history):.5g} 1/s", refresh=False)
         bar.update(1)
 
+    if do_polish:
+        import scipy.optimize  # noqa: F401  (imported before the clock: start-up, not search)
     t0 = time.perf_counter()
     runs = []
     try:
-        for run_seed in run_seeds:
-            ga = _ga(
-                pygad,
-                num_generations=ga_cfg["generations"],
-                num_parents_mating=ga_cfg["parents_mating"],
-                sol_per_pop=ga_cfg["population"],
-                num_genes=len(GENES),
-                fitness_func=fitness,
-                fitness_batch_size=ga_cfg["population"],
-                gene_space=[{"low": float(a), "high": float(b)} for a, b in zip(lo, hi)],
-                parent_selection_type=ga_cfg["parent_selection"],
-                K_tournament=ga_cfg["tournament_size"],
-                keep_elitism=ga_cfg["elitism"],
-                crossover_type=ga_cfg["crossover"],
-                mutation_type=ga_cfg["mutation"],
-                mutation_probability=ga_cfg["mutation_probability"],
-                polynomial_mutation_eta=ga_cfg["polynomial_mutation_eta"],
-                on_generation=on_generation,
-                random_seed=run_seed,
-                suppress_warnings=True,
-            )
-            ga.run()
-            genes, _, _ = ga.best_solution(ga.last_generation_fitness)
-            genes = np.clip(np.asarray(genes, dtype=float), lo, hi)
-            ga_J = float(objective_of_genes(genes))
-            J = ga_J
-            if do_polish:
-                genes, J = _polish(objective_of_genes, genes, lo, hi, cfg["polish"])
-            runs.append({"seed": run_seed, "ga_objective_per_s": ga_J,
-                         "objective_per_s": float(J), "genes": genes})
+        with threadpool_limits(1, user_api="blas"):
+            for run_seed in run_seeds:
+                found = search(method, objective_of_genes, lo, hi, settings, run_seed,
+                               on_generation=on_generation)
+                genes, J = found.genes, found.objective
+                if do_polish:
+                    genes, J = _polish(objective_of_genes, genes, lo, hi, cfg["polish"])
+                runs.append({"seed": run_seed, "search_objective_per_s": found.objective,
+                             "objective_per_s": float(J), "evaluations": found.evaluations,
+                             "generations": found.generations, "stopped": found.stopped,
+                             "genes": genes})
     finally:
         bar.close()
     elapsed = time.perf_counter() - t0
     best = min(runs, key=lambda r: r["objective_per_s"])
-    best_genes, J, ga_J = best["genes"], best["objective_per_s"], best["ga_objective_per_s"]
+    best_genes, J, ga_J = best["genes"], best["objective_per_s"], best["search_objective_per_s"]
     params = genes_to_parameters(best_genes, M)
     J_paper = float(target.objective(parameter_array(load_model("reduced-paper"))))
     tol = 1e-3 * (hi - lo)
@@ -158,24 +142,31 @@ def fit(target: FitTarget, config: Optional[dict] = None, seed: int = 1,
         objective=float(J), objective_table2=J_paper, ga_objective=ga_J,
         relative_error=float(J) / target.energy(), target=target, seed=int(seed), config=cfg,
         polished=do_polish, evaluations=evaluations[0], elapsed_s=elapsed, history=history,
-        at_bounds=at_bounds, runs=runs,
+        at_bounds=at_bounds, runs=runs, method=method,
     )
 
 
-def _ga(pygad, **settings):
-    """``pygad.GA(**settings)``; settings it refuses (an unknown operator name) are a user error.
+def polish(objective_of_genes, x0, lo, hi, pcfg):
+    """Bounded local minimization in log space from a search's best.
 
-    PyGAD's own logger would print the refusal with a traceback before raising
-    it; a silent logger leaves the message to the one line of the command.
+    Parameters
+    ----------
+    objective_of_genes : callable
+        Vectorized objective of genes (shape ``(..., 6)``).
+    x0 : ndarray, shape (6,)
+        Start.
+    lo, hi : ndarray, shape (6,)
+        Bounds of the genes.
+    pcfg : dict
+        The configuration's ``polish`` section (``method``, ``max_iterations``).
+
+    Returns
+    -------
+    genes : ndarray, shape (6,)
+    objective : float
+        Never worse than at ``x0``.
     """
-    logger = logging.getLogger("bodyvib.fit.pygad")
-    if not logger.handlers:
-        logger.addHandler(logging.NullHandler())
-        logger.propagate = False
-    try:
-        return pygad.GA(logger=logger, **settings)
-    except (TypeError, ValueError) as exc:
-        raise BodyvibError(f"configuration 'ga': PyGAD refuses the settings: {exc}") from None
+    return _polish(objective_of_genes, x0, lo, hi, pcfg)
 
 
 def _polish(objective_of_genes, x0, lo, hi, pcfg):

@@ -24,6 +24,7 @@ __all__ = [
     "transmissibility",
     "apparent_mass",
     "find_peaks",
+    "displacement_input_matrices",
     "displacement_input_statespace",
 ]
 
@@ -215,13 +216,46 @@ def find_peaks(frequencies_hz: Sequence[float], modulus: Sequence[float],
     return peaks
 
 
-def displacement_input_statespace(model):
-    """Single-input python-control ``StateSpace`` driven by base displacement.
+def displacement_input_matrices(model):
+    """State-space matrices of a model driven by base displacement alone (numpy only).
 
     Eliminates the base-velocity input by the state change
     ``w = x - B_v x_b``: ``w' = A w + (A B_v + B_x) x_b``,
     ``y = C w + (C B_v + D_x) x_b``. Exact when ``D_v = 0`` (no damper from
     the base straight into an acceleration or force output).
+
+    Parameters
+    ----------
+    model : Network or LinearModel
+
+    Returns
+    -------
+    A : ndarray, shape (n, n)
+    B : ndarray, shape (n, 1)
+    C : ndarray, shape (p, n)
+        All outputs, in the model's output order.
+    D : ndarray, shape (p, 1)
+
+    Raises
+    ------
+    BodyvibError
+        If some output depends on base velocity directly (improper in x_b).
+    """
+    lm = as_linear_model(model)
+    Bx, Bv = lm.B[:, 0], lm.B[:, 1]
+    if np.any(lm.D[:, 1] != 0):
+        bad = [lm.outputs[i] for i in np.nonzero(lm.D[:, 1])[0]]
+        raise BodyvibError(
+            "outputs " + ", ".join(bad) + " depend on base velocity directly; "
+            "use frequency_response() instead"
+        )
+    return lm.A, (lm.A @ Bv + Bx)[:, None], lm.C, (lm.C @ Bv + lm.D[:, 0])[:, None]
+
+
+def displacement_input_statespace(model):
+    """Single-input python-control ``StateSpace`` driven by base displacement.
+
+    The matrices of :func:`displacement_input_matrices`, named.
 
     Parameters
     ----------
@@ -240,14 +274,6 @@ def displacement_input_statespace(model):
     import control
 
     lm = as_linear_model(model)
-    Bx, Bv = lm.B[:, 0], lm.B[:, 1]
-    if np.any(lm.D[:, 1] != 0):
-        bad = [lm.outputs[i] for i in np.nonzero(lm.D[:, 1])[0]]
-        raise BodyvibError(
-            "outputs " + ", ".join(bad) + " depend on base velocity directly; "
-            "use frequency_response() instead"
-        )
-    B = (lm.A @ Bv + Bx)[:, None]
-    D = (lm.C @ Bv + lm.D[:, 0])[:, None]
-    return control.ss(lm.A, B, lm.C, D, inputs=control_labels(lm.inputs[:1]),
+    A, B, C, D = displacement_input_matrices(lm)
+    return control.ss(A, B, C, D, inputs=control_labels(lm.inputs[:1]),
                       outputs=control_labels(lm.outputs), name=lm.network.name)

@@ -3,6 +3,7 @@
 import os
 
 from bodyvib.fit_config import load_config, parse_pairs
+from bodyvib.fit_methods import METHODS
 from bodyvib.fit_objective import measured_target, model_target
 from bodyvib.fit_result import write_parameter_file
 from bodyvib.fit_search import fit
@@ -33,8 +34,12 @@ def _command_line(args) -> str:
         parts += ["--config", args.config]
     if args.pairs:
         parts += ["--pairs", args.pairs]
+    if args.method is not None:
+        parts += ["--method", args.method]
     if args.polish is not None:
         parts += ["--polish" if args.polish else "--no-polish"]
+    if args.pareto:
+        parts += ["--pareto", "--report", args.report]
     return " ".join(parts)
 
 
@@ -51,6 +56,11 @@ def _check_files(args):
 
 
 def _run(args):
+    if args.pareto and not args.report:
+        raise BodyvibError("--pareto writes its front into --report DIR: give --report")
+    if args.pareto and args.measured:
+        raise BodyvibError("--pareto needs a reference model (the peak error is against its "
+                           "transmissibility), not --measured data")
     _check_files(args)
     cfg = load_config(args.config)
     if args.measured:
@@ -67,21 +77,43 @@ def _run(args):
     log = (lambda *a: None) if args.quiet else print
     log(f"fitting the reduced model to {target.description}; total mass pinned to "
         f"{target.total_mass:g} kg; seed {args.seed}")
-    result = fit(target, cfg, seed=args.seed, polish=args.polish, progress=not args.quiet)
-    with staged_writes(guard=interrupts.critical) as written:  # the parameter file and the report: all or none
+    result = fit(target, cfg, seed=args.seed, polish=args.polish, progress=not args.quiet,
+                 method=args.method)
+    front = None
+    if args.pareto:  # searched before anything is written: all outputs or none
+        from bodyvib.fit_pareto import pareto_front
+        from bodyvib.fit_space import REDUCED_PARAMETERS
+
+        start = [result.parameters[k] for k in REDUCED_PARAMETERS]
+        front = pareto_front(target, cfg, seed=args.seed, start=start, progress=not args.quiet)
+    with staged_writes(guard=interrupts.critical) as written:  # parameter file, report, front
         net = write_parameter_file(result, args.out, command=_command_line(args))
         if args.report:
             from bodyvib.fit_report import write_report
 
             write_report(args.report, result, net)
+        if front is not None:
+            from bodyvib.fit_pareto import write_pareto
+
+            write_pareto(args.report, front, command=_command_line(args))
         interrupts.check()  # Ctrl-C while rendering: discard, keep the old files
     log(f"objective J: Table 2 {result.objective_table2:.6g} 1/s, refit "
         f"{result.objective:.6g} 1/s ({result.objective / result.objective_table2:.1%} of "
-        f"Table 2; GA {result.ga_objective:.6g} before polish), {result.evaluations} "
+        f"Table 2; {result.method} {result.ga_objective:.6g} before polish), {result.evaluations} "
         f"evaluations in {result.elapsed_s:.1f} s")
     log("parameters: " + ", ".join(f"{k} {v:.5g}" for k, v in result.parameters.items()))
     if result.at_bounds:
         log("at a bound of the search: " + "; ".join(result.at_bounds))
+    if front is not None:
+        from bodyvib.fit_pareto import chosen_points
+
+        ref = front.reference_peak
+        log(f"Pareto front (NSGA-II, {front.evaluations} evaluations in {front.elapsed_s:.1f} s): "
+            f"{len(front.objective)} points; reference |T| peak {ref[0]:.3f} at {ref[1]:.2f} Hz")
+        for name, i in chosen_points(front).items():
+            m, f = front.peak[i]
+            log(f"  {name:<15} J {front.objective[i]:.4g} 1/s, peak error "
+                f"{front.peak_error[i]:.3g}: |T| peak {m:.3f} at {f:.2f} Hz")
     log("wrote " + ", ".join(written.paths))
     return 0
 
@@ -92,7 +124,8 @@ def add_command(subparsers):
         "fit",
         help="refit the reduced model by a genetic algorithm (paper Eq. 3)",
         description="Refit the reduced 3-DOF model's parameters by a genetic algorithm "
-        "(PyGAD) to the head and torso impulse responses of a reference model (the paper's "
+        "(default; CMA-ES or differential evolution with --method) to the head and torso "
+        "impulse responses of a reference model (the paper's "
         "Eq. 3; --pairs chooses) or to "
         "a measured seat-to-head transmissibility, and write a parameter file with its "
         "provenance that build_fmu.py --params bakes into the FMU.",
@@ -105,7 +138,10 @@ def add_command(subparsers):
                           "[,phase_deg]")
     p.add_argument("--total-mass", type=float, metavar="KG",
                    help="with --measured: total mass m1 + m2 to pin, kg (default 75)")
-    p.add_argument("--seed", type=int, default=1, help="GA seed (default 1)")
+    p.add_argument("--seed", type=int, default=1, help="search seed (default 1)")
+    p.add_argument("--method", choices=METHODS,
+                   help="search: ga (genetic algorithm), cmaes or de (comparators); default "
+                        "per the configuration, ga")
     p.add_argument("--out", default="params/refit.json", metavar="FILE.json",
                    help="parameter file to write (default params/refit.json)")
     p.add_argument("--config", metavar="FILE.json",
@@ -119,6 +155,9 @@ def add_command(subparsers):
                    help="local polish after the GA (default: per the configuration, on)")
     p.add_argument("--no-polish", dest="polish", action="store_false",
                    help="skip the local polish")
+    p.add_argument("--pareto", action="store_true",
+                   help="also draw the trade-off of J against the transmissibility peak error "
+                        "(NSGA-II) into --report DIR: table, plot, parameter files")
     p.add_argument("--quiet", action="store_true", help="no progress bar and no messages")
     p.set_defaults(func=_run)
     return p

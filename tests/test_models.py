@@ -22,7 +22,7 @@ def test_shipped_models_load_by_name():
                               "ks": 8e5, "c1": 333.0, "c2": 2935.0}
     iso = load_model("iso7962")
     assert iso.node_names == ("y1", "y2", "y3", "y4")
-    assert "reconstructed" in iso.provenance["topology"]
+    assert "Fig. 1.7" in iso.provenance["topology"]  # sourced: the handbook figure
 
 
 def test_round_trip_through_file(tmp_path):

@@ -8,7 +8,7 @@ from typing import Optional
 from .check import Comparison
 from .study import Study
 
-__all__ = ["format_report", "study_json"]
+__all__ = ["PEAK_HINT", "format_report", "study_json"]
 
 _WORDS = {
     "crest_factor": "crest factor [-]",
@@ -69,8 +69,16 @@ def format_report(study: Study, comparison: Optional[Comparison] = None) -> str:
                 what = (f"{c.reduced:.4g} vs {c.iso:.4g}: difference "
                         f"{100 * c.difference:.1f} % <= {100 * c.tolerance:g} %?")
             lines.append(f"  {mark}  {_WORDS[c.name]:<38} {what}")
+        if any(c.name.startswith("transmissibility_peak") and not c.passed
+               for c in comparison.criteria):
+            lines.append(PEAK_HINT)
         lines.append(f"verdict: {comparison.verdict}")
     return "\n".join(lines)
+
+
+#: The line under a failed transmissibility-peak criterion: where the trade-off is drawn.
+PEAK_HINT = ("  the 3-DOF chain trades Eq. 3's J for the peak: 'bodyvib fit --pareto --report DIR' "
+             "draws it (README, 'The trade-off')")
 
 
 def _pct(x):
