@@ -34,7 +34,7 @@ def fmus(tmp_path_factory):
 
 
 def _fit_config(folder):
-    cfg = {"ga": {"population": 40, "generations": 60, "restarts": 2}}
+    cfg = {"ga": {"population": 40, "generations": 60}, "restarts": {"model": 2}}
     p = folder / "cfg.json"
     p.write_text(json.dumps(cfg))
     return p
