@@ -1,0 +1,339 @@
+"""Streaming ISO 2631-1 figures for a batch of signals: recursive Wk filter and accumulators.
+
+:mod:`bodyvib.comfort` weights a whole record at once (FFT of the zero-padded
+record times the analog Wk response). A sweep computes its figures while the
+signals are produced, block by block and for many cases at once, without
+keeping the time histories. This module does that with
+
+* :func:`wk_statespace` -- the analog Wk of :data:`bodyvib.comfort.WK_PARAMETERS`
+  (ISO 2631-1 Annex A: band limits, a-v transition, upward step) as one
+  8-state, single-input state space, the four second-order sections in series;
+* :class:`WkFilter` -- that state space discretized exactly
+  (:func:`bodyvib.discretize.discretize`) with the input interpolated linearly
+  between samples, started from rest: the causal analog filter applied to the
+  piecewise-linear signal through the samples, advanced for ``(cases,
+  samples)`` blocks;
+* :class:`ComfortStream` -- the filter plus running sums of ``a_w^2``,
+  ``a_w^4`` and the running ``max |a_w|``, from which the weighted r.m.s.,
+  VDV, peak, crest factor and the comfort words
+  (:func:`bodyvib.comfort.comfort_category`) follow at any time, with the
+  definitions of :func:`bodyvib.comfort.comfort_figures`.
+
+The result does not depend on how the samples are split into blocks (up to
+rounding, about 1e-15 relative).
+"""
+
+from typing import Dict, List, Optional
+
+import numpy as np
+
+from .comfort import WK_PARAMETERS, comfort_category
+from .discretize import discretize
+from .errors import BodyvibError
+
+__all__ = ["wk_statespace", "WkFilter", "ComfortStream", "stream_comfort_figures"]
+
+
+def _sections():
+    """The four second-order sections of Wk as ``(b2, b1, b0), (a1, a0)`` in ``p``.
+
+    Each is ``(b2 p^2 + b1 p + b0) / (p^2 + a1 p + a0)``: the Annex A factors of
+    :mod:`bodyvib.comfort` with numerator and denominator scaled to a monic
+    denominator.
+    """
+    P = WK_PARAMETERS
+    w1, w2, w3, w4, w5, w6 = (2 * np.pi * P[k] for k in ("f1", "f2", "f3", "f4", "f5", "f6"))
+    q1 = P["Q1"]
+    return (
+        ((1.0, 0.0, 0.0), (w1 / q1, w1 ** 2)),                      # high pass
+        ((0.0, 0.0, w2 ** 2), (w2 / q1, w2 ** 2)),                  # low pass
+        ((0.0, w4 ** 2 / w3, w4 ** 2), (w4 / P["Q4"], w4 ** 2)),     # a-v transition
+        ((1.0, w5 / P["Q5"], w5 ** 2), (w6 / P["Q6"], w6 ** 2)),     # upward step
+    )
+
+
+def wk_statespace():
+    """The analog ISO 2631-1 Wk weighting as a state space ``(A, B, C, D)``.
+
+    Returns
+    -------
+    A : (8, 8) ndarray
+    B : (8, 1) ndarray
+    C : (1, 8) ndarray
+    D : (1, 1) ndarray
+        ``C (pI - A)^-1 B + D`` equals :func:`bodyvib.comfort.wk_response`
+        (to rounding). Each section is in controllable canonical form; the
+        sections are in series (high pass, low pass, transition, step).
+
+    Examples
+    --------
+    >>> from bodyvib.comfort import wk_response
+    >>> A, B, C, D = wk_statespace()
+    >>> p = 2j * np.pi * 6.3
+    >>> H = (C @ np.linalg.solve(p * np.eye(8) - A, B) + D)[0, 0]
+    >>> bool(abs(H - wk_response(6.3)[0]) < 1e-12)
+    True
+    """
+    A = np.zeros((0, 0))
+    B = np.zeros((0, 1))
+    C = np.zeros((1, 0))
+    D = np.ones((1, 1))
+    for (b2, b1, b0), (a1, a0) in _sections():
+        As = np.array([[0.0, 1.0], [-a0, -a1]])
+        Bs = np.array([[0.0], [1.0]])
+        Cs = np.array([[b0 - b2 * a0, b1 - b2 * a1]])
+        Ds = np.array([[b2]])
+        n = A.shape[0]
+        # series: the section's input is the output so far (C x + D u)
+        A = np.block([[A, np.zeros((n, 2))], [Bs @ C, As]])
+        B = np.vstack([B, Bs @ D])
+        C = np.hstack([Ds @ C, Cs])
+        D = Ds @ D
+    return A, B, C, D
+
+
+class WkFilter:
+    """Recursive Wk weighting of a batch of signals, from rest, block by block.
+
+    Over each sampling interval the input is the straight line between two
+    samples, and the analog filter's state advances exactly over it:
+    ``x_{k+1} = Phi x_k + Gamma0 a_k + Gamma1 (a_{k+1} - a_k) / h``; the
+    weighted sample is ``C x_k + D a_k``. Before the first sample the filter is
+    at rest.
+
+    Parameters
+    ----------
+    fs : float
+        Sampling rate in Hz.
+    cases : int
+        Number of signals filtered side by side.
+
+    Raises
+    ------
+    BodyvibError
+        A sampling rate that is not a positive finite number, or fewer than
+        one case.
+
+    Examples
+    --------
+    >>> f = WkFilter(1000.0, cases=2)
+    >>> a = np.zeros((2, 5)); a[:, 1:] = 1.0
+    >>> f.update(a).shape
+    (2, 5)
+    """
+
+    def __init__(self, fs: float, cases: int):
+        try:
+            ok = np.isfinite(fs) and fs > 0
+        except TypeError:
+            ok = False
+        if not ok:
+            raise BodyvibError(f"sampling rate must be a positive number of Hz, got {fs!r}")
+        if int(cases) < 1:
+            raise BodyvibError(f"need at least one case, got {cases!r}")
+        self.fs = float(fs)
+        self.cases = int(cases)
+        A, B, C, D = wk_statespace()
+        h = 1.0 / self.fs
+        Phi, G0, G1 = discretize(A, B, h)
+        self._PhiT = np.ascontiguousarray(Phi.T)
+        self._g_prev = G0[:, 0] - G1[:, 0] / h   # multiplies a_k
+        self._g_next = G1[:, 0] / h              # multiplies a_{k+1}
+        self._c = C[0]
+        self._d = float(D[0, 0])
+        self._x = np.zeros((self.cases, A.shape[0]))
+        self._last: Optional[np.ndarray] = None
+
+    def update(self, block) -> np.ndarray:
+        """Weight the next samples of every signal.
+
+        Parameters
+        ----------
+        block : (cases, samples) array_like
+            The next samples (m/s2); a 1-D array is taken as one sample per case.
+
+        Returns
+        -------
+        (cases, samples) ndarray
+            Wk-weighted samples.
+
+        Raises
+        ------
+        BodyvibError
+            Wrong number of cases, or non-finite samples.
+        """
+        a = np.asarray(block, dtype=float)
+        if a.ndim == 1:
+            a = a[:, None]
+        if a.ndim != 2 or a.shape[0] != self.cases:
+            raise BodyvibError(f"block must have shape ({self.cases}, samples), got {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise BodyvibError("acceleration contains NaN or infinite values; clean the signal")
+        if a.shape[1] == 0:
+            return a.copy()
+        first = self._last is None
+        prev = np.concatenate([a[:, :1] if first else self._last[:, None], a[:, :-1]], axis=1)
+        states = np.empty((self.cases, a.shape[1], self._x.shape[1]))
+        start = 0
+        if first:               # the first sample: filter at rest
+            states[:, 0] = self._x
+            start = 1
+        if start < a.shape[1]:
+            drive = (prev[:, start:, None] * self._g_prev
+                     + a[:, start:, None] * self._g_next)           # (cases, k, 8)
+            x = self._x
+            PhiT = self._PhiT
+            for j in range(drive.shape[1]):
+                x = x @ PhiT + drive[:, j]
+                states[:, start + j] = x
+            self._x = x
+        self._last = a[:, -1].copy()
+        return states @ self._c + self._d * a
+
+
+class ComfortStream:
+    """Running ISO 2631-1 figures (Wk r.m.s., VDV, peak, crest factor) of a batch of signals.
+
+    Parameters
+    ----------
+    fs : float
+        Sampling rate in Hz.
+    cases : int
+        Number of signals.
+
+    Raises
+    ------
+    BodyvibError
+        As :class:`WkFilter`.
+
+    Notes
+    -----
+    The figures are those of :func:`bodyvib.comfort.comfort_figures` --
+    ``sqrt(mean(a_w^2))``, ``(sum(a_w^4) / fs)^(1/4)``, ``max |a_w|`` -- of the
+    recursively weighted samples. They are not bit-equal to that function's:
+    it weights by multiplying the FFT bins of the record by the analog
+    response, which treats the record as band-limited (interpolated by
+    sincs), whereas this filter sees the straight lines between the samples.
+    Linear interpolation multiplies a signal's spectrum by
+    ``sinc^2(f / fs)``, about ``1 - (pi f / fs)^2 / 3``, so the weighted
+    r.m.s. comes out lower by about ``(pi / fs)^2 <f^2> / 3`` with ``<f^2>``
+    the weighted signal's mean-square frequency. Measured on a 30 s, 1 kHz
+    head acceleration (reduced body on the quarter car, ISO 8608 class C road
+    at 20 m/s, seed 0): weighted r.m.s. 2.13e-4 relative below the FFT
+    method's (the formula predicts 2.15e-4 from that signal's spectrum,
+    ``sqrt(<f^2>)`` = 8.1 Hz), VDV 2.09e-4, peak 2.20e-4. At a 0.1 ms step the
+    difference is a hundred times smaller (2.1e-6).
+
+    Examples
+    --------
+    >>> t = np.arange(0, 60, 1e-3)
+    >>> s = ComfortStream(1000.0, cases=1)
+    >>> for k in range(0, t.size, 10000):
+    ...     _ = s.update(np.sin(2 * np.pi * 5 * t[None, k:k + 10000]))
+    >>> round(float(s.figures()["weighted_rms"][0] * np.sqrt(2)), 2)
+    1.04
+    """
+
+    def __init__(self, fs: float, cases: int):
+        self.filter = WkFilter(fs, cases)
+        self.fs = self.filter.fs
+        self.cases = self.filter.cases
+        self.samples = 0
+        self._s2 = np.zeros(self.cases)
+        self._s4 = np.zeros(self.cases)
+        self._peak = np.zeros(self.cases)
+
+    def update(self, block) -> np.ndarray:
+        """Weight the next samples and add them to the running figures.
+
+        Parameters
+        ----------
+        block : (cases, samples) array_like
+            Unweighted acceleration, m/s2.
+
+        Returns
+        -------
+        (cases, samples) ndarray
+            The weighted samples (m/s2), for callers that want them.
+
+        Raises
+        ------
+        BodyvibError
+            As :meth:`WkFilter.update`.
+        """
+        w = self.filter.update(block)
+        if w.shape[1]:
+            w2 = w * w
+            self._s2 += w2.sum(axis=1)
+            self._s4 += (w2 * w2).sum(axis=1)
+            np.maximum(self._peak, np.abs(w).max(axis=1), out=self._peak)
+            self.samples += w.shape[1]
+        return w
+
+    def figures(self) -> Dict[str, object]:
+        """The figures of all samples so far.
+
+        Returns
+        -------
+        dict
+            ``weighted_rms`` [m/s2], ``vdv`` [m/s^1.75], ``peak`` [m/s2],
+            ``crest_factor`` [-] as ``(cases,)`` arrays, and ``comfort``, a list
+            of ISO 2631-1 Annex C words per case.
+
+        Raises
+        ------
+        BodyvibError
+            No sample yet.
+        """
+        if self.samples == 0:
+            raise BodyvibError("no samples yet: call update() first")
+        rms = np.sqrt(self._s2 / self.samples)
+        vdv = (self._s4 / self.fs) ** 0.25
+        peak = self._peak.copy()
+        with np.errstate(divide="ignore", invalid="ignore"):
+            crest = np.where(rms > 0, peak / np.where(rms > 0, rms, 1.0), np.nan)
+        words: List[str] = [comfort_category(v) for v in rms]
+        return {"weighted_rms": rms, "vdv": vdv, "peak": peak, "crest_factor": crest,
+                "comfort": words}
+
+
+def stream_comfort_figures(acceleration, fs: float, block: int = 4096) -> Dict[str, object]:
+    """ISO 2631-1 figures of whole records through the streaming filter.
+
+    Parameters
+    ----------
+    acceleration : (n,) or (cases, n) array_like
+        Unweighted acceleration, m/s2.
+    fs : float
+        Sampling rate in Hz.
+    block : int
+        Samples per update (the result does not depend on it beyond rounding).
+
+    Returns
+    -------
+    dict
+        As :meth:`ComfortStream.figures`; for a 1-D input, floats and one word.
+
+    Raises
+    ------
+    BodyvibError
+        Non-finite samples, fewer than two samples, a bad sampling rate.
+
+    Examples
+    --------
+    >>> t = np.arange(0, 60, 1e-3)
+    >>> round(stream_comfort_figures(np.sin(2 * np.pi * 5 * t), 1000.0)["weighted_rms"], 3)
+    0.734
+    """
+    a = np.asarray(acceleration, dtype=float)
+    one = a.ndim == 1
+    a = np.atleast_2d(a)
+    if a.ndim != 2 or a.shape[1] < 2:
+        raise BodyvibError("acceleration must be (n,) or (cases, n) with n >= 2 samples")
+    s = ComfortStream(fs, a.shape[0])
+    for k in range(0, a.shape[1], max(1, int(block))):
+        s.update(a[:, k:k + block])
+    out = s.figures()
+    if one:
+        return {k: (v[0] if k == "comfort" else float(v[0])) for k, v in out.items()}
+    return out
