@@ -21,6 +21,7 @@ COMMAND_MODULES = (
     "bodyvib.fmu_build",
     "vehicle.commands",
     "bodyvib.fit",
+    "vehicle.sweep_command",
 
 )
 

@@ -108,7 +108,8 @@ def _check_interface(md, path, kind):
 
 
 @contextlib.contextmanager
-def open_fmu(path, kind: str, instance_name: Optional[str] = None):
+def open_fmu(path, kind: str, instance_name: Optional[str] = None,
+             start_values: Optional[Dict[str, float]] = None):
     """Instantiate and initialize an FMU of the body or car interface.
 
     Parameters
@@ -118,6 +119,10 @@ def open_fmu(path, kind: str, instance_name: Optional[str] = None):
     kind : str
         ``"body"`` or ``"car"``: the interface it must have.
     instance_name : str, optional
+    start_values : dict of str to float, optional
+        Real variables (e.g. the FMU's parameters) set after instantiation,
+        before initialization: a sweep changes parameters this way without
+        rebuilding the FMU.
 
     Yields
     ------
@@ -127,7 +132,8 @@ def open_fmu(path, kind: str, instance_name: Optional[str] = None):
     ------
     BodyvibError
         Missing file, not an FMI 2.0 co-simulation FMU, missing interface
-        variables, or a failure to instantiate or initialize.
+        variables, an unknown start variable, or a failure to instantiate or
+        initialize.
     """
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave
@@ -142,6 +148,10 @@ def open_fmu(path, kind: str, instance_name: Optional[str] = None):
     if md.fmiVersion != "2.0":
         raise BodyvibError(f"FMU '{path}' is FMI {md.fmiVersion}; FMI 2.0 is needed")
     _check_interface(md, path, kind)
+    refs = {v.name: v.valueReference for v in md.modelVariables}
+    unknown = sorted(set(start_values or {}) - set(refs))
+    if unknown:
+        raise BodyvibError(f"FMU '{path}' has no variable(s) {', '.join(unknown)}")
     unzipdir = extract(path, unzipdir=tempfile.mkdtemp(prefix="bodyvib-fmu-"))
     fmu = None
     try:
@@ -149,6 +159,9 @@ def open_fmu(path, kind: str, instance_name: Optional[str] = None):
                         modelIdentifier=md.coSimulation.modelIdentifier,
                         instanceName=instance_name or kind)
         fmu.instantiate()
+        if start_values:
+            names = list(start_values)
+            fmu.setReal([refs[n] for n in names], [float(start_values[n]) for n in names])
         fmu.setupExperiment(startTime=0.0)
         fmu.enterInitializationMode()
         fmu.exitInitializationMode()

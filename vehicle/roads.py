@@ -37,6 +37,7 @@ from bodyvib.errors import BodyvibError
 __all__ = [
     "ISO8608_CLASSES",
     "N0",
+    "N_BAND",
     "class_psd_n0",
     "displacement_psd",
     "Road",
