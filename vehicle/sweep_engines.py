@@ -153,7 +153,11 @@ def _batched_group(cases, models, cars, roads, block_steps, record):
     v = np.empty((c, N))
     for i, (cs, s) in enumerate(zip(cases, sys)):
         lm = s.lm
-        Phi, G0, G1 = Discretization(lm).matrices(step)
+        with np.errstate(over="ignore", invalid="ignore"):
+            Phi, G0, G1 = Discretization(lm).matrices(step)
+        if not (np.all(np.isfinite(Phi)) and np.all(np.isfinite(G0)) and np.all(np.isfinite(G1))):
+            raise BodyvibError("the exact step matrices are not finite (parameters out of "
+                               "numerical range?)")
         iz, iv = lm.input_index("road_displacement"), lm.input_index("road_velocity")
         M[i, :n] = Phi
         M[i, n:] = lm.C[s.outputs]
@@ -176,6 +180,8 @@ def _batched_group(cases, models, cars, roads, block_steps, record):
             out += drive[j]
             ys[j] = out[:, n:, 0]
             x = out[:, :n].copy()
+        if not np.all(np.isfinite(ys)):
+            raise BodyvibError("the response is not finite (parameters out of numerical range?)")
         y = ys.transpose(2, 1, 0)             # (2, c, samples): head, seat
         stream.update(y.reshape(2 * c, k1 - k0))
         if record:
@@ -290,6 +296,8 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
                 head = _mean_square(frequency_response(s.lm, f, "body.head.a"), W2S, f)
                 seat = _mean_square(frequency_response(s.lm, f, f"{s.seat}.a"), W2S, f)
                 got = cache[key] = (head, seat)
+            if not all(np.isfinite(got)):
+                raise BodyvibError("the response is not finite (parameters out of numerical range?)")
             scale = 4.0 ** ISO8608_CLASSES.index(cs.road)  # Gd(n0) of the class over class A's
             rms = math.sqrt(got[0] * scale)
             rows.append({"head_weighted_rms": rms, "head_vdv": float("nan"),

@@ -213,7 +213,7 @@ def _client(scheduler, workers):
                                dashboard_address=None, silence_logs=logging.ERROR)
         return Client(cluster), cluster
     try:
-        return Client(scheduler, timeout="10s"), None
+        return Client(scheduler, timeout="5s"), None
     except Exception as exc:
         raise BodyvibError(f"cannot connect to the Dask scheduler '{scheduler}': {exc}") from None
 
