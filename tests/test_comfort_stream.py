@@ -6,7 +6,7 @@ from scipy import signal
 
 from bodyvib.comfort import WK_PARAMETERS, comfort_category, comfort_figures, weighted_acceleration, wk_response
 from bodyvib.comfort_stream import ComfortStream, WkFilter, stream_comfort_figures, wk_statespace
-from bodyvib.errors import BodyvibError
+from bodyvib.runtime.errors import BodyvibError
 from bodyvib.models import load_model
 from vehicle.quarter_car import load_car
 from vehicle.reference import reference_run

@@ -5,9 +5,9 @@ import pytest
 
 from bodyvib.comfort import wk_response
 from bodyvib.comfort_stream import stream_comfort_figures
-from bodyvib.discretize import simulate
 from bodyvib.frequency import frequency_response
-from bodyvib.network import linear_model
+from bodyvib.runtime.discretize import simulate
+from bodyvib.runtime.network import linear_model
 from vehicle.quarter_car import seated_system
 from vehicle.reference import nrmse, reference_run
 from vehicle.roads import N_BAND, displacement_psd

@@ -12,7 +12,7 @@ import pandas as pd
 import pytest
 
 from bodyvib import __version__
-from bodyvib.cli import main
+from bodyvib_cli.main import main
 from vehicle.sweep_run import BASE_COLUMNS, parts_dir, plan_tasks, read_results, run_sweep
 from vehicle.sweep_spec import expand, spec_hash
 
@@ -84,7 +84,7 @@ def test_a_failing_case_is_recorded_and_the_sweep_goes_on(tmp_path):
 
 
 def _cli(*args, **kw):
-    return subprocess.Popen([sys.executable, "-m", "bodyvib.cli", "sweep", *args],
+    return subprocess.Popen([sys.executable, "-m", "bodyvib_cli", "sweep", *args],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kw)
 
 

@@ -6,8 +6,8 @@ import os
 import numpy as np
 import pytest
 
-from bodyvib.errors import BodyvibError
 from bodyvib.models import MODEL_DIR, load_model
+from bodyvib.runtime.errors import BodyvibError
 from vehicle.sweep_spec import expand, grid_spec, spec_hash, varied_parameters
 
 

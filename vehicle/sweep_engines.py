@@ -3,10 +3,10 @@
 * ``batched`` -- the monolithic car-plus-occupant network of
   :func:`vehicle.quarter_car.seated_system` (the co-simulation's reference,
   :mod:`vehicle.reference`), discretized exactly per case
-  (:class:`bodyvib.discretize.Discretization`) and advanced for all cases of a
+  (:class:`bodyvib.runtime.discretize.Discretization`) and advanced for all cases of a
   block together: one batched matrix product per time step over the block,
   ``[x_{k+1}; y_k] = [Phi; C] x_k + [Gamma; D] (z_k, v_k)``, with the road's
-  in-step slope as in :func:`bodyvib.discretize.input_rates`. The head and
+  in-step slope as in :func:`bodyvib.runtime.discretize.input_rates`. The head and
   seat accelerations go block by block into
   :class:`bodyvib.comfort_stream.ComfortStream`; no time history is kept.
 * ``spectral`` -- for an ISO 8608 random road, the expected weighted mean
@@ -39,10 +39,10 @@ import numpy as np
 
 from bodyvib.comfort import comfort_category, wk_response
 from bodyvib.comfort_stream import ComfortStream
-from bodyvib.discretize import Discretization
-from bodyvib.errors import BodyvibError
 from bodyvib.frequency import frequency_response
-from bodyvib.network import linear_model
+from bodyvib.runtime.discretize import Discretization
+from bodyvib.runtime.errors import BodyvibError
+from bodyvib.runtime.network import linear_model
 
 from .quarter_car import seated_system
 from .roads import ISO8608_CLASSES, N_BAND, displacement_psd, make_road, road_input
@@ -327,7 +327,7 @@ def _fmu_dir():
 
 def _fmu(kind: str, source: str) -> str:
     """Path of an FMU for a body or car source, built once per process."""
-    from bodyvib.fmu_build import build_fmu
+    from .fmus import build_project_fmu
 
     key = (kind, os.path.abspath(source) if os.path.isfile(source) else source)
     path = _FMUS.get(key)
@@ -339,7 +339,7 @@ def _fmu(kind: str, source: str) -> str:
         else:
             name = "HumanBody3DOF"
         dest = os.path.join(_fmu_dir(), f"{len(_FMUS)}")
-        path = _FMUS[key] = str(build_fmu(name, dest, source))
+        path = _FMUS[key] = str(build_project_fmu(name, dest, source))
     return path
 
 

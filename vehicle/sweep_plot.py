@@ -5,7 +5,7 @@ from typing import Optional
 import numpy as np
 
 from bodyvib.comfort import COMFORT_SCALE
-from bodyvib.errors import BodyvibError
+from bodyvib.runtime.errors import BodyvibError
 
 __all__ = ["plot_comfort_maps"]
 

@@ -50,8 +50,8 @@ import uuid
 from typing import Callable, Dict, List, Optional, Sequence, Union
 
 from bodyvib import __version__
-from bodyvib.errors import BodyvibError
-from bodyvib.fileio import atomic_write_bytes, atomic_write_text
+from bodyvib.runtime.errors import BodyvibError
+from bodyvib.runtime.fileio import atomic_write_bytes, atomic_write_text
 
 from .sweep_engines import FIGURES, check_engine, run_engine
 from .sweep_spec import Case, expand, load_spec, spec_hash, varied_parameters

@@ -44,11 +44,12 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from bodyvib.errors import BodyvibError
-from bodyvib.fileio import read_json
-from bodyvib.models import load_model, network_to_dict
+from bodyvib.models import load_model
+from bodyvib.runtime.errors import BodyvibError
+from bodyvib.runtime.fileio import read_json
+from bodyvib.runtime.modelfile import network_to_dict
 
-from .check import check_settings
+from .study import check_settings
 from .quarter_car import load_car
 
 __all__ = ["Case", "SPEC_KEYS", "load_spec", "grid_spec", "expand", "spec_hash", "varied_parameters"]
