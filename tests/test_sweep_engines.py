@@ -152,3 +152,22 @@ def test_cosim_engine_agrees_with_batched_within_the_coupling_error():
     # nominal one by far more than the coupling error
     nominal, varied = co[0]["head_weighted_rms"], co[2]["head_weighted_rms"]
     assert abs(varied / nominal - 1) > 20 * 5e-4
+
+
+@pytest.mark.integration
+def test_a_sweep_case_runs_on_the_road_of_bodyvib_cosim(tmp_path, capsys):
+    from bodyvib_cli.main import main
+
+    csv = tmp_path / "cosim.csv"
+    assert main(["cosim", "--road", "D", "--seed", "3", "--speed", "15", "--duration", "2",
+                 "--csv", str(csv), "--quiet"]) == 0
+    capsys.readouterr()
+    data = np.genfromtxt(csv, delimiter=",", names=True)
+    (case,) = expand({"road": "D", "seed": 3, "speed": 15, "duration": 2, "body": "reduced-paper"})
+    z, v = case_road_input(case)
+    # the CSV holds 10 significant digits
+    np.testing.assert_allclose(data["road_displacement_m"], z, rtol=1e-9, atol=1e-9 * np.abs(z).max())
+    np.testing.assert_allclose(data["road_velocity_ms"], v, rtol=1e-9, atol=1e-9 * np.abs(v).max())
+    _, hist = run_cosim([case], record=True)
+    a = hist[0]["head_acceleration"]
+    np.testing.assert_allclose(data["head_acceleration_ms2"], a, rtol=1e-9, atol=1e-9 * np.abs(a).max())
