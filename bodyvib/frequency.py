@@ -74,8 +74,8 @@ def to_statespace(model):
                       name=lm.network.name)
 
 
-def frequency_response(model, frequencies_hz, output: str) -> np.ndarray:
-    """Complex response of one output per unit base displacement.
+def frequency_response(model, frequencies_hz, output) -> np.ndarray:
+    """Complex response of one output (or several) per unit base displacement.
 
     Parameters
     ----------
@@ -83,14 +83,15 @@ def frequency_response(model, frequencies_hz, output: str) -> np.ndarray:
         The model.
     frequencies_hz : array_like
         Frequencies in Hz.
-    output : str
+    output : str or sequence of str
         Output name, e.g. ``"head.x"`` (a role may replace the mass name),
-        ``"m2.a"`` or ``"seat_force"``.
+        ``"m2.a"`` or ``"seat_force"``; a list of names shares one solve.
 
     Returns
     -------
     ndarray of complex
-        Output amplitude per metre of base displacement (output unit per m).
+        Output amplitude per metre of base displacement (output unit per m):
+        ``(nf,)`` for one name, ``(len(output), nf)`` for a list.
 
     Examples
     --------
@@ -101,13 +102,15 @@ def frequency_response(model, frequencies_hz, output: str) -> np.ndarray:
     """
     lm = as_linear_model(model)
     f = np.atleast_1d(np.asarray(frequencies_hz, dtype=float))
-    i = lm.output_index(output)
+    one = isinstance(output, str)
+    idx = [lm.output_index(o) for o in ([output] if one else output)]
     s = 2j * np.pi * f
     n = lm.A.shape[0]
     rhs = lm.B[:, 0][None, :] + s[:, None] * lm.B[:, 1][None, :]  # (nf, n)
     lhs = s[:, None, None] * np.eye(n)[None] - lm.A[None]
     x = np.linalg.solve(lhs, rhs[..., None])[..., 0]
-    return x @ lm.C[i] + lm.D[i, 0] + s * lm.D[i, 1]
+    H = np.array([x @ lm.C[i] + lm.D[i, 0] + s * lm.D[i, 1] for i in idx])
+    return H[0] if one else H
 
 
 def transmissibility(model, frequencies_hz, point: str = "head") -> np.ndarray:

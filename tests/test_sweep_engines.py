@@ -171,3 +171,15 @@ def test_a_sweep_case_runs_on_the_road_of_bodyvib_cosim(tmp_path, capsys):
     _, hist = run_cosim([case], record=True)
     a = hist[0]["head_acceleration"]
     np.testing.assert_allclose(data["head_acceleration_ms2"], a, rtol=1e-9, atol=1e-9 * np.abs(a).max())
+
+
+def test_frequency_response_of_several_outputs_shares_one_solve():
+    from bodyvib.models import load_model
+    from vehicle.quarter_car import load_car
+
+    lm = linear_model(seated_system(load_car(), load_model("iso7962")))
+    f = np.geomspace(0.1, 100, 50)
+    both = frequency_response(lm, f, ["body.head.a", "sprung.a"])
+    assert both.shape == (2, 50)
+    np.testing.assert_allclose(both[0], frequency_response(lm, f, "body.head.a"), rtol=1e-13)
+    np.testing.assert_allclose(both[1], frequency_response(lm, f, "sprung.a"), rtol=1e-13)
