@@ -153,6 +153,7 @@ class WkFilter:
         self._x = np.zeros((self.cases, A.shape[0]))
         self._last: Optional[np.ndarray] = None
         self._lift: Dict[int, np.ndarray] = {}
+        self._buf: Optional[np.ndarray] = None
 
     def update(self, block) -> np.ndarray:
         """Weight the next samples of every signal.
@@ -191,7 +192,13 @@ class WkFilter:
             L = min(self.LIFT, a.shape[1] - s)
             prev = self._last if s == 0 else a[:, s - 1]
             # one product advances L samples: [x, a_prev, a_s .. a_{s+L-1}] -> [w, x']
-            lifted = np.concatenate([self._x, prev[:, None], a[:, s:s + L]], axis=1)
+            n = self._x.shape[1]
+            if self._buf is None or self._buf.shape[1] != n + 1 + L:
+                self._buf = np.empty((self.cases, n + 1 + L))
+            lifted = self._buf
+            lifted[:, :n] = self._x
+            lifted[:, n] = prev
+            lifted[:, n + 1:] = a[:, s:s + L]
             out = lifted @ self._lifted(L)
             w[:, s:s + L] = out[:, :L]
             self._x = out[:, L:]

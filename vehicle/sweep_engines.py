@@ -170,17 +170,24 @@ def _batched_group(cases, models, cars, roads, block_steps, record):
         z[i], v[i] = _roads(cs, roads)
     stream = ComfortStream(1.0 / step, 2 * c)
     hist = np.empty((2, c, N)) if record else None
+    # buffers allocated once: no allocation inside the time loop
     x = np.zeros((c, n, 1))
     out = np.empty((c, n + 2, 1))
+    drive_buf = np.empty((block_steps, c, n + 2))
+    tmp = np.empty((block_steps, c, n + 2))
+    ys_buf = np.empty((block_steps, c, 2))
     for k0 in range(0, N, block_steps):
         k1 = min(N, k0 + block_steps)
-        drive = (z[:, k0:k1].T[:, :, None] * gz + v[:, k0:k1].T[:, :, None] * gv)[..., None]
-        ys = np.empty((k1 - k0, c, 2))
+        drive, ys = drive_buf[:k1 - k0], ys_buf[:k1 - k0]
+        np.multiply(z[:, k0:k1].T[:, :, None], gz, out=drive)
+        np.multiply(v[:, k0:k1].T[:, :, None], gv, out=tmp[:k1 - k0])
+        drive += tmp[:k1 - k0]
+        drive4 = drive[..., None]
         for j in range(k1 - k0):
             np.matmul(M, x, out=out)
-            out += drive[j]
+            out += drive4[j]
             ys[j] = out[:, n:, 0]
-            x = out[:, :n].copy()
+            x[...] = out[:, :n]
         if not np.all(np.isfinite(ys)):
             raise BodyvibError("the response is not finite (parameters out of numerical range?)")
         y = ys.transpose(2, 1, 0)             # (2, c, samples): head, seat
