@@ -9,8 +9,8 @@ reduced-body parameter sets (Latin hypercube, m1, k1, k2, c1, c2 within
 
 * one ``bodyvib cosim --params FILE`` process (the way a case is run today:
   two FMU builds, start-up, 30 s co-simulation): the per-case reference cost;
-* ``spectral`` on a LocalCluster of ``--workers`` workers and serially in this
-  process, all cases;
+* ``spectral`` on a LocalCluster of ``--workers`` workers (two tasks per
+  worker) and by default (all cases make one task, run in this process);
 * ``batched`` on the LocalCluster, all cases (the target: at most 120 s), and
   serially in this process;
 * the Dask overhead: ``batched`` on ``--overhead-cases`` cases on a LocalCluster
@@ -20,8 +20,10 @@ reduced-body parameter sets (Latin hypercube, m1, k1, k2, c1, c2 within
   set per case), extrapolated per case.
 
 Wall times include everything a user waits for (cluster start-up, spec
-expansion, writing the Parquet parts and the table). With ``--repeats`` above
-1 the medians are reported.
+expansion, writing the Parquet parts and the table); CPU times add this
+process's and the cluster's worker processes' (``os.times``), which a busy
+shared machine disturbs less than wall time. With ``--repeats`` above 1 the
+medians are reported.
 """
 
 import argparse
@@ -47,12 +49,24 @@ def sweep_spec(cases: int) -> dict:
                       "name": "reduced-varied"}]}
 
 
-def timed(fn, repeats):
-    times = []
+CPU = {}
+
+
+def _cpu():
+    t = os.times()  # this process and its finished children (the LocalCluster's workers)
+    return t.user + t.system + t.children_user + t.children_system
+
+
+def timed(fn, repeats, name=None):
+    """Median wall time of ``fn()`` over ``repeats``; its CPU time (all processes) into CPU[name]."""
+    times, cpus = [], []
     for _ in range(repeats):
-        t0 = time.perf_counter()
+        c0, t0 = _cpu(), time.perf_counter()
         out = fn()
         times.append(time.perf_counter() - t0)
+        cpus.append(_cpu() - c0)
+    if name:
+        CPU[name] = statistics.median(cpus)
     return statistics.median(times), out
 
 
@@ -93,50 +107,54 @@ def main(argv=None):
             return run_sweep(s, out=out, overwrite=True, **kw)
 
         print(f"one bodyvib cosim run ...", file=sys.stderr, flush=True)
-        res["bodyvib_cosim_s"], _ = timed(lambda: one_cosim_run(tmp), a.repeats)
+        res["bodyvib_cosim_s"], _ = timed(lambda: one_cosim_run(tmp), a.repeats, "bodyvib_cosim")
         print("spectral ...", file=sys.stderr, flush=True)
-        res["spectral_local_s"], df = timed(lambda: run(spec, engine="spectral", workers=a.workers),
-                                            a.repeats)
+        res["spectral_local_s"], df = timed(lambda: run(spec, engine="spectral", workers=a.workers,
+                                                        scheduler="local", block=max(1, n // (2 * a.workers))),
+                                            a.repeats, "spectral_local")
         assert len(df) == n and df["error"].isna().all()
-        res["spectral_serial_s"], _ = timed(lambda: run(spec, engine="spectral", scheduler="serial",
-                                                        workers=a.workers), a.repeats)
+        res["spectral_default_s"], _ = timed(lambda: run(spec, engine="spectral"), a.repeats, "spectral_default")
         print(f"Dask overhead: batched, {n_small} cases, 1 worker vs serial ...", file=sys.stderr,
               flush=True)
-        t_serial, d1 = timed(lambda: run(small, scheduler="serial", workers=1), a.repeats)
-        t_dask1, d2 = timed(lambda: run(small, workers=1), a.repeats)
+        t_serial, d1 = timed(lambda: run(small, scheduler="serial", workers=1), a.repeats, "small_serial")
+        t_dask1, d2 = timed(lambda: run(small, workers=1), a.repeats, "small_local1")
         res["overhead_cases"] = n_small
         res["batched_small_serial_s"], res["batched_small_local1_s"] = t_serial, t_dask1
         assert (d1["head_weighted_rms"].values == d2["head_weighted_rms"].values).all()
         print(f"batched, {n} cases, LocalCluster of {a.workers} ...", file=sys.stderr, flush=True)
-        res["batched_local_s"], df = timed(lambda: run(spec, workers=a.workers), a.repeats)
+        res["batched_local_s"], df = timed(lambda: run(spec, workers=a.workers), a.repeats, "batched_local")
         assert len(df) == n and df["error"].isna().all()
         if not a.skip_serial:
             print(f"batched, {n} cases, serial ...", file=sys.stderr, flush=True)
             res["batched_serial_s"], _ = timed(lambda: run(spec, scheduler="serial", workers=a.workers),
-                                               a.repeats)
+                                               a.repeats, "batched_serial")
         print(f"cosim engine, {a.cosim_cases} cases ...", file=sys.stderr, flush=True)
         few = dict(spec, body=[dict(spec["body"][0], samples=1)], road=["C"],
                    speed=[10, 15, 20, 25, 30][:max(1, a.cosim_cases)])
         res["cosim_cases"] = len(expand(few))
-        res["cosim_serial_s"], df = timed(lambda: run(few, engine="cosim", scheduler="serial"), 1)
+        res["cosim_serial_s"], df = timed(lambda: run(few, engine="cosim", scheduler="serial"), 1, "cosim")
         assert df["error"].isna().all(), df["error"].tolist()
     res["load_after"] = os.getloadavg()
+    res["cpu_s"] = dict(CPU)
     ref = res["bodyvib_cosim_s"]
-    rows = [("bodyvib cosim (1 process)", 1, ref)]
-    rows += [(f"spectral, LocalCluster x{a.workers}", n, res["spectral_local_s"]),
-             ("spectral, serial", n, res["spectral_serial_s"]),
-             (f"batched, LocalCluster x{a.workers}", n, res["batched_local_s"])]
+    rows = [("bodyvib cosim (1 process)", 1, ref, "bodyvib_cosim")]
+    rows += [(f"spectral, LocalCluster x{a.workers}", n, res["spectral_local_s"], "spectral_local"),
+             ("spectral, default (1 task: in-process)", n, res["spectral_default_s"], "spectral_default"),
+             (f"batched, LocalCluster x{a.workers}", n, res["batched_local_s"], "batched_local")]
     if "batched_serial_s" in res:
-        rows.append(("batched, serial", n, res["batched_serial_s"]))
-    rows += [("batched, LocalCluster x1", n_small, res["batched_small_local1_s"]),
-             ("batched, serial", n_small, res["batched_small_serial_s"]),
-             ("cosim engine, serial", res["cosim_cases"], res["cosim_serial_s"])]
-    print(f"\n{'run':34s} {'cases':>6s} {'wall [s]':>9s} {'per case [ms]':>14s} {'x bodyvib cosim':>16s}")
-    for name, cases, wall in rows:
+        rows.append(("batched, serial", n, res["batched_serial_s"], "batched_serial"))
+    rows += [("batched, LocalCluster x1", n_small, res["batched_small_local1_s"], "small_local1"),
+             ("batched, serial", n_small, res["batched_small_serial_s"], "small_serial"),
+             ("cosim engine, serial", res["cosim_cases"], res["cosim_serial_s"], "cosim")]
+    print(f"\n{'run':40s} {'cases':>6s} {'wall [s]':>9s} {'CPU [s]':>9s} {'wall/case [ms]':>15s} "
+          f"{'x bodyvib cosim':>16s}")
+    for name, cases, wall, key in rows:
         per = wall / cases
-        print(f"{name:34s} {cases:6d} {wall:9.2f} {per * 1e3:14.3f} {ref / per:15.0f}x")
+        print(f"{name:40s} {cases:6d} {wall:9.2f} {CPU[key]:9.2f} {per * 1e3:15.3f} {ref / per:15.0f}x")
     over = res["batched_small_local1_s"] / res["batched_small_serial_s"] - 1
     res["dask_overhead"] = over
+    print(f"\nDask overhead in CPU time (1-worker LocalCluster vs serial, {n_small} batched cases): "
+          f"{100 * (CPU['small_local1'] / CPU['small_serial'] - 1):+.1f} %")
     print(f"\nbatched, {n} cases on {a.workers} workers: {res['batched_local_s']:.1f} s (target <= 120 s)")
     print(f"spectral, {n} cases on {a.workers} workers: {res['spectral_local_s']:.2f} s (target <= 10 s)")
     print(f"Dask overhead (1-worker LocalCluster vs serial, {n_small} batched cases): "

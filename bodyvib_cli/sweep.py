@@ -18,8 +18,7 @@ def _run(args):
             from vehicle.sweep_plot import plot_comfort_maps
             from vehicle.sweep_run import read_results
 
-            if args.plot:
-                _check_plot(args.plot)
+            _check_plot(args.plot)
             df = read_results(args.out)
             if df is None:
                 raise BodyvibError(f"no sweep table at '{args.out}'")
@@ -51,9 +50,15 @@ def _run(args):
 
 
 def _check_plot(path):
+    """Refuse a plot file that could not be written, before the sweep runs."""
     ext = os.path.splitext(path)[1].lower()
     if ext not in (".png", ".pdf", ".svg"):
         raise BodyvibError(f"plot file '{path}' must end in .png, .pdf or .svg")
+    folder = os.path.dirname(os.path.abspath(path))
+    while not os.path.isdir(folder) and os.path.dirname(folder) != folder:
+        folder = os.path.dirname(folder)
+    if not os.access(folder, os.W_OK):
+        raise BodyvibError(f"cannot write plot file '{path}': folder '{folder}' is not writable")
 
 
 def _positive_int(text):

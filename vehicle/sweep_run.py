@@ -65,7 +65,22 @@ BASE_COLUMNS = ("case_id", "case_key", "road", "seed", "speed_m_s", "duration_s"
 
 
 def parts_dir(out: str) -> str:
-    """Folder holding the per-task files of a running sweep (``OUT.parts``)."""
+    """Folder holding the per-task files of a running sweep (``OUT.parts``).
+
+    Parameters
+    ----------
+    out : str
+        The sweep's output file.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> parts_dir("results.parquet")
+    'results.parquet.parts'
+    """
     return os.fspath(out) + ".parts"
 
 
@@ -165,15 +180,22 @@ def plan_tasks(cases: Sequence[Case], engine: str, workers: int = 1,
         Workers the tasks are for: by default blocks are sized to give each
         worker at least four tasks.
     block : int, optional
-        Cases per task. Default: batched 16-512, spectral 2000, cosim 1-4.
+        Cases per task. Default: batched 16-512, spectral 20,000, cosim 1-4.
 
     Returns
     -------
     list of list of Case
+
+    Examples
+    --------
+    >>> from vehicle.sweep_spec import expand
+    >>> cases = expand({"road": ["C", "D"], "speed": [10, 20], "body": ["reduced-paper", "iso7962"]})
+    >>> [len(t) for t in plan_tasks(cases, "batched", block=3)]
+    [3, 1, 3, 1]
     """
     if block is None:
         share = math.ceil(len(cases) / max(1, 4 * workers)) if cases else 1
-        block = {"batched": min(512, max(16, share)), "spectral": 2000,
+        block = {"batched": min(512, max(16, share)), "spectral": 20000,
                  "cosim": min(4, max(1, share))}[engine]
     block = max(1, int(block))
     groups: Dict[tuple, List[Case]] = {}
@@ -243,7 +265,8 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
         ``"batched"`` (default), ``"spectral"`` or ``"cosim"``.
     scheduler : str, optional
         None or ``"local"``: a LocalCluster of ``workers`` single-threaded
-        processes; ``"serial"``: in this process, no Dask; otherwise the
+        processes (None: in this process when all cases make one task);
+        ``"serial"``: in this process, no Dask; otherwise the
         address of a running Dask scheduler (``tcp://host:8786``), whose
         workers must have bodyvib installed.
     resume : bool
@@ -282,8 +305,6 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
     >>> list(df["speed_m_s"]), bool(df["head_weighted_rms"].gt(0).all())
     ([10.0, 20.0], True)
     """
-    import pandas as pd
-
     say = echo or (lambda msg: None)
     if isinstance(spec, (str, os.PathLike)):
         spec = load_spec(os.fspath(spec))
@@ -321,7 +342,7 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
     tasks = plan_tasks(todo, engine, workers=workers, block=block)  # same tasks on any scheduler
     say(f"sweep: {len(cases)} cases, {len(done_keys)} already done, {len(todo)} to run in "
         f"{len(tasks)} tasks, engine {engine}, "
-        + ("in this process" if scheduler == "serial" else
+        + ("in this process" if scheduler == "serial" or (scheduler is None and len(tasks) == 1) else
            f"LocalCluster of {workers} workers" if scheduler in (None, "local") else
            f"scheduler {scheduler}"))
     new_rows: List[dict] = []
@@ -342,8 +363,10 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
 
         bar = tqdm(total=len(cases), initial=len(done_keys), unit="case", file=sys.stderr,
                    desc="sweep", mininterval=0.5, disable=None)
+    # one task and no scheduler asked for: starting a cluster would cost more than the task
+    serial = scheduler == "serial" or (scheduler is None and len(tasks) == 1)
     try:
-        if tasks and scheduler == "serial":
+        if tasks and serial:
             for i, task in enumerate(tasks):
                 arrived(i, task, run_engine(engine, task))
         elif tasks:
@@ -392,20 +415,19 @@ def _table(done, new_rows, schema):
     frames = [f for f in (done, new) if f is not None and len(f)]
     if not frames:
         return new
-    df = pd.concat([f[new.columns] for f in frames], ignore_index=True) if len(frames) > 1 else frames[0][new.columns]
+    df = pd.concat([f[new.columns] for f in frames], ignore_index=True)
     return df.sort_values("case_id", kind="stable").reset_index(drop=True)
 
 
 def _gather(out, done, new_rows, schema, csv, df=None):
     """Write all rows so far into ``out`` (and ``csv``), then drop the parts."""
     import pyarrow as pa
+    import pyarrow.parquet as pq
 
     if df is None:
         df = _table(done, new_rows, schema)
     table = pa.Table.from_pandas(df, schema=schema, preserve_index=False)
     buf = io.BytesIO()
-    import pyarrow.parquet as pq
-
     pq.write_table(table, buf)
     atomic_write_bytes(out, buf.getvalue())
     if csv is not None:

@@ -221,6 +221,11 @@ def spec_hash(spec: dict) -> str:
     Returns
     -------
     str
+
+    Examples
+    --------
+    >>> len(spec_hash({"road": "C", "speed": 10, "body": "reduced-paper"}))
+    12
     """
     files = {}
     for entry in _list(spec.get("body", [])) + _list(spec.get("car", [])):
@@ -300,10 +305,14 @@ def _bodies(spec) -> List[Tuple[str, str, int, tuple]]:
     return out
 
 
-def _key(fields: dict, body_net, car_net) -> str:
-    text = json.dumps({"case": fields, "body": network_to_dict(body_net)["parameters"],
-                       "body_model": network_to_dict(body_net)["elements"],
-                       "car": network_to_dict(car_net)}, sort_keys=True, default=repr)
+def _digest(net) -> str:
+    """Hash of a model's content (topology and parameter values)."""
+    text = json.dumps(network_to_dict(net), sort_keys=True, default=repr)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _key(fields: dict, body_digest: str, car_digest: str) -> str:
+    text = json.dumps(fields, sort_keys=True) + body_digest + car_digest
     return hashlib.sha256(text.encode()).hexdigest()[:20]
 
 
@@ -356,20 +365,21 @@ def expand(spec: dict) -> List[Case]:
         check_settings(r, v, d, h, sd)  # refuses unknown roads, steps longer than half a run
     bodies = _bodies(spec)
     cars = [str(c) for c in _list(spec["car"])]
-    car_nets = {c: load_car(c) for c in cars}
-    body_nets = {}
+    car_digests = {c: _digest(load_car(c)) for c in cars}
+    body_digests = {}
+    base_nets: dict = {}
     cases = []
     for r, sd, v, d, h, (bname, model, sample, values), c in product(
             roads, seeds, speeds, durations, steps, bodies, cars):
         bkey = (model, values)
-        if bkey not in body_nets:
-            net = load_model(model)
-            body_nets[bkey] = net.with_parameters(**dict(values)) if values else net
+        if bkey not in body_digests:
+            net = base_nets.get(model) or base_nets.setdefault(model, load_model(model))
+            body_digests[bkey] = _digest(net.with_parameters(**dict(values)) if values else net)
         fields = {"road": r.upper() if len(r) == 1 else r.lower(), "seed": sd, "speed": v,
                   "duration": d, "step": h}
         cases.append(Case(case_id=len(cases), body=bname, body_model=model, body_sample=sample,
                           body_values=values, car=c,
-                          case_key=_key(fields, body_nets[bkey], car_nets[c]), **fields))
+                          case_key=_key(fields, body_digests[bkey], car_digests[c]), **fields))
     keys = {}
     for cs in cases:
         if cs.case_key in keys:
@@ -389,6 +399,12 @@ def varied_parameters(cases: Sequence[Case]) -> List[str]:
     Returns
     -------
     list of str
+
+    Examples
+    --------
+    >>> varied_parameters(expand({"road": "C", "speed": 10, "body": [
+    ...     {"model": "reduced-paper", "vary": {"c1": [0.5, 2]}, "samples": 2}]}))
+    ['c1']
     """
     names: Dict[str, None] = {}
     for c in cases:
