@@ -99,3 +99,14 @@ def test_spec_hash_covers_referenced_files(tmp_path):
 def test_refusals_name_the_problem(spec, msg):
     with pytest.raises(BodyvibError, match=msg):
         expand(spec)
+
+
+def test_the_readme_spec_example_expands():
+    from conftest import ROOT
+
+    text = open(os.path.join(ROOT, "README.md"), encoding="utf-8").read()
+    section = text.split("## Sweeps", 1)[1].split("\n## ", 1)[0]
+    spec = json.loads(section.split("```json\n", 1)[1].split("```", 1)[0])
+    cases = expand(spec)
+    assert len(cases) == 5 * 5 * (1 + 400) * 2
+    assert {c.body for c in cases} == {"iso7962", "reduced-varied"}
