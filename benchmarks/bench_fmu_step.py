@@ -32,10 +32,11 @@ import numpy as np
 
 from vehicle.fmus import build_project_fmu
 from bodyvib.models import load_model
+from bodyvib.runtime.contract import BODY_OUTPUTS
 from bodyvib.runtime.discretize import Discretization
 from vehicle.cosim import open_fmu
 
-OUT = ["head_acceleration", "head_displacement", "torso_displacement", "seat_force"]
+OUT = list(BODY_OUTPUTS)
 SIG = ["head.a", "head.x", "torso.x", "seat_force"]
 
 
@@ -118,7 +119,9 @@ def run_core(t, xr, vs, h):
     core.initialize()
     xr, vs, t = xr.tolist(), vs.tolist(), t.tolist()
     set_real, do_step, get_real = core.set_real, core.do_step, core.get_real
-    vin, vout = [0, 1], [2, 3, 4, 5]
+    names = [v.name for v in core.variables]
+    vin = [names.index(n) for n in ("seat_displacement", "seat_velocity")]
+    vout = [names.index(n) for n in OUT]
     t0 = time.perf_counter()
     for k in range(len(t) - 1):
         set_real(vin, [xr[k], vs[k]])

@@ -27,7 +27,7 @@ from typing import Dict, List, Optional
 
 import numpy as np
 
-from .comfort import WK_PARAMETERS, comfort_category
+from .comfort import WK_PARAMETERS, ComfortFigures, comfort_category
 from .runtime.discretize import discretize
 from .runtime.errors import BodyvibError
 
@@ -362,8 +362,9 @@ def stream_comfort_figures(acceleration, fs: float, block: int = 4096) -> Dict[s
 
     Returns
     -------
-    dict
-        As :meth:`ComfortStream.figures`; for a 1-D input, floats and one word.
+    ComfortFigures or dict
+        For a 1-D input, :class:`bodyvib.comfort.ComfortFigures`; for a batch, as
+        :meth:`ComfortStream.figures` (arrays and a list of words).
 
     Raises
     ------
@@ -373,7 +374,7 @@ def stream_comfort_figures(acceleration, fs: float, block: int = 4096) -> Dict[s
     Examples
     --------
     >>> t = np.arange(0, 60, 1e-3)
-    >>> round(stream_comfort_figures(np.sin(2 * np.pi * 5 * t), 1000.0)["weighted_rms"], 3)
+    >>> round(stream_comfort_figures(np.sin(2 * np.pi * 5 * t), 1000.0).weighted_rms, 3)
     0.734
     """
     a = np.asarray(acceleration, dtype=float)
@@ -386,5 +387,6 @@ def stream_comfort_figures(acceleration, fs: float, block: int = 4096) -> Dict[s
         s.update(a[:, k:k + block])
     out = s.figures()
     if one:
-        return {k: (v[0] if k == "comfort" else float(v[0])) for k, v in out.items()}
+        return ComfortFigures(**{k: (v[0] if k == "comfort" else float(v[0]))
+                                 for k, v in out.items()})
     return out

@@ -18,9 +18,9 @@
   over the band the road is synthesized in. It gives the weighted r.m.s. only:
   VDV, peak and crest factor depend on the particular record (NaN).
 * ``cosim`` -- real FMU co-simulations (:func:`vehicle.cosim.cosimulate`,
-  extrapolating master): the FMUs are built once per worker process and body
-  and car parameters are set for each case through the FMUs' parameter
-  variables before initialization.
+  extrapolating master): the FMUs are built once per task (into a temporary
+  folder deleted with the task) and body and car parameters are set for each
+  case through the FMUs' parameter variables before initialization.
 
 Every case sees the road of ``bodyvib cosim`` with the same road, seed, speed
 and duration: :func:`vehicle.roads.make_road` and
@@ -31,7 +31,6 @@ case that fails carries its error instead of figures.
 
 import math
 import os
-import shutil
 import tempfile
 from typing import Dict, List, Optional, Sequence
 
@@ -367,35 +366,21 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
 
 # -- cosim -------------------------------------------------------------------
 
-_FMU_DIR: Optional[str] = None
-_FMUS: Dict[tuple, str] = {}
-
-
-def _fmu_dir():
-    global _FMU_DIR
-    if _FMU_DIR is None or not os.path.isdir(_FMU_DIR):
-        import atexit
-
-        _FMU_DIR = tempfile.mkdtemp(prefix="bodyvib-sweep-fmus-")
-        atexit.register(shutil.rmtree, _FMU_DIR, True)
-    return _FMU_DIR
-
-
-def _fmu(kind: str, source: str) -> str:
-    """Path of an FMU for a body or car source, built once per process."""
+def _fmu(kind: str, source: str, folder: str, built: Dict[tuple, str]) -> str:
+    """Path of an FMU for a body or car source, built once into ``folder``."""
     from .fmus import build_project_fmu
 
     key = (kind, os.path.abspath(source) if os.path.isfile(source) else source)
-    path = _FMUS.get(key)
-    if path is None or not os.path.isfile(path):
+    path = built.get(key)
+    if path is None:
         if kind == "car":
             name = "QuarterCar"
         elif source == "iso7962":
             name = "HumanBodyISO7962"
         else:
             name = "HumanBody3DOF"
-        dest = os.path.join(_fmu_dir(), f"{len(_FMUS)}")
-        path = _FMUS[key] = str(build_project_fmu(name, dest, source))
+        path = built[key] = str(build_project_fmu(name, os.path.join(folder, str(len(built))),
+                                                  source))
     return path
 
 
@@ -421,30 +406,38 @@ def run_cosim(cases: Sequence[Case], record: bool = False):
     from .cosim import cosimulate, open_fmu
 
     rows, hist = [], []
-    for cs in cases:
-        try:
-            body = cs.body_network()
-            car = cs.car_network()
-            body_fmu = _fmu("body", cs.body_model)
-            car_fmu = _fmu("car", cs.car)
-            z, v = _roads(cs, {})
-            with open_fmu(car_fmu, "car", "car", start_values=_parameters(car)) as c, \
-                    open_fmu(body_fmu, "body", "body", start_values=_parameters(body)) as b:
-                run = cosimulate(c, b, z, v, cs.step, extrapolate=True)
-            stream = ComfortStream(1.0 / cs.step, 2)
-            stream.update(np.stack([run["head_acceleration"], run["seat_acceleration"]]))
-            fig = stream.figures()
-            rows.append({"head_weighted_rms": float(fig["weighted_rms"][0]),
-                         "head_vdv": float(fig["vdv"][0]), "head_peak": float(fig["peak"][0]),
-                         "head_crest_factor": float(fig["crest_factor"][0]),
-                         "head_comfort": fig["comfort"][0],
-                         "seat_weighted_rms": float(fig["weighted_rms"][1]), "error": None})
-            hist.append({"head_acceleration": run["head_acceleration"],
-                         "seat_acceleration": run["seat_acceleration"]} if record else None)
-        except Exception as exc:
-            rows.append(_failed(exc))
-            hist.append(None)
+    built: Dict[tuple, str] = {}
+    with tempfile.TemporaryDirectory(prefix="bodyvib-sweep-fmus-") as folder:
+        for cs in cases:
+            row, h = _cosim_case(cs, folder, built, record, cosimulate, open_fmu)
+            rows.append(row)
+            hist.append(h)
     return rows, (hist if record else None)
+
+
+def _cosim_case(cs, folder, built, record, cosimulate, open_fmu):
+    """Figures (and histories) of one case by co-simulation; a failure is recorded."""
+    try:
+        body = cs.body_network()
+        car = cs.car_network()
+        body_fmu = _fmu("body", cs.body_model, folder, built)
+        car_fmu = _fmu("car", cs.car, folder, built)
+        z, v = _roads(cs, {})
+        with open_fmu(car_fmu, "car", "car", start_values=_parameters(car)) as c, \
+                open_fmu(body_fmu, "body", "body", start_values=_parameters(body)) as b:
+            run = cosimulate(c, b, z, v, cs.step, extrapolate=True)
+        stream = ComfortStream(1.0 / cs.step, 2)
+        stream.update(np.stack([run["head_acceleration"], run["seat_acceleration"]]))
+        fig = stream.figures()
+        row = {"head_weighted_rms": float(fig["weighted_rms"][0]),
+               "head_vdv": float(fig["vdv"][0]), "head_peak": float(fig["peak"][0]),
+               "head_crest_factor": float(fig["crest_factor"][0]),
+               "head_comfort": fig["comfort"][0],
+               "seat_weighted_rms": float(fig["weighted_rms"][1]), "error": None}
+        return row, ({"head_acceleration": run["head_acceleration"],
+                      "seat_acceleration": run["seat_acceleration"]} if record else None)
+    except Exception as exc:
+        return _failed(exc), None
 
 
 def run_engine(engine: str, cases: Sequence[Case], blas_threads: Optional[int] = 1) -> List[dict]:
