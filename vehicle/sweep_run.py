@@ -226,8 +226,9 @@ def _check_output(path, what):
 
 
 def _client(scheduler, workers):
-    """(client, cluster) for a scheduler setting."""
+    """(client, cluster, scratch folder or None) for a scheduler setting."""
     import logging
+    import tempfile
 
     from dask.distributed import Client, LocalCluster
 
@@ -238,13 +239,20 @@ def _client(scheduler, workers):
         # MALLOC_TRIM_THRESHOLD_ = 64 kB), which made the batched engine's
         # block buffers fault in again and again: 1.36x the in-process time
         # against 1.12x with the default threshold (measured).
-        with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_":
-                              128 * 1024 * 1024}):
-            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, silence_logs=logging.ERROR)
-        return Client(cluster), cluster
+        # the workers' scratch space goes into a folder of this run, deleted after it
+        scratch = tempfile.mkdtemp(prefix="bodyvib-sweep-dask-")
+        try:
+            with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_":
+                                  128 * 1024 * 1024, "temporary-directory": scratch}):
+                cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                       dashboard_address=None, silence_logs=logging.ERROR,
+                                       local_directory=scratch)
+            return Client(cluster), cluster, scratch
+        except BaseException:
+            shutil.rmtree(scratch, ignore_errors=True)
+            raise
     try:
-        return Client(scheduler, timeout="5s"), None
+        return Client(scheduler, timeout="5s"), None, None
     except Exception as exc:
         raise BodyvibError(f"cannot connect to the Dask scheduler '{scheduler}': {exc}") from None
 
@@ -373,7 +381,7 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
         elif tasks:
             from dask.distributed import as_completed
 
-            client, cluster = _client(scheduler, workers)
+            client, cluster, scratch = _client(scheduler, workers)
             try:
                 futures = {client.submit(run_engine, engine, task, pure=False): i
                            for i, task in enumerate(tasks)}
@@ -390,6 +398,8 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
                 client.close()
                 if cluster is not None:
                     cluster.close()
+                if scratch is not None:
+                    shutil.rmtree(scratch, ignore_errors=True)
     except KeyboardInterrupt:
         if out is not None:
             _gather(out, done, new_rows, schema, None)
