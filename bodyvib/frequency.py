@@ -76,8 +76,8 @@ def to_statespace(model):
                       name=lm.network.name)
 
 
-def frequency_response(model, frequencies_hz, output: str) -> np.ndarray:
-    """Complex response of one output per unit base displacement.
+def frequency_response(model, frequencies_hz, output) -> np.ndarray:
+    """Complex response of one output (or several) per unit base displacement.
 
     Parameters
     ----------
@@ -85,14 +85,15 @@ def frequency_response(model, frequencies_hz, output: str) -> np.ndarray:
         The model.
     frequencies_hz : array_like
         Frequencies in Hz.
-    output : str
+    output : str or sequence of str
         Output name, e.g. ``"head.x"`` (a role may replace the mass name),
-        ``"m2.a"`` or ``"seat_force"``.
+        ``"m2.a"`` or ``"seat_force"``; a list of names shares one solve.
 
     Returns
     -------
     ndarray of complex
-        Output amplitude per metre of base displacement (output unit per m).
+        Output amplitude per metre of base displacement (output unit per m):
+        ``(nf,)`` for one name, ``(len(output), nf)`` for a list.
 
     Examples
     --------
@@ -103,18 +104,20 @@ def frequency_response(model, frequencies_hz, output: str) -> np.ndarray:
     """
     lm = as_linear_model(model)
     f = np.atleast_1d(np.asarray(frequencies_hz, dtype=float))
-    i = lm.output_index(output)
+    one = isinstance(output, str)
+    idx = [lm.output_index(o) for o in ([output] if one else output)]
     s = 2j * np.pi * f
     n = lm.A.shape[0]
-    out = np.empty(s.shape, dtype=complex)
+    out = np.empty((len(idx), s.size), dtype=complex)
     for a in range(0, s.size, _CHUNK):  # (chunk, n, n) at a time: memory independent of nf
         interrupts.check()
         sc = s[a:a + _CHUNK]
         rhs = lm.B[:, 0][None, :] + sc[:, None] * lm.B[:, 1][None, :]  # (nf, n)
         lhs = sc[:, None, None] * np.eye(n)[None] - lm.A[None]
         x = np.linalg.solve(lhs, rhs[..., None])[..., 0]
-        out[a:a + _CHUNK] = x @ lm.C[i] + lm.D[i, 0] + sc * lm.D[i, 1]
-    return out
+        for r, i in enumerate(idx):
+            out[r, a:a + _CHUNK] = x @ lm.C[i] + lm.D[i, 0] + sc * lm.D[i, 1]
+    return out[0] if one else out
 
 
 #: Frequencies solved at once by :func:`frequency_response`.

@@ -28,6 +28,7 @@ COMMAND_MODULES = (
     "bodyvib_cli.build",
     "bodyvib_cli.cosim",
     "bodyvib_cli.fit",
+    "bodyvib_cli.sweep",
 )
 
 

@@ -62,17 +62,17 @@ def test_figures_agree_with_fft_method_within_interpolation_error(head):
     # -(pi/fs)^2 <f^2>/3 with <f^2> the weighted record's mean-square frequency.
     fs = 1000.0
     got = stream_comfort_figures(head, fs)
-    ref = comfort_figures(head, fs).to_dict()
+    ref = comfort_figures(head, fs)
     aw = weighted_acceleration(head, fs)
     F = np.fft.rfftfreq(aw.size, 1 / fs)
     P = np.abs(np.fft.rfft(aw)) ** 2
     predicted = -(np.pi / fs) ** 2 * np.sum(F ** 2 * P) / np.sum(P) / 3
-    rel = got["weighted_rms"] / ref["weighted_rms"] - 1
+    rel = got.weighted_rms / ref.weighted_rms - 1
     assert rel == pytest.approx(predicted, rel=0.1)
     for k in ("vdv", "peak"):  # the same attenuation, within its spread over frequency
-        assert got[k] / ref[k] - 1 == pytest.approx(predicted, rel=0.25)
-    assert got["crest_factor"] == pytest.approx(ref["crest_factor"], rel=5 * abs(predicted))
-    assert got["comfort"] == ref["comfort"] == comfort_category(got["weighted_rms"])
+        assert getattr(got, k) / getattr(ref, k) - 1 == pytest.approx(predicted, rel=0.25)
+    assert got.crest_factor == pytest.approx(ref.crest_factor, rel=5 * abs(predicted))
+    assert got.comfort == ref.comfort == comfort_category(got.weighted_rms)
 
 
 def test_fft_method_on_a_fine_linear_interpolant_converges_to_the_filter(head):
@@ -102,7 +102,7 @@ def test_block_splitting_and_batching_do_not_change_figures(head):
     for key in ("weighted_rms", "vdv", "peak", "crest_factor"):
         np.testing.assert_allclose(split[key], one[key], rtol=1e-12)
     alone = stream_comfort_figures(batch[1], 1000.0)
-    assert alone["weighted_rms"] == pytest.approx(one["weighted_rms"][1], rel=1e-12)
+    assert alone.weighted_rms == pytest.approx(one["weighted_rms"][1], rel=1e-12)
     assert split["comfort"] == one["comfort"]
     assert s.samples == batch.shape[1]
 
@@ -111,7 +111,7 @@ def test_sine_at_the_standards_factor():
     # 5 Hz sine, 60 s: weighted r.m.s. -> |Wk(5 Hz)| / sqrt(2) (transient ~1e-3)
     t = np.arange(0, 60, 1e-3)
     got = stream_comfort_figures(np.sin(2 * np.pi * 5 * t), 1000.0)
-    assert got["weighted_rms"] == pytest.approx(abs(wk_response(5.0)[0]) / np.sqrt(2), rel=2e-3)
+    assert got.weighted_rms == pytest.approx(abs(wk_response(5.0)[0]) / np.sqrt(2), rel=2e-3)
 
 
 def test_bad_input_is_refused():

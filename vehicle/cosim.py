@@ -151,7 +151,8 @@ def _check_tree(unzipdir, md, path):
 
 
 @contextlib.contextmanager
-def open_fmu(path, kind: str, instance_name: Optional[str] = None):
+def open_fmu(path, kind: str, instance_name: Optional[str] = None,
+             start_values: Optional[Dict[str, float]] = None):
     """Instantiate and initialize an FMU of the body or car interface.
 
     Parameters
@@ -161,6 +162,10 @@ def open_fmu(path, kind: str, instance_name: Optional[str] = None):
     kind : str
         ``"body"`` or ``"car"``: the interface it must have.
     instance_name : str, optional
+    start_values : dict of str to float, optional
+        Real variables (e.g. the FMU's parameters) set after instantiation,
+        before initialization: a sweep changes parameters this way without
+        rebuilding the FMU.
 
     Yields
     ------
@@ -170,8 +175,8 @@ def open_fmu(path, kind: str, instance_name: Optional[str] = None):
     ------
     BodyvibError
         Missing file, not an FMI 2.0 co-simulation FMU, missing interface
-        variables, no binary for this platform, a pythonfmu FMU without its
-        resources, or a failure to instantiate or initialize.
+        variables, an unknown start variable, no binary for this platform, a
+        pythonfmu FMU without its resources, or a failure to instantiate or initialize.
     """
     path = os.fspath(path)
     if not os.path.isfile(path):
@@ -195,6 +200,10 @@ def _instantiated(path, kind, instance_name):
     if md.fmiVersion != "2.0":
         raise BodyvibError(f"FMU '{path}' is FMI {md.fmiVersion}; FMI 2.0 is needed")
     _check_interface(md, path, kind)
+    refs = {v.name: v.valueReference for v in md.modelVariables}
+    unknown = sorted(set(start_values or {}) - set(refs))
+    if unknown:
+        raise BodyvibError(f"FMU '{path}' has no variable(s) {', '.join(unknown)}")
     unzipdir = extract(path, unzipdir=tempfile.mkdtemp(prefix="bodyvib-fmu-"))
     fmu = None
     try:
@@ -203,6 +212,9 @@ def _instantiated(path, kind, instance_name):
                         modelIdentifier=md.coSimulation.modelIdentifier,
                         instanceName=instance_name or kind)
         fmu.instantiate()
+        if start_values:
+            names = list(start_values)
+            fmu.setReal([refs[n] for n in names], [float(start_values[n]) for n in names])
         fmu.setupExperiment(startTime=0.0)
         fmu.enterInitializationMode()
         fmu.exitInitializationMode()

@@ -38,6 +38,7 @@ from bodyvib.runtime.errors import BodyvibError
 __all__ = [
     "ISO8608_CLASSES",
     "N0",
+    "N_BAND",
     "class_psd_n0",
     "displacement_psd",
     "Road",

@@ -1,0 +1,176 @@
+"""A 10,000-case sweep with each engine, against one ``bodyvib cosim`` run, measured in one run.
+
+    python benchmarks/bench_sweep.py [--cases 10000] [--workers 2] [--cosim-cases 4]
+                                     [--overhead-cases 1000] [--repeats 1] [--json FILE]
+
+The sweep: ISO 8608 classes A-E x speeds 10, 15, 20, 25, 30 m/s x ``cases / 25``
+reduced-body parameter sets (Latin hypercube, m1, k1, k2, c1, c2 within
++-20 %), 30 s at 1 ms, seed 0, quarter car. Measured side by side:
+
+* one ``bodyvib cosim --params FILE`` process (the way a case is run today:
+  two FMU builds, start-up, 30 s co-simulation): the per-case reference cost;
+* ``spectral`` on a LocalCluster of ``--workers`` workers (two tasks per
+  worker) and by default (all cases make one task, run in this process);
+* ``batched`` on the LocalCluster, all cases (the target: at most 120 s), and
+  serially in this process;
+* the Dask overhead: ``batched`` on ``--overhead-cases`` cases on a LocalCluster
+  of one worker against the same cases serially in this process (same tasks,
+  same engine; target at most 10 %);
+* ``cosim`` on ``--cosim-cases`` cases serially (FMUs built once, parameters
+  set per case), extrapolated per case.
+
+Wall times include everything a user waits for (cluster start-up, spec
+expansion, writing the Parquet parts and the table); CPU times add this
+process's and the cluster's worker processes' (``os.times``), which a busy
+shared machine disturbs less than wall time. With ``--repeats`` above 1 the
+medians are reported.
+"""
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+from bodyvib.models import MODEL_DIR
+from vehicle.sweep_run import run_sweep
+from vehicle.sweep_spec import expand
+
+
+def sweep_spec(cases: int) -> dict:
+    """The benchmark's spec (25 road x speed cells x cases/25 bodies)."""
+    return {"road": list("ABCDE"), "speed": [10, 15, 20, 25, 30], "seed": 0, "duration": 30,
+            "step": 1e-3,
+            "body": [{"model": "reduced-paper", "samples": max(1, cases // 25), "seed": 0,
+                      "vary": {p: [0.8, 1.2] for p in ("m1", "k1", "k2", "c1", "c2")},
+                      "name": "reduced-varied"}]}
+
+
+CPU = {}
+
+
+def _cpu():
+    t = os.times()  # this process and its finished children (the LocalCluster's workers)
+    return t.user + t.system + t.children_user + t.children_system
+
+
+def timed(fn, repeats, name=None):
+    """Median wall time of ``fn()`` over ``repeats``; its CPU time (all processes) into CPU[name]."""
+    times, cpus = [], []
+    for _ in range(repeats):
+        c0, t0 = _cpu(), time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+        cpus.append(_cpu() - c0)
+    if name:
+        CPU[name] = statistics.median(cpus)
+    return statistics.median(times), out
+
+
+def one_cosim_run(folder) -> float:
+    """Wall time of one ``bodyvib cosim`` process with a parameter file (class C, 20 m/s, 30 s)."""
+    params = os.path.join(folder, "body.json")
+    with open(os.path.join(MODEL_DIR, "reduced-paper.json")) as f:
+        data = json.load(f)
+    data["parameters"]["k1"] *= 1.1
+    with open(params, "w") as f:
+        json.dump(data, f)
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "bodyvib_cli", "cosim", "--params", params, "--road", "C",
+                    "--speed", "20", "--duration", "30", "--quiet"], check=True,
+                   stdout=subprocess.DEVNULL, cwd=folder)
+    return time.perf_counter() - t0
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cases", type=int, default=10000)
+    ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    ap.add_argument("--cosim-cases", type=int, default=4)
+    ap.add_argument("--overhead-cases", type=int, default=1000)
+    ap.add_argument("--repeats", type=int, default=1)
+    ap.add_argument("--skip-serial", action="store_true", help="no serial batched run of all cases")
+    ap.add_argument("--json", help="write the measurements as JSON")
+    a = ap.parse_args(argv)
+    spec = sweep_spec(a.cases)
+    n = len(expand(spec))
+    small = sweep_spec(a.overhead_cases)
+    n_small = len(expand(small))
+    res = {"cases": n, "workers": a.workers, "load_before": os.getloadavg()}
+    with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, "r.parquet")
+
+        def run(s, **kw):
+            return run_sweep(s, out=out, overwrite=True, **kw)
+
+        print(f"one bodyvib cosim run ...", file=sys.stderr, flush=True)
+        res["bodyvib_cosim_s"], _ = timed(lambda: one_cosim_run(tmp), a.repeats, "bodyvib_cosim")
+        print("spectral ...", file=sys.stderr, flush=True)
+        res["spectral_local_s"], df = timed(lambda: run(spec, engine="spectral", workers=a.workers,
+                                                        scheduler="local", block=max(1, n // (2 * a.workers))),
+                                            a.repeats, "spectral_local")
+        assert len(df) == n and df["error"].isna().all()
+        res["spectral_default_s"], _ = timed(lambda: run(spec, engine="spectral"), a.repeats, "spectral_default")
+        print(f"Dask overhead: batched, {n_small} cases, 1 worker vs serial ...", file=sys.stderr,
+              flush=True)
+        t_serial, d1 = timed(lambda: run(small, scheduler="serial", workers=1), a.repeats, "small_serial")
+        t_dask1, d2 = timed(lambda: run(small, workers=1), a.repeats, "small_local1")
+        res["overhead_cases"] = n_small
+        res["batched_small_serial_s"], res["batched_small_local1_s"] = t_serial, t_dask1
+        assert (d1["head_weighted_rms"].values == d2["head_weighted_rms"].values).all()
+        print(f"batched, {n} cases, LocalCluster of {a.workers} ...", file=sys.stderr, flush=True)
+        res["batched_local_s"], df = timed(lambda: run(spec, workers=a.workers), a.repeats, "batched_local")
+        assert len(df) == n and df["error"].isna().all()
+        if not a.skip_serial:
+            print(f"batched, {n} cases, serial ...", file=sys.stderr, flush=True)
+            res["batched_serial_s"], _ = timed(lambda: run(spec, scheduler="serial", workers=a.workers),
+                                               a.repeats, "batched_serial")
+        print(f"cosim engine, {a.cosim_cases} cases ...", file=sys.stderr, flush=True)
+        few = dict(spec, body=[dict(spec["body"][0], samples=1)], road=["C"],
+                   speed=[10, 15, 20, 25, 30][:max(1, a.cosim_cases)])
+        res["cosim_cases"] = len(expand(few))
+        res["cosim_serial_s"], df = timed(lambda: run(few, engine="cosim", scheduler="serial"), 1, "cosim")
+        assert df["error"].isna().all(), df["error"].tolist()
+    res["load_after"] = os.getloadavg()
+    res["cpu_s"] = dict(CPU)
+    ref = res["bodyvib_cosim_s"]
+    rows = [("bodyvib cosim (1 process)", 1, ref, "bodyvib_cosim")]
+    rows += [(f"spectral, LocalCluster x{a.workers}", n, res["spectral_local_s"], "spectral_local"),
+             ("spectral, default (1 task: in-process)", n, res["spectral_default_s"], "spectral_default"),
+             (f"batched, LocalCluster x{a.workers}", n, res["batched_local_s"], "batched_local")]
+    if "batched_serial_s" in res:
+        rows.append(("batched, serial", n, res["batched_serial_s"], "batched_serial"))
+    rows += [("batched, LocalCluster x1", n_small, res["batched_small_local1_s"], "small_local1"),
+             ("batched, serial", n_small, res["batched_small_serial_s"], "small_serial"),
+             ("cosim engine, serial", res["cosim_cases"], res["cosim_serial_s"], "cosim")]
+    print(f"\n{'run':40s} {'cases':>6s} {'wall [s]':>9s} {'CPU [s]':>9s} {'wall/case [ms]':>15s} "
+          f"{'x bodyvib cosim':>16s}")
+    for name, cases, wall, key in rows:
+        per = wall / cases
+        print(f"{name:40s} {cases:6d} {wall:9.2f} {CPU[key]:9.2f} {per * 1e3:15.3f} {ref / per:15.0f}x")
+    over = res["batched_small_local1_s"] / res["batched_small_serial_s"] - 1
+    res["dask_overhead"] = over
+    print(f"\nDask overhead in CPU time (1-worker LocalCluster vs serial, {n_small} batched cases): "
+          f"{100 * (CPU['small_local1'] / CPU['small_serial'] - 1):+.1f} %")
+    print(f"\nbatched, {n} cases on {a.workers} workers: {res['batched_local_s']:.1f} s (target <= 120 s)")
+    print(f"spectral, {n} cases on {a.workers} workers: {res['spectral_local_s']:.2f} s (target <= 10 s)")
+    print(f"Dask overhead (1-worker LocalCluster vs serial, {n_small} batched cases): "
+          f"{100 * over:+.1f} % (target <= 10 %)")
+    if "batched_serial_s" in res:
+        print(f"batched speed-up of {a.workers} workers over serial: "
+              f"{res['batched_serial_s'] / res['batched_local_s']:.2f}x")
+    print(f"cosim engine: {res['cosim_serial_s'] / res['cosim_cases']:.2f} s per case; "
+          f"{n} cases would take {res['cosim_serial_s'] / res['cosim_cases'] * n / 3600 / a.workers:.1f} h "
+          f"on {a.workers} workers")
+    print(f"load average before/after: {res['load_before'][0]:.1f} / {res['load_after'][0]:.1f} "
+          f"({os.cpu_count()} cores)")
+    if a.json:
+        with open(a.json, "w") as f:
+            json.dump(res, f, indent=2)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,105 @@
+"""The ``bodyvib sweep`` command: many cases from a spec or a grid, one table."""
+
+import os
+import sys
+
+from bodyvib.runtime.errors import BodyvibError
+
+__all__ = ["add_command"]
+
+
+def _run(args):
+    from vehicle.sweep_spec import grid_spec
+
+    if args.spec and args.grid:
+        raise BodyvibError("give a SPEC file or --grid, not both")
+    if not args.spec and not args.grid:
+        if args.plot and args.out:  # plot an existing table
+            from vehicle.sweep_plot import plot_comfort_maps
+            from vehicle.sweep_run import read_results
+
+            _check_plot(args.plot)
+            df = read_results(args.out)
+            if df is None:
+                raise BodyvibError(f"no sweep table at '{args.out}'")
+            plot_comfort_maps(df, args.plot)
+            print(f"wrote {args.plot}")
+            return 0
+        raise BodyvibError("give a SPEC file or --grid key=v1,v2 ... (or --out TABLE --plot FILE "
+                           "to plot a finished sweep)")
+    if not args.out and not args.csv:
+        raise BodyvibError("give --out FILE.parquet (and/or --csv FILE) for the results")
+    if args.plot:
+        _check_plot(args.plot)
+    spec = args.spec if args.spec else grid_spec(args.grid, args.duration, args.step)
+    from vehicle.sweep_run import run_sweep
+
+    say = None if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
+    df = run_sweep(spec, out=args.out, engine=args.engine, scheduler=args.scheduler,
+                   resume=args.resume, overwrite=args.overwrite, csv=args.csv,
+                   progress=not args.quiet, block=args.block, workers=args.workers, echo=say)
+    for f in (args.out, args.csv):
+        if f:
+            print(f"wrote {f}")
+    if args.plot:
+        from vehicle.sweep_plot import plot_comfort_maps
+
+        plot_comfort_maps(df, args.plot)
+        print(f"wrote {args.plot}")
+    return 0
+
+
+def _check_plot(path):
+    """Refuse a plot file that could not be written, before the sweep runs."""
+    ext = os.path.splitext(path)[1].lower()
+    if ext not in (".png", ".pdf", ".svg"):
+        raise BodyvibError(f"plot file '{path}' must end in .png, .pdf or .svg")
+    folder = os.path.dirname(os.path.abspath(path))
+    while not os.path.isdir(folder) and os.path.dirname(folder) != folder:
+        folder = os.path.dirname(folder)
+    if not os.access(folder, os.W_OK):
+        raise BodyvibError(f"cannot write plot file '{path}': folder '{folder}' is not writable")
+
+
+def _positive_int(text):
+    import argparse
+
+    try:
+        v = int(text)
+    except ValueError:
+        v = 0
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}")
+    return v
+
+
+def add_command(subparsers):
+    """Register ``bodyvib sweep``."""
+    p = subparsers.add_parser(
+        "sweep", help="comfort over roads, speeds, bodies and cars (one table per sweep)",
+        description="Run every case of a sweep spec (or a --grid) and write one row per case: "
+        "inputs, the head's ISO 2631-1 figures, the seat's Wk r.m.s., engine and provenance. "
+        "Cases run on Dask (a LocalCluster by default); finished blocks are written at once, "
+        "so a killed sweep continues with --resume.")
+    p.add_argument("spec", nargs="?", metavar="SPEC.json", help="sweep spec (JSON)")
+    p.add_argument("--grid", nargs="+", metavar="KEY=V1,V2",
+                   help="a grid instead of a spec: road=C,D speed=10,20 seed=0,1 "
+                   "body=reduced-paper,iso7962 car=quarter-car")
+    p.add_argument("--duration", type=float, default=30.0, help="with --grid: run length, s (30)")
+    p.add_argument("--step", type=float, default=1e-3, help="with --grid: time step, s (0.001)")
+    p.add_argument("--out", metavar="FILE.parquet", help="results table (Parquet)")
+    p.add_argument("--csv", metavar="FILE", help="the table as CSV too")
+    p.add_argument("--engine", choices=("batched", "spectral", "cosim"), default="batched",
+                   help="batched exact simulation (default), spectral expectation from the road "
+                   "PSD (r.m.s. only), or FMU co-simulation")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="Dask scheduler address (tcp://host:8786); default: a LocalCluster, one "
+                   "worker per core; 'serial' runs in this process")
+    p.add_argument("--workers", type=_positive_int, help="LocalCluster workers (default: cores)")
+    p.add_argument("--block", type=_positive_int, help="cases per task (default: by engine)")
+    p.add_argument("--resume", action="store_true", help="keep the cases already in --out, run the rest")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing --out")
+    p.add_argument("--plot", metavar="FILE.png", help="comfort maps with the ISO 2631-1 bands")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    p.set_defaults(func=_run)
+    return p

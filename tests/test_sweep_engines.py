@@ -1,0 +1,185 @@
+"""The sweep engines against independent computations of the same cases."""
+
+import numpy as np
+import pytest
+
+from bodyvib.comfort import wk_response
+from bodyvib.comfort_stream import stream_comfort_figures
+from bodyvib.frequency import frequency_response
+from bodyvib.runtime.discretize import simulate
+from bodyvib.runtime.network import linear_model
+from vehicle.quarter_car import seated_system
+from vehicle.reference import nrmse, reference_run
+from vehicle.roads import N_BAND, displacement_psd
+from vehicle.sweep_engines import case_road_input, run_batched, run_cosim, run_spectral
+from vehicle.sweep_spec import expand
+
+EPS = np.finfo(float).eps
+
+
+def _reference(case):
+    z, v = case_road_input(case)
+    return reference_run(case.car_network(), case.body_network(), z, v, case.step)
+
+
+def test_batched_equals_per_case_reference_reduced_bodies():
+    cases = expand({"road": ["C", "E"], "speed": [10, 27], "duration": 4,
+                    "body": ["reduced-paper",
+                             {"model": "reduced-paper", "vary": {"k1": [0.8, 1.2], "c2": [0.5, 2]},
+                              "samples": 2, "name": "varied"}],
+                    "car": ["quarter-car", "quarter-car-cushion"]})
+    rows, hist = run_batched(cases, record=True)
+    for case, row, h in zip(cases, rows, hist):
+        ref = _reference(case)
+        for k in ("head_acceleration", "seat_acceleration"):
+            scale = np.sqrt(np.mean(ref[k] ** 2))
+            assert np.max(np.abs(h[k] - ref[k])) < 1e-9 * scale, (case, k)
+        # figures: the same streaming code on the reference's history
+        fig = stream_comfort_figures(ref["head_acceleration"], 1 / case.step)
+        for k in ("weighted_rms", "vdv", "peak", "crest_factor"):
+            assert row[f"head_{k}"] == pytest.approx(getattr(fig, k), rel=1e-9)
+        assert row["head_comfort"] == fig.comfort
+        seat = stream_comfort_figures(ref["seat_acceleration"], 1 / case.step).weighted_rms
+        assert row["seat_weighted_rms"] == pytest.approx(seat, rel=1e-9)
+        assert row["error"] is None
+
+
+def test_batched_equals_reference_stiff_iso_body_to_its_rounding_floor():
+    # The ISO 7962 head acceleration is a difference of terms ~1e6 times larger
+    # than itself (k2s = 6.6e10 N/m): summing C x in another order changes it by
+    # up to eps * sum_j |C_j| max|x_j|. The step is 2^-10 s so that the
+    # reference's time grid k*h differences to exactly h (with h = 1 ms the
+    # differences of t = k*h round h to 0.000999999999999 s for part of the
+    # run, which this stiff output turns into 1e-7 differences).
+    cases = expand({"road": ["D"], "speed": [25], "duration": 4, "step": 2.0 ** -10,
+                    "body": ["iso7962"], "car": ["quarter-car", "quarter-car-cushion"]})
+    rows, hist = run_batched(cases, record=True)
+    for case, h in zip(cases, hist):
+        ref = _reference(case)
+        lm = linear_model(seated_system(case.car_network(), case.body_network()))
+        z, v = case_road_input(case)
+        t = np.arange(z.size) * case.step
+        x, _ = simulate(lm, t, np.column_stack([z, v]))
+        seat = case.car_network().roles["seat"]
+        for k, out in (("head_acceleration", "body.head.a"), ("seat_acceleration", f"{seat}.a")):
+            scale = np.sqrt(np.mean(ref[k] ** 2))
+            floor = EPS * np.abs(lm.C[lm.output_index(out)]) @ np.abs(x).max(axis=0) / scale
+            err = np.max(np.abs(h[k] - ref[k])) / scale
+            assert err < max(1e-9, 10 * floor), (case.car, k, err, floor)
+
+
+def test_batched_records_a_case_that_cannot_be_built(tmp_path):
+    bad = tmp_path / "bad.json"
+    cases = expand({"road": "C", "speed": 10, "duration": 1, "body": ["reduced-paper"]})
+    good = cases[0]
+    import dataclasses
+
+    broken = dataclasses.replace(good, case_id=1, body_model=str(bad), case_key="x")
+    rows, _ = run_batched([good, broken])
+    assert rows[0]["error"] is None and rows[0]["head_weighted_rms"] > 0
+    assert "does not exist" in rows[1]["error"]
+    assert np.isnan(rows[1]["head_weighted_rms"])
+
+
+def _spectral_density(case, f):
+    """One-sided PSD of the weighted head acceleration, m^2 s^-4 / Hz (steady state)."""
+    lm = linear_model(seated_system(case.car_network(), case.body_network()))
+    H = frequency_response(lm, f, "body.head.a")
+    S = displacement_psd(f / case.speed, case.road) / case.speed
+    return np.abs(H) ** 2 * np.abs(wk_response(f)) ** 2 * S
+
+
+def test_spectral_matches_long_time_domain_runs_within_estimator_statistics():
+    # The mean square of T seconds of a stationary Gaussian process with
+    # one-sided PSD G has variance ~ (1/T) int G^2 df about its expectation
+    # int G df. The synthesized road (fixed amplitudes, random phases) varies
+    # less than a Gaussian one, so this sigma bounds the spread; eight seeds
+    # cut it by sqrt(8) for their mean.
+    T, seeds = 60.0, 8
+    for speed, road in ((12.0, "C"), (28.0, "B")):
+        cases = expand({"road": road, "speed": speed, "seed": list(range(seeds)), "duration": T,
+                        "body": "reduced-paper"})
+        timed, _ = run_batched(cases)
+        spec = run_spectral(cases)
+        ms = np.array([r["head_weighted_rms"] ** 2 for r in timed])
+        expected = spec[0]["head_weighted_rms"] ** 2
+        assert all(r["head_weighted_rms"] == spec[0]["head_weighted_rms"] for r in spec)
+        f = np.geomspace(N_BAND[0] * speed, N_BAND[1] * speed, 4000)
+        G = _spectral_density(cases[0], f)
+        assert np.trapezoid(G, f) == pytest.approx(expected, rel=1e-6)
+        sigma = np.sqrt(np.trapezoid(G ** 2, f) / T)
+        assert abs(ms.mean() - expected) < 4 * sigma / np.sqrt(seeds)
+        assert np.all(np.abs(ms - expected) < 4 * sigma)
+        assert ms.std(ddof=1) < sigma
+        for r in spec:
+            assert np.isnan(r["head_vdv"]) and np.isnan(r["head_peak"])
+            assert r["seat_weighted_rms"] > 0
+
+
+def test_spectral_quadrature_is_converged_and_scales_with_the_class():
+    cases = expand({"road": ["A", "D"], "speed": 20, "duration": 30,
+                    "body": ["reduced-paper", "iso7962"], "car": ["quarter-car", "quarter-car-cushion"]})
+    coarse = run_spectral(cases)
+    fine = run_spectral(cases, points=16000)
+    for a, b in zip(coarse, fine):
+        assert a["head_weighted_rms"] == pytest.approx(b["head_weighted_rms"], rel=1e-6)
+        assert a["seat_weighted_rms"] == pytest.approx(b["seat_weighted_rms"], rel=1e-6)
+    by = {(c.road, c.body, c.car): r for c, r in zip(cases, coarse)}
+    for body in ("reduced-paper", "iso7962"):
+        # Gd(n0) of class D is 4^3 times class A's: the r.m.s. scales by 8
+        ratio = by[("D", body, "quarter-car")]["head_weighted_rms"] / by[("A", body, "quarter-car")]["head_weighted_rms"]
+        assert ratio == pytest.approx(8.0, rel=1e-12)
+
+
+@pytest.mark.integration
+def test_cosim_engine_agrees_with_batched_within_the_coupling_error():
+    # |rms(a) - rms(b)| <= rms(a - b): the relative r.m.s. difference is at most
+    # the coupling NRMSE, which is measured here on the same runs.
+    cases = expand({"road": "C", "speed": 20, "duration": 3,
+                    "body": ["reduced-paper", "iso7962",
+                             {"model": "reduced-paper", "vary": {"k1": [0.6, 0.7], "m1": [1.3, 1.4]},
+                              "samples": 1, "name": "soft-neck"}]})
+    co, co_hist = run_cosim(cases, record=True)
+    ba, ba_hist = run_batched(cases, record=True)
+    for case, c, b, ch, bh in zip(cases, co, ba, co_hist, ba_hist):
+        assert c["error"] is None, c["error"]
+        err = nrmse(ch["head_acceleration"], bh["head_acceleration"])
+        assert err < 5e-4  # the master's documented coupling error at 1 ms
+        assert abs(c["head_weighted_rms"] / b["head_weighted_rms"] - 1) <= err * (1 + 1e-6)
+        seat_err = nrmse(ch["seat_acceleration"], bh["seat_acceleration"])
+        assert abs(c["seat_weighted_rms"] / b["seat_weighted_rms"] - 1) <= seat_err * (1 + 1e-6)
+    # the varied parameters reached the FMU: the soft-neck body differs from the
+    # nominal one by far more than the coupling error
+    nominal, varied = co[0]["head_weighted_rms"], co[2]["head_weighted_rms"]
+    assert abs(varied / nominal - 1) > 20 * 5e-4
+
+
+@pytest.mark.integration
+def test_a_sweep_case_runs_on_the_road_of_bodyvib_cosim(tmp_path, capsys):
+    from bodyvib_cli.main import main
+
+    csv = tmp_path / "cosim.csv"
+    assert main(["cosim", "--road", "D", "--seed", "3", "--speed", "15", "--duration", "2",
+                 "--csv", str(csv), "--quiet"]) == 0
+    capsys.readouterr()
+    data = np.genfromtxt(csv, delimiter=",", names=True)
+    (case,) = expand({"road": "D", "seed": 3, "speed": 15, "duration": 2, "body": "reduced-paper"})
+    z, v = case_road_input(case)
+    # the CSV holds 10 significant digits
+    np.testing.assert_allclose(data["road_displacement_m"], z, rtol=1e-9, atol=1e-9 * np.abs(z).max())
+    np.testing.assert_allclose(data["road_velocity_ms"], v, rtol=1e-9, atol=1e-9 * np.abs(v).max())
+    _, hist = run_cosim([case], record=True)
+    a = hist[0]["head_acceleration"]
+    np.testing.assert_allclose(data["head_acceleration_ms2"], a, rtol=1e-9, atol=1e-9 * np.abs(a).max())
+
+
+def test_frequency_response_of_several_outputs_shares_one_solve():
+    from bodyvib.models import load_model
+    from vehicle.quarter_car import load_car
+
+    lm = linear_model(seated_system(load_car(), load_model("iso7962")))
+    f = np.geomspace(0.1, 100, 50)
+    both = frequency_response(lm, f, ["body.head.a", "sprung.a"])
+    assert both.shape == (2, 50)
+    np.testing.assert_allclose(both[0], frequency_response(lm, f, "body.head.a"), rtol=1e-13)
+    np.testing.assert_allclose(both[1], frequency_response(lm, f, "sprung.a"), rtol=1e-13)

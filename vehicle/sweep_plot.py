@@ -1,0 +1,76 @@
+"""Comfort maps of a sweep: head Wk r.m.s. over speed and road class, on the ISO 2631-1 bands."""
+
+from typing import Optional
+
+import numpy as np
+
+from bodyvib.comfort import COMFORT_SCALE
+from bodyvib.runtime.errors import BodyvibError
+
+__all__ = ["plot_comfort_maps"]
+
+_BAND_COLOURS = ("#2ca02c", "#9acd32", "#ffd700", "#ff8c00", "#e34a33", "#b30000")
+
+
+def plot_comfort_maps(df, path, figure: str = "head_weighted_rms", title: Optional[str] = None):
+    """One panel per body (and car): weighted r.m.s. against speed, one line per road.
+
+    Where a panel holds several cases per road and speed (seeds, parameter
+    sets), the line is their median and the shaded band their 5-95 % range.
+    Behind the lines: the comfort bands of ISO 2631-1 Annex C
+    (:data:`bodyvib.comfort.COMFORT_SCALE`; the standard's bands overlap, and
+    so do the shadings).
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        A sweep table (:func:`vehicle.sweep_run.run_sweep`).
+    path : str
+        Plot file (.png, .pdf or .svg).
+    figure : str
+        Column plotted (``head_weighted_rms`` or ``seat_weighted_rms``).
+    title : str, optional
+
+    Raises
+    ------
+    BodyvibError
+        No successful case, an unknown column, or a bad file extension.
+    """
+    from bodyvib.plotting import new_figure, save_figure
+
+    if figure not in df.columns:
+        raise BodyvibError(f"the sweep table has no column '{figure}'")
+    ok = df[df["error"].isna() & np.isfinite(df[figure].astype(float))]
+    if ok.empty:
+        raise BodyvibError("no successful case to plot")
+    panels = list(ok.groupby(["body", "car"], sort=False).groups)
+    ncol = min(3, len(panels))
+    nrow = int(np.ceil(len(panels) / ncol))
+    fig, axes = new_figure(nrow, ncol, figsize=(5.2 * ncol, 4.2 * nrow), squeeze=False)
+    top = max(2.5, float(ok[figure].max()) * 1.3)
+    bottom = min(0.1, float(ok[figure].min()) / 1.3)
+    for ax in axes.flat[len(panels):]:
+        ax.set_visible(False)
+    for ax, (body, car) in zip(axes.flat, panels):
+        for (lo, hi, words), colour in zip(COMFORT_SCALE, _BAND_COLOURS):
+            ax.axhspan(max(lo, bottom), min(hi, top), color=colour, alpha=0.13, lw=0)
+            ax.text(1.01, np.sqrt(max(lo, bottom) * min(hi, top)), words, fontsize=6,
+                    transform=ax.get_yaxis_transform(), va="center")
+        sel = ok[(ok["body"] == body) & (ok["car"] == car)]
+        for road, g in sel.groupby("road", sort=True):
+            stats = g.groupby("speed_m_s")[figure].quantile([0.05, 0.5, 0.95]).unstack()
+            line, = ax.plot(stats.index, stats[0.5], "o-", ms=3, label=f"road {road}")
+            if (g.groupby("speed_m_s").size() > 1).any():
+                ax.fill_between(stats.index, stats[0.05], stats[0.95], color=line.get_color(),
+                                alpha=0.25, lw=0)
+        ax.set_yscale("log")
+        ax.set_ylim(bottom, top)
+        ax.set_xlabel("speed [m/s]")
+        ax.set_ylabel(f"{figure.split('_')[0]} Wk r.m.s. [m/s2]")
+        ax.set_title(f"{body} on {car}", fontsize=9)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7, loc="lower right")
+    engines = ", ".join(sorted(set(ok["engine"])))
+    fig.suptitle(title or f"ISO 2631-1 comfort map ({engines} engine)", fontsize=10)
+    fig.tight_layout()
+    save_figure(fig, path)

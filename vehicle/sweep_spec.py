@@ -1,0 +1,413 @@
+"""Sweep specifications: what a study varies, expanded into one case per combination.
+
+A spec is a JSON object (or the same dict in Python). Every key takes one
+value or a list; the cases are all combinations (the Cartesian product, in
+the order road, seed, speed, duration, step, body, car)::
+
+    {
+      "road": ["A", "B", "C", "D", "E"],   ISO 8608 class A-H, "bump" or "sweep"
+      "seed": [0],                         random-road seed(s) (no effect on bump/sweep)
+      "speed": [10, 15, 20, 25, 30],       m/s
+      "duration": 30,                      s
+      "step": 0.001,                       s
+      "body": ["reduced-paper",            shipped name, a parameter file, or a range:
+               {"model": "reduced-paper", "vary": {"k1": [0.8, 1.2], "c1": [0.5, 2]},
+                "samples": 400, "seed": 0, "method": "lhs", "name": "reduced-varied"}],
+      "car": ["quarter-car", "quarter-car-cushion"]   shipped name or a parameter file
+    }
+
+Defaults: ``seed`` 0, ``duration`` 30, ``step`` 0.001, ``car`` ``quarter-car``;
+``road``, ``speed`` and ``body`` are required.
+
+**Parameter ranges around one model.** ``vary`` maps parameter names of
+``model`` to ``[low, high]`` *factors* on the model's own value. ``samples``
+parameter sets are drawn with ``method`` ``"lhs"`` (default: a Latin hypercube,
+:class:`scipy.stats.qmc.LatinHypercube`, one stratum per sample in every
+factor) or ``"uniform"`` (independent uniform factors), from ``seed``
+(default 0), uniform in each factor's range. The same entry always gives the
+same sets. Each set is one body of the sweep, named by the entry's ``name``
+(default: the model's) with its sample number in the ``body_sample`` column.
+
+Each case has a ``case_key``: a hash of everything that determines its result
+(settings, the body's and car's parameter values), with which ``--resume``
+recognizes the cases already done. The spec hash covers the spec and the
+contents of the files it names.
+"""
+
+import hashlib
+import json
+import math
+import os
+from dataclasses import dataclass
+from itertools import product
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from bodyvib.models import load_model
+from bodyvib.runtime.errors import BodyvibError
+from bodyvib.runtime.fileio import read_json
+from bodyvib.runtime.modelfile import network_to_dict
+
+from .study import check_settings
+from .quarter_car import load_car
+
+__all__ = ["Case", "SPEC_KEYS", "load_spec", "grid_spec", "expand", "spec_hash", "varied_parameters"]
+
+#: Keys of a spec and their defaults (None: required).
+SPEC_KEYS = {"road": None, "seed": 0, "speed": None, "duration": 30.0, "step": 1e-3,
+             "body": None, "car": "quarter-car"}
+_BODY_KEYS = {"model", "vary", "samples", "seed", "method", "name"}
+
+
+@dataclass(frozen=True)
+class Case:
+    """One case of a sweep: settings, one body, one car.
+
+    Attributes
+    ----------
+    case_id : int
+        Position in the expanded spec.
+    road : str
+        ISO 8608 class, ``"bump"`` or ``"sweep"``.
+    seed : int
+    speed : float
+        m/s.
+    duration, step : float
+        s.
+    body : str
+        The body entry's name.
+    body_model : str
+        Shipped name or parameter file of the body.
+    body_sample : int
+        Parameter-set number of a ``vary`` entry, -1 for a plain body.
+    body_values : tuple of (str, float)
+        Parameter values replaced in ``body_model`` (SI units).
+    car : str
+        Shipped name or parameter file of the car.
+    case_key : str
+        Hash of everything that determines the result.
+    """
+
+    case_id: int
+    road: str
+    seed: int
+    speed: float
+    duration: float
+    step: float
+    body: str
+    body_model: str
+    body_sample: int
+    body_values: Tuple[Tuple[str, float], ...]
+    car: str
+    case_key: str = ""
+
+    @property
+    def steps(self) -> int:
+        """Number of samples, ``round(duration / step) + 1`` (as ``bodyvib cosim``)."""
+        return int(round(self.duration / self.step)) + 1
+
+    def body_network(self):
+        """The body model with this case's parameter values."""
+        net = load_model(self.body_model)
+        return net.with_parameters(**dict(self.body_values)) if self.body_values else net
+
+    def car_network(self):
+        """The car model."""
+        return load_car(self.car)
+
+
+def _list(value):
+    return list(value) if isinstance(value, (list, tuple)) else [value]
+
+
+def _number(v, what, unit, integer=False):
+    ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+    if integer:
+        ok = ok and float(v).is_integer() and v >= 0
+    elif ok:
+        ok = v > 0
+    if not ok:
+        kind = "a non-negative integer" if integer else f"a positive number of {unit}"
+        raise BodyvibError(f"spec: {what} must be {kind}, got {v!r}")
+    return int(v) if integer else float(v)
+
+
+def load_spec(path) -> dict:
+    """Read a spec file (JSON).
+
+    Parameters
+    ----------
+    path : str
+        JSON file.
+
+    Returns
+    -------
+    dict
+
+    Raises
+    ------
+    BodyvibError
+        Missing or unreadable file, not a JSON object.
+    """
+    spec = read_json(path, "sweep spec")
+    if not isinstance(spec, dict):
+        raise BodyvibError(f"sweep spec '{path}' must be a JSON object")
+    return spec
+
+
+def grid_spec(items: Sequence[str], duration: float = 30.0, step: float = 1e-3) -> dict:
+    """A spec from command-line ``key=v1,v2`` items (``bodyvib sweep --grid``).
+
+    Parameters
+    ----------
+    items : sequence of str
+        e.g. ``["road=C,D", "speed=10,20", "seed=0,1", "body=reduced-paper,iso7962"]``;
+        keys road, seed, speed, body, car (and duration, step).
+    duration, step : float
+        Used unless given as items.
+
+    Returns
+    -------
+    dict
+
+    Raises
+    ------
+    BodyvibError
+        An item without ``=``, an unknown or repeated key, a non-numeric number.
+
+    Examples
+    --------
+    >>> grid_spec(["road=C,D", "speed=10,20"])["speed"]
+    [10.0, 20.0]
+    """
+    spec = {"duration": duration, "step": step}
+    seen = set()
+    for item in items:
+        key, sep, values = str(item).partition("=")
+        key = key.strip()
+        if not sep or not values.strip():
+            raise BodyvibError(f"--grid item '{item}' must look like key=v1,v2")
+        if key not in SPEC_KEYS:
+            raise BodyvibError(f"--grid key '{key}' is unknown; keys are {', '.join(SPEC_KEYS)}")
+        if key in seen:
+            raise BodyvibError(f"--grid key '{key}' is given twice")
+        seen.add(key)
+        parts = [v.strip() for v in values.split(",") if v.strip()]
+        if key in ("speed", "duration", "step", "seed"):
+            try:
+                nums = [float(v) for v in parts]
+            except ValueError:
+                raise BodyvibError(f"--grid {key}: '{values}' is not a list of numbers") from None
+            parts = [int(v) for v in nums] if key == "seed" and all(v.is_integer() for v in nums) else nums
+        spec[key] = parts
+    return spec
+
+
+def _file_digest(source: str) -> Optional[str]:
+    if os.path.isfile(source):
+        with open(source, "rb") as f:
+            return hashlib.sha256(f.read()).hexdigest()[:16]
+    return None
+
+
+def spec_hash(spec: dict) -> str:
+    """Hash of a spec and of the contents of the files it names (12 hex digits).
+
+    Parameters
+    ----------
+    spec : dict
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> len(spec_hash({"road": "C", "speed": 10, "body": "reduced-paper"}))
+    12
+    """
+    files = {}
+    for entry in _list(spec.get("body", [])) + _list(spec.get("car", [])):
+        src = entry.get("model") if isinstance(entry, dict) else entry
+        if isinstance(src, str) and _file_digest(src):
+            files[src] = _file_digest(src)
+    text = json.dumps({"spec": spec, "files": files}, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+def _samples(entry: dict, where: str) -> Tuple[str, List[Tuple[Tuple[str, float], ...]]]:
+    """Parameter sets of a ``vary`` entry: (model, [((name, value), ...), ...])."""
+    unknown = sorted(set(entry) - _BODY_KEYS)
+    if unknown:
+        raise BodyvibError(f"spec: {where} has unknown key(s) {', '.join(unknown)}; "
+                           f"keys are {', '.join(sorted(_BODY_KEYS))}")
+    if "model" not in entry:
+        raise BodyvibError(f"spec: {where} needs a 'model'")
+    net = load_model(entry["model"])
+    vary = entry.get("vary", {})
+    if not isinstance(vary, dict) or not vary:
+        raise BodyvibError(f"spec: {where}: 'vary' must map parameter names to [low, high] factors")
+    names = list(vary)
+    lo, hi = [], []
+    for name in names:
+        if name not in net.parameters:
+            raise BodyvibError(f"spec: {where}: model '{net.name}' has no parameter '{name}'; "
+                               f"its parameters are {', '.join(net.parameters)}")
+        r = vary[name]
+        if (not isinstance(r, (list, tuple)) or len(r) != 2
+                or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in r)
+                or not (0 < r[0] <= r[1] and math.isfinite(r[1]))):
+            raise BodyvibError(f"spec: {where}: vary['{name}'] must be [low, high] with "
+                               f"0 < low <= high (factors on the model's value), got {r!r}")
+        lo.append(float(r[0]))
+        hi.append(float(r[1]))
+    count = entry.get("samples", 1)
+    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+        raise BodyvibError(f"spec: {where}: 'samples' must be a positive integer, got {count!r}")
+    seed = _number(entry.get("seed", 0), f"{where} seed", "", integer=True)
+    method = entry.get("method", "lhs")
+    if method == "lhs":
+        from scipy.stats import qmc
+
+        unit = qmc.LatinHypercube(d=len(names), seed=np.random.default_rng(seed)).random(count)
+    elif method == "uniform":
+        unit = np.random.default_rng(seed).random((count, len(names)))
+    else:
+        raise BodyvibError(f"spec: {where}: method must be 'lhs' or 'uniform', got {method!r}")
+    factors = np.asarray(lo) + unit * (np.asarray(hi) - np.asarray(lo))
+    sets = [tuple((n, float(net.parameters[n]) * float(f)) for n, f in zip(names, row))
+            for row in factors]
+    return entry["model"], sets
+
+
+def _bodies(spec) -> List[Tuple[str, str, int, tuple]]:
+    """(name, model, sample, values) for every body of the spec."""
+    out, names = [], set()
+    for i, entry in enumerate(_list(spec["body"])):
+        where = f"body[{i}]"
+        if isinstance(entry, str):
+            load_model(entry)  # a bad name or file is refused before any work
+            name = os.path.splitext(os.path.basename(entry))[0] if os.path.isfile(entry) else entry
+            rows = [(name, entry, -1, ())]
+        elif isinstance(entry, dict):
+            model, sets = _samples(entry, where)
+            name = entry.get("name") or (os.path.splitext(os.path.basename(model))[0]
+                                         if os.path.isfile(model) else model)
+            rows = [(name, model, j, values) for j, values in enumerate(sets)]
+        else:
+            raise BodyvibError(f"spec: {where} must be a model name, a file or an object with "
+                               "'model' and 'vary'")
+        if name in names:
+            raise BodyvibError(f"spec: two body entries are named '{name}'; give one a 'name'")
+        names.add(name)
+        out.extend(rows)
+    return out
+
+
+def _digest(net) -> str:
+    """Hash of a model's content (topology and parameter values)."""
+    text = json.dumps(network_to_dict(net), sort_keys=True, default=repr)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _key(fields: dict, body_digest: str, car_digest: str) -> str:
+    text = json.dumps(fields, sort_keys=True) + body_digest + car_digest
+    return hashlib.sha256(text.encode()).hexdigest()[:20]
+
+
+def expand(spec: dict) -> List[Case]:
+    """All cases of a spec, validated.
+
+    Parameters
+    ----------
+    spec : dict
+        See the module docstring.
+
+    Returns
+    -------
+    list of Case
+        In product order (road, seed, speed, duration, step, body, car).
+
+    Raises
+    ------
+    BodyvibError
+        Unknown or missing keys, bad values, unknown roads, models or cars,
+        bad ranges; the message names the key.
+
+    Examples
+    --------
+    >>> cases = expand({"road": ["C", "D"], "speed": [10, 20], "body": "reduced-paper"})
+    >>> len(cases), cases[-1].road, cases[-1].speed
+    (4, 'D', 20.0)
+    """
+    if not isinstance(spec, dict):
+        raise BodyvibError("sweep spec must be a JSON object")
+    unknown = sorted(set(spec) - set(SPEC_KEYS))
+    if unknown:
+        raise BodyvibError(f"spec: unknown key(s) {', '.join(unknown)}; keys are "
+                           + ", ".join(SPEC_KEYS))
+    for k, default in SPEC_KEYS.items():
+        if default is None and k not in spec:
+            raise BodyvibError(f"spec: '{k}' is required")
+    spec = {**SPEC_KEYS, **spec}
+    roads = [str(r).strip() for r in _list(spec["road"])]
+    seeds = [_number(s, "seed", "", integer=True) for s in _list(spec["seed"])]
+    speeds = [_number(v, "speed", "m/s") for v in _list(spec["speed"])]
+    durations = [_number(v, "duration", "s") for v in _list(spec["duration"])]
+    steps = [_number(v, "step", "s") for v in _list(spec["step"])]
+    for name, values in (("road", roads), ("seed", seeds), ("speed", speeds),
+                         ("duration", durations), ("step", steps), ("body", _list(spec["body"])),
+                         ("car", _list(spec["car"]))):
+        if not values:
+            raise BodyvibError(f"spec: '{name}' is an empty list")
+    for r, sd, v, d, h in product(roads, seeds[:1], speeds, durations, steps):
+        check_settings(r, v, d, h, sd)  # refuses unknown roads, steps longer than half a run
+    bodies = _bodies(spec)
+    cars = [str(c) for c in _list(spec["car"])]
+    car_digests = {c: _digest(load_car(c)) for c in cars}
+    body_digests = {}
+    base_nets: dict = {}
+    cases = []
+    for r, sd, v, d, h, (bname, model, sample, values), c in product(
+            roads, seeds, speeds, durations, steps, bodies, cars):
+        bkey = (model, values)
+        if bkey not in body_digests:
+            net = base_nets.get(model) or base_nets.setdefault(model, load_model(model))
+            body_digests[bkey] = _digest(net.with_parameters(**dict(values)) if values else net)
+        fields = {"road": r.upper() if len(r) == 1 else r.lower(), "seed": sd, "speed": v,
+                  "duration": d, "step": h}
+        cases.append(Case(case_id=len(cases), body=bname, body_model=model, body_sample=sample,
+                          body_values=values, car=c,
+                          case_key=_key(fields, body_digests[bkey], car_digests[c]), **fields))
+    keys = {}
+    for cs in cases:
+        if cs.case_key in keys:
+            raise BodyvibError(f"spec: cases {keys[cs.case_key]} and {cs.case_id} are the same "
+                               "case (listed twice?)")
+        keys[cs.case_key] = cs.case_id
+    return cases
+
+
+def varied_parameters(cases: Sequence[Case]) -> List[str]:
+    """Names of the body parameters varied anywhere in the cases, in first-seen order.
+
+    Parameters
+    ----------
+    cases : sequence of Case
+
+    Returns
+    -------
+    list of str
+
+    Examples
+    --------
+    >>> varied_parameters(expand({"road": "C", "speed": 10, "body": [
+    ...     {"model": "reduced-paper", "vary": {"c1": [0.5, 2]}, "samples": 2}]}))
+    ['c1']
+    """
+    names: Dict[str, None] = {}
+    for c in cases:
+        for n, _ in c.body_values:
+            names.setdefault(n, None)
+    return list(names)
