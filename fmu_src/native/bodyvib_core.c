@@ -1,0 +1,887 @@
+/*
+ * bodyvib native FMU core (see bodyvib_core.h).
+ *
+ * Per instance: the parameter values; the explicit state space A, B built from the
+ * stencils; the output rows on [x | s | ds] (state, FMU inputs, FMU input rates); the
+ * step matrices Phi, Gamma0 U, Gamma1 U for the last step size (recomputed when the step
+ * size, rounded to 12 significant digits like the library's cache, changes); the state
+ * x, the inputs s, and the bookkeeping of the unconnected-velocity fallback.
+ *
+ * Stepping over [t, t + h]: each FMU input i of a rate pair rises at its rate ds_i (the
+ * paired velocity input, or, in fallback, the displacement's slope over the previous
+ * step), every other input is held; the state is advanced exactly,
+ *     x <- Phi x + (Gamma0 U) s + (Gamma1 U) ds,
+ * and the inputs are left at their extrapolated values s + h ds, so outputs read right
+ * after the step are those of the step's end. Outputs are computed on read:
+ *     y = Yx x + Ys s + Yd ds
+ * (Yd is non-zero only for an output declared as the time derivative of a model output
+ * row r: d/dt (C_r x + D_r u) = C_r (A x + B u) + D_r du).
+ */
+#include "bodyvib_core.h"
+
+#include <math.h>
+#include <stdarg.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define BV_MESSAGE 640
+
+struct bv_instance {
+    const bv_model *md;
+    char name[128];
+    bv_log_fn log;
+    void *env;
+    int n, m, ni, no, np, N; /* N = n + 2 m, the augmented matrix */
+    /* parameters */
+    double *p, *p_built;
+    int built;          /* A, B, Y* valid for p_built */
+    /* continuous time and outputs */
+    double *A, *B, *Yx, *Ys, *Yd;
+    /* step cache */
+    double h_key;       /* rounded step the matrices are for; 0: none */
+    double *Phi, *Gs, *Gr;
+    /* what evolves */
+    double time;
+    double *x, *s, *s_prev, *slope;
+    double h_prev;
+    int have_prev;
+    int initialized;
+    int init_failed;
+    unsigned char *vel_set, *fallback, *warned;
+    char init_error[BV_MESSAGE];
+    /* scratch */
+    double *ds, *xn, *work;
+    int *piv;
+};
+
+/* ---------------------------------------------------------------- messages */
+
+static void say(const bv_instance *c, int status, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+
+static void say(const bv_instance *c, int status, const char *fmt, ...)
+{
+    char text[BV_MESSAGE];
+    va_list ap;
+    if (c->log == NULL)
+        return;
+    va_start(ap, fmt);
+    vsnprintf(text, sizeof text, fmt, ap);
+    va_end(ap);
+    c->log(c->env, status, text);
+}
+
+/* ---------------------------------------------------------------- dense linear algebra */
+
+/* C = A B; A is r x k, B is k x q, all row-major; C must not alias A or B. */
+static void mul(double *C, const double *A, const double *B, int r, int k, int q)
+{
+    int i, j, l;
+    for (i = 0; i < r; i++) {
+        double *ci = C + (size_t)i * q;
+        for (j = 0; j < q; j++)
+            ci[j] = 0.0;
+        for (l = 0; l < k; l++) {
+            double a = A[(size_t)i * k + l];
+            const double *bl = B + (size_t)l * q;
+            if (a == 0.0)
+                continue;
+            for (j = 0; j < q; j++)
+                ci[j] += a * bl[j];
+        }
+    }
+}
+
+/* LU factorization with partial pivoting in place (n x n); 0 if singular. */
+static int lu(double *M, int *piv, int n)
+{
+    int i, j, k;
+    for (k = 0; k < n; k++) {
+        int p = k;
+        double best = fabs(M[(size_t)k * n + k]);
+        for (i = k + 1; i < n; i++) {
+            double v = fabs(M[(size_t)i * n + k]);
+            if (v > best) {
+                best = v;
+                p = i;
+            }
+        }
+        if (!(best > 0.0) || !isfinite(best))
+            return 0;
+        piv[k] = p;
+        if (p != k)
+            for (j = 0; j < n; j++) {
+                double t = M[(size_t)k * n + j];
+                M[(size_t)k * n + j] = M[(size_t)p * n + j];
+                M[(size_t)p * n + j] = t;
+            }
+        for (i = k + 1; i < n; i++) {
+            double f = M[(size_t)i * n + k] /= M[(size_t)k * n + k];
+            if (f != 0.0)
+                for (j = k + 1; j < n; j++)
+                    M[(size_t)i * n + j] -= f * M[(size_t)k * n + j];
+        }
+    }
+    return 1;
+}
+
+/* Solve (LU) X = Bm in place, Bm n x q. */
+static void lu_solve(const double *LU, const int *piv, int n, double *Bm, int q)
+{
+    int i, j, k;
+    for (k = 0; k < n; k++)
+        if (piv[k] != k)
+            for (j = 0; j < q; j++) {
+                double t = Bm[(size_t)k * q + j];
+                Bm[(size_t)k * q + j] = Bm[(size_t)piv[k] * q + j];
+                Bm[(size_t)piv[k] * q + j] = t;
+            }
+    for (i = 0; i < n; i++)
+        for (k = 0; k < i; k++) {
+            double f = LU[(size_t)i * n + k];
+            if (f != 0.0)
+                for (j = 0; j < q; j++)
+                    Bm[(size_t)i * q + j] -= f * Bm[(size_t)k * q + j];
+        }
+    for (i = n - 1; i >= 0; i--) {
+        for (k = i + 1; k < n; k++) {
+            double f = LU[(size_t)i * n + k];
+            if (f != 0.0)
+                for (j = 0; j < q; j++)
+                    Bm[(size_t)i * q + j] -= f * Bm[(size_t)k * q + j];
+        }
+        for (j = 0; j < q; j++)
+            Bm[(size_t)i * q + j] /= LU[(size_t)i * n + i];
+    }
+}
+
+static double norm1(const double *M, int n)
+{
+    double best = 0.0;
+    int i, j;
+    for (j = 0; j < n; j++) {
+        double s = 0.0;
+        for (i = 0; i < n; i++)
+            s += fabs(M[(size_t)i * n + j]);
+        if (s > best)
+            best = s;
+    }
+    return best;
+}
+
+/* Pade(13) coefficients and the scaling threshold theta_13 (Higham 2005). */
+static const double B13[14] = {
+    64764752532480000., 32382376266240000., 7771770303897600., 1187353796428800.,
+    129060195264000., 10559470521600., 670442572800., 33522128640., 1323241920.,
+    40840800., 960960., 16380., 182., 1.};
+#define THETA13 5.371920351148152
+
+/* E = exp(M), M N x N, by scaling and squaring with a degree-13 Pade approximant; the
+ * scaling from norms of powers of M (Al-Mohy & Higham 2009), as bodyvib.discretize.expm.
+ * work: 9 N x N; piv: N. Returns 0 if the Pade denominator is singular. */
+static int expm(double *E, const double *M, int N, double *work, int *piv)
+{
+    size_t NN = (size_t)N * N, i;
+    double *M2 = work, *M4 = M2 + NN, *M6 = M4 + NN, *T = M6 + NN, *A = T + NN;
+    double *W = A + NN, *Uo = W + NN, *V = Uo + NN, *P = V + NN;
+    double d6, d8, d10, eta, f2, f4, f6, f1;
+    int s = 0, k, j;
+
+    mul(M2, M, M, N, N, N);
+    mul(M4, M2, M2, N, N, N);
+    mul(M6, M4, M2, N, N, N);
+    d6 = pow(norm1(M6, N), 1.0 / 6.0);
+    mul(T, M4, M4, N, N, N);
+    d8 = pow(norm1(T, N), 1.0 / 8.0);
+    mul(T, M4, M6, N, N, N);
+    d10 = pow(norm1(T, N), 1.0 / 10.0);
+    eta = fmin(fmax(d6, d8), fmax(d8, d10));
+    if (eta > 0.0) {
+        double l = ceil(log2(eta / THETA13));
+        s = l > 0.0 ? (int)l : 0;
+    }
+    f1 = ldexp(1.0, -s);
+    f2 = ldexp(1.0, -2 * s);
+    f4 = ldexp(1.0, -4 * s);
+    f6 = ldexp(1.0, -6 * s);
+    for (i = 0; i < NN; i++) {
+        A[i] = M[i] * f1;
+        M2[i] *= f2;
+        M4[i] *= f4;
+        M6[i] *= f6;
+    }
+    /* U = A (A6 (b13 A6 + b11 A4 + b9 A2) + b7 A6 + b5 A4 + b3 A2 + b1 I) */
+    for (i = 0; i < NN; i++)
+        W[i] = B13[13] * M6[i] + B13[11] * M4[i] + B13[9] * M2[i];
+    mul(T, M6, W, N, N, N);
+    for (i = 0; i < NN; i++)
+        T[i] += B13[7] * M6[i] + B13[5] * M4[i] + B13[3] * M2[i];
+    for (k = 0; k < N; k++)
+        T[(size_t)k * N + k] += B13[1];
+    mul(Uo, A, T, N, N, N);
+    /* V = A6 (b12 A6 + b10 A4 + b8 A2) + b6 A6 + b4 A4 + b2 A2 + b0 I */
+    for (i = 0; i < NN; i++)
+        W[i] = B13[12] * M6[i] + B13[10] * M4[i] + B13[8] * M2[i];
+    mul(V, M6, W, N, N, N);
+    for (i = 0; i < NN; i++)
+        V[i] += B13[6] * M6[i] + B13[4] * M4[i] + B13[2] * M2[i];
+    for (k = 0; k < N; k++)
+        V[(size_t)k * N + k] += B13[0];
+    /* (V - U) E = V + U */
+    for (i = 0; i < NN; i++) {
+        P[i] = V[i] - Uo[i];
+        E[i] = V[i] + Uo[i];
+    }
+    if (!lu(P, piv, N))
+        return 0;
+    lu_solve(P, piv, N, E, N);
+    for (j = 0; j < s; j++) {
+        mul(T, E, E, N, N, N);
+        memcpy(E, T, NN * sizeof *E);
+    }
+    return 1;
+}
+
+/* ---------------------------------------------------------------- model assembly */
+
+static int params_valid(const bv_instance *c, const double *p, int quiet)
+{
+    int j;
+    for (j = 0; j < c->np; j++)
+        if (!(isfinite(p[j]) && p[j] > 0.0)) {
+            if (!quiet) {
+                const bv_model *md = c->md;
+                int vr;
+                const char *name = "?";
+                for (vr = 0; vr < md->nvars; vr++)
+                    if (md->vr_kind[vr] == BV_PARAMETER && md->vr_index[vr] == j)
+                        name = md->vr_name[vr];
+                snprintf(((bv_instance *)c)->init_error, BV_MESSAGE,
+                         "%s: parameter %s = %.17g %s is invalid: it must be a positive finite "
+                         "number; set a value > 0 (the FMU's default is %g %s)",
+                         c->name, name, p[j], md->param_unit[j], md->param_start[j],
+                         md->param_unit[j]);
+            }
+            return 0;
+        }
+    return 1;
+}
+
+/* Assemble the descriptor form for p, solve it, form the output rows; 0 if E is singular. */
+static int build(bv_instance *c, const double *p)
+{
+    const bv_model *md = c->md;
+    int n = c->n, m = c->m, ni = c->ni, no = c->no, R = md->rows, k, i, j;
+    double *E = c->work, *AB = E + (size_t)n * n, *Cz = AB + (size_t)n * (n + m);
+    double *Cd = Cz + (size_t)R * n, *Dd = Cd + (size_t)R * n;
+    double *Cr = Dd + (size_t)R * m, *Dr = Cr + n, *CrB = Dr + m;
+    size_t used = (size_t)(Cr - c->work) + n + m + m;
+
+    (void)used;
+    memset(c->work, 0, ((size_t)n * n + (size_t)n * (n + m) + 2 * (size_t)R * n + (size_t)R * m) *
+                           sizeof(double));
+    for (k = 0; k < md->nstencils; k++) {
+        const bv_stencil *st = &md->stencils[k];
+        double v = st->coef * (st->param < 0 ? 1.0 : p[st->param]);
+        switch (st->mat) {
+        case BV_E: E[st->row * n + st->col] += v; break;
+        case BV_A: AB[st->row * (n + m) + st->col] += v; break;
+        case BV_B: AB[st->row * (n + m) + n + st->col] += v; break;
+        case BV_C: Cz[st->row * n + st->col] += v; break;
+        case BV_CD: Cd[st->row * n + st->col] += v; break;
+        default: Dd[st->row * m + st->col] += v; break;
+        }
+    }
+    if (!lu(E, c->piv, n))
+        return 0;
+    lu_solve(E, c->piv, n, AB, n + m);
+    for (i = 0; i < n; i++) {
+        for (j = 0; j < n; j++)
+            c->A[i * n + j] = AB[i * (n + m) + j];
+        for (j = 0; j < m; j++)
+            c->B[i * m + j] = AB[i * (n + m) + n + j];
+    }
+    for (i = 0; i < n * n; i++)
+        if (!isfinite(c->A[i]))
+            return 0;
+    for (k = 0; k < no; k++) {
+        int r = md->out_row[k];
+        /* row r with z' substituted: C_r = C + Cd A, D_r = D + Cd B */
+        for (j = 0; j < n; j++) {
+            double v = Cz[r * n + j];
+            for (i = 0; i < n; i++)
+                v += Cd[r * n + i] * c->A[i * n + j];
+            Cr[j] = v;
+        }
+        for (j = 0; j < m; j++) {
+            double v = Dd[r * m + j];
+            for (i = 0; i < n; i++)
+                v += Cd[r * n + i] * c->B[i * m + j];
+            Dr[j] = v;
+        }
+        if (md->out_derivative[k]) {
+            /* d/dt (C_r x + D_r u) = (C_r A) x + (C_r B) u + D_r du */
+            mul(c->Yx + (size_t)k * n, Cr, c->A, 1, n, n);
+            mul(CrB, Cr, c->B, 1, n, m);
+            mul(c->Ys + (size_t)k * ni, CrB, md->U, 1, m, ni);
+            mul(c->Yd + (size_t)k * ni, Dr, md->U, 1, m, ni);
+        } else {
+            memcpy(c->Yx + (size_t)k * n, Cr, (size_t)n * sizeof(double));
+            mul(c->Ys + (size_t)k * ni, Dr, md->U, 1, m, ni);
+            memset(c->Yd + (size_t)k * ni, 0, (size_t)ni * sizeof(double));
+        }
+    }
+    memcpy(c->p_built, p, (size_t)c->np * sizeof(double));
+    c->built = 1;
+    c->h_key = 0.0;
+    return 1;
+}
+
+/* h rounded to 12 significant digits, as the library's step cache keys it
+ * (float(f"{h:.12g}")): the decimal digits are read back exactly, locale-independent. */
+static double round12(double h)
+{
+    char text[40], *q;
+    long long mant = 0;
+    int e, p;
+    snprintf(text, sizeof text, "%.11e", h);
+    q = strchr(text, 'e');
+    if (q == NULL)
+        return h;
+    e = atoi(q + 1);
+    for (p = 0; text + p < q; p++)
+        if (text[p] >= '0' && text[p] <= '9')
+            mant = mant * 10 + (text[p] - '0');
+    p = e - 11;
+    if (p >= 0 && p <= 22)
+        return (double)mant * pow(10.0, p);
+    if (p < 0 && p >= -22)
+        return (double)mant / pow(10.0, -p); /* exact powers: one rounding, as strtod */
+    return h;
+}
+
+/* Step matrices for h: exp([[A, B, 0], [0, 0, I], [0, 0, 0]] h). */
+static int discretize(bv_instance *c, double h)
+{
+    int n = c->n, m = c->m, N = c->N, ni = c->ni, i, j;
+    double key = round12(h);
+    double *M, *E, *G0, *G1;
+    if (c->h_key == key)
+        return 1;
+    M = c->work;
+    E = M + (size_t)N * N;
+    memset(M, 0, (size_t)N * N * sizeof *M);
+    for (i = 0; i < n; i++) {
+        for (j = 0; j < n; j++)
+            M[i * N + j] = c->A[i * n + j] * key;
+        for (j = 0; j < m; j++)
+            M[i * N + n + j] = c->B[i * m + j] * key;
+    }
+    for (j = 0; j < m; j++)
+        M[(n + j) * N + n + m + j] = key;
+    if (!expm(E, M, N, E + (size_t)N * N, c->piv))
+        return 0;
+    G0 = E + (size_t)N * N * 10; /* past expm's work */
+    G1 = G0 + (size_t)n * m;
+    for (i = 0; i < n; i++) {
+        for (j = 0; j < n; j++)
+            c->Phi[i * n + j] = E[i * N + j];
+        for (j = 0; j < m; j++) {
+            G0[i * m + j] = E[i * N + n + j];
+            G1[i * m + j] = E[i * N + n + m + j];
+        }
+    }
+    mul(c->Gs, G0, c->md->U, n, m, ni);
+    mul(c->Gr, G1, c->md->U, n, m, ni);
+    for (i = 0; i < n * n; i++)
+        if (!isfinite(c->Phi[i]))
+            return 0;
+    c->h_key = key;
+    return 1;
+}
+
+/* ---------------------------------------------------------------- instances */
+
+static void clear_state(bv_instance *c)
+{
+    int j;
+    for (j = 0; j < c->np; j++)
+        c->p[j] = c->md->param_start[j];
+    memset(c->x, 0, (size_t)c->n * sizeof(double));
+    memset(c->s, 0, (size_t)c->ni * sizeof(double));
+    memset(c->s_prev, 0, (size_t)c->ni * sizeof(double));
+    memset(c->slope, 0, (size_t)(c->md->npairs + 1) * sizeof(double));
+    memset(c->vel_set, 0, (size_t)c->md->npairs + 1);
+    memset(c->fallback, 0, (size_t)c->md->npairs + 1);
+    memset(c->warned, 0, (size_t)c->md->npairs + 1);
+    c->time = 0.0;
+    c->h_prev = 0.0;
+    c->have_prev = 0;
+    c->initialized = 0;
+    c->init_failed = 0;
+    c->init_error[0] = '\0';
+}
+
+bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *env)
+{
+    bv_instance *c = calloc(1, sizeof *c);
+    int n = md->n, m = md->m, ni = md->ni, no = md->no, np = md->np, R = md->rows;
+    int N = n + 2 * m, np1 = md->npairs + 1;
+    size_t nd, nw, assembly;
+    double *d;
+    if (c == NULL)
+        return NULL;
+    c->md = md;
+    snprintf(c->name, sizeof c->name, "%s", name ? name : md->model_name);
+    c->log = log;
+    c->env = env;
+    c->n = n, c->m = m, c->ni = ni, c->no = no, c->np = np, c->N = N;
+    /* work: the larger of the assembly (E, [A|B], C, Cd, D, one row) and the
+     * discretization (M, E, expm's 9 matrices, Gamma0, Gamma1) */
+    assembly = (size_t)n * n + (size_t)n * (n + m) + 2 * (size_t)R * n + (size_t)R * m + n + 2 * m;
+    nw = (size_t)N * N * 11 + 2 * (size_t)n * m;
+    if (assembly > nw)
+        nw = assembly;
+    nd = 2 * (size_t)np + (size_t)n * n + (size_t)n * m + (size_t)no * (n + 2 * ni) +
+         (size_t)n * n + 2 * (size_t)n * ni + n + 3 * (size_t)ni + np1 + ni + n + nw;
+    d = calloc(nd, sizeof *d);
+    c->piv = calloc((size_t)N + 1, sizeof *c->piv);
+    c->vel_set = calloc(3 * (size_t)np1, 1);
+    if (d == NULL || c->piv == NULL || c->vel_set == NULL) {
+        free(d);
+        free(c->piv);
+        free(c->vel_set);
+        free(c);
+        return NULL;
+    }
+    c->fallback = c->vel_set + np1;
+    c->warned = c->fallback + np1;
+    c->p = d; d += np;
+    c->p_built = d; d += np;
+    c->A = d; d += (size_t)n * n;
+    c->B = d; d += (size_t)n * m;
+    c->Yx = d; d += (size_t)no * n;
+    c->Ys = d; d += (size_t)no * ni;
+    c->Yd = d; d += (size_t)no * ni;
+    c->Phi = d; d += (size_t)n * n;
+    c->Gs = d; d += (size_t)n * ni;
+    c->Gr = d; d += (size_t)n * ni;
+    c->x = d; d += n;
+    c->s = d; d += ni;
+    c->s_prev = d; d += ni;
+    c->ds = d; d += ni;
+    c->slope = d; d += np1;
+    c->xn = d; d += n + ni;
+    c->work = d;
+    clear_state(c);
+    if (!build(c, c->p)) {
+        say(c, BV_ERROR, "%s: the model with its default parameters cannot be assembled "
+                         "(singular descriptor matrix)", c->name);
+        bv_free(c);
+        return NULL;
+    }
+    return c;
+}
+
+void bv_free(bv_instance *c)
+{
+    if (c == NULL)
+        return;
+    free(c->p); /* the start of the one block of doubles */
+    free(c->piv);
+    free(c->vel_set);
+    free(c);
+}
+
+void bv_reset(bv_instance *c)
+{
+    clear_state(c);
+    if (memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0)
+        build(c, c->p); /* the defaults always build (checked at instantiation) */
+}
+
+double bv_time(const bv_instance *c) { return c->time; }
+
+bv_status bv_initialize(bv_instance *c)
+{
+    c->initialized = 0;
+    if (!params_valid(c, c->p, 0)) {
+        size_t l = strlen(c->init_error);
+        snprintf(c->init_error + l, BV_MESSAGE - l,
+                 "; the instance refuses to step (reset and set valid parameters)");
+        c->init_failed = 1;
+        say(c, BV_ERROR, "%s", c->init_error);
+        return BV_ERROR;
+    }
+    if (!c->built || memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0) {
+        if (!build(c, c->p)) {
+            snprintf(c->init_error, BV_MESSAGE,
+                     "%s: the parameters give a singular model (a massless node without "
+                     "damping); the instance refuses to step (reset and set valid parameters)",
+                     c->name);
+            c->init_failed = 1;
+            say(c, BV_ERROR, "%s", c->init_error);
+            return BV_ERROR;
+        }
+    }
+    c->init_failed = 0;
+    c->init_error[0] = '\0';
+    c->initialized = 1;
+    return BV_OK;
+}
+
+/* The in-step rates of the FMU inputs in effect now. */
+static void rates(const bv_instance *c, double *ds)
+{
+    int k;
+    memset(ds, 0, (size_t)c->ni * sizeof *ds);
+    for (k = 0; k < c->md->npairs; k++) {
+        const bv_pair *pr = &c->md->pairs[k];
+        ds[pr->value] = c->fallback[k] ? c->slope[k] : c->s[pr->rate];
+    }
+}
+
+static int check_vr(const bv_instance *c, unsigned int vr)
+{
+    if (vr >= (unsigned int)c->md->nvars) {
+        say(c, BV_ERROR, "%s: no variable with value reference %u", c->name, vr);
+        return 0;
+    }
+    return 1;
+}
+
+bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const double value[])
+{
+    const bv_model *md = c->md;
+    bv_status status = BV_OK;
+    size_t i;
+    int k;
+    for (i = 0; i < nvr; i++) {
+        int kind, idx;
+        if (!check_vr(c, vr[i]))
+            return BV_ERROR;
+        kind = md->vr_kind[vr[i]];
+        idx = md->vr_index[vr[i]];
+        if (kind == BV_INPUT) {
+            c->s[idx] = value[i];
+            if (value[i] != 0.0)
+                for (k = 0; k < md->npairs; k++)
+                    if (md->pairs[k].fallback && md->pairs[k].rate == idx) {
+                        c->vel_set[k] = 1;
+                        c->fallback[k] = 0;
+                    }
+        } else if (kind == BV_PARAMETER) {
+            if (c->initialized) {
+                say(c, BV_ERROR, "%s: parameter %s is fixed after initialization; set it "
+                                 "before ExitInitializationMode (ignored)",
+                    c->name, md->vr_name[vr[i]]);
+                status = BV_ERROR;
+            } else {
+                c->p[idx] = value[i];
+            }
+        } else {
+            say(c, BV_ERROR, "%s: %s is an output and cannot be set (ignored)", c->name,
+                md->vr_name[vr[i]]);
+            status = BV_ERROR;
+        }
+    }
+    return status;
+}
+
+bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double value[])
+{
+    const bv_model *md = c->md;
+    int n = c->n, ni = c->ni, have_rates = 0, j;
+    size_t i;
+    if (!c->initialized && memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0 &&
+        params_valid(c, c->p, 1))
+        build(c, c->p); /* parameters changed before initialization: follow them if valid */
+    for (i = 0; i < nvr; i++) {
+        int kind, idx;
+        if (!check_vr(c, vr[i]))
+            return BV_ERROR;
+        kind = md->vr_kind[vr[i]];
+        idx = md->vr_index[vr[i]];
+        if (kind == BV_INPUT) {
+            value[i] = c->s[idx];
+        } else if (kind == BV_PARAMETER) {
+            value[i] = c->p[idx];
+        } else {
+            const double *yx = c->Yx + (size_t)idx * n, *ys = c->Ys + (size_t)idx * ni;
+            double v = 0.0;
+            for (j = 0; j < n; j++)
+                v += yx[j] * c->x[j];
+            for (j = 0; j < ni; j++)
+                v += ys[j] * c->s[j];
+            if (md->out_derivative[idx]) {
+                const double *yd = c->Yd + (size_t)idx * ni;
+                if (!have_rates) {
+                    rates(c, c->ds);
+                    have_rates = 1;
+                }
+                for (j = 0; j < ni; j++)
+                    v += yd[j] * c->ds[j];
+            }
+            value[i] = v;
+        }
+    }
+    return BV_OK;
+}
+
+bv_status bv_step(bv_instance *c, double t, double h)
+{
+    const bv_model *md = c->md;
+    int n = c->n, ni = c->ni, i, j, k;
+    double *xn = c->xn;
+    if (!(h > 0.0 && h < INFINITY)) {
+        say(c, BV_ERROR, "%s: communication step size must be positive and finite, got %.17g s",
+            c->name, h);
+        return BV_ERROR;
+    }
+    for (j = 0; j < ni; j++)
+        if (!isfinite(c->s[j])) {
+            int vr;
+            const char *name = "?";
+            for (vr = 0; vr < md->nvars; vr++)
+                if (md->vr_kind[vr] == BV_INPUT && md->vr_index[vr] == j)
+                    name = md->vr_name[vr];
+            say(c, BV_ERROR, "%s: input %s = %g at t = %g s is not finite; step refused, state "
+                             "unchanged (set a finite value and step again)",
+                c->name, name, c->s[j], t);
+            return BV_ERROR;
+        }
+    if (!c->initialized) {
+        if (c->init_failed)
+            say(c, BV_ERROR, "%s", c->init_error);
+        else
+            say(c, BV_ERROR, "%s: DoStep before initialization; call ExitInitializationMode "
+                             "first", c->name);
+        return BV_ERROR;
+    }
+    if (!discretize(c, h)) {
+        say(c, BV_ERROR, "%s: the step matrices for h = %.17g s are not finite; step refused",
+            c->name, h);
+        return BV_ERROR;
+    }
+    /* unconnected velocity: a displacement that moves while its velocity was never set */
+    for (k = 0; k < md->npairs; k++) {
+        const bv_pair *pr = &md->pairs[k];
+        if (!pr->fallback || c->vel_set[k] || !c->have_prev)
+            continue;
+        if (!c->fallback[k] && c->s[pr->value] != c->s_prev[pr->value]) {
+            c->fallback[k] = 1;
+            if (!c->warned[k]) {
+                int vr;
+                const char *dname = "?", *vname = "?";
+                for (vr = 0; vr < md->nvars; vr++)
+                    if (md->vr_kind[vr] == BV_INPUT) {
+                        if (md->vr_index[vr] == pr->value)
+                            dname = md->vr_name[vr];
+                        if (md->vr_index[vr] == pr->rate)
+                            vname = md->vr_name[vr];
+                    }
+                say(c, BV_WARNING, "%s: %s moves but %s was never set (0): from t = %g s the "
+                                   "in-step rate of %s is its slope over the previous step; "
+                                   "connect %s for exact extrapolation",
+                    c->name, dname, vname, t, dname, vname);
+                c->warned[k] = 1;
+            }
+        }
+        if (c->fallback[k])
+            c->slope[k] = (c->s[pr->value] - c->s_prev[pr->value]) / c->h_prev;
+    }
+    rates(c, c->ds);
+    for (i = 0; i < n; i++) {
+        const double *phi = c->Phi + (size_t)i * n, *gs = c->Gs + (size_t)i * ni,
+                     *gr = c->Gr + (size_t)i * ni;
+        double v = 0.0;
+        for (j = 0; j < n; j++)
+            v += phi[j] * c->x[j];
+        for (j = 0; j < ni; j++)
+            v += gs[j] * c->s[j] + gr[j] * c->ds[j];
+        xn[i] = v;
+    }
+    memcpy(c->x, xn, (size_t)n * sizeof *xn);
+    memcpy(c->s_prev, c->s, (size_t)ni * sizeof(double));
+    for (j = 0; j < ni; j++)
+        c->s[j] += h * c->ds[j];
+    c->h_prev = h;
+    c->have_prev = 1;
+    c->time = t + h;
+    return BV_OK;
+}
+
+/* ---------------------------------------------------------------- snapshots */
+
+static const unsigned char MAGIC[8] = {'B', 'V', 'S', 'T', 'A', 'T', 'E', '1'};
+
+static uint64_t fnv1a(const unsigned char *p, size_t n)
+{
+    uint64_t h = 1469598103934665603ULL;
+    size_t i;
+    for (i = 0; i < n; i++) {
+        h ^= p[i];
+        h *= 1099511628211ULL;
+    }
+    return h;
+}
+
+/* Payload: doubles time, h_prev, have_prev, initialized, init_failed, p[np], x[n], s[ni],
+ * s_prev[ni], slope[np1], vel_set/fallback/warned[np1]. */
+static size_t payload_doubles(const bv_instance *c)
+{
+    size_t np1 = (size_t)c->md->npairs + 1;
+    return 5 + (size_t)c->np + (size_t)c->n + 2 * (size_t)c->ni + 4 * np1;
+}
+
+size_t bv_state_size(const bv_instance *c)
+{
+    return 8 + 8 + 8 + 8 * payload_doubles(c) + 8;
+}
+
+static unsigned char *put(unsigned char *q, const double *v, size_t k)
+{
+    memcpy(q, v, k * sizeof *v);
+    return q + k * sizeof *v;
+}
+
+void bv_state_write(const bv_instance *c, unsigned char *buf)
+{
+    size_t np1 = (size_t)c->md->npairs + 1, i;
+    uint64_t size = bv_state_size(c), token = fnv1a((const unsigned char *)c->md->token,
+                                                    strlen(c->md->token)), sum;
+    double head[5], flags[3];
+    unsigned char *q = buf;
+    memcpy(q, MAGIC, 8);
+    memcpy(q + 8, &size, 8);
+    memcpy(q + 16, &token, 8);
+    q += 24;
+    head[0] = c->time;
+    head[1] = c->h_prev;
+    head[2] = c->have_prev;
+    head[3] = c->initialized;
+    head[4] = c->init_failed;
+    q = put(q, head, 5);
+    q = put(q, c->p, (size_t)c->np);
+    q = put(q, c->x, (size_t)c->n);
+    q = put(q, c->s, (size_t)c->ni);
+    q = put(q, c->s_prev, (size_t)c->ni);
+    q = put(q, c->slope, np1);
+    for (i = 0; i < np1; i++) {
+        flags[0] = c->vel_set[i];
+        flags[1] = c->fallback[i];
+        flags[2] = c->warned[i];
+        q = put(q, flags, 3);
+    }
+    sum = fnv1a(buf, (size_t)(q - buf));
+    memcpy(q, &sum, 8);
+}
+
+static int flag_ok(double v) { return v == 0.0 || v == 1.0; }
+
+bv_status bv_state_check(const bv_instance *c, const unsigned char *buf, size_t size)
+{
+    uint64_t want = bv_state_size(c), got, token, sum;
+    size_t np1 = (size_t)c->md->npairs + 1, off, i;
+    double head[5], *p, v;
+    if (buf == NULL || size < 24 || memcmp(buf, MAGIC, 8) != 0) {
+        say(c, BV_ERROR, "%s: not a bodyvib FMU state (bad magic)", c->name);
+        return BV_ERROR;
+    }
+    memcpy(&got, buf + 8, 8);
+    memcpy(&token, buf + 16, 8);
+    if (got != want || size != want ||
+        token != fnv1a((const unsigned char *)c->md->token, strlen(c->md->token))) {
+        say(c, BV_ERROR, "%s: the FMU state belongs to another model or version (size %llu, "
+                         "expected %llu); refused", c->name, (unsigned long long)size,
+            (unsigned long long)want);
+        return BV_ERROR;
+    }
+    memcpy(&sum, buf + want - 8, 8);
+    if (sum != fnv1a(buf, (size_t)want - 8)) {
+        say(c, BV_ERROR, "%s: the FMU state is corrupt (checksum mismatch); refused", c->name);
+        return BV_ERROR;
+    }
+    memcpy(head, buf + 24, sizeof head);
+    off = 24 + sizeof head;
+    if (!(isfinite(head[0]) && isfinite(head[1]) && head[1] >= 0.0 && flag_ok(head[2]) &&
+          flag_ok(head[3]) && flag_ok(head[4]))) {
+        say(c, BV_ERROR, "%s: the FMU state is invalid (time or flags); refused", c->name);
+        return BV_ERROR;
+    }
+    p = malloc((size_t)c->np * sizeof *p + 1);
+    if (p == NULL)
+        return BV_ERROR;
+    memcpy(p, buf + off, (size_t)c->np * sizeof *p);
+    if (head[3] != 0.0 && !params_valid(c, p, 1)) {
+        free(p);
+        say(c, BV_ERROR, "%s: the FMU state holds invalid parameters; refused", c->name);
+        return BV_ERROR;
+    }
+    free(p);
+    off += (size_t)c->np * 8;
+    for (i = 0; i < (size_t)c->n; i++) {
+        memcpy(&v, buf + off + 8 * i, 8);
+        if (!isfinite(v)) {
+            say(c, BV_ERROR, "%s: the FMU state holds a non-finite model state; refused",
+                c->name);
+            return BV_ERROR;
+        }
+    }
+    off += 8 * ((size_t)c->n + 2 * (size_t)c->ni + np1);
+    for (i = 0; i < 3 * np1; i++) {
+        memcpy(&v, buf + off + 8 * i, 8);
+        if (!flag_ok(v)) {
+            say(c, BV_ERROR, "%s: the FMU state is invalid (flags); refused", c->name);
+            return BV_ERROR;
+        }
+    }
+    return BV_OK;
+}
+
+static const unsigned char *get(const unsigned char *q, double *v, size_t k)
+{
+    memcpy(v, q, k * sizeof *v);
+    return q + k * sizeof *v;
+}
+
+bv_status bv_state_read(bv_instance *c, const unsigned char *buf, size_t size)
+{
+    size_t np1 = (size_t)c->md->npairs + 1, i;
+    double head[5], flags[3];
+    const unsigned char *q;
+    if (bv_state_check(c, buf, size) != BV_OK)
+        return BV_ERROR;
+    q = get(buf + 24, head, 5);
+    q = get(q, c->p, (size_t)c->np);
+    q = get(q, c->x, (size_t)c->n);
+    q = get(q, c->s, (size_t)c->ni);
+    q = get(q, c->s_prev, (size_t)c->ni);
+    q = get(q, c->slope, np1);
+    for (i = 0; i < np1; i++) {
+        q = get(q, flags, 3);
+        c->vel_set[i] = (unsigned char)(flags[0] != 0.0);
+        c->fallback[i] = (unsigned char)(flags[1] != 0.0);
+        c->warned[i] = (unsigned char)(flags[2] != 0.0);
+    }
+    c->time = head[0];
+    c->h_prev = head[1];
+    c->have_prev = head[2] != 0.0;
+    c->initialized = head[3] != 0.0;
+    c->init_failed = head[4] != 0.0;
+    if (c->init_failed)
+        snprintf(c->init_error, BV_MESSAGE, "%s: the restored state was not initialized "
+                 "successfully; reset and set valid parameters", c->name);
+    if (memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0 && params_valid(c, c->p, 1))
+        if (!build(c, c->p) && c->initialized) {
+            c->initialized = 0;
+            say(c, BV_ERROR, "%s: the restored parameters give a singular model", c->name);
+            return BV_ERROR;
+        }
+    return BV_OK;
+}
