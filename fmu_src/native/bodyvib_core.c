@@ -39,9 +39,14 @@ struct bv_instance {
     int built;          /* A, B, Y* valid for p_built */
     /* continuous time and outputs */
     double *A, *B, *Yx, *Ys, *Yd;
+    double *Yc;         /* [Yx | Ys | Yd] row-major: y = Yc z, z = [x | s | ds] */
+    double *y;          /* outputs for the current z, valid unless dirty */
+    int dirty;
     /* step cache */
     double h_key;       /* rounded step the matrices are for; 0: none */
+    double h_raw;       /* the last step size seen with that key (skips the rounding) */
     double *Phi, *Gs, *Gr;
+    double *Sc;         /* [Phi | Gamma0 U | Gamma1 U] row-major: x <- Sc z */
     /* what evolves */
     double time;
     double *x, *s, *s_prev, *slope;
@@ -172,6 +177,39 @@ static double norm1(const double *M, int n)
             best = s;
     }
     return best;
+}
+
+/* Pack row-major blocks [P | Q | R] (rows x n, ni, ni) into one row-major rows x (n + 2 ni). */
+static void pack(double *out, const double *P, const double *Q, const double *R, int rows, int n,
+                 int ni)
+{
+    int i, j, w = n + 2 * ni;
+    for (i = 0; i < rows; i++) {
+        for (j = 0; j < n; j++)
+            out[(size_t)i * w + j] = P[(size_t)i * n + j];
+        for (j = 0; j < ni; j++) {
+            out[(size_t)i * w + n + j] = Q[(size_t)i * ni + j];
+            out[(size_t)i * w + n + ni + j] = R[(size_t)i * ni + j];
+        }
+    }
+}
+
+/* out = M z, M row-major (rows x cols); two accumulators per row, rows independent. */
+static void matvec(double *restrict out, const double *restrict M, const double *restrict z,
+                   int rows, int cols)
+{
+    int i, j;
+    for (i = 0; i < rows; i++) {
+        const double *r = M + (size_t)i * cols;
+        double a = 0.0, b = 0.0;
+        for (j = 0; j + 1 < cols; j += 2) {
+            a += r[j] * z[j];
+            b += r[j + 1] * z[j + 1];
+        }
+        if (j < cols)
+            a += r[j] * z[j];
+        out[i] = a + b;
+    }
 }
 
 /* Pade(13) coefficients and the scaling threshold theta_13 (Higham 2005). */
@@ -336,8 +374,10 @@ static int build(bv_instance *c, const double *p)
             memset(c->Yd + (size_t)k * ni, 0, (size_t)ni * sizeof(double));
         }
     }
+    pack(c->Yc, c->Yx, c->Ys, c->Yd, no, n, ni);
     memcpy(c->p_built, p, (size_t)c->np * sizeof(double));
     c->built = 1;
+    c->dirty = 1;
     c->h_key = 0.0;
     return 1;
 }
@@ -369,10 +409,14 @@ static double round12(double h)
 static int discretize(bv_instance *c, double h)
 {
     int n = c->n, m = c->m, N = c->N, ni = c->ni, i, j;
-    double key = round12(h);
-    double *M, *E, *G0, *G1;
-    if (c->h_key == key)
+    double key, *M, *E, *G0, *G1;
+    if (c->h_key != 0.0 && h == c->h_raw)
         return 1;
+    key = round12(h);
+    if (c->h_key == key) {
+        c->h_raw = h;
+        return 1;
+    }
     M = c->work;
     E = M + (size_t)N * N;
     memset(M, 0, (size_t)N * N * sizeof *M);
@@ -401,7 +445,9 @@ static int discretize(bv_instance *c, double h)
     for (i = 0; i < n * n; i++)
         if (!isfinite(c->Phi[i]))
             return 0;
+    pack(c->Sc, c->Phi, c->Gs, c->Gr, n, n, ni);
     c->h_key = key;
+    c->h_raw = h;
     return 1;
 }
 
@@ -419,6 +465,7 @@ static void clear_state(bv_instance *c)
     memset(c->vel_set, 0, (size_t)c->md->npairs + 1);
     memset(c->fallback, 0, (size_t)c->md->npairs + 1);
     memset(c->warned, 0, (size_t)c->md->npairs + 1);
+    c->dirty = 1;
     c->time = 0.0;
     c->h_prev = 0.0;
     c->have_prev = 0;
@@ -447,8 +494,8 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
     nw = (size_t)N * N * 11 + 2 * (size_t)n * m;
     if (assembly > nw)
         nw = assembly;
-    nd = 2 * (size_t)np + (size_t)n * n + (size_t)n * m + (size_t)no * (n + 2 * ni) +
-         (size_t)n * n + 2 * (size_t)n * ni + n + 3 * (size_t)ni + np1 + ni + n + nw;
+    nd = 2 * (size_t)np + (size_t)n * n + (size_t)n * m + 2 * (size_t)no * (n + 2 * ni) + no +
+         2 * ((size_t)n * n + 2 * (size_t)n * ni) + n + 3 * (size_t)ni + np1 + ni + n + nw;
     d = calloc(nd, sizeof *d);
     c->piv = calloc((size_t)N + 1, sizeof *c->piv);
     c->vel_set = calloc(3 * (size_t)np1, 1);
@@ -468,13 +515,16 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
     c->Yx = d; d += (size_t)no * n;
     c->Ys = d; d += (size_t)no * ni;
     c->Yd = d; d += (size_t)no * ni;
+    c->Yc = d; d += (size_t)no * (n + 2 * ni);
+    c->y = d; d += no;
     c->Phi = d; d += (size_t)n * n;
     c->Gs = d; d += (size_t)n * ni;
     c->Gr = d; d += (size_t)n * ni;
-    c->x = d; d += n;
+    c->Sc = d; d += (size_t)n * n + 2 * (size_t)n * ni;
+    c->x = d; d += n; /* x, s, ds contiguous: z */
     c->s = d; d += ni;
-    c->s_prev = d; d += ni;
     c->ds = d; d += ni;
+    c->s_prev = d; d += ni;
     c->slope = d; d += np1;
     c->xn = d; d += n + ni;
     c->work = d;
@@ -539,7 +589,8 @@ bv_status bv_initialize(bv_instance *c)
 static void rates(const bv_instance *c, double *ds)
 {
     int k;
-    memset(ds, 0, (size_t)c->ni * sizeof *ds);
+    for (k = 0; k < c->ni; k++)
+        ds[k] = 0.0;
     for (k = 0; k < c->md->npairs; k++) {
         const bv_pair *pr = &c->md->pairs[k];
         ds[pr->value] = c->fallback[k] ? c->slope[k] : c->s[pr->rate];
@@ -569,6 +620,7 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
         idx = md->vr_index[vr[i]];
         if (kind == BV_INPUT) {
             c->s[idx] = value[i];
+            c->dirty = 1;
             if (value[i] != 0.0)
                 for (k = 0; k < md->npairs; k++)
                     if (md->pairs[k].fallback && md->pairs[k].rate == idx) {
@@ -596,7 +648,7 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
 bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double value[])
 {
     const bv_model *md = c->md;
-    int n = c->n, ni = c->ni, have_rates = 0, j;
+    int n = c->n, ni = c->ni;
     size_t i;
     if (!c->initialized && memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0 &&
         params_valid(c, c->p, 1))
@@ -612,22 +664,12 @@ bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double val
         } else if (kind == BV_PARAMETER) {
             value[i] = c->p[idx];
         } else {
-            const double *yx = c->Yx + (size_t)idx * n, *ys = c->Ys + (size_t)idx * ni;
-            double v = 0.0;
-            for (j = 0; j < n; j++)
-                v += yx[j] * c->x[j];
-            for (j = 0; j < ni; j++)
-                v += ys[j] * c->s[j];
-            if (md->out_derivative[idx]) {
-                const double *yd = c->Yd + (size_t)idx * ni;
-                if (!have_rates) {
-                    rates(c, c->ds);
-                    have_rates = 1;
-                }
-                for (j = 0; j < ni; j++)
-                    v += yd[j] * c->ds[j];
+            if (c->dirty) {
+                rates(c, c->ds);
+                matvec(c->y, c->Yc, c->x, c->no, n + 2 * ni);
+                c->dirty = 0;
             }
-            value[i] = v;
+            value[i] = c->y[idx];
         }
     }
     return BV_OK;
@@ -636,7 +678,7 @@ bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double val
 bv_status bv_step(bv_instance *c, double t, double h)
 {
     const bv_model *md = c->md;
-    int n = c->n, ni = c->ni, i, j, k;
+    int n = c->n, ni = c->ni, j, k;
     double *xn = c->xn;
     if (!(h > 0.0 && h < INFINITY)) {
         say(c, BV_ERROR, "%s: communication step size must be positive and finite, got %.17g s",
@@ -696,16 +738,7 @@ bv_status bv_step(bv_instance *c, double t, double h)
             c->slope[k] = (c->s[pr->value] - c->s_prev[pr->value]) / c->h_prev;
     }
     rates(c, c->ds);
-    for (i = 0; i < n; i++) {
-        const double *phi = c->Phi + (size_t)i * n, *gs = c->Gs + (size_t)i * ni,
-                     *gr = c->Gr + (size_t)i * ni;
-        double v = 0.0;
-        for (j = 0; j < n; j++)
-            v += phi[j] * c->x[j];
-        for (j = 0; j < ni; j++)
-            v += gs[j] * c->s[j] + gr[j] * c->ds[j];
-        xn[i] = v;
-    }
+    matvec(xn, c->Sc, c->x, n, n + 2 * ni);
     memcpy(c->x, xn, (size_t)n * sizeof *xn);
     memcpy(c->s_prev, c->s, (size_t)ni * sizeof(double));
     for (j = 0; j < ni; j++)
@@ -713,6 +746,7 @@ bv_status bv_step(bv_instance *c, double t, double h)
     c->h_prev = h;
     c->have_prev = 1;
     c->time = t + h;
+    c->dirty = 1;
     return BV_OK;
 }
 
@@ -869,6 +903,7 @@ bv_status bv_state_read(bv_instance *c, const unsigned char *buf, size_t size)
         c->fallback[i] = (unsigned char)(flags[1] != 0.0);
         c->warned[i] = (unsigned char)(flags[2] != 0.0);
     }
+    c->dirty = 1;
     c->time = head[0];
     c->h_prev = head[1];
     c->have_prev = head[2] != 0.0;
