@@ -342,6 +342,11 @@ def build_fmus(dest="dist", params: Optional[str] = None, names: Optional[Iterab
 
 
 def _run(args) -> int:
+    if getattr(args, "native", False):
+        from .native_build import build_native_fmus
+
+        build_native_fmus(Path(args.dest) / "native", args.params, args.fmus, echo=print)
+        return 0
     build_fmus(args.dest, args.params, args.fmus, echo=print)
     return 0
 
@@ -359,6 +364,10 @@ def add_command(subparsers):
     p.add_argument("--dest", default="dist", help="output folder (default: dist)")
     p.add_argument("--fmus", nargs="+", choices=list(FMUS), metavar="NAME",
                    help=f"build only these ({', '.join(FMUS)})")
+    p.add_argument("--native", action="store_true",
+                   help="build the native C FMUs instead (FMI 2.0 into DEST/native, FMI 3.0 "
+                   "into DEST/native/fmi3; linux64 + win64 binaries and sources; no Python "
+                   "needed by the host)")
     p.set_defaults(func=_run)
     return p
 

@@ -105,7 +105,8 @@ def estimate_transmissibility(seat_acceleration, head_acceleration, fs: float,
 
 
 def build_default_fmus(dest, params: Optional[str] = None, car: str = "quarter-car",
-                       names=("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar")) -> Dict[str, str]:
+                       names=("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar"),
+                       native: bool = False) -> Dict[str, str]:
     """Build the project's FMUs into ``dest`` (``build_fmu.py``'s builder).
 
     Parameters
@@ -118,15 +119,22 @@ def build_default_fmus(dest, params: Optional[str] = None, car: str = "quarter-c
         Vehicle parameter file or shipped name for ``QuarterCar.fmu``.
     names : sequence of str
         Which FMUs.
+    native : bool
+        Build the native C FMUs (FMI 2.0, :mod:`bodyvib.native_build`) instead of
+        the pythonfmu ones.
 
     Returns
     -------
     dict of str to str
         FMU name -> path.
     """
+    models = {"HumanBody3DOF": params, "QuarterCar": car}
+    if native:
+        from bodyvib.native_build import build_native_fmu
+
+        return {n: str(build_native_fmu(n, dest, models.get(n), fmi=2)) for n in names}
     from bodyvib.fmu_build import build_fmu
 
-    models = {"HumanBody3DOF": params, "QuarterCar": car}
     return {n: str(build_fmu(n, dest, models.get(n))) for n in names}
 
 

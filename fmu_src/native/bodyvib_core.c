@@ -49,7 +49,7 @@ struct bv_instance {
     double *Sc;         /* [Phi | Gamma0 U | Gamma1 U] row-major: x <- Sc z */
     /* what evolves */
     double time;
-    double *x, *s, *s_prev, *slope;
+    double *x, *s, *s_prev;
     double h_prev;
     int have_prev;
     int initialized;
@@ -79,6 +79,18 @@ static void say(const bv_instance *c, int status, const char *fmt, ...)
     vsnprintf(text, sizeof text, fmt, ap);
     va_end(ap);
     c->log(c->env, status, text);
+}
+
+/* The shortest %g text that reads back as v (as Python's repr), into buf[32]. */
+static const char *shortest(double v, char *buf)
+{
+    int p;
+    for (p = 1; p <= 17; p++) {
+        snprintf(buf, 32, "%.*g", p, v);
+        if (strtod(buf, NULL) == v)
+            break;
+    }
+    return buf;
 }
 
 /* ---------------------------------------------------------------- dense linear algebra */
@@ -299,11 +311,12 @@ static int params_valid(const bv_instance *c, const double *p, int quiet)
                 for (vr = 0; vr < md->nvars; vr++)
                     if (md->vr_kind[vr] == BV_PARAMETER && md->vr_index[vr] == j)
                         name = md->vr_name[vr];
+                char text[32];
                 snprintf(((bv_instance *)c)->init_error, BV_MESSAGE,
-                         "%s: parameter %s = %.17g %s is invalid: it must be a positive finite "
+                         "%s: parameter %s = %s %s is invalid: it must be a positive finite "
                          "number; set a value > 0 (the FMU's default is %g %s)",
-                         c->name, name, p[j], md->param_unit[j], md->param_start[j],
-                         md->param_unit[j]);
+                         c->name, name, shortest(p[j], text), md->param_unit[j],
+                         md->param_start[j], md->param_unit[j]);
             }
             return 0;
         }
@@ -461,7 +474,6 @@ static void clear_state(bv_instance *c)
     memset(c->x, 0, (size_t)c->n * sizeof(double));
     memset(c->s, 0, (size_t)c->ni * sizeof(double));
     memset(c->s_prev, 0, (size_t)c->ni * sizeof(double));
-    memset(c->slope, 0, (size_t)(c->md->npairs + 1) * sizeof(double));
     memset(c->vel_set, 0, (size_t)c->md->npairs + 1);
     memset(c->fallback, 0, (size_t)c->md->npairs + 1);
     memset(c->warned, 0, (size_t)c->md->npairs + 1);
@@ -525,7 +537,6 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
     c->s = d; d += ni;
     c->ds = d; d += ni;
     c->s_prev = d; d += ni;
-    c->slope = d; d += np1;
     c->xn = d; d += n + ni;
     c->work = d;
     clear_state(c);
@@ -593,7 +604,13 @@ static void rates(const bv_instance *c, double *ds)
         ds[k] = 0.0;
     for (k = 0; k < c->md->npairs; k++) {
         const bv_pair *pr = &c->md->pairs[k];
-        ds[pr->value] = c->fallback[k] ? c->slope[k] : c->s[pr->rate];
+        /* in fallback (or about to enter it: the displacement moved, the velocity never set),
+         * the slope from the previous doStep's value: before a doStep the rate of the coming
+         * step, right after one (inputs extrapolated) the rate just used */
+        int slope = c->fallback[k] || (pr->fallback && !c->vel_set[k] && c->have_prev &&
+                                       c->s[pr->value] != c->s_prev[pr->value]);
+        ds[pr->value] = slope ? (c->s[pr->value] - c->s_prev[pr->value]) / c->h_prev
+                              : c->s[pr->rate];
     }
 }
 
@@ -681,8 +698,9 @@ bv_status bv_step(bv_instance *c, double t, double h)
     int n = c->n, ni = c->ni, j, k;
     double *xn = c->xn;
     if (!(h > 0.0 && h < INFINITY)) {
-        say(c, BV_ERROR, "%s: communication step size must be positive and finite, got %.17g s",
-            c->name, h);
+        char text[32];
+        say(c, BV_ERROR, "%s: communication step size must be positive and finite, got %s s",
+            c->name, shortest(h, text));
         return BV_ERROR;
     }
     for (j = 0; j < ni; j++)
@@ -734,8 +752,6 @@ bv_status bv_step(bv_instance *c, double t, double h)
                 c->warned[k] = 1;
             }
         }
-        if (c->fallback[k])
-            c->slope[k] = (c->s[pr->value] - c->s_prev[pr->value]) / c->h_prev;
     }
     rates(c, c->ds);
     matvec(xn, c->Sc, c->x, n, n + 2 * ni);
@@ -766,11 +782,11 @@ static uint64_t fnv1a(const unsigned char *p, size_t n)
 }
 
 /* Payload: doubles time, h_prev, have_prev, initialized, init_failed, p[np], x[n], s[ni],
- * s_prev[ni], slope[np1], vel_set/fallback/warned[np1]. */
+ * s_prev[ni], vel_set/fallback/warned[np1]. */
 static size_t payload_doubles(const bv_instance *c)
 {
     size_t np1 = (size_t)c->md->npairs + 1;
-    return 5 + (size_t)c->np + (size_t)c->n + 2 * (size_t)c->ni + 4 * np1;
+    return 5 + (size_t)c->np + (size_t)c->n + 2 * (size_t)c->ni + 3 * np1;
 }
 
 size_t bv_state_size(const bv_instance *c)
@@ -805,7 +821,6 @@ void bv_state_write(const bv_instance *c, unsigned char *buf)
     q = put(q, c->x, (size_t)c->n);
     q = put(q, c->s, (size_t)c->ni);
     q = put(q, c->s_prev, (size_t)c->ni);
-    q = put(q, c->slope, np1);
     for (i = 0; i < np1; i++) {
         flags[0] = c->vel_set[i];
         flags[1] = c->fallback[i];
@@ -867,7 +882,7 @@ bv_status bv_state_check(const bv_instance *c, const unsigned char *buf, size_t 
             return BV_ERROR;
         }
     }
-    off += 8 * ((size_t)c->n + 2 * (size_t)c->ni + np1);
+    off += 8 * ((size_t)c->n + 2 * (size_t)c->ni);
     for (i = 0; i < 3 * np1; i++) {
         memcpy(&v, buf + off + 8 * i, 8);
         if (!flag_ok(v)) {
@@ -896,7 +911,6 @@ bv_status bv_state_read(bv_instance *c, const unsigned char *buf, size_t size)
     q = get(q, c->x, (size_t)c->n);
     q = get(q, c->s, (size_t)c->ni);
     q = get(q, c->s_prev, (size_t)c->ni);
-    q = get(q, c->slope, np1);
     for (i = 0; i < np1; i++) {
         q = get(q, flags, 3);
         c->vel_set[i] = (unsigned char)(flags[0] != 0.0);

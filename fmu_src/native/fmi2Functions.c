@@ -28,12 +28,23 @@ typedef struct {
     unsigned char bytes[1];
 } State2;
 
+/* The logger is printf-like: the message goes as the format, any '%' doubled (hosts that
+ * format it print the text; hosts that do not still get the text, not a bare "%s"). */
 static void fmu_log(void *env, int status, const char *message)
 {
     Fmu2 *f = env;
-    if (f->logger != NULL)
-        f->logger(f->env, f->name, (fmi2Status)status,
-                  status == BV_ERROR ? "logStatusError" : "logStatusWarning", "%s", message);
+    char text[1300];
+    size_t i = 0;
+    if (f->logger == NULL)
+        return;
+    for (; *message && i + 2 < sizeof text; message++) {
+        if (*message == '%')
+            text[i++] = '%';
+        text[i++] = *message;
+    }
+    text[i] = '\0';
+    f->logger(f->env, f->name, (fmi2Status)status,
+              status == BV_ERROR ? "logStatusError" : "logStatusWarning", text);
 }
 
 static fmi2Status st(bv_status s) { return (fmi2Status)s; }
