@@ -3,12 +3,12 @@
 
     python build_fmu.py [--params FILE] [--dest DIR] [--fmus NAME ...]
 
-The same as ``bodyvib build``; the implementation is :mod:`bodyvib.fmu_build`.
+The same as ``bodyvib build`` (:mod:`bodyvib_cli.build`).
 """
 
 import sys
 
-from bodyvib.fmu_build import main
+from bodyvib_cli.build import main
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 
-from bodyvib.fmu_build import build_fmu
+from vehicle.fmus import build_project_fmu
 from vehicle.cosim import BODY_INPUTS, BODY_OUTPUTS, CAR_INPUTS, CAR_OUTPUTS, cosimulate, open_fmu
 from vehicle.roads import make_road, road_input
 
@@ -72,8 +72,8 @@ def main(argv=None):
     a = ap.parse_args(argv)
     h, V = 1e-3, 20.0
     with tempfile.TemporaryDirectory() as d:
-        car_path = str(build_fmu("QuarterCar", d))
-        body_path = str(build_fmu(a.body, d))
+        car_path = str(build_project_fmu("QuarterCar", d))
+        body_path = str(build_project_fmu(a.body, d))
         T = (a.steps + 1) * h
         t = np.arange(a.steps + 1) * h
         z, v = road_input(make_road("C", V, T), V, t)

@@ -29,12 +29,13 @@ import time
 
 import numpy as np
 
-from bodyvib.fit import (GENES, fit, genes_to_parameters, load_config, model_target,
-                         objective_time_domain, parameter_array, parameters_to_genes,
-                         reduced_network)
+from bodyvib.fit_config import load_config
+from bodyvib.fit_objective import model_target, objective_time_domain, parameter_array
+from bodyvib.fit_search import fit
+from bodyvib.fit_space import GENES, genes_to_parameters, parameters_to_genes, reduced_network
 from bodyvib.models import load_model
 from bodyvib.frequency import frequency_response
-from bodyvib.network import linear_model
+from bodyvib.runtime.network import linear_model
 
 REFIT = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "params",
                      "refit-iso7962.json")
@@ -96,7 +97,7 @@ def main(argv=None):
     out = os.path.join(tempfile.mkdtemp(), "refit.json")
 
     def cli():
-        subprocess.run([sys.executable, "-m", "bodyvib.cli", "fit", "--reference", "iso7962",
+        subprocess.run([sys.executable, "-m", "bodyvib_cli", "fit", "--reference", "iso7962",
                         "--seed", "1", "--out", out, "--quiet"], check=True)
 
     vectorized(), loop(), state_space(), time_domain()  # warm up

@@ -30,9 +30,9 @@ import time
 
 import numpy as np
 
-from bodyvib.fmu_build import build_fmu
+from vehicle.fmus import build_project_fmu
 from bodyvib.models import load_model
-from bodyvib.discretize import Discretization
+from bodyvib.runtime.discretize import Discretization
 from vehicle.cosim import open_fmu
 
 OUT = ["head_acceleration", "head_displacement", "torso_displacement", "seat_force"]
@@ -112,7 +112,7 @@ def run_numpy_lean(mats, C, D, t, xr, vs, h):
 
 def run_core(t, xr, vs, h):
     """The FMU's run-time core called directly (no FMI, no ctypes): the slave's own share."""
-    from bodyvib.fmu_core import FmuCore
+    from bodyvib.runtime.engine import FmuCore
 
     core = FmuCore("body", load_model("reduced-paper"))
     core.initialize()
@@ -136,7 +136,7 @@ def main(argv=None):
 
     h = args.step_size
     with tempfile.TemporaryDirectory() as tmp, contextlib.ExitStack() as stack:
-        path = str(build_fmu("HumanBody3DOF", tmp))
+        path = str(build_project_fmu("HumanBody3DOF", tmp))
         slave_a = stack.enter_context(open_fmu(path, "body", "convenience"))
         slave_b = stack.enter_context(open_fmu(path, "body", "raw"))
         fmu_a, fmu_b, vr = slave_a.fmu, slave_b.fmu, slave_a.vr

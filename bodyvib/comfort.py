@@ -33,7 +33,7 @@ from typing import Dict
 
 import numpy as np
 
-from .errors import BodyvibError
+from .runtime.errors import BodyvibError
 
 __all__ = [
     "WK_PARAMETERS",

@@ -1,16 +1,16 @@
-"""Build the FMUs (``python build_fmu.py``, ``bodyvib build``).
+"""Build one pythonfmu FMU from a model: any network, any FMU kind of the contract.
 
-Writes ``HumanBody3DOF.fmu`` (the paper's reduced model, or any parameter file
-given with ``--params``), ``HumanBodyISO7962.fmu`` and ``QuarterCar.fmu`` with
-pythonfmu, then finishes each ``modelDescription.xml`` (units, min/max,
-ModelStructure with Outputs and InitialUnknowns) so that ``fmpy validate``
-reports no problem, and checks that it does.
+:func:`build_fmu` writes ``<name>.fmu`` with pythonfmu, then finishes its
+``modelDescription.xml`` (units, min/max, ModelStructure with Outputs and
+InitialUnknowns) so that ``fmpy validate`` reports no problem, and checks that
+it does. The project's own set of FMUs (``HumanBody3DOF``, ``HumanBodyISO7962``,
+``QuarterCar``) and ``python build_fmu.py`` are :mod:`vehicle.fmus`.
 
 Private module names. A module name loaded inside an FMU is global to the host
 process and the first loaded copy wins, so each FMU ships:
 
 * ``resources/bodyvib_rt_<fmu>_<hash>/``: a copy of the numpy-only run-time
-  modules (:data:`RUNTIME_MODULES`, relative imports only);
+  package :mod:`bodyvib.runtime` (relative imports only);
 * ``resources/bodyvib_fmu_<fmu>_<hash>.py``: the one slave script of
   ``fmu_src/`` rendered for this FMU (:func:`render_slave_script`), its
   ``RUNTIME`` line pointing at that package;
@@ -24,6 +24,7 @@ numpy (the slave imports pythonfmu, which the FMU carries in its resources).
 """
 
 import hashlib
+import importlib.util
 import io
 import json
 import re
@@ -32,57 +33,41 @@ import sys
 import tempfile
 import zipfile
 from pathlib import Path
-from typing import Dict, Iterable, Optional
+from typing import Dict, Iterable
 from xml.etree import ElementTree as ET
 
 from . import __version__
-from .errors import BodyvibError
-from .fileio import atomic_write_bytes
-from .fmu_core import MODEL_FILE
+from .runtime.errors import BodyvibError
+from .runtime.contract import MODEL_FILE, UNITS
+from .runtime.fileio import atomic_write_bytes
+from .runtime.network import Network
 
-__all__ = ["FMUS", "RUNTIME_MODULES", "UNITS", "build_fmu", "build_fmus", "render_slave_script",
-           "write_runtime_package",
-           "add_command", "main"]
+__all__ = ["RUNTIME_DIR", "SLAVE_SCRIPT", "build_fmu", "render_slave_script",
+           "runtime_sources", "write_runtime_package"]
 
-#: FMU name -> (kind, default model, description).
-FMUS = {
-    "HumanBody3DOF": ("body", "reduced-paper",
-                      "Reduced 3-DOF seated human body (Balci & Gundogdu 2025): seat motion in, "
-                      "head acceleration and seat force out; exact discretization"),
-    "HumanBodyISO7962": ("body", "iso7962",
-                         "ISO 7962 four-mass seated human body (reconstructed topology): seat motion "
-                         "in, head acceleration and seat force out; exact discretization"),
-    "QuarterCar": ("car", "quarter-car",
-                   "Quarter car (sprung mass, suspension, unsprung mass, tire): road and seat force "
-                   "in, seat motion, suspension deflection and tire force out; exact discretization"),
-}
+#: The run-time package copied into every FMU.
+RUNTIME_DIR = Path(__file__).resolve().parent / "runtime"
 
-#: The one slave script, rendered per FMU.
+#: The one slave script, rendered per FMU (shipped in the ``fmu_src`` package).
 SLAVE_SCRIPT = "bodyvib_fmu_slave.py"
 
-#: The numpy-only modules an FMU needs at run time (relative imports only).
-RUNTIME_MODULES = ("errors.py", "fileio.py", "network.py", "models.py", "discretize.py", "fmu_core.py",
-                   "fmu_teardown.py")
 
-#: SI units used by the FMUs, as exponents of the FMI base units.
-UNITS = {
-    "m": {"m": 1}, "m/s": {"m": 1, "s": -1}, "m/s2": {"m": 1, "s": -2},
-    "N": {"kg": 1, "m": 1, "s": -2}, "N/s": {"kg": 1, "m": 1, "s": -3},
-    "kg": {"kg": 1}, "N/m": {"kg": 1, "s": -2}, "N.s/m": {"kg": 1, "s": -1},
-}
-
-PACKAGE_DIR = Path(__file__).resolve().parent
-SOURCE_DIR = PACKAGE_DIR.parent / "fmu_src"
+def _slave_template() -> Path:
+    spec = importlib.util.find_spec("fmu_src")
+    if spec is None or not spec.submodule_search_locations:
+        raise BodyvibError("the fmu_src package (the FMU slave source) is not installed; "
+                           "reinstall bodyvib (pip install bodyvib)")
+    return Path(list(spec.submodule_search_locations)[0]) / SLAVE_SCRIPT
 
 
-def _load_network(kind: str, model: str):
-    if kind == "car":
-        from vehicle.quarter_car import load_car  # build time only
+def runtime_sources() -> Dict[str, bytes]:
+    """The run-time package's modules: file name -> source bytes, sorted by name.
 
-        return load_car(model)
-    from .models import load_model
-
-    return load_model(model)
+    Returns
+    -------
+    dict of str to bytes
+    """
+    return {p.name: p.read_bytes() for p in sorted(RUNTIME_DIR.glob("*.py"))}
 
 
 def _content_hash(parts: Iterable[bytes]) -> str:
@@ -93,7 +78,7 @@ def _content_hash(parts: Iterable[bytes]) -> str:
 
 
 def write_runtime_package(folder, package: str, owner: str = "an FMU") -> Path:
-    """Copy the numpy-only run-time modules into ``folder/package/``.
+    """Copy the run-time package :mod:`bodyvib.runtime` into ``folder/package/``.
 
     Parameters
     ----------
@@ -111,24 +96,29 @@ def write_runtime_package(folder, package: str, owner: str = "an FMU") -> Path:
     """
     pkg = Path(folder) / package
     pkg.mkdir(parents=True, exist_ok=True)
-    for m in RUNTIME_MODULES:
-        (pkg / m).write_bytes((PACKAGE_DIR / m).read_bytes())
+    for m, data in runtime_sources().items():
+        if m != "__init__.py":
+            (pkg / m).write_bytes(data)
     (pkg / "__init__.py").write_text(
-        f'"""Private copy of the bodyvib {__version__} run-time modules for {owner}."""\n'
+        f'"""Private copy of the bodyvib {__version__} run-time package for {owner}."""\n'
         f'__version__ = "{__version__}"\n', encoding="utf-8")
     return pkg
 
 
-def render_slave_script(name: str, runtime_package: str) -> str:
+def render_slave_script(name: str, kind: str, description: str, runtime_package: str) -> str:
     """The slave script of one FMU: ``fmu_src/bodyvib_fmu_slave.py`` rendered.
 
     Parameters
     ----------
     name : str
-        FMU model name (a key of :data:`FMUS`); becomes the slave class name.
+        FMU model name; becomes the slave class name.
+    kind : str
+        FMU kind of the contract (``"body"`` or ``"car"``).
+    description : str
+        One-line description of the FMU.
     runtime_package : str
         Package the script imports the run-time modules from (the FMU's
-        private copy; ``"bodyvib"`` to run the script against the library).
+        private copy; ``"bodyvib.runtime"`` to run the script against the library).
 
     Returns
     -------
@@ -138,20 +128,16 @@ def render_slave_script(name: str, runtime_package: str) -> str:
     Raises
     ------
     BodyvibError
-        Unknown FMU, or ``fmu_src/`` missing (building needs a source checkout).
+        An FMU name that is not a Python identifier, or the slave source missing.
     """
-    if name not in FMUS:
-        raise BodyvibError(f"unknown FMU '{name}'; FMUs are {', '.join(FMUS)}")
-    kind, _, description = FMUS[name]
-    script = SOURCE_DIR / SLAVE_SCRIPT
+    if not name.isidentifier():
+        raise BodyvibError(f"FMU name '{name}' is not a valid identifier (letters, digits, _)")
+    script = _slave_template()
     if not script.is_file():
-        raise BodyvibError(
-            f"slave script {script} not found: build the FMUs from a source checkout "
-            "(git clone, then pip install -e .)"
-        )
+        raise BodyvibError(f"slave script {script} not found; reinstall bodyvib")
     text = script.read_text(encoding="utf-8")
     for pattern, line in (
-        (r'^RUNTIME = "bodyvib".*$', f"RUNTIME = {runtime_package!r}"),
+        (r'^RUNTIME = "bodyvib.runtime".*$', f"RUNTIME = {runtime_package!r}"),
         (r'^KIND = .*$', f"KIND = {kind!r}"),
         (r'^DESCRIPTION = .*$', f"DESCRIPTION = {description!r}"),
         (r'^class BodyvibSlave\(Fmi2Slave\):.*$', f"class {name}(Fmi2Slave):"),
@@ -162,18 +148,23 @@ def render_slave_script(name: str, runtime_package: str) -> str:
     return text
 
 
-def build_fmu(name: str, dest="dist", model: Optional[str] = None) -> Path:
-    """Build one FMU.
+
+def build_fmu(network: Network, kind: str, name: str, description: str, dest="dist") -> Path:
+    """Build one pythonfmu FMU of a model.
 
     Parameters
     ----------
+    network : Network
+        The model to bake in (its parameter values become the parameters' start values).
+    kind : str
+        FMU kind of the contract: ``"body"`` or ``"car"``
+        (:data:`bodyvib.runtime.contract.KINDS`).
     name : str
-        ``"HumanBody3DOF"``, ``"HumanBodyISO7962"`` or ``"QuarterCar"``.
+        FMU model name (``"HumanBody3DOF"``); the file is ``dest/<name>.fmu``.
+    description : str
+        One-line description written into the model description.
     dest : str or path
         Output folder (created if missing).
-    model : str, optional
-        Shipped model name or parameter-file path to bake in (the FMU's
-        default model if None).
 
     Returns
     -------
@@ -183,27 +174,29 @@ def build_fmu(name: str, dest="dist", model: Optional[str] = None) -> Path:
     Raises
     ------
     BodyvibError
-        Unknown FMU, invalid parameter file, missing ``fmu_src/``, or an FMU
-        that ``fmpy validate`` finds problems in.
-    """
-    if name not in FMUS:
-        raise BodyvibError(f"unknown FMU '{name}'; FMUs are {', '.join(FMUS)}")
-    kind, default_model, _ = FMUS[name]
-    from .fmu_core import FmuCore
-    from .models import network_to_dict
+        A model the FMU kind cannot run, invalid parameters, pythonfmu
+        failing, or an FMU that ``fmpy validate`` finds problems in.
 
-    network = _load_network(kind, model or default_model)
+    Examples
+    --------
+    >>> from bodyvib.models import load_model
+    >>> build_fmu(load_model("reduced-paper"), "body", "HumanBody3DOF",
+    ...           "reduced body", "dist")  # doctest: +SKIP
+    PosixPath('dist/HumanBody3DOF.fmu')
+    """
+    from .runtime.engine import FmuCore
+    from .runtime.modelfile import network_to_dict
+
     core = FmuCore(kind, network, name)  # refuses a model the FMU could not run
     core.check_parameters()
 
-    sources = {m: (PACKAGE_DIR / m).read_bytes() for m in RUNTIME_MODULES}
+    sources = runtime_sources()
     model_bytes = (json.dumps(network_to_dict(network), indent=2) + "\n").encode()
-    template = render_slave_script(name, "bodyvib")
-    digest = _content_hash([template.encode(), model_bytes] + [sources[m] for m in RUNTIME_MODULES])
+    template = render_slave_script(name, kind, description, "bodyvib.runtime")
+    digest = _content_hash([template.encode(), model_bytes] + list(sources.values()))
     package = f"bodyvib_rt_{name.lower()}_{digest}"
     module = f"bodyvib_fmu_{name.lower()}_{digest}"
-    script_text = render_slave_script(name, package)
-
+    script_text = render_slave_script(name, kind, description, package)
     dest = Path(dest)
     with tempfile.TemporaryDirectory(prefix="bodyvib_build_") as tmp:
         stage = Path(tmp) / "stage"
@@ -299,81 +292,3 @@ def _validate(path: Path):
     from fmpy.validation import validate_fmu
 
     return validate_fmu(str(path))
-
-
-def build_fmus(dest="dist", params: Optional[str] = None, names: Optional[Iterable[str]] = None,
-               echo=None) -> Dict[str, Path]:
-    """Build the FMUs.
-
-    Parameters
-    ----------
-    dest : str or path
-        Output folder (``dist`` by default).
-    params : str, optional
-        Parameter file (or shipped model name) baked into ``HumanBody3DOF.fmu``;
-        the paper's Table 2 (``reduced-paper``) by default.
-    names : iterable of str, optional
-        Which FMUs (all by default).
-    echo : callable, optional
-        Called with one line per FMU written.
-
-    Returns
-    -------
-    dict of str to Path
-
-    Raises
-    ------
-    BodyvibError
-        See :func:`build_fmu`.
-
-    Examples
-    --------
-    >>> paths = build_fmus("dist")  # doctest: +SKIP
-    >>> sorted(paths)  # doctest: +SKIP
-    ['HumanBody3DOF', 'HumanBodyISO7962', 'QuarterCar']
-    """
-    out = {}
-    for name in names or FMUS:
-        model = params if (name == "HumanBody3DOF" and params) else None
-        out[name] = build_fmu(name, dest, model)
-        if echo:
-            echo(f"wrote {out[name]} (model {model or FMUS[name][1]}; fmpy validate: no problems)")
-    return out
-
-
-def _run(args) -> int:
-    if getattr(args, "native", False):
-        from .native_build import build_native_fmus
-
-        build_native_fmus(Path(args.dest) / "native", args.params, args.fmus, echo=print)
-        return 0
-    build_fmus(args.dest, args.params, args.fmus, echo=print)
-    return 0
-
-
-def add_command(subparsers):
-    """Register ``bodyvib build``."""
-    p = subparsers.add_parser(
-        "build", help="build the FMUs (HumanBody3DOF, HumanBodyISO7962, QuarterCar) into dist/",
-        description="Build HumanBody3DOF.fmu, HumanBodyISO7962.fmu and QuarterCar.fmu with "
-        "pythonfmu and check them with fmpy validate. --params bakes a parameter file into "
-        "HumanBody3DOF.fmu (default: the paper's Table 2).",
-    )
-    p.add_argument("--params", metavar="FILE", help="parameter file for HumanBody3DOF.fmu "
-                   "(default: reduced-paper, the paper's Table 2)")
-    p.add_argument("--dest", default="dist", help="output folder (default: dist)")
-    p.add_argument("--fmus", nargs="+", choices=list(FMUS), metavar="NAME",
-                   help=f"build only these ({', '.join(FMUS)})")
-    p.add_argument("--native", action="store_true",
-                   help="build the native C FMUs instead (FMI 2.0 into DEST/native, FMI 3.0 "
-                   "into DEST/native/fmi3; linux64 + win64 binaries and sources; no Python "
-                   "needed by the host)")
-    p.set_defaults(func=_run)
-    return p
-
-
-def main(argv=None) -> int:
-    """``python build_fmu.py [options]``: the same as ``bodyvib build [options]``."""
-    from .cli import main as cli_main
-
-    return cli_main(["build"] + list(sys.argv[1:] if argv is None else argv))

@@ -13,16 +13,65 @@ from typing import List, Sequence
 
 import numpy as np
 
-from .errors import BodyvibError
-from .network import as_linear_model, control_labels
+from .runtime.errors import BodyvibError
+from .runtime.network import as_linear_model
 
 __all__ = [
+    "control_labels",
+    "to_statespace",
     "frequency_response",
     "transmissibility",
     "apparent_mass",
     "find_peaks",
     "displacement_input_statespace",
 ]
+
+
+def control_labels(names) -> list:
+    """Signal names as python-control accepts them ('.' replaced by '_').
+
+    Parameters
+    ----------
+    names : sequence of str
+
+    Returns
+    -------
+    list of str
+    """
+    return [n.replace(".", "_") for n in names]
+
+
+def to_statespace(model):
+    """A model as a python-control ``StateSpace`` with named signals.
+
+    Parameters
+    ----------
+    model : Network or LinearModel
+
+    Returns
+    -------
+    control.StateSpace
+        All inputs (base displacement, base velocity, forces) and outputs;
+        python-control forbids '.' in signal names, so ``m1.x`` is labelled
+        ``m1_x`` there.
+
+    Notes
+    -----
+    For a transmissibility, the base velocity input must be driven by ``s``
+    times the displacement; see :func:`displacement_input_statespace`.
+
+    Examples
+    --------
+    >>> from bodyvib.models import load_model
+    >>> to_statespace(load_model("reduced-paper")).nstates
+    5
+    """
+    import control
+
+    lm = as_linear_model(model)
+    return control.ss(lm.A, lm.B, lm.C, lm.D, inputs=control_labels(lm.inputs),
+                      outputs=control_labels(lm.outputs), states=control_labels(lm.states),
+                      name=lm.network.name)
 
 
 def frequency_response(model, frequencies_hz, output: str) -> np.ndarray:

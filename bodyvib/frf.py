@@ -1,4 +1,4 @@
-"""Seat-to-head transmissibility of several models side by side: the ``frf`` command.
+"""Seat-to-head transmissibility of several models side by side (``bodyvib frf``).
 
 The comparison of the paper's Fig. 3 (without its experimental points):
 modulus and phase of ``T = X_head / X_seat`` over 0.5-31.5 Hz, the range of
@@ -7,8 +7,7 @@ ISO 7962's data, with each model's resonance peaks.
 
 import numpy as np
 
-from .errors import BodyvibError
-from .fileio import write_json
+from .runtime.errors import BodyvibError
 from .frequency import find_peaks, transmissibility
 from .models import load_model
 
@@ -17,13 +16,14 @@ __all__ = [
     "compare_transmissibility",
     "format_table",
     "plot_transmissibility",
-    "add_command",
+    "DEFAULT_MODELS",
 ]
 
 #: One-third-octave centre frequencies of ISO 7962's range, Hz.
 THIRD_OCTAVE_HZ = (0.5, 0.63, 0.8, 1.0, 1.25, 1.6, 2.0, 2.5, 3.15, 4.0, 5.0, 6.3,
                    8.0, 10.0, 12.5, 16.0, 20.0, 25.0, 31.5)
 
+#: Models compared by default.
 DEFAULT_MODELS = ("reduced-paper", "iso7962")
 
 
@@ -142,35 +142,3 @@ def plot_transmissibility(result, path, title="Seat-to-head transmissibility"):
     ax2.set_ylabel("phase [deg]")
     ax2.grid(True, which="both", alpha=0.3)
     save_figure(fig, path)
-
-
-def _run(args):
-    result = compare_transmissibility(args.models, args.fmin, args.fmax, args.points)
-    print(format_table(result))
-    if args.json:
-        write_json(args.json, result)
-        print(f"wrote {args.json}")
-    if args.plot:
-        plot_transmissibility(result, args.plot)
-        print(f"wrote {args.plot}")
-    return 0
-
-
-def add_command(subparsers):
-    """Register ``bodyvib frf``."""
-    p = subparsers.add_parser(
-        "frf",
-        help="seat-to-head transmissibility of models (table, JSON, plot)",
-        description="Seat-to-head transmissibility (modulus and phase) of body models "
-        "over 0.5-31.5 Hz, with each model's peaks.",
-    )
-    p.add_argument("--models", nargs="+", default=list(DEFAULT_MODELS), metavar="MODEL",
-                   help="shipped model names or parameter-file paths (default: %(default)s)")
-    p.add_argument("--fmin", type=float, default=0.5, help="lowest frequency, Hz (default 0.5)")
-    p.add_argument("--fmax", type=float, default=31.5, help="highest frequency, Hz (default 31.5)")
-    p.add_argument("--points", type=int, default=1200, help="grid points (default 1200)")
-    p.add_argument("--plot", metavar="FILE.png", help="write the comparison plot")
-    p.add_argument("--json", metavar="FILE", help="write the curves and peaks as JSON")
-    p.set_defaults(func=_run)
-    return p
-

@@ -13,9 +13,9 @@ The file is plain CSV with a header row naming the columns::
 Further columns are ignored; blank lines and lines starting with ``#`` are
 skipped. Every problem (a missing column, a value that is not a number, a NaN,
 a frequency that does not increase, a negative modulus, too few rows) is a
-:class:`~bodyvib.errors.BodyvibError` naming the line and the fix.
+:class:`~bodyvib.runtime.errors.BodyvibError` naming the line and the fix.
 
-The GA refit (:mod:`bodyvib.fit`) fits the reduced model to such data: to the
+The GA refit (:mod:`bodyvib.fit_objective`) fits the reduced model to such data: to the
 complex transmissibility when the phase is given, to the modulus alone when
 it is not.
 """
@@ -28,7 +28,7 @@ from typing import Optional
 
 import numpy as np
 
-from .errors import BodyvibError
+from .runtime.errors import BodyvibError
 
 __all__ = ["MIN_ROWS", "MeasuredTransmissibility", "read_transmissibility_csv",
            "write_transmissibility_csv"]
@@ -191,7 +191,7 @@ def write_transmissibility_csv(path, frequency_hz, modulus, phase_deg=None) -> N
     phase_deg : array_like, optional
         Phase in degrees.
     """
-    from .fileio import atomic_write_text
+    from .runtime.fileio import atomic_write_text
 
     cols = [np.asarray(frequency_hz, float), np.asarray(modulus, float)]
     header = "frequency_hz,modulus"

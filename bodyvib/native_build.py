@@ -1,17 +1,17 @@
-"""Build the native (C) FMUs: ``python build_fmu.py --native``, ``bodyvib build --native``.
+"""Build native (C) FMUs (``python build_fmu.py --native``, ``bodyvib build --native``).
 
 The same models and the same FMU contract as the pythonfmu FMUs
-(:mod:`bodyvib.fmu_build`), written as C that needs nothing on the host beyond
+(:func:`bodyvib.fmu_build.build_fmu`), written as C that needs nothing on the host beyond
 libc and libm. No C is written per model:
 
 * the C sources in ``fmu_src/native/`` are model-independent: one core
   (``bodyvib_core.c``: assembly, solve, Pade(13) exponential, exact stepping,
   snapshots) and thin FMI 2.0 / 3.0 function files;
 * this module emits the model as data (``bodyvib_model.c``): the descriptor form
-  of :func:`bodyvib.network.descriptor_model`, whose matrices are affine in the
+  of :func:`bodyvib.runtime.network.descriptor_model`, whose matrices are affine in the
   parameters, as sparse per-parameter stencils (the builder evaluated with one
   parameter at 1 and the others at 0), plus the FMU contract of
-  :class:`bodyvib.fmu_core.FmuCore` (variable names, value references, units,
+  :class:`bodyvib.runtime.engine.FmuCore` (variable names, value references, units,
   input map, rate pairs, output rows).
 
 An output named ``<name>_rate`` next to an output ``<name>`` is the exact time
@@ -44,17 +44,16 @@ from xml.etree import ElementTree as ET
 import numpy as np
 
 from . import __version__
-from .errors import BodyvibError
-from .fileio import atomic_write_bytes
-from .fmu_build import FMUS, UNITS, _load_network
-from .fmu_core import MODEL_FILE, FmuCore, Variable
-from .network import descriptor_model
+from .runtime.contract import MODEL_FILE, UNITS, Variable
+from .runtime.engine import FmuCore
+from .runtime.errors import BodyvibError
+from .runtime.fileio import atomic_write_bytes
+from .runtime.network import Network, descriptor_model
 
 __all__ = ["NATIVE_SOURCES", "PLATFORMS", "NativeModel", "native_model", "model_source",
-           "model_description", "build_native_fmu", "build_native_fmus", "fmi_headers"]
+           "model_description", "build_description", "build_native_fmu", "fmi_headers"]
 
-PACKAGE_DIR = Path(__file__).resolve().parent
-NATIVE_DIR = PACKAGE_DIR.parent / "fmu_src" / "native"
+NATIVE_DIR = Path(__file__).resolve().parent.parent / "fmu_src" / "native"
 
 #: The model-independent C sources and the FMI function file of each FMI version.
 NATIVE_SOURCES = ("bodyvib_core.h", "bodyvib_core.c")
@@ -87,6 +86,8 @@ class NativeModel:
         FMU model name.
     kind : str
         ``"body"`` or ``"car"``.
+    description : str
+        One-line description of the FMU.
     network : Network
     variables : tuple of Variable
         By value reference.
@@ -116,6 +117,7 @@ class NativeModel:
 
     name: str
     kind: str
+    description: str
     network: object
     variables: Tuple[Variable, ...]
     kinds: Tuple[int, ...]
@@ -173,17 +175,19 @@ def _stencils(network, params: Sequence[str], rows: Sequence[int]):
     return out
 
 
-def native_model(kind: str, network, name: str) -> NativeModel:
+def native_model(kind: str, network: Network, name: str, description: str = "") -> NativeModel:
     """The C core's view of one FMU, read off the Python FMU contract.
 
     Parameters
     ----------
     kind : str
-        ``"body"`` or ``"car"``.
+        ``"body"`` or ``"car"`` (:data:`bodyvib.runtime.contract.KINDS`).
     network : Network
         The model baked in.
     name : str
         FMU model name.
+    description : str
+        One-line description of the FMU.
 
     Returns
     -------
@@ -249,7 +253,8 @@ def native_model(kind: str, network, name: str) -> NativeModel:
             direct = lm.D[r] @ U
         deps.append(tuple(in_vrs[i] for i in range(ni) if direct[i] != 0.0))
     return NativeModel(
-        name=name, kind=kind, network=network, variables=tuple(variables), kinds=tuple(kinds),
+        name=name, kind=kind, description=description, network=network,
+        variables=tuple(variables), kinds=tuple(kinds),
         index=tuple(index), inputs=in_vrs, outputs=tuple(out_vrs), parameters=par_vrs,
         input_map=U, pairs=tuple(pairs), out_row=tuple(rows.index(s) for s in signals),
         out_derivative=tuple(derivative), rows=rows, stencils=stencils,
@@ -326,7 +331,7 @@ def _num(x: float) -> str:
 
 
 def _description(nm: NativeModel) -> str:
-    text = FMUS[nm.name][2] if nm.name in FMUS else nm.name
+    text = nm.description or nm.name
     return f"{text}. Model '{nm.network.name}': {nm.network.description}".strip()
 
 
@@ -485,19 +490,22 @@ def _zip(folder: Path) -> bytes:
     return buf.getvalue()
 
 
-def build_native_fmu(name: str, dest="dist/native", model: Optional[str] = None, fmi: int = 2,
-                     platforms: Iterable[str] = ("linux64", "win64")) -> Path:
-    """Build one native FMU.
+def build_native_fmu(network: Network, kind: str, name: str, description: str, dest="dist/native",
+                     fmi: int = 2, platforms: Iterable[str] = ("linux64", "win64")) -> Path:
+    """Build one native FMU of a model (the counterpart of :func:`bodyvib.fmu_build.build_fmu`).
 
     Parameters
     ----------
+    network : Network
+        The model to bake in (its parameter values become the parameters' start values).
+    kind : str
+        FMU kind of the contract: ``"body"`` or ``"car"``.
     name : str
-        ``"HumanBody3DOF"``, ``"HumanBodyISO7962"`` or ``"QuarterCar"``.
+        FMU model name (``"HumanBody3DOF"``); the file is ``dest/<name>.fmu``.
+    description : str
+        One-line description written into the model description.
     dest : str or path
         Output folder (created if missing).
-    model : str, optional
-        Shipped model name or parameter-file path to bake in (the FMU's default
-        model if None).
     fmi : int
         FMI version, 2 or 3.
     platforms : iterable of str
@@ -511,23 +519,26 @@ def build_native_fmu(name: str, dest="dist/native", model: Optional[str] = None,
     Raises
     ------
     BodyvibError
-        Unknown FMU, invalid parameter file, a compiler missing or failing, or an
-        FMU that ``fmpy validate`` finds problems in; the previous file at
-        ``dest/<name>.fmu`` is then left as it was.
+        A model the FMU kind cannot run, invalid parameters, a compiler missing or
+        failing, or an FMU that ``fmpy validate`` finds problems in; the previous
+        file at ``dest/<name>.fmu`` is then left as it was.
+
+    Examples
+    --------
+    >>> from bodyvib.models import load_model
+    >>> build_native_fmu(load_model("reduced-paper"), "body", "HumanBody3DOF",
+    ...                  "reduced body", "dist/native")  # doctest: +SKIP
+    PosixPath('dist/native/HumanBody3DOF.fmu')
     """
-    if name not in FMUS:
-        raise BodyvibError(f"unknown FMU '{name}'; FMUs are {', '.join(FMUS)}")
     if fmi not in FMI_FILES:
         raise BodyvibError(f"FMI version must be 2 or 3, got {fmi!r}")
     platforms = list(platforms)
     unknown = [p for p in platforms if p not in PLATFORMS]
     if unknown or not platforms:
         raise BodyvibError(f"platforms must be among {', '.join(PLATFORMS)}, got {platforms}")
-    from .models import network_to_dict
+    from .runtime.modelfile import network_to_dict
 
-    kind, default_model, _ = FMUS[name]
-    network = _load_network(kind, model or default_model)
-    nm = native_model(kind, network, name)
+    nm = native_model(kind, network, name, description)
     token = _token(nm, model_source(nm, ""))
     headers = fmi_headers()
     dest = Path(dest)
@@ -566,44 +577,3 @@ def _validate(path: Path):
     from fmpy.validation import validate_fmu
 
     return validate_fmu(str(path))
-
-
-def build_native_fmus(dest="dist/native", params: Optional[str] = None,
-                      names: Optional[Iterable[str]] = None, fmi: Sequence[int] = (2, 3),
-                      echo=None) -> Dict[str, Path]:
-    """Build the native FMUs: FMI 2.0 into ``dest``, FMI 3.0 into ``dest/fmi3``.
-
-    Parameters
-    ----------
-    dest : str or path
-        Output folder (``dist/native`` by default).
-    params : str, optional
-        Parameter file (or shipped model name) baked into ``HumanBody3DOF.fmu``.
-    names : iterable of str, optional
-        Which FMUs (all by default).
-    fmi : sequence of int
-        FMI versions to build.
-    echo : callable, optional
-        Called with one line per FMU written.
-
-    Returns
-    -------
-    dict of str to Path
-        ``"<name>"`` (FMI 2.0) and ``"fmi3/<name>"`` -> path.
-
-    Raises
-    ------
-    BodyvibError
-        See :func:`build_native_fmu`.
-    """
-    out = {}
-    for version in fmi:
-        folder = Path(dest) if version == 2 else Path(dest) / "fmi3"
-        for name in names or FMUS:
-            model = params if (name == "HumanBody3DOF" and params) else None
-            key = name if version == 2 else f"fmi3/{name}"
-            out[key] = build_native_fmu(name, folder, model, fmi=version)
-            if echo:
-                echo(f"wrote {out[key]} (native C, FMI {version}.0, model "
-                     f"{model or FMUS[name][1]}; fmpy validate: no problems)")
-    return out

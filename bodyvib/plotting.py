@@ -3,8 +3,8 @@
 import io
 import os
 
-from .errors import BodyvibError
-from .fileio import atomic_write_bytes
+from .runtime.errors import BodyvibError
+from .runtime.fileio import atomic_write_bytes
 
 __all__ = ["new_figure", "save_figure"]
 

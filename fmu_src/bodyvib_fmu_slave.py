@@ -1,7 +1,7 @@
 """The pythonfmu slave of every bodyvib FMU (HumanBody3DOF, HumanBodyISO7962, QuarterCar).
 
-A thin slave: it declares the variables of ``bodyvib.fmu_core`` and delegates
-to :class:`bodyvib.fmu_core.FmuCore`, which holds the state and the exact
+A thin slave: it declares the variables of ``bodyvib.runtime.contract`` and delegates
+to :class:`bodyvib.runtime.engine.FmuCore`, which holds the state and the exact
 stepping. ``python build_fmu.py`` (or ``bodyvib build``) renders this one
 source per FMU (:func:`bodyvib.fmu_build.render_slave_script`): it renames the
 class to the FMU's model name, sets ``KIND`` and ``DESCRIPTION``, points
@@ -23,7 +23,7 @@ stays usable. Invalid parameters are refused at fmi2ExitInitializationMode with
 the reason logged at error level (pythonfmu gives that call no error status
 short of fmi2Fatal), and every later step is refused with the same reason.
 
-Each instance registers its FMU binary with ``bodyvib.fmu_teardown``, which releases
+Each instance registers its FMU binary with ``bodyvib.runtime.teardown``, which releases
 pythonfmu's interpreter state when a Python host exits: pythonfmu 0.7.0's own exit-time
 teardown writes into freed memory and sometimes aborts the host after its work is done.
 """
@@ -34,13 +34,14 @@ import os
 from pythonfmu import DefaultExperiment, Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Real
 from pythonfmu.enums import Fmi2Status
 
-RUNTIME = "bodyvib"  # build_fmu.py: the FMU's private copy of the numpy-only modules
+RUNTIME = "bodyvib.runtime"  # build_fmu.py: the FMU's private copy of the run-time package
 KIND = "body"  # build_fmu.py: "body" or "car"
 DESCRIPTION = "bodyvib FMU"  # build_fmu.py: the FMU's one-line description
 
-_core = importlib.import_module(RUNTIME + ".fmu_core")
-_models = importlib.import_module(RUNTIME + ".models")
-_teardown = importlib.import_module(RUNTIME + ".fmu_teardown")
+_contract = importlib.import_module(RUNTIME + ".contract")
+_engine = importlib.import_module(RUNTIME + ".engine")
+_modelfile = importlib.import_module(RUNTIME + ".modelfile")
+_teardown = importlib.import_module(RUNTIME + ".teardown")
 
 
 class BodyvibSlave(Fmi2Slave):  # build_fmu.py: renamed to the FMU's model name
@@ -51,8 +52,8 @@ class BodyvibSlave(Fmi2Slave):  # build_fmu.py: renamed to the FMU's model name
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
         _teardown.release_at_exit(self.resources, type(self).__name__)  # pythonfmu 0.7.0 exit bug
-        network = _models.network_from_file(os.path.join(self.resources, _core.MODEL_FILE))
-        self.core = _core.FmuCore(KIND, network, type(self).__name__, log=self._log_core)
+        network = _modelfile.network_from_file(os.path.join(self.resources, _contract.MODEL_FILE))
+        self.core = _engine.FmuCore(KIND, network, type(self).__name__, log=self._log_core)
         for vr, v in enumerate(self.core.variables):
             var = Real(v.name, causality=getattr(Fmi2Causality, v.causality),
                        variability=getattr(Fmi2Variability, v.variability),

@@ -12,7 +12,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 def dynamic_stiffness_response(net, f_hz, point):
     """X_point / X_base by nodal analysis in the frequency domain.
 
-    Independent of bodyvib.network.linear_model: every spring is k, every
+    Independent of bodyvib.runtime.network.linear_model: every spring is k, every
     damper c*s, every mass m*s^2, and the unknown displacements of all masses
     and nodes solve K(s) X = F(s) with the base displaced by 1.
     """

@@ -7,7 +7,7 @@ from bodyvib.analytic import (characteristic_coefficients, head_transmissibility
                               platform_transmissibility, torso_transmissibility)
 from bodyvib.frequency import frequency_response
 from bodyvib.models import load_model
-from bodyvib.network import linear_model
+from bodyvib.runtime.network import linear_model
 
 NAMES = ("m1", "m2", "k1", "k2", "c1", "c2", "ks")
 

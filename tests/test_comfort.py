@@ -7,7 +7,7 @@ from bodyvib.comfort import (
     comfort_category, comfort_figures, peak, vdv, weighted_acceleration, weighted_rms,
     wk_response,
 )
-from bodyvib.errors import BodyvibError
+from bodyvib.runtime.errors import BodyvibError
 
 # ISO 2631-1:1997, Table 3: principal weighting Wk, factor x 1000, at the nominal
 # one-third-octave centre frequencies of bands -10 ... 26 (0.1-400 Hz). Typed

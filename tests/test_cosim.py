@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from bodyvib.comfort import weighted_rms
-from bodyvib.errors import BodyvibError
+from bodyvib.runtime.errors import BodyvibError
 from conftest import ROOT
-from vehicle.check import coupling_error_sweep, run_study
+from vehicle.study import coupling_error_sweep, run_study
 from vehicle.cosim import cosimulate, model_from_fmu, open_fmu, write_csv
 from vehicle.reference import nrmse, reference_run
 from vehicle.roads import make_road, road_input
@@ -31,8 +31,8 @@ def fmus(tmp_path_factory):
                    check=True, cwd=ROOT, capture_output=True)
     cushion = tmp_path_factory.mktemp("fmus_cushion")
     subprocess.run([sys.executable, "-c",
-                    "import sys; from bodyvib.fmu_build import build_fmu; "
-                    "build_fmu('QuarterCar', sys.argv[1], 'quarter-car-cushion')", str(cushion)],
+                    "import sys; from vehicle.fmus import build_project_fmu; "
+                    "build_project_fmu('QuarterCar', sys.argv[1], 'quarter-car-cushion')", str(cushion)],
                    check=True, cwd=ROOT, capture_output=True)
     return {"body": str(d / "HumanBody3DOF.fmu"), "iso": str(d / "HumanBodyISO7962.fmu"),
             "car": str(d / "QuarterCar.fmu"), "cushion": str(cushion / "QuarterCar.fmu")}
@@ -108,7 +108,7 @@ def test_fmu_without_body_interface_is_refused(fmus):
 
 
 def _cli(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "bodyvib.cli", *args], cwd=cwd,
+    return subprocess.run([sys.executable, "-m", "bodyvib_cli", *args], cwd=cwd,
                           capture_output=True, text=True)
 
 

@@ -7,12 +7,14 @@ import pkgutil
 import pytest
 
 import bodyvib
+import bodyvib_cli
 import vehicle
 
 MODULES = sorted(
-    f"{pkg.__name__}.{m.name}"
-    for pkg in (bodyvib, vehicle)
-    for m in pkgutil.iter_modules(pkg.__path__)
+    m.name
+    for pkg in (bodyvib, vehicle, bodyvib_cli)
+    for m in pkgutil.walk_packages(pkg.__path__, pkg.__name__ + ".")
+    if not m.name.endswith("__main__")
 )
 
 

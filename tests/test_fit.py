@@ -11,16 +11,16 @@ from scipy.linalg import solve_continuous_lyapunov
 from scipy.signal import residue
 
 from bodyvib.analytic import characteristic_coefficients
-from bodyvib.errors import BodyvibError
-from bodyvib.fit import (GENES, REDUCED_PARAMETERS, fit, genes_to_parameters, impulse_response,
-                         load_config, measured_target, model_target, objective_frequency_domain,
-                         objective_time_domain, parameter_array, parameters_to_genes, parse_pairs,
-                         quadrature_grid, reduced_network)
+from bodyvib.runtime.errors import BodyvibError
+from bodyvib.fit_config import load_config, parse_pairs
+from bodyvib.fit_objective import impulse_response, measured_target, model_target, objective_frequency_domain, objective_time_domain, parameter_array, quadrature_grid
+from bodyvib.fit_search import fit
+from bodyvib.fit_space import GENES, genes_to_parameters, parameters_to_genes, reduced_network, REDUCED_PARAMETERS
 from bodyvib.frequency import displacement_input_statespace, transmissibility
 from bodyvib.measured import (MIN_ROWS, MeasuredTransmissibility, read_transmissibility_csv,
                               write_transmissibility_csv)
 from bodyvib.models import load_model
-from bodyvib.network import linear_model
+from bodyvib.runtime.network import linear_model
 from conftest import ROOT
 
 COMMITTED = os.path.join(ROOT, "params", "refit-iso7962.json")
@@ -30,7 +30,7 @@ SMALL = {"ga": {"restarts": 1, "population": 30, "generations": 25, "parents_mat
 
 
 def run_cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "bodyvib.cli", *args], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "bodyvib_cli", *args], capture_output=True,
                           text=True, cwd=cwd)
 
 
@@ -400,7 +400,7 @@ def test_cli_default_fit_with_report(tmp_path, iso, paper):
     # the report's numbers are the time-domain definition too
     assert o["table2"]["time_domain_per_s"] == pytest.approx(
         objective_time_domain(iso, paper), rel=1e-9)
-    # peaks against the ISO model: the paper's 1.446 at 4.43 Hz (DESIGN.md section 3)
+    # peaks against the ISO model: the paper's 1.446 at 4.43 Hz (the README, "The models")
     assert cmp["transmissibility_peaks"]["table2"][0]["modulus"] == pytest.approx(1.446, abs=5e-4)
     assert cmp["transmissibility_peaks"]["target"][0]["frequency_hz"] == pytest.approx(4.45, abs=0.01)
     md = (rep / "comparison.md").read_text()
@@ -422,8 +422,8 @@ def test_cli_refuses_conflicting_options(tmp_path):
 def test_recorded_command_reproduces_the_polish_choice():
     """The provenance's command dropped an explicit --polish, so with a configuration that
     disables the polish it would not remake the file."""
-    from bodyvib.cli import build_parser
-    from bodyvib.fit import _command_line
+    from bodyvib_cli.main import build_parser
+    from bodyvib_cli.fit import _command_line
 
     parser = build_parser()
     for extra in ([], ["--polish"], ["--no-polish"]):

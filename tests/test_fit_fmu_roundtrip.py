@@ -2,7 +2,7 @@
 
 ``bodyvib fit`` writes a parameter file, ``python build_fmu.py --params FILE``
 bakes it into HumanBody3DOF.fmu, and the FMU run by fmpy responds exactly as
-the fitted model simulated by the library (bodyvib.discretize.simulate, the
+the fitted model simulated by the library (bodyvib.runtime.discretize.simulate, the
 same exact discretization). Build and FMU run happen in subprocesses: a module
 name loaded by an FMU is global to the host process.
 """
@@ -18,9 +18,9 @@ import zipfile
 import numpy as np
 import pytest
 
-from bodyvib.discretize import simulate
+from bodyvib.runtime.discretize import simulate
 from bodyvib.models import load_model
-from bodyvib.network import linear_model
+from bodyvib.runtime.network import linear_model
 
 pytestmark = pytest.mark.integration
 
@@ -52,7 +52,7 @@ RUN_FMU = textwrap.dedent(f"""
 
 def test_refit_flows_into_the_rebuilt_fmu(tmp_path):
     refit_file = tmp_path / "refit.json"
-    fit = subprocess.run([sys.executable, "-m", "bodyvib.cli", "fit", "--reference", "iso7962",
+    fit = subprocess.run([sys.executable, "-m", "bodyvib_cli", "fit", "--reference", "iso7962",
                           "--seed", "1", "--out", str(refit_file), "--quiet"],
                          capture_output=True, text=True, timeout=300)
     assert fit.returncode == 0, fit.stderr

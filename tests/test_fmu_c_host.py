@@ -4,7 +4,7 @@ tests/c_host/fmi2_host.c is a minimal FMI 2.0 co-simulation host (dlopen, fmi2In
 with a file:// resource URI, setup/initialization, setReal/doStep/getReal, terminate,
 freeInstance, dlclose). It computes its own seat bump and prints every output with %.17g,
 so this test compares a C program's view of the FMUs with the library's exact discrete
-simulation (bodyvib.discretize.simulate), an independent code path. Values cross the FMI
+simulation (bodyvib.runtime.discretize.simulate), an independent code path. Values cross the FMI
 boundary as doubles and the FMUs step exactly, so they agree to the core's 1e-9.
 
 What the host needs, measured here (pyenv CPython 3.11.7 built with --enable-shared, numpy
@@ -24,7 +24,7 @@ in its own site-packages), given in an otherwise empty environment (not even PAT
   installation on this machine has numpy too.
 
 Exit: pythonfmu 0.7.0's binary cannot be unloaded and its teardown at process exit touches
-freed memory (see the comment in fmi2_host.c and bodyvib/fmu_teardown.py), which aborts some
+freed memory (see the comment in fmi2_host.c and bodyvib/runtime/teardown.py), which aborts some
 runs. The host calls the binary's finalizePythonInterpreter after fmi2FreeInstance, and
 then exits normally; valgrind shows that this removes the use of freed memory, and that
 leaving the call out (--skip-finalize) brings it back.
@@ -42,9 +42,9 @@ import numpy as np
 import pytest
 from memcheck import freed_memory_errors, memcheck
 
-from bodyvib.discretize import simulate
+from bodyvib.runtime.discretize import simulate
 from bodyvib.models import load_model
-from bodyvib.network import linear_model
+from bodyvib.runtime.network import linear_model
 
 pytestmark = pytest.mark.integration
 

@@ -1,7 +1,7 @@
-"""The FMU run-time core (bodyvib.fmu_core) and the slave classes, in plain Python.
+"""The FMU run-time engine (bodyvib.runtime.engine) and the slave classes, in plain Python.
 
 The FMUs' outputs must equal the library's exact discrete simulation
-(bodyvib.discretize.simulate, itself checked against Radau in
+(bodyvib.runtime.discretize.simulate, itself checked against Radau in
 test_discretize.py) to relative 1e-9; the tolerance is many orders above the
 rounding of two differently grouped products (~1e-14 measured) and far below
 any modelling error. Physics checks (static equilibrium) are independent of
@@ -19,11 +19,13 @@ import textwrap
 import numpy as np
 import pytest
 
-from bodyvib.discretize import simulate
-from bodyvib.errors import BodyvibError
-from bodyvib.fmu_core import MODEL_FILE, FmuCore
-from bodyvib.models import load_model, save_model
-from bodyvib.network import linear_model
+from bodyvib.runtime.discretize import simulate
+from bodyvib.runtime.errors import BodyvibError
+from bodyvib.runtime.contract import MODEL_FILE
+from bodyvib.runtime.engine import FmuCore
+from bodyvib.models import load_model
+from bodyvib.runtime.modelfile import save_model
+from bodyvib.runtime.network import linear_model
 from vehicle.quarter_car import load_car
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -288,8 +290,8 @@ def test_runtime_package_needs_numpy_only(tmp_path):
     write_runtime_package(tmp_path, "private_rt_x")
     save_model(load_model("iso7962"), tmp_path / "m.json")
     code = BLOCKER + textwrap.dedent("""
-        import private_rt_x.fmu_core as c, private_rt_x.models as m
-        core = c.FmuCore('body', m.network_from_file('m.json'), 'X')
+        import private_rt_x.engine as e, private_rt_x.modelfile as m
+        core = e.FmuCore('body', m.network_from_file('m.json'), 'X')
         core.initialize()
         core.set_real([0, 1], [0.0, 0.1])
         core.do_step(0.0, 1e-3)
@@ -311,9 +313,12 @@ def load_slave_class(name):
     import types
 
     from bodyvib.fmu_build import render_slave_script
+    from vehicle.fmus import FMUS
 
+    kind, _, description = FMUS[name]
     mod = types.ModuleType(f"slave_{name}")
-    exec(compile(render_slave_script(name, "bodyvib"), f"<{name} slave>", "exec"), mod.__dict__)
+    exec(compile(render_slave_script(name, kind, description, "bodyvib.runtime"), f"<{name} slave>",
+                 "exec"), mod.__dict__)
     return mod
 
 

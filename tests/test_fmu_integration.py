@@ -2,7 +2,7 @@
 
 The FMUs are built once per session, in a subprocess (a module name loaded by
 an FMU is global to the process). References are the library's exact discrete
-simulation (bodyvib.discretize.simulate, checked against Radau in
+simulation (bodyvib.runtime.discretize.simulate, checked against Radau in
 test_discretize.py). Values cross the FMI boundary as doubles, so FMU2Slave
 runs must agree to the core's 1e-9; importer runs to the issue's 1e-6.
 
@@ -22,9 +22,10 @@ import zipfile
 import numpy as np
 import pytest
 
-from bodyvib.discretize import simulate
-from bodyvib.models import load_model, save_model
-from bodyvib.network import linear_model
+from bodyvib.runtime.discretize import simulate
+from bodyvib.models import load_model
+from bodyvib.runtime.modelfile import save_model
+from bodyvib.runtime.network import linear_model
 from vehicle.quarter_car import load_car
 
 pytestmark = pytest.mark.integration
@@ -146,7 +147,7 @@ def test_fmpy_validate_reports_no_problems(fmus):
 
 @pytest.mark.parametrize("name", NAMES)
 def test_model_description_interface(fmus, name):
-    """Names, causality, units of DESIGN section 7; parameters with the parameter
+    """Names, causality, units of the FMU contract (docs/architecture.md); parameters with the parameter
     file's values as start, positive min; ModelStructure with all outputs."""
     with zipfile.ZipFile(fmus[name]) as zf:
         root = ET.fromstring(zf.read("modelDescription.xml"))
@@ -185,7 +186,7 @@ def test_params_file_is_baked_into_humanbody3dof(fmus, tmp_path):
     also beside the default HumanBody3DOF.fmu in the same process (different hashed names)."""
     net = load_model("reduced-paper").with_parameters(m1=5.5, c1=400.0)
     save_model(net, tmp_path / "refit.json")
-    out = subprocess.run([sys.executable, "-m", "bodyvib.cli", "build", "--params",
+    out = subprocess.run([sys.executable, "-m", "bodyvib_cli", "build", "--params",
                           str(tmp_path / "refit.json"), "--fmus", "HumanBody3DOF",
                           "--dest", str(tmp_path)], cwd=ROOT, capture_output=True, text=True,
                          timeout=300)
@@ -227,8 +228,8 @@ def test_build_in_a_process_that_already_ran_an_fmu(fmus, tmp_path):
         s.fmu.doStep(0.0, 1e-3)
         import pythonfmu
         print(pythonfmu.__file__)
-        from bodyvib.fmu_build import build_fmu
-        path = build_fmu('QuarterCar', {str(tmp_path)!r})
+        from vehicle.fmus import build_project_fmu
+        path = build_project_fmu('QuarterCar', {str(tmp_path)!r})
         t = Slave(str(path), name='second')
         for fmu in (s, t):  # the same inputs from the same state: identical outputs
             fmu.set(['road_displacement', 'road_velocity', 'seat_force'], [0.01, 0.3, 100.0])
@@ -245,7 +246,7 @@ def test_build_in_a_process_that_already_ran_an_fmu(fmus, tmp_path):
 
 def test_bad_params_file_is_refused_by_the_build_command(tmp_path):
     (tmp_path / "bad.json").write_text('{"name": "x"}')
-    out = subprocess.run([sys.executable, "-m", "bodyvib.cli", "build", "--params",
+    out = subprocess.run([sys.executable, "-m", "bodyvib_cli", "build", "--params",
                           str(tmp_path / "bad.json"), "--dest", str(tmp_path)],
                          cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert out.returncode == 2
@@ -520,7 +521,7 @@ def test_many_instances_in_one_process(fmus):
 def test_python_host_exit_does_not_touch_freed_memory(fmus):
     """pythonfmu 0.7.0's exit-time teardown writes into a freed block (the likely cause of
     the abort test_many_instances_in_one_process used to show in a few runs out of ten);
-    each instance registers its binary with bodyvib.fmu_teardown, whose atexit handler
+    each instance registers its binary with bodyvib.runtime.teardown, whose atexit handler
     releases the state before that. Under valgrind an fmpy host exits with no invalid
     access in finalizePythonInterpreter; with the handler unregistered the same script has
     one, so the check sees the bug when it is there."""
@@ -534,7 +535,7 @@ def test_python_host_exit_does_not_touch_freed_memory(fmus):
         s.set(['seat_displacement', 'seat_velocity'], [0.01, 0.0])
         s.fmu.doStep(0.0, 1e-3)
         s.close()
-        (teardown,) = {{m for n, m in sys.modules.items() if n.endswith('.fmu_teardown')}}
+        (teardown,) = {{m for n, m in sys.modules.items() if n.endswith('.teardown') and n.startswith('bodyvib_rt_')}}
         assert len(teardown.registered_binaries()) == 1
         if sys.argv[1] == 'unregister':
             atexit.unregister(teardown.release_python_states)
@@ -556,7 +557,7 @@ def test_host_with_another_bodyvib_already_imported(fmus, tmp_path):
     fake = tmp_path / "fake" / "bodyvib"
     fake.mkdir(parents=True)
     (fake / "__init__.py").write_text('__version__ = "9.9-fake"\n')
-    for mod in ("fmu_core", "network", "models", "discretize", "errors"):
+    for mod in ("runtime", "fmu_build", "network", "models", "discretize", "errors"):
         (fake / f"{mod}.py").write_text(f"raise ImportError('fake bodyvib: {mod} must not be used')\n")
     t = np.arange(0, 0.3, 1e-3)
     x, v = smooth_seat(t)

@@ -1,4 +1,4 @@
-"""bodyvib.fmu_teardown in plain Python (the FMU-hosted behaviour is tested under valgrind
+"""bodyvib.runtime.teardown in plain Python (the FMU-hosted behaviour is tested under valgrind
 in test_fmu_integration.py and test_fmu_c_host.py)."""
 
 import atexit
@@ -8,7 +8,7 @@ import threading
 
 import pytest
 
-from bodyvib import fmu_teardown
+from bodyvib.runtime import teardown as fmu_teardown
 
 linux = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="Linux binaries only")
 

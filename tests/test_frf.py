@@ -14,7 +14,7 @@ from bodyvib.models import load_model
 
 
 def run_cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "bodyvib.cli", *args], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "bodyvib_cli", *args], capture_output=True,
                           text=True, cwd=cwd)
 
 
@@ -39,7 +39,7 @@ def test_frf_writes_plot_and_json(tmp_path):
 
 
 def test_frf_accepts_a_parameter_file(tmp_path):
-    from bodyvib.models import save_model
+    from bodyvib.runtime.modelfile import save_model
     net = load_model("reduced-paper").with_parameters(m1=6.0)
     from dataclasses import replace
     save_model(replace(net, name="heavier-head"), tmp_path / "h.json")

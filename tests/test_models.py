@@ -6,9 +6,9 @@ import os
 
 import pytest
 
-from bodyvib.errors import BodyvibError
-from bodyvib.models import (available_models, load_model, network_from_dict,
-                            network_to_dict, save_model)
+from bodyvib.runtime.errors import BodyvibError
+from bodyvib.models import available_models, load_model
+from bodyvib.runtime.modelfile import network_from_dict, network_to_dict, save_model
 
 
 def reduced_dict():
@@ -103,7 +103,7 @@ def test_shipped_files_are_plain_json():
 
 def test_atomic_write_gives_ordinary_file_mode(tmp_path):
     """Files written atomically get the mode open() would give (umask applied), not 0600."""
-    from bodyvib.fileio import atomic_write_text
+    from bodyvib.runtime.fileio import atomic_write_text
     umask = os.umask(0o022)
     try:
         atomic_write_text(tmp_path / "a.txt", "x")
@@ -115,7 +115,7 @@ def test_atomic_write_gives_ordinary_file_mode(tmp_path):
 
 def test_atomic_write_error_names_the_destination(tmp_path):
     """A failed write used to report the hidden temporary file ('.tmp-...') as the culprit."""
-    from bodyvib.fileio import atomic_write_text
+    from bodyvib.runtime.fileio import atomic_write_text
     with pytest.raises(IsADirectoryError) as exc:
         atomic_write_text(tmp_path, "x")  # the destination is a folder
     assert exc.value.filename == str(tmp_path)

@@ -3,7 +3,7 @@
 The native FMUs are built once by ``build_fmu.py --native`` (conftest ``native_fmus``)
 and driven through fmpy's FMU2Slave / FMU3Slave by a seat chirp. References:
 
-* :func:`bodyvib.discretize.simulate` (the library's exact simulation), and the pythonfmu
+* :func:`bodyvib.runtime.discretize.simulate` (the library's exact simulation), and the pythonfmu
   FMUs driven the same way;
 * for seat_force_rate, the derivative row ``C_sf (A x + B u) + D_sf du`` evaluated on the
   library's states.
@@ -27,10 +27,10 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from bodyvib.discretize import input_rates, simulate
-from bodyvib.errors import BodyvibError
 from bodyvib.models import load_model
-from bodyvib.network import linear_model
+from bodyvib.runtime.discretize import input_rates, simulate
+from bodyvib.runtime.errors import BodyvibError
+from bodyvib.runtime.network import linear_model
 from conftest import ROOT
 from vehicle.quarter_car import load_car
 
@@ -153,7 +153,7 @@ def body_reference(model, t, x, v, expm=None):
 
 
 def stepped(lm, t, u, expm):
-    """The exact stepping of bodyvib.discretize with another matrix exponential."""
+    """The exact stepping of bodyvib.runtime.discretize with another matrix exponential."""
     n, m = lm.B.shape
     du = input_rates(lm, u)
     X = np.zeros((t.size, n))
@@ -459,7 +459,7 @@ def test_fmpy_compile_builds_the_sources(native_fmus, fmi, tmp_path):
 
 
 def test_params_file_is_baked_in(tmp_path):
-    out = subprocess.run([sys.executable, "-m", "bodyvib.cli", "build", "--native", "--params",
+    out = subprocess.run([sys.executable, "-m", "bodyvib_cli", "build", "--native", "--params",
                           os.path.join(ROOT, "params", "refit-iso7962.json"), "--fmus",
                           "HumanBody3DOF", "--dest", str(tmp_path)],
                          capture_output=True, text=True, timeout=300, cwd=ROOT)
@@ -476,18 +476,18 @@ def test_params_file_is_baked_in(tmp_path):
 def test_a_failed_build_leaves_the_good_fmu(tmp_path, monkeypatch):
     from bodyvib import native_build
 
-    good = native_build.build_native_fmu("HumanBody3DOF", tmp_path, platforms=["linux64"])
+    model = load_model("reduced-paper")
+    good = native_build.build_native_fmu(model, "body", "HumanBody3DOF", "reduced body",
+                                         tmp_path, platforms=["linux64"])
     before = good.read_bytes()
-    bad = tmp_path / "bad.json"
-    text = open(os.path.join(ROOT, "bodyvib", "data", "reduced-paper.json")).read()
-    bad.write_text(text.replace('"m1": 4.88', '"m1": -4.88'))
-    with pytest.raises(BodyvibError):
-        native_build.build_native_fmu("HumanBody3DOF", tmp_path, model=str(bad),
-                                      platforms=["linux64"])
+    with pytest.raises(BodyvibError, match="m1"):
+        native_build.build_native_fmu(model.with_parameters(m1=-4.88), "body", "HumanBody3DOF",
+                                      "reduced body", tmp_path, platforms=["linux64"])
     assert good.read_bytes() == before
     compiler, flags, *rest = native_build.PLATFORMS["linux64"]
     monkeypatch.setitem(native_build.PLATFORMS, "linux64",
                         (compiler, flags + ["-include", "bodyvib_no_such_header.h"], *rest))
     with pytest.raises(BodyvibError, match="failed"):
-        native_build.build_native_fmu("HumanBody3DOF", tmp_path, platforms=["linux64"])
+        native_build.build_native_fmu(model, "body", "HumanBody3DOF", "reduced body", tmp_path,
+                                      platforms=["linux64"])
     assert good.read_bytes() == before

@@ -1,17 +1,18 @@
-"""State-space assembly of lumped networks (bodyvib.network)."""
+"""State-space assembly of lumped networks (bodyvib.runtime.network)."""
 
 import numpy as np
 import pytest
 
 from bodyvib.frequency import find_peaks, frequency_response, transmissibility
-from bodyvib.models import load_model, network_from_dict
-from bodyvib.network import linear_model, mount
+from bodyvib.models import load_model
+from bodyvib.runtime.modelfile import network_from_dict
+from bodyvib.runtime.network import linear_model, mount
 from conftest import dynamic_stiffness_response
 from vehicle.quarter_car import load_car, seated_system
 
 
 def reduced_matrices(m1, m2, k1, k2, c1, c2, ks):
-    """DESIGN.md section 3 written out by hand: states (x1, x2, v1, v2, y)."""
+    """The reduced model (docs/architecture.md, "The models") written out by hand: states (x1, x2, v1, v2, y)."""
     # ydot = v2 + [ks(xr - y) + k2(x2 - y)]/c2
     A = np.zeros((5, 5))
     B = np.zeros(5)
@@ -42,7 +43,7 @@ def test_reduced_model_matches_hand_written_equations():
 def test_reduced_model_poles_and_peak_match_design():
     lm = linear_model(load_model("reduced-paper"))
     poles = np.sort_complex(np.linalg.eigvals(lm.A))
-    # DESIGN.md section 3 prints them to 3-4 significant digits
+    # the architecture notes print them to 3-4 significant digits
     expected = np.sort_complex(np.array([-249, -38.7 + 110.8j, -38.7 - 110.8j,
                                          -20.6 + 23.8j, -20.6 - 23.8j]))
     assert np.all(np.abs(poles - expected) <= 0.05 + 0.0005 * np.abs(expected)), poles
@@ -147,7 +148,9 @@ def test_mount_rejects_unknown_point():
 
 
 def test_statespace_object_has_named_signals():
-    ss = linear_model(load_model("reduced-paper")).to_statespace()
+    from bodyvib.frequency import to_statespace
+
+    ss = to_statespace(linear_model(load_model("reduced-paper")))
     assert ss.ninputs == 2 and "m1_a" in ss.output_labels and "seat_force" in ss.output_labels
 
 

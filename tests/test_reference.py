@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from bodyvib.errors import BodyvibError
+from bodyvib.runtime.errors import BodyvibError
 from bodyvib.frequency import transmissibility
 from bodyvib.models import load_model
 from conftest import dynamic_stiffness_response
-from vehicle.check import estimate_transmissibility
+from bodyvib.estimate import estimate_transmissibility
 from vehicle.quarter_car import load_car, seated_system
 from vehicle.reference import nrmse, reference_run
 from vehicle.roads import make_road, road_input

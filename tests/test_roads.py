@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.signal import welch
 
-from bodyvib.errors import BodyvibError
+from bodyvib.runtime.errors import BodyvibError
 from vehicle.roads import (
     BumpRoad, SweepRoad, class_psd_n0, displacement_psd, make_road, random_road, road_input,
 )

@@ -1,6 +1,6 @@
 """The co-simulation master: a body FMU on the quarter-car FMU, two-way coupled (fmpy).
 
-Any FMU with the body interface of DESIGN.md section 7 (inputs
+Any FMU with the body interface of the FMU contract (inputs
 ``seat_displacement``, ``seat_velocity``; outputs ``head_acceleration``,
 ``head_displacement``, ``torso_displacement``, ``seat_force``) sits on any FMU
 with the car interface (inputs ``road_displacement``, ``road_velocity``,
@@ -41,8 +41,8 @@ from typing import Dict, Optional
 
 import numpy as np
 
-from bodyvib.errors import BodyvibError
-from bodyvib.fileio import atomic_write_text
+from bodyvib.runtime.errors import BodyvibError
+from bodyvib.runtime.fileio import atomic_write_text
 
 __all__ = [
     "BODY_INPUTS", "BODY_OUTPUTS", "CAR_INPUTS", "CAR_OUTPUTS",
@@ -101,7 +101,7 @@ def _check_interface(md, path, kind):
     if missing:
         raise BodyvibError(
             f"FMU '{path}' lacks the {kind} interface: no {', '.join(missing)}; a {kind} FMU "
-            f"needs inputs {', '.join(inputs)} and outputs {', '.join(outputs)} (DESIGN.md section 7)"
+            f"needs inputs {', '.join(inputs)} and outputs {', '.join(outputs)} (the FMU contract: README, FMUs)"
         )
     if md.coSimulation is None:
         raise BodyvibError(f"FMU '{path}' is not a co-simulation FMU (FMI 2.0 CS needed)")
@@ -179,7 +179,7 @@ def model_from_fmu(path):
         The model baked into the FMU, or None for an FMU that carries none
         (a foreign FMU: it still co-simulates, but has no monolithic reference).
     """
-    from bodyvib.models import network_from_dict
+    from bodyvib.runtime.modelfile import network_from_dict
     import json
 
     try:

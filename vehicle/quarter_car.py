@@ -1,6 +1,6 @@
 """The quarter-car model: a network driven by the road, loaded by the occupant.
 
-The car is a :class:`bodyvib.network.Network` read from a parameter file
+The car is a :class:`bodyvib.runtime.network.Network` read from a parameter file
 (``vehicle/data/quarter-car.json`` by default): sprung mass on the suspension
 on the unsprung mass on the tire, base ``road``. Its inputs are
 ``road_displacement`` [m], ``road_velocity`` [m/s] and ``sprung.force`` [N,
@@ -10,9 +10,9 @@ in compression. The occupant sits on the point with role ``seat``.
 
 import os
 
-from bodyvib.errors import BodyvibError
-from bodyvib.models import network_from_file
-from bodyvib.network import Network, mount
+from bodyvib.runtime.errors import BodyvibError
+from bodyvib.runtime.modelfile import network_from_file
+from bodyvib.runtime.network import Network, mount
 
 __all__ = ["CAR_DIR", "load_car", "seated_system"]
 

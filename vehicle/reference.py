@@ -3,8 +3,8 @@
 The co-simulation splits the seated car into two FMUs that exchange seat
 motion and seat force only at communication points. The same coupled system
 assembled in one piece (:func:`vehicle.quarter_car.seated_system`, built by
-:func:`bodyvib.network.mount`) and stepped by the exact discretization of
-:mod:`bodyvib.discretize` has no coupling error; with the same road samples and
+:func:`bodyvib.runtime.network.mount`) and stepped by the exact discretization of
+:mod:`bodyvib.runtime.discretize` has no coupling error; with the same road samples and
 the same in-step road extrapolation (``z_k + v_k tau``) the difference between
 the two runs is the coupling error alone.
 
@@ -19,9 +19,9 @@ from typing import Dict
 
 import numpy as np
 
-from bodyvib.discretize import simulate
-from bodyvib.errors import BodyvibError
-from bodyvib.network import Network, linear_model
+from bodyvib.runtime.discretize import simulate
+from bodyvib.runtime.errors import BodyvibError
+from bodyvib.runtime.network import Network, linear_model
 
 from .quarter_car import seated_system
 
@@ -47,7 +47,7 @@ SIGNALS = (
 def seat_force_weights(lm, body: Network, seat: str, prefix: str = "body.") -> np.ndarray:
     """Row combining outputs of the seated system into the occupant's seat force.
 
-    The occupant's own state space (:func:`bodyvib.network.linear_model`) has the
+    The occupant's own state space (:func:`bodyvib.runtime.network.linear_model`) has the
     seat force as its output ``<base>_force`` (+ in compression, the occupant
     pushing the seat down): a row of C over the occupant's states plus a row of D
     over the seat's displacement and velocity. In the seated system every one of
@@ -64,7 +64,7 @@ def seat_force_weights(lm, body: Network, seat: str, prefix: str = "body.") -> n
     seat : str
         The car point the occupant sits on.
     prefix : str
-        Prefix of the occupant's names in ``lm`` (see :func:`bodyvib.network.mount`).
+        Prefix of the occupant's names in ``lm`` (see :func:`bodyvib.runtime.network.mount`).
 
     Returns
     -------

@@ -32,7 +32,7 @@ from typing import Tuple
 
 import numpy as np
 
-from bodyvib.errors import BodyvibError
+from bodyvib.runtime.errors import BodyvibError
 
 __all__ = [
     "ISO8608_CLASSES",

@@ -1,27 +1,11 @@
-"""The run-time core of the bodyvib FMUs: interface, state, exact stepping, state snapshots.
+"""The stepping engine of the bodyvib FMUs: state, exact stepping, state snapshots.
 
-Every FMU of this project (``HumanBody3DOF``, ``HumanBodyISO7962``, ``QuarterCar``)
-is a thin pythonfmu slave that declares the variables listed here and delegates
-everything else to one :class:`FmuCore`. The core holds no equation of its own:
-the matrices come from :func:`bodyvib.network.linear_model` and the step
-matrices from :class:`bodyvib.discretize.Discretization` (DESIGN.md sections 6-7).
-
-Interfaces (SI units; ``vr`` = value reference = position in :attr:`FmuCore.variables`):
-
-* body (``kind="body"``): inputs ``seat_displacement`` [m], ``seat_velocity``
-  [m/s]; outputs ``head_acceleration`` [m/s2] (absolute), ``head_displacement``
-  [m], ``torso_displacement`` [m], ``seat_force`` [N] (force the body exerts on
-  the seat, positive in compression); parameters: the model's named parameters.
-* car (``kind="car"``): inputs ``road_displacement`` [m], ``road_velocity``
-  [m/s], ``seat_force`` [N] (the occupant's, positive in compression: it enters
-  the car's ``<seat>.force`` input as ``-seat_force``), ``seat_force_rate``
-  [N/s] (optional, start 0: slope of ``seat_force`` over the coming step; 0 =
-  hold); outputs ``seat_displacement`` [m] and ``seat_velocity`` [m/s] (the
-  point with role ``seat``), ``sprung_acceleration`` [m/s2] (its absolute
-  acceleration), ``suspension_deflection`` [m] (output
-  ``suspension.deflection``: sprung minus unsprung displacement, positive in
-  extension), ``tire_force`` [N] (output ``tire.force``: positive in
-  compression); parameters: the car's named parameters.
+Every FMU of this project is a thin slave over one :class:`FmuCore`, which
+holds the instance's state and declares the variables of
+:mod:`bodyvib.runtime.contract`. The engine holds no equation of its own: the
+matrices come from :func:`bodyvib.runtime.network.linear_model` and the step
+matrices from :class:`bodyvib.runtime.discretize.Discretization`
+(docs/architecture.md, "Exact stepping").
 
 Stepping: over a communication step ``h`` each input is extrapolated linearly
 from its value and its rate (a displacement rises at its velocity input, the
@@ -32,242 +16,22 @@ the inputs are set to their extrapolated values, so outputs read right after
 outputs are ``C x + D u`` computed when read, so feedthrough outputs follow a
 newly set input at once.
 
+
 Numpy only, relative imports only: the FMUs ship this module under a private
-package name (``build_fmu.py``).
+package name.
 """
 
 import math
-from dataclasses import dataclass
-from typing import Callable, List, Optional, Sequence, Tuple
+from typing import Callable, List, Optional, Sequence
 
 import numpy as np
 
+from .contract import fmu_variables
 from .discretize import Discretization
 from .errors import BodyvibError
 from .network import Network, linear_model
 
-__all__ = ["Variable", "Interface", "body_interface", "car_interface", "FmuCore", "KINDS",
-           "MODEL_FILE", "PARAMETER_UNITS", "POSITIVE_MIN"]
-
-#: Where the build puts the parameter file, inside the FMU's resources.
-MODEL_FILE = "bodyvib_model.json"
-
-#: Unit of a network parameter by the element field (or mass) that uses it.
-PARAMETER_UNITS = {"mass": "kg", "k": "N/m", "k_series": "N/m", "c": "N.s/m"}
-
-#: Smallest positive normal double: the ``min`` written for strictly positive
-#: parameters (FMI's ``min`` is inclusive, so ``0`` would admit a zero mass).
-POSITIVE_MIN = 2.2250738585072014e-308
-
-
-@dataclass(frozen=True)
-class Variable:
-    """One FMU variable.
-
-    Attributes
-    ----------
-    name : str
-    causality : str
-        ``"input"``, ``"output"`` or ``"parameter"``.
-    variability : str
-        ``"continuous"`` (inputs, outputs) or ``"fixed"`` (parameters).
-    unit : str
-        SI unit (``m``, ``m/s``, ``m/s2``, ``N``, ``N/s``, ``kg``, ``N/m``, ``N.s/m``).
-    description : str
-    start : float or None
-        Start value (inputs and parameters; outputs are calculated).
-    min, max : float or None
-        Physical bounds, if any.
-    """
-
-    name: str
-    causality: str
-    variability: str
-    unit: str
-    description: str
-    start: Optional[float] = None
-    min: Optional[float] = None
-    max: Optional[float] = None
-
-
-@dataclass(frozen=True)
-class Interface:
-    """How an FMU's inputs and outputs map onto a network's state space.
-
-    Attributes
-    ----------
-    kind : str
-        ``"body"`` or ``"car"``.
-    inputs : tuple of Variable
-    outputs : tuple of Variable
-    input_map : (m, ni) ndarray
-        Model inputs ``u = input_map @ s`` from the FMU inputs ``s``.
-    rate_pairs : tuple of (int, int)
-        ``(i, j)``: FMU input ``i`` rises at FMU input ``j`` over a step; every
-        other input is held.
-    output_signals : tuple of str
-        Model output (or role) name of each FMU output, for
-        :meth:`bodyvib.network.LinearModel.output_index`.
-    """
-
-    kind: str
-    inputs: Tuple[Variable, ...]
-    outputs: Tuple[Variable, ...]
-    input_map: np.ndarray
-    rate_pairs: Tuple[Tuple[int, int], ...]
-    output_signals: Tuple[str, ...]
-
-    def rate_matrix(self) -> np.ndarray:
-        """``R`` with ``ds/dt = R s`` over a step (FMU input space)."""
-        n = len(self.inputs)
-        R = np.zeros((n, n))
-        for i, j in self.rate_pairs:
-            R[i, j] = 1.0
-        return R
-
-
-def _input(name, unit, description):
-    return Variable(name, "input", "continuous", unit, description, start=0.0)
-
-
-def _output(name, unit, description):
-    return Variable(name, "output", "continuous", unit, description)
-
-
-def body_interface(network: Network) -> Interface:
-    """The interface of a human-body FMU (DESIGN.md section 7).
-
-    Parameters
-    ----------
-    network : Network
-        A body model: base ``seat``, roles ``head`` and ``torso``.
-
-    Returns
-    -------
-    Interface
-
-    Raises
-    ------
-    BodyvibError
-        If the model lacks a ``head`` or ``torso`` role.
-    """
-    for role in ("head", "torso"):
-        if role not in network.roles:
-            raise BodyvibError(
-                f"model '{network.name}' has no '{role}' role; a body FMU needs roles "
-                "head and torso (add them to the parameter file's 'roles')"
-            )
-    base = network.base
-    inputs = (
-        _input("seat_displacement", "m", "Seat vertical displacement xr (z up, about static equilibrium)"),
-        _input("seat_velocity", "m/s", "Seat vertical velocity; also the slope of "
-               "seat_displacement over the coming step (in-step extrapolation)"),
-    )
-    outputs = (
-        _output("head_acceleration", "m/s2", f"Head ({network.point('head')}) absolute vertical acceleration"),
-        _output("head_displacement", "m", f"Head ({network.point('head')}) vertical displacement"),
-        _output("torso_displacement", "m", f"Torso ({network.point('torso')}) vertical displacement"),
-        _output("seat_force", "N", "Force the body exerts on the seat, positive in compression "
-                "(body pushing down); perturbation about the static load"),
-    )
-    return Interface(
-        kind="body", inputs=inputs, outputs=outputs,
-        input_map=np.eye(2),
-        rate_pairs=((0, 1),),
-        output_signals=("head.a", "head.x", "torso.x", f"{base}_force"),
-    )
-
-
-def car_interface(network: Network) -> Interface:
-    """The interface of the quarter-car FMU (DESIGN.md section 7).
-
-    Parameters
-    ----------
-    network : Network
-        A vehicle model: a ``seat`` role naming a mass in ``force_inputs``,
-        elements named ``suspension`` and ``tire``.
-
-    Returns
-    -------
-    Interface
-
-    Raises
-    ------
-    BodyvibError
-        If the model lacks the seat role, its force input, or the elements.
-    """
-    seat = network.roles.get("seat")
-    if seat is None or seat not in network.force_inputs:
-        raise BodyvibError(
-            f"vehicle model '{network.name}' needs a 'seat' role naming a mass listed in "
-            "force_inputs (the occupant's seat force acts there)"
-        )
-    names = {el.name for el in network.elements}
-    missing = [e for e in ("suspension", "tire") if e not in names]
-    if missing:
-        raise BodyvibError(
-            f"vehicle model '{network.name}' has no element(s) {', '.join(missing)}; the "
-            "QuarterCar FMU reports suspension.deflection and tire.force"
-        )
-    base = network.base
-    inputs = (
-        _input("road_displacement", "m", "Road profile height under the tire"),
-        _input("road_velocity", "m/s", "Road profile vertical velocity; also the slope of "
-               "road_displacement over the coming step"),
-        _input("seat_force", "N", "Force the occupant exerts on the seat, positive in "
-               "compression (pushes the car body down)"),
-        _input("seat_force_rate", "N/s", "Optional slope of seat_force over the coming step "
-               "(0, the default, holds seat_force)"),
-    )
-    outputs = (
-        _output("seat_displacement", "m", f"Seat point ({seat}) vertical displacement"),
-        _output("seat_velocity", "m/s", f"Seat point ({seat}) vertical velocity"),
-        _output("sprung_acceleration", "m/s2", f"Absolute vertical acceleration of the mass "
-                f"under the seat ({seat})"),
-        _output("suspension_deflection", "m", "Suspension deflection, sprung minus unsprung "
-                "displacement (positive in extension)"),
-        _output("tire_force", "N", "Dynamic tire force, positive in compression "
-                "(perturbation about the static wheel load)"),
-    )
-    m = 2 + len(network.force_inputs)
-    input_map = np.zeros((m, 4))
-    input_map[0, 0] = 1.0
-    input_map[1, 1] = 1.0
-    input_map[2 + list(network.force_inputs).index(seat), 2] = -1.0  # sprung.force = -seat_force
-    return Interface(
-        kind="car", inputs=inputs, outputs=outputs, input_map=input_map,
-        rate_pairs=((0, 1), (2, 3)),
-        output_signals=("seat.x", "seat.v", "seat.a", "suspension.deflection", "tire.force"),
-    )
-
-
-#: Interface builders by FMU kind.
-KINDS = {"body": body_interface, "car": car_interface}
-
-
-def _parameter_variables(network: Network) -> Tuple[Variable, ...]:
-    """Parameters as FMU variables, with unit and description read off the topology."""
-    roles_of = {}
-    for role, point in network.roles.items():
-        roles_of.setdefault(point, []).append(role)
-    use = {}
-    for mass, ref in network.masses.items():
-        if isinstance(ref, str):
-            label = f"{mass} ({', '.join(roles_of[mass])})" if mass in roles_of else mass
-            use.setdefault(ref, ("mass", f"Mass of {label}"))
-    field_words = {"k": "stiffness", "k_series": "series stiffness", "c": "damping"}
-    for el in network.elements:
-        for fieldname, ref in el.values.items():
-            if isinstance(ref, str):
-                use.setdefault(ref, (fieldname, f"{field_words[fieldname].capitalize()} of element "
-                                                f"'{el.name}' ({el.a} to {el.b})"))
-    out = []
-    for name, value in network.parameters.items():
-        kind, text = use.get(name, ("mass", name))
-        out.append(Variable(name, "parameter", "fixed", PARAMETER_UNITS[kind],
-                            text,
-                            start=float(value), min=POSITIVE_MIN))
-    return tuple(out)
+__all__ = ["FmuCore"]
 
 
 class FmuCore:
@@ -276,7 +40,7 @@ class FmuCore:
     Parameters
     ----------
     kind : str
-        ``"body"`` or ``"car"`` (:data:`KINDS`).
+        ``"body"`` or ``"car"`` (:data:`bodyvib.runtime.contract.KINDS`).
     network : Network
         The model with the parameter values baked into the FMU.
     name : str
@@ -305,16 +69,12 @@ class FmuCore:
 
     def __init__(self, kind: str, network: Network, name: str = "FMU",
                  log: Optional[Callable[[str, str], None]] = None):
-        if kind not in KINDS:
-            raise BodyvibError(f"unknown FMU kind '{kind}'; kinds are {', '.join(KINDS)}")
         self.kind = kind
         self.name = name
         self.network = network
-        self.interface = KINDS[kind](network)
+        self.interface, self.parameters, self.variables = fmu_variables(kind, network)
         self._log = log
         iface = self.interface
-        self.parameters = _parameter_variables(network)
-        self.variables = iface.inputs + iface.outputs + self.parameters
         self._ni, self._no, self._np = len(iface.inputs), len(iface.outputs), len(self.parameters)
         self._pnames = [p.name for p in self.parameters]
         # value reference -> 0 input, 1 output, 2 parameter

@@ -1,4 +1,4 @@
-"""The ``bodyvib cosim`` and ``bodyvib check`` commands.
+"""``bodyvib cosim`` and ``bodyvib check``: quarter-car co-simulation with body FMUs.
 
 ``cosim`` drives the quarter car over a road with one body FMU and reports the
 head acceleration's ISO 2631-1 figures and the coupling error against the
@@ -12,16 +12,16 @@ import os
 import shutil
 import sys
 
-from bodyvib.errors import BodyvibError
-from bodyvib.fileio import write_json
 from bodyvib.models import load_model
-
-from .check import (
-    build_default_fmus, check_settings, compare, default_fmu_dir, format_report, plot_study,
-    run_study, study_json,
-)
-from .cosim import write_csv
-from .quarter_car import load_car
+from bodyvib.runtime.errors import BodyvibError
+from bodyvib.runtime.fileio import write_json
+from vehicle.check import compare
+from vehicle.cosim import write_csv
+from vehicle.fmus import build_fmus, temporary_fmu_dir
+from vehicle.plots import plot_study
+from vehicle.quarter_car import load_car
+from vehicle.report import format_report, study_json
+from vehicle.study import check_settings, run_study
 
 __all__ = ["add_command"]
 
@@ -46,12 +46,12 @@ def _fmus(args, want_iso: bool):
         load_car(args.car)
     tmp, built = None, {}
     if need:
-        tmp = default_fmu_dir()
+        tmp = temporary_fmu_dir()
         if not args.quiet:
             print(f"building {', '.join(need)} into {tmp}", file=sys.stderr, flush=True)
         try:
-            built = build_default_fmus(tmp, params=args.params, car=args.car, names=need,
-                                       native=getattr(args, "native", False))
+            built = {n: str(p) for n, p in build_fmus(
+                tmp, args.params, args.car, need, native=args.native, fmi=(2,)).items()}
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
             raise
@@ -124,7 +124,7 @@ def _common(p):
                    help="communication step, s (default 0.001)")
     p.add_argument("--seed", type=int, default=0, help="random-road seed (default 0)")
     p.add_argument("--body", metavar="FMU",
-                   help="body FMU with the DESIGN section 7 interface (default: HumanBody3DOF "
+                   help="body FMU with the body interface of the README's FMUs section (default: HumanBody3DOF "
                    "built from --params)")
     p.add_argument("--params", metavar="FILE",
                    help="body parameter file baked into the default HumanBody3DOF.fmu "

@@ -55,7 +55,6 @@ __all__ = [
     "descriptor_model",
     "linear_model",
     "as_linear_model",
-    "control_labels",
     "mount",
 ]
 
@@ -282,35 +281,6 @@ class LinearModel:
             raise BodyvibError(
                 f"no input '{name}'; inputs are {', '.join(self.inputs)}"
             ) from None
-
-    def to_statespace(self):
-        """The model as a python-control ``StateSpace`` with named signals.
-
-        Returns
-        -------
-        control.StateSpace
-            All inputs (base displacement, base velocity, forces) and outputs;
-            python-control forbids '.' in signal names, so ``m1.x`` is
-            labelled ``m1_x`` there.
-
-        Notes
-        -----
-        For a transmissibility, the base velocity input must be driven by
-        ``s`` times the displacement; see
-        :func:`bodyvib.frequency.displacement_input_statespace`.
-        """
-        import control  # not needed at FMU run time
-
-        return control.ss(
-            self.A, self.B, self.C, self.D,
-            inputs=control_labels(self.inputs), outputs=control_labels(self.outputs),
-            states=control_labels(self.states), name=self.network.name,
-        )
-
-
-def control_labels(names) -> list:
-    """Signal names as python-control accepts them ('.' replaced by '_')."""
-    return [n.replace(".", "_") for n in names]
 
 
 @dataclass(frozen=True)

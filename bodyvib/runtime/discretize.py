@@ -10,7 +10,7 @@ with ``Phi = e^{A h}``, ``Gamma0 = int_0^h e^{A s} ds B`` and
 ``Gamma1 = int_0^h e^{A (h - tau)} B tau dtau``, read off one matrix
 exponential of the augmented matrix ``[[A, B, 0], [0, 0, I], [0, 0, 0]] h``.
 Compared with a zero-order hold this cuts the error about 100-fold at 1 ms
-(DESIGN.md section 6). It is also what the stiff ISO 7962 model needs: its
+(docs/architecture.md, "Exact stepping"). It is also what the stiff ISO 7962 model needs: its
 fastest pole is near -1.1e8 1/s, which any explicit integrator would follow.
 
 Numpy only (no scipy): this module runs inside the FMUs.

@@ -1,8 +1,7 @@
-"""The ``bodyvib`` command line.
+"""The ``bodyvib`` command line: the parser and the one place where errors become exit codes.
 
-Each sub-command lives in the module that owns its subject and registers
-itself through an ``add_command(subparsers)`` function listed in
-:data:`COMMAND_MODULES`. Errors a user can cause (:class:`BodyvibError`,
+Each sub-command is a module of :mod:`bodyvib_cli` that registers itself through
+an ``add_command(subparsers)`` function listed in :data:`COMMAND_MODULES`. Errors a user can cause (:class:`BodyvibError`,
 unreadable files) print one line and exit with status 2, without a traceback.
 """
 
@@ -10,18 +9,17 @@ import argparse
 import importlib
 import sys
 
-from . import __version__
-from .errors import BodyvibError
+from bodyvib import __version__
+from bodyvib.runtime.errors import BodyvibError
 
 __all__ = ["COMMAND_MODULES", "main", "build_parser"]
 
 #: Modules that contribute sub-commands, in help order.
 COMMAND_MODULES = (
-    "bodyvib.frf",
-    "bodyvib.fmu_build",
-    "vehicle.commands",
-    "bodyvib.fit",
-
+    "bodyvib_cli.frf",
+    "bodyvib_cli.build",
+    "bodyvib_cli.cosim",
+    "bodyvib_cli.fit",
 )
 
 

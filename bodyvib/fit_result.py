@@ -1,0 +1,155 @@
+"""The result of a refit and its parameter file, with provenance.
+
+:func:`write_parameter_file` writes a :class:`FitResult` as a parameter file of
+the reduced model, with its provenance (objective values, seed, algorithm,
+reference, date, package version), that ``load_model``, ``bodyvib frf
+--models`` and ``build_fmu.py --params`` read.
+"""
+
+import datetime
+from dataclasses import dataclass, field
+from typing import Dict, List
+
+from . import __version__
+from .fit_objective import FitTarget, objective_time_domain
+from .fit_space import reduced_network
+from .runtime.modelfile import save_model
+from .runtime.network import Network
+
+__all__ = [
+    "FitResult",
+    "write_parameter_file",
+]
+
+
+@dataclass
+class FitResult:
+    """Outcome of :func:`fit`.
+
+    Attributes
+    ----------
+    parameters : dict of str to float
+        Fitted reduced-model parameters (SI).
+    objective : float
+        Final objective (frequency-domain form), 1/s.
+    objective_table2 : float
+        The paper's Table 2 parameters on the same objective, 1/s.
+    ga_objective : float
+        Best run's objective from the GA, before the polish.
+    relative_error : float
+        ``objective / target.energy()``.
+    target : FitTarget
+    seed : int
+    config : dict
+    polished : bool
+    evaluations : int
+        Objective evaluations (individual parameter sets) in the GA and polish.
+    elapsed_s : float
+        Wall time of the search.
+    history : list of float
+        Best objective after each generation.
+    at_bounds : list of str
+        Searched ratios that ended within 0.1 % (in log) of a bound.
+    runs : list of dict
+        Per GA run (``ga.restarts`` of them): its seed, the GA's best objective
+        and the objective after the polish; the best run is the result.
+    """
+
+    parameters: Dict[str, float]
+    objective: float
+    objective_table2: float
+    ga_objective: float
+    relative_error: float
+    target: FitTarget
+    seed: int
+    config: dict
+    polished: bool
+    evaluations: int
+    elapsed_s: float
+    history: List[float] = field(default_factory=list)
+    at_bounds: List[str] = field(default_factory=list)
+    runs: List[dict] = field(default_factory=list)
+
+
+def write_parameter_file(result: FitResult, path, command: str = "") -> Network:
+    """Write the fitted model as a reduced-model parameter file with its provenance.
+
+    The file is a normal bodyvib model (same topology as ``reduced-paper``),
+    so :func:`bodyvib.models.load_model`, ``bodyvib frf --models FILE`` and
+    ``python build_fmu.py --params FILE`` read it. Written atomically.
+
+    Parameters
+    ----------
+    result : FitResult
+    path : str or os.PathLike
+    command : str
+        The command line that made it (recorded in the provenance).
+
+    Returns
+    -------
+    Network
+        The model as written.
+    """
+    import pygad
+
+    t = result.target
+    name = f"reduced-refit-{t.name}"
+    prov = {
+        "source": "GA refit of the reduced 3-DOF model of Balci & Gundogdu (2025), Fig. 2, by "
+                  "'bodyvib fit' (bodyvib.fit_search)",
+        "command": command,
+        "date": datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0).isoformat(),
+        "bodyvib_version": __version__,
+        "target": t.description,
+        "reference_model": t.reference.name if t.reference is not None else None,
+        "measured_data": t.measured.source if t.measured is not None else None,
+        "objective": {
+            "definition": "paper Eq. 3: J = sum_p w_p int_0^inf (h_ref,p(t) - h_red,p(t))^2 dt, "
+                          "h = position response to a unit impulse of seat displacement [1/s]; "
+                          "evaluated by Parseval, 2 int_0^inf |H_ref - H_red|^2 df"
+                          + (" (measured band only, trapezoid on the data)"
+                             if t.kind == "measured" else "")
+                          + (" on moduli only (no phase)" if t.modulus_only else ""),
+            "pairs": dict(t.pairs),
+            "value_per_s": result.objective,
+            "relative_to_target_energy": result.relative_error,
+            "table2_value_per_s": result.objective_table2,
+            "ga_value_before_polish_per_s": result.ga_objective,
+        },
+        "scale_pinning": {
+            "total_mass_kg": t.total_mass,
+            "how": ("m1 + m2 pinned to the reference model's static apparent mass"
+                    if t.kind == "model" else
+                    "m1 + m2 pinned to --total-mass (75 kg by default)")
+                   + "; every transmissibility is invariant to scaling all m, k, c by one "
+                     "factor, so the fit searched only the six ratios m1/M, k1/M, k2/M, ks/M, "
+                     "c1/M, c2/M",
+        },
+        "algorithm": {
+            "library": f"pygad {pygad.__version__} (pygad.GA), real-coded, batch fitness",
+            "seed": result.seed,
+            "ga": dict(result.config["ga"]),
+            "bounds_per_kg_total_mass": dict(result.config["bounds_per_kg_total_mass"]),
+            "search_space": "log10 of the six ratios, uniform within the bounds",
+            "polish": (dict(result.config["polish"], enabled=True) if result.polished
+                       else {"enabled": False}),
+            "quadrature": dict(result.config["quadrature"]),
+            "runs": [dict(r) for r in result.runs],
+            "evaluations": result.evaluations,
+            "wall_time_s": round(result.elapsed_s, 3),
+        },
+        "at_bounds": list(result.at_bounds),
+    }
+    if t.kind == "model":
+        net = reduced_network(result.parameters)
+        prov["objective"]["time_domain_value_per_s"] = objective_time_domain(
+            t.reference, net, t.pairs, config=result.config)
+    description = (
+        f"Reduced 3-DOF seated human-body model (topology of Balci & Gundogdu 2025, Fig. 2: "
+        f"seat --ks-- platform --(k2 || c2)-- torso m2 --(k1 || c1)-- head m1), parameters "
+        f"refitted by a genetic algorithm to {t.description}; total mass pinned to "
+        f"{t.total_mass:g} kg."
+    )
+    net = reduced_network(result.parameters, name=name, description=description, provenance=prov)
+    save_model(net, path)
+    return net

@@ -1,0 +1,303 @@
+"""The FMU contract: variable names, causality, units, value references, parameters.
+
+Every FMU of this project (``HumanBody3DOF``, ``HumanBodyISO7962``, ``QuarterCar``)
+declares the variables defined here, in this order, whatever its kind (pythonfmu
+or native): the value reference of a variable is its position in
+:func:`fmu_variables`. The pythonfmu slaves, the native build, the co-simulation
+master and the tests import these definitions; nobody restates them
+(docs/architecture.md, "The FMU contract").
+
+Interfaces (SI units; ``vr`` = value reference = position in :attr:`FmuCore.variables`):
+
+* body (``kind="body"``): inputs ``seat_displacement`` [m], ``seat_velocity``
+  [m/s]; outputs ``head_acceleration`` [m/s2] (absolute), ``head_displacement``
+  [m], ``torso_displacement`` [m], ``seat_force`` [N] (force the body exerts on
+  the seat, positive in compression); parameters: the model's named parameters.
+* car (``kind="car"``): inputs ``road_displacement`` [m], ``road_velocity``
+  [m/s], ``seat_force`` [N] (the occupant's, positive in compression: it enters
+  the car's ``<seat>.force`` input as ``-seat_force``), ``seat_force_rate``
+  [N/s] (optional, start 0: slope of ``seat_force`` over the coming step; 0 =
+  hold); outputs ``seat_displacement`` [m] and ``seat_velocity`` [m/s] (the
+  point with role ``seat``), ``sprung_acceleration`` [m/s2] (its absolute
+  acceleration), ``suspension_deflection`` [m] (output
+  ``suspension.deflection``: sprung minus unsprung displacement, positive in
+  extension), ``tire_force`` [N] (output ``tire.force``: positive in
+  compression); parameters: the car's named parameters.
+
+Numpy only, relative imports only: the FMUs ship this module under a private
+package name (``build_fmu.py``).
+"""
+
+from dataclasses import dataclass
+from typing import Optional, Tuple
+
+import numpy as np
+
+from .errors import BodyvibError
+from .network import Network
+
+__all__ = ["Variable", "Interface", "body_interface", "car_interface", "parameter_variables",
+           "fmu_variables", "KINDS", "MODEL_FILE", "PARAMETER_UNITS", "POSITIVE_MIN", "UNITS"]
+
+#: Where the build puts the parameter file, inside the FMU's resources.
+MODEL_FILE = "bodyvib_model.json"
+
+#: Unit of a network parameter by the element field (or mass) that uses it.
+PARAMETER_UNITS = {"mass": "kg", "k": "N/m", "k_series": "N/m", "c": "N.s/m"}
+
+#: Smallest positive normal double: the ``min`` written for strictly positive
+#: parameters (FMI's ``min`` is inclusive, so ``0`` would admit a zero mass).
+POSITIVE_MIN = 2.2250738585072014e-308
+
+#: SI units used by the FMUs, as exponents of the FMI base units.
+UNITS = {
+    "m": {"m": 1}, "m/s": {"m": 1, "s": -1}, "m/s2": {"m": 1, "s": -2},
+    "N": {"kg": 1, "m": 1, "s": -2}, "N/s": {"kg": 1, "m": 1, "s": -3},
+    "kg": {"kg": 1}, "N/m": {"kg": 1, "s": -2}, "N.s/m": {"kg": 1, "s": -1},
+}
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One FMU variable.
+
+    Attributes
+    ----------
+    name : str
+    causality : str
+        ``"input"``, ``"output"`` or ``"parameter"``.
+    variability : str
+        ``"continuous"`` (inputs, outputs) or ``"fixed"`` (parameters).
+    unit : str
+        SI unit (``m``, ``m/s``, ``m/s2``, ``N``, ``N/s``, ``kg``, ``N/m``, ``N.s/m``).
+    description : str
+    start : float or None
+        Start value (inputs and parameters; outputs are calculated).
+    min, max : float or None
+        Physical bounds, if any.
+    """
+
+    name: str
+    causality: str
+    variability: str
+    unit: str
+    description: str
+    start: Optional[float] = None
+    min: Optional[float] = None
+    max: Optional[float] = None
+
+
+@dataclass(frozen=True)
+class Interface:
+    """How an FMU's inputs and outputs map onto a network's state space.
+
+    Attributes
+    ----------
+    kind : str
+        ``"body"`` or ``"car"``.
+    inputs : tuple of Variable
+    outputs : tuple of Variable
+    input_map : (m, ni) ndarray
+        Model inputs ``u = input_map @ s`` from the FMU inputs ``s``.
+    rate_pairs : tuple of (int, int)
+        ``(i, j)``: FMU input ``i`` rises at FMU input ``j`` over a step; every
+        other input is held.
+    output_signals : tuple of str
+        Model output (or role) name of each FMU output, for
+        :meth:`bodyvib.network.LinearModel.output_index`.
+    """
+
+    kind: str
+    inputs: Tuple[Variable, ...]
+    outputs: Tuple[Variable, ...]
+    input_map: np.ndarray
+    rate_pairs: Tuple[Tuple[int, int], ...]
+    output_signals: Tuple[str, ...]
+
+    def rate_matrix(self) -> np.ndarray:
+        """``R`` with ``ds/dt = R s`` over a step (FMU input space)."""
+        n = len(self.inputs)
+        R = np.zeros((n, n))
+        for i, j in self.rate_pairs:
+            R[i, j] = 1.0
+        return R
+
+
+def _input(name, unit, description):
+    return Variable(name, "input", "continuous", unit, description, start=0.0)
+
+
+def _output(name, unit, description):
+    return Variable(name, "output", "continuous", unit, description)
+
+
+def body_interface(network: Network) -> Interface:
+    """The interface of a human-body FMU (docs/architecture.md, "The FMU contract").
+
+    Parameters
+    ----------
+    network : Network
+        A body model: base ``seat``, roles ``head`` and ``torso``.
+
+    Returns
+    -------
+    Interface
+
+    Raises
+    ------
+    BodyvibError
+        If the model lacks a ``head`` or ``torso`` role.
+    """
+    for role in ("head", "torso"):
+        if role not in network.roles:
+            raise BodyvibError(
+                f"model '{network.name}' has no '{role}' role; a body FMU needs roles "
+                "head and torso (add them to the parameter file's 'roles')"
+            )
+    base = network.base
+    inputs = (
+        _input("seat_displacement", "m", "Seat vertical displacement xr (z up, about static equilibrium)"),
+        _input("seat_velocity", "m/s", "Seat vertical velocity; also the slope of "
+               "seat_displacement over the coming step (in-step extrapolation)"),
+    )
+    outputs = (
+        _output("head_acceleration", "m/s2", f"Head ({network.point('head')}) absolute vertical acceleration"),
+        _output("head_displacement", "m", f"Head ({network.point('head')}) vertical displacement"),
+        _output("torso_displacement", "m", f"Torso ({network.point('torso')}) vertical displacement"),
+        _output("seat_force", "N", "Force the body exerts on the seat, positive in compression "
+                "(body pushing down); perturbation about the static load"),
+    )
+    return Interface(
+        kind="body", inputs=inputs, outputs=outputs,
+        input_map=np.eye(2),
+        rate_pairs=((0, 1),),
+        output_signals=("head.a", "head.x", "torso.x", f"{base}_force"),
+    )
+
+
+def car_interface(network: Network) -> Interface:
+    """The interface of the quarter-car FMU (docs/architecture.md, "The FMU contract").
+
+    Parameters
+    ----------
+    network : Network
+        A vehicle model: a ``seat`` role naming a mass in ``force_inputs``,
+        elements named ``suspension`` and ``tire``.
+
+    Returns
+    -------
+    Interface
+
+    Raises
+    ------
+    BodyvibError
+        If the model lacks the seat role, its force input, or the elements.
+    """
+    seat = network.roles.get("seat")
+    if seat is None or seat not in network.force_inputs:
+        raise BodyvibError(
+            f"vehicle model '{network.name}' needs a 'seat' role naming a mass listed in "
+            "force_inputs (the occupant's seat force acts there)"
+        )
+    names = {el.name for el in network.elements}
+    missing = [e for e in ("suspension", "tire") if e not in names]
+    if missing:
+        raise BodyvibError(
+            f"vehicle model '{network.name}' has no element(s) {', '.join(missing)}; the "
+            "QuarterCar FMU reports suspension.deflection and tire.force"
+        )
+    inputs = (
+        _input("road_displacement", "m", "Road profile height under the tire"),
+        _input("road_velocity", "m/s", "Road profile vertical velocity; also the slope of "
+               "road_displacement over the coming step"),
+        _input("seat_force", "N", "Force the occupant exerts on the seat, positive in "
+               "compression (pushes the car body down)"),
+        _input("seat_force_rate", "N/s", "Optional slope of seat_force over the coming step "
+               "(0, the default, holds seat_force)"),
+    )
+    outputs = (
+        _output("seat_displacement", "m", f"Seat point ({seat}) vertical displacement"),
+        _output("seat_velocity", "m/s", f"Seat point ({seat}) vertical velocity"),
+        _output("sprung_acceleration", "m/s2", f"Absolute vertical acceleration of the mass "
+                f"under the seat ({seat})"),
+        _output("suspension_deflection", "m", "Suspension deflection, sprung minus unsprung "
+                "displacement (positive in extension)"),
+        _output("tire_force", "N", "Dynamic tire force, positive in compression "
+                "(perturbation about the static wheel load)"),
+    )
+    m = 2 + len(network.force_inputs)
+    input_map = np.zeros((m, 4))
+    input_map[0, 0] = 1.0
+    input_map[1, 1] = 1.0
+    input_map[2 + list(network.force_inputs).index(seat), 2] = -1.0  # sprung.force = -seat_force
+    return Interface(
+        kind="car", inputs=inputs, outputs=outputs, input_map=input_map,
+        rate_pairs=((0, 1), (2, 3)),
+        output_signals=("seat.x", "seat.v", "seat.a", "suspension.deflection", "tire.force"),
+    )
+
+
+#: Interface builders by FMU kind.
+KINDS = {"body": body_interface, "car": car_interface}
+
+
+def parameter_variables(network: Network) -> Tuple[Variable, ...]:
+    """Parameters as FMU variables, with unit and description read off the topology."""
+    roles_of = {}
+    for role, point in network.roles.items():
+        roles_of.setdefault(point, []).append(role)
+    use = {}
+    for mass, ref in network.masses.items():
+        if isinstance(ref, str):
+            label = f"{mass} ({', '.join(roles_of[mass])})" if mass in roles_of else mass
+            use.setdefault(ref, ("mass", f"Mass of {label}"))
+    field_words = {"k": "stiffness", "k_series": "series stiffness", "c": "damping"}
+    for el in network.elements:
+        for fieldname, ref in el.values.items():
+            if isinstance(ref, str):
+                use.setdefault(ref, (fieldname, f"{field_words[fieldname].capitalize()} of element "
+                                                f"'{el.name}' ({el.a} to {el.b})"))
+    out = []
+    for name, value in network.parameters.items():
+        kind, text = use.get(name, ("mass", name))
+        out.append(Variable(name, "parameter", "fixed", PARAMETER_UNITS[kind],
+                            text,
+                            start=float(value), min=POSITIVE_MIN))
+    return tuple(out)
+
+
+def fmu_variables(kind: str, network: Network):
+    """Interface, parameters and all variables of an FMU, in value-reference order.
+
+    Parameters
+    ----------
+    kind : str
+        ``"body"`` or ``"car"`` (:data:`KINDS`).
+    network : Network
+        The model baked into the FMU.
+
+    Returns
+    -------
+    interface : Interface
+    parameters : tuple of Variable
+    variables : tuple of Variable
+        Inputs, then outputs, then parameters: the value reference of a
+        variable is its index here.
+
+    Raises
+    ------
+    BodyvibError
+        An unknown kind, or a model that lacks what the kind needs.
+
+    Examples
+    --------
+    >>> from bodyvib.models import load_model
+    >>> _, _, variables = fmu_variables("body", load_model("reduced-paper"))
+    >>> [v.name for v in variables[:3]]
+    ['seat_displacement', 'seat_velocity', 'head_acceleration']
+    """
+    if kind not in KINDS:
+        raise BodyvibError(f"unknown FMU kind '{kind}'; kinds are {', '.join(KINDS)}")
+    interface = KINDS[kind](network)
+    parameters = parameter_variables(network)
+    return interface, parameters, interface.inputs + interface.outputs + parameters

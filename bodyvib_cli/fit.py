@@ -1,0 +1,99 @@
+"""``bodyvib fit``: refit the reduced model by a genetic algorithm and write a parameter file."""
+
+from bodyvib.fit_config import load_config, parse_pairs
+from bodyvib.fit_objective import measured_target, model_target
+from bodyvib.fit_result import write_parameter_file
+from bodyvib.fit_search import fit
+from bodyvib.runtime.errors import BodyvibError
+
+__all__ = ["add_command"]
+
+
+def _command_line(args) -> str:
+    parts = ["bodyvib fit"]
+    if args.measured:
+        parts += ["--measured", args.measured]
+        if args.total_mass is not None:
+            parts += ["--total-mass", f"{args.total_mass:g}"]
+    else:
+        parts += ["--reference", args.reference]
+    parts += ["--seed", str(args.seed), "--out", args.out]
+    if args.config:
+        parts += ["--config", args.config]
+    if args.pairs:
+        parts += ["--pairs", args.pairs]
+    if args.polish is not None:
+        parts += ["--polish" if args.polish else "--no-polish"]
+    return " ".join(parts)
+
+
+def _run(args):
+    cfg = load_config(args.config)
+    if args.measured:
+        if args.pairs:
+            raise BodyvibError("--pairs applies to a reference model; measured data are "
+                               "seat-to-head only")
+        target = measured_target(args.measured, args.total_mass)
+    else:
+        if args.total_mass is not None:
+            raise BodyvibError("--total-mass applies to --measured data; with a reference "
+                               "model the total mass is its static apparent mass")
+        pairs = parse_pairs(args.pairs) if args.pairs else None
+        target = model_target(args.reference, pairs, cfg)
+    log = (lambda *a: None) if args.quiet else print
+    log(f"fitting the reduced model to {target.description}; total mass pinned to "
+        f"{target.total_mass:g} kg; seed {args.seed}")
+    result = fit(target, cfg, seed=args.seed, polish=args.polish, progress=not args.quiet)
+    net = write_parameter_file(result, args.out, command=_command_line(args))
+    log(f"objective J: Table 2 {result.objective_table2:.6g} 1/s, refit "
+        f"{result.objective:.6g} 1/s ({result.objective / result.objective_table2:.1%} of "
+        f"Table 2; GA {result.ga_objective:.6g} before polish), {result.evaluations} "
+        f"evaluations in {result.elapsed_s:.1f} s")
+    log("parameters: " + ", ".join(f"{k} {v:.5g}" for k, v in result.parameters.items()))
+    if result.at_bounds:
+        log("at a bound of the search: " + "; ".join(result.at_bounds))
+    log(f"wrote {args.out}")
+    if args.report:
+        from bodyvib.fit_report import write_report
+
+        files = write_report(args.report, result, net)
+        log("wrote " + ", ".join(files))
+    return 0
+
+
+def add_command(subparsers):
+    """Register ``bodyvib fit``."""
+    p = subparsers.add_parser(
+        "fit",
+        help="refit the reduced model by a genetic algorithm (paper Eq. 3)",
+        description="Refit the reduced 3-DOF model's parameters by a genetic algorithm "
+        "(PyGAD) to the head and torso impulse responses of a reference model (the paper's "
+        "Eq. 3; --pairs chooses) or to "
+        "a measured seat-to-head transmissibility, and write a parameter file with its "
+        "provenance that build_fmu.py --params bakes into the FMU.",
+    )
+    src = p.add_mutually_exclusive_group()
+    src.add_argument("--reference", default="iso7962", metavar="MODEL",
+                     help="reference model: shipped name or parameter file (default iso7962)")
+    src.add_argument("--measured", metavar="FILE.csv",
+                     help="measured transmissibility: CSV with header frequency_hz,modulus"
+                          "[,phase_deg]")
+    p.add_argument("--total-mass", type=float, metavar="KG",
+                   help="with --measured: total mass m1 + m2 to pin, kg (default 75)")
+    p.add_argument("--seed", type=int, default=1, help="GA seed (default 1)")
+    p.add_argument("--out", default="params/refit.json", metavar="FILE.json",
+                   help="parameter file to write (default params/refit.json)")
+    p.add_argument("--config", metavar="FILE.json",
+                   help="settings overriding bodyvib/data/fit/default-config.json")
+    p.add_argument("--pairs", metavar="ROLE=W,...",
+                   help="position pairs and weights, e.g. head=1,torso=0.5 (default "
+                        "head=1,torso=1, from the configuration)")
+    p.add_argument("--report", metavar="DIR",
+                   help="write a comparison with the paper's Table 2 (table, JSON, plots)")
+    p.add_argument("--polish", dest="polish", action="store_true", default=None,
+                   help="local polish after the GA (default: per the configuration, on)")
+    p.add_argument("--no-polish", dest="polish", action="store_false",
+                   help="skip the local polish")
+    p.add_argument("--quiet", action="store_true", help="no progress bar and no messages")
+    p.set_defaults(func=_run)
+    return p
