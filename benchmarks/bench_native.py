@@ -13,6 +13,8 @@ tests/c_host/native_host.c and measures, side by side in one run:
   reported (on a shared machine the CPU time is the steadier figure). The pythonfmu FMU
   needs LD_PRELOAD of libpython, PYTHONHOME and PYTHONPATH with numpy (see
   tests/test_fmu_c_host.py); the native FMU runs with an empty environment.
+* the same loop with a new step size at every step (native only): what a step-size change
+  costs (the matrix exponential of the augmented matrix and the output rows);
 * bodyvib's master (vehicle.cosim.cosimulate, fmpy FMU2Slave): microseconds per
   macro-step of the body on the quarter car over an ISO 8608 class C road, native body +
   native car against pythonfmu body + pythonfmu car; median of the repeats.
@@ -69,7 +71,7 @@ def python_env() -> dict:
     return env
 
 
-def c_host_step(exe, fmu, folder: Path, steps: int, env: dict):
+def c_host_step(exe, fmu, folder: Path, steps: int, env: dict, mode: str = "bench"):
     """(median wall ns, median CPU ns) per step of the host's bench loop."""
     from fmpy import read_model_description
 
@@ -80,7 +82,7 @@ def c_host_step(exe, fmu, folder: Path, steps: int, env: dict):
         z.extractall(folder)
     binary = folder / "binaries" / "linux64" / f"{md.coSimulation.modelIdentifier}.so"
     res = (folder / "resources").as_uri()
-    out = subprocess.run([exe, "--resources", res, "bench", str(binary), md.guid,
+    out = subprocess.run([exe, "--resources", res, mode, str(binary), md.guid,
                           f"{vr['seat_displacement']},{vr['seat_velocity']}",
                           ",".join(str(vr[n]) for n in outs), "0.001", str(steps)],
                          capture_output=True, text=True, env=env, timeout=1800)
@@ -144,6 +146,11 @@ def main(argv=None):
                   f"{pc / 1e3:11.2f} us {pc / nc:11.0f}x")
             if states == 5:
                 five = (nw, nc, pc / nc, pw / nw)
+        print("a new step size at every step (native, each step rediscretizes), median CPU:")
+        for name, states in (("HumanBody3DOF", 5), ("HumanBodyISO7962", 12)):
+            _, vc, _ = c_host_step(exe, native[name], tmp / f"v-{name}", 20_000, {},
+                                   mode="bench-vary")
+            print(f"  {name:18s} {states:6d} {vc / 1e3:9.2f} us per step")
         print(f"targets: <= 100 ns per 5-state step: wall {five[0]:.1f} ns, CPU {five[1]:.1f} ns; "
               f">= 300x faster than pythonfmu in the same host: {five[2]:.0f}x (CPU), "
               f"{five[3]:.0f}x (wall)")

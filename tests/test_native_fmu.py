@@ -14,7 +14,8 @@ its step matrices are only defined to about 1e-10 in double precision (the libra
 exponential and scipy's disagree by 5e-11 to 9e-11 relative), and the outputs inherit
 that. Its tolerance is therefore measured in the test: the spread between the library
 and the same simulation with scipy's matrix exponential (an independent, correct double
-implementation), times a factor 20 for run-to-run variation of that spread.
+implementation), times 5 (measured: the native FMUs stay within 2.1 times that spread,
+1.4e-9 at fixed and 2.8e-8 at varying steps).
 """
 
 import os
@@ -44,6 +45,7 @@ CAR_OUT = ["seat_displacement", "seat_velocity", "sprung_acceleration", "suspens
            "tire_force"]
 CAR_SIG = ["seat.x", "seat.v", "seat.a", "suspension.deflection", "tire.force"]
 TIGHT = 1e-12
+ISO_FACTOR = 5
 N = 1500
 
 
@@ -175,13 +177,13 @@ def relative_error(y, ref):
 
 
 def tolerance(name, t, x, v):
-    """1e-12, or for the stiff ISO model 20 x the library's spread against scipy's expm."""
+    """1e-12, or for the stiff ISO model 5 x the library's spread against scipy's expm."""
     if name != "HumanBodyISO7962":
         return np.full(len(BODY_OUT), TIGHT)
     model = load_model(MODEL_OF[name])
     spread = relative_error(body_reference(model, t, x, v, scipy.linalg.expm),
                             body_reference(model, t, x, v))
-    return np.maximum(20 * spread, TIGHT)
+    return np.maximum(ISO_FACTOR * spread, TIGHT)
 
 
 def test_fmpy_validate_is_clean_for_both_fmi_versions(native_fmus):
@@ -285,7 +287,7 @@ def test_iso_tolerance_is_needed_and_sufficient(native_fmus):
     spread = relative_error(body_reference(model, t, x, v, scipy.linalg.expm),
                             body_reference(model, t, x, v))
     assert np.max(spread) > TIGHT
-    assert np.all(err <= 20 * spread), (err, spread)
+    assert np.all(err <= ISO_FACTOR * spread), (err, spread)
 
 
 @pytest.mark.parametrize("vary", [False, True], ids=["fixed", "varying"])

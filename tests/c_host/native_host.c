@@ -15,6 +15,8 @@
  *                      value reference of a mass parameter)
  *             bench    N_STEPS of set input + doStep + get output, 7 times; prints wall-clock
  *                      and thread CPU time per step of each and the best
+ *             bench-vary  the same with a new step size at every step (each step
+ *                      rediscretizes: the cost of a step-size change)
  *   --resources  the fmuResourceLocation passed to fmi2Instantiate (default ""; the native
  *                FMUs need none, a pythonfmu FMU benchmarked here needs its file:// URI)
  *   BINARY    path of binaries/<platform>/<id>.so or .dll
@@ -467,7 +469,8 @@ int main(int argc, char **argv)
         free(bytes);
         api.free_instance(c);
 #ifndef _WIN32
-    } else if (strcmp(mode, "bench") == 0) {
+    } else if (strcmp(mode, "bench") == 0 || strcmp(mode, "bench-vary") == 0) {
+        int vary = strcmp(mode, "bench-vary") == 0;
         double in[2] = {0.0, 0.0}, out[MAX_VRS], best = 1e300, best_cpu = 1e300, t0, t1, cpu;
         struct timespec a, b, ca, cb;
         int rep;
@@ -485,7 +488,7 @@ int main(int argc, char **argv)
                 in[0] = table[2 * (k & 1023)];
                 in[1] = table[2 * (k & 1023) + 1];
                 api.set_real(c, in_vrs, 2, in);
-                api.do_step(c, t, h, fmi2True);
+                api.do_step(c, t, vary ? step_size(h, k, 1) : h, fmi2True);
                 api.get_real(c, out_vrs, n_out, out);
             }
             clock_gettime(CLOCK_MONOTONIC, &b);
