@@ -755,10 +755,12 @@ bv_status bv_step(bv_instance *c, double t, double h)
     }
     rates(c, c->ds);
     matvec(xn, c->Sc, c->x, n, n + 2 * ni);
-    memcpy(c->x, xn, (size_t)n * sizeof *xn);
-    memcpy(c->s_prev, c->s, (size_t)ni * sizeof(double));
-    for (j = 0; j < ni; j++)
+    for (j = 0; j < n; j++) /* small: plain loops, no library calls on the hot path */
+        c->x[j] = xn[j];
+    for (j = 0; j < ni; j++) {
+        c->s_prev[j] = c->s[j];
         c->s[j] += h * c->ds[j];
+    }
     c->h_prev = h;
     c->have_prev = 1;
     c->time = t + h;

@@ -267,8 +267,7 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedSta
         return fmi2Error;
     s->size = size;
     memcpy(s->bytes, serializedState, size);
-    free(*FMUstate);
-    *FMUstate = s;
+    *FMUstate = s; /* a new state: the host frees it (and any earlier one) with fmi2FreeFMUstate */
     return fmi2OK;
 }
 
