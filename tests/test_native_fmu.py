@@ -370,6 +370,34 @@ def test_unconnected_velocity_falls_back_to_the_slope_with_one_warning(native_fm
     assert np.all(err <= TIGHT), err
 
 
+def test_unconnected_road_velocity_falls_back_in_the_car(native_fmus):
+    messages = []
+
+    def logger(component, instance, status, category, message):
+        messages.append((status, message.decode()))
+
+    t = grid(True, n=500)
+    z, _ = chirp(t, amp=0.02)
+    f = Fmu(native_fmus["QuarterCar"], logger=logger)
+    outs = [f.vr[k] for k in CAR_OUT]
+    rows = []
+    for k in range(t.size):
+        f.set([f.vr["road_displacement"]], [float(z[k])])
+        rows.append(f.get(outs))
+        if k < t.size - 1:
+            f.fmu.doStep(t[k], t[k + 1] - t[k])
+    f.close()
+    warnings = [m for s, m in messages if s == 1]
+    assert len(warnings) == 1 and "road_velocity" in warnings[0], messages
+    lm = linear_model(load_car())
+    u = np.column_stack([z, np.zeros_like(z), np.zeros_like(z)])
+    du = np.zeros_like(u)
+    du[1:, 0] = np.diff(z) / np.diff(t)
+    _, ref = simulate(lm, t, u, du=du)
+    err = relative_error(np.array(rows), ref[:, [lm.output_index(s) for s in CAR_SIG]])
+    assert np.all(err <= TIGHT), err
+
+
 def test_connected_velocity_gives_no_warning(native_fmus):
     messages = []
 
