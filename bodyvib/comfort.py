@@ -29,6 +29,7 @@ The comfort scale of ISO 2631-1 Annex C (public transport) names the
 weighted r.m.s.; see :func:`comfort_category`.
 """
 
+from dataclasses import asdict, dataclass
 from typing import Dict
 
 import numpy as np
@@ -44,6 +45,7 @@ __all__ = [
     "vdv",
     "peak",
     "comfort_category",
+    "ComfortFigures",
     "comfort_figures",
 ]
 
@@ -238,7 +240,36 @@ def comfort_category(weighted_rms_value: float) -> str:
     return " / ".join(names)
 
 
-def comfort_figures(acceleration, fs: float) -> Dict[str, float]:
+@dataclass(frozen=True)
+class ComfortFigures:
+    """ISO 2631-1 figures of one weighted record (:func:`comfort_figures`).
+
+    Attributes
+    ----------
+    weighted_rms : float
+        Wk-weighted r.m.s., m/s2.
+    vdv : float
+        Vibration dose value, m/s^1.75.
+    peak : float
+        Peak of the weighted record, m/s2.
+    crest_factor : float
+        ``peak / weighted_rms`` (NaN for a zero record), dimensionless.
+    comfort : str
+        ISO 2631-1 Annex C words for the weighted r.m.s.
+    """
+
+    weighted_rms: float
+    vdv: float
+    peak: float
+    crest_factor: float
+    comfort: str
+
+    def to_dict(self) -> Dict[str, object]:
+        """The figures as a JSON-ready dict, keys in the order of the attributes."""
+        return asdict(self)
+
+
+def comfort_figures(acceleration, fs: float) -> ComfortFigures:
     """Weighted r.m.s., VDV, peak and crest factor of one record (one filtering pass).
 
     Parameters
@@ -250,16 +281,16 @@ def comfort_figures(acceleration, fs: float) -> Dict[str, float]:
 
     Returns
     -------
-    dict
+    ComfortFigures
         ``weighted_rms`` [m/s2], ``vdv`` [m/s^1.75], ``peak`` [m/s2],
         ``crest_factor`` [-], ``comfort`` (ISO 2631-1 Annex C words).
     """
     aw = weighted_acceleration(acceleration, fs)
     rms, pk = _rms(aw), _peak(aw)
-    return {
-        "weighted_rms": rms,
-        "vdv": _vdv(aw, fs),
-        "peak": pk,
-        "crest_factor": pk / rms if rms > 0 else float("nan"),
-        "comfort": comfort_category(rms),
-    }
+    return ComfortFigures(
+        weighted_rms=rms,
+        vdv=_vdv(aw, fs),
+        peak=pk,
+        crest_factor=pk / rms if rms > 0 else float("nan"),
+        comfort=comfort_category(rms),
+    )

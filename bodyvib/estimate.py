@@ -5,21 +5,59 @@ spectra give the transmissibility the run shows, to set beside the model's
 own (:func:`bodyvib.frequency.transmissibility`).
 """
 
-from typing import Dict
+from dataclasses import asdict, dataclass
+from typing import Dict, List
 
 import numpy as np
 
 from .frequency import find_peaks
 from .runtime.errors import BodyvibError
 
-__all__ = ["TRANSMISSIBILITY_BAND_HZ", "estimate_transmissibility"]
+__all__ = ["TRANSMISSIBILITY_BAND_HZ", "Peak", "TransmissibilityEstimate",
+           "estimate_transmissibility"]
 
 #: Band over which transmissibility is estimated and compared, Hz.
 TRANSMISSIBILITY_BAND_HZ = (0.5, 20.0)
 
 
+@dataclass(frozen=True)
+class Peak:
+    """A peak of a transmissibility modulus: where (Hz) and how high (dimensionless)."""
+
+    frequency_hz: float
+    modulus: float
+
+    def to_dict(self) -> Dict[str, float]:
+        """``{"frequency_hz", "modulus"}`` for JSON."""
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class TransmissibilityEstimate:
+    """Seat-to-head transmissibility estimated from a run (:func:`estimate_transmissibility`).
+
+    Attributes
+    ----------
+    frequency_hz, modulus, phase_deg, coherence : list of float
+        Over :data:`TRANSMISSIBILITY_BAND_HZ`: frequency (Hz), modulus and
+        unwrapped phase (degrees) of the H1 estimate, and the seat-head coherence.
+    peak : Peak
+        The highest peak of the modulus.
+    """
+
+    frequency_hz: List[float]
+    modulus: List[float]
+    phase_deg: List[float]
+    coherence: List[float]
+    peak: Peak
+
+    def to_dict(self) -> Dict[str, object]:
+        """The estimate as a JSON-ready dict (lists and the peak as a dict)."""
+        return asdict(self)
+
+
 def estimate_transmissibility(seat_acceleration, head_acceleration, fs: float,
-                              segment_s: float = 8.0) -> Dict[str, list]:
+                              segment_s: float = 8.0) -> TransmissibilityEstimate:
     """Seat-to-head transmissibility from a run: the H1 estimator ``P_sh / P_ss``.
 
     Parameters
@@ -34,10 +72,9 @@ def estimate_transmissibility(seat_acceleration, head_acceleration, fs: float,
 
     Returns
     -------
-    dict
+    TransmissibilityEstimate
         ``frequency_hz``, ``modulus``, ``phase_deg``, ``coherence`` (lists over
-        :data:`TRANSMISSIBILITY_BAND_HZ`) and ``peak`` (``frequency_hz``,
-        ``modulus`` of the highest peak).
+        :data:`TRANSMISSIBILITY_BAND_HZ`) and ``peak`` (the highest peak).
 
     Raises
     ------
@@ -65,10 +102,10 @@ def estimate_transmissibility(seat_acceleration, head_acceleration, fs: float,
     peaks = find_peaks(f[sel], mod)
     top = max(peaks, key=lambda p: p["modulus"]) if peaks else {
         "frequency_hz": float(f[sel][np.argmax(mod)]), "modulus": float(mod.max())}
-    return {
-        "frequency_hz": f[sel].tolist(),
-        "modulus": mod.tolist(),
-        "phase_deg": np.degrees(np.unwrap(np.angle(H))).tolist(),
-        "coherence": coh[sel].tolist(),
-        "peak": {"frequency_hz": float(top["frequency_hz"]), "modulus": float(top["modulus"])},
-    }
+    return TransmissibilityEstimate(
+        frequency_hz=f[sel].tolist(),
+        modulus=mod.tolist(),
+        phase_deg=np.degrees(np.unwrap(np.angle(H))).tolist(),
+        coherence=coh[sel].tolist(),
+        peak=Peak(frequency_hz=float(top["frequency_hz"]), modulus=float(top["modulus"])),
+    )

@@ -6,6 +6,7 @@ reference, date, package version), that ``load_model``, ``bodyvib frf
 --models`` and ``build_fmu.py --params`` read.
 """
 
+import copy
 import datetime
 from dataclasses import dataclass, field
 from typing import Dict, List
@@ -69,6 +70,35 @@ class FitResult:
     history: List[float] = field(default_factory=list)
     at_bounds: List[str] = field(default_factory=list)
     runs: List[dict] = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        """The result as a JSON-ready dict.
+
+        The target is summarized (``name``, ``kind``, ``description``,
+        ``pairs``, ``total_mass``, ``modulus_only``, ``reference_model``,
+        ``measured_data``) rather than copied with its quadrature arrays.
+        """
+        t = self.target
+        return {
+            "parameters": dict(self.parameters),
+            "objective": self.objective,
+            "objective_table2": self.objective_table2,
+            "ga_objective": self.ga_objective,
+            "relative_error": self.relative_error,
+            "target": {"name": t.name, "kind": t.kind, "description": t.description,
+                       "pairs": dict(t.pairs), "total_mass": t.total_mass,
+                       "modulus_only": t.modulus_only,
+                       "reference_model": t.reference.name if t.reference is not None else None,
+                       "measured_data": t.measured.source if t.measured is not None else None},
+            "seed": self.seed,
+            "config": copy.deepcopy(self.config),
+            "polished": self.polished,
+            "evaluations": self.evaluations,
+            "elapsed_s": self.elapsed_s,
+            "history": [float(x) for x in self.history],
+            "at_bounds": list(self.at_bounds),
+            "runs": [dict(r) for r in self.runs],
+        }
 
 
 def write_parameter_file(result: FitResult, path, command: str = "") -> Network:

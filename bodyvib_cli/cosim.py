@@ -74,20 +74,20 @@ def _write_outputs(args, study, comparison):
         plot_study(study, args.plot, comparison)
         print(f"wrote {args.plot}")
     if args.csv:
-        cols = {"time": study["time"], "road_displacement": study["road_displacement"],
-                "road_velocity": study["road_velocity"]}
-        many = len(study["bodies"]) > 1
-        for label, b in study["bodies"].items():
-            for k, v in b["run"].items():
+        cols = {"time": study.time, "road_displacement": study.road_displacement,
+                "road_velocity": study.road_velocity}
+        many = len(study.bodies) > 1
+        for label, b in study.bodies.items():
+            for k, v in b.run.items():
                 if k in cols or (many and k not in ("head_acceleration", "head_displacement",
                                                     "torso_displacement", "seat_force")):
                     if k not in cols:
                         cols[k] = v
                     continue
                 cols[f"{label}.{k}" if many else k] = v
-            if b["reference"] is not None:
+            if b.reference is not None:
                 cols[f"{label}.reference_head_acceleration" if many
-                     else "reference_head_acceleration"] = b["reference"]["head_acceleration"]
+                     else "reference_head_acceleration"] = b.reference["head_acceleration"]
         write_csv(args.csv, cols)
         print(f"wrote {args.csv}")
 
@@ -111,7 +111,7 @@ def _run(args, want_iso):
     finally:
         if tmp:
             shutil.rmtree(tmp, ignore_errors=True)
-    if comparison is not None and args.strict and comparison["verdict"] != "PASS":
+    if comparison is not None and args.strict and comparison.verdict != "PASS":
         return 1
     return 0
 

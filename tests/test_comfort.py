@@ -68,8 +68,8 @@ def test_rms_and_vdv_of_a_sine_are_the_closed_forms():
     assert weighted_rms(a, fs) == pytest.approx(B / np.sqrt(2), rel=5e-3)
     assert vdv(a, fs) == pytest.approx(B * (3 * T / 8) ** 0.25, rel=5e-3)
     figs = comfort_figures(a, fs)
-    assert figs["weighted_rms"] == pytest.approx(weighted_rms(a, fs), rel=1e-12)
-    assert figs["crest_factor"] == pytest.approx(figs["peak"] / figs["weighted_rms"])
+    assert figs.weighted_rms == pytest.approx(weighted_rms(a, fs), rel=1e-12)
+    assert figs.crest_factor == pytest.approx(figs.peak / figs.weighted_rms)
 
 
 def test_peak_of_a_faded_in_sine_is_its_weighted_amplitude():

@@ -45,10 +45,13 @@ def test_coupling_error_meets_target_at_1ms(fmus, which):
     resonance, enough for a stable r.m.s. The plain master (seat force held) is far
     above the target, so the extrapolation is what meets it."""
     study = run_study({"b": fmus[which]}, fmus["car"], "C", 20.0, 10.0, 1e-3)
-    err = study["bodies"]["b"]["coupling_nrmse"]
+    err = study.bodies["b"].coupling_nrmse
     assert err <= 5e-4
     held = run_study({"b": fmus[which]}, fmus["car"], "C", 20.0, 10.0, 1e-3, extrapolate=False)
-    assert held["bodies"]["b"]["coupling_nrmse"] > 5 * err
+    assert held.bodies["b"].coupling_nrmse > 5 * err
+    doc = json.loads(json.dumps(held.to_dict()))  # the typed study's JSON form
+    assert doc["bodies"]["b"]["coupling_nrmse"] == held.bodies["b"].coupling_nrmse
+    assert doc["settings"]["master"] == "gauss-seidel, seat force held"
 
 
 def test_coupling_error_is_second_order_in_the_step(fmus):
@@ -64,11 +67,11 @@ def test_cushion_car_co_simulates_against_its_reference(fmus):
     spring is an ~80 Hz mode that the coupling has to resolve, so at 1 ms the error
     is about 0.06 % (README); the 0.05 % target holds at 0.5 ms (second order: 4x less)."""
     study = run_study({"b": fmus["body"]}, fmus["cushion"], "C", 20.0, 5.0, 5e-4)
-    assert study["bodies"]["b"]["coupling_nrmse"] <= 5e-4
+    assert study.bodies["b"].coupling_nrmse <= 5e-4
     # the cushion's 3-4 Hz seat resonance changes the ride: not the rigid seat's figures
     rigid = run_study({"b": fmus["body"]}, fmus["car"], "C", 20.0, 5.0, 5e-4)
-    assert (study["bodies"]["b"]["figures"]["weighted_rms"]
-            != pytest.approx(rigid["bodies"]["b"]["figures"]["weighted_rms"], rel=0.02))
+    assert (study.bodies["b"].figures.weighted_rms
+            != pytest.approx(rigid.bodies["b"].figures.weighted_rms, rel=0.02))
 
 
 def test_master_outputs_match_reference_signal_by_signal(fmus):

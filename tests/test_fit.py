@@ -164,6 +164,9 @@ def test_small_ga_beats_table2_on_the_time_domain_definition(iso, paper):
     assert objective_time_domain(iso, refit) < objective_time_domain(iso, paper)
     assert refit.total_mass() == pytest.approx(75.0, rel=1e-12)
     assert r.objective <= r.ga_objective  # the polish never makes it worse
+    doc = json.loads(json.dumps(r.to_dict()))  # typed result -> plain JSON
+    assert doc["parameters"] == r.parameters and doc["seed"] == 3
+    assert doc["target"]["reference_model"] == "iso7962" and doc["target"]["kind"] == "model"
 
 
 def test_same_seed_same_result_other_seed_other_path(capsys):

@@ -77,12 +77,12 @@ def test_transmissibility_estimated_from_a_run_is_the_models():
     body = load_model("reduced-paper")
     r = reference_run(load_car(), body, z, v, h)
     est = estimate_transmissibility(r["seat_acceleration"], r["head_acceleration"], 1 / h)
-    f = np.asarray(est["frequency_hz"])
+    f = np.asarray(est.frequency_hz)
     model = transmissibility(body, f)
-    H = np.asarray(est["modulus"])
+    H = np.asarray(est.modulus)
     assert np.max(np.abs(H - np.abs(model)) / np.abs(model)) < 0.05
-    assert min(est["coherence"]) > 0.99
-    assert est["peak"]["frequency_hz"] == pytest.approx(4.43, abs=0.5)
+    assert min(est.coherence) > 0.99
+    assert est.peak.frequency_hz == pytest.approx(4.43, abs=0.5)
 
 
 def test_too_short_record_for_a_transmissibility_is_a_clear_error():

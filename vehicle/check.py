@@ -3,12 +3,16 @@
 :func:`compare` takes a study of both bodies on the same road and car
 (:func:`vehicle.study.run_study`) and judges the reduced body criterion by
 criterion against :data:`TOLERANCES` (the README explains each), giving one
-PASS/FAIL line per criterion and a verdict.
+PASS/FAIL line per criterion and a verdict, as a :class:`Comparison` of
+:class:`Criterion`.
 """
+
+from dataclasses import asdict, dataclass, field
+from typing import Dict, List
 
 from .reference import nrmse
 
-__all__ = ["TOLERANCES", "compare"]
+__all__ = ["TOLERANCES", "Criterion", "Comparison", "compare"]
 
 #: Check tolerances: relative difference of the reduced body's figure from the
 #: ISO body's (a fraction), except the peak frequency (Hz). See README, "The check".
@@ -22,45 +26,104 @@ TOLERANCES = {
 }
 
 
+@dataclass(frozen=True)
+class Criterion:
+    """One criterion of the check.
+
+    Attributes
+    ----------
+    name : str
+        A key of :data:`TOLERANCES`.
+    reduced, iso : float
+        The figure of the reduced and of the ISO body (for the time-history
+        NRMSE: the NRMSE and 0).
+    difference : float
+        Relative difference (a fraction), except the peak frequency (Hz).
+    tolerance : float
+        The criterion's tolerance, same unit as ``difference``.
+    unit : str
+        ``"relative"`` or ``"Hz"``.
+    passed : bool
+        ``difference <= tolerance``.
+    """
+
+    name: str
+    reduced: float
+    iso: float
+    difference: float
+    tolerance: float
+    unit: str
+    passed: bool
+
+    def to_dict(self) -> dict:
+        """The criterion as a JSON-ready dict."""
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """The check's outcome (:func:`compare`).
+
+    Attributes
+    ----------
+    reduced, iso : str
+        Labels of the two bodies in the study.
+    criteria : list of Criterion
+    verdict : str
+        ``"PASS"`` if every criterion passes, else ``"FAIL"``.
+    tolerances : dict of str to float
+        The tolerances judged against (:data:`TOLERANCES`).
+    """
+
+    reduced: str
+    iso: str
+    criteria: List[Criterion]
+    verdict: str
+    tolerances: Dict[str, float] = field(default_factory=lambda: dict(TOLERANCES))
+
+    def to_dict(self) -> dict:
+        """The check section of the JSON document: ``criteria``, ``verdict``, ``tolerances``."""
+        return {"criteria": [c.to_dict() for c in self.criteria], "verdict": self.verdict,
+                "tolerances": dict(self.tolerances)}
+
+
 def _rel(a, b):
     return abs(a - b) / abs(b) if b else float("inf")
 
 
-def compare(study: dict, reduced: str, iso: str) -> dict:
+def compare(study, reduced: str, iso: str) -> Comparison:
     """The check: reduced body against the ISO body, criterion by criterion.
 
     Parameters
     ----------
-    study : dict
-        From :func:`run_study` with both labels.
+    study : vehicle.study.Study
+        From :func:`vehicle.study.run_study` with both labels.
     reduced, iso : str
         Labels of the reduced body and of the ISO 7962 body.
 
     Returns
     -------
-    dict
-        ``criteria``: list of ``{"name", "reduced", "iso", "difference",
-        "tolerance", "unit", "passed"}`` (difference relative, a fraction,
-        except the peak frequency in Hz; for the time-history NRMSE "reduced"
-        holds the NRMSE); ``verdict``: ``"PASS"`` if every criterion passes,
-        else ``"FAIL"``.
+    Comparison
+        One :class:`Criterion` per key of :data:`TOLERANCES` (difference
+        relative, a fraction, except the peak frequency in Hz; for the
+        time-history NRMSE ``reduced`` holds the NRMSE) and the verdict.
     """
-    R, I = study["bodies"][reduced], study["bodies"][iso]
+    R, I = study.bodies[reduced], study.bodies[iso]
     crit = []
 
     def add(name, r, i, diff, unit="relative"):
         tol = TOLERANCES[name]
-        crit.append({"name": name, "reduced": r, "iso": i, "difference": diff,
-                     "tolerance": tol, "unit": unit, "passed": bool(diff <= tol)})
+        crit.append(Criterion(name=name, reduced=r, iso=i, difference=diff, tolerance=tol,
+                              unit=unit, passed=bool(diff <= tol)))
 
     for key in ("weighted_rms", "vdv", "peak"):
-        r, i = R["figures"][key], I["figures"][key]
+        r, i = getattr(R.figures, key), getattr(I.figures, key)
         add(key, r, i, _rel(r, i))
-    e = nrmse(R["run"]["head_acceleration"], I["run"]["head_acceleration"])
+    e = nrmse(R.run["head_acceleration"], I.run["head_acceleration"])
     add("time_history_nrmse", e, 0.0, e)
-    pr, pi = R["transmissibility"]["peak"], I["transmissibility"]["peak"]
-    add("transmissibility_peak", pr["modulus"], pi["modulus"], _rel(pr["modulus"], pi["modulus"]))
-    add("transmissibility_peak_frequency_hz", pr["frequency_hz"], pi["frequency_hz"],
-        abs(pr["frequency_hz"] - pi["frequency_hz"]), unit="Hz")
-    return {"reduced": reduced, "iso": iso, "criteria": crit,
-            "verdict": "PASS" if all(c["passed"] for c in crit) else "FAIL"}
+    pr, pi = R.transmissibility.peak, I.transmissibility.peak
+    add("transmissibility_peak", pr.modulus, pi.modulus, _rel(pr.modulus, pi.modulus))
+    add("transmissibility_peak_frequency_hz", pr.frequency_hz, pi.frequency_hz,
+        abs(pr.frequency_hz - pi.frequency_hz), unit="Hz")
+    return Comparison(reduced=reduced, iso=iso, criteria=crit,
+                      verdict="PASS" if all(c.passed for c in crit) else "FAIL")

@@ -4,22 +4,24 @@ from typing import Optional
 
 import numpy as np
 
+from .check import Comparison
 from .cosim import model_from_fmu
+from .study import Study
 
 __all__ = ["plot_study"]
 
 
-def plot_study(study: dict, path, comparison: Optional[dict] = None, window_s: float = 5.0):
+def plot_study(study: Study, path, comparison: Optional[Comparison] = None, window_s: float = 5.0):
     """Head acceleration side by side (a window mid-run) and transmissibility estimates.
 
     Parameters
     ----------
-    study : dict
-        From :func:`run_study`.
+    study : Study
+        From :func:`vehicle.study.run_study`.
     path : str or os.PathLike
         Plot file (.png, .pdf or .svg).
-    comparison : dict, optional
-        From :func:`compare` (its verdict goes into the title).
+    comparison : Comparison, optional
+        From :func:`vehicle.check.compare` (its verdict goes into the title).
     window_s : float
         Length of the time window shown, s.
 
@@ -33,25 +35,24 @@ def plot_study(study: dict, path, comparison: Optional[dict] = None, window_s: f
 
     fig, (ax1, ax2) = new_figure(2, 1, figsize=(8, 8))
     fig.subplots_adjust(hspace=0.35)
-    t = study["time"]
+    t = study.time
     t0 = max(0.0, t[-1] / 2 - window_s / 2)
     sel = (t >= t0) & (t <= t0 + window_s)
-    for label, b in study["bodies"].items():
-        ax1.plot(t[sel], b["run"]["head_acceleration"][sel], lw=0.9,
-                 label=f"{label}: a_w = {b['figures']['weighted_rms']:.3f} m/s2")
+    for label, b in study.bodies.items():
+        ax1.plot(t[sel], b.run["head_acceleration"][sel], lw=0.9,
+                 label=f"{label}: a_w = {b.figures.weighted_rms:.3f} m/s2")
     ax1.set_xlabel("time [s]")
     ax1.set_ylabel("head acceleration [m/s2]")
-    s = study["settings"]
-    ax1.set_title(f"{study['road']['name']}, {s['speed_m_s']:g} m/s: head acceleration "
+    ax1.set_title(f"{study.road['name']}, {study.settings.speed_m_s:g} m/s: head acceleration "
                   f"({window_s:g} s window)")
     ax1.grid(True, alpha=0.3)
     ax1.legend(fontsize=8, loc="upper right")
-    for label, b in study["bodies"].items():
-        T = b["transmissibility"]
-        line, = ax2.plot(T["frequency_hz"], T["modulus"], label=f"{label} (estimated from run)")
-        if b["model"] is not None:
-            net = model_from_fmu(b["fmu"])
-            f = np.asarray(T["frequency_hz"])
+    for label, b in study.bodies.items():
+        T = b.transmissibility
+        line, = ax2.plot(T.frequency_hz, T.modulus, label=f"{label} (estimated from run)")
+        if b.model is not None:
+            net = model_from_fmu(b.fmu)
+            f = np.asarray(T.frequency_hz)
             ax2.plot(f, np.abs(transmissibility(net, f)), "--", color=line.get_color(), lw=0.8,
                      label=f"{label} (model)")
     ax2.set_xscale("log")
@@ -60,5 +61,5 @@ def plot_study(study: dict, path, comparison: Optional[dict] = None, window_s: f
     ax2.grid(True, which="both", alpha=0.3)
     ax2.legend(fontsize=8)
     if comparison is not None:
-        ax2.set_title(f"seat-to-head transmissibility; check verdict: {comparison['verdict']}")
+        ax2.set_title(f"seat-to-head transmissibility; check verdict: {comparison.verdict}")
     save_figure(fig, path)

@@ -5,7 +5,8 @@ The JSON document's keys are listed in the README ("JSON output").
 
 from typing import Optional
 
-from .check import TOLERANCES
+from .check import Comparison
+from .study import Study
 
 __all__ = ["format_report", "study_json"]
 
@@ -20,24 +21,24 @@ _WORDS = {
 }
 
 
-def format_report(study: dict, comparison: Optional[dict] = None) -> str:
+def format_report(study: Study, comparison: Optional[Comparison] = None) -> str:
     """Text report: per-body head figures, coupling error, and the check's lines.
 
     Parameters
     ----------
-    study : dict
-        From :func:`run_study`.
-    comparison : dict, optional
-        From :func:`compare`.
+    study : Study
+        From :func:`vehicle.study.run_study`.
+    comparison : Comparison, optional
+        From :func:`vehicle.check.compare`.
 
     Returns
     -------
     str
     """
-    s = study["settings"]
-    lines = [f"road {study['road']['name']}, {s['speed_m_s']:g} m/s, {s['duration_s']:g} s, "
-             f"step {s['step_s']:g} s ({s['master']})", ""]
-    bodies = study["bodies"]
+    s = study.settings
+    lines = [f"road {study.road['name']}, {s.speed_m_s:g} m/s, {s.duration_s:g} s, "
+             f"step {s.step_s:g} s ({s.master})", ""]
+    bodies = study.bodies
     labels = list(bodies)
     w = max(24, *(len(label) for label in labels))
 
@@ -47,28 +48,28 @@ def format_report(study: dict, comparison: Optional[dict] = None) -> str:
     lines.append(f"{'head acceleration':<28}" + "".join(f"{label:>{w}}" for label in labels))
     for key, fmt in (("weighted_rms", "{:.4f}"), ("vdv", "{:.4f}"), ("peak", "{:.4f}"),
                      ("crest_factor", "{:.2f}")):
-        lines.append(row(_WORDS[key], lambda b: fmt.format(b["figures"][key])))
-    lines.append(row("comfort (ISO 2631-1 C)", lambda b: b["figures"]["comfort"]))
+        lines.append(row(_WORDS[key], lambda b: fmt.format(getattr(b.figures, key))))
+    lines.append(row("comfort (ISO 2631-1 C)", lambda b: b.figures.comfort))
     lines.append(row("transmissibility peak", lambda b: "{modulus:.3f} at {frequency_hz:.2f} Hz".format(
-        **b["transmissibility"]["peak"])))
-    lines.append(row("coupling NRMSE vs reference", lambda b: _pct(b["coupling_nrmse"])))
-    lines.append(row("real-time factor", lambda b: f"{b['real_time_factor']:.1f}"))
-    seat = study["bodies"][labels[0]]["seat_figures"]["weighted_rms"]
+        **b.transmissibility.peak.to_dict())))
+    lines.append(row("coupling NRMSE vs reference", lambda b: _pct(b.coupling_nrmse)))
+    lines.append(row("real-time factor", lambda b: f"{b.real_time_factor:.1f}"))
+    seat = bodies[labels[0]].seat_figures.weighted_rms
     lines.append(f"seat Wk-weighted r.m.s. ({labels[0]} run): {seat:.4f} m/s2")
     if comparison:
-        lines += ["", f"check: {comparison['reduced']} against {comparison['iso']}"]
-        for c in comparison["criteria"]:
-            mark = "PASS" if c["passed"] else "FAIL"
-            if c["unit"] == "Hz":
-                what = (f"{c['reduced']:.2f} vs {c['iso']:.2f} Hz: difference "
-                        f"{c['difference']:.2f} Hz <= {c['tolerance']:g} Hz?")
-            elif c["name"] == "time_history_nrmse":
-                what = f"{100 * c['difference']:.1f} % <= {100 * c['tolerance']:g} %?"
+        lines += ["", f"check: {comparison.reduced} against {comparison.iso}"]
+        for c in comparison.criteria:
+            mark = "PASS" if c.passed else "FAIL"
+            if c.unit == "Hz":
+                what = (f"{c.reduced:.2f} vs {c.iso:.2f} Hz: difference "
+                        f"{c.difference:.2f} Hz <= {c.tolerance:g} Hz?")
+            elif c.name == "time_history_nrmse":
+                what = f"{100 * c.difference:.1f} % <= {100 * c.tolerance:g} %?"
             else:
-                what = (f"{c['reduced']:.4g} vs {c['iso']:.4g}: difference "
-                        f"{100 * c['difference']:.1f} % <= {100 * c['tolerance']:g} %?")
-            lines.append(f"  {mark}  {_WORDS[c['name']]:<38} {what}")
-        lines.append(f"verdict: {comparison['verdict']}")
+                what = (f"{c.reduced:.4g} vs {c.iso:.4g}: difference "
+                        f"{100 * c.difference:.1f} % <= {100 * c.tolerance:g} %?")
+            lines.append(f"  {mark}  {_WORDS[c.name]:<38} {what}")
+        lines.append(f"verdict: {comparison.verdict}")
     return "\n".join(lines)
 
 
@@ -76,34 +77,24 @@ def _pct(x):
     return "n/a" if x is None else f"{100 * x:.4f} %"
 
 
-def study_json(study: dict, comparison: Optional[dict] = None) -> dict:
+def study_json(study: Study, comparison: Optional[Comparison] = None) -> dict:
     """The JSON document of a study (figures, no time histories); keys in the README.
 
     Parameters
     ----------
-    study : dict
-        From :func:`run_study`.
-    comparison : dict, optional
-        From :func:`compare`.
+    study : Study
+        From :func:`vehicle.study.run_study`.
+    comparison : Comparison, optional
+        From :func:`vehicle.check.compare`.
 
     Returns
     -------
     dict
+        :meth:`Study.to_dict`, with ``check`` (:meth:`Comparison.to_dict`) and
+        ``verdict`` when a comparison is given.
     """
-    doc = {"settings": study["settings"], "road": study["road"], "bodies": {}}
-    for label, b in study["bodies"].items():
-        f = b["figures"]
-        doc["bodies"][label] = {
-            "fmu": b["fmu"], "model": b["model"],
-            "weighted_rms": f["weighted_rms"], "vdv": f["vdv"], "peak": f["peak"],
-            "crest_factor": f["crest_factor"], "comfort": f["comfort"],
-            "coupling_nrmse": b["coupling_nrmse"],
-            "seat_weighted_rms": b["seat_figures"]["weighted_rms"],
-            "transmissibility_peak": b["transmissibility"]["peak"],
-            "real_time_factor": b["real_time_factor"],
-        }
+    doc = study.to_dict()
     if comparison is not None:
-        doc["check"] = {"criteria": comparison["criteria"], "verdict": comparison["verdict"],
-                        "tolerances": dict(TOLERANCES)}
-        doc["verdict"] = comparison["verdict"]
+        doc["check"] = comparison.to_dict()
+        doc["verdict"] = comparison.verdict
     return doc
