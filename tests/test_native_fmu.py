@@ -208,7 +208,7 @@ def test_archives_hold_both_binaries_sources_and_model(native_fmus):
         assert ("sources/buildDescription.xml" in files) == fmi3
 
 
-def test_binaries_need_only_libc_and_libm_and_export_only_fmi(native_fmus, tmp_path):
+def test_binaries_need_only_libc_and_libm_export_only_fmi_and_have_no_mutable_globals(native_fmus, tmp_path):
     with zipfile.ZipFile(native_fmus["HumanBody3DOF"]) as z:
         z.extractall(tmp_path)
     so = tmp_path / "binaries" / "linux64" / "HumanBody3DOF.so"
@@ -219,6 +219,11 @@ def test_binaries_need_only_libc_and_libm_and_export_only_fmi(native_fmus, tmp_p
                           text=True).stdout.split()
     exported = [s for s in syms if s.startswith(("fmi", "bv_", "_"))]
     assert exported and all(s.startswith("fmi2") for s in exported), exported
+    # no mutable global state: the only writable objects are the C runtime's own
+    table = subprocess.run(["objdump", "-t", str(so)], capture_output=True, text=True).stdout
+    writable = {l.split()[-1] for l in table.splitlines()
+                if any(f" {sec}\t" in l for sec in (".data", ".bss"))}
+    assert writable <= {"completed.0", "__dso_handle", "__TMC_END__"}, writable
     dll = tmp_path / "binaries" / "win64" / "HumanBody3DOF.dll"
     dump = subprocess.run(["x86_64-w64-mingw32-objdump", "-p", str(dll)], capture_output=True,
                           text=True)
