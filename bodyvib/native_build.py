@@ -31,14 +31,13 @@ Build-time needs: gcc, x86_64-w64-mingw32-gcc, fmpy (its FMI headers).
 import hashlib
 import io
 import json
-import os
 import shutil
 import subprocess
 import tempfile
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Dict, Iterable, List, Optional, Sequence, Tuple
+from typing import Iterable, List, Sequence, Tuple
 from xml.etree import ElementTree as ET
 
 import numpy as np

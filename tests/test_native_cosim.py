@@ -13,7 +13,6 @@ algorithm on the same deterministic FMUs, so they agree with each other to 1e-12
 """
 
 import json
-import os
 import subprocess
 import sys
 

@@ -22,7 +22,6 @@ import os
 import subprocess
 import sys
 import zipfile
-from xml.etree import ElementTree as ET
 
 import numpy as np
 import pytest
