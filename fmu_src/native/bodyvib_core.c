@@ -224,6 +224,39 @@ static void matvec(double *restrict out, const double *restrict M, const double 
     }
 }
 
+/* Roots without pow(), exp() or log(): those carry the glibc 2.29 symbol version, while
+ * sqrt, cbrt, frexp and ldexp keep the binary loadable by glibc 2.14 (RHEL 7/8, Debian 10). */
+static double root5(double x)
+{
+    int e, q, r, i;
+    double t, y = 1.2;
+    if (!(x > 0.0) || !isfinite(x))
+        return x;
+    t = frexp(x, &e); /* x = t 2^e, t in [0.5, 1) */
+    q = e / 5;
+    r = e % 5;
+    if (r < 0) {
+        r += 5;
+        q -= 1;
+    }
+    t = ldexp(t, r); /* x = t 2^(5 q), t in [0.5, 16): its fifth root is in [0.87, 1.75) */
+    for (i = 0; i < 60; i++) { /* Newton, quadratic from y = 1.2 */
+        double y4 = y * y * y * y, yn = y - (y4 * y - t) / (5.0 * y4);
+        if (yn == y)
+            break;
+        y = yn;
+    }
+    return ldexp(y, q);
+}
+
+/* ceil(log2(v)) for v > 0, exactly: v = m 2^e with m in [0.5, 1) */
+static int ceil_log2(double v)
+{
+    int e;
+    double m = frexp(v, &e);
+    return m == 0.5 ? e - 1 : e;
+}
+
 /* Pade(13) coefficients and the scaling threshold theta_13 (Higham 2005). */
 static const double B13[14] = {
     64764752532480000., 32382376266240000., 7771770303897600., 1187353796428800.,
@@ -245,15 +278,15 @@ static int expm(double *E, const double *M, int N, double *work, int *piv)
     mul(M2, M, M, N, N, N);
     mul(M4, M2, M2, N, N, N);
     mul(M6, M4, M2, N, N, N);
-    d6 = pow(norm1(M6, N), 1.0 / 6.0);
+    d6 = sqrt(cbrt(norm1(M6, N)));
     mul(T, M4, M4, N, N, N);
-    d8 = pow(norm1(T, N), 1.0 / 8.0);
+    d8 = sqrt(sqrt(sqrt(norm1(T, N))));
     mul(T, M4, M6, N, N, N);
-    d10 = pow(norm1(T, N), 1.0 / 10.0);
+    d10 = sqrt(root5(norm1(T, N)));
     eta = fmin(fmax(d6, d8), fmax(d8, d10));
-    if (eta > 0.0) {
-        double l = ceil(log2(eta / THETA13));
-        s = l > 0.0 ? (int)l : 0;
+    if (eta > 0.0 && isfinite(eta)) {
+        int l = ceil_log2(eta / THETA13);
+        s = l > 0 ? l : 0;
     }
     f1 = ldexp(1.0, -s);
     f2 = ldexp(1.0, -2 * s);
@@ -395,6 +428,10 @@ static int build(bv_instance *c, const double *p)
     return 1;
 }
 
+/* The powers of ten that are exact doubles. */
+static const double P10[23] = {1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11,
+                               1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+
 /* h rounded to 12 significant digits, as the library's step cache keys it
  * (float(f"{h:.12g}")): the decimal digits are read back exactly, locale-independent. */
 static double round12(double h)
@@ -412,9 +449,9 @@ static double round12(double h)
             mant = mant * 10 + (text[p] - '0');
     p = e - 11;
     if (p >= 0 && p <= 22)
-        return (double)mant * pow(10.0, p);
+        return (double)mant * P10[p];
     if (p < 0 && p >= -22)
-        return (double)mant / pow(10.0, -p); /* exact powers: one rounding, as strtod */
+        return (double)mant / P10[-p]; /* exact powers: one rounding, as strtod */
     return h;
 }
 
