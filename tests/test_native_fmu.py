@@ -451,6 +451,59 @@ def test_nan_input_negative_step_and_negative_mass_are_errors(native_fmus, fmi):
     assert any("m1 = -4.88" in m for m in messages), messages
 
 
+@pytest.mark.parametrize("fmi", ["", "fmi3/"])
+def test_fmu_state_round_trip_and_reset_in_fmpy(native_fmus, fmi):
+    """Get/set and (de)serialize the state half-way: the rest of the run is bit-identical;
+    a corrupted byte or another model's state is refused; reset gives a fresh run."""
+    from fmpy.fmi1 import FMICallException
+
+    t = grid(True, n=400)
+    x, v = chirp(t)
+    f = Fmu(native_fmus[fmi + "HumanBody3DOF"], logger=lambda *a: None)
+    ins, outs = [f.vr["seat_displacement"], f.vr["seat_velocity"]], [f.vr[k] for k in BODY_OUT]
+    fmu = f.fmu
+    two = f.md.fmiVersion == "2.0"
+    get_state = fmu.getFMUstate if two else fmu.getFMUState
+    set_state = fmu.setFMUstate if two else fmu.setFMUState
+    serialize = fmu.serializeFMUstate if two else fmu.serializeFMUState
+    deserialize = fmu.deSerializeFMUstate if two else fmu.deserializeFMUState
+
+    def run(k0, k1):
+        rows = []
+        for k in range(k0, k1):
+            f.set(ins, [float(x[k]), float(v[k])])
+            rows.append(f.get(outs))
+            fmu.doStep(t[k], t[k + 1] - t[k])
+        return np.array(rows)
+
+    first = run(0, 200)
+    state = get_state()
+    blob = serialize(state)
+    rest = run(200, 400)
+    set_state(state)
+    assert np.array_equal(run(200, 400), rest)
+    set_state(deserialize(blob))
+    assert np.array_equal(run(200, 400), rest)
+    bad = bytearray(blob)
+    bad[len(bad) // 2] ^= 1
+    with pytest.raises(FMICallException):
+        deserialize(bytes(bad))
+    other = Fmu(native_fmus[fmi + "HumanBodyISO7962"], logger=lambda *a: None)
+    foreign = (other.fmu.serializeFMUstate if two else other.fmu.serializeFMUState)(
+        (other.fmu.getFMUstate if two else other.fmu.getFMUState)())
+    other.close()
+    with pytest.raises(FMICallException):
+        deserialize(foreign)
+    fmu.reset()
+    if two:
+        fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    again = run(0, 200)
+    assert np.array_equal(again, first)
+    f.close()
+
+
 def test_fmpy_simulates_the_fmi3_versions(native_fmus):
     from fmpy import simulate_fmu
 
