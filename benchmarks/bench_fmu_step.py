@@ -118,7 +118,9 @@ def run_core(t, xr, vs, h):
     core.initialize()
     xr, vs, t = xr.tolist(), vs.tolist(), t.tolist()
     set_real, do_step, get_real = core.set_real, core.do_step, core.get_real
-    vin, vout = [0, 1], [2, 3, 4, 5]
+    names = [v.name for v in core.variables]
+    vin = [names.index(n) for n in ("seat_displacement", "seat_velocity")]
+    vout = [names.index(n) for n in OUT]
     t0 = time.perf_counter()
     for k in range(len(t) - 1):
         set_real(vin, [xr[k], vs[k]])

@@ -27,6 +27,7 @@ import hashlib
 import importlib.util
 import io
 import json
+import os
 import re
 import subprocess
 import sys
@@ -42,7 +43,7 @@ from .runtime.contract import MODEL_FILE, UNITS
 from .runtime.fileio import atomic_write_bytes
 from .runtime.network import Network
 
-__all__ = ["RUNTIME_DIR", "SLAVE_SCRIPT", "build_fmu", "render_slave_script",
+__all__ = ["RUNTIME_DIR", "SLAVE_SCRIPT", "build_fmu", "build_source_fmu", "render_slave_script",
            "runtime_sources", "write_runtime_package"]
 
 #: The run-time package copied into every FMU.
@@ -189,11 +190,52 @@ def build_fmu(network: Network, kind: str, name: str, description: str, dest="di
 
     core = FmuCore(kind, network, name)  # refuses a model the FMU could not run
     core.check_parameters()
-
-    sources = runtime_sources()
     model_bytes = (json.dumps(network_to_dict(network), indent=2) + "\n").encode()
+    return _build(core, kind, name, description, {MODEL_FILE: model_bytes},
+                  f"Model '{network.name}': {network.description}", dest)
+
+
+def build_source_fmu(meta: dict, table, name: str, description: str, dest="dist") -> Path:
+    """Build one pythonfmu FMU of the ``source`` kind: a tabulated signal and its rate.
+
+    Parameters
+    ----------
+    meta : dict
+        The source description (:mod:`bodyvib.runtime.source`), without
+        ``table`` and ``periodic``.
+    table : bodyvib.runtime.source.HermiteTable
+        The profiles and their slopes over the coordinate.
+    name, description, dest
+        As :func:`build_fmu`.
+
+    Returns
+    -------
+    Path
+        ``dest/<name>.fmu``.
+
+    Raises
+    ------
+    BodyvibError
+        As :func:`build_fmu`.
+    """
+    from .runtime.source import SOURCE_FILE, SourceCore, write_source
+
+    core = SourceCore(meta, table, name)
+    core.check_parameters()
+    with tempfile.TemporaryDirectory(prefix="bodyvib_source_") as tmp:
+        files = {os.path.basename(p): Path(p).read_bytes() for p in write_source(tmp, meta, table)}
+    assert SOURCE_FILE in files
+    return _build(core, "source", name, description, files,
+                  f"Source '{meta['name']}': {meta['description']}", dest)
+
+
+def _build(core, kind: str, name: str, description: str, resources: Dict[str, bytes],
+           about: str, dest) -> Path:
+    """Package a slave over ``core`` with pythonfmu, finish and validate its model description."""
+    sources = runtime_sources()
     template = render_slave_script(name, kind, description, "bodyvib.runtime")
-    digest = _content_hash([template.encode(), model_bytes] + list(sources.values()))
+    digest = _content_hash([template.encode()] + [resources[k] for k in sorted(resources)]
+                           + list(sources.values()))
     package = f"bodyvib_rt_{name.lower()}_{digest}"
     module = f"bodyvib_fmu_{name.lower()}_{digest}"
     script_text = render_slave_script(name, kind, description, package)
@@ -202,20 +244,21 @@ def build_fmu(network: Network, kind: str, name: str, description: str, dest="di
         stage = Path(tmp) / "stage"
         pkg = write_runtime_package(stage, package, f"{name}.fmu")
         (stage / f"{module}.py").write_text(script_text, encoding="utf-8")
-        (stage / MODEL_FILE).write_bytes(model_bytes)
+        for fname, data in resources.items():
+            (stage / fname).write_bytes(data)
         out = Path(tmp) / "out"
         # pythonfmu runs in a fresh process: in a process that has run a pythonfmu FMU,
         # 'pythonfmu' may be the FMU's embedded copy, which has no binaries to package.
         cmd = [sys.executable, "-m", "pythonfmu", "build", "-f", str(stage / f"{module}.py"),
                "-d", str(out), "--no-external-tool", "--handle-state", "--serialize-state",
-               str(pkg), str(stage / MODEL_FILE)]
+               str(pkg)] + [str(stage / fname) for fname in resources]
         proc = subprocess.run(cmd, cwd=tmp, capture_output=True, text=True)
         built = out / f"{name}.fmu"
         if proc.returncode != 0 or not built.is_file():
             tail = (proc.stderr or proc.stdout).strip().splitlines()[-3:]
             raise BodyvibError(f"pythonfmu could not build {name}.fmu (is pythonfmu installed? "
                                f"pip install pythonfmu): {' | '.join(tail)}")
-        data = _finish(built, core, network)
+        data = _finish(built, core, about)
     target = dest / f"{name}.fmu"
     atomic_write_bytes(target, data)
     problems = _validate(target)
@@ -228,7 +271,7 @@ def _num(x: float) -> str:
     return repr(float(x))
 
 
-def _finish(fmu: Path, core, network) -> bytes:
+def _finish(fmu: Path, core, about: str) -> bytes:
     """The FMU's bytes with its modelDescription.xml completed."""
     with zipfile.ZipFile(fmu) as zf:
         entries = [(info, zf.read(info)) for info in zf.infolist()]
@@ -237,8 +280,7 @@ def _finish(fmu: Path, core, network) -> bytes:
         raise BodyvibError(f"{fmu.name}: pythonfmu packaged no binaries (pythonfmu without "
                            "its resources/binaries?); reinstall pythonfmu")
     root = ET.fromstring(md)
-    root.set("description", f"{root.get('description', '')}. Model '{network.name}': "
-             f"{network.description}".strip())
+    root.set("description", f"{root.get('description', '')}. {about}".strip())
     root.set("version", __version__)
 
     by_name = {v.name: v for v in core.variables}

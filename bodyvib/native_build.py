@@ -14,10 +14,9 @@ libc and libm. No C is written per model:
   :class:`bodyvib.runtime.engine.FmuCore` (variable names, value references, units,
   input map, rate pairs, output rows).
 
-An output named ``<name>_rate`` next to an output ``<name>`` is the exact time
-derivative of it (``seat_force_rate``: ``C_sf (A x + B u) + D_sf du``). A body
-contract without ``seat_force_rate`` gets it here, appended after the existing
-variables (their value references unchanged).
+An output whose contract signal is ``RATE_PREFIX + signal`` is the exact time
+derivative of that model output (``seat_force_rate``: ``C_sf (A x + B u) + D_sf du``);
+the C core gives it the rows ``C A`` and ``C B U + D U R``.
 
 Each FMU holds ``binaries/linux64`` (gcc) and ``binaries/win64`` (mingw-w64)
 for FMI 2.0, ``binaries/x86_64-linux`` and ``binaries/x86_64-windows`` for FMI
@@ -43,7 +42,7 @@ from xml.etree import ElementTree as ET
 import numpy as np
 
 from . import __version__
-from .runtime.contract import MODEL_FILE, UNITS, Variable
+from .runtime.contract import MODEL_FILE, RATE_PREFIX, UNITS, Variable
 from .runtime.engine import FmuCore
 from .runtime.errors import BodyvibError
 from .runtime.fileio import atomic_write_bytes
@@ -72,7 +71,6 @@ COMMON_FLAGS = ["-std=c99", "-O2", "-shared", "-Wall", "-Wextra", "-Wno-unused-p
 #: Matrix codes of the stencils (bodyvib_core.h: BV_E .. BV_D).
 _MATRICES = ("E", "A", "B", "C", "Cd", "D")
 
-RATE_SUFFIX = "_rate"
 
 
 @dataclass(frozen=True)
@@ -98,8 +96,10 @@ class NativeModel:
         Value references of each group, in order.
     input_map : (m, ni) ndarray
         Model inputs from FMU inputs.
+    rate_matrix : (ni, ni) ndarray
+        In-step rates of the FMU inputs, ``ds/dt = R s`` (the contract's rate pairs).
     pairs : tuple of (int, int, bool)
-        (input, its rate input, unconnected-velocity fallback applies).
+        The contract's unconnected-velocity pairs (displacement, velocity, True).
     out_row : tuple of int
         Per FMU output: the model output row (index into ``rows``).
     out_derivative : tuple of bool
@@ -125,6 +125,7 @@ class NativeModel:
     outputs: Tuple[int, ...]
     parameters: Tuple[int, ...]
     input_map: np.ndarray
+    rate_matrix: np.ndarray
     pairs: Tuple[Tuple[int, int, bool], ...]
     out_row: Tuple[int, ...]
     out_derivative: Tuple[bool, ...]
@@ -133,13 +134,6 @@ class NativeModel:
     n: int
     m: int
     dependencies: Tuple[Tuple[int, ...], ...]
-
-
-def _rate_variable(of: Variable) -> Variable:
-    unit = {"N": "N/s", "m": "m/s", "m/s": "m/s2"}.get(of.unit, f"{of.unit}/s")
-    return Variable(f"{of.name}{RATE_SUFFIX}", "output", "continuous", unit,
-                    f"Time derivative of {of.name} at the step's end (exact, along the model "
-                    f"equations); wire it to a seat_force_rate input for a first-order hold")
 
 
 def _stencils(network, params: Sequence[str], rows: Sequence[int]):
@@ -203,24 +197,10 @@ def native_model(kind: str, network: Network, name: str, description: str = "") 
     variables = list(core.variables)
     ni, no = len(iface.inputs), len(iface.outputs)
     lm = descriptor_model(network).solve()
-    signals = [lm.output_index(s) for s in iface.output_signals]
-    out_vars = list(iface.outputs)
+    derivative = [sig.startswith(RATE_PREFIX) for sig in iface.output_signals]
+    signals = [lm.output_index(sig[len(RATE_PREFIX):] if d else sig)
+               for sig, d in zip(iface.output_signals, derivative)]
     out_vrs = list(range(ni, ni + no))
-    derivative = [False] * no
-    names = [v.name for v in variables]
-    # outputs named <x>_rate are the time derivatives of output <x>
-    for j, v in enumerate(out_vars):
-        base = v.name[:-len(RATE_SUFFIX)] if v.name.endswith(RATE_SUFFIX) else None
-        if base and base in [o.name for o in out_vars]:
-            derivative[j] = True
-            signals[j] = signals[[o.name for o in out_vars].index(base)]
-    if kind == "body" and "seat_force" + RATE_SUFFIX not in names:
-        sf = [o.name for o in out_vars].index("seat_force")
-        variables.append(_rate_variable(out_vars[sf]))
-        out_vars.append(variables[-1])
-        out_vrs.append(len(variables) - 1)
-        signals.append(signals[sf])
-        derivative.append(True)
     rows = tuple(dict.fromkeys(signals))
     kinds, index = [0] * len(variables), [0] * len(variables)
     in_vrs = tuple(range(ni))
@@ -231,13 +211,7 @@ def native_model(kind: str, network: Network, name: str, description: str = "") 
         kinds[vr], index[vr] = 1, i
     for i, vr in enumerate(par_vrs):
         kinds[vr], index[vr] = 2, i
-    in_names = [v.name for v in iface.inputs]
-    pairs = []
-    for i, j in iface.rate_pairs:
-        a, b = in_names[i], in_names[j]
-        fallback = (a.endswith("_displacement") and b.endswith("_velocity")
-                    and a[:-len("_displacement")] == b[:-len("_velocity")])
-        pairs.append((i, j, fallback))
+    pairs = [(i, j, True) for i, j in iface.slope_fallback]
     params = [variables[vr].name for vr in par_vrs]
     stencils = _stencils(network, params, rows)
     # direct dependencies: y = Ys s + Yd ds with ds = R s
@@ -255,7 +229,7 @@ def native_model(kind: str, network: Network, name: str, description: str = "") 
         name=name, kind=kind, description=description, network=network,
         variables=tuple(variables), kinds=tuple(kinds),
         index=tuple(index), inputs=in_vrs, outputs=tuple(out_vrs), parameters=par_vrs,
-        input_map=U, pairs=tuple(pairs), out_row=tuple(rows.index(s) for s in signals),
+        input_map=U, rate_matrix=R, pairs=tuple(pairs), out_row=tuple(rows.index(s) for s in signals),
         out_derivative=tuple(derivative), rows=rows, stencils=stencils,
         n=lm.A.shape[0], m=lm.B.shape[1], dependencies=tuple(deps),
     )
@@ -302,6 +276,7 @@ def model_source(nm: NativeModel, token: str) -> str:
         + "};",
         f"static const double param_start[] = {{{_c_doubles(starts)}}};",
         f"static const double U[] = {{{_c_doubles(nm.input_map.ravel())}}};",
+        f"static const double R[] = {{{_c_doubles(nm.rate_matrix.ravel())}}};",
         "static const bv_pair pairs[] = {"
         + ", ".join(f"{{{i}, {j}, {int(f)}}}" for i, j, f in nm.pairs) + "};",
         f"static const int out_row[] = {{{_c_ints(nm.out_row)}}};",
@@ -316,7 +291,7 @@ def model_source(nm: NativeModel, token: str) -> str:
         f"    {_c_string(nm.name)}, {_c_string(token)},",
         f"    {nm.n}, {nm.m}, {len(nm.rows)},",
         f"    {len(nm.inputs)}, {len(nm.outputs)}, {len(nm.parameters)}, {len(nm.variables)},",
-        "    vr_kind, vr_index, vr_name, param_unit, param_start, U,",
+        "    vr_kind, vr_index, vr_name, param_unit, param_start, U, R,",
         f"    {len(nm.pairs)}, pairs, out_row, out_derivative,",
         f"    {len(nm.stencils)}, stencils,",
         "};",

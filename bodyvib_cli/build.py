@@ -3,7 +3,8 @@
 import sys
 from pathlib import Path
 
-from vehicle.fmus import FMUS, build_fmus
+from vehicle.fmus import FMUS, ROAD_DEFAULTS, build_fmus
+from vehicle.ssp import COMPONENTS, SSP_NAME, write_ssp
 
 __all__ = ["add_command", "main"]
 
@@ -13,17 +14,25 @@ def _run(args) -> int:
         build_fmus(Path(args.dest) / "native", args.params, names=args.fmus, echo=print,
                    native=True)
         return 0
-    build_fmus(args.dest, args.params, names=args.fmus, echo=print)
+    road = {"road": args.road, "seed": args.road_seed, "length": args.road_length,
+            "speed": args.road_speed, "taper": args.road_taper}
+    built = build_fmus(args.dest, args.params, names=args.fmus, echo=print, road=road)
+    if all(name in built for name in COMPONENTS.values()):
+        path = write_ssp(f"{args.dest}/{SSP_NAME}.ssp",
+                         {comp: str(built[name]) for comp, name in COMPONENTS.items()})
+        print(f"wrote {path} (Road -> QuarterCar <-> HumanBody3DOF, parameter set, 1 ms step)")
     return 0
 
 
 def add_command(subparsers):
     """Register ``bodyvib build``."""
     p = subparsers.add_parser(
-        "build", help="build the FMUs (HumanBody3DOF, HumanBodyISO7962, QuarterCar) into dist/",
-        description="Build HumanBody3DOF.fmu, HumanBodyISO7962.fmu and QuarterCar.fmu with "
-        "pythonfmu and check them with fmpy validate. --params bakes a parameter file into "
-        "HumanBody3DOF.fmu (default: the paper's Table 2).",
+        "build", help="build the FMUs (HumanBody3DOF, HumanBodyISO7962, QuarterCar, Road) into dist/",
+        description="Build HumanBody3DOF.fmu, HumanBodyISO7962.fmu, QuarterCar.fmu and Road.fmu "
+        "with pythonfmu and check them with fmpy validate, and the coupled system of Road, "
+        "QuarterCar and HumanBody3DOF as QuarterCarWithOccupant.ssp (SSP 1.0). --params bakes a parameter file into "
+        "HumanBody3DOF.fmu (default: the paper's Table 2); --road, --road-seed and --road-length "
+        "choose the road Road.fmu tabulates.",
     )
     p.add_argument("--params", metavar="FILE", help="parameter file for HumanBody3DOF.fmu "
                    "(default: reduced-paper, the paper's Table 2)")
@@ -34,6 +43,18 @@ def add_command(subparsers):
                    help="build the native C FMUs instead (FMI 2.0 into DEST/native, FMI 3.0 "
                    "into DEST/native/fmi3; linux64 + win64 binaries and sources; the host "
                    "needs no Python)")
+    p.add_argument("--road", default=ROAD_DEFAULTS["road"],
+                   help="Road.fmu: ISO 8608 class A-H, bump or sweep (default: C)")
+    p.add_argument("--road-seed", type=int, default=ROAD_DEFAULTS["seed"], metavar="N",
+                   help="Road.fmu: seed of a random road (default: 0)")
+    p.add_argument("--road-length", type=float, default=ROAD_DEFAULTS["length"], metavar="M",
+                   help="Road.fmu: tabulated length in m (default: 601, 30 s at 20 m/s; a random "
+                   "road repeats after it)")
+    p.add_argument("--road-speed", type=float, default=ROAD_DEFAULTS["speed"], metavar="V",
+                   help="Road.fmu: default of its speed parameter, m/s (default: 20)")
+    p.add_argument("--road-taper", type=float, default=ROAD_DEFAULTS["taper"], metavar="M",
+                   help="Road.fmu: a random road fades in from level over its first M metres and "
+                   "out over its last (default: 5; 0: none)")
     p.set_defaults(func=_run)
     return p
 

@@ -34,6 +34,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 NAMES = ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar")
 MODEL_OF = {"HumanBody3DOF": "reduced-paper", "HumanBodyISO7962": "iso7962"}
 BODY_OUT = ["head_acceleration", "head_displacement", "torso_displacement", "seat_force"]
+BODY_RATE = "seat_force_rate"
 BODY_SIG = ["head.a", "head.x", "torso.x", "seat_force"]
 CAR_IN = ["road_displacement", "road_velocity", "seat_force", "seat_force_rate"]
 CAR_OUT = ["seat_displacement", "seat_velocity", "sprung_acceleration", "suspension_deflection",
@@ -154,6 +155,7 @@ def test_model_description_interface(fmus, name):
         files = zf.namelist()
     svs = {sv.get("name"): sv for sv in root.iter("ScalarVariable")}
     expected = ({"seat_displacement": ("input", "m"), "seat_velocity": ("input", "m/s"),
+                 "seat_acceleration": ("input", "m/s2"), "seat_force_rate": ("output", "N/s"),
                  "head_acceleration": ("output", "m/s2"), "head_displacement": ("output", "m"),
                  "torso_displacement": ("output", "m"), "seat_force": ("output", "N")}
                 if name != "QuarterCar" else
@@ -175,6 +177,14 @@ def test_model_description_interface(fmus, name):
         assert real.get("unit") in ("kg", "N/m", "N.s/m")
     outputs = [u.get("index") for u in root.find("ModelStructure/Outputs")]
     assert len(outputs) == sum(sv.get("causality") == "output" for sv in svs.values())
+    index = {sv.get("name"): str(i + 1) for i, sv in enumerate(root.iter("ScalarVariable"))}
+    deps = {u.get("index"): u.get("dependencies").split() for u in root.find("ModelStructure/Outputs")}
+    if name != "QuarterCar":  # the exact dependencies: seat force on the displacement, its rate on both
+        assert svs[BODY_RATE].get("causality") == "output"
+        assert svs[BODY_RATE].find("Real").get("unit") == "N/s"
+        assert deps[index["seat_force"]] == [index["seat_displacement"]]
+        assert deps[index[BODY_RATE]] == [index["seat_displacement"], index["seat_velocity"]]
+        assert deps[index["head_acceleration"]] == []
     # private, hashed module names: nothing called bodyvib inside the FMU
     mods = {f.split("/")[1] for f in files if f.startswith("resources/")}
     assert not any(m in ("bodyvib", "bodyvib.py", "vehicle") for m in mods)

@@ -1,22 +1,31 @@
-"""The project's FMUs: HumanBody3DOF, HumanBodyISO7962 and QuarterCar.
+"""The project's FMUs: HumanBody3DOF, HumanBodyISO7962, QuarterCar and Road.
 
-``python build_fmu.py`` and ``bodyvib build`` build these three with
-:func:`bodyvib.fmu_build.build_fmu`; the co-simulation commands build the ones
-they are not given into a temporary folder (:func:`temporary_fmu_dir`).
+``python build_fmu.py`` and ``bodyvib build`` build these with
+:func:`bodyvib.fmu_build.build_fmu` (``Road`` with
+:func:`bodyvib.fmu_build.build_source_fmu`: a road of :mod:`vehicle.roads`
+tabulated at build time); the co-simulation commands build the ones they are
+not given into a temporary folder (:func:`temporary_fmu_dir`).
 """
 
 import tempfile
 from pathlib import Path
 from typing import Dict, Iterable, Optional
 
-from bodyvib.fmu_build import build_fmu
+from bodyvib.fmu_build import build_fmu, build_source_fmu
 from bodyvib.models import load_model
 from bodyvib.runtime.errors import BodyvibError
 
 from .quarter_car import load_car
+from .roads import ISO8608_CLASSES, TaperedRoad, make_road, random_road, road_source
 
-__all__ = ["FMUS", "build_fmus", "build_project_fmu", "build_native_project_fmu", "load_fmu_model",
-           "temporary_fmu_dir"]
+__all__ = ["FMUS", "ROAD_DEFAULTS", "build_fmus", "build_project_fmu", "build_native_project_fmu",
+           "build_road_fmu",
+           "fmu_road", "load_fmu_model", "temporary_fmu_dir"]
+
+#: Road.fmu's defaults: ISO 8608 class C, seed 0, 601 m (30 s at 20 m/s and a metre
+#: to spare, the road of ``bodyvib check``), faded in and out over 5 m, speed
+#: parameter 20 m/s.
+ROAD_DEFAULTS = {"road": "C", "seed": 0, "length": 601.0, "speed": 20.0, "taper": 5.0}
 
 #: FMU name -> (kind, default model, description).
 FMUS = {
@@ -29,7 +38,68 @@ FMUS = {
     "QuarterCar": ("car", "quarter-car",
                    "Quarter car (sprung mass, suspension, unsprung mass, tire): road and seat force "
                    "in, seat motion, suspension deflection and tire force out; exact discretization"),
+    "Road": ("source", "C",
+             "Road profile under a wheel driving at a speed (a parameter): road_displacement and "
+             "its exact time derivative road_velocity, from a table built by vehicle.roads"),
 }
+
+
+def fmu_road(spec: str = "C", length: float = 601.0, seed: int = 0, speed: float = 20.0,
+             taper: float = 5.0):
+    """The road a ``Road.fmu`` tabulates.
+
+    Parameters
+    ----------
+    spec : str
+        ISO 8608 class ``A``-``H`` (a random road whose period is ``length``),
+        ``bump`` or ``sweep`` (0.5-20 Hz at ``speed`` over ``length``).
+    length : float
+        m.
+    seed : int
+        Seed of a random road.
+    speed : float
+        Design speed of a sweep, m/s.
+    taper : float
+        A random road fades in from level over its first ``taper`` metres and
+        out over its last (:class:`vehicle.roads.TaperedRoad`; 0: none): the car
+        starts at rest on a level road, as in hosts that exchange values only
+        after their first step (fmpy's SSP runner). Bump and sweep start level.
+
+    Returns
+    -------
+    vehicle.roads.Road
+
+    Raises
+    ------
+    BodyvibError
+        Unknown road, bad length or seed.
+    """
+    s = str(spec).strip()
+    if len(s) == 1 and s.upper() in ISO8608_CLASSES:
+        road = random_road(s.upper(), length=length, seed=seed)
+        return TaperedRoad(road, length, taper) if taper else road
+    return make_road(s, speed, length / speed if length > 0 else length, seed=seed)
+
+
+def build_road_fmu(dest="dist", road: str = "C", seed: int = 0, length: float = 601.0,
+                   speed: float = 20.0, taper: float = 5.0) -> Path:
+    """Build ``Road.fmu``: a road of :mod:`vehicle.roads` as a table, driven at a speed.
+
+    Parameters
+    ----------
+    dest : str or path
+    road, seed, length, taper
+        As :func:`fmu_road`.
+    speed : float
+        Start value of the FMU's ``speed`` parameter (and a sweep's design speed), m/s.
+
+    Returns
+    -------
+    Path
+        ``dest/Road.fmu``.
+    """
+    meta, table = road_source(fmu_road(road, length, seed, speed, taper), length, speed)
+    return build_source_fmu(meta, table, "Road", FMUS["Road"][2], dest)
 
 
 def load_fmu_model(name: str, model: Optional[str] = None):
@@ -54,6 +124,8 @@ def load_fmu_model(name: str, model: Optional[str] = None):
     if name not in FMUS:
         raise BodyvibError(f"unknown FMU '{name}'; FMUs are {', '.join(FMUS)}")
     kind, default, _ = FMUS[name]
+    if kind == "source":
+        raise BodyvibError(f"{name}.fmu carries a road table, not a model (build_road_fmu)")
     return (load_car if kind == "car" else load_model)(model or default)
 
 
@@ -79,6 +151,8 @@ def build_project_fmu(name: str, dest="dist", model: Optional[str] = None) -> Pa
     BodyvibError
         See :func:`load_fmu_model` and :func:`bodyvib.fmu_build.build_fmu`.
     """
+    if name in FMUS and FMUS[name][0] == "source":
+        return build_road_fmu(dest, **({"road": model} if model else {}))
     network = load_fmu_model(name, model)
     kind, _, description = FMUS[name]
     return build_fmu(network, kind, name, description, dest)
@@ -117,7 +191,8 @@ def build_native_project_fmu(name: str, dest="dist/native", model: Optional[str]
 
 
 def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-car",
-               names: Optional[Iterable[str]] = None, echo=None, native: bool = False,
+               names: Optional[Iterable[str]] = None, echo=None,
+               road: Optional[dict] = None, native: bool = False,
                fmi: Iterable[int] = (2, 3)) -> Dict[str, Path]:
     """Build the project's FMUs.
 
@@ -134,9 +209,13 @@ def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-ca
         Which FMUs (all of :data:`FMUS` by default).
     echo : callable, optional
         Called with one line per FMU written.
+    road : dict, optional
+        Keyword arguments of :func:`build_road_fmu` for ``Road.fmu``
+        (:data:`ROAD_DEFAULTS` by default).
     native : bool
         Build the native C FMUs instead of the pythonfmu ones: FMI 2.0 into
-        ``dest``, FMI 3.0 into ``dest/fmi3`` (keys ``"fmi3/<name>"``).
+        ``dest``, FMI 3.0 into ``dest/fmi3`` (keys ``"fmi3/<name>"``); the
+        body and car FMUs only (there is no native Road.fmu).
     fmi : iterable of int
         With ``native``, the FMI versions to build.
 
@@ -158,10 +237,15 @@ def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-ca
     """
     names = list(names or FMUS)
     chosen = {"HumanBody3DOF": params, "QuarterCar": car}
-    for n in names:  # refuse a bad model before building anything
-        load_fmu_model(n, chosen.get(n))
+    road = dict(ROAD_DEFAULTS, **(road or {}))
+    for n in names:  # refuse a bad model (or road) before building anything
+        if n in FMUS and FMUS[n][0] == "source":
+            fmu_road(road["road"], road["length"], road["seed"], road["speed"], road["taper"])
+        else:
+            load_fmu_model(n, chosen.get(n))
     out = {}
     if native:
+        names = [n for n in names if FMUS[n][0] != "source"]
         for version in fmi:
             folder = Path(dest) if version == 2 else Path(dest) / "fmi3"
             for n in names:
@@ -172,9 +256,14 @@ def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-ca
                          f"{chosen.get(n) or FMUS[n][1]}; fmpy validate: no problems)")
         return out
     for n in names:
-        out[n] = build_project_fmu(n, dest, chosen.get(n))
+        if FMUS[n][0] == "source":
+            out[n] = build_road_fmu(dest, **road)
+            what = f"road {road['road']}, seed {road['seed']}, {road['length']:g} m"
+        else:
+            out[n] = build_project_fmu(n, dest, chosen.get(n))
+            what = f"model {chosen.get(n) or FMUS[n][1]}"
         if echo:
-            echo(f"wrote {out[n]} (model {chosen.get(n) or FMUS[n][1]}; fmpy validate: no problems)")
+            echo(f"wrote {out[n]} ({what}; fmpy validate: no problems)")
     return out
 
 

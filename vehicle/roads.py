@@ -43,7 +43,10 @@ __all__ = [
     "RandomRoad",
     "BumpRoad",
     "SweepRoad",
+    "TaperedRoad",
     "random_road",
+    "road_source",
+    "road_table",
     "make_road",
     "road_input",
 ]
@@ -420,3 +423,142 @@ def road_input(road: Road, speed: float, t) -> Tuple[np.ndarray, np.ndarray]:
     _check_positive(speed, "speed", "m/s")
     x = speed * np.asarray(t, dtype=float)
     return road.displacement(x), speed * road.slope(x)
+
+
+@dataclass
+class TaperedRoad(Road):
+    """A road faded in from level over its first metres and out over its last.
+
+    ``z(x) = w(x) z_road(x)`` with ``w = sin^2(pi x / (2 d))`` over ``[0, d]``,
+    1 in between and the mirror image over ``[L - d, L]`` (0 beyond): a car
+    starting at rest at ``x = 0`` meets a level road with zero slope (no
+    step at ``t = 0``, which hosts that exchange values only after their first
+    step would miss), and a road repeated with period ``L`` stays smooth.
+
+    Parameters
+    ----------
+    road : Road
+    length : float
+        L, m.
+    taper : float
+        d, m (``2 d <= L``).
+    """
+
+    road: Road = None
+    length: float = 601.0
+    taper: float = 5.0
+
+    def __post_init__(self):
+        _check_positive(self.taper, "road taper", "m")
+        if 2 * self.taper > self.length:
+            raise BodyvibError(f"a {self.length:g} m road cannot taper over {self.taper:g} m at "
+                               "each end; shorten the taper or lengthen the road")
+        self.name = f"{self.road.name}, tapered over {self.taper:g} m at each end"
+
+    def _window(self, x):
+        x = np.asarray(x, dtype=float)
+        d, L = self.taper, self.length
+        u = np.clip(np.minimum(x, L - x) / d, 0.0, 1.0)
+        w = np.sin(0.5 * np.pi * u) ** 2
+        du = np.where((u > 0) & (u < 1), np.where(x < L / 2, 1.0, -1.0) / d, 0.0)
+        return w, 0.5 * np.pi * np.sin(np.pi * u) * du
+
+    def displacement(self, x) -> np.ndarray:
+        """Profile height at distances ``x`` (m), in m."""
+        w, _ = self._window(x)
+        return w * self.road.displacement(x)
+
+    def slope(self, x) -> np.ndarray:
+        """Exact slope ``dz/dx`` (product rule)."""
+        w, dw = self._window(x)
+        return dw * self.road.displacement(x) + w * self.road.slope(x)
+
+    def describe(self) -> dict:
+        return dict(self.road.describe(), taper_m=self.taper, tapered_length_m=self.length)
+
+
+#: Row spacing of a road table, m (:func:`road_table`): cubic Hermite between rows
+#: with exact slopes; at ISO 8608's shortest wavelength (0.35 m) the interpolation
+#: error is ~(2 pi dx / lambda)^4 / 384 of that harmonic's amplitude (README, "Road.fmu").
+TABLE_SPACING = 0.02
+
+
+def road_table(road: Road, length: float, spacing: float = TABLE_SPACING):
+    """A road as a table of heights and slopes over ``[0, length]`` (what ``Road.fmu`` carries).
+
+    Parameters
+    ----------
+    road : Road
+        Any road; a :class:`RandomRoad` (or a :class:`TaperedRoad`) whose
+        period equals ``length`` is tabulated as periodic (its harmonic sum
+        repeats exactly), any other road holds its end value beyond the table.
+    length : float
+        Extent of the table, m.
+    spacing : float
+        Row spacing, m (rounded so that the rows end at ``length``).
+
+    Returns
+    -------
+    bodyvib.runtime.source.HermiteTable
+
+    Raises
+    ------
+    BodyvibError
+        A length or spacing that is not a positive number.
+    """
+    from bodyvib.runtime.source import HermiteTable
+
+    _check_positive(length, "road table length", "m")
+    _check_positive(spacing, "road table spacing", "m")
+    rows = max(2, int(math.ceil(length / spacing))) + 1
+    x = np.linspace(0.0, float(length), rows)
+    periodic = (isinstance(road, RandomRoad) or isinstance(road, TaperedRoad)) and \
+        abs(road.length - length) <= 1e-12 * length
+    z, s = road.displacement(x), road.slope(x)
+    if periodic:  # the sum is periodic: make the end row the start row, bit for bit
+        z[-1], s[-1] = z[0], s[0]
+    return HermiteTable(x, z, s, periodic=periodic)
+
+
+def road_source(road: Road, length: float, speed: float = 20.0,
+                spacing: float = TABLE_SPACING):
+    """The source description and table of a road FMU (``Road.fmu``).
+
+    Parameters
+    ----------
+    road : Road
+    length : float
+        Table extent, m.
+    speed : float
+        Default of the FMU's ``speed`` parameter, m/s.
+    spacing : float
+        Row spacing, m.
+
+    Returns
+    -------
+    meta : dict
+        For :func:`bodyvib.fmu_build.build_source_fmu`.
+    table : bodyvib.runtime.source.HermiteTable
+    """
+    _check_positive(speed, "speed", "m/s")
+    table = road_table(road, length, spacing)
+    beyond = ("repeats (the harmonic sum's period)" if table.periodic
+              else "holds its end value")
+    meta = {
+        "name": road.name,
+        "description": (f"{road.name}, {table.length:g} m tabulated every "
+                        f"{table.length / (table.position.size - 1):g} m (heights and exact slopes, "
+                        f"cubic Hermite between rows); beyond the table the profile {beyond}"),
+        "coordinate": {"name": "distance", "unit": "m"},
+        "speed": {"name": "speed", "unit": "m/s", "start": float(speed),
+                  "description": "Vehicle speed: the wheel is at distance speed * time"},
+        "signals": [{
+            "name": "road_displacement", "unit": "m",
+            "description": "Road profile height under the wheel (z up)",
+            "rate": {"name": "road_velocity", "unit": "m/s",
+                     "description": "Time derivative of road_displacement (speed * profile "
+                                    "slope of the same interpolant)"},
+        }],
+        "provenance": dict(road.describe(), generator="vehicle.roads"),
+    }
+    return meta, table

@@ -10,9 +10,12 @@ master and the tests import these definitions; nobody restates them
 Interfaces (SI units; ``vr`` = value reference = position in :attr:`FmuCore.variables`):
 
 * body (``kind="body"``): inputs ``seat_displacement`` [m], ``seat_velocity``
-  [m/s]; outputs ``head_acceleration`` [m/s2] (absolute), ``head_displacement``
+  [m/s], ``seat_acceleration`` [m/s2] (optional, start 0: the seat velocity
+  rises at it over the coming step; 0 keeps the seat motion linear); outputs ``head_acceleration`` [m/s2] (absolute), ``head_displacement``
   [m], ``torso_displacement`` [m], ``seat_force`` [N] (force the body exerts on
-  the seat, positive in compression); parameters: the model's named parameters.
+  the seat, positive in compression), ``seat_force_rate`` [N/s] (its exact time
+  derivative, for a master that feeds the car's ``seat_force_rate``);
+  parameters: the model's named parameters.
 * car (``kind="car"``): inputs ``road_displacement`` [m], ``road_velocity``
   [m/s], ``seat_force`` [N] (the occupant's, positive in compression: it enters
   the car's ``<seat>.force`` input as ``-seat_force``), ``seat_force_rate``
@@ -37,10 +40,16 @@ from .errors import BodyvibError
 from .network import Network
 
 __all__ = ["Variable", "Interface", "body_interface", "car_interface", "parameter_variables",
-           "fmu_variables", "KINDS", "MODEL_FILE", "PARAMETER_UNITS", "POSITIVE_MIN", "UNITS"]
+           "fmu_variables", "rate_signal", "KINDS", "MODEL_FILE", "PARAMETER_UNITS", "POSITIVE_MIN",
+           "RATE_PREFIX", "UNITS"]
 
 #: Where the build puts the parameter file, inside the FMU's resources.
 MODEL_FILE = "bodyvib_model.json"
+
+#: Prefix of an output signal that is the time derivative of a model output
+#: (``"d/dt seat_force"``): the engine derives its row from the same state space,
+#: ``d/dt (C x + D u) = C (A x + B u) + D du``.
+RATE_PREFIX = "d/dt "
 
 #: Unit of a network parameter by the element field (or mass) that uses it.
 PARAMETER_UNITS = {"mass": "kg", "k": "N/m", "k_series": "N/m", "c": "N.s/m"}
@@ -104,7 +113,13 @@ class Interface:
         other input is held.
     output_signals : tuple of str
         Model output (or role) name of each FMU output, for
-        :meth:`bodyvib.network.LinearModel.output_index`.
+        :meth:`bodyvib.network.LinearModel.output_index`; ``RATE_PREFIX + name``
+        (:func:`rate_signal`) is the exact time derivative of that output.
+    slope_fallback : tuple of (int, int)
+        The rate pairs of a displacement and its velocity input: if the
+        velocity is never set to a non-zero value while the displacement
+        moves, the engine takes the slope of successive displacements as the
+        in-step rate and logs one warning (an unconnected velocity).
     """
 
     kind: str
@@ -113,6 +128,7 @@ class Interface:
     input_map: np.ndarray
     rate_pairs: Tuple[Tuple[int, int], ...]
     output_signals: Tuple[str, ...]
+    slope_fallback: Tuple[Tuple[int, int], ...] = ()
 
     def rate_matrix(self) -> np.ndarray:
         """``R`` with ``ds/dt = R s`` over a step (FMU input space)."""
@@ -121,6 +137,27 @@ class Interface:
         for i, j in self.rate_pairs:
             R[i, j] = 1.0
         return R
+
+
+def rate_signal(signal: str) -> str:
+    """The output signal that is the exact time derivative of ``signal``.
+
+    Parameters
+    ----------
+    signal : str
+        A model output (or role) name, e.g. ``"seat_force"``.
+
+    Returns
+    -------
+    str
+        ``RATE_PREFIX + signal``.
+
+    Examples
+    --------
+    >>> rate_signal("seat_force")
+    'd/dt seat_force'
+    """
+    return RATE_PREFIX + signal
 
 
 def _input(name, unit, description):
@@ -159,6 +196,9 @@ def body_interface(network: Network) -> Interface:
         _input("seat_displacement", "m", "Seat vertical displacement xr (z up, about static equilibrium)"),
         _input("seat_velocity", "m/s", "Seat vertical velocity; also the slope of "
                "seat_displacement over the coming step (in-step extrapolation)"),
+        _input("seat_acceleration", "m/s2", "Optional seat vertical acceleration: the slope of "
+               "seat_velocity over the coming step, so the seat follows a parabola (0, the "
+               "default, keeps the seat motion linear over the step)"),
     )
     outputs = (
         _output("head_acceleration", "m/s2", f"Head ({network.point('head')}) absolute vertical acceleration"),
@@ -166,12 +206,16 @@ def body_interface(network: Network) -> Interface:
         _output("torso_displacement", "m", f"Torso ({network.point('torso')}) vertical displacement"),
         _output("seat_force", "N", "Force the body exerts on the seat, positive in compression "
                 "(body pushing down); perturbation about the static load"),
+        _output("seat_force_rate", "N/s", "Exact time derivative of seat_force (from the model's "
+                "state equations and the input rates); connect it to QuarterCar's seat_force_rate"),
     )
     return Interface(
         kind="body", inputs=inputs, outputs=outputs,
-        input_map=np.eye(2),
-        rate_pairs=((0, 1),),
-        output_signals=("head.a", "head.x", "torso.x", f"{base}_force"),
+        input_map=np.eye(2, 3),  # the model's inputs: seat displacement and velocity
+        rate_pairs=((0, 1), (1, 2)),
+        slope_fallback=((0, 1),),
+        output_signals=("head.a", "head.x", "torso.x", f"{base}_force",
+                        rate_signal(f"{base}_force")),
     )
 
 
@@ -233,6 +277,7 @@ def car_interface(network: Network) -> Interface:
     return Interface(
         kind="car", inputs=inputs, outputs=outputs, input_map=input_map,
         rate_pairs=((0, 1), (2, 3)),
+        slope_fallback=((0, 1),),  # not the seat force: seat_force_rate 0 means hold
         output_signals=("seat.x", "seat.v", "seat.a", "suspension.deflection", "tire.force"),
     )
 
@@ -293,8 +338,8 @@ def fmu_variables(kind: str, network: Network):
     --------
     >>> from bodyvib.models import load_model
     >>> _, _, variables = fmu_variables("body", load_model("reduced-paper"))
-    >>> [v.name for v in variables[:3]]
-    ['seat_displacement', 'seat_velocity', 'head_acceleration']
+    >>> [v.name for v in variables[:4]]
+    ['seat_displacement', 'seat_velocity', 'seat_acceleration', 'head_acceleration']
     """
     if kind not in KINDS:
         raise BodyvibError(f"unknown FMU kind '{kind}'; kinds are {', '.join(KINDS)}")

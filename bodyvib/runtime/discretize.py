@@ -24,7 +24,7 @@ import numpy as np
 from .errors import BodyvibError
 from .network import LinearModel, as_linear_model
 
-__all__ = ["expm", "discretize", "Discretization", "input_rates", "simulate"]
+__all__ = ["expm", "discretize", "discretize_quadratic", "Discretization", "input_rates", "simulate"]
 
 # Pade(13) coefficients and the scaling threshold of Higham (2005).
 _B13 = (64764752532480000., 32382376266240000., 7771770303897600.,
@@ -111,6 +111,42 @@ def discretize(A: np.ndarray, B: np.ndarray, h: float) -> Tuple[np.ndarray, np.n
     M[n:n + m, n + m:] = np.eye(m)
     E = expm(M * h)
     return E[:n, :n], E[:n, n:n + m], E[:n, n + m:]
+
+
+def discretize_quadratic(A: np.ndarray, B: np.ndarray, h: float) -> np.ndarray:
+    """The step matrix ``Gamma2`` of an input's curvature: input ``u_k + du_k tau + d2u_k tau^2 / 2``.
+
+    ``Gamma2 = int_0^h e^{A (h - tau)} B tau^2 / 2 dtau`` (multiplies ``d2u_k``),
+    read off the matrix exponential of ``[[A, B, 0, 0], [0, 0, I, 0],
+    [0, 0, 0, I], [0, 0, 0, 0]] h``; with :func:`discretize`'s matrices the update
+    ``x_{k+1} = Phi x_k + Gamma0 u_k + Gamma1 du_k + Gamma2 d2u_k`` is exact for a
+    quadratic input.
+
+    Parameters
+    ----------
+    A : (n, n) ndarray
+    B : (n, m) ndarray
+    h : float
+        Step length in seconds, positive and finite.
+
+    Returns
+    -------
+    (n, m) ndarray
+
+    Raises
+    ------
+    BodyvibError
+        If ``h`` is not a positive finite number.
+    """
+    if not (isinstance(h, (int, float, np.floating)) and math.isfinite(h) and h > 0):
+        raise BodyvibError(f"step size must be a positive finite number of seconds, got {h!r}")
+    n, m = B.shape
+    M = np.zeros((n + 3 * m, n + 3 * m))
+    M[:n, :n] = A
+    M[:n, n:n + m] = B
+    M[n:n + m, n + m:n + 2 * m] = np.eye(m)
+    M[n + m:n + 2 * m, n + 2 * m:] = np.eye(m)
+    return expm(M * h)[:n, n + 2 * m:]
 
 
 class Discretization:

@@ -10,11 +10,27 @@ matrices from :class:`bodyvib.runtime.discretize.Discretization`
 Stepping: over a communication step ``h`` each input is extrapolated linearly
 from its value and its rate (a displacement rises at its velocity input, the
 seat force at ``seat_force_rate``, every other input is held), and the state is
-advanced exactly: ``x <- Phi x + Gamma0 u + Gamma1 du``. At the end of the step
+advanced exactly: ``x <- Phi x + Gamma0 u + Gamma1 du``. A rate that itself has
+a rate (a body's ``seat_velocity`` rising at ``seat_acceleration``) makes the
+input a parabola over the step, advanced exactly with ``Gamma2 d2u``
+(:func:`bodyvib.runtime.discretize.discretize_quadratic`). At the end of the step
 the inputs are set to their extrapolated values, so outputs read right after
 ``do_step`` (before the host sets new inputs) are those of the step's end;
 outputs are ``C x + D u`` computed when read, so feedthrough outputs follow a
-newly set input at once.
+newly set input at once. An output declared as the rate of a model output
+(:data:`bodyvib.runtime.contract.RATE_PREFIX`) is its exact time derivative
+from the same state space, ``C (A x + B u) + D du``, with ``du`` the input
+rates of the in-step extrapolation (``seat_force_rate`` of a body FMU).
+
+Unconnected velocity (:attr:`bodyvib.runtime.contract.Interface.slope_fallback`):
+for a displacement input paired with a velocity input, if the velocity has
+never been set to a non-zero value since instantiation (or reset) and a
+``do_step`` sees the displacement differ from its value at the previous
+``do_step``, the engine switches, for the rest of the run or until a non-zero
+velocity is set, to the slope ``(x_now - x_prev) / h_prev`` as the in-step
+rate, and logs one warning naming the input. Before that first detected move
+the velocity (0) is used. A master that leaves ``seat_velocity`` unconnected
+then gets a first-order coupling instead of a held (and silently wrong) seat.
 
 
 Numpy only, relative imports only: the FMUs ship this module under a private
@@ -26,8 +42,8 @@ from typing import Callable, List, Optional, Sequence
 
 import numpy as np
 
-from .contract import fmu_variables
-from .discretize import Discretization
+from .contract import RATE_PREFIX, fmu_variables
+from .discretize import Discretization, discretize_quadratic
 from .errors import BodyvibError
 from .network import Network, linear_model
 
@@ -63,8 +79,8 @@ class FmuCore:
     >>> core.initialize()
     >>> core.set_real([0, 1], [0.0, 0.01])
     >>> core.do_step(0.0, 1e-3)
-    >>> len(core.get_real([2, 3, 4, 5]))
-    4
+    >>> len(core.get_real([3, 4, 5, 6, 7]))
+    5
     """
 
     def __init__(self, kind: str, network: Network, name: str = "FMU",
@@ -92,6 +108,14 @@ class FmuCore:
         self._stale = False
         self.time = 0.0
         self._views()
+        self._fallback = list(iface.slope_fallback)
+        nf = len(self._fallback)
+        self._velocity_of = {j: p for p, (_, j) in enumerate(self._fallback)}
+        self._vel_seen = [False] * nf  # a non-zero velocity was set
+        self._slope_on = [False] * nf  # the slope replaces the velocity
+        self._warned = [False] * nf
+        self._x_prev = [None] * nf     # displacement at the previous do_step
+        self._h_prev = [None] * nf
 
     # -- set-up ------------------------------------------------------------
     def _views(self):
@@ -110,12 +134,19 @@ class FmuCore:
         lm = linear_model(net)
         iface = self.interface
         U = iface.input_map
-        idx = [lm.output_index(sig) for sig in iface.output_signals]
         self._n = lm.A.shape[0]
         self._disc = Discretization(lm)
         self._U = U
         self._dU = U @ self._R                      # du = dU @ s
-        self._Y = np.hstack([lm.C[idx], lm.D[idx] @ U])  # y = Y @ [x | s]
+        rows = []
+        for sig in iface.output_signals:            # y = Y @ [x | s]
+            if sig.startswith(RATE_PREFIX):         # d/dt (C x + D u) = C (A x + B u) + D du
+                i = lm.output_index(sig[len(RATE_PREFIX):])
+                rows.append(np.concatenate([lm.C[i] @ lm.A, lm.C[i] @ lm.B @ U + lm.D[i] @ self._dU]))
+            else:
+                i = lm.output_index(sig)
+                rows.append(np.concatenate([lm.C[i], lm.D[i] @ U]))
+        self._Y = np.array(rows)
         self._steps = {}
         self._h = None
         self._M = None
@@ -131,10 +162,19 @@ class FmuCore:
             M[:n, :n] = Phi
             M[:n, n:] = G0 @ self._U + G1 @ self._dU
             M[n:, n:] = np.eye(ni) + h * self._R
+            R2 = self._R @ self._R  # a rate that itself rises (seat velocity at seat_acceleration)
+            if R2.any():
+                lm = self._disc.model
+                M[:n, n:] += discretize_quadratic(lm.A, lm.B, float(f"{h:.12g}")) @ self._U @ R2
+                M[n:, n:] += 0.5 * h * h * R2
             if len(self._steps) > 64:
                 self._steps.clear()
             self._steps[h] = M
         return M
+
+    def setup_experiment(self, start_time: float) -> None:
+        """Start time of the run (``fmi2SetupExperiment``); the state is not touched."""
+        self.time = float(start_time)
 
     # -- parameters ----------------------------------------------------------
     def check_parameters(self, params=None) -> None:
@@ -194,6 +234,9 @@ class FmuCore:
             self._stale = False
         np.dot(self._Y, self._z, out=self._y)
         self._values[:self._ni + self._no] = self._buf[self._n:].tolist()
+        for p, (_, j) in enumerate(self._fallback):
+            if self._slope_on[p]:  # an input reads back as set (never non-zero), not the slope
+                self._values[j] = 0.0
         self._dirty = False
 
     def set_real(self, vrs: Sequence[int], values: Sequence[float]) -> None:
@@ -209,6 +252,10 @@ class FmuCore:
             if k == 0:
                 buf[pos[vr]] = v
                 self._bad[vr] = not math.isfinite(v)
+                p = self._velocity_of.get(vr)
+                if p is not None and v != 0.0:
+                    self._vel_seen[p] = True
+                    self._slope_on[p] = False
             elif k == 2:
                 if self._initialized:
                     self._message(f"{self.name}: parameter {self.variables[vr].name} is fixed after "
@@ -256,6 +303,8 @@ class FmuCore:
         if not self._initialized:
             raise BodyvibError(self._init_error or f"{self.name}: do_step before initialization; "
                                "call fmi2ExitInitializationMode first")
+        if self._fallback:
+            self._slope_fallback(current_time, h)
         if h != self._h:
             self._M = self._step_matrix(h)
             self._h = h
@@ -263,6 +312,27 @@ class FmuCore:
         self._z[:] = self._znew
         self._dirty = True
         self.time = current_time + h
+
+    def _slope_fallback(self, current_time: float, h: float) -> None:
+        """The unconnected-velocity rule (module docstring), before a step."""
+        s = self._s
+        for p, (i, j) in enumerate(self._fallback):
+            if self._vel_seen[p]:
+                continue
+            x, x_prev = float(s[i]), self._x_prev[p]
+            if x_prev is not None and x != x_prev and not self._slope_on[p]:
+                self._slope_on[p] = True
+                if not self._warned[p]:
+                    self._warned[p] = True
+                    names = self.interface.inputs
+                    self._message(
+                        f"{self.name}: {names[i].name} moves (t = {current_time:g} s) but "
+                        f"{names[j].name} was never set: using the slope of successive "
+                        f"{names[i].name} values as its in-step rate; connect {names[j].name} "
+                        "for the exact coupling", "warning")
+            if self._slope_on[p]:
+                s[j] = (x - x_prev) / self._h_prev[p]
+            self._x_prev[p], self._h_prev[p] = x, float(h)
 
     # -- snapshots -------------------------------------------------------------
     def get_state(self) -> dict:
@@ -273,6 +343,9 @@ class FmuCore:
             "bad": list(self._bad),
             "initialized": self._initialized,
             "time": self.time,
+            "fallback": {"seen": list(self._vel_seen), "on": list(self._slope_on),
+                         "warned": list(self._warned), "x_prev": list(self._x_prev),
+                         "h_prev": list(self._h_prev)},
         }
 
     def set_state(self, state: dict) -> None:
@@ -287,6 +360,10 @@ class FmuCore:
         self._bad = list(state["bad"])
         self._initialized = bool(state["initialized"])
         self.time = float(state["time"])
+        fb = state.get("fallback")
+        if fb is not None:
+            self._vel_seen, self._slope_on = list(fb["seen"]), list(fb["on"])
+            self._warned, self._x_prev, self._h_prev = list(fb["warned"]), list(fb["x_prev"]), list(fb["h_prev"])
         self._dirty = True
 
     # -- introspection ---------------------------------------------------------

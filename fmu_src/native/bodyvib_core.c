@@ -2,20 +2,28 @@
  * bodyvib native FMU core (see bodyvib_core.h).
  *
  * Per instance: the parameter values; the explicit state space A, B built from the
- * stencils; the output rows on [x | s | ds] (state, FMU inputs, FMU input rates); the
- * step matrices Phi, Gamma0 U, Gamma1 U for the last step size (recomputed when the step
- * size, rounded to 12 significant digits like the library's cache, changes); the state
- * x, the inputs s, and the bookkeeping of the unconnected-velocity fallback.
+ * stencils; the output rows on z = [x | s] (state, FMU inputs); the step matrices for the
+ * last step size (recomputed when the step size, rounded to 12 significant digits like
+ * the library's cache, changes); the state x, the inputs s, and the bookkeeping of the
+ * unconnected-velocity fallback. The same scheme as bodyvib.runtime.engine.FmuCore.
  *
- * Stepping over [t, t + h]: each FMU input i of a rate pair rises at its rate ds_i (the
- * paired velocity input, or, in fallback, the displacement's slope over the previous
- * step), every other input is held; the state is advanced exactly,
- *     x <- Phi x + (Gamma0 U) s + (Gamma1 U) ds,
- * and the inputs are left at their extrapolated values s + h ds, so outputs read right
- * after the step are those of the step's end. Outputs are computed on read:
- *     y = Yx x + Ys s + Yd ds
- * (Yd is non-zero only for an output declared as the time derivative of a model output
- * row r: d/dt (C_r x + D_r u) = C_r (A x + B u) + D_r du).
+ * Stepping over [t, t + h]: the FMU inputs s rise at their rates R s (R from the
+ * contract's rate pairs: a displacement at its velocity input, a velocity at its
+ * acceleration input, the car's seat force at seat_force_rate), curving at R^2 s where a
+ * rate itself has a rate; every other input is held. With u = U s the state is advanced
+ * exactly,
+ *     x <- Phi x + (Gamma0 U + Gamma1 U R + Gamma2 U R^2) s,
+ * and the inputs are left at their extrapolated values (I + h R + h^2/2 R^2) s, so outputs
+ * read right after the step are those of the step's end. Outputs are computed on read,
+ *     y = Yx x + Ys s,
+ * an output declared as the time derivative of a model output row r having the rows
+ * d/dt (C_r x + D_r u) = C_r A x + (C_r B U + D_r U R) s.
+ *
+ * Unconnected velocity (the contract's slope_fallback pairs): while a velocity input was
+ * never set to a non-zero value, a DoStep that sees its displacement differ from the
+ * value at the previous DoStep switches to the slope (x_now - x_prev) / h_prev, written
+ * into the velocity input for that step and the rest of the run (until a non-zero
+ * velocity is set); the input reads back as 0, and one warning is logged.
  */
 #include "bodyvib_core.h"
 
@@ -33,31 +41,32 @@ struct bv_instance {
     char name[128];
     bv_log_fn log;
     void *env;
-    int n, m, ni, no, np, N; /* N = n + 2 m, the augmented matrix */
+    int n, m, ni, no, np, N; /* N = n + 3 m, the largest augmented matrix */
+    int curved;         /* R^2 != 0: some input is a parabola over the step */
     /* parameters */
     double *p, *p_built;
-    int built;          /* A, B, Y* valid for p_built */
+    int built;          /* A, B, Yc valid for p_built */
     /* continuous time and outputs */
-    double *A, *B, *Yx, *Ys, *Yd;
-    double *Yc;         /* [Yx | Ys | Yd] row-major: y = Yc z, z = [x | s | ds] */
+    double *A, *B;
+    double *UR, *UR2;   /* U R, U R^2 (m x ni) */
+    double *Yc;         /* [Yx | Ys] row-major: y = Yc z, z = [x | s] */
     double *y;          /* outputs for the current z, valid unless dirty */
     int dirty;
     /* step cache */
     double h_key;       /* rounded step the matrices are for; 0: none */
     double h_raw;       /* the last step size seen with that key (skips the rounding) */
-    double *Phi, *Gs, *Gr;
-    double *Sc;         /* [Phi | Gamma0 U | Gamma1 U] row-major: x <- Sc z */
+    double *Sc;         /* [Phi | Gamma0 U + Gamma1 U R + Gamma2 U R^2] row-major: x <- Sc z */
+    double *Ms;         /* I + h R + h^2/2 R^2 (ni x ni): s <- Ms s */
     /* what evolves */
     double time;
-    double *x, *s, *s_prev;
-    double h_prev;
-    int have_prev;
+    double *x, *s;
+    double *x_prev, *h_prev; /* per fallback pair: displacement and step at the last DoStep */
+    unsigned char *has_prev, *vel_set, *slope_on, *warned;
     int initialized;
     int init_failed;
-    unsigned char *vel_set, *fallback, *warned;
     char init_error[BV_MESSAGE];
     /* scratch */
-    double *ds, *xn, *work;
+    double *zn, *work;
     int *piv;
 };
 
@@ -191,21 +200,6 @@ static double norm1(const double *M, int n)
     return best;
 }
 
-/* Pack row-major blocks [P | Q | R] (rows x n, ni, ni) into one row-major rows x (n + 2 ni). */
-static void pack(double *out, const double *P, const double *Q, const double *R, int rows, int n,
-                 int ni)
-{
-    int i, j, w = n + 2 * ni;
-    for (i = 0; i < rows; i++) {
-        for (j = 0; j < n; j++)
-            out[(size_t)i * w + j] = P[(size_t)i * n + j];
-        for (j = 0; j < ni; j++) {
-            out[(size_t)i * w + n + j] = Q[(size_t)i * ni + j];
-            out[(size_t)i * w + n + ni + j] = R[(size_t)i * ni + j];
-        }
-    }
-}
-
 /* out = M z, M row-major (rows x cols); two accumulators per row, rows independent. */
 static void matvec(double *restrict out, const double *restrict M, const double *restrict z,
                    int rows, int cols)
@@ -332,6 +326,15 @@ static int expm(double *E, const double *M, int N, double *work, int *piv)
 
 /* ---------------------------------------------------------------- model assembly */
 
+static const char *var_name(const bv_model *md, int kind, int index)
+{
+    int vr;
+    for (vr = 0; vr < md->nvars; vr++)
+        if (md->vr_kind[vr] == kind && md->vr_index[vr] == index)
+            return md->vr_name[vr];
+    return "?";
+}
+
 static int params_valid(const bv_instance *c, const double *p, int quiet)
 {
     int j;
@@ -339,17 +342,12 @@ static int params_valid(const bv_instance *c, const double *p, int quiet)
         if (!(isfinite(p[j]) && p[j] > 0.0)) {
             if (!quiet) {
                 const bv_model *md = c->md;
-                int vr;
-                const char *name = "?";
-                for (vr = 0; vr < md->nvars; vr++)
-                    if (md->vr_kind[vr] == BV_PARAMETER && md->vr_index[vr] == j)
-                        name = md->vr_name[vr];
                 char text[32];
                 snprintf(((bv_instance *)c)->init_error, BV_MESSAGE,
                          "%s: parameter %s = %s %s is invalid: it must be a positive finite "
                          "number; set a value > 0 (the FMU's default is %g %s)",
-                         c->name, name, shortest(p[j], text), md->param_unit[j],
-                         md->param_start[j], md->param_unit[j]);
+                         c->name, var_name(md, BV_PARAMETER, j), shortest(p[j], text),
+                         md->param_unit[j], md->param_start[j], md->param_unit[j]);
             }
             return 0;
         }
@@ -360,13 +358,11 @@ static int params_valid(const bv_instance *c, const double *p, int quiet)
 static int build(bv_instance *c, const double *p)
 {
     const bv_model *md = c->md;
-    int n = c->n, m = c->m, ni = c->ni, no = c->no, R = md->rows, k, i, j;
+    int n = c->n, m = c->m, ni = c->ni, no = c->no, R = md->rows, w = n + ni, k, i, j;
     double *E = c->work, *AB = E + (size_t)n * n, *Cz = AB + (size_t)n * (n + m);
     double *Cd = Cz + (size_t)R * n, *Dd = Cd + (size_t)R * n;
-    double *Cr = Dd + (size_t)R * m, *Dr = Cr + n, *CrB = Dr + m;
-    size_t used = (size_t)(Cr - c->work) + n + m + m;
+    double *Cr = Dd + (size_t)R * m, *Dr = Cr + n, *CrB = Dr + m, *t1 = CrB + m, *t2 = t1 + ni;
 
-    (void)used;
     memset(c->work, 0, ((size_t)n * n + (size_t)n * (n + m) + 2 * (size_t)R * n + (size_t)R * m) *
                            sizeof(double));
     for (k = 0; k < md->nstencils; k++) {
@@ -395,6 +391,7 @@ static int build(bv_instance *c, const double *p)
             return 0;
     for (k = 0; k < no; k++) {
         int r = md->out_row[k];
+        double *row = c->Yc + (size_t)k * w;
         /* row r with z' substituted: C_r = C + Cd A, D_r = D + Cd B */
         for (j = 0; j < n; j++) {
             double v = Cz[r * n + j];
@@ -409,18 +406,18 @@ static int build(bv_instance *c, const double *p)
             Dr[j] = v;
         }
         if (md->out_derivative[k]) {
-            /* d/dt (C_r x + D_r u) = (C_r A) x + (C_r B) u + D_r du */
-            mul(c->Yx + (size_t)k * n, Cr, c->A, 1, n, n);
+            /* d/dt (C_r x + D_r u) = (C_r A) x + (C_r B U + D_r U R) s */
+            mul(row, Cr, c->A, 1, n, n);
             mul(CrB, Cr, c->B, 1, n, m);
-            mul(c->Ys + (size_t)k * ni, CrB, md->U, 1, m, ni);
-            mul(c->Yd + (size_t)k * ni, Dr, md->U, 1, m, ni);
+            mul(t1, CrB, md->U, 1, m, ni);
+            mul(t2, Dr, c->UR, 1, m, ni);
+            for (j = 0; j < ni; j++)
+                row[n + j] = t1[j] + t2[j];
         } else {
-            memcpy(c->Yx + (size_t)k * n, Cr, (size_t)n * sizeof(double));
-            mul(c->Ys + (size_t)k * ni, Dr, md->U, 1, m, ni);
-            memset(c->Yd + (size_t)k * ni, 0, (size_t)ni * sizeof(double));
+            memcpy(row, Cr, (size_t)n * sizeof(double));
+            mul(row + n, Dr, md->U, 1, m, ni);
         }
     }
-    pack(c->Yc, c->Yx, c->Ys, c->Yd, no, n, ni);
     memcpy(c->p_built, p, (size_t)c->np * sizeof(double));
     c->built = 1;
     c->dirty = 1;
@@ -455,20 +452,12 @@ static double round12(double h)
     return h;
 }
 
-/* Step matrices for h: exp([[A, B, 0], [0, 0, I], [0, 0, 0]] h). */
-static int discretize(bv_instance *c, double h)
+/* exp of the augmented matrix with `blocks` input blocks ([[A, B, 0..], [0, 0, I, ..], ..] h),
+ * as bodyvib.runtime.discretize (blocks 2: Phi, Gamma0, Gamma1; blocks 3: also Gamma2). */
+static int augmented(bv_instance *c, double key, int blocks, double *E)
 {
-    int n = c->n, m = c->m, N = c->N, ni = c->ni, i, j;
-    double key, *M, *E, *G0, *G1;
-    if (c->h_key != 0.0 && h == c->h_raw)
-        return 1;
-    key = round12(h);
-    if (c->h_key == key) {
-        c->h_raw = h;
-        return 1;
-    }
-    M = c->work;
-    E = M + (size_t)N * N;
+    int n = c->n, m = c->m, N = n + blocks * m, i, j, b;
+    double *M = E + (size_t)N * N;
     memset(M, 0, (size_t)N * N * sizeof *M);
     for (i = 0; i < n; i++) {
         for (j = 0; j < n; j++)
@@ -476,26 +465,73 @@ static int discretize(bv_instance *c, double h)
         for (j = 0; j < m; j++)
             M[i * N + n + j] = c->B[i * m + j] * key;
     }
-    for (j = 0; j < m; j++)
-        M[(n + j) * N + n + m + j] = key;
-    if (!expm(E, M, N, E + (size_t)N * N, c->piv))
-        return 0;
-    G0 = E + (size_t)N * N * 10; /* past expm's work */
-    G1 = G0 + (size_t)n * m;
-    for (i = 0; i < n; i++) {
-        for (j = 0; j < n; j++)
-            c->Phi[i * n + j] = E[i * N + j];
-        for (j = 0; j < m; j++) {
-            G0[i * m + j] = E[i * N + n + j];
-            G1[i * m + j] = E[i * N + n + m + j];
-        }
+    for (b = 1; b < blocks; b++)
+        for (j = 0; j < m; j++)
+            M[(n + (b - 1) * m + j) * N + n + b * m + j] = key;
+    return expm(E, M, N, M + (size_t)N * N, c->piv);
+}
+
+/* Step matrices for h (Sc, Ms). */
+static int discretize(bv_instance *c, double h)
+{
+    int n = c->n, m = c->m, ni = c->ni, i, j, k;
+    int N2 = n + 2 * m, N3 = n + 3 * m;
+    double key, *E, *G, *T;
+    const double *R = c->md->R;
+    if (c->h_key != 0.0 && h == c->h_raw)
+        return 1;
+    key = round12(h);
+    if (c->h_key == key) {
+        c->h_raw = h;
+        return 1;
     }
-    mul(c->Gs, G0, c->md->U, n, m, ni);
-    mul(c->Gr, G1, c->md->U, n, m, ni);
-    for (i = 0; i < n * n; i++)
-        if (!isfinite(c->Phi[i]))
+    E = c->work;
+    G = E + 11 * (size_t)N3 * N3; /* past augmented()'s matrix and expm's work */
+    T = G + (size_t)n * m;
+    if (!augmented(c, key, 2, E))
+        return 0;
+    for (i = 0; i < n; i++)
+        for (j = 0; j < n; j++)
+            c->Sc[(size_t)i * (n + ni) + j] = E[i * N2 + j];
+    /* Gamma0 U + Gamma1 U R */
+    for (i = 0; i < n; i++)
+        for (j = 0; j < m; j++)
+            G[i * m + j] = E[i * N2 + n + j];
+    mul(T, G, c->md->U, n, m, ni);
+    for (i = 0; i < n; i++)
+        for (j = 0; j < ni; j++)
+            c->Sc[(size_t)i * (n + ni) + n + j] = T[i * ni + j];
+    for (i = 0; i < n; i++)
+        for (j = 0; j < m; j++)
+            G[i * m + j] = E[i * N2 + n + m + j];
+    mul(T, G, c->UR, n, m, ni);
+    for (i = 0; i < n; i++)
+        for (j = 0; j < ni; j++)
+            c->Sc[(size_t)i * (n + ni) + n + j] += T[i * ni + j];
+    if (c->curved) { /* + Gamma2 U R^2, from the three-block exponential */
+        if (!augmented(c, key, 3, E))
             return 0;
-    pack(c->Sc, c->Phi, c->Gs, c->Gr, n, n, ni);
+        for (i = 0; i < n; i++)
+            for (j = 0; j < m; j++)
+                G[i * m + j] = E[i * N3 + n + 2 * m + j];
+        mul(T, G, c->UR2, n, m, ni);
+        for (i = 0; i < n; i++)
+            for (j = 0; j < ni; j++)
+                c->Sc[(size_t)i * (n + ni) + n + j] += T[i * ni + j];
+    }
+    for (i = 0; i < n * (n + ni); i++)
+        if (!isfinite(c->Sc[i]))
+            return 0;
+    /* inputs at the step's end: (I + h R + h^2/2 R^2) s, with the actual h */
+    for (i = 0; i < ni; i++)
+        for (j = 0; j < ni; j++) {
+            double r2 = 0.0;
+            for (k = 0; k < ni; k++)
+                r2 += R[i * ni + k] * R[k * ni + j];
+            c->Ms[i * ni + j] = (i == j ? 1.0 : 0.0) + h * R[i * ni + j];
+            if (c->curved)
+                c->Ms[i * ni + j] += 0.5 * h * h * r2;
+        }
     c->h_key = key;
     c->h_raw = h;
     return 1;
@@ -505,19 +541,16 @@ static int discretize(bv_instance *c, double h)
 
 static void clear_state(bv_instance *c)
 {
-    int j;
+    int j, np1 = c->md->npairs + 1;
     for (j = 0; j < c->np; j++)
         c->p[j] = c->md->param_start[j];
     memset(c->x, 0, (size_t)c->n * sizeof(double));
     memset(c->s, 0, (size_t)c->ni * sizeof(double));
-    memset(c->s_prev, 0, (size_t)c->ni * sizeof(double));
-    memset(c->vel_set, 0, (size_t)c->md->npairs + 1);
-    memset(c->fallback, 0, (size_t)c->md->npairs + 1);
-    memset(c->warned, 0, (size_t)c->md->npairs + 1);
+    memset(c->x_prev, 0, (size_t)np1 * sizeof(double));
+    memset(c->h_prev, 0, (size_t)np1 * sizeof(double));
+    memset(c->has_prev, 0, 4 * (size_t)np1);
     c->dirty = 1;
     c->time = 0.0;
-    c->h_prev = 0.0;
-    c->have_prev = 0;
     c->initialized = 0;
     c->init_failed = 0;
     c->init_error[0] = '\0';
@@ -527,7 +560,7 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
 {
     bv_instance *c = calloc(1, sizeof *c);
     int n = md->n, m = md->m, ni = md->ni, no = md->no, np = md->np, R = md->rows;
-    int N = n + 2 * m, np1 = md->npairs + 1;
+    int N = n + 3 * m, np1 = md->npairs + 1, i, j, k;
     size_t nd, nw, assembly;
     double *d;
     if (c == NULL)
@@ -537,45 +570,56 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
     c->log = log;
     c->env = env;
     c->n = n, c->m = m, c->ni = ni, c->no = no, c->np = np, c->N = N;
-    /* work: the larger of the assembly (E, [A|B], C, Cd, D, one row) and the
-     * discretization (M, E, expm's 9 matrices, Gamma0, Gamma1) */
-    assembly = (size_t)n * n + (size_t)n * (n + m) + 2 * (size_t)R * n + (size_t)R * m + n + 2 * m;
-    nw = (size_t)N * N * 11 + 2 * (size_t)n * m;
+    /* work: the larger of the assembly (E, [A|B], C, Cd, D, a few rows) and the
+     * discretization (E, M, expm's 9 matrices, two n x max(m, ni) blocks) */
+    assembly = (size_t)n * n + (size_t)n * (n + m) + 2 * (size_t)R * n + (size_t)R * m + n +
+               2 * (size_t)m + 2 * (size_t)ni;
+    nw = (size_t)N * N * 11 + (size_t)n * m + (size_t)n * (m > ni ? m : ni);
     if (assembly > nw)
         nw = assembly;
-    nd = 2 * (size_t)np + (size_t)n * n + (size_t)n * m + 2 * (size_t)no * (n + 2 * ni) + no +
-         2 * ((size_t)n * n + 2 * (size_t)n * ni) + n + 3 * (size_t)ni + np1 + ni + n + nw;
+    nd = 2 * (size_t)np + (size_t)n * n + (size_t)n * m + 2 * (size_t)m * ni +
+         (size_t)no * (n + ni) + no + (size_t)n * (n + ni) + (size_t)ni * ni + n + ni +
+         2 * (size_t)np1 + n + ni + nw;
     d = calloc(nd, sizeof *d);
     c->piv = calloc((size_t)N + 1, sizeof *c->piv);
-    c->vel_set = calloc(3 * (size_t)np1, 1);
-    if (d == NULL || c->piv == NULL || c->vel_set == NULL) {
+    c->has_prev = calloc(4 * (size_t)np1, 1);
+    if (d == NULL || c->piv == NULL || c->has_prev == NULL) {
         free(d);
         free(c->piv);
-        free(c->vel_set);
+        free(c->has_prev);
         free(c);
         return NULL;
     }
-    c->fallback = c->vel_set + np1;
-    c->warned = c->fallback + np1;
+    c->vel_set = c->has_prev + np1;
+    c->slope_on = c->vel_set + np1;
+    c->warned = c->slope_on + np1;
     c->p = d; d += np;
     c->p_built = d; d += np;
     c->A = d; d += (size_t)n * n;
     c->B = d; d += (size_t)n * m;
-    c->Yx = d; d += (size_t)no * n;
-    c->Ys = d; d += (size_t)no * ni;
-    c->Yd = d; d += (size_t)no * ni;
-    c->Yc = d; d += (size_t)no * (n + 2 * ni);
+    c->UR = d; d += (size_t)m * ni;
+    c->UR2 = d; d += (size_t)m * ni;
+    c->Yc = d; d += (size_t)no * (n + ni);
     c->y = d; d += no;
-    c->Phi = d; d += (size_t)n * n;
-    c->Gs = d; d += (size_t)n * ni;
-    c->Gr = d; d += (size_t)n * ni;
-    c->Sc = d; d += (size_t)n * n + 2 * (size_t)n * ni;
-    c->x = d; d += n; /* x, s, ds contiguous: z */
+    c->Sc = d; d += (size_t)n * (n + ni);
+    c->Ms = d; d += (size_t)ni * ni;
+    c->x = d; d += n; /* x, s contiguous: z */
     c->s = d; d += ni;
-    c->ds = d; d += ni;
-    c->s_prev = d; d += ni;
-    c->xn = d; d += n + ni;
+    c->x_prev = d; d += np1;
+    c->h_prev = d; d += np1;
+    c->zn = d; d += n + ni;
     c->work = d;
+    /* U R and U R^2; curved if R^2 != 0 */
+    mul(c->UR, md->U, md->R, m, ni, ni);
+    mul(c->UR2, c->UR, md->R, m, ni, ni);
+    for (i = 0; i < ni; i++)
+        for (j = 0; j < ni; j++) {
+            double r2 = 0.0;
+            for (k = 0; k < ni; k++)
+                r2 += md->R[i * ni + k] * md->R[k * ni + j];
+            if (r2 != 0.0)
+                c->curved = 1;
+        }
     clear_state(c);
     if (!build(c, c->p)) {
         say(c, BV_ERROR, "%s: the model with its default parameters cannot be assembled "
@@ -592,7 +636,7 @@ void bv_free(bv_instance *c)
         return;
     free(c->p); /* the start of the one block of doubles */
     free(c->piv);
-    free(c->vel_set);
+    free(c->has_prev);
     free(c);
 }
 
@@ -633,24 +677,6 @@ bv_status bv_initialize(bv_instance *c)
     return BV_OK;
 }
 
-/* The in-step rates of the FMU inputs in effect now. */
-static void rates(const bv_instance *c, double *ds)
-{
-    int k;
-    for (k = 0; k < c->ni; k++)
-        ds[k] = 0.0;
-    for (k = 0; k < c->md->npairs; k++) {
-        const bv_pair *pr = &c->md->pairs[k];
-        /* in fallback (or about to enter it: the displacement moved, the velocity never set),
-         * the slope from the previous doStep's value: before a doStep the rate of the coming
-         * step, right after one (inputs extrapolated) the rate just used */
-        int slope = c->fallback[k] || (pr->fallback && !c->vel_set[k] && c->have_prev &&
-                                       c->s[pr->value] != c->s_prev[pr->value]);
-        ds[pr->value] = slope ? (c->s[pr->value] - c->s_prev[pr->value]) / c->h_prev
-                              : c->s[pr->rate];
-    }
-}
-
 static int check_vr(const bv_instance *c, unsigned int vr)
 {
     if (vr >= (unsigned int)c->md->nvars) {
@@ -677,9 +703,9 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
             c->dirty = 1;
             if (value[i] != 0.0)
                 for (k = 0; k < md->npairs; k++)
-                    if (md->pairs[k].fallback && md->pairs[k].rate == idx) {
+                    if (md->pairs[k].rate == idx) {
                         c->vel_set[k] = 1;
-                        c->fallback[k] = 0;
+                        c->slope_on[k] = 0;
                     }
         } else if (kind == BV_PARAMETER) {
             if (c->initialized) {
@@ -702,8 +728,8 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
 bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double value[])
 {
     const bv_model *md = c->md;
-    int n = c->n, ni = c->ni;
     size_t i;
+    int k;
     if (!c->initialized && memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0 &&
         params_valid(c, c->p, 1))
         build(c, c->p); /* parameters changed before initialization: follow them if valid */
@@ -715,12 +741,14 @@ bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double val
         idx = md->vr_index[vr[i]];
         if (kind == BV_INPUT) {
             value[i] = c->s[idx];
+            for (k = 0; k < md->npairs; k++) /* the slope stands in: the input reads as set */
+                if (c->slope_on[k] && md->pairs[k].rate == idx)
+                    value[i] = 0.0;
         } else if (kind == BV_PARAMETER) {
             value[i] = c->p[idx];
         } else {
             if (c->dirty) {
-                rates(c, c->ds);
-                matvec(c->y, c->Yc, c->x, c->no, n + 2 * ni);
+                matvec(c->y, c->Yc, c->x, c->no, c->n + c->ni);
                 c->dirty = 0;
             }
             value[i] = c->y[idx];
@@ -729,11 +757,40 @@ bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double val
     return BV_OK;
 }
 
-bv_status bv_step(bv_instance *c, double t, double h)
+/* The unconnected-velocity rule, before a step (bodyvib.runtime.engine's _slope_fallback). */
+static void slope_fallback(bv_instance *c, double t, double h)
 {
     const bv_model *md = c->md;
-    int n = c->n, ni = c->ni, j, k;
-    double *xn = c->xn;
+    int k;
+    for (k = 0; k < md->npairs; k++) {
+        const bv_pair *pr = &md->pairs[k];
+        double x = c->s[pr->value];
+        if (c->vel_set[k])
+            continue;
+        if (c->has_prev[k] && x != c->x_prev[k] && !c->slope_on[k]) {
+            c->slope_on[k] = 1;
+            if (!c->warned[k]) {
+                const char *dname = var_name(md, BV_INPUT, pr->value);
+                const char *vname = var_name(md, BV_INPUT, pr->rate);
+                c->warned[k] = 1;
+                say(c, BV_WARNING, "%s: %s moves (t = %g s) but %s was never set: using the "
+                                   "slope of successive %s values as its in-step rate; connect "
+                                   "%s for the exact coupling",
+                    c->name, dname, t, vname, dname, vname);
+            }
+        }
+        if (c->slope_on[k])
+            c->s[pr->rate] = (x - c->x_prev[k]) / c->h_prev[k];
+        c->x_prev[k] = x;
+        c->h_prev[k] = h;
+        c->has_prev[k] = 1;
+    }
+}
+
+bv_status bv_step(bv_instance *c, double t, double h)
+{
+    int n = c->n, ni = c->ni, j;
+    double *zn = c->zn;
     if (!(h > 0.0 && h < INFINITY)) {
         char text[32];
         say(c, BV_ERROR, "%s: communication step size must be positive and finite, got %s s",
@@ -742,14 +799,9 @@ bv_status bv_step(bv_instance *c, double t, double h)
     }
     for (j = 0; j < ni; j++)
         if (!isfinite(c->s[j])) {
-            int vr;
-            const char *name = "?";
-            for (vr = 0; vr < md->nvars; vr++)
-                if (md->vr_kind[vr] == BV_INPUT && md->vr_index[vr] == j)
-                    name = md->vr_name[vr];
             say(c, BV_ERROR, "%s: input %s = %g at t = %g s is not finite; step refused, state "
                              "unchanged (set a finite value and step again)",
-                c->name, name, c->s[j], t);
+                c->name, var_name(c->md, BV_INPUT, j), c->s[j], t);
             return BV_ERROR;
         }
     if (!c->initialized) {
@@ -760,46 +812,17 @@ bv_status bv_step(bv_instance *c, double t, double h)
                              "first", c->name);
         return BV_ERROR;
     }
+    if (c->md->npairs)
+        slope_fallback(c, t, h);
     if (!discretize(c, h)) {
-        say(c, BV_ERROR, "%s: the step matrices for h = %.17g s are not finite; step refused",
+        say(c, BV_ERROR, "%s: the step matrices for h = %g s are not finite; step refused",
             c->name, h);
         return BV_ERROR;
     }
-    /* unconnected velocity: a displacement that moves while its velocity was never set */
-    for (k = 0; k < md->npairs; k++) {
-        const bv_pair *pr = &md->pairs[k];
-        if (!pr->fallback || c->vel_set[k] || !c->have_prev)
-            continue;
-        if (!c->fallback[k] && c->s[pr->value] != c->s_prev[pr->value]) {
-            c->fallback[k] = 1;
-            if (!c->warned[k]) {
-                int vr;
-                const char *dname = "?", *vname = "?";
-                for (vr = 0; vr < md->nvars; vr++)
-                    if (md->vr_kind[vr] == BV_INPUT) {
-                        if (md->vr_index[vr] == pr->value)
-                            dname = md->vr_name[vr];
-                        if (md->vr_index[vr] == pr->rate)
-                            vname = md->vr_name[vr];
-                    }
-                say(c, BV_WARNING, "%s: %s moves but %s was never set (0): from t = %g s the "
-                                   "in-step rate of %s is its slope over the previous step; "
-                                   "connect %s for exact extrapolation",
-                    c->name, dname, vname, t, dname, vname);
-                c->warned[k] = 1;
-            }
-        }
-    }
-    rates(c, c->ds);
-    matvec(xn, c->Sc, c->x, n, n + 2 * ni);
-    for (j = 0; j < n; j++) /* small: plain loops, no library calls on the hot path */
-        c->x[j] = xn[j];
-    for (j = 0; j < ni; j++) {
-        c->s_prev[j] = c->s[j];
-        c->s[j] += h * c->ds[j];
-    }
-    c->h_prev = h;
-    c->have_prev = 1;
+    matvec(zn, c->Sc, c->x, n, n + ni);
+    matvec(zn + n, c->Ms, c->s, ni, ni);
+    for (j = 0; j < n + ni; j++) /* small: plain loops, no library calls on the hot path */
+        c->x[j] = zn[j];
     c->time = t + h;
     c->dirty = 1;
     return BV_OK;
@@ -807,7 +830,7 @@ bv_status bv_step(bv_instance *c, double t, double h)
 
 /* ---------------------------------------------------------------- snapshots */
 
-static const unsigned char MAGIC[8] = {'B', 'V', 'S', 'T', 'A', 'T', 'E', '1'};
+static const unsigned char MAGIC[8] = {'B', 'V', 'S', 'T', 'A', 'T', 'E', '2'};
 
 static uint64_t fnv1a(const unsigned char *p, size_t n)
 {
@@ -820,12 +843,11 @@ static uint64_t fnv1a(const unsigned char *p, size_t n)
     return h;
 }
 
-/* Payload: doubles time, h_prev, have_prev, initialized, init_failed, p[np], x[n], s[ni],
- * s_prev[ni], vel_set/fallback/warned[np1]. */
+/* Payload: doubles time, initialized, init_failed, p[np], x[n], s[ni], then per fallback
+ * pair x_prev, h_prev, has_prev, vel_set, slope_on, warned. */
 static size_t payload_doubles(const bv_instance *c)
 {
-    size_t np1 = (size_t)c->md->npairs + 1;
-    return 5 + (size_t)c->np + (size_t)c->n + 2 * (size_t)c->ni + 3 * np1;
+    return 3 + (size_t)c->np + (size_t)c->n + (size_t)c->ni + 6 * (size_t)c->md->npairs;
 }
 
 size_t bv_state_size(const bv_instance *c)
@@ -839,32 +861,36 @@ static unsigned char *put(unsigned char *q, const double *v, size_t k)
     return q + k * sizeof *v;
 }
 
+static uint64_t token_hash(const bv_instance *c)
+{
+    return fnv1a((const unsigned char *)c->md->token, strlen(c->md->token));
+}
+
 void bv_state_write(const bv_instance *c, unsigned char *buf)
 {
-    size_t np1 = (size_t)c->md->npairs + 1, i;
-    uint64_t size = bv_state_size(c), token = fnv1a((const unsigned char *)c->md->token,
-                                                    strlen(c->md->token)), sum;
-    double head[5], flags[3];
+    int k;
+    uint64_t size = bv_state_size(c), token = token_hash(c), sum;
+    double head[3], pair[6];
     unsigned char *q = buf;
     memcpy(q, MAGIC, 8);
     memcpy(q + 8, &size, 8);
     memcpy(q + 16, &token, 8);
     q += 24;
     head[0] = c->time;
-    head[1] = c->h_prev;
-    head[2] = c->have_prev;
-    head[3] = c->initialized;
-    head[4] = c->init_failed;
-    q = put(q, head, 5);
+    head[1] = c->initialized;
+    head[2] = c->init_failed;
+    q = put(q, head, 3);
     q = put(q, c->p, (size_t)c->np);
     q = put(q, c->x, (size_t)c->n);
     q = put(q, c->s, (size_t)c->ni);
-    q = put(q, c->s_prev, (size_t)c->ni);
-    for (i = 0; i < np1; i++) {
-        flags[0] = c->vel_set[i];
-        flags[1] = c->fallback[i];
-        flags[2] = c->warned[i];
-        q = put(q, flags, 3);
+    for (k = 0; k < c->md->npairs; k++) {
+        pair[0] = c->x_prev[k];
+        pair[1] = c->h_prev[k];
+        pair[2] = c->has_prev[k];
+        pair[3] = c->vel_set[k];
+        pair[4] = c->slope_on[k];
+        pair[5] = c->warned[k];
+        q = put(q, pair, 6);
     }
     sum = fnv1a(buf, (size_t)(q - buf));
     memcpy(q, &sum, 8);
@@ -875,16 +901,16 @@ static int flag_ok(double v) { return v == 0.0 || v == 1.0; }
 bv_status bv_state_check(const bv_instance *c, const unsigned char *buf, size_t size)
 {
     uint64_t want = bv_state_size(c), got, token, sum;
-    size_t np1 = (size_t)c->md->npairs + 1, off, i;
-    double head[5], *p, v;
+    size_t off, i;
+    int k;
+    double head[3], pair[6], *p, v;
     if (buf == NULL || size < 24 || memcmp(buf, MAGIC, 8) != 0) {
         say(c, BV_ERROR, "%s: not a bodyvib FMU state (bad magic)", c->name);
         return BV_ERROR;
     }
     memcpy(&got, buf + 8, 8);
     memcpy(&token, buf + 16, 8);
-    if (got != want || size != want ||
-        token != fnv1a((const unsigned char *)c->md->token, strlen(c->md->token))) {
+    if (got != want || size != want || token != token_hash(c)) {
         say(c, BV_ERROR, "%s: the FMU state belongs to another model or version (size %llu, "
                          "expected %llu); refused", c->name, (unsigned long long)size,
             (unsigned long long)want);
@@ -897,8 +923,7 @@ bv_status bv_state_check(const bv_instance *c, const unsigned char *buf, size_t 
     }
     memcpy(head, buf + 24, sizeof head);
     off = 24 + sizeof head;
-    if (!(isfinite(head[0]) && isfinite(head[1]) && head[1] >= 0.0 && flag_ok(head[2]) &&
-          flag_ok(head[3]) && flag_ok(head[4]))) {
+    if (!(isfinite(head[0]) && flag_ok(head[1]) && flag_ok(head[2]))) {
         say(c, BV_ERROR, "%s: the FMU state is invalid (time or flags); refused", c->name);
         return BV_ERROR;
     }
@@ -906,7 +931,7 @@ bv_status bv_state_check(const bv_instance *c, const unsigned char *buf, size_t 
     if (p == NULL)
         return BV_ERROR;
     memcpy(p, buf + off, (size_t)c->np * sizeof *p);
-    if (head[3] != 0.0 && !params_valid(c, p, 1)) {
+    if (head[1] != 0.0 && !params_valid(c, p, 1)) {
         free(p);
         say(c, BV_ERROR, "%s: the FMU state holds invalid parameters; refused", c->name);
         return BV_ERROR;
@@ -921,11 +946,13 @@ bv_status bv_state_check(const bv_instance *c, const unsigned char *buf, size_t 
             return BV_ERROR;
         }
     }
-    off += 8 * ((size_t)c->n + 2 * (size_t)c->ni);
-    for (i = 0; i < 3 * np1; i++) {
-        memcpy(&v, buf + off + 8 * i, 8);
-        if (!flag_ok(v)) {
-            say(c, BV_ERROR, "%s: the FMU state is invalid (flags); refused", c->name);
+    off += 8 * ((size_t)c->n + (size_t)c->ni);
+    for (k = 0; k < c->md->npairs; k++) {
+        memcpy(pair, buf + off + sizeof pair * (size_t)k, sizeof pair);
+        if (!(flag_ok(pair[2]) && flag_ok(pair[3]) && flag_ok(pair[4]) && flag_ok(pair[5]) &&
+              isfinite(pair[0]) && isfinite(pair[1]) && pair[1] >= 0.0)) {
+            say(c, BV_ERROR, "%s: the FMU state is invalid (fallback bookkeeping); refused",
+                c->name);
             return BV_ERROR;
         }
     }
@@ -940,28 +967,28 @@ static const unsigned char *get(const unsigned char *q, double *v, size_t k)
 
 bv_status bv_state_read(bv_instance *c, const unsigned char *buf, size_t size)
 {
-    size_t np1 = (size_t)c->md->npairs + 1, i;
-    double head[5], flags[3];
+    int k;
+    double head[3], pair[6];
     const unsigned char *q;
     if (bv_state_check(c, buf, size) != BV_OK)
         return BV_ERROR;
-    q = get(buf + 24, head, 5);
+    q = get(buf + 24, head, 3);
     q = get(q, c->p, (size_t)c->np);
     q = get(q, c->x, (size_t)c->n);
     q = get(q, c->s, (size_t)c->ni);
-    q = get(q, c->s_prev, (size_t)c->ni);
-    for (i = 0; i < np1; i++) {
-        q = get(q, flags, 3);
-        c->vel_set[i] = (unsigned char)(flags[0] != 0.0);
-        c->fallback[i] = (unsigned char)(flags[1] != 0.0);
-        c->warned[i] = (unsigned char)(flags[2] != 0.0);
+    for (k = 0; k < c->md->npairs; k++) {
+        q = get(q, pair, 6);
+        c->x_prev[k] = pair[0];
+        c->h_prev[k] = pair[1];
+        c->has_prev[k] = (unsigned char)(pair[2] != 0.0);
+        c->vel_set[k] = (unsigned char)(pair[3] != 0.0);
+        c->slope_on[k] = (unsigned char)(pair[4] != 0.0);
+        c->warned[k] = (unsigned char)(pair[5] != 0.0);
     }
     c->dirty = 1;
     c->time = head[0];
-    c->h_prev = head[1];
-    c->have_prev = head[2] != 0.0;
-    c->initialized = head[3] != 0.0;
-    c->init_failed = head[4] != 0.0;
+    c->initialized = head[1] != 0.0;
+    c->init_failed = head[2] != 0.0;
     if (c->init_failed)
         snprintf(c->init_error, BV_MESSAGE, "%s: the restored state was not initialized "
                  "successfully; reset and set valid parameters", c->name);

@@ -8,8 +8,9 @@
  * At initialization the core assembles them for the parameter values it holds, solves
  * E for the explicit state space, and discretizes it exactly for the communication step
  * (matrix exponential of the augmented matrix, Pade(13) with scaling and squaring):
- *     x <- Phi x + Gamma0 u + Gamma1 du,
- * with the inputs extrapolated linearly over the step at their rates du.
+ *     x <- Phi x + Gamma0 u + Gamma1 du + Gamma2 d2u,
+ * with the inputs extrapolated over the step at their rates du (and, where a rate has a
+ * rate of its own, their curvature d2u).
  *
  * The FMI 2.0 and FMI 3.0 function files are thin wrappers around this API.
  * C99, libc and libm only; no global mutable state: every instance is independent.
@@ -37,9 +38,9 @@ typedef struct {
     double coef;
 } bv_stencil;
 
-/* A rate pair: FMU input `value` rises at the rate given by FMU input `rate` over a step.
- * fallback != 0: a displacement/velocity pair; while the velocity input has never been set
- * to a non-zero value, a moving displacement switches the pair to its own slope. */
+/* An unconnected-velocity pair: displacement input `value` and its velocity input `rate`;
+ * while the velocity has never been set to a non-zero value, a moving displacement
+ * switches the velocity to the displacement's slope (fallback is 1). */
 typedef struct {
     int value;
     int rate;
@@ -61,6 +62,7 @@ typedef struct {
     const char *const *param_unit; /* [np] */
     const double *param_start;   /* [np] */
     const double *U;             /* [m * ni] model inputs u = U s from the FMU inputs s */
+    const double *R;             /* [ni * ni] in-step rates of the FMU inputs: ds/dt = R s */
     int npairs;
     const bv_pair *pairs;
     const int *out_row;          /* [no] model output row of each FMU output */

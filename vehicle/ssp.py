@@ -1,0 +1,246 @@
+"""The coupled system as an SSP 1.0 package: road, quarter car and occupant, wired.
+
+``python build_fmu.py`` writes ``dist/QuarterCarWithOccupant.ssp`` with
+:func:`write_ssp`: ``SystemStructure.ssd``, the three FMUs under ``resources/``,
+the parameter set (every parameter at its baked-in value, one ``.ssv`` per
+component, ``resources/<component>.ssv``, bound to it without a prefix: libcosim
+ignores a binding's prefix) and the default experiment. Any SSP host (libcosim, Ecos, fmpy's SSP runner) runs it without a
+line of coupling code.
+
+The connections are what a correct coupling needs in a host that steps all
+FMUs in parallel and holds every input over a step (libcosim, Ecos, fmpy.ssp):
+
+* ``Road.road_displacement``, ``Road.road_velocity`` -> ``Car``: the car's road
+  rises at the road velocity over the step, as in the monolithic reference;
+* ``Car.seat_displacement``, ``Car.seat_velocity``, ``Car.sprung_acceleration``
+  -> ``Body``: the seat follows the parabola of its displacement, velocity and
+  acceleration over the step, so the seat force the body reports right after
+  the step is that of (nearly) the car's seat (with a line only it misses the
+  seat by ``a h^2 / 2``, which the stiff seat feeds straight into the force);
+* ``Body.seat_force``, ``Body.seat_force_rate`` -> ``Car``: the seat force rises
+  at its exact rate over the step (without the rate it is held, first order).
+
+Measured head-acceleration errors per host: README, "Co-simulation in any host (SSP)".
+"""
+
+import io
+import zipfile
+from pathlib import Path
+from typing import Dict, Optional
+from xml.etree import ElementTree as ET
+
+import numpy as np
+
+from bodyvib.runtime.contract import UNITS
+from bodyvib.runtime.fileio import atomic_write_bytes
+
+__all__ = ["SSP_NAME", "CONNECTIONS", "COMPONENTS", "parameter_values", "ssp_parameters",
+           "ssp_reference", "system_structure", "write_ssp"]
+
+#: The package's name (``<SSP_NAME>.ssp``, the system, the parameter set).
+SSP_NAME = "QuarterCarWithOccupant"
+
+#: Component name -> FMU name of :data:`vehicle.fmus.FMUS` (the body may be any body FMU).
+COMPONENTS = {"Road": "Road", "Car": "QuarterCar", "Body": "HumanBody3DOF"}
+
+#: (start element, start connector, end element, end connector).
+CONNECTIONS = (
+    ("Road", "road_displacement", "Car", "road_displacement"),
+    ("Road", "road_velocity", "Car", "road_velocity"),
+    ("Car", "seat_displacement", "Body", "seat_displacement"),
+    ("Car", "seat_velocity", "Body", "seat_velocity"),
+    ("Car", "sprung_acceleration", "Body", "seat_acceleration"),
+    ("Body", "seat_force", "Car", "seat_force"),
+    ("Body", "seat_force_rate", "Car", "seat_force_rate"),
+)
+
+_NS = {
+    "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
+    "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
+    "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues",
+    "osp": "http://opensimulationplatform.com/SSP/OSPAnnotations",
+}
+for _p, _u in _NS.items():
+    ET.register_namespace(_p, _u)
+
+
+def _q(prefix, tag):
+    return f"{{{_NS[prefix]}}}{tag}"
+
+
+def _variables(fmu_path):
+    """(name, causality, unit, start) of an FMU's real variables, from its model description."""
+    with zipfile.ZipFile(fmu_path) as zf:
+        root = ET.fromstring(zf.read("modelDescription.xml"))
+    out = []
+    for sv in root.iter("ScalarVariable"):
+        real = sv.find("Real")
+        if real is not None:
+            out.append((sv.get("name"), sv.get("causality"), real.get("unit"), real.get("start")))
+    return out
+
+
+def ssp_parameters(fmu_path):
+    """One component's parameter set: ``(parameter, value, unit)`` at the FMU's start values.
+
+    Parameters
+    ----------
+    fmu_path : str
+
+    Returns
+    -------
+    list of (str, float, str)
+    """
+    return [(name, float(start), unit)
+            for name, causality, unit, start in _variables(fmu_path) if causality == "parameter"]
+
+
+def _units(root_parent, tag_prefix, used):
+    units = ET.SubElement(root_parent, _q(tag_prefix, "Units"))
+    for u in used:
+        unit = ET.SubElement(units, _q("ssc", "Unit"), name=u)
+        ET.SubElement(unit, _q("ssc", "BaseUnit"), {k: str(e) for k, e in UNITS[u].items()})
+
+
+def system_structure(fmus: Dict[str, str], stop_time: float = 30.0, step: float = 1e-3,
+                     connections=CONNECTIONS) -> bytes:
+    """``SystemStructure.ssd`` of the coupled system.
+
+    Parameters
+    ----------
+    fmus : dict of str to str
+        Component name -> FMU path (read for connector units).
+    stop_time : float
+        Default experiment's stop time, s.
+    step : float
+        Communication step suggested to hosts that read it (libcosim's OSP
+        annotation), s.
+    connections : sequence of (str, str, str, str)
+        :data:`CONNECTIONS` (a subset only to show what a missing one costs).
+
+    Returns
+    -------
+    bytes
+        UTF-8 XML.
+    """
+    root = ET.Element(_q("ssd", "SystemStructureDescription"), version="1.0", name=SSP_NAME,
+                      generationTool="bodyvib (vehicle.ssp)")
+    system = ET.SubElement(root, _q("ssd", "System"), name=SSP_NAME,
+                           description="Quarter car on a road with a seated occupant, two-way "
+                           "coupled through seat motion and seat force (and their rates)")
+    elements = ET.SubElement(system, _q("ssd", "Elements"))
+    used = []
+    for comp, path in fmus.items():
+        el = ET.SubElement(elements, _q("ssd", "Component"), name=comp,
+                           type="application/x-fmu-sharedlibrary",
+                           source=f"resources/{Path(path).name}")
+        conns = ET.SubElement(el, _q("ssd", "Connectors"))
+        for name, causality, unit, _ in _variables(path):
+            if causality in ("input", "output"):
+                c = ET.SubElement(conns, _q("ssd", "Connector"), name=name, kind=causality)
+                ET.SubElement(c, _q("ssc", "Real"), unit=unit)
+                if unit not in used:
+                    used.append(unit)
+        binds = ET.SubElement(el, _q("ssd", "ParameterBindings"))
+        ET.SubElement(binds, _q("ssd", "ParameterBinding"), source=f"resources/{comp}.ssv")
+    wires = ET.SubElement(system, _q("ssd", "Connections"))
+    for a, ac, b, bc in connections:
+        ET.SubElement(wires, _q("ssd", "Connection"), startElement=a, startConnector=ac,
+                      endElement=b, endConnector=bc)
+    _units(root, "ssd", used)
+    experiment = ET.SubElement(root, _q("ssd", "DefaultExperiment"), startTime="0.0",
+                               stopTime=repr(float(stop_time)))
+    annotations = ET.SubElement(experiment, _q("ssd", "Annotations"))  # libcosim's step
+    ann = ET.SubElement(annotations, _q("ssc", "Annotation"), type="com.opensimulationplatform")
+    alg = ET.SubElement(ann, _q("osp", "Algorithm"))
+    ET.SubElement(alg, _q("osp", "FixedStepAlgorithm"), baseStepSize=repr(float(step)))
+    ET.indent(root)
+    return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
+
+
+def parameter_values(fmu_path) -> bytes:
+    """The ``.ssv`` parameter set of one component (:func:`ssp_parameters`).
+
+    Parameters
+    ----------
+    fmu_path : str
+
+    Returns
+    -------
+    bytes
+    """
+    root = ET.Element(_q("ssv", "ParameterSet"), version="1.0", name=SSP_NAME)
+    params = ET.SubElement(root, _q("ssv", "Parameters"))
+    used = []
+    for name, value, unit in ssp_parameters(fmu_path):
+        p = ET.SubElement(params, _q("ssv", "Parameter"), name=name)
+        ET.SubElement(p, _q("ssv", "Real"), value=repr(value), unit=unit)
+        if unit not in used:
+            used.append(unit)
+    _units(root, "ssv", used)
+    ET.indent(root)
+    return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
+
+
+def write_ssp(path, fmus: Dict[str, str], stop_time: float = 30.0, step: float = 1e-3,
+              connections=CONNECTIONS) -> Path:
+    """Write the SSP of the coupled system.
+
+    Parameters
+    ----------
+    path : str or path
+        ``.../QuarterCarWithOccupant.ssp``.
+    fmus : dict of str to str
+        Component name (``Road``, ``Car``, ``Body``) -> FMU path.
+    stop_time, step, connections
+        See :func:`system_structure`.
+
+    Returns
+    -------
+    Path
+    """
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
+        zf.writestr("SystemStructure.ssd", system_structure(fmus, stop_time, step, connections))
+        for comp, fmu in fmus.items():
+            zf.writestr(f"resources/{comp}.ssv", parameter_values(fmu))
+            zf.write(fmu, f"resources/{Path(fmu).name}")
+    atomic_write_bytes(path, buf.getvalue())
+    return Path(path)
+
+
+def ssp_reference(duration: float = 30.0, step: float = 1e-3, body: str = "reduced-paper",
+                  car: str = "quarter-car", road: Optional[dict] = None) -> Dict[str, np.ndarray]:
+    """The monolithic reference of the SSP's system on the road its ``Road.fmu`` carries.
+
+    Parameters
+    ----------
+    duration, step : float
+        s.
+    body : str
+        Body model baked into the SSP's body FMU.
+    car : str
+        Vehicle model of its ``QuarterCar.fmu``.
+    road : dict, optional
+        The keyword arguments its ``Road.fmu`` was built with
+        (:data:`vehicle.fmus.ROAD_DEFAULTS` by default); ``speed`` is the run's.
+
+    Returns
+    -------
+    dict of str to ndarray
+        :func:`vehicle.reference.reference_run` on ``t = 0, step, ...`` with the
+        road samples the FMU outputs (its table, evaluated as the FMU does).
+    """
+    from bodyvib.models import load_model
+
+    from .fmus import ROAD_DEFAULTS, fmu_road
+    from .quarter_car import load_car
+    from .reference import reference_run
+    from .roads import road_table
+
+    r = dict(ROAD_DEFAULTS, **(road or {}))
+    table = road_table(fmu_road(r["road"], r["length"], r["seed"], r["speed"], r["taper"]),
+                       r["length"])
+    t = np.arange(int(round(duration / step)) + 1) * step
+    z, dz = table.evaluate(r["speed"] * t)
+    return reference_run(load_car(car), load_model(body), z[:, 0], r["speed"] * dz[:, 0], step)
