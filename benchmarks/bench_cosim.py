@@ -25,19 +25,20 @@ import time
 
 import numpy as np
 
+from bodyvib.runtime import contract
 from vehicle.fmus import build_project_fmu
-from vehicle.cosim import BODY_INPUTS, BODY_OUTPUTS, CAR_INPUTS, CAR_OUTPUTS, cosimulate, open_fmu
+from vehicle.cosim import BODY_INPUTS, BODY_OUTPUTS, CAR_OUTPUTS, cosimulate, open_fmu
 from vehicle.roads import make_road, road_input
 
 
 def bare_calls(car, body, z, v, steps, h):
     """The master's FMI calls, nothing else. Returns seconds per macro-step."""
     cf, bf = car.fmu, body.fmu
-    car_in = [car.vr[k] for k in CAR_INPUTS] + [car.vr["seat_force_rate"]]
+    car_in = [car.vr[k] for k in contract.CAR_INPUTS]  # with seat_force_rate
     car_out = [car.vr[k] for k in CAR_OUTPUTS]
     car_motion = car_out[:2]
     body_in = [body.vr[k] for k in BODY_INPUTS]
-    body_out = [body.vr[k] for k in ("seat_force",) + BODY_OUTPUTS[:3]]
+    body_out = [body.vr[k] for k in BODY_OUTPUTS[3:] + BODY_OUTPUTS[:3]]  # as the master
     args = [[float(z[k]), float(v[k]), 0.0, 0.0] for k in range(steps)]
     seat = [0.0, 0.0]
     c_set, c_get, c_step = cf.setReal, cf.getReal, cf.doStep

@@ -94,7 +94,8 @@ def main(argv=None):
     def default_fit():
         fit(model_target("iso7962"), seed=1)
 
-    out = os.path.join(tempfile.mkdtemp(), "refit.json")
+    tmp = tempfile.TemporaryDirectory(prefix="bodyvib-bench-fit-")
+    out = os.path.join(tmp.name, "refit.json")
 
     def cli():
         subprocess.run([sys.executable, "-m", "bodyvib_cli", "fit", "--reference", "iso7962",
@@ -109,6 +110,7 @@ def main(argv=None):
         times["time_domain"].append(timed(time_domain))
         times["fit"].append(timed(default_fit))
         times["cli"].append(timed(cli))
+    tmp.cleanup()
     med = {k: statistics.median(v) for k, v in times.items()}
     rate = {
         "vectorized": args.population / med["vectorized"],

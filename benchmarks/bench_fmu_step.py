@@ -32,10 +32,11 @@ import numpy as np
 
 from vehicle.fmus import build_project_fmu
 from bodyvib.models import load_model
+from bodyvib.runtime.contract import BODY_OUTPUTS
 from bodyvib.runtime.discretize import Discretization
 from vehicle.cosim import open_fmu
 
-OUT = ["head_acceleration", "head_displacement", "torso_displacement", "seat_force"]
+OUT = list(BODY_OUTPUTS)
 SIG = ["head.a", "head.x", "torso.x", "seat_force"]
 
 

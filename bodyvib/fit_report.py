@@ -147,7 +147,7 @@ def plot_comparison(result, refit, folder):
         The files written.
     """
     from .fit_objective import default_horizon, impulse_response
-    from .plotting import new_figure, save_figure
+    from .plotting import new_figure, save_figure, transmissibility_axes
 
     t = result.target
     paper = load_model("reduced-paper")
@@ -167,14 +167,8 @@ def plot_comparison(result, refit, folder):
         T = transmissibility(net, f)
         ax1.plot(f, np.abs(T), style, label=label)
         ax2.plot(f, np.degrees(np.unwrap(np.angle(T))), style)
-    ax1.set_xscale("log")
-    ax1.set_ylabel("|T| = |X_head / X_seat|  [-]")
-    ax1.set_title("Seat-to-head transmissibility")
-    ax1.grid(True, which="both", alpha=0.3)
+    transmissibility_axes(ax1, ax2, title="Seat-to-head transmissibility")
     ax1.legend()
-    ax2.set_xlabel("frequency [Hz]")
-    ax2.set_ylabel("phase [deg]")
-    ax2.grid(True, which="both", alpha=0.3)
     files = [os.path.join(folder, "transmissibility.png")]
     save_figure(fig, files[0])
 

@@ -124,7 +124,7 @@ def plot_transmissibility(result, path, title="Seat-to-head transmissibility"):
     BodyvibError
         An unsupported plot file extension.
     """
-    from .plotting import new_figure, save_figure
+    from .plotting import new_figure, save_figure, transmissibility_axes
 
     fig, (ax1, ax2) = new_figure(2, 1, sharex=True, figsize=(7, 6))
     f = result["frequency_hz"]
@@ -133,12 +133,6 @@ def plot_transmissibility(result, path, title="Seat-to-head transmissibility"):
         for p in r["peaks"]:
             ax1.plot(p["frequency_hz"], p["modulus"], "o", color=line.get_color(), ms=4)
         ax2.plot(f, r["phase_deg"], color=line.get_color(), label=name)
-    ax1.set_xscale("log")
-    ax1.set_ylabel("|T| = |X_head / X_seat|  [-]")
-    ax1.set_title(title)
-    ax1.grid(True, which="both", alpha=0.3)
+    transmissibility_axes(ax1, ax2, title=title)
     ax1.legend()
-    ax2.set_xlabel("frequency [Hz]")
-    ax2.set_ylabel("phase [deg]")
-    ax2.grid(True, which="both", alpha=0.3)
     save_figure(fig, path)

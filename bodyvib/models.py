@@ -12,10 +12,15 @@ from .runtime.errors import BodyvibError
 from .runtime.modelfile import network_from_file
 from .runtime.network import Network
 
-__all__ = ["MODEL_DIR", "available_models", "load_model"]
+__all__ = ["MODEL_DIR", "available_models", "load_model", "load_network", "shipped_names"]
 
 #: Folder of the shipped parameter files.
 MODEL_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
+
+
+def shipped_names(folder: str) -> List[str]:
+    """Names of the parameter files in a folder (sorted ``*.json`` stems)."""
+    return sorted(f[:-5] for f in os.listdir(folder) if f.endswith(".json"))
 
 
 def available_models() -> List[str]:
@@ -26,7 +31,42 @@ def available_models() -> List[str]:
     list of str
         Sorted names (file stems in :data:`MODEL_DIR`).
     """
-    return sorted(f[:-5] for f in os.listdir(MODEL_DIR) if f.endswith(".json"))
+    return shipped_names(MODEL_DIR)
+
+
+def load_network(name_or_path: Union[str, os.PathLike], folder: str,
+                 what: str = "model") -> Network:
+    """Load a parameter file by path, or by its name among the files of ``folder``.
+
+    Parameters
+    ----------
+    name_or_path : str or path
+        A parameter file, or the stem of a ``.json`` file in ``folder``.
+    folder : str
+        Folder of the shipped parameter files.
+    what : str
+        What is loaded, for messages (``"model"``, ``"vehicle model"``).
+
+    Returns
+    -------
+    Network
+
+    Raises
+    ------
+    BodyvibError
+        A missing file (a name ending in ``.json`` or with a path separator),
+        an unknown name (the message lists the shipped ones), or invalid content.
+    """
+    s = os.fspath(name_or_path)
+    if os.path.isfile(s):
+        return network_from_file(s)
+    names = shipped_names(folder)
+    if s in names:
+        return network_from_file(os.path.join(folder, s + ".json"))
+    if s.endswith(".json") or os.sep in s:
+        raise BodyvibError(f"{what} file '{s}' does not exist")
+    raise BodyvibError(f"unknown {what} '{s}'; give a parameter file path or one of: "
+                       + ", ".join(names))
 
 
 def load_model(name_or_path: Union[str, os.PathLike]) -> Network:
@@ -53,14 +93,4 @@ def load_model(name_or_path: Union[str, os.PathLike]) -> Network:
     >>> net.parameters["m1"]
     4.88
     """
-    s = os.fspath(name_or_path)
-    if os.path.isfile(s):
-        return network_from_file(s)
-    if s in available_models():
-        return network_from_file(os.path.join(MODEL_DIR, s + ".json"))
-    if s.endswith(".json") or os.sep in s:
-        raise BodyvibError(f"model file '{s}' does not exist")
-    raise BodyvibError(
-        f"unknown model '{s}'; give a parameter file path or one of: "
-        + ", ".join(available_models())
-    )
+    return load_network(name_or_path, MODEL_DIR, "model")

@@ -6,7 +6,10 @@ import os
 from .runtime.errors import BodyvibError
 from .runtime.fileio import atomic_write_bytes
 
-__all__ = ["new_figure", "save_figure"]
+__all__ = ["new_figure", "save_figure", "transmissibility_axes"]
+
+#: Label of a seat-to-head transmissibility modulus axis.
+MODULUS_LABEL = "|T| = |X_head / X_seat|  [-]"
 
 
 def new_figure(nrows: int = 1, ncols: int = 1, **kwargs):
@@ -23,6 +26,32 @@ def new_figure(nrows: int = 1, ncols: int = 1, **kwargs):
     import matplotlib.pyplot as plt
 
     return plt.subplots(nrows, ncols, **kwargs)
+
+
+def transmissibility_axes(ax_modulus, ax_phase=None, title=None, ylabel: str = MODULUS_LABEL):
+    """Axes of a transmissibility plot: log frequency, modulus (and phase below it).
+
+    Parameters
+    ----------
+    ax_modulus : matplotlib Axes
+        The modulus axes (log frequency axis, grid).
+    ax_phase : matplotlib Axes, optional
+        The phase axes under it (sharing its x axis), in degrees; if None, the
+        frequency label goes on the modulus axes.
+    title : str, optional
+    ylabel : str
+        Label of the modulus axis.
+    """
+    ax_modulus.set_xscale("log")
+    ax_modulus.set_ylabel(ylabel)
+    if title is not None:
+        ax_modulus.set_title(title)
+    ax_modulus.grid(True, which="both", alpha=0.3)
+    bottom = ax_modulus if ax_phase is None else ax_phase
+    bottom.set_xlabel("frequency [Hz]")
+    if ax_phase is not None:
+        ax_phase.set_ylabel("phase [deg]")
+        ax_phase.grid(True, which="both", alpha=0.3)
 
 
 def save_figure(fig, path) -> None:

@@ -1,7 +1,9 @@
-"""Shared test helpers: independent reference computations."""
+"""Shared test helpers: independent reference computations; a temporary directory kept clean."""
 
 import os
+import shutil
 import sys
+import tempfile
 
 import numpy as np
 import pytest
@@ -43,6 +45,48 @@ def dynamic_stiffness_response(net, f_hz, point):
 @pytest.fixture
 def rng():
     return np.random.default_rng(20251122)
+
+
+# -- the test run leaves nothing behind in the temporary directory ------------
+# Every temporary file or folder of the run -- tempfile in this process and,
+# through TMPDIR, in every subprocess (fmpy's extracted FMUs, pythonfmu builds,
+# libcosim, the C host) -- goes into one private folder. At the end of the
+# session whatever is left there fails the run (listed) and is removed. Other
+# processes on the machine cannot disturb the check; pytest's own tmp_path
+# folders stay where they always are (PYTEST_DEBUG_TEMPROOT).
+def pytest_configure(config):
+    real = tempfile.gettempdir()
+    os.environ.setdefault("PYTEST_DEBUG_TEMPROOT", real)
+    private = tempfile.mkdtemp(prefix="bodyvib-tests-tmp-", dir=real)
+    config._bodyvib_tmp = (private, os.environ.get("TMPDIR"), tempfile.tempdir)
+    os.environ["TMPDIR"] = private
+    tempfile.tempdir = private
+
+
+def pytest_unconfigure(config):
+    private, env, tempdir = config._bodyvib_tmp
+    if env is None:
+        os.environ.pop("TMPDIR", None)
+    else:
+        os.environ["TMPDIR"] = env
+    tempfile.tempdir = tempdir
+    shutil.rmtree(private, ignore_errors=True)
+
+
+def pytest_sessionfinish(session, exitstatus):
+    private = session.config._bodyvib_tmp[0]
+    left = sorted(os.listdir(private)) if os.path.isdir(private) else []
+    if left:
+        tr = session.config.pluginmanager.get_plugin("terminalreporter")
+        msg = (f"the test run left {len(left)} entr{'y' if len(left) == 1 else 'ies'} in the "
+               f"temporary directory: {', '.join(left[:10])}{' ...' if len(left) > 10 else ''}")
+        if tr is not None:
+            tr.ensure_newline()
+            tr.write_line(msg, red=True)
+        else:
+            print(msg, file=sys.stderr)
+        if session.exitstatus == 0:
+            session.exitstatus = pytest.ExitCode.TESTS_FAILED
 
 
 @pytest.fixture(scope="session")

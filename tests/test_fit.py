@@ -14,6 +14,7 @@ from bodyvib.analytic import characteristic_coefficients
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.fit_config import load_config, parse_pairs
 from bodyvib.fit_objective import impulse_response, measured_target, model_target, objective_frequency_domain, objective_time_domain, parameter_array, quadrature_grid
+from bodyvib.fit_result import write_parameter_file
 from bodyvib.fit_search import fit
 from bodyvib.fit_space import GENES, genes_to_parameters, parameters_to_genes, reduced_network, REDUCED_PARAMETERS
 from bodyvib.frequency import displacement_input_statespace, transmissibility
@@ -156,7 +157,7 @@ def test_population_objective_equals_one_by_one(rng):
 
 
 # -- the search ---------------------------------------------------------------
-def test_small_ga_beats_table2_on_the_time_domain_definition(iso, paper):
+def test_small_ga_beats_table2_on_the_time_domain_definition(iso, paper, tmp_path):
     cfg = load_config(overrides=SMALL)
     r = fit(model_target("iso7962", config=cfg), cfg, seed=3)
     assert r.objective < r.objective_table2
@@ -167,6 +168,8 @@ def test_small_ga_beats_table2_on_the_time_domain_definition(iso, paper):
     doc = json.loads(json.dumps(r.to_dict()))  # typed result -> plain JSON
     assert doc["parameters"] == r.parameters and doc["seed"] == 3
     assert doc["target"]["reference_model"] == "iso7962" and doc["target"]["kind"] == "model"
+    written = write_parameter_file(r, tmp_path / "refit.json")  # keeps the units field
+    assert load_model(tmp_path / "refit.json").units == written.units == paper.units != {}
 
 
 def test_same_seed_same_result_other_seed_other_path(capsys):

@@ -18,6 +18,7 @@ import zipfile
 import numpy as np
 import pytest
 
+from bodyvib.runtime.contract import MODEL_FILE
 from bodyvib.runtime.discretize import simulate
 from bodyvib.models import load_model
 from bodyvib.runtime.network import linear_model
@@ -74,6 +75,11 @@ def test_refit_flows_into_the_rebuilt_fmu(tmp_path):
     for name, value in refit.parameters.items():
         assert starts[name] == value, name
     assert refit.parameters != dict(load_model("reduced-paper").parameters)  # not Table 2
+    # the units of the parameter file survive the refit and the FMU's baked model file
+    assert refit.units and refit.units == load_model("reduced-paper").units
+    with zipfile.ZipFile(fmu_path) as zf:
+        baked = json.loads(zf.read("resources/" + MODEL_FILE))
+    assert baked["units"] == dict(refit.units)
 
     run = subprocess.run([sys.executable, "-c", RUN_FMU, str(fmu_path), ",".join(OUTPUTS)],
                          capture_output=True, text=True, timeout=300)

@@ -8,7 +8,6 @@ any modelling error. Physics checks (static equilibrium) are independent of
 both.
 """
 
-import importlib.util
 import json
 import math
 import os
@@ -274,6 +273,102 @@ def test_interfaces_follow_the_design_table():
     assert car.output_dependencies() == [[], [], [2], [], [0]]
 
 
+
+#: The car interface as the contract hard-coded it before the extra outputs became
+#: data (fmu_outputs of the car's parameter file): value reference, name, unit,
+#: description; the descriptions of the seat outputs name the seat mass.
+_CAR_BEFORE = [
+    (0, "road_displacement", "input", "m", "Road profile height under the tire"),
+    (1, "road_velocity", "input", "m/s", "Road profile vertical velocity; also the slope of "
+        "road_displacement over the coming step"),
+    (2, "seat_force", "input", "N", "Force the occupant exerts on the seat, positive in "
+        "compression (pushes the car body down)"),
+    (3, "seat_force_rate", "input", "N/s", "Optional slope of seat_force over the coming step "
+        "(0, the default, holds seat_force)"),
+    (4, "seat_displacement", "output", "m", "Seat point ({seat}) vertical displacement"),
+    (5, "seat_velocity", "output", "m/s", "Seat point ({seat}) vertical velocity"),
+    (6, "sprung_acceleration", "output", "m/s2",
+     "Absolute vertical acceleration of the mass under the seat ({seat})"),
+    (7, "suspension_deflection", "output", "m", "Suspension deflection, sprung minus unsprung "
+        "displacement (positive in extension)"),
+    (8, "tire_force", "output", "N", "Dynamic tire force, positive in compression "
+        "(perturbation about the static wheel load)"),
+]
+
+
+@pytest.mark.parametrize("car, seat", [("quarter-car", "sprung"), ("quarter-car-cushion", "pan")])
+def test_car_interface_from_data_is_the_one_hard_coded_before(car, seat):
+    """The shipped cars' fmu_outputs give the same variables, value references,
+    units, descriptions and signals as the contract's former hard-coded list."""
+    from bodyvib.runtime.contract import fmu_variables
+
+    iface, params, variables = fmu_variables("car", load_car(car))
+    got = [(i, v.name, v.causality, v.unit, v.description) for i, v in enumerate(variables[:9])]
+    assert got == [(i, n, c, u, d.format(seat=seat)) for i, n, c, u, d in _CAR_BEFORE]
+    assert all(v.causality == "parameter" for v in variables[9:])
+    assert iface.output_signals == ("seat.x", "seat.v", "seat.a", "suspension.deflection",
+                                    "tire.force")
+    assert iface.rate_pairs == ((0, 1), (2, 3))
+
+
+def _car_dict(**changes):
+    with open(os.path.join(os.path.dirname(__file__), "..", "vehicle", "data",
+                           "quarter-car.json")) as f:
+        d = json.load(f)
+    d.update(changes)
+    return d
+
+
+def test_car_without_fmu_outputs_has_the_seat_outputs_only():
+    """The contract knows no car part: a car file without fmu_outputs (and without
+    elements named suspension or tire) still makes a car FMU interface."""
+    from bodyvib.runtime.contract import fmu_variables
+    from bodyvib.runtime.modelfile import network_from_dict
+
+    d = _car_dict()
+    del d["fmu_outputs"]
+    for el in d["elements"]:
+        el["name"] = {"tire": "tyre", "suspension": "strut"}[el["name"]]
+    iface, _, _ = fmu_variables("car", network_from_dict(d))
+    assert [v.name for v in iface.outputs] == ["seat_displacement", "seat_velocity"]
+    core = FmuCore("car", network_from_dict(d))
+    core.initialize()
+    core.set_real([2], [100.0])
+    core.do_step(0.0, 1e-3)
+    assert core.get_real([4])[0] < 0  # the seat force pushes the car body down
+
+
+@pytest.mark.parametrize("outputs, match", [
+    ({"name": "x"}, r"fmu_outputs\[0\] must be an object with exactly the fields"),
+    ("tire_force", "'fmu_outputs' must be a list"),
+    ({"name": "tire force", "signal": "tire.force", "unit": "N", "description": "d"},
+     "must be a unique identifier"),
+    ({"name": "f", "signal": "tire.stretch", "unit": "N", "description": "d"},
+     "signal 'tire.stretch' is not an output of the model"),
+    ({"name": "f", "signal": "roof.a", "unit": "m/s2", "description": "d"},
+     "signal 'roof.a' is not an output"),
+    ({"name": "f", "signal": "tire.force", "unit": "kN", "description": "d"},
+     "unit 'kN' is not one of"),
+    ({"name": "f", "signal": "tire.force", "unit": "N", "description": 3},
+     r"fmu_outputs\[0\].description must be a non-empty string"),
+])
+def test_bad_fmu_outputs_are_refused_naming_the_field(outputs, match):
+    from bodyvib.runtime.modelfile import network_from_dict
+
+    with pytest.raises(BodyvibError, match=match):
+        network_from_dict(_car_dict(fmu_outputs=outputs if isinstance(outputs, str)
+                                    else [outputs]))
+
+
+def test_fmu_output_clashing_with_the_interface_is_refused():
+    from bodyvib.runtime.contract import fmu_variables
+    from bodyvib.runtime.modelfile import network_from_dict
+
+    d = _car_dict()
+    d["fmu_outputs"][0]["name"] = "seat_velocity"
+    with pytest.raises(BodyvibError, match="'seat_velocity' is declared twice"):
+        fmu_variables("car", network_from_dict(d))
+
 BLOCKER = textwrap.dedent("""
     import sys
     class Refuse:
@@ -488,6 +583,12 @@ def test_unconnected_road_velocity_falls_back_on_the_car_but_seat_force_rate_doe
     assert car.get_state()["fallback"]["on"] == [True]
 
 
+def model_state(core):
+    """The model's state vector, read off the engine's snapshot (the buffer starts with it)."""
+    n = linear_model(core.network).A.shape[0]
+    return np.asarray(core.get_state()["buf"][:n])
+
+
 @pytest.mark.parametrize("model", ["reduced-paper", "iso7962"])
 def test_seat_acceleration_makes_a_parabolic_seat_exact(model):
     """With seat_acceleration set, the seat follows x + v tau + a tau^2 / 2 over the step,
@@ -503,7 +604,8 @@ def test_seat_acceleration_makes_a_parabolic_seat_exact(model):
     coarse.do_step(0.0, 4e-3)
     for k in range(40):
         fine.do_step(k * 1e-4, 1e-4)
-    np.testing.assert_allclose(coarse.state, fine.state, rtol=1e-9, atol=1e-12 * np.abs(fine.state).max())
+    np.testing.assert_allclose(model_state(coarse), model_state(fine), rtol=1e-9,
+                               atol=1e-12 * np.abs(model_state(fine)).max())
     x, v, a = coarse.get_real([0, 1, 2])
     assert x == pytest.approx(x0 + v0 * 4e-3 + a0 * 8e-6, rel=1e-12)
     assert v == pytest.approx(v0 + a0 * 4e-3, rel=1e-12) and a == a0
@@ -511,4 +613,4 @@ def test_seat_acceleration_makes_a_parabolic_seat_exact(model):
     held.initialize()
     held.set_real([0, 1], [x0, v0])
     held.do_step(0.0, 4e-3)
-    assert not np.allclose(held.state, coarse.state, rtol=1e-6)
+    assert not np.allclose(model_state(held), model_state(coarse), rtol=1e-6)

@@ -22,23 +22,23 @@ import zipfile
 import numpy as np
 import pytest
 
+from bodyvib.runtime.contract import BODY_OUTPUTS, CAR_INPUTS, CAR_OUTPUTS
 from bodyvib.runtime.discretize import simulate
 from bodyvib.models import load_model
 from bodyvib.runtime.modelfile import save_model
 from bodyvib.runtime.network import linear_model
-from vehicle.quarter_car import load_car
+from vehicle.quarter_car import CAR_FMU_OUTPUTS, load_car
 
 pytestmark = pytest.mark.integration
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 NAMES = ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar")
 MODEL_OF = {"HumanBody3DOF": "reduced-paper", "HumanBodyISO7962": "iso7962"}
-BODY_OUT = ["head_acceleration", "head_displacement", "torso_displacement", "seat_force"]
 BODY_RATE = "seat_force_rate"
+BODY_OUT = [n for n in BODY_OUTPUTS if n != BODY_RATE]
 BODY_SIG = ["head.a", "head.x", "torso.x", "seat_force"]
-CAR_IN = ["road_displacement", "road_velocity", "seat_force", "seat_force_rate"]
-CAR_OUT = ["seat_displacement", "seat_velocity", "sprung_acceleration", "suspension_deflection",
-           "tire_force"]
+CAR_IN = list(CAR_INPUTS)
+CAR_OUT = list(CAR_OUTPUTS + CAR_FMU_OUTPUTS)
 CAR_SIG = ["sprung.x", "sprung.v", "sprung.a", "suspension.deflection", "tire.force"]
 FMI_DISCARD = 2
 
@@ -82,6 +82,10 @@ class Slave:
     """fmpy FMU2Slave with captured log messages."""
 
     def __init__(self, path, name="instance", params=None, initialize=True):
+        import shutil
+        import tempfile
+        import weakref
+
         from fmpy import calloc, extract, free, read_model_description
         from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                                fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
@@ -94,7 +98,11 @@ class Slave:
             lambda env, inst, status, cat, msg: self.messages.append((status, msg.decode())))
         cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
         cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=extract(path),
+        # extracted into a folder of its own, deleted by close() (or, at the latest,
+        # when the Slave is collected or the process exits)
+        unzipdir = extract(path, unzipdir=tempfile.mkdtemp(prefix="bodyvib-test-fmu-"))
+        self._cleanup = weakref.finalize(self, shutil.rmtree, unzipdir, True)
+        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=unzipdir,
                              modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
         self.fmu.instantiate(callbacks=cb, loggingOn=True)
         if initialize:
@@ -127,8 +135,11 @@ class Slave:
         return y
 
     def close(self):
-        self.fmu.terminate()
-        self.fmu.freeInstance()
+        try:
+            self.fmu.terminate()
+            self.fmu.freeInstance()
+        finally:
+            self._cleanup()
 
 
 def smooth_seat(t):
@@ -572,7 +583,7 @@ def test_host_with_another_bodyvib_already_imported(fmus, tmp_path):
     t = np.arange(0, 0.3, 1e-3)
     x, v = smooth_seat(t)
     code = textwrap.dedent(f"""
-        import json, sys
+        import json, os, sys, tempfile
         sys.path.insert(0, {str(tmp_path / 'fake')!r})
         import bodyvib
         assert bodyvib.__version__ == '9.9-fake'
@@ -585,7 +596,7 @@ def test_host_with_another_bodyvib_already_imported(fmus, tmp_path):
         for path in sys.argv[2:]:
             md = read_model_description(path)
             vr = {{m.name: m.valueReference for m in md.modelVariables}}
-            fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path),
+            fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path, unzipdir=tempfile.mkdtemp(dir=os.getcwd())),
                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName='host')
             fmu.instantiate()
             fmu.setupExperiment(startTime=0.0)

@@ -34,6 +34,23 @@ def test_round_trip_through_file(tmp_path):
     assert not [p for p in os.listdir(tmp_path) if p.startswith(".tmp")]
 
 
+def test_units_are_kept_through_files_and_mounting(tmp_path):
+    """The units field was validated and then dropped; it now travels with the model."""
+    from bodyvib.runtime.network import mount
+    from vehicle.quarter_car import load_car
+
+    d = reduced_dict()
+    assert d["units"]["k1"] == "N/m"  # network_to_dict writes it
+    d["units"] = {"m1": "kg", "c1": "N s/m"}  # any strings, as the file says
+    net = network_from_dict(d)
+    save_model(net, tmp_path / "u.json")
+    assert load_model(tmp_path / "u.json").units == {"m1": "kg", "c1": "N s/m"}
+    seated = mount(load_car(), net, at="seat")
+    assert seated.units["ms"] == "kg" and seated.units["body.c1"] == "N s/m"
+    with pytest.raises(BodyvibError, match="'units' must map parameter names to unit strings"):
+        network_from_dict(dict(d, units={"m1": 1}))
+
+
 def mutate(fn):
     d = reduced_dict()
     fn(d)

@@ -1,13 +1,15 @@
 """The co-simulation master: a body FMU on the quarter-car FMU, two-way coupled (fmpy).
 
-Any FMU with the body interface of the FMU contract (inputs
-``seat_displacement``, ``seat_velocity``; outputs ``head_acceleration``,
-``head_displacement``, ``torso_displacement``, ``seat_force``) sits on any FMU
-with the car interface (inputs ``road_displacement``, ``road_velocity``,
-``seat_force`` and optionally ``seat_force_rate``; outputs
-``seat_displacement``, ``seat_velocity``, ``sprung_acceleration``,
-``suspension_deflection``, ``tire_force``). Both run in fmpy's ``FMU2Slave``
-with a fixed communication step ``h``.
+Any FMU with the body interface of the FMU contract
+(:mod:`bodyvib.runtime.contract`: inputs ``seat_displacement``,
+``seat_velocity``; outputs ``head_acceleration``, ``head_displacement``,
+``torso_displacement``, ``seat_force``) sits on any FMU with the car interface
+(inputs ``road_displacement``, ``road_velocity``, ``seat_force`` and
+optionally ``seat_force_rate``; outputs ``seat_displacement``,
+``seat_velocity``) that also has the outputs the shipped cars declare in their
+parameter files' ``fmu_outputs`` (:data:`vehicle.quarter_car.CAR_FMU_OUTPUTS`:
+``sprung_acceleration``, ``suspension_deflection``, ``tire_force``). Both run
+in fmpy's ``FMU2Slave`` with a fixed communication step ``h``.
 
 One macro-step from ``t_k`` to ``t_{k+1}`` (Gauss-Seidel, car first):
 
@@ -32,7 +34,6 @@ reference (:mod:`vehicle.reference`) at h = 1 ms is about 0.43 % held and
 """
 
 import contextlib
-import math
 import os
 import shutil
 import tempfile
@@ -41,19 +42,25 @@ from typing import Dict, Optional
 
 import numpy as np
 
+from bodyvib.runtime import contract
+from bodyvib.runtime.discretize import check_step
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.fileio import atomic_write_text
+
+from .quarter_car import CAR_FMU_OUTPUTS
 
 __all__ = [
     "BODY_INPUTS", "BODY_OUTPUTS", "CAR_INPUTS", "CAR_OUTPUTS",
     "Slave", "open_fmu", "model_from_fmu", "cosimulate", "write_csv",
 ]
 
-BODY_INPUTS = ("seat_displacement", "seat_velocity")
-BODY_OUTPUTS = ("head_acceleration", "head_displacement", "torso_displacement", "seat_force")
-CAR_INPUTS = ("road_displacement", "road_velocity", "seat_force")
-CAR_OUTPUTS = ("seat_displacement", "seat_velocity", "sprung_acceleration",
-               "suspension_deflection", "tire_force")
+#: What the master sets and reads (names from the FMU contract): the body
+#: interface whole; of the car's, ``seat_force_rate`` is optional (used if present).
+BODY_INPUTS = contract.BODY_INPUTS[:2]  # the master drives seat displacement and velocity
+BODY_OUTPUTS = contract.BODY_OUTPUTS[:4]  # and reads these (seat_force_rate is for Jacobi hosts)
+CAR_INPUTS = contract.CAR_INPUTS[:3]
+_SEAT_FORCE_RATE = contract.CAR_INPUTS[3]
+CAR_OUTPUTS = contract.CAR_OUTPUTS + CAR_FMU_OUTPUTS
 _INTERFACES = {"body": (BODY_INPUTS, BODY_OUTPUTS), "car": (CAR_INPUTS, CAR_OUTPUTS)}
 
 #: Column units of the result / CSV.
@@ -222,8 +229,7 @@ def cosimulate(car: Slave, body: Slave, road_displacement, road_velocity, step: 
     """
     z = np.asarray(road_displacement, dtype=float)
     v = np.asarray(road_velocity, dtype=float)
-    if not (isinstance(step, (int, float)) and math.isfinite(step) and step > 0):
-        raise BodyvibError(f"communication step must be a positive number of seconds, got {step!r}")
+    check_step(step, "communication step")
     if z.shape != v.shape or z.ndim != 1 or z.size < 2:
         raise BodyvibError("road displacement and velocity must be 1-D arrays of equal length >= 2")
     if not (np.all(np.isfinite(z)) and np.all(np.isfinite(v))):
@@ -235,11 +241,12 @@ def cosimulate(car: Slave, body: Slave, road_displacement, road_velocity, step: 
     rows = out.tolist()
 
     cf, bf = car.fmu, body.fmu
-    has_rate = "seat_force_rate" in car.vr
-    car_in = [car.vr[k] for k in CAR_INPUTS] + ([car.vr["seat_force_rate"]] if has_rate else [])
+    has_rate = _SEAT_FORCE_RATE in car.vr
+    car_in = [car.vr[k] for k in CAR_INPUTS] + ([car.vr[_SEAT_FORCE_RATE]] if has_rate else [])
     car_out = [car.vr[k] for k in CAR_OUTPUTS]
     body_in = [body.vr[k] for k in BODY_INPUTS]
-    body_out = [body.vr[k] for k in ("seat_force",) + BODY_OUTPUTS[:3]]
+    body_out = [body.vr[k] for k in ("seat_force", "head_acceleration", "head_displacement",
+                                     "torso_displacement")]
     c_set, c_get, c_step = cf.setReal, cf.getReal, cf.doStep
     b_set, b_get, b_step = bf.setReal, bf.getReal, bf.doStep
 

@@ -31,7 +31,7 @@ def plot_study(study: Study, path, comparison: Optional[Comparison] = None, wind
         An unsupported plot file extension.
     """
     from bodyvib.frequency import transmissibility
-    from bodyvib.plotting import new_figure, save_figure
+    from bodyvib.plotting import new_figure, save_figure, transmissibility_axes
 
     fig, (ax1, ax2) = new_figure(2, 1, figsize=(8, 8))
     fig.subplots_adjust(hspace=0.35)
@@ -55,11 +55,7 @@ def plot_study(study: Study, path, comparison: Optional[Comparison] = None, wind
             f = np.asarray(T.frequency_hz)
             ax2.plot(f, np.abs(transmissibility(net, f)), "--", color=line.get_color(), lw=0.8,
                      label=f"{label} (model)")
-    ax2.set_xscale("log")
-    ax2.set_xlabel("frequency [Hz]")
-    ax2.set_ylabel("|T| head / seat [-]")
-    ax2.grid(True, which="both", alpha=0.3)
+    transmissibility_axes(ax2, ylabel="|T| head / seat [-]", title=None if comparison is None
+                          else f"seat-to-head transmissibility; check verdict: {comparison.verdict}")
     ax2.legend(fontsize=8)
-    if comparison is not None:
-        ax2.set_title(f"seat-to-head transmissibility; check verdict: {comparison.verdict}")
     save_figure(fig, path)

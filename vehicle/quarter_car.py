@@ -10,14 +10,19 @@ in compression. The occupant sits on the point with role ``seat``.
 
 import os
 
-from bodyvib.runtime.errors import BodyvibError
-from bodyvib.runtime.modelfile import network_from_file
+from bodyvib.models import load_network
+from bodyvib.runtime.contract import seat_point
 from bodyvib.runtime.network import Network, mount
 
-__all__ = ["CAR_DIR", "load_car", "seated_system"]
+__all__ = ["CAR_DIR", "CAR_FMU_OUTPUTS", "load_car", "seated_system"]
 
 #: Folder of the shipped vehicle parameter files.
 CAR_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
+
+#: Car FMU outputs beyond the contract's seat motion that the co-simulation
+#: master records (``seat_acceleration`` is ``sprung_acceleration``). The shipped
+#: cars declare them, in this order, in their parameter files' ``fmu_outputs``.
+CAR_FMU_OUTPUTS = ("sprung_acceleration", "suspension_deflection", "tire_force")
 
 
 def load_car(name_or_path: str = "quarter-car") -> Network:
@@ -38,23 +43,8 @@ def load_car(name_or_path: str = "quarter-car") -> Network:
     BodyvibError
         Unknown name, invalid file, or a model without a ``seat`` role.
     """
-    if os.path.isfile(name_or_path):
-        car = network_from_file(name_or_path)
-    else:
-        path = os.path.join(CAR_DIR, name_or_path + ".json")
-        if not os.path.isfile(path):
-            shipped = sorted(f[:-5] for f in os.listdir(CAR_DIR) if f.endswith(".json"))
-            raise BodyvibError(
-                f"unknown vehicle model '{name_or_path}'; give a file or one of: "
-                + ", ".join(shipped)
-            )
-        car = network_from_file(path)
-    seat = car.roles.get("seat")
-    if seat is None or seat not in car.force_inputs:
-        raise BodyvibError(
-            f"vehicle model '{car.name}' needs a 'seat' role naming a mass listed in "
-            "force_inputs (the occupant's seat force acts there)"
-        )
+    car = load_network(name_or_path, CAR_DIR, "vehicle model")
+    seat_point(car)  # refuses a car without a seat for the occupant
     return car
 
 

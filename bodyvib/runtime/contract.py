@@ -21,11 +21,13 @@ Interfaces (SI units; ``vr`` = value reference = position in :attr:`FmuCore.vari
   the car's ``<seat>.force`` input as ``-seat_force``), ``seat_force_rate``
   [N/s] (optional, start 0: slope of ``seat_force`` over the coming step; 0 =
   hold); outputs ``seat_displacement`` [m] and ``seat_velocity`` [m/s] (the
-  point with role ``seat``), ``sprung_acceleration`` [m/s2] (its absolute
-  acceleration), ``suspension_deflection`` [m] (output
-  ``suspension.deflection``: sprung minus unsprung displacement, positive in
-  extension), ``tire_force`` [N] (output ``tire.force``: positive in
-  compression); parameters: the car's named parameters.
+  point with role ``seat``); parameters: the car's named parameters.
+
+Either kind then declares the extra outputs its parameter file lists in
+``fmu_outputs`` (name, model signal, unit, description), in that order: the
+shipped cars list ``sprung_acceleration`` (``seat.a``), ``suspension_deflection``
+(``suspension.deflection``) and ``tire_force`` (``tire.force``), so the contract
+itself names no car part.
 
 Numpy only, relative imports only: the FMUs ship this module under a private
 package name (``build_fmu.py``).
@@ -39,9 +41,19 @@ import numpy as np
 from .errors import BodyvibError
 from .network import Network
 
-__all__ = ["Variable", "Interface", "body_interface", "car_interface", "parameter_variables",
+__all__ = ["Variable", "Interface", "body_interface", "car_interface", "seat_point",
+           "parameter_variables", "BODY_INPUTS", "BODY_OUTPUTS", "CAR_INPUTS", "CAR_OUTPUTS",
            "fmu_variables", "rate_signal", "KINDS", "MODEL_FILE", "PARAMETER_UNITS", "POSITIVE_MIN",
            "RATE_PREFIX", "UNITS"]
+
+#: Names of the body interface's inputs and outputs, in value-reference order.
+BODY_INPUTS = ("seat_displacement", "seat_velocity", "seat_acceleration")
+BODY_OUTPUTS = ("head_acceleration", "head_displacement", "torso_displacement", "seat_force",
+                "seat_force_rate")
+#: Names of the car interface's inputs and of its fixed outputs (the parameter
+#: file's ``fmu_outputs`` follow them), in value-reference order.
+CAR_INPUTS = ("road_displacement", "road_velocity", "seat_force", "seat_force_rate")
+CAR_OUTPUTS = ("seat_displacement", "seat_velocity")
 
 #: Where the build puts the parameter file, inside the FMU's resources.
 MODEL_FILE = "bodyvib_model.json"
@@ -160,12 +172,24 @@ def rate_signal(signal: str) -> str:
     return RATE_PREFIX + signal
 
 
-def _input(name, unit, description):
-    return Variable(name, "input", "continuous", unit, description, start=0.0)
+def _inputs(names, specs):
+    """Input variables named ``names``, ``specs`` = ((unit, description), ...)."""
+    return tuple(Variable(n, "input", "continuous", u, d, start=0.0)
+                 for n, (u, d) in zip(names, specs, strict=True))
 
 
-def _output(name, unit, description):
-    return Variable(name, "output", "continuous", unit, description)
+def _outputs(names, specs):
+    """Output variables named ``names``, ``specs`` = ((unit, description), ...)."""
+    return tuple(Variable(n, "output", "continuous", u, d)
+                 for n, (u, d) in zip(names, specs, strict=True))
+
+
+def _with_extra_outputs(network: Network, outputs, signals):
+    """Append the parameter file's ``fmu_outputs`` to an interface's outputs and signals."""
+    extra = network.fmu_outputs
+    outputs = outputs + _outputs([o["name"] for o in extra],
+                                 [(o["unit"], o["description"]) for o in extra])
+    return outputs, tuple(signals) + tuple(o["signal"] for o in extra)
 
 
 def body_interface(network: Network) -> Interface:
@@ -192,31 +216,61 @@ def body_interface(network: Network) -> Interface:
                 "head and torso (add them to the parameter file's 'roles')"
             )
     base = network.base
-    inputs = (
-        _input("seat_displacement", "m", "Seat vertical displacement xr (z up, about static equilibrium)"),
-        _input("seat_velocity", "m/s", "Seat vertical velocity; also the slope of "
-               "seat_displacement over the coming step (in-step extrapolation)"),
-        _input("seat_acceleration", "m/s2", "Optional seat vertical acceleration: the slope of "
-               "seat_velocity over the coming step, so the seat follows a parabola (0, the "
-               "default, keeps the seat motion linear over the step)"),
-    )
-    outputs = (
-        _output("head_acceleration", "m/s2", f"Head ({network.point('head')}) absolute vertical acceleration"),
-        _output("head_displacement", "m", f"Head ({network.point('head')}) vertical displacement"),
-        _output("torso_displacement", "m", f"Torso ({network.point('torso')}) vertical displacement"),
-        _output("seat_force", "N", "Force the body exerts on the seat, positive in compression "
-                "(body pushing down); perturbation about the static load"),
-        _output("seat_force_rate", "N/s", "Exact time derivative of seat_force (from the model's "
-                "state equations and the input rates); connect it to QuarterCar's seat_force_rate"),
-    )
+    head, torso = network.point("head"), network.point("torso")
+    inputs = _inputs(BODY_INPUTS, (
+        ("m", "Seat vertical displacement xr (z up, about static equilibrium)"),
+        ("m/s", "Seat vertical velocity; also the slope of seat_displacement over the coming "
+         "step (in-step extrapolation)"),
+        ("m/s2", "Optional seat vertical acceleration: the slope of seat_velocity over the "
+         "coming step, so the seat follows a parabola (0, the default, keeps the seat motion "
+         "linear over the step)"),
+    ))
+    outputs = _outputs(BODY_OUTPUTS, (
+        ("m/s2", f"Head ({head}) absolute vertical acceleration"),
+        ("m", f"Head ({head}) vertical displacement"),
+        ("m", f"Torso ({torso}) vertical displacement"),
+        ("N", "Force the body exerts on the seat, positive in compression "
+         "(body pushing down); perturbation about the static load"),
+        ("N/s", "Exact time derivative of seat_force (from the model's state equations and the "
+         "input rates); connect it to QuarterCar's seat_force_rate"),
+    ))
+    outputs, signals = _with_extra_outputs(
+        network, outputs, ("head.a", "head.x", "torso.x", f"{base}_force",
+                           rate_signal(f"{base}_force")))
     return Interface(
         kind="body", inputs=inputs, outputs=outputs,
         input_map=np.eye(2, 3),  # the model's inputs: seat displacement and velocity
         rate_pairs=((0, 1), (1, 2)),
         slope_fallback=((0, 1),),
-        output_signals=("head.a", "head.x", "torso.x", f"{base}_force",
-                        rate_signal(f"{base}_force")),
+        output_signals=signals,
     )
+
+
+def seat_point(network: Network) -> str:
+    """The mass a vehicle model seats the occupant on: its ``seat`` role.
+
+    Parameters
+    ----------
+    network : Network
+        A vehicle model.
+
+    Returns
+    -------
+    str
+        The mass with role ``seat``.
+
+    Raises
+    ------
+    BodyvibError
+        No ``seat`` role, or its mass takes no force input (``force_inputs``).
+    """
+    seat = network.roles.get("seat")
+    if seat is None or seat not in network.force_inputs:
+        raise BodyvibError(
+            f"vehicle model '{network.name}' needs a 'seat' role naming a mass listed in "
+            "force_inputs (the occupant's seat force acts there)"
+        )
+    return seat
 
 
 def car_interface(network: Network) -> Interface:
@@ -225,8 +279,8 @@ def car_interface(network: Network) -> Interface:
     Parameters
     ----------
     network : Network
-        A vehicle model: a ``seat`` role naming a mass in ``force_inputs``,
-        elements named ``suspension`` and ``tire``.
+        A vehicle model: a ``seat`` role naming a mass in ``force_inputs``;
+        its ``fmu_outputs`` become further outputs.
 
     Returns
     -------
@@ -235,40 +289,23 @@ def car_interface(network: Network) -> Interface:
     Raises
     ------
     BodyvibError
-        If the model lacks the seat role, its force input, or the elements.
+        If the model lacks the seat role or its force input.
     """
-    seat = network.roles.get("seat")
-    if seat is None or seat not in network.force_inputs:
-        raise BodyvibError(
-            f"vehicle model '{network.name}' needs a 'seat' role naming a mass listed in "
-            "force_inputs (the occupant's seat force acts there)"
-        )
-    names = {el.name for el in network.elements}
-    missing = [e for e in ("suspension", "tire") if e not in names]
-    if missing:
-        raise BodyvibError(
-            f"vehicle model '{network.name}' has no element(s) {', '.join(missing)}; the "
-            "QuarterCar FMU reports suspension.deflection and tire.force"
-        )
-    inputs = (
-        _input("road_displacement", "m", "Road profile height under the tire"),
-        _input("road_velocity", "m/s", "Road profile vertical velocity; also the slope of "
-               "road_displacement over the coming step"),
-        _input("seat_force", "N", "Force the occupant exerts on the seat, positive in "
-               "compression (pushes the car body down)"),
-        _input("seat_force_rate", "N/s", "Optional slope of seat_force over the coming step "
-               "(0, the default, holds seat_force)"),
-    )
-    outputs = (
-        _output("seat_displacement", "m", f"Seat point ({seat}) vertical displacement"),
-        _output("seat_velocity", "m/s", f"Seat point ({seat}) vertical velocity"),
-        _output("sprung_acceleration", "m/s2", f"Absolute vertical acceleration of the mass "
-                f"under the seat ({seat})"),
-        _output("suspension_deflection", "m", "Suspension deflection, sprung minus unsprung "
-                "displacement (positive in extension)"),
-        _output("tire_force", "N", "Dynamic tire force, positive in compression "
-                "(perturbation about the static wheel load)"),
-    )
+    seat = seat_point(network)
+    inputs = _inputs(CAR_INPUTS, (
+        ("m", "Road profile height under the tire"),
+        ("m/s", "Road profile vertical velocity; also the slope of road_displacement over the "
+         "coming step"),
+        ("N", "Force the occupant exerts on the seat, positive in compression (pushes the car "
+         "body down)"),
+        ("N/s", "Optional slope of seat_force over the coming step (0, the default, holds "
+         "seat_force)"),
+    ))
+    outputs = _outputs(CAR_OUTPUTS, (
+        ("m", f"Seat point ({seat}) vertical displacement"),
+        ("m/s", f"Seat point ({seat}) vertical velocity"),
+    ))
+    outputs, signals = _with_extra_outputs(network, outputs, ("seat.x", "seat.v"))
     m = 2 + len(network.force_inputs)
     input_map = np.zeros((m, 4))
     input_map[0, 0] = 1.0
@@ -278,7 +315,7 @@ def car_interface(network: Network) -> Interface:
         kind="car", inputs=inputs, outputs=outputs, input_map=input_map,
         rate_pairs=((0, 1), (2, 3)),
         slope_fallback=((0, 1),),  # not the seat force: seat_force_rate 0 means hold
-        output_signals=("seat.x", "seat.v", "seat.a", "suspension.deflection", "tire.force"),
+        output_signals=signals,
     )
 
 
@@ -345,4 +382,12 @@ def fmu_variables(kind: str, network: Network):
         raise BodyvibError(f"unknown FMU kind '{kind}'; kinds are {', '.join(KINDS)}")
     interface = KINDS[kind](network)
     parameters = parameter_variables(network)
-    return interface, parameters, interface.inputs + interface.outputs + parameters
+    variables = interface.inputs + interface.outputs + parameters
+    seen = set()
+    for v in variables:
+        if v.name in seen:
+            raise BodyvibError(f"model '{network.name}': FMU variable '{v.name}' is declared "
+                               "twice (an fmu_outputs name clashes with the interface or a "
+                               "parameter); rename it")
+        seen.add(v.name)
+    return interface, parameters, variables

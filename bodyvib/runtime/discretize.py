@@ -24,13 +24,26 @@ import numpy as np
 from .errors import BodyvibError
 from .network import LinearModel, as_linear_model
 
-__all__ = ["expm", "discretize", "discretize_quadratic", "Discretization", "input_rates", "simulate"]
+__all__ = ["check_step", "expm", "discretize", "discretize_quadratic", "Discretization", "input_rates",
+           "simulate"]
 
 # Pade(13) coefficients and the scaling threshold of Higham (2005).
 _B13 = (64764752532480000., 32382376266240000., 7771770303897600.,
         1187353796428800., 129060195264000., 10559470521600., 670442572800.,
         33522128640., 1323241920., 40840800., 960960., 16380., 182., 1.)
 _THETA13 = 5.371920351148152
+
+
+def check_step(h, what: str = "step size") -> None:
+    """Refuse a step that is not a positive finite number of seconds.
+
+    Raises
+    ------
+    BodyvibError
+        ``"<what> must be a positive finite number of seconds, got <h>"``.
+    """
+    if not (isinstance(h, (int, float, np.floating)) and math.isfinite(h) and h > 0):
+        raise BodyvibError(f"{what} must be a positive finite number of seconds, got {h!r}")
 
 
 def expm(M: np.ndarray) -> np.ndarray:
@@ -102,8 +115,7 @@ def discretize(A: np.ndarray, B: np.ndarray, h: float) -> Tuple[np.ndarray, np.n
     BodyvibError
         If ``h`` is not a positive finite number.
     """
-    if not (isinstance(h, (int, float, np.floating)) and math.isfinite(h) and h > 0):
-        raise BodyvibError(f"step size must be a positive finite number of seconds, got {h!r}")
+    check_step(h)
     n, m = B.shape
     M = np.zeros((n + 2 * m, n + 2 * m))
     M[:n, :n] = A
@@ -180,8 +192,7 @@ class Discretization:
 
     def matrices(self, h: float):
         """``(Phi, Gamma0, Gamma1)`` for step ``h`` (computed once per rounded h)."""
-        if not (isinstance(h, (int, float, np.floating)) and math.isfinite(h) and h > 0):
-            raise BodyvibError(f"step size must be a positive finite number of seconds, got {h!r}")
+        check_step(h)
         key = float(f"{h:.{self._digits}g}")
         mats = self._cache.get(key)
         if mats is None:
@@ -195,10 +206,6 @@ class Discretization:
         """State after one step of length ``h`` from ``x`` with input ``u + du tau``."""
         Phi, G0, G1 = self.matrices(h)
         return Phi @ x + G0 @ np.asarray(u, float) + G1 @ np.asarray(du, float)
-
-    def outputs(self, x, u) -> np.ndarray:
-        """Outputs ``C x + D u``."""
-        return self.model.C @ x + self.model.D @ np.asarray(u, float)
 
 
 def input_rates(model: LinearModel, u: np.ndarray) -> np.ndarray:

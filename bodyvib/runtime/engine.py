@@ -372,7 +372,3 @@ class FmuCore:
         D = self._Y[:, self._n:]
         return [[i for i in range(self._ni) if D[j, i] != 0.0] for j in range(self._no)]
 
-    @property
-    def state(self) -> np.ndarray:
-        """The model state vector (a copy)."""
-        return self._x.copy()

@@ -20,7 +20,12 @@ A parameter file holds a :class:`~bodyvib.runtime.network.Network`:
 ``parameters`` are named values in SI units (kg, N/m, N s/m), all finite and
 positive; ``masses`` and element fields refer to them by name (or give a
 literal number). Optional fields: ``description``, ``provenance``, ``base``
-(default ``seat``), ``nodes``, ``force_inputs``, ``roles``, ``units``.
+(default ``seat``), ``nodes``, ``force_inputs``, ``roles``, ``units``
+(parameter name -> unit string, kept when the model is written back) and
+``fmu_outputs`` (extra outputs of an FMU built from the model: a list of
+``{"name", "signal", "unit", "description"}``, ``signal`` an output of the
+state space such as ``"seat.a"``, ``"tire.force"``; see
+:mod:`bodyvib.runtime.contract`).
 
 The shipped models and loading by name are :mod:`bodyvib.models`. Numpy-free
 apart from what :mod:`bodyvib.runtime.network` needs; relative imports only:
@@ -31,6 +36,7 @@ import math
 import os
 from typing import Dict, Union
 
+from .contract import UNITS
 from .errors import BodyvibError
 from .fileio import read_json, write_json
 from .network import ELEMENT_KINDS, Element, Network
@@ -43,8 +49,10 @@ __all__ = [
 ]
 
 _REQUIRED = ("name", "parameters", "masses", "elements")
-_OPTIONAL = ("description", "provenance", "base", "nodes", "force_inputs", "roles", "units")
+_OPTIONAL = ("description", "provenance", "base", "nodes", "force_inputs", "roles", "units",
+             "fmu_outputs")
 _ELEMENT_FIELDS = ("name", "kind", "from", "to")
+_FMU_OUTPUT_FIELDS = ("name", "signal", "unit", "description")
 
 
 def network_from_file(path: Union[str, os.PathLike]) -> Network:
@@ -250,8 +258,11 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
             f"{where}: parameter(s) {', '.join(unused)} not used by any mass or element"
         )
     units = data.get("units", {})
-    if not isinstance(units, dict) or any(u not in params for u in units):
+    if (not isinstance(units, dict) or any(u not in params for u in units)
+            or not all(isinstance(u, str) for u in units.values())):
         raise BodyvibError(f"{where}: 'units' must map parameter names to unit strings")
+    fmu_outputs = _fmu_outputs(data.get("fmu_outputs", []), where, masses, points,
+                               {el.name for el in elements}, roles, base)
     provenance = data.get("provenance", {})
     if not isinstance(provenance, dict):
         raise BodyvibError(f"{where}: 'provenance' must be an object")
@@ -267,7 +278,43 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
         roles=dict(roles),
         description=str(data.get("description", "")),
         provenance=dict(provenance),
+        units=dict(units),
+        fmu_outputs=fmu_outputs,
     )
+
+
+def _fmu_outputs(items, where, masses, points, element_names, roles, base):
+    """Validate ``fmu_outputs``: each an object of name, signal, unit, description."""
+    if not isinstance(items, list):
+        raise BodyvibError(f"{where}: 'fmu_outputs' must be a list of objects with fields "
+                           f"{', '.join(_FMU_OUTPUT_FIELDS)}")
+    out, names = [], set()
+    for i, item in enumerate(items):
+        w = f"{where}: fmu_outputs[{i}]"
+        if not isinstance(item, dict) or set(item) != set(_FMU_OUTPUT_FIELDS):
+            raise BodyvibError(f"{w} must be an object with exactly the fields "
+                               f"{', '.join(_FMU_OUTPUT_FIELDS)}")
+        for key in _FMU_OUTPUT_FIELDS:
+            if not isinstance(item[key], str) or not item[key]:
+                raise BodyvibError(f"{w}.{key} must be a non-empty string")
+        name, signal, unit = item["name"], item["signal"], item["unit"]
+        if not name.isidentifier() or name in names:
+            raise BodyvibError(f"{w}.name '{name}' must be a unique identifier")
+        names.add(name)
+        if unit not in UNITS:  # the units the FMU contract defines
+            raise BodyvibError(f"{w}.unit '{unit}' is not one of {', '.join(UNITS)}")
+        point, _, quantity = signal.rpartition(".")
+        point = roles.get(point, point)
+        ok = (signal == f"{base}_force"
+              or (point in masses and quantity in ("x", "v", "a"))
+              or (point in points and point not in masses and point != base and quantity == "y")
+              or (point in element_names and quantity in ("deflection", "force")))
+        if not ok:
+            raise BodyvibError(
+                f"{w}.signal '{signal}' is not an output of the model: use <mass or role>.x/.v/.a, "
+                f"<node>.y, <element>.deflection/.force or {base}_force")
+        out.append({k: item[k] for k in _FMU_OUTPUT_FIELDS})
+    return tuple(out)
 
 
 def network_to_dict(net: Network) -> dict:
@@ -300,8 +347,12 @@ def network_to_dict(net: Network) -> dict:
         "elements": elements,
         "roles": dict(net.roles),
     }
+    if net.units:
+        out["units"] = dict(net.units)
     if net.force_inputs:
         out["force_inputs"] = list(net.force_inputs)
+    if net.fmu_outputs:
+        out["fmu_outputs"] = [dict(o) for o in net.fmu_outputs]
     return out
 
 

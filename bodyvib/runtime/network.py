@@ -133,6 +133,14 @@ class Network:
         One paragraph on what the model is.
     provenance : dict
         Where the numbers come from (source, assumptions, fit settings).
+    units : dict of str to str
+        Parameter name -> unit as the parameter file states it (``"kg"``,
+        ``"N/m"``, ``"N.s/m"``); kept so that files written back (refits, the
+        model file baked into an FMU) keep it. Informative: the numbers are SI.
+    fmu_outputs : tuple of dict
+        Extra outputs of an FMU built from this model, in order: ``{"name",
+        "signal", "unit", "description"}`` with ``signal`` an output of
+        :func:`linear_model` (a role may stand for its mass, ``"seat.a"``).
     """
 
     name: str
@@ -145,6 +153,8 @@ class Network:
     roles: Mapping[str, str] = field(default_factory=dict)
     description: str = ""
     provenance: Mapping[str, object] = field(default_factory=dict)
+    units: Mapping[str, str] = field(default_factory=dict)
+    fmu_outputs: Tuple[Mapping[str, str], ...] = ()
 
     # -- derived views -----------------------------------------------------
     @property
@@ -528,6 +538,8 @@ def mount(carrier: Network, occupant: Network, at: str, prefix: str = "body.") -
     masses.update({prefix + m: ref(r) for m, r in occupant.masses.items()})
     roles = dict(carrier.roles)
     roles.update({prefix + r: prefix + p for r, p in occupant.roles.items()})
+    units = dict(carrier.units)
+    units.update({prefix + k: u for k, u in occupant.units.items()})
     return Network(
         name=f"{carrier.name}+{occupant.name}",
         parameters=params,
@@ -538,5 +550,6 @@ def mount(carrier: Network, occupant: Network, at: str, prefix: str = "body.") -
         force_inputs=tuple(m for m in carrier.force_inputs if m != at),
         roles=roles,
         description=f"{occupant.name} seated on {carrier.name} at '{at}'",
+        units=units,
     )
 

@@ -1,0 +1,85 @@
+"""The design lives in the project: references point at sections and files that exist.
+
+Code, tests and docs cite the design file followed by a section title in double quotes;
+each such section must be a heading of that file. Paths the README and the design name must exist in the tree, and the
+README's layout section must list every top-level entry of the repository.
+"""
+
+import glob
+import os
+import re
+import subprocess
+
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ARCH = os.path.join(ROOT, "docs", "architecture.md")
+
+
+def tracked():
+    out = subprocess.run(["git", "ls-files"], cwd=ROOT, capture_output=True, text=True)
+    if out.returncode != 0 or not out.stdout.strip():
+        pytest.skip("not a git checkout")
+    return [f for f in out.stdout.split() if os.path.isfile(os.path.join(ROOT, f))]
+
+
+def text(path):
+    with open(os.path.join(ROOT, path), encoding="utf-8", errors="replace") as f:
+        return f.read()
+
+
+def sections():
+    return {m.group(1).strip() for m in re.finditer(r"^#+ (.+)$", text(ARCH), re.M)}
+
+
+def test_every_reference_to_the_design_names_a_section_it_has():
+    refs = []
+    for f in tracked():
+        if f.endswith((".py", ".md", ".c", ".toml", ".txt")) or f.startswith(".ci/"):
+            for m in re.finditer(r'architecture\.md,?\s+"([^"]+)"', text(f)):
+                refs.append((f, m.group(1)))
+    assert refs, "the code cites the design"
+    have = sections()
+    missing = [(f, s) for f, s in refs if s not in have]
+    assert not missing, missing
+
+
+def test_no_reference_to_a_design_file_the_repository_lacks():
+    bad = [f for f in tracked() if f != "tests/test_docs.py"
+           and re.search(r"DESIGN\.md|shared/", text(f))]
+    assert not bad, bad
+
+
+@pytest.mark.parametrize("doc", ["README.md", "docs/architecture.md"])
+def test_paths_the_docs_name_exist(doc):
+    files = set(tracked())
+    dirs = {os.path.dirname(f) for f in files}
+    dirs |= {d for f in list(dirs) for d in [os.path.dirname(f)] if d}
+    outputs = {"params/refit.json"}  # what `bodyvib fit` writes by default, not a shipped file
+    missing = []
+    for token in re.findall(r"`([^`\s]+)`", text(doc)):
+        token = token.rstrip(".,:;")
+        top = token.split("/")[0]
+        if "/" not in token or not os.path.exists(os.path.join(ROOT, top)) or "<" in token:
+            continue  # not a path of this tree (a unit like m/s2, a URL, a placeholder)
+        if token.rstrip("/") in dirs or token in files or token in outputs:
+            continue
+        if not glob.glob(os.path.join(ROOT, token)):
+            missing.append(token)
+    assert not missing, f"{doc} names paths the tree lacks: {missing}"
+
+
+def test_readme_layout_lists_the_top_level_of_the_tree():
+    readme = text("README.md")
+    block = re.search(r"^## Layout\n+```\n(.*?)```", readme, re.M | re.S)
+    assert block, "README has a Layout section with a code block"
+    listed = {ln.split()[0].rstrip("/").split("/")[0] for ln in block.group(1).splitlines()
+              if ln and not ln.startswith(" ")}
+    top = {f.split("/")[0] for f in tracked()} - {".gitignore"}
+    assert top <= listed, f"not in the README layout: {sorted(top - listed)}"
+    assert listed <= top, f"listed but not in the tree: {sorted(listed - top)}"
+    for ln in block.group(1).splitlines():  # the modules named under bodyvib/ exist
+        if ln.startswith("  ") and ln.split()[0].endswith(".py"):
+            for mod in ln.split():
+                if mod.endswith(".py"):
+                    assert os.path.isfile(os.path.join(ROOT, "bodyvib", mod)), mod

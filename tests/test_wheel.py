@@ -1,0 +1,112 @@
+"""The package as installed: a wheel, not the checkout, builds the FMUs and runs the check.
+
+A regular install once failed at ``bodyvib build`` because the FMU slave source
+did not travel with the package. This builds the wheel, checks that it carries
+every file of the packages (the slave template, the run-time package, the
+shipped parameter files), installs it with ``--no-deps`` into a fresh virtual
+environment that borrows only the dependencies of the running one, and runs
+``bodyvib build`` and a short ``bodyvib check`` from a folder outside the checkout.
+``.ci/run`` does the same in a fully fresh environment with the dependencies
+from the index.
+"""
+
+import os
+import shutil
+import site
+import subprocess
+import sys
+import zipfile
+
+import pytest
+
+pytestmark = pytest.mark.integration
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+PACKAGES = ("bodyvib", "bodyvib_cli", "fmu_src", "vehicle")
+
+
+def _tracked(*paths):
+    """Tracked files (as in the working tree; outside git, the files present), relative to ROOT."""
+    out = subprocess.run(["git", "ls-files", *paths], cwd=ROOT, capture_output=True, text=True)
+    if out.returncode == 0 and out.stdout.strip():
+        files = out.stdout.split()
+    else:
+        files = [os.path.relpath(os.path.join(d, f), ROOT)
+                 for p in paths or (".",) for d, ds, fs in os.walk(os.path.join(ROOT, p))
+                 if not {".git", ".venv", "build"} & set(os.path.relpath(d, ROOT).split(os.sep))
+                 for f in fs]
+    return sorted(f for f in files if "__pycache__" not in f and not f.endswith(".pyc")
+                  and os.path.isfile(os.path.join(ROOT, f)))
+
+
+def _package_files():
+    return _tracked(*PACKAGES)
+
+
+@pytest.fixture(scope="module")
+def wheel(tmp_path_factory):
+    # built from a copy of the tracked files: setuptools writes build/ next to the
+    # sources, and the checkout stays untouched
+    src = tmp_path_factory.mktemp("src")
+    for f in _tracked():
+        os.makedirs(os.path.dirname(src / f), exist_ok=True)
+        shutil.copy2(os.path.join(ROOT, f), src / f)
+    dest = tmp_path_factory.mktemp("wheel")
+    out = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", str(src),
+                          "-w", str(dest)], capture_output=True, text=True, timeout=600,
+                         cwd=str(dest))
+    assert out.returncode == 0, out.stdout + out.stderr
+    wheels = list(dest.glob("bodyvib-*.whl"))
+    assert len(wheels) == 1, wheels
+    return wheels[0]
+
+
+def test_wheel_carries_every_package_file(wheel):
+    with zipfile.ZipFile(wheel) as z:
+        names = set(z.namelist())
+    missing = [f for f in _package_files() if f.replace(os.sep, "/") not in names]
+    assert not missing, f"not in the wheel: {missing}"
+    for needed in ("fmu_src/bodyvib_fmu_slave.py", "bodyvib/runtime/engine.py",
+                   "bodyvib/data/reduced-paper.json", "bodyvib/data/fit/default-config.json",
+                   "vehicle/data/quarter-car.json"):
+        assert needed in names
+
+
+def test_installed_wheel_builds_fmus_and_runs_the_check(wheel, tmp_path):
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True,
+                   timeout=120)
+    py = venv / "bin" / "python"
+    out = subprocess.run([sys.executable, "-m", "pip", "--python", str(py), "install", "-q",
+                          "--no-deps", "--no-index", str(wheel)],
+                         capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stdout + out.stderr
+    # the running environment's dependencies, as a plain path: its .pth files (an
+    # editable install of the checkout among them) are not processed from there
+    purelib = subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_paths()"
+                              "['purelib'])"], capture_output=True, text=True, check=True)
+    deps = [p for p in site.getsitepackages() if os.path.isdir(p)]
+    with open(os.path.join(purelib.stdout.strip(), "borrowed-deps.pth"), "w") as f:
+        f.write("\n".join(deps) + "\n")
+
+    work = tmp_path / "elsewhere"
+    work.mkdir()
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME")}
+    env["MPLBACKEND"] = "Agg"
+    where = subprocess.run([str(py), "-c", "import bodyvib, fmu_src, vehicle; "
+                            "print(bodyvib.__file__, fmu_src.__file__, vehicle.__file__)"],
+                           cwd=work, env=env, capture_output=True, text=True, timeout=120)
+    assert where.returncode == 0, where.stderr
+    assert all(p.startswith(str(venv)) for p in where.stdout.split()), where.stdout
+
+    exe = str(venv / "bin" / "bodyvib")
+    build = subprocess.run([exe, "build", "--dest", "fmus"], cwd=work, env=env,
+                           capture_output=True, text=True, timeout=600)
+    assert build.returncode == 0, build.stdout + build.stderr
+    assert sorted(p.name for p in (work / "fmus").iterdir()) == [
+        "HumanBody3DOF.fmu", "HumanBodyISO7962.fmu", "QuarterCar.fmu", "QuarterCarWithOccupant.ssp",
+        "Road.fmu"]
+    check = subprocess.run([exe, "check", "--duration", "2", "--quiet"], cwd=work, env=env,
+                           capture_output=True, text=True, timeout=600)
+    assert check.returncode == 0, check.stdout + check.stderr
+    assert "verdict: " in check.stdout
