@@ -109,10 +109,17 @@ class Fmu:
                     None, None, status, category, message)}
             self.fmu.instantiate(loggingOn=True, **kw)
             self.get, self.set = self.fmu.getFloat64, self.fmu.setFloat64
-        if start:
-            self.set([self.vr[k] for k in start], list(start.values()))
-        self.fmu.enterInitializationMode()
-        self.fmu.exitInitializationMode()
+        try:
+            if start:
+                self.set([self.vr[k] for k in start], list(start.values()))
+            self.fmu.enterInitializationMode()
+            self.fmu.exitInitializationMode()
+        except Exception:  # a refused initialization: leave nothing behind, then report it
+            import shutil
+
+            self.fmu.freeInstance()
+            shutil.rmtree(self.dir, ignore_errors=True)
+            raise
 
     def close(self):
         import shutil
