@@ -2,6 +2,7 @@
 
 import os
 import sys
+from pathlib import Path
 
 from bodyvib.runtime.fileio import check_outputs
 from vehicle.fmus import FMUS, ROAD_DEFAULTS, build_fmus
@@ -13,6 +14,15 @@ __all__ = ["add_command", "main"]
 def _run(args) -> int:
     inputs = [("--params", args.params)] if args.params and os.path.isfile(args.params) else []
     names = list(args.fmus or FMUS)
+    if args.native:
+        dest = Path(args.dest) / "native"
+        names = [n for n in names if FMUS[n][0] != "source"]  # Road.fmu is pythonfmu only
+        check_outputs([("--dest", args.dest, None, True)]
+                      + [(f"--dest native/{n}.fmu", str(dest / f"{n}.fmu"), None) for n in names]
+                      + [(f"--dest native/fmi3/{n}.fmu", str(dest / "fmi3" / f"{n}.fmu"), None)
+                         for n in names], inputs)
+        build_fmus(dest, args.params, names=names, echo=print, native=True)
+        return 0
     ssp = all(name in names for name in COMPONENTS.values())
     check_outputs([("--dest", args.dest, None, True)]
                   + [(f"--dest {n}.fmu", os.path.join(args.dest, f"{n}.fmu"), None) for n in names]
@@ -43,6 +53,10 @@ def add_command(subparsers):
     p.add_argument("--dest", default="dist", help="output folder (default: dist)")
     p.add_argument("--fmus", nargs="+", choices=list(FMUS), metavar="NAME",
                    help=f"build only these ({', '.join(FMUS)})")
+    p.add_argument("--native", action="store_true",
+                   help="build the native C FMUs instead (FMI 2.0 into DEST/native, FMI 3.0 "
+                   "into DEST/native/fmi3; linux64 + win64 binaries and sources; the host "
+                   "needs no Python)")
     p.add_argument("--road", default=ROAD_DEFAULTS["road"],
                    help="Road.fmu: ISO 8608 class A-H, bump or sweep (default: C)")
     p.add_argument("--road-seed", type=int, default=ROAD_DEFAULTS["seed"], metavar="N",

@@ -86,8 +86,9 @@ def _fmus(args, want_iso: bool):
         if not args.quiet:
             print(f"building {', '.join(need)} into {tmp}", file=sys.stderr, flush=True)
         try:
-            built = {n: str(p) for n, p in build_fmus(tmp, args.params, args.car or "quarter-car",
-                                                       need).items()}
+            built = {n: str(p) for n, p in build_fmus(
+                tmp, args.params, args.car or "quarter-car", need, native=args.native,
+                fmi=(2,)).items()}
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
             raise
@@ -166,6 +167,9 @@ def _common(p):
                    help="vehicle model for the default QuarterCar.fmu: 'quarter-car', "
                    "'quarter-car-cushion' or a parameter file (default quarter-car)")
     p.add_argument("--car-fmu", metavar="FMU", help="a car FMU instead of building QuarterCar.fmu")
+    p.add_argument("--native", action="store_true",
+                   help="build the native C FMUs for the run instead of the pythonfmu ones "
+                   "(FMUs given with --body/--car-fmu/--iso-body are used as they are)")
     p.add_argument("--hold", action="store_true",
                    help="plain master: hold the seat force over each step (first order)")
     p.add_argument("--plot", metavar="FILE.png", help="write the plot")

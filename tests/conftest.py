@@ -99,3 +99,31 @@ def pytest_sessionfinish(session, exitstatus):
             print(msg, file=sys.stderr)
         if session.exitstatus == 0:
             session.exitstatus = pytest.ExitCode.TESTS_FAILED
+
+
+@pytest.fixture(scope="session")
+def native_fmus(tmp_path_factory):
+    """The native FMUs, built once by ``build_fmu.py --native``: ``"<name>"`` (FMI 2.0) and
+    ``"fmi3/<name>"`` -> .fmu path."""
+    import subprocess
+
+    dest = tmp_path_factory.mktemp("native_fmus")
+    out = subprocess.run([sys.executable, "build_fmu.py", "--native", "--dest", str(dest)],
+                         cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stdout + out.stderr
+    names = ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar")
+    paths = {n: str(dest / "native" / f"{n}.fmu") for n in names}
+    paths.update({f"fmi3/{n}": str(dest / "native" / "fmi3" / f"{n}.fmu") for n in names})
+    return paths
+
+
+@pytest.fixture(scope="session")
+def python_fmus(tmp_path_factory):
+    """The pythonfmu FMUs, built once by ``build_fmu.py``: name -> .fmu path."""
+    import subprocess
+
+    dest = tmp_path_factory.mktemp("python_fmus")
+    out = subprocess.run([sys.executable, "build_fmu.py", "--dest", str(dest)],
+                         cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stdout + out.stderr
+    return {n: str(dest / f"{n}.fmu") for n in ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar")}

@@ -184,12 +184,12 @@ def open_fmu(path, kind: str, instance_name: Optional[str] = None,
     # from instantiation to freeInstance, a second Ctrl-C stays deferred too: a
     # KeyboardInterrupt inside the FMU's Python code is fmi2Fatal and a double free
     with interrupts.critical():
-        with _instantiated(path, kind, instance_name) as slave:
+        with _instantiated(path, kind, instance_name, start_values) as slave:
             yield slave
 
 
 @contextlib.contextmanager
-def _instantiated(path, kind, instance_name):
+def _instantiated(path, kind, instance_name, start_values=None):
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave
 

@@ -20,7 +20,8 @@ from bodyvib.runtime.fileio import staged_writes
 from .quarter_car import load_car
 from .roads import ISO8608_CLASSES, TaperedRoad, make_road, random_road, road_source
 
-__all__ = ["FMUS", "ROAD_DEFAULTS", "build_fmus", "build_project_fmu", "build_road_fmu",
+__all__ = ["FMUS", "ROAD_DEFAULTS", "build_fmus", "build_project_fmu", "build_native_project_fmu",
+           "build_road_fmu",
            "fmu_road", "load_fmu_model", "temporary_fmu_dir"]
 
 #: Road.fmu's defaults: ISO 8608 class C, seed 0, 601 m (30 s at 20 m/s and a metre
@@ -159,9 +160,42 @@ def build_project_fmu(name: str, dest="dist", model: Optional[str] = None) -> Pa
     return build_fmu(network, kind, name, description, dest)
 
 
+def build_native_project_fmu(name: str, dest="dist/native", model: Optional[str] = None,
+                             fmi: int = 2) -> Path:
+    """Build one FMU of :data:`FMUS` as a native C FMU (:mod:`bodyvib.native_build`).
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`FMUS`.
+    dest : str or path
+        Output folder.
+    model : str, optional
+        Shipped model name or parameter file to bake in (the FMU's default if None).
+    fmi : int
+        FMI version, 2 or 3.
+
+    Returns
+    -------
+    Path
+        ``dest/<name>.fmu``.
+
+    Raises
+    ------
+    BodyvibError
+        See :func:`load_fmu_model` and :func:`bodyvib.native_build.build_native_fmu`.
+    """
+    from bodyvib.native_build import build_native_fmu
+
+    network = load_fmu_model(name, model)
+    kind, _, description = FMUS[name]
+    return build_native_fmu(network, kind, name, description, dest, fmi=fmi)
+
+
 def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-car",
                names: Optional[Iterable[str]] = None, echo=None,
-               road: Optional[dict] = None) -> Dict[str, Path]:
+               road: Optional[dict] = None, native: bool = False,
+               fmi: Iterable[int] = (2, 3)) -> Dict[str, Path]:
     """Build the project's FMUs.
 
     Parameters
@@ -180,6 +214,12 @@ def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-ca
     road : dict, optional
         Keyword arguments of :func:`build_road_fmu` for ``Road.fmu``
         (:data:`ROAD_DEFAULTS` by default).
+    native : bool
+        Build the native C FMUs instead of the pythonfmu ones: FMI 2.0 into
+        ``dest``, FMI 3.0 into ``dest/fmi3`` (keys ``"fmi3/<name>"``); the
+        body and car FMUs only (there is no native Road.fmu).
+    fmi : iterable of int
+        With ``native``, the FMI versions to build.
 
     Returns
     -------
@@ -208,17 +248,26 @@ def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-ca
     out = {}
     what = {}
     with staged_writes(guard=interrupts.critical):  # all FMUs or none: a failed (or
-        for n in names:                                 # interrupted) build keeps the old ones
-            if FMUS[n][0] == "source":
-                out[n] = build_road_fmu(dest, **road)
-                what[n] = f"road {road['road']}, seed {road['seed']}, {road['length']:g} m"
-            else:
-                out[n] = build_project_fmu(n, dest, chosen.get(n))
-                what[n] = f"model {chosen.get(n) or FMUS[n][1]}"
+        if native:                                      # interrupted) build keeps the old ones
+            for version in fmi:
+                folder = Path(dest) if version == 2 else Path(dest) / "fmi3"
+                for n in (n for n in names if FMUS[n][0] != "source"):
+                    key = n if version == 2 else f"fmi3/{n}"
+                    out[key] = build_native_project_fmu(n, folder, chosen.get(n), fmi=version)
+                    what[key] = (f"native C, FMI {version}.0, model "
+                                 f"{chosen.get(n) or FMUS[n][1]}")
+        else:
+            for n in names:
+                if FMUS[n][0] == "source":
+                    out[n] = build_road_fmu(dest, **road)
+                    what[n] = f"road {road['road']}, seed {road['seed']}, {road['length']:g} m"
+                else:
+                    out[n] = build_project_fmu(n, dest, chosen.get(n))
+                    what[n] = f"model {chosen.get(n) or FMUS[n][1]}"
         interrupts.check()
     if echo:
-        for n in names:
-            echo(f"wrote {out[n]} ({what[n]}; fmpy validate: no problems)")
+        for key in out:
+            echo(f"wrote {out[key]} ({what[key]}; fmpy validate: no problems)")
     return out
 
 

@@ -51,6 +51,8 @@ __all__ = [
     "Element",
     "Network",
     "LinearModel",
+    "DescriptorModel",
+    "descriptor_model",
     "linear_model",
     "as_linear_model",
     "mount",
@@ -291,8 +293,164 @@ class LinearModel:
             ) from None
 
 
+@dataclass(frozen=True)
+class DescriptorModel:
+    """Descriptor form ``E z' = A z + B u``, ``y = C z + Cd z' + D u`` of a network.
+
+    Every matrix is linear (affine, with literal values) in the network's
+    parameters: a mass contributes ``m`` to ``E``, a spring ``k`` and a damper
+    ``c`` times fixed stencils, and nothing is divided or solved. This is the
+    form the native FMUs assemble from per-parameter stencils
+    (:mod:`bodyvib.native_build`); :func:`linear_model` solves it.
+
+    Attributes
+    ----------
+    E, A : (ns, ns) ndarray
+    B : (ns, ni) ndarray
+    C, Cd : (no, ns) ndarray
+        Output rows on the state and on its derivative (accelerations, node
+        velocities).
+    D : (no, ni) ndarray
+    states, inputs, outputs : tuple of str
+        As in :class:`LinearModel`.
+    network : Network
+    """
+
+    E: np.ndarray
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    Cd: np.ndarray
+    D: np.ndarray
+    states: Tuple[str, ...]
+    inputs: Tuple[str, ...]
+    outputs: Tuple[str, ...]
+    network: Network
+
+    def solve(self) -> LinearModel:
+        """The explicit state space ``x' = E^-1 (A x + B u)``, outputs with ``z'`` substituted.
+
+        Raises
+        ------
+        BodyvibError
+            If ``E`` is singular: a massless node without a damper path.
+        """
+        try:
+            AB = np.linalg.solve(self.E, np.hstack([self.A, self.B]))
+        except np.linalg.LinAlgError:
+            raise BodyvibError(
+                f"model '{self.network.name}': a massless node has no damper path to a "
+                "mass or the base, so its motion is undetermined; give every node "
+                "a damper (or merge springs in series)"
+            ) from None
+        ns = self.A.shape[0]
+        A, B = AB[:, :ns], AB[:, ns:]
+        return LinearModel(
+            A=A, B=B, C=self.C + self.Cd @ A, D=self.D + self.Cd @ B,
+            states=self.states, inputs=self.inputs, outputs=self.outputs, network=self.network,
+        )
+
+
+def descriptor_model(network: Network) -> DescriptorModel:
+    """Assemble the descriptor form of a network (linear in its parameters).
+
+    Parameters
+    ----------
+    network : Network
+        A network; parameter values are used as they are (zero is allowed:
+        nothing is divided).
+
+    Returns
+    -------
+    DescriptorModel
+        See the module docstring for the equations.
+
+    Examples
+    --------
+    >>> from bodyvib.models import load_model
+    >>> dm = descriptor_model(load_model("reduced-paper"))
+    >>> dm.E.shape, dm.B.shape
+    ((5, 5), (5, 2))
+    """
+    masses = network.mass_names
+    nodes = network.node_names
+    nm, nn = len(masses), len(nodes)
+    ns = 2 * nm + nn
+    base = network.base
+    inputs = (f"{base}_displacement", f"{base}_velocity") + tuple(
+        f"{m}.force" for m in network.force_inputs
+    )
+    ni = len(inputs)
+    # every signal is a linear map of w = [z (states), u (inputs), z' (state derivatives)]
+    nw = 2 * ns + ni
+
+    def unit(i):
+        e = np.zeros(nw)
+        e[i] = 1.0
+        return e
+
+    pos = {m: unit(i) for i, m in enumerate(masses)}
+    pos.update({n: unit(2 * nm + j) for j, n in enumerate(nodes)})
+    pos[base] = unit(ns)
+    vel = {m: unit(nm + i) for i, m in enumerate(masses)}
+    vel.update({n: unit(ns + ni + 2 * nm + j) for j, n in enumerate(nodes)})  # y' of each node
+    vel[base] = unit(ns + 1)
+    acc = {m: unit(ns + ni + nm + i) for i, m in enumerate(masses)}  # v' of each mass
+
+    force_on = {p: np.zeros(nw) for p in list(masses) + list(nodes) + [base]}
+    element_force = {}  # compression-positive force each element exerts on its 'to' point
+    for el in network.elements:
+        el_springs, el_dampers = network.element_primitives(el)
+        f_el = np.zeros(nw)
+        for (a, b, k), is_spring in [(p, True) for p in el_springs] + [(p, False) for p in el_dampers]:
+            f = k * (pos[b] - pos[a]) if is_spring else k * (vel[b] - vel[a])  # force on a, up
+            force_on[a] += f
+            force_on[b] -= f
+            if b == el.b:
+                f_el -= f
+            elif a == el.b:
+                f_el += f
+        element_force[el.name] = f_el
+
+    # Equations, each "0 = row @ w": x' = v for a mass; m v' = sum of forces (+ external
+    # force) for a mass; 0 = sum of forces for a massless node (first order in y').
+    mvals = network.mass_values()
+    rows = [vel[m] - unit(ns + ni + i) for i, m in enumerate(masses)]
+    for m in masses:
+        total = force_on[m] - mvals[m] * acc[m]
+        if m in network.force_inputs:
+            total = total + unit(ns + inputs.index(f"{m}.force"))
+        rows.append(total)
+    rows += [force_on[n] for n in nodes]
+    eq = np.array(rows).reshape(ns, nw)
+    out_rows, out_names = [], []
+    for m in masses:
+        out_rows += [pos[m], vel[m], acc[m]]
+        out_names += [f"{m}.x", f"{m}.v", f"{m}.a"]
+    for n in nodes:
+        out_rows.append(pos[n])
+        out_names.append(f"{n}.y")
+    for el in network.elements:
+        out_rows += [pos[el.b] - pos[el.a], element_force[el.name]]
+        out_names += [f"{el.name}.deflection", f"{el.name}.force"]
+    out_rows.append(-force_on[base])
+    out_names.append(f"{base}_force")
+    out = np.array(out_rows).reshape(len(out_names), nw)
+    states = tuple(f"{m}.x" for m in masses) + tuple(f"{m}.v" for m in masses) + tuple(
+        f"{n}.y" for n in nodes
+    )
+    return DescriptorModel(
+        E=-eq[:, ns + ni:] + 0.0, A=eq[:, :ns], B=eq[:, ns:ns + ni],
+        C=out[:, :ns], Cd=out[:, ns + ni:], D=out[:, ns:ns + ni],
+        states=states, inputs=inputs, outputs=tuple(out_names), network=network,
+    )
+
+
 def linear_model(network: Network) -> LinearModel:
     """Assemble the state-space matrices of a network.
+
+    The descriptor form (:func:`descriptor_model`) solved for the state
+    derivative.
 
     Parameters
     ----------
@@ -316,104 +474,7 @@ def linear_model(network: Network) -> LinearModel:
     >>> lm.A.shape
     (5, 5)
     """
-    masses = network.mass_names
-    nodes = network.node_names
-    nm, nn = len(masses), len(nodes)
-    ns = 2 * nm + nn
-    base = network.base
-    inputs = (f"{base}_displacement", f"{base}_velocity") + tuple(
-        f"{m}.force" for m in network.force_inputs
-    )
-    ni = len(inputs)
-    nz = ns + ni  # every signal is a linear map of z = [states, inputs]
-
-    def unit(i):
-        e = np.zeros(nz)
-        e[i] = 1.0
-        return e
-
-    pos = {m: unit(i) for i, m in enumerate(masses)}
-    pos.update({n: unit(2 * nm + j) for j, n in enumerate(nodes)})
-    pos[base] = unit(ns)
-    vel = {m: unit(nm + i) for i, m in enumerate(masses)}
-    vel[base] = unit(ns + 1)
-
-    springs, dampers = network.primitives()
-
-    # Node velocities: for node n, sum_k k (x_q - x_n) + sum_c c (v_q - v_n) = 0,
-    # a linear system M V = R in the unknown node velocities V.
-    node_idx = {n: j for j, n in enumerate(nodes)}
-    M = np.zeros((nn, nn))
-    R = np.zeros((nn, nz))
-    for a, b, k in springs:
-        for p, q in ((a, b), (b, a)):
-            if p in node_idx:
-                R[node_idx[p]] -= k * (pos[q] - pos[p])
-    for a, b, c in dampers:
-        for p, q in ((a, b), (b, a)):
-            if p in node_idx:
-                j = node_idx[p]
-                M[j, j] -= c
-                if q in node_idx:
-                    M[j, node_idx[q]] += c
-                else:
-                    R[j] -= c * vel[q]
-    if nn:
-        try:
-            V = np.linalg.solve(M, R)
-        except np.linalg.LinAlgError:
-            raise BodyvibError(
-                f"model '{network.name}': a massless node has no damper path to a "
-                "mass or the base, so its motion is undetermined; give every node "
-                "a damper (or merge springs in series)"
-            ) from None
-        vel.update({n: V[j] for n, j in node_idx.items()})
-
-    force_on = {p: np.zeros(nz) for p in list(masses) + list(nodes) + [base]}
-    element_force = {}  # compression-positive force each element exerts on its 'to' point
-    for el in network.elements:
-        el_springs, el_dampers = network.element_primitives(el)
-        f_el = np.zeros(nz)
-        for (a, b, k), is_spring in [(p, True) for p in el_springs] + [(p, False) for p in el_dampers]:
-            f = k * (pos[b] - pos[a]) if is_spring else k * (vel[b] - vel[a])  # force on a, up
-            force_on[a] += f
-            force_on[b] -= f
-            if b == el.b:
-                f_el -= f
-            elif a == el.b:
-                f_el += f
-        element_force[el.name] = f_el
-
-    mvals = network.mass_values()
-    acc = {}
-    for m in masses:
-        total = force_on[m].copy()
-        if m in network.force_inputs:
-            total += unit(ns + inputs.index(f"{m}.force"))
-        acc[m] = total / mvals[m]
-
-    rows = [vel[m] for m in masses] + [acc[m] for m in masses] + [vel[n] for n in nodes]
-    AB = np.array(rows).reshape(ns, nz)
-    out_rows, out_names = [], []
-    for m in masses:
-        out_rows += [pos[m], vel[m], acc[m]]
-        out_names += [f"{m}.x", f"{m}.v", f"{m}.a"]
-    for n in nodes:
-        out_rows.append(pos[n])
-        out_names.append(f"{n}.y")
-    for el in network.elements:
-        out_rows += [pos[el.b] - pos[el.a], element_force[el.name]]
-        out_names += [f"{el.name}.deflection", f"{el.name}.force"]
-    out_rows.append(-force_on[base])
-    out_names.append(f"{base}_force")
-    CD = np.array(out_rows)
-    states = tuple(f"{m}.x" for m in masses) + tuple(f"{m}.v" for m in masses) + tuple(
-        f"{n}.y" for n in nodes
-    )
-    return LinearModel(
-        A=AB[:, :ns], B=AB[:, ns:], C=CD[:, :ns], D=CD[:, ns:],
-        states=states, inputs=inputs, outputs=tuple(out_names), network=network,
-    )
+    return descriptor_model(network).solve()
 
 
 def as_linear_model(model) -> LinearModel:

@@ -1,0 +1,553 @@
+"""Build native (C) FMUs (``python build_fmu.py --native``, ``bodyvib build --native``).
+
+The same models and the same FMU contract as the pythonfmu FMUs
+(:func:`bodyvib.fmu_build.build_fmu`), written as C that needs nothing on the host beyond
+libc and libm. No C is written per model:
+
+* the C sources in ``fmu_src/native/`` are model-independent: one core
+  (``bodyvib_core.c``: assembly, solve, Pade(13) exponential, exact stepping,
+  snapshots) and thin FMI 2.0 / 3.0 function files;
+* this module emits the model as data (``bodyvib_model.c``): the descriptor form
+  of :func:`bodyvib.runtime.network.descriptor_model`, whose matrices are affine in the
+  parameters, as sparse per-parameter stencils (the builder evaluated with one
+  parameter at 1 and the others at 0), plus the FMU contract of
+  :class:`bodyvib.runtime.engine.FmuCore` (variable names, value references, units,
+  input map, rate pairs, output rows).
+
+An output whose contract signal is ``RATE_PREFIX + signal`` is the exact time
+derivative of that model output (``seat_force_rate``: ``C_sf (A x + B u) + D_sf du``);
+the C core gives it the rows ``C A`` and ``C B U + D U R``.
+
+Each FMU holds ``binaries/linux64`` (gcc) and ``binaries/win64`` (mingw-w64)
+for FMI 2.0, ``binaries/x86_64-linux`` and ``binaries/x86_64-windows`` for FMI
+3.0, ``sources/`` (with ``buildDescription.xml`` for FMI 3.0) so that ``fmpy
+compile`` builds it elsewhere, and ``resources/bodyvib_model.json``. Every FMU
+is checked with ``fmpy validate`` before it replaces the previous file.
+
+Build-time needs: gcc, x86_64-w64-mingw32-gcc, fmpy (its FMI headers).
+"""
+
+import hashlib
+import io
+import json
+import shutil
+import subprocess
+import tempfile
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterable, List, Sequence, Tuple
+from xml.etree import ElementTree as ET
+
+import numpy as np
+
+from . import __version__
+from .runtime.contract import MODEL_FILE, RATE_PREFIX, UNITS, Variable
+from .runtime.engine import FmuCore
+from .runtime.errors import BodyvibError
+from .runtime.fileio import atomic_write_bytes
+from .runtime.network import Network, descriptor_model
+
+__all__ = ["NATIVE_SOURCES", "PLATFORMS", "NativeModel", "native_model", "model_source",
+           "model_description", "build_description", "build_native_fmu", "fmi_headers"]
+
+NATIVE_DIR = Path(__file__).resolve().parent.parent / "fmu_src" / "native"
+
+#: The model-independent C sources and the FMI function file of each FMI version.
+NATIVE_SOURCES = ("bodyvib_core.h", "bodyvib_core.c")
+FMI_FILES = {2: "fmi2Functions.c", 3: "fmi3Functions.c"}
+FMI_HEADERS = {2: ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"),
+               3: ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")}
+MODEL_C = "bodyvib_model.c"
+
+#: Platform -> (compiler, flags, binary suffix, FMI 2.0 folder, FMI 3.0 folder).
+PLATFORMS = {
+    "linux64": ("gcc", ["-fPIC", "-fvisibility=hidden", "-Wl,--no-undefined"], ".so",
+                "linux64", "x86_64-linux"),
+    "win64": ("x86_64-w64-mingw32-gcc", ["-static-libgcc"], ".dll", "win64", "x86_64-windows"),
+}
+COMMON_FLAGS = ["-std=c99", "-O2", "-shared", "-Wall", "-Wextra", "-Wno-unused-parameter"]
+
+#: Matrix codes of the stencils (bodyvib_core.h: BV_E .. BV_D).
+_MATRICES = ("E", "A", "B", "C", "Cd", "D")
+
+
+
+@dataclass(frozen=True)
+class NativeModel:
+    """Everything the C core needs for one FMU, from the Python contract and the network.
+
+    Attributes
+    ----------
+    name : str
+        FMU model name.
+    kind : str
+        ``"body"`` or ``"car"``.
+    description : str
+        One-line description of the FMU.
+    network : Network
+    variables : tuple of Variable
+        By value reference.
+    kinds : tuple of int
+        Per value reference: 0 input, 1 output, 2 parameter.
+    index : tuple of int
+        Per value reference: index among the inputs, outputs or parameters.
+    inputs, outputs, parameters : tuple of int
+        Value references of each group, in order.
+    input_map : (m, ni) ndarray
+        Model inputs from FMU inputs.
+    rate_matrix : (ni, ni) ndarray
+        In-step rates of the FMU inputs, ``ds/dt = R s`` (the contract's rate pairs).
+    pairs : tuple of (int, int, bool)
+        The contract's unconnected-velocity pairs (displacement, velocity, True).
+    out_row : tuple of int
+        Per FMU output: the model output row (index into ``rows``).
+    out_derivative : tuple of bool
+        Per FMU output: it is the time derivative of that row.
+    rows : tuple of int
+        Model output indices (of the network's outputs) carried into C.
+    stencils : list of (int, int, int, int, float)
+        ``(parameter or -1, matrix, row, col, coefficient)``.
+    n, m : int
+        States, model inputs.
+    dependencies : tuple of tuple of int
+        Per FMU output: the input value references it depends on directly.
+    """
+
+    name: str
+    kind: str
+    description: str
+    network: object
+    variables: Tuple[Variable, ...]
+    kinds: Tuple[int, ...]
+    index: Tuple[int, ...]
+    inputs: Tuple[int, ...]
+    outputs: Tuple[int, ...]
+    parameters: Tuple[int, ...]
+    input_map: np.ndarray
+    rate_matrix: np.ndarray
+    pairs: Tuple[Tuple[int, int, bool], ...]
+    out_row: Tuple[int, ...]
+    out_derivative: Tuple[bool, ...]
+    rows: Tuple[int, ...]
+    stencils: List[Tuple[int, int, int, int, float]]
+    n: int
+    m: int
+    dependencies: Tuple[Tuple[int, ...], ...]
+
+
+def _stencils(network, params: Sequence[str], rows: Sequence[int]):
+    """Per-parameter stencils of the descriptor form; checked to reproduce it exactly."""
+    def mats(values):
+        dm = descriptor_model(network.with_parameters(**dict(zip(params, values))))
+        return [dm.E, dm.A, dm.B, dm.C[list(rows)], dm.Cd[list(rows)], dm.D[list(rows)]]
+
+    zero = mats([0.0] * len(params))
+    out = []
+    parts = [(-1, zero)]
+    for j in range(len(params)):
+        unit = [0.0] * len(params)
+        unit[j] = 1.0
+        parts.append((j, [a - b for a, b in zip(mats(unit), zero)]))
+    for j, ms in parts:
+        for code, M in enumerate(ms):
+            for r, c in zip(*np.nonzero(M)):
+                out.append((j, code, int(r), int(c), float(M[r, c])))
+    # the stencils must give back the descriptor form at the actual parameter values
+    actual = mats([float(network.parameters[p]) for p in params])
+    values = [float(network.parameters[p]) for p in params]
+    for code, M in enumerate(actual):
+        S = np.zeros_like(M)
+        for j, k, r, c, v in out:
+            if k == code:
+                S[r, c] += v * (1.0 if j < 0 else values[j])
+        scale = max(np.max(np.abs(M)), 1.0) if M.size else 1.0
+        if M.size and np.max(np.abs(S - M)) > 1e-14 * scale:
+            raise BodyvibError(f"model '{network.name}': its {_MATRICES[code]} matrix is not "
+                               "affine in the parameters; the native FMU cannot assemble it")
+    return out
+
+
+def native_model(kind: str, network: Network, name: str, description: str = "") -> NativeModel:
+    """The C core's view of one FMU, read off the Python FMU contract.
+
+    Parameters
+    ----------
+    kind : str
+        ``"body"`` or ``"car"`` (:data:`bodyvib.runtime.contract.KINDS`).
+    network : Network
+        The model baked in.
+    name : str
+        FMU model name.
+    description : str
+        One-line description of the FMU.
+
+    Returns
+    -------
+    NativeModel
+
+    Raises
+    ------
+    BodyvibError
+        A model the FMU contract refuses (missing roles, invalid parameters).
+    """
+    core = FmuCore(kind, network, name)
+    core.check_parameters()
+    iface = core.interface
+    variables = list(core.variables)
+    ni, no = len(iface.inputs), len(iface.outputs)
+    lm = descriptor_model(network).solve()
+    derivative = [sig.startswith(RATE_PREFIX) for sig in iface.output_signals]
+    signals = [lm.output_index(sig[len(RATE_PREFIX):] if d else sig)
+               for sig, d in zip(iface.output_signals, derivative)]
+    out_vrs = list(range(ni, ni + no))
+    rows = tuple(dict.fromkeys(signals))
+    kinds, index = [0] * len(variables), [0] * len(variables)
+    in_vrs = tuple(range(ni))
+    par_vrs = tuple(vr for vr, v in enumerate(variables) if v.causality == "parameter")
+    for i, vr in enumerate(in_vrs):
+        kinds[vr], index[vr] = 0, i
+    for i, vr in enumerate(out_vrs):
+        kinds[vr], index[vr] = 1, i
+    for i, vr in enumerate(par_vrs):
+        kinds[vr], index[vr] = 2, i
+    pairs = [(i, j, True) for i, j in iface.slope_fallback]
+    params = [variables[vr].name for vr in par_vrs]
+    stencils = _stencils(network, params, rows)
+    # direct dependencies: y = Ys s + Yd ds with ds = R s
+    U = iface.input_map
+    R = iface.rate_matrix()
+    deps = []
+    for j in range(len(out_vrs)):
+        r = signals[j]
+        if derivative[j]:
+            direct = lm.C[r] @ lm.B @ U + lm.D[r] @ U @ R
+        else:
+            direct = lm.D[r] @ U
+        deps.append(tuple(in_vrs[i] for i in range(ni) if direct[i] != 0.0))
+    return NativeModel(
+        name=name, kind=kind, description=description, network=network,
+        variables=tuple(variables), kinds=tuple(kinds),
+        index=tuple(index), inputs=in_vrs, outputs=tuple(out_vrs), parameters=par_vrs,
+        input_map=U, rate_matrix=R, pairs=tuple(pairs), out_row=tuple(rows.index(s) for s in signals),
+        out_derivative=tuple(derivative), rows=rows, stencils=stencils,
+        n=lm.A.shape[0], m=lm.B.shape[1], dependencies=tuple(deps),
+    )
+
+
+def _c_string(text: str) -> str:
+    return json.dumps(text, ensure_ascii=True)  # a valid C string literal for ASCII text
+
+
+def _c_doubles(values) -> str:
+    return ", ".join(repr(float(v)) for v in values) or "0.0"
+
+
+def _c_ints(values) -> str:
+    return ", ".join(str(int(v)) for v in values) or "0"
+
+
+def model_source(nm: NativeModel, token: str) -> str:
+    """The generated C file of one FMU (``bodyvib_model.c``): the model as constant data.
+
+    Parameters
+    ----------
+    nm : NativeModel
+    token : str
+        GUID / instantiation token.
+
+    Returns
+    -------
+    str
+        C99 source defining ``bv_model_data``.
+    """
+    units = [nm.variables[vr].unit for vr in nm.parameters]
+    starts = [nm.variables[vr].start for vr in nm.parameters]
+    lines = [
+        f"/* Generated by bodyvib.native_build (bodyvib {__version__}) from model "
+        f"'{nm.network.name}': do not edit. */",
+        '#include "bodyvib_core.h"',
+        "",
+        f"static const int vr_kind[] = {{{_c_ints(nm.kinds)}}};",
+        f"static const int vr_index[] = {{{_c_ints(nm.index)}}};",
+        "static const char *const vr_name[] = {"
+        + ", ".join(_c_string(v.name) for v in nm.variables) + "};",
+        "static const char *const param_unit[] = {" + ", ".join(_c_string(u) for u in units)
+        + "};",
+        f"static const double param_start[] = {{{_c_doubles(starts)}}};",
+        f"static const double U[] = {{{_c_doubles(nm.input_map.ravel())}}};",
+        f"static const double R[] = {{{_c_doubles(nm.rate_matrix.ravel())}}};",
+        "static const bv_pair pairs[] = {"
+        + ", ".join(f"{{{i}, {j}, {int(f)}}}" for i, j, f in nm.pairs) + "};",
+        f"static const int out_row[] = {{{_c_ints(nm.out_row)}}};",
+        f"static const int out_derivative[] = {{{_c_ints(nm.out_derivative)}}};",
+        "static const bv_stencil stencils[] = {",
+    ]
+    lines += [f"    {{{j}, {k}, {r}, {c}, {v!r}}}," for j, k, r, c, v in nm.stencils]
+    lines += [
+        "};",
+        "",
+        "const bv_model bv_model_data = {",
+        f"    {_c_string(nm.name)}, {_c_string(token)},",
+        f"    {nm.n}, {nm.m}, {len(nm.rows)},",
+        f"    {len(nm.inputs)}, {len(nm.outputs)}, {len(nm.parameters)}, {len(nm.variables)},",
+        "    vr_kind, vr_index, vr_name, param_unit, param_start, U, R,",
+        f"    {len(nm.pairs)}, pairs, out_row, out_derivative,",
+        f"    {len(nm.stencils)}, stencils,",
+        "};",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def _num(x: float) -> str:
+    return repr(float(x))
+
+
+def _description(nm: NativeModel) -> str:
+    text = nm.description or nm.name
+    return f"{text}. Model '{nm.network.name}': {nm.network.description}".strip()
+
+
+def model_description(nm: NativeModel, token: str, fmi: int) -> bytes:
+    """``modelDescription.xml`` of a native FMU.
+
+    Parameters
+    ----------
+    nm : NativeModel
+    token : str
+        GUID (FMI 2.0) or instantiation token (FMI 3.0).
+    fmi : int
+        2 or 3.
+
+    Returns
+    -------
+    bytes
+        UTF-8 XML.
+    """
+    sources = [s for s in NATIVE_SOURCES if s.endswith(".c")] + [MODEL_C, FMI_FILES[fmi]]
+    root = ET.Element("fmiModelDescription", {
+        "fmiVersion": "2.0" if fmi == 2 else "3.0",
+        "modelName": nm.name,
+        ("guid" if fmi == 2 else "instantiationToken"): token,
+        "description": _description(nm),
+        "author": "bodyvib",
+        "version": __version__,
+        "generationTool": f"bodyvib {__version__} native_build",
+        "variableNamingConvention": "flat",
+    })
+    if fmi == 2:
+        root.set("numberOfEventIndicators", "0")
+        cs = ET.SubElement(root, "CoSimulation", {
+            "modelIdentifier": nm.name, "needsExecutionTool": "false",
+            "canHandleVariableCommunicationStepSize": "true", "canInterpolateInputs": "false",
+            "canRunAsynchronuously": "false", "canBeInstantiatedOnlyOncePerProcess": "false",
+            "canNotUseMemoryManagementFunctions": "true", "canGetAndSetFMUstate": "true",
+            "canSerializeFMUstate": "true", "providesDirectionalDerivative": "false"})
+        files = ET.SubElement(cs, "SourceFiles")
+        for s in sources:
+            ET.SubElement(files, "File", name=s)
+    else:
+        ET.SubElement(root, "CoSimulation", {
+            "modelIdentifier": nm.name, "needsExecutionTool": "false",
+            "canBeInstantiatedOnlyOncePerProcess": "false", "canGetAndSetFMUState": "true",
+            "canSerializeFMUState": "true", "providesDirectionalDerivatives": "false",
+            "canHandleVariableCommunicationStepSize": "true", "hasEventMode": "false",
+            "providesIntermediateUpdate": "false", "canReturnEarlyAfterIntermediateUpdate": "false"})
+    used = list(dict.fromkeys(v.unit for v in nm.variables))
+    if fmi == 3:
+        used = list(dict.fromkeys(["s"] + used))
+    units = ET.SubElement(root, "UnitDefinitions")
+    for u in used:
+        unit = ET.SubElement(units, "Unit", name=u)
+        ET.SubElement(unit, "BaseUnit", {k: str(e) for k, e in UNITS.get(u, {"s": 1}).items()})
+    cats = ET.SubElement(root, "LogCategories")
+    for c, text in (("logStatusWarning", "warnings (unconnected velocity input)"),
+                    ("logStatusError", "errors (refused steps, parameters, states)")):
+        ET.SubElement(cats, "Category", name=c, description=text)
+    ET.SubElement(root, "DefaultExperiment", startTime="0.0", stopTime="10.0", stepSize="0.001")
+    mv = ET.SubElement(root, "ModelVariables")
+    for vr, v in enumerate(nm.variables):
+        attrs = {"name": v.name, "valueReference": str(vr), "description": v.description,
+                 "causality": v.causality, "variability": v.variability}
+        if v.causality == "output":
+            attrs["initial"] = "calculated"
+        typed = {"unit": v.unit}
+        if v.start is not None and v.causality != "output":
+            typed["start"] = _num(v.start)
+        if v.min is not None:
+            typed["min"] = _num(v.min)
+        if v.max is not None:
+            typed["max"] = _num(v.max)
+        if fmi == 2:
+            sv = ET.SubElement(mv, "ScalarVariable", attrs)
+            ET.SubElement(sv, "Real", typed)
+        else:
+            attrs.update(typed)
+            ET.SubElement(mv, "Float64", attrs)
+    if fmi == 3:  # the independent variable, after the contract's value references
+        ET.SubElement(mv, "Float64", {"name": "time", "valueReference": str(len(nm.variables)),
+                                      "causality": "independent", "variability": "continuous",
+                                      "unit": "s", "description": "Simulation time"})
+    ms = ET.SubElement(root, "ModelStructure")
+    if fmi == 2:
+        outs = ET.SubElement(ms, "Outputs")
+        for vr, deps in zip(nm.outputs, nm.dependencies):
+            ET.SubElement(outs, "Unknown", index=str(vr + 1),
+                          dependencies=" ".join(str(d + 1) for d in deps))
+        init = ET.SubElement(ms, "InitialUnknowns")
+        for vr in sorted(nm.outputs):
+            ET.SubElement(init, "Unknown", index=str(vr + 1))
+    else:
+        for vr, deps in zip(nm.outputs, nm.dependencies):
+            ET.SubElement(ms, "Output", valueReference=str(vr),
+                          dependencies=" ".join(str(d) for d in deps))
+        for vr in nm.outputs:
+            ET.SubElement(ms, "InitialUnknown", valueReference=str(vr))
+    ET.indent(root)
+    return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
+
+
+def build_description(nm: NativeModel) -> bytes:
+    """``sources/buildDescription.xml`` (FMI 3.0): what ``fmpy compile`` compiles."""
+    root = ET.Element("fmiBuildDescription", fmiVersion="3.0")
+    bc = ET.SubElement(root, "BuildConfiguration", modelIdentifier=nm.name)
+    fs = ET.SubElement(bc, "SourceFileSet", language="C99")
+    for s in [s for s in NATIVE_SOURCES if s.endswith(".c")] + [MODEL_C, FMI_FILES[3]]:
+        ET.SubElement(fs, "SourceFile", name=s)
+    ET.indent(root)
+    return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
+
+
+def fmi_headers() -> Path:
+    """The folder of the FMI 2.0 / 3.0 C headers (shipped with fmpy)."""
+    import fmpy
+
+    folder = Path(fmpy.__file__).resolve().parent / "c-code"
+    if not (folder / "fmi3Functions.h").is_file():
+        raise BodyvibError(f"the FMI headers are not in {folder}; reinstall fmpy")
+    return folder
+
+
+def _token(nm: NativeModel, model_text: str) -> str:
+    h = hashlib.sha256(model_text.encode())
+    for s in NATIVE_SOURCES + tuple(FMI_FILES.values()):
+        h.update((NATIVE_DIR / s).read_bytes())
+    d = h.hexdigest()
+    return "{" + f"{d[:8]}-{d[8:12]}-{d[12:16]}-{d[16:20]}-{d[20:32]}" + "}"
+
+
+def _compile(platform: str, src: Path, fmi: int, out: Path) -> None:
+    compiler, flags, _, _, _ = PLATFORMS[platform]
+    if shutil.which(compiler) is None:
+        package = "gcc" if platform == "linux64" else "gcc-mingw-w64-x86-64"
+        raise BodyvibError(f"{compiler} not found: the {platform} binary needs it (Debian: "
+                           f"apt-get install {package}), or build other platforms only")
+    files = [str(src / s) for s in NATIVE_SOURCES if s.endswith(".c")]
+    files += [str(src / MODEL_C), str(src / FMI_FILES[fmi])]
+    cmd = [compiler] + COMMON_FLAGS + flags + [f"-I{src}", "-o", str(out)] + files + ["-lm"]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0 or not out.is_file():
+        raise BodyvibError(f"{compiler} failed for {out.name} ({platform}, FMI {fmi}.0): "
+                           + " | ".join((proc.stderr or proc.stdout).strip().splitlines()[-4:]))
+    if proc.stderr.strip():
+        raise BodyvibError(f"{compiler} warned for {out.name} ({platform}, FMI {fmi}.0): "
+                           + " | ".join(proc.stderr.strip().splitlines()[-4:]))
+
+
+def _zip(folder: Path) -> bytes:
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
+        for path in sorted(folder.rglob("*")):
+            if path.is_file():
+                zf.write(path, path.relative_to(folder).as_posix())
+    return buf.getvalue()
+
+
+def build_native_fmu(network: Network, kind: str, name: str, description: str, dest="dist/native",
+                     fmi: int = 2, platforms: Iterable[str] = ("linux64", "win64")) -> Path:
+    """Build one native FMU of a model (the counterpart of :func:`bodyvib.fmu_build.build_fmu`).
+
+    Parameters
+    ----------
+    network : Network
+        The model to bake in (its parameter values become the parameters' start values).
+    kind : str
+        FMU kind of the contract: ``"body"`` or ``"car"``.
+    name : str
+        FMU model name (``"HumanBody3DOF"``); the file is ``dest/<name>.fmu``.
+    description : str
+        One-line description written into the model description.
+    dest : str or path
+        Output folder (created if missing).
+    fmi : int
+        FMI version, 2 or 3.
+    platforms : iterable of str
+        Binaries to compile (:data:`PLATFORMS`).
+
+    Returns
+    -------
+    Path
+        ``dest/<name>.fmu``.
+
+    Raises
+    ------
+    BodyvibError
+        A model the FMU kind cannot run, invalid parameters, a compiler missing or
+        failing, or an FMU that ``fmpy validate`` finds problems in; the previous
+        file at ``dest/<name>.fmu`` is then left as it was.
+
+    Examples
+    --------
+    >>> from bodyvib.models import load_model
+    >>> build_native_fmu(load_model("reduced-paper"), "body", "HumanBody3DOF",
+    ...                  "reduced body", "dist/native")  # doctest: +SKIP
+    PosixPath('dist/native/HumanBody3DOF.fmu')
+    """
+    if fmi not in FMI_FILES:
+        raise BodyvibError(f"FMI version must be 2 or 3, got {fmi!r}")
+    platforms = list(platforms)
+    unknown = [p for p in platforms if p not in PLATFORMS]
+    if unknown or not platforms:
+        raise BodyvibError(f"platforms must be among {', '.join(PLATFORMS)}, got {platforms}")
+    from .runtime.modelfile import network_to_dict
+
+    nm = native_model(kind, network, name, description)
+    token = _token(nm, model_source(nm, ""))
+    headers = fmi_headers()
+    dest = Path(dest)
+    with tempfile.TemporaryDirectory(prefix="bodyvib_native_") as tmp:
+        stage = Path(tmp) / "fmu"
+        src = stage / "sources"
+        src.mkdir(parents=True)
+        for s in NATIVE_SOURCES + (FMI_FILES[fmi],):
+            shutil.copyfile(NATIVE_DIR / s, src / s)
+        for h in FMI_HEADERS[fmi]:
+            shutil.copyfile(headers / h, src / h)
+        (src / MODEL_C).write_text(model_source(nm, token), encoding="utf-8")
+        if fmi == 3:
+            (src / "buildDescription.xml").write_bytes(build_description(nm))
+        (stage / "modelDescription.xml").write_bytes(model_description(nm, token, fmi))
+        (stage / "resources").mkdir()
+        (stage / "resources" / MODEL_FILE).write_text(
+            json.dumps(network_to_dict(network), indent=2) + "\n", encoding="utf-8")
+        for p in platforms:
+            _, _, suffix, folder2, folder3 = PLATFORMS[p]
+            out = stage / "binaries" / (folder2 if fmi == 2 else folder3) / (name + suffix)
+            out.parent.mkdir(parents=True, exist_ok=True)
+            _compile(p, src, fmi, out)
+        staged = Path(tmp) / f"{name}.fmu"
+        staged.write_bytes(_zip(stage))
+        problems = _validate(staged)
+        if problems:
+            raise BodyvibError(f"{name}.fmu (native, FMI {fmi}.0): fmpy validate found "
+                               "problems: " + "; ".join(problems))
+        target = dest / f"{name}.fmu"
+        atomic_write_bytes(target, staged.read_bytes())
+    return target
+
+
+def _validate(path: Path):
+    from fmpy.validation import validate_fmu
+
+    return validate_fmu(str(path))

@@ -1,0 +1,1002 @@
+/*
+ * bodyvib native FMU core (see bodyvib_core.h).
+ *
+ * Per instance: the parameter values; the explicit state space A, B built from the
+ * stencils; the output rows on z = [x | s] (state, FMU inputs); the step matrices for the
+ * last step size (recomputed when the step size, rounded to 12 significant digits like
+ * the library's cache, changes); the state x, the inputs s, and the bookkeeping of the
+ * unconnected-velocity fallback. The same scheme as bodyvib.runtime.engine.FmuCore.
+ *
+ * Stepping over [t, t + h]: the FMU inputs s rise at their rates R s (R from the
+ * contract's rate pairs: a displacement at its velocity input, a velocity at its
+ * acceleration input, the car's seat force at seat_force_rate), curving at R^2 s where a
+ * rate itself has a rate; every other input is held. With u = U s the state is advanced
+ * exactly,
+ *     x <- Phi x + (Gamma0 U + Gamma1 U R + Gamma2 U R^2) s,
+ * and the inputs are left at their extrapolated values (I + h R + h^2/2 R^2) s, so outputs
+ * read right after the step are those of the step's end. Outputs are computed on read,
+ *     y = Yx x + Ys s,
+ * an output declared as the time derivative of a model output row r having the rows
+ * d/dt (C_r x + D_r u) = C_r A x + (C_r B U + D_r U R) s.
+ *
+ * Unconnected velocity (the contract's slope_fallback pairs): while a velocity input was
+ * never set to a non-zero value, a DoStep that sees its displacement differ from the
+ * value at the previous DoStep switches to the slope (x_now - x_prev) / h_prev, written
+ * into the velocity input for that step and the rest of the run (until a non-zero
+ * velocity is set); the input reads back as 0, and one warning is logged.
+ */
+#include "bodyvib_core.h"
+
+#include <math.h>
+#include <stdarg.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define BV_MESSAGE 640
+
+struct bv_instance {
+    const bv_model *md;
+    char name[128];
+    bv_log_fn log;
+    void *env;
+    int n, m, ni, no, np, N; /* N = n + 3 m, the largest augmented matrix */
+    int curved;         /* R^2 != 0: some input is a parabola over the step */
+    /* parameters */
+    double *p, *p_built;
+    int built;          /* A, B, Yc valid for p_built */
+    /* continuous time and outputs */
+    double *A, *B;
+    double *UR, *UR2;   /* U R, U R^2 (m x ni) */
+    double *Yc;         /* [Yx | Ys] row-major: y = Yc z, z = [x | s] */
+    double *y;          /* outputs for the current z, valid unless dirty */
+    int dirty;
+    /* step cache */
+    double h_key;       /* rounded step the matrices are for; 0: none */
+    double h_raw;       /* the last step size seen with that key (skips the rounding) */
+    double *Sc;         /* [Phi | Gamma0 U + Gamma1 U R + Gamma2 U R^2] row-major: x <- Sc z */
+    double *Ms;         /* I + h R + h^2/2 R^2 (ni x ni): s <- Ms s */
+    /* what evolves */
+    double time;
+    double *x, *s;
+    double *x_prev, *h_prev; /* per fallback pair: displacement and step at the last DoStep */
+    unsigned char *has_prev, *vel_set, *slope_on, *warned;
+    int initialized;
+    int init_failed;
+    char init_error[BV_MESSAGE];
+    /* scratch */
+    double *zn, *work;
+    int *piv;
+};
+
+/* ---------------------------------------------------------------- messages */
+
+static void say(const bv_instance *c, int status, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+
+static void say(const bv_instance *c, int status, const char *fmt, ...)
+{
+    char text[BV_MESSAGE];
+    va_list ap;
+    if (c->log == NULL)
+        return;
+    va_start(ap, fmt);
+    vsnprintf(text, sizeof text, fmt, ap);
+    va_end(ap);
+    c->log(c->env, status, text);
+}
+
+/* The shortest %g text that reads back as v (as Python's repr), into buf[32]. */
+static const char *shortest(double v, char *buf)
+{
+    int p;
+    for (p = 1; p <= 17; p++) {
+        snprintf(buf, 32, "%.*g", p, v);
+        if (strtod(buf, NULL) == v)
+            break;
+    }
+    return buf;
+}
+
+/* ---------------------------------------------------------------- dense linear algebra */
+
+/* C = A B; A is r x k, B is k x q, all row-major; C must not alias A or B. */
+static void mul(double *C, const double *A, const double *B, int r, int k, int q)
+{
+    int i, j, l;
+    for (i = 0; i < r; i++) {
+        double *ci = C + (size_t)i * q;
+        for (j = 0; j < q; j++)
+            ci[j] = 0.0;
+        for (l = 0; l < k; l++) {
+            double a = A[(size_t)i * k + l];
+            const double *bl = B + (size_t)l * q;
+            if (a == 0.0)
+                continue;
+            for (j = 0; j < q; j++)
+                ci[j] += a * bl[j];
+        }
+    }
+}
+
+/* LU factorization with partial pivoting in place (n x n); 0 if singular. */
+static int lu(double *M, int *piv, int n)
+{
+    int i, j, k;
+    for (k = 0; k < n; k++) {
+        int p = k;
+        double best = fabs(M[(size_t)k * n + k]);
+        for (i = k + 1; i < n; i++) {
+            double v = fabs(M[(size_t)i * n + k]);
+            if (v > best) {
+                best = v;
+                p = i;
+            }
+        }
+        if (!(best > 0.0) || !isfinite(best))
+            return 0;
+        piv[k] = p;
+        if (p != k)
+            for (j = 0; j < n; j++) {
+                double t = M[(size_t)k * n + j];
+                M[(size_t)k * n + j] = M[(size_t)p * n + j];
+                M[(size_t)p * n + j] = t;
+            }
+        for (i = k + 1; i < n; i++) {
+            double f = M[(size_t)i * n + k] /= M[(size_t)k * n + k];
+            if (f != 0.0)
+                for (j = k + 1; j < n; j++)
+                    M[(size_t)i * n + j] -= f * M[(size_t)k * n + j];
+        }
+    }
+    return 1;
+}
+
+/* Solve (LU) X = Bm in place, Bm n x q. */
+static void lu_solve(const double *LU, const int *piv, int n, double *Bm, int q)
+{
+    int i, j, k;
+    for (k = 0; k < n; k++)
+        if (piv[k] != k)
+            for (j = 0; j < q; j++) {
+                double t = Bm[(size_t)k * q + j];
+                Bm[(size_t)k * q + j] = Bm[(size_t)piv[k] * q + j];
+                Bm[(size_t)piv[k] * q + j] = t;
+            }
+    for (i = 0; i < n; i++)
+        for (k = 0; k < i; k++) {
+            double f = LU[(size_t)i * n + k];
+            if (f != 0.0)
+                for (j = 0; j < q; j++)
+                    Bm[(size_t)i * q + j] -= f * Bm[(size_t)k * q + j];
+        }
+    for (i = n - 1; i >= 0; i--) {
+        for (k = i + 1; k < n; k++) {
+            double f = LU[(size_t)i * n + k];
+            if (f != 0.0)
+                for (j = 0; j < q; j++)
+                    Bm[(size_t)i * q + j] -= f * Bm[(size_t)k * q + j];
+        }
+        for (j = 0; j < q; j++)
+            Bm[(size_t)i * q + j] /= LU[(size_t)i * n + i];
+    }
+}
+
+static double norm1(const double *M, int n)
+{
+    double best = 0.0;
+    int i, j;
+    for (j = 0; j < n; j++) {
+        double s = 0.0;
+        for (i = 0; i < n; i++)
+            s += fabs(M[(size_t)i * n + j]);
+        if (s > best)
+            best = s;
+    }
+    return best;
+}
+
+/* out = M z, M row-major (rows x cols); two accumulators per row, rows independent. */
+static void matvec(double *restrict out, const double *restrict M, const double *restrict z,
+                   int rows, int cols)
+{
+    int i, j;
+    for (i = 0; i < rows; i++) {
+        const double *r = M + (size_t)i * cols;
+        double a = 0.0, b = 0.0;
+        for (j = 0; j + 1 < cols; j += 2) {
+            a += r[j] * z[j];
+            b += r[j + 1] * z[j + 1];
+        }
+        if (j < cols)
+            a += r[j] * z[j];
+        out[i] = a + b;
+    }
+}
+
+/* Roots without pow(), exp() or log(): those carry the glibc 2.29 symbol version, while
+ * sqrt, cbrt, frexp and ldexp keep the binary loadable by glibc 2.14 (RHEL 7/8, Debian 10). */
+static double root5(double x)
+{
+    int e, q, r, i;
+    double t, y = 1.2;
+    if (!(x > 0.0) || !isfinite(x))
+        return x;
+    t = frexp(x, &e); /* x = t 2^e, t in [0.5, 1) */
+    q = e / 5;
+    r = e % 5;
+    if (r < 0) {
+        r += 5;
+        q -= 1;
+    }
+    t = ldexp(t, r); /* x = t 2^(5 q), t in [0.5, 16): its fifth root is in [0.87, 1.75) */
+    for (i = 0; i < 60; i++) { /* Newton, quadratic from y = 1.2 */
+        double y4 = y * y * y * y, yn = y - (y4 * y - t) / (5.0 * y4);
+        if (yn == y)
+            break;
+        y = yn;
+    }
+    return ldexp(y, q);
+}
+
+/* ceil(log2(v)) for v > 0, exactly: v = m 2^e with m in [0.5, 1) */
+static int ceil_log2(double v)
+{
+    int e;
+    double m = frexp(v, &e);
+    return m == 0.5 ? e - 1 : e;
+}
+
+/* Pade(13) coefficients and the scaling threshold theta_13 (Higham 2005). */
+static const double B13[14] = {
+    64764752532480000., 32382376266240000., 7771770303897600., 1187353796428800.,
+    129060195264000., 10559470521600., 670442572800., 33522128640., 1323241920.,
+    40840800., 960960., 16380., 182., 1.};
+#define THETA13 5.371920351148152
+
+/* E = exp(M), M N x N, by scaling and squaring with a degree-13 Pade approximant; the
+ * scaling from norms of powers of M (Al-Mohy & Higham 2009), as bodyvib.discretize.expm.
+ * work: 9 N x N; piv: N. Returns 0 if the Pade denominator is singular. */
+static int expm(double *E, const double *M, int N, double *work, int *piv)
+{
+    size_t NN = (size_t)N * N, i;
+    double *M2 = work, *M4 = M2 + NN, *M6 = M4 + NN, *T = M6 + NN, *A = T + NN;
+    double *W = A + NN, *Uo = W + NN, *V = Uo + NN, *P = V + NN;
+    double d6, d8, d10, eta, f2, f4, f6, f1;
+    int s = 0, k, j;
+
+    mul(M2, M, M, N, N, N);
+    mul(M4, M2, M2, N, N, N);
+    mul(M6, M4, M2, N, N, N);
+    d6 = sqrt(cbrt(norm1(M6, N)));
+    mul(T, M4, M4, N, N, N);
+    d8 = sqrt(sqrt(sqrt(norm1(T, N))));
+    mul(T, M4, M6, N, N, N);
+    d10 = sqrt(root5(norm1(T, N)));
+    eta = fmin(fmax(d6, d8), fmax(d8, d10));
+    if (eta > 0.0 && isfinite(eta)) {
+        int l = ceil_log2(eta / THETA13);
+        s = l > 0 ? l : 0;
+    }
+    f1 = ldexp(1.0, -s);
+    f2 = ldexp(1.0, -2 * s);
+    f4 = ldexp(1.0, -4 * s);
+    f6 = ldexp(1.0, -6 * s);
+    for (i = 0; i < NN; i++) {
+        A[i] = M[i] * f1;
+        M2[i] *= f2;
+        M4[i] *= f4;
+        M6[i] *= f6;
+    }
+    /* U = A (A6 (b13 A6 + b11 A4 + b9 A2) + b7 A6 + b5 A4 + b3 A2 + b1 I) */
+    for (i = 0; i < NN; i++)
+        W[i] = B13[13] * M6[i] + B13[11] * M4[i] + B13[9] * M2[i];
+    mul(T, M6, W, N, N, N);
+    for (i = 0; i < NN; i++)
+        T[i] += B13[7] * M6[i] + B13[5] * M4[i] + B13[3] * M2[i];
+    for (k = 0; k < N; k++)
+        T[(size_t)k * N + k] += B13[1];
+    mul(Uo, A, T, N, N, N);
+    /* V = A6 (b12 A6 + b10 A4 + b8 A2) + b6 A6 + b4 A4 + b2 A2 + b0 I */
+    for (i = 0; i < NN; i++)
+        W[i] = B13[12] * M6[i] + B13[10] * M4[i] + B13[8] * M2[i];
+    mul(V, M6, W, N, N, N);
+    for (i = 0; i < NN; i++)
+        V[i] += B13[6] * M6[i] + B13[4] * M4[i] + B13[2] * M2[i];
+    for (k = 0; k < N; k++)
+        V[(size_t)k * N + k] += B13[0];
+    /* (V - U) E = V + U */
+    for (i = 0; i < NN; i++) {
+        P[i] = V[i] - Uo[i];
+        E[i] = V[i] + Uo[i];
+    }
+    if (!lu(P, piv, N))
+        return 0;
+    lu_solve(P, piv, N, E, N);
+    for (j = 0; j < s; j++) {
+        mul(T, E, E, N, N, N);
+        memcpy(E, T, NN * sizeof *E);
+    }
+    return 1;
+}
+
+/* ---------------------------------------------------------------- model assembly */
+
+static const char *var_name(const bv_model *md, int kind, int index)
+{
+    int vr;
+    for (vr = 0; vr < md->nvars; vr++)
+        if (md->vr_kind[vr] == kind && md->vr_index[vr] == index)
+            return md->vr_name[vr];
+    return "?";
+}
+
+static int params_valid(const bv_instance *c, const double *p, int quiet)
+{
+    int j;
+    for (j = 0; j < c->np; j++)
+        if (!(isfinite(p[j]) && p[j] > 0.0)) {
+            if (!quiet) {
+                const bv_model *md = c->md;
+                char text[32];
+                snprintf(((bv_instance *)c)->init_error, BV_MESSAGE,
+                         "%s: parameter %s = %s %s is invalid: it must be a positive finite "
+                         "number; set a value > 0 (the FMU's default is %g %s)",
+                         c->name, var_name(md, BV_PARAMETER, j), shortest(p[j], text),
+                         md->param_unit[j], md->param_start[j], md->param_unit[j]);
+            }
+            return 0;
+        }
+    return 1;
+}
+
+/* Assemble the descriptor form for p, solve it, form the output rows; 0 if E is singular. */
+static int build(bv_instance *c, const double *p)
+{
+    const bv_model *md = c->md;
+    int n = c->n, m = c->m, ni = c->ni, no = c->no, R = md->rows, w = n + ni, k, i, j;
+    double *E = c->work, *AB = E + (size_t)n * n, *Cz = AB + (size_t)n * (n + m);
+    double *Cd = Cz + (size_t)R * n, *Dd = Cd + (size_t)R * n;
+    double *Cr = Dd + (size_t)R * m, *Dr = Cr + n, *CrB = Dr + m, *t1 = CrB + m, *t2 = t1 + ni;
+
+    memset(c->work, 0, ((size_t)n * n + (size_t)n * (n + m) + 2 * (size_t)R * n + (size_t)R * m) *
+                           sizeof(double));
+    for (k = 0; k < md->nstencils; k++) {
+        const bv_stencil *st = &md->stencils[k];
+        double v = st->coef * (st->param < 0 ? 1.0 : p[st->param]);
+        switch (st->mat) {
+        case BV_E: E[st->row * n + st->col] += v; break;
+        case BV_A: AB[st->row * (n + m) + st->col] += v; break;
+        case BV_B: AB[st->row * (n + m) + n + st->col] += v; break;
+        case BV_C: Cz[st->row * n + st->col] += v; break;
+        case BV_CD: Cd[st->row * n + st->col] += v; break;
+        default: Dd[st->row * m + st->col] += v; break;
+        }
+    }
+    if (!lu(E, c->piv, n))
+        return 0;
+    lu_solve(E, c->piv, n, AB, n + m);
+    for (i = 0; i < n; i++) {
+        for (j = 0; j < n; j++)
+            c->A[i * n + j] = AB[i * (n + m) + j];
+        for (j = 0; j < m; j++)
+            c->B[i * m + j] = AB[i * (n + m) + n + j];
+    }
+    for (i = 0; i < n * n; i++)
+        if (!isfinite(c->A[i]))
+            return 0;
+    for (k = 0; k < no; k++) {
+        int r = md->out_row[k];
+        double *row = c->Yc + (size_t)k * w;
+        /* row r with z' substituted: C_r = C + Cd A, D_r = D + Cd B */
+        for (j = 0; j < n; j++) {
+            double v = Cz[r * n + j];
+            for (i = 0; i < n; i++)
+                v += Cd[r * n + i] * c->A[i * n + j];
+            Cr[j] = v;
+        }
+        for (j = 0; j < m; j++) {
+            double v = Dd[r * m + j];
+            for (i = 0; i < n; i++)
+                v += Cd[r * n + i] * c->B[i * m + j];
+            Dr[j] = v;
+        }
+        if (md->out_derivative[k]) {
+            /* d/dt (C_r x + D_r u) = (C_r A) x + (C_r B U + D_r U R) s */
+            mul(row, Cr, c->A, 1, n, n);
+            mul(CrB, Cr, c->B, 1, n, m);
+            mul(t1, CrB, md->U, 1, m, ni);
+            mul(t2, Dr, c->UR, 1, m, ni);
+            for (j = 0; j < ni; j++)
+                row[n + j] = t1[j] + t2[j];
+        } else {
+            memcpy(row, Cr, (size_t)n * sizeof(double));
+            mul(row + n, Dr, md->U, 1, m, ni);
+        }
+    }
+    memcpy(c->p_built, p, (size_t)c->np * sizeof(double));
+    c->built = 1;
+    c->dirty = 1;
+    c->h_key = 0.0;
+    return 1;
+}
+
+/* The powers of ten that are exact doubles. */
+static const double P10[23] = {1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11,
+                               1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+
+/* h rounded to 12 significant digits, as the library's step cache keys it
+ * (float(f"{h:.12g}")): the decimal digits are read back exactly, locale-independent. */
+static double round12(double h)
+{
+    char text[40], *q;
+    long long mant = 0;
+    int e, p;
+    snprintf(text, sizeof text, "%.11e", h);
+    q = strchr(text, 'e');
+    if (q == NULL)
+        return h;
+    e = atoi(q + 1);
+    for (p = 0; text + p < q; p++)
+        if (text[p] >= '0' && text[p] <= '9')
+            mant = mant * 10 + (text[p] - '0');
+    p = e - 11;
+    if (p >= 0 && p <= 22)
+        return (double)mant * P10[p];
+    if (p < 0 && p >= -22)
+        return (double)mant / P10[-p]; /* exact powers: one rounding, as strtod */
+    return h;
+}
+
+/* exp of the augmented matrix with `blocks` input blocks ([[A, B, 0..], [0, 0, I, ..], ..] h),
+ * as bodyvib.runtime.discretize (blocks 2: Phi, Gamma0, Gamma1; blocks 3: also Gamma2). */
+static int augmented(bv_instance *c, double key, int blocks, double *E)
+{
+    int n = c->n, m = c->m, N = n + blocks * m, i, j, b;
+    double *M = E + (size_t)N * N;
+    memset(M, 0, (size_t)N * N * sizeof *M);
+    for (i = 0; i < n; i++) {
+        for (j = 0; j < n; j++)
+            M[i * N + j] = c->A[i * n + j] * key;
+        for (j = 0; j < m; j++)
+            M[i * N + n + j] = c->B[i * m + j] * key;
+    }
+    for (b = 1; b < blocks; b++)
+        for (j = 0; j < m; j++)
+            M[(n + (b - 1) * m + j) * N + n + b * m + j] = key;
+    return expm(E, M, N, M + (size_t)N * N, c->piv);
+}
+
+/* Step matrices for h (Sc, Ms). */
+static int discretize(bv_instance *c, double h)
+{
+    int n = c->n, m = c->m, ni = c->ni, i, j, k;
+    int N2 = n + 2 * m, N3 = n + 3 * m;
+    double key, *E, *G, *T;
+    const double *R = c->md->R;
+    if (c->h_key != 0.0 && h == c->h_raw)
+        return 1;
+    key = round12(h);
+    if (c->h_key == key) {
+        c->h_raw = h;
+        return 1;
+    }
+    E = c->work;
+    G = E + 11 * (size_t)N3 * N3; /* past augmented()'s matrix and expm's work */
+    T = G + (size_t)n * m;
+    if (!augmented(c, key, 2, E))
+        return 0;
+    for (i = 0; i < n; i++)
+        for (j = 0; j < n; j++)
+            c->Sc[(size_t)i * (n + ni) + j] = E[i * N2 + j];
+    /* Gamma0 U + Gamma1 U R */
+    for (i = 0; i < n; i++)
+        for (j = 0; j < m; j++)
+            G[i * m + j] = E[i * N2 + n + j];
+    mul(T, G, c->md->U, n, m, ni);
+    for (i = 0; i < n; i++)
+        for (j = 0; j < ni; j++)
+            c->Sc[(size_t)i * (n + ni) + n + j] = T[i * ni + j];
+    for (i = 0; i < n; i++)
+        for (j = 0; j < m; j++)
+            G[i * m + j] = E[i * N2 + n + m + j];
+    mul(T, G, c->UR, n, m, ni);
+    for (i = 0; i < n; i++)
+        for (j = 0; j < ni; j++)
+            c->Sc[(size_t)i * (n + ni) + n + j] += T[i * ni + j];
+    if (c->curved) { /* + Gamma2 U R^2, from the three-block exponential */
+        if (!augmented(c, key, 3, E))
+            return 0;
+        for (i = 0; i < n; i++)
+            for (j = 0; j < m; j++)
+                G[i * m + j] = E[i * N3 + n + 2 * m + j];
+        mul(T, G, c->UR2, n, m, ni);
+        for (i = 0; i < n; i++)
+            for (j = 0; j < ni; j++)
+                c->Sc[(size_t)i * (n + ni) + n + j] += T[i * ni + j];
+    }
+    for (i = 0; i < n * (n + ni); i++)
+        if (!isfinite(c->Sc[i]))
+            return 0;
+    /* inputs at the step's end: (I + h R + h^2/2 R^2) s, with the actual h */
+    for (i = 0; i < ni; i++)
+        for (j = 0; j < ni; j++) {
+            double r2 = 0.0;
+            for (k = 0; k < ni; k++)
+                r2 += R[i * ni + k] * R[k * ni + j];
+            c->Ms[i * ni + j] = (i == j ? 1.0 : 0.0) + h * R[i * ni + j];
+            if (c->curved)
+                c->Ms[i * ni + j] += 0.5 * h * h * r2;
+        }
+    c->h_key = key;
+    c->h_raw = h;
+    return 1;
+}
+
+/* ---------------------------------------------------------------- instances */
+
+static void clear_state(bv_instance *c)
+{
+    int j, np1 = c->md->npairs + 1;
+    for (j = 0; j < c->np; j++)
+        c->p[j] = c->md->param_start[j];
+    memset(c->x, 0, (size_t)c->n * sizeof(double));
+    memset(c->s, 0, (size_t)c->ni * sizeof(double));
+    memset(c->x_prev, 0, (size_t)np1 * sizeof(double));
+    memset(c->h_prev, 0, (size_t)np1 * sizeof(double));
+    memset(c->has_prev, 0, 4 * (size_t)np1);
+    c->dirty = 1;
+    c->time = 0.0;
+    c->initialized = 0;
+    c->init_failed = 0;
+    c->init_error[0] = '\0';
+}
+
+bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *env)
+{
+    bv_instance *c = calloc(1, sizeof *c);
+    int n = md->n, m = md->m, ni = md->ni, no = md->no, np = md->np, R = md->rows;
+    int N = n + 3 * m, np1 = md->npairs + 1, i, j, k;
+    size_t nd, nw, assembly;
+    double *d;
+    if (c == NULL)
+        return NULL;
+    c->md = md;
+    snprintf(c->name, sizeof c->name, "%s", name ? name : md->model_name);
+    c->log = log;
+    c->env = env;
+    c->n = n, c->m = m, c->ni = ni, c->no = no, c->np = np, c->N = N;
+    /* work: the larger of the assembly (E, [A|B], C, Cd, D, a few rows) and the
+     * discretization (E, M, expm's 9 matrices, two n x max(m, ni) blocks) */
+    assembly = (size_t)n * n + (size_t)n * (n + m) + 2 * (size_t)R * n + (size_t)R * m + n +
+               2 * (size_t)m + 2 * (size_t)ni;
+    nw = (size_t)N * N * 11 + (size_t)n * m + (size_t)n * (m > ni ? m : ni);
+    if (assembly > nw)
+        nw = assembly;
+    nd = 2 * (size_t)np + (size_t)n * n + (size_t)n * m + 2 * (size_t)m * ni +
+         (size_t)no * (n + ni) + no + (size_t)n * (n + ni) + (size_t)ni * ni + n + ni +
+         2 * (size_t)np1 + n + ni + nw;
+    d = calloc(nd, sizeof *d);
+    c->piv = calloc((size_t)N + 1, sizeof *c->piv);
+    c->has_prev = calloc(4 * (size_t)np1, 1);
+    if (d == NULL || c->piv == NULL || c->has_prev == NULL) {
+        free(d);
+        free(c->piv);
+        free(c->has_prev);
+        free(c);
+        return NULL;
+    }
+    c->vel_set = c->has_prev + np1;
+    c->slope_on = c->vel_set + np1;
+    c->warned = c->slope_on + np1;
+    c->p = d; d += np;
+    c->p_built = d; d += np;
+    c->A = d; d += (size_t)n * n;
+    c->B = d; d += (size_t)n * m;
+    c->UR = d; d += (size_t)m * ni;
+    c->UR2 = d; d += (size_t)m * ni;
+    c->Yc = d; d += (size_t)no * (n + ni);
+    c->y = d; d += no;
+    c->Sc = d; d += (size_t)n * (n + ni);
+    c->Ms = d; d += (size_t)ni * ni;
+    c->x = d; d += n; /* x, s contiguous: z */
+    c->s = d; d += ni;
+    c->x_prev = d; d += np1;
+    c->h_prev = d; d += np1;
+    c->zn = d; d += n + ni;
+    c->work = d;
+    /* U R and U R^2; curved if R^2 != 0 */
+    mul(c->UR, md->U, md->R, m, ni, ni);
+    mul(c->UR2, c->UR, md->R, m, ni, ni);
+    for (i = 0; i < ni; i++)
+        for (j = 0; j < ni; j++) {
+            double r2 = 0.0;
+            for (k = 0; k < ni; k++)
+                r2 += md->R[i * ni + k] * md->R[k * ni + j];
+            if (r2 != 0.0)
+                c->curved = 1;
+        }
+    clear_state(c);
+    if (!build(c, c->p)) {
+        say(c, BV_ERROR, "%s: the model with its default parameters cannot be assembled "
+                         "(singular descriptor matrix)", c->name);
+        bv_free(c);
+        return NULL;
+    }
+    return c;
+}
+
+void bv_free(bv_instance *c)
+{
+    if (c == NULL)
+        return;
+    free(c->p); /* the start of the one block of doubles */
+    free(c->piv);
+    free(c->has_prev);
+    free(c);
+}
+
+void bv_reset(bv_instance *c)
+{
+    clear_state(c);
+    if (memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0)
+        build(c, c->p); /* the defaults always build (checked at instantiation) */
+}
+
+double bv_time(const bv_instance *c) { return c->time; }
+
+bv_status bv_initialize(bv_instance *c)
+{
+    c->initialized = 0;
+    if (!params_valid(c, c->p, 0)) {
+        size_t l = strlen(c->init_error);
+        snprintf(c->init_error + l, BV_MESSAGE - l,
+                 "; the instance refuses to step (reset and set valid parameters)");
+        c->init_failed = 1;
+        say(c, BV_ERROR, "%s", c->init_error);
+        return BV_ERROR;
+    }
+    if (!c->built || memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0) {
+        if (!build(c, c->p)) {
+            snprintf(c->init_error, BV_MESSAGE,
+                     "%s: the parameters give a singular model (a massless node without "
+                     "damping); the instance refuses to step (reset and set valid parameters)",
+                     c->name);
+            c->init_failed = 1;
+            say(c, BV_ERROR, "%s", c->init_error);
+            return BV_ERROR;
+        }
+    }
+    c->init_failed = 0;
+    c->init_error[0] = '\0';
+    c->initialized = 1;
+    return BV_OK;
+}
+
+static int check_vr(const bv_instance *c, unsigned int vr)
+{
+    if (vr >= (unsigned int)c->md->nvars) {
+        say(c, BV_ERROR, "%s: no variable with value reference %u", c->name, vr);
+        return 0;
+    }
+    return 1;
+}
+
+bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const double value[])
+{
+    const bv_model *md = c->md;
+    bv_status status = BV_OK;
+    size_t i;
+    int k;
+    for (i = 0; i < nvr; i++) {
+        int kind, idx;
+        if (!check_vr(c, vr[i]))
+            return BV_ERROR;
+        kind = md->vr_kind[vr[i]];
+        idx = md->vr_index[vr[i]];
+        if (kind == BV_INPUT) {
+            c->s[idx] = value[i];
+            c->dirty = 1;
+            if (value[i] != 0.0)
+                for (k = 0; k < md->npairs; k++)
+                    if (md->pairs[k].rate == idx) {
+                        c->vel_set[k] = 1;
+                        c->slope_on[k] = 0;
+                    }
+        } else if (kind == BV_PARAMETER) {
+            if (c->initialized) {
+                say(c, BV_ERROR, "%s: parameter %s is fixed after initialization; set it "
+                                 "before ExitInitializationMode (ignored)",
+                    c->name, md->vr_name[vr[i]]);
+                status = BV_ERROR;
+            } else {
+                c->p[idx] = value[i];
+            }
+        } else {
+            say(c, BV_ERROR, "%s: %s is an output and cannot be set (ignored)", c->name,
+                md->vr_name[vr[i]]);
+            status = BV_ERROR;
+        }
+    }
+    return status;
+}
+
+bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double value[])
+{
+    const bv_model *md = c->md;
+    size_t i;
+    int k;
+    if (!c->initialized && memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0 &&
+        params_valid(c, c->p, 1))
+        build(c, c->p); /* parameters changed before initialization: follow them if valid */
+    for (i = 0; i < nvr; i++) {
+        int kind, idx;
+        if (!check_vr(c, vr[i]))
+            return BV_ERROR;
+        kind = md->vr_kind[vr[i]];
+        idx = md->vr_index[vr[i]];
+        if (kind == BV_INPUT) {
+            value[i] = c->s[idx];
+            for (k = 0; k < md->npairs; k++) /* the slope stands in: the input reads as set */
+                if (c->slope_on[k] && md->pairs[k].rate == idx)
+                    value[i] = 0.0;
+        } else if (kind == BV_PARAMETER) {
+            value[i] = c->p[idx];
+        } else {
+            if (c->dirty) {
+                matvec(c->y, c->Yc, c->x, c->no, c->n + c->ni);
+                c->dirty = 0;
+            }
+            value[i] = c->y[idx];
+        }
+    }
+    return BV_OK;
+}
+
+/* The unconnected-velocity rule, before a step (bodyvib.runtime.engine's _slope_fallback). */
+static void slope_fallback(bv_instance *c, double t, double h)
+{
+    const bv_model *md = c->md;
+    int k;
+    for (k = 0; k < md->npairs; k++) {
+        const bv_pair *pr = &md->pairs[k];
+        double x = c->s[pr->value];
+        if (c->vel_set[k])
+            continue;
+        if (c->has_prev[k] && x != c->x_prev[k] && !c->slope_on[k]) {
+            c->slope_on[k] = 1;
+            if (!c->warned[k]) {
+                const char *dname = var_name(md, BV_INPUT, pr->value);
+                const char *vname = var_name(md, BV_INPUT, pr->rate);
+                c->warned[k] = 1;
+                say(c, BV_WARNING, "%s: %s moves (t = %g s) but %s was never set: using the "
+                                   "slope of successive %s values as its in-step rate; connect "
+                                   "%s for the exact coupling",
+                    c->name, dname, t, vname, dname, vname);
+            }
+        }
+        if (c->slope_on[k])
+            c->s[pr->rate] = (x - c->x_prev[k]) / c->h_prev[k];
+        c->x_prev[k] = x;
+        c->h_prev[k] = h;
+        c->has_prev[k] = 1;
+    }
+}
+
+bv_status bv_step(bv_instance *c, double t, double h)
+{
+    int n = c->n, ni = c->ni, j;
+    double *zn = c->zn;
+    if (!(h > 0.0 && h < INFINITY)) {
+        char text[32];
+        say(c, BV_ERROR, "%s: communication step size must be positive and finite, got %s s",
+            c->name, shortest(h, text));
+        return BV_ERROR;
+    }
+    for (j = 0; j < ni; j++)
+        if (!isfinite(c->s[j])) {
+            say(c, BV_ERROR, "%s: input %s = %g at t = %g s is not finite; step refused, state "
+                             "unchanged (set a finite value and step again)",
+                c->name, var_name(c->md, BV_INPUT, j), c->s[j], t);
+            return BV_ERROR;
+        }
+    if (!c->initialized) {
+        if (c->init_failed)
+            say(c, BV_ERROR, "%s", c->init_error);
+        else
+            say(c, BV_ERROR, "%s: DoStep before initialization; call ExitInitializationMode "
+                             "first", c->name);
+        return BV_ERROR;
+    }
+    if (c->md->npairs)
+        slope_fallback(c, t, h);
+    if (!discretize(c, h)) {
+        say(c, BV_ERROR, "%s: the step matrices for h = %g s are not finite; step refused",
+            c->name, h);
+        return BV_ERROR;
+    }
+    matvec(zn, c->Sc, c->x, n, n + ni);
+    matvec(zn + n, c->Ms, c->s, ni, ni);
+    for (j = 0; j < n + ni; j++) /* small: plain loops, no library calls on the hot path */
+        c->x[j] = zn[j];
+    c->time = t + h;
+    c->dirty = 1;
+    return BV_OK;
+}
+
+/* ---------------------------------------------------------------- snapshots */
+
+static const unsigned char MAGIC[8] = {'B', 'V', 'S', 'T', 'A', 'T', 'E', '2'};
+
+static uint64_t fnv1a(const unsigned char *p, size_t n)
+{
+    uint64_t h = 1469598103934665603ULL;
+    size_t i;
+    for (i = 0; i < n; i++) {
+        h ^= p[i];
+        h *= 1099511628211ULL;
+    }
+    return h;
+}
+
+/* Payload: doubles time, initialized, init_failed, p[np], x[n], s[ni], then per fallback
+ * pair x_prev, h_prev, has_prev, vel_set, slope_on, warned. */
+static size_t payload_doubles(const bv_instance *c)
+{
+    return 3 + (size_t)c->np + (size_t)c->n + (size_t)c->ni + 6 * (size_t)c->md->npairs;
+}
+
+size_t bv_state_size(const bv_instance *c)
+{
+    return 8 + 8 + 8 + 8 * payload_doubles(c) + 8;
+}
+
+static unsigned char *put(unsigned char *q, const double *v, size_t k)
+{
+    memcpy(q, v, k * sizeof *v);
+    return q + k * sizeof *v;
+}
+
+static uint64_t token_hash(const bv_instance *c)
+{
+    return fnv1a((const unsigned char *)c->md->token, strlen(c->md->token));
+}
+
+void bv_state_write(const bv_instance *c, unsigned char *buf)
+{
+    int k;
+    uint64_t size = bv_state_size(c), token = token_hash(c), sum;
+    double head[3], pair[6];
+    unsigned char *q = buf;
+    memcpy(q, MAGIC, 8);
+    memcpy(q + 8, &size, 8);
+    memcpy(q + 16, &token, 8);
+    q += 24;
+    head[0] = c->time;
+    head[1] = c->initialized;
+    head[2] = c->init_failed;
+    q = put(q, head, 3);
+    q = put(q, c->p, (size_t)c->np);
+    q = put(q, c->x, (size_t)c->n);
+    q = put(q, c->s, (size_t)c->ni);
+    for (k = 0; k < c->md->npairs; k++) {
+        pair[0] = c->x_prev[k];
+        pair[1] = c->h_prev[k];
+        pair[2] = c->has_prev[k];
+        pair[3] = c->vel_set[k];
+        pair[4] = c->slope_on[k];
+        pair[5] = c->warned[k];
+        q = put(q, pair, 6);
+    }
+    sum = fnv1a(buf, (size_t)(q - buf));
+    memcpy(q, &sum, 8);
+}
+
+static int flag_ok(double v) { return v == 0.0 || v == 1.0; }
+
+bv_status bv_state_check(const bv_instance *c, const unsigned char *buf, size_t size)
+{
+    uint64_t want = bv_state_size(c), got, token, sum;
+    size_t off, i;
+    int k;
+    double head[3], pair[6], *p, v;
+    if (buf == NULL || size < 24 || memcmp(buf, MAGIC, 8) != 0) {
+        say(c, BV_ERROR, "%s: not a bodyvib FMU state (bad magic)", c->name);
+        return BV_ERROR;
+    }
+    memcpy(&got, buf + 8, 8);
+    memcpy(&token, buf + 16, 8);
+    if (got != want || size != want || token != token_hash(c)) {
+        say(c, BV_ERROR, "%s: the FMU state belongs to another model or version (size %llu, "
+                         "expected %llu); refused", c->name, (unsigned long long)size,
+            (unsigned long long)want);
+        return BV_ERROR;
+    }
+    memcpy(&sum, buf + want - 8, 8);
+    if (sum != fnv1a(buf, (size_t)want - 8)) {
+        say(c, BV_ERROR, "%s: the FMU state is corrupt (checksum mismatch); refused", c->name);
+        return BV_ERROR;
+    }
+    memcpy(head, buf + 24, sizeof head);
+    off = 24 + sizeof head;
+    if (!(isfinite(head[0]) && flag_ok(head[1]) && flag_ok(head[2]))) {
+        say(c, BV_ERROR, "%s: the FMU state is invalid (time or flags); refused", c->name);
+        return BV_ERROR;
+    }
+    p = malloc((size_t)c->np * sizeof *p + 1);
+    if (p == NULL)
+        return BV_ERROR;
+    memcpy(p, buf + off, (size_t)c->np * sizeof *p);
+    if (head[1] != 0.0 && !params_valid(c, p, 1)) {
+        free(p);
+        say(c, BV_ERROR, "%s: the FMU state holds invalid parameters; refused", c->name);
+        return BV_ERROR;
+    }
+    free(p);
+    off += (size_t)c->np * 8;
+    for (i = 0; i < (size_t)c->n; i++) {
+        memcpy(&v, buf + off + 8 * i, 8);
+        if (!isfinite(v)) {
+            say(c, BV_ERROR, "%s: the FMU state holds a non-finite model state; refused",
+                c->name);
+            return BV_ERROR;
+        }
+    }
+    off += 8 * ((size_t)c->n + (size_t)c->ni);
+    for (k = 0; k < c->md->npairs; k++) {
+        memcpy(pair, buf + off + sizeof pair * (size_t)k, sizeof pair);
+        if (!(flag_ok(pair[2]) && flag_ok(pair[3]) && flag_ok(pair[4]) && flag_ok(pair[5]) &&
+              isfinite(pair[0]) && isfinite(pair[1]) && pair[1] >= 0.0)) {
+            say(c, BV_ERROR, "%s: the FMU state is invalid (fallback bookkeeping); refused",
+                c->name);
+            return BV_ERROR;
+        }
+    }
+    return BV_OK;
+}
+
+static const unsigned char *get(const unsigned char *q, double *v, size_t k)
+{
+    memcpy(v, q, k * sizeof *v);
+    return q + k * sizeof *v;
+}
+
+bv_status bv_state_read(bv_instance *c, const unsigned char *buf, size_t size)
+{
+    int k;
+    double head[3], pair[6];
+    const unsigned char *q;
+    if (bv_state_check(c, buf, size) != BV_OK)
+        return BV_ERROR;
+    q = get(buf + 24, head, 3);
+    q = get(q, c->p, (size_t)c->np);
+    q = get(q, c->x, (size_t)c->n);
+    q = get(q, c->s, (size_t)c->ni);
+    for (k = 0; k < c->md->npairs; k++) {
+        q = get(q, pair, 6);
+        c->x_prev[k] = pair[0];
+        c->h_prev[k] = pair[1];
+        c->has_prev[k] = (unsigned char)(pair[2] != 0.0);
+        c->vel_set[k] = (unsigned char)(pair[3] != 0.0);
+        c->slope_on[k] = (unsigned char)(pair[4] != 0.0);
+        c->warned[k] = (unsigned char)(pair[5] != 0.0);
+    }
+    c->dirty = 1;
+    c->time = head[0];
+    c->initialized = head[1] != 0.0;
+    c->init_failed = head[2] != 0.0;
+    if (c->init_failed)
+        snprintf(c->init_error, BV_MESSAGE, "%s: the restored state was not initialized "
+                 "successfully; reset and set valid parameters", c->name);
+    if (memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0 && params_valid(c, c->p, 1))
+        if (!build(c, c->p) && c->initialized) {
+            c->initialized = 0;
+            say(c, BV_ERROR, "%s: the restored parameters give a singular model", c->name);
+            return BV_ERROR;
+        }
+    return BV_OK;
+}

@@ -1,0 +1,358 @@
+/*
+ * FMI 2.0 co-simulation interface of the bodyvib native FMUs: a thin wrapper of the
+ * model-independent core (bodyvib_core.c). Real variables only; the other types accept
+ * empty requests and refuse any value reference.
+ *
+ * Status: a non-finite input or a non-positive step makes fmi2DoStep return fmi2Error
+ * (reason logged, state unchanged); an invalid parameter makes
+ * fmi2ExitInitializationMode return fmi2Error; a foreign or corrupt FMU state is refused
+ * with fmi2Error. Errors and warnings are always passed to the logger (they are not
+ * debug messages), whatever loggingOn says.
+ */
+#include <stdlib.h>
+#include <string.h>
+
+#include "fmi2Functions.h"
+#include "bodyvib_core.h"
+
+typedef struct {
+    bv_instance *core;
+    fmi2CallbackLogger logger;
+    fmi2ComponentEnvironment env;
+    char *name;
+    int logging_on;
+} Fmu2;
+
+typedef struct {
+    size_t size;
+    unsigned char bytes[1];
+} State2;
+
+/* The logger is printf-like: the message goes as the format, any '%' doubled (hosts that
+ * format it print the text; hosts that do not still get the text, not a bare "%s"). */
+static void fmu_log(void *env, int status, const char *message)
+{
+    Fmu2 *f = env;
+    char text[1300];
+    size_t i = 0;
+    if (f->logger == NULL)
+        return;
+    for (; *message && i + 2 < sizeof text; message++) {
+        if (*message == '%')
+            text[i++] = '%';
+        text[i++] = *message;
+    }
+    text[i] = '\0';
+    f->logger(f->env, f->name, (fmi2Status)status,
+              status == BV_ERROR ? "logStatusError" : "logStatusWarning", text);
+}
+
+static fmi2Status st(bv_status s) { return (fmi2Status)s; }
+
+#define INSTANCE(c)                                                                          \
+    Fmu2 *f = (Fmu2 *)(c);                                                                   \
+    if (f == NULL)                                                                           \
+        return fmi2Error
+
+const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
+const char *fmi2GetVersion(void) { return fmi2Version; }
+
+fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nCategories,
+                               const fmi2String categories[])
+{
+    INSTANCE(c);
+    (void)nCategories;
+    (void)categories;
+    f->logging_on = loggingOn != fmi2False;
+    return fmi2OK;
+}
+
+fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
+                              fmi2String fmuResourceLocation,
+                              const fmi2CallbackFunctions *functions, fmi2Boolean visible,
+                              fmi2Boolean loggingOn)
+{
+    Fmu2 *f;
+    const char *name = instanceName ? instanceName : "";
+    (void)fmuResourceLocation;
+    (void)visible;
+    if (functions != NULL && functions->logger != NULL) {
+        if (fmuType != fmi2CoSimulation) {
+            functions->logger(functions->componentEnvironment, name, fmi2Error, "logStatusError",
+                              "%s: this FMU supports co-simulation only", name);
+            return NULL;
+        }
+        if (fmuGUID == NULL || strcmp(fmuGUID, bv_model_data.token) != 0) {
+            functions->logger(functions->componentEnvironment, name, fmi2Error, "logStatusError",
+                              "%s: GUID %s does not match this FMU's %s", name,
+                              fmuGUID ? fmuGUID : "(null)", bv_model_data.token);
+            return NULL;
+        }
+    } else if (fmuType != fmi2CoSimulation || fmuGUID == NULL ||
+               strcmp(fmuGUID, bv_model_data.token) != 0) {
+        return NULL;
+    }
+    f = calloc(1, sizeof *f);
+    if (f == NULL)
+        return NULL;
+    f->name = malloc(strlen(name) + 1);
+    if (f->name == NULL) {
+        free(f);
+        return NULL;
+    }
+    strcpy(f->name, name);
+    f->logger = functions ? functions->logger : NULL;
+    f->env = functions ? functions->componentEnvironment : NULL;
+    f->logging_on = loggingOn != fmi2False;
+    f->core = bv_new(&bv_model_data, name, fmu_log, f);
+    if (f->core == NULL) {
+        free(f->name);
+        free(f);
+        return NULL;
+    }
+    return f;
+}
+
+void fmi2FreeInstance(fmi2Component c)
+{
+    Fmu2 *f = (Fmu2 *)c;
+    if (f == NULL)
+        return;
+    bv_free(f->core);
+    free(f->name);
+    free(f);
+}
+
+fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fmi2Real tolerance,
+                               fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime)
+{
+    INSTANCE(c);
+    (void)toleranceDefined, (void)tolerance, (void)startTime, (void)stopTimeDefined,
+        (void)stopTime;
+    return fmi2OK;
+}
+
+fmi2Status fmi2EnterInitializationMode(fmi2Component c)
+{
+    INSTANCE(c);
+    return fmi2OK;
+}
+
+fmi2Status fmi2ExitInitializationMode(fmi2Component c)
+{
+    INSTANCE(c);
+    return st(bv_initialize(f->core));
+}
+
+fmi2Status fmi2Terminate(fmi2Component c)
+{
+    INSTANCE(c);
+    return fmi2OK;
+}
+
+fmi2Status fmi2Reset(fmi2Component c)
+{
+    INSTANCE(c);
+    bv_reset(f->core);
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                       fmi2Real value[])
+{
+    INSTANCE(c);
+    if (nvr > 0 && (vr == NULL || value == NULL))
+        return fmi2Error;
+    return st(bv_get(f->core, vr, nvr, value));
+}
+
+fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                       const fmi2Real value[])
+{
+    INSTANCE(c);
+    if (nvr > 0 && (vr == NULL || value == NULL))
+        return fmi2Error;
+    return st(bv_set(f->core, vr, nvr, value));
+}
+
+/* No Integer, Boolean or String variables. */
+#define NO_VARIABLES(fn, T, CONST)                                                             \
+    fmi2Status fn(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, CONST T value[]) \
+    {                                                                                          \
+        INSTANCE(c);                                                                           \
+        (void)vr, (void)value;                                                                 \
+        return nvr == 0 ? fmi2OK : fmi2Error;                                                  \
+    }
+NO_VARIABLES(fmi2GetInteger, fmi2Integer, )
+NO_VARIABLES(fmi2GetBoolean, fmi2Boolean, )
+NO_VARIABLES(fmi2GetString, fmi2String, )
+NO_VARIABLES(fmi2SetInteger, fmi2Integer, const)
+NO_VARIABLES(fmi2SetBoolean, fmi2Boolean, const)
+NO_VARIABLES(fmi2SetString, fmi2String, const)
+
+/* ------------------------------------------------------------------ FMU state */
+
+fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate)
+{
+    size_t size;
+    State2 *s;
+    INSTANCE(c);
+    if (FMUstate == NULL)
+        return fmi2Error;
+    size = bv_state_size(f->core);
+    s = *FMUstate;
+    if (s == NULL || s->size != size) {
+        free(s);
+        *FMUstate = NULL;
+        s = malloc(sizeof *s + size);
+        if (s == NULL)
+            return fmi2Error;
+        s->size = size;
+    }
+    bv_state_write(f->core, s->bytes);
+    *FMUstate = s;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate)
+{
+    State2 *s = FMUstate;
+    INSTANCE(c);
+    if (s == NULL)
+        return fmi2Error;
+    return st(bv_state_read(f->core, s->bytes, s->size));
+}
+
+fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate)
+{
+    INSTANCE(c);
+    if (FMUstate != NULL) {
+        free(*FMUstate);
+        *FMUstate = NULL;
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate FMUstate, size_t *size)
+{
+    State2 *s = FMUstate;
+    INSTANCE(c);
+    if (s == NULL || size == NULL)
+        return fmi2Error;
+    *size = s->size;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byte serializedState[],
+                                 size_t size)
+{
+    State2 *s = FMUstate;
+    INSTANCE(c);
+    if (s == NULL || serializedState == NULL || size < s->size)
+        return fmi2Error;
+    memcpy(serializedState, s->bytes, s->size);
+    return fmi2OK;
+}
+
+fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[], size_t size,
+                                   fmi2FMUstate *FMUstate)
+{
+    State2 *s;
+    INSTANCE(c);
+    if (FMUstate == NULL ||
+        bv_state_check(f->core, (const unsigned char *)serializedState, size) != BV_OK)
+        return fmi2Error;
+    s = malloc(sizeof *s + size);
+    if (s == NULL)
+        return fmi2Error;
+    s->size = size;
+    memcpy(s->bytes, serializedState, size);
+    *FMUstate = s; /* a new state: the host frees it (and any earlier one) with fmi2FreeFMUstate */
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vUnknown_ref[],
+                                        size_t nUnknown, const fmi2ValueReference vKnown_ref[],
+                                        size_t nKnown, const fmi2Real dvKnown[],
+                                        fmi2Real dvUnknown[])
+{
+    INSTANCE(c);
+    (void)vUnknown_ref, (void)nUnknown, (void)vKnown_ref, (void)nKnown, (void)dvKnown,
+        (void)dvUnknown;
+    fmu_log(f, BV_ERROR, "fmi2GetDirectionalDerivative is not supported");
+    return fmi2Error;
+}
+
+/* ------------------------------------------------------------------ co-simulation */
+
+fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                       const fmi2Integer order[], const fmi2Real value[])
+{
+    INSTANCE(c);
+    (void)vr, (void)order, (void)value;
+    if (nvr == 0)
+        return fmi2OK;
+    fmu_log(f, BV_ERROR, "input derivatives are not supported (canInterpolateInputs=false): set "
+                      "the velocity and rate inputs instead");
+    return fmi2Error;
+}
+
+fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
+                                        size_t nvr, const fmi2Integer order[], fmi2Real value[])
+{
+    INSTANCE(c);
+    (void)vr, (void)order, (void)value;
+    return nvr == 0 ? fmi2OK : fmi2Error;
+}
+
+fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
+                      fmi2Real communicationStepSize, fmi2Boolean noSetFMUStatePriorToCurrentPoint)
+{
+    INSTANCE(c);
+    (void)noSetFMUStatePriorToCurrentPoint;
+    return st(bv_step(f->core, currentCommunicationPoint, communicationStepSize));
+}
+
+fmi2Status fmi2CancelStep(fmi2Component c)
+{
+    INSTANCE(c);
+    return fmi2Error; /* doStep never returns fmi2Pending */
+}
+
+fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value)
+{
+    INSTANCE(c);
+    (void)s, (void)value;
+    return fmi2Discard;
+}
+
+fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value)
+{
+    INSTANCE(c);
+    if (s == fmi2LastSuccessfulTime && value != NULL) {
+        *value = bv_time(f->core);
+        return fmi2OK;
+    }
+    return fmi2Discard;
+}
+
+fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value)
+{
+    INSTANCE(c);
+    (void)s, (void)value;
+    return fmi2Discard;
+}
+
+fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value)
+{
+    INSTANCE(c);
+    (void)s, (void)value;
+    return fmi2Discard;
+}
+
+fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value)
+{
+    INSTANCE(c);
+    (void)s, (void)value;
+    return fmi2Discard;
+}

@@ -1,0 +1,520 @@
+/*
+ * An FMI 2.0 co-simulation host in C for the bodyvib native FMUs (tests/test_native_host.py).
+ *
+ * It loads the FMU binary (dlopen on POSIX, LoadLibrary on Windows: the same source is
+ * cross-compiled with mingw-w64 and run under wine), drives instances through a seat
+ * chirp computed here and prints what it sees. No Python, no environment needed.
+ *
+ *   native_host [--resources URI] MODE BINARY GUID IN_VRS OUT_VRS STEP N_STEPS [MASS_VR]
+ *
+ *   MODE      run      one instance through the chirp, fixed step STEP
+ *             vary     the same with varying steps h_k = STEP (1 + 0.5 frac(0.6180339887 k))
+ *             threads  (POSIX) two instances of different amplitude on two threads, each
+ *                      checked bit for bit against the same run done before on this thread
+ *             checks   status codes, FMU state get/set/serialize, reset (needs MASS_VR: the
+ *                      value reference of a mass parameter)
+ *             bench    N_STEPS of set input + doStep + get output, 7 times; prints wall-clock
+ *                      and thread CPU time per step of each and the best
+ *             bench-vary  the same with a new step size at every step (each step
+ *                      rediscretizes: the cost of a step-size change)
+ *   --resources  the fmuResourceLocation passed to fmi2Instantiate (default ""; the native
+ *                FMUs need none, a pythonfmu FMU benchmarked here needs its file:// URI)
+ *   BINARY    path of binaries/<platform>/<id>.so or .dll
+ *   IN_VRS    value references of seat_displacement and seat_velocity ("0,1")
+ *   OUT_VRS   value references of the outputs to print ("2,3,4,5")
+ *
+ * Chirp: x(t) = A sin(2 pi (F0 t + (F1 - F0) t^2 / (2 T))), v = dx/dt exactly, T the run's
+ * length; the inputs at each communication point are x(t_k), v(t_k).
+ *
+ * stdout (run, vary): "libpython absent|present" (POSIX: from /proc/self/maps), then one
+ * line per communication point "k t_k x_k v_k y_1 ... y_m" (%.17g), then "ok".
+ * checks: one "name value" line per check, then "ok". Exit status: 0 success, 1 usage,
+ * 2 cannot load the binary or a function, 3 an FMI call returned an unexpected status,
+ * 4 a check failed (named on stderr).
+ *
+ * Build: gcc -std=c99 -O2 -I<fmpy>/c-code native_host.c -o native_host -ldl -lm -lpthread
+ *        x86_64-w64-mingw32-gcc -std=c99 -O2 -static -I<fmpy>/c-code native_host.c -o host.exe
+ */
+#define _XOPEN_SOURCE 700
+
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#ifdef _WIN32
+#include <windows.h>
+#else
+#include <dlfcn.h>
+#include <pthread.h>
+#include <unistd.h>
+#endif
+
+#include "fmi2Functions.h"
+
+#define AMPLITUDE 0.01 /* m */
+#define F0 0.5         /* Hz */
+#define F1 20.0        /* Hz */
+#define MAX_VRS 16
+
+typedef struct {
+    fmi2InstantiateTYPE *instantiate;
+    fmi2SetupExperimentTYPE *setup;
+    fmi2EnterInitializationModeTYPE *enter_init;
+    fmi2ExitInitializationModeTYPE *exit_init;
+    fmi2SetRealTYPE *set_real;
+    fmi2GetRealTYPE *get_real;
+    fmi2DoStepTYPE *do_step;
+    fmi2TerminateTYPE *terminate;
+    fmi2FreeInstanceTYPE *free_instance;
+    fmi2ResetTYPE *reset;
+    fmi2GetFMUstateTYPE *get_state;
+    fmi2SetFMUstateTYPE *set_state;
+    fmi2FreeFMUstateTYPE *free_state;
+    fmi2SerializedFMUstateSizeTYPE *state_size;
+    fmi2SerializeFMUstateTYPE *serialize;
+    fmi2DeSerializeFMUstateTYPE *deserialize;
+} Api;
+
+static Api api;
+static const char *guid;
+static fmi2ValueReference in_vrs[2], out_vrs[MAX_VRS];
+static size_t n_out;
+static int quiet_log;
+static const char *resources = "";
+
+static void logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status,
+                   fmi2String category, fmi2String message, ...)
+{
+    (void)env;
+    (void)message;
+    if (quiet_log)
+        return;
+    /* the bodyvib FMUs pass the text as the one "%s" argument */
+    {
+        va_list ap;
+        va_start(ap, message);
+        fprintf(stderr, "[log] %s %d %s: ", instance ? instance : "?", (int)status,
+                category ? category : "");
+        vfprintf(stderr, message, ap);
+        fprintf(stderr, "\n");
+        va_end(ap);
+    }
+}
+
+static void *symbol(void *lib, const char *name)
+{
+    void *f;
+#ifdef _WIN32
+    f = (void *)GetProcAddress((HMODULE)lib, name);
+#else
+    f = dlsym(lib, name);
+#endif
+    if (f == NULL) {
+        fprintf(stderr, "native_host: %s not found in the FMU binary\n", name);
+        exit(2);
+    }
+    return f;
+}
+
+static void load(const char *path)
+{
+    void *lib;
+#ifdef _WIN32
+    lib = (void *)LoadLibraryA(path);
+#else
+    lib = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+#endif
+    if (lib == NULL) {
+        fprintf(stderr, "native_host: cannot load %s\n", path);
+        exit(2);
+    }
+    *(void **)&api.instantiate = symbol(lib, "fmi2Instantiate");
+    *(void **)&api.setup = symbol(lib, "fmi2SetupExperiment");
+    *(void **)&api.enter_init = symbol(lib, "fmi2EnterInitializationMode");
+    *(void **)&api.exit_init = symbol(lib, "fmi2ExitInitializationMode");
+    *(void **)&api.set_real = symbol(lib, "fmi2SetReal");
+    *(void **)&api.get_real = symbol(lib, "fmi2GetReal");
+    *(void **)&api.do_step = symbol(lib, "fmi2DoStep");
+    *(void **)&api.terminate = symbol(lib, "fmi2Terminate");
+    *(void **)&api.free_instance = symbol(lib, "fmi2FreeInstance");
+    *(void **)&api.reset = symbol(lib, "fmi2Reset");
+    *(void **)&api.get_state = symbol(lib, "fmi2GetFMUstate");
+    *(void **)&api.set_state = symbol(lib, "fmi2SetFMUstate");
+    *(void **)&api.free_state = symbol(lib, "fmi2FreeFMUstate");
+    *(void **)&api.state_size = symbol(lib, "fmi2SerializedFMUstateSize");
+    *(void **)&api.serialize = symbol(lib, "fmi2SerializeFMUstate");
+    *(void **)&api.deserialize = symbol(lib, "fmi2DeSerializeFMUstate");
+}
+
+static void expect(fmi2Status got, fmi2Status want, const char *call)
+{
+    if (got != want) {
+        fprintf(stderr, "native_host: %s returned %d, expected %d\n", call, (int)got, (int)want);
+        exit(3);
+    }
+}
+
+#ifndef _WIN32
+static void fail(const char *what)
+{
+    fprintf(stderr, "native_host: check failed: %s\n", what);
+    exit(4);
+}
+#endif
+
+static size_t parse_vrs(const char *text, fmi2ValueReference *vrs, size_t max)
+{
+    size_t n = 0;
+    char *end;
+    while (*text && n < max) {
+        vrs[n++] = (fmi2ValueReference)strtoul(text, &end, 10);
+        if (end == text)
+            break;
+        text = *end == ',' ? end + 1 : end;
+    }
+    return n;
+}
+
+static fmi2CallbackFunctions callbacks = {logger, calloc, free, NULL, NULL};
+
+static fmi2Component start(const char *name)
+{
+    fmi2Component c = api.instantiate(name, fmi2CoSimulation, guid, resources, &callbacks, fmi2False,
+                                      fmi2False);
+    if (c == NULL) {
+        fprintf(stderr, "native_host: fmi2Instantiate returned NULL\n");
+        exit(3);
+    }
+    expect(api.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0), fmi2OK, "fmi2SetupExperiment");
+    expect(api.enter_init(c), fmi2OK, "fmi2EnterInitializationMode");
+    expect(api.exit_init(c), fmi2OK, "fmi2ExitInitializationMode");
+    return c;
+}
+
+static void chirp(double t, double T, double amp, double *x, double *v)
+{
+    double phase = 2.0 * M_PI * (F0 * t + (F1 - F0) * t * t / (2.0 * T));
+    *x = amp * sin(phase);
+    *v = amp * 2.0 * M_PI * (F0 + (F1 - F0) * t / T) * cos(phase);
+}
+
+static double step_size(double h, long k, int vary)
+{
+    double f;
+    if (!vary)
+        return h;
+    f = 0.6180339887 * (double)k;
+    return h * (1.0 + 0.5 * (f - floor(f)));
+}
+
+/* Run one instance from its current state through the chirp; outputs into y (n_steps+1 rows). */
+static void run(fmi2Component c, double h, long n_steps, int vary, double amp, double *y,
+                double *tx, long from, long to)
+{
+    long k;
+    double t = 0.0, T = 0.0, in[2];
+    for (k = 0; k < n_steps; k++)
+        T += step_size(h, k, vary);
+    for (k = 0; k < from; k++)
+        t += step_size(h, k, vary);
+    for (k = from; k <= to; k++) {
+        double hk = step_size(h, k, vary);
+        chirp(t, T, amp, &in[0], &in[1]);
+        expect(api.set_real(c, in_vrs, 2, in), fmi2OK, "fmi2SetReal");
+        expect(api.get_real(c, out_vrs, n_out, y + (size_t)k * n_out), fmi2OK, "fmi2GetReal");
+        if (tx) {
+            tx[3 * k] = t;
+            tx[3 * k + 1] = in[0];
+            tx[3 * k + 2] = in[1];
+        }
+        if (k < to) {
+            expect(api.do_step(c, t, hk, fmi2True), fmi2OK, "fmi2DoStep");
+            t += hk;
+        }
+    }
+}
+
+static void libpython_line(void)
+{
+#ifdef _WIN32
+    printf("libpython unknown\n");
+#else
+    char line[4096];
+    int found = 0;
+    FILE *maps = fopen("/proc/self/maps", "r");
+    if (maps == NULL) {
+        printf("libpython unknown\n");
+        return;
+    }
+    while (fgets(line, sizeof line, maps))
+        if (strstr(line, "libpython"))
+            found = 1;
+    fclose(maps);
+    printf("libpython %s\n", found ? "present" : "absent");
+#endif
+}
+
+#ifndef _WIN32
+typedef struct {
+    double h, amp;
+    long n;
+    double *y;
+} Job;
+
+static void *worker(void *arg)
+{
+    Job *j = arg;
+    long r;
+    for (r = 0; r < 20; r++) { /* repeat, so the two threads overlap */
+        fmi2Component c = start("thread");
+        run(c, j->h, j->n, 0, j->amp, j->y + (size_t)r * (j->n + 1) * n_out, NULL, 0, j->n);
+        api.terminate(c);
+        api.free_instance(c);
+    }
+    return NULL;
+}
+#endif
+
+/* A pythonfmu FMU (benchmarked for comparison) must release its interpreter before exit,
+ * and its exit-time teardown is skipped (see fmi2_host.c, "Exit"); a native FMU has no
+ * finalizePythonInterpreter. */
+#ifndef _WIN32
+static void finish_python(const char *path)
+{
+    void *lib = dlopen(path, RTLD_NOW | RTLD_NOLOAD);
+    void (*finalize)(void) = NULL;
+    if (lib != NULL)
+        *(void **)&finalize = dlsym(lib, "finalizePythonInterpreter");
+    if (finalize != NULL) {
+        finalize();
+        printf("ok\n");
+        fflush(stdout);
+        _exit(0);
+    }
+}
+#endif
+
+static int same(const double *a, const double *b, size_t n)
+{
+    return memcmp(a, b, n * sizeof *a) == 0;
+}
+
+int main(int argc, char **argv)
+{
+    const char *mode;
+    double h;
+    long n_steps, k;
+    size_t rows, i;
+    double *y, *tx;
+    fmi2Component c;
+
+    if (argc > 2 && strcmp(argv[1], "--resources") == 0) {
+        resources = argv[2];
+        argv += 2;
+        argc -= 2;
+    }
+    if (argc < 8) {
+        fprintf(stderr, "usage: native_host MODE BINARY GUID IN_VRS OUT_VRS STEP N_STEPS "
+                        "[MASS_VR]\n");
+        return 1;
+    }
+    mode = argv[1];
+    guid = argv[3];
+    if (parse_vrs(argv[4], in_vrs, 2) != 2 || (n_out = parse_vrs(argv[5], out_vrs, MAX_VRS)) == 0)
+        return 1;
+    h = strtod(argv[6], NULL);
+    n_steps = strtol(argv[7], NULL, 10);
+    if (!(h > 0.0) || n_steps < 2)
+        return 1;
+    load(argv[2]);
+    rows = (size_t)n_steps + 1;
+    y = calloc(rows * n_out * 3, sizeof *y);
+    tx = calloc(rows * 3, sizeof *tx);
+
+    if (strcmp(mode, "run") == 0 || strcmp(mode, "vary") == 0) {
+        libpython_line();
+        c = start("run");
+        run(c, h, n_steps, strcmp(mode, "vary") == 0, AMPLITUDE, y, tx, 0, n_steps);
+        expect(api.terminate(c), fmi2OK, "fmi2Terminate");
+        api.free_instance(c);
+        for (k = 0; k <= n_steps; k++) {
+            printf("%ld %.17g %.17g %.17g", k, tx[3 * k], tx[3 * k + 1], tx[3 * k + 2]);
+            for (i = 0; i < n_out; i++)
+                printf(" %.17g", y[(size_t)k * n_out + i]);
+            printf("\n");
+        }
+    } else if (strcmp(mode, "threads") == 0) {
+#ifdef _WIN32
+        printf("threads skipped\n");
+#else
+        Job jobs[2];
+        pthread_t th[2];
+        double *ref[2];
+        int j;
+        long r;
+        for (j = 0; j < 2; j++) {
+            jobs[j].h = h;
+            jobs[j].n = n_steps;
+            jobs[j].amp = AMPLITUDE * (j + 1);
+            jobs[j].y = calloc(rows * n_out * 20, sizeof(double));
+            ref[j] = calloc(rows * n_out, sizeof(double));
+            c = start("sequential");
+            run(c, h, n_steps, 0, jobs[j].amp, ref[j], NULL, 0, n_steps);
+            api.free_instance(c);
+        }
+        for (j = 0; j < 2; j++)
+            pthread_create(&th[j], NULL, worker, &jobs[j]);
+        for (j = 0; j < 2; j++)
+            pthread_join(th[j], NULL);
+        for (j = 0; j < 2; j++)
+            for (r = 0; r < 20; r++)
+                if (!same(jobs[j].y + (size_t)r * rows * n_out, ref[j], rows * n_out))
+                    fail("a thread's run differs from the sequential run");
+        if (same(ref[0], ref[1], rows * n_out))
+            fail("the two amplitudes gave the same outputs");
+        for (j = 0; j < 2; j++) {
+            free(jobs[j].y);
+            free(ref[j]);
+        }
+        printf("threads identical\n");
+#endif
+    } else if (strcmp(mode, "checks") == 0) {
+        fmi2ValueReference mass_vr;
+        fmi2FMUstate s = NULL, s2 = NULL;
+        size_t size;
+        fmi2Byte *bytes;
+        double *y2 = y + rows * n_out, *y3 = y2 + rows * n_out, in[2], v;
+        long half = n_steps / 2;
+        if (argc < 9)
+            return 1;
+        mass_vr = (fmi2ValueReference)strtoul(argv[8], NULL, 10);
+        quiet_log = 0;
+        /* non-finite input and non-positive step: fmi2Error, and the state is unchanged */
+        c = start("checks");
+        in[0] = NAN;
+        in[1] = 0.0;
+        expect(api.set_real(c, in_vrs, 2, in), fmi2OK, "fmi2SetReal NaN");
+        printf("nan_step %d\n", (int)api.do_step(c, 0.0, h, fmi2True));
+        in[0] = 0.0;
+        in[1] = INFINITY;
+        expect(api.set_real(c, in_vrs, 2, in), fmi2OK, "fmi2SetReal inf");
+        printf("inf_step %d\n", (int)api.do_step(c, 0.0, h, fmi2True));
+        in[1] = 0.0;
+        expect(api.set_real(c, in_vrs, 2, in), fmi2OK, "fmi2SetReal 0");
+        printf("negative_step %d\n", (int)api.do_step(c, 0.0, -h, fmi2True));
+        printf("zero_step %d\n", (int)api.do_step(c, 0.0, 0.0, fmi2True));
+        /* after the refusals the run equals a fresh one */
+        run(c, h, n_steps, 0, AMPLITUDE, y, NULL, 0, n_steps);
+        api.free_instance(c);
+        c = start("fresh");
+        run(c, h, n_steps, 0, AMPLITUDE, y2, NULL, 0, n_steps);
+        printf("refusals_leave_state %d\n", same(y, y2, rows * n_out));
+        api.free_instance(c);
+        /* an invalid parameter: fmi2ExitInitializationMode returns fmi2Error; steps refused */
+        c = api.instantiate("mass", fmi2CoSimulation, guid, "", &callbacks, fmi2False, fmi2False);
+        v = -1.0;
+        expect(api.set_real(c, &mass_vr, 1, &v), fmi2OK, "fmi2SetReal mass");
+        api.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0);
+        api.enter_init(c);
+        printf("negative_mass_init %d\n", (int)api.exit_init(c));
+        printf("negative_mass_step %d\n", (int)api.do_step(c, 0.0, h, fmi2True));
+        /* reset: back to the defaults; the run equals a fresh one */
+        expect(api.reset(c), fmi2OK, "fmi2Reset");
+        api.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0);
+        api.enter_init(c);
+        expect(api.exit_init(c), fmi2OK, "fmi2ExitInitializationMode after reset");
+        run(c, h, n_steps, 0, AMPLITUDE, y3, NULL, 0, n_steps);
+        printf("reset_equals_fresh %d\n", same(y3, y2, rows * n_out));
+        api.free_instance(c);
+        /* FMU state: get at half-way, run on, restore, run again: bit-identical */
+        c = start("state");
+        run(c, h, n_steps, 0, AMPLITUDE, y, NULL, 0, half); /* steps 0..half-1 */
+        expect(api.get_state(c, &s), fmi2OK, "fmi2GetFMUstate");
+        expect(api.state_size(c, s, &size), fmi2OK, "fmi2SerializedFMUstateSize");
+        bytes = malloc(size);
+        expect(api.serialize(c, s, bytes, size), fmi2OK, "fmi2SerializeFMUstate");
+        memset(y3, 0, rows * n_out * sizeof *y3);
+        /* on to the end from the half-way point; compare with the uninterrupted run y2 */
+        {
+            double *yy = calloc(rows * n_out, sizeof *yy);
+            run(c, h, n_steps, 0, AMPLITUDE, yy, NULL, half, n_steps);
+            printf("state_continue_equals_fresh %d\n",
+                   same(yy + half * n_out, y2 + half * n_out, (rows - half) * n_out));
+            expect(api.set_state(c, s), fmi2OK, "fmi2SetFMUstate");
+            memset(yy, 0, rows * n_out * sizeof *yy);
+            run(c, h, n_steps, 0, AMPLITUDE, yy, NULL, half, n_steps);
+            printf("state_restore_equals_fresh %d\n",
+                   same(yy + half * n_out, y2 + half * n_out, (rows - half) * n_out));
+            expect(api.deserialize(c, bytes, size, &s2), fmi2OK, "fmi2DeSerializeFMUstate");
+            expect(api.set_state(c, s2), fmi2OK, "fmi2SetFMUstate (deserialized)");
+            memset(yy, 0, rows * n_out * sizeof *yy);
+            run(c, h, n_steps, 0, AMPLITUDE, yy, NULL, half, n_steps);
+            printf("deserialized_equals_fresh %d\n",
+                   same(yy + half * n_out, y2 + half * n_out, (rows - half) * n_out));
+            free(yy);
+        }
+        quiet_log = 1;
+        bytes[size / 2] ^= 0x01;
+        printf("corrupt_state %d\n", (int)api.deserialize(c, bytes, size, &s2));
+        bytes[size / 2] ^= 0x01;
+        printf("short_state %d\n", (int)api.deserialize(c, bytes, size - 8, &s2));
+        bytes[0] = 'X';
+        printf("foreign_state %d\n", (int)api.deserialize(c, bytes, size, &s2));
+        quiet_log = 0;
+        api.free_state(c, &s);
+        api.free_state(c, &s2);
+        free(bytes);
+        api.free_instance(c);
+#ifndef _WIN32
+    } else if (strcmp(mode, "bench") == 0 || strcmp(mode, "bench-vary") == 0) {
+        int vary = strcmp(mode, "bench-vary") == 0;
+        double in[2] = {0.0, 0.0}, out[MAX_VRS], best = 1e300, best_cpu = 1e300, t0, t1, cpu;
+        struct timespec a, b, ca, cb;
+        int rep;
+        double table[2 * 1024];
+        for (k = 0; k < 1024; k++) { /* inputs computed before the clock starts */
+            table[2 * k] = 1e-3 * sin(k * h * 30.0);
+            table[2 * k + 1] = 3e-2 * cos(k * h * 30.0);
+        }
+        c = start("bench");
+        for (rep = 0; rep < 7; rep++) {
+            clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ca);
+            clock_gettime(CLOCK_MONOTONIC, &a);
+            for (k = 0; k < n_steps; k++) {
+                double t = k * h;
+                in[0] = table[2 * (k & 1023)];
+                in[1] = table[2 * (k & 1023) + 1];
+                api.set_real(c, in_vrs, 2, in);
+                api.do_step(c, t, vary ? step_size(h, k, 1) : h, fmi2True);
+                api.get_real(c, out_vrs, n_out, out);
+            }
+            clock_gettime(CLOCK_MONOTONIC, &b);
+            clock_gettime(CLOCK_THREAD_CPUTIME_ID, &cb);
+            t0 = (double)a.tv_sec * 1e9 + (double)a.tv_nsec;
+            t1 = (double)b.tv_sec * 1e9 + (double)b.tv_nsec;
+            cpu = ((double)cb.tv_sec * 1e9 + (double)cb.tv_nsec) -
+                  ((double)ca.tv_sec * 1e9 + (double)ca.tv_nsec);
+            printf("ns_per_step %.3f cpu_ns_per_step %.3f\n", (t1 - t0) / (double)n_steps,
+                   cpu / (double)n_steps);
+            if (t1 - t0 < best)
+                best = t1 - t0;
+            if (cpu < best_cpu)
+                best_cpu = cpu;
+        }
+        api.free_instance(c);
+        printf("best_ns_per_step %.3f\n", best / (double)n_steps);
+        printf("best_cpu_ns_per_step %.3f\n", best_cpu / (double)n_steps);
+        finish_python(argv[2]);
+#endif
+    } else {
+        fprintf(stderr, "native_host: unknown mode %s\n", mode);
+        return 1;
+    }
+    free(y);
+    free(tx);
+    printf("ok\n");
+    return 0;
+}

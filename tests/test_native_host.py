@@ -1,0 +1,175 @@
+"""A C program with no Python anywhere in its process runs the native FMUs.
+
+tests/c_host/native_host.c is compiled here (gcc, and mingw-w64 for win64) and started with
+an empty environment. It loads the FMU binary itself (dlopen / LoadLibrary), computes a seat
+chirp in C, prints every input and output with %.17g, and reports whether a libpython is
+mapped into its process (/proc/self/maps). The test compares its outputs with the library's
+exact simulation computed from the printed inputs: 1e-12 of each output's peak for the
+5-state HumanBody3DOF (measured: a few 1e-14); HumanBodyISO7962 to the tolerance of
+tests/test_native_fmu.py (measured against scipy's exponential: the stiff model's step
+matrices are defined to about 1e-10 only).
+"""
+
+import os
+import shutil
+import subprocess
+import tempfile
+import zipfile
+
+import numpy as np
+import pytest
+
+from bodyvib.models import load_model
+from conftest import ROOT
+from test_native_fmu import BODY_OUT, MODEL_OF, TIGHT, body_reference, relative_error, tolerance
+
+pytestmark = pytest.mark.integration
+
+HOST = os.path.join(ROOT, "tests", "c_host", "native_host.c")
+STEP, N_STEPS = 1e-3, 1500
+
+
+def headers():
+    import fmpy
+
+    return os.path.join(os.path.dirname(fmpy.__file__), "c-code")
+
+
+@pytest.fixture(scope="module")
+def host(tmp_path_factory):
+    if shutil.which("gcc") is None:
+        pytest.skip("gcc not found: cannot build the C host")
+    exe = str(tmp_path_factory.mktemp("native_host") / "native_host")
+    out = subprocess.run(["gcc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-I", headers(),
+                          HOST, "-o", exe, "-ldl", "-lm", "-lpthread"],
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    return exe
+
+
+@pytest.fixture(scope="module")
+def unpacked(native_fmus, tmp_path_factory):
+    """name -> (binary folder, guid, input vrs, output vrs, mass vr) of the FMI 2.0 FMUs."""
+    from fmpy import read_model_description
+
+    out = {}
+    for name in MODEL_OF:
+        folder = tmp_path_factory.mktemp(name)
+        with zipfile.ZipFile(native_fmus[name]) as z:
+            z.extractall(folder)
+        md = read_model_description(native_fmus[name])
+        vr = {v.name: v.valueReference for v in md.modelVariables}
+        out[name] = (str(folder / "binaries"), md.guid,
+                     f"{vr['seat_displacement']},{vr['seat_velocity']}",
+                     ",".join(str(vr[n]) for n in BODY_OUT),
+                     str(vr["m1"] if "m1" in vr else vr[next(v.name for v in md.modelVariables
+                                                             if v.unit == "kg")]))
+    return out
+
+
+def run(host, unpacked, name, mode, platform="linux64", suffix=".so", prefix=(), env=None,
+        steps=N_STEPS):
+    binaries, guid, ins, outs, mass = unpacked[name]
+    argv = [*prefix, host, mode, os.path.join(binaries, platform, name + suffix), guid, ins, outs,
+            repr(STEP), str(steps)] + ([mass] if mode == "checks" else [])
+    return subprocess.run(argv, capture_output=True, text=True, timeout=600,
+                          env={} if env is None else env)
+
+
+def table(stdout):
+    rows = [l.split() for l in stdout.splitlines() if l[:1].isdigit()]
+    return np.array(rows, dtype=float)
+
+
+@pytest.mark.parametrize("mode", ["run", "vary"])
+@pytest.mark.parametrize("name", list(MODEL_OF))
+def test_c_host_without_python_matches_the_library(host, unpacked, name, mode):
+    out = run(host, unpacked, name, mode)
+    assert out.returncode == 0, out.stderr
+    lines = out.stdout.splitlines()
+    assert lines[0] == "libpython absent" and lines[-1] == "ok", lines[:2]
+    data = table(out.stdout)
+    assert data.shape == (N_STEPS + 1, 4 + len(BODY_OUT))
+    t, x, v, y = data[:, 1], data[:, 2], data[:, 3], data[:, 4:]
+    if mode == "vary":
+        assert np.ptp(np.diff(t)) > 0.4 * STEP  # the steps did vary
+    err = relative_error(y, body_reference(load_model(MODEL_OF[name]), t, x, v))
+    assert np.all(err <= tolerance(name, t, x, v)), err
+
+
+def test_c_host_sees_libpython_when_it_is_there(host, unpacked):
+    """The host's libpython check can fail: with a libpython preloaded it reports it."""
+    import sysconfig
+
+    lib = os.path.join(sysconfig.get_config_var("LIBDIR") or "",
+                       sysconfig.get_config_var("LDLIBRARY") or "")
+    if not (sysconfig.get_config_var("Py_ENABLE_SHARED") and os.path.isfile(lib)):
+        pytest.skip("this Python has no shared libpython to preload")
+    out = run(host, unpacked, "HumanBody3DOF", "run", env={"LD_PRELOAD": lib}, steps=10)
+    assert out.stdout.splitlines()[0] == "libpython present", out.stdout[:200] + out.stderr
+
+
+@pytest.mark.parametrize("name", list(MODEL_OF))
+def test_statuses_state_and_reset_in_a_c_host(host, unpacked, name):
+    out = run(host, unpacked, name, "checks", steps=400)
+    assert out.returncode == 0, out.stderr
+    got = dict(l.split() for l in out.stdout.splitlines() if " " in l)
+    assert got == {
+        "nan_step": "3", "inf_step": "3", "negative_step": "3", "zero_step": "3",
+        "refusals_leave_state": "1",
+        "negative_mass_init": "3", "negative_mass_step": "3",
+        "reset_equals_fresh": "1",
+        "state_continue_equals_fresh": "1", "state_restore_equals_fresh": "1",
+        "deserialized_equals_fresh": "1",
+        "corrupt_state": "3", "short_state": "3", "foreign_state": "3",
+    }, out.stdout
+    assert "not finite" in out.stderr and "is invalid" in out.stderr
+
+
+def test_two_instances_on_two_threads(host, unpacked):
+    out = run(host, unpacked, "HumanBody3DOF", "threads", steps=2000)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.splitlines()[0] == "threads identical"
+
+
+@pytest.mark.parametrize("mode", ["run", "checks", "threads"])
+def test_c_host_under_valgrind_is_clean(host, unpacked, mode):
+    valgrind = shutil.which("valgrind")
+    if valgrind is None:
+        pytest.skip("valgrind not found")
+    out = run(host, unpacked, "HumanBodyISO7962", mode, steps=300,
+              prefix=(valgrind, "--tool=memcheck", "--error-exitcode=9", "--leak-check=full",
+                      "--errors-for-leak-kinds=definite,indirect,possible",
+                      "--show-leak-kinds=definite,indirect,possible"))
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert "ERROR SUMMARY: 0 errors" in out.stderr, out.stderr[-3000:]
+    assert "definitely lost" not in out.stderr or "definitely lost: 0 bytes" in out.stderr
+
+
+def test_win64_binary_under_wine_matches_linux64(host, unpacked, tmp_path):
+    mingw, wine = shutil.which("x86_64-w64-mingw32-gcc"), shutil.which("wine")
+    if mingw is None or wine is None:
+        pytest.skip(f"{'x86_64-w64-mingw32-gcc' if mingw is None else 'wine'} not found: "
+                    "install gcc-mingw-w64-x86-64 and wine64 to run the win64 binary")
+    exe = str(tmp_path / "native_host.exe")
+    out = subprocess.run([mingw, "-std=c99", "-O2", "-Wall", "-Werror", "-static", "-I", headers(),
+                          HOST, "-o", exe], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    prefix = tempfile.mkdtemp(prefix="bodyvib-wine-")
+    env = {"WINEPREFIX": prefix, "WINEDEBUG": "-all", "HOME": str(tmp_path),
+           "PATH": os.environ.get("PATH", "/usr/bin:/bin")}
+    try:
+        for name in MODEL_OF:
+            win = run(exe, unpacked, name, "run", platform="win64", suffix=".dll",
+                      prefix=(wine,), env=env)
+            assert win.returncode == 0, win.stderr[-2000:]
+            assert win.stdout.splitlines()[-1].strip() == "ok"
+            linux = run(host, unpacked, name, "run")
+            a, b = table(win.stdout), table(linux.stdout)
+            assert a.shape == b.shape
+            # the chirp comes from each platform's own sin/cos (1 ulp apart at most)
+            assert np.max(np.abs(a[:, 2:4] - b[:, 2:4])) <= 1e-15
+            err = relative_error(a[:, 4:], b[:, 4:])
+            assert np.all(err <= np.maximum(TIGHT, tolerance(name, b[:, 1], b[:, 2], b[:, 3]))), err
+    finally:
+        shutil.rmtree(prefix, ignore_errors=True)
