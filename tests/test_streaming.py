@@ -78,10 +78,10 @@ def test_streamed_figures_against_the_fft_weighting():
     W = np.abs(np.fft.rfft(aw)) ** 2
     f = np.fft.rfftfreq(aw.size, 1e-3)
     predicted = (np.pi / 1000.0) ** 2 * np.sum(f ** 2 * W) / np.sum(W) / 3
-    gap = 1 - rec["weighted_rms"] / fft.weighted_rms
+    gap = 1 - rec.weighted_rms / fft.weighted_rms
     assert gap == pytest.approx(predicted, rel=0.05)
     for key in ("vdv", "peak"):
-        assert 0 < 1 - rec[key] / getattr(fft, key) < 5e-4
+        assert 0 < 1 - getattr(rec, key) / getattr(fft, key) < 5e-4
 
 
 @pytest.fixture(scope="module")
@@ -126,10 +126,10 @@ def test_study_figures_equal_those_of_its_own_histories(fmus):
         rec = stream_comfort_figures(a, 1000.0)
         fft = comfort_figures(a, 1000.0)
         for key in ("weighted_rms", "vdv", "peak"):
-            assert getattr(b.figures, key) == pytest.approx(rec[key], rel=1e-12)
+            assert getattr(b.figures, key) == pytest.approx(getattr(rec, key), rel=1e-12)
             assert 0 < 1 - getattr(b.figures, key) / getattr(fft, key) < 5e-4
         seat = stream_comfort_figures(run["seat_acceleration"], 1000.0)
-        assert b.seat_figures.weighted_rms == pytest.approx(seat["weighted_rms"], rel=1e-12)
+        assert b.seat_figures.weighted_rms == pytest.approx(seat.weighted_rms, rel=1e-12)
         whole = estimate_transmissibility(run["seat_acceleration"], a, 1000.0)
         np.testing.assert_allclose(b.transmissibility.modulus, whole.modulus, rtol=1e-10)
         assert b.transmissibility.peak.frequency_hz == pytest.approx(whole.peak.frequency_hz, rel=1e-10)

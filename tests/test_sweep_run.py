@@ -148,7 +148,7 @@ def test_ctrl_c_on_a_local_cluster_ends_cleanly_and_resumes(tmp_path):
     proc.send_signal(signal.SIGINT)
     stdout, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 130, stderr
-    assert stderr.strip().splitlines()[-1] == "bodyvib sweep: interrupted"
+    assert stderr.strip().splitlines()[-1] == "interrupted"
     partial = pd.read_parquet(out)  # what was done is gathered into the table
     assert 2 <= len(partial) < 30
     proc = _cli(str(spec_file), "--out", out, "--resume", "--scheduler", "serial", "--quiet")

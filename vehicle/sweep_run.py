@@ -49,7 +49,7 @@ import sys
 import uuid
 from typing import Callable, Dict, List, Optional, Sequence, Union
 
-from bodyvib import __version__
+from bodyvib import __version__, interrupts
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.fileio import atomic_write_bytes, atomic_write_text
 
@@ -378,6 +378,7 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
         if tasks and serial:
             for i, task in enumerate(tasks):
                 arrived(i, task, run_engine(engine, task))
+                interrupts.check()  # Ctrl-C: stop between tasks, keep what arrived
         elif tasks:
             from dask.distributed import as_completed
 
@@ -394,6 +395,7 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
                                    for _ in tasks[i]]
                     arrived(i, tasks[i], figures)
                     fut.release()
+                    interrupts.check()  # Ctrl-C: stop between arrivals, keep what arrived
             finally:
                 client.close()
                 if cluster is not None:
