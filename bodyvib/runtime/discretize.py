@@ -117,12 +117,24 @@ def discretize(A: np.ndarray, B: np.ndarray, h: float) -> Tuple[np.ndarray, np.n
     """
     check_step(h)
     n, m = B.shape
-    M = np.zeros((n + 2 * m, n + 2 * m))
+    E = expm(_augmented(A, B, 2) * h)
+    return E[:n, :n], E[:n, n:n + m], E[:n, n + m:]
+
+
+def _augmented(A: np.ndarray, B: np.ndarray, blocks: int) -> np.ndarray:
+    """``[[A, B, 0, ..], [0, 0, I, ..], .., [0, .., 0]]`` with ``blocks`` input blocks.
+
+    Its exponential times ``h`` holds ``Phi`` and, in the first block row,
+    ``Gamma_j = int_0^h e^{A (h - tau)} B tau^j / j! dtau`` for ``j < blocks``:
+    the input and each of its chained rates are states whose derivative is the next.
+    """
+    n, m = B.shape
+    M = np.zeros((n + blocks * m, n + blocks * m))
     M[:n, :n] = A
     M[:n, n:n + m] = B
-    M[n:n + m, n + m:] = np.eye(m)
-    E = expm(M * h)
-    return E[:n, :n], E[:n, n:n + m], E[:n, n + m:]
+    for j in range(1, blocks):
+        M[n + (j - 1) * m:n + j * m, n + j * m:n + (j + 1) * m] = np.eye(m)
+    return M
 
 
 def discretize_quadratic(A: np.ndarray, B: np.ndarray, h: float) -> np.ndarray:
@@ -152,12 +164,7 @@ def discretize_quadratic(A: np.ndarray, B: np.ndarray, h: float) -> np.ndarray:
     """
     check_step(h)
     n, m = B.shape
-    M = np.zeros((n + 3 * m, n + 3 * m))
-    M[:n, :n] = A
-    M[:n, n:n + m] = B
-    M[n:n + m, n + m:n + 2 * m] = np.eye(m)
-    M[n + m:n + 2 * m, n + 2 * m:] = np.eye(m)
-    return expm(M * h)[:n, n + 2 * m:]
+    return expm(_augmented(A, B, 3) * h)[:n, n + 2 * m:]
 
 
 class Discretization:
