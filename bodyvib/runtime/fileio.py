@@ -103,23 +103,8 @@ def atomic_write_bytes(path, data: bytes) -> None:
         The file cannot be written; its ``filename`` is ``path`` (not the
         temporary file), so the message names what the user asked for.
     """
-    path = os.fspath(path)
-    real, mode = _destination(path)
-    try:
-        fd, tmp = _temporary(real, mode)
-    except OSError as exc:
-        raise _oserror(exc, path) from exc
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-    except BaseException as exc:
-        _unlink(tmp)
-        if isinstance(exc, OSError):
-            raise _oserror(exc, path) from exc
-        raise
-    _place(tmp, real, path)
+    with open_staged(path, "wb") as f:  # the one place that writes, syncs and places
+        f.write(data)
 
 
 def _place(tmp: str, real: str, path: str) -> None:
