@@ -28,7 +28,7 @@ import numpy as np
 from bodyvib.runtime import contract
 from vehicle.fmus import build_project_fmu
 from vehicle.cosim import BODY_INPUTS, BODY_OUTPUTS, CAR_OUTPUTS, cosimulate, open_fmu
-from vehicle.roads import make_road, road_input
+from vehicle.road.synthetic import make_road, road_input
 
 
 def bare_calls(car, body, z, v, steps, h):

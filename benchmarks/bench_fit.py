@@ -30,12 +30,12 @@ import time
 
 import numpy as np
 
-from bodyvib.fit_config import load_config
-from bodyvib.fit_objective import model_target, objective_time_domain, parameter_array
-from bodyvib.fit_search import fit
-from bodyvib.fit_space import GENES, genes_to_parameters, parameters_to_genes, reduced_network
+from bodyvib.fit.config import load_config
+from bodyvib.fit.objective import model_target, objective_time_domain, parameter_array
+from bodyvib.fit.search import fit
+from bodyvib.fit.space import GENES, genes_to_parameters, parameters_to_genes, reduced_network
 from bodyvib.models import load_model
-from bodyvib.frequency import frequency_response
+from bodyvib.frequency.response import frequency_response
 from bodyvib.runtime.network import linear_model
 
 REFIT = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "params",

@@ -12,7 +12,7 @@ do, the median evaluations and generations run in all, the median wall time
 of the search, and the worst relative excess over J*.
 
 ``ga-genes`` is the same genetic algorithm searching the genes themselves
-instead of the aligned coordinates (``bodyvib.fit_methods.SearchSpace``): it
+instead of the aligned coordinates (``bodyvib.fit.methods.SearchSpace``): it
 shows what the coordinates do. A last table times the default fit (GA and the
 L-BFGS-B polish) with BLAS limited to one thread, as the command runs it,
 against the BLAS default, side by side.
@@ -26,11 +26,11 @@ import time
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from bodyvib.fit_config import load_config, log_bounds
-from bodyvib.fit_objective import model_target
-from bodyvib.fit_search import polish
-from bodyvib.fit_space import genes_to_parameters
-from bodyvib.fit_methods import search
+from bodyvib.fit.config import load_config, log_bounds
+from bodyvib.fit.objective import model_target
+from bodyvib.fit.search import polish
+from bodyvib.fit.space import genes_to_parameters
+from bodyvib.fit.methods import search
 
 #: Best known objective of the default fit, 1/s (L-BFGS-B from every method's best agrees).
 J_STAR = 1.4807819

@@ -102,7 +102,7 @@ def master_step(body, car, duration, repeats):
     import numpy as np
 
     from vehicle.cosim import cosimulate, open_fmu
-    from vehicle.roads import make_road, road_input
+    from vehicle.road.synthetic import make_road, road_input
 
     h = 1e-3
     t = np.arange(int(round(duration / h)) + 1) * h

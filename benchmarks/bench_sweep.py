@@ -36,8 +36,8 @@ import tempfile
 import time
 
 from bodyvib.models import MODEL_DIR
-from vehicle.sweep_run import run_sweep
-from vehicle.sweep_spec import expand
+from vehicle.sweep.run import run_sweep
+from vehicle.sweep.spec import expand
 
 
 def sweep_spec(cases: int) -> dict:

@@ -3,10 +3,10 @@
 The physics library. The reduced 3-DOF human-body model of Balci & Gundogdu
 (2025) and the ISO 7962 four-mass model, written as data (:mod:`bodyvib.models`,
 :mod:`bodyvib.runtime.modelfile`), turned into state space
-(:mod:`bodyvib.runtime.network`), frequency responses (:mod:`bodyvib.frequency`,
+(:mod:`bodyvib.runtime.network`), frequency responses (:mod:`bodyvib.frequency.response`,
 :mod:`bodyvib.analytic`), exact discrete-time simulation
-(:mod:`bodyvib.runtime.discretize`), ISO 2631-1 figures (:mod:`bodyvib.comfort`),
-the GA refit (``bodyvib.fit_*``) and FMUs (:mod:`bodyvib.fmu_build`).
+(:mod:`bodyvib.runtime.discretize`), ISO 2631-1 figures (:mod:`bodyvib.comfort.figures`),
+the GA refit (``bodyvib.fit_*``) and FMUs (:mod:`bodyvib.fmu.pythonfmu`).
 
 :mod:`bodyvib.runtime` is the numpy-only sub-package that travels inside every
 pythonfmu FMU. This package never imports :mod:`vehicle` (the application) or

@@ -9,10 +9,11 @@ import os
 from typing import List, Union
 
 from .runtime.errors import BodyvibError
-from .runtime.modelfile import network_from_file
+from .process.outputs import write_json
+from .runtime.modelfile import network_from_file, network_to_dict
 from .runtime.network import Network
 
-__all__ = ["MODEL_DIR", "available_models", "load_model", "load_network", "shipped_names"]
+__all__ = ["MODEL_DIR", "available_models", "load_model", "load_network", "save_model", "shipped_names"]
 
 #: Folder of the shipped parameter files.
 MODEL_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
@@ -94,3 +95,25 @@ def load_model(name_or_path: Union[str, os.PathLike]) -> Network:
     4.88
     """
     return load_network(name_or_path, MODEL_DIR, "model")
+
+
+def save_model(net: Network, path: Union[str, os.PathLike]) -> None:
+    """Write a network as a parameter file, atomically.
+
+    Parameters
+    ----------
+    net : Network
+    path : str or os.PathLike
+        Destination (its folder is created if missing).
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> from bodyvib.models import load_model, save_model
+    >>> d = tempfile.mkdtemp()
+    >>> save_model(load_model("reduced-paper"), os.path.join(d, "m.json"))
+    >>> load_model(os.path.join(d, "m.json")).parameters["m1"]
+    4.88
+    >>> import shutil; shutil.rmtree(d)
+    """
+    write_json(path, network_to_dict(net))

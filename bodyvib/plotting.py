@@ -4,7 +4,7 @@ import io
 import os
 
 from .runtime.errors import BodyvibError
-from .runtime.fileio import atomic_write_bytes
+from .process.outputs import atomic_write_bytes
 
 __all__ = ["new_figure", "save_figure", "transmissibility_axes"]
 

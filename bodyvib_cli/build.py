@@ -4,7 +4,7 @@ import os
 import sys
 from pathlib import Path
 
-from bodyvib.runtime.fileio import check_outputs
+from bodyvib.process.outputs import check_outputs
 from vehicle.fmus import FMUS, ROAD_DEFAULTS, build_fmus
 from vehicle.ssp import COMPONENTS, SSP_NAME, write_ssp
 

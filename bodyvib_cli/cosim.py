@@ -14,8 +14,8 @@ import sys
 
 from bodyvib.models import load_model
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib import interrupts
-from bodyvib.runtime.fileio import check_outputs, staged_writes, write_json
+from bodyvib.process import interrupts
+from bodyvib.process.outputs import check_outputs, staged_writes, write_json
 from vehicle.check import compare
 from vehicle.fmus import build_fmus, temporary_fmu_dir
 from vehicle.plots import plot_study
@@ -50,7 +50,7 @@ CSV_BYTES_PER_ROW = 220
 
 def _check_disk(path, rows):
     """Refuse a CSV the disk cannot hold, before the run."""
-    from bodyvib.limits import format_bytes
+    from bodyvib.process.limits import format_bytes
 
     folder = os.path.dirname(os.path.abspath(path))
     while not os.path.isdir(folder):

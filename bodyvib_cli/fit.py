@@ -2,18 +2,18 @@
 
 import os
 
-from bodyvib.fit_config import load_config, parse_pairs
-from bodyvib.fit_methods import METHODS
-from bodyvib.fit_objective import measured_target, model_target
-from bodyvib.fit_result import write_parameter_file
-from bodyvib.fit_search import fit
+from bodyvib.fit.config import load_config, parse_pairs
+from bodyvib.fit.methods import METHODS
+from bodyvib.fit.objective import measured_target, model_target
+from bodyvib.fit.result import write_parameter_file
+from bodyvib.fit.search import fit
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib import interrupts
-from bodyvib.runtime.fileio import check_outputs, staged_writes
+from bodyvib.process import interrupts
+from bodyvib.process.outputs import check_outputs, staged_writes
 
 from .outputs import JSON_EXTENSIONS, PLOT_EXTENSIONS
 
-#: Files ``--report DIR`` writes (bodyvib.fit_report.write_report).
+#: Files ``--report DIR`` writes (bodyvib.fit.report.write_report).
 REPORT_FILES = (("comparison.md", None), ("comparison.json", JSON_EXTENSIONS),
                 ("transmissibility.png", PLOT_EXTENSIONS),
                 ("impulse_response.png", PLOT_EXTENSIONS))
@@ -81,19 +81,19 @@ def _run(args):
                  method=args.method)
     front = None
     if args.pareto:  # searched before anything is written: all outputs or none
-        from bodyvib.fit_pareto import pareto_front
-        from bodyvib.fit_space import REDUCED_PARAMETERS
+        from bodyvib.fit.pareto import pareto_front
+        from bodyvib.fit.space import REDUCED_PARAMETERS
 
         start = [result.parameters[k] for k in REDUCED_PARAMETERS]
         front = pareto_front(target, cfg, seed=args.seed, start=start, progress=not args.quiet)
     with staged_writes(guard=interrupts.critical) as written:  # parameter file, report, front
         net = write_parameter_file(result, args.out, command=_command_line(args))
         if args.report:
-            from bodyvib.fit_report import write_report
+            from bodyvib.fit.report import write_report
 
             write_report(args.report, result, net)
         if front is not None:
-            from bodyvib.fit_pareto import write_pareto
+            from bodyvib.fit.pareto import write_pareto
 
             write_pareto(args.report, front, command=_command_line(args))
         interrupts.check()  # Ctrl-C while rendering: discard, keep the old files
@@ -105,7 +105,7 @@ def _run(args):
     if result.at_bounds:
         log("at a bound of the search: " + "; ".join(result.at_bounds))
     if front is not None:
-        from bodyvib.fit_pareto import chosen_points
+        from bodyvib.fit.pareto import chosen_points
 
         ref = front.reference_peak
         log(f"Pareto front (NSGA-II, {front.evaluations} evaluations in {front.elapsed_s:.1f} s): "

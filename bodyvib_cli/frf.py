@@ -2,9 +2,9 @@
 
 import os
 
-from bodyvib.frf import DEFAULT_MODELS, compare_transmissibility, format_table, plot_transmissibility
-from bodyvib import interrupts
-from bodyvib.runtime.fileio import check_outputs, staged_writes, write_json
+from bodyvib.frequency.compare import DEFAULT_MODELS, compare_transmissibility, format_table, plot_transmissibility
+from bodyvib.process import interrupts
+from bodyvib.process.outputs import check_outputs, staged_writes, write_json
 
 from .outputs import JSON_EXTENSIONS, PLOT_EXTENSIONS
 

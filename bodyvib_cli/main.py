@@ -4,7 +4,7 @@ Each sub-command is a module of :mod:`bodyvib_cli` that registers itself through
 an ``add_command(subparsers)`` function listed in :data:`COMMAND_MODULES`. Errors a user can cause (:class:`BodyvibError`,
 unreadable files) print one line and exit with status 2, without a traceback. Ctrl-C
 ends any command with the single line ``interrupted`` and status 130: the command runs
-inside :func:`bodyvib.interrupts.deferred`, so the interrupt is taken at a safe point,
+inside :func:`bodyvib.process.interrupts.deferred`, so the interrupt is taken at a safe point,
 never inside an FMU, and outputs are committed all together or not at all.
 """
 
@@ -12,7 +12,7 @@ import signal
 import sys
 import threading
 
-# SIGINTs that arrive while the modules load (before bodyvib.interrupts takes over)
+# SIGINTs that arrive while the modules load (before bodyvib.process.interrupts takes over)
 _early = []
 
 
@@ -74,7 +74,7 @@ def main(argv=None) -> int:
     main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, _early_handler) if main_thread else None
     try:
-        from bodyvib import interrupts
+        from bodyvib.process import interrupts
         from bodyvib.runtime.errors import BodyvibError
     finally:
         if main_thread:

@@ -9,14 +9,14 @@ __all__ = ["add_command"]
 
 
 def _run(args):
-    from vehicle.sweep_spec import grid_spec
+    from vehicle.sweep.spec import grid_spec
 
     if args.spec and args.grid:
         raise BodyvibError("give a SPEC file or --grid, not both")
     if not args.spec and not args.grid:
         if args.plot and args.out:  # plot an existing table
-            from vehicle.sweep_plot import plot_comfort_maps
-            from vehicle.sweep_run import read_results
+            from vehicle.sweep.plot import plot_comfort_maps
+            from vehicle.sweep.run import read_results
 
             _check_plot(args.plot)
             df = read_results(args.out)
@@ -32,7 +32,7 @@ def _run(args):
     if args.plot:
         _check_plot(args.plot)
     spec = args.spec if args.spec else grid_spec(args.grid, args.duration, args.step)
-    from vehicle.sweep_run import run_sweep
+    from vehicle.sweep.run import run_sweep
 
     say = None if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
     df = run_sweep(spec, out=args.out, engine=args.engine, scheduler=args.scheduler,
@@ -42,7 +42,7 @@ def _run(args):
         if f:
             print(f"wrote {f}")
     if args.plot:
-        from vehicle.sweep_plot import plot_comfort_maps
+        from vehicle.sweep.plot import plot_comfort_maps
 
         plot_comfort_maps(df, args.plot)
         print(f"wrote {args.plot}")

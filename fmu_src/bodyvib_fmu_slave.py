@@ -4,7 +4,7 @@ A thin slave: it declares the variables of ``bodyvib.runtime.contract`` and dele
 to :class:`bodyvib.runtime.engine.FmuCore`, which holds the state and the exact
 stepping (or, for ``KIND = "source"``, to :class:`bodyvib.runtime.source.SourceCore`,
 a tabulated signal in ``resources/bodyvib_source.json``). ``python build_fmu.py`` (or ``bodyvib build``) renders this one
-source per FMU (:func:`bodyvib.fmu_build.render_slave_script`): it renames the
+source per FMU (:func:`bodyvib.fmu.pythonfmu.render_slave_script`): it renames the
 class to the FMU's model name, sets ``KIND`` and ``DESCRIPTION``, points
 ``RUNTIME`` at the FMU's private copy of the run-time modules, and puts the
 parameter file at ``resources/bodyvib_model.json``.

@@ -5,7 +5,7 @@ import pytest
 
 from bodyvib.analytic import (characteristic_coefficients, head_transmissibility,
                               platform_transmissibility, torso_transmissibility)
-from bodyvib.frequency import frequency_response
+from bodyvib.frequency.response import frequency_response
 from bodyvib.models import load_model
 from bodyvib.runtime.network import linear_model
 

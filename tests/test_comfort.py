@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from bodyvib.comfort import (
+from bodyvib.comfort.figures import (
     comfort_category, comfort_figures, peak, vdv, weighted_acceleration, weighted_rms,
     wk_response,
 )

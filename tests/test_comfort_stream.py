@@ -4,13 +4,13 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from bodyvib.comfort import WK_PARAMETERS, comfort_category, comfort_figures, weighted_acceleration, wk_response
-from bodyvib.comfort_stream import ComfortStream, WkFilter, stream_comfort_figures, wk_statespace
+from bodyvib.comfort.figures import WK_PARAMETERS, comfort_category, comfort_figures, weighted_acceleration, wk_response
+from bodyvib.comfort.stream import ComfortStream, WkFilter, stream_comfort_figures, wk_statespace
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.models import load_model
 from vehicle.quarter_car import load_car
 from vehicle.reference import reference_run
-from vehicle.roads import make_road, road_input
+from vehicle.road.synthetic import make_road, road_input
 
 
 @pytest.fixture(scope="module")
@@ -47,7 +47,7 @@ def test_filter_is_the_analog_filter_on_the_linear_interpolant(head):
     # scipy's lsim with interp=True simulates the analog system driven by the
     # straight lines between samples, from rest: the same definition, computed
     # by other code (scipy's state space and matrix exponential) from a
-    # transfer function typed independently of bodyvib.comfort.
+    # transfer function typed independently of bodyvib.comfort.figures.
     t = np.arange(head.size) * 1e-3
     _, ref, _ = signal.lsim(_wk_lti(), head, t, interp=True)
     got = WkFilter(1000.0, 1).update(head[None])[0]

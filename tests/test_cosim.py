@@ -13,14 +13,14 @@ import sys
 import numpy as np
 import pytest
 
-from bodyvib.comfort import weighted_rms
-from bodyvib.comfort_stream import stream_comfort_figures
+from bodyvib.comfort.figures import weighted_rms
+from bodyvib.comfort.stream import stream_comfort_figures
 from bodyvib.runtime.errors import BodyvibError
 from conftest import ROOT
 from vehicle.study import coupling_error_sweep, run_study
 from vehicle.cosim import cosimulate, model_from_fmu, open_fmu, write_csv
 from vehicle.reference import nrmse, reference_run
-from vehicle.roads import make_road, road_input
+from vehicle.road.synthetic import make_road, road_input
 
 pytestmark = pytest.mark.integration
 

@@ -9,7 +9,7 @@ import stat
 import pytest
 
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib.runtime.fileio import (atomic_write_bytes, atomic_write_text, check_outputs,
+from bodyvib.process.outputs import (atomic_write_bytes, atomic_write_text, check_outputs,
                                     open_staged, staged_writes, write_json)
 
 

@@ -12,13 +12,13 @@ from scipy.signal import residue
 
 from bodyvib.analytic import characteristic_coefficients
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib.fit_config import load_config, parse_pairs
-from bodyvib.fit_objective import impulse_response, measured_target, model_target, objective_frequency_domain, objective_time_domain, parameter_array, quadrature_grid
-from bodyvib.fit_result import write_parameter_file
-from bodyvib.fit_search import fit
-from bodyvib.fit_space import GENES, genes_to_parameters, parameters_to_genes, reduced_network, REDUCED_PARAMETERS
-from bodyvib.frequency import displacement_input_statespace, transmissibility
-from bodyvib.measured import (MIN_ROWS, MeasuredTransmissibility, read_transmissibility_csv,
+from bodyvib.fit.config import load_config, parse_pairs
+from bodyvib.fit.objective import impulse_response, measured_target, model_target, objective_frequency_domain, objective_time_domain, parameter_array, quadrature_grid
+from bodyvib.fit.result import write_parameter_file
+from bodyvib.fit.search import fit
+from bodyvib.fit.space import GENES, genes_to_parameters, parameters_to_genes, reduced_network, REDUCED_PARAMETERS
+from bodyvib.frequency.response import displacement_input_statespace, transmissibility
+from bodyvib.frequency.measured import (MIN_ROWS, MeasuredTransmissibility, read_transmissibility_csv,
                               write_transmissibility_csv)
 from bodyvib.models import load_model
 from bodyvib.runtime.network import linear_model
@@ -323,7 +323,7 @@ def test_fit_output_equal_to_an_input_is_refused_before_work(tmp_path, option):
     inp = tmp_path / "in.json"
     save = load_model("iso7962") if option == "--reference" else None
     if save is not None:
-        from bodyvib.runtime.modelfile import save_model
+        from bodyvib.models import save_model
         save_model(save, inp)
     else:
         inp.write_text("{}\n")

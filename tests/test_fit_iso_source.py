@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize_scalar
 
-from bodyvib.frequency import transmissibility
+from bodyvib.frequency.response import transmissibility
 from bodyvib.models import load_model
 
 #: The figure's values where they differ from Table 1.

@@ -5,11 +5,11 @@ from importlib.metadata import version
 import numpy as np
 import pytest
 
-from bodyvib.fit_config import load_config, log_bounds
-from bodyvib.fit_methods import METHODS, SearchSpace, describe, search
-from bodyvib.fit_objective import model_target
-from bodyvib.fit_search import fit
-from bodyvib.fit_space import genes_to_parameters
+from bodyvib.fit.config import load_config, log_bounds
+from bodyvib.fit.methods import METHODS, SearchSpace, describe, search
+from bodyvib.fit.objective import model_target
+from bodyvib.fit.search import fit
+from bodyvib.fit.space import genes_to_parameters
 from bodyvib.runtime.errors import BodyvibError
 
 #: Best known value of the default objective (paper Eq. 3, head + torso, against iso7962), 1/s:

@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize_scalar
 
-from bodyvib.fit_config import load_config
-from bodyvib.fit_objective import model_target, parameter_array
-from bodyvib.fit_pareto import (_GRID, FREQUENCY_TOLERANCE_HZ, MODULUS_TOLERANCE, chosen_points,
+from bodyvib.fit.config import load_config
+from bodyvib.fit.objective import model_target, parameter_array
+from bodyvib.fit.pareto import (_GRID, FREQUENCY_TOLERANCE_HZ, MODULUS_TOLERANCE, chosen_points,
                                 pareto_front, peak_error, peaks, reference_peak, write_pareto)
-from bodyvib.fit_space import REDUCED_PARAMETERS
-from bodyvib.frequency import transmissibility
+from bodyvib.fit.space import REDUCED_PARAMETERS
+from bodyvib.frequency.response import transmissibility
 from bodyvib.models import load_model
 from conftest import ROOT
 

@@ -23,7 +23,7 @@ from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.contract import MODEL_FILE
 from bodyvib.runtime.engine import FmuCore
 from bodyvib.models import load_model
-from bodyvib.runtime.modelfile import save_model
+from bodyvib.models import save_model
 from bodyvib.runtime.network import linear_model
 from vehicle.quarter_car import load_car
 
@@ -451,7 +451,7 @@ BLOCKER = textwrap.dedent("""
 def test_runtime_package_needs_numpy_only(tmp_path):
     """The vendored package imports and steps with scipy, control, matplotlib and
     bodyvib itself blocked (it must not import bodyvib by name)."""
-    from bodyvib.fmu_build import write_runtime_package
+    from bodyvib.fmu.pythonfmu import write_runtime_package
 
     write_runtime_package(tmp_path, "private_rt_x")
     save_model(load_model("iso7962"), tmp_path / "m.json")
@@ -478,7 +478,7 @@ def load_slave_class(name):
     """The FMU's slave script, rendered as the build renders it, run against the library."""
     import types
 
-    from bodyvib.fmu_build import render_slave_script
+    from bodyvib.fmu.pythonfmu import render_slave_script
     from vehicle.fmus import FMUS
 
     kind, _, description = FMUS[name]

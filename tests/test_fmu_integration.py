@@ -25,7 +25,7 @@ import pytest
 from bodyvib.runtime.contract import BODY_OUTPUTS, CAR_INPUTS, CAR_OUTPUTS
 from bodyvib.runtime.discretize import simulate
 from bodyvib.models import load_model
-from bodyvib.runtime.modelfile import save_model
+from bodyvib.models import save_model
 from bodyvib.runtime.network import linear_model
 from vehicle.quarter_car import CAR_FMU_OUTPUTS, load_car
 

@@ -7,8 +7,8 @@ import sys
 import numpy as np
 import pytest
 
-from bodyvib.frequency import find_peaks, transmissibility
-from bodyvib.frf import compare_transmissibility, format_table
+from bodyvib.frequency.response import find_peaks, transmissibility
+from bodyvib.frequency.compare import compare_transmissibility, format_table
 from conftest import dynamic_stiffness_response
 from bodyvib.models import load_model
 
@@ -39,7 +39,7 @@ def test_frf_writes_plot_and_json(tmp_path):
 
 
 def test_frf_accepts_a_parameter_file(tmp_path):
-    from bodyvib.runtime.modelfile import save_model
+    from bodyvib.models import save_model
     net = load_model("reduced-paper").with_parameters(m1=6.0)
     from dataclasses import replace
     save_model(replace(net, name="heavier-head"), tmp_path / "h.json")
@@ -64,7 +64,7 @@ def test_frf_errors_are_one_line(tmp_path, args, message):
 def test_peak_refinement_against_dense_grid():
     coarse = compare_transmissibility(["iso7962"], points=300)["models"]["iso7962"]["peaks"]
     f = np.linspace(3, 13, 20001)
-    from bodyvib.frequency import transmissibility
+    from bodyvib.frequency.response import transmissibility
     dense = find_peaks(f, np.abs(transmissibility(load_model("iso7962"), f)))
     for c, d in zip(coarse, dense):
         assert c["frequency_hz"] == pytest.approx(d["frequency_hz"], rel=2e-3)
@@ -91,7 +91,7 @@ def test_models_with_one_name_keep_both_curves(tmp_path):
     curve, one table column."""
     from dataclasses import replace
 
-    from bodyvib.runtime.modelfile import save_model
+    from bodyvib.models import save_model
     base = load_model("reduced-paper")
     save_model(replace(base, name="refit"), tmp_path / "a.json")
     save_model(replace(base.with_parameters(m1=6.0), name="refit"), tmp_path / "b.json")
@@ -129,7 +129,7 @@ def test_frf_outputs_checked_before_work_and_all_or_none(tmp_path):
     assert r.returncode == 2 and "must end in .png" in r.stderr and r.stdout == ""
     assert keep.read_text() == "old"
     model = tmp_path / "m.json"
-    from bodyvib.runtime.modelfile import save_model
+    from bodyvib.models import save_model
     save_model(load_model("reduced-paper"), model)
     r = run_cli("frf", "--models", str(model), "--json", str(model))
     assert r.returncode == 2 and "is the input of --models" in r.stderr

@@ -4,6 +4,9 @@
 * ``vehicle`` (the application) never imports ``bodyvib_cli``;
 * ``bodyvib.runtime`` (what travels inside every FMU) imports only itself, numpy and
   the standard library;
+* ``bodyvib.process`` (outputs, interrupts, limits: the commands' process concerns)
+  imports no physics: only the run-time's errors and the standard library;
+* every subpackage says what it is about: a docstring and ``__all__``;
 * no import cycle among the project's modules.
 
 Read off the source with :mod:`ast` (every import statement, at module level or inside a
@@ -41,8 +44,13 @@ MODULES = module_files()
 def imports_of(name):
     """Absolute names of the modules a project module imports (relative imports resolved)."""
     path = MODULES[name]
-    tree = ast.parse(open(path, encoding="utf-8").read(), path)
-    package = name if path.endswith("__init__.py") else name.rpartition(".")[0]
+    return imports_in(open(path, encoding="utf-8").read(), name, path.endswith("__init__.py"))
+
+
+def imports_in(source, name, is_package=False):
+    """Absolute names of the modules ``source`` imports, read as module ``name``."""
+    tree = ast.parse(source)
+    package = name if is_package else name.rpartition(".")[0]
     found = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
@@ -70,9 +78,26 @@ def test_the_source_tree_is_what_the_checks_read():
     assert "bodyvib_cli.main" in MODULES
 
 
+def upward(imports):
+    """The imports of a library module that reach a layer above it."""
+    return sorted(m for m in imports if top(m) in ("vehicle", "bodyvib_cli"))
+
+
+def outside_runtime(imports):
+    """The imports of a run-time module that an FMU could not satisfy."""
+    return sorted(m for m in imports if not (m.startswith("bodyvib.runtime") or top(m) == "numpy"
+                                             or top(m) in sys.stdlib_module_names))
+
+
+def into_physics(imports):
+    """The imports of a process module other than the run-time's errors and the stdlib."""
+    return sorted(m for m in imports if not (m == "bodyvib.runtime.errors" or m.startswith("bodyvib.process")
+                                             or top(m) in sys.stdlib_module_names))
+
+
 @pytest.mark.parametrize("name", sorted(m for m in MODULES if top(m) == "bodyvib"))
 def test_library_imports_neither_application_nor_command_line(name):
-    bad = sorted(m for m in imports_of(name) if top(m) in ("vehicle", "bodyvib_cli"))
+    bad = upward(imports_of(name))
     assert bad == [], f"{name} imports {bad}: the physics library must not know the layers above it"
 
 
@@ -84,15 +109,38 @@ def test_application_does_not_import_command_line(name):
 
 @pytest.mark.parametrize("name", sorted(m for m in MODULES if m.startswith("bodyvib.runtime")))
 def test_runtime_imports_only_itself_numpy_and_stdlib(name):
-    allowed_third_party = {"numpy"}
-    bad = []
-    for m in imports_of(name):
-        if m.startswith("bodyvib.runtime") or top(m) in allowed_third_party:
-            continue
-        if top(m) in sys.stdlib_module_names:
-            continue
-        bad.append(m)
-    assert bad == [], f"{name} imports {sorted(bad)}: the FMU run-time may import only itself and numpy"
+    bad = outside_runtime(imports_of(name))
+    assert bad == [], f"{name} imports {bad}: the FMU run-time may import only itself and numpy"
+
+
+@pytest.mark.parametrize("name", sorted(m for m in MODULES if m.startswith("bodyvib.process")))
+def test_process_concerns_import_no_physics(name):
+    bad = into_physics(imports_of(name))
+    assert bad == [], f"{name} imports {bad}: output checks, interrupts and limits know no physics"
+
+
+SUBPACKAGES = sorted(m for m, p in MODULES.items() if p.endswith("__init__.py") and "." in m)
+
+
+def test_the_subjects_are_subpackages():
+    for pkg in ("bodyvib.comfort", "bodyvib.fit", "bodyvib.fmu", "bodyvib.frequency",
+                "bodyvib.process", "bodyvib.runtime", "vehicle.road", "vehicle.sweep"):
+        assert pkg in SUBPACKAGES, f"{pkg} is not a subpackage"
+    flat = sorted(m for m in MODULES if m.count(".") == 1 and "_" in m.split(".")[1]
+                  and m.split(".")[1].split("_")[0] in {"fit", "sweep", "comfort", "fmu", "native"})
+    assert flat == [], f"prefix-named modules instead of subpackages: {flat}"
+
+
+@pytest.mark.parametrize("name", SUBPACKAGES)
+def test_every_subpackage_says_what_it_is(name):
+    tree = ast.parse(open(MODULES[name], encoding="utf-8").read())
+    doc = ast.get_docstring(tree)
+    assert doc and len(doc.split()) >= 15, f"{name}/__init__.py needs a paragraph saying what it holds"
+    if name == "bodyvib.runtime":
+        return  # copied into FMUs under another name: its modules are its interface
+    assigned = {t.id for n in tree.body if isinstance(n, ast.Assign) for t in n.targets
+                if isinstance(t, ast.Name)}
+    assert "__all__" in assigned, f"{name} has no __all__"
 
 
 def test_no_import_cycle():
@@ -120,13 +168,14 @@ def test_no_import_cycle():
 
 
 def test_checks_can_fail():
-    """The import reader sees a function-level import of the application (what the
-    library test refuses) and a relative import resolved to its absolute name."""
-    src = "def f():\n    from vehicle.quarter_car import load_car\nfrom .errors import X\n"
-    tree = ast.parse(src)
-    names = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.ImportFrom):
-            names.add(("." * node.level) + (node.module or ""))
-    assert names == {"vehicle.quarter_car", ".errors"}
+    """The checks above flag what they guard: fed a source that breaks each rule (an
+    import inside a function, a relative import), the same functions name the culprit."""
+    src = ("def f():\n    from vehicle.quarter_car import load_car\n"
+           "from ..frequency.response import transmissibility\nimport scipy.linalg\n")
+    found = imports_in(src, "bodyvib.runtime.network")
+    assert "vehicle.quarter_car" in found and "bodyvib.frequency.response" in found
+    assert upward(found) == ["vehicle.quarter_car"]
+    assert outside_runtime(found) == ["bodyvib.frequency.response", "scipy.linalg", "vehicle.quarter_car"]
+    assert into_physics(imports_in("from ..models import load_model\n", "bodyvib.process.outputs")) \
+        == ["bodyvib.models"]
     assert "bodyvib.runtime.errors" in imports_of("bodyvib.runtime.network")

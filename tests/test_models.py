@@ -8,7 +8,8 @@ import pytest
 
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.models import available_models, load_model
-from bodyvib.runtime.modelfile import network_from_dict, network_to_dict, save_model
+from bodyvib.models import save_model
+from bodyvib.runtime.modelfile import network_from_dict, network_to_dict
 
 
 def reduced_dict():
@@ -120,7 +121,7 @@ def test_shipped_files_are_plain_json():
 
 def test_atomic_write_gives_ordinary_file_mode(tmp_path):
     """Files written atomically get the mode open() would give (umask applied), not 0600."""
-    from bodyvib.runtime.fileio import atomic_write_text
+    from bodyvib.process.outputs import atomic_write_text
     umask = os.umask(0o022)
     try:
         atomic_write_text(tmp_path / "a.txt", "x")
@@ -132,7 +133,7 @@ def test_atomic_write_gives_ordinary_file_mode(tmp_path):
 
 def test_atomic_write_error_names_the_destination(tmp_path):
     """A failed write used to report the hidden temporary file ('.tmp-...') as the culprit."""
-    from bodyvib.runtime.fileio import atomic_write_text
+    from bodyvib.process.outputs import atomic_write_text
     folder = tmp_path / "ro"
     folder.mkdir()
     folder.chmod(0o500)

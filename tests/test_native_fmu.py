@@ -579,7 +579,7 @@ def test_params_file_is_baked_in(tmp_path):
 
 
 def test_a_failed_build_leaves_the_good_fmu(tmp_path, monkeypatch):
-    from bodyvib import native_build
+    from bodyvib.fmu import native as native_build
 
     model = load_model("reduced-paper")
     good = native_build.build_native_fmu(model, "body", "HumanBody3DOF", "reduced body",

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from bodyvib.frequency import find_peaks, frequency_response, transmissibility
+from bodyvib.frequency.response import find_peaks, frequency_response, transmissibility
 from bodyvib.models import load_model
 from bodyvib.runtime.modelfile import network_from_dict
 from bodyvib.runtime.network import linear_model, mount
@@ -148,7 +148,7 @@ def test_mount_rejects_unknown_point():
 
 
 def test_statespace_object_has_named_signals():
-    from bodyvib.frequency import to_statespace
+    from bodyvib.frequency.response import to_statespace
 
     ss = to_statespace(linear_model(load_model("reduced-paper")))
     assert ss.ninputs == 2 and "m1_a" in ss.output_labels and "seat_force" in ss.output_labels

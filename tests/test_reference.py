@@ -4,13 +4,13 @@ import numpy as np
 import pytest
 
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib.frequency import transmissibility
+from bodyvib.frequency.response import transmissibility
 from bodyvib.models import load_model
 from conftest import dynamic_stiffness_response
-from bodyvib.estimate import estimate_transmissibility
+from bodyvib.frequency.estimate import estimate_transmissibility
 from vehicle.quarter_car import load_car, seated_system
 from vehicle.reference import nrmse, reference_run
-from vehicle.roads import make_road, road_input
+from vehicle.road.synthetic import make_road, road_input
 
 
 def _steady_phasor(t, y, f, t_from):

@@ -5,7 +5,7 @@ import pytest
 from scipy.signal import welch
 
 from bodyvib.runtime.errors import BodyvibError
-from vehicle.roads import (
+from vehicle.road.synthetic import (
     BumpRoad, SweepRoad, class_psd_n0, displacement_psd, make_road, random_road, road_input,
 )
 

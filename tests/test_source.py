@@ -14,7 +14,7 @@ import pytest
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.source import HermiteTable, SourceCore, read_source, write_source
 from vehicle.reference import nrmse
-from vehicle.roads import BumpRoad, make_road, road_input, road_source, road_table
+from vehicle.road.synthetic import BumpRoad, make_road, road_input, road_source, road_table
 
 
 def test_hermite_reproduces_cubics_and_its_slope_is_the_derivative():
@@ -117,7 +117,7 @@ def test_road_slave_in_plain_python(tmp_path):
     pytest.importorskip("pythonfmu")
     import types
 
-    from bodyvib.fmu_build import render_slave_script
+    from bodyvib.fmu.pythonfmu import render_slave_script
     from vehicle.fmus import FMUS
 
     mod = types.ModuleType("slave_Road")

@@ -139,7 +139,7 @@ def test_road_fmu_is_its_table_and_the_library_road(dist):
     from fmpy import simulate_fmu
 
     from vehicle.fmus import fmu_road
-    from vehicle.roads import make_road, road_input, road_table
+    from vehicle.road.synthetic import make_road, road_input, road_table
 
     speed = 17.3
     res = simulate_fmu(str(dist / "Road.fmu"), stop_time=30.0, output_interval=1e-3,

@@ -4,7 +4,7 @@ The streaming pieces against their whole-record counterparts: the transmissibili
 (Welch H1, the same segments), the monolithic reference carried block to block, the
 master advanced block by block, and a whole study's figures against the same run's
 kept histories. The comfort figures are the recursive Wk filter's
-(bodyvib.comfort_stream): against the FFT weighting of the whole record they sit
+(bodyvib.comfort.stream): against the FFT weighting of the whole record they sit
 (pi/fs)^2 <f^2> / 3 lower (linear against band-limited interpolation between samples),
 about 2.2e-4 at a 1 ms step; every other figure equals the whole-record computation
 to rounding.
@@ -17,14 +17,14 @@ import sys
 import numpy as np
 import pytest
 
-from bodyvib.comfort import comfort_figures
-from bodyvib.comfort_stream import stream_comfort_figures
-from bodyvib.estimate import TransmissibilityStream, estimate_transmissibility
+from bodyvib.comfort.figures import comfort_figures
+from bodyvib.comfort.stream import stream_comfort_figures
+from bodyvib.frequency.estimate import TransmissibilityStream, estimate_transmissibility
 from bodyvib.models import load_model
 from conftest import ROOT
 from vehicle.quarter_car import load_car
 from vehicle.reference import ReferenceStream, nrmse, reference_run
-from vehicle.roads import make_road, road_input
+from vehicle.road.synthetic import make_road, road_input
 
 
 def _road(duration=12.0, h=1e-3):
@@ -73,7 +73,7 @@ def test_streamed_figures_against_the_fft_weighting():
     a = reference_run(load_car(), load_model("reduced-paper"), z, v, 1e-3)["head_acceleration"]
     fft, rec = comfort_figures(a, 1000.0), stream_comfort_figures(a, 1000.0, block=4096)
     # predicted: linear interpolation scales the spectrum by sinc^2(f/fs) ~ 1 - (pi f/fs)^2/3
-    from bodyvib.comfort import weighted_acceleration
+    from bodyvib.comfort.figures import weighted_acceleration
     aw = weighted_acceleration(a, 1000.0)
     W = np.abs(np.fft.rfft(aw)) ** 2
     f = np.fft.rfftfreq(aw.size, 1e-3)

@@ -3,16 +3,16 @@
 import numpy as np
 import pytest
 
-from bodyvib.comfort import wk_response
-from bodyvib.comfort_stream import stream_comfort_figures
-from bodyvib.frequency import frequency_response
+from bodyvib.comfort.figures import wk_response
+from bodyvib.comfort.stream import stream_comfort_figures
+from bodyvib.frequency.response import frequency_response
 from bodyvib.runtime.discretize import simulate
 from bodyvib.runtime.network import linear_model
 from vehicle.quarter_car import seated_system
 from vehicle.reference import nrmse, reference_run
-from vehicle.roads import N_BAND, displacement_psd
-from vehicle.sweep_engines import case_road_input, run_batched, run_cosim, run_spectral
-from vehicle.sweep_spec import expand
+from vehicle.road.synthetic import N_BAND, displacement_psd
+from vehicle.sweep.engines import case_road_input, run_batched, run_cosim, run_spectral
+from vehicle.sweep.spec import expand
 
 EPS = np.finfo(float).eps
 

@@ -13,8 +13,8 @@ import pytest
 
 from bodyvib import __version__
 from bodyvib_cli.main import main
-from vehicle.sweep_run import BASE_COLUMNS, parts_dir, plan_tasks, read_results, run_sweep
-from vehicle.sweep_spec import expand, spec_hash
+from vehicle.sweep.run import BASE_COLUMNS, parts_dir, plan_tasks, read_results, run_sweep
+from vehicle.sweep.spec import expand, spec_hash
 
 SMALL = {"road": ["C", "E"], "speed": [10, 25], "seed": [0, 1], "duration": 2,
          "body": ["reduced-paper", "iso7962",

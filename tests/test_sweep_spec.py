@@ -8,7 +8,7 @@ import pytest
 
 from bodyvib.models import MODEL_DIR, load_model
 from bodyvib.runtime.errors import BodyvibError
-from vehicle.sweep_spec import expand, grid_spec, spec_hash, varied_parameters
+from vehicle.sweep.spec import expand, grid_spec, spec_hash, varied_parameters
 
 
 def test_product_order_and_defaults():

@@ -43,11 +43,11 @@ from typing import Dict, Optional
 
 import numpy as np
 
-from bodyvib import interrupts
+from bodyvib.process import interrupts
 from bodyvib.runtime import contract
 from bodyvib.runtime.discretize import check_step
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib.runtime.fileio import PendingFile
+from bodyvib.process.outputs import PendingFile
 
 from .quarter_car import CAR_FMU_OUTPUTS
 
@@ -336,7 +336,7 @@ class Master:
         BodyvibError
             Non-finite road, more samples than the run has, or an FMU refusing a step.
         KeyboardInterrupt
-            Ctrl-C (:mod:`bodyvib.interrupts`), taken between macro-steps.
+            Ctrl-C (:mod:`bodyvib.process.interrupts`), taken between macro-steps.
         """
         z = np.asarray(road_displacement, dtype=float)
         v = np.asarray(road_velocity, dtype=float)
@@ -479,9 +479,9 @@ def _header(name: str) -> str:
 class CsvStream:
     """Time histories written to CSV block by block (header ``name [unit]``), placed at the end.
 
-    The rows go to a temporary file beside ``path`` (:class:`bodyvib.runtime.fileio.PendingFile`),
+    The rows go to a temporary file beside ``path`` (:class:`bodyvib.process.outputs.PendingFile`),
     so a run of any length keeps no history in memory; :meth:`place` puts the file at
-    ``path`` (with the other outputs, inside :func:`bodyvib.runtime.fileio.staged_writes`);
+    ``path`` (with the other outputs, inside :func:`bodyvib.process.outputs.staged_writes`);
     an error or Ctrl-C before that leaves ``path`` as it was.
 
     Parameters

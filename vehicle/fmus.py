@@ -1,8 +1,8 @@
 """The project's FMUs: HumanBody3DOF, HumanBodyISO7962, QuarterCar and Road.
 
 ``python build_fmu.py`` and ``bodyvib build`` build these with
-:func:`bodyvib.fmu_build.build_fmu` (``Road`` with
-:func:`bodyvib.fmu_build.build_source_fmu`: a road of :mod:`vehicle.roads`
+:func:`bodyvib.fmu.pythonfmu.build_fmu` (``Road`` with
+:func:`bodyvib.fmu.pythonfmu.build_source_fmu`: a road of :mod:`vehicle.road.synthetic`
 tabulated at build time); the co-simulation commands build the ones they are
 not given into a temporary folder (:func:`temporary_fmu_dir`).
 """
@@ -11,14 +11,14 @@ import tempfile
 from pathlib import Path
 from typing import Dict, Iterable, Optional
 
-from bodyvib import interrupts
-from bodyvib.fmu_build import build_fmu, build_source_fmu
+from bodyvib.process import interrupts
+from bodyvib.fmu.pythonfmu import build_fmu, build_source_fmu
 from bodyvib.models import load_model
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib.runtime.fileio import staged_writes
+from bodyvib.process.outputs import staged_writes
 
 from .quarter_car import load_car
-from .roads import ISO8608_CLASSES, TaperedRoad, make_road, random_road, road_source
+from .road.synthetic import ISO8608_CLASSES, TaperedRoad, make_road, random_road, road_source
 
 __all__ = ["FMUS", "ROAD_DEFAULTS", "build_fmus", "build_project_fmu", "build_native_project_fmu",
            "build_road_fmu",
@@ -42,7 +42,7 @@ FMUS = {
                    "in, seat motion, suspension deflection and tire force out; exact discretization"),
     "Road": ("source", "C",
              "Road profile under a wheel driving at a speed (a parameter): road_displacement and "
-             "its exact time derivative road_velocity, from a table built by vehicle.roads"),
+             "its exact time derivative road_velocity, from a table built by vehicle.road.synthetic"),
 }
 
 
@@ -63,13 +63,13 @@ def fmu_road(spec: str = "C", length: float = 601.0, seed: int = 0, speed: float
         Design speed of a sweep, m/s.
     taper : float
         A random road fades in from level over its first ``taper`` metres and
-        out over its last (:class:`vehicle.roads.TaperedRoad`; 0: none): the car
+        out over its last (:class:`vehicle.road.synthetic.TaperedRoad`; 0: none): the car
         starts at rest on a level road, as in hosts that exchange values only
         after their first step (fmpy's SSP runner). Bump and sweep start level.
 
     Returns
     -------
-    vehicle.roads.Road
+    vehicle.road.synthetic.Road
 
     Raises
     ------
@@ -85,7 +85,7 @@ def fmu_road(spec: str = "C", length: float = 601.0, seed: int = 0, speed: float
 
 def build_road_fmu(dest="dist", road: str = "C", seed: int = 0, length: float = 601.0,
                    speed: float = 20.0, taper: float = 5.0) -> Path:
-    """Build ``Road.fmu``: a road of :mod:`vehicle.roads` as a table, driven at a speed.
+    """Build ``Road.fmu``: a road of :mod:`vehicle.road.synthetic` as a table, driven at a speed.
 
     Parameters
     ----------
@@ -151,7 +151,7 @@ def build_project_fmu(name: str, dest="dist", model: Optional[str] = None) -> Pa
     Raises
     ------
     BodyvibError
-        See :func:`load_fmu_model` and :func:`bodyvib.fmu_build.build_fmu`.
+        See :func:`load_fmu_model` and :func:`bodyvib.fmu.pythonfmu.build_fmu`.
     """
     if name in FMUS and FMUS[name][0] == "source":
         return build_road_fmu(dest, **({"road": model} if model else {}))
@@ -162,7 +162,7 @@ def build_project_fmu(name: str, dest="dist", model: Optional[str] = None) -> Pa
 
 def build_native_project_fmu(name: str, dest="dist/native", model: Optional[str] = None,
                              fmi: int = 2) -> Path:
-    """Build one FMU of :data:`FMUS` as a native C FMU (:mod:`bodyvib.native_build`).
+    """Build one FMU of :data:`FMUS` as a native C FMU (:mod:`bodyvib.fmu.native`).
 
     Parameters
     ----------
@@ -183,9 +183,9 @@ def build_native_project_fmu(name: str, dest="dist/native", model: Optional[str]
     Raises
     ------
     BodyvibError
-        See :func:`load_fmu_model` and :func:`bodyvib.native_build.build_native_fmu`.
+        See :func:`load_fmu_model` and :func:`bodyvib.fmu.native.build_native_fmu`.
     """
-    from bodyvib.native_build import build_native_fmu
+    from bodyvib.fmu.native import build_native_fmu
 
     network = load_fmu_model(name, model)
     kind, _, description = FMUS[name]
@@ -228,7 +228,7 @@ def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-ca
     Raises
     ------
     BodyvibError
-        See :func:`bodyvib.fmu_build.build_fmu`; every model is loaded (and a
+        See :func:`bodyvib.fmu.pythonfmu.build_fmu`; every model is loaded (and a
         bad one refused) before the first FMU is built.
 
     Examples

@@ -31,7 +31,7 @@ def plot_study(study: Study, path, comparison: Optional[Comparison] = None, wind
     BodyvibError
         An unsupported plot file extension.
     """
-    from bodyvib.frequency import transmissibility
+    from bodyvib.frequency.response import transmissibility
     from bodyvib.plotting import new_figure, save_figure, transmissibility_axes
 
     fig, (ax1, ax2) = new_figure(2, 1, figsize=(8, 8))

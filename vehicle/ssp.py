@@ -32,7 +32,7 @@ from xml.etree import ElementTree as ET
 import numpy as np
 
 from bodyvib.runtime.contract import UNITS
-from bodyvib.runtime.fileio import atomic_write_bytes
+from bodyvib.process.outputs import atomic_write_bytes
 
 __all__ = ["SSP_NAME", "CONNECTIONS", "COMPONENTS", "parameter_values", "ssp_parameters",
            "ssp_reference", "system_structure", "write_ssp"]
@@ -236,7 +236,7 @@ def ssp_reference(duration: float = 30.0, step: float = 1e-3, body: str = "reduc
     from .fmus import ROAD_DEFAULTS, fmu_road
     from .quarter_car import load_car
     from .reference import reference_run
-    from .roads import road_table
+    from .road.synthetic import road_table
 
     r = dict(ROAD_DEFAULTS, **(road or {}))
     table = road_table(fmu_road(r["road"], r["length"], r["seed"], r["speed"], r["taper"]),

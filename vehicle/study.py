@@ -3,9 +3,9 @@
 :func:`run_study` drives the quarter car over a road with one or more body FMUs
 (:func:`vehicle.cosim.cosimulate`), runs the monolithic reference of each
 (:func:`vehicle.reference.reference_run`) and reports, per body, the ISO 2631-1
-figures of the head acceleration (:mod:`bodyvib.comfort`), the coupling error
+figures of the head acceleration (:mod:`bodyvib.comfort.figures`), the coupling error
 and the seat-to-head transmissibility estimated from the run
-(:mod:`bodyvib.estimate`). The result is a :class:`Study` of :class:`BodyRun`;
+(:mod:`bodyvib.frequency.estimate`). The result is a :class:`Study` of :class:`BodyRun`;
 their ``to_dict()`` is the JSON form (figures, no time histories).
 """
 
@@ -18,16 +18,16 @@ from typing import Dict, List, Optional
 
 import numpy as np
 
-from bodyvib.comfort import ComfortFigures
-from bodyvib.comfort_stream import ComfortStream
-from bodyvib.estimate import TransmissibilityEstimate, TransmissibilityStream
-from bodyvib import interrupts
-from bodyvib.limits import require_memory
+from bodyvib.comfort.figures import ComfortFigures
+from bodyvib.comfort.stream import ComfortStream
+from bodyvib.frequency.estimate import TransmissibilityEstimate, TransmissibilityStream
+from bodyvib.process import interrupts
+from bodyvib.process.limits import require_memory
 from bodyvib.runtime.errors import BodyvibError
 
 from .cosim import MASTER_SIGNALS, CsvStream, Master, model_from_fmu, open_fmu
 from .reference import ReferenceStream
-from .roads import make_road, road_input
+from .road.synthetic import make_road, road_input
 
 __all__ = ["StudySettings", "BodyRun", "Study", "StudyCsv", "check_settings", "run_study",
            "coupling_error_sweep"]
@@ -116,7 +116,7 @@ class Study:
     ----------
     settings : StudySettings
     road : dict
-        The road's description (:meth:`vehicle.roads.Road.describe`).
+        The road's description (:meth:`vehicle.road.synthetic.Road.describe`).
     time, road_displacement, road_velocity : ndarray or None
         Communication points (s) and the road input under the tire (m, m/s), kept only
         with ``run_study(..., histories=True)``.
@@ -200,7 +200,7 @@ def check_settings(road: str, speed: float, duration: float, step: float, seed: 
 
     Returns
     -------
-    vehicle.roads.Road
+    vehicle.road.synthetic.Road
 
     Raises
     ------
@@ -243,7 +243,7 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
     car_fmu : str
         Car FMU path.
     road : str
-        ISO 8608 class ``A``-``H``, ``bump`` or ``sweep`` (:func:`vehicle.roads.make_road`).
+        ISO 8608 class ``A``-``H``, ``bump`` or ``sweep`` (:func:`vehicle.road.synthetic.make_road`).
     speed : float
         m/s.
     duration : float

@@ -6,11 +6,12 @@ everything here imports only itself (relatively), numpy and the standard
 library; a test keeps it so. The modules:
 
 * :mod:`.errors` - the one exception type of bodyvib;
-* :mod:`.fileio` - atomic writes, JSON reading;
+* :mod:`.jsonfile` - reading JSON files (the FMU writes nothing);
 * :mod:`.network` - lumped networks and their state space;
 * :mod:`.modelfile` - the parameter-file format;
 * :mod:`.discretize` - exact discretization;
 * :mod:`.contract` - the FMU variables, units and value references;
 * :mod:`.engine` - the stepping engine of one FMU instance;
+* :mod:`.source` - the road source (a baked table, Hermite-interpolated);
 * :mod:`.teardown` - the pythonfmu 0.7.0 exit-time workaround.
 """

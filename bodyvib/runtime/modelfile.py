@@ -39,14 +39,13 @@ from typing import Dict, Union
 
 from .contract import UNITS
 from .errors import BodyvibError
-from .fileio import read_json, write_json
+from .jsonfile import read_json
 from .network import ELEMENT_KINDS, Element, Network
 
 __all__ = [
     "network_from_dict",
     "network_from_file",
     "network_to_dict",
-    "save_model",
 ]
 
 _REQUIRED = ("name", "parameters", "masses", "elements")
@@ -377,15 +376,3 @@ def network_to_dict(net: Network) -> dict:
     if net.fmu_outputs:
         out["fmu_outputs"] = [dict(o) for o in net.fmu_outputs]
     return out
-
-
-def save_model(net: Network, path: Union[str, os.PathLike]) -> None:
-    """Write a network as a parameter file, atomically.
-
-    Parameters
-    ----------
-    net : Network
-    path : str or os.PathLike
-        Destination (its folder is created if missing).
-    """
-    write_json(path, network_to_dict(net))

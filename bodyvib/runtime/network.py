@@ -301,7 +301,7 @@ class DescriptorModel:
     parameters: a mass contributes ``m`` to ``E``, a spring ``k`` and a damper
     ``c`` times fixed stencils, and nothing is divided or solved. This is the
     form the native FMUs assemble from per-parameter stencils
-    (:mod:`bodyvib.native_build`); :func:`linear_model` solves it.
+    (:mod:`bodyvib.fmu.native`); :func:`linear_model` solves it.
 
     Attributes
     ----------

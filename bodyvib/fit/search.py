@@ -1,11 +1,11 @@
 """The search of the refit: seeded searches (a genetic algorithm by default), each polished.
 
-The search methods are :mod:`bodyvib.fit_methods` (the genetic algorithm, and
+The search methods are :mod:`bodyvib.fit.methods` (the genetic algorithm, and
 CMA-ES and differential evolution to compare it with); an optional local
 polish (:func:`polish`: ``scipy.optimize.minimize``, L-BFGS-B in the same
 log-space, bounded) starts from each search's best. The objective is
-:mod:`bodyvib.fit_objective`, the genes :mod:`bodyvib.fit_space`, the result
-:class:`bodyvib.fit_result.FitResult`.
+:mod:`bodyvib.fit.objective`, the genes :mod:`bodyvib.fit.space`, the result
+:class:`bodyvib.fit.result.FitResult`.
 
 BLAS runs on one thread during the search (``threadpoolctl``): the objective's
 products are small (a population by 196 quadrature nodes), and OpenBLAS's
@@ -19,14 +19,14 @@ from typing import List, Optional
 
 import numpy as np
 
-from . import interrupts
-from .fit_config import load_config, log_bounds
-from .fit_methods import METHODS, search
-from .fit_objective import FitTarget, parameter_array
-from .fit_result import FitResult
-from .fit_space import GENES, REDUCED_PARAMETERS, genes_to_parameters
-from .models import load_model
-from .runtime.errors import BodyvibError
+from ..process import interrupts
+from .config import load_config, log_bounds
+from .methods import METHODS, search
+from .objective import FitTarget, parameter_array
+from .result import FitResult
+from .space import GENES, REDUCED_PARAMETERS, genes_to_parameters
+from ..models import load_model
+from ..runtime.errors import BodyvibError
 
 __all__ = [
     "fit",
@@ -56,7 +56,7 @@ def fit(target: FitTarget, config: Optional[dict] = None, seed: int = 1,
     progress : bool
         Show a progress bar on stderr (tqdm; off when stderr is not a terminal).
     method : str, optional
-        ``"ga"``, ``"cmaes"`` or ``"de"`` (:data:`bodyvib.fit_methods.METHODS`);
+        ``"ga"``, ``"cmaes"`` or ``"de"`` (:data:`bodyvib.fit.methods.METHODS`);
         ``config["method"]`` by default.
 
     Returns
@@ -70,7 +70,7 @@ def fit(target: FitTarget, config: Optional[dict] = None, seed: int = 1,
 
     Examples
     --------
-    >>> from bodyvib.fit_objective import model_target
+    >>> from bodyvib.fit.objective import model_target
     >>> cfg = load_config(overrides={"ga": {"population": 20, "generations": 5}})
     >>> r = fit(model_target("iso7962"), cfg, seed=1)
     >>> bool(r.objective < r.objective_table2)

@@ -8,7 +8,7 @@ computation's working memory with :func:`available_memory` and refuses with both
 
 import os
 
-from .runtime.errors import BodyvibError
+from ..runtime.errors import BodyvibError
 
 __all__ = ["available_memory", "require_memory", "format_bytes", "MEMORY_FRACTION"]
 

@@ -1,4 +1,4 @@
-"""Atomic file writing (a crash or a full disk never leaves half a file behind) and JSON reading.
+"""Outputs: checked before the work, written atomically, committed together.
 
 Writes go to a temporary file in the destination's folder, then replace the
 destination in one rename. A symlink is written through (its target is
@@ -9,7 +9,8 @@ block and commits them together at its end (all of them or, if the block
 fails, none); :func:`check_output_path` checks an output before any work is
 done.
 
-Numpy-free and dependency-free (relative imports only), so FMUs can ship it.
+A process concern of the commands, not of the FMUs: the FMU run-time
+(:mod:`bodyvib.runtime`) only reads files (:mod:`bodyvib.runtime.jsonfile`).
 """
 
 import contextlib
@@ -20,9 +21,9 @@ import stat
 import tempfile
 import threading
 
-from .errors import BodyvibError
+from ..runtime.errors import BodyvibError
 
-__all__ = ["atomic_write_text", "atomic_write_bytes", "write_json", "read_json",
+__all__ = ["atomic_write_text", "atomic_write_bytes", "write_json",
            "staged_writes", "StagedWrites", "open_staged", "PendingFile", "check_output_path",
            "check_outputs"]
 
@@ -459,38 +460,3 @@ def write_json(path, obj) -> None:
         raise BodyvibError(f"{os.fspath(path)}: {bad} is not a finite number; JSON cannot hold "
                            "NaN or Infinity, nothing written") from None
     atomic_write_text(path, text + "\n")
-
-
-def read_json(path, what: str = "file"):
-    """Read a JSON file, turning every way it can be unreadable into one clear error.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The file.
-    what : str
-        What the file is, for the message (``"model file"``, ``"configuration"``).
-
-    Returns
-    -------
-    object
-        The parsed JSON value.
-
-    Raises
-    ------
-    BodyvibError
-        The file cannot be opened, is not UTF-8 text, or is not valid JSON
-        (with the line and column).
-    """
-    path = os.fspath(path)
-    try:
-        with open(path, encoding="utf-8") as f:
-            return json.load(f)
-    except OSError as exc:
-        raise BodyvibError(f"cannot read {what} '{path}': {exc.strerror}") from None
-    except UnicodeDecodeError:
-        raise BodyvibError(f"{path}: not a text (UTF-8) JSON {what}") from None
-    except json.JSONDecodeError as exc:
-        raise BodyvibError(
-            f"{path}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})"
-        ) from None

@@ -41,7 +41,7 @@ from typing import Callable, List, Optional
 
 import numpy as np
 
-from .runtime.errors import BodyvibError
+from ..runtime.errors import BodyvibError
 
 __all__ = ["METHODS", "COORDINATES", "SearchSpace", "SearchResult", "search", "describe",
            "ga_search", "cmaes_search", "de_search"]
@@ -417,7 +417,7 @@ def describe(method: str) -> str:
 
     if method == "ga":
         return (f"deap {version('deap')} (tools.selTournament, tools.cxSimulatedBinaryBounded, "
-                "tools.selBest) with bodyvib.fit_methods' Gaussian mutation scaled by the "
+                "tools.selBest) with bodyvib.fit.methods' Gaussian mutation scaled by the "
                 "population's spread: a real-coded generational GA with elitism")
     if method == "cmaes":
         return f"cma {version('cma')} (cma.CMAEvolutionStrategy, ask/tell, bounds [0, 1]^6)"

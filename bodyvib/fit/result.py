@@ -11,11 +11,11 @@ import datetime
 from dataclasses import dataclass, field
 from typing import Dict, List
 
-from . import __version__
-from .fit_objective import FitTarget, objective_time_domain
-from .fit_space import reduced_network
-from .runtime.modelfile import save_model
-from .runtime.network import Network
+from .. import __version__
+from .objective import FitTarget, objective_time_domain
+from .space import reduced_network
+from ..models import save_model
+from ..runtime.network import Network
 
 __all__ = [
     "FitResult",
@@ -57,7 +57,7 @@ class FitResult:
         objective after the polish, its evaluations, generations and why it
         stopped; the best run is the result.
     method : str
-        The search method (:data:`bodyvib.fit_methods.METHODS`).
+        The search method (:data:`bodyvib.fit.methods.METHODS`).
     """
 
     parameters: Dict[str, float]
@@ -126,14 +126,14 @@ def write_parameter_file(result: FitResult, path, command: str = "") -> Network:
     Network
         The model as written.
     """
-    from .fit_methods import describe
+    from .methods import describe
 
     t = result.target
     name = f"reduced-refit-{t.name}"
     prov = {
         "source": f"{'GA' if result.method == 'ga' else result.method} refit of the reduced "
                   "3-DOF model of Balci & Gundogdu (2025), Fig. 2, by "
-                  "'bodyvib fit' (bodyvib.fit_search)",
+                  "'bodyvib fit' (bodyvib.fit.search)",
         "command": command,
         "date": datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0).isoformat(),
         "bodyvib_version": __version__,

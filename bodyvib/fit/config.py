@@ -14,11 +14,11 @@ from typing import Dict, Optional
 
 import numpy as np
 
-from .fit_methods import COORDINATES, METHODS
-from .fit_space import GENES, PAIR_ROLES
-from .models import MODEL_DIR
-from .runtime.errors import BodyvibError
-from .runtime.fileio import read_json
+from .methods import COORDINATES, METHODS
+from .space import GENES, PAIR_ROLES
+from ..models import MODEL_DIR
+from ..runtime.errors import BodyvibError
+from ..runtime.jsonfile import read_json
 
 __all__ = [
     "DEFAULT_CONFIG_PATH",
@@ -204,7 +204,7 @@ def log_bounds(cfg: dict):
     Returns
     -------
     lo, hi : ndarray, shape (6,)
-        In :data:`bodyvib.fit_space.GENES` order.
+        In :data:`bodyvib.fit.space.GENES` order.
     """
     b = cfg["bounds_per_kg_total_mass"]
     return np.log10([b[g][0] for g in GENES]), np.log10([b[g][1] for g in GENES])

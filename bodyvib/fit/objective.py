@@ -38,12 +38,12 @@ seat force, which is what a car feels in a two-way coupling, is then right
 at low frequency.
 
 **Measured data.** For a user's seat-to-head transmissibility
-(:mod:`bodyvib.measured`) the same integral is restricted to the measured
+(:mod:`bodyvib.frequency.measured`) the same integral is restricted to the measured
 band, by the trapezoid rule on the measured frequencies: the complex
 difference when the phase is given, the difference of moduli when it is not.
 
-The search is :mod:`bodyvib.fit_search` over the genes of
-:mod:`bodyvib.fit_space`; :mod:`bodyvib.fit_result` writes its result as a
+The search is :mod:`bodyvib.fit.search` over the genes of
+:mod:`bodyvib.fit.space`; :mod:`bodyvib.fit.result` writes its result as a
 parameter file with its provenance.
 """
 
@@ -54,12 +54,12 @@ from typing import Dict, Mapping, Optional
 
 import numpy as np
 
-from .analytic import head_transmissibility, torso_transmissibility
-from .fit_config import load_config
-from .fit_space import REDUCED_PARAMETERS
-from .models import load_model
-from .runtime.errors import BodyvibError
-from .runtime.network import Network
+from ..analytic import head_transmissibility, torso_transmissibility
+from .config import load_config
+from .space import REDUCED_PARAMETERS
+from ..models import load_model
+from ..runtime.errors import BodyvibError
+from ..runtime.network import Network
 
 __all__ = [
     "DEFAULT_MEASURED_TOTAL_MASS",
@@ -130,8 +130,8 @@ def quadrature_grid(f_first_panel_hz=0.05, f_split_hz=50.0, panels=30, nodes_per
 
 def _displacement_statespace(model, point: str):
     """``(A, b, c)`` with ``h(t) = c e^{At} b`` the position impulse response."""
-    from .frequency import displacement_input_matrices
-    from .runtime.network import as_linear_model
+    from ..frequency.response import displacement_input_matrices
+    from ..runtime.network import as_linear_model
 
     lm = as_linear_model(model)
     A, B, C, D = displacement_input_matrices(lm)
@@ -165,7 +165,7 @@ def default_horizon(*models, time_constants: float = 40.0) -> float:
     BodyvibError
         If a model is not asymptotically stable.
     """
-    from .runtime.network import as_linear_model
+    from ..runtime.network import as_linear_model
 
     sigma = min(float(np.min(-np.linalg.eigvals(as_linear_model(m).A).real)) for m in models)
     if sigma <= 0:
@@ -178,7 +178,7 @@ def impulse_response(model, t_end: float, dt: float, point: str = "head"):
     """Exact samples of a position's response to a unit impulse of seat displacement.
 
     ``h(t_k) = c e^{A t_k} b`` at ``t_k = k dt`` (the state space driven by
-    seat displacement alone, :func:`bodyvib.frequency.displacement_input_statespace`),
+    seat displacement alone, :func:`bodyvib.frequency.response.displacement_input_statespace`),
     the matrix exponential from :func:`bodyvib.runtime.discretize.expm`. Exact at the
     samples for any stiffness (the ISO model's fastest pole is -1.1e8 1/s).
 
@@ -236,7 +236,7 @@ def _samples(t_end: float, dt: float) -> int:
 
 def _impulse_blocks(model, n: int, dt: float, point: str, block: int = 512):
     """Yield ``(t, h)`` of the exact impulse response in blocks of samples."""
-    from .runtime.discretize import expm
+    from ..runtime.discretize import expm
 
     A, b, c = _displacement_statespace(model, point)
     phi = expm(A * dt)
@@ -437,7 +437,7 @@ def model_target(reference, pairs: Optional[Mapping[str, float]] = None,
     BodyvibError
         A pair's role is not a role of the reference model.
     """
-    from .frequency import transmissibility
+    from ..frequency.response import transmissibility
 
     cfg = config or load_config()
     net = load_model(reference) if isinstance(reference, (str, os.PathLike)) else reference
@@ -471,7 +471,7 @@ def measured_target(data, total_mass: Optional[float] = None) -> FitTarget:
     Parameters
     ----------
     data : str, os.PathLike or MeasuredTransmissibility
-        A CSV file (:func:`bodyvib.measured.read_transmissibility_csv`) or
+        A CSV file (:func:`bodyvib.frequency.measured.read_transmissibility_csv`) or
         data already read.
     total_mass : float, optional
         Pinned total mass m1 + m2 in kg; 75 kg (the ISO 7962 model's) by
@@ -485,9 +485,9 @@ def measured_target(data, total_mass: Optional[float] = None) -> FitTarget:
     Raises
     ------
     BodyvibError
-        Malformed data (see :mod:`bodyvib.measured`) or a non-positive mass.
+        Malformed data (see :mod:`bodyvib.frequency.measured`) or a non-positive mass.
     """
-    from .measured import MeasuredTransmissibility, read_transmissibility_csv
+    from ..frequency.measured import MeasuredTransmissibility, read_transmissibility_csv
 
     m = data if isinstance(data, MeasuredTransmissibility) else read_transmissibility_csv(data)
     M = DEFAULT_MEASURED_TOTAL_MASS if total_mass is None else float(total_mass)

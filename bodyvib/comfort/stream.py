@@ -1,11 +1,11 @@
 """Streaming ISO 2631-1 figures for a batch of signals: recursive Wk filter and accumulators.
 
-:mod:`bodyvib.comfort` weights a whole record at once (FFT of the zero-padded
+:mod:`bodyvib.comfort.figures` weights a whole record at once (FFT of the zero-padded
 record times the analog Wk response). A sweep computes its figures while the
 signals are produced, block by block and for many cases at once, without
 keeping the time histories. This module does that with
 
-* :func:`wk_statespace` -- the analog Wk of :data:`bodyvib.comfort.WK_PARAMETERS`
+* :func:`wk_statespace` -- the analog Wk of :data:`bodyvib.comfort.figures.WK_PARAMETERS`
   (ISO 2631-1 Annex A: band limits, a-v transition, upward step) as one
   8-state, single-input state space, the four second-order sections in series;
 * :class:`WkFilter` -- that state space discretized exactly
@@ -16,8 +16,8 @@ keeping the time histories. This module does that with
 * :class:`ComfortStream` -- the filter plus running sums of ``a_w^2``,
   ``a_w^4`` and the running ``max |a_w|``, from which the weighted r.m.s.,
   VDV, peak, crest factor and the comfort words
-  (:func:`bodyvib.comfort.comfort_category`) follow at any time, with the
-  definitions of :func:`bodyvib.comfort.comfort_figures`.
+  (:func:`bodyvib.comfort.figures.comfort_category`) follow at any time, with the
+  definitions of :func:`bodyvib.comfort.figures.comfort_figures`.
 
 The result does not depend on how the samples are split into blocks (up to
 rounding, about 1e-15 relative).
@@ -27,9 +27,9 @@ from typing import Dict, List, Optional
 
 import numpy as np
 
-from .comfort import WK_PARAMETERS, ComfortFigures, comfort_category
-from .runtime.discretize import discretize
-from .runtime.errors import BodyvibError
+from .figures import WK_PARAMETERS, ComfortFigures, comfort_category
+from ..runtime.discretize import discretize
+from ..runtime.errors import BodyvibError
 
 __all__ = ["wk_statespace", "WkFilter", "ComfortStream", "stream_comfort_figures"]
 
@@ -38,7 +38,7 @@ def _sections():
     """The four second-order sections of Wk as ``(b2, b1, b0), (a1, a0)`` in ``p``.
 
     Each is ``(b2 p^2 + b1 p + b0) / (p^2 + a1 p + a0)``: the Annex A factors of
-    :mod:`bodyvib.comfort` with numerator and denominator scaled to a monic
+    :mod:`bodyvib.comfort.figures` with numerator and denominator scaled to a monic
     denominator.
     """
     P = WK_PARAMETERS
@@ -61,13 +61,13 @@ def wk_statespace():
     B : (8, 1) ndarray
     C : (1, 8) ndarray
     D : (1, 1) ndarray
-        ``C (pI - A)^-1 B + D`` equals :func:`bodyvib.comfort.wk_response`
+        ``C (pI - A)^-1 B + D`` equals :func:`bodyvib.comfort.figures.wk_response`
         (to rounding). Each section is in controllable canonical form; the
         sections are in series (high pass, low pass, transition, step).
 
     Examples
     --------
-    >>> from bodyvib.comfort import wk_response
+    >>> from bodyvib.comfort.figures import wk_response
     >>> A, B, C, D = wk_statespace()
     >>> p = 2j * np.pi * 6.3
     >>> H = (C @ np.linalg.solve(p * np.eye(8) - A, B) + D)[0, 0]
@@ -259,7 +259,7 @@ class ComfortStream:
 
     Notes
     -----
-    The figures are those of :func:`bodyvib.comfort.comfort_figures` --
+    The figures are those of :func:`bodyvib.comfort.figures.comfort_figures` --
     ``sqrt(mean(a_w^2))``, ``(sum(a_w^4) / fs)^(1/4)``, ``max |a_w|`` -- of the
     recursively weighted samples. They are not bit-equal to that function's:
     it weights by multiplying the FFT bins of the record by the analog
@@ -363,7 +363,7 @@ def stream_comfort_figures(acceleration, fs: float, block: int = 4096) -> Dict[s
     Returns
     -------
     ComfortFigures or dict
-        For a 1-D input, :class:`bodyvib.comfort.ComfortFigures`; for a batch, as
+        For a 1-D input, :class:`bodyvib.comfort.figures.ComfortFigures`; for a batch, as
         :meth:`ComfortStream.figures` (arrays and a list of words).
 
     Raises

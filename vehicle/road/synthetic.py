@@ -1,4 +1,4 @@
-"""Road profiles as functions of distance, and the road input a car sees at a speed.
+"""Synthetic roads (ISO 8608 classes, bump, sweep) and what every road shares.
 
 A road is a vertical profile ``z(x)`` [m] over the distance ``x`` [m]; a car
 driving at a constant speed ``V`` [m/s] sees ``z(V t)`` and the road velocity
@@ -32,7 +32,7 @@ from typing import Tuple
 
 import numpy as np
 
-from bodyvib.limits import require_memory
+from bodyvib.process.limits import require_memory
 from bodyvib.runtime.errors import BodyvibError
 
 __all__ = [
@@ -555,7 +555,7 @@ def road_source(road: Road, length: float, speed: float = 20.0,
     Returns
     -------
     meta : dict
-        For :func:`bodyvib.fmu_build.build_source_fmu`.
+        For :func:`bodyvib.fmu.pythonfmu.build_source_fmu`.
     table : bodyvib.runtime.source.HermiteTable
     """
     _check_positive(speed, "speed", "m/s")
@@ -577,6 +577,6 @@ def road_source(road: Road, length: float, speed: float = 20.0,
                      "description": "Time derivative of road_displacement (speed * profile "
                                     "slope of the same interpolant)"},
         }],
-        "provenance": dict(road.describe(), generator="vehicle.roads"),
+        "provenance": dict(road.describe(), generator="vehicle.road.synthetic"),
     }
     return meta, table

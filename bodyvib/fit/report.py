@@ -1,6 +1,6 @@
 """The paper's Table 2 against a GA refit: a table, JSON and plots (``bodyvib fit --report``).
 
-Both parameter sets are judged on the same objective (:mod:`bodyvib.fit_objective`, the
+Both parameter sets are judged on the same objective (:mod:`bodyvib.fit.objective`, the
 paper's Eq. 3, each pair separately and weighted), on the seat-to-head
 transmissibility peaks against the target (the reference model or the
 measured data) over 0.5-31.5 Hz (ISO 7962's range), and, for a reference
@@ -12,9 +12,9 @@ import os
 
 import numpy as np
 
-from .runtime.fileio import atomic_write_text, write_json
-from .frequency import apparent_mass, find_peaks, transmissibility
-from .models import load_model
+from ..process.outputs import atomic_write_text, write_json
+from ..frequency.response import apparent_mass, find_peaks, transmissibility
+from ..models import load_model
 
 __all__ = ["F_MIN_HZ", "F_MAX_HZ", "compare_fit", "format_comparison", "plot_comparison",
            "write_report"]
@@ -28,9 +28,9 @@ def compare_fit(result, refit):
 
     Parameters
     ----------
-    result : bodyvib.fit_result.FitResult
+    result : bodyvib.fit.result.FitResult
     refit : Network
-        The refitted model (as written by :func:`bodyvib.fit_result.write_parameter_file`).
+        The refitted model (as written by :func:`bodyvib.fit.result.write_parameter_file`).
 
     Returns
     -------
@@ -41,7 +41,7 @@ def compare_fit(result, refit):
         peaks and r.m.s. relative difference from the reference), and
         ``parameters`` (per model).
     """
-    from .fit_objective import parameter_array
+    from .objective import parameter_array
 
     t = result.target
     paper = load_model("reduced-paper")
@@ -61,7 +61,7 @@ def compare_fit(result, refit):
     out["objective"]["refit_over_table2"] = (out["objective"]["refit"]["total_per_s"]
                                             / out["objective"]["table2"]["total_per_s"])
     if t.kind == "model":
-        from .fit_objective import objective_time_domain
+        from .objective import objective_time_domain
 
         for key, net in models.items():
             out["objective"][key]["time_domain_per_s"] = objective_time_domain(
@@ -146,8 +146,8 @@ def plot_comparison(result, refit, folder):
     list of str
         The files written.
     """
-    from .fit_objective import default_horizon, impulse_response
-    from .plotting import new_figure, save_figure, transmissibility_axes
+    from .objective import default_horizon, impulse_response
+    from ..plotting import new_figure, save_figure, transmissibility_axes
 
     t = result.target
     paper = load_model("reduced-paper")
@@ -201,7 +201,7 @@ def write_report(folder, result, refit):
     ----------
     folder : str or os.PathLike
         Created if missing.
-    result : bodyvib.fit_result.FitResult
+    result : bodyvib.fit.result.FitResult
     refit : Network
 
     Returns

@@ -1,6 +1,6 @@
 """Running a sweep: cases grouped into tasks, executed on Dask, written as they arrive.
 
-:func:`run_sweep` expands a spec (:mod:`vehicle.sweep_spec`), skips the cases
+:func:`run_sweep` expands a spec (:mod:`vehicle.sweep.spec`), skips the cases
 already in the output when resuming, groups the rest into tasks (blocks of
 cases with the same body model, car, duration and step, so that the batched
 engine advances a whole block with one matrix product per step), runs them on
@@ -51,10 +51,10 @@ from typing import Callable, Dict, List, Optional, Sequence, Union
 
 from bodyvib import __version__, interrupts
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib.runtime.fileio import atomic_write_bytes, atomic_write_text
+from bodyvib.process.outputs import atomic_write_bytes, atomic_write_text
 
-from .sweep_engines import FIGURES, check_engine, run_engine
-from .sweep_spec import Case, expand, load_spec, spec_hash, varied_parameters
+from .engines import FIGURES, check_engine, run_engine
+from .spec import Case, expand, load_spec, spec_hash, varied_parameters
 
 __all__ = ["BASE_COLUMNS", "run_sweep", "plan_tasks", "read_results", "parts_dir"]
 
@@ -189,7 +189,7 @@ def plan_tasks(cases: Sequence[Case], engine: str, workers: int = 1,
 
     Examples
     --------
-    >>> from vehicle.sweep_spec import expand
+    >>> from vehicle.sweep.spec import expand
     >>> cases = expand({"road": ["C", "D"], "speed": [10, 20], "body": ["reduced-paper", "iso7962"]})
     >>> [len(t) for t in plan_tasks(cases, "batched", block=3)]
     [3, 1, 3, 1]
@@ -266,7 +266,7 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
     Parameters
     ----------
     spec : dict or str
-        A spec (:mod:`vehicle.sweep_spec`) or the path of a JSON spec.
+        A spec (:mod:`vehicle.sweep.spec`) or the path of a JSON spec.
     out : str, optional
         Parquet file for the table (also the key of ``--resume``); None keeps
         the table in memory only.

@@ -2,7 +2,7 @@
 
 A co-simulation gives seat and head accelerations; their cross and auto
 spectra give the transmissibility the run shows, to set beside the model's
-own (:func:`bodyvib.frequency.transmissibility`).
+own (:func:`bodyvib.frequency.response.transmissibility`).
 """
 
 from dataclasses import asdict, dataclass
@@ -10,8 +10,8 @@ from typing import Dict, List
 
 import numpy as np
 
-from .frequency import find_peaks
-from .runtime.errors import BodyvibError
+from .response import find_peaks
+from ..runtime.errors import BodyvibError
 
 __all__ = ["TRANSMISSIBILITY_BAND_HZ", "Peak", "TransmissibilityEstimate",
            "estimate_transmissibility", "TransmissibilityStream", "segment_length"]

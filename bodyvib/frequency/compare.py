@@ -7,10 +7,10 @@ ISO 7962's data, with each model's resonance peaks.
 
 import numpy as np
 
-from .frequency import find_peaks, transmissibility
-from .limits import require_memory
-from .runtime.errors import BodyvibError
-from .models import load_model
+from .response import find_peaks, transmissibility
+from ..process.limits import require_memory
+from ..runtime.errors import BodyvibError
+from ..models import load_model
 
 __all__ = [
     "THIRD_OCTAVE_HZ",
@@ -170,7 +170,7 @@ def plot_transmissibility(result, path, title="Seat-to-head transmissibility"):
     BodyvibError
         An unsupported plot file extension.
     """
-    from .plotting import new_figure, save_figure, transmissibility_axes
+    from ..plotting import new_figure, save_figure, transmissibility_axes
 
     fig, (ax1, ax2) = new_figure(2, 1, sharex=True, figsize=(7, 6))
     f = result["frequency_hz"]

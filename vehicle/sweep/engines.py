@@ -8,13 +8,13 @@
   ``[x_{k+1}; y_k] = [Phi; C] x_k + [Gamma; D] (z_k, v_k)``, with the road's
   in-step slope as in :func:`bodyvib.runtime.discretize.input_rates`. The head and
   seat accelerations go block by block into
-  :class:`bodyvib.comfort_stream.ComfortStream`; no time history is kept.
+  :class:`bodyvib.comfort.stream.ComfortStream`; no time history is kept.
 * ``spectral`` -- for an ISO 8608 random road, the expected weighted mean
   square of a long run, ``a_w^2 = int |H(f)|^2 |Wk(f)|^2 S(f) df``, with
   ``H`` the road-to-head (or seat) acceleration response
-  (:func:`bodyvib.frequency.frequency_response`), ``Wk``
-  (:func:`bodyvib.comfort.wk_response`) and the road's time-domain PSD at the
-  speed ``S(f) = Gd(f / V) / V`` (:func:`vehicle.roads.displacement_psd`)
+  (:func:`bodyvib.frequency.response.frequency_response`), ``Wk``
+  (:func:`bodyvib.comfort.figures.wk_response`) and the road's time-domain PSD at the
+  speed ``S(f) = Gd(f / V) / V`` (:func:`vehicle.road.synthetic.displacement_psd`)
   over the band the road is synthesized in. It gives the weighted r.m.s. only:
   VDV, peak and crest factor depend on the particular record (NaN).
 * ``cosim`` -- real FMU co-simulations (:func:`vehicle.cosim.cosimulate`,
@@ -23,8 +23,8 @@
   case through the FMUs' parameter variables before initialization.
 
 Every case sees the road of ``bodyvib cosim`` with the same road, seed, speed
-and duration: :func:`vehicle.roads.make_road` and
-:func:`vehicle.roads.road_input` on ``t_k = k * step``, ``k = 0 ...
+and duration: :func:`vehicle.road.synthetic.make_road` and
+:func:`vehicle.road.synthetic.road_input` on ``t_k = k * step``, ``k = 0 ...
 round(duration / step)``. Each engine returns one figures dict per case; a
 case that fails carries its error instead of figures.
 """
@@ -36,16 +36,16 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
-from bodyvib.comfort import comfort_category, wk_response
-from bodyvib.comfort_stream import ComfortStream
-from bodyvib.frequency import frequency_response
+from bodyvib.comfort.figures import comfort_category, wk_response
+from bodyvib.comfort.stream import ComfortStream
+from bodyvib.frequency.response import frequency_response
 from bodyvib.runtime.discretize import Discretization
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import linear_model
 
-from .quarter_car import seated_system
-from .roads import ISO8608_CLASSES, N_BAND, displacement_psd, make_road, road_input
-from .sweep_spec import Case
+from ..quarter_car import seated_system
+from ..road.synthetic import ISO8608_CLASSES, N_BAND, displacement_psd, make_road, road_input
+from .spec import Case
 
 __all__ = ["ENGINES", "FIGURES", "run_engine", "run_batched", "run_spectral", "run_cosim",
            "case_road_input", "check_engine"]
@@ -76,7 +76,7 @@ def check_engine(engine: str, cases: Sequence[Case]) -> None:
 
     Examples
     --------
-    >>> from vehicle.sweep_spec import expand
+    >>> from vehicle.sweep.spec import expand
     >>> check_engine("spectral", expand({"road": "bump", "speed": 10, "body": "reduced-paper"}))
     Traceback (most recent call last):
     ...
@@ -105,7 +105,7 @@ def case_road_input(case: Case):
 
     Examples
     --------
-    >>> from vehicle.sweep_spec import expand
+    >>> from vehicle.sweep.spec import expand
     >>> z, v = case_road_input(expand({"road": "C", "speed": 20, "duration": 2,
     ...                                "body": "reduced-paper"})[0])
     >>> z.shape
@@ -243,7 +243,7 @@ def run_batched(cases: Sequence[Case], block_steps: int = 256, record: bool = Fa
 
     Examples
     --------
-    >>> from vehicle.sweep_spec import expand
+    >>> from vehicle.sweep.spec import expand
     >>> cases = expand({"road": "C", "speed": [10, 20], "duration": 1, "body": "reduced-paper"})
     >>> rows, _ = run_batched(cases)
     >>> [r["head_weighted_rms"] > 0 for r in rows]
@@ -317,7 +317,7 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
 
     Examples
     --------
-    >>> from vehicle.sweep_spec import expand
+    >>> from vehicle.sweep.spec import expand
     >>> rows = run_spectral(expand({"road": ["A", "C"], "speed": 20, "body": "reduced-paper"}))
     >>> round(rows[1]["head_weighted_rms"] / rows[0]["head_weighted_rms"], 9)
     4.0
@@ -368,7 +368,7 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
 
 def _fmu(kind: str, source: str, folder: str, built: Dict[tuple, str]) -> str:
     """Path of an FMU for a body or car source, built once into ``folder``."""
-    from .fmus import build_project_fmu
+    from ..fmus import build_project_fmu
 
     key = (kind, os.path.abspath(source) if os.path.isfile(source) else source)
     path = built.get(key)
@@ -403,7 +403,7 @@ def run_cosim(cases: Sequence[Case], record: bool = False):
         As :func:`run_batched`.
     histories : list of dict or None
     """
-    from .cosim import cosimulate, open_fmu
+    from ..cosim import cosimulate, open_fmu
 
     rows, hist = [], []
     built: Dict[tuple, str] = {}

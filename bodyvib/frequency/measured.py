@@ -16,7 +16,7 @@ a NaN, a frequency that does not increase, a negative modulus, one above
 :data:`MAX_MODULUS`, all moduli zero, too few rows) is a
 :class:`~bodyvib.runtime.errors.BodyvibError` naming the line and the fix.
 
-The GA refit (:mod:`bodyvib.fit_objective`) fits the reduced model to such data: to the
+The GA refit (:mod:`bodyvib.fit.objective`) fits the reduced model to such data: to the
 complex transmissibility when the phase is given, to the modulus alone when
 it is not.
 """
@@ -29,7 +29,7 @@ from typing import Optional
 
 import numpy as np
 
-from .runtime.errors import BodyvibError
+from ..runtime.errors import BodyvibError
 
 __all__ = ["MIN_ROWS", "MAX_MODULUS", "MeasuredTransmissibility", "read_transmissibility_csv",
            "write_transmissibility_csv"]
@@ -217,7 +217,7 @@ def write_transmissibility_csv(path, frequency_hz, modulus, phase_deg=None) -> N
     phase_deg : array_like, optional
         Phase in degrees.
     """
-    from .runtime.fileio import atomic_write_text
+    from ..process.outputs import atomic_write_text
 
     cols = [np.asarray(frequency_hz, float), np.asarray(modulus, float)]
     header = "frequency_hz,modulus"

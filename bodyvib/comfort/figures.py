@@ -34,7 +34,7 @@ from typing import Dict
 
 import numpy as np
 
-from .runtime.errors import BodyvibError
+from ..runtime.errors import BodyvibError
 
 __all__ = [
     "WK_PARAMETERS",

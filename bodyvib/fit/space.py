@@ -11,8 +11,8 @@ from typing import Mapping, Optional
 
 import numpy as np
 
-from .models import load_model
-from .runtime.network import Network
+from ..models import load_model
+from ..runtime.network import Network
 
 __all__ = [
     "REDUCED_PARAMETERS",

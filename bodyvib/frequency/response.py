@@ -13,9 +13,9 @@ from typing import List, Sequence
 
 import numpy as np
 
-from . import interrupts
-from .runtime.errors import BodyvibError
-from .runtime.network import as_linear_model
+from ..process import interrupts
+from ..runtime.errors import BodyvibError
+from ..runtime.network import as_linear_model
 
 __all__ = [
     "control_labels",

@@ -4,7 +4,7 @@ from typing import Optional
 
 import numpy as np
 
-from bodyvib.comfort import COMFORT_SCALE
+from bodyvib.comfort.figures import COMFORT_SCALE
 from bodyvib.runtime.errors import BodyvibError
 
 __all__ = ["plot_comfort_maps"]
@@ -18,13 +18,13 @@ def plot_comfort_maps(df, path, figure: str = "head_weighted_rms", title: Option
     Where a panel holds several cases per road and speed (seeds, parameter
     sets), the line is their median and the shaded band their 5-95 % range.
     Behind the lines: the comfort bands of ISO 2631-1 Annex C
-    (:data:`bodyvib.comfort.COMFORT_SCALE`; the standard's bands overlap, and
+    (:data:`bodyvib.comfort.figures.COMFORT_SCALE`; the standard's bands overlap, and
     so do the shadings).
 
     Parameters
     ----------
     df : pandas.DataFrame
-        A sweep table (:func:`vehicle.sweep_run.run_sweep`).
+        A sweep table (:func:`vehicle.sweep.run.run_sweep`).
     path : str
         Plot file (.png, .pdf or .svg).
     figure : str

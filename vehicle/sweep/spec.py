@@ -46,11 +46,11 @@ import numpy as np
 
 from bodyvib.models import load_model
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib.runtime.fileio import read_json
+from bodyvib.runtime.jsonfile import read_json
 from bodyvib.runtime.modelfile import network_to_dict
 
-from .study import check_settings
-from .quarter_car import load_car
+from ..study import check_settings
+from ..quarter_car import load_car
 
 __all__ = ["Case", "SPEC_KEYS", "load_spec", "grid_spec", "expand", "spec_hash", "varied_parameters"]
 

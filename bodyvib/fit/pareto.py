@@ -5,7 +5,7 @@ responses of head and torso); its seat-to-head transmissibility peaks lower
 than the reference's (1.439 against the ISO model's 1.665). This module draws
 what the reduced 3-DOF chain can do about it: the Pareto front of
 
-* ``J`` (1/s, :class:`bodyvib.fit_objective.FitTarget`), and
+* ``J`` (1/s, :class:`bodyvib.fit.objective.FitTarget`), and
 * the **peak error** ``e = max(|d|T|| / (0.10 |T_ref|), |df| / 0.5 Hz)``: the
   larger of the errors of the peak modulus and of the peak frequency of
   ``|X_head/X_seat|`` over 0.5-20 Hz, each in units of the tolerance of
@@ -18,7 +18,7 @@ and on a two-objective front every point says what one unit of it costs in
 
 The search is NSGA-II from pymoo (``pymoo.algorithms.moo.nsga2.NSGA2``),
 vectorized (one call per generation), in the aligned coordinates of
-:class:`bodyvib.fit_methods.SearchSpace`; its first population holds the
+:class:`bodyvib.fit.methods.SearchSpace`; its first population holds the
 single-objective optimum (the genetic algorithm's result), so the front's
 min-``J`` end is the refit itself. :func:`write_pareto` writes the front as a
 CSV table and a PNG plot, and a parameter file with provenance for each of
@@ -38,14 +38,14 @@ from typing import Dict, List
 
 import numpy as np
 
-from . import __version__
-from .analytic import head_transmissibility
-from .fit_config import log_bounds
-from .fit_methods import SearchSpace
-from .fit_space import REDUCED_PARAMETERS, genes_to_parameters, parameters_to_genes, reduced_network
-from .runtime.modelfile import save_model
-from .runtime.errors import BodyvibError
-from .runtime.fileio import atomic_write_text
+from .. import __version__
+from ..analytic import head_transmissibility
+from .config import log_bounds
+from .methods import SearchSpace
+from .space import REDUCED_PARAMETERS, genes_to_parameters, parameters_to_genes, reduced_network
+from ..models import save_model
+from ..runtime.errors import BodyvibError
+from ..process.outputs import atomic_write_text
 
 __all__ = [
     "PEAK_BAND_HZ",
@@ -78,7 +78,7 @@ def peaks(params) -> np.ndarray:
     Parameters
     ----------
     params : array_like, shape (..., 7)
-        Reduced-model parameters in :data:`bodyvib.fit_space.REDUCED_PARAMETERS` order.
+        Reduced-model parameters in :data:`bodyvib.fit.space.REDUCED_PARAMETERS` order.
 
     Returns
     -------
@@ -87,7 +87,7 @@ def peaks(params) -> np.ndarray:
 
     Examples
     --------
-    >>> from bodyvib.fit_objective import parameter_array
+    >>> from bodyvib.fit.objective import parameter_array
     >>> from bodyvib.models import load_model
     >>> m, f = peaks(parameter_array(load_model("reduced-paper")))
     >>> round(float(m), 3), round(float(f), 2)
@@ -114,7 +114,7 @@ def _refine(logf, T):
 
 def reference_peak(reference) -> np.ndarray:
     """Peak modulus and frequency of a reference model's seat-to-head ``|T|``, as :func:`peaks`."""
-    from .frequency import transmissibility
+    from ..frequency.response import transmissibility
 
     return _refine(np.log(_GRID), np.abs(transmissibility(reference, _GRID)))
 
@@ -181,9 +181,9 @@ def pareto_front(target, config: dict, seed: int = 1, start=None,
     Parameters
     ----------
     target : FitTarget
-        From :func:`bodyvib.fit_objective.model_target` (a reference model).
+        From :func:`bodyvib.fit.objective.model_target` (a reference model).
     config : dict
-        As :func:`bodyvib.fit_config.load_config` (bounds and ``pareto``:
+        As :func:`bodyvib.fit.config.load_config` (bounds and ``pareto``:
         ``population``, ``generations``, ``crossover_eta``, ``mutation_eta``).
     seed : int
     start : array_like, shape (7,), optional
@@ -304,8 +304,8 @@ def _table(front: ParetoFront) -> str:
 
 
 def _plot(front: ParetoFront, chosen: Dict[str, int], path) -> None:
-    from .frequency import transmissibility
-    from .plotting import new_figure, save_figure
+    from ..frequency.response import transmissibility
+    from ..plotting import new_figure, save_figure
 
     fig, (ax, bx) = new_figure(1, 2, figsize=(11, 4.5))
     ax.plot(front.peak_error, front.objective, ".", color="0.4", label="Pareto front (NSGA-II)")
@@ -368,7 +368,7 @@ def write_pareto(folder, front: ParetoFront, command: str = "") -> List[str]:
         prov = {
             "source": "a point of the Pareto front of the reduced 3-DOF model of Balci & "
                       "Gundogdu (2025), Fig. 2: paper Eq. 3 against the transmissibility peak "
-                      "error, by 'bodyvib fit --pareto' (bodyvib.fit_pareto)",
+                      "error, by 'bodyvib fit --pareto' (bodyvib.fit.pareto)",
             "point": name,
             "command": command,
             "date": date,

@@ -24,7 +24,6 @@ numpy (the slave imports pythonfmu, which the FMU carries in its resources).
 """
 
 import hashlib
-import importlib.util
 import io
 import json
 import os
@@ -37,28 +36,23 @@ from pathlib import Path
 from typing import Dict, Iterable
 from xml.etree import ElementTree as ET
 
-from . import __version__, interrupts
-from .runtime.errors import BodyvibError
-from .runtime.contract import MODEL_FILE, UNITS
-from .runtime.fileio import atomic_write_bytes
-from .runtime.network import Network
+from .. import __version__
+from ..process import interrupts
+from ..runtime.errors import BodyvibError
+from ..runtime.contract import MODEL_FILE, UNITS
+from ..process.outputs import atomic_write_bytes
+from ..runtime.network import Network
+from .sources import RUNTIME_DIR, fmu_src_dir
 
-__all__ = ["RUNTIME_DIR", "SLAVE_SCRIPT", "build_fmu", "build_source_fmu", "render_slave_script",
+__all__ = ["SLAVE_SCRIPT", "build_fmu", "build_source_fmu", "render_slave_script",
            "runtime_sources", "write_runtime_package"]
-
-#: The run-time package copied into every FMU.
-RUNTIME_DIR = Path(__file__).resolve().parent / "runtime"
 
 #: The one slave script, rendered per FMU (shipped in the ``fmu_src`` package).
 SLAVE_SCRIPT = "bodyvib_fmu_slave.py"
 
 
 def _slave_template() -> Path:
-    spec = importlib.util.find_spec("fmu_src")
-    if spec is None or not spec.submodule_search_locations:
-        raise BodyvibError("the fmu_src package (the FMU slave source) is not installed; "
-                           "reinstall bodyvib (pip install bodyvib)")
-    return Path(list(spec.submodule_search_locations)[0]) / SLAVE_SCRIPT
+    return fmu_src_dir() / SLAVE_SCRIPT
 
 
 def runtime_sources() -> Dict[str, bytes]:
@@ -185,8 +179,8 @@ def build_fmu(network: Network, kind: str, name: str, description: str, dest="di
     ...           "reduced body", "dist")  # doctest: +SKIP
     PosixPath('dist/HumanBody3DOF.fmu')
     """
-    from .runtime.engine import FmuCore
-    from .runtime.modelfile import network_to_dict
+    from ..runtime.engine import FmuCore
+    from ..runtime.modelfile import network_to_dict
 
     core = FmuCore(kind, network, name)  # refuses a model the FMU could not run
     core.check_parameters()
@@ -218,7 +212,7 @@ def build_source_fmu(meta: dict, table, name: str, description: str, dest="dist"
     BodyvibError
         As :func:`build_fmu`.
     """
-    from .runtime.source import SOURCE_FILE, SourceCore, write_source
+    from ..runtime.source import SOURCE_FILE, SourceCore, write_source
 
     core = SourceCore(meta, table, name)
     core.check_parameters()

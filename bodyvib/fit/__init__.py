@@ -1,0 +1,34 @@
+"""The refit of the reduced model: objective, search space, search methods, results.
+
+:mod:`~bodyvib.fit.config` reads the settings, :mod:`~bodyvib.fit.space` maps genes to
+the reduced model's parameters, :mod:`~bodyvib.fit.objective` defines the objective
+(the impulse-response error and its Parseval form), :mod:`~bodyvib.fit.methods` holds
+the searches (genetic algorithm, CMA-ES, differential evolution),
+:mod:`~bodyvib.fit.search` runs seeded searches and polishes them,
+:mod:`~bodyvib.fit.result` writes the parameter file with its provenance,
+:mod:`~bodyvib.fit.report` and :mod:`~bodyvib.fit.pareto` compare and trade off.
+Names are imported from their module on first use (the searches pull in DEAP,
+CMA-ES and pymoo, which a plain ``import bodyvib`` should not pay for).
+"""
+
+import importlib
+
+_HOME = {
+    "load_config": "config", "parse_pairs": "config",
+    "FitTarget": "objective", "model_target": "objective", "measured_target": "objective",
+    "objective_time_domain": "objective", "objective_frequency_domain": "objective",
+    "GENES": "space", "genes_to_parameters": "space", "parameters_to_genes": "space",
+    "METHODS": "methods", "SearchResult": "methods",
+    "fit": "search", "polish": "search",
+    "FitResult": "result", "write_parameter_file": "result",
+    "compare_fit": "report", "write_report": "report",
+    "ParetoFront": "pareto", "pareto_front": "pareto",
+}
+
+__all__ = sorted(_HOME)
+
+
+def __getattr__(name):
+    if name in _HOME:
+        return getattr(importlib.import_module(f"{__name__}.{_HOME[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,0 +1,25 @@
+"""Building FMUs from models: pythonfmu (Python) and native (C), FMI 2.0 and 3.0.
+
+:mod:`~bodyvib.fmu.pythonfmu` builds a pythonfmu FMU whose slave runs the copied
+run-time package :mod:`bodyvib.runtime`; :mod:`~bodyvib.fmu.native` compiles the
+one C code base in ``fmu_src/native`` for the model baked in as data;
+:mod:`~bodyvib.fmu.sources` locates the sources both start from. Names are
+imported from their module on first use (pythonfmu and the compilers are only
+needed when building).
+"""
+
+import importlib
+
+_HOME = {
+    "build_fmu": "pythonfmu", "build_source_fmu": "pythonfmu",
+    "build_native_fmu": "native", "native_model": "native", "PLATFORMS": "native",
+    "fmu_src_dir": "sources", "native_dir": "sources", "RUNTIME_DIR": "sources",
+}
+
+__all__ = sorted(_HOME)
+
+
+def __getattr__(name):
+    if name in _HOME:
+        return getattr(importlib.import_module(f"{__name__}.{_HOME[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,0 +1,16 @@
+"""The frequency domain: model responses, their comparison, estimates from runs, measurements.
+
+:mod:`~bodyvib.frequency.response` computes a network's exact frequency responses
+(seat-to-head transmissibility, apparent mass, peaks); :mod:`~bodyvib.frequency.compare`
+sets several models side by side (``bodyvib frf``); :mod:`~bodyvib.frequency.estimate`
+estimates a transmissibility from a run's time records (Welch H1);
+:mod:`~bodyvib.frequency.measured` reads a user's measured transmissibility.
+"""
+
+from .response import (apparent_mass, control_labels, displacement_input_matrices,
+                       displacement_input_statespace, find_peaks, frequency_response,
+                       to_statespace, transmissibility)
+
+__all__ = ["control_labels", "to_statespace", "frequency_response", "transmissibility",
+           "apparent_mass", "find_peaks", "displacement_input_matrices",
+           "displacement_input_statespace"]

@@ -1,0 +1,11 @@
+"""Process concerns of the commands: outputs, interrupts, memory limits.
+
+Not physics and not part of the FMU run-time: :mod:`~bodyvib.process.outputs`
+checks every output before the work starts and writes them atomically, all or
+none; :mod:`~bodyvib.process.interrupts` defers Ctrl-C to safe points;
+:mod:`~bodyvib.process.limits` refuses sizes the memory cannot hold, up front.
+"""
+
+from . import interrupts, limits, outputs
+
+__all__ = ["interrupts", "limits", "outputs"]

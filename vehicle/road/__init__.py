@@ -1,0 +1,16 @@
+"""Roads: profiles over distance, and the input a car sees at a speed.
+
+:mod:`~vehicle.road.synthetic` makes roads from a short name: ISO 8608 random
+roads of classes A-H, a bump, a sine sweep; it also holds what every road shares
+(the :class:`~vehicle.road.synthetic.Road` interface, the fade-in
+:class:`~vehicle.road.synthetic.TaperedRoad`, the road input at a speed, and the
+table that ``Road.fmu`` carries).
+"""
+
+from .synthetic import (ISO8608_CLASSES, N0, N_BAND, BumpRoad, RandomRoad, Road, SweepRoad,
+                        TaperedRoad, class_psd_n0, displacement_psd, make_road, random_road,
+                        road_input, road_source, road_table)
+
+__all__ = ["ISO8608_CLASSES", "N0", "N_BAND", "class_psd_n0", "displacement_psd", "Road",
+           "RandomRoad", "BumpRoad", "SweepRoad", "TaperedRoad", "random_road", "road_source",
+           "road_table", "make_road", "road_input"]

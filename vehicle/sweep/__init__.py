@@ -1,0 +1,26 @@
+"""Sweeps: a study's cases (roads x seeds x speeds x bodies x cars) run on Dask.
+
+:mod:`~vehicle.sweep.spec` expands a specification into cases,
+:mod:`~vehicle.sweep.engines` computes a block of cases (batched exact steps,
+the spectral expectation, or real co-simulations), :mod:`~vehicle.sweep.run`
+schedules tasks and writes the table as they arrive, :mod:`~vehicle.sweep.plot`
+draws comfort maps. Names are imported from their module on first use (Dask is
+loaded only by a sweep).
+"""
+
+import importlib
+
+_HOME = {
+    "Case": "spec", "load_spec": "spec", "grid_spec": "spec", "expand": "spec",
+    "ENGINES": "engines", "run_engine": "engines",
+    "run_sweep": "run", "read_results": "run",
+    "plot_comfort_maps": "plot",
+}
+
+__all__ = sorted(_HOME)
+
+
+def __getattr__(name):
+    if name in _HOME:
+        return getattr(importlib.import_module(f"{__name__}.{_HOME[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
