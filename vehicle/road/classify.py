@@ -8,7 +8,8 @@ line ``Gd(n) = Gd(n0) (n / n0)^-w`` in log-log axes, ``n0 = 0.1 cycle/m``.
 The estimate is averaged into one-third-octave bands (geometric centres) over
 the classification band -- ISO 8608's 0.011-2.83 cycle/m, narrowed to what
 the profile resolves: from four Welch bins (``4 / segment length``) up to
-half the Nyquist frequency ``1 / (4 dx)`` -- and the line is fitted to the
+half the Nyquist frequency ``1 / (4 dx)``, and reaching ``n0`` (so a segment of
+at least 40 m) so that ``Gd(n0)`` is read inside the fit -- and the line is fitted to the
 band averages by least squares in ``log Gd`` against ``log n``, which gives
 ``Gd(n0)`` and the waviness ``w``.
 
@@ -193,7 +194,7 @@ def classify_profile(distance, elevation, segment_m: float = None,
     ------
     BodyvibError
         A bad profile, or one too short or too coarse to hold two one-third
-        octaves of the band (it names what it resolves).
+        octaves of the band or to reach n0 (it names what it resolves).
 
     Examples
     --------
@@ -214,10 +215,11 @@ def classify_profile(distance, elevation, segment_m: float = None,
             keep_c.append(float(c))
             keep_g.append(float(np.mean(gd[sel])))
     keep_c, keep_g = np.array(keep_c), np.array(keep_g)
-    if keep_c.size < 2 or np.any(keep_g <= 0):
+    if keep_c.size < 2 or np.any(keep_g <= 0) or lo > N0:
         raise BodyvibError(
             f"the profile resolves {lo:.3g}-{hi:.3g} cycle/m (segments of {segment:g} m, spacing "
-            f"{dx:g} m), too little of ISO 8608's {band[0]}-{band[1]} cycle/m to fit a class; "
+            f"{dx:g} m), too little of ISO 8608's {band[0]}-{band[1]} cycle/m to fit a class "
+            f"(the fit must reach n0 = {N0:g} cycle/m: segments of {4 / N0:g} m or more); "
             "use a longer or finer profile")
     slope, intercept = np.polyfit(np.log(keep_c / N0), np.log(keep_g), 1)
     gd_n0 = float(math.exp(intercept))

@@ -86,10 +86,11 @@ def summarize_profile(distance, elevation, name: str = "profile") -> RoadSummary
 
     Examples
     --------
+    >>> from vehicle.road.synthetic import random_road
     >>> x = np.arange(0, 300, 0.05)
-    >>> s = summarize_profile(x, 0.01 * np.sin(2 * np.pi * x / 7.0))
-    >>> round(s.elevation_m["rms"] * np.sqrt(2), 4)
-    0.01
+    >>> s = summarize_profile(x, random_road("B", 300.05, seed=1).displacement(x))
+    >>> s.iso8608.iso8608_class, s.samples
+    ('B', 6000)
     """
     x, z, dx = _check_profile(distance, elevation)
     stats = {"mean": float(z.mean()), "rms": float(z.std()), "min": float(z.min()),
