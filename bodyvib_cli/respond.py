@@ -31,7 +31,7 @@ def format_response(result) -> str:
     s = result.signal
     cols = [("seat", result.seat_figures, result.seat_checks)] + [
         (f"head, {k}", b.figures, b.checks) for k, b in result.bodies.items()]
-    w = max(16, *(len(c[0]) + 2 for c in cols))
+    w = max(16, *(len(c[0]) + 2 for c in cols), *(len(c[1].comfort) + 2 for c in cols))
     lines = [f"signal {s.name}: {s.acceleration.size} samples at {s.fs:.6g} Hz ({s.duration:.6g} s)",
              "", f"{'':<28}" + "".join(f"{c[0]:>{w}}" for c in cols)]
     for key, words, fmt in _ROWS:
