@@ -101,3 +101,19 @@ def test_basic_method_checks_of_a_sine_and_of_a_shock():
     assert all(v["exceeded"] for v in c.values())
     assert basic_method_checks(ComfortFigures(0.0, 0.0, 0.0, float("nan"), "", 0.0), 1.0)[
         "mtvv_ratio"]["exceeded"] is False
+
+
+def test_sweep_rows_carry_the_head_mtvv():
+    # the batched engine's head_mtvv is the streamed MTVV of the head history it ran
+    # (the same filter, block by block: 1e-12); the spectral engine has none (NaN)
+    from vehicle.sweep.engines import run_batched, run_spectral
+    from vehicle.sweep.spec import expand
+
+    cases = expand({"road": "C", "speed": 20, "duration": 3, "body": ["reduced-paper"]})
+    rows, hist = run_batched(cases, record=True)
+    head = hist[0]["head_acceleration"]
+    assert rows[0]["head_mtvv"] == pytest.approx(
+        stream_comfort_figures(head, 1000.0).mtvv, rel=1e-12)
+    # the largest 1 s mean square is at least the mean of all of them, about a_w^2
+    assert rows[0]["head_mtvv"] > rows[0]["head_weighted_rms"]
+    assert np.isnan(run_spectral(cases)[0]["head_mtvv"])
