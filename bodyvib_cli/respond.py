@@ -1,4 +1,4 @@
-"""``bodyvib respond``: a measured seat acceleration through body models, ISO 2631-1 figures of seat and head."""
+"""``bodyvib respond``: a measured seat acceleration through body models; figures of seat and head."""
 
 import io
 import os
@@ -32,7 +32,8 @@ def format_response(result) -> str:
     cols = [("seat", result.seat_figures, result.seat_checks)] + [
         (f"head, {k}", b.figures, b.checks) for k, b in result.bodies.items()]
     w = max(16, *(len(c[0]) + 2 for c in cols), *(len(c[1].comfort) + 2 for c in cols))
-    lines = [f"signal {s.name}: {s.acceleration.size} samples at {s.fs:.6g} Hz ({s.duration:.6g} s)",
+    lines = [f"signal {s.name}: {s.acceleration.size} samples at {s.fs:.6g} Hz "
+             f"({s.duration:.6g} s)",
              "", f"{'':<28}" + "".join(f"{c[0]:>{w}}" for c in cols)]
     for key, words, fmt in _ROWS:
         lines.append(f"{words:<28}" + "".join(f"{fmt.format(getattr(c[1], key)):>{w}}"
@@ -45,8 +46,9 @@ def format_response(result) -> str:
         over = [f"{c['what']} = {c['value']:.2f} > {c['limit']:g}" for c in checks.values()
                 if c["exceeded"]]
         values = ", ".join(f"{c['value']:.2f}" for c in checks.values())
-        lines.append(f"  {name}: {values} -> " + (
-            "basic method enough" if not over else "use MTVV and VDV as well (" + "; ".join(over) + ")"))
+        verdict = ("basic method enough" if not over
+                   else "use MTVV and VDV as well (" + "; ".join(over) + ")")
+        lines.append(f"  {name}: {values} -> {verdict}")
     return "\n".join(lines)
 
 
@@ -126,7 +128,8 @@ def add_command(subparsers):
 
     p = subparsers.add_parser(
         "respond",
-        help="a measured seat acceleration through body models: ISO 2631-1 figures of seat and head",
+        help="a measured seat acceleration through body models: ISO 2631-1 figures of "
+        "seat and head",
         description="Run a measured seat-pan vertical acceleration (CSV with a time column, or "
         "an MDF4 file with --channel) through each body model exactly, and give the ISO 2631-1 "
         "figures (Wk r.m.s., VDV, MTVV, peak, crest factor) of the seat and of each head, with "

@@ -73,7 +73,8 @@ def test_streamed_mtvv_equals_whole_record_within_interpolation_error():
 
 def test_a_batch_streams_each_signal_with_its_own_window():
     t = np.arange(0, 5, 1 / FS)
-    a = np.vstack([np.sin(2 * np.pi * 8 * t), np.where(t < 2.5, 0.0, 2 * np.sin(2 * np.pi * 8 * t))])
+    tone = np.sin(2 * np.pi * 8 * t)
+    a = np.vstack([tone, np.where(t < 2.5, 0.0, 2 * tone)])
     out = stream_comfort_figures(a, FS, block=700)
     for i in range(2):
         single = stream_comfort_figures(a[i], FS, block=1000)

@@ -84,7 +84,8 @@ def class_of(gd_n0: float) -> str:
     return ISO8608_CLASSES[-1]
 
 
-def profile_psd(distance, elevation, segment_m: float = None) -> Tuple[np.ndarray, np.ndarray, float]:
+def profile_psd(distance, elevation,
+                segment_m: float = None) -> Tuple[np.ndarray, np.ndarray, float]:
     """One-sided displacement PSD of a profile over distance (Welch, Hann, 50 % overlap).
 
     Parameters
