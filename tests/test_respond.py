@@ -163,3 +163,17 @@ def test_check_signal_takes_the_rate_from_the_mean_step():
     assert s.fs == pytest.approx(128.0, rel=1e-12) and s.duration == pytest.approx(2 - 1 / 128)
     with pytest.raises(BodyvibError, match="200 times but 199"):
         check_signal(np.arange(200.0), np.zeros(199))
+
+
+def test_outputs_are_checked_before_work_and_a_zero_record_still_writes_json(tmp_path, capsys):
+    t = np.arange(0, 2, 1e-3)
+    path = tmp_path / "s.csv"
+    _write_csv(path, t, 0 * t)
+    assert main(["respond", str(path), "--csv", str(path)]) == 2          # would overwrite input
+    assert "s.csv" in capsys.readouterr().err
+    assert main(["respond", str(path), "--models", "nope"]) == 2
+    assert "unknown model 'nope'" in capsys.readouterr().err
+    js = tmp_path / "z.json"
+    assert main(["respond", str(path), "--json", str(js)]) == 0            # crest factor 0/0
+    doc = json.load(open(js))
+    assert doc["seat"]["weighted_rms"] == 0.0 and doc["seat"]["crest_factor"] is None

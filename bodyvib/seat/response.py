@@ -129,12 +129,21 @@ class Response:
     bodies: Dict[str, BodyResponse] = field(default_factory=dict)
 
     def to_dict(self) -> dict:
-        """The JSON document of ``bodyvib respond --json``."""
+        """The JSON document of ``bodyvib respond --json`` (undefined ratios as None)."""
         s = self.signal
-        return {"signal": {"name": s.name, "samples": int(s.acceleration.size),
+        return _finite({"signal": {"name": s.name, "samples": int(s.acceleration.size),
                            "sampling_rate_hz": s.fs, "duration_s": s.duration},
                 "seat": {**self.seat_figures.to_dict(), "checks": self.seat_checks},
-                "bodies": {k: b.to_dict() for k, b in self.bodies.items()}}
+                "bodies": {k: b.to_dict() for k, b in self.bodies.items()}})
+
+
+def _finite(obj):
+    """``obj`` with NaN and infinities as None (JSON has neither; a zero record's crest factor)."""
+    if isinstance(obj, float):
+        return obj if np.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    return obj
 
 
 def _label(model: str) -> str:
