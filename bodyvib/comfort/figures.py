@@ -181,25 +181,50 @@ def _window_samples(fs: float) -> int:
     return max(1, int(round(MTVV_WINDOW_S * float(fs))))
 
 
-def _window_sums(tail, squares):
+class _RunningWindow:
     """Sums of the last ``N`` squares ending at each new sample (the MTVV's running sums).
 
-    ``tail`` holds the ``N`` squares before ``squares`` (zeros before a record),
-    ``squares`` the new ones; both ``(cases, k)``. Returns the ``(cases, m)``
-    window sums and the new tail. Shared by the whole-record and the streamed
+    The squares before the first are zeros. Kept as a ring of the last ``N``
+    squares per signal and the current sum, which each new sample moves by
+    ``new - leaving`` (a cumulative sum over the block: O(1) per sample); the sum
+    is recomputed from the ring at least every ``N`` samples, so rounding cannot
+    accumulate over a long record. Shared by the whole-record and the streamed
     MTVV so that both are one definition.
     """
-    n = tail.shape[1]
-    joined = np.concatenate([tail, squares], axis=1)
-    cs = np.concatenate([np.zeros((joined.shape[0], 1)), np.cumsum(joined, axis=1)], axis=1)
-    sums = cs[:, n + 1:] - cs[:, 1:joined.shape[1] - n + 1]
-    return np.maximum(sums, 0.0), joined[:, joined.shape[1] - n:]
+
+    def __init__(self, window: int, cases: int):
+        self.window = int(window)
+        self.ring = np.zeros((cases, self.window))
+        self.at = 0                      # ring position of the oldest square
+        self.total = np.zeros(cases)     # sum of the ring
+        self.since = 0                   # samples since the sum was recomputed
+
+    def update(self, squares) -> np.ndarray:
+        """Window sums ``(cases, m)`` ending at each of the new ``(cases, m)`` squares."""
+        out = np.empty_like(squares)
+        n = self.window
+        k = 0
+        while k < squares.shape[1]:
+            m = min(n - self.at, squares.shape[1] - k)   # up to the ring's end
+            new = squares[:, k:k + m]
+            leaving = self.ring[:, self.at:self.at + m]
+            sums = self.total[:, None] + np.cumsum(new - leaving, axis=1)
+            out[:, k:k + m] = sums
+            leaving[...] = new
+            self.at = (self.at + m) % n
+            self.since += m
+            if self.since >= n:
+                self.total = self.ring.sum(axis=1)
+                self.since = 0
+            else:
+                self.total = sums[:, -1]
+            k += m
+        return np.maximum(out, 0.0)
 
 
 def _running_ms(aw, fs: float) -> np.ndarray:
     n = _window_samples(fs)
-    sums, _ = _window_sums(np.zeros((1, n)), np.asarray(aw, dtype=float)[None] ** 2)
-    return sums[0] / n
+    return _RunningWindow(n, 1).update(np.asarray(aw, dtype=float)[None] ** 2)[0] / n
 
 
 def _mtvv(aw, fs: float) -> float:

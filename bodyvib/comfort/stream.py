@@ -28,7 +28,7 @@ from typing import Dict, List, Optional
 
 import numpy as np
 
-from .figures import (WK_PARAMETERS, ComfortFigures, _window_samples, _window_sums,
+from .figures import (WK_PARAMETERS, ComfortFigures, _RunningWindow, _window_samples,
                       comfort_category)
 from ..runtime.discretize import discretize
 from ..runtime.errors import BodyvibError
@@ -298,7 +298,7 @@ class ComfortStream:
         self._s4 = np.zeros(self.cases)
         self._peak = np.zeros(self.cases)
         self._window = _window_samples(self.fs)
-        self._tail = np.zeros((self.cases, self._window))   # last second of a_w^2
+        self._running = _RunningWindow(self._window, self.cases)   # last second of a_w^2
         self._ms_max = np.zeros(self.cases)                  # largest 1 s mean of a_w^2
 
     def update(self, block) -> np.ndarray:
@@ -325,7 +325,7 @@ class ComfortStream:
             self._s2 += w2.sum(axis=1)
             self._s4 += (w2 * w2).sum(axis=1)
             np.maximum(self._peak, np.abs(w).max(axis=1), out=self._peak)
-            sums, self._tail = _window_sums(self._tail, w2)
+            sums = self._running.update(w2)
             np.maximum(self._ms_max, sums.max(axis=1) / self._window, out=self._ms_max)
             self.samples += w.shape[1]
         return w
