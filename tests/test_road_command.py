@@ -30,6 +30,7 @@ def test_class_road_prints_and_writes_the_summary(tmp_path, capsys):
         international_roughness_index(x, z).iri_m_per_km, rel=1e-12)
     assert doc["iso8608"]["gd_n0_m3"] == pytest.approx(classify_profile(x, z).gd_n0_m3, rel=1e-12)
     assert doc["elevation_m"]["rms"] == pytest.approx(np.std(z), rel=1e-12)
+    assert (tmp_path / "road.png").stat().st_size > 10000
 
 
 @pytest.mark.parametrize("args, words", [
