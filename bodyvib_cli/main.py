@@ -29,6 +29,8 @@ COMMAND_MODULES = (
     "bodyvib_cli.cosim",
     "bodyvib_cli.fit",
     "bodyvib_cli.sweep",
+    "bodyvib_cli.road",
+    "bodyvib_cli.respond",
 )
 
 

@@ -139,6 +139,10 @@ def test_check_cli_end_to_end(fmus, tmp_path):
     got = doc["bodies"]["HumanBody3DOF"]["weighted_rms"]
     # the run's figures come from the recursive Wk filter as the run goes (10-digit CSV)
     assert stream_comfort_figures(a, 1000.0).weighted_rms == pytest.approx(got, rel=1e-8)
+    # the MTVV (largest 1 s running r.m.s.) is among them, from the same stream
+    mtvv = doc["bodies"]["HumanBody3DOF"]["mtvv"]
+    assert stream_comfort_figures(a, 1000.0).mtvv == pytest.approx(mtvv, rel=1e-8)
+    assert "MTVV" in p.stdout
     # and sit (pi/fs)^2 <f^2> / 3 below the FFT weighting of the whole record (2e-4 here)
     assert 0 < 1 - got / weighted_rms(a, 1000.0) < 5e-4
 

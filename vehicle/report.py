@@ -15,6 +15,7 @@ _WORDS = {
     "weighted_rms": "Wk-weighted r.m.s. [m/s2]",
     "vdv": "VDV [m/s^1.75]",
     "peak": "weighted peak [m/s2]",
+    "mtvv": "MTVV, 1 s running [m/s2]",
     "time_history_nrmse": "head acceleration NRMSE",
     "transmissibility_peak": "transmissibility peak |T|",
     "transmissibility_peak_frequency_hz": "transmissibility peak frequency [Hz]",
@@ -47,7 +48,7 @@ def format_report(study: Study, comparison: Optional[Comparison] = None) -> str:
 
     lines.append(f"{'head acceleration':<28}" + "".join(f"{label:>{w}}" for label in labels))
     for key, fmt in (("weighted_rms", "{:.4f}"), ("vdv", "{:.4f}"), ("peak", "{:.4f}"),
-                     ("crest_factor", "{:.2f}")):
+                     ("crest_factor", "{:.2f}"), ("mtvv", "{:.4f}")):
         lines.append(row(_WORDS[key], lambda b: fmt.format(getattr(b.figures, key))))
     lines.append(row("comfort (ISO 2631-1 C)", lambda b: b.figures.comfort))
     lines.append(row("transmissibility peak", lambda b: "{modulus:.3f} at {frequency_hz:.2f} Hz".format(

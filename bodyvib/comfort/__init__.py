@@ -1,18 +1,20 @@
 """ISO 2631-1 whole-body vibration figures of the head and the seat.
 
 :mod:`~bodyvib.comfort.figures` weights a whole record at once (Wk weighting,
-weighted r.m.s., VDV, peak, the comfort scale); :mod:`~bodyvib.comfort.stream`
+weighted r.m.s., VDV, MTVV, peak, the comfort scale); :mod:`~bodyvib.comfort.stream`
 computes the same figures sample by sample for a batch of signals, with a
 recursive Wk filter, so a run of any length needs no history. Both return
 :class:`~bodyvib.comfort.figures.ComfortFigures`.
 """
 
-from .figures import (COMFORT_SCALE, WK_PARAMETERS, ComfortFigures, comfort_category,
-                      comfort_figures, peak, vdv, weighted_acceleration, weighted_rms,
+from .figures import (BASIC_METHOD_LIMITS, COMFORT_SCALE, MTVV_WINDOW_S, WK_PARAMETERS,
+                      ComfortFigures, basic_method_checks, comfort_category, comfort_figures,
+                      mtvv, peak, running_rms, vdv, weighted_acceleration, weighted_rms,
                       wk_response)
 from .stream import ComfortStream, WkFilter, stream_comfort_figures, wk_statespace
 
 __all__ = ["WK_PARAMETERS", "COMFORT_SCALE", "wk_response", "weighted_acceleration",
-           "weighted_rms", "vdv", "peak", "comfort_category", "ComfortFigures",
+           "weighted_rms", "vdv", "peak", "MTVV_WINDOW_S", "running_rms", "mtvv",
+           "BASIC_METHOD_LIMITS", "basic_method_checks", "comfort_category", "ComfortFigures",
            "comfort_figures", "wk_statespace", "WkFilter", "ComfortStream",
            "stream_comfort_figures"]

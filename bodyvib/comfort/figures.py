@@ -23,7 +23,20 @@ Figures (ISO 2631-1 clause 6):
 
 * weighted r.m.s. ``a_w = sqrt(mean(a_w(t)^2))`` [m/s2];
 * vibration dose value ``VDV = (int a_w(t)^4 dt)^(1/4)`` [m/s^1.75];
-* peak ``max |a_w(t)|`` [m/s2] and crest factor ``peak / a_w`` [-].
+* peak ``max |a_w(t)|`` [m/s2] and crest factor ``peak / a_w`` [-];
+* maximum transient vibration value ``MTVV = max_t0 a_w(t0)`` [m/s2], the
+  largest running r.m.s. of ISO 2631-1 eq. (4) with *linear* integration
+  (eq. (4) as written, not the exponential variant of its note) over
+  ``tau = 1 s``: ``a_w(t0) = sqrt(1/tau int_{t0-tau}^{t0} a_w(t)^2 dt)``.
+  Discretely, the mean of ``a_w^2`` over the last ``N = round(fs tau)``
+  samples, with the weighted signal zero before the record (the Wk filter
+  starts from rest), so every sample ends a window and a record shorter than
+  1 s still has one (its energy over 1 s).
+
+The standard's basic method (the weighted r.m.s.) is not enough when the
+crest factor exceeds 9, ``MTVV / a_w`` exceeds 1.5 or ``VDV / (a_w T^1/4)``
+exceeds 1.75 (clause 6.3, eqs. (7) and (8)); :func:`basic_method_checks`
+reports these ratios.
 
 The comfort scale of ISO 2631-1 Annex C (public transport) names the
 weighted r.m.s.; see :func:`comfort_category`.
@@ -47,7 +60,15 @@ __all__ = [
     "comfort_category",
     "ComfortFigures",
     "comfort_figures",
+    "MTVV_WINDOW_S",
+    "running_rms",
+    "mtvv",
+    "basic_method_checks",
+    "BASIC_METHOD_LIMITS",
 ]
+
+#: Integration time of the running r.m.s. of the MTVV (ISO 2631-1 eq. (4)), s.
+MTVV_WINDOW_S = 1.0
 
 #: Wk parameters of ISO 2631-1:1997 Annex A, Table A.1 (Hz and dimensionless Q).
 WK_PARAMETERS: Dict[str, float] = {
@@ -155,6 +176,110 @@ def _peak(aw) -> float:
     return float(np.max(np.abs(aw)))
 
 
+def _window_samples(fs: float) -> int:
+    """Samples in the 1 s MTVV window: ``round(fs tau)``, at least one."""
+    return max(1, int(round(MTVV_WINDOW_S * float(fs))))
+
+
+class _RunningWindow:
+    """Sums of the last ``N`` squares ending at each new sample (the MTVV's running sums).
+
+    The squares before the first are zeros. Kept as a ring of the last ``N``
+    squares per signal and the current sum, which each new sample moves by
+    ``new - leaving`` (a cumulative sum over the block: O(1) per sample); the sum
+    is recomputed from the ring at least every ``N`` samples, so rounding cannot
+    accumulate over a long record. Shared by the whole-record and the streamed
+    MTVV so that both are one definition.
+    """
+
+    def __init__(self, window: int, cases: int):
+        self.window = int(window)
+        self.ring = np.zeros((cases, self.window))
+        self.at = 0                      # ring position of the oldest square
+        self.total = np.zeros(cases)     # sum of the ring
+        self.since = 0                   # samples since the sum was recomputed
+
+    def update(self, squares) -> np.ndarray:
+        """Window sums ``(cases, m)`` ending at each of the new ``(cases, m)`` squares."""
+        out = np.empty_like(squares)
+        n = self.window
+        k = 0
+        while k < squares.shape[1]:
+            m = min(n - self.at, squares.shape[1] - k)   # up to the ring's end
+            new = squares[:, k:k + m]
+            leaving = self.ring[:, self.at:self.at + m]
+            sums = self.total[:, None] + np.cumsum(new - leaving, axis=1)
+            out[:, k:k + m] = sums
+            leaving[...] = new
+            self.at = (self.at + m) % n
+            self.since += m
+            if self.since >= n:
+                self.total = self.ring.sum(axis=1)
+                self.since = 0
+            else:
+                self.total = sums[:, -1]
+            k += m
+        return np.maximum(out, 0.0)
+
+
+def _running_ms(aw, fs: float) -> np.ndarray:
+    n = _window_samples(fs)
+    return _RunningWindow(n, 1).update(np.asarray(aw, dtype=float)[None] ** 2)[0] / n
+
+
+def _mtvv(aw, fs: float) -> float:
+    return float(np.sqrt(np.max(_running_ms(aw, fs))))
+
+
+def running_rms(weighted, fs: float) -> np.ndarray:
+    """Running r.m.s. of an already weighted signal (ISO 2631-1 eq. (4), linear, 1 s).
+
+    Parameters
+    ----------
+    weighted : (n,) array_like
+        Weighted acceleration a_w(t), m/s2.
+    fs : float
+        Sampling rate in Hz.
+
+    Returns
+    -------
+    (n,) ndarray
+        ``sqrt(mean(a_w^2))`` over the ``round(fs)`` samples ending at each
+        sample, the signal taken as zero before the record; m/s2.
+
+    Raises
+    ------
+    BodyvibError
+        Non-finite samples, fewer than two samples, or a bad sampling rate.
+
+    Examples
+    --------
+    >>> t = np.arange(0, 3, 1e-3)
+    >>> round(float(running_rms(np.sin(2 * np.pi * 5 * t), 1000.0)[-1] * np.sqrt(2)), 6)
+    1.0
+    """
+    return np.sqrt(_running_ms(_check_signal(weighted, fs), fs))
+
+
+def mtvv(acceleration, fs: float) -> float:
+    """ISO 2631-1 maximum transient vibration value (Wk weighted) in m/s2.
+
+    Parameters
+    ----------
+    acceleration : (n,) array_like
+        Unweighted acceleration in m/s2.
+    fs : float
+        Sampling rate in Hz.
+
+    Returns
+    -------
+    float
+        The largest 1 s running r.m.s. (linear integration) of the weighted
+        record; see the module docstring.
+    """
+    return _mtvv(weighted_acceleration(acceleration, fs), fs)
+
+
 def weighted_rms(acceleration, fs: float) -> float:
     """ISO 2631-1 frequency-weighted r.m.s. acceleration (Wk) in m/s2.
 
@@ -256,6 +381,9 @@ class ComfortFigures:
         ``peak / weighted_rms`` (NaN for a zero record), dimensionless.
     comfort : str
         ISO 2631-1 Annex C words for the weighted r.m.s.
+    mtvv : float
+        Maximum transient vibration value (largest 1 s running r.m.s., linear
+        integration), m/s2.
     """
 
     weighted_rms: float
@@ -263,6 +391,7 @@ class ComfortFigures:
     peak: float
     crest_factor: float
     comfort: str
+    mtvv: float
 
     def to_dict(self) -> Dict[str, object]:
         """The figures as a JSON-ready dict, keys in the order of the attributes."""
@@ -283,7 +412,8 @@ def comfort_figures(acceleration, fs: float) -> ComfortFigures:
     -------
     ComfortFigures
         ``weighted_rms`` [m/s2], ``vdv`` [m/s^1.75], ``peak`` [m/s2],
-        ``crest_factor`` [-], ``comfort`` (ISO 2631-1 Annex C words).
+        ``crest_factor`` [-], ``comfort`` (ISO 2631-1 Annex C words),
+        ``mtvv`` [m/s2].
     """
     aw = weighted_acceleration(acceleration, fs)
     rms, pk = _rms(aw), _peak(aw)
@@ -293,4 +423,49 @@ def comfort_figures(acceleration, fs: float) -> ComfortFigures:
         peak=pk,
         crest_factor=pk / rms if rms > 0 else float("nan"),
         comfort=comfort_category(rms),
+        mtvv=_mtvv(aw, fs),
     )
+
+
+#: ISO 2631-1 clause 6.3: above these ratios the basic method (the weighted
+#: r.m.s.) may underestimate the effect of the vibration: (name, limit, words).
+BASIC_METHOD_LIMITS = (
+    ("crest_factor", 9.0, "crest factor peak / a_w"),
+    ("mtvv_ratio", 1.5, "MTVV / a_w"),
+    ("vdv_ratio", 1.75, "VDV / (a_w T^1/4)"),
+)
+
+
+def basic_method_checks(figures: ComfortFigures, duration_s: float) -> Dict[str, dict]:
+    """The standard's tests of whether the weighted r.m.s. alone describes a record.
+
+    Parameters
+    ----------
+    figures : ComfortFigures
+        Figures of the record.
+    duration_s : float
+        Its duration T in s (for ``VDV / (a_w T^1/4)``).
+
+    Returns
+    -------
+    dict
+        ``{"crest_factor" | "mtvv_ratio" | "vdv_ratio": {"value", "limit",
+        "what", "exceeded"}}``; ``exceeded`` True means ISO 2631-1 asks for the
+        additional methods (running r.m.s. / MTVV, or VDV) besides ``a_w``.
+
+    Examples
+    --------
+    >>> f = ComfortFigures(1.0, 1.0, 10.0, 10.0, "", 1.2)
+    >>> basic_method_checks(f, 1.0)["crest_factor"]["exceeded"]
+    True
+    """
+    rms = figures.weighted_rms
+    with np.errstate(divide="ignore", invalid="ignore"):
+        values = {
+            "crest_factor": figures.crest_factor,
+            "mtvv_ratio": figures.mtvv / rms if rms > 0 else float("nan"),
+            "vdv_ratio": (figures.vdv / (rms * float(duration_s) ** 0.25)
+                          if rms > 0 and duration_s > 0 else float("nan")),
+        }
+    return {k: {"value": float(values[k]), "limit": lim, "what": what,
+                "exceeded": bool(values[k] > lim)} for k, lim, what in BASIC_METHOD_LIMITS}

@@ -14,8 +14,9 @@ keeping the time histories. This module does that with
   piecewise-linear signal through the samples, advanced for ``(cases,
   samples)`` blocks;
 * :class:`ComfortStream` -- the filter plus running sums of ``a_w^2``,
-  ``a_w^4`` and the running ``max |a_w|``, from which the weighted r.m.s.,
-  VDV, peak, crest factor and the comfort words
+  ``a_w^4``, the running ``max |a_w|`` and the largest 1 s running mean of
+  ``a_w^2`` (the last second of squares is kept per signal), from which the
+  weighted r.m.s., VDV, MTVV, peak, crest factor and the comfort words
   (:func:`bodyvib.comfort.figures.comfort_category`) follow at any time, with the
   definitions of :func:`bodyvib.comfort.figures.comfort_figures`.
 
@@ -27,7 +28,8 @@ from typing import Dict, List, Optional
 
 import numpy as np
 
-from .figures import WK_PARAMETERS, ComfortFigures, comfort_category
+from .figures import (WK_PARAMETERS, ComfortFigures, _RunningWindow, _window_samples,
+                      comfort_category)
 from ..runtime.discretize import discretize
 from ..runtime.errors import BodyvibError
 
@@ -260,8 +262,10 @@ class ComfortStream:
     Notes
     -----
     The figures are those of :func:`bodyvib.comfort.figures.comfort_figures` --
-    ``sqrt(mean(a_w^2))``, ``(sum(a_w^4) / fs)^(1/4)``, ``max |a_w|`` -- of the
-    recursively weighted samples. They are not bit-equal to that function's:
+    ``sqrt(mean(a_w^2))``, ``(sum(a_w^4) / fs)^(1/4)``, ``max |a_w|``, the
+    MTVV (largest mean of ``a_w^2`` over the last ``round(fs)`` samples, zeros
+    before the record, square-rooted) -- of the recursively weighted samples.
+    The MTVV keeps the last second of squares per signal (``8 fs`` bytes each). They are not bit-equal to that function's:
     it weights by multiplying the FFT bins of the record by the analog
     response, which treats the record as band-limited (interpolated by
     sincs), whereas this filter sees the straight lines between the samples.
@@ -293,6 +297,9 @@ class ComfortStream:
         self._s2 = np.zeros(self.cases)
         self._s4 = np.zeros(self.cases)
         self._peak = np.zeros(self.cases)
+        self._window = _window_samples(self.fs)
+        self._running = _RunningWindow(self._window, self.cases)   # last second of a_w^2
+        self._ms_max = np.zeros(self.cases)                  # largest 1 s mean of a_w^2
 
     def update(self, block) -> np.ndarray:
         """Weight the next samples and add them to the running figures.
@@ -318,6 +325,8 @@ class ComfortStream:
             self._s2 += w2.sum(axis=1)
             self._s4 += (w2 * w2).sum(axis=1)
             np.maximum(self._peak, np.abs(w).max(axis=1), out=self._peak)
+            sums = self._running.update(w2)
+            np.maximum(self._ms_max, sums.max(axis=1) / self._window, out=self._ms_max)
             self.samples += w.shape[1]
         return w
 
@@ -328,8 +337,8 @@ class ComfortStream:
         -------
         dict
             ``weighted_rms`` [m/s2], ``vdv`` [m/s^1.75], ``peak`` [m/s2],
-            ``crest_factor`` [-] as ``(cases,)`` arrays, and ``comfort``, a list
-            of ISO 2631-1 Annex C words per case.
+            ``crest_factor`` [-] as ``(cases,)`` arrays, ``comfort``, a list
+            of ISO 2631-1 Annex C words per case, and ``mtvv`` [m/s2].
 
         Raises
         ------
@@ -345,7 +354,7 @@ class ComfortStream:
             crest = np.where(rms > 0, peak / np.where(rms > 0, rms, 1.0), np.nan)
         words: List[str] = [comfort_category(v) for v in rms]
         return {"weighted_rms": rms, "vdv": vdv, "peak": peak, "crest_factor": crest,
-                "comfort": words}
+                "comfort": words, "mtvv": np.sqrt(self._ms_max)}
 
 
 def stream_comfort_figures(acceleration, fs: float, block: int = 4096) -> Dict[str, object]:

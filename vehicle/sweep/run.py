@@ -33,6 +33,8 @@ head_peak          head peak weighted acceleration, m/s2 (NaN for ``spectral``)
 head_crest_factor  peak / r.m.s. (NaN for ``spectral``)
 head_comfort       ISO 2631-1 Annex C words for the head's weighted r.m.s.
 seat_weighted_rms  seat (the car's seat point) Wk-weighted r.m.s., m/s2
+head_mtvv          head maximum transient vibration value (largest 1 s running
+                   r.m.s.), m/s2 (NaN for ``spectral``)
 engine             ``batched``, ``spectral`` or ``cosim``
 error              why the case failed (empty when it did not)
 bodyvib_version    version that computed the row

@@ -1,0 +1,17 @@
+"""Measured seat vibration: reading a seat-pan acceleration and what it does at the head.
+
+:mod:`~bodyvib.seat.signal` reads a uniformly sampled vertical seat acceleration
+from CSV or ASAM MDF4 (``asammdf``) and refuses, with one line each, what the
+figures cannot take (non-uniform or decreasing time, NaN, a missing channel, a
+rate below 80 Hz, a record under 1 s); :mod:`~bodyvib.seat.response` runs it
+through body models exactly (the transmissibility acts on acceleration as on
+displacement) and gives the ISO 2631-1 figures of seat and head.
+"""
+
+from .response import DEFAULT_MODELS, BodyResponse, Response, head_acceleration, respond
+from .signal import (MIN_DURATION_S, MIN_RATE_HZ, UNIFORM_TOLERANCE, SeatSignal, check_signal,
+                     read_csv_signal, read_mdf_signal, read_signal)
+
+__all__ = ["MIN_RATE_HZ", "MIN_DURATION_S", "UNIFORM_TOLERANCE", "SeatSignal", "check_signal",
+           "read_csv_signal", "read_mdf_signal", "read_signal", "DEFAULT_MODELS",
+           "head_acceleration", "BodyResponse", "Response", "respond"]

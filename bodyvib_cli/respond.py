@@ -1,0 +1,150 @@
+"""``bodyvib respond``: a measured seat acceleration through body models; figures of seat and head."""
+
+import io
+import os
+
+import numpy as np
+
+from bodyvib.process import interrupts
+from bodyvib.process.outputs import atomic_write_text, check_outputs, staged_writes, write_json
+
+from .outputs import CSV_EXTENSIONS, JSON_EXTENSIONS, PLOT_EXTENSIONS
+
+__all__ = ["add_command", "format_response", "plot_response"]
+
+_ROWS = (("weighted_rms", "Wk r.m.s. [m/s2]", "{:.4f}"), ("vdv", "VDV [m/s^1.75]", "{:.4f}"),
+         ("mtvv", "MTVV, 1 s running [m/s2]", "{:.4f}"), ("peak", "weighted peak [m/s2]", "{:.4f}"),
+         ("crest_factor", "crest factor [-]", "{:.2f}"))
+
+
+def format_response(result) -> str:
+    """The table ``bodyvib respond`` prints: figures of seat and heads, and the standard's checks.
+
+    Parameters
+    ----------
+    result : bodyvib.seat.response.Response
+
+    Returns
+    -------
+    str
+    """
+    s = result.signal
+    cols = [("seat", result.seat_figures, result.seat_checks)] + [
+        (f"head, {k}", b.figures, b.checks) for k, b in result.bodies.items()]
+    w = max(16, *(len(c[0]) + 2 for c in cols), *(len(c[1].comfort) + 2 for c in cols))
+    lines = [f"signal {s.name}: {s.acceleration.size} samples at {s.fs:.6g} Hz "
+             f"({s.duration:.6g} s)",
+             "", f"{'':<28}" + "".join(f"{c[0]:>{w}}" for c in cols)]
+    for key, words, fmt in _ROWS:
+        lines.append(f"{words:<28}" + "".join(f"{fmt.format(getattr(c[1], key)):>{w}}"
+                                              for c in cols))
+    lines.append(f"{'comfort (ISO 2631-1 C)':<28}" + "".join(f"{c[1].comfort:>{w}}" for c in cols))
+    lines.append("")
+    lines.append("ISO 2631-1 6.3, basic method enough if crest factor <= 9, MTVV / a_w <= 1.5, "
+                 "VDV / (a_w T^1/4) <= 1.75:")
+    for name, _, checks in cols:
+        over = [f"{c['what']} = {c['value']:.2f} > {c['limit']:g}" for c in checks.values()
+                if c["exceeded"]]
+        values = ", ".join(f"{c['value']:.2f}" for c in checks.values())
+        verdict = ("basic method enough" if not over
+                   else "use MTVV and VDV as well (" + "; ".join(over) + ")")
+        lines.append(f"  {name}: {values} -> {verdict}")
+    return "\n".join(lines)
+
+
+def plot_response(result, path) -> None:
+    """Seat and head accelerations over time, and their 1 s running r.m.s. (the MTVV's).
+
+    Parameters
+    ----------
+    result : bodyvib.seat.response.Response
+    path : str or os.PathLike
+        Plot file (.png, .pdf or .svg).
+    """
+    from bodyvib.comfort.figures import running_rms, weighted_acceleration
+    from bodyvib.plotting import new_figure, save_figure
+
+    s = result.signal
+    t = s.time - s.time[0]
+    fig, (ax1, ax2) = new_figure(2, 1, figsize=(9, 8), sharex=True)
+    series = [("seat", s.acceleration, result.seat_figures)] + [
+        (f"head, {k}", b.head_acceleration, b.figures) for k, b in result.bodies.items()]
+    for name, a, f in series:
+        ax1.plot(t, a, lw=0.5, label=name)
+        ax2.plot(t, running_rms(weighted_acceleration(a, s.fs), s.fs), lw=0.9,
+                 label=f"{name}: a_w = {f.weighted_rms:.3f}, MTVV = {f.mtvv:.3f} m/s2")
+    ax1.set_ylabel("acceleration [m/s2]")
+    ax1.set_title(s.name)
+    ax1.legend(fontsize=8)
+    ax1.grid(True, alpha=0.3)
+    ax2.set_ylabel("1 s running r.m.s. of a_w [m/s2]")
+    ax2.set_xlabel("time from the record's start [s]")
+    ax2.legend(fontsize=8)
+    ax2.grid(True, alpha=0.3)
+    save_figure(fig, path)
+
+
+def _csv_text(result) -> str:
+    s = result.signal
+    names = list(result.bodies)
+    cols = [s.time, s.acceleration] + [result.bodies[k].head_acceleration for k in names]
+    buf = io.StringIO()
+    buf.write(",".join(["time [s]", "seat_acceleration [m/s2]"]
+                       + [f"head_acceleration_{k} [m/s2]" for k in names]) + "\n")
+    np.savetxt(buf, np.column_stack(cols), delimiter=",", fmt="%.10g")
+    return buf.getvalue()
+
+
+def _run(args):
+    from bodyvib.models import load_model
+    from bodyvib.seat.response import respond
+    from bodyvib.seat.signal import read_signal
+
+    inputs = [("SIGNAL", args.signal)] + [("--models", m) for m in args.models if os.path.isfile(m)]
+    check_outputs([("--json", args.json, JSON_EXTENSIONS), ("--plot", args.plot, PLOT_EXTENSIONS),
+                   ("--csv", args.csv, CSV_EXTENSIONS)], inputs=inputs)
+    for m in args.models:      # an unknown model is refused before the signal is read
+        load_model(m)
+    signal = read_signal(args.signal, args.channel)
+    interrupts.check()
+    result = respond(signal, args.models)
+    print(format_response(result))
+    with staged_writes(guard=interrupts.critical) as written:  # all outputs or none
+        if args.json:
+            write_json(args.json, result.to_dict())
+        if args.csv:
+            atomic_write_text(args.csv, _csv_text(result))
+        if args.plot:
+            plot_response(result, args.plot)
+        interrupts.check()
+    for path in written.paths:
+        print(f"wrote {path}")
+    return 0
+
+
+def add_command(subparsers):
+    """Register ``bodyvib respond``."""
+    from bodyvib.seat.response import DEFAULT_MODELS
+
+    p = subparsers.add_parser(
+        "respond",
+        help="a measured seat acceleration through body models: ISO 2631-1 figures of "
+        "seat and head",
+        description="Run a measured seat-pan vertical acceleration (CSV with a time column, or "
+        "an MDF4 file with --channel) through each body model exactly, and give the ISO 2631-1 "
+        "figures (Wk r.m.s., VDV, MTVV, peak, crest factor) of the seat and of each head, with "
+        "the standard's checks of when the basic method is not enough.",
+    )
+    p.add_argument("signal", metavar="SIGNAL",
+                   help="CSV file (header with a 'time' column in s; acceleration in m/s2) or "
+                   "MDF4 file (.mf4)")
+    p.add_argument("--channel", metavar="NAME",
+                   help="the acceleration's column (CSV) or channel (MDF4); needed when there "
+                   "is more than one")
+    p.add_argument("--models", nargs="+", default=list(DEFAULT_MODELS), metavar="MODEL",
+                   help="shipped model names or parameter-file paths (default: %(default)s)")
+    p.add_argument("--plot", metavar="FILE.png", help="write accelerations and running r.m.s.")
+    p.add_argument("--csv", metavar="FILE", help="write time, seat and head accelerations")
+    p.add_argument("--json", metavar="FILE", help="write the figures and checks as JSON")
+    p.set_defaults(func=_run)
+    return p

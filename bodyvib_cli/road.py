@@ -1,0 +1,111 @@
+"""``bodyvib road``: what a road is before it is driven (length, elevation, ISO 8608 class, IRI)."""
+
+import os
+
+from bodyvib.process import interrupts
+from bodyvib.process.outputs import check_outputs, staged_writes, write_json
+from bodyvib.runtime.errors import BodyvibError
+
+from .outputs import JSON_EXTENSIONS, PLOT_EXTENSIONS
+
+__all__ = ["add_command", "load_road"]
+
+
+def load_road(source: str, length: float = 1000.0, spacing: float = 0.05, seed: int = 0,
+              track=None, units=None):
+    """``(distance, elevation, name)`` of a profile file or of a synthetic ISO 8608 class.
+
+    Parameters
+    ----------
+    source : str
+        A file (read by :func:`vehicle.road.measured.load_profile`) or a class
+        ``A`` ... ``H`` (when no such file exists).
+    length, spacing : float
+        Extent and sample spacing of a synthetic road, m.
+    seed : int
+        Seed of a synthetic road.
+    track, units
+        Passed to the file reader (lateral offset in m; height units) when given.
+
+    Returns
+    -------
+    distance, elevation : ndarray
+        m.
+    name : str
+
+    Raises
+    ------
+    BodyvibError
+        Neither a file nor a class; a file reader refusing the file.
+    """
+    import numpy as np
+
+    from vehicle.road.synthetic import ISO8608_CLASSES, random_road
+
+    s = str(source).strip()
+    if not os.path.exists(s) and len(s) == 1 and s.upper() in ISO8608_CLASSES:
+        for what, v in (("--length", length), ("--spacing", spacing)):
+            if not (v > 0 and np.isfinite(v)):
+                raise BodyvibError(f"{what} must be a positive number of metres, got {v!r}")
+        x = np.arange(int(np.floor(length / spacing)) + 1) * spacing
+        road = random_road(s.upper(), length=float(length) + spacing, seed=seed)
+        return x, road.displacement(x), f"{road.name} (synthetic, seed {seed})"
+    if not os.path.exists(s):
+        raise BodyvibError(f"'{s}' is neither a profile file nor an ISO 8608 class A-H")
+    try:
+        from vehicle.road.measured import load_profile
+    except ImportError:
+        raise BodyvibError("reading profile files needs vehicle.road.measured, which this "
+                           "installation lacks; give an ISO 8608 class instead") from None
+    kwargs = {k: v for k, v in (("track_m", track), ("units", units)) if v is not None}
+    profile = load_profile(s, **kwargs)
+    return (np.asarray(profile.distance, float), np.asarray(profile.elevation, float),
+            getattr(profile, "name", os.path.basename(s)))
+
+
+def _run(args):
+    from vehicle.road.summary import format_summary, plot_summary, summarize_profile
+
+    inputs = [("ROAD", args.road)] if os.path.isfile(args.road) else []
+    check_outputs([("--json", args.json, JSON_EXTENSIONS), ("--plot", args.plot, PLOT_EXTENSIONS)],
+                  inputs=inputs)
+    x, z, name = load_road(args.road, args.length, args.spacing, args.seed, args.track,
+                           args.units)
+    interrupts.check()
+    summary = summarize_profile(x, z, name)
+    print(format_summary(summary))
+    with staged_writes(guard=interrupts.critical) as written:  # all outputs or none
+        if args.json:
+            write_json(args.json, summary.to_dict())
+        if args.plot:
+            plot_summary(summary, args.plot)
+        interrupts.check()
+    for path in written.paths:
+        print(f"wrote {path}")
+    return 0
+
+
+def add_command(subparsers):
+    """Register ``bodyvib road``."""
+    p = subparsers.add_parser(
+        "road",
+        help="a road profile's length, elevation, ISO 8608 class and IRI (text, JSON, plot)",
+        description="Describe a road before driving it: length, spacing, elevation "
+        "statistics, the displacement PSD fitted with ISO 8608's line (Gd(n0), waviness) "
+        "and its class, and the International Roughness Index (Golden Car at 80 km/h).",
+    )
+    p.add_argument("road", metavar="FILE|CLASS",
+                   help="a profile file (CRG, CSV, ERD) or an ISO 8608 class A-H (synthetic)")
+    p.add_argument("--length", type=float, default=1000.0,
+                   help="length of a synthetic road, m (default 1000)")
+    p.add_argument("--spacing", type=float, default=0.05,
+                   help="sample spacing of a synthetic road, m (default 0.05)")
+    p.add_argument("--seed", type=int, default=0, help="seed of a synthetic road (default 0)")
+    p.add_argument("--track", type=float, default=None,
+                   help="lateral offset of the wheel track in a CRG file, m")
+    p.add_argument("--units", default=None,
+                   help="height units of a profile file without them in its header (m, mm)")
+    p.add_argument("--plot", metavar="FILE.png", help="write the profile and PSD plot")
+    p.add_argument("--json", metavar="FILE", help="write the summary (and the PSD) as JSON")
+    p.set_defaults(func=_run)
+    return p

@@ -1,0 +1,176 @@
+"""What a road is before it is driven: length, spacing, elevation, ISO 8608 class, IRI.
+
+:func:`summarize_profile` puts together, for plain ``(distance, elevation)``
+arrays, the elevation statistics, the displacement PSD and its ISO 8608 fit
+(:mod:`vehicle.road.classify`) and the International Roughness Index
+(:mod:`vehicle.road.iri`); :func:`format_summary` and :func:`plot_summary` are
+its text and its plot (``bodyvib road``).
+"""
+
+from dataclasses import dataclass
+import numpy as np
+
+from .classify import RoadClass, class_limits, classify_profile, profile_psd
+from .iri import IriResult, _check_profile, international_roughness_index
+from .synthetic import ISO8608_CLASSES, N0, class_psd_n0
+
+__all__ = ["RoadSummary", "summarize_profile", "format_summary", "plot_summary"]
+
+
+@dataclass(frozen=True)
+class RoadSummary:
+    """A profile's description (:func:`summarize_profile`).
+
+    Attributes
+    ----------
+    name : str
+        Label of the road.
+    length_m, spacing_m : float
+        Extent and sample spacing, m.
+    samples : int
+    elevation_m : dict
+        ``mean``, ``rms`` (about the mean), ``min``, ``max``, ``range``, m.
+    psd_n : ndarray
+        Spatial frequencies of the PSD, cycle/m.
+    psd_gd : ndarray
+        Displacement PSD, m^3.
+    iso8608 : RoadClass
+    iri : IriResult
+    distance, elevation : ndarray
+        The profile (for the plot).
+    """
+
+    name: str
+    length_m: float
+    spacing_m: float
+    samples: int
+    elevation_m: dict
+    psd_n: np.ndarray
+    psd_gd: np.ndarray
+    iso8608: RoadClass
+    iri: IriResult
+    distance: np.ndarray
+    elevation: np.ndarray
+
+    def to_dict(self, psd: bool = True) -> dict:
+        """JSON-ready dict (the PSD as two lists when ``psd``; no profile)."""
+        d = {"name": self.name, "length_m": self.length_m, "spacing_m": self.spacing_m,
+             "samples": self.samples, "elevation_m": dict(self.elevation_m),
+             "iso8608": self.iso8608.to_dict(), "iri": self.iri.to_dict()}
+        if psd:
+            d["psd"] = {"n_cycles_per_m": self.psd_n.tolist(), "gd_m3": self.psd_gd.tolist()}
+        return d
+
+
+def summarize_profile(distance, elevation, name: str = "profile") -> RoadSummary:
+    """Elevation statistics, ISO 8608 class and IRI of a uniformly spaced profile.
+
+    Parameters
+    ----------
+    distance : (n,) array_like
+        Distances, m, at a constant spacing.
+    elevation : (n,) array_like
+        Heights, m.
+    name : str
+        Label.
+
+    Returns
+    -------
+    RoadSummary
+
+    Raises
+    ------
+    BodyvibError
+        A bad profile (see :func:`vehicle.road.iri.international_roughness_index`)
+        or one that resolves too little of ISO 8608's band to be classed.
+
+    Examples
+    --------
+    >>> from vehicle.road.synthetic import random_road
+    >>> x = np.arange(0, 300, 0.05)
+    >>> s = summarize_profile(x, random_road("B", 300.05, seed=1).displacement(x))
+    >>> s.iso8608.iso8608_class, s.samples
+    ('B', 6000)
+    """
+    x, z, dx = _check_profile(distance, elevation)
+    stats = {"mean": float(z.mean()), "rms": float(z.std()), "min": float(z.min()),
+             "max": float(z.max()), "range": float(z.max() - z.min())}
+    n, gd, _ = profile_psd(x, z)
+    return RoadSummary(name=str(name), length_m=float(x[-1] - x[0]), spacing_m=dx,
+                       samples=int(x.size), elevation_m=stats, psd_n=n, psd_gd=gd,
+                       iso8608=classify_profile(x, z), iri=international_roughness_index(x, z),
+                       distance=x, elevation=z)
+
+
+def format_summary(s: RoadSummary) -> str:
+    """The summary as the text ``bodyvib road`` prints.
+
+    Parameters
+    ----------
+    s : RoadSummary
+
+    Returns
+    -------
+    str
+    """
+    e = {k: 1000 * v for k, v in s.elevation_m.items()}
+    c = s.iso8608
+    lo, hi = c.class_limits_m3
+    limits = f"{lo:.3g}-{hi:.3g}" if np.isfinite(hi) else f">= {lo:.3g}"
+    return "\n".join([
+        f"road {s.name}",
+        f"length {s.length_m:.6g} m, spacing {s.spacing_m:.4g} m ({s.samples} samples)",
+        f"elevation: mean {e['mean']:.2f} mm, r.m.s. about the mean {e['rms']:.2f} mm, "
+        f"min {e['min']:.2f} mm, max {e['max']:.2f} mm",
+        f"ISO 8608: Gd(n0 = 0.1 cycle/m) = {c.gd_n0_m3:.3g} m^3, waviness w = {c.waviness:.2f} "
+        f"(fitted over {c.band_cycles_per_m[0]:.3g}-{c.band_cycles_per_m[1]:.3g} cycle/m) "
+        f"-> class {c.iso8608_class} ({limits} m^3)",
+        f"IRI {s.iri.iri_m_per_km:.3f} m/km (Golden Car at 80 km/h over {s.iri.length_m:.6g} m, "
+        f"250 mm moving average)",
+    ])
+
+
+def plot_summary(s: RoadSummary, path) -> None:
+    """Profile over distance, and its PSD against the ISO 8608 class limits.
+
+    Parameters
+    ----------
+    s : RoadSummary
+    path : str or os.PathLike
+        Plot file (.png, .pdf or .svg).
+
+    Raises
+    ------
+    BodyvibError
+        An unsupported plot file extension.
+    """
+    from bodyvib.plotting import new_figure, save_figure
+
+    fig, (ax1, ax2) = new_figure(2, 1, figsize=(8, 8))
+    fig.subplots_adjust(hspace=0.35)
+    ax1.plot(s.distance, 1000 * s.elevation, lw=0.6)
+    ax1.set_xlabel("distance [m]")
+    ax1.set_ylabel("elevation [mm]")
+    ax1.set_title(f"{s.name}: IRI {s.iri.iri_m_per_km:.2f} m/km")
+    ax1.grid(True, alpha=0.3)
+    n = np.geomspace(0.01, 3.0, 50)
+    for i, c in enumerate(ISO8608_CLASSES):   # class limits: twice each geometric mean
+        if c != "H":
+            ax2.loglog(n, class_limits(c)[1] * (n / N0) ** -2, color="0.6", lw=0.7)
+        ax2.text(0.0105, class_psd_n0(c) * (0.0105 / N0) ** -2, c, color="0.4", va="center")
+    ax2.loglog(s.psd_n, s.psd_gd, lw=0.6, label="Welch PSD")
+    r = s.iso8608
+    ax2.loglog(r.band_centres, r.band_gd, "o", ms=4, label="one-third-octave means")
+    band = np.geomspace(*r.band_cycles_per_m, 20)
+    ax2.loglog(band, r.gd_n0_m3 * (band / N0) ** -r.waviness, "k--",
+               label=f"fit: Gd(n0) = {r.gd_n0_m3:.3g} m^3, w = {r.waviness:.2f} "
+                     f"(class {r.iso8608_class})")
+    ax2.set_xlim(0.01, 3.0)
+    # every class in view: A's lower half at 3 cycle/m to H's upper limit at 0.01 cycle/m
+    low = min(class_psd_n0("A") / 2 * (3.0 / N0) ** -2, float(np.min(r.band_gd)) / 3)
+    ax2.set_ylim(low, max(2 * class_psd_n0("H") * (0.01 / N0) ** -2, 3 * float(np.max(r.band_gd))))
+    ax2.set_xlabel("spatial frequency n [cycle/m]")
+    ax2.set_ylabel("Gd(n) [m^3]")
+    ax2.grid(True, which="both", alpha=0.3)
+    ax2.legend(fontsize=8, loc="lower left")
+    save_figure(fig, path)
