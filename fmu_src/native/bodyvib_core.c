@@ -751,8 +751,10 @@ bv_status bv_initialize(bv_instance *c)
     if (!c->built || memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0) {
         if (!build(c, c->p)) {
             snprintf(c->init_error, BV_MESSAGE,
-                     "%s: the parameters give a singular model (a massless node without "
-                     "damping); the instance refuses to step (reset and set valid parameters)",
+                     "%s: the parameters give a singular or unusable model (a massless node "
+                     "without damping, or a parameter so small or large that the model's "
+                     "matrices are not finite); the instance refuses to step (reset and set "
+                     "valid parameters)",
                      c->name);
             c->init_failed = 1;
             say(c, BV_ERROR, "%s", c->init_error);
