@@ -604,7 +604,7 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
          (size_t)no * (n + ni) + no + (size_t)n * (n + ni) + (size_t)ni * ni + n + ni +
          2 * (size_t)np1 + n + ni + nw;
     nd += (size_t)n * n + (size_t)n * m + (size_t)no * (n + ni); /* candidates A2, B2, Yc2 */
-    nd += 2 * (size_t)np1 + ni + 3 * ((size_t)n + ni) + no;      /* saved bookkeeping, zd */
+    nd += 3 * (size_t)np1 + 3 * ((size_t)n + ni);                /* saved bookkeeping, zd */
     d = calloc(nd, sizeof *d);
     c->piv = calloc((size_t)N + 1, sizeof *c->piv);
     c->has_prev = calloc(8 * (size_t)np1, 1);
@@ -639,8 +639,8 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
     c->Yc2 = d; d += (size_t)no * (n + ni);
     c->save_x_prev = d; d += np1;
     c->save_h_prev = d; d += np1;
-    c->save_s = d; d += ni;
-    c->zd = d; d += 3 * ((size_t)n + ni) + no;
+    c->save_s = d; d += np1;
+    c->zd = d; d += 3 * ((size_t)n + ni);
     c->work = d;
     /* U R and U R^2; curved if R^2 != 0 */
     mul(c->UR, md->U, md->R, m, ni, ni);
@@ -885,42 +885,43 @@ static void slope_fallback(bv_instance *c, double t, double h)
     }
 }
 
-/* The fallback bookkeeping and the inputs, saved before a step and restored if it is
- * refused: a refused step changes nothing. */
-static void save_bookkeeping(bv_instance *c, int restore)
+/* The fallback bookkeeping (and the velocity inputs it writes), saved before a step and
+ * restored if the step is refused: a refused step changes nothing. Per pair, plain loops:
+ * the hot path makes no library calls. */
+static inline void save_bookkeeping(bv_instance *c, int restore)
 {
-    size_t np1 = (size_t)c->md->npairs + 1, ni = (size_t)c->ni;
-    if (!restore) {
-        memcpy(c->save_x_prev, c->x_prev, np1 * sizeof(double));
-        memcpy(c->save_h_prev, c->h_prev, np1 * sizeof(double));
-        memcpy(c->save_s, c->s, ni * sizeof(double));
-        memcpy(c->save_flags, c->has_prev, 4 * np1);
-    } else {
-        memcpy(c->x_prev, c->save_x_prev, np1 * sizeof(double));
-        memcpy(c->h_prev, c->save_h_prev, np1 * sizeof(double));
-        memcpy(c->s, c->save_s, ni * sizeof(double));
-        memcpy(c->has_prev, c->save_flags, 4 * np1);
-        c->dirty = 1;
+    const bv_model *md = c->md;
+    int k, np1 = md->npairs + 1;
+    unsigned char *f = c->save_flags;
+    for (k = 0; k < md->npairs; k++) {
+        int r = md->pairs[k].rate;
+        if (!restore) {
+            c->save_x_prev[k] = c->x_prev[k];
+            c->save_h_prev[k] = c->h_prev[k];
+            c->save_s[k] = c->s[r];
+            f[k] = c->has_prev[k], f[np1 + k] = c->vel_set[k];
+            f[2 * np1 + k] = c->slope_on[k], f[3 * np1 + k] = c->warned[k];
+        } else {
+            c->x_prev[k] = c->save_x_prev[k];
+            c->h_prev[k] = c->save_h_prev[k];
+            c->s[r] = c->save_s[k];
+            c->has_prev[k] = f[k], c->vel_set[k] = f[np1 + k];
+            c->slope_on[k] = f[2 * np1 + k], c->warned[k] = f[3 * np1 + k];
+            c->dirty = 1;
+        }
     }
 }
 
 bv_status bv_step(bv_instance *c, double t, double h)
 {
-    int n = c->n, ni = c->ni, no = c->no, j, finite;
-    double *zn = c->zn, *yn = c->zd; /* zd is free scratch during a step */
+    int n = c->n, ni = c->ni, j;
+    double *zn = c->zn, zz = 0.0, zz2 = 0.0, at = fabs(c->time);
     char text[32], text2[32];
     if (!(h > 0.0 && h < INFINITY)) {
         say(c, BV_ERROR, "%s: communication step size must be positive and finite, got %s s",
             c->name, shortest(h, text));
         return BV_ERROR;
     }
-    for (j = 0; j < ni; j++)
-        if (!isfinite(c->s[j])) {
-            say(c, BV_ERROR, "%s: input %s = %g at t = %g s is not finite; step refused, state "
-                             "unchanged (set a finite value and step again)",
-                c->name, var_name(c->md, BV_INPUT, j), c->s[j], t);
-            return BV_ERROR;
-        }
     if (!c->initialized) {
         if (c->init_failed)
             say(c, BV_ERROR, "%s", c->init_error);
@@ -931,7 +932,7 @@ bv_status bv_step(bv_instance *c, double t, double h)
     }
     /* the step starts where the last one ended (or at the start time): a host whose clock
      * differs by more than rounding is out of step with the model */
-    if (!(fabs(t - c->time) <= 1e-9 * fmax(1.0, fabs(c->time)))) {
+    if (!(fabs(t - c->time) <= 1e-9 * (at > 1.0 ? at : 1.0))) {
         say(c, BV_ERROR, "%s: DoStep from t = %s s, but the model is at t = %s s (the start "
                          "time or the end of the last step); step refused, state unchanged",
             c->name, shortest(t, text), shortest(c->time, text2));
@@ -949,25 +950,33 @@ bv_status bv_step(bv_instance *c, double t, double h)
     }
     matvec(zn, c->Sc, c->x, n, n + ni);
     matvec(zn + n, c->Ms, c->s, ni, ni);
-    matvec(yn, c->Yc, zn, no, n + ni);
-    finite = 1;
-    for (j = 0; j < n + ni; j++)
-        finite &= isfinite(zn[j]) != 0;
-    for (j = 0; j < no; j++)
-        finite &= isfinite(yn[j]) != 0;
-    if (!finite) {
+    /* z.z is finite iff no component exceeds about 1e154 (as the pythonfmu FMU checks):
+     * no overflow, and room for the outputs, whose coefficients are far below 1e150 */
+    for (j = 0; j + 1 < n + ni; j += 2) {
+        zz += zn[j] * zn[j];
+        zz2 += zn[j + 1] * zn[j + 1];
+    }
+    if (j < n + ni)
+        zz += zn[j] * zn[j];
+    zz += zz2;
+    if (!(zz < INFINITY)) { /* NaN or inf; every input reaches zn (Ms holds I) */
         save_bookkeeping(c, 1);
-        say(c, BV_ERROR, "%s: the state or outputs after the step from t = %g s are not finite "
-                         "(inputs or state too large); step refused (discard), state unchanged",
+        for (j = 0; j < ni; j++)
+            if (!isfinite(c->s[j])) {
+                say(c, BV_ERROR, "%s: input %s = %g at t = %g s is not finite; step refused, "
+                                 "state unchanged (set a finite value and step again)",
+                    c->name, var_name(c->md, BV_INPUT, j), c->s[j], t);
+                return BV_ERROR;
+            }
+        say(c, BV_ERROR, "%s: the state after the step from t = %g s is not finite (inputs or "
+                         "state too large); step refused (discard), state unchanged",
             c->name, t);
         return BV_DISCARD;
     }
     for (j = 0; j < n + ni; j++) /* small: plain loops, no library calls on the hot path */
         c->x[j] = zn[j];
-    for (j = 0; j < no; j++)
-        c->y[j] = yn[j];
     c->time = t + h;
-    c->dirty = 0; /* the outputs for the new z are those just checked */
+    c->dirty = 1;
     return BV_OK;
 }
 
@@ -1054,7 +1063,13 @@ static void zdot(const bv_instance *c, const double *z, double *out)
     const bv_model *md = c->md;
     int n = c->n, m = c->m, ni = c->ni, i, j;
     double *u = out + n + ni; /* m doubles of scratch past out (zd has room) */
-    matvec(u, md->U, z + n, m, ni);
+    /* plain loops, not matvec: matvec stays inlined where the steps need it */
+    for (i = 0; i < m; i++) {
+        double v = 0.0;
+        for (j = 0; j < ni; j++)
+            v += md->U[(size_t)i * ni + j] * z[n + j];
+        u[i] = v;
+    }
     for (i = 0; i < n; i++) {
         double v = 0.0;
         for (j = 0; j < n; j++)
@@ -1063,7 +1078,12 @@ static void zdot(const bv_instance *c, const double *z, double *out)
             v += c->B[(size_t)i * m + j] * u[j];
         out[i] = v;
     }
-    matvec(out + n, md->R, z + n, ni, ni);
+    for (i = 0; i < ni; i++) {
+        double v = 0.0;
+        for (j = 0; j < ni; j++)
+            v += md->R[(size_t)i * ni + j] * z[n + j];
+        out[n + i] = v;
+    }
 }
 
 bv_status bv_get_output_derivatives(bv_instance *c, const unsigned int vr[], size_t nvr,
