@@ -37,6 +37,7 @@
 #define BV_MESSAGE 640
 
 struct bv_instance {
+    int mode;           /* first (BV_STATE_IS): BV_INSTANTIATED .. BV_FAILED, the FMI state */
     const bv_model *md;
     char name[128];
     bv_log_fn log;
@@ -65,7 +66,6 @@ struct bv_instance {
     unsigned char *has_prev, *vel_set, *slope_on, *warned;
     int initialized;
     int init_failed;
-    int mode;           /* BV_INSTANTIATED .. BV_FAILED (the FMI state machine) */
     double start_time;  /* fmi2SetupExperiment / fmi3EnterInitializationMode */
     /* a refused step restores these: the fallback bookkeeping and the inputs */
     double *save_x_prev, *save_h_prev, *save_s;

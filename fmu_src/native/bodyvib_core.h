@@ -105,6 +105,9 @@ double bv_time(const bv_instance *c);
  * returns 0 when the instance's state is not in `mask`; bv_enter_* change the state. */
 int bv_state(const bv_instance *c);
 int bv_allowed(bv_instance *c, const char *function, int mask);
+/* The state is an instance's first member: the wrappers test it inline on the hot path and
+ * call bv_allowed (which logs) only when the test fails. */
+#define BV_STATE_IS(c, mask) ((*(const int *)(const void *)(c)) & (mask))
 bv_status bv_setup(bv_instance *c, double start_time); /* Instantiated: the run's start time */
 void bv_enter_initialization(bv_instance *c);
 void bv_terminate(bv_instance *c);

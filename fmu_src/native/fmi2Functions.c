@@ -66,7 +66,7 @@ static fmi2Status st(bv_status s) { return (fmi2Status)s; }
 
 #define CHECKED(c, function, mask)                                                          \
     INSTANCE(c);                                                                             \
-    if (!bv_allowed(f->core, function, mask))                                                \
+    if (!BV_STATE_IS(f->core, mask) && !bv_allowed(f->core, function, mask))                \
         return fmi2Error
 
 const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }

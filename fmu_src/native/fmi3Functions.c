@@ -53,7 +53,7 @@ static fmi3Status st(bv_status s) { return (fmi3Status)s; }
 
 #define CHECKED(c, function, mask)                                                          \
     INSTANCE(c);                                                                             \
-    if (!bv_allowed(f->core, function, mask))                                                \
+    if (!BV_STATE_IS(f->core, mask) && !bv_allowed(f->core, function, mask))                \
         return fmi3Error
 
 const char *fmi3GetVersion(void) { return fmi3Version; }
