@@ -3,11 +3,14 @@
  * model-independent core (bodyvib_core.c). Real variables only; the other types accept
  * empty requests and refuse any value reference.
  *
- * Status: a non-finite input or a non-positive step makes fmi2DoStep return fmi2Error
- * (reason logged, state unchanged); an invalid parameter makes
- * fmi2ExitInitializationMode return fmi2Error; a foreign or corrupt FMU state is refused
- * with fmi2Error. Errors and warnings are always passed to the logger (they are not
- * debug messages), whatever loggingOn says.
+ * Status: a call the standard's state table does not allow in the instance's state returns
+ * fmi2Error (reason logged, nothing changed); a non-finite input, a non-positive step or a
+ * step not from the model's time makes fmi2DoStep return fmi2Error, a step whose state would
+ * not be finite fmi2Discard (state unchanged either way, the instance may step again); an
+ * invalid parameter makes fmi2ExitInitializationMode return fmi2Error (the instance is then
+ * in the error state until Reset); a foreign or corrupt FMU state is refused with
+ * fmi2Error. Errors and warnings are always passed to the logger (they are not debug
+ * messages), whatever loggingOn says.
  */
 #include <stdlib.h>
 #include <string.h>

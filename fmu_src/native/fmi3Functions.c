@@ -6,9 +6,10 @@
  * requests and refuse any value reference. Model exchange and scheduled execution are
  * not provided (their instantiate functions return NULL).
  *
- * Status as in FMI 2.0: a non-finite input or a non-positive step makes fmi3DoStep return
- * fmi3Error (reason logged, state unchanged); an invalid parameter makes
- * fmi3ExitInitializationMode return fmi3Error; a foreign or corrupt FMU state is refused.
+ * Status as in FMI 2.0 (fmi2Functions.c): calls out of order, non-finite inputs, bad steps
+ * return fmi3Error, a step whose state would not be finite fmi3Discard, nothing changed;
+ * an invalid parameter makes fmi3ExitInitializationMode return fmi3Error; a foreign or
+ * corrupt FMU state is refused.
  */
 #include <stdlib.h>
 #include <string.h>
