@@ -191,6 +191,16 @@ def test_overflow_is_discarded_and_a_denormal_mass_recovers_after_reset(native_f
         f.close()
 
 
+def test_model_descriptions_declare_the_interpolation_interface(native_fmus):
+    from fmpy import read_model_description
+
+    for name in ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar"):
+        cs2 = read_model_description(native_fmus[name]).coSimulation
+        cs3 = read_model_description(native_fmus["fmi3/" + name]).coSimulation
+        assert cs2.canInterpolateInputs and cs2.maxOutputDerivativeOrder == 2
+        assert cs3.maxOutputDerivativeOrder == 2
+
+
 def test_input_derivatives_are_the_rate_inputs_bit_for_bit(native_fmus):
     """fmi2SetRealInputDerivatives(seat_displacement, 1 and 2) gives the same run as setting
     seat_velocity and seat_acceleration; the car's road_displacement has no order 2 (its
