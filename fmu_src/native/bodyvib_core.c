@@ -783,12 +783,11 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
     bv_status status = BV_OK;
     size_t i;
     int k;
-    for (i = 0; i < nvr; i++) {
-        int kind, idx;
+    for (i = 0; i < nvr; i++) /* an unknown value reference refuses the call: nothing set */
         if (!check_vr(c, vr[i]))
             return BV_ERROR;
-        kind = md->vr_kind[vr[i]];
-        idx = md->vr_index[vr[i]];
+    for (i = 0; i < nvr; i++) {
+        int kind = md->vr_kind[vr[i]], idx = md->vr_index[vr[i]];
         if (kind == BV_INPUT) {
             c->s[idx] = value[i];
             c->dirty = 1;

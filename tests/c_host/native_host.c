@@ -504,6 +504,17 @@ int main(int argc, char **argv)
         printf("set_parameter_stepping %d\n", (int)api.set_real(c, &mass_vr, 1, &v));
         printf("dostep_wrong_time %d\n", (int)api.do_step(c, 1.0, h, fmi2True));
         printf("dostep %d\n", (int)api.do_step(c, 0.0, h, fmi2True));
+        {
+            /* an unknown value reference after a valid one: Error, and nothing set */
+            fmi2ValueReference bad[2];
+            double two[2] = {0.5, 0.5}, x0 = -1.0, x1 = -2.0;
+            bad[0] = in_vrs[0];
+            bad[1] = 99999;
+            api.get_real(c, in_vrs, 1, &x0);
+            printf("unknown_vr_set %d\n", (int)api.set_real(c, bad, 2, two));
+            api.get_real(c, in_vrs, 1, &x1);
+            printf("unknown_vr_nothing_set %d\n", x0 == x1);
+        }
         printf("terminate %d\n", (int)api.terminate(c));
         printf("dostep_terminated %d\n", (int)api.do_step(c, h, h, fmi2True));
         printf("setreal_terminated %d\n", (int)api.set_real(c, in_vrs, 2, in));
