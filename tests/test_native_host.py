@@ -71,7 +71,7 @@ def run(host, unpacked, name, mode, platform="linux64", suffix=".so", prefix=(),
         steps=N_STEPS):
     binaries, guid, ins, outs, mass = unpacked[name]
     argv = [*prefix, host, mode, os.path.join(binaries, platform, name + suffix), guid, ins, outs,
-            repr(STEP), str(steps)] + ([mass] if mode == "checks" else [])
+            repr(STEP), str(steps)] + ([mass] if mode in ("checks", "fsm", "overflow") else [])
     return subprocess.run(argv, capture_output=True, text=True, timeout=600,
                           env={} if env is None else env)
 
@@ -126,13 +126,67 @@ def test_statuses_state_and_reset_in_a_c_host(host, unpacked, name):
     assert "not finite" in out.stderr and "is invalid" in out.stderr
 
 
+FSM = {  # the FMI 2.0 state machine: 3 = fmi2Error for every call out of order
+    "getreal_instantiated": "3", "dostep_instantiated": "3", "exit_instantiated": "3",
+    "terminate_instantiated": "3", "setreal_instantiated": "0", "setup_instantiated": "0",
+    "enter": "0", "setup_initialization": "3", "enter_initialization": "3",
+    "dostep_initialization": "3", "terminate_initialization": "3",
+    "getreal_initialization": "0", "exit": "0", "exit_stepping": "3", "enter_stepping": "3",
+    "set_parameter_stepping": "3", "dostep_wrong_time": "3", "dostep": "0",
+    "unknown_vr_set": "3", "unknown_vr_nothing_set": "1", "terminate": "0",
+    "dostep_terminated": "3", "setreal_terminated": "3", "terminate_terminated": "3",
+    "getreal_terminated": "0", "parameter_unchanged": "1", "reset": "0",
+    "getreal_after_reset": "3", "exit_invalid": "3", "dostep_failed": "3",
+    "terminate_failed": "3", "getreal_failed": "0", "reset_failed": "0",
+    "time_at_start": "1", "dostep_from_zero": "3", "start_time_run_equals": "1",
+    "last_time_ok": "1",
+}
+
+OVERFLOW = {  # 2 = fmi2Discard: a step whose result is not finite; nothing changes
+    "overflow_getreal": "3", "overflow_step": "2", "overflow_last_time": "1",
+    "overflow_leaves_state": "1", "huge_step": "2", "huge_displacement": "2",
+    "huge_displacement_back": "2", "huge_step_leaves_slope": "1",
+    "huge_displacement_leaves_slope": "1", "crafted_state_0": "3", "crafted_state_1": "3",
+    "crafted_state_2": "3", "denormal_init": "3", "reset_init": "0",
+    "denormal_reset_recovers": "1", "denormal_getreal": "0", "mass_back_init": "0",
+    "denormal_mass_back_recovers": "1",
+}
+
+
+@pytest.mark.parametrize("name", list(MODEL_OF))
+def test_state_machine_refuses_calls_out_of_order_in_a_c_host(host, unpacked, name):
+    """Each call the FMI 2.0 state table does not allow in the instance's state returns
+    fmi2Error with the reason logged, and changes nothing; startTime is the model's time."""
+    out = run(host, unpacked, name, "fsm", steps=300)
+    assert out.returncode == 0, out.stderr
+    got = dict(l.split() for l in out.stdout.splitlines() if " " in l)
+    assert got == FSM, out.stdout
+    assert "fmi2DoStep is not allowed in state Terminated" in out.stderr
+    assert "fmi2GetReal is not allowed in state Instantiated" in out.stderr
+    assert "but the model is at t = 2.5 s" in out.stderr
+
+
+@pytest.mark.parametrize("name", list(MODEL_OF))
+def test_overflow_huge_steps_crafted_states_and_denormal_mass_in_a_c_host(host, unpacked, name):
+    """Finite inputs that overflow, a 1e300 s step or 1e300 m displacements with the
+    velocity never set: fmi2Discard, and the run continues bit-identical to an undisturbed
+    one (the slope bookkeeping included); a state with a valid checksum but inconsistent
+    bookkeeping is refused; a denormal mass is refused without touching the model, so Reset
+    (or setting the mass back) and initialization recover a run identical to a fresh one."""
+    out = run(host, unpacked, name, "overflow", steps=300)
+    assert out.returncode == 0, out.stderr
+    got = dict(l.split() for l in out.stdout.splitlines() if " " in l)
+    assert got == OVERFLOW, out.stdout
+    assert "step refused (discard), state unchanged" in out.stderr
+
+
 def test_two_instances_on_two_threads(host, unpacked):
     out = run(host, unpacked, "HumanBody3DOF", "threads", steps=2000)
     assert out.returncode == 0, out.stderr
     assert out.stdout.splitlines()[0] == "threads identical"
 
 
-@pytest.mark.parametrize("mode", ["run", "checks", "threads"])
+@pytest.mark.parametrize("mode", ["run", "checks", "threads", "fsm", "overflow"])
 def test_c_host_under_valgrind_is_clean(host, unpacked, mode):
     valgrind = shutil.which("valgrind")
     if valgrind is None:

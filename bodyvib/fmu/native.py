@@ -68,6 +68,10 @@ PLATFORMS = {
 }
 COMMON_FLAGS = ["-std=c99", "-O2", "-shared", "-Wall", "-Wextra", "-Wno-unused-parameter"]
 
+#: Output derivative orders fmi2GetRealOutputDerivatives / fmi3GetOutputDerivatives give
+#: (bodyvib_core.h, BV_MAX_OUTPUT_ORDER).
+MAX_OUTPUT_DERIVATIVE_ORDER = 2
+
 #: Matrix codes of the stencils (bodyvib_core.h: BV_E .. BV_D).
 _MATRICES = ("E", "A", "B", "C", "Cd", "D")
 
@@ -340,7 +344,8 @@ def model_description(nm: NativeModel, token: str, fmi: int) -> bytes:
         root.set("numberOfEventIndicators", "0")
         cs = ET.SubElement(root, "CoSimulation", {
             "modelIdentifier": nm.name, "needsExecutionTool": "false",
-            "canHandleVariableCommunicationStepSize": "true", "canInterpolateInputs": "false",
+            "canHandleVariableCommunicationStepSize": "true", "canInterpolateInputs": "true",
+            "maxOutputDerivativeOrder": str(MAX_OUTPUT_DERIVATIVE_ORDER),
             "canRunAsynchronuously": "false", "canBeInstantiatedOnlyOncePerProcess": "false",
             "canNotUseMemoryManagementFunctions": "true", "canGetAndSetFMUstate": "true",
             "canSerializeFMUstate": "true", "providesDirectionalDerivative": "false"})
@@ -352,7 +357,8 @@ def model_description(nm: NativeModel, token: str, fmi: int) -> bytes:
             "modelIdentifier": nm.name, "needsExecutionTool": "false",
             "canBeInstantiatedOnlyOncePerProcess": "false", "canGetAndSetFMUState": "true",
             "canSerializeFMUState": "true", "providesDirectionalDerivatives": "false",
-            "canHandleVariableCommunicationStepSize": "true", "hasEventMode": "false",
+            "canHandleVariableCommunicationStepSize": "true",
+            "maxOutputDerivativeOrder": str(MAX_OUTPUT_DERIVATIVE_ORDER), "hasEventMode": "false",
             "providesIntermediateUpdate": "false", "canReturnEarlyAfterIntermediateUpdate": "false"})
     used = list(dict.fromkeys(v.unit for v in nm.variables))
     if fmi == 3:

@@ -37,6 +37,7 @@
 #define BV_MESSAGE 640
 
 struct bv_instance {
+    int mode;           /* first (BV_STATE_IS): BV_INSTANTIATED .. BV_FAILED, the FMI state */
     const bv_model *md;
     char name[128];
     bv_log_fn log;
@@ -50,6 +51,7 @@ struct bv_instance {
     double *A, *B;
     double *UR, *UR2;   /* U R, U R^2 (m x ni) */
     double *Yc;         /* [Yx | Ys] row-major: y = Yc z, z = [x | s] */
+    double *A2, *B2, *Yc2; /* candidates: build() fills these, checks them, then swaps */
     double *y;          /* outputs for the current z, valid unless dirty */
     int dirty;
     /* step cache */
@@ -64,6 +66,11 @@ struct bv_instance {
     unsigned char *has_prev, *vel_set, *slope_on, *warned;
     int initialized;
     int init_failed;
+    double start_time;  /* fmi2SetupExperiment / fmi3EnterInitializationMode */
+    /* a refused step restores these: the fallback bookkeeping and the inputs */
+    double *save_x_prev, *save_h_prev, *save_s;
+    unsigned char *save_flags;
+    double *zd;         /* 3 (n + ni): z and its time derivatives (output derivatives) */
     char init_error[BV_MESSAGE];
     /* scratch */
     double *zn, *work;
@@ -362,6 +369,8 @@ static int build(bv_instance *c, const double *p)
     double *E = c->work, *AB = E + (size_t)n * n, *Cz = AB + (size_t)n * (n + m);
     double *Cd = Cz + (size_t)R * n, *Dd = Cd + (size_t)R * n;
     double *Cr = Dd + (size_t)R * m, *Dr = Cr + n, *CrB = Dr + m, *t1 = CrB + m, *t2 = t1 + ni;
+    double *A = c->A2, *B = c->B2, *Yc = c->Yc2, *swap;
+    size_t q;
 
     memset(c->work, 0, ((size_t)n * n + (size_t)n * (n + m) + 2 * (size_t)R * n + (size_t)R * m) *
                            sizeof(double));
@@ -382,33 +391,36 @@ static int build(bv_instance *c, const double *p)
     lu_solve(E, c->piv, n, AB, n + m);
     for (i = 0; i < n; i++) {
         for (j = 0; j < n; j++)
-            c->A[i * n + j] = AB[i * (n + m) + j];
+            A[i * n + j] = AB[i * (n + m) + j];
         for (j = 0; j < m; j++)
-            c->B[i * m + j] = AB[i * (n + m) + n + j];
+            B[i * m + j] = AB[i * (n + m) + n + j];
     }
-    for (i = 0; i < n * n; i++)
-        if (!isfinite(c->A[i]))
+    for (q = 0; q < (size_t)n * n; q++)
+        if (!isfinite(A[q]))
+            return 0;
+    for (q = 0; q < (size_t)n * m; q++)
+        if (!isfinite(B[q]))
             return 0;
     for (k = 0; k < no; k++) {
         int r = md->out_row[k];
-        double *row = c->Yc + (size_t)k * w;
+        double *row = Yc + (size_t)k * w;
         /* row r with z' substituted: C_r = C + Cd A, D_r = D + Cd B */
         for (j = 0; j < n; j++) {
             double v = Cz[r * n + j];
             for (i = 0; i < n; i++)
-                v += Cd[r * n + i] * c->A[i * n + j];
+                v += Cd[r * n + i] * A[i * n + j];
             Cr[j] = v;
         }
         for (j = 0; j < m; j++) {
             double v = Dd[r * m + j];
             for (i = 0; i < n; i++)
-                v += Cd[r * n + i] * c->B[i * m + j];
+                v += Cd[r * n + i] * B[i * m + j];
             Dr[j] = v;
         }
         if (md->out_derivative[k]) {
             /* d/dt (C_r x + D_r u) = (C_r A) x + (C_r B U + D_r U R) s */
-            mul(row, Cr, c->A, 1, n, n);
-            mul(CrB, Cr, c->B, 1, n, m);
+            mul(row, Cr, A, 1, n, n);
+            mul(CrB, Cr, B, 1, n, m);
             mul(t1, CrB, md->U, 1, m, ni);
             mul(t2, Dr, c->UR, 1, m, ni);
             for (j = 0; j < ni; j++)
@@ -418,6 +430,14 @@ static int build(bv_instance *c, const double *p)
             mul(row + n, Dr, md->U, 1, m, ni);
         }
     }
+    for (q = 0; q < (size_t)no * w; q++)
+        if (!isfinite(Yc[q]))
+            return 0;
+    /* all finite: only now do they replace the instance's matrices (a refused parameter
+     * set leaves the model the instance had) */
+    swap = c->A, c->A = A, c->A2 = swap;
+    swap = c->B, c->B = B, c->B2 = swap;
+    swap = c->Yc, c->Yc = Yc, c->Yc2 = swap;
     memcpy(c->p_built, p, (size_t)c->np * sizeof(double));
     c->built = 1;
     c->dirty = 1;
@@ -485,6 +505,7 @@ static int discretize(bv_instance *c, double h)
         c->h_raw = h;
         return 1;
     }
+    c->h_key = 0.0; /* Sc is rewritten below: no cache is valid until it is complete */
     E = c->work;
     G = E + 11 * (size_t)N3 * N3; /* past augmented()'s matrix and expm's work */
     T = G + (size_t)n * m;
@@ -551,6 +572,8 @@ static void clear_state(bv_instance *c)
     memset(c->has_prev, 0, 4 * (size_t)np1);
     c->dirty = 1;
     c->time = 0.0;
+    c->start_time = 0.0;
+    c->mode = BV_INSTANTIATED;
     c->initialized = 0;
     c->init_failed = 0;
     c->init_error[0] = '\0';
@@ -580,9 +603,11 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
     nd = 2 * (size_t)np + (size_t)n * n + (size_t)n * m + 2 * (size_t)m * ni +
          (size_t)no * (n + ni) + no + (size_t)n * (n + ni) + (size_t)ni * ni + n + ni +
          2 * (size_t)np1 + n + ni + nw;
+    nd += (size_t)n * n + (size_t)n * m + (size_t)no * (n + ni); /* candidates A2, B2, Yc2 */
+    nd += 3 * (size_t)np1 + 3 * ((size_t)n + ni);                /* saved bookkeeping, zd */
     d = calloc(nd, sizeof *d);
     c->piv = calloc((size_t)N + 1, sizeof *c->piv);
-    c->has_prev = calloc(4 * (size_t)np1, 1);
+    c->has_prev = calloc(8 * (size_t)np1, 1);
     if (d == NULL || c->piv == NULL || c->has_prev == NULL) {
         free(d);
         free(c->piv);
@@ -593,6 +618,7 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
     c->vel_set = c->has_prev + np1;
     c->slope_on = c->vel_set + np1;
     c->warned = c->slope_on + np1;
+    c->save_flags = c->warned + np1; /* 4 np1: has_prev, vel_set, slope_on, warned */
     c->p = d; d += np;
     c->p_built = d; d += np;
     c->A = d; d += (size_t)n * n;
@@ -608,6 +634,13 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
     c->x_prev = d; d += np1;
     c->h_prev = d; d += np1;
     c->zn = d; d += n + ni;
+    c->A2 = d; d += (size_t)n * n;
+    c->B2 = d; d += (size_t)n * m;
+    c->Yc2 = d; d += (size_t)no * (n + ni);
+    c->save_x_prev = d; d += np1;
+    c->save_h_prev = d; d += np1;
+    c->save_s = d; d += np1;
+    c->zd = d; d += 3 * ((size_t)n + ni);
     c->work = d;
     /* U R and U R^2; curved if R^2 != 0 */
     mul(c->UR, md->U, md->R, m, ni, ni);
@@ -649,9 +682,64 @@ void bv_reset(bv_instance *c)
 
 double bv_time(const bv_instance *c) { return c->time; }
 
+/* ---------------------------------------------------------------- state machine */
+
+static const char *mode_name(int mode)
+{
+    switch (mode) {
+    case BV_INSTANTIATED: return "Instantiated";
+    case BV_INITIALIZATION: return "InitializationMode";
+    case BV_STEPPING: return "StepMode (stepComplete)";
+    case BV_TERMINATED: return "Terminated";
+    default: return "Error (initialization failed)";
+    }
+}
+
+int bv_state(const bv_instance *c) { return c->mode; }
+
+int bv_allowed(bv_instance *c, const char *function, int mask)
+{
+    char text[200];
+    size_t l = 0;
+    int b;
+    if (c->mode & mask)
+        return 1;
+    text[0] = '\0';
+    for (b = BV_INSTANTIATED; b <= BV_FAILED; b <<= 1)
+        if (mask & b)
+            l += (size_t)snprintf(text + l, sizeof text - l, "%s%s", l ? ", " : "",
+                                  mode_name(b));
+    if (l == 0)
+        snprintf(text, sizeof text, "none: this FMU never needs it");
+    if (c->mode == BV_FAILED && c->init_failed && c->init_error[0])
+        say(c, BV_ERROR, "%s", c->init_error);
+    say(c, BV_ERROR, "%s: %s is not allowed in state %s (allowed in: %s); call refused, "
+                     "nothing changed", c->name, function, mode_name(c->mode), text);
+    return 0;
+}
+
+bv_status bv_setup(bv_instance *c, double start_time)
+{
+    char text[32];
+    if (!isfinite(start_time)) {
+        say(c, BV_ERROR, "%s: the start time must be finite, got %s s", c->name,
+            shortest(start_time, text));
+        return BV_ERROR;
+    }
+    c->start_time = start_time;
+    c->time = start_time;
+    return BV_OK;
+}
+
+void bv_enter_initialization(bv_instance *c) { c->mode = BV_INITIALIZATION; }
+
+void bv_terminate(bv_instance *c) { c->mode = BV_TERMINATED; }
+
 bv_status bv_initialize(bv_instance *c)
 {
     c->initialized = 0;
+    c->time = c->start_time;
+    c->mode = BV_FAILED; /* until the checks below pass */
     if (!params_valid(c, c->p, 0)) {
         size_t l = strlen(c->init_error);
         snprintf(c->init_error + l, BV_MESSAGE - l,
@@ -663,8 +751,10 @@ bv_status bv_initialize(bv_instance *c)
     if (!c->built || memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0) {
         if (!build(c, c->p)) {
             snprintf(c->init_error, BV_MESSAGE,
-                     "%s: the parameters give a singular model (a massless node without "
-                     "damping); the instance refuses to step (reset and set valid parameters)",
+                     "%s: the parameters give a singular or unusable model (a massless node "
+                     "without damping, or a parameter so small or large that the model's "
+                     "matrices are not finite); the instance refuses to step (reset and set "
+                     "valid parameters)",
                      c->name);
             c->init_failed = 1;
             say(c, BV_ERROR, "%s", c->init_error);
@@ -674,6 +764,7 @@ bv_status bv_initialize(bv_instance *c)
     c->init_failed = 0;
     c->init_error[0] = '\0';
     c->initialized = 1;
+    c->mode = BV_STEPPING;
     return BV_OK;
 }
 
@@ -692,12 +783,11 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
     bv_status status = BV_OK;
     size_t i;
     int k;
-    for (i = 0; i < nvr; i++) {
-        int kind, idx;
+    for (i = 0; i < nvr; i++) /* an unknown value reference refuses the call: nothing set */
         if (!check_vr(c, vr[i]))
             return BV_ERROR;
-        kind = md->vr_kind[vr[i]];
-        idx = md->vr_index[vr[i]];
+    for (i = 0; i < nvr; i++) {
+        int kind = md->vr_kind[vr[i]], idx = md->vr_index[vr[i]];
         if (kind == BV_INPUT) {
             c->s[idx] = value[i];
             c->dirty = 1;
@@ -728,6 +818,7 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
 bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double value[])
 {
     const bv_model *md = c->md;
+    bv_status status = BV_OK;
     size_t i;
     int k;
     if (!c->initialized && memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0 &&
@@ -752,9 +843,15 @@ bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double val
                 c->dirty = 0;
             }
             value[i] = c->y[idx];
+            if (!isfinite(value[i]) && status == BV_OK) {
+                say(c, BV_ERROR, "%s: output %s is not finite: an input is not finite or too "
+                                 "large (set finite inputs of physical size)",
+                    c->name, md->vr_name[vr[i]]);
+                status = BV_ERROR;
+            }
         }
     }
-    return BV_OK;
+    return status;
 }
 
 /* The unconnected-velocity rule, before a step (bodyvib.runtime.engine's _slope_fallback). */
@@ -787,23 +884,43 @@ static void slope_fallback(bv_instance *c, double t, double h)
     }
 }
 
+/* The fallback bookkeeping (and the velocity inputs it writes), saved before a step and
+ * restored if the step is refused: a refused step changes nothing. Per pair, plain loops:
+ * the hot path makes no library calls. */
+static inline void save_bookkeeping(bv_instance *c, int restore)
+{
+    const bv_model *md = c->md;
+    int k, np1 = md->npairs + 1;
+    unsigned char *f = c->save_flags;
+    for (k = 0; k < md->npairs; k++) {
+        int r = md->pairs[k].rate;
+        if (!restore) {
+            c->save_x_prev[k] = c->x_prev[k];
+            c->save_h_prev[k] = c->h_prev[k];
+            c->save_s[k] = c->s[r];
+            f[k] = c->has_prev[k], f[np1 + k] = c->vel_set[k];
+            f[2 * np1 + k] = c->slope_on[k], f[3 * np1 + k] = c->warned[k];
+        } else {
+            c->x_prev[k] = c->save_x_prev[k];
+            c->h_prev[k] = c->save_h_prev[k];
+            c->s[r] = c->save_s[k];
+            c->has_prev[k] = f[k], c->vel_set[k] = f[np1 + k];
+            c->slope_on[k] = f[2 * np1 + k], c->warned[k] = f[3 * np1 + k];
+            c->dirty = 1;
+        }
+    }
+}
+
 bv_status bv_step(bv_instance *c, double t, double h)
 {
     int n = c->n, ni = c->ni, j;
-    double *zn = c->zn;
+    double *zn = c->zn, zz = 0.0, zz2 = 0.0, at = fabs(c->time);
+    char text[32], text2[32];
     if (!(h > 0.0 && h < INFINITY)) {
-        char text[32];
         say(c, BV_ERROR, "%s: communication step size must be positive and finite, got %s s",
             c->name, shortest(h, text));
         return BV_ERROR;
     }
-    for (j = 0; j < ni; j++)
-        if (!isfinite(c->s[j])) {
-            say(c, BV_ERROR, "%s: input %s = %g at t = %g s is not finite; step refused, state "
-                             "unchanged (set a finite value and step again)",
-                c->name, var_name(c->md, BV_INPUT, j), c->s[j], t);
-            return BV_ERROR;
-        }
     if (!c->initialized) {
         if (c->init_failed)
             say(c, BV_ERROR, "%s", c->init_error);
@@ -812,20 +929,201 @@ bv_status bv_step(bv_instance *c, double t, double h)
                              "first", c->name);
         return BV_ERROR;
     }
+    /* the step starts where the last one ended (or at the start time): a host whose clock
+     * differs by more than rounding is out of step with the model */
+    if (!(fabs(t - c->time) <= 1e-9 * (at > 1.0 ? at : 1.0))) {
+        say(c, BV_ERROR, "%s: DoStep from t = %s s, but the model is at t = %s s (the start "
+                         "time or the end of the last step); step refused, state unchanged",
+            c->name, shortest(t, text), shortest(c->time, text2));
+        return BV_ERROR;
+    }
+    save_bookkeeping(c, 0);
     if (c->md->npairs)
         slope_fallback(c, t, h);
     if (!discretize(c, h)) {
-        say(c, BV_ERROR, "%s: the step matrices for h = %g s are not finite; step refused",
-            c->name, h);
-        return BV_ERROR;
+        save_bookkeeping(c, 1);
+        say(c, BV_ERROR, "%s: a step of %s s overflows the exact discretization (not "
+                         "finite); step refused (discard), state unchanged (use shorter steps)",
+            c->name, shortest(h, text));
+        return BV_DISCARD;
     }
     matvec(zn, c->Sc, c->x, n, n + ni);
     matvec(zn + n, c->Ms, c->s, ni, ni);
+    /* z.z is finite iff no component exceeds about 1e154 (as the pythonfmu FMU checks):
+     * no overflow, and room for the outputs, whose coefficients are far below 1e150 */
+    for (j = 0; j + 1 < n + ni; j += 2) {
+        zz += zn[j] * zn[j];
+        zz2 += zn[j + 1] * zn[j + 1];
+    }
+    if (j < n + ni)
+        zz += zn[j] * zn[j];
+    zz += zz2;
+    if (!(zz < INFINITY)) { /* NaN or inf; every input reaches zn (Ms holds I) */
+        save_bookkeeping(c, 1);
+        for (j = 0; j < ni; j++)
+            if (!isfinite(c->s[j])) {
+                say(c, BV_ERROR, "%s: input %s = %g at t = %g s is not finite; step refused, "
+                                 "state unchanged (set a finite value and step again)",
+                    c->name, var_name(c->md, BV_INPUT, j), c->s[j], t);
+                return BV_ERROR;
+            }
+        say(c, BV_ERROR, "%s: the state after the step from t = %g s is not finite (inputs or "
+                         "state too large); step refused (discard), state unchanged",
+            c->name, t);
+        return BV_DISCARD;
+    }
     for (j = 0; j < n + ni; j++) /* small: plain loops, no library calls on the hot path */
         c->x[j] = zn[j];
     c->time = t + h;
     c->dirty = 1;
     return BV_OK;
+}
+
+/* ---------------------------------------------------------------- input and output derivatives */
+
+/* The input that is the in-step rate of input i (R[i][r] != 0), or -1. */
+static int rate_of(const bv_model *md, int i, double *coef)
+{
+    int r;
+    for (r = 0; r < md->ni; r++)
+        if (md->R[(size_t)i * md->ni + r] != 0.0) {
+            *coef = md->R[(size_t)i * md->ni + r];
+            return r;
+        }
+    return -1;
+}
+
+bv_status bv_set_input_derivatives(bv_instance *c, const unsigned int vr[], size_t nvr,
+                                   const int order[], const double value[])
+{
+    const bv_model *md = c->md;
+    size_t i;
+    int k;
+    /* all checked before any is applied: a refused call changes nothing */
+    for (i = 0; i < nvr; i++) {
+        int j, r = -1, o;
+        double coef = 1.0, cf;
+        if (!check_vr(c, vr[i]))
+            return BV_ERROR;
+        if (md->vr_kind[vr[i]] != BV_INPUT) {
+            say(c, BV_ERROR, "%s: %s is not an input; input derivatives are for inputs only",
+                c->name, md->vr_name[vr[i]]);
+            return BV_ERROR;
+        }
+        if (order[i] < 1) {
+            say(c, BV_ERROR, "%s: derivative order %d of %s: the order must be 1 or more",
+                c->name, order[i], md->vr_name[vr[i]]);
+            return BV_ERROR;
+        }
+        j = md->vr_index[vr[i]];
+        for (o = 0; o < order[i] && j >= 0; o++) {
+            r = rate_of(md, j, &cf);
+            coef *= cf;
+            j = r;
+        }
+        if (r < 0 && value[i] != 0.0) {
+            say(c, BV_ERROR, "%s: %s has no in-step derivative of order %d (its rate chain is "
+                             "shorter; orders it has: see canInterpolateInputs in the README); "
+                             "call refused",
+                c->name, md->vr_name[vr[i]], order[i]);
+            return BV_ERROR;
+        }
+        if (!isfinite(value[i])) {
+            say(c, BV_ERROR, "%s: derivative order %d of %s is not finite; call refused",
+                c->name, order[i], md->vr_name[vr[i]]);
+            return BV_ERROR;
+        }
+    }
+    for (i = 0; i < nvr; i++) {
+        int j = md->vr_index[vr[i]], r = -1, o;
+        double coef = 1.0, cf;
+        for (o = 0; o < order[i] && j >= 0; o++) {
+            r = rate_of(md, j, &cf);
+            coef *= cf;
+            j = r;
+        }
+        if (r < 0)
+            continue; /* a zero derivative the input has no rate for: it is held anyway */
+        c->s[r] = value[i] / coef;
+        c->dirty = 1;
+        /* a velocity given as a derivative is connected, whatever its value */
+        for (k = 0; k < md->npairs; k++)
+            if (md->pairs[k].rate == r) {
+                c->vel_set[k] = 1;
+                c->slope_on[k] = 0;
+            }
+    }
+    return BV_OK;
+}
+
+/* z' = [A x + B U s, R s] for z = [x | s] (the state equations and the in-step rates). */
+static void zdot(const bv_instance *c, const double *z, double *out)
+{
+    const bv_model *md = c->md;
+    int n = c->n, m = c->m, ni = c->ni, i, j;
+    double *u = out + n + ni; /* m doubles of scratch past out (zd has room) */
+    /* plain loops, not matvec: matvec stays inlined where the steps need it */
+    for (i = 0; i < m; i++) {
+        double v = 0.0;
+        for (j = 0; j < ni; j++)
+            v += md->U[(size_t)i * ni + j] * z[n + j];
+        u[i] = v;
+    }
+    for (i = 0; i < n; i++) {
+        double v = 0.0;
+        for (j = 0; j < n; j++)
+            v += c->A[(size_t)i * n + j] * z[j];
+        for (j = 0; j < m; j++)
+            v += c->B[(size_t)i * m + j] * u[j];
+        out[i] = v;
+    }
+    for (i = 0; i < ni; i++) {
+        double v = 0.0;
+        for (j = 0; j < ni; j++)
+            v += md->R[(size_t)i * ni + j] * z[n + j];
+        out[n + i] = v;
+    }
+}
+
+bv_status bv_get_output_derivatives(bv_instance *c, const unsigned int vr[], size_t nvr,
+                                    const int order[], double value[])
+{
+    const bv_model *md = c->md;
+    int w = c->n + c->ni;
+    size_t i;
+    double *z1 = c->zd, *z2 = c->zd + w;
+    bv_status status = BV_OK;
+    for (i = 0; i < nvr; i++) {
+        if (!check_vr(c, vr[i]))
+            return BV_ERROR;
+        if (md->vr_kind[vr[i]] != BV_OUTPUT) {
+            say(c, BV_ERROR, "%s: %s is not an output; output derivatives are for outputs only",
+                c->name, md->vr_name[vr[i]]);
+            return BV_ERROR;
+        }
+        if (order[i] < 1 || order[i] > BV_MAX_OUTPUT_ORDER) {
+            say(c, BV_ERROR, "%s: derivative order %d of %s: this FMU gives orders 1 to %d "
+                             "(maxOutputDerivativeOrder)",
+                c->name, order[i], md->vr_name[vr[i]], BV_MAX_OUTPUT_ORDER);
+            return BV_ERROR;
+        }
+    }
+    zdot(c, c->x, z1);  /* c->x, c->s contiguous: z */
+    zdot(c, z1, z2);
+    for (i = 0; i < nvr; i++) {
+        const double *row = c->Yc + (size_t)md->vr_index[vr[i]] * w, *z = order[i] == 1 ? z1 : z2;
+        double v = 0.0;
+        int j;
+        for (j = 0; j < w; j++)
+            v += row[j] * z[j];
+        value[i] = v;
+        if (!isfinite(v) && status == BV_OK) {
+            say(c, BV_ERROR, "%s: derivative %d of output %s is not finite (inputs too large)",
+                c->name, order[i], md->vr_name[vr[i]]);
+            status = BV_ERROR;
+        }
+    }
+    return status;
 }
 
 /* ---------------------------------------------------------------- snapshots */
@@ -949,8 +1247,15 @@ bv_status bv_state_check(const bv_instance *c, const unsigned char *buf, size_t 
     off += 8 * ((size_t)c->n + (size_t)c->ni);
     for (k = 0; k < c->md->npairs; k++) {
         memcpy(pair, buf + off + sizeof pair * (size_t)k, sizeof pair);
+        /* consistent as only stepping makes it: a slope in use was seen (a previous
+         * displacement and a normal positive step to divide by), never with the velocity
+         * set, and warned about; no previous value, no step */
+        int has_prev = pair[2] != 0.0, vel_set = pair[3] != 0.0, slope_on = pair[4] != 0.0;
         if (!(flag_ok(pair[2]) && flag_ok(pair[3]) && flag_ok(pair[4]) && flag_ok(pair[5]) &&
-              isfinite(pair[0]) && isfinite(pair[1]) && pair[1] >= 0.0)) {
+              isfinite(pair[0]) && isfinite(pair[1]) &&
+              (has_prev ? isnormal(pair[1]) && pair[1] > 0.0
+                        : pair[0] == 0.0 && pair[1] == 0.0) &&
+              (!slope_on || (has_prev && !vel_set && pair[5] != 0.0)))) {
             say(c, BV_ERROR, "%s: the FMU state is invalid (fallback bookkeeping); refused",
                 c->name);
             return BV_ERROR;
@@ -989,6 +1294,14 @@ bv_status bv_state_read(bv_instance *c, const unsigned char *buf, size_t size)
     c->time = head[0];
     c->initialized = head[1] != 0.0;
     c->init_failed = head[2] != 0.0;
+    /* the state machine follows the snapshot: initialized ones step; a failed one is in
+     * error; one from before initialization keeps Instantiated / InitializationMode */
+    if (c->initialized)
+        c->mode = BV_STEPPING;
+    else if (c->init_failed)
+        c->mode = BV_FAILED;
+    else if (c->mode != BV_INITIALIZATION)
+        c->mode = BV_INSTANTIATED;
     if (c->init_failed)
         snprintf(c->init_error, BV_MESSAGE, "%s: the restored state was not initialized "
                  "successfully; reset and set valid parameters", c->name);

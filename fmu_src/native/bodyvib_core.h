@@ -27,7 +27,21 @@ enum { BV_E = 0, BV_A = 1, BV_B = 2, BV_C = 3, BV_CD = 4, BV_D = 5 };
 enum { BV_INPUT = 0, BV_OUTPUT = 1, BV_PARAMETER = 2 };
 
 /* Status, mapped onto fmi2Status / fmi3Status by the wrappers. */
-typedef enum { BV_OK = 0, BV_WARNING = 1, BV_ERROR = 3 } bv_status;
+typedef enum { BV_OK = 0, BV_WARNING = 1, BV_DISCARD = 2, BV_ERROR = 3 } bv_status;
+
+/* The instance's state in the FMI state machine (a bit each, so that a function's allowed
+ * states are a mask). FMI 2.0 stepComplete and FMI 3.0 Step Mode are BV_STEPPING; a refused
+ * call (fmi2Error / fmi2Discard from a DoStep that changed nothing) leaves the state as it
+ * was; a failed initialization puts the instance into BV_FAILED (FMI "error"), from which
+ * Reset, FreeInstance, GetReal and the FMU-state functions lead out. */
+enum {
+    BV_INSTANTIATED = 1,
+    BV_INITIALIZATION = 2,
+    BV_STEPPING = 4,
+    BV_TERMINATED = 8,
+    BV_FAILED = 16,
+    BV_ANY_STATE = 31
+};
 
 /* One stencil entry: matrix[row][col] += coef * (param < 0 ? 1 : p[param]). */
 typedef struct {
@@ -86,6 +100,29 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
 bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double value[]);
 bv_status bv_step(bv_instance *c, double t, double h);
 double bv_time(const bv_instance *c);
+
+/* The state machine: bv_allowed logs "<function>: not allowed in state <state> ..." and
+ * returns 0 when the instance's state is not in `mask`; bv_enter_* change the state. */
+int bv_state(const bv_instance *c);
+int bv_allowed(bv_instance *c, const char *function, int mask);
+/* The state is an instance's first member: the wrappers test it inline on the hot path and
+ * call bv_allowed (which logs) only when the test fails. */
+#define BV_STATE_IS(c, mask) ((*(const int *)(const void *)(c)) & (mask))
+bv_status bv_setup(bv_instance *c, double start_time); /* Instantiated: the run's start time */
+void bv_enter_initialization(bv_instance *c);
+void bv_terminate(bv_instance *c);
+
+/* The standard's interpolation interface.
+ * Input derivatives: order k of input i is the input k rate pairs down its chain (order 1
+ * of seat_displacement is seat_velocity, order 2 seat_acceleration; order 1 of seat_force
+ * is seat_force_rate); an order the chain does not reach is refused unless it is 0.
+ * Output derivatives: order k of any output from the state equations, z' = [A x + B U s,
+ * R s], applied k times (orders 1 .. BV_MAX_OUTPUT_ORDER). */
+#define BV_MAX_OUTPUT_ORDER 2
+bv_status bv_set_input_derivatives(bv_instance *c, const unsigned int vr[], size_t nvr,
+                                   const int order[], const double value[]);
+bv_status bv_get_output_derivatives(bv_instance *c, const unsigned int vr[], size_t nvr,
+                                    const int order[], double value[]);
 
 /* Snapshots: a self-contained byte buffer (magic, size, model token, checksum). */
 size_t bv_state_size(const bv_instance *c);

@@ -3,11 +3,14 @@
  * model-independent core (bodyvib_core.c). Real variables only; the other types accept
  * empty requests and refuse any value reference.
  *
- * Status: a non-finite input or a non-positive step makes fmi2DoStep return fmi2Error
- * (reason logged, state unchanged); an invalid parameter makes
- * fmi2ExitInitializationMode return fmi2Error; a foreign or corrupt FMU state is refused
- * with fmi2Error. Errors and warnings are always passed to the logger (they are not
- * debug messages), whatever loggingOn says.
+ * Status: a call the standard's state table does not allow in the instance's state returns
+ * fmi2Error (reason logged, nothing changed); a non-finite input, a non-positive step or a
+ * step not from the model's time makes fmi2DoStep return fmi2Error, a step whose state would
+ * not be finite fmi2Discard (state unchanged either way, the instance may step again); an
+ * invalid parameter makes fmi2ExitInitializationMode return fmi2Error (the instance is then
+ * in the error state until Reset); a foreign or corrupt FMU state is refused with
+ * fmi2Error. Errors and warnings are always passed to the logger (they are not debug
+ * messages), whatever loggingOn says.
  */
 #include <stdlib.h>
 #include <string.h>
@@ -52,6 +55,21 @@ static fmi2Status st(bv_status s) { return (fmi2Status)s; }
 #define INSTANCE(c)                                                                          \
     Fmu2 *f = (Fmu2 *)(c);                                                                   \
     if (f == NULL)                                                                           \
+        return fmi2Error
+
+/* The FMI 2.0 co-simulation state machine (the standard's table of which function is
+ * allowed in which state), checked by the core: a call out of order returns fmi2Error with
+ * the reason logged, and changes nothing. */
+#define S_ANY BV_ANY_STATE
+#define S_SETUP BV_INSTANTIATED
+#define S_GET (BV_INITIALIZATION | BV_STEPPING | BV_TERMINATED | BV_FAILED)
+#define S_SET (BV_INSTANTIATED | BV_INITIALIZATION | BV_STEPPING)
+#define S_OUTPUT_DERIVATIVES (BV_STEPPING | BV_TERMINATED | BV_FAILED)
+#define S_STATUS (BV_STEPPING | BV_TERMINATED)
+
+#define CHECKED(c, function, mask)                                                          \
+    INSTANCE(c);                                                                             \
+    if (!BV_STATE_IS(f->core, mask) && !bv_allowed(f->core, function, mask))                \
         return fmi2Error
 
 const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
@@ -126,27 +144,28 @@ void fmi2FreeInstance(fmi2Component c)
 fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fmi2Real tolerance,
                                fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime)
 {
-    INSTANCE(c);
-    (void)toleranceDefined, (void)tolerance, (void)startTime, (void)stopTimeDefined,
-        (void)stopTime;
-    return fmi2OK;
+    CHECKED(c, "fmi2SetupExperiment", S_SETUP);
+    (void)toleranceDefined, (void)tolerance, (void)stopTimeDefined, (void)stopTime;
+    return st(bv_setup(f->core, startTime)); /* the model's time starts there */
 }
 
 fmi2Status fmi2EnterInitializationMode(fmi2Component c)
 {
-    INSTANCE(c);
+    CHECKED(c, "fmi2EnterInitializationMode", BV_INSTANTIATED);
+    bv_enter_initialization(f->core);
     return fmi2OK;
 }
 
 fmi2Status fmi2ExitInitializationMode(fmi2Component c)
 {
-    INSTANCE(c);
+    CHECKED(c, "fmi2ExitInitializationMode", BV_INITIALIZATION);
     return st(bv_initialize(f->core));
 }
 
 fmi2Status fmi2Terminate(fmi2Component c)
 {
-    INSTANCE(c);
+    CHECKED(c, "fmi2Terminate", BV_STEPPING);
+    bv_terminate(f->core);
     return fmi2OK;
 }
 
@@ -160,7 +179,7 @@ fmi2Status fmi2Reset(fmi2Component c)
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                        fmi2Real value[])
 {
-    INSTANCE(c);
+    CHECKED(c, "fmi2GetReal", S_GET);
     if (nvr > 0 && (vr == NULL || value == NULL))
         return fmi2Error;
     return st(bv_get(f->core, vr, nvr, value));
@@ -169,26 +188,26 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
 fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                        const fmi2Real value[])
 {
-    INSTANCE(c);
+    CHECKED(c, "fmi2SetReal", S_SET);
     if (nvr > 0 && (vr == NULL || value == NULL))
         return fmi2Error;
     return st(bv_set(f->core, vr, nvr, value));
 }
 
 /* No Integer, Boolean or String variables. */
-#define NO_VARIABLES(fn, T, CONST)                                                             \
+#define NO_VARIABLES(fn, T, CONST, MASK)                                                       \
     fmi2Status fn(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, CONST T value[]) \
     {                                                                                          \
-        INSTANCE(c);                                                                           \
+        CHECKED(c, #fn, MASK);                                                                 \
         (void)vr, (void)value;                                                                 \
         return nvr == 0 ? fmi2OK : fmi2Error;                                                  \
     }
-NO_VARIABLES(fmi2GetInteger, fmi2Integer, )
-NO_VARIABLES(fmi2GetBoolean, fmi2Boolean, )
-NO_VARIABLES(fmi2GetString, fmi2String, )
-NO_VARIABLES(fmi2SetInteger, fmi2Integer, const)
-NO_VARIABLES(fmi2SetBoolean, fmi2Boolean, const)
-NO_VARIABLES(fmi2SetString, fmi2String, const)
+NO_VARIABLES(fmi2GetInteger, fmi2Integer, , S_GET)
+NO_VARIABLES(fmi2GetBoolean, fmi2Boolean, , S_GET)
+NO_VARIABLES(fmi2GetString, fmi2String, , S_GET)
+NO_VARIABLES(fmi2SetInteger, fmi2Integer, const, S_SET)
+NO_VARIABLES(fmi2SetBoolean, fmi2Boolean, const, S_SET)
+NO_VARIABLES(fmi2SetString, fmi2String, const, S_SET)
 
 /* ------------------------------------------------------------------ FMU state */
 
@@ -285,30 +304,33 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReferenc
 
 /* ------------------------------------------------------------------ co-simulation */
 
+/* Input derivatives (canInterpolateInputs): order k of an input sets the input k rate pairs
+ * down its chain (seat_displacement: 1 seat_velocity, 2 seat_acceleration). */
 fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                        const fmi2Integer order[], const fmi2Real value[])
 {
-    INSTANCE(c);
-    (void)vr, (void)order, (void)value;
-    if (nvr == 0)
-        return fmi2OK;
-    fmu_log(f, BV_ERROR, "input derivatives are not supported (canInterpolateInputs=false): set "
-                      "the velocity and rate inputs instead");
-    return fmi2Error;
+    CHECKED(c, "fmi2SetRealInputDerivatives", S_SET);
+    if (nvr > 0 && (vr == NULL || order == NULL || value == NULL))
+        return fmi2Error;
+    return st(bv_set_input_derivatives(f->core, vr, nvr, (const int *)order, value));
 }
 
+/* Output derivatives (maxOutputDerivativeOrder 2): exact, from the state equations. */
 fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
                                         size_t nvr, const fmi2Integer order[], fmi2Real value[])
 {
-    INSTANCE(c);
-    (void)vr, (void)order, (void)value;
-    return nvr == 0 ? fmi2OK : fmi2Error;
+    CHECKED(c, "fmi2GetRealOutputDerivatives", S_OUTPUT_DERIVATIVES);
+    if (nvr > 0 && (vr == NULL || order == NULL || value == NULL))
+        return fmi2Error;
+    return st(bv_get_output_derivatives(f->core, vr, nvr, (const int *)order, value));
 }
 
+/* A step whose result is not finite returns fmi2Discard (fmi2LastSuccessfulTime: the step's
+ * start); like every refused step it changes nothing and the instance may step again. */
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
                       fmi2Real communicationStepSize, fmi2Boolean noSetFMUStatePriorToCurrentPoint)
 {
-    INSTANCE(c);
+    CHECKED(c, "fmi2DoStep", BV_STEPPING);
     (void)noSetFMUStatePriorToCurrentPoint;
     return st(bv_step(f->core, currentCommunicationPoint, communicationStepSize));
 }
@@ -321,14 +343,14 @@ fmi2Status fmi2CancelStep(fmi2Component c)
 
 fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value)
 {
-    INSTANCE(c);
+    CHECKED(c, "fmi2GetStatus", S_STATUS);
     (void)s, (void)value;
     return fmi2Discard;
 }
 
 fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value)
 {
-    INSTANCE(c);
+    CHECKED(c, "fmi2GetRealStatus", S_STATUS);
     if (s == fmi2LastSuccessfulTime && value != NULL) {
         *value = bv_time(f->core);
         return fmi2OK;
@@ -338,21 +360,21 @@ fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *
 
 fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value)
 {
-    INSTANCE(c);
+    CHECKED(c, "fmi2GetIntegerStatus", S_STATUS);
     (void)s, (void)value;
     return fmi2Discard;
 }
 
 fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value)
 {
-    INSTANCE(c);
+    CHECKED(c, "fmi2GetBooleanStatus", S_STATUS);
     (void)s, (void)value;
     return fmi2Discard;
 }
 
 fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value)
 {
-    INSTANCE(c);
+    CHECKED(c, "fmi2GetStringStatus", S_STATUS);
     (void)s, (void)value;
     return fmi2Discard;
 }

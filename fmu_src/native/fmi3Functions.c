@@ -6,9 +6,10 @@
  * requests and refuse any value reference. Model exchange and scheduled execution are
  * not provided (their instantiate functions return NULL).
  *
- * Status as in FMI 2.0: a non-finite input or a non-positive step makes fmi3DoStep return
- * fmi3Error (reason logged, state unchanged); an invalid parameter makes
- * fmi3ExitInitializationMode return fmi3Error; a foreign or corrupt FMU state is refused.
+ * Status as in FMI 2.0 (fmi2Functions.c): calls out of order, non-finite inputs, bad steps
+ * return fmi3Error, a step whose state would not be finite fmi3Discard, nothing changed;
+ * an invalid parameter makes fmi3ExitInitializationMode return fmi3Error; a foreign or
+ * corrupt FMU state is refused.
  */
 #include <stdlib.h>
 #include <string.h>
@@ -41,6 +42,19 @@ static fmi3Status st(bv_status s) { return (fmi3Status)s; }
 #define INSTANCE(c)                                                                          \
     Fmu3 *f = (Fmu3 *)(c);                                                                   \
     if (f == NULL)                                                                           \
+        return fmi3Error
+
+/* The FMI 3.0 co-simulation state machine (no event mode: Step Mode follows
+ * fmi3ExitInitializationMode), checked by the core: a call out of order returns fmi3Error
+ * with the reason logged, and changes nothing. */
+#define S_ANY BV_ANY_STATE
+#define S_GET (BV_INITIALIZATION | BV_STEPPING | BV_TERMINATED | BV_FAILED)
+#define S_SET (BV_INSTANTIATED | BV_INITIALIZATION | BV_STEPPING)
+#define S_OUTPUT_DERIVATIVES (BV_STEPPING | BV_TERMINATED)
+
+#define CHECKED(c, function, mask)                                                          \
+    INSTANCE(c);                                                                             \
+    if (!BV_STATE_IS(f->core, mask) && !bv_allowed(f->core, function, mask))                \
         return fmi3Error
 
 const char *fmi3GetVersion(void) { return fmi3Version; }
@@ -132,15 +146,18 @@ fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean tolera
                                        fmi3Float64 tolerance, fmi3Float64 startTime,
                                        fmi3Boolean stopTimeDefined, fmi3Float64 stopTime)
 {
-    INSTANCE(instance);
-    (void)toleranceDefined, (void)tolerance, (void)startTime, (void)stopTimeDefined,
-        (void)stopTime;
-    return fmi3OK;
+    bv_status s;
+    CHECKED(instance, "fmi3EnterInitializationMode", BV_INSTANTIATED);
+    (void)toleranceDefined, (void)tolerance, (void)stopTimeDefined, (void)stopTime;
+    s = bv_setup(f->core, startTime); /* the model's time starts there */
+    if (s == BV_OK)
+        bv_enter_initialization(f->core);
+    return st(s);
 }
 
 fmi3Status fmi3ExitInitializationMode(fmi3Instance instance)
 {
-    INSTANCE(instance);
+    CHECKED(instance, "fmi3ExitInitializationMode", BV_INITIALIZATION);
     return st(bv_initialize(f->core));
 }
 
@@ -152,7 +169,8 @@ fmi3Status fmi3EnterEventMode(fmi3Instance instance)
 
 fmi3Status fmi3Terminate(fmi3Instance instance)
 {
-    INSTANCE(instance);
+    CHECKED(instance, "fmi3Terminate", BV_STEPPING);
+    bv_terminate(f->core);
     return fmi3OK;
 }
 
@@ -169,7 +187,7 @@ fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], 
                           fmi3Float64 values[], size_t nValues)
 {
     size_t i;
-    INSTANCE(instance);
+    CHECKED(instance, "fmi3GetFloat64", S_GET);
     if (nValues != nvr || (nvr > 0 && (vr == NULL || values == NULL)))
         return fmi3Error;
     for (i = 0; i < nvr; i++)
@@ -190,7 +208,7 @@ fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], 
                           const fmi3Float64 values[], size_t nValues)
 {
     size_t i;
-    INSTANCE(instance);
+    CHECKED(instance, "fmi3SetFloat64", S_SET);
     if (nValues != nvr || (nvr > 0 && (vr == NULL || values == NULL)))
         return fmi3Error;
     for (i = 0; i < nvr; i++)
@@ -206,7 +224,7 @@ fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], 
     fmi3Status fn(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,          \
                   T values[], size_t nValues)                                                \
     {                                                                                        \
-        INSTANCE(instance);                                                                  \
+        CHECKED(instance, #fn, S_GET);                                                       \
         (void)vr, (void)values, (void)nValues;                                               \
         return nvr == 0 ? fmi3OK : fmi3Error;                                                \
     }
@@ -214,7 +232,7 @@ fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], 
     fmi3Status fn(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,          \
                   const T values[], size_t nValues)                                          \
     {                                                                                        \
-        INSTANCE(instance);                                                                  \
+        CHECKED(instance, #fn, S_SET);                                                       \
         (void)vr, (void)values, (void)nValues;                                               \
         return nvr == 0 ? fmi3OK : fmi3Error;                                                \
     }
@@ -577,19 +595,23 @@ fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance instance, size_t *nConti
 
 /* ------------------------------------------------------------------ co-simulation */
 
+/* Step Mode is entered from Event Mode, which this FMU does not have (hasEventMode false:
+ * fmi3ExitInitializationMode leads to Step Mode). */
 fmi3Status fmi3EnterStepMode(fmi3Instance instance)
 {
-    INSTANCE(instance);
-    return fmi3OK;
+    CHECKED(instance, "fmi3EnterStepMode", 0);
+    return fmi3Error;
 }
 
+/* Output derivatives (maxOutputDerivativeOrder 2): exact, from the state equations. */
 fmi3Status fmi3GetOutputDerivatives(fmi3Instance instance, const fmi3ValueReference vr[],
                                     size_t nvr, const fmi3Int32 orders[], fmi3Float64 values[],
                                     size_t nValues)
 {
-    INSTANCE(instance);
-    (void)vr, (void)orders, (void)values, (void)nValues;
-    return nvr == 0 ? fmi3OK : fmi3Error;
+    CHECKED(instance, "fmi3GetOutputDerivatives", S_OUTPUT_DERIVATIVES);
+    if (nValues != nvr || (nvr > 0 && (vr == NULL || orders == NULL || values == NULL)))
+        return fmi3Error;
+    return st(bv_get_output_derivatives(f->core, vr, nvr, (const int *)orders, values));
 }
 
 fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoint,
@@ -599,7 +621,7 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
                       fmi3Boolean *earlyReturn, fmi3Float64 *lastSuccessfulTime)
 {
     bv_status s;
-    INSTANCE(instance);
+    CHECKED(instance, "fmi3DoStep", BV_STEPPING);
     (void)noSetFMUStatePriorToCurrentPoint;
     s = bv_step(f->core, currentCommunicationPoint, communicationStepSize);
     if (eventHandlingNeeded)

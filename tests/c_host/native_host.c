@@ -13,6 +13,10 @@
  *                      checked bit for bit against the same run done before on this thread
  *             checks   status codes, FMU state get/set/serialize, reset (needs MASS_VR: the
  *                      value reference of a mass parameter)
+ *             fsm      the FMI state machine: calls out of order (each must return fmi2Error
+ *                      and change nothing), fmi2SetupExperiment's start time (needs MASS_VR)
+ *             overflow finite inputs that overflow, a huge step with the velocity never set,
+ *                      crafted FMU states, a denormal mass then Reset (needs MASS_VR)
  *             bench    N_STEPS of set input + doStep + get output, 7 times; prints wall-clock
  *                      and thread CPU time per step of each and the best
  *             bench-vary  the same with a new step size at every step (each step
@@ -76,6 +80,7 @@ typedef struct {
     fmi2SerializedFMUstateSizeTYPE *state_size;
     fmi2SerializeFMUstateTYPE *serialize;
     fmi2DeSerializeFMUstateTYPE *deserialize;
+    fmi2GetRealStatusTYPE *real_status;
 } Api;
 
 static Api api;
@@ -84,6 +89,7 @@ static fmi2ValueReference in_vrs[2], out_vrs[MAX_VRS];
 static size_t n_out;
 static int quiet_log;
 static const char *resources = "";
+static double t_offset; /* the run's start time (fmi2SetupExperiment) */
 
 static void logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status,
                    fmi2String category, fmi2String message, ...)
@@ -147,6 +153,7 @@ static void load(const char *path)
     *(void **)&api.state_size = symbol(lib, "fmi2SerializedFMUstateSize");
     *(void **)&api.serialize = symbol(lib, "fmi2SerializeFMUstate");
     *(void **)&api.deserialize = symbol(lib, "fmi2DeSerializeFMUstate");
+    *(void **)&api.real_status = symbol(lib, "fmi2GetRealStatus");
 }
 
 static void expect(fmi2Status got, fmi2Status want, const char *call)
@@ -188,7 +195,7 @@ static fmi2Component start(const char *name)
         fprintf(stderr, "native_host: fmi2Instantiate returned NULL\n");
         exit(3);
     }
-    expect(api.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0), fmi2OK, "fmi2SetupExperiment");
+    expect(api.setup(c, fmi2False, 0.0, t_offset, fmi2False, 0.0), fmi2OK, "fmi2SetupExperiment");
     expect(api.enter_init(c), fmi2OK, "fmi2EnterInitializationMode");
     expect(api.exit_init(c), fmi2OK, "fmi2ExitInitializationMode");
     return c;
@@ -231,7 +238,7 @@ static void run(fmi2Component c, double h, long n_steps, int vary, double amp, d
             tx[3 * k + 2] = in[1];
         }
         if (k < to) {
-            expect(api.do_step(c, t, hk, fmi2True), fmi2OK, "fmi2DoStep");
+            expect(api.do_step(c, t_offset + t, hk, fmi2True), fmi2OK, "fmi2DoStep");
             t += hk;
         }
     }
@@ -468,6 +475,231 @@ int main(int argc, char **argv)
         api.free_state(c, &s2);
         free(bytes);
         api.free_instance(c);
+    } else if (strcmp(mode, "fsm") == 0) {
+        /* every call out of order returns fmi2Error (3) and changes nothing */
+        fmi2ValueReference mass_vr;
+        double v, m0, in[2] = {0.0, 0.0}, out[MAX_VRS], last = -1.0;
+        double *y2 = y + rows * n_out;
+        if (argc < 9)
+            return 1;
+        mass_vr = (fmi2ValueReference)strtoul(argv[8], NULL, 10);
+        c = api.instantiate("fsm", fmi2CoSimulation, guid, "", &callbacks, fmi2False, fmi2False);
+        printf("getreal_instantiated %d\n", (int)api.get_real(c, out_vrs, n_out, out));
+        printf("dostep_instantiated %d\n", (int)api.do_step(c, 0.0, h, fmi2True));
+        printf("exit_instantiated %d\n", (int)api.exit_init(c));
+        printf("terminate_instantiated %d\n", (int)api.terminate(c));
+        printf("setreal_instantiated %d\n", (int)api.set_real(c, in_vrs, 2, in));
+        printf("setup_instantiated %d\n", (int)api.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0));
+        printf("enter %d\n", (int)api.enter_init(c));
+        printf("setup_initialization %d\n",
+               (int)api.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0));
+        printf("enter_initialization %d\n", (int)api.enter_init(c));
+        printf("dostep_initialization %d\n", (int)api.do_step(c, 0.0, h, fmi2True));
+        printf("terminate_initialization %d\n", (int)api.terminate(c));
+        printf("getreal_initialization %d\n", (int)api.get_real(c, &mass_vr, 1, &m0));
+        printf("exit %d\n", (int)api.exit_init(c));
+        printf("exit_stepping %d\n", (int)api.exit_init(c));
+        printf("enter_stepping %d\n", (int)api.enter_init(c));
+        v = 2.0 * m0;
+        printf("set_parameter_stepping %d\n", (int)api.set_real(c, &mass_vr, 1, &v));
+        printf("dostep_wrong_time %d\n", (int)api.do_step(c, 1.0, h, fmi2True));
+        printf("dostep %d\n", (int)api.do_step(c, 0.0, h, fmi2True));
+        {
+            /* an unknown value reference after a valid one: Error, and nothing set */
+            fmi2ValueReference bad[2];
+            double two[2] = {0.5, 0.5}, x0 = -1.0, x1 = -2.0;
+            bad[0] = in_vrs[0];
+            bad[1] = 99999;
+            api.get_real(c, in_vrs, 1, &x0);
+            printf("unknown_vr_set %d\n", (int)api.set_real(c, bad, 2, two));
+            api.get_real(c, in_vrs, 1, &x1);
+            printf("unknown_vr_nothing_set %d\n", x0 == x1);
+        }
+        printf("terminate %d\n", (int)api.terminate(c));
+        printf("dostep_terminated %d\n", (int)api.do_step(c, h, h, fmi2True));
+        printf("setreal_terminated %d\n", (int)api.set_real(c, in_vrs, 2, in));
+        printf("terminate_terminated %d\n", (int)api.terminate(c));
+        printf("getreal_terminated %d\n", (int)api.get_real(c, &mass_vr, 1, &v));
+        printf("parameter_unchanged %d\n", v == m0);
+        printf("reset %d\n", (int)api.reset(c));
+        printf("getreal_after_reset %d\n", (int)api.get_real(c, out_vrs, n_out, out));
+        api.free_instance(c);
+        /* a failed initialization is the error state: no step, no terminate; Reset recovers */
+        c = api.instantiate("failed", fmi2CoSimulation, guid, "", &callbacks, fmi2False,
+                            fmi2False);
+        v = -1.0;
+        api.set_real(c, &mass_vr, 1, &v);
+        api.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0);
+        api.enter_init(c);
+        printf("exit_invalid %d\n", (int)api.exit_init(c));
+        printf("dostep_failed %d\n", (int)api.do_step(c, 0.0, h, fmi2True));
+        printf("terminate_failed %d\n", (int)api.terminate(c));
+        printf("getreal_failed %d\n", (int)api.get_real(c, &mass_vr, 1, &v));
+        printf("reset_failed %d\n", (int)api.reset(c));
+        api.free_instance(c);
+        /* the start time: the model's time starts there, steps must start there, and a run
+         * from 2.5 s equals the run from 0 (the model does not depend on the time) */
+        c = start("from0");
+        run(c, h, n_steps, 0, AMPLITUDE, y, NULL, 0, n_steps);
+        api.free_instance(c);
+        t_offset = 2.5;
+        c = start("from2.5");
+        api.real_status(c, fmi2LastSuccessfulTime, &last);
+        printf("time_at_start %d\n", last == 2.5);
+        printf("dostep_from_zero %d\n", (int)api.do_step(c, 0.0, h, fmi2True));
+        run(c, h, n_steps, 0, AMPLITUDE, y2, NULL, 0, n_steps);
+        printf("start_time_run_equals %d\n", same(y, y2, rows * n_out));
+        api.real_status(c, fmi2LastSuccessfulTime, &last);
+        printf("last_time_ok %d\n", fabs(last - (2.5 + h * (double)n_steps)) < 1e-9);
+        api.free_instance(c);
+        t_offset = 0.0;
+    } else if (strcmp(mode, "overflow") == 0) {
+        fmi2ValueReference mass_vr;
+        double *y2 = y + rows * n_out, *y3 = y2 + rows * n_out, in[2], v, m0, out[MAX_VRS];
+        double last = -1.0;
+        long at = n_steps / 2, j;
+        fmi2FMUstate s = NULL, s2 = NULL;
+        size_t size;
+        fmi2Byte *bytes;
+        if (argc < 9)
+            return 1;
+        mass_vr = (fmi2ValueReference)strtoul(argv[8], NULL, 10);
+        c = start("fresh");
+        run(c, h, n_steps, 0, AMPLITUDE, y2, tx, 0, n_steps);
+        api.free_instance(c);
+        /* finite inputs that overflow the step: discarded (2), nothing changed */
+        c = start("overflow");
+        run(c, h, n_steps, 0, AMPLITUDE, y, NULL, 0, at);
+        in[0] = in[1] = 1e308;
+        expect(api.set_real(c, in_vrs, 2, in), fmi2OK, "fmi2SetReal 1e308");
+        printf("overflow_getreal %d\n", (int)api.get_real(c, out_vrs, n_out, out));
+        printf("overflow_step %d\n", (int)api.do_step(c, tx[3 * at], h, fmi2True));
+        api.real_status(c, fmi2LastSuccessfulTime, &last);
+        printf("overflow_last_time %d\n", last == tx[3 * at]);
+        run(c, h, n_steps, 0, AMPLITUDE, y, NULL, at, n_steps);
+        printf("overflow_leaves_state %d\n", same(y + at * n_out, y2 + at * n_out,
+                                                  (rows - at) * n_out));
+        api.free_instance(c);
+        /* the velocity never set (its slope stands in): a huge step, then displacements
+         * +-1e300, are refused and leave the slope bookkeeping as it was */
+        for (j = 0; j < 2; j++) {
+            double *yy = j ? y3 : y;
+            long k;
+            c = start("slope");
+            for (k = 0; k <= n_steps; k++) {
+                double x = tx[3 * k + 1];
+                if (k == at) {
+                    if (j == 0) {
+                        printf("huge_step %d\n", (int)api.do_step(c, tx[3 * k], 1e300, fmi2True));
+                    } else {
+                        v = 1e300;
+                        api.set_real(c, &in_vrs[0], 1, &v);
+                        printf("huge_displacement %d\n",
+                               (int)api.do_step(c, tx[3 * k], h, fmi2True));
+                        v = -1e300;
+                        api.set_real(c, &in_vrs[0], 1, &v);
+                        printf("huge_displacement_back %d\n",
+                               (int)api.do_step(c, tx[3 * k], h, fmi2True));
+                    }
+                }
+                expect(api.set_real(c, &in_vrs[0], 1, &x), fmi2OK, "fmi2SetReal x");
+                expect(api.get_real(c, out_vrs, n_out, yy + (size_t)k * n_out), fmi2OK,
+                       "fmi2GetReal");
+                if (k < n_steps)
+                    expect(api.do_step(c, tx[3 * k], tx[3 * k + 3] - tx[3 * k], fmi2True),
+                           fmi2OK, "fmi2DoStep");
+            }
+            api.free_instance(c);
+        }
+        /* the undisturbed slope run */
+        {
+            long k;
+            c = start("slope0");
+            quiet_log = 1;
+            for (k = 0; k <= n_steps; k++) {
+                double x = tx[3 * k + 1];
+                api.set_real(c, &in_vrs[0], 1, &x);
+                api.get_real(c, out_vrs, n_out, y2 + (size_t)k * n_out);
+                if (k < n_steps)
+                    api.do_step(c, tx[3 * k], tx[3 * k + 3] - tx[3 * k], fmi2True);
+            }
+            quiet_log = 0;
+            /* a crafted state, checksum valid, bookkeeping inconsistent: refused */
+            expect(api.get_state(c, &s), fmi2OK, "fmi2GetFMUstate");
+            expect(api.state_size(c, s, &size), fmi2OK, "fmi2SerializedFMUstateSize");
+            bytes = malloc(size);
+            expect(api.serialize(c, s, bytes, size), fmi2OK, "fmi2SerializeFMUstate");
+            api.free_instance(c);
+        }
+        printf("huge_step_leaves_slope %d\n", same(y, y2, rows * n_out));
+        printf("huge_displacement_leaves_slope %d\n", same(y3, y2, rows * n_out));
+        {
+            /* the pair's doubles (x_prev, h_prev, has_prev, vel_set, slope_on, warned) end
+             * 8 bytes before the end (the checksum: FNV-1a of everything before it) */
+            double pair[6], zero = 0.0;
+            unsigned char *u = (unsigned char *)bytes, *q = u + size - 8 - sizeof pair;
+            unsigned long long sum;
+            int variant;
+            c = start("crafted");
+            for (variant = 0; variant < 3; variant++) {
+                size_t b;
+                expect(api.serialize(c, s, bytes, size), fmi2OK, "fmi2SerializeFMUstate");
+                memcpy(pair, q, sizeof pair);
+                if (variant == 0) {
+                    pair[1] = zero; /* the slope in use, divided by a zero step */
+                } else if (variant == 1) {
+                    pair[2] = 0.0; /* the slope in use without a previous displacement */
+                } else {
+                    pair[3] = 1.0; /* the slope in use with the velocity set */
+                }
+                memcpy(q, pair, sizeof pair);
+                sum = 1469598103934665603ULL;
+                for (b = 0; b < size - 8; b++) {
+                    sum ^= u[b];
+                    sum *= 1099511628211ULL;
+                }
+                memcpy(bytes + size - 8, &sum, 8);
+                printf("crafted_state_%d %d\n", variant,
+                       (int)api.deserialize(c, bytes, size, &s2));
+                api.free_state(c, &s2);
+            }
+            api.free_instance(c);
+        }
+        api.free_state(c, &s);
+        free(bytes);
+        /* a denormal mass: initialization refused; Reset and valid parameters recover */
+        c = start("fresh2");
+        run(c, h, n_steps, 0, AMPLITUDE, y2, NULL, 0, n_steps);
+        api.free_instance(c);
+        c = api.instantiate("denormal", fmi2CoSimulation, guid, "", &callbacks, fmi2False,
+                            fmi2False);
+        v = 1e-310;
+        api.set_real(c, &mass_vr, 1, &v);
+        api.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0);
+        api.enter_init(c);
+        printf("denormal_init %d\n", (int)api.exit_init(c));
+        expect(api.reset(c), fmi2OK, "fmi2Reset");
+        api.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0);
+        api.enter_init(c);
+        printf("reset_init %d\n", (int)api.exit_init(c));
+        run(c, h, n_steps, 0, AMPLITUDE, y, NULL, 0, n_steps);
+        printf("denormal_reset_recovers %d\n", same(y, y2, rows * n_out));
+        api.free_instance(c);
+        /* the same with the outputs read while the denormal mass was set, then the mass set
+         * back (no Reset) */
+        c = api.instantiate("denormal2", fmi2CoSimulation, guid, "", &callbacks, fmi2False,
+                            fmi2False);
+        api.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0);
+        api.enter_init(c);
+        api.get_real(c, &mass_vr, 1, &m0);
+        v = 1e-310;
+        api.set_real(c, &mass_vr, 1, &v);
+        printf("denormal_getreal %d\n", (int)api.get_real(c, out_vrs, n_out, out));
+        api.set_real(c, &mass_vr, 1, &m0);
+        printf("mass_back_init %d\n", (int)api.exit_init(c));
+        run(c, h, n_steps, 0, AMPLITUDE, y, NULL, 0, n_steps);
+        printf("denormal_mass_back_recovers %d\n", same(y, y2, rows * n_out));
+        api.free_instance(c);
 #ifndef _WIN32
     } else if (strcmp(mode, "bench") == 0 || strcmp(mode, "bench-vary") == 0) {
         int vary = strcmp(mode, "bench-vary") == 0;
@@ -479,16 +711,21 @@ int main(int argc, char **argv)
             table[2 * k] = 1e-3 * sin(k * h * 30.0);
             table[2 * k + 1] = 3e-2 * cos(k * h * 30.0);
         }
+        double tb = 0.0; /* the model's time runs on through the repetitions */
         c = start("bench");
         for (rep = 0; rep < 7; rep++) {
             clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ca);
             clock_gettime(CLOCK_MONOTONIC, &a);
             for (k = 0; k < n_steps; k++) {
-                double t = k * h;
+                double hk = vary ? step_size(h, k, 1) : h;
                 in[0] = table[2 * (k & 1023)];
                 in[1] = table[2 * (k & 1023) + 1];
                 api.set_real(c, in_vrs, 2, in);
-                api.do_step(c, t, vary ? step_size(h, k, 1) : h, fmi2True);
+                if (api.do_step(c, tb, hk, fmi2True) != fmi2OK) {
+                    fprintf(stderr, "native_host: fmi2DoStep refused a benchmark step\n");
+                    exit(3);
+                }
+                tb += hk;
                 api.get_real(c, out_vrs, n_out, out);
             }
             clock_gettime(CLOCK_MONOTONIC, &b);
