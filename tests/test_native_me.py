@@ -1,0 +1,296 @@
+"""Model Exchange of the native FMUs (FMI 2.0 and 3.0): fmpy's CVode against the exact solution,
+exact directional derivatives against finite differences and the library's matrices.
+
+In model exchange the FMU gives ``x' = A x + B U s`` and ``y = C x + D U s`` for the inputs
+``s`` the host holds at the current time (the velocity inputs are the host's values). fmpy
+applies the inputs only between its output points and its CVode integrates past them in
+``CV_NORMAL`` mode, so a smoothly varying input is held by an unknown amount; the test input
+is therefore a staircase (a sine sampled every ``HOLD`` output intervals, each stair a
+repeated time stamp, which fmpy treats as an input event and restarts CVode at). The exact
+solution of a staircase is the library's zero-order-hold discretization
+(:func:`bodyvib.runtime.discretize.discretize`, ``x <- Phi x + Gamma0 u``).
+
+Tolerances. fmpy gives CVode ``atol = rtol * nominal`` with the FMU's nominals 1. The states'
+errors must fall with the tolerance (a factor of 10 per factor of 100 in ``rtol`` at least;
+measured 70 to 110) and, at ``rtol = 1e-10``, stay below 1e-5 of each state's peak (measured:
+3e-9 on HumanBody3DOF, 1.2e-6 on the ISO body's head and neck velocities, whose stiff coupling
+(the pole at -1.1e8 1/s) CVode's error test sees only through ``atol``). Outputs are rows of ``C`` on the states: an output's error is bounded
+by ``|C_r| . e_x`` (``e_x`` the states' errors), which matters for the ISO body's head
+acceleration, 4.4e7 1/s^2 times the difference of two stiffly coupled states (measured
+relative error 3e-4 at ``rtol = 1e-10``, while its displacement is 4e-9).
+"""
+
+import shutil
+import zipfile
+from ctypes import POINTER, c_double, c_int, c_void_p
+from xml.etree import ElementTree as ET
+
+import numpy as np
+import pytest
+
+from bodyvib.models import load_model
+from bodyvib.runtime.contract import KINDS
+from bodyvib.runtime.discretize import discretize
+from bodyvib.runtime.network import linear_model
+from vehicle.quarter_car import load_car
+
+pytestmark = pytest.mark.integration
+
+#: FMU -> (model loader, kind, driven displacement input, its velocity input, outputs checked)
+FMUS = {
+    "HumanBody3DOF": (lambda: load_model("reduced-paper"), "body", "seat_displacement",
+                      "seat_velocity", {"head_displacement": "head.x", "seat_force": "seat_force",
+                                        "head_acceleration": "head.a"}),
+    "HumanBodyISO7962": (lambda: load_model("iso7962"), "body", "seat_displacement",
+                         "seat_velocity", {"head_displacement": "head.x",
+                                           "seat_force": "seat_force",
+                                           "head_acceleration": "head.a"}),
+    "QuarterCar": (load_car, "car", "road_displacement", "road_velocity",
+                   {"seat_displacement": "seat.x", "tire_force": "tire.force",
+                    "suspension_deflection": "suspension.deflection"}),
+}
+CASES = [(name, fmi) for name in FMUS for fmi in (2, 3)]
+T_END, DT, HOLD, F_HZ, AMP = 0.5, 1e-3, 5, 3.0, 0.01
+
+
+def _path(native_fmus, name, fmi):
+    return native_fmus[name if fmi == 2 else f"fmi3/{name}"]
+
+
+def _staircase(din, vin):
+    """Sine displacement and its velocity, held over HOLD output intervals (input events)."""
+    t = np.arange(0.0, T_END + DT / 2, DT)
+    tk = t[::HOLD]
+    w = 2 * np.pi * F_HZ
+    d, v = AMP * np.sin(w * tk), AMP * w * np.cos(w * tk)
+    sig = np.zeros(2 * len(tk) - 1, dtype=[("time", float), (din, float), (vin, float)])
+    sig["time"][0::2], sig["time"][1::2] = tk, tk[1:]
+    sig[din][0::2], sig[din][1::2] = d, d[:-1]
+    sig[vin][0::2], sig[vin][1::2] = v, v[:-1]
+    held = np.repeat(np.stack([d, v], 1), HOLD, axis=0)[:len(t)]
+    return t, sig, held
+
+
+def _exact(network, kind, held, n_inputs):
+    """States and model inputs of the exact zero-order-hold solution at the output points."""
+    lm = linear_model(network)
+    U = KINDS[kind](network).input_map
+    s = np.zeros((len(held), n_inputs))
+    s[:, :2] = held  # displacement and velocity are the first two FMU inputs of either kind
+    u = s @ U.T
+    Phi, G0, _ = discretize(lm.A, lm.B, DT)
+    X = np.zeros((len(held), lm.A.shape[0]))
+    for k in range(len(held) - 1):
+        X[k + 1] = Phi @ X[k] + G0 @ u[k]
+    return lm, X, u
+
+
+def _simulate(path, sig, names, rtol):
+    from fmpy import simulate_fmu
+
+    return simulate_fmu(path, fmi_type="ModelExchange", solver="CVode", relative_tolerance=rtol,
+                        stop_time=T_END, output_interval=DT, input=sig, record_events=False,
+                        output=names)
+
+
+@pytest.mark.parametrize("name,fmi", CASES)
+def test_model_exchange_cvode_converges_to_the_exact_solution(native_fmus, name, fmi):
+    load, kind, din, vin, outputs = FMUS[name]
+    network = load()
+    t, sig, held = _staircase(din, vin)
+    n_inputs = len(KINDS[kind](network).inputs)
+    lm, X, u = _exact(network, kind, held, n_inputs)
+    states = [f"state.{s}" for s in lm.states]
+    errors = {}
+    for rtol in (1e-8, 1e-10):
+        res = _simulate(_path(native_fmus, name, fmi), sig, states + list(outputs), rtol)
+        assert len(res) == len(t)
+        got = np.stack([res[s] for s in states], 1)
+        errors[rtol] = np.max(np.abs(got - X), axis=0)
+    peak = np.max(np.abs(X), axis=0)
+    e = errors[1e-10]
+    assert np.all(e <= 1e-5 * peak), (name, fmi, e / peak)
+    # convergence: the tighter tolerance is at least 10 times closer (all states together)
+    assert np.max(e / peak) * 10 <= np.max(errors[1e-8] / peak), (errors, peak)
+    for out, signal in outputs.items():
+        r = lm.output_index(signal)
+        ref = X @ lm.C[r] + u @ lm.D[r]
+        bound = np.abs(lm.C[r]) @ e + 1e-12 * np.max(np.abs(ref))
+        assert np.max(np.abs(res[out] - ref)) <= bound, (out, np.max(np.abs(res[out] - ref)), bound)
+
+
+class _MeInstance:
+    """A native FMU instantiated for model exchange in fmpy, in continuous-time mode."""
+
+    def __init__(self, path):
+        from fmpy import extract, read_model_description
+        from fmpy.fmi2 import FMU2Model
+        from fmpy.fmi3 import FMU3Model
+
+        self.md = read_model_description(path)
+        self.dir = extract(path)
+        self.fmi = 2 if self.md.fmiVersion == "2.0" else 3
+        cls = FMU2Model if self.fmi == 2 else FMU3Model
+        self.fmu = cls(guid=self.md.guid if self.fmi == 2 else self.md.instantiationToken,
+                       unzipDirectory=self.dir, instanceName="me",
+                       modelIdentifier=self.md.modelExchange.modelIdentifier)
+        self.fmu.instantiate()
+        if self.fmi == 2:
+            self.fmu.setupExperiment(startTime=0.0)
+        self.fmu.enterInitializationMode()
+        self.fmu.exitInitializationMode()
+        if self.fmi == 2:
+            self.fmu.newDiscreteStates()
+        else:
+            self.fmu.updateDiscreteStates()
+        self.fmu.enterContinuousTimeMode()
+        self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
+        self.n = self.md.numberOfContinuousStates
+        self.states = [v for v in self.md.modelVariables if v.name.startswith("state.")]
+        self.ders = [v for v in self.md.modelVariables if v.name.startswith("der(state.")]
+        self.inputs = [v for v in self.md.modelVariables if v.causality == "input"]
+        self.outputs = [v for v in self.md.modelVariables if v.causality == "output"]
+
+    def set_states(self, x):
+        x = np.ascontiguousarray(x, dtype=float)
+        self.fmu.setContinuousStates(x.ctypes.data_as(POINTER(c_double)), self.n)
+
+    def derivatives(self):
+        dx = np.zeros(self.n)
+        p = dx.ctypes.data_as(POINTER(c_double))
+        if self.fmi == 2:
+            self.fmu.fmi2GetDerivatives(self.fmu.component, p, self.n)
+        else:
+            self.fmu.fmi3GetContinuousStateDerivatives(self.fmu.component, p, self.n)
+        return dx
+
+    def set_inputs(self, values):
+        vrs = [v.valueReference for v in self.inputs]
+        if self.fmi == 2:
+            self.fmu.setReal(vrs, list(values))
+        else:
+            self.fmu.setFloat64(vrs, list(values))
+
+    def outputs_now(self):
+        vrs = [v.valueReference for v in self.outputs]
+        get = self.fmu.getReal if self.fmi == 2 else self.fmu.getFloat64
+        return np.array(get(vrs))
+
+    def f(self, x, s):
+        """Derivatives and outputs at states x and inputs s."""
+        self.set_states(x)
+        self.set_inputs(s)
+        return np.concatenate([self.derivatives(), self.outputs_now()])
+
+    def jacobian(self):
+        """Exact directional derivatives: unknowns (derivatives, outputs) x knowns (states, inputs)."""
+        unknowns = [v.valueReference for v in self.ders + self.outputs]
+        knowns = [v.valueReference for v in self.states + self.inputs]
+        J = np.zeros((len(unknowns), len(knowns)))
+        for j in range(len(knowns)):
+            seed = [0.0] * len(knowns)
+            seed[j] = 1.0
+            J[:, j] = self.fmu.getDirectionalDerivative(unknowns, knowns, seed)
+        return J
+
+    def close(self):
+        self.fmu.terminate()
+        self.fmu.freeInstance()
+        shutil.rmtree(self.dir, ignore_errors=True)
+
+
+@pytest.mark.parametrize("name,fmi", CASES)
+def test_directional_derivatives_are_exact(native_fmus, name, fmi):
+    """The Jacobian equals central differences of the ME functions, and the library's A, B U.
+
+    The model is linear, so central differences have no truncation error; their rounding
+    error is about eps |f| / delta, with |f| <= |J| (|x| + delta): below 1e-10 of each row's
+    largest entry for delta = 1e-3 and |x|, |s| <= 1e-2."""
+    load, kind, _, _, _ = FMUS[name]
+    network = load()
+    inst = _MeInstance(_path(native_fmus, name, fmi))
+    try:
+        rng = np.random.default_rng(3)
+        n, ni = inst.n, len(inst.inputs)
+        x0, s0 = rng.uniform(-1e-2, 1e-2, n), rng.uniform(-1e-2, 1e-2, ni)
+        J = inst.jacobian()
+        delta = 1e-3
+        fd = np.zeros_like(J)
+        for j in range(n + ni):
+            e = np.zeros(n + ni)
+            e[j] = delta
+            plus = inst.f(x0 + e[:n], s0 + e[n:])
+            minus = inst.f(x0 - e[:n], s0 - e[n:])
+            fd[:, j] = (plus - minus) / (2 * delta)
+        scale = np.max(np.abs(J), axis=1, keepdims=True) + 1e-300
+        assert np.all(np.abs(fd - J) <= 1e-10 * scale), np.max(np.abs(fd - J) / scale)
+        # the library's explicit state space (numpy's solve of the descriptor form)
+        lm = linear_model(network)
+        BU = lm.B @ KINDS[kind](network).input_map
+        assert [v.name for v in inst.states] == [f"state.{s}" for s in lm.states]
+        ref = np.hstack([lm.A, BU])
+        rows = np.max(np.abs(ref), axis=1, keepdims=True)
+        assert np.all(np.abs(J[:n] - ref) <= 1e-12 * rows), np.max(np.abs(J[:n] - ref) / rows)
+        # a known that is not a state or an input is refused
+        with pytest.raises(Exception):
+            inst.fmu.getDirectionalDerivative([inst.ders[0].valueReference],
+                                              [inst.outputs[0].valueReference], [1.0])
+    finally:
+        inst.close()
+
+
+@pytest.mark.parametrize("fmi", (2, 3))
+def test_model_description_offers_both_interfaces(native_fmus, fmi):
+    from fmpy import read_model_description
+    from fmpy.validation import validate_fmu
+
+    for name in FMUS:
+        path = _path(native_fmus, name, fmi)
+        assert validate_fmu(path) == []
+        md = read_model_description(path)
+        assert md.modelExchange.modelIdentifier == md.coSimulation.modelIdentifier == name
+        with zipfile.ZipFile(path) as z:
+            root = ET.fromstring(z.read("modelDescription.xml"))
+        flag = "providesDirectionalDerivative" + ("s" if fmi == 3 else "")
+        for interface in ("ModelExchange", "CoSimulation"):
+            assert root.find(interface).get(flag) == "true"
+        assert md.numberOfContinuousStates == linear_model(FMUS[name][0]()).A.shape[0]
+        assert len(md.derivatives) == md.numberOfContinuousStates
+        for der in md.derivatives:
+            assert der.variable.derivative.name == der.variable.name[4:-1]
+
+
+def test_interface_functions_refuse_the_other_interface(native_fmus):
+    """An ME call on a co-simulation instance and DoStep on an ME instance return Error."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave, fmi2Error
+
+    path = _path(native_fmus, "HumanBody3DOF", 2)
+    md = read_model_description(path)
+    inst = _MeInstance(path)
+    try:
+        do_step = inst.fmu.dll.fmi2DoStep
+        do_step.argtypes, do_step.restype = [c_void_p, c_double, c_double, c_int], c_int
+        assert do_step(inst.fmu.component, 0.0, 1e-3, 1) == fmi2Error
+    finally:
+        inst.close()
+    folder = extract(path)
+    cs = FMU2Slave(guid=md.guid, unzipDirectory=folder, modelIdentifier="HumanBody3DOF",
+                   instanceName="cs")
+    try:
+        cs.instantiate()
+        cs.setupExperiment(startTime=0.0)
+        cs.enterInitializationMode()
+        cs.exitInitializationMode()
+        set_time = cs.dll.fmi2SetTime
+        set_time.argtypes, set_time.restype = [c_void_p, c_double], c_int
+        assert set_time(cs.component, 0.5) == fmi2Error
+        cs.doStep(0.0, 1e-3)
+        # the states are readable variables in co-simulation too
+        x = cs.getReal([v.valueReference for v in md.modelVariables
+                        if v.name.startswith("state.")])
+        assert len(x) == md.numberOfContinuousStates
+        cs.terminate()
+        cs.freeInstance()
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
