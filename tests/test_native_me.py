@@ -32,6 +32,7 @@ from bodyvib.models import load_model
 from bodyvib.runtime.contract import KINDS
 from bodyvib.runtime.discretize import discretize
 from bodyvib.runtime.network import linear_model
+from test_native_fmu import _fmi2_callbacks
 from vehicle.quarter_car import load_car
 
 pytestmark = pytest.mark.integration
@@ -122,7 +123,7 @@ def test_model_exchange_cvode_converges_to_the_exact_solution(native_fmus, name,
 class _MeInstance:
     """A native FMU instantiated for model exchange in fmpy, in continuous-time mode."""
 
-    def __init__(self, path):
+    def __init__(self, path, logger=None):
         from fmpy import extract, read_model_description
         from fmpy.fmi2 import FMU2Model
         from fmpy.fmi3 import FMU3Model
@@ -134,9 +135,13 @@ class _MeInstance:
         self.fmu = cls(guid=self.md.guid if self.fmi == 2 else self.md.instantiationToken,
                        unzipDirectory=self.dir, instanceName="me",
                        modelIdentifier=self.md.modelExchange.modelIdentifier)
-        self.fmu.instantiate()
         if self.fmi == 2:
+            self.fmu.instantiate(loggingOn=True, callbacks=_fmi2_callbacks(logger))
             self.fmu.setupExperiment(startTime=0.0)
+        else:
+            self.fmu.instantiate(loggingOn=True, logMessage=None if logger is None else (
+                lambda env, status, category, message: logger(None, None, status, category,
+                                                              message)))
         self.fmu.enterInitializationMode()
         self.fmu.exitInitializationMode()
         if self.fmi == 2:
@@ -294,3 +299,36 @@ def test_interface_functions_refuse_the_other_interface(native_fmus):
         cs.freeInstance()
     finally:
         shutil.rmtree(folder, ignore_errors=True)
+
+
+@pytest.mark.parametrize("fmi", (2, 3))
+def test_unconnected_velocity_warns_once_in_model_exchange(native_fmus, fmi):
+    """No slope fallback in model exchange (the velocity input is used as given), but the
+    co-simulation's single warning when the displacement moves and the velocity never was set."""
+    for set_velocity in (False, True):
+        messages = []
+
+        def logger(component, instance, status, category, message):
+            text = message.decode() if isinstance(message, bytes) else str(message)
+            messages.append((int(status), text))
+
+        inst = _MeInstance(_path(native_fmus, "HumanBody3DOF", fmi), logger)
+        try:
+            if set_velocity:
+                inst.set_inputs([0.0, 0.05, 0.0])
+            inst.derivatives()
+            for d in (0.01, 0.02):
+                inst.set_inputs([d, 0.05 if set_velocity else 0.0, 0.0])
+                dx = inst.derivatives()
+            x = np.zeros(inst.n)
+            s = np.array([0.02, 0.05 if set_velocity else 0.0, 0.0])
+            lm = linear_model(load_model("reduced-paper"))
+            ref = lm.B @ KINDS["body"](lm.network).input_map @ s  # the velocity as given
+            assert np.allclose(dx, ref + lm.A @ x, rtol=1e-13, atol=0.0)
+        finally:
+            inst.close()
+        warnings = [m for st, m in messages if st == 1]
+        if set_velocity:
+            assert warnings == [], messages
+        else:
+            assert len(warnings) == 1 and "seat_velocity was never set" in warnings[0], messages

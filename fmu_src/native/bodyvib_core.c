@@ -1095,12 +1095,42 @@ bv_status bv_me_get_states(bv_instance *c, double x[], size_t nx)
     return BV_OK;
 }
 
+/* The unconnected velocity in model exchange: no slope fallback (the host owns the input
+ * signals), but the same single warning when a displacement moves while its velocity was
+ * never set to a non-zero value. The fallback bookkeeping of DoStep (x_prev, has_prev) is
+ * unused in model exchange and holds the first displacement seen. */
+static void me_unconnected_velocity(bv_instance *c)
+{
+    const bv_model *md = c->md;
+    int k;
+    for (k = 0; k < md->npairs; k++) {
+        const bv_pair *pr = &md->pairs[k];
+        double x = c->s[pr->value];
+        if (c->vel_set[k] || c->warned[k])
+            continue;
+        if (!c->has_prev[k]) {
+            c->x_prev[k] = x;
+            c->has_prev[k] = 1;
+        } else if (x != c->x_prev[k]) {
+            const char *dname = var_name(md, BV_INPUT, pr->value);
+            const char *vname = var_name(md, BV_INPUT, pr->rate);
+            c->warned[k] = 1;
+            say(c, BV_WARNING, "%s: %s moves (t = %g s) but %s was never set: in model exchange "
+                               "the velocity input is used as given (0); set %s to the time "
+                               "derivative of %s",
+                c->name, dname, c->time, vname, vname, dname);
+        }
+    }
+}
+
 bv_status bv_me_derivatives(bv_instance *c, double dx[], size_t nx)
 {
     int i;
     if (!n_ok(c, nx, "GetDerivatives"))
         return BV_ERROR;
     follow_parameters(c);
+    if (c->md->npairs)
+        me_unconnected_velocity(c);
     for (i = 0; i < c->n; i++)
         dx[i] = derivative_value(c, i);
     return BV_OK;
