@@ -14,6 +14,11 @@ libc and libm. No C is written per model:
   :class:`bodyvib.runtime.engine.FmuCore` (variable names, value references, units,
   input map, rate pairs, output rows).
 
+Every FMU offers co-simulation and Model Exchange from the same binary: the continuous
+states of ``x' = A x + B U s`` and their derivatives are generated as local variables after
+the contract's (the contract itself is unchanged), with ``ModelStructure`` derivatives and
+dependencies, and exact directional derivatives (rows of ``A``, ``B U`` and the outputs).
+
 An output whose contract signal is ``RATE_PREFIX + signal`` is the exact time
 derivative of that model output (``seat_force_rate``: ``C_sf (A x + B u) + D_sf du``);
 the C core gives it the rows ``C A`` and ``C B U + D U R``.
