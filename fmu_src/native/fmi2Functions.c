@@ -1,7 +1,7 @@
 /*
  * FMI 2.0 co-simulation and model-exchange interface of the bodyvib native FMUs: a thin
- * wrapper of the model-independent core (bodyvib_core.c). Real variables only; the other types accept
- * empty requests and refuse any value reference.
+ * wrapper of the model-independent core (bodyvib_core.c). Real variables only; the other
+ * types accept empty requests and refuse any value reference.
  *
  * Status: a non-finite input or a non-positive step makes fmi2DoStep return fmi2Error
  * (reason logged, state unchanged); an invalid parameter makes

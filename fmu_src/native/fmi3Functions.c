@@ -1,6 +1,6 @@
 /*
- * FMI 3.0 co-simulation and model-exchange interface of the bodyvib native FMUs: a thin wrapper of the
- * model-independent core (bodyvib_core.c), the same core as fmi2Functions.c.
+ * FMI 3.0 co-simulation and model-exchange interface of the bodyvib native FMUs: a thin
+ * wrapper of the model-independent core (bodyvib_core.c), the same core as fmi2Functions.c.
  * Float64 variables only, plus the independent variable "time" (value reference
  * bv_model_data.nvars, after the contract's variables); the other types accept empty
  * requests and refuse any value reference. Co-simulation and model exchange (the functions
