@@ -14,6 +14,11 @@ libc and libm. No C is written per model:
   :class:`bodyvib.runtime.engine.FmuCore` (variable names, value references, units,
   input map, rate pairs, output rows).
 
+Every FMU offers co-simulation and Model Exchange from the same binary: the continuous
+states of ``x' = A x + B U s`` and their derivatives are generated as local variables after
+the contract's (the contract itself is unchanged), with ``ModelStructure`` derivatives and
+dependencies, and exact directional derivatives (rows of ``A``, ``B U`` and the outputs).
+
 An output whose contract signal is ``RATE_PREFIX + signal`` is the exact time
 derivative of that model output (``seat_force_rate``: ``C_sf (A x + B u) + D_sf du``);
 the C core gives it the rows ``C A`` and ``C B U + D U R``.
@@ -116,6 +121,13 @@ class NativeModel:
         States, model inputs.
     dependencies : tuple of tuple of int
         Per FMU output: the input value references it depends on directly.
+    states : tuple of str
+        Names of the continuous states x (model exchange), in the core's order.
+    output_state_deps : tuple of tuple of int
+        Per FMU output: the states (indices) it depends on.
+    derivative_deps : tuple of (tuple of int, tuple of int)
+        Per state: the states (indices) and the input value references its
+        derivative ``(A x + B U s)_i`` depends on.
     """
 
     name: str
@@ -138,6 +150,9 @@ class NativeModel:
     n: int
     m: int
     dependencies: Tuple[Tuple[int, ...], ...]
+    states: Tuple[str, ...] = ()
+    output_state_deps: Tuple[Tuple[int, ...], ...] = ()
+    derivative_deps: Tuple[Tuple[Tuple[int, ...], Tuple[int, ...]], ...] = ()
 
 
 def _stencils(network, params: Sequence[str], rows: Sequence[int]):
@@ -229,6 +244,12 @@ def native_model(kind: str, network: Network, name: str, description: str = "") 
         else:
             direct = lm.D[r] @ U
         deps.append(tuple(in_vrs[i] for i in range(ni) if direct[i] != 0.0))
+    # model exchange: outputs on the states, derivatives A x + B U s
+    out_state = [lm.C[r] @ lm.A if d else lm.C[r] for r, d in zip(signals, derivative)]
+    BU = lm.B @ U
+    der_deps = tuple((tuple(int(j) for j in np.nonzero(lm.A[i])[0]),
+                      tuple(in_vrs[j] for j in range(ni) if BU[i, j] != 0.0))
+                     for i in range(lm.A.shape[0]))
     return NativeModel(
         name=name, kind=kind, description=description, network=network,
         variables=tuple(variables), kinds=tuple(kinds),
@@ -236,6 +257,9 @@ def native_model(kind: str, network: Network, name: str, description: str = "") 
         input_map=U, rate_matrix=R, pairs=tuple(pairs), out_row=tuple(rows.index(s) for s in signals),
         out_derivative=tuple(derivative), rows=rows, stencils=stencils,
         n=lm.A.shape[0], m=lm.B.shape[1], dependencies=tuple(deps),
+        states=tuple(lm.states),
+        output_state_deps=tuple(tuple(int(j) for j in np.nonzero(row)[0]) for row in out_state),
+        derivative_deps=der_deps,
     )
 
 
@@ -342,25 +366,28 @@ def model_description(nm: NativeModel, token: str, fmi: int) -> bytes:
     })
     if fmi == 2:
         root.set("numberOfEventIndicators", "0")
+        _model_exchange_element(root, nm, fmi, sources)
         cs = ET.SubElement(root, "CoSimulation", {
             "modelIdentifier": nm.name, "needsExecutionTool": "false",
             "canHandleVariableCommunicationStepSize": "true", "canInterpolateInputs": "true",
             "maxOutputDerivativeOrder": str(MAX_OUTPUT_DERIVATIVE_ORDER),
             "canRunAsynchronuously": "false", "canBeInstantiatedOnlyOncePerProcess": "false",
             "canNotUseMemoryManagementFunctions": "true", "canGetAndSetFMUstate": "true",
-            "canSerializeFMUstate": "true", "providesDirectionalDerivative": "false"})
+            "canSerializeFMUstate": "true", "providesDirectionalDerivative": "true"})
         files = ET.SubElement(cs, "SourceFiles")
         for s in sources:
             ET.SubElement(files, "File", name=s)
     else:
+        _model_exchange_element(root, nm, fmi, sources)
         ET.SubElement(root, "CoSimulation", {
             "modelIdentifier": nm.name, "needsExecutionTool": "false",
             "canBeInstantiatedOnlyOncePerProcess": "false", "canGetAndSetFMUState": "true",
-            "canSerializeFMUState": "true", "providesDirectionalDerivatives": "false",
+            "canSerializeFMUState": "true", "providesDirectionalDerivatives": "true",
             "canHandleVariableCommunicationStepSize": "true",
             "maxOutputDerivativeOrder": str(MAX_OUTPUT_DERIVATIVE_ORDER), "hasEventMode": "false",
             "providesIntermediateUpdate": "false", "canReturnEarlyAfterIntermediateUpdate": "false"})
-    used = list(dict.fromkeys(v.unit for v in nm.variables))
+    used = list(dict.fromkeys([v.unit for v in nm.variables]
+                              + [u for s in nm.states for u in _state_units(s)]))
     if fmi == 3:
         used = list(dict.fromkeys(["s"] + used))
     units = ET.SubElement(root, "UnitDefinitions")
@@ -395,23 +422,116 @@ def model_description(nm: NativeModel, token: str, fmi: int) -> bytes:
         ET.SubElement(mv, "Float64", {"name": "time", "valueReference": str(len(nm.variables)),
                                       "causality": "independent", "variability": "continuous",
                                       "unit": "s", "description": "Simulation time"})
+    _state_variables(mv, nm, fmi)
     ms = ET.SubElement(root, "ModelStructure")
+    # FMI 2.0 refers to variables by index (position + 1), FMI 3.0 by value reference; the
+    # states follow the contract's variables (and FMI 3.0's time), so both are monotonic.
+    ref = (lambda vr: str(_index2(nm, vr))) if fmi == 2 else str
+    ders = [_der_vr(nm, i) for i in range(len(nm.states))]
     if fmi == 2:
         outs = ET.SubElement(ms, "Outputs")
-        for vr, deps in zip(nm.outputs, nm.dependencies):
-            ET.SubElement(outs, "Unknown", index=str(vr + 1),
-                          dependencies=" ".join(str(d + 1) for d in deps))
+        for vr, deps, sdeps in zip(nm.outputs, nm.dependencies, nm.output_state_deps):
+            ET.SubElement(outs, "Unknown", index=ref(vr), dependencies=" ".join(
+                [ref(d) for d in deps] + [ref(_state_vr(nm, j)) for j in sdeps]))
+        derivatives = ET.SubElement(ms, "Derivatives")
+        for vr, (sdeps, deps) in zip(ders, nm.derivative_deps):
+            ET.SubElement(derivatives, "Unknown", index=ref(vr), dependencies=" ".join(
+                [ref(d) for d in deps] + [ref(_state_vr(nm, j)) for j in sdeps]))
         init = ET.SubElement(ms, "InitialUnknowns")
-        for vr in sorted(nm.outputs):
-            ET.SubElement(init, "Unknown", index=str(vr + 1))
+        for vr in sorted(list(nm.outputs) + ders):
+            ET.SubElement(init, "Unknown", index=ref(vr))
     else:
-        for vr, deps in zip(nm.outputs, nm.dependencies):
-            ET.SubElement(ms, "Output", valueReference=str(vr),
-                          dependencies=" ".join(str(d) for d in deps))
-        for vr in nm.outputs:
+        for vr, deps, sdeps in zip(nm.outputs, nm.dependencies, nm.output_state_deps):
+            ET.SubElement(ms, "Output", valueReference=str(vr), dependencies=" ".join(
+                [str(d) for d in deps] + [str(_state_vr(nm, j)) for j in sdeps]))
+        for vr, (sdeps, deps) in zip(ders, nm.derivative_deps):
+            ET.SubElement(ms, "ContinuousStateDerivative", valueReference=str(vr),
+                          dependencies=" ".join([str(d) for d in deps]
+                                                + [str(_state_vr(nm, j)) for j in sdeps]))
+        for vr in list(nm.outputs) + ders:
             ET.SubElement(ms, "InitialUnknown", valueReference=str(vr))
     ET.indent(root)
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
+
+
+# ---------------------------------------------------------------- model exchange
+#
+# The continuous state x of x' = A x + B U s is exposed as local variables after the
+# contract's (value references BV_STATE_VR / BV_DER_VR of bodyvib_core.h: nvars + 1 + i for
+# state i, nvars + 1 + n + i for its derivative; nvars is FMI 3.0's time). In model exchange
+# the host sets the inputs at each time, the velocity inputs included: the FMU does not
+# differentiate the displacement; seat_acceleration and seat_force_rate enter only the
+# outputs that are exact time derivatives (seat_force_rate).
+
+
+def _state_vr(nm: NativeModel, i: int) -> int:
+    return len(nm.variables) + 1 + i
+
+
+def _der_vr(nm: NativeModel, i: int) -> int:
+    return len(nm.variables) + 1 + len(nm.states) + i
+
+
+def _index2(nm: NativeModel, vr: int) -> int:
+    """FMI 2.0 ScalarVariable index (1-based) of a value reference (no time variable)."""
+    return vr + 1 if vr < len(nm.variables) else vr
+
+
+_STATE_UNITS = {"x": ("m", "m/s"), "y": ("m", "m/s"), "v": ("m/s", "m/s2")}
+_STATE_WORDS = {"x": "displacement", "y": "displacement", "v": "velocity"}
+
+
+def _state_units(state: str) -> Tuple[str, str]:
+    """Units of a state (``"<mass>.x"``, ``"<mass>.v"``, ``"<node>.y"``) and its derivative."""
+    return _STATE_UNITS[state.rpartition(".")[2]]
+
+
+def _state_variables(mv, nm: NativeModel, fmi: int) -> None:
+    """Append the continuous states and their derivatives to ``ModelVariables``."""
+    for i, state in enumerate(nm.states):
+        unit, _ = _state_units(state)
+        point, _, q = state.rpartition(".")
+        attrs = {"name": f"state.{state}", "valueReference": str(_state_vr(nm, i)),
+                 "description": f"Continuous state: {point} {_STATE_WORDS[q]} (model exchange)",
+                 "causality": "local", "variability": "continuous", "initial": "exact"}
+        if fmi == 2:
+            sv = ET.SubElement(mv, "ScalarVariable", attrs)
+            ET.SubElement(sv, "Real", unit=unit, start="0.0")
+        else:
+            attrs.update(unit=unit, start="0.0")
+            ET.SubElement(mv, "Float64", attrs)
+    for i, state in enumerate(nm.states):
+        _, unit = _state_units(state)
+        attrs = {"name": f"der(state.{state})", "valueReference": str(_der_vr(nm, i)),
+                 "description": f"Time derivative of state.{state}",
+                 "causality": "local", "variability": "continuous", "initial": "calculated"}
+        if fmi == 2:
+            sv = ET.SubElement(mv, "ScalarVariable", attrs)
+            ET.SubElement(sv, "Real", unit=unit,
+                          derivative=str(_index2(nm, _state_vr(nm, i))))
+        else:
+            attrs.update(unit=unit, derivative=str(_state_vr(nm, i)))
+            ET.SubElement(mv, "Float64", attrs)
+
+
+def _model_exchange_element(root, nm: NativeModel, fmi: int, sources) -> None:
+    """The ``ModelExchange`` element (same binary and model identifier as co-simulation)."""
+    if fmi == 2:
+        me = ET.SubElement(root, "ModelExchange", {
+            "modelIdentifier": nm.name, "needsExecutionTool": "false",
+            "completedIntegratorStepNotNeeded": "true",
+            "canBeInstantiatedOnlyOncePerProcess": "false",
+            "canNotUseMemoryManagementFunctions": "true", "canGetAndSetFMUstate": "true",
+            "canSerializeFMUstate": "true", "providesDirectionalDerivative": "true"})
+        files = ET.SubElement(me, "SourceFiles")
+        for s in sources:
+            ET.SubElement(files, "File", name=s)
+    else:
+        ET.SubElement(root, "ModelExchange", {
+            "modelIdentifier": nm.name, "needsExecutionTool": "false",
+            "canBeInstantiatedOnlyOncePerProcess": "false", "canGetAndSetFMUState": "true",
+            "canSerializeFMUState": "true", "providesDirectionalDerivatives": "true",
+            "needsCompletedIntegratorStep": "false", "providesEvaluateDiscreteStates": "false"})
 
 
 def build_description(nm: NativeModel) -> bytes:

@@ -768,6 +768,17 @@ bv_status bv_initialize(bv_instance *c)
     return BV_OK;
 }
 
+/* Model-exchange variables (states, derivatives): -1 if vr is not one, else a bv_status. */
+static int me_var_get(bv_instance *c, unsigned int vr, double *value);
+static int me_var_set(bv_instance *c, unsigned int vr, double value);
+
+/* A value reference of the model-exchange states or their derivatives. */
+static int is_me_var(const bv_instance *c, unsigned int vr)
+{
+    unsigned int first = (unsigned int)BV_STATE_VR(c->md, 0);
+    return vr >= first && vr < first + 2u * (unsigned int)c->n;
+}
+
 static int check_vr(const bv_instance *c, unsigned int vr)
 {
     if (vr >= (unsigned int)c->md->nvars) {
@@ -783,10 +794,16 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
     bv_status status = BV_OK;
     size_t i;
     int k;
-    for (i = 0; i < nvr; i++) /* an unknown value reference refuses the call: nothing set */
-        if (!check_vr(c, vr[i]))
+    /* an unknown value reference refuses the call: nothing set */
+    for (i = 0; i < nvr; i++)
+        if (!is_me_var(c, vr[i]) && !check_vr(c, vr[i]))
             return BV_ERROR;
     for (i = 0; i < nvr; i++) {
+        if (is_me_var(c, vr[i])) { /* a model-exchange state or its derivative */
+            if (me_var_set(c, vr[i], value[i]) != BV_OK)
+                status = BV_ERROR;
+            continue;
+        }
         int kind = md->vr_kind[vr[i]], idx = md->vr_index[vr[i]];
         if (kind == BV_INPUT) {
             c->s[idx] = value[i];
@@ -825,7 +842,12 @@ bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double val
         params_valid(c, c->p, 1))
         build(c, c->p); /* parameters changed before initialization: follow them if valid */
     for (i = 0; i < nvr; i++) {
-        int kind, idx;
+        int kind, idx, me = me_var_get(c, vr[i], &value[i]);
+        if (me >= 0) {
+            if (me != BV_OK)
+                return BV_ERROR;
+            continue;
+        }
         if (!check_vr(c, vr[i]))
             return BV_ERROR;
         kind = md->vr_kind[vr[i]];
@@ -1311,5 +1333,220 @@ bv_status bv_state_read(bv_instance *c, const unsigned char *buf, size_t size)
             say(c, BV_ERROR, "%s: the restored parameters give a singular model", c->name);
             return BV_ERROR;
         }
+    return BV_OK;
+}
+
+/* ---------------------------------------------------------------- model exchange */
+
+/* Follow parameters set before initialization (as bv_get does), so derivatives and
+ * Jacobians read in initialization mode are those of the parameters set. */
+static void follow_parameters(bv_instance *c)
+{
+    if (!c->initialized && memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0 &&
+        params_valid(c, c->p, 1))
+        build(c, c->p);
+}
+
+/* Row i of the derivative on z = [x | s]: [A_i | (B U)_i], into row (n + ni). */
+static void derivative_row(const bv_instance *c, int i, double *row)
+{
+    const bv_model *md = c->md;
+    int n = c->n, m = c->m, ni = c->ni, j, l;
+    for (j = 0; j < n; j++)
+        row[j] = c->A[(size_t)i * n + j];
+    for (j = 0; j < ni; j++) {
+        double v = 0.0;
+        for (l = 0; l < m; l++)
+            v += c->B[(size_t)i * m + l] * md->U[(size_t)l * ni + j];
+        row[n + j] = v;
+    }
+}
+
+static double derivative_value(const bv_instance *c, int i)
+{
+    const bv_model *md = c->md;
+    int n = c->n, m = c->m, ni = c->ni, j, l;
+    double v = 0.0;
+    for (j = 0; j < n; j++)
+        v += c->A[(size_t)i * n + j] * c->x[j];
+    for (l = 0; l < m; l++) {
+        double u = 0.0;
+        for (j = 0; j < ni; j++)
+            u += md->U[(size_t)l * ni + j] * c->s[j];
+        v += c->B[(size_t)i * m + l] * u;
+    }
+    return v;
+}
+
+int bv_me_nstates(const bv_instance *c) { return c->n; }
+
+void bv_me_set_time(bv_instance *c, double t)
+{
+    c->time = t; /* the model is time-invariant: time only labels the state */
+}
+
+static int n_ok(const bv_instance *c, size_t nx, const char *what)
+{
+    if (nx != (size_t)c->n) {
+        say(c, BV_ERROR, "%s: %s: %lu continuous states passed, the model has %d", c->name, what,
+            (unsigned long)nx, c->n);
+        return 0;
+    }
+    return 1;
+}
+
+bv_status bv_me_set_states(bv_instance *c, const double x[], size_t nx)
+{
+    int i;
+    if (!n_ok(c, nx, "SetContinuousStates"))
+        return BV_ERROR;
+    for (i = 0; i < c->n; i++)
+        c->x[i] = x[i];
+    c->dirty = 1;
+    return BV_OK;
+}
+
+bv_status bv_me_get_states(bv_instance *c, double x[], size_t nx)
+{
+    int i;
+    if (!n_ok(c, nx, "GetContinuousStates"))
+        return BV_ERROR;
+    for (i = 0; i < c->n; i++)
+        x[i] = c->x[i];
+    return BV_OK;
+}
+
+/* The unconnected velocity in model exchange: no slope fallback (the host owns the input
+ * signals), but the same single warning when a displacement moves while its velocity was
+ * never set to a non-zero value. The fallback bookkeeping of DoStep (x_prev, has_prev) is
+ * unused in model exchange and holds the first displacement seen. */
+static void me_unconnected_velocity(bv_instance *c)
+{
+    const bv_model *md = c->md;
+    int k;
+    for (k = 0; k < md->npairs; k++) {
+        const bv_pair *pr = &md->pairs[k];
+        double x = c->s[pr->value];
+        if (c->vel_set[k] || c->warned[k])
+            continue;
+        if (!c->has_prev[k]) {
+            c->x_prev[k] = x;
+            c->has_prev[k] = 1;
+        } else if (x != c->x_prev[k]) {
+            const char *dname = var_name(md, BV_INPUT, pr->value);
+            const char *vname = var_name(md, BV_INPUT, pr->rate);
+            c->warned[k] = 1;
+            say(c, BV_WARNING, "%s: %s moves (t = %g s) but %s was never set: in model exchange "
+                               "the velocity input is used as given (0); set %s to the time "
+                               "derivative of %s",
+                c->name, dname, c->time, vname, vname, dname);
+        }
+    }
+}
+
+bv_status bv_me_derivatives(bv_instance *c, double dx[], size_t nx)
+{
+    int i;
+    if (!n_ok(c, nx, "GetDerivatives"))
+        return BV_ERROR;
+    follow_parameters(c);
+    if (c->md->npairs)
+        me_unconnected_velocity(c);
+    for (i = 0; i < c->n; i++)
+        dx[i] = derivative_value(c, i);
+    return BV_OK;
+}
+
+bv_status bv_me_nominals(bv_instance *c, double nominal[], size_t nx)
+{
+    int i;
+    if (!n_ok(c, nx, "GetNominalsOfContinuousStates"))
+        return BV_ERROR;
+    for (i = 0; i < c->n; i++)
+        nominal[i] = 1.0; /* SI units; displacements are mm, velocities m/s: no better scale */
+    return BV_OK;
+}
+
+static int me_var_get(bv_instance *c, unsigned int vr, double *value)
+{
+    const bv_model *md = c->md;
+    unsigned int first = (unsigned int)BV_STATE_VR(md, 0);
+    if (vr < first || vr >= first + 2u * (unsigned int)c->n)
+        return -1;
+    if (vr < first + (unsigned int)c->n) {
+        *value = c->x[vr - first];
+    } else {
+        follow_parameters(c);
+        *value = derivative_value(c, (int)(vr - first) - c->n);
+    }
+    return BV_OK;
+}
+
+static int me_var_set(bv_instance *c, unsigned int vr, double value)
+{
+    const bv_model *md = c->md;
+    unsigned int first = (unsigned int)BV_STATE_VR(md, 0);
+    if (vr < first || vr >= first + 2u * (unsigned int)c->n)
+        return -1;
+    if (vr >= first + (unsigned int)c->n) {
+        say(c, BV_ERROR, "%s: a state derivative (value reference %u) is calculated and cannot "
+                         "be set (ignored)", c->name, vr);
+        return BV_ERROR;
+    }
+    if (c->initialized) {
+        say(c, BV_ERROR, "%s: a state's start value (value reference %u) can be set only before "
+                         "ExitInitializationMode; in model exchange use SetContinuousStates "
+                         "(ignored)", c->name, vr);
+        return BV_ERROR;
+    }
+    c->x[vr - first] = value;
+    c->dirty = 1;
+    return BV_OK;
+}
+
+/* Column of a known on z = [x | s]: a state or an input; -1 otherwise. */
+static int known_column(const bv_instance *c, unsigned int vr)
+{
+    const bv_model *md = c->md;
+    unsigned int first = (unsigned int)BV_STATE_VR(md, 0);
+    if (vr >= first && vr < first + (unsigned int)c->n)
+        return (int)(vr - first);
+    if (vr < (unsigned int)md->nvars && md->vr_kind[vr] == BV_INPUT)
+        return c->n + md->vr_index[vr];
+    return -1;
+}
+
+bv_status bv_directional(bv_instance *c, const unsigned int unknowns[], size_t nu,
+                         const unsigned int knowns[], size_t nk, const double seed[],
+                         double sensitivity[])
+{
+    const bv_model *md = c->md;
+    unsigned int first = (unsigned int)BV_STATE_VR(md, 0);
+    int w = c->n + c->ni;
+    size_t a, b;
+    double *row = c->zn; /* scratch of n + ni */
+    for (b = 0; b < nk; b++)
+        if (known_column(c, knowns[b]) < 0) {
+            say(c, BV_ERROR, "%s: directional derivative: value reference %u is not a known "
+                             "(a continuous state or an input)", c->name, knowns[b]);
+            return BV_ERROR;
+        }
+    follow_parameters(c);
+    for (a = 0; a < nu; a++) {
+        unsigned int vr = unknowns[a];
+        double v = 0.0;
+        if (vr >= first + (unsigned int)c->n && vr < first + 2u * (unsigned int)c->n) {
+            derivative_row(c, (int)(vr - first) - c->n, row);
+        } else if (vr < (unsigned int)md->nvars && md->vr_kind[vr] == BV_OUTPUT) {
+            memcpy(row, c->Yc + (size_t)md->vr_index[vr] * w, (size_t)w * sizeof *row);
+        } else {
+            say(c, BV_ERROR, "%s: directional derivative: value reference %u is not an unknown "
+                             "(a state derivative or an output)", c->name, vr);
+            return BV_ERROR;
+        }
+        for (b = 0; b < nk; b++)
+            v += row[known_column(c, knowns[b])] * seed[b];
+        sensitivity[a] = v;
+    }
     return BV_OK;
 }

@@ -130,4 +130,27 @@ void bv_state_write(const bv_instance *c, unsigned char *buffer);
 bv_status bv_state_check(const bv_instance *c, const unsigned char *buffer, size_t size);
 bv_status bv_state_read(bv_instance *c, const unsigned char *buffer, size_t size);
 
+/* Model exchange (bodyvib_core.c, "model exchange"): the continuous state x of
+ *     x' = A x + B U s,   y = Yx x + Ys s,
+ * with the FMU inputs s at the values the host set for the current time (the velocity
+ * inputs are the host's values, not differentiated here; rate-only inputs such as
+ * seat_acceleration and seat_force_rate enter only the outputs that are exact time
+ * derivatives). The states and their derivatives are also variables: value references
+ * BV_STATE_VR(md, i) and BV_DER_VR(md, i), after the contract's variables and the one
+ * FMI 3.0 gives the independent variable time (md->nvars). */
+#define BV_STATE_VR(md, i) ((md)->nvars + 1 + (i))
+#define BV_DER_VR(md, i) ((md)->nvars + 1 + (md)->n + (i))
+
+int bv_me_nstates(const bv_instance *c);
+void bv_me_set_time(bv_instance *c, double t);
+bv_status bv_me_set_states(bv_instance *c, const double x[], size_t nx);
+bv_status bv_me_get_states(bv_instance *c, double x[], size_t nx);
+bv_status bv_me_derivatives(bv_instance *c, double dx[], size_t nx);
+bv_status bv_me_nominals(bv_instance *c, double nominal[], size_t nx);
+/* Exact directional derivative: sensitivity = J seed, J the rows of A, B U (derivatives)
+ * and Yx, Ys (outputs) of the unknowns on the columns of the knowns (states, inputs). */
+bv_status bv_directional(bv_instance *c, const unsigned int unknowns[], size_t nu,
+                         const unsigned int knowns[], size_t nk, const double seed[],
+                         double sensitivity[]);
+
 #endif

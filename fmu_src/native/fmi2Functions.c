@@ -1,7 +1,7 @@
 /*
- * FMI 2.0 co-simulation interface of the bodyvib native FMUs: a thin wrapper of the
- * model-independent core (bodyvib_core.c). Real variables only; the other types accept
- * empty requests and refuse any value reference.
+ * FMI 2.0 co-simulation and model-exchange interface of the bodyvib native FMUs: a thin
+ * wrapper of the model-independent core (bodyvib_core.c). Real variables only; the other
+ * types accept empty requests and refuse any value reference.
  *
  * Status: a call the standard's state table does not allow in the instance's state returns
  * fmi2Error (reason logged, nothing changed); a non-finite input, a non-positive step or a
@@ -12,6 +12,7 @@
  * fmi2Error. Errors and warnings are always passed to the logger (they are not debug
  * messages), whatever loggingOn says.
  */
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -24,6 +25,7 @@ typedef struct {
     fmi2ComponentEnvironment env;
     char *name;
     int logging_on;
+    int me; /* instantiated for model exchange */
 } Fmu2;
 
 typedef struct {
@@ -95,9 +97,10 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     (void)fmuResourceLocation;
     (void)visible;
     if (functions != NULL && functions->logger != NULL) {
-        if (fmuType != fmi2CoSimulation) {
+        if (fmuType != fmi2CoSimulation && fmuType != fmi2ModelExchange) {
             functions->logger(functions->componentEnvironment, name, fmi2Error, "logStatusError",
-                              "%s: this FMU supports co-simulation only", name);
+                              "%s: unknown fmuType %d (co-simulation or model exchange)", name,
+                              (int)fmuType);
             return NULL;
         }
         if (fmuGUID == NULL || strcmp(fmuGUID, bv_model_data.token) != 0) {
@@ -106,7 +109,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
                               fmuGUID ? fmuGUID : "(null)", bv_model_data.token);
             return NULL;
         }
-    } else if (fmuType != fmi2CoSimulation || fmuGUID == NULL ||
+    } else if ((fmuType != fmi2CoSimulation && fmuType != fmi2ModelExchange) || fmuGUID == NULL ||
                strcmp(fmuGUID, bv_model_data.token) != 0) {
         return NULL;
     }
@@ -122,6 +125,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     f->logger = functions ? functions->logger : NULL;
     f->env = functions ? functions->componentEnvironment : NULL;
     f->logging_on = loggingOn != fmi2False;
+    f->me = fmuType == fmi2ModelExchange;
     f->core = bv_new(&bv_model_data, name, fmu_log, f);
     if (f->core == NULL) {
         free(f->name);
@@ -290,16 +294,19 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedSta
     return fmi2OK;
 }
 
+/* Exact: the rows of A, B U (state derivatives) and of the output matrices on the columns
+ * of the knowns (continuous states, inputs); both interfaces. */
 fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vUnknown_ref[],
                                         size_t nUnknown, const fmi2ValueReference vKnown_ref[],
                                         size_t nKnown, const fmi2Real dvKnown[],
                                         fmi2Real dvUnknown[])
 {
     INSTANCE(c);
-    (void)vUnknown_ref, (void)nUnknown, (void)vKnown_ref, (void)nKnown, (void)dvKnown,
-        (void)dvUnknown;
-    fmu_log(f, BV_ERROR, "fmi2GetDirectionalDerivative is not supported");
-    return fmi2Error;
+    if ((nUnknown > 0 && (vUnknown_ref == NULL || dvUnknown == NULL)) ||
+        (nKnown > 0 && (vKnown_ref == NULL || dvKnown == NULL)))
+        return fmi2Error;
+    return st(bv_directional(f->core, vUnknown_ref, nUnknown, vKnown_ref, nKnown, dvKnown,
+                             dvUnknown));
 }
 
 /* ------------------------------------------------------------------ co-simulation */
@@ -332,6 +339,10 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
 {
     CHECKED(c, "fmi2DoStep", BV_STEPPING);
     (void)noSetFMUStatePriorToCurrentPoint;
+    if (f->me) {
+        fmu_log(f, BV_ERROR, "fmi2DoStep: the instance was instantiated for model exchange");
+        return fmi2Error;
+    }
     return st(bv_step(f->core, currentCommunicationPoint, communicationStepSize));
 }
 
@@ -377,4 +388,124 @@ fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2Stri
     CHECKED(c, "fmi2GetStringStatus", S_STATUS);
     (void)s, (void)value;
     return fmi2Discard;
+}
+
+
+/* ------------------------------------------------------------------ model exchange
+ *
+ * x' = A x + B U s with the inputs s the host set for the current time: the velocity
+ * inputs are taken as given (the host provides the input's derivative as its value),
+ * rate-only inputs (seat_acceleration, seat_force_rate) enter only the outputs that are
+ * exact time derivatives. No events: no event indicators, no discrete states, no time
+ * events; the mode functions only acknowledge the host's calls. */
+
+/* Entry of every model-exchange function: the instance exists and is a model-exchange
+ * instance (the place for the state machine's checks). */
+static int me_entry(Fmu2 *f, const char *function)
+{
+    char text[160];
+    if (f == NULL)
+        return 0;
+    if (!f->me) {
+        snprintf(text, sizeof text, "%s: a model-exchange function called on a co-simulation "
+                                    "instance", function);
+        fmu_log(f, BV_ERROR, text);
+        return 0;
+    }
+    return 1;
+}
+
+#define ME_ENTRY(c, function)                                                                \
+    Fmu2 *f = (Fmu2 *)(c);                                                                   \
+    if (!me_entry(f, function))                                                              \
+        return fmi2Error
+
+fmi2Status fmi2EnterEventMode(fmi2Component c)
+{
+    ME_ENTRY(c, "fmi2EnterEventMode");
+    return fmi2OK;
+}
+
+fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *eventInfo)
+{
+    ME_ENTRY(c, "fmi2NewDiscreteStates");
+    if (eventInfo == NULL)
+        return fmi2Error;
+    eventInfo->newDiscreteStatesNeeded = fmi2False;
+    eventInfo->terminateSimulation = fmi2False;
+    eventInfo->nominalsOfContinuousStatesChanged = fmi2False;
+    eventInfo->valuesOfContinuousStatesChanged = fmi2False;
+    eventInfo->nextEventTimeDefined = fmi2False;
+    eventInfo->nextEventTime = 0.0;
+    return fmi2OK;
+}
+
+fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c)
+{
+    ME_ENTRY(c, "fmi2EnterContinuousTimeMode");
+    return fmi2OK;
+}
+
+fmi2Status fmi2CompletedIntegratorStep(fmi2Component c,
+                                       fmi2Boolean noSetFMUStatePriorToCurrentPoint,
+                                       fmi2Boolean *enterEventMode,
+                                       fmi2Boolean *terminateSimulation)
+{
+    ME_ENTRY(c, "fmi2CompletedIntegratorStep");
+    (void)noSetFMUStatePriorToCurrentPoint;
+    if (enterEventMode != NULL)
+        *enterEventMode = fmi2False;
+    if (terminateSimulation != NULL)
+        *terminateSimulation = fmi2False;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetTime(fmi2Component c, fmi2Real time)
+{
+    ME_ENTRY(c, "fmi2SetTime");
+    bv_me_set_time(f->core, time);
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t nx)
+{
+    ME_ENTRY(c, "fmi2SetContinuousStates");
+    if (x == NULL && nx > 0)
+        return fmi2Error;
+    return st(bv_me_set_states(f->core, x, nx));
+}
+
+fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real derivatives[], size_t nx)
+{
+    ME_ENTRY(c, "fmi2GetDerivatives");
+    if (derivatives == NULL && nx > 0)
+        return fmi2Error;
+    return st(bv_me_derivatives(f->core, derivatives, nx));
+}
+
+fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], size_t ni)
+{
+    ME_ENTRY(c, "fmi2GetEventIndicators");
+    (void)eventIndicators;
+    if (ni != 0) {
+        fmu_log(f, BV_ERROR, "fmi2GetEventIndicators: the model has no event indicators");
+        return fmi2Error;
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetContinuousStates(fmi2Component c, fmi2Real x[], size_t nx)
+{
+    ME_ENTRY(c, "fmi2GetContinuousStates");
+    if (x == NULL && nx > 0)
+        return fmi2Error;
+    return st(bv_me_get_states(f->core, x, nx));
+}
+
+fmi2Status fmi2GetNominalsOfContinuousStates(fmi2Component c, fmi2Real x_nominal[], size_t nx)
+{
+    ME_ENTRY(c, "fmi2GetNominalsOfContinuousStates");
+    if (x_nominal == NULL && nx > 0)
+        return fmi2Error;
+    return st(bv_me_nominals(f->core, x_nominal, nx));
 }

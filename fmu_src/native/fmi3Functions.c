@@ -1,16 +1,17 @@
 /*
- * FMI 3.0 co-simulation interface of the bodyvib native FMUs: a thin wrapper of the
- * model-independent core (bodyvib_core.c), the same core as fmi2Functions.c.
+ * FMI 3.0 co-simulation and model-exchange interface of the bodyvib native FMUs: a thin
+ * wrapper of the model-independent core (bodyvib_core.c), the same core as fmi2Functions.c.
  * Float64 variables only, plus the independent variable "time" (value reference
  * bv_model_data.nvars, after the contract's variables); the other types accept empty
- * requests and refuse any value reference. Model exchange and scheduled execution are
- * not provided (their instantiate functions return NULL).
+ * requests and refuse any value reference. Co-simulation and model exchange (the functions
+ * at the end); scheduled execution is not provided (its instantiate function returns NULL).
  *
  * Status as in FMI 2.0 (fmi2Functions.c): calls out of order, non-finite inputs, bad steps
  * return fmi3Error, a step whose state would not be finite fmi3Discard, nothing changed;
  * an invalid parameter makes fmi3ExitInitializationMode return fmi3Error; a foreign or
  * corrupt FMU state is refused.
  */
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -22,6 +23,7 @@ typedef struct {
     fmi3LogMessageCallback logger;
     fmi3InstanceEnvironment env;
     int logging_on;
+    int me; /* instantiated for model exchange */
 } Fmu3;
 
 typedef struct {
@@ -74,12 +76,27 @@ fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String in
                                           fmi3InstanceEnvironment instanceEnvironment,
                                           fmi3LogMessageCallback logMessage)
 {
-    (void)instanceName, (void)instantiationToken, (void)resourcePath, (void)visible,
-        (void)loggingOn;
-    if (logMessage)
-        logMessage(instanceEnvironment, fmi3Error, "logStatusError",
-                   "this FMU supports co-simulation only");
-    return NULL;
+    Fmu3 *f;
+    (void)resourcePath, (void)visible;
+    if (instantiationToken == NULL || strcmp(instantiationToken, bv_model_data.token) != 0) {
+        if (logMessage)
+            logMessage(instanceEnvironment, fmi3Error, "logStatusError",
+                       "the instantiation token does not match this FMU's");
+        return NULL;
+    }
+    f = calloc(1, sizeof *f);
+    if (f == NULL)
+        return NULL;
+    f->logger = logMessage;
+    f->env = instanceEnvironment;
+    f->logging_on = loggingOn;
+    f->me = 1;
+    f->core = bv_new(&bv_model_data, instanceName, fmu_log, f);
+    if (f->core == NULL) {
+        free(f);
+        return NULL;
+    }
+    return f;
 }
 
 fmi3Instance fmi3InstantiateCoSimulation(
@@ -161,11 +178,6 @@ fmi3Status fmi3ExitInitializationMode(fmi3Instance instance)
     return st(bv_initialize(f->core));
 }
 
-fmi3Status fmi3EnterEventMode(fmi3Instance instance)
-{
-    INSTANCE(instance);
-    return fmi3Error;
-}
 
 fmi3Status fmi3Terminate(fmi3Instance instance)
 {
@@ -393,15 +405,22 @@ fmi3Status fmi3DeserializeFMUState(fmi3Instance instance, const fmi3Byte seriali
     return fmi3OK;
 }
 
+/* Exact: the rows of A, B U (state derivatives) and of the output matrices on the columns
+ * of the knowns (continuous states, inputs); both interfaces. All variables are scalars. */
 fmi3Status fmi3GetDirectionalDerivative(fmi3Instance instance, const fmi3ValueReference unknowns[],
                                         size_t nUnknowns, const fmi3ValueReference knowns[],
                                         size_t nKnowns, const fmi3Float64 seed[], size_t nSeed,
                                         fmi3Float64 sensitivity[], size_t nSensitivity)
 {
     INSTANCE(instance);
-    (void)unknowns, (void)nUnknowns, (void)knowns, (void)nKnowns, (void)seed, (void)nSeed,
-        (void)sensitivity, (void)nSensitivity;
-    return fmi3Error;
+    if (nSeed != nKnowns || nSensitivity != nUnknowns ||
+        (nUnknowns > 0 && (unknowns == NULL || sensitivity == NULL)) ||
+        (nKnowns > 0 && (knowns == NULL || seed == NULL))) {
+        fmu_log(f, BV_ERROR, "fmi3GetDirectionalDerivative: nSeed must equal nKnowns and "
+                             "nSensitivity nUnknowns (scalar variables)");
+        return fmi3Error;
+    }
+    return st(bv_directional(f->core, unknowns, nUnknowns, knowns, nKnowns, seed, sensitivity));
 }
 
 fmi3Status fmi3GetAdjointDerivative(fmi3Instance instance, const fmi3ValueReference unknowns[],
@@ -500,99 +519,6 @@ fmi3Status fmi3EvaluateDiscreteStates(fmi3Instance instance)
     return fmi3Error;
 }
 
-fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *discreteStatesNeedUpdate,
-                                    fmi3Boolean *terminateSimulation,
-                                    fmi3Boolean *nominalsOfContinuousStatesChanged,
-                                    fmi3Boolean *valuesOfContinuousStatesChanged,
-                                    fmi3Boolean *nextEventTimeDefined, fmi3Float64 *nextEventTime)
-{
-    INSTANCE(instance);
-    (void)discreteStatesNeedUpdate, (void)terminateSimulation,
-        (void)nominalsOfContinuousStatesChanged, (void)valuesOfContinuousStatesChanged,
-        (void)nextEventTimeDefined, (void)nextEventTime;
-    return fmi3Error;
-}
-
-/* Model exchange: not provided. */
-fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance instance)
-{
-    INSTANCE(instance);
-    return fmi3Error;
-}
-
-fmi3Status fmi3CompletedIntegratorStep(fmi3Instance instance,
-                                       fmi3Boolean noSetFMUStatePriorToCurrentPoint,
-                                       fmi3Boolean *enterEventMode,
-                                       fmi3Boolean *terminateSimulation)
-{
-    INSTANCE(instance);
-    (void)noSetFMUStatePriorToCurrentPoint, (void)enterEventMode, (void)terminateSimulation;
-    return fmi3Error;
-}
-
-fmi3Status fmi3SetTime(fmi3Instance instance, fmi3Float64 time)
-{
-    INSTANCE(instance);
-    (void)time;
-    return fmi3Error;
-}
-
-fmi3Status fmi3SetContinuousStates(fmi3Instance instance, const fmi3Float64 continuousStates[],
-                                   size_t nContinuousStates)
-{
-    INSTANCE(instance);
-    (void)continuousStates, (void)nContinuousStates;
-    return fmi3Error;
-}
-
-fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance instance, fmi3Float64 derivatives[],
-                                             size_t nContinuousStates)
-{
-    INSTANCE(instance);
-    (void)derivatives, (void)nContinuousStates;
-    return fmi3Error;
-}
-
-fmi3Status fmi3GetEventIndicators(fmi3Instance instance, fmi3Float64 eventIndicators[],
-                                  size_t nEventIndicators)
-{
-    INSTANCE(instance);
-    (void)eventIndicators, (void)nEventIndicators;
-    return fmi3Error;
-}
-
-fmi3Status fmi3GetContinuousStates(fmi3Instance instance, fmi3Float64 continuousStates[],
-                                   size_t nContinuousStates)
-{
-    INSTANCE(instance);
-    (void)continuousStates, (void)nContinuousStates;
-    return fmi3Error;
-}
-
-fmi3Status fmi3GetNominalsOfContinuousStates(fmi3Instance instance, fmi3Float64 nominals[],
-                                             size_t nContinuousStates)
-{
-    INSTANCE(instance);
-    (void)nominals, (void)nContinuousStates;
-    return fmi3Error;
-}
-
-fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance instance, size_t *nEventIndicators)
-{
-    INSTANCE(instance);
-    if (nEventIndicators)
-        *nEventIndicators = 0;
-    return fmi3OK;
-}
-
-fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance instance, size_t *nContinuousStates)
-{
-    INSTANCE(instance);
-    if (nContinuousStates)
-        *nContinuousStates = 0;
-    return fmi3OK;
-}
-
 /* ------------------------------------------------------------------ co-simulation */
 
 /* Step Mode is entered from Event Mode, which this FMU does not have (hasEventMode false:
@@ -623,6 +549,10 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
     bv_status s;
     CHECKED(instance, "fmi3DoStep", BV_STEPPING);
     (void)noSetFMUStatePriorToCurrentPoint;
+    if (f->me) {
+        fmu_log(f, BV_ERROR, "fmi3DoStep: the instance was instantiated for model exchange");
+        return fmi3Error;
+    }
     s = bv_step(f->core, currentCommunicationPoint, communicationStepSize);
     if (eventHandlingNeeded)
         *eventHandlingNeeded = fmi3False;
@@ -641,4 +571,148 @@ fmi3Status fmi3ActivateModelPartition(fmi3Instance instance, fmi3ValueReference 
     INSTANCE(instance);
     (void)clockReference, (void)activationTime;
     return fmi3Error;
+}
+
+/* ------------------------------------------------------------------ model exchange
+ *
+ * x' = A x + B U s with the inputs s the host set for the current time (see
+ * fmi2Functions.c): no events, no event indicators, no discrete states. */
+
+/* Entry of every model-exchange function (the place for the state machine's checks). */
+static int me_entry(Fmu3 *f, const char *function)
+{
+    char text[160];
+    if (f == NULL)
+        return 0;
+    if (!f->me) {
+        snprintf(text, sizeof text, "%s: a model-exchange function called on a co-simulation "
+                                    "instance", function);
+        fmu_log(f, BV_ERROR, text);
+        return 0;
+    }
+    return 1;
+}
+
+#define ME_ENTRY(c, function)                                                                \
+    Fmu3 *f = (Fmu3 *)(c);                                                                   \
+    if (!me_entry(f, function))                                                              \
+        return fmi3Error
+
+fmi3Status fmi3EnterEventMode(fmi3Instance instance)
+{
+    ME_ENTRY(instance, "fmi3EnterEventMode"); /* co-simulation: no event mode */
+    return fmi3OK;
+}
+
+fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *discreteStatesNeedUpdate,
+                                    fmi3Boolean *terminateSimulation,
+                                    fmi3Boolean *nominalsOfContinuousStatesChanged,
+                                    fmi3Boolean *valuesOfContinuousStatesChanged,
+                                    fmi3Boolean *nextEventTimeDefined, fmi3Float64 *nextEventTime)
+{
+    ME_ENTRY(instance, "fmi3UpdateDiscreteStates");
+    if (discreteStatesNeedUpdate)
+        *discreteStatesNeedUpdate = fmi3False;
+    if (terminateSimulation)
+        *terminateSimulation = fmi3False;
+    if (nominalsOfContinuousStatesChanged)
+        *nominalsOfContinuousStatesChanged = fmi3False;
+    if (valuesOfContinuousStatesChanged)
+        *valuesOfContinuousStatesChanged = fmi3False;
+    if (nextEventTimeDefined)
+        *nextEventTimeDefined = fmi3False;
+    if (nextEventTime)
+        *nextEventTime = 0.0;
+    return fmi3OK;
+}
+
+fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance instance)
+{
+    ME_ENTRY(instance, "fmi3EnterContinuousTimeMode");
+    return fmi3OK;
+}
+
+fmi3Status fmi3CompletedIntegratorStep(fmi3Instance instance,
+                                       fmi3Boolean noSetFMUStatePriorToCurrentPoint,
+                                       fmi3Boolean *enterEventMode,
+                                       fmi3Boolean *terminateSimulation)
+{
+    ME_ENTRY(instance, "fmi3CompletedIntegratorStep");
+    (void)noSetFMUStatePriorToCurrentPoint;
+    if (enterEventMode)
+        *enterEventMode = fmi3False;
+    if (terminateSimulation)
+        *terminateSimulation = fmi3False;
+    return fmi3OK;
+}
+
+fmi3Status fmi3SetTime(fmi3Instance instance, fmi3Float64 time)
+{
+    ME_ENTRY(instance, "fmi3SetTime");
+    bv_me_set_time(f->core, time);
+    return fmi3OK;
+}
+
+fmi3Status fmi3SetContinuousStates(fmi3Instance instance, const fmi3Float64 continuousStates[],
+                                   size_t nContinuousStates)
+{
+    ME_ENTRY(instance, "fmi3SetContinuousStates");
+    if (continuousStates == NULL && nContinuousStates > 0)
+        return fmi3Error;
+    return st(bv_me_set_states(f->core, continuousStates, nContinuousStates));
+}
+
+fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance instance, fmi3Float64 derivatives[],
+                                             size_t nContinuousStates)
+{
+    ME_ENTRY(instance, "fmi3GetContinuousStateDerivatives");
+    if (derivatives == NULL && nContinuousStates > 0)
+        return fmi3Error;
+    return st(bv_me_derivatives(f->core, derivatives, nContinuousStates));
+}
+
+fmi3Status fmi3GetEventIndicators(fmi3Instance instance, fmi3Float64 eventIndicators[],
+                                  size_t nEventIndicators)
+{
+    ME_ENTRY(instance, "fmi3GetEventIndicators");
+    (void)eventIndicators;
+    if (nEventIndicators != 0) {
+        fmu_log(f, BV_ERROR, "fmi3GetEventIndicators: the model has no event indicators");
+        return fmi3Error;
+    }
+    return fmi3OK;
+}
+
+fmi3Status fmi3GetContinuousStates(fmi3Instance instance, fmi3Float64 continuousStates[],
+                                   size_t nContinuousStates)
+{
+    ME_ENTRY(instance, "fmi3GetContinuousStates");
+    if (continuousStates == NULL && nContinuousStates > 0)
+        return fmi3Error;
+    return st(bv_me_get_states(f->core, continuousStates, nContinuousStates));
+}
+
+fmi3Status fmi3GetNominalsOfContinuousStates(fmi3Instance instance, fmi3Float64 nominals[],
+                                             size_t nContinuousStates)
+{
+    ME_ENTRY(instance, "fmi3GetNominalsOfContinuousStates");
+    if (nominals == NULL && nContinuousStates > 0)
+        return fmi3Error;
+    return st(bv_me_nominals(f->core, nominals, nContinuousStates));
+}
+
+fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance instance, size_t *nEventIndicators)
+{
+    INSTANCE(instance);
+    if (nEventIndicators)
+        *nEventIndicators = 0;
+    return fmi3OK;
+}
+
+fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance instance, size_t *nContinuousStates)
+{
+    INSTANCE(instance);
+    if (nContinuousStates)
+        *nContinuousStates = (size_t)bv_me_nstates(f->core);
+    return fmi3OK;
 }
