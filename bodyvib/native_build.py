@@ -55,6 +55,8 @@ NATIVE_DIR = Path(__file__).resolve().parent.parent / "fmu_src" / "native"
 
 #: The model-independent C sources and the FMI function file of each FMI version.
 NATIVE_SOURCES = ("bodyvib_core.h", "bodyvib_core.c")
+#: The core of a source FMU (a table, bodyvib_source.c) in place of the linear one: the same API.
+SOURCE_SOURCES = ("bodyvib_core.h", "bodyvib_source.h", "bodyvib_source.c")
 FMI_FILES = {2: "fmi2Functions.c", 3: "fmi3Functions.c"}
 FMI_HEADERS = {2: ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"),
                3: ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")}
@@ -112,6 +114,8 @@ class NativeModel:
         States, model inputs.
     dependencies : tuple of tuple of int
         Per FMU output: the input value references it depends on directly.
+    stop_time : float
+        The DefaultExperiment's stop time, s.
     """
 
     name: str
@@ -134,6 +138,7 @@ class NativeModel:
     n: int
     m: int
     dependencies: Tuple[Tuple[int, ...], ...]
+    stop_time: float = 10.0
 
 
 def _stencils(network, params: Sequence[str], rows: Sequence[int]):
@@ -304,8 +309,19 @@ def _num(x: float) -> str:
     return repr(float(x))
 
 
+def core_sources(kind: str) -> Tuple[str, ...]:
+    """The model-independent C sources an FMU of ``kind`` compiles (its core)."""
+    return SOURCE_SOURCES if kind == "source" else NATIVE_SOURCES
+
+
+def _c_files(nm: NativeModel, fmi: int) -> List[str]:
+    return [s for s in core_sources(nm.kind) if s.endswith(".c")] + [MODEL_C, FMI_FILES[fmi]]
+
+
 def _description(nm: NativeModel) -> str:
     text = nm.description or nm.name
+    if nm.network is None:
+        return text
     return f"{text}. Model '{nm.network.name}': {nm.network.description}".strip()
 
 
@@ -325,7 +341,7 @@ def model_description(nm: NativeModel, token: str, fmi: int) -> bytes:
     bytes
         UTF-8 XML.
     """
-    sources = [s for s in NATIVE_SOURCES if s.endswith(".c")] + [MODEL_C, FMI_FILES[fmi]]
+    sources = _c_files(nm, fmi)
     root = ET.Element("fmiModelDescription", {
         "fmiVersion": "2.0" if fmi == 2 else "3.0",
         "modelName": nm.name,
@@ -365,7 +381,8 @@ def model_description(nm: NativeModel, token: str, fmi: int) -> bytes:
     for c, text in (("logStatusWarning", "warnings (unconnected velocity input)"),
                     ("logStatusError", "errors (refused steps, parameters, states)")):
         ET.SubElement(cats, "Category", name=c, description=text)
-    ET.SubElement(root, "DefaultExperiment", startTime="0.0", stopTime="10.0", stepSize="0.001")
+    ET.SubElement(root, "DefaultExperiment", startTime="0.0", stopTime=_num(nm.stop_time),
+                  stepSize="0.001")
     mv = ET.SubElement(root, "ModelVariables")
     for vr, v in enumerate(nm.variables):
         attrs = {"name": v.name, "valueReference": str(vr), "description": v.description,
@@ -413,7 +430,7 @@ def build_description(nm: NativeModel) -> bytes:
     root = ET.Element("fmiBuildDescription", fmiVersion="3.0")
     bc = ET.SubElement(root, "BuildConfiguration", modelIdentifier=nm.name)
     fs = ET.SubElement(bc, "SourceFileSet", language="C99")
-    for s in [s for s in NATIVE_SOURCES if s.endswith(".c")] + [MODEL_C, FMI_FILES[3]]:
+    for s in _c_files(nm, 3):
         ET.SubElement(fs, "SourceFile", name=s)
     ET.indent(root)
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
@@ -437,13 +454,14 @@ def _token(nm: NativeModel, model_text: str) -> str:
     return "{" + f"{d[:8]}-{d[8:12]}-{d[12:16]}-{d[16:20]}-{d[20:32]}" + "}"
 
 
-def _compile(platform: str, src: Path, fmi: int, out: Path) -> None:
+def _compile(platform: str, src: Path, fmi: int, out: Path,
+             sources: Sequence[str] = NATIVE_SOURCES) -> None:
     compiler, flags, _, _, _ = PLATFORMS[platform]
     if shutil.which(compiler) is None:
         package = "gcc" if platform == "linux64" else "gcc-mingw-w64-x86-64"
         raise BodyvibError(f"{compiler} not found: the {platform} binary needs it (Debian: "
                            f"apt-get install {package}), or build other platforms only")
-    files = [str(src / s) for s in NATIVE_SOURCES if s.endswith(".c")]
+    files = [str(src / s) for s in sources if s.endswith(".c")]
     files += [str(src / MODEL_C), str(src / FMI_FILES[fmi])]
     cmd = [compiler] + COMMON_FLAGS + flags + [f"-I{src}", "-o", str(out)] + files + ["-lm"]
     proc = subprocess.run(cmd, capture_output=True, text=True)
