@@ -48,7 +48,7 @@ from .runtime.errors import BodyvibError
 from .runtime.fileio import atomic_write_bytes
 from .runtime.network import Network, descriptor_model
 
-__all__ = ["NATIVE_SOURCES", "PLATFORMS", "NativeModel", "native_model", "model_source",
+__all__ = ["NATIVE_SOURCES", "PLATFORMS", "PlatformChoice", "choose_platforms", "NativeModel", "native_model", "model_source",
            "model_description", "build_description", "build_native_fmu", "fmi_headers"]
 
 NATIVE_DIR = Path(__file__).resolve().parent.parent / "fmu_src" / "native"
@@ -69,6 +69,9 @@ PLATFORMS = {
     "win64": ("x86_64-w64-mingw32-gcc", ["-static-libgcc"], ".dll", "win64", "x86_64-windows"),
 }
 COMMON_FLAGS = ["-std=c99", "-O2", "-shared", "-Wall", "-Wextra", "-Wno-unused-parameter"]
+
+#: Platform -> Debian package of its compiler (what the message on a missing one names).
+COMPILER_PACKAGES = {"linux64": "gcc", "win64": "gcc-mingw-w64-x86-64"}
 
 #: Matrix codes of the stencils (bodyvib_core.h: BV_E .. BV_D).
 _MATRICES = ("E", "A", "B", "C", "Cd", "D")
@@ -139,6 +142,74 @@ class NativeModel:
     m: int
     dependencies: Tuple[Tuple[int, ...], ...]
     stop_time: float = 10.0
+
+
+@dataclass(frozen=True)
+class PlatformChoice:
+    """The platforms a native build compiles and the ones it leaves out.
+
+    Attributes
+    ----------
+    platforms : tuple of str
+        Keys of :data:`PLATFORMS` to build, in their order there.
+    skipped : tuple of str
+        One line per platform left out: which compiler is missing and how to get it.
+    """
+
+    platforms: Tuple[str, ...]
+    skipped: Tuple[str, ...]
+
+
+def _missing_compiler(platform: str) -> str:
+    compiler = PLATFORMS[platform][0]
+    return (f"{compiler} not found on PATH; install it (Debian: apt-get install "
+            f"{COMPILER_PACKAGES[platform]})")
+
+
+def choose_platforms(requested=None) -> PlatformChoice:
+    """The platforms to compile: those asked for, or by default every one this machine can.
+
+    Parameters
+    ----------
+    requested : str or iterable of str, optional
+        Platform names (``"linux64,win64"`` or a list); None: every platform of
+        :data:`PLATFORMS` whose compiler is on ``PATH``, the others reported as skipped.
+
+    Returns
+    -------
+    PlatformChoice
+
+    Raises
+    ------
+    BodyvibError
+        An unknown platform, a requested platform whose compiler is missing, or (by
+        default) no compiler at all.
+
+    Examples
+    --------
+    >>> choose_platforms("linux64").platforms  # doctest: +SKIP
+    ('linux64',)
+    """
+    if requested is not None:
+        names = [p.strip() for p in (requested.split(",") if isinstance(requested, str)
+                                     else requested) if p.strip()]
+        unknown = [p for p in names if p not in PLATFORMS]
+        if unknown or not names:
+            raise BodyvibError(f"--platforms: unknown platform {', '.join(unknown) or '(none)'};"
+                               f" choose among {', '.join(PLATFORMS)} (comma-separated)")
+        for p in names:
+            if shutil.which(PLATFORMS[p][0]) is None:
+                others = [q for q in names if q != p]
+                raise BodyvibError(f"{p}: {_missing_compiler(p)}, or leave it out (--platforms "
+                                   f"{','.join(others) or 'another platform'})")
+        return PlatformChoice(tuple(p for p in PLATFORMS if p in names), ())
+    have = tuple(p for p in PLATFORMS if shutil.which(PLATFORMS[p][0]) is not None)
+    if not have:
+        raise BodyvibError("no C compiler for any platform: "
+                           + "; ".join(f"{p}: {_missing_compiler(p)}" for p in PLATFORMS))
+    skipped = tuple(f"{p} skipped: {_missing_compiler(p)}, or pass --platforms "
+                    f"{','.join(have)} to build without it" for p in PLATFORMS if p not in have)
+    return PlatformChoice(have, skipped)
 
 
 def _stencils(network, params: Sequence[str], rows: Sequence[int]):
@@ -458,9 +529,8 @@ def _compile(platform: str, src: Path, fmi: int, out: Path,
              sources: Sequence[str] = NATIVE_SOURCES) -> None:
     compiler, flags, _, _, _ = PLATFORMS[platform]
     if shutil.which(compiler) is None:
-        package = "gcc" if platform == "linux64" else "gcc-mingw-w64-x86-64"
-        raise BodyvibError(f"{compiler} not found: the {platform} binary needs it (Debian: "
-                           f"apt-get install {package}), or build other platforms only")
+        raise BodyvibError(f"{platform}: {_missing_compiler(platform)}, or build the other "
+                           "platforms only (bodyvib build --native --platforms ...)")
     files = [str(src / s) for s in sources if s.endswith(".c")]
     files += [str(src / MODEL_C), str(src / FMI_FILES[fmi])]
     cmd = [compiler] + COMMON_FLAGS + flags + [f"-I{src}", "-o", str(out)] + files + ["-lm"]
