@@ -42,7 +42,8 @@ from xml.etree import ElementTree as ET
 import numpy as np
 
 from . import __version__
-from .runtime.contract import MODEL_FILE, RATE_PREFIX, UNITS, Variable
+from .fmu_xml import MODEL_STOP_TIME, display_unit, initial_dependencies, unit_definitions
+from .runtime.contract import MODEL_FILE, RATE_PREFIX, Variable
 from .runtime.engine import FmuCore
 from .runtime.errors import BodyvibError
 from .runtime.fileio import atomic_write_bytes
@@ -141,7 +142,7 @@ class NativeModel:
     n: int
     m: int
     dependencies: Tuple[Tuple[int, ...], ...]
-    stop_time: float = 10.0
+    stop_time: float = MODEL_STOP_TIME
 
 
 @dataclass(frozen=True)
@@ -444,10 +445,7 @@ def model_description(nm: NativeModel, token: str, fmi: int) -> bytes:
     used = list(dict.fromkeys(v.unit for v in nm.variables))
     if fmi == 3:
         used = list(dict.fromkeys(["s"] + used))
-    units = ET.SubElement(root, "UnitDefinitions")
-    for u in used:
-        unit = ET.SubElement(units, "Unit", name=u)
-        ET.SubElement(unit, "BaseUnit", {k: str(e) for k, e in UNITS.get(u, {"s": 1}).items()})
+    root.append(unit_definitions(used))
     cats = ET.SubElement(root, "LogCategories")
     for c, text in (("logStatusWarning", "warnings (unconnected velocity input)"),
                     ("logStatusError", "errors (refused steps, parameters, states)")):
@@ -461,6 +459,8 @@ def model_description(nm: NativeModel, token: str, fmi: int) -> bytes:
         if v.causality == "output":
             attrs["initial"] = "calculated"
         typed = {"unit": v.unit}
+        if display_unit(v):
+            typed["displayUnit"] = display_unit(v)
         if v.start is not None and v.causality != "output":
             typed["start"] = _num(v.start)
         if v.min is not None:
@@ -478,20 +478,23 @@ def model_description(nm: NativeModel, token: str, fmi: int) -> bytes:
                                       "causality": "independent", "variability": "continuous",
                                       "unit": "s", "description": "Simulation time"})
     ms = ET.SubElement(root, "ModelStructure")
+    initial = initial_dependencies(nm.dependencies, nm.parameters, nm.kind == "source")
     if fmi == 2:
         outs = ET.SubElement(ms, "Outputs")
         for vr, deps in zip(nm.outputs, nm.dependencies):
             ET.SubElement(outs, "Unknown", index=str(vr + 1),
                           dependencies=" ".join(str(d + 1) for d in deps))
         init = ET.SubElement(ms, "InitialUnknowns")
-        for vr in sorted(nm.outputs):
-            ET.SubElement(init, "Unknown", index=str(vr + 1))
+        for vr, deps in sorted(zip(nm.outputs, initial)):
+            ET.SubElement(init, "Unknown", index=str(vr + 1),
+                          dependencies=" ".join(str(d + 1) for d in deps))
     else:
         for vr, deps in zip(nm.outputs, nm.dependencies):
             ET.SubElement(ms, "Output", valueReference=str(vr),
                           dependencies=" ".join(str(d) for d in deps))
-        for vr in nm.outputs:
-            ET.SubElement(ms, "InitialUnknown", valueReference=str(vr))
+        for vr, deps in zip(nm.outputs, initial):
+            ET.SubElement(ms, "InitialUnknown", valueReference=str(vr),
+                          dependencies=" ".join(str(d) for d in deps))
     ET.indent(root)
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
 

@@ -24,6 +24,7 @@ from . import __version__
 from .native_build import (FMI_FILES, FMI_HEADERS, MODEL_C, NATIVE_DIR, PLATFORMS, SOURCE_SOURCES,
                            NativeModel, _c_doubles, _c_ints, _c_string, _compile, _validate, _zip,
                            build_description, fmi_headers, model_description)
+from .fmu_xml import default_stop_time
 from .runtime.errors import BodyvibError
 from .runtime.fileio import atomic_write_bytes
 from .runtime.source import SourceCore, write_source
@@ -68,7 +69,7 @@ def native_source_model(meta: dict, table, name: str, description: str = "") -> 
         parameters=(no,), input_map=np.zeros((0, 0)), rate_matrix=np.zeros((0, 0)), pairs=(),
         out_row=tuple(range(no)), out_derivative=(False,) * no, rows=(), stencils=[], n=0, m=0,
         dependencies=tuple(() for _ in range(no)),
-        stop_time=float(table.length) / float(meta["speed"]["start"]),
+        stop_time=default_stop_time(core),
     )
 
 
