@@ -12,7 +12,7 @@
   issue's 0.02 % head-acceleration NRMSE at 1 ms (measured 0.0124 % in every host);
 * the pythonfmu SSP in the same host: the native FMUs compute the same numbers as the
   pythonfmu ones (1e-12 of the body's; issue 9 measured 3e-14), so the two systems agree
-  to 1e-11 of the head acceleration's peak.
+  to 2e-12 of the head acceleration's peak (measured 3.7e-13 to 5.1e-13).
 """
 
 import os
@@ -91,6 +91,50 @@ def test_native_road_contract_and_default_experiment(native_dist, python_fmus):
         assert "sources/bodyvib_source.c" in files and "sources/bodyvib_core.c" not in files
 
 
+def test_native_road_refuses_a_bad_speed_and_restores_its_state(native_dist):
+    """FMI 2.0 in fmpy: a speed of 0 makes ExitInitializationMode return Error (as the
+    pythonfmu Road.fmu refuses it) and Reset recovers; an FMU state taken at 1 s and restored
+    after 2 s gives the 1 s outputs again, also serialized."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    path = str(native_dist / "Road.fmu")
+    md = read_model_description(path)
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    unzipped = extract(path)
+    try:
+        fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier="Road")
+        fmu.instantiate()
+        fmu.setupExperiment(startTime=0.0)
+        fmu.enterInitializationMode()
+        fmu.setReal([vr["speed"]], [0.0])
+        with pytest.raises(Exception):
+            fmu.exitInitializationMode()
+        fmu.reset()
+        fmu.setupExperiment(startTime=0.0)
+        fmu.enterInitializationMode()
+        fmu.exitInitializationMode()
+        outs = [vr["road_displacement"], vr["road_velocity"]]
+        for k in range(1000):
+            fmu.doStep(k * 1e-3, 1e-3)
+        state = fmu.getFMUstate()
+        blob = fmu.serializeFMUstate(state)
+        at1 = fmu.getReal(outs)
+        for k in range(1000, 2000):
+            fmu.doStep(k * 1e-3, 1e-3)
+        assert fmu.getReal(outs) != at1
+        fmu.setFMUstate(state)
+        assert fmu.getReal(outs) == at1
+        fmu.doStep(1.0, 1e-3)
+        fmu.setFMUstate(fmu.deSerializeFMUstate(blob))
+        assert fmu.getReal(outs) == at1
+        fmu.freeFMUstate(state)
+        fmu.terminate()
+        fmu.freeInstance()
+    finally:
+        shutil.rmtree(unzipped, ignore_errors=True)
+
+
 @pytest.mark.parametrize("fmi", [2, 3])
 def test_native_ssp_holds_only_native_fmus_of_its_version(native_dist, fmi):
     from fmpy import read_model_description
@@ -136,7 +180,7 @@ def test_native_ssp_in_host_meets_the_target_and_equals_the_pythonfmu_ssp(
     assert nrmse(a, reference) <= TARGET, nrmse(a, reference)
     py, _ = host_run(HOSTS[host], python_dist(python_fmus) / f"{SSP_NAME}.ssp")
     b = py["Body.head_acceleration"]
-    assert np.max(np.abs(a - b)) <= 1e-11 * np.max(np.abs(b)), np.max(np.abs(a - b))
+    assert np.max(np.abs(a - b)) <= 2e-12 * np.max(np.abs(b)), np.max(np.abs(a - b))
 
 
 def _path_without(tmp_path, prefix):
