@@ -12,7 +12,6 @@ Build-time needs: as :mod:`bodyvib.native_build`.
 """
 
 import hashlib
-import json
 import shutil
 import tempfile
 from pathlib import Path
@@ -29,7 +28,7 @@ from .runtime.errors import BodyvibError
 from .runtime.fileio import atomic_write_bytes
 from .runtime.source import SourceCore, write_source
 
-__all__ = ["native_source_model", "source_model_source", "build_native_source_fmu"]
+__all__ = ["build_native_source_fmu", "native_source_model", "source_model_source"]
 
 
 def native_source_model(meta: dict, table, name: str, description: str = "") -> NativeModel:
