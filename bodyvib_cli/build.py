@@ -15,27 +15,51 @@ def _run(args) -> int:
     inputs = [("--params", args.params)] if args.params and os.path.isfile(args.params) else []
     names = list(args.fmus or FMUS)
     if args.native:
-        dest = Path(args.dest) / "native"
-        names = [n for n in names if FMUS[n][0] != "source"]  # Road.fmu is pythonfmu only
-        check_outputs([("--dest", args.dest, None, True)]
-                      + [(f"--dest native/{n}.fmu", str(dest / f"{n}.fmu"), None) for n in names]
-                      + [(f"--dest native/fmi3/{n}.fmu", str(dest / "fmi3" / f"{n}.fmu"), None)
-                         for n in names], inputs)
-        build_fmus(dest, args.params, names=names, echo=print, native=True)
-        return 0
+        return _native(args, names, inputs)
     ssp = all(name in names for name in COMPONENTS.values())
     check_outputs([("--dest", args.dest, None, True)]
                   + [(f"--dest {n}.fmu", os.path.join(args.dest, f"{n}.fmu"), None) for n in names]
                   + ([(f"--dest {SSP_NAME}.ssp", os.path.join(args.dest, f"{SSP_NAME}.ssp"), None)]
                      if ssp else []), inputs)
-    road = {"road": args.road, "seed": args.road_seed, "length": args.road_length,
-            "speed": args.road_speed, "taper": args.road_taper}
-    built = build_fmus(args.dest, args.params, names=args.fmus, echo=print, road=road)
+    built = build_fmus(args.dest, args.params, names=args.fmus, echo=print, road=_road(args))
     if ssp:
         path = write_ssp(f"{args.dest}/{SSP_NAME}.ssp",
                          {comp: str(built[name]) for comp, name in COMPONENTS.items()})
         print(f"wrote {path} (Road -> QuarterCar <-> HumanBody3DOF, parameter set, 1 ms step)")
     return 0
+
+
+def _native(args, names, inputs) -> int:
+    """``--native``: C FMUs (FMI 2.0 and 3.0) and, with all three components, both SSPs."""
+    from bodyvib.fmu.native import choose_platforms
+
+    choice = choose_platforms(args.platforms)  # refuses an unusable --platforms before work
+    dest = Path(args.dest) / "native"
+    ssp = all(name in names for name in COMPONENTS.values())
+    outs = [("--dest", args.dest, None, True)]
+    for sub in ("", "fmi3/"):
+        outs += [(f"--dest native/{sub}{n}.fmu", str(dest / sub / f"{n}.fmu"), None)
+                 for n in names]
+        if ssp:
+            outs.append((f"--dest native/{sub}{SSP_NAME}.ssp", str(dest / sub / f"{SSP_NAME}.ssp"),
+                         None))
+    check_outputs(outs, inputs)
+    for line in choice.skipped:
+        print(line, file=sys.stderr, flush=True)
+    built = build_fmus(dest, args.params, names=names, echo=print, road=_road(args), native=True,
+                       platforms=choice.platforms)
+    if ssp:
+        for version, sub in ((2, ""), (3, "fmi3/")):
+            path = write_ssp(dest / sub / f"{SSP_NAME}.ssp",
+                             {comp: str(built[sub + name]) for comp, name in COMPONENTS.items()})
+            print(f"wrote {path} (native, FMI {version}.0: Road -> QuarterCar <-> HumanBody3DOF, "
+                  "parameter set, 1 ms step)")
+    return 0
+
+
+def _road(args) -> dict:
+    return {"road": args.road, "seed": args.road_seed, "length": args.road_length,
+            "speed": args.road_speed, "taper": args.road_taper}
 
 
 def add_command(subparsers):
@@ -55,8 +79,12 @@ def add_command(subparsers):
                    help=f"build only these ({', '.join(FMUS)})")
     p.add_argument("--native", action="store_true",
                    help="build the native C FMUs instead (FMI 2.0 into DEST/native, FMI 3.0 "
-                   "into DEST/native/fmi3; linux64 + win64 binaries and sources; the host "
-                   "needs no Python)")
+                   "into DEST/native/fmi3, each with its QuarterCarWithOccupant.ssp; binaries "
+                   "and sources; the host needs no Python)")
+    p.add_argument("--platforms", metavar="LIST",
+                   help="with --native: binaries to compile, comma-separated among linux64, "
+                   "win64 (default: every platform whose compiler is on PATH; the others are "
+                   "reported as skipped)")
     p.add_argument("--road", default=ROAD_DEFAULTS["road"],
                    help="Road.fmu: ISO 8608 class A-H, bump or sweep (default: C)")
     p.add_argument("--road-seed", type=int, default=ROAD_DEFAULTS["seed"], metavar="N",

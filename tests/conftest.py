@@ -102,18 +102,24 @@ def pytest_sessionfinish(session, exitstatus):
 
 
 @pytest.fixture(scope="session")
-def native_fmus(tmp_path_factory):
-    """The native FMUs, built once by ``build_fmu.py --native``: ``"<name>"`` (FMI 2.0) and
-    ``"fmi3/<name>"`` -> .fmu path."""
+def native_dist(tmp_path_factory):
+    """What ``build_fmu.py --native`` writes (once per session): its ``native`` folder, with
+    the FMI 2.0 FMUs and SSP, and ``fmi3/`` with the FMI 3.0 ones."""
     import subprocess
 
     dest = tmp_path_factory.mktemp("native_fmus")
     out = subprocess.run([sys.executable, "build_fmu.py", "--native", "--dest", str(dest)],
                          cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert out.returncode == 0, out.stdout + out.stderr
+    return dest / "native"
+
+
+@pytest.fixture(scope="session")
+def native_fmus(native_dist):
+    """The native body and car FMUs: ``"<name>"`` (FMI 2.0) and ``"fmi3/<name>"`` -> .fmu path."""
     names = ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar")
-    paths = {n: str(dest / "native" / f"{n}.fmu") for n in names}
-    paths.update({f"fmi3/{n}": str(dest / "native" / "fmi3" / f"{n}.fmu") for n in names})
+    paths = {n: str(native_dist / f"{n}.fmu") for n in names}
+    paths.update({f"fmi3/{n}": str(native_dist / "fmi3" / f"{n}.fmu") for n in names})
     return paths
 
 

@@ -21,7 +21,7 @@ from .quarter_car import load_car
 from .road.synthetic import ISO8608_CLASSES, TaperedRoad, make_road, random_road, road_source
 
 __all__ = ["FMUS", "ROAD_DEFAULTS", "build_fmus", "build_project_fmu", "build_native_project_fmu",
-           "build_road_fmu",
+           "build_road_fmu", "build_native_road_fmu",
            "fmu_road", "load_fmu_model", "temporary_fmu_dir"]
 
 #: Road.fmu's defaults: ISO 8608 class C, seed 0, 601 m (30 s at 20 m/s and a metre
@@ -104,6 +104,33 @@ def build_road_fmu(dest="dist", road: str = "C", seed: int = 0, length: float = 
     return build_source_fmu(meta, table, "Road", FMUS["Road"][2], dest)
 
 
+def build_native_road_fmu(dest="dist/native", road: str = "C", seed: int = 0,
+                          length: float = 601.0, speed: float = 20.0, taper: float = 5.0,
+                          fmi: int = 2, platforms=("linux64", "win64")) -> Path:
+    """Build the native (C) ``Road.fmu``: the table of :func:`build_road_fmu`, no Python.
+
+    Parameters
+    ----------
+    dest : str or path
+    road, seed, length, speed, taper
+        As :func:`build_road_fmu`.
+    fmi : int
+        FMI version, 2 or 3.
+    platforms : iterable of str
+        :data:`bodyvib.fmu.native.PLATFORMS` to compile.
+
+    Returns
+    -------
+    Path
+        ``dest/Road.fmu``.
+    """
+    from bodyvib.fmu.native_source import build_native_source_fmu
+
+    meta, table = road_source(fmu_road(road, length, seed, speed, taper), length, speed)
+    return build_native_source_fmu(meta, table, "Road", FMUS["Road"][2], dest, fmi=fmi,
+                                   platforms=platforms)
+
+
 def load_fmu_model(name: str, model: Optional[str] = None):
     """The model an FMU of :data:`FMUS` bakes in.
 
@@ -161,7 +188,7 @@ def build_project_fmu(name: str, dest="dist", model: Optional[str] = None) -> Pa
 
 
 def build_native_project_fmu(name: str, dest="dist/native", model: Optional[str] = None,
-                             fmi: int = 2) -> Path:
+                             fmi: int = 2, platforms=("linux64", "win64")) -> Path:
     """Build one FMU of :data:`FMUS` as a native C FMU (:mod:`bodyvib.fmu.native`).
 
     Parameters
@@ -174,6 +201,8 @@ def build_native_project_fmu(name: str, dest="dist/native", model: Optional[str]
         Shipped model name or parameter file to bake in (the FMU's default if None).
     fmi : int
         FMI version, 2 or 3.
+    platforms : iterable of str
+        :data:`bodyvib.fmu.native.PLATFORMS` to compile.
 
     Returns
     -------
@@ -187,15 +216,19 @@ def build_native_project_fmu(name: str, dest="dist/native", model: Optional[str]
     """
     from bodyvib.fmu.native import build_native_fmu
 
+    if name in FMUS and FMUS[name][0] == "source":
+        return build_native_road_fmu(dest, **({"road": model} if model else {}), fmi=fmi,
+                                     platforms=platforms)
     network = load_fmu_model(name, model)
     kind, _, description = FMUS[name]
-    return build_native_fmu(network, kind, name, description, dest, fmi=fmi)
+    return build_native_fmu(network, kind, name, description, dest, fmi=fmi, platforms=platforms)
 
 
 def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-car",
                names: Optional[Iterable[str]] = None, echo=None,
                road: Optional[dict] = None, native: bool = False,
-               fmi: Iterable[int] = (2, 3)) -> Dict[str, Path]:
+               fmi: Iterable[int] = (2, 3),
+               platforms: Optional[Iterable[str]] = None) -> Dict[str, Path]:
     """Build the project's FMUs.
 
     Parameters
@@ -216,10 +249,14 @@ def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-ca
         (:data:`ROAD_DEFAULTS` by default).
     native : bool
         Build the native C FMUs instead of the pythonfmu ones: FMI 2.0 into
-        ``dest``, FMI 3.0 into ``dest/fmi3`` (keys ``"fmi3/<name>"``); the
-        body and car FMUs only (there is no native Road.fmu).
+        ``dest``, FMI 3.0 into ``dest/fmi3`` (keys ``"fmi3/<name>"``), Road.fmu
+        included (its table in C).
     fmi : iterable of int
         With ``native``, the FMI versions to build.
+    platforms : iterable of str, optional
+        With ``native``, the binaries to compile (:data:`bodyvib.fmu.native.PLATFORMS`);
+        by default every platform whose compiler is on PATH
+        (:func:`bodyvib.fmu.native.choose_platforms`).
 
     Returns
     -------
@@ -245,17 +282,29 @@ def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-ca
             fmu_road(road["road"], road["length"], road["seed"], road["speed"], road["taper"])
         else:
             load_fmu_model(n, chosen.get(n))
+    if native:
+        from bodyvib.fmu.native import choose_platforms
+
+        platforms = choose_platforms(platforms).platforms
     out = {}
     what = {}
     with staged_writes(guard=interrupts.critical):  # all FMUs or none: a failed (or
         if native:                                      # interrupted) build keeps the old ones
             for version in fmi:
                 folder = Path(dest) if version == 2 else Path(dest) / "fmi3"
-                for n in (n for n in names if FMUS[n][0] != "source"):
+                for n in names:
                     key = n if version == 2 else f"fmi3/{n}"
-                    out[key] = build_native_project_fmu(n, folder, chosen.get(n), fmi=version)
-                    what[key] = (f"native C, FMI {version}.0, model "
-                                 f"{chosen.get(n) or FMUS[n][1]}")
+                    if FMUS[n][0] == "source":
+                        out[key] = build_native_road_fmu(folder, **road, fmi=version,
+                                                         platforms=platforms)
+                        what[key] = (f"native C, FMI {version}.0, road {road['road']}, seed "
+                                     f"{road['seed']}, {road['length']:g} m")
+                    else:
+                        out[key] = build_native_project_fmu(n, folder, chosen.get(n), fmi=version,
+                                                            platforms=platforms)
+                        what[key] = (f"native C, FMI {version}.0, model "
+                                     f"{chosen.get(n) or FMUS[n][1]}")
+                    what[key] += f", {'+'.join(platforms)}"
         else:
             for n in names:
                 if FMUS[n][0] == "source":

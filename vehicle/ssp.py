@@ -69,14 +69,16 @@ def _q(prefix, tag):
 
 
 def _variables(fmu_path):
-    """(name, causality, unit, start) of an FMU's real variables, from its model description."""
+    """(name, causality, unit, start) of an FMU's real variables (FMI 2.0 or 3.0)."""
     with zipfile.ZipFile(fmu_path) as zf:
         root = ET.fromstring(zf.read("modelDescription.xml"))
     out = []
-    for sv in root.iter("ScalarVariable"):
-        real = sv.find("Real")
-        if real is not None:
+    for sv in root.find("ModelVariables"):
+        if sv.tag == "ScalarVariable" and sv.find("Real") is not None:  # FMI 2.0
+            real = sv.find("Real")
             out.append((sv.get("name"), sv.get("causality"), real.get("unit"), real.get("start")))
+        elif sv.tag == "Float64" and sv.get("causality") != "independent":  # FMI 3.0
+            out.append((sv.get("name"), sv.get("causality"), sv.get("unit"), sv.get("start")))
     return out
 
 

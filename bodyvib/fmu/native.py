@@ -47,19 +47,22 @@ from xml.etree import ElementTree as ET
 import numpy as np
 
 from .. import __version__
-from ..runtime.contract import MODEL_FILE, RATE_PREFIX, UNITS, Variable
+from ..process.outputs import atomic_write_bytes
+from ..runtime.contract import MODEL_FILE, RATE_PREFIX, Variable
 from ..runtime.engine import FmuCore
 from ..runtime.errors import BodyvibError
-from ..process.outputs import atomic_write_bytes
 from ..runtime.network import Network, descriptor_model
+from .description import MODEL_STOP_TIME, display_unit, initial_dependencies, unit_definitions
 from .sources import native_dir
 
-__all__ = ["NATIVE_SOURCES", "PLATFORMS", "NativeModel", "native_model", "model_source",
+__all__ = ["NATIVE_SOURCES", "PLATFORMS", "PlatformChoice", "choose_platforms", "NativeModel", "native_model", "model_source",
            "model_description", "build_description", "build_native_fmu", "fmi_headers"]
 
 
 #: The model-independent C sources and the FMI function file of each FMI version.
 NATIVE_SOURCES = ("bodyvib_core.h", "bodyvib_core.c")
+#: The core of a source FMU (a table, bodyvib_source.c) in place of the linear one: the same API.
+SOURCE_SOURCES = ("bodyvib_core.h", "bodyvib_source.h", "bodyvib_source.c")
 FMI_FILES = {2: "fmi2Functions.c", 3: "fmi3Functions.c"}
 FMI_HEADERS = {2: ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"),
                3: ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")}
@@ -76,6 +79,9 @@ COMMON_FLAGS = ["-std=c99", "-O2", "-shared", "-Wall", "-Wextra", "-Wno-unused-p
 #: Output derivative orders fmi2GetRealOutputDerivatives / fmi3GetOutputDerivatives give
 #: (bodyvib_core.h, BV_MAX_OUTPUT_ORDER).
 MAX_OUTPUT_DERIVATIVE_ORDER = 2
+
+#: Platform -> Debian package of its compiler (what the message on a missing one names).
+COMPILER_PACKAGES = {"linux64": "gcc", "win64": "gcc-mingw-w64-x86-64"}
 
 #: Matrix codes of the stencils (bodyvib_core.h: BV_E .. BV_D).
 _MATRICES = ("E", "A", "B", "C", "Cd", "D")
@@ -128,6 +134,8 @@ class NativeModel:
     derivative_deps : tuple of (tuple of int, tuple of int)
         Per state: the states (indices) and the input value references its
         derivative ``(A x + B U s)_i`` depends on.
+    stop_time : float
+        The DefaultExperiment's stop time, s.
     """
 
     name: str
@@ -153,6 +161,75 @@ class NativeModel:
     states: Tuple[str, ...] = ()
     output_state_deps: Tuple[Tuple[int, ...], ...] = ()
     derivative_deps: Tuple[Tuple[Tuple[int, ...], Tuple[int, ...]], ...] = ()
+    stop_time: float = MODEL_STOP_TIME
+
+
+@dataclass(frozen=True)
+class PlatformChoice:
+    """The platforms a native build compiles and the ones it leaves out.
+
+    Attributes
+    ----------
+    platforms : tuple of str
+        Keys of :data:`PLATFORMS` to build, in their order there.
+    skipped : tuple of str
+        One line per platform left out: which compiler is missing and how to get it.
+    """
+
+    platforms: Tuple[str, ...]
+    skipped: Tuple[str, ...]
+
+
+def _missing_compiler(platform: str) -> str:
+    compiler = PLATFORMS[platform][0]
+    return (f"{compiler} not found on PATH; install it (Debian: apt-get install "
+            f"{COMPILER_PACKAGES[platform]})")
+
+
+def choose_platforms(requested=None) -> PlatformChoice:
+    """The platforms to compile: those asked for, or by default every one this machine can.
+
+    Parameters
+    ----------
+    requested : str or iterable of str, optional
+        Platform names (``"linux64,win64"`` or a list); None: every platform of
+        :data:`PLATFORMS` whose compiler is on ``PATH``, the others reported as skipped.
+
+    Returns
+    -------
+    PlatformChoice
+
+    Raises
+    ------
+    BodyvibError
+        An unknown platform, a requested platform whose compiler is missing, or (by
+        default) no compiler at all.
+
+    Examples
+    --------
+    >>> choose_platforms("linux64").platforms  # doctest: +SKIP
+    ('linux64',)
+    """
+    if requested is not None:
+        names = [p.strip() for p in (requested.split(",") if isinstance(requested, str)
+                                     else requested) if p.strip()]
+        unknown = [p for p in names if p not in PLATFORMS]
+        if unknown or not names:
+            raise BodyvibError(f"--platforms: unknown platform {', '.join(unknown) or '(none)'};"
+                               f" choose among {', '.join(PLATFORMS)} (comma-separated)")
+        for p in names:
+            if shutil.which(PLATFORMS[p][0]) is None:
+                others = [q for q in names if q != p]
+                raise BodyvibError(f"{p}: {_missing_compiler(p)}, or leave it out (--platforms "
+                                   f"{','.join(others) or 'another platform'})")
+        return PlatformChoice(tuple(p for p in PLATFORMS if p in names), ())
+    have = tuple(p for p in PLATFORMS if shutil.which(PLATFORMS[p][0]) is not None)
+    if not have:
+        raise BodyvibError("no C compiler for any platform: "
+                           + "; ".join(f"{p}: {_missing_compiler(p)}" for p in PLATFORMS))
+    skipped = tuple(f"{p} skipped: {_missing_compiler(p)}, or pass --platforms "
+                    f"{','.join(have)} to build without it" for p in PLATFORMS if p not in have)
+    return PlatformChoice(have, skipped)
 
 
 def _stencils(network, params: Sequence[str], rows: Sequence[int]):
@@ -332,8 +409,19 @@ def _num(x: float) -> str:
     return repr(float(x))
 
 
+def core_sources(kind: str) -> Tuple[str, ...]:
+    """The model-independent C sources an FMU of ``kind`` compiles (its core)."""
+    return SOURCE_SOURCES if kind == "source" else NATIVE_SOURCES
+
+
+def _c_files(nm: NativeModel, fmi: int) -> List[str]:
+    return [s for s in core_sources(nm.kind) if s.endswith(".c")] + [MODEL_C, FMI_FILES[fmi]]
+
+
 def _description(nm: NativeModel) -> str:
     text = nm.description or nm.name
+    if nm.network is None:
+        return text
     return f"{text}. Model '{nm.network.name}': {nm.network.description}".strip()
 
 
@@ -353,7 +441,7 @@ def model_description(nm: NativeModel, token: str, fmi: int) -> bytes:
     bytes
         UTF-8 XML.
     """
-    sources = [s for s in NATIVE_SOURCES if s.endswith(".c")] + [MODEL_C, FMI_FILES[fmi]]
+    sources = _c_files(nm, fmi)
     root = ET.Element("fmiModelDescription", {
         "fmiVersion": "2.0" if fmi == 2 else "3.0",
         "modelName": nm.name,
@@ -390,15 +478,13 @@ def model_description(nm: NativeModel, token: str, fmi: int) -> bytes:
                               + [u for s in nm.states for u in _state_units(s)]))
     if fmi == 3:
         used = list(dict.fromkeys(["s"] + used))
-    units = ET.SubElement(root, "UnitDefinitions")
-    for u in used:
-        unit = ET.SubElement(units, "Unit", name=u)
-        ET.SubElement(unit, "BaseUnit", {k: str(e) for k, e in UNITS.get(u, {"s": 1}).items()})
+    root.append(unit_definitions(used))
     cats = ET.SubElement(root, "LogCategories")
     for c, text in (("logStatusWarning", "warnings (unconnected velocity input)"),
                     ("logStatusError", "errors (refused steps, parameters, states)")):
         ET.SubElement(cats, "Category", name=c, description=text)
-    ET.SubElement(root, "DefaultExperiment", startTime="0.0", stopTime="10.0", stepSize="0.001")
+    ET.SubElement(root, "DefaultExperiment", startTime="0.0", stopTime=_num(nm.stop_time),
+                  stepSize="0.001")
     mv = ET.SubElement(root, "ModelVariables")
     for vr, v in enumerate(nm.variables):
         attrs = {"name": v.name, "valueReference": str(vr), "description": v.description,
@@ -406,6 +492,8 @@ def model_description(nm: NativeModel, token: str, fmi: int) -> bytes:
         if v.causality == "output":
             attrs["initial"] = "calculated"
         typed = {"unit": v.unit}
+        if display_unit(v):
+            typed["displayUnit"] = display_unit(v)
         if v.start is not None and v.causality != "output":
             typed["start"] = _num(v.start)
         if v.min is not None:
@@ -428,28 +516,32 @@ def model_description(nm: NativeModel, token: str, fmi: int) -> bytes:
     # states follow the contract's variables (and FMI 3.0's time), so both are monotonic.
     ref = (lambda vr: str(_index2(nm, vr))) if fmi == 2 else str
     ders = [_der_vr(nm, i) for i in range(len(nm.states))]
+    state_deps = nm.output_state_deps or tuple(() for _ in nm.outputs)
+
+    def text(inputs, states):
+        return " ".join([ref(d) for d in inputs] + [ref(_state_vr(nm, j)) for j in states])
+
+    outputs = [(vr, text(d, sd)) for vr, d, sd in zip(nm.outputs, nm.dependencies, state_deps)]
+    derivatives = [(vr, text(d, sd)) for vr, (sd, d) in zip(ders, nm.derivative_deps)]
+    # at initialization: the feedthrough inputs and the parameters scaling them, and the
+    # states' start values (exposed for model exchange)
+    initial = initial_dependencies(list(nm.dependencies) + [d for _, d in nm.derivative_deps],
+                                   nm.parameters, nm.kind == "source")
+    initial = [(vr, text(i, sd)) for vr, i, sd in
+               zip(list(nm.outputs) + ders, initial,
+                   list(state_deps) + [sd for sd, _ in nm.derivative_deps])]
     if fmi == 2:
-        outs = ET.SubElement(ms, "Outputs")
-        for vr, deps, sdeps in zip(nm.outputs, nm.dependencies, nm.output_state_deps):
-            ET.SubElement(outs, "Unknown", index=ref(vr), dependencies=" ".join(
-                [ref(d) for d in deps] + [ref(_state_vr(nm, j)) for j in sdeps]))
-        derivatives = ET.SubElement(ms, "Derivatives")
-        for vr, (sdeps, deps) in zip(ders, nm.derivative_deps):
-            ET.SubElement(derivatives, "Unknown", index=ref(vr), dependencies=" ".join(
-                [ref(d) for d in deps] + [ref(_state_vr(nm, j)) for j in sdeps]))
-        init = ET.SubElement(ms, "InitialUnknowns")
-        for vr in sorted(list(nm.outputs) + ders):
-            ET.SubElement(init, "Unknown", index=ref(vr))
+        for group, rows in (("Outputs", outputs), ("Derivatives", derivatives),
+                            ("InitialUnknowns", sorted(initial))):
+            if rows or group != "Derivatives":
+                element = ET.SubElement(ms, group)
+                for vr, deps in rows:
+                    ET.SubElement(element, "Unknown", index=ref(vr), dependencies=deps)
     else:
-        for vr, deps, sdeps in zip(nm.outputs, nm.dependencies, nm.output_state_deps):
-            ET.SubElement(ms, "Output", valueReference=str(vr), dependencies=" ".join(
-                [str(d) for d in deps] + [str(_state_vr(nm, j)) for j in sdeps]))
-        for vr, (sdeps, deps) in zip(ders, nm.derivative_deps):
-            ET.SubElement(ms, "ContinuousStateDerivative", valueReference=str(vr),
-                          dependencies=" ".join([str(d) for d in deps]
-                                                + [str(_state_vr(nm, j)) for j in sdeps]))
-        for vr in list(nm.outputs) + ders:
-            ET.SubElement(ms, "InitialUnknown", valueReference=str(vr))
+        for tag, rows in (("Output", outputs), ("ContinuousStateDerivative", derivatives),
+                          ("InitialUnknown", initial)):
+            for vr, deps in rows:
+                ET.SubElement(ms, tag, valueReference=str(vr), dependencies=deps)
     ET.indent(root)
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
 
@@ -539,7 +631,7 @@ def build_description(nm: NativeModel) -> bytes:
     root = ET.Element("fmiBuildDescription", fmiVersion="3.0")
     bc = ET.SubElement(root, "BuildConfiguration", modelIdentifier=nm.name)
     fs = ET.SubElement(bc, "SourceFileSet", language="C99")
-    for s in [s for s in NATIVE_SOURCES if s.endswith(".c")] + [MODEL_C, FMI_FILES[3]]:
+    for s in _c_files(nm, 3):
         ET.SubElement(fs, "SourceFile", name=s)
     ET.indent(root)
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
@@ -563,13 +655,13 @@ def _token(nm: NativeModel, model_text: str) -> str:
     return "{" + f"{d[:8]}-{d[8:12]}-{d[12:16]}-{d[16:20]}-{d[20:32]}" + "}"
 
 
-def _compile(platform: str, src: Path, fmi: int, out: Path) -> None:
+def _compile(platform: str, src: Path, fmi: int, out: Path,
+             sources: Sequence[str] = NATIVE_SOURCES) -> None:
     compiler, flags, _, _, _ = PLATFORMS[platform]
     if shutil.which(compiler) is None:
-        package = "gcc" if platform == "linux64" else "gcc-mingw-w64-x86-64"
-        raise BodyvibError(f"{compiler} not found: the {platform} binary needs it (Debian: "
-                           f"apt-get install {package}), or build other platforms only")
-    files = [str(src / s) for s in NATIVE_SOURCES if s.endswith(".c")]
+        raise BodyvibError(f"{platform}: {_missing_compiler(platform)}, or build the other "
+                           "platforms only (bodyvib build --native --platforms ...)")
+    files = [str(src / s) for s in sources if s.endswith(".c")]
     files += [str(src / MODEL_C), str(src / FMI_FILES[fmi])]
     cmd = [compiler] + COMMON_FLAGS + flags + [f"-I{src}", "-o", str(out)] + files + ["-lm"]
     proc = subprocess.run(cmd, capture_output=True, text=True)

@@ -38,10 +38,11 @@ from xml.etree import ElementTree as ET
 
 from .. import __version__
 from ..process import interrupts
-from ..runtime.errors import BodyvibError
-from ..runtime.contract import MODEL_FILE, UNITS
 from ..process.outputs import atomic_write_bytes
+from ..runtime.contract import MODEL_FILE
+from ..runtime.errors import BodyvibError
 from ..runtime.network import Network
+from .description import default_stop_time, display_unit, initial_dependencies, unit_definitions
 from .sources import RUNTIME_DIR, fmu_src_dir
 
 __all__ = ["SLAVE_SCRIPT", "build_fmu", "build_source_fmu", "render_slave_script",
@@ -293,28 +294,30 @@ def _finish(fmu: Path, core, about: str) -> bytes:
             real.set("min", _num(v.min))
         if v.max is not None:
             real.set("max", _num(v.max))
+        if display_unit(v):
+            real.set("displayUnit", display_unit(v))
         if v.unit not in used:
             used.append(v.unit)
 
-    units = ET.Element("UnitDefinitions")
-    for u in used:
-        unit = ET.SubElement(units, "Unit", name=u)
-        ET.SubElement(unit, "BaseUnit", {k: str(e) for k, e in UNITS[u].items()})
     children = list(root)
-    root.insert(children.index(root.find("CoSimulation")) + 1, units)
+    root.insert(children.index(root.find("CoSimulation")) + 1, unit_definitions(used))
+    root.find("DefaultExperiment").set("stopTime", _num(default_stop_time(core)))
 
     structure = root.find("ModelStructure")
     for child in list(structure):
         structure.remove(child)
     index = {sv.get("name"): i + 1 for i, sv in enumerate(svs)}
-    deps = core.output_dependencies()
+    deps = [[index[core.variables[i].name] for i in d] for d in core.output_dependencies()]
+    initial_deps = initial_dependencies(deps, [index[p.name] for p in core.parameters],
+                                        core.kind == "source")
     outputs = ET.SubElement(structure, "Outputs")
     initial = ET.SubElement(structure, "InitialUnknowns")
     for j, v in enumerate(core.interface.outputs):
         ET.SubElement(outputs, "Unknown", index=str(index[v.name]),
-                      dependencies=" ".join(str(index[core.variables[i].name]) for i in deps[j]))
-        # at initialization an output depends on inputs and parameters: all knowns
-        ET.SubElement(initial, "Unknown", index=str(index[v.name]))
+                      dependencies=" ".join(str(d) for d in deps[j]))
+    for j, v in sorted(enumerate(core.interface.outputs), key=lambda jv: index[jv[1].name]):
+        ET.SubElement(initial, "Unknown", index=str(index[v.name]),
+                      dependencies=" ".join(str(d) for d in initial_deps[j]))
 
     ET.indent(root)
     xml = ET.tostring(root, encoding="UTF-8", xml_declaration=True)

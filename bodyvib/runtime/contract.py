@@ -43,7 +43,7 @@ from .network import Network
 
 __all__ = ["Variable", "Interface", "body_interface", "car_interface", "seat_point",
            "parameter_variables", "BODY_INPUTS", "BODY_OUTPUTS", "CAR_INPUTS", "CAR_OUTPUTS",
-           "fmu_variables", "rate_signal", "KINDS", "MODEL_FILE", "PARAMETER_UNITS", "POSITIVE_MIN",
+           "fmu_variables", "rate_signal", "KINDS", "MODEL_FILE", "PARAMETER_LIMITS", "PARAMETER_UNITS", "POSITIVE_MIN",
            "RATE_PREFIX", "UNITS"]
 
 #: Names of the body interface's inputs and outputs, in value-reference order.
@@ -69,6 +69,11 @@ PARAMETER_UNITS = {"mass": "kg", "k": "N/m", "k_series": "N/m", "c": "N.s/m"}
 #: Smallest positive normal double: the ``min`` written for strictly positive
 #: parameters (FMI's ``min`` is inclusive, so ``0`` would admit a zero mass).
 POSITIVE_MIN = 2.2250738585072014e-308
+
+#: Parameter values a model accepts (SI: kg, N/m, N s/m), the loader's range
+#: (:data:`bodyvib.runtime.modelfile.PARAMETER_RANGE`) and the ``min``/``max`` the FMUs
+#: declare; the smallest is also the ``min`` of a source FMU's speed (m/s).
+PARAMETER_LIMITS = (1e-6, 1e12)
 
 #: SI units used by the FMUs, as exponents of the FMI base units.
 UNITS = {
@@ -344,7 +349,8 @@ def parameter_variables(network: Network) -> Tuple[Variable, ...]:
         kind, text = use.get(name, ("mass", name))
         out.append(Variable(name, "parameter", "fixed", PARAMETER_UNITS[kind],
                             text,
-                            start=float(value), min=POSITIVE_MIN))
+                            start=float(value), min=PARAMETER_LIMITS[0],
+                            max=PARAMETER_LIMITS[1]))
     return tuple(out)
 
 

@@ -37,7 +37,7 @@ import os
 import re
 from typing import Dict, Union
 
-from .contract import UNITS
+from .contract import PARAMETER_LIMITS, UNITS
 from .errors import BodyvibError
 from .jsonfile import read_json
 from .network import ELEMENT_KINDS, Element, Network
@@ -62,7 +62,7 @@ PARAMETER_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 #: Parameter values accepted (SI: kg, N/m, N s/m). Far outside any body or vehicle
 #: (the stiffest element shipped is 2.2e9 N/m), the state space and the frequency responses
 #: lose every digit: 1e300 gave |T| of 1e280 or 3e-279 where the true value is about 1.
-PARAMETER_RANGE = (1e-6, 1e12)
+PARAMETER_RANGE = PARAMETER_LIMITS
 
 
 def network_from_file(path: Union[str, os.PathLike]) -> Network:

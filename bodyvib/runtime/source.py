@@ -35,7 +35,7 @@ from typing import Callable, List, Optional, Sequence
 
 import numpy as np
 
-from .contract import POSITIVE_MIN, Interface, Variable
+from .contract import PARAMETER_LIMITS, Interface, Variable
 from .errors import BodyvibError
 
 __all__ = ["SOURCE_FILE", "HermiteTable", "SourceCore", "read_source", "write_source"]
@@ -235,7 +235,7 @@ class SourceCore:
                                f"holds {table.value.shape[1]}")
         sp = meta["speed"]
         self.parameters = (Variable(sp["name"], "parameter", "fixed", sp["unit"], sp["description"],
-                                    start=float(sp["start"]), min=POSITIVE_MIN),)
+                                    start=float(sp["start"]), min=PARAMETER_LIMITS[0]),)
         self.interface = Interface(kind="source", inputs=(), outputs=tuple(outputs),
                                    input_map=np.zeros((0, 0)), rate_pairs=(),
                                    output_signals=tuple(v.name for v in outputs))
