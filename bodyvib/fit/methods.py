@@ -34,6 +34,7 @@ relative ``ftol`` over ``stall_generations`` generations, or after
 ``generations``.
 """
 
+import functools
 import math
 import random
 from dataclasses import dataclass, field
@@ -238,26 +239,24 @@ def ga_search(objective: Callable, space: SearchSpace, settings: dict, seed: int
     return f.result(gen, history, stopped)
 
 
-_TYPES = {}
-
-
+# Not a cache of results: a class made once per process (the functools idiom), on first
+# use so that importing this module does not import DEAP.
+@functools.lru_cache(maxsize=None)
 def _individual_type():
     """DEAP's individual: a list of coordinates with a minimized ``fitness`` (made once)."""
-    if not _TYPES:
-        from deap import base
+    from deap import base
 
-        class Fitness(base.Fitness):
-            weights = (-1.0,)
+    class Fitness(base.Fitness):
+        weights = (-1.0,)
 
-        class Individual(list):
-            __slots__ = ("fitness",)
+    class Individual(list):
+        __slots__ = ("fitness",)
 
-            def __init__(self, values=(), J=None):
-                super().__init__(values)
-                self.fitness = Fitness() if J is None else Fitness((J,))
+        def __init__(self, values=(), J=None):
+            super().__init__(values)
+            self.fitness = Fitness() if J is None else Fitness((J,))
 
-        _TYPES["individual"] = Individual
-    return _TYPES["individual"]
+    return Individual
 
 
 def _individuals(X, J):
