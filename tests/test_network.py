@@ -50,18 +50,18 @@ def test_reduced_model_poles_and_peak_match_design():
     f = np.linspace(0.5, 31.5, 6201)
     peaks = find_peaks(f, np.abs(transmissibility(lm, f)))
     assert len(peaks) == 1
-    assert peaks[0]["frequency_hz"] == pytest.approx(4.43, abs=0.005)
-    assert peaks[0]["modulus"] == pytest.approx(1.446, abs=0.0005)
+    assert peaks[0].frequency_hz == pytest.approx(4.43, abs=0.005)
+    assert peaks[0].modulus == pytest.approx(1.446, abs=0.0005)
 
 
 def test_iso_model_peaks_and_static_mass():
     net = load_model("iso7962")
     f = np.linspace(0.5, 31.5, 6201)
     peaks = find_peaks(f, np.abs(transmissibility(net, f)))
-    assert [p["frequency_hz"] for p in peaks] == [pytest.approx(4.45, abs=0.01),
+    assert [p.frequency_hz for p in peaks] == [pytest.approx(4.45, abs=0.01),
                                                   pytest.approx(11.0, abs=0.1)]
-    assert peaks[0]["modulus"] == pytest.approx(1.665, abs=0.001)
-    assert peaks[1]["modulus"] == pytest.approx(1.02, abs=0.005)
+    assert peaks[0].modulus == pytest.approx(1.665, abs=0.001)
+    assert peaks[1].modulus == pytest.approx(1.02, abs=0.005)
     assert net.total_mass() == pytest.approx(75.0, abs=1e-9)
 
 
