@@ -364,8 +364,7 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
         out.road_displacement, out.road_velocity = road_input(rd, speed, out.time)
     for label, path in body_fmus.items():
         figs = comfort[label].figures()
-        head_fig, seat_fig = (ComfortFigures(**{k: (v[i] if k == "comfort" else float(v[i]))
-                                                for k, v in figs.items()}) for i in (0, 1))
+        head_fig, seat_fig = figs.case(0), figs.case(1)
         run = ref_hist = None
         if histories:
             run = {"time": out.time, "road_displacement": out.road_displacement,
