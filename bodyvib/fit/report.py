@@ -180,7 +180,7 @@ def plot_comparison(result, refit, folder):
     roles = list(t.pairs)
     fig, axes = new_figure(len(roles), 1, sharex=True, figsize=(7, 2.6 * len(roles) + 0.8),
                            squeeze=False)
-    dt = result.config["time_domain"]["dt_s"]
+    dt = result.config.time_domain.dt_s
     models = [(paper, "paper's Table 2", "--"), (refit, "refit (GA)", "-")]
     if t.kind == "model":
         models.insert(0, (t.reference, f"{t.reference.name} (reference)", "k-"))
