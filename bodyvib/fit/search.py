@@ -20,7 +20,7 @@ from typing import List, Optional
 import numpy as np
 
 from ..process import interrupts
-from .config import FitConfig, PolishSettings, load_config, log_bounds
+from .config import FitConfig, load_config, log_bounds
 from .methods import METHODS, search
 from .objective import FitTarget, parameter_array
 from .result import FitResult
@@ -158,7 +158,7 @@ def polish(objective_of_genes, x0, lo, hi, pcfg):
         Start.
     lo, hi : ndarray, shape (6,)
         Bounds of the genes.
-    pcfg : PolishSettings
+    pcfg : bodyvib.fit.config.PolishSettings
         The configuration's ``polish`` section (``method``, ``max_iterations``).
 
     Returns
