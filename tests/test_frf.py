@@ -1,21 +1,15 @@
 """The ``bodyvib frf`` command, run as a user runs it."""
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
 from bodyvib.frequency.response import find_peaks, transmissibility
 from bodyvib.frequency.compare import compare_transmissibility, format_table
-from conftest import dynamic_stiffness_response
+from helpers import dynamic_stiffness_response, run_cli
 from bodyvib.models import load_model
 
-
-def run_cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "bodyvib_cli", *args], capture_output=True,
-                          text=True, cwd=cwd)
 
 
 def test_frf_writes_plot_and_json(tmp_path):

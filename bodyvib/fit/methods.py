@@ -7,7 +7,7 @@ differential evolution (``scipy.optimize.differential_evolution``) are there
 to compare it with (``bodyvib fit --method``, ``benchmarks/bench_fit_methods.py``).
 
 **Coordinates.** The fit's genes are ``log10`` of ``m1/M, k1/M, k2/M, ks/M,
-c1/M, c2/M`` (``bodyvib.fit.GENES``), bounded by the configuration. The
+c1/M, c2/M`` (:data:`bodyvib.fit.space.GENES`), bounded by the configuration. The
 methods search a linear change of them,
 
     z = (log m1/M, log k1/m1, log k2/M, log ks/M, log c1/m1, log c2/M),

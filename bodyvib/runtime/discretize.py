@@ -171,7 +171,7 @@ class StepCache:
     """Matrices computed once per step size, memory bounded: the run-time's one cache.
 
     A run steps at one or a few sizes; a host that varies its step without end would grow
-    a plain dict, so past :attr:`limit` entries the cache starts over.
+    a plain dict, so past ``limit`` entries the cache starts over.
 
     Parameters
     ----------

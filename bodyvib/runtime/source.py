@@ -194,7 +194,7 @@ def read_source(path):
 
 
 class SourceCore:
-    """State and stepping of one source FMU instance (the :class:`FmuCore` API).
+    """State and stepping of one source FMU instance (the :class:`bodyvib.runtime.engine.FmuCore` API).
 
     Parameters
     ----------
