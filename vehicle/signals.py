@@ -20,10 +20,10 @@ none: it is the occupant's own output moved onto the seated system
 """
 
 from dataclasses import dataclass
-from typing import Dict, Optional, Tuple
+from typing import Dict, Literal, Optional, Tuple
 
 __all__ = ["Signal", "SIGNALS", "UNITS", "MASTER_SIGNALS", "CAR_SIGNALS", "BODY_SIGNALS",
-           "signal", "header", "axis_label"]
+           "header", "axis_label"]
 
 
 @dataclass(frozen=True)
@@ -50,7 +50,7 @@ class Signal:
     name: str
     unit: str
     meaning: str
-    source: str
+    source: Literal["grid", "road", "car", "body"]
     variable: Optional[str] = None
     seated: Optional[str] = None
 
@@ -82,8 +82,6 @@ SIGNALS: Tuple[Signal, ...] = (
            "body.torso.x"),
 )
 
-_BY_NAME: Dict[str, Signal] = {s.name: s for s in SIGNALS}
-
 #: Unit of each signal by name.
 UNITS: Dict[str, str] = {s.name: s.unit for s in SIGNALS}
 
@@ -96,30 +94,6 @@ BODY_SIGNALS: Tuple[Signal, ...] = tuple(s for s in SIGNALS if s.source == "body
 #: Names of the signals the master records (car, then body): the columns of
 #: :meth:`vehicle.cosim.Master.advance`.
 MASTER_SIGNALS: Tuple[str, ...] = tuple(s.name for s in CAR_SIGNALS + BODY_SIGNALS)
-
-
-def signal(name: str) -> Signal:
-    """The signal of a name.
-
-    Parameters
-    ----------
-    name : str
-
-    Returns
-    -------
-    Signal
-
-    Raises
-    ------
-    KeyError
-        Not a signal of a run.
-
-    Examples
-    --------
-    >>> signal("tire_force").unit
-    'N'
-    """
-    return _BY_NAME[name]
 
 
 def header(column: str) -> str:
@@ -143,8 +117,8 @@ def header(column: str) -> str:
     >>> header("gain")
     'gain'
     """
-    s = _BY_NAME.get(column.rpartition(".")[2].replace("reference_", ""))
-    return f"{column} [{s.unit}]" if s else column
+    unit = UNITS.get(column.rpartition(".")[2].replace("reference_", ""))
+    return f"{column} [{unit}]" if unit else column
 
 
 def axis_label(name: str) -> str:
@@ -164,4 +138,4 @@ def axis_label(name: str) -> str:
     >>> axis_label("head_acceleration")
     'head acceleration [m/s2]'
     """
-    return f"{name.replace('_', ' ')} [{signal(name).unit}]"
+    return f"{name.replace('_', ' ')} [{UNITS[name]}]"

@@ -417,10 +417,8 @@ def stream_comfort_figures(acceleration, fs: float, block: int = 4096) -> Comfor
     ----------
     acceleration : (n,) array_like
         Unweighted acceleration, m/s2.
-    fs : float
-        Sampling rate in Hz.
-    block : int
-        Samples per update (the result does not depend on it beyond rounding).
+    fs, block
+        As :func:`stream_batch_figures`.
 
     Returns
     -------
@@ -429,8 +427,7 @@ def stream_comfort_figures(acceleration, fs: float, block: int = 4096) -> Comfor
     Raises
     ------
     BodyvibError
-        Not one record (a batch goes to :func:`stream_batch_figures`), non-finite
-        samples, fewer than two samples, a bad sampling rate.
+        Not one record (a batch goes to :func:`stream_batch_figures`), or as that.
 
     Examples
     --------

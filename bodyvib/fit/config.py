@@ -408,11 +408,7 @@ def parse_pairs(text: str) -> Dict[str, float]:
     Returns
     -------
     dict of str to float
-
-    Raises
-    ------
-    BodyvibError
-        Unknown role, repeated role, or a weight that is not a positive number.
+        As :func:`check_pairs`, which raises on bad pairs.
 
     Examples
     --------

@@ -64,15 +64,9 @@ class ModelTransmissibility:
 
 @dataclass(frozen=True)
 class TransmissibilityComparison:
-    """Several models' transmissibility on one frequency grid (:func:`compare_transmissibility`).
-
-    Attributes
-    ----------
-    frequency_hz : ndarray
-        The common logarithmic grid, Hz.
-    models : dict of str to ModelTransmissibility
-        Label -> curve, in the order given.
-    """
+    """Several models' transmissibility on one frequency grid (:func:`compare_transmissibility`):
+    ``frequency_hz`` (the common logarithmic grid, Hz) and ``models`` (label ->
+    :class:`ModelTransmissibility`, in the order given)."""
 
     frequency_hz: np.ndarray
     models: Dict[str, ModelTransmissibility]

@@ -176,15 +176,8 @@ def apparent_mass(model, frequencies_hz) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Peak:
-    """A peak of a modulus curve: where (Hz) and how high.
-
-    Attributes
-    ----------
-    frequency_hz : float
-    modulus : float
-        The curve's value at the peak: dimensionless for a transmissibility, kg for an
-        apparent mass.
-    """
+    """A peak of a modulus curve: where (``frequency_hz``, Hz) and how high (``modulus``, the
+    curve's value: dimensionless for a transmissibility, kg for an apparent mass)."""
 
     frequency_hz: float
     modulus: float
