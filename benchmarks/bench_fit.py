@@ -47,7 +47,7 @@ def population(n, seed=0):
     ratios, within the bounds (uniform draws over the whole box include nearly
     undamped models whose time-domain horizon runs to hours)."""
     cfg = load_config()
-    b = cfg["bounds_per_kg_total_mass"]
+    b = cfg.bounds_per_kg_total_mass
     lo, hi = np.log10([b[g][0] for g in GENES]), np.log10([b[g][1] for g in GENES])
     centre = parameters_to_genes(parameter_array(load_model(REFIT)))
     genes = centre + 0.3 * np.random.default_rng(seed).standard_normal((n, len(GENES)))

@@ -22,6 +22,7 @@ import argparse
 import statistics
 import sys
 import time
+from dataclasses import replace
 
 import numpy as np
 from threadpoolctl import threadpool_limits
@@ -66,8 +67,8 @@ def main(argv=None):
     cfg = load_config()
     target = model_target("iso7962", config=cfg)
     lo, hi = log_bounds(cfg)
-    settings = {"ga": cfg["ga"], "ga-genes": dict(cfg["ga"], coordinates="genes"),
-                "cmaes": cfg["cmaes"], "de": cfg["de"]}
+    settings = {"ga": cfg.ga, "ga-genes": replace(cfg.ga, coordinates="genes"),
+                "cmaes": cfg.cmaes, "de": cfg.de}
     methods = args.methods.split(",")
     rows = {m: [] for m in methods}
     with threadpool_limits(1, user_api="blas"):
@@ -102,7 +103,7 @@ def main(argv=None):
         for key, limit in (("1 thread", 1), ("BLAS default", None)):
             with threadpool_limits(limit, user_api="blas"):
                 t0 = time.perf_counter()
-                polish(objective, best, lo, hi, cfg["polish"])
+                polish(objective, best, lo, hi, cfg.polish)
                 times[key].append(time.perf_counter() - t0)
     med = {k: statistics.median(v) for k, v in times.items()}
     print(f"L-BFGS-B polish from 0.01 decades off the optimum, median of {args.repeats}: "

@@ -18,7 +18,7 @@ def _run(args):
     print(format_table(result))
     with staged_writes(guard=interrupts.critical) as written:  # all outputs or none
         if args.json:
-            write_json(args.json, result)
+            write_json(args.json, result.to_dict())
         if args.plot:
             plot_transmissibility(result, args.plot)
         interrupts.check()  # Ctrl-C while rendering: discard, keep the old files

@@ -1,9 +1,10 @@
 """The ``bodyvib`` command line: the parser and the one place where errors become exit codes.
 
 Each sub-command is a module of :mod:`bodyvib_cli` that registers itself through
-an ``add_command(subparsers)`` function listed in :data:`COMMAND_MODULES`. Errors a user can cause (:class:`BodyvibError`,
-unreadable files) print one line and exit with status 2, without a traceback. Ctrl-C
-ends any command with the single line ``interrupted`` and status 130: the command runs
+an ``add_command(subparsers)`` function listed in :data:`COMMAND_MODULES`. Errors a user
+can cause (:class:`bodyvib.runtime.errors.BodyvibError`, unreadable files) print one line
+and exit with status 2, without a traceback. Ctrl-C ends any command with the single line
+``interrupted`` and status 130: the command runs
 inside :func:`bodyvib.process.interrupts.deferred`, so the interrupt is taken at a safe point,
 never inside an FMU, and outputs are committed all together or not at all.
 """

@@ -1,4 +1,5 @@
-"""Shared test helpers: independent reference computations; a temporary directory kept clean."""
+"""Fixtures shared by the tests (the FMU sets, built once per session) and a temporary
+directory kept clean. Shared helper functions are in ``helpers.py``."""
 
 import os
 import shutil
@@ -9,49 +10,27 @@ import tempfile
 import numpy as np
 import pytest
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from helpers import ROOT
 
-
-def dynamic_stiffness_response(net, f_hz, point):
-    """X_point / X_base by nodal analysis in the frequency domain.
-
-    Independent of bodyvib.runtime.network.linear_model: every spring is k, every
-    damper c*s, every mass m*s^2, and the unknown displacements of all masses
-    and nodes solve K(s) X = F(s) with the base displaced by 1.
-    """
-    springs, dampers = net.primitives()
-    pts = list(net.mass_names) + list(net.node_names)
-    idx = {p: i for i, p in enumerate(pts)}
-    masses = net.mass_values()
-    out = []
-    for f in np.atleast_1d(f_hz):
-        s = 2j * np.pi * f
-        K = np.zeros((len(pts), len(pts)), complex)
-        F = np.zeros(len(pts), complex)
-        for (a, b, z) in [(a, b, k) for a, b, k in springs] + [(a, b, c * s) for a, b, c in dampers]:
-            for p, q in ((a, b), (b, a)):
-                if p in idx:
-                    K[idx[p], idx[p]] += z
-                    if q in idx:
-                        K[idx[p], idx[q]] -= z
-                    else:  # base, displaced by 1
-                        F[idx[p]] += z
-        for m, mv in masses.items():
-            K[idx[m], idx[m]] += mv * s * s
-        X = np.linalg.solve(K, F)
-        out.append(X[idx[net.point(point)]])
-    return np.array(out)
+FMU_NAMES = ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar")
 
 
 @pytest.fixture(scope="session")
-def project_fmus(tmp_path_factory):
-    """The project's three FMUs, built once per session as a user does (``python
-    build_fmu.py`` in a subprocess): name -> .fmu path."""
-    dest = tmp_path_factory.mktemp("fmus")
+def python_fmu_dir(tmp_path_factory):
+    """The folder ``python build_fmu.py --dest DIR`` fills, built once per session as a user
+    builds it (a subprocess): the pythonfmu FMUs, ``Road.fmu`` and the SSP. Shared by every
+    test: read it, never change it (copy an FMU into ``tmp_path`` first)."""
+    dest = tmp_path_factory.mktemp("python_fmus")
     out = subprocess.run([sys.executable, os.path.join(ROOT, "build_fmu.py"), "--dest", str(dest)],
                          cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert out.returncode == 0, out.stdout + out.stderr
-    return {n: str(dest / f"{n}.fmu") for n in ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar")}
+    return dest
+
+
+@pytest.fixture(scope="session")
+def python_fmus(python_fmu_dir):
+    """The project's three pythonfmu FMUs of ``python_fmu_dir``: name -> .fmu path."""
+    return {n: str(python_fmu_dir / f"{n}.fmu") for n in FMU_NAMES}
 
 
 @pytest.fixture
@@ -105,8 +84,6 @@ def pytest_sessionfinish(session, exitstatus):
 def native_dist(tmp_path_factory):
     """What ``build_fmu.py --native`` writes (once per session): its ``native`` folder, with
     the FMI 2.0 FMUs and SSP, and ``fmi3/`` with the FMI 3.0 ones."""
-    import subprocess
-
     dest = tmp_path_factory.mktemp("native_fmus")
     out = subprocess.run([sys.executable, "build_fmu.py", "--native", "--dest", str(dest)],
                          cwd=ROOT, capture_output=True, text=True, timeout=600)
@@ -117,19 +94,6 @@ def native_dist(tmp_path_factory):
 @pytest.fixture(scope="session")
 def native_fmus(native_dist):
     """The native body and car FMUs: ``"<name>"`` (FMI 2.0) and ``"fmi3/<name>"`` -> .fmu path."""
-    names = ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar")
-    paths = {n: str(native_dist / f"{n}.fmu") for n in names}
-    paths.update({f"fmi3/{n}": str(native_dist / "fmi3" / f"{n}.fmu") for n in names})
+    paths = {n: str(native_dist / f"{n}.fmu") for n in FMU_NAMES}
+    paths.update({f"fmi3/{n}": str(native_dist / "fmi3" / f"{n}.fmu") for n in FMU_NAMES})
     return paths
-
-
-@pytest.fixture(scope="session")
-def python_fmus(tmp_path_factory):
-    """The pythonfmu FMUs, built once by ``build_fmu.py``: name -> .fmu path."""
-    import subprocess
-
-    dest = tmp_path_factory.mktemp("python_fmus")
-    out = subprocess.run([sys.executable, "build_fmu.py", "--dest", str(dest)],
-                         cwd=ROOT, capture_output=True, text=True, timeout=600)
-    assert out.returncode == 0, out.stdout + out.stderr
-    return {n: str(dest / f"{n}.fmu") for n in ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar")}

@@ -16,7 +16,7 @@ import pytest
 from bodyvib.comfort.figures import weighted_rms
 from bodyvib.comfort.stream import stream_comfort_figures
 from bodyvib.runtime.errors import BodyvibError
-from conftest import ROOT
+from helpers import ROOT, run_cli
 from vehicle.study import coupling_error_sweep, run_study
 from vehicle.cosim import cosimulate, model_from_fmu, open_fmu, write_csv
 from vehicle.reference import nrmse, reference_run
@@ -26,14 +26,14 @@ pytestmark = pytest.mark.integration
 
 
 @pytest.fixture(scope="session")
-def fmus(project_fmus, tmp_path_factory):
+def fmus(python_fmus, tmp_path_factory):
     cushion = tmp_path_factory.mktemp("fmus_cushion")
     subprocess.run([sys.executable, "-c",
                     "import sys; from vehicle.fmus import build_project_fmu; "
                     "build_project_fmu('QuarterCar', sys.argv[1], 'quarter-car-cushion')", str(cushion)],
                    check=True, cwd=ROOT, capture_output=True)
-    return {"body": project_fmus["HumanBody3DOF"], "iso": project_fmus["HumanBodyISO7962"],
-            "car": project_fmus["QuarterCar"], "cushion": str(cushion / "QuarterCar.fmu")}
+    return {"body": python_fmus["HumanBody3DOF"], "iso": python_fmus["HumanBodyISO7962"],
+            "car": python_fmus["QuarterCar"], "cushion": str(cushion / "QuarterCar.fmu")}
 
 
 @pytest.mark.parametrize("which", ["body", "iso"])
@@ -108,16 +108,12 @@ def test_fmu_without_body_interface_is_refused(fmus):
             pass
 
 
-def _cli(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "bodyvib_cli", *args], cwd=cwd,
-                          capture_output=True, text=True)
-
 
 def test_check_cli_end_to_end(fmus, tmp_path):
     """`bodyvib check` with FMUs built by the command itself; JSON keys as documented
     and consistent with the CSV written in the same run (the weighted r.m.s. is
     recomputed from the CSV's head acceleration)."""
-    p = _cli("check", "--duration", "6", "--json", "c.json", "--plot", "c.png", "--csv", "c.csv",
+    p = run_cli("check", "--duration", "6", "--json", "c.json", "--plot", "c.png", "--csv", "c.csv",
              cwd=tmp_path)
     assert p.returncode == 0, p.stderr
     assert "verdict: " in p.stdout
@@ -148,7 +144,7 @@ def test_check_cli_end_to_end(fmus, tmp_path):
 
 
 def test_cosim_cli_with_iso_body_fmu(fmus, tmp_path):
-    p = _cli("cosim", "--road", "B", "--duration", "3", "--body", fmus["iso"], "--car-fmu",
+    p = run_cli("cosim", "--road", "B", "--duration", "3", "--body", fmus["iso"], "--car-fmu",
              fmus["car"], "--json", "r.json", "--quiet", cwd=tmp_path)
     assert p.returncode == 0, p.stderr
     doc = json.loads((tmp_path / "r.json").read_text())
@@ -167,7 +163,7 @@ def test_cosim_cli_with_iso_body_fmu(fmus, tmp_path):
     (["--params", "missing.json"], "model file 'missing.json' does not exist"),
 ])
 def test_cli_errors_are_one_line(tmp_path, args, words):
-    p = _cli("cosim", "--quiet", *args, cwd=tmp_path)
+    p = run_cli("cosim", "--quiet", *args, cwd=tmp_path)
     assert p.returncode == 2
     assert words in p.stderr
     assert len(p.stderr.strip().splitlines()) == 1, p.stderr
@@ -175,7 +171,7 @@ def test_cli_errors_are_one_line(tmp_path, args, words):
 
 def test_bad_car_model_is_refused_before_any_fmu_is_built(tmp_path):
     """A mistyped --car used to cost a HumanBody3DOF build before it was noticed."""
-    p = _cli("cosim", "--car", "nope", cwd=tmp_path)
+    p = run_cli("cosim", "--car", "nope", cwd=tmp_path)
     assert p.returncode == 2 and "unknown vehicle model" in p.stderr
     assert "building" not in p.stderr
 

@@ -12,7 +12,7 @@ import subprocess
 
 import pytest
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from helpers import ROOT
 ARCH = os.path.join(ROOT, "docs", "architecture.md")
 
 
@@ -83,3 +83,94 @@ def test_readme_layout_lists_the_top_level_of_the_tree():
             for mod in ln.split():
                 if mod.endswith(".py"):
                     assert os.path.isfile(os.path.join(ROOT, "bodyvib", mod)), mod
+
+
+# -- cross-references resolve -------------------------------------------------
+ROLE = re.compile(r":(func|class|mod|meth|data|attr):`([^`]+)`")
+PACKAGES = ("bodyvib", "vehicle", "bodyvib_cli")
+
+
+def module_of(path):
+    """The module a tracked file is, or None (docs, scripts)."""
+    if not path.endswith(".py") or path.split("/")[0] not in PACKAGES:
+        return None
+    name = path[:-3].replace("/", ".")
+    return name[: -len(".__init__")] if name.endswith(".__init__") else name
+
+
+def _walk(obj, parts):
+    """getattr along ``parts``; a dataclass field or an attribute the class's numpydoc
+    ``Attributes`` section lists counts (instance attributes are not on the class)."""
+    import dataclasses
+    import inspect
+
+    for i, part in enumerate(parts):
+        if hasattr(obj, part):
+            obj = getattr(obj, part)
+            continue
+        last = i == len(parts) - 1
+        if last and inspect.isclass(obj) and (
+                (dataclasses.is_dataclass(obj) and part in {f.name for f in dataclasses.fields(obj)})
+                or re.search(rf"^\s*{re.escape(part)}\b.*:", inspect.getdoc(obj) or "", re.M)):
+            return True
+        return False
+    return True
+
+
+def resolves(target, context):
+    """Whether a Sphinx cross-reference names a real object: a dotted name from the top
+    (``bodyvib.frequency.response.find_peaks``), or relative to the module it is written
+    in, one of that module's classes, or its package (Sphinx's look-up order)."""
+    import importlib
+    import inspect
+
+    target = target.strip().lstrip("~")
+    if "<" in target:  # "title <target>"
+        target = target[target.index("<") + 1:target.rindex(">")]
+    if target.startswith(".") and context:  # relative to the current package
+        pkg = context if context in PACKAGES or os.path.basename(
+            importlib.import_module(context).__file__) == "__init__.py" else context.rpartition(".")[0]
+        target = f"{pkg}{target}"
+    parts = target.split(".")
+    for i in range(len(parts), 0, -1):
+        try:
+            module = importlib.import_module(".".join(parts[:i]))
+        except ImportError:
+            continue
+        if _walk(module, parts[i:]):
+            return True
+        break
+    if context:
+        module = importlib.import_module(context)
+        scopes = [module] + [c for _, c in inspect.getmembers(module, inspect.isclass)]
+        if "." in context:
+            scopes.append(importlib.import_module(context.rpartition(".")[0]))
+        return any(_walk(scope, parts) for scope in scopes)
+    return False
+
+
+def test_every_cross_reference_resolves_to_a_real_object():
+    """Every :func:/:class:/:mod:/:meth:/:data:/:attr: in the library's docstrings and the
+    docs names something that imports (a renamed or moved name left references behind)."""
+    refs, bad = 0, []
+    for f in tracked():
+        if not (f.endswith(".md") or module_of(f)):
+            continue
+        context = module_of(f)
+        for m in ROLE.finditer(text(f)):
+            refs += 1
+            if not resolves(m.group(2), context):
+                bad.append(f"{f}: {m.group(0)}")
+    assert refs > 300, refs  # the references were found
+    assert not bad, bad
+
+
+@pytest.mark.parametrize("ref, context", [
+    ("bodyvib.network.LinearModel.output_index", None),   # the module moved
+    ("bodyvib.models.network_from_dict", None),           # the function moved
+    ("SIGNALS.nope", "vehicle.signals"),
+    ("no_such_name", "vehicle.cosim"),
+    ("bodyvib.runtime.engine.FmuCore.no_such_attribute", None),
+])
+def test_a_stale_reference_is_caught(ref, context):
+    assert not resolves(ref, context)

@@ -25,7 +25,7 @@ from bodyvib.runtime.network import linear_model
 
 pytestmark = pytest.mark.integration
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from helpers import ROOT
 OUTPUTS = {"head_acceleration": "head.a", "head_displacement": "head.x",
            "torso_displacement": "torso.x", "seat_force": "seat_force"}
 

@@ -37,17 +37,17 @@ def test_ga_alone_reaches_the_best_known_objective(problem, seed):
     """No polish: the genetic algorithm itself gets within 1e-6 of J* (10 of 10 seeds in
     benchmarks/bench_fit_methods.py; three here to keep the suite short)."""
     cfg, target, lo, hi = problem
-    r = search("ga", objective(target), lo, hi, cfg["ga"], seed)
+    r = search("ga", objective(target), lo, hi, cfg.ga, seed)
     assert r.objective <= J_STAR * (1 + TOL)
     assert np.all(r.genes >= lo) and np.all(r.genes <= hi)
-    assert r.evaluations == cfg["ga"]["population"] * (r.generations + 1)
+    assert r.evaluations == cfg.ga.population * (r.generations + 1)
     assert r.history == sorted(r.history, reverse=True)  # elitism: the best never worsens
 
 
 @pytest.mark.parametrize("method", ["cmaes", "de"])
 def test_comparators_reach_the_best_known_objective(problem, method):
     cfg, target, lo, hi = problem
-    r = search(method, objective(target), lo, hi, cfg[method], seed=1)
+    r = search(method, objective(target), lo, hi, cfg.settings(method), seed=1)
     assert r.objective <= J_STAR * (1 + TOL)
     lib = {"cmaes": "cma", "de": "scipy"}[method]
     assert f"{lib} {version(lib)}" in describe(method)  # the provenance names the library
@@ -83,4 +83,4 @@ def test_unknown_method_is_refused(problem):
     cfg, target, lo, hi = problem
     assert METHODS == ("ga", "cmaes", "de")
     with pytest.raises(BodyvibError, match="unknown search method 'pso'"):
-        search("pso", objective(target), lo, hi, cfg["ga"], 1)
+        search("pso", objective(target), lo, hi, cfg.ga, 1)

@@ -2,8 +2,6 @@
 
 import csv
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -16,16 +14,12 @@ from bodyvib.fit.pareto import (_GRID, FREQUENCY_TOLERANCE_HZ, MODULUS_TOLERANCE
 from bodyvib.fit.space import REDUCED_PARAMETERS
 from bodyvib.frequency.response import transmissibility
 from bodyvib.models import load_model
-from conftest import ROOT
+from helpers import ROOT, run_cli
 
 #: A short NSGA-II for tests (the shipped 100 x 200 takes a few seconds).
 SMALL = {"pareto": {"population": 40, "generations": 40}}
 SHIPPED = load_model(f"{ROOT}/params/refit-iso7962.json")
 
-
-def run_cli(*args):
-    return subprocess.run([sys.executable, "-m", "bodyvib_cli", *args], capture_output=True,
-                          text=True)
 
 
 def exact_peak(net, f0):

@@ -49,7 +49,7 @@ from bodyvib.runtime.network import linear_model
 
 pytestmark = pytest.mark.integration
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from helpers import ROOT
 HOST_SOURCE = os.path.join(ROOT, "tests", "c_host", "fmi2_host.c")
 MODEL_OF = {"HumanBody3DOF": "reduced-paper", "HumanBodyISO7962": "iso7962"}
 BODY_OUT = list(BODY_OUTPUTS[:4])  # the four the host reads (not seat_force_rate)
@@ -111,9 +111,9 @@ def host(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def fmus(project_fmus):
+def fmus(python_fmus):
     """The two body FMUs (built once per session, tests/conftest.py): name -> .fmu path."""
-    return {name: project_fmus[name] for name in MODEL_OF}
+    return {name: python_fmus[name] for name in MODEL_OF}
 
 
 def extracted(path, folder):

@@ -27,7 +27,6 @@ from bodyvib.models import save_model
 from bodyvib.runtime.network import linear_model
 from vehicle.quarter_car import load_car
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BODY_OUT = ("head.a", "head.x", "torso.x", "seat_force")
 
 

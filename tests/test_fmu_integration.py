@@ -31,7 +31,7 @@ from vehicle.quarter_car import CAR_FMU_OUTPUTS, load_car
 
 pytestmark = pytest.mark.integration
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from helpers import ROOT
 NAMES = ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar")
 MODEL_OF = {"HumanBody3DOF": "reduced-paper", "HumanBodyISO7962": "iso7962"}
 BODY_RATE = "seat_force_rate"
@@ -44,8 +44,8 @@ FMI_DISCARD = 2
 
 
 @pytest.fixture(scope="session")
-def fmus(project_fmus):
-    return {n: project_fmus[n] for n in NAMES}
+def fmus(python_fmus):
+    return {n: python_fmus[n] for n in NAMES}
 
 
 def piecewise_linear(t, every=25, scale=0.01, seed=3):

@@ -1,21 +1,15 @@
 """The ``bodyvib frf`` command, run as a user runs it."""
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
 from bodyvib.frequency.response import find_peaks, transmissibility
 from bodyvib.frequency.compare import compare_transmissibility, format_table
-from conftest import dynamic_stiffness_response
+from helpers import dynamic_stiffness_response, run_cli
 from bodyvib.models import load_model
 
-
-def run_cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "bodyvib_cli", *args], capture_output=True,
-                          text=True, cwd=cwd)
 
 
 def test_frf_writes_plot_and_json(tmp_path):
@@ -62,13 +56,14 @@ def test_frf_errors_are_one_line(tmp_path, args, message):
 
 
 def test_peak_refinement_against_dense_grid():
-    coarse = compare_transmissibility(["iso7962"], points=300)["models"]["iso7962"]["peaks"]
+    coarse = compare_transmissibility(["iso7962"], points=300).models["iso7962"].peaks
     f = np.linspace(3, 13, 20001)
     from bodyvib.frequency.response import transmissibility
     dense = find_peaks(f, np.abs(transmissibility(load_model("iso7962"), f)))
-    for c, d in zip(coarse, dense):
-        assert c["frequency_hz"] == pytest.approx(d["frequency_hz"], rel=2e-3)
-        assert c["modulus"] == pytest.approx(d["modulus"], rel=1e-4)
+    assert len(coarse) == len(dense) == 2  # ISO 7962's two resonances in 3-13 Hz
+    for c, d in zip(coarse, dense, strict=True):
+        assert c.frequency_hz == pytest.approx(d.frequency_hz, rel=2e-3)
+        assert c.modulus == pytest.approx(d.modulus, rel=1e-4)
 
 
 def test_table_lists_third_octaves():
@@ -96,13 +91,13 @@ def test_models_with_one_name_keep_both_curves(tmp_path):
     save_model(replace(base, name="refit"), tmp_path / "a.json")
     save_model(replace(base.with_parameters(m1=6.0), name="refit"), tmp_path / "b.json")
     r = compare_transmissibility([str(tmp_path / "a.json"), str(tmp_path / "b.json")], points=50)
-    assert list(r["models"]) == ["refit (a.json)", "refit (b.json)"]
-    a, b = (np.array(m["modulus"]) for m in r["models"].values())
+    assert list(r.models) == ["refit (a.json)", "refit (b.json)"]
+    a, b = (m.modulus for m in r.models.values())
     assert np.max(np.abs(a - b)) > 0.01  # two different curves
     table = format_table(r)
     assert "refit (a.json)" in table and "refit (b.json)" in table
     r2 = compare_transmissibility(["reduced-paper", "reduced-paper"], points=50)
-    assert list(r2["models"]) == ["reduced-paper", "reduced-paper #2"]
+    assert list(r2.models) == ["reduced-paper", "reduced-paper #2"]
 
 
 def test_absurd_parameters_are_refused_not_printed(tmp_path):

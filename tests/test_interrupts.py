@@ -18,19 +18,10 @@ import time
 
 import pytest
 
-from conftest import ROOT
 
 pytestmark = pytest.mark.integration
 
 OLD = "old content\n"
-
-
-@pytest.fixture(scope="module")
-def fmus(tmp_path_factory):
-    d = tmp_path_factory.mktemp("fmus")
-    subprocess.run([sys.executable, os.path.join(ROOT, "build_fmu.py"), "--dest", str(d)],
-                   check=True, cwd=ROOT, capture_output=True)
-    return d
 
 
 def _fit_config(folder):
@@ -81,11 +72,12 @@ def _interrupt(argv, delay, cwd, twice=False):
     return proc.returncode, out, err
 
 
-def test_ctrl_c_at_random_points_never_crashes_and_keeps_outputs_all_or_none(fmus, tmp_path):
+def test_ctrl_c_at_random_points_never_crashes_and_keeps_outputs_all_or_none(python_fmu_dir,
+                                                                            tmp_path):
     rng = random.Random(20261201)
     tmp_path.joinpath("report").mkdir()
     tmp_path.joinpath("dist").mkdir()
-    commands = _commands(fmus, tmp_path)
+    commands = _commands(python_fmu_dir, tmp_path)
     tried, interrupted, t_end = 0, 0, time.monotonic() + 420  # bounded time
     trials = [c for c in commands for _ in range(4)]
     rng.shuffle(trials)

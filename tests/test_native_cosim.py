@@ -15,14 +15,12 @@ algorithm on the same deterministic FMUs, so they agree with each other to 1e-12
 """
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
 from bodyvib.models import load_model
-from conftest import ROOT
+from helpers import ROOT, run_cli
 from vehicle.quarter_car import load_car
 from vehicle.reference import nrmse, reference_run
 
@@ -154,15 +152,11 @@ def test_libcosim_and_ecos_agree(hosts, native_fmus):
     assert np.max(np.abs(a - b)) <= 1e-12 * np.max(np.abs(a))
 
 
-def _cli(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "bodyvib_cli", *args], capture_output=True,
-                          text=True, timeout=600, cwd=cwd)
-
 
 def test_bodyvib_master_takes_native_fmus_given_as_files(native_fmus, python_fmus, tmp_path):
     runs = {}
     for label, fmus in (("native", native_fmus), ("python", python_fmus)):
-        out = _cli("cosim", "--body", fmus["HumanBody3DOF"], "--car-fmu", fmus["QuarterCar"],
+        out = run_cli("cosim", "--body", fmus["HumanBody3DOF"], "--car-fmu", fmus["QuarterCar"],
                    "--duration", "2", "--quiet", "--json", str(tmp_path / f"{label}.json"),
                    cwd=ROOT)
         assert out.returncode == 0, out.stderr
@@ -180,7 +174,7 @@ def test_bodyvib_master_takes_native_fmus_given_as_files(native_fmus, python_fmu
 
 @pytest.mark.parametrize("command", ["cosim", "check"])
 def test_native_option_builds_native_fmus_for_the_run(command, tmp_path):
-    out = _cli(command, "--native", "--duration", "1", "--json", str(tmp_path / "r.json"),
+    out = run_cli(command, "--native", "--duration", "1", "--json", str(tmp_path / "r.json"),
                cwd=ROOT)
     assert out.returncode == 0, out.stderr
     assert "building" in out.stderr

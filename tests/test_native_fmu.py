@@ -34,7 +34,7 @@ from bodyvib.models import load_model
 from bodyvib.runtime.discretize import input_rates, simulate
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import linear_model
-from conftest import ROOT
+from helpers import ROOT
 from vehicle.quarter_car import load_car
 
 pytestmark = pytest.mark.integration

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from bodyvib.models import load_model
-from conftest import ROOT
+from helpers import ROOT
 from test_native_fmu import BODY_OUT, MODEL_OF, TIGHT, body_reference, relative_error, tolerance
 
 pytestmark = pytest.mark.integration

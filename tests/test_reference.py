@@ -6,7 +6,7 @@ import pytest
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.frequency.response import transmissibility
 from bodyvib.models import load_model
-from conftest import dynamic_stiffness_response
+from helpers import dynamic_stiffness_response
 from bodyvib.frequency.estimate import estimate_transmissibility
 from vehicle.quarter_car import load_car, seated_system
 from vehicle.reference import nrmse, reference_run

@@ -9,12 +9,8 @@ import zipfile
 
 import pytest
 
-from conftest import ROOT
+from helpers import ROOT, run_cli
 
-
-def _cli(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "bodyvib_cli", *args], cwd=cwd,
-                          capture_output=True, text=True, timeout=300)
 
 
 def _one_line_error(p, words):
@@ -44,7 +40,7 @@ def test_cosim_and_check_refuse_before_any_work(tmp_path, command, args, words):
     (tmp_path / "adir.json").mkdir()
     (tmp_path / "adir").mkdir()
     os.mkfifo(tmp_path / "pipe.csv")
-    p = _cli(command, "--quiet", "--duration", "2", *args, cwd=tmp_path)
+    p = run_cli(command, "--quiet", "--duration", "2", *args, cwd=tmp_path)
     _one_line_error(p, words)
     assert p.stdout == ""  # no work done, nothing printed
     assert (tmp_path / "X.fmu").read_bytes() == b"PK not really an FMU"
@@ -53,7 +49,7 @@ def test_cosim_and_check_refuse_before_any_work(tmp_path, command, args, words):
 
 def test_build_refuses_an_fmu_path_that_is_a_folder(tmp_path):
     (tmp_path / "dist" / "QuarterCar.fmu").mkdir(parents=True)
-    p = _cli("build", "--dest", "dist", cwd=tmp_path)
+    p = run_cli("build", "--dest", "dist", cwd=tmp_path)
     _one_line_error(p, "QuarterCar.fmu' is a folder")
 
 
@@ -83,30 +79,22 @@ def test_failed_build_keeps_the_folders_previous_fmus(tmp_path):
     assert sorted(os.listdir(dest)) == ["HumanBody3DOF.fmu"]  # no temporaries left
 
 
-@pytest.fixture(scope="module")
-def built(tmp_path_factory):
-    d = tmp_path_factory.mktemp("fmus")
-    subprocess.run([sys.executable, os.path.join(ROOT, "build_fmu.py"), "--dest", str(d)],
-                   check=True, cwd=ROOT, capture_output=True)
-    return d
-
-
 @pytest.mark.integration
 @pytest.mark.parametrize("drop, words", [
     (lambda n: n.startswith("resources/"), "no resources/slavemodule.txt"),
     (lambda n: n.startswith("resources/bodyvib_fmu_"), "its slave script) is missing"),
     (lambda n: n.startswith("binaries/linux64/"), "no binary for this platform"),
 ])
-def test_fmu_without_its_resources_is_refused_not_a_segfault(built, tmp_path, drop, words):
+def test_fmu_without_its_resources_is_refused_not_a_segfault(python_fmu_dir, tmp_path, drop, words):
     """An FMU without its resources folder segfaulted `bodyvib cosim`."""
-    src = built / "HumanBody3DOF.fmu"
+    src = python_fmu_dir / "HumanBody3DOF.fmu"
     bad = tmp_path / "Broken.fmu"
     with zipfile.ZipFile(src) as zin, zipfile.ZipFile(bad, "w") as zout:
         for info in zin.infolist():
             if not drop(info.filename):
                 zout.writestr(info, zin.read(info))
-    p = _cli("cosim", "--quiet", "--duration", "2", "--body", str(bad), "--car-fmu",
-             str(built / "QuarterCar.fmu"), cwd=tmp_path)
+    p = run_cli("cosim", "--quiet", "--duration", "2", "--body", str(bad), "--car-fmu",
+             str(python_fmu_dir / "QuarterCar.fmu"), cwd=tmp_path)
     _one_line_error(p, words)
     assert not [f for f in os.listdir(tmp_path) if f.startswith("core")]
 
@@ -119,7 +107,7 @@ def test_fmu_without_its_resources_is_refused_not_a_segfault(built, tmp_path, dr
 def test_sizes_beyond_memory_are_refused_up_front_naming_the_limit(tmp_path, command, args, words):
     """frf --points 1e8 took 22 GB and a traceback, 1e9 met the OOM killer; cosim --duration 1e9
     and --speed 1e300 gave tracebacks."""
-    p = _cli(command, *args, cwd=tmp_path)
+    p = run_cli(command, *args, cwd=tmp_path)
     _one_line_error(p, words)
     assert "the limit is" in p.stderr and "half the memory available" in p.stderr
 
@@ -131,4 +119,4 @@ def test_sizes_beyond_memory_are_refused_up_front_naming_the_limit(tmp_path, com
 def test_runs_beyond_the_step_limit_are_refused(tmp_path, args, words):
     """cosim --duration 1e9 gave a traceback (a 7 TB time axis). A streamed run needs no
     memory per step; what limits it is time, named in the message."""
-    _one_line_error(_cli("cosim", *args, cwd=tmp_path), words)
+    _one_line_error(run_cli("cosim", *args, cwd=tmp_path), words)

@@ -10,9 +10,6 @@ about 2.2e-4 at a 1 ms step; every other figure equals the whole-record computat
 to rounding.
 """
 
-import os
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -21,7 +18,6 @@ from bodyvib.comfort.figures import comfort_figures
 from bodyvib.comfort.stream import stream_comfort_figures
 from bodyvib.frequency.estimate import TransmissibilityStream, estimate_transmissibility
 from bodyvib.models import load_model
-from conftest import ROOT
 from vehicle.quarter_car import load_car
 from vehicle.reference import ReferenceStream, nrmse, reference_run
 from vehicle.road.synthetic import make_road, road_input
@@ -85,12 +81,9 @@ def test_streamed_figures_against_the_fft_weighting():
 
 
 @pytest.fixture(scope="module")
-def fmus(tmp_path_factory):
-    d = tmp_path_factory.mktemp("fmus")
-    subprocess.run([sys.executable, os.path.join(ROOT, "build_fmu.py"), "--dest", str(d)],
-                   check=True, cwd=ROOT, capture_output=True)
-    return {"body": str(d / "HumanBody3DOF.fmu"), "iso": str(d / "HumanBodyISO7962.fmu"),
-            "car": str(d / "QuarterCar.fmu")}
+def fmus(python_fmus):
+    return {"body": python_fmus["HumanBody3DOF"], "iso": python_fmus["HumanBodyISO7962"],
+            "car": python_fmus["QuarterCar"]}
 
 
 @pytest.mark.integration

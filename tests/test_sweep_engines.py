@@ -29,6 +29,7 @@ def test_batched_equals_per_case_reference_reduced_bodies():
                               "samples": 2, "name": "varied"}],
                     "car": ["quarter-car", "quarter-car-cushion"]})
     rows, hist = run_batched(cases, record=True)
+    assert len(rows) == len(hist) == len(cases) == 24  # 2 roads, 2 speeds, 2 cars, 3 bodies
     for case, row, h in zip(cases, rows, hist):
         ref = _reference(case)
         for k in ("head_acceleration", "seat_acceleration"):
@@ -54,6 +55,7 @@ def test_batched_equals_reference_stiff_iso_body_to_its_rounding_floor():
     cases = expand({"road": ["D"], "speed": [25], "duration": 4, "step": 2.0 ** -10,
                     "body": ["iso7962"], "car": ["quarter-car", "quarter-car-cushion"]})
     rows, hist = run_batched(cases, record=True)
+    assert len(rows) == len(hist) == len(cases) == 2
     for case, h in zip(cases, hist):
         ref = _reference(case)
         lm = linear_model(seated_system(case.car_network(), case.body_network()))
@@ -121,6 +123,7 @@ def test_spectral_quadrature_is_converged_and_scales_with_the_class():
                     "body": ["reduced-paper", "iso7962"], "car": ["quarter-car", "quarter-car-cushion"]})
     coarse = run_spectral(cases)
     fine = run_spectral(cases, points=16000)
+    assert len(coarse) == len(fine) == len(cases) == 8
     for a, b in zip(coarse, fine):
         assert a["head_weighted_rms"] == pytest.approx(b["head_weighted_rms"], rel=1e-6)
         assert a["seat_weighted_rms"] == pytest.approx(b["seat_weighted_rms"], rel=1e-6)
@@ -141,6 +144,7 @@ def test_cosim_engine_agrees_with_batched_within_the_coupling_error():
                               "samples": 1, "name": "soft-neck"}]})
     co, co_hist = run_cosim(cases, record=True)
     ba, ba_hist = run_batched(cases, record=True)
+    assert len(co) == len(ba) == len(co_hist) == len(ba_hist) == len(cases) == 3
     for case, c, b, ch, bh in zip(cases, co, ba, co_hist, ba_hist):
         assert c["error"] is None, c["error"]
         err = nrmse(ch["head_acceleration"], bh["head_acceleration"])

@@ -102,7 +102,7 @@ def test_refusals_name_the_problem(spec, msg):
 
 
 def test_the_readme_spec_example_expands():
-    from conftest import ROOT
+    from helpers import ROOT
 
     text = open(os.path.join(ROOT, "README.md"), encoding="utf-8").read()
     section = text.split("## Sweeps", 1)[1].split("\n## ", 1)[0]

@@ -21,7 +21,7 @@ import pytest
 
 pytestmark = pytest.mark.integration
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from helpers import ROOT
 PACKAGES = ("bodyvib", "bodyvib_cli", "fmu_src", "vehicle")
 
 

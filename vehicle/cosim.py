@@ -48,8 +48,10 @@ from bodyvib.runtime import contract
 from bodyvib.runtime.discretize import check_step
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.process.outputs import PendingFile
+from bodyvib.process.progress import progress_bar
 
 from .quarter_car import CAR_FMU_OUTPUTS
+from .signals import BODY_SIGNALS, CAR_SIGNALS, MASTER_SIGNALS, SIGNALS, header
 
 __all__ = [
     "BODY_INPUTS", "BODY_OUTPUTS", "CAR_INPUTS", "CAR_OUTPUTS",
@@ -66,14 +68,6 @@ CAR_INPUTS = contract.CAR_INPUTS[:3]
 _SEAT_FORCE_RATE = contract.CAR_INPUTS[3]
 CAR_OUTPUTS = contract.CAR_OUTPUTS + CAR_FMU_OUTPUTS
 _INTERFACES = {"body": (BODY_INPUTS, BODY_OUTPUTS), "car": (CAR_INPUTS, CAR_OUTPUTS)}
-
-#: Column units of the result / CSV.
-UNITS = {
-    "time": "s", "road_displacement": "m", "road_velocity": "m/s",
-    "seat_displacement": "m", "seat_velocity": "m/s", "seat_acceleration": "m/s2",
-    "suspension_deflection": "m", "tire_force": "N", "seat_force": "N",
-    "head_acceleration": "m/s2", "head_displacement": "m", "torso_displacement": "m",
-}
 
 
 class Slave:
@@ -258,12 +252,6 @@ def model_from_fmu(path):
     return network_from_dict(data, source=f"{path}:resources/bodyvib_model.json")
 
 
-#: Signals of a block from :meth:`Master.advance`, in column order.
-MASTER_SIGNALS = ("seat_displacement", "seat_velocity", "seat_acceleration",
-                  "suspension_deflection", "tire_force", "head_acceleration",
-                  "head_displacement", "torso_displacement", "seat_force")
-
-
 class Master:
     """The two-way coupled master, advanced block by block (memory independent of the run).
 
@@ -311,9 +299,10 @@ class Master:
         self._has_rate = "seat_force_rate" in car.vr
         self._car_in = [car.vr[k] for k in CAR_INPUTS] + (
             [car.vr["seat_force_rate"]] if self._has_rate else [])
-        self._car_out = [car.vr[k] for k in CAR_OUTPUTS]
+        # what is recorded, in the signal table's order (seat motion first: read after a step)
+        self._car_out = [car.vr[s.variable] for s in CAR_SIGNALS]
         self._body_in = [body.vr[k] for k in BODY_INPUTS]
-        self._body_out = [body.vr[k] for k in ("seat_force",) + BODY_OUTPUTS[:3]]
+        self._body_out = [body.vr[s.variable] for s in BODY_SIGNALS]  # F, a1, x1, x2
         body.fmu.setReal(self._body_in, [0.0, 0.0])  # the body at rest at t = 0
         self._F, self._a1, self._x1, self._x2 = body.fmu.getReal(self._body_out)
         self._F_prev = self._F
@@ -329,7 +318,8 @@ class Master:
         Returns
         -------
         (m, 9) ndarray
-            The :data:`MASTER_SIGNALS` at those points.
+            The :data:`vehicle.signals.MASTER_SIGNALS` at those points (the car's, then
+            the body's).
 
         Raises
         ------
@@ -364,7 +354,7 @@ class Master:
                 k = self.k + j
                 if k == last:  # the last point: the car's outputs, no step
                     c_set(car_in, [zk, vk, F] + ([0.0] if has_rate else []))
-                    rows[j] = list(c_get(car_out)) + [a1, x1, x2, F]
+                    rows[j] = list(c_get(car_out)) + [F, a1, x1, x2]
                     break
                 t = k * h
                 dF = (F - F_prev) if extrapolate else 0.0
@@ -375,7 +365,7 @@ class Master:
                 # car outputs at t_k with the inputs of t_k (tire force and seat
                 # acceleration are feedthrough of road and seat force)
                 xs, vs, a_s, sd, tf = c_get(car_out)
-                rows[j] = [xs, vs, a_s, sd, tf, a1, x1, x2, F]
+                rows[j] = [xs, vs, a_s, sd, tf, F, a1, x1, x2]
                 c_step(t, h)
                 xn, vn = c_get(car_motion)  # states only: exact right after the step
                 b_set(body_in, [xs, (xn - xs) / h])
@@ -423,7 +413,7 @@ def cosimulate(car: Slave, body: Slave, road_displacement, road_velocity, step: 
     Returns
     -------
     dict of str to ndarray
-        The signals of :data:`vehicle.reference.SIGNALS` at the ``n``
+        The signals of :data:`vehicle.signals.SIGNALS` at the ``n``
         communication points (``seat_acceleration`` is the car's
         ``sprung_acceleration`` output: the seat point's acceleration).
 
@@ -439,7 +429,7 @@ def cosimulate(car: Slave, body: Slave, road_displacement, road_velocity, step: 
         raise BodyvibError("road displacement and velocity must be 1-D arrays of equal length >= 2")
     master = Master(car, body, step, z.size, extrapolate)
     n = z.size
-    bar = _progress(n - 1, progress)
+    bar = progress_bar(n - 1, progress, "co-simulation")
     parts = []
     try:
         for a in range(0, n, block):
@@ -451,29 +441,8 @@ def cosimulate(car: Slave, body: Slave, road_displacement, road_velocity, step: 
             bar.close()
     out = np.concatenate(parts)
     signals = {"time": np.arange(n) * master.h, "road_displacement": z, "road_velocity": v}
-    signals.update({name: out[:, i] for i, name in enumerate(MASTER_SIGNALS)})
-    return {k: signals[k] for k in ("time", "road_displacement", "road_velocity",
-                                    "seat_displacement", "seat_velocity", "seat_acceleration",
-                                    "suspension_deflection", "tire_force", "seat_force",
-                                    "head_acceleration", "head_displacement",
-                                    "torso_displacement")}
-
-
-def _progress(total, enabled):
-    if not enabled:
-        return None
-    import sys
-
-    from tqdm import tqdm
-
-    return tqdm(total=total, unit="step", file=sys.stderr, disable=None, leave=False,
-                desc="co-simulation", mininterval=0.5)
-
-
-def _header(name: str) -> str:
-    """``name [unit]``; ``HumanBody3DOF.head_acceleration`` has head_acceleration's unit."""
-    u = UNITS.get(name.rpartition(".")[2].replace("reference_", ""))
-    return f"{name} [{u}]" if u else name
+    signals.update(zip(MASTER_SIGNALS, out.T))
+    return {s.name: signals[s.name] for s in SIGNALS}
 
 
 class CsvStream:
@@ -510,7 +479,7 @@ class CsvStream:
         names = list(columns)
         if self.names is None:
             self.names = names
-            self._file.file.write(",".join(_header(k) for k in names) + "\n")
+            self._file.file.write(",".join(header(k) for k in names) + "\n")
         elif names != self.names:
             raise BodyvibError("CSV columns changed between blocks")
         cols = np.column_stack([np.asarray(columns[k], dtype=float) for k in names])

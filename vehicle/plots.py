@@ -6,6 +6,7 @@ import numpy as np
 
 from .check import Comparison
 from .cosim import model_from_fmu
+from .signals import UNITS, axis_label
 from .study import Study
 
 __all__ = ["plot_study"]
@@ -38,11 +39,12 @@ def plot_study(study: Study, path, comparison: Optional[Comparison] = None, wind
     fig.subplots_adjust(hspace=0.35)
     t = study.window_time  # the window the study kept (run_study's window_s)
     window_s = float(t[-1] - t[0]) if t.size > 1 else window_s
+    unit = UNITS["head_acceleration"]
     for label, b in study.bodies.items():
         ax1.plot(t, b.head_window, lw=0.9,
-                 label=f"{label}: a_w = {b.figures.weighted_rms:.3f} m/s2")
-    ax1.set_xlabel("time [s]")
-    ax1.set_ylabel("head acceleration [m/s2]")
+                 label=f"{label}: a_w = {b.figures.weighted_rms:.3f} {unit}")
+    ax1.set_xlabel(axis_label("time"))
+    ax1.set_ylabel(axis_label("head_acceleration"))
     ax1.set_title(f"{study.road['name']}, {study.settings.speed_m_s:g} m/s: head acceleration "
                   f"({window_s:g} s window)")
     ax1.grid(True, alpha=0.3)

@@ -19,29 +19,19 @@ from typing import Dict
 
 import numpy as np
 
-from bodyvib.runtime.discretize import simulate
+from bodyvib.runtime.discretize import Discretization, check_step, input_rates
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import Network, linear_model
 
 from .quarter_car import seated_system
+from .signals import BODY_SIGNALS, CAR_SIGNALS
+from .signals import SIGNALS as _SIGNALS
 
 __all__ = ["SIGNALS", "reference_run", "ReferenceStream", "seat_force_weights", "nrmse"]
 
-#: Signals of a run (reference or co-simulation), SI units.
-SIGNALS = (
-    "time",                   # s
-    "road_displacement",      # m
-    "road_velocity",          # m/s
-    "seat_displacement",      # m, the car's seat point
-    "seat_velocity",          # m/s
-    "seat_acceleration",      # m/s2, absolute
-    "suspension_deflection",  # m, + in extension
-    "tire_force",             # N, + in compression
-    "seat_force",             # N, force of the occupant on the seat, + in compression
-    "head_acceleration",      # m/s2, absolute
-    "head_displacement",      # m
-    "torso_displacement",     # m
-)
+#: Names of the signals of a run (reference or co-simulation), in column order; units,
+#: meanings and sources in :data:`vehicle.signals.SIGNALS`.
+SIGNALS = tuple(s.name for s in _SIGNALS)
 
 
 def seat_force_weights(lm, body: Network, seat: str, prefix: str = "body.") -> np.ndarray:
@@ -126,46 +116,20 @@ def reference_run(car: Network, body: Network, road_displacement, road_velocity,
     >>> r["head_acceleration"].shape
     (100,)
     """
-    for role in ("head", "torso"):
-        if role not in body.roles:
-            raise BodyvibError(f"body model '{body.name}' has no '{role}' role")
     z = np.asarray(road_displacement, dtype=float)
     v = np.asarray(road_velocity, dtype=float)
     if z.shape != v.shape or z.ndim != 1 or z.size < 2:
         raise BodyvibError("road displacement and velocity must be 1-D arrays of equal length >= 2")
-    net = seated_system(car, body)
-    lm = linear_model(net)
-    t = np.arange(z.size) * float(step)
-    u = np.zeros((z.size, len(lm.inputs)))
-    u[:, 0], u[:, 1] = z, v
-    _, y = simulate(lm, t, u)
-    seat = car.roles["seat"]
-
-    def out(name):
-        return y[:, lm.output_index(name)]
-
-    return {
-        "time": t,
-        "road_displacement": z,
-        "road_velocity": v,
-        "seat_displacement": out(f"{seat}.x"),
-        "seat_velocity": out(f"{seat}.v"),
-        "seat_acceleration": out(f"{seat}.a"),
-        "suspension_deflection": out("suspension.deflection"),
-        "tire_force": out("tire.force"),
-        "seat_force": y @ seat_force_weights(lm, body, seat),
-        "head_acceleration": out("body.head.a"),
-        "head_displacement": out("body.head.x"),
-        "torso_displacement": out("body.torso.x"),
-    }
+    signals = ReferenceStream(car, body, step).advance(z, v)
+    signals.update(time=np.arange(z.size) * float(step), road_displacement=z, road_velocity=v)
+    return {name: signals[name] for name in SIGNALS}
 
 
 class ReferenceStream:
     """The monolithic reference advanced block by block (memory independent of the run).
 
-    The same computation as :func:`reference_run`, carrying the state from one block to
-    the next: the signals of each block equal the matching rows of :func:`reference_run`
-    to rounding.
+    :func:`reference_run` is one block of it; carrying the state from one block to the
+    next, the signals of each block equal the matching rows of :func:`reference_run`.
 
     Parameters
     ----------
@@ -178,27 +142,27 @@ class ReferenceStream:
     Raises
     ------
     BodyvibError
-        A body without head/torso roles.
+        A body without head/torso roles, or a step that is not a positive number.
     """
 
     def __init__(self, car: Network, body: Network, step: float):
-        from bodyvib.runtime.discretize import Discretization
-
         for role in ("head", "torso"):
             if role not in body.roles:
                 raise BodyvibError(f"body model '{body.name}' has no '{role}' role")
-        net = seated_system(car, body)
-        self._lm = lm = linear_model(net)
+        check_step(step)
+        self._lm = lm = linear_model(seated_system(car, body))
         self._disc = Discretization(lm)
         self._h = float(step)
         self._x = self._disc.zero_state()
         seat = car.roles["seat"]
-        self._rows = {name: lm.output_index(sig) for name, sig in (
-            ("seat_displacement", f"{seat}.x"), ("seat_velocity", f"{seat}.v"),
-            ("seat_acceleration", f"{seat}.a"), ("suspension_deflection", "suspension.deflection"),
-            ("tire_force", "tire.force"), ("head_acceleration", "body.head.a"),
-            ("head_displacement", "body.head.x"), ("torso_displacement", "body.torso.x"))}
-        self._seat_force = seat_force_weights(lm, body, seat)
+        # the signal table's car and body signals: an output row each, or (the seat
+        # force) a combination of outputs
+        self._rows = {}
+        for s in CAR_SIGNALS + BODY_SIGNALS:
+            if s.seated is not None:
+                self._rows[s.name] = lm.output_index(s.seated_output(seat))
+            else:
+                self._rows[s.name] = seat_force_weights(lm, body, seat)
 
     def advance(self, road_displacement, road_velocity) -> Dict[str, np.ndarray]:
         """The reference at the next samples of the road.
@@ -211,15 +175,13 @@ class ReferenceStream:
         Returns
         -------
         dict of str to ndarray
-            The :data:`SIGNALS` but time and road, at those samples.
+            The :data:`SIGNALS` but time and road, at those samples, in that order.
 
         Raises
         ------
         BodyvibError
             Non-finite road input or mismatched lengths.
         """
-        from bodyvib.runtime.discretize import input_rates
-
         z = np.asarray(road_displacement, dtype=float)
         v = np.asarray(road_velocity, dtype=float)
         if z.shape != v.shape or z.ndim != 1:
@@ -238,9 +200,8 @@ class ReferenceStream:
             xk = d.step(xk, u[k], du[k], h)
         self._x = xk
         y = x @ lm.C.T + u @ lm.D.T
-        out = {name: y[:, i] for name, i in self._rows.items()}
-        out["seat_force"] = y @ self._seat_force
-        return out
+        return {name: y @ i if isinstance(i, np.ndarray) else y[:, i]
+                for name, i in self._rows.items()}
 
 
 def nrmse(estimate, reference) -> float:

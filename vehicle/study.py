@@ -25,9 +25,12 @@ from bodyvib.process import interrupts
 from bodyvib.process.limits import require_memory
 from bodyvib.runtime.errors import BodyvibError
 
-from .cosim import MASTER_SIGNALS, CsvStream, Master, model_from_fmu, open_fmu
+from bodyvib.process.progress import progress_bar
+
+from .cosim import CsvStream, Master, model_from_fmu, open_fmu
 from .reference import ReferenceStream
 from .road.synthetic import make_road, road_input
+from .signals import BODY_SIGNALS, MASTER_SIGNALS
 
 __all__ = ["StudySettings", "BodyRun", "Study", "StudyCsv", "check_settings", "run_study",
            "coupling_error_sweep"]
@@ -304,7 +307,7 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
     _say(f"co-simulating {', '.join(f'{b} ({os.path.basename(p)})' for b, p in body_fmus.items())}"
          f" on {rd.name} at {speed:g} m/s, {duration:g} s, step {step:g} s"
          + (" with the monolithic reference" if refs else ""), quiet)
-    bar = _bar(n, progress)
+    bar = progress_bar(n, progress, "co-simulation")
     with contextlib.ExitStack() as stack:
         masters = {}
         for label, path in body_fmus.items():
@@ -318,7 +321,7 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
                 heads = {}
                 for label in labels:
                     rows = masters[label].advance(z, v)
-                    sig = {name: rows[:, i] for i, name in enumerate(MASTER_SIGNALS)}
+                    sig = dict(zip(MASTER_SIGNALS, rows.T))
                     head, seat = sig["head_acceleration"], sig["seat_acceleration"]
                     heads[label] = head
                     comfort[label].update(np.vstack([head, seat]))
@@ -361,8 +364,7 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
         out.road_displacement, out.road_velocity = road_input(rd, speed, out.time)
     for label, path in body_fmus.items():
         figs = comfort[label].figures()
-        head_fig, seat_fig = (ComfortFigures(**{k: (v[i] if k == "comfort" else float(v[i]))
-                                                for k, v in figs.items()}) for i in (0, 1))
+        head_fig, seat_fig = figs.case(0), figs.case(1)
         run = ref_hist = None
         if histories:
             run = {"time": out.time, "road_displacement": out.road_displacement,
@@ -394,15 +396,6 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
     return out
 
 
-def _bar(total, enabled):
-    if not enabled:
-        return None
-    from tqdm import tqdm
-
-    return tqdm(total=total, unit="step", file=sys.stderr, disable=None, leave=False,
-                desc="co-simulation", mininterval=0.5)
-
-
 class StudyCsv:
     """A study's time histories streamed to CSV, one row per communication point.
 
@@ -418,7 +411,7 @@ class StudyCsv:
         The study's bodies, in order.
     """
 
-    _BODY = ("seat_force", "head_acceleration", "head_displacement", "torso_displacement")
+    _BODY = tuple(s.name for s in BODY_SIGNALS)
 
     def __init__(self, path, labels):
         self._out = CsvStream(path)
@@ -432,7 +425,7 @@ class StudyCsv:
         ----------
         label : str
         signals : dict of str to ndarray
-            The block's :data:`vehicle.cosim.MASTER_SIGNALS`.
+            The block's :data:`vehicle.signals.MASTER_SIGNALS`.
         reference : dict of str to ndarray or None
             The reference's signals of the block.
         """
@@ -450,7 +443,7 @@ class StudyCsv:
         cols = {"time": t, "road_displacement": z, "road_velocity": v}
         for label in self._labels:
             sig, ref = self._blocks[label]
-            for k in MASTER_SIGNALS_CSV:
+            for k in MASTER_SIGNALS:
                 if many and k not in self._BODY:
                     cols.setdefault(k, sig[k])
                 elif not many or k in self._BODY:
@@ -468,12 +461,6 @@ class StudyCsv:
     def discard(self):
         """Delete the unfinished file."""
         self._out.discard()
-
-
-#: Signal order of the CSV (that of :func:`vehicle.cosim.cosimulate`'s result).
-MASTER_SIGNALS_CSV = ("seat_displacement", "seat_velocity", "seat_acceleration",
-                      "suspension_deflection", "tire_force", "seat_force", "head_acceleration",
-                      "head_displacement", "torso_displacement")
 
 
 def coupling_error_sweep(steps, body_fmu: str, car_fmu: str, road: str = "C", speed: float = 20.0,

@@ -3,18 +3,20 @@
 :mod:`~bodyvib.comfort.figures` weights a whole record at once (Wk weighting,
 weighted r.m.s., VDV, MTVV, peak, the comfort scale); :mod:`~bodyvib.comfort.stream`
 computes the same figures sample by sample for a batch of signals, with a
-recursive Wk filter, so a run of any length needs no history. Both return
-:class:`~bodyvib.comfort.figures.ComfortFigures`.
+recursive Wk filter, so a run of any length needs no history. One record's figures
+are a :class:`~bodyvib.comfort.figures.ComfortFigures`, a batch's a
+:class:`~bodyvib.comfort.stream.BatchComfortFigures` (arrays, one entry per case).
 """
 
 from .figures import (BASIC_METHOD_LIMITS, COMFORT_SCALE, MTVV_WINDOW_S, WK_PARAMETERS,
                       ComfortFigures, basic_method_checks, comfort_category, comfort_figures,
                       mtvv, peak, running_rms, vdv, weighted_acceleration, weighted_rms,
                       wk_response)
-from .stream import ComfortStream, WkFilter, stream_comfort_figures, wk_statespace
+from .stream import (BatchComfortFigures, ComfortStream, WkFilter, stream_batch_figures,
+                     stream_comfort_figures, wk_statespace)
 
 __all__ = ["WK_PARAMETERS", "COMFORT_SCALE", "wk_response", "weighted_acceleration",
            "weighted_rms", "vdv", "peak", "MTVV_WINDOW_S", "running_rms", "mtvv",
            "BASIC_METHOD_LIMITS", "basic_method_checks", "comfort_category", "ComfortFigures",
            "comfort_figures", "wk_statespace", "WkFilter", "ComfortStream",
-           "stream_comfort_figures"]
+           "BatchComfortFigures", "stream_comfort_figures", "stream_batch_figures"]

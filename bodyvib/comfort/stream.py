@@ -24,7 +24,8 @@ The result does not depend on how the samples are split into blocks (up to
 rounding, about 1e-15 relative).
 """
 
-from typing import Dict, List, Optional
+from dataclasses import dataclass, fields
+from typing import Dict, Optional, Tuple
 
 import numpy as np
 
@@ -33,7 +34,71 @@ from .figures import (WK_PARAMETERS, ComfortFigures, _RunningWindow, _window_sam
 from ..runtime.discretize import discretize
 from ..runtime.errors import BodyvibError
 
-__all__ = ["wk_statespace", "WkFilter", "ComfortStream", "stream_comfort_figures"]
+__all__ = ["wk_statespace", "WkFilter", "ComfortStream", "BatchComfortFigures",
+           "stream_comfort_figures", "stream_batch_figures"]
+
+
+@dataclass(frozen=True)
+class BatchComfortFigures:
+    """ISO 2631-1 figures of a batch of records, one entry per case.
+
+    The batch form of :class:`bodyvib.comfort.figures.ComfortFigures`
+    (:meth:`ComfortStream.figures`, :func:`stream_batch_figures`).
+
+    Attributes
+    ----------
+    weighted_rms : (cases,) ndarray
+        Wk-weighted r.m.s., m/s2.
+    vdv : (cases,) ndarray
+        Vibration dose value, m/s^1.75.
+    peak : (cases,) ndarray
+        Peak of the weighted record, m/s2.
+    crest_factor : (cases,) ndarray
+        ``peak / weighted_rms`` (NaN for a zero record), dimensionless.
+    comfort : tuple of str
+        ISO 2631-1 Annex C words per case.
+    mtvv : (cases,) ndarray
+        Maximum transient vibration value (largest 1 s running r.m.s.), m/s2.
+    """
+
+    weighted_rms: np.ndarray
+    vdv: np.ndarray
+    peak: np.ndarray
+    crest_factor: np.ndarray
+    comfort: Tuple[str, ...]
+    mtvv: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.comfort)
+
+    def __getitem__(self, key: str):
+        """A figure by name (``figures["vdv"]``), as callers of the former dict read it."""
+        if key not in self._names():
+            raise KeyError(key)
+        return getattr(self, key)
+
+    @classmethod
+    def _names(cls):
+        return tuple(f.name for f in fields(cls))
+
+    def case(self, i: int) -> ComfortFigures:
+        """The figures of case ``i``.
+
+        Parameters
+        ----------
+        i : int
+
+        Returns
+        -------
+        ComfortFigures
+        """
+        return ComfortFigures(**{k: (self.comfort[i] if k == "comfort" else float(getattr(self, k)[i]))
+                                 for k in self._names()})
+
+    def to_dict(self) -> Dict[str, list]:
+        """The figures as a JSON-ready dict of lists, keys in the order of the attributes."""
+        return {k: list(self.comfort) if k == "comfort" else getattr(self, k).tolist()
+                for k in self._names()}
 
 
 def _sections():
@@ -285,7 +350,7 @@ class ComfortStream:
     >>> s = ComfortStream(1000.0, cases=1)
     >>> for k in range(0, t.size, 10000):
     ...     _ = s.update(np.sin(2 * np.pi * 5 * t[None, k:k + 10000]))
-    >>> round(float(s.figures()["weighted_rms"][0] * np.sqrt(2)), 2)
+    >>> round(float(s.figures().weighted_rms[0] * np.sqrt(2)), 2)
     1.04
     """
 
@@ -330,15 +395,15 @@ class ComfortStream:
             self.samples += w.shape[1]
         return w
 
-    def figures(self) -> Dict[str, object]:
+    def figures(self) -> BatchComfortFigures:
         """The figures of all samples so far.
 
         Returns
         -------
-        dict
+        BatchComfortFigures
             ``weighted_rms`` [m/s2], ``vdv`` [m/s^1.75], ``peak`` [m/s2],
-            ``crest_factor`` [-] as ``(cases,)`` arrays, ``comfort``, a list
-            of ISO 2631-1 Annex C words per case, and ``mtvv`` [m/s2].
+            ``crest_factor`` [-] as ``(cases,)`` arrays, ``comfort``, the ISO 2631-1
+            Annex C words per case, and ``mtvv`` [m/s2].
 
         Raises
         ------
@@ -352,33 +417,29 @@ class ComfortStream:
         peak = self._peak.copy()
         with np.errstate(divide="ignore", invalid="ignore"):
             crest = np.where(rms > 0, peak / np.where(rms > 0, rms, 1.0), np.nan)
-        words: List[str] = [comfort_category(v) for v in rms]
-        return {"weighted_rms": rms, "vdv": vdv, "peak": peak, "crest_factor": crest,
-                "comfort": words, "mtvv": np.sqrt(self._ms_max)}
+        words = tuple(comfort_category(v) for v in rms)
+        return BatchComfortFigures(weighted_rms=rms, vdv=vdv, peak=peak, crest_factor=crest,
+                                   comfort=words, mtvv=np.sqrt(self._ms_max))
 
 
-def stream_comfort_figures(acceleration, fs: float, block: int = 4096) -> Dict[str, object]:
-    """ISO 2631-1 figures of whole records through the streaming filter.
+def stream_comfort_figures(acceleration, fs: float, block: int = 4096) -> ComfortFigures:
+    """ISO 2631-1 figures of one whole record through the streaming filter.
 
     Parameters
     ----------
-    acceleration : (n,) or (cases, n) array_like
+    acceleration : (n,) array_like
         Unweighted acceleration, m/s2.
-    fs : float
-        Sampling rate in Hz.
-    block : int
-        Samples per update (the result does not depend on it beyond rounding).
+    fs, block
+        As :func:`stream_batch_figures`.
 
     Returns
     -------
-    ComfortFigures or dict
-        For a 1-D input, :class:`bodyvib.comfort.figures.ComfortFigures`; for a batch, as
-        :meth:`ComfortStream.figures` (arrays and a list of words).
+    ComfortFigures
 
     Raises
     ------
     BodyvibError
-        Non-finite samples, fewer than two samples, a bad sampling rate.
+        Not one record (a batch goes to :func:`stream_batch_figures`), or as that.
 
     Examples
     --------
@@ -387,15 +448,44 @@ def stream_comfort_figures(acceleration, fs: float, block: int = 4096) -> Dict[s
     0.734
     """
     a = np.asarray(acceleration, dtype=float)
-    one = a.ndim == 1
-    a = np.atleast_2d(a)
+    if a.ndim != 1 or a.size < 2:
+        raise BodyvibError(f"acceleration must be one record (n,) with n >= 2 samples, got "
+                           f"shape {a.shape} (a batch (cases, n) goes to stream_batch_figures)")
+    return stream_batch_figures(a[None], fs, block).case(0)
+
+
+def stream_batch_figures(acceleration, fs: float, block: int = 4096) -> BatchComfortFigures:
+    """ISO 2631-1 figures of a batch of whole records through the streaming filter.
+
+    Parameters
+    ----------
+    acceleration : (cases, n) array_like
+        Unweighted acceleration, m/s2, one record per row.
+    fs : float
+        Sampling rate in Hz.
+    block : int
+        Samples per update (the result does not depend on it beyond rounding).
+
+    Returns
+    -------
+    BatchComfortFigures
+
+    Raises
+    ------
+    BodyvibError
+        Not a (cases, n) array with n >= 2, non-finite samples, a bad sampling rate.
+
+    Examples
+    --------
+    >>> t = np.arange(0, 60, 1e-3)
+    >>> a = np.sin(2 * np.pi * 5 * t)
+    >>> np.round(stream_batch_figures([a, 2 * a], 1000.0).weighted_rms, 3)
+    array([0.734, 1.468])
+    """
+    a = np.asarray(acceleration, dtype=float)
     if a.ndim != 2 or a.shape[1] < 2:
-        raise BodyvibError("acceleration must be (n,) or (cases, n) with n >= 2 samples")
+        raise BodyvibError("acceleration must be (cases, n) with n >= 2 samples")
     s = ComfortStream(fs, a.shape[0])
     for k in range(0, a.shape[1], max(1, int(block))):
         s.update(a[:, k:k + block])
-    out = s.figures()
-    if one:
-        return ComfortFigures(**{k: (v[0] if k == "comfort" else float(v[0]))
-                                 for k, v in out.items()})
-    return out
+    return s.figures()

@@ -14,7 +14,7 @@ CMA-ES and pymoo, which a plain ``import bodyvib`` should not pay for).
 import importlib
 
 _HOME = {
-    "load_config": "config", "parse_pairs": "config",
+    "load_config": "config", "parse_pairs": "config", "FitConfig": "config",
     "FitTarget": "objective", "model_target": "objective", "measured_target": "objective",
     "objective_time_domain": "objective", "objective_frequency_domain": "objective",
     "GENES": "space", "genes_to_parameters": "space", "parameters_to_genes": "space",

@@ -4,13 +4,16 @@ A configuration is a JSON document (``bodyvib/data/fit/default-config.json``):
 search bounds of the genes, the genetic algorithm's settings, the polish, the
 quadrature grid of the frequency-domain objective and the time-domain horizon.
 A user's file overrides any subset of it; every value is checked here, before
-the search starts, so a typo costs nothing.
+the search starts, so a typo costs nothing. :func:`load_config` gives a frozen
+:class:`FitConfig`; its ``to_dict()`` is the JSON form.
 """
 
 import copy
+import functools
 import math
 import os
-from typing import Dict, Optional
+from dataclasses import dataclass, fields
+from typing import Dict, Mapping, Optional, Tuple
 
 import numpy as np
 
@@ -24,11 +27,19 @@ __all__ = [
     "DEFAULT_CONFIG_PATH",
     "POLISH_METHODS",
     "DE_STRATEGIES",
+    "FitConfig",
+    "GaSettings",
+    "CmaesSettings",
+    "DeSettings",
+    "ParetoSettings",
+    "PolishSettings",
+    "QuadratureSettings",
+    "TimeDomainSettings",
+    "Restarts",
     "load_config",
     "log_bounds",
     "parse_pairs",
 ]
-
 #: The shipped default configuration (bounds, GA settings, quadrature).
 DEFAULT_CONFIG_PATH = os.path.join(MODEL_DIR, "fit", "default-config.json")
 
@@ -39,6 +50,168 @@ POLISH_METHODS = ("L-BFGS-B", "TNC", "SLSQP", "Powell", "Nelder-Mead", "trust-co
 DE_STRATEGIES = ("best1bin", "best1exp", "rand1bin", "rand1exp", "rand2bin", "rand2exp",
                  "randtobest1bin", "randtobest1exp", "currenttobest1bin", "currenttobest1exp",
                  "best2bin", "best2exp")
+
+
+class _Section:
+    """A section of the configuration: its JSON form, keys in the file's order."""
+
+    def to_dict(self) -> dict:
+        """The section as in the JSON file."""
+        return {f.name: (list(v) if isinstance(v := getattr(self, f.name), tuple) else v)
+                for f in fields(self)}
+
+
+@dataclass(frozen=True)
+class GaSettings(_Section):
+    """The genetic algorithm (``ga``): :func:`bodyvib.fit.methods.ga_search`."""
+
+    population: int
+    generations: int
+    tournament_size: int
+    elitism: int
+    crossover_eta: float
+    mutation_probability: float
+    mutation_scale: float
+    ftol: float
+    stall_generations: int
+    coordinates: str
+
+
+@dataclass(frozen=True)
+class CmaesSettings(_Section):
+    """CMA-ES (``cmaes``): :func:`bodyvib.fit.methods.cmaes_search`; population 0: its default."""
+
+    sigma0: float
+    population: int
+    max_evaluations: int
+    ftol: float
+    stall_generations: int
+    coordinates: str
+
+
+@dataclass(frozen=True)
+class DeSettings(_Section):
+    """Differential evolution (``de``): :func:`bodyvib.fit.methods.de_search`."""
+
+    population_per_gene: int
+    generations: int
+    tol: float
+    strategy: str
+    mutation: Tuple[float, float]
+    recombination: float
+    coordinates: str
+
+
+@dataclass(frozen=True)
+class ParetoSettings(_Section):
+    """NSGA-II of ``bodyvib fit --pareto`` (``pareto``): :func:`bodyvib.fit.pareto.pareto_front`."""
+
+    population: int
+    generations: int
+    crossover_eta: float
+    mutation_eta: float
+
+
+@dataclass(frozen=True)
+class PolishSettings(_Section):
+    """The local polish after each search (``polish``)."""
+
+    enabled: bool
+    method: str
+    max_iterations: int
+
+
+@dataclass(frozen=True)
+class QuadratureSettings(_Section):
+    """The frequency grid of the objective (``quadrature``):
+    :func:`bodyvib.fit.objective.quadrature_grid`'s arguments."""
+
+    f_first_panel_hz: float
+    f_split_hz: float
+    panels: int
+    nodes_per_panel: int
+    tail_nodes: int
+
+
+@dataclass(frozen=True)
+class TimeDomainSettings(_Section):
+    """The time-domain form of the objective (``time_domain``)."""
+
+    dt_s: float
+    decay_time_constants: float
+
+
+@dataclass(frozen=True)
+class Restarts(_Section):
+    """Independent searches per target kind: a reference ``model`` or ``measured`` data."""
+
+    model: int
+    measured: int
+
+
+_SECTIONS = {"ga": GaSettings, "cmaes": CmaesSettings, "de": DeSettings,
+             "pareto": ParetoSettings, "polish": PolishSettings,
+             "quadrature": QuadratureSettings, "time_domain": TimeDomainSettings}
+
+
+@dataclass(frozen=True)
+class FitConfig:
+    """The refit's settings, checked (:func:`load_config`).
+
+    Attributes
+    ----------
+    pairs : mapping of str to float
+        Role (``head``, ``torso``) -> weight in the objective.
+    bounds_per_kg_total_mass : mapping of str to (float, float)
+        Gene (:data:`bodyvib.fit.space.GENES`) -> ``(low, high)``, per kg of total mass.
+    method : str
+        The search: ``ga``, ``cmaes`` or ``de``.
+    restarts : Restarts
+    ga, cmaes, de : GaSettings, CmaesSettings, DeSettings
+        Each method's settings.
+    pareto : ParetoSettings
+    polish : PolishSettings
+    quadrature : QuadratureSettings
+    time_domain : TimeDomainSettings
+    """
+
+    pairs: Mapping[str, float]
+    bounds_per_kg_total_mass: Mapping[str, Tuple[float, float]]
+    method: str
+    restarts: Restarts
+    ga: GaSettings
+    cmaes: CmaesSettings
+    de: DeSettings
+    pareto: ParetoSettings
+    polish: PolishSettings
+    quadrature: QuadratureSettings
+    time_domain: TimeDomainSettings
+
+    def settings(self, method: str):
+        """The settings section of a search method (``ga``, ``cmaes`` or ``de``).
+
+        Raises
+        ------
+        BodyvibError
+            Not a search method.
+        """
+        if method not in METHODS:
+            raise BodyvibError(f"unknown search method '{method}'; methods are {', '.join(METHODS)}")
+        return getattr(self, method)
+
+    def to_dict(self) -> dict:
+        """The configuration as a JSON document (the file's keys, without ``description``)."""
+        out = {}
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if f.name == "bounds_per_kg_total_mass":
+                v = {g: list(b) for g, b in v.items()}
+            elif isinstance(v, Mapping):
+                v = dict(v)
+            elif isinstance(v, _Section):
+                v = v.to_dict()
+            out[f.name] = v
+        return out
 
 
 def _merge(base: dict, over: dict, where: str) -> dict:
@@ -59,10 +232,19 @@ def _read_json(path: str) -> dict:
     data = read_json(path, "configuration")
     if not isinstance(data, dict):
         raise BodyvibError(f"{path}: expected a JSON object")
+    data.pop("description", None)
     return data
 
 
-def load_config(path=None, overrides: Optional[dict] = None) -> dict:
+# Read once per process: the shipped file does not change while bodyvib runs, and every
+# objective built without a configuration used to read and check it again. Callers get
+# a deep copy (the merge below edits its own).
+@functools.lru_cache(maxsize=1)
+def _default_document() -> dict:
+    return _read_json(DEFAULT_CONFIG_PATH)
+
+
+def load_config(path=None, overrides: Optional[dict] = None) -> FitConfig:
     """The fit configuration: shipped defaults, then a user file, then overrides.
 
     Parameters
@@ -75,10 +257,10 @@ def load_config(path=None, overrides: Optional[dict] = None) -> dict:
 
     Returns
     -------
-    dict
-        Keys ``pairs``, ``bounds_per_kg_total_mass``, ``method`` (the search:
-        ``ga``, ``cmaes`` or ``de``), ``restarts`` (``{"model": N, "measured":
-        N}``; an integer in a file sets both), one section per method
+    FitConfig
+        ``pairs``, ``bounds_per_kg_total_mass``, ``method`` (the search:
+        ``ga``, ``cmaes`` or ``de``), ``restarts`` (``model`` and ``measured``;
+        an integer in a file sets both), one section per method
         (``ga``, ``cmaes``, ``de``), ``pareto`` (NSGA-II), ``polish``, ``quadrature``,
         ``time_domain``.
 
@@ -92,22 +274,19 @@ def load_config(path=None, overrides: Optional[dict] = None) -> dict:
     Examples
     --------
     >>> cfg = load_config(overrides={"ga": {"generations": 5}})
-    >>> cfg["ga"]["generations"], cfg["bounds_per_kg_total_mass"]["m1"]
-    (5, [0.02, 0.4])
+    >>> cfg.ga.generations, cfg.bounds_per_kg_total_mass["m1"]
+    (5, (0.02, 0.4))
     """
-    cfg = _read_json(DEFAULT_CONFIG_PATH)
-    cfg.pop("description", None)
+    cfg = copy.deepcopy(_default_document())
     if path is not None:
-        user = _read_json(os.fspath(path))
-        user.pop("description", None)
-        cfg = _merge(cfg, user, os.fspath(path))
+        cfg = _merge(cfg, _read_json(os.fspath(path)), os.fspath(path))
     if overrides:
         cfg = _merge(cfg, overrides, "configuration")
     where = os.fspath(path) if path is not None else "configuration"
     pairs = cfg["pairs"]
     if not isinstance(pairs, dict):
         raise BodyvibError(f"{where}: 'pairs' must be an object of role: weight")
-    cfg["pairs"] = parse_pairs(",".join(f"{k}={v}" for k, v in pairs.items()))
+    cfg["pairs"] = check_pairs(pairs.items())
     bounds = cfg["bounds_per_kg_total_mass"]
     for g in GENES:
         b = bounds.get(g)
@@ -190,15 +369,21 @@ def load_config(path=None, overrides: Optional[dict] = None) -> dict:
         raise BodyvibError(f"{where}: quadrature needs 0 < f_first_panel_hz < f_split_hz")
     positive("time_domain", "dt_s")
     positive("time_domain", "decay_time_constants")
-    return cfg
+    return FitConfig(
+        pairs=cfg["pairs"],
+        bounds_per_kg_total_mass={g: tuple(b) for g, b in bounds.items()},
+        method=cfg["method"], restarts=Restarts(**cfg["restarts"]),
+        **{name: section(**{k: (tuple(v) if isinstance(v, list) else v)
+                            for k, v in cfg[name].items()})
+           for name, section in _SECTIONS.items()})
 
 
-def log_bounds(cfg: dict):
+def log_bounds(cfg: FitConfig):
     """Bounds of the genes (``log10`` of the ratios per kg of total mass).
 
     Parameters
     ----------
-    cfg : dict
+    cfg : FitConfig
         As :func:`load_config`.
 
     Returns
@@ -206,7 +391,7 @@ def log_bounds(cfg: dict):
     lo, hi : ndarray, shape (6,)
         In :data:`bodyvib.fit.space.GENES` order.
     """
-    b = cfg["bounds_per_kg_total_mass"]
+    b = cfg.bounds_per_kg_total_mass
     return np.log10([b[g][0] for g in GENES]), np.log10([b[g][1] for g in GENES])
 
 
@@ -223,6 +408,31 @@ def parse_pairs(text: str) -> Dict[str, float]:
     Returns
     -------
     dict of str to float
+        As :func:`check_pairs`, which raises on bad pairs.
+
+    Examples
+    --------
+    >>> parse_pairs("head=1,torso=0.5")
+    {'head': 1.0, 'torso': 0.5}
+    """
+    items = []
+    for item in (t.strip() for t in text.split(",")):
+        if item:
+            role, _, w = item.partition("=")
+            items.append((role.strip(), w.strip() or 1.0))
+    return check_pairs(items)
+
+
+def check_pairs(items) -> Dict[str, float]:
+    """Check ``(role, weight)`` pairs (a configuration's ``pairs`` or ``--pairs``).
+
+    Parameters
+    ----------
+    items : iterable of (str, float or str)
+
+    Returns
+    -------
+    dict of str to float
 
     Raises
     ------
@@ -231,23 +441,21 @@ def parse_pairs(text: str) -> Dict[str, float]:
 
     Examples
     --------
-    >>> parse_pairs("head=1,torso=0.5")
+    >>> check_pairs([("head", 1), ("torso", "0.5")])
     {'head': 1.0, 'torso': 0.5}
     """
     out: Dict[str, float] = {}
-    for item in (t.strip() for t in text.split(",")):
-        if not item:
-            continue
-        role, _, w = item.partition("=")
-        role = role.strip()
+    for role, w in items:
         if role not in PAIR_ROLES:
             raise BodyvibError(f"pairs: unknown role '{role}'; roles are "
                                f"{', '.join(PAIR_ROLES)} (e.g. head=1,torso=0.5)")
         if role in out:
             raise BodyvibError(f"pairs: role '{role}' given twice")
         try:
-            weight = float(w) if w.strip() else 1.0
-        except ValueError:
+            if isinstance(w, bool):
+                raise ValueError
+            weight = float(w)
+        except (TypeError, ValueError):
             raise BodyvibError(f"pairs: weight of '{role}' is not a number: {w!r}") from None
         if not (math.isfinite(weight) and weight > 0):
             raise BodyvibError(f"pairs: weight of '{role}' must be positive, got {w}")

@@ -7,7 +7,7 @@ differential evolution (``scipy.optimize.differential_evolution``) are there
 to compare it with (``bodyvib fit --method``, ``benchmarks/bench_fit_methods.py``).
 
 **Coordinates.** The fit's genes are ``log10`` of ``m1/M, k1/M, k2/M, ks/M,
-c1/M, c2/M`` (``bodyvib.fit.GENES``), bounded by the configuration. The
+c1/M, c2/M`` (:data:`bodyvib.fit.space.GENES`), bounded by the configuration. The
 methods search a linear change of them,
 
     z = (log m1/M, log k1/m1, log k2/M, log ks/M, log c1/m1, log c2/M),
@@ -34,6 +34,7 @@ relative ``ftol`` over ``stall_generations`` generations, or after
 ``generations``.
 """
 
+import functools
 import math
 import random
 from dataclasses import dataclass, field
@@ -161,7 +162,7 @@ def _stalled(history, ftol, stall):
     return len(history) > stall and history[-stall - 1] - history[-1] <= ftol * abs(history[-1])
 
 
-def ga_search(objective: Callable, space: SearchSpace, settings: dict, seed: int,
+def ga_search(objective: Callable, space: SearchSpace, settings, seed: int,
               on_generation: Optional[Callable[[float], None]] = None) -> SearchResult:
     """Minimize ``objective`` by the real-coded genetic algorithm (DEAP's operators).
 
@@ -180,7 +181,7 @@ def ga_search(objective: Callable, space: SearchSpace, settings: dict, seed: int
         ``objective(genes)`` with ``genes`` of shape ``(n, 6)`` returns ``n``
         objective values (``inf`` or NaN where a model is not finite).
     space : SearchSpace
-    settings : dict
+    settings : bodyvib.fit.config.GaSettings
         ``population``, ``generations``, ``tournament_size``, ``elitism``,
         ``crossover_eta``, ``mutation_probability``, ``mutation_scale``,
         ``ftol``, ``stall_generations`` (the configuration's ``ga`` section).
@@ -198,12 +199,12 @@ def ga_search(objective: Callable, space: SearchSpace, settings: dict, seed: int
 
     Individual = _individual_type()
     f = _Counted(objective, space)
-    n, elite = int(settings["population"]), int(settings["elitism"])
+    n, elite = int(settings.population), int(settings.elitism)
     low, up = list(space.zlo), list(space.zhi)
-    eta = float(settings["crossover_eta"])
-    p_mut, scale = float(settings["mutation_probability"]), float(settings["mutation_scale"])
+    eta = float(settings.crossover_eta)
+    p_mut, scale = float(settings.mutation_probability), float(settings.mutation_scale)
     rng = np.random.default_rng(seed)
-    tournament = int(settings["tournament_size"])
+    tournament = int(settings.tournament_size)
 
     def breed(pop):
         """``n`` children of one population: tournaments, SBX, the local mutation."""
@@ -222,42 +223,40 @@ def ga_search(objective: Callable, space: SearchSpace, settings: dict, seed: int
     try:
         X = space.zlo + rng.random((n, 6)) * (space.zhi - space.zlo)
         pop = _individuals(X, f(X))
-        history, stopped, gen = [], f"{settings['generations']} generations", 0
-        for gen in range(1, int(settings["generations"]) + 1):
+        history, stopped, gen = [], f"{settings.generations} generations", 0
+        for gen in range(1, int(settings.generations) + 1):
             C = breed(pop)
             pop = tools.selBest(pop, elite) + tools.selBest(_individuals(C, f(C)), n - elite)
             history.append(f.best_J)
             if on_generation is not None:
                 on_generation(f.best_J)
-            if _stalled(history, float(settings["ftol"]), int(settings["stall_generations"])):
-                stopped = (f"best improved by less than {settings['ftol']:g} (relative) in "
-                           f"{settings['stall_generations']} generations")
+            if _stalled(history, float(settings.ftol), int(settings.stall_generations)):
+                stopped = (f"best improved by less than {settings.ftol:g} (relative) in "
+                           f"{settings.stall_generations} generations")
                 break
     finally:
         random.setstate(saved)
     return f.result(gen, history, stopped)
 
 
-_TYPES = {}
-
-
+# Not a cache of results: a class made once per process (the functools idiom), on first
+# use so that importing this module does not import DEAP.
+@functools.lru_cache(maxsize=None)
 def _individual_type():
     """DEAP's individual: a list of coordinates with a minimized ``fitness`` (made once)."""
-    if not _TYPES:
-        from deap import base
+    from deap import base
 
-        class Fitness(base.Fitness):
-            weights = (-1.0,)
+    class Fitness(base.Fitness):
+        weights = (-1.0,)
 
-        class Individual(list):
-            __slots__ = ("fitness",)
+    class Individual(list):
+        __slots__ = ("fitness",)
 
-            def __init__(self, values=(), J=None):
-                super().__init__(values)
-                self.fitness = Fitness() if J is None else Fitness((J,))
+        def __init__(self, values=(), J=None):
+            super().__init__(values)
+            self.fitness = Fitness() if J is None else Fitness((J,))
 
-        _TYPES["individual"] = Individual
-    return _TYPES["individual"]
+    return Individual
 
 
 def _individuals(X, J):
@@ -265,7 +264,7 @@ def _individuals(X, J):
     return [Individual(x, float(j)) for x, j in zip(X, J)]
 
 
-def cmaes_search(objective: Callable, space: SearchSpace, settings: dict, seed: int,
+def cmaes_search(objective: Callable, space: SearchSpace, settings, seed: int,
                  on_generation: Optional[Callable[[float], None]] = None) -> SearchResult:
     """Minimize ``objective`` by CMA-ES (``cma.CMAEvolutionStrategy``), a comparator.
 
@@ -278,7 +277,7 @@ def cmaes_search(objective: Callable, space: SearchSpace, settings: dict, seed: 
     ----------
     objective, space, seed, on_generation
         As :func:`ga_search`.
-    settings : dict
+    settings : bodyvib.fit.config.CmaesSettings
         ``sigma0`` (in the unit box), ``population`` (0: CMA-ES's default,
         ``4 + 3 ln 6 = 9``), ``max_evaluations``, ``ftol`` and
         ``stall_generations`` (it stops as :func:`ga_search` does, or on
@@ -295,11 +294,11 @@ def cmaes_search(objective: Callable, space: SearchSpace, settings: dict, seed: 
     rng = np.random.default_rng(seed)
     x0 = 0.5 + 0.1 * (rng.random(6) - 0.5)
     opts = {"bounds": [0.0, 1.0], "seed": int(seed) + 1, "verbose": -9,
-            "maxfevals": int(settings["max_evaluations"]), "tolfun": 0.0, "tolx": 1e-14,
+            "maxfevals": int(settings.max_evaluations), "tolfun": 0.0, "tolx": 1e-14,
             "tolflatfitness": 10}
-    if int(settings["population"]) > 0:
-        opts["popsize"] = int(settings["population"])
-    es = cma.CMAEvolutionStrategy(x0, float(settings["sigma0"]), opts)
+    if int(settings.population) > 0:
+        opts["popsize"] = int(settings.population)
+    es = cma.CMAEvolutionStrategy(x0, float(settings.sigma0), opts)
     history, gen, stopped = [], 0, ""
     while not es.stop():
         U = np.array(es.ask())
@@ -308,14 +307,14 @@ def cmaes_search(objective: Callable, space: SearchSpace, settings: dict, seed: 
         history.append(f.best_J)
         if on_generation is not None:
             on_generation(f.best_J)
-        if _stalled(history, float(settings["ftol"]), int(settings["stall_generations"])):
-            stopped = (f"best improved by less than {settings['ftol']:g} (relative) in "
-                       f"{settings['stall_generations']} generations")
+        if _stalled(history, float(settings.ftol), int(settings.stall_generations)):
+            stopped = (f"best improved by less than {settings.ftol:g} (relative) in "
+                       f"{settings.stall_generations} generations")
             break
     return f.result(gen, history, stopped or "cma: " + ", ".join(es.stop()))
 
 
-def de_search(objective: Callable, space: SearchSpace, settings: dict, seed: int,
+def de_search(objective: Callable, space: SearchSpace, settings, seed: int,
               on_generation: Optional[Callable[[float], None]] = None) -> SearchResult:
     """Minimize ``objective`` by differential evolution (scipy), a comparator.
 
@@ -326,7 +325,7 @@ def de_search(objective: Callable, space: SearchSpace, settings: dict, seed: int
     ----------
     objective, space, seed, on_generation
         As :func:`ga_search`.
-    settings : dict
+    settings : bodyvib.fit.config.DeSettings
         ``population_per_gene`` (scipy's ``popsize``), ``generations``
         (``maxiter``), ``tol``, ``strategy``, ``mutation`` ([low, high]
         dithering), ``recombination``.
@@ -347,17 +346,17 @@ def de_search(objective: Callable, space: SearchSpace, settings: dict, seed: int
 
     res = differential_evolution(
         lambda zt: f(zt.T), list(zip(space.zlo, space.zhi)), vectorized=True,
-        updating="deferred", seed=int(seed), polish=False, tol=float(settings["tol"]),
-        popsize=int(settings["population_per_gene"]), maxiter=int(settings["generations"]),
-        strategy=settings["strategy"], mutation=tuple(settings["mutation"]),
-        recombination=float(settings["recombination"]), callback=callback)
+        updating="deferred", seed=int(seed), polish=False, tol=float(settings.tol),
+        popsize=int(settings.population_per_gene), maxiter=int(settings.generations),
+        strategy=settings.strategy, mutation=tuple(settings.mutation),
+        recombination=float(settings.recombination), callback=callback)
     return f.result(int(res.nit), history, f"scipy: {res.message}")
 
 
 _SEARCH = {"ga": ga_search, "cmaes": cmaes_search, "de": de_search}
 
 
-def search(method: str, objective: Callable, lo, hi, settings: dict, seed: int,
+def search(method: str, objective: Callable, lo, hi, settings, seed: int,
            on_generation: Optional[Callable[[float], None]] = None) -> SearchResult:
     """Minimize ``objective`` over the genes' box by one of :data:`METHODS`.
 
@@ -369,7 +368,7 @@ def search(method: str, objective: Callable, lo, hi, settings: dict, seed: int,
         Vectorized over genes of shape ``(n, 6)``.
     lo, hi : array_like, shape (6,)
         Bounds of the genes.
-    settings : dict
+    settings : GaSettings, CmaesSettings or DeSettings
         The method's section of the configuration.
     seed : int
         Non-negative; the same seed gives the same search.
@@ -388,16 +387,17 @@ def search(method: str, objective: Callable, lo, hi, settings: dict, seed: int,
     Examples
     --------
     >>> sphere = lambda g: ((g - 0.5) ** 2).sum(axis=-1)
-    >>> s = {"population": 30, "generations": 300, "tournament_size": 3, "elitism": 2,
-    ...      "crossover_eta": 2.0, "mutation_probability": 0.6, "mutation_scale": 1.0,
-    ...      "ftol": 1e-12, "stall_generations": 20}
+    >>> from bodyvib.fit.config import GaSettings
+    >>> s = GaSettings(population=30, generations=300, tournament_size=3, elitism=2,
+    ...                crossover_eta=2.0, mutation_probability=0.6, mutation_scale=1.0,
+    ...                ftol=1e-12, stall_generations=20, coordinates="aligned")
     >>> r = search("ga", sphere, [-1] * 6, [2] * 6, s, seed=1)
     >>> bool(r.objective < 1e-10)
     True
     """
     if method not in _SEARCH:
         raise BodyvibError(f"unknown search method '{method}'; methods are {', '.join(METHODS)}")
-    space = SearchSpace(lo, hi, aligned=settings.get("coordinates", "aligned") == "aligned")
+    space = SearchSpace(lo, hi, aligned=settings.coordinates == "aligned")
     return _SEARCH[method](objective, space, settings, int(seed), on_generation)
 
 

@@ -55,7 +55,7 @@ from typing import Dict, Mapping, Optional
 import numpy as np
 
 from ..analytic import head_transmissibility, torso_transmissibility
-from .config import load_config
+from .config import FitConfig, load_config
 from .space import REDUCED_PARAMETERS
 from ..models import load_model
 from ..runtime.errors import BodyvibError
@@ -256,7 +256,7 @@ def _impulse_blocks(model, n: int, dt: float, point: str, block: int = 512):
 
 def objective_time_domain(reference, reduced, pairs: Optional[Mapping[str, float]] = None,
                           dt: Optional[float] = None, t_end: Optional[float] = None,
-                          config: Optional[dict] = None) -> float:
+                          config: Optional[FitConfig] = None) -> float:
     """The paper's Eq. 3 by its definition: integrated squared impulse-response difference.
 
     ``J = sum_p w_p int_0^T (h_ref,p - h_red,p)^2 dt``, trapezoid rule on exact
@@ -276,7 +276,7 @@ def objective_time_domain(reference, reduced, pairs: Optional[Mapping[str, float
     t_end : float, optional
         Horizon in s; by default 40 time constants of the slowest pole of
         either model (:func:`default_horizon`).
-    config : dict, optional
+    config : FitConfig, optional
         As :func:`load_config`.
 
     Returns
@@ -297,11 +297,11 @@ def objective_time_domain(reference, reduced, pairs: Optional[Mapping[str, float
     0.0
     """
     cfg = config or load_config()
-    pairs = dict(pairs or cfg["pairs"])
-    dt = float(dt or cfg["time_domain"]["dt_s"])
+    pairs = dict(pairs or cfg.pairs)
+    dt = float(dt or cfg.time_domain.dt_s)
     if t_end is None:
         t_end = default_horizon(reference, reduced,
-                                time_constants=cfg["time_domain"]["decay_time_constants"])
+                                time_constants=cfg.time_domain.decay_time_constants)
     n = _samples(t_end, dt)
     total = 0.0
     for role, wgt in pairs.items():
@@ -414,7 +414,7 @@ class FitTarget:
 
 
 def model_target(reference, pairs: Optional[Mapping[str, float]] = None,
-                 config: Optional[dict] = None) -> FitTarget:
+                 config: Optional[FitConfig] = None) -> FitTarget:
     """Target: a reference model's position impulse responses (by Parseval, its FRFs).
 
     Parameters
@@ -424,7 +424,7 @@ def model_target(reference, pairs: Optional[Mapping[str, float]] = None,
     pairs : dict of str to float, optional
         Role -> weight (the configuration's ``pairs`` by default: head and
         torso, weight 1 each); each role must be a role of the reference model.
-    config : dict, optional
+    config : FitConfig, optional
         As :func:`load_config` (its ``quadrature`` section is used).
 
     Returns
@@ -441,7 +441,7 @@ def model_target(reference, pairs: Optional[Mapping[str, float]] = None,
 
     cfg = config or load_config()
     net = load_model(reference) if isinstance(reference, (str, os.PathLike)) else reference
-    pairs = dict(pairs or cfg["pairs"])
+    pairs = dict(pairs or cfg.pairs)
     for role in pairs:
         if role not in net.roles:
             raise BodyvibError(
@@ -451,7 +451,7 @@ def model_target(reference, pairs: Optional[Mapping[str, float]] = None,
             )
         if role not in _REDUCED_TF:
             raise BodyvibError(f"role '{role}' has no counterpart in the reduced model")
-    f, w = quadrature_grid(**cfg["quadrature"])
+    f, w = quadrature_grid(**cfg.quadrature.to_dict())
     responses = {role: transmissibility(net, f, role) for role in pairs}
     name = net.name
     return FitTarget(
@@ -510,7 +510,7 @@ def measured_target(data, total_mass: Optional[float] = None) -> FitTarget:
 
 
 def objective_frequency_domain(reference, reduced, pairs: Optional[Mapping[str, float]] = None,
-                               config: Optional[dict] = None) -> float:
+                               config: Optional[FitConfig] = None) -> float:
     """The paper's Eq. 3 by Parseval, for one reduced model (see :class:`FitTarget`).
 
     Parameters
@@ -520,7 +520,7 @@ def objective_frequency_domain(reference, reduced, pairs: Optional[Mapping[str, 
     reduced : Network
         A reduced 3-DOF model (parameters m1 m2 k1 k2 c1 c2 ks).
     pairs : dict of str to float, optional
-    config : dict, optional
+    config : FitConfig, optional
 
     Returns
     -------

@@ -156,7 +156,8 @@ class ParetoFront:
     target : FitTarget
     seed : int
     settings : dict
-        The configuration's ``pareto`` section.
+        The configuration's ``pareto`` section as JSON
+        (:meth:`bodyvib.fit.config.ParetoSettings.to_dict`).
     evaluations : int
     elapsed_s : float
     """
@@ -174,7 +175,7 @@ class ParetoFront:
     history: List[float] = field(default_factory=list)
 
 
-def pareto_front(target, config: dict, seed: int = 1, start=None,
+def pareto_front(target, config, seed: int = 1, start=None,
                  progress: bool = False) -> ParetoFront:
     """NSGA-II on (``J``, peak error) for a reference-model target.
 
@@ -182,8 +183,8 @@ def pareto_front(target, config: dict, seed: int = 1, start=None,
     ----------
     target : FitTarget
         From :func:`bodyvib.fit.objective.model_target` (a reference model).
-    config : dict
-        As :func:`bodyvib.fit.config.load_config` (bounds and ``pareto``:
+    config : FitConfig
+        From :func:`bodyvib.fit.config.load_config` (bounds and ``pareto``:
         ``population``, ``generations``, ``crossover_eta``, ``mutation_eta``).
     seed : int
     start : array_like, shape (7,), optional
@@ -214,7 +215,7 @@ def pareto_front(target, config: dict, seed: int = 1, start=None,
     if target.reference is None:
         raise BodyvibError("--pareto needs a reference model (the peak error is against its "
                            "transmissibility); measured data are not supported")
-    s = config["pareto"]
+    s = config.pareto
     lo, hi = log_bounds(config)
     space = SearchSpace(lo, hi, aligned=True)
     M = target.total_mass
@@ -235,20 +236,20 @@ def pareto_front(target, config: dict, seed: int = 1, start=None,
         def _evaluate(self, z, out, *args, **kwargs):
             out["F"] = evaluate(z)
 
-    n = int(s["population"])
+    n = int(s.population)
     rng = np.random.default_rng(seed)
     X0 = space.zlo + rng.random((n, 6)) * (space.zhi - space.zlo)
     if start is not None:
         X0[0] = space.coordinates(parameters_to_genes(np.asarray(start, dtype=float)))
-    bar = tqdm(total=int(s["generations"]), desc="bodyvib fit --pareto (NSGA-II)", unit="gen",
+    bar = tqdm(total=int(s.generations), desc="bodyvib fit --pareto (NSGA-II)", unit="gen",
                file=sys.stderr, disable=None if progress else True, leave=False)
     algorithm = NSGA2(pop_size=n, sampling=X0,
-                      crossover=SBX(prob=0.9, eta=float(s["crossover_eta"])),
-                      mutation=PM(eta=float(s["mutation_eta"])), eliminate_duplicates=True)
+                      crossover=SBX(prob=0.9, eta=float(s.crossover_eta)),
+                      mutation=PM(eta=float(s.mutation_eta)), eliminate_duplicates=True)
     t0 = time.perf_counter()
     try:
         with threadpool_limits(1, user_api="blas"):
-            res = minimize(Trade(), algorithm, ("n_gen", int(s["generations"])), seed=int(seed),
+            res = minimize(Trade(), algorithm, ("n_gen", int(s.generations)), seed=int(seed),
                            verbose=False, callback=lambda _a: bar.update(1))
     finally:
         bar.close()
@@ -258,7 +259,7 @@ def pareto_front(target, config: dict, seed: int = 1, start=None,
     P = genes_to_parameters(space.genes(Z[order]), M)
     return ParetoFront(parameters=P, objective=F[order, 0], peak_error=F[order, 1],
                        peak=peaks(P), reference_peak=ref, target=target, seed=int(seed),
-                       settings=dict(s), evaluations=count[0], elapsed_s=elapsed)
+                       settings=s.to_dict(), evaluations=count[0], elapsed_s=elapsed)
 
 
 def chosen_points(front: ParetoFront) -> Dict[str, int]:

@@ -67,22 +67,27 @@ def compare_fit(result, refit):
             out["objective"][key]["time_domain_per_s"] = objective_time_domain(
                 t.reference, net, t.pairs, config=result.config)
         f = np.geomspace(F_MIN_HZ, F_MAX_HZ, 3000)
-        out["transmissibility_peaks"]["target"] = find_peaks(
+        out["transmissibility_peaks"]["target"] = _peaks(
             f, np.abs(transmissibility(t.reference, f)))
         am_ref = np.abs(apparent_mass(t.reference, f))
-        am = {"target": {"peaks_kg": find_peaks(f, am_ref)}}
+        am = {"target": {"peaks_kg": _peaks(f, am_ref)}}
         for key, net in models.items():
             a = np.abs(apparent_mass(net, f))
-            am[key] = {"peaks_kg": find_peaks(f, a),
+            am[key] = {"peaks_kg": _peaks(f, a),
                        "rms_relative_difference": float(np.sqrt(np.mean((a / am_ref - 1) ** 2)))}
         out["apparent_mass"] = am
     else:
         f = np.geomspace(t.frequency_hz[0], t.frequency_hz[-1], 3000)
-        out["transmissibility_peaks"]["target"] = find_peaks(t.measured.frequency_hz,
+        out["transmissibility_peaks"]["target"] = _peaks(t.measured.frequency_hz,
                                                          t.measured.modulus)
     for key, net in models.items():
-        out["transmissibility_peaks"][key] = find_peaks(f, np.abs(transmissibility(net, f)))
+        out["transmissibility_peaks"][key] = _peaks(f, np.abs(transmissibility(net, f)))
     return out
+
+
+def _peaks(f, modulus):
+    """:func:`find_peaks` as JSON (the comparison is a JSON document)."""
+    return [p.to_dict() for p in find_peaks(f, modulus)]
 
 
 def _single_pair(target, role):
@@ -175,7 +180,7 @@ def plot_comparison(result, refit, folder):
     roles = list(t.pairs)
     fig, axes = new_figure(len(roles), 1, sharex=True, figsize=(7, 2.6 * len(roles) + 0.8),
                            squeeze=False)
-    dt = result.config["time_domain"]["dt_s"]
+    dt = result.config.time_domain.dt_s
     models = [(paper, "paper's Table 2", "--"), (refit, "refit (GA)", "-")]
     if t.kind == "model":
         models.insert(0, (t.reference, f"{t.reference.name} (reference)", "k-"))

@@ -6,12 +6,12 @@ reference, date, package version), that ``load_model``, ``bodyvib frf
 --models`` and ``build_fmu.py --params`` read.
 """
 
-import copy
 import datetime
 from dataclasses import dataclass, field
 from typing import Dict, List
 
 from .. import __version__
+from .config import FitConfig
 from .objective import FitTarget, objective_time_domain
 from .space import reduced_network
 from ..models import save_model
@@ -42,7 +42,8 @@ class FitResult:
         ``objective / target.energy()``.
     target : FitTarget
     seed : int
-    config : dict
+    config : FitConfig
+        The configuration the search ran with.
     polished : bool
     evaluations : int
         Objective evaluations (individual parameter sets) in the GA and polish.
@@ -67,7 +68,7 @@ class FitResult:
     relative_error: float
     target: FitTarget
     seed: int
-    config: dict
+    config: FitConfig
     polished: bool
     evaluations: int
     elapsed_s: float
@@ -96,7 +97,7 @@ class FitResult:
                        "reference_model": t.reference.name if t.reference is not None else None,
                        "measured_data": t.measured.source if t.measured is not None else None},
             "seed": self.seed,
-            "config": copy.deepcopy(self.config),
+            "config": self.config.to_dict(),
             "polished": self.polished,
             "evaluations": self.evaluations,
             "elapsed_s": self.elapsed_s,
@@ -166,16 +167,16 @@ def write_parameter_file(result: FitResult, path, command: str = "") -> Network:
             "method": result.method,
             "library": describe(result.method),
             "seed": result.seed,
-            "restarts": result.config["restarts"][t.kind],
-            "settings": dict(result.config[result.method]),
-            "bounds_per_kg_total_mass": dict(result.config["bounds_per_kg_total_mass"]),
+            "restarts": getattr(result.config.restarts, t.kind),
+            "settings": result.config.settings(result.method).to_dict(),
+            "bounds_per_kg_total_mass": result.config.to_dict()["bounds_per_kg_total_mass"],
             "search_space": ("log10 of the six ratios within the bounds, searched as "
                              + ("log(m1/M), log(k1/m1), log(k2/M), log(ks/M), log(c1/m1), "
-                                "log(c2/M)" if result.config[result.method]["coordinates"]
+                                "log(c2/M)" if result.config.settings(result.method).coordinates
                                 == "aligned" else "themselves")),
-            "polish": (dict(result.config["polish"], enabled=True) if result.polished
+            "polish": (dict(result.config.polish.to_dict(), enabled=True) if result.polished
                        else {"enabled": False}),
-            "quadrature": dict(result.config["quadrature"]),
+            "quadrature": result.config.quadrature.to_dict(),
             "runs": [dict(r) for r in result.runs],
             "evaluations": result.evaluations,
             "wall_time_s": round(result.elapsed_s, 3),

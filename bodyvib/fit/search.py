@@ -20,7 +20,7 @@ from typing import List, Optional
 import numpy as np
 
 from ..process import interrupts
-from .config import load_config, log_bounds
+from .config import FitConfig, load_config, log_bounds
 from .methods import METHODS, search
 from .objective import FitTarget, parameter_array
 from .result import FitResult
@@ -34,7 +34,7 @@ __all__ = [
 ]
 
 
-def fit(target: FitTarget, config: Optional[dict] = None, seed: int = 1,
+def fit(target: FitTarget, config: Optional[FitConfig] = None, seed: int = 1,
         polish: Optional[bool] = None, progress: bool = False,
         method: Optional[str] = None) -> FitResult:
     """Fit the reduced model to a target by a seeded search (the genetic algorithm by default).
@@ -43,21 +43,21 @@ def fit(target: FitTarget, config: Optional[dict] = None, seed: int = 1,
     ----------
     target : FitTarget
         From :func:`model_target` or :func:`measured_target`.
-    config : dict, optional
-        As :func:`load_config` (bounds, method and its settings, restarts, polish).
+    config : FitConfig, optional
+        From :func:`load_config` (bounds, method and its settings, restarts, polish).
     seed : int
         Seeds the search: ``restarts`` independent searches (per target kind:
         one for a reference model, eight for measured data), each seeded from
         ``numpy.random.SeedSequence(seed)``, each polished, the best kept. The
         same seed and configuration give the same parameters.
     polish : bool, optional
-        Local polish from each search's best (``config["polish"]["enabled"]``
+        Local polish from each search's best (``config.polish.enabled``
         by default).
     progress : bool
         Show a progress bar on stderr (tqdm; off when stderr is not a terminal).
     method : str, optional
         ``"ga"``, ``"cmaes"`` or ``"de"`` (:data:`bodyvib.fit.methods.METHODS`);
-        ``config["method"]`` by default.
+        ``config.method`` by default.
 
     Returns
     -------
@@ -82,11 +82,11 @@ def fit(target: FitTarget, config: Optional[dict] = None, seed: int = 1,
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise BodyvibError(f"seed must be a non-negative integer, got {seed!r}")
     cfg = config or load_config()
-    method = cfg["method"] if method is None else method
+    method = cfg.method if method is None else method
     if method not in METHODS:
         raise BodyvibError(f"unknown search method '{method}'; methods are {', '.join(METHODS)}")
-    settings = cfg[method]
-    do_polish = cfg["polish"]["enabled"] if polish is None else bool(polish)
+    settings = cfg.settings(method)
+    do_polish = cfg.polish.enabled if polish is None else bool(polish)
     lo, hi = log_bounds(cfg)
     M = target.total_mass
     evaluations = [0]
@@ -96,10 +96,11 @@ def fit(target: FitTarget, config: Optional[dict] = None, seed: int = 1,
         evaluations[0] += int(np.prod(np.shape(genes)[:-1]))
         return target.objective(genes_to_parameters(genes, M))
 
-    restarts = int(cfg["restarts"][target.kind])
+    restarts = int(getattr(cfg.restarts, target.kind))
     run_seeds = [int(v) for v in np.random.SeedSequence(int(seed)).generate_state(restarts)]
     history: List[float] = []
-    total = restarts * settings["generations"] if "generations" in settings else None
+    generations = getattr(settings, "generations", None)
+    total = restarts * generations if generations is not None else None
     bar = tqdm(total=total, desc=f"bodyvib fit ({method})", unit="gen", file=sys.stderr,
                disable=None if progress else True, leave=False)
 
@@ -119,7 +120,7 @@ def fit(target: FitTarget, config: Optional[dict] = None, seed: int = 1,
                                on_generation=on_generation)
                 genes, J = found.genes, found.objective
                 if do_polish:
-                    genes, J = _polish(objective_of_genes, genes, lo, hi, cfg["polish"])
+                    genes, J = _polish(objective_of_genes, genes, lo, hi, cfg.polish)
                 runs.append({"seed": run_seed, "search_objective_per_s": found.objective,
                              "objective_per_s": float(J), "evaluations": found.evaluations,
                              "generations": found.generations, "stopped": found.stopped,
@@ -157,7 +158,7 @@ def polish(objective_of_genes, x0, lo, hi, pcfg):
         Start.
     lo, hi : ndarray, shape (6,)
         Bounds of the genes.
-    pcfg : dict
+    pcfg : bodyvib.fit.config.PolishSettings
         The configuration's ``polish`` section (``method``, ``max_iterations``).
 
     Returns
@@ -185,8 +186,8 @@ def _polish(objective_of_genes, x0, lo, hi, pcfg):
         J = objective_of_genes(pts)
         return (J[:n] - J[n:]) / (2 * step)
 
-    method = pcfg["method"]
-    opts = {"maxiter": int(pcfg["max_iterations"])}
+    method = pcfg.method
+    opts = {"maxiter": int(pcfg.max_iterations)}
     if method == "L-BFGS-B":
         opts.update(ftol=1e-15, gtol=1e-12)
         res = minimize(fun, x0, jac=jac, method=method, bounds=list(zip(lo, hi)), options=opts)

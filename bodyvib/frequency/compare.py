@@ -5,15 +5,20 @@ modulus and phase of ``T = X_head / X_seat`` over 0.5-31.5 Hz, the range of
 ISO 7962's data, with each model's resonance peaks.
 """
 
+from dataclasses import dataclass
+from typing import Dict, Tuple
+
 import numpy as np
 
-from .response import find_peaks, transmissibility
+from .response import Peak, find_peaks, transmissibility
 from ..process.limits import require_memory
 from ..runtime.errors import BodyvibError
 from ..models import load_model
 
 __all__ = [
     "THIRD_OCTAVE_HZ",
+    "ModelTransmissibility",
+    "TransmissibilityComparison",
     "compare_transmissibility",
     "format_table",
     "plot_transmissibility",
@@ -33,7 +38,48 @@ BYTES_PER_POINT = 200
 DEFAULT_MODELS = ("reduced-paper", "iso7962")
 
 
-def compare_transmissibility(models=DEFAULT_MODELS, f_min=0.5, f_max=31.5, points=1200):
+@dataclass(frozen=True)
+class ModelTransmissibility:
+    """One model's seat-to-head transmissibility on the comparison's grid.
+
+    Attributes
+    ----------
+    modulus : ndarray
+        ``|T|`` (dimensionless).
+    phase_deg : ndarray
+        Phase, unwrapped, degrees (negative = head lags seat).
+    peaks : tuple of Peak
+        Resonance peaks, in increasing frequency.
+    """
+
+    modulus: np.ndarray
+    phase_deg: np.ndarray
+    peaks: Tuple[Peak, ...]
+
+    def to_dict(self) -> dict:
+        """``{"modulus": [...], "phase_deg": [...], "peaks": [{"frequency_hz", "modulus"}]}``."""
+        return {"modulus": self.modulus.tolist(), "phase_deg": self.phase_deg.tolist(),
+                "peaks": [p.to_dict() for p in self.peaks]}
+
+
+@dataclass(frozen=True)
+class TransmissibilityComparison:
+    """Several models' transmissibility on one frequency grid (:func:`compare_transmissibility`):
+    ``frequency_hz`` (the common logarithmic grid, Hz) and ``models`` (label ->
+    :class:`ModelTransmissibility`, in the order given)."""
+
+    frequency_hz: np.ndarray
+    models: Dict[str, ModelTransmissibility]
+
+    def to_dict(self) -> dict:
+        """The JSON document of ``bodyvib frf --json``: ``{"frequency_hz": [...], "models":
+        {NAME: {"modulus", "phase_deg", "peaks"}}}``."""
+        return {"frequency_hz": self.frequency_hz.tolist(),
+                "models": {k: m.to_dict() for k, m in self.models.items()}}
+
+
+def compare_transmissibility(models=DEFAULT_MODELS, f_min=0.5, f_max=31.5,
+                             points=1200) -> TransmissibilityComparison:
     """Transmissibility of each model on a common logarithmic frequency grid.
 
     Parameters
@@ -47,11 +93,10 @@ def compare_transmissibility(models=DEFAULT_MODELS, f_min=0.5, f_max=31.5, point
 
     Returns
     -------
-    dict
-        ``{"frequency_hz": [...], "models": {NAME: {"modulus": [...],
-        "phase_deg": [...], "peaks": [{"frequency_hz": F, "modulus": M}]}}}``;
-        phase unwrapped, in degrees (negative = head lags seat). NAME is the
-        model's name; models sharing one get their file name appended.
+    TransmissibilityComparison
+        The grid and, per model, modulus, unwrapped phase (degrees) and peaks; its
+        ``to_dict()`` is the JSON form. A model is listed under its name; models
+        sharing one get their file name appended.
 
     Raises
     ------
@@ -62,7 +107,7 @@ def compare_transmissibility(models=DEFAULT_MODELS, f_min=0.5, f_max=31.5, point
     Examples
     --------
     >>> r = compare_transmissibility(["reduced-paper"], points=200)
-    >>> round(r["models"]["reduced-paper"]["peaks"][0]["frequency_hz"], 1)
+    >>> round(r.models["reduced-paper"].peaks[0].frequency_hz, 1)
     4.4
     """
     if not (0 < f_min < f_max < np.inf) or points < 10:
@@ -76,7 +121,7 @@ def compare_transmissibility(models=DEFAULT_MODELS, f_min=0.5, f_max=31.5, point
                    f"for {len(nets)} model(s)", "use fewer points (--points; 1200 resolve "
                    "every peak of the shipped models)")
     f = np.geomspace(f_min, f_max, points)
-    out = {"frequency_hz": f.tolist(), "models": {}}
+    curves = {}
     for (m, net), label in zip(nets, _labels(nets)):
         T = transmissibility(net, f)
         if not np.all(np.isfinite(T)):
@@ -85,12 +130,10 @@ def compare_transmissibility(models=DEFAULT_MODELS, f_min=0.5, f_max=31.5, point
                 f"model '{label}': the transmissibility is not finite at {f[k]:.4g} Hz (the "
                 "parameter values overflow the computation); check the parameter file")
         mod = np.abs(T)
-        out["models"][label] = {
-            "modulus": mod.tolist(),
-            "phase_deg": np.degrees(np.unwrap(np.angle(T))).tolist(),
-            "peaks": find_peaks(f, mod),
-        }
-    return out
+        curves[label] = ModelTransmissibility(
+            modulus=mod, phase_deg=np.degrees(np.unwrap(np.angle(T))),
+            peaks=tuple(find_peaks(f, mod)))
+    return TransmissibilityComparison(frequency_hz=f, models=curves)
 
 
 def _labels(nets):
@@ -121,7 +164,7 @@ def format_table(result, frequencies_hz=THIRD_OCTAVE_HZ) -> str:
 
     Parameters
     ----------
-    result : dict
+    result : TransmissibilityComparison
         From :func:`compare_transmissibility`.
     frequencies_hz : sequence of float
         Rows, Hz; those outside the computed range are left out (not extrapolated).
@@ -130,8 +173,8 @@ def format_table(result, frequencies_hz=THIRD_OCTAVE_HZ) -> str:
     -------
     str
     """
-    names = list(result["models"])
-    f = np.asarray(result["frequency_hz"])
+    names = list(result.models)
+    f = result.frequency_hz
     frequencies_hz = [fq for fq in frequencies_hz if f[0] <= fq <= f[-1]]
     w = max([20] + [len(n) for n in names])  # whole names: two may differ only at the end
     head = f"{'f [Hz]':>7}" + "".join(f" | {n:>{w}}" for n in names)
@@ -140,15 +183,15 @@ def format_table(result, frequencies_hz=THIRD_OCTAVE_HZ) -> str:
     for fq in frequencies_hz:
         row = f"{fq:7.2f}"
         for n in names:
-            r = result["models"][n]
-            mod = np.interp(np.log(fq), np.log(f), r["modulus"])
-            ph = np.interp(np.log(fq), np.log(f), r["phase_deg"])
+            r = result.models[n]
+            mod = np.interp(np.log(fq), np.log(f), r.modulus)
+            ph = np.interp(np.log(fq), np.log(f), r.phase_deg)
             row += f" | {mod:{w - 12}.3f} {ph:11.1f}"
         lines.append(row)
     lines.append("")
     for n in names:
         peaks = ", ".join(
-            f"{p['modulus']:.3f} at {p['frequency_hz']:.2f} Hz" for p in result["models"][n]["peaks"]
+            f"{p.modulus:.3f} at {p.frequency_hz:.2f} Hz" for p in result.models[n].peaks
         )
         lines.append(f"peaks of {n}: {peaks or 'none'}")
     return "\n".join(lines)
@@ -159,7 +202,7 @@ def plot_transmissibility(result, path, title="Seat-to-head transmissibility"):
 
     Parameters
     ----------
-    result : dict
+    result : TransmissibilityComparison
         From :func:`compare_transmissibility`.
     path : str or os.PathLike
         Plot file (.png, .pdf or .svg).
@@ -173,12 +216,12 @@ def plot_transmissibility(result, path, title="Seat-to-head transmissibility"):
     from ..plotting import new_figure, save_figure, transmissibility_axes
 
     fig, (ax1, ax2) = new_figure(2, 1, sharex=True, figsize=(7, 6))
-    f = result["frequency_hz"]
-    for name, r in result["models"].items():
-        line, = ax1.plot(f, r["modulus"], label=name)
-        for p in r["peaks"]:
-            ax1.plot(p["frequency_hz"], p["modulus"], "o", color=line.get_color(), ms=4)
-        ax2.plot(f, r["phase_deg"], color=line.get_color(), label=name)
+    f = result.frequency_hz
+    for name, r in result.models.items():
+        line, = ax1.plot(f, r.modulus, label=name)
+        for p in r.peaks:
+            ax1.plot(p.frequency_hz, p.modulus, "o", color=line.get_color(), ms=4)
+        ax2.plot(f, r.phase_deg, color=line.get_color(), label=name)
     transmissibility_axes(ax1, ax2, title=title)
     ax1.legend()
     save_figure(fig, path)

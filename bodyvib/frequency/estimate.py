@@ -10,7 +10,7 @@ from typing import Dict, List
 
 import numpy as np
 
-from .response import find_peaks
+from .response import Peak, find_peaks
 from ..runtime.errors import BodyvibError
 
 __all__ = ["TRANSMISSIBILITY_BAND_HZ", "Peak", "TransmissibilityEstimate",
@@ -18,18 +18,6 @@ __all__ = ["TRANSMISSIBILITY_BAND_HZ", "Peak", "TransmissibilityEstimate",
 
 #: Band over which transmissibility is estimated and compared, Hz.
 TRANSMISSIBILITY_BAND_HZ = (0.5, 20.0)
-
-
-@dataclass(frozen=True)
-class Peak:
-    """A peak of a transmissibility modulus: where (Hz) and how high (dimensionless)."""
-
-    frequency_hz: float
-    modulus: float
-
-    def to_dict(self) -> Dict[str, float]:
-        """``{"frequency_hz", "modulus"}`` for JSON."""
-        return asdict(self)
 
 
 @dataclass(frozen=True)
@@ -129,14 +117,14 @@ def _estimate(f, pxy, pxx, coh, duration_s, resolution_hz) -> TransmissibilityEs
     H = pxy[sel] / pxx[sel]
     mod = np.abs(H)
     peaks = find_peaks(f[sel], mod)
-    top = max(peaks, key=lambda p: p["modulus"]) if peaks else {
-        "frequency_hz": float(f[sel][np.argmax(mod)]), "modulus": float(mod.max())}
+    top = max(peaks, key=lambda p: p.modulus) if peaks else Peak(
+        frequency_hz=float(f[sel][np.argmax(mod)]), modulus=float(mod.max()))
     return TransmissibilityEstimate(
         frequency_hz=f[sel].tolist(),
         modulus=mod.tolist(),
         phase_deg=np.degrees(np.unwrap(np.angle(H))).tolist(),
         coherence=coh[sel].tolist(),
-        peak=Peak(frequency_hz=float(top["frequency_hz"]), modulus=float(top["modulus"])),
+        peak=top,
     )
 
 

@@ -9,7 +9,8 @@ where ``B_x, B_v`` (``D_x, D_v``) are the displacement and velocity columns.
 The seat-to-head *transmissibility* is ``T = X_head / X_seat = A_head / A_seat``.
 """
 
-from typing import List, Sequence
+from dataclasses import asdict, dataclass
+from typing import Dict, List, Sequence
 
 import numpy as np
 
@@ -23,6 +24,7 @@ __all__ = [
     "frequency_response",
     "transmissibility",
     "apparent_mass",
+    "Peak",
     "find_peaks",
     "displacement_input_matrices",
     "displacement_input_statespace",
@@ -172,8 +174,21 @@ def apparent_mass(model, frequencies_hz) -> np.ndarray:
     return frequency_response(lm, f, f"{lm.network.base}_force") / (-(w ** 2))
 
 
+@dataclass(frozen=True)
+class Peak:
+    """A peak of a modulus curve: where (``frequency_hz``, Hz) and how high (``modulus``, the
+    curve's value: dimensionless for a transmissibility, kg for an apparent mass)."""
+
+    frequency_hz: float
+    modulus: float
+
+    def to_dict(self) -> Dict[str, float]:
+        """``{"frequency_hz", "modulus"}`` for JSON."""
+        return asdict(self)
+
+
 def find_peaks(frequencies_hz: Sequence[float], modulus: Sequence[float],
-               min_prominence: float = 0.01) -> List[dict]:
+               min_prominence: float = 0.01) -> List[Peak]:
     """Local maxima of a modulus curve, refined by a parabola through 3 points.
 
     Parameters
@@ -188,8 +203,14 @@ def find_peaks(frequencies_hz: Sequence[float], modulus: Sequence[float],
 
     Returns
     -------
-    list of dict
-        ``{"frequency_hz": F, "modulus": M}``, in increasing frequency.
+    list of Peak
+        In increasing frequency.
+
+    Examples
+    --------
+    >>> f = np.linspace(0.0, 2.0, 21)
+    >>> [(round(p.frequency_hz, 6), round(p.modulus, 6)) for p in find_peaks(f, 1 - (f - 1) ** 2)]
+    [(1.0, 1.0)]
     """
     f = np.asarray(frequencies_hz, dtype=float)
     m = np.asarray(modulus, dtype=float)
@@ -215,7 +236,7 @@ def find_peaks(frequencies_hz: Sequence[float], modulus: Sequence[float],
                 fp, mp = f[i], m[i]
         else:
             fp, mp = f[i], m[i]
-        peaks.append({"frequency_hz": float(fp), "modulus": float(mp)})
+        peaks.append(Peak(frequency_hz=float(fp), modulus=float(mp)))
     return peaks
 
 

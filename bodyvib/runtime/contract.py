@@ -7,7 +7,7 @@ or native): the value reference of a variable is its position in
 master and the tests import these definitions; nobody restates them
 (docs/architecture.md, "The FMU contract").
 
-Interfaces (SI units; ``vr`` = value reference = position in :attr:`FmuCore.variables`):
+Interfaces (SI units; ``vr`` = value reference = position in :attr:`bodyvib.runtime.engine.FmuCore.variables`):
 
 * body (``kind="body"``): inputs ``seat_displacement`` [m], ``seat_velocity``
   [m/s], ``seat_acceleration`` [m/s2] (optional, start 0: the seat velocity
@@ -130,7 +130,7 @@ class Interface:
         other input is held.
     output_signals : tuple of str
         Model output (or role) name of each FMU output, for
-        :meth:`bodyvib.network.LinearModel.output_index`; ``RATE_PREFIX + name``
+        :meth:`bodyvib.runtime.network.LinearModel.output_index`; ``RATE_PREFIX + name``
         (:func:`rate_signal`) is the exact time derivative of that output.
     slope_fallback : tuple of (int, int)
         The rate pairs of a displacement and its velocity input: if the

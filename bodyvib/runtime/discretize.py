@@ -17,15 +17,15 @@ Numpy only (no scipy): this module runs inside the FMUs.
 """
 
 import math
-from typing import Dict, Optional, Tuple
+from typing import Optional, Tuple
 
 import numpy as np
 
 from .errors import BodyvibError
 from .network import LinearModel, as_linear_model
 
-__all__ = ["check_step", "expm", "discretize", "discretize_quadratic", "Discretization", "input_rates",
-           "simulate"]
+__all__ = ["check_step", "expm", "discretize", "discretize_quadratic", "Discretization",
+           "StepCache", "input_rates", "simulate"]
 
 # Pade(13) coefficients and the scaling threshold of Higham (2005).
 _B13 = (64764752532480000., 32382376266240000., 7771770303897600.,
@@ -167,6 +167,49 @@ def discretize_quadratic(A: np.ndarray, B: np.ndarray, h: float) -> np.ndarray:
     return expm(_augmented(A, B, 3) * h)[:n, n + 2 * m:]
 
 
+class StepCache:
+    """Matrices computed once per step size, memory bounded: the run-time's one cache.
+
+    A run steps at one or a few sizes; a host that varies its step without end would grow
+    a plain dict, so past ``limit`` entries the cache starts over.
+
+    Parameters
+    ----------
+    compute : callable
+        ``compute(h)`` gives the value for step ``h``.
+    limit : int
+        Most entries kept.
+
+    Examples
+    --------
+    >>> c = StepCache(lambda h: 2 * h)
+    >>> c.get(1e-3), len(c)
+    (0.002, 1)
+    """
+
+    def __init__(self, compute, limit: int = 64):
+        self._compute = compute
+        self._limit = int(limit)
+        self._values: dict = {}
+
+    def __len__(self) -> int:
+        return len(self._values)
+
+    def get(self, h: float):
+        """The value for step ``h``, computed on first use."""
+        value = self._values.get(h)
+        if value is None:
+            value = self._compute(h)
+            if len(self._values) > self._limit:
+                self._values.clear()
+            self._values[h] = value
+        return value
+
+    def discard(self, h: float) -> None:
+        """Forget the value of step ``h`` (e.g. one found unusable)."""
+        self._values.pop(h, None)
+
+
 class Discretization:
     """Exact discrete-time stepping of a linear model, cached per step size.
 
@@ -190,7 +233,7 @@ class Discretization:
     def __init__(self, model, cache_digits: int = 12):
         self.model: LinearModel = as_linear_model(model)
         self._digits = cache_digits
-        self._cache: Dict[float, Tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self._cache = StepCache(lambda key: discretize(self.model.A, self.model.B, key))
 
     def zero_state(self) -> np.ndarray:
         """The equilibrium state (all zeros)."""
@@ -199,14 +242,7 @@ class Discretization:
     def matrices(self, h: float):
         """``(Phi, Gamma0, Gamma1)`` for step ``h`` (computed once per rounded h)."""
         check_step(h)
-        key = float(f"{h:.{self._digits}g}")
-        mats = self._cache.get(key)
-        if mats is None:
-            if len(self._cache) > 64:  # varying steps: keep memory bounded
-                self._cache.clear()
-            mats = discretize(self.model.A, self.model.B, key)
-            self._cache[key] = mats
-        return mats
+        return self._cache.get(float(f"{h:.{self._digits}g}"))
 
     def step(self, x, u, du, h: float) -> np.ndarray:
         """State after one step of length ``h`` from ``x`` with input ``u + du tau``."""

@@ -43,7 +43,7 @@ from typing import Callable, List, Optional, Sequence
 import numpy as np
 
 from .contract import RATE_PREFIX, fmu_variables
-from .discretize import Discretization, discretize_quadratic
+from .discretize import Discretization, StepCache, discretize_quadratic
 from .errors import BodyvibError
 from .network import Network, linear_model
 
@@ -148,29 +148,24 @@ class FmuCore:
                 i = lm.output_index(sig)
                 rows.append(np.concatenate([lm.C[i], lm.D[i] @ U]))
         self._Y = np.array(rows)
-        self._steps = {}
+        self._steps = StepCache(self._step_matrix)
         self._h = None
         self._M = None
         self._built_params = params.copy()
 
     def _step_matrix(self, h: float) -> np.ndarray:
         """``[x | s]`` at the step's end ``= M @ [x | s]``: exact state update, inputs extrapolated."""
-        M = self._steps.get(h)
-        if M is None:
-            Phi, G0, G1 = self._disc.matrices(h)
-            n, ni = self._n, self._ni
-            M = np.zeros((n + ni, n + ni))
-            M[:n, :n] = Phi
-            M[:n, n:] = G0 @ self._U + G1 @ self._dU
-            M[n:, n:] = np.eye(ni) + h * self._R
-            R2 = self._R @ self._R  # a rate that itself rises (seat velocity at seat_acceleration)
-            if R2.any():
-                lm = self._disc.model
-                M[:n, n:] += discretize_quadratic(lm.A, lm.B, float(f"{h:.12g}")) @ self._U @ R2
-                M[n:, n:] += 0.5 * h * h * R2
-            if len(self._steps) > 64:
-                self._steps.clear()
-            self._steps[h] = M
+        Phi, G0, G1 = self._disc.matrices(h)
+        n, ni = self._n, self._ni
+        M = np.zeros((n + ni, n + ni))
+        M[:n, :n] = Phi
+        M[:n, n:] = G0 @ self._U + G1 @ self._dU
+        M[n:, n:] = np.eye(ni) + h * self._R
+        R2 = self._R @ self._R  # a rate that itself rises (seat velocity at seat_acceleration)
+        if R2.any():
+            lm = self._disc.model
+            M[:n, n:] += discretize_quadratic(lm.A, lm.B, float(f"{h:.12g}")) @ self._U @ R2
+            M[n:, n:] += 0.5 * h * h * R2
         return M
 
     def setup_experiment(self, start_time: float) -> None:
@@ -308,9 +303,9 @@ class FmuCore:
             self._slope_fallback(current_time, h)
         if h != self._h:
             with np.errstate(all="ignore"):  # an overflow is refused below, not warned about
-                M = self._step_matrix(h)
+                M = self._steps.get(h)
             if not np.all(np.isfinite(M)):
-                self._steps.pop(h, None)
+                self._steps.discard(h)
                 raise BodyvibError(f"{self.name}: a step of {h!r} s overflows the exact "
                                    "discretization (not finite); step refused, state unchanged "
                                    "(use shorter steps)")

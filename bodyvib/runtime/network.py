@@ -455,7 +455,7 @@ def linear_model(network: Network) -> LinearModel:
     Parameters
     ----------
     network : Network
-        A validated network (see :func:`bodyvib.models.network_from_dict`).
+        A validated network (see :func:`bodyvib.runtime.modelfile.network_from_dict`).
 
     Returns
     -------

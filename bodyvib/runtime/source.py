@@ -194,7 +194,7 @@ def read_source(path):
 
 
 class SourceCore:
-    """State and stepping of one source FMU instance (the :class:`FmuCore` API).
+    """State and stepping of one source FMU instance (the :class:`bodyvib.runtime.engine.FmuCore` API).
 
     Parameters
     ----------
@@ -284,6 +284,9 @@ class SourceCore:
         self._cache = None
 
     def _outputs(self) -> List[float]:
+        # not a cache of results across calls but the outputs at the current time and
+        # speed, invalidated by every write of either: a host reads them one getReal at a
+        # time, and each read would evaluate the whole road table again
         if self._cache is None:
             z, dz = self.table.evaluate(self._speed * self.time)
             out = []

@@ -1,0 +1,141 @@
+"""The signals of a run: one table of name, unit, meaning and where each comes from.
+
+A co-simulation (:func:`vehicle.cosim.cosimulate`, :class:`vehicle.cosim.Master`) and the
+monolithic reference (:func:`vehicle.reference.reference_run`,
+:class:`vehicle.reference.ReferenceStream`) give the same signals; the CSV header
+(``name [unit]``), the study's CSV columns and the plot's axis labels read them here.
+The order of :data:`SIGNALS` is the order of a run's columns (result dicts and CSV).
+
+Each signal says where it comes from:
+
+- ``"grid"``, ``"road"``: the time grid and the road input (the master's input);
+- ``"car"``: an output of the car FMU (:attr:`Signal.variable`), recorded at ``t_k``
+  after the car's inputs of ``t_k`` are set;
+- ``"body"``: an output of the body FMU (:attr:`Signal.variable`).
+
+In the reference each car and body signal is an output of the seated system
+(:attr:`Signal.seated`, ``{seat}`` standing for the car's seat point); the seat force has
+none: it is the occupant's own output moved onto the seated system
+(:func:`vehicle.reference.seat_force_weights`).
+"""
+
+from dataclasses import dataclass
+from typing import Dict, Literal, Optional, Tuple
+
+__all__ = ["Signal", "SIGNALS", "UNITS", "MASTER_SIGNALS", "CAR_SIGNALS", "BODY_SIGNALS",
+           "header", "axis_label"]
+
+
+@dataclass(frozen=True)
+class Signal:
+    """One signal of a run.
+
+    Attributes
+    ----------
+    name : str
+        Column name (result dicts, CSV).
+    unit : str
+        SI unit as written in CSV headers and plot labels.
+    meaning : str
+        What it is, with its sign convention.
+    source : str
+        ``"grid"``, ``"road"``, ``"car"`` or ``"body"`` (module docstring).
+    variable : str or None
+        The FMU output the master reads (car and body signals).
+    seated : str or None
+        The output of the seated system the reference reads (``{seat}``: the car's seat
+        point); None for the seat force and for grid and road.
+    """
+
+    name: str
+    unit: str
+    meaning: str
+    source: Literal["grid", "road", "car", "body"]
+    variable: Optional[str] = None
+    seated: Optional[str] = None
+
+    def seated_output(self, seat: str) -> Optional[str]:
+        """The seated system's output of this signal for a car whose seat point is ``seat``."""
+        return None if self.seated is None else self.seated.format(seat=seat)
+
+
+#: Every signal of a run, in column order.
+SIGNALS: Tuple[Signal, ...] = (
+    Signal("time", "s", "communication point t_k = k h", "grid"),
+    Signal("road_displacement", "m", "road profile under the tire", "road"),
+    Signal("road_velocity", "m/s", "slope of the road profile in time", "road"),
+    Signal("seat_displacement", "m", "the car's seat point", "car",
+           "seat_displacement", "{seat}.x"),
+    Signal("seat_velocity", "m/s", "the car's seat point", "car", "seat_velocity", "{seat}.v"),
+    Signal("seat_acceleration", "m/s2", "the car's seat point, absolute", "car",
+           "sprung_acceleration", "{seat}.a"),
+    Signal("suspension_deflection", "m", "+ in extension", "car", "suspension_deflection",
+           "suspension.deflection"),
+    Signal("tire_force", "N", "+ in compression", "car", "tire_force", "tire.force"),
+    Signal("seat_force", "N", "force of the occupant on the seat, + in compression", "body",
+           "seat_force"),
+    Signal("head_acceleration", "m/s2", "the occupant's head, absolute", "body",
+           "head_acceleration", "body.head.a"),
+    Signal("head_displacement", "m", "the occupant's head", "body", "head_displacement",
+           "body.head.x"),
+    Signal("torso_displacement", "m", "the occupant's torso", "body", "torso_displacement",
+           "body.torso.x"),
+)
+
+#: Unit of each signal by name.
+UNITS: Dict[str, str] = {s.name: s.unit for s in SIGNALS}
+
+#: The car's signals, in column order.
+CAR_SIGNALS: Tuple[Signal, ...] = tuple(s for s in SIGNALS if s.source == "car")
+
+#: The body's signals, in column order.
+BODY_SIGNALS: Tuple[Signal, ...] = tuple(s for s in SIGNALS if s.source == "body")
+
+#: Names of the signals the master records (car, then body): the columns of
+#: :meth:`vehicle.cosim.Master.advance`.
+MASTER_SIGNALS: Tuple[str, ...] = tuple(s.name for s in CAR_SIGNALS + BODY_SIGNALS)
+
+
+def header(column: str) -> str:
+    """CSV header of a column: ``name [unit]``.
+
+    A column named after a signal, possibly prefixed (``<label>.`` for a body of a study,
+    ``reference_`` for the reference's), has that signal's unit; another has no unit.
+
+    Parameters
+    ----------
+    column : str
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> header("HumanBody3DOF.reference_head_acceleration")
+    'HumanBody3DOF.reference_head_acceleration [m/s2]'
+    >>> header("gain")
+    'gain'
+    """
+    unit = UNITS.get(column.rpartition(".")[2].replace("reference_", ""))
+    return f"{column} [{unit}]" if unit else column
+
+
+def axis_label(name: str) -> str:
+    """Plot axis label of a signal: words and unit, ``head acceleration [m/s2]``.
+
+    Parameters
+    ----------
+    name : str
+        A signal's name.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> axis_label("head_acceleration")
+    'head acceleration [m/s2]'
+    """
+    return f"{name.replace('_', ' ')} [{UNITS[name]}]"
