@@ -40,7 +40,7 @@ from bodyvib.models import load_model
 from bodyvib.runtime.contract import KINDS
 from bodyvib.runtime.discretize import discretize
 from bodyvib.runtime.network import linear_model
-from conftest import ROOT
+from helpers import ROOT
 from test_native_fmu import _fmi2_callbacks
 from vehicle.quarter_car import load_car
 

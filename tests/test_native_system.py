@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import ROOT
+from helpers import ROOT
 from test_ssp import DURATION, HOSTS, host_run
 from vehicle.reference import nrmse
 from vehicle.ssp import CONNECTIONS, SSP_NAME, ssp_reference

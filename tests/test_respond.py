@@ -11,7 +11,7 @@ from bodyvib.runtime.errors import BodyvibError
 from bodyvib.seat.response import head_acceleration, respond
 from bodyvib.seat.signal import check_signal, read_signal
 from bodyvib_cli.main import main
-from conftest import dynamic_stiffness_response
+from helpers import dynamic_stiffness_response
 from vehicle.quarter_car import load_car
 from vehicle.reference import reference_run
 from vehicle.road.synthetic import make_road, road_input
