@@ -5,8 +5,12 @@ import sys
 from pathlib import Path
 
 from bodyvib.process.outputs import check_outputs
+from bodyvib.runtime.errors import BodyvibError
 from vehicle.fmus import FMUS, ROAD_DEFAULTS, build_fmus
+from vehicle.road.driven import is_road_file
 from vehicle.ssp import COMPONENTS, SSP_NAME, write_ssp
+
+from .cosim import add_road_options
 
 __all__ = ["add_command", "main"]
 
@@ -28,8 +32,13 @@ def _run(args) -> int:
                   + [(f"--dest {n}.fmu", os.path.join(args.dest, f"{n}.fmu"), None) for n in names]
                   + ([(f"--dest {SSP_NAME}.ssp", os.path.join(args.dest, f"{SSP_NAME}.ssp"), None)]
                      if ssp else []), inputs)
-    road = {"road": args.road, "seed": args.road_seed, "length": args.road_length,
-            "speed": args.road_speed, "taper": args.road_taper}
+    if args.road_length is not None and is_road_file(args.road):
+        raise BodyvibError("--road-length sets a synthetic road's length; Road.fmu tabulates a "
+                           "road file over its own length: drop --road-length")
+    road = {"road": args.road, "seed": args.road_seed,
+            "length": ROAD_DEFAULTS["length"] if args.road_length is None else args.road_length,
+            "speed": args.road_speed, "taper": args.road_taper, "track": args.road_track,
+            "units": args.road_units, "envelope": args.road_envelope, "repeat": args.road_repeat}
     built = build_fmus(args.dest, args.params, names=args.fmus, echo=print, road=road)
     if ssp:
         path = write_ssp(f"{args.dest}/{SSP_NAME}.ssp",
@@ -58,17 +67,17 @@ def add_command(subparsers):
                    "into DEST/native/fmi3; linux64 + win64 binaries and sources; the host "
                    "needs no Python)")
     p.add_argument("--road", default=ROAD_DEFAULTS["road"],
-                   help="Road.fmu: ISO 8608 class A-H, bump or sweep (default: C)")
+                   help="Road.fmu: ISO 8608 class A-H, bump, sweep or a road file (.crg, .csv, "
+                   ".erd) (default: C)")
     p.add_argument("--road-seed", type=int, default=ROAD_DEFAULTS["seed"], metavar="N",
                    help="Road.fmu: seed of a random road (default: 0)")
-    p.add_argument("--road-length", type=float, default=ROAD_DEFAULTS["length"], metavar="M",
+    p.add_argument("--road-length", type=float, default=None, metavar="M",
                    help="Road.fmu: tabulated length in m (default: 601, 30 s at 20 m/s; a random "
                    "road repeats after it)")
     p.add_argument("--road-speed", type=float, default=ROAD_DEFAULTS["speed"], metavar="V",
                    help="Road.fmu: default of its speed parameter, m/s (default: 20)")
-    p.add_argument("--road-taper", type=float, default=ROAD_DEFAULTS["taper"], metavar="M",
-                   help="Road.fmu: a random road fades in from level over its first M metres and "
-                   "out over its last (default: 5; 0: none)")
+    add_road_options(p, taper_help="Road.fmu: the road fades in from level over its first M "
+                     "metres and out over its last, as every run's road (default: 5; 0: none)")
     p.set_defaults(func=_run)
     return p
 
