@@ -339,6 +339,11 @@ def _read_crg(path, track):
                 raise BodyvibError(f"road '{base}': --road-track {track:g} m is off the road "
                                    f"(it spans {v.min():g} to {v.max():g} m from the reference "
                                    "line); choose a track on it")
+            end = (ds.header.road or {}).get("reference_line_end_u")
+            du = float(u[1] - u[0]) if u.size > 1 else 0.0
+            if end is not None and u[-1] < float(end) - 0.5 * du:
+                raise BodyvibError(f"road '{base}' is truncated: its header ends the road at u = "
+                                   f"{float(end):g} m, its data at {u[-1]:g} m; write it again")
             cp = ds.create_contact_point()
             z = np.asarray(cp.uv_to_z_many(u, np.full_like(u, track)), dtype=float)
     except BodyvibError:
