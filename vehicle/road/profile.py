@@ -186,8 +186,9 @@ class ProfileRoad(Road):
                 f"road '{self.name}': its spacing {self.spacing:g} m is too coarse for "
                 f"{speed:g} m/s and a {step or 0:g} s step: its shortest wavelength passes at "
                 f"{top:.3g} Hz, below the {need:.3g} Hz the figures need; use a profile sampled "
-                f"every {speed / (2 * need):.3g} m or finer (or drive at {2 * self.spacing * need:.3g}"
-                " m/s or faster)")
+                f"every {speed / (2 * need):.3g} m or finer, drive at "
+                f"{2 * self.spacing * need:.3g} m/s or faster, or step at {0.5 / top:.3g} s or "
+                "longer (which resolves less)")
         run = speed * duration
         if run > self.length * (1 + 1e-12) and not repeat:
             raise BodyvibError(
