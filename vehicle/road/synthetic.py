@@ -498,8 +498,13 @@ class TaperedRoad(Road):
             if self.taper > 0 else self.road.name
 
     def _where(self, x):
+        """Distances for the window and for the road: a random road repeats by itself, so it
+        is evaluated at ``x`` (a uniform grid stays uniform, for the fast harmonic sum)."""
         x = np.asarray(x, dtype=float)
-        return np.mod(x, self.length) if self.periodic else x
+        if not self.periodic:
+            return x, x
+        xw = np.where((x >= 0) & (x < self.length), x, np.mod(x, self.length))
+        return xw, (x if isinstance(self.road, RandomRoad) else xw)
 
     def _window(self, x):
         d, L = self.taper, self.length
@@ -513,14 +518,14 @@ class TaperedRoad(Road):
 
     def displacement(self, x) -> np.ndarray:
         """Profile height at distances ``x`` (m), in m."""
-        x = self._where(x)
-        w, _ = self._window(x)
+        xw, x = self._where(x)
+        w, _ = self._window(xw)
         return w * self.road.displacement(x)
 
     def slope(self, x) -> np.ndarray:
         """Exact slope ``dz/dx`` (product rule)."""
-        x = self._where(x)
-        w, dw = self._window(x)
+        xw, x = self._where(x)
+        w, dw = self._window(xw)
         return dw * self.road.displacement(x) + w * self.road.slope(x)
 
     def describe(self) -> dict:
