@@ -408,3 +408,35 @@ def test_road_fmu_of_a_file_is_the_driven_road(files, folder):
     scale = np.max(np.abs(z))
     assert np.max(np.abs(res["road_displacement"] - z)) <= 1e-4 * scale
     assert np.max(np.abs(res["road_velocity"] - v)) <= 2e-2 * np.max(np.abs(v))
+
+
+@pytest.mark.integration
+def test_sweep_engines_drive_a_road_file_as_cosim_does(files, folder, capsys):
+    """A sweep case on the ERD file: its road input is bodyvib cosim's, sample for sample from
+    t = 0 (the CSV's 10 digits); the cosim engine gives cosim's head acceleration, the batched
+    engine the same within the coupling error."""
+    from bodyvib_cli.main import main
+    from vehicle.reference import nrmse
+    from vehicle.sweep.engines import case_road_input, run_batched, run_cosim
+    from vehicle.sweep.spec import expand, grid_spec
+
+    csv = os.path.join(folder, "erd-run.csv")
+    assert main(["cosim", "--road", files["erd"], "--road-taper", "3", "--duration", "2",
+                 "--csv", csv, "--quiet"]) == 0
+    capsys.readouterr()
+    data = np.genfromtxt(csv, delimiter=",", names=True)
+    spec = grid_spec([f"road={files['erd']}", "speed=20", "body=reduced-paper"], duration=2.0,
+                     road_options={"taper": 3.0})
+    (case,) = expand(spec)
+    z, v = case_road_input(case)
+    assert z[0] == 0.0 and v[0] == 0.0
+    np.testing.assert_allclose(data["road_displacement_m"], z, rtol=1e-9, atol=1e-9 * np.abs(z).max())
+    np.testing.assert_allclose(data["road_velocity_ms"], v, rtol=1e-9, atol=1e-9 * np.abs(v).max())
+    co, co_hist = run_cosim([case], record=True)
+    a = co_hist[0]["head_acceleration"]
+    np.testing.assert_allclose(data["head_acceleration_ms2"], a, rtol=1e-9, atol=1e-9 * np.abs(a).max())
+    ba, ba_hist = run_batched([case], record=True)
+    assert nrmse(a, ba_hist[0]["head_acceleration"]) < 5e-4
+    assert main(["sweep", str(os.path.join(folder, "x.json")), "--road-taper", "3",
+                 "--out", os.path.join(folder, "x.parquet")]) == 2
+    assert "--road-* options go with --grid" in capsys.readouterr().err
