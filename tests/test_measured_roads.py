@@ -440,3 +440,16 @@ def test_sweep_engines_drive_a_road_file_as_cosim_does(files, folder, capsys):
     assert main(["sweep", str(os.path.join(folder, "x.json")), "--road-taper", "3",
                  "--out", os.path.join(folder, "x.parquet")]) == 2
     assert "--road-* options go with --grid" in capsys.readouterr().err
+
+
+def test_build_refuses_a_length_for_a_road_file(files, folder, capsys):
+    from bodyvib_cli.main import main
+
+    dest = os.path.join(folder, "dist-refused")
+    assert main(["build", "--dest", dest, "--fmus", "Road", "--road", files["crg"],
+                 "--road-length", "100"]) == 2
+    assert "tabulates a road file over its own length" in capsys.readouterr().err
+    assert main(["build", "--dest", dest, "--fmus", "Road", "--road", "C",
+                 "--road-repeat"]) == 2
+    assert "apply to road files; road 'C' is synthetic" in capsys.readouterr().err
+    assert not os.path.exists(os.path.join(dest, "Road.fmu"))

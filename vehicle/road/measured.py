@@ -6,7 +6,9 @@
 * **OpenCRG** ``.crg`` (ASAM OpenCRG, through ``pycrg``): the height of the road
   surface (reference line elevation and slope, banking and the elevation grid, as
   OpenCRG evaluates it with the file's modifiers) along the reference line at the
-  lateral offset ``track_m`` (positive to the left), at the file's own increment.
+  lateral offset ``track_m`` (positive to the left), at the file's own increment
+  (without a modifiers section, OpenCRG's default modifiers put the reference line's
+  start at z = 0; the grid is single precision).
 * **CSV**: two columns, distance and elevation, with their units in the header
   (``distance_m,elevation_mm``; also ``distance [m]`` or ``distance (m)``) or given
   as ``units="m,mm"``. Lines starting with ``#`` are comments.
