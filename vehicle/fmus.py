@@ -44,7 +44,7 @@ FMUS = {
                    "in, seat motion, suspension deflection and tire force out; exact discretization"),
     "Road": ("source", "C",
              "Road profile under a wheel driving at a speed (a parameter): road_displacement and "
-             "its exact time derivative road_velocity, from a table built by vehicle.road.synthetic"),
+             "its exact time derivative road_velocity, from a table built by vehicle.road"),
 }
 
 

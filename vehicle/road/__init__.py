@@ -4,13 +4,20 @@
 roads of classes A-H, a bump, a sine sweep; it also holds what every road shares
 (the :class:`~vehicle.road.synthetic.Road` interface, the fade-in
 :class:`~vehicle.road.synthetic.TaperedRoad`, the road input at a speed, and the
-table that ``Road.fmu`` carries).
+table that ``Road.fmu`` carries). :mod:`~vehicle.road.measured` reads measured
+profiles (OpenCRG, CSV, ERD) into a :class:`~vehicle.road.profile.ProfileRoad`.
+:mod:`~vehicle.road.driven` gives the road every run and ``Road.fmu`` drive: any of
+them, faded in from level, so the car starts at rest on it.
 """
 
+from .driven import DEFAULT_TAPER_M, RoadOptions, driven_road, is_road_file
+from .measured import load_profile
+from .profile import ProfileRoad
 from .synthetic import (ISO8608_CLASSES, N0, N_BAND, BumpRoad, RandomRoad, Road, SweepRoad,
                         TaperedRoad, class_psd_n0, displacement_psd, make_road, random_road,
                         road_input, road_source, road_table)
 
 __all__ = ["ISO8608_CLASSES", "N0", "N_BAND", "class_psd_n0", "displacement_psd", "Road",
            "RandomRoad", "BumpRoad", "SweepRoad", "TaperedRoad", "random_road", "road_source",
-           "road_table", "make_road", "road_input"]
+           "road_table", "make_road", "road_input", "DEFAULT_TAPER_M", "RoadOptions",
+           "driven_road", "is_road_file", "ProfileRoad", "load_profile"]
