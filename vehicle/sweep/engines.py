@@ -16,7 +16,9 @@
   (:func:`bodyvib.comfort.figures.wk_response`) and the road's time-domain PSD at the
   speed ``S(f) = Gd(f / V) / V`` (:func:`vehicle.road.synthetic.displacement_psd`)
   over the band the road is synthesized in. It gives the weighted r.m.s. only:
-  VDV, peak and crest factor depend on the particular record (NaN).
+  VDV, peak and crest factor depend on the particular record (NaN). It is the
+  stationary road's expectation: the fade-in every road starts with (5 m of a run's
+  hundreds) is a transient outside it, and a road file, not stationary, is refused.
 * ``cosim`` -- real FMU co-simulations (:func:`vehicle.cosim.cosimulate`,
   extrapolating master): the FMUs are built once per task (into a temporary
   folder deleted with the task) and body and car parameters are set for each
