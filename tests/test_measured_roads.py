@@ -258,6 +258,24 @@ def test_bad_erd_is_refused(folder):
         load_profile(path)
 
 
+def test_erd_fixed_column_header_as_profilers_write_it(folder):
+    """The layout line with NCHAN, NSAMP, three fields and DELTA, keys in 8 columns
+    (UNITSNAM per channel), three channels; the second one read."""
+    path = os.path.join(folder, "ltpp.erd")
+    prof = np.sin(np.arange(500)[:, None] / np.array([5.0, 6.0, 7.0]))
+    with open(path, "w") as f:
+        f.write("ERDFILEV2.00\n      3,    500,     -1,      1,      5,       0.0250,     -1,\n")
+        f.write("TITLE   a test section: Run 1\nUNITSNAMmm      mm      mm\nXUNITS  m\n")
+        f.write("DATE    01/Dec/2026\n\nEND\n")
+        for row in prof:
+            f.write(" ".join(f"{float(v):.6f}" for v in row) + "\n")
+    p = load_profile(path)
+    assert p.spacing == pytest.approx(0.025) and p.elevation.size == 500
+    np.testing.assert_allclose(p.elevation, np.round(prof[:, 0], 6) * 1e-3, atol=1e-15)
+    np.testing.assert_allclose(load_profile(path, channel=2).elevation,
+                               np.round(prof[:, 1], 6) * 1e-3, atol=1e-15)
+
+
 def test_erd_keyword_header_and_channels(folder):
     """The header as keyword lines (NCHAN, NSAMP, DELTA), two channels, feet and inches."""
     path = os.path.join(folder, "two.erd")

@@ -15,10 +15,13 @@
 * **ERD** (UMTRI's text format for profiles, as RoadRuf and ProVAL write it): a
   header that starts with ``ERDFILEV2.00`` and ends with a line ``END``, then the
   samples, ``NCHAN`` numbers per row, ``NSAMP`` rows. The header gives the layout on
-  its second line (``NCHAN, NSAMP, NTESTS, NBYTES, NRECS, DELTA, START``) or as
-  keyword lines (``NCHAN``, ``NSAMP``, ``DELTA``, ``START``), the distance unit as
-  ``XUNITS`` (or ``GENUNITS``) and the elevation unit as ``YUNITS`` (or ``UNITS``,
-  one per channel). The first channel is read (``channel`` chooses another).
+  its second line (comma-separated: ``NCHAN, NSAMP``, three more fields, then the
+  spacing ``DELTA``) or as keyword lines (``NCHAN``, ``NSAMP``, ``DELTA``, ``START``),
+  and the units as keyword lines: distance ``XUNITS`` (or ``GENUNITS``), elevation
+  ``YUNITS``, ``UNITSNAM`` or ``UNITS`` (one per channel). Keyword lines are
+  ``KEY, v1, v2`` or the fixed-column form, an 8-character key then the values
+  (``XUNITS  m``, ``UNITSNAMmm      mm``). The first channel is read (``channel``
+  chooses another).
 
 A file that cannot be driven is refused with one line naming the problem and the
 fix: repeated or decreasing distances, a height that is not a number, a gap, a
@@ -260,19 +263,21 @@ def _read_erd(path, units, channel):
     keys = {}
     layout = None
     for ln in lines[1:end]:
-        f = [p.strip() for p in ln.split(",")]
-        if not f[0]:
+        if not ln.strip():
             continue
+        if "," in ln:
+            f = [p.strip() for p in ln.split(",")]
+        else:  # the fixed-column form: an 8-character key, then the values
+            f = [ln[:8].strip()] + ln[8:].split()
         if _is_number(f[0]) and layout is None:
-            layout = f
-        else:
+            layout = [p for p in f if p]
+        elif f[0]:
             keys[f[0].upper()] = f[1:]
     nchan = nsamp = delta = None
     start = 0.0
     try:
         if layout is not None and len(layout) >= 6:
             nchan, nsamp, delta = int(float(layout[0])), int(float(layout[1])), float(layout[5])
-            start = float(layout[6]) if len(layout) > 6 and layout[6] else 0.0
         if "NCHAN" in keys:
             nchan = int(float(keys["NCHAN"][0]))
         if "NSAMP" in keys:
@@ -291,7 +296,7 @@ def _read_erd(path, units, channel):
     if not 1 <= channel <= nchan:
         raise BodyvibError(f"road '{base}' has {nchan} channel(s); channel {channel} does not exist")
     xu = keys.get("XUNITS") or keys.get("GENUNITS")
-    yu = keys.get("YUNITS") or keys.get("UNITS")
+    yu = keys.get("YUNITS") or keys.get("UNITSNAM") or keys.get("UNITS")
     given = _given_units(units, base)
     if xu and yu:
         yname = yu[channel - 1] if len(yu) >= channel else yu[0]
