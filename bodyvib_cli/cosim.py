@@ -39,7 +39,7 @@ def _check_options(args):
                            "--car-fmu FMU it would be ignored: give one of them")
     inputs = [("--body", args.body), ("--car-fmu", args.car_fmu),
               ("--iso-body", getattr(args, "iso_body", None)), ("--params", args.params),
-              ("--car", args.car)]
+              ("--car", args.car), ("--road", args.road)]
     check_outputs([("--json", args.json, JSON_EXTENSIONS), ("--plot", args.plot, PLOT_EXTENSIONS),
                    ("--csv", args.csv, CSV_EXTENSIONS)],
                   inputs=[(o, p) for o, p in inputs if p is not None and os.path.isfile(p)])

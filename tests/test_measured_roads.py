@@ -471,3 +471,32 @@ def test_build_refuses_a_length_for_a_road_file(files, folder, capsys):
                  "--road-repeat"]) == 2
     assert "apply to road files; road 'C' is synthetic" in capsys.readouterr().err
     assert not os.path.exists(os.path.join(dest, "Road.fmu"))
+
+
+@pytest.mark.integration
+def test_readme_worked_example(folder):
+    """README, Measured roads: examples/write_crg_road.py, then bodyvib cosim on it at a
+    0.875 m track for 10 s prints the figures the README shows (to their printed digits)."""
+    import json
+    import sys
+
+    from bodyvib_cli.main import main
+
+    sys.path.insert(0, os.path.join(os.path.dirname(DATA), "..", "..", "examples"))
+    try:
+        from write_crg_road import write
+    finally:
+        sys.path.pop(0)
+    crg = write(os.path.join(folder, "road.crg"))
+    out = os.path.join(folder, "example.json")
+    assert main(["cosim", "--road", crg, "--road-track", "0.875", "--duration", "10",
+                 "--quiet", "--json", out]) == 0
+    (body,) = json.load(open(out))["bodies"].values()
+    readme = open(os.path.join(os.path.dirname(DATA), "..", "..", "README.md")).read()
+    example = readme.split("**Worked example**", 1)[1].split("### The car", 1)[0]
+    printed = {k: float(re.search(pat, example).group(1)) for k, pat in (
+        ("weighted_rms", r"Wk-weighted r\.m\.s\. \[m/s2\]\s+([\d.]+)"),
+        ("vdv", r"VDV \[m/s\^1\.75\]\s+([\d.]+)"), ("peak", r"weighted peak \[m/s2\]\s+([\d.]+)"))}
+    for k, v in printed.items():
+        assert body[k] == pytest.approx(v, abs=5e-5), (k, body[k], v)
+    assert body["coupling_nrmse"] < 5e-4
