@@ -51,6 +51,7 @@ __all__ = [
     "road_table",
     "make_road",
     "road_input",
+    "table_spacing",
 ]
 
 #: ISO 8608 road classes, smoothest first.
@@ -540,7 +541,25 @@ class TaperedRoad(Road):
 TABLE_SPACING = 0.02
 
 
-def road_table(road: Road, length: float, spacing: float = TABLE_SPACING):
+def table_spacing(road: Road) -> float:
+    """Row spacing of a road's table, m: :data:`TABLE_SPACING`, or for a sampled profile
+    (a road with a ``spacing``, possibly faded in) its spacing divided by the whole number
+    that brings it to :data:`TABLE_SPACING` or below, so that every row interval lies within
+    one of the profile's cubic segments, which the table then reproduces exactly.
+
+    Examples
+    --------
+    >>> table_spacing(BumpRoad())
+    0.02
+    """
+    inner = getattr(road, "road", road)
+    dx = getattr(inner, "spacing", None)
+    if not dx:
+        return TABLE_SPACING
+    return dx / math.ceil(dx / TABLE_SPACING - 1e-9)
+
+
+def road_table(road: Road, length: float, spacing: float = None):
     """A road as a table of heights and slopes over ``[0, length]`` (what ``Road.fmu`` carries).
 
     Parameters
@@ -551,8 +570,9 @@ def road_table(road: Road, length: float, spacing: float = TABLE_SPACING):
         repeats exactly), any other road holds its end value beyond the table.
     length : float
         Extent of the table, m.
-    spacing : float
-        Row spacing, m (rounded so that the rows end at ``length``).
+    spacing : float, optional
+        Row spacing, m (rounded so that the rows end at ``length``); default
+        :func:`table_spacing`.
 
     Returns
     -------
@@ -566,8 +586,9 @@ def road_table(road: Road, length: float, spacing: float = TABLE_SPACING):
     from bodyvib.runtime.source import HermiteTable
 
     _check_positive(length, "road table length", "m")
+    spacing = table_spacing(road) if spacing is None else spacing
     _check_positive(spacing, "road table spacing", "m")
-    rows = max(2, int(math.ceil(length / spacing))) + 1
+    rows = max(2, int(math.ceil(length / spacing - 1e-9))) + 1
     x = np.linspace(0.0, float(length), rows)
     periodic = (isinstance(road, RandomRoad) or bool(getattr(road, "periodic", False))) and \
         abs(road.length - length) <= 1e-12 * length
@@ -578,7 +599,7 @@ def road_table(road: Road, length: float, spacing: float = TABLE_SPACING):
 
 
 def road_source(road: Road, length: float, speed: float = 20.0,
-                spacing: float = TABLE_SPACING):
+                spacing: float = None):
     """The source description and table of a road FMU (``Road.fmu``).
 
     Parameters
@@ -588,8 +609,8 @@ def road_source(road: Road, length: float, speed: float = 20.0,
         Table extent, m.
     speed : float
         Default of the FMU's ``speed`` parameter, m/s.
-    spacing : float
-        Row spacing, m.
+    spacing : float, optional
+        Row spacing, m (default :func:`table_spacing`).
 
     Returns
     -------
