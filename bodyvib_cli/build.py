@@ -5,8 +5,12 @@ import sys
 from pathlib import Path
 
 from bodyvib.process.outputs import check_outputs
+from bodyvib.runtime.errors import BodyvibError
 from vehicle.fmus import FMUS, ROAD_DEFAULTS, build_fmus
+from vehicle.road.driven import is_road_file
 from vehicle.ssp import COMPONENTS, SSP_NAME, write_ssp
+
+from .cosim import add_road_options
 
 __all__ = ["add_command", "main"]
 
@@ -58,8 +62,14 @@ def _native(args, names, inputs) -> int:
 
 
 def _road(args) -> dict:
-    return {"road": args.road, "seed": args.road_seed, "length": args.road_length,
-            "speed": args.road_speed, "taper": args.road_taper}
+    """The road options of Road.fmu (pythonfmu or native), checked."""
+    if args.road_length is not None and is_road_file(args.road):
+        raise BodyvibError("--road-length sets a synthetic road's length; Road.fmu tabulates a "
+                           "road file over its own length: drop --road-length")
+    return {"road": args.road, "seed": args.road_seed,
+            "length": ROAD_DEFAULTS["length"] if args.road_length is None else args.road_length,
+            "speed": args.road_speed, "taper": args.road_taper, "track": args.road_track,
+            "units": args.road_units, "envelope": args.road_envelope, "repeat": args.road_repeat}
 
 
 def add_command(subparsers):
@@ -86,17 +96,17 @@ def add_command(subparsers):
                    "win64 (default: every platform whose compiler is on PATH; the others are "
                    "reported as skipped)")
     p.add_argument("--road", default=ROAD_DEFAULTS["road"],
-                   help="Road.fmu: ISO 8608 class A-H, bump or sweep (default: C)")
+                   help="Road.fmu: ISO 8608 class A-H, bump, sweep or a road file (.crg, .csv, "
+                   ".erd) (default: C)")
     p.add_argument("--road-seed", type=int, default=ROAD_DEFAULTS["seed"], metavar="N",
                    help="Road.fmu: seed of a random road (default: 0)")
-    p.add_argument("--road-length", type=float, default=ROAD_DEFAULTS["length"], metavar="M",
+    p.add_argument("--road-length", type=float, default=None, metavar="M",
                    help="Road.fmu: tabulated length in m (default: 601, 30 s at 20 m/s; a random "
                    "road repeats after it)")
     p.add_argument("--road-speed", type=float, default=ROAD_DEFAULTS["speed"], metavar="V",
                    help="Road.fmu: default of its speed parameter, m/s (default: 20)")
-    p.add_argument("--road-taper", type=float, default=ROAD_DEFAULTS["taper"], metavar="M",
-                   help="Road.fmu: a random road fades in from level over its first M metres and "
-                   "out over its last (default: 5; 0: none)")
+    add_road_options(p, taper_help="Road.fmu: the road fades in from level over its first M "
+                     "metres and out over its last, as every run's road (default: 5; 0: none)")
     p.set_defaults(func=_run)
     return p
 

@@ -20,12 +20,13 @@ from vehicle.check import compare
 from vehicle.fmus import build_fmus, temporary_fmu_dir
 from vehicle.plots import plot_study
 from vehicle.quarter_car import load_car
+from vehicle.road.driven import DEFAULT_TAPER_M, RoadOptions
 from vehicle.report import format_report, study_json
 from vehicle.study import StudyCsv, check_settings, run_study
 
 from .outputs import CSV_EXTENSIONS, JSON_EXTENSIONS, PLOT_EXTENSIONS
 
-__all__ = ["add_command"]
+__all__ = ["add_command", "add_road_options", "options_from_args"]
 
 
 def _check_options(args):
@@ -38,7 +39,7 @@ def _check_options(args):
                            "--car-fmu FMU it would be ignored: give one of them")
     inputs = [("--body", args.body), ("--car-fmu", args.car_fmu),
               ("--iso-body", getattr(args, "iso_body", None)), ("--params", args.params),
-              ("--car", args.car)]
+              ("--car", args.car), ("--road", args.road)]
     check_outputs([("--json", args.json, JSON_EXTENSIONS), ("--plot", args.plot, PLOT_EXTENSIONS),
                    ("--csv", args.csv, CSV_EXTENSIONS)],
                   inputs=[(o, p) for o, p in inputs if p is not None and os.path.isfile(p)])
@@ -118,8 +119,9 @@ def _write_outputs(args, study, comparison, csv):
 
 def _run(args, want_iso):
     _check_options(args)
+    road_options = options_from_args(args)
     check_settings(args.road, args.speed, args.duration, args.step, args.seed,  # before building
-                   bodies=2 if want_iso else 1)
+                   bodies=2 if want_iso else 1, road_options=road_options)
     if args.csv:
         _check_disk(args.csv, (args.duration / args.step + 1) * (2 if want_iso else 1))
     body, iso, car, tmp = _fmus(args, want_iso)
@@ -135,7 +137,7 @@ def _run(args, want_iso):
             study = run_study(bodies, car, road=args.road, speed=args.speed,
                               duration=args.duration, step=args.step, seed=args.seed,
                               extrapolate=not args.hold, progress=not args.quiet,
-                              quiet=args.quiet, csv=csv)
+                              quiet=args.quiet, csv=csv, road_options=road_options)
             comparison = compare(study, *bodies) if want_iso else None
             print(format_report(study, comparison))
             _write_outputs(args, study, comparison, csv)
@@ -150,8 +152,35 @@ def _run(args, want_iso):
     return 0
 
 
+def add_road_options(p, taper_help=None):
+    """The ``--road-*`` options of a command that drives a road (cosim, check, sweep, build)."""
+    p.add_argument("--road-taper", type=float, default=DEFAULT_TAPER_M, metavar="M",
+                   help=taper_help or "the road fades in from level over its first M metres (and "
+                   "out over its last), so the car starts at rest on it (default: 5; 0: none)")
+    p.add_argument("--road-track", type=float, default=0.0, metavar="M",
+                   help="OpenCRG road: lateral offset of the wheel from the reference line, m, "
+                   "positive to the left (default: 0)")
+    p.add_argument("--road-units", metavar="DIST,ELEV",
+                   help="CSV/ERD road: units of distance and elevation when the file does not "
+                   "name them, e.g. m,mm")
+    p.add_argument("--road-envelope", action="store_true",
+                   help="road file: tire enveloping, the 250 mm moving average of the IRI standard")
+    p.add_argument("--road-repeat", action="store_true",
+                   help="road file: repeat the profile when the run is longer than it (default: "
+                   "refuse such a run)")
+
+
+def options_from_args(args) -> RoadOptions:
+    """The :class:`~vehicle.road.driven.RoadOptions` of parsed ``--road-*`` options."""
+    return RoadOptions(taper_m=args.road_taper, track_m=args.road_track, units=args.road_units,
+                       envelope=args.road_envelope, repeat=args.road_repeat)
+
+
 def _common(p):
-    p.add_argument("--road", default="C", help="ISO 8608 class A-H, 'bump' or 'sweep' (default C)")
+    p.add_argument("--road", default="C",
+                   help="ISO 8608 class A-H, 'bump', 'sweep' or a road file: OpenCRG .crg, CSV "
+                   ".csv (distance_m,elevation_mm) or ERD .erd (default C)")
+    add_road_options(p)
     p.add_argument("--speed", type=float, default=20.0, help="vehicle speed, m/s (default 20)")
     p.add_argument("--duration", type=float, default=30.0, help="simulated time, s (default 30)")
     p.add_argument("--step", type=float, default=1e-3,

@@ -31,7 +31,19 @@ def _run(args):
         raise BodyvibError("give --out FILE.parquet (and/or --csv FILE) for the results")
     if args.plot:
         _check_plot(args.plot)
-    spec = args.spec if args.spec else grid_spec(args.grid, args.duration, args.step)
+    from vehicle.road.driven import RoadOptions
+
+    from .cosim import options_from_args
+
+    opts = options_from_args(args)
+    if args.spec and opts != RoadOptions():
+        raise BodyvibError("--road-* options go with --grid; a SPEC file gives them as "
+                           "\"road_options\": {\"taper\": 5, \"track\": 0.8, ...}")
+    given = {k: getattr(opts, f) for k, f in (("taper", "taper_m"), ("track", "track_m"),
+                                               ("units", "units"), ("envelope", "envelope"),
+                                               ("repeat", "repeat"))
+             if getattr(opts, f) != getattr(RoadOptions(), f)}
+    spec = args.spec if args.spec else grid_spec(args.grid, args.duration, args.step, given)
     from vehicle.sweep.run import run_sweep
 
     say = None if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
@@ -83,10 +95,13 @@ def add_command(subparsers):
         "so a killed sweep continues with --resume.")
     p.add_argument("spec", nargs="?", metavar="SPEC.json", help="sweep spec (JSON)")
     p.add_argument("--grid", nargs="+", metavar="KEY=V1,V2",
-                   help="a grid instead of a spec: road=C,D speed=10,20 seed=0,1 "
+                   help="a grid instead of a spec: road=C,D,profile.crg speed=10,20 seed=0,1 "
                    "body=reduced-paper,iso7962 car=quarter-car")
     p.add_argument("--duration", type=float, default=30.0, help="with --grid: run length, s (30)")
     p.add_argument("--step", type=float, default=1e-3, help="with --grid: time step, s (0.001)")
+    from .cosim import add_road_options
+
+    add_road_options(p)
     p.add_argument("--out", metavar="FILE.parquet", help="results table (Parquet)")
     p.add_argument("--csv", metavar="FILE", help="the table as CSV too")
     p.add_argument("--engine", choices=("batched", "spectral", "cosim"), default="batched",

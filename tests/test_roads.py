@@ -116,3 +116,46 @@ def test_make_road_and_errors():
         make_road("C", 20.0, 10.0, seed=-1)  # numpy's default_rng raised a bare ValueError
     with pytest.raises(BodyvibError, match="road class"):
         class_psd_n0("I")
+
+
+@pytest.mark.parametrize("spec", ["C", "F", "bump", "sweep"])
+def test_every_driven_road_starts_level_and_joins_the_road_smoothly(spec):
+    """driven_road fades every road in from level over 5 m: height and slope 0 at x = 0, the
+    road itself from 5 m on (and until 5 m before the end), and the slope continuous across
+    the fade's end (central differences of 1e-6 m agree with the exact slope to 1e-6 of its
+    scale: the product rule w' z + w z' is the derivative)."""
+    from vehicle.road.driven import RoadOptions, driven_road
+
+    road = driven_road(spec, 20.0, 10.0)
+    assert float(road.displacement(0.0)) == 0.0 and float(road.slope(0.0)) == 0.0
+    inner = road.road
+    x = np.linspace(5.0, road.length - 5.0 if np.isfinite(road.length) else 150.0, 3001)
+    np.testing.assert_array_equal(road.displacement(x), inner.displacement(x))
+    xs = np.linspace(0.001, 9.999, 4001)
+    h = 1e-6
+    fd = (road.displacement(xs + h) - road.displacement(xs - h)) / (2 * h)
+    scale = max(np.max(np.abs(road.slope(xs))), 1e-12)
+    assert np.max(np.abs(fd - road.slope(xs))) <= 1e-5 * scale + 1e-12
+    untapered = driven_road(spec, 20.0, 10.0, options=RoadOptions(taper_m=0.0))
+    np.testing.assert_array_equal(untapered.displacement(xs), inner.displacement(xs))
+
+
+def test_taper_longer_than_half_the_road_is_refused():
+    from vehicle.road.driven import RoadOptions, driven_road
+
+    with pytest.raises(BodyvibError, match=r"cannot fade in and out over 6 m .*--road-taper"):
+        driven_road("C", 10.0, 1.0, options=RoadOptions(taper_m=6.0))
+    with pytest.raises(BodyvibError, match="non-negative"):
+        driven_road("C", 10.0, 1.0, options=RoadOptions(taper_m=-1.0))
+
+
+def test_cosim_and_road_fmu_take_the_same_road():
+    """The default cosim road (class C, seed 0, 20 m/s, 30 s) is the road Road.fmu tabulates,
+    bit for bit: one road, faded in, for both."""
+    from vehicle.fmus import fmu_road
+    from vehicle.road.driven import driven_road
+
+    x = np.linspace(0.0, 601.0, 60101)
+    a, b = driven_road("C", 20.0, 30.0), fmu_road()
+    np.testing.assert_array_equal(a.displacement(x), b.displacement(x))
+    np.testing.assert_array_equal(a.slope(x), b.slope(x))

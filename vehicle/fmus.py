@@ -18,16 +18,18 @@ from bodyvib.runtime.errors import BodyvibError
 from bodyvib.process.outputs import staged_writes
 
 from .quarter_car import load_car
+from .road.driven import is_road_file
 from .road.synthetic import ISO8608_CLASSES, TaperedRoad, make_road, random_road, road_source
 
 __all__ = ["FMUS", "ROAD_DEFAULTS", "build_fmus", "build_project_fmu", "build_native_project_fmu",
            "build_road_fmu", "build_native_road_fmu",
-           "fmu_road", "load_fmu_model", "temporary_fmu_dir"]
+           "fmu_road", "fmu_road_length", "load_fmu_model", "temporary_fmu_dir"]
 
 #: Road.fmu's defaults: ISO 8608 class C, seed 0, 601 m (30 s at 20 m/s and a metre
 #: to spare, the road of ``bodyvib check``), faded in and out over 5 m, speed
 #: parameter 20 m/s.
-ROAD_DEFAULTS = {"road": "C", "seed": 0, "length": 601.0, "speed": 20.0, "taper": 5.0}
+ROAD_DEFAULTS = {"road": "C", "seed": 0, "length": 601.0, "speed": 20.0, "taper": 5.0,
+                 "track": 0.0, "units": None, "envelope": False, "repeat": False}
 
 #: FMU name -> (kind, default model, description).
 FMUS = {
@@ -42,55 +44,77 @@ FMUS = {
                    "in, seat motion, suspension deflection and tire force out; exact discretization"),
     "Road": ("source", "C",
              "Road profile under a wheel driving at a speed (a parameter): road_displacement and "
-             "its exact time derivative road_velocity, from a table built by vehicle.road.synthetic"),
+             "its exact time derivative road_velocity, from a table built by vehicle.road"),
 }
 
 
 def fmu_road(spec: str = "C", length: float = 601.0, seed: int = 0, speed: float = 20.0,
-             taper: float = 5.0):
-    """The road a ``Road.fmu`` tabulates.
+             taper: float = 5.0, track: float = 0.0, units: Optional[str] = None,
+             envelope: bool = False, repeat: bool = False):
+    """The road a ``Road.fmu`` tabulates: the road a run drives (faded in from level).
 
     Parameters
     ----------
     spec : str
         ISO 8608 class ``A``-``H`` (a random road whose period is ``length``),
-        ``bump`` or ``sweep`` (0.5-20 Hz at ``speed`` over ``length``).
+        ``bump``, ``sweep`` (0.5-20 Hz at ``speed`` over ``length``) or a road file
+        (``.crg``, ``.csv``, ``.erd``: tabulated over its own length).
     length : float
-        m.
+        m (a synthetic road's).
     seed : int
         Seed of a random road.
     speed : float
-        Design speed of a sweep, m/s.
+        Design speed of a sweep, and the speed a profile's spacing is checked at, m/s.
     taper : float
-        A random road fades in from level over its first ``taper`` metres and
-        out over its last (:class:`vehicle.road.synthetic.TaperedRoad`; 0: none): the car
-        starts at rest on a level road, as in hosts that exchange values only
-        after their first step (fmpy's SSP runner). Bump and sweep start level.
+        Every road fades in from level over its first ``taper`` metres and out
+        over its last (:class:`vehicle.road.synthetic.TaperedRoad`; 0: none), as
+        every run's road does (:func:`vehicle.road.driven.driven_road`): the car
+        starts at rest on a level road.
+    track, units, envelope, repeat
+        A road file's track (OpenCRG), units (CSV/ERD), tire enveloping and
+        repetition (:class:`vehicle.road.driven.RoadOptions`).
 
     Returns
     -------
-    vehicle.road.synthetic.Road
+    vehicle.road.synthetic.TaperedRoad
 
     Raises
     ------
     BodyvibError
-        Unknown road, bad length or seed.
+        Unknown road, bad length or seed, a road file that cannot be driven.
     """
     s = str(spec).strip()
+    if is_road_file(s):
+        from .road.measured import load_profile
+
+        road = load_profile(s, track_m=track, units=units, envelope=envelope)
+        road.check_run(speed, road.length / speed, None, repeat=True)  # its spacing
+        return TaperedRoad(road, road.length, taper, periodic=repeat)
+    if track or units or envelope or repeat:
+        raise BodyvibError("--road-track, --road-units, --road-envelope and --road-repeat apply "
+                           f"to road files; road '{spec}' is synthetic")
     if len(s) == 1 and s.upper() in ISO8608_CLASSES:
-        road = random_road(s.upper(), length=length, seed=seed)
-        return TaperedRoad(road, length, taper) if taper else road
-    return make_road(s, speed, length / speed if length > 0 else length, seed=seed)
+        return TaperedRoad(random_road(s.upper(), length=length, seed=seed), length, taper)
+    road = make_road(s, speed, length / speed if length > 0 else length, seed=seed)
+    return TaperedRoad(road, road.length, taper)
+
+
+def fmu_road_length(road, length: float) -> float:
+    """Extent of ``Road.fmu``'s table: a road file's own length, else ``length`` (m)."""
+    inner = getattr(road, "road", road)
+    return float(inner.length) if hasattr(inner, "spacing") else float(length)
 
 
 def build_road_fmu(dest="dist", road: str = "C", seed: int = 0, length: float = 601.0,
-                   speed: float = 20.0, taper: float = 5.0) -> Path:
-    """Build ``Road.fmu``: a road of :mod:`vehicle.road.synthetic` as a table, driven at a speed.
+                   speed: float = 20.0, taper: float = 5.0, track: float = 0.0,
+                   units: Optional[str] = None, envelope: bool = False,
+                   repeat: bool = False) -> Path:
+    """Build ``Road.fmu``: the road a run drives (synthetic or a file) as a table, at a speed.
 
     Parameters
     ----------
     dest : str or path
-    road, seed, length, taper
+    road, seed, length, taper, track, units, envelope, repeat
         As :func:`fmu_road`.
     speed : float
         Start value of the FMU's ``speed`` parameter (and a sweep's design speed), m/s.
@@ -100,19 +124,27 @@ def build_road_fmu(dest="dist", road: str = "C", seed: int = 0, length: float = 
     Path
         ``dest/Road.fmu``.
     """
-    meta, table = road_source(fmu_road(road, length, seed, speed, taper), length, speed)
+    meta, table = _road_source(road, seed, length, speed, taper, track, units, envelope, repeat)
     return build_source_fmu(meta, table, "Road", FMUS["Road"][2], dest)
+
+
+def _road_source(road, seed, length, speed, taper, track, units, envelope, repeat):
+    """The source description and table of Road.fmu, pythonfmu or native alike."""
+    rd = fmu_road(road, length, seed, speed, taper, track, units, envelope, repeat)
+    return road_source(rd, fmu_road_length(rd, length), speed)
 
 
 def build_native_road_fmu(dest="dist/native", road: str = "C", seed: int = 0,
                           length: float = 601.0, speed: float = 20.0, taper: float = 5.0,
+                          track: float = 0.0, units: Optional[str] = None,
+                          envelope: bool = False, repeat: bool = False,
                           fmi: int = 2, platforms=("linux64", "win64")) -> Path:
     """Build the native (C) ``Road.fmu``: the table of :func:`build_road_fmu`, no Python.
 
     Parameters
     ----------
     dest : str or path
-    road, seed, length, speed, taper
+    road, seed, length, speed, taper, track, units, envelope, repeat
         As :func:`build_road_fmu`.
     fmi : int
         FMI version, 2 or 3.
@@ -126,7 +158,7 @@ def build_native_road_fmu(dest="dist/native", road: str = "C", seed: int = 0,
     """
     from bodyvib.fmu.native_source import build_native_source_fmu
 
-    meta, table = road_source(fmu_road(road, length, seed, speed, taper), length, speed)
+    meta, table = _road_source(road, seed, length, speed, taper, track, units, envelope, repeat)
     return build_native_source_fmu(meta, table, "Road", FMUS["Road"][2], dest, fmi=fmi,
                                    platforms=platforms)
 
@@ -279,7 +311,7 @@ def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-ca
     road = dict(ROAD_DEFAULTS, **(road or {}))
     for n in names:  # refuse a bad model (or road) before building anything
         if n in FMUS and FMUS[n][0] == "source":
-            fmu_road(road["road"], road["length"], road["seed"], road["speed"], road["taper"])
+            fmu_road(**{("spec" if k == "road" else k): v for k, v in road.items()})
         else:
             load_fmu_model(n, chosen.get(n))
     if native:
@@ -309,7 +341,8 @@ def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-ca
             for n in names:
                 if FMUS[n][0] == "source":
                     out[n] = build_road_fmu(dest, **road)
-                    what[n] = f"road {road['road']}, seed {road['seed']}, {road['length']:g} m"
+                    what[n] = (f"road {road['road']}" if is_road_file(road["road"]) else
+                               f"road {road['road']}, seed {road['seed']}, {road['length']:g} m")
                 else:
                     out[n] = build_project_fmu(n, dest, chosen.get(n))
                     what[n] = f"model {chosen.get(n) or FMUS[n][1]}"

@@ -37,7 +37,9 @@ def format_report(study: Study, comparison: Optional[Comparison] = None) -> str:
     str
     """
     s = study.settings
-    lines = [f"road {study.road['name']}, {s.speed_m_s:g} m/s, {s.duration_s:g} s, "
+    taper = study.road.get("taper_m")
+    faded = f" faded in over {taper:g} m" if taper else ""
+    lines = [f"road {study.road['name']}{faded}, {s.speed_m_s:g} m/s, {s.duration_s:g} s, "
              f"step {s.step_s:g} s ({s.master})", ""]
     bodies = study.bodies
     labels = list(bodies)

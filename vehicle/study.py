@@ -29,7 +29,8 @@ from bodyvib.process.progress import progress_bar
 
 from .cosim import CsvStream, Master, model_from_fmu, open_fmu
 from .reference import ReferenceStream
-from .road.synthetic import make_road, road_input
+from .road.driven import RoadOptions, driven_road
+from .road.synthetic import road_input
 from .signals import BODY_SIGNALS, MASTER_SIGNALS
 
 __all__ = ["StudySettings", "BodyRun", "Study", "StudyCsv", "check_settings", "run_study",
@@ -189,7 +190,8 @@ MAX_STEPS = 1e9
 
 
 def check_settings(road: str, speed: float, duration: float, step: float, seed: int = 0,
-                   bodies: int = 1, histories: bool = False):
+                   bodies: int = 1, histories: bool = False,
+                   road_options: Optional[RoadOptions] = None):
     """Validate run settings before any work is done; returns the road.
 
     Parameters
@@ -200,17 +202,20 @@ def check_settings(road: str, speed: float, duration: float, step: float, seed: 
         Number of bodies the study will run (for its memory estimate).
     histories : bool
         The study keeps its histories (memory grows with the run).
+    road_options : vehicle.road.driven.RoadOptions, optional
+        Taper, track, units, enveloping and repetition of the road.
 
     Returns
     -------
-    vehicle.road.synthetic.Road
+    vehicle.road.synthetic.TaperedRoad
+        The road as driven (:func:`vehicle.road.driven.driven_road`).
 
     Raises
     ------
     BodyvibError
         A speed, duration or step that is not a positive number, a step longer
-        than half the duration, an unknown road, a negative seed, or a run
-        (or a road) too long for the memory at hand.
+        than half the duration, an unknown road or a road file that cannot be
+        driven, a negative seed, or a run (or a road) too long for the memory at hand.
     """
     for value, what, unit in ((speed, "speed", "m/s"), (duration, "duration", "s"),
                               (step, "step", "s")):
@@ -229,14 +234,15 @@ def check_settings(road: str, speed: float, duration: float, step: float, seed: 
                        f"a {duration:g} s run at a {step:g} s step ({steps:.3g} steps, "
                        f"{max(1, bodies)} body/bodies) with its histories",
                        "shorten the run or do not keep the histories")
-    return make_road(road, speed, duration, seed=seed)
+    return driven_road(road, speed, duration, seed=seed, step=step, options=road_options)
 
 
 def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: float = 20.0,
               duration: float = 30.0, step: float = 1e-3, seed: int = 0,
               extrapolate: bool = True, reference: bool = True, progress: bool = False,
               quiet: bool = True, histories: bool = False, csv: "StudyCsv" = None,
-              block: int = 4096, window_s: float = 5.0) -> Study:
+              block: int = 4096, window_s: float = 5.0,
+              road_options: Optional[RoadOptions] = None) -> Study:
     """Co-simulate the car with each body FMU on one road; figures, references, transmissibility.
 
     Parameters
@@ -246,7 +252,8 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
     car_fmu : str
         Car FMU path.
     road : str
-        ISO 8608 class ``A``-``H``, ``bump`` or ``sweep`` (:func:`vehicle.road.synthetic.make_road`).
+        ISO 8608 class ``A``-``H``, ``bump``, ``sweep`` or a road file (``.crg``, ``.csv``,
+        ``.erd``), faded in from level (:func:`vehicle.road.driven.driven_road`).
     speed : float
         m/s.
     duration : float
@@ -273,6 +280,8 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
         Communication points per block.
     window_s : float
         Length of the plot window kept mid-run, s.
+    road_options : vehicle.road.driven.RoadOptions, optional
+        Taper (default 5 m), track, units, enveloping and repetition of the road.
 
     Returns
     -------
@@ -286,7 +295,7 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
         Bad settings, missing or unsuitable FMUs.
     """
     rd = check_settings(road, speed, duration, step, seed, bodies=len(body_fmus),
-                        histories=histories)
+                        histories=histories, road_options=road_options)
     n = int(round(duration / step)) + 1
     fs = 1.0 / step
     labels = list(body_fmus)

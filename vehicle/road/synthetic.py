@@ -51,6 +51,7 @@ __all__ = [
     "road_table",
     "make_road",
     "road_input",
+    "table_spacing",
 ]
 
 #: ISO 8608 road classes, smoothest first.
@@ -401,7 +402,8 @@ def make_road(spec: str, speed: float, duration: float, seed: int = 0) -> Road:
         # one extra metre so the last sample never wraps onto the start
         return random_road(s.upper(), length=length + 1.0, seed=seed)
     raise BodyvibError(
-        f"unknown road '{spec}'; use an ISO 8608 class A-H, 'bump' or 'sweep'"
+        f"unknown road '{spec}'; use an ISO 8608 class A-H, 'bump', 'sweep' or a road file "
+        "(.crg, .csv, .erd)"
     )
 
 
@@ -448,34 +450,68 @@ class TaperedRoad(Road):
     """A road faded in from level over its first metres and out over its last.
 
     ``z(x) = w(x) z_road(x)`` with ``w = sin^2(pi x / (2 d))`` over ``[0, d]``,
-    1 in between and the mirror image over ``[L - d, L]`` (0 beyond): a car
-    starting at rest at ``x = 0`` meets a level road with zero slope (no
-    step at ``t = 0``, which hosts that exchange values only after their first
-    step would miss), and a road repeated with period ``L`` stays smooth.
+    1 in between and the mirror image over ``[L - d, L]`` (0 beyond; a road of
+    infinite length only fades in): a car starting at rest at ``x = 0`` meets a
+    level road with zero slope, so it starts at rest on its road whatever the
+    road's first height and slope (no step at ``t = 0``, which hosts that exchange
+    values only after their first step would miss), and a road repeated with
+    period ``L`` stays smooth. ``d = 0`` keeps the road as it is (a car starting
+    on a random road then meets the road's first height as a step).
+
+    Every road a run drives is one of these (:func:`vehicle.road.driven.driven_road`),
+    and ``Road.fmu`` tabulates the same one, so both start the same way.
 
     Parameters
     ----------
     road : Road
     length : float
-        L, m.
+        L, m (``math.inf``: no fade-out).
     taper : float
-        d, m (``2 d <= L``).
+        d, m (``0 <= 2 d <= L``).
+    periodic : bool
+        The road repeats with period ``L`` (the wheel at ``x`` sees ``x mod L``);
+        None: as the road does (a :class:`RandomRoad` of period ``L``).
     """
 
     road: Road = None
     length: float = 601.0
     taper: float = 5.0
+    periodic: bool = None
 
     def __post_init__(self):
-        _check_positive(self.taper, "road taper", "m")
+        if not (isinstance(self.taper, (int, float)) and math.isfinite(self.taper)
+                and self.taper >= 0):
+            raise BodyvibError(f"road taper must be a non-negative number of m, got {self.taper!r}")
+        if not self.length > 0:
+            raise BodyvibError(f"road length must be positive, got {self.length!r} m")
         if 2 * self.taper > self.length:
-            raise BodyvibError(f"a {self.length:g} m road cannot taper over {self.taper:g} m at "
-                               "each end; shorten the taper or lengthen the road")
-        self.name = f"{self.road.name}, tapered over {self.taper:g} m at each end"
+            raise BodyvibError(f"a {self.length:g} m road cannot fade in and out over "
+                               f"{self.taper:g} m at each end; shorten the taper (--road-taper) "
+                               "or lengthen the road (a longer run or profile)")
+        if self.periodic is None:
+            self.periodic = isinstance(self.road, RandomRoad) and \
+                abs(self.road.length - self.length) <= 1e-12 * self.length
+        self.periodic = bool(self.periodic) and math.isfinite(self.length)
+        ends = "at each end" if math.isfinite(self.length) else "at its start"
+        self.name = (f"{self.road.name}, faded in over {self.taper:g} m" if not
+                     math.isfinite(self.length) else
+                     f"{self.road.name}, tapered over {self.taper:g} m {ends}") \
+            if self.taper > 0 else self.road.name
+
+    def _where(self, x):
+        """Distances for the window and for the road: a random road repeats by itself, so it
+        is evaluated at ``x`` (a uniform grid stays uniform, for the fast harmonic sum)."""
+        x = np.asarray(x, dtype=float)
+        if not self.periodic:
+            return x, x
+        xw = np.where((x >= 0) & (x < self.length), x, np.mod(x, self.length))
+        return xw, (x if isinstance(self.road, RandomRoad) else xw)
 
     def _window(self, x):
-        x = np.asarray(x, dtype=float)
         d, L = self.taper, self.length
+        if d == 0:
+            inside = (x >= 0) & (x <= L)
+            return inside.astype(float), np.zeros_like(x)
         u = np.clip(np.minimum(x, L - x) / d, 0.0, 1.0)
         w = np.sin(0.5 * np.pi * u) ** 2
         du = np.where((u > 0) & (u < 1), np.where(x < L / 2, 1.0, -1.0) / d, 0.0)
@@ -483,16 +519,20 @@ class TaperedRoad(Road):
 
     def displacement(self, x) -> np.ndarray:
         """Profile height at distances ``x`` (m), in m."""
-        w, _ = self._window(x)
+        xw, x = self._where(x)
+        w, _ = self._window(xw)
         return w * self.road.displacement(x)
 
     def slope(self, x) -> np.ndarray:
         """Exact slope ``dz/dx`` (product rule)."""
-        w, dw = self._window(x)
+        xw, x = self._where(x)
+        w, dw = self._window(xw)
         return dw * self.road.displacement(x) + w * self.road.slope(x)
 
     def describe(self) -> dict:
-        return dict(self.road.describe(), taper_m=self.taper, tapered_length_m=self.length)
+        return dict(self.road.describe(), taper_m=self.taper,
+                    tapered_length_m=self.length if math.isfinite(self.length) else None,
+                    repeats=self.periodic)
 
 
 #: Row spacing of a road table, m (:func:`road_table`): cubic Hermite between rows
@@ -501,19 +541,38 @@ class TaperedRoad(Road):
 TABLE_SPACING = 0.02
 
 
-def road_table(road: Road, length: float, spacing: float = TABLE_SPACING):
+def table_spacing(road: Road) -> float:
+    """Row spacing of a road's table, m: :data:`TABLE_SPACING`, or for a sampled profile
+    (a road with a ``spacing``, possibly faded in) its spacing divided by the whole number
+    that brings it to :data:`TABLE_SPACING` or below, so that every row interval lies within
+    one of the profile's cubic segments, which the table then reproduces exactly.
+
+    Examples
+    --------
+    >>> table_spacing(BumpRoad())
+    0.02
+    """
+    inner = getattr(road, "road", road)
+    dx = getattr(inner, "spacing", None)
+    if not dx:
+        return TABLE_SPACING
+    return dx / math.ceil(dx / TABLE_SPACING - 1e-9)
+
+
+def road_table(road: Road, length: float, spacing: float = None):
     """A road as a table of heights and slopes over ``[0, length]`` (what ``Road.fmu`` carries).
 
     Parameters
     ----------
     road : Road
-        Any road; a :class:`RandomRoad` (or a :class:`TaperedRoad`) whose
+        Any road; a :class:`RandomRoad` (or a periodic :class:`TaperedRoad`) whose
         period equals ``length`` is tabulated as periodic (its harmonic sum
         repeats exactly), any other road holds its end value beyond the table.
     length : float
         Extent of the table, m.
-    spacing : float
-        Row spacing, m (rounded so that the rows end at ``length``).
+    spacing : float, optional
+        Row spacing, m (rounded so that the rows end at ``length``); default
+        :func:`table_spacing`.
 
     Returns
     -------
@@ -527,10 +586,11 @@ def road_table(road: Road, length: float, spacing: float = TABLE_SPACING):
     from bodyvib.runtime.source import HermiteTable
 
     _check_positive(length, "road table length", "m")
+    spacing = table_spacing(road) if spacing is None else spacing
     _check_positive(spacing, "road table spacing", "m")
-    rows = max(2, int(math.ceil(length / spacing))) + 1
+    rows = max(2, int(math.ceil(length / spacing - 1e-9))) + 1
     x = np.linspace(0.0, float(length), rows)
-    periodic = (isinstance(road, RandomRoad) or isinstance(road, TaperedRoad)) and \
+    periodic = (isinstance(road, RandomRoad) or bool(getattr(road, "periodic", False))) and \
         abs(road.length - length) <= 1e-12 * length
     z, s = road.displacement(x), road.slope(x)
     if periodic:  # the sum is periodic: make the end row the start row, bit for bit
@@ -539,7 +599,7 @@ def road_table(road: Road, length: float, spacing: float = TABLE_SPACING):
 
 
 def road_source(road: Road, length: float, speed: float = 20.0,
-                spacing: float = TABLE_SPACING):
+                spacing: float = None):
     """The source description and table of a road FMU (``Road.fmu``).
 
     Parameters
@@ -549,8 +609,8 @@ def road_source(road: Road, length: float, speed: float = 20.0,
         Table extent, m.
     speed : float
         Default of the FMU's ``speed`` parameter, m/s.
-    spacing : float
-        Row spacing, m.
+    spacing : float, optional
+        Row spacing, m (default :func:`table_spacing`).
 
     Returns
     -------

@@ -16,14 +16,16 @@
   (:func:`bodyvib.comfort.figures.wk_response`) and the road's time-domain PSD at the
   speed ``S(f) = Gd(f / V) / V`` (:func:`vehicle.road.synthetic.displacement_psd`)
   over the band the road is synthesized in. It gives the weighted r.m.s. only:
-  VDV, peak and crest factor depend on the particular record (NaN).
+  VDV, peak and crest factor depend on the particular record (NaN). It is the
+  stationary road's expectation: the fade-in every road starts with (5 m of a run's
+  hundreds) is a transient outside it, and a road file, not stationary, is refused.
 * ``cosim`` -- real FMU co-simulations (:func:`vehicle.cosim.cosimulate`,
   extrapolating master): the FMUs are built once per task (into a temporary
   folder deleted with the task) and body and car parameters are set for each
   case through the FMUs' parameter variables before initialization.
 
-Every case sees the road of ``bodyvib cosim`` with the same road, seed, speed
-and duration: :func:`vehicle.road.synthetic.make_road` and
+Every case sees the road of ``bodyvib cosim`` with the same road, seed, speed,
+duration and road options, faded in from level: :func:`vehicle.road.driven.driven_road` and
 :func:`vehicle.road.synthetic.road_input` on ``t_k = k * step``, ``k = 0 ...
 round(duration / step)``. Each engine returns one figures dict per case; a
 case that fails carries its error instead of figures.
@@ -44,7 +46,8 @@ from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import linear_model
 
 from ..quarter_car import seated_system
-from ..road.synthetic import ISO8608_CLASSES, N_BAND, displacement_psd, make_road, road_input
+from ..road.driven import driven_road
+from ..road.synthetic import ISO8608_CLASSES, N_BAND, displacement_psd, road_input
 from .spec import Case
 
 __all__ = ["ENGINES", "FIGURES", "run_engine", "run_batched", "run_spectral", "run_cosim",
@@ -111,7 +114,8 @@ def case_road_input(case: Case):
     >>> z.shape
     (2001,)
     """
-    road = make_road(case.road, case.speed, case.duration, seed=case.seed)
+    road = driven_road(case.road, case.speed, case.duration, seed=case.seed, step=case.step,
+                       options=case.road_settings())
     t = np.arange(case.steps) * case.step
     return road_input(road, case.speed, t)
 
@@ -146,7 +150,7 @@ def _seated(case, models, cars):
 
 
 def _roads(case, roads):
-    key = (case.road, case.seed, case.speed, case.duration, case.step)
+    key = (case.road, case.seed, case.speed, case.duration, case.step, case.road_options)
     r = roads.get(key)
     if r is None:
         if len(roads) > 64:

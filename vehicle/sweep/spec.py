@@ -5,7 +5,10 @@ value or a list; the cases are all combinations (the Cartesian product, in
 the order road, seed, speed, duration, step, body, car)::
 
     {
-      "road": ["A", "B", "C", "D", "E"],   ISO 8608 class A-H, "bump" or "sweep"
+      "road": ["A", "B", "C", "D", "E"],   ISO 8608 class A-H, "bump", "sweep" or a road file
+                                           (.crg, .csv, .erd; relative to the working folder)
+      "road_options": {"taper": 5},        how roads are driven: taper (m), track (m), units,
+                                           envelope, repeat (as the --road-* options)
       "seed": [0],                         random-road seed(s) (no effect on bump/sweep)
       "speed": [10, 15, 20, 25, 30],       m/s
       "duration": 30,                      s
@@ -49,6 +52,7 @@ from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.jsonfile import read_json
 from bodyvib.runtime.modelfile import network_to_dict
 
+from ..road.driven import RoadOptions, is_road_file, road_label
 from ..study import check_settings
 from ..quarter_car import load_car
 
@@ -56,7 +60,10 @@ __all__ = ["Case", "SPEC_KEYS", "load_spec", "grid_spec", "expand", "spec_hash",
 
 #: Keys of a spec and their defaults (None: required).
 SPEC_KEYS = {"road": None, "seed": 0, "speed": None, "duration": 30.0, "step": 1e-3,
-             "body": None, "car": "quarter-car"}
+             "body": None, "car": "quarter-car", "road_options": {}}
+#: Keys of ``road_options`` -> fields of :class:`vehicle.road.driven.RoadOptions`.
+ROAD_OPTION_KEYS = {"taper": "taper_m", "track": "track_m", "units": "units",
+                    "envelope": "envelope", "repeat": "repeat"}
 _BODY_KEYS = {"model", "vary", "samples", "seed", "method", "name"}
 
 
@@ -69,7 +76,7 @@ class Case:
     case_id : int
         Position in the expanded spec.
     road : str
-        ISO 8608 class, ``"bump"`` or ``"sweep"``.
+        ISO 8608 class, ``"bump"``, ``"sweep"`` or a road file's absolute path.
     seed : int
     speed : float
         m/s.
@@ -87,6 +94,8 @@ class Case:
         Shipped name or parameter file of the car.
     case_key : str
         Hash of everything that determines the result.
+    road_options : tuple of (str, object)
+        Fields of :class:`vehicle.road.driven.RoadOptions` that differ from the defaults.
     """
 
     case_id: int
@@ -101,11 +110,18 @@ class Case:
     body_values: Tuple[Tuple[str, float], ...]
     car: str
     case_key: str = ""
+    road_options: Tuple[Tuple[str, object], ...] = ()
 
     @property
     def steps(self) -> int:
         """Number of samples, ``round(duration / step) + 1`` (as ``bodyvib cosim``)."""
         return int(round(self.duration / self.step)) + 1
+
+    def road_settings(self):
+        """The :class:`vehicle.road.driven.RoadOptions` of this case."""
+        from ..road.driven import RoadOptions
+
+        return RoadOptions(**dict(self.road_options))
 
     def body_network(self):
         """The body model with this case's parameter values."""
@@ -156,7 +172,8 @@ def load_spec(path) -> dict:
     return spec
 
 
-def grid_spec(items: Sequence[str], duration: float = 30.0, step: float = 1e-3) -> dict:
+def grid_spec(items: Sequence[str], duration: float = 30.0, step: float = 1e-3,
+              road_options: Optional[dict] = None) -> dict:
     """A spec from command-line ``key=v1,v2`` items (``bodyvib sweep --grid``).
 
     Parameters
@@ -166,6 +183,8 @@ def grid_spec(items: Sequence[str], duration: float = 30.0, step: float = 1e-3) 
         keys road, seed, speed, body, car (and duration, step).
     duration, step : float
         Used unless given as items.
+    road_options : dict, optional
+        The spec's ``road_options`` (from the ``--road-*`` options).
 
     Returns
     -------
@@ -182,14 +201,17 @@ def grid_spec(items: Sequence[str], duration: float = 30.0, step: float = 1e-3) 
     [10.0, 20.0]
     """
     spec = {"duration": duration, "step": step}
+    if road_options:
+        spec["road_options"] = dict(road_options)
     seen = set()
     for item in items:
         key, sep, values = str(item).partition("=")
         key = key.strip()
         if not sep or not values.strip():
             raise BodyvibError(f"--grid item '{item}' must look like key=v1,v2")
-        if key not in SPEC_KEYS:
-            raise BodyvibError(f"--grid key '{key}' is unknown; keys are {', '.join(SPEC_KEYS)}")
+        if key not in SPEC_KEYS or key == "road_options":
+            raise BodyvibError(f"--grid key '{key}' is unknown; keys are "
+                               + ", ".join(k for k in SPEC_KEYS if k != "road_options"))
         if key in seen:
             raise BodyvibError(f"--grid key '{key}' is given twice")
         seen.add(key)
@@ -228,7 +250,8 @@ def spec_hash(spec: dict) -> str:
     12
     """
     files = {}
-    for entry in _list(spec.get("body", [])) + _list(spec.get("car", [])):
+    for entry in (_list(spec.get("body", [])) + _list(spec.get("car", []))
+                  + _list(spec.get("road", []))):
         src = entry.get("model") if isinstance(entry, dict) else entry
         if isinstance(src, str) and _file_digest(src):
             files[src] = _file_digest(src)
@@ -351,7 +374,8 @@ def expand(spec: dict) -> List[Case]:
         if default is None and k not in spec:
             raise BodyvibError(f"spec: '{k}' is required")
     spec = {**SPEC_KEYS, **spec}
-    roads = [str(r).strip() for r in _list(spec["road"])]
+    roads = [road_label(r) for r in _list(spec["road"])]
+    road_opts = _road_options(spec["road_options"])
     seeds = [_number(s, "seed", "", integer=True) for s in _list(spec["seed"])]
     speeds = [_number(v, "speed", "m/s") for v in _list(spec["speed"])]
     durations = [_number(v, "duration", "s") for v in _list(spec["duration"])]
@@ -362,7 +386,9 @@ def expand(spec: dict) -> List[Case]:
         if not values:
             raise BodyvibError(f"spec: '{name}' is an empty list")
     for r, sd, v, d, h in product(roads, seeds[:1], speeds, durations, steps):
-        check_settings(r, v, d, h, sd)  # refuses unknown roads, steps longer than half a run
+        # refuses unknown roads and files that cannot be driven, steps longer than half a run
+        check_settings(r, v, d, h, sd, road_options=RoadOptions(**dict(road_opts)))
+    road_digests = {r: _file_digest(r) for r in roads if is_road_file(r)}
     bodies = _bodies(spec)
     cars = [str(c) for c in _list(spec["car"])]
     car_digests = {c: _digest(load_car(c)) for c in cars}
@@ -375,11 +401,12 @@ def expand(spec: dict) -> List[Case]:
         if bkey not in body_digests:
             net = base_nets.get(model) or base_nets.setdefault(model, load_model(model))
             body_digests[bkey] = _digest(net.with_parameters(**dict(values)) if values else net)
-        fields = {"road": r.upper() if len(r) == 1 else r.lower(), "seed": sd, "speed": v,
-                  "duration": d, "step": h}
+        fields = {"road": r, "seed": sd, "speed": v, "duration": d, "step": h}
+        keyed = dict(fields, **({"road_options": dict(road_opts)} if road_opts else {}),
+                     **({"road_file": road_digests[r]} if r in road_digests else {}))
         cases.append(Case(case_id=len(cases), body=bname, body_model=model, body_sample=sample,
-                          body_values=values, car=c,
-                          case_key=_key(fields, body_digests[bkey], car_digests[c]), **fields))
+                          body_values=values, car=c, road_options=road_opts,
+                          case_key=_key(keyed, body_digests[bkey], car_digests[c]), **fields))
     keys = {}
     for cs in cases:
         if cs.case_key in keys:
@@ -387,6 +414,39 @@ def expand(spec: dict) -> List[Case]:
                                "case (listed twice?)")
         keys[cs.case_key] = cs.case_id
     return cases
+
+
+def _road_options(value) -> Tuple[Tuple[str, object], ...]:
+    """``road_options`` of a spec as RoadOptions fields that differ from the defaults."""
+    from ..road.driven import RoadOptions
+
+    if not isinstance(value, dict):
+        raise BodyvibError("spec: 'road_options' must be an object like {\"taper\": 5, "
+                           "\"track\": 0.8}")
+    unknown = sorted(set(value) - set(ROAD_OPTION_KEYS))
+    if unknown:
+        raise BodyvibError(f"spec: unknown road option(s) {', '.join(unknown)}; options are "
+                           + ", ".join(ROAD_OPTION_KEYS))
+    default = RoadOptions()
+    out = []
+    for k, field in ROAD_OPTION_KEYS.items():
+        if k not in value:
+            continue
+        v = value[k]
+        if k in ("taper", "track"):
+            ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+            if not ok or (k == "taper" and v < 0):
+                raise BodyvibError(f"spec: road option '{k}' must be a "
+                                   f"{'non-negative ' if k == 'taper' else ''}number of m, "
+                                   f"got {v!r}")
+            v = float(v)
+        elif k in ("envelope", "repeat") and not isinstance(v, bool):
+            raise BodyvibError(f"spec: road option '{k}' must be true or false, got {v!r}")
+        elif k == "units" and v is not None and not isinstance(v, str):
+            raise BodyvibError(f"spec: road option 'units' must be text like \"m,mm\", got {v!r}")
+        if v != getattr(default, field):
+            out.append((field, v))
+    return tuple(out)
 
 
 def varied_parameters(cases: Sequence[Case]) -> List[str]:

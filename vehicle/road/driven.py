@@ -1,0 +1,151 @@
+"""The road a run drives: a synthetic road or a road file, faded in from level.
+
+Every run (``bodyvib cosim``, ``check``, every ``sweep`` engine) and ``Road.fmu``
+take their road from here, so they all start the same way: the car starts at rest
+on level road, and the road fades in over its first ``taper_m`` metres (5 m by
+default, ``--road-taper``) and out over its last
+(:class:`~vehicle.road.synthetic.TaperedRoad`): no initial height, no initial slope,
+whatever the road, and the car's own state untouched. The alternative, starting the
+car in static equilibrium at the road's first height, would need every car FMU to
+take an initial road height and every host to set it, which ``Road.fmu`` in an SSP
+cannot do.
+"""
+
+import math
+import os
+from dataclasses import asdict, dataclass
+from typing import Optional
+
+from bodyvib.runtime.errors import BodyvibError
+
+from .synthetic import ISO8608_CLASSES, Road, TaperedRoad, make_road
+
+__all__ = ["DEFAULT_TAPER_M", "RoadOptions", "is_road_file", "driven_road", "road_label"]
+
+#: Default fade-in (and fade-out) length of every road, m.
+DEFAULT_TAPER_M = 5.0
+
+
+@dataclass(frozen=True)
+class RoadOptions:
+    """How a road is driven (the ``--road-*`` options).
+
+    Attributes
+    ----------
+    taper_m : float
+        Fade-in and fade-out length, m (0: none).
+    track_m : float
+        OpenCRG: lateral offset of the wheel from the reference line, m.
+    units : str or None
+        CSV/ERD: ``"DIST,ELEV"`` units when the file does not name them.
+    envelope : bool
+        Measured roads: 250 mm tire-enveloping moving average.
+    repeat : bool
+        Measured roads: repeat the profile when the run is longer than it.
+    """
+
+    taper_m: float = DEFAULT_TAPER_M
+    track_m: float = 0.0
+    units: Optional[str] = None
+    envelope: bool = False
+    repeat: bool = False
+
+    def to_dict(self) -> dict:
+        """The options as JSON."""
+        return asdict(self)
+
+
+def is_road_file(spec) -> bool:
+    """Whether a road spec names a file rather than a synthetic road.
+
+    Parameters
+    ----------
+    spec : str
+
+    Returns
+    -------
+    bool
+        True for a name with a road file's extension (``.crg``, ``.csv``, ``.erd``), a
+        path or an existing file; False for an ISO 8608 class letter, ``bump``,
+        ``sweep`` or any other name (refused as an unknown road).
+
+    Examples
+    --------
+    >>> is_road_file("C"), is_road_file("bump"), is_road_file("road.crg")
+    (False, False, True)
+    """
+    s = str(spec).strip()
+    if (len(s) == 1 and s.upper() in ISO8608_CLASSES) or s.lower() in ("bump", "sweep"):
+        return False
+    return (os.path.splitext(s)[1].lower() in (".crg", ".csv", ".erd") or os.sep in s
+            or os.path.isfile(s))
+
+
+def road_label(spec) -> str:
+    """The road as a table shows it: a class letter, ``bump``, ``sweep`` or the file's absolute path.
+
+    Examples
+    --------
+    >>> road_label("c"), road_label("Bump")
+    ('C', 'bump')
+    """
+    s = str(spec).strip()
+    if is_road_file(s):
+        return os.path.abspath(s)
+    return s.upper() if len(s) == 1 else s.lower()
+
+
+def driven_road(spec, speed: float, duration: float, seed: int = 0,
+                step: Optional[float] = None, options: Optional[RoadOptions] = None) -> Road:
+    """The road a run drives, faded in from level.
+
+    Parameters
+    ----------
+    spec : str
+        ISO 8608 class ``A``-``H``, ``bump``, ``sweep`` (:func:`vehicle.road.synthetic.make_road`)
+        or a road file (``.crg``, ``.csv``, ``.erd``: :func:`vehicle.road.measured.load_profile`).
+    speed : float
+        m/s.
+    duration : float
+        s.
+    seed : int
+        Random-road seed.
+    step : float, optional
+        Communication step, s (a measured profile's spacing is checked against it).
+    options : RoadOptions, optional
+
+    Returns
+    -------
+    TaperedRoad
+        The road faded in (and out) over ``options.taper_m``; a random road and a
+        repeated profile repeat with their length.
+
+    Raises
+    ------
+    BodyvibError
+        Unknown road, bad settings, a file that cannot be driven (see
+        :func:`vehicle.road.measured.load_profile` and
+        :meth:`vehicle.road.profile.ProfileRoad.check_run`), a taper longer than
+        half the road.
+
+    Examples
+    --------
+    >>> r = driven_road("C", 20.0, 10.0)
+    >>> float(r.displacement(0.0)), float(r.slope(0.0))
+    (0.0, 0.0)
+    """
+    opt = options or RoadOptions()
+    if is_road_file(spec):
+        from .measured import load_profile
+
+        if not (isinstance(speed, (int, float)) and math.isfinite(speed) and speed > 0):
+            raise BodyvibError(f"speed must be a positive number of m/s, got {speed!r}")
+        road = load_profile(str(spec).strip(), track_m=opt.track_m, units=opt.units,
+                            envelope=opt.envelope)
+        road.check_run(speed, duration, step, repeat=opt.repeat)
+        return TaperedRoad(road, road.length, opt.taper_m, periodic=opt.repeat)
+    if opt.track_m or opt.units or opt.envelope or opt.repeat:
+        raise BodyvibError("--road-track, --road-units, --road-envelope and --road-repeat apply "
+                           f"to road files; road '{spec}' is synthetic")
+    road = make_road(spec, speed, duration, seed=seed)
+    return TaperedRoad(road, road.length, opt.taper_m)
