@@ -41,7 +41,7 @@ import tempfile
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable, List, Sequence, Tuple
+from typing import Callable, Dict, Iterable, List, Sequence, Tuple
 from xml.etree import ElementTree as ET
 
 import numpy as np
@@ -56,7 +56,8 @@ from .description import MODEL_STOP_TIME, display_unit, initial_dependencies, un
 from .sources import native_dir
 
 __all__ = ["NATIVE_SOURCES", "PLATFORMS", "PlatformChoice", "choose_platforms", "NativeModel", "native_model", "model_source",
-           "model_description", "build_description", "build_native_fmu", "fmi_headers"]
+           "model_description", "build_description", "build_native_fmu", "package_native_fmu",
+           "fmi_headers"]
 
 
 #: The model-independent C sources and the FMI function file of each FMI version.
@@ -647,9 +648,10 @@ def fmi_headers() -> Path:
     return folder
 
 
-def _token(nm: NativeModel, model_text: str) -> str:
+def _token(model_text: str, core: Sequence[str] = None) -> str:
+    """The instantiation token: a hash of the model's C text and every C source it builds with."""
     h = hashlib.sha256(model_text.encode())
-    for s in NATIVE_SOURCES + tuple(FMI_FILES.values()):
+    for s in tuple(core or NATIVE_SOURCES) + tuple(FMI_FILES.values()):
         h.update((native_dir() / s).read_bytes())
     d = h.hexdigest()
     return "{" + f"{d[:8]}-{d[8:12]}-{d[12:16]}-{d[16:20]}-{d[20:32]}" + "}"
@@ -722,38 +724,79 @@ def build_native_fmu(network: Network, kind: str, name: str, description: str, d
     ...                  "reduced body", "dist/native")  # doctest: +SKIP
     PosixPath('dist/native/HumanBody3DOF.fmu')
     """
+    from ..runtime.modelfile import network_to_dict
+
+    nm = native_model(kind, network, name, description)
+    model_json = (json.dumps(network_to_dict(network), indent=2) + "\n").encode()
+    return package_native_fmu(nm, lambda token: model_source(nm, token), NATIVE_SOURCES,
+                              {MODEL_FILE: model_json}, dest, fmi, platforms)
+
+
+def package_native_fmu(nm: NativeModel, model_c: Callable[[str], str], core: Sequence[str],
+                       resources: Dict[str, bytes], dest, fmi: int,
+                       platforms: Iterable[str]) -> Path:
+    """Compile, package, validate and place one native FMU: what every native kind shares.
+
+    Parameters
+    ----------
+    nm : NativeModel
+        The FMU's interface (its model description is written from it).
+    model_c : callable
+        ``model_c(token)`` -> the text of ``bodyvib_model.c`` (the model as C data),
+        given the instantiation token.
+    core : sequence of str
+        The core's C sources in ``fmu_src/native`` (:data:`NATIVE_SOURCES` or
+        :data:`SOURCE_SOURCES`), compiled with the FMI version's wrapper.
+    resources : dict of str to bytes
+        Files for the FMU's ``resources/`` folder.
+    dest : str or path
+        Output folder.
+    fmi : int
+        FMI version, 2 or 3.
+    platforms : iterable of str
+        Binaries to compile (:data:`PLATFORMS`).
+
+    Returns
+    -------
+    Path
+        ``dest/<name>.fmu``.
+
+    Raises
+    ------
+    BodyvibError
+        An FMI version or platform that does not exist, a compiler missing or failing,
+        or an FMU that ``fmpy validate`` finds problems in (the previous file is kept).
+    """
     if fmi not in FMI_FILES:
         raise BodyvibError(f"FMI version must be 2 or 3, got {fmi!r}")
     platforms = list(platforms)
     unknown = [p for p in platforms if p not in PLATFORMS]
     if unknown or not platforms:
         raise BodyvibError(f"platforms must be among {', '.join(PLATFORMS)}, got {platforms}")
-    from ..runtime.modelfile import network_to_dict
-
-    nm = native_model(kind, network, name, description)
-    token = _token(nm, model_source(nm, ""))
+    token = _token(model_c(""), core)
     headers = fmi_headers()
     dest = Path(dest)
+    name = nm.name
     with tempfile.TemporaryDirectory(prefix="bodyvib_native_") as tmp:
         stage = Path(tmp) / "fmu"
         src = stage / "sources"
         src.mkdir(parents=True)
-        for s in NATIVE_SOURCES + (FMI_FILES[fmi],):
+        for s in tuple(core) + (FMI_FILES[fmi],):
             shutil.copyfile(native_dir() / s, src / s)
         for h in FMI_HEADERS[fmi]:
             shutil.copyfile(headers / h, src / h)
-        (src / MODEL_C).write_text(model_source(nm, token), encoding="utf-8")
+        (src / MODEL_C).write_text(model_c(token), encoding="utf-8")
         if fmi == 3:
             (src / "buildDescription.xml").write_bytes(build_description(nm))
         (stage / "modelDescription.xml").write_bytes(model_description(nm, token, fmi))
         (stage / "resources").mkdir()
-        (stage / "resources" / MODEL_FILE).write_text(
-            json.dumps(network_to_dict(network), indent=2) + "\n", encoding="utf-8")
+        for file, data in resources.items():
+            (stage / "resources" / file).write_bytes(data)
         for p in platforms:
             _, _, suffix, folder2, folder3 = PLATFORMS[p]
             out = stage / "binaries" / (folder2 if fmi == 2 else folder3) / (name + suffix)
             out.parent.mkdir(parents=True, exist_ok=True)
-            _compile(p, src, fmi, out)
+            _compile(p, src, fmi, out, core)
         staged = Path(tmp) / f"{name}.fmu"
         staged.write_bytes(_zip(stage))
         problems = _validate(staged)

@@ -11,8 +11,6 @@ implements the same ``bv_*`` API (``bodyvib_core.h``).
 Build-time needs: as :mod:`bodyvib.fmu.native`.
 """
 
-import hashlib
-import shutil
 import tempfile
 from pathlib import Path
 from typing import Iterable
@@ -20,14 +18,10 @@ from typing import Iterable
 import numpy as np
 
 from .. import __version__
-from ..process.outputs import atomic_write_bytes
-from ..runtime.errors import BodyvibError
 from ..runtime.source import SourceCore, write_source
 from .description import default_stop_time
-from .native import (FMI_FILES, FMI_HEADERS, MODEL_C, PLATFORMS, SOURCE_SOURCES, NativeModel,
-                     _c_doubles, _c_ints, _c_string, _compile, _validate, _zip, build_description,
-                     fmi_headers, model_description)
-from .sources import native_dir
+from .native import (SOURCE_SOURCES, NativeModel, _c_doubles, _c_ints, _c_string,
+                     package_native_fmu)
 
 __all__ = ["build_native_source_fmu", "native_source_model", "source_model_source"]
 
@@ -127,14 +121,6 @@ def source_model_source(nm: NativeModel, table, token: str) -> str:
     return "\n".join(lines)
 
 
-def _token(model_text: str, fmi: int) -> str:
-    h = hashlib.sha256(model_text.encode())
-    for s in SOURCE_SOURCES + (FMI_FILES[fmi],):
-        h.update((native_dir() / s).read_bytes())
-    d = h.hexdigest()
-    return "{" + f"{d[:8]}-{d[8:12]}-{d[12:16]}-{d[16:20]}-{d[20:32]}" + "}"
-
-
 def build_native_source_fmu(meta: dict, table, name: str, description: str, dest="dist/native",
                             fmi: int = 2, platforms: Iterable[str] = ("linux64", "win64")) -> Path:
     """Build one native source FMU (the counterpart of :func:`bodyvib.fmu.pythonfmu.build_source_fmu`).
@@ -165,41 +151,8 @@ def build_native_source_fmu(meta: dict, table, name: str, description: str, dest
     >>> build_native_source_fmu(meta, table, "Road", "road", "dist/native")  # doctest: +SKIP
     PosixPath('dist/native/Road.fmu')
     """
-    if fmi not in FMI_FILES:
-        raise BodyvibError(f"FMI version must be 2 or 3, got {fmi!r}")
-    platforms = list(platforms)
-    unknown = [p for p in platforms if p not in PLATFORMS]
-    if unknown or not platforms:
-        raise BodyvibError(f"platforms must be among {', '.join(PLATFORMS)}, got {platforms}")
     nm = native_source_model(meta, table, name, description)
-    token = _token(source_model_source(nm, table, ""), fmi)
-    headers = fmi_headers()
-    dest = Path(dest)
-    with tempfile.TemporaryDirectory(prefix="bodyvib_native_") as tmp:
-        stage = Path(tmp) / "fmu"
-        src = stage / "sources"
-        src.mkdir(parents=True)
-        for s in SOURCE_SOURCES + (FMI_FILES[fmi],):
-            shutil.copyfile(native_dir() / s, src / s)
-        for h in FMI_HEADERS[fmi]:
-            shutil.copyfile(headers / h, src / h)
-        (src / MODEL_C).write_text(source_model_source(nm, table, token), encoding="utf-8")
-        if fmi == 3:
-            (src / "buildDescription.xml").write_bytes(build_description(nm))
-        (stage / "modelDescription.xml").write_bytes(model_description(nm, token, fmi))
-        (stage / "resources").mkdir()
-        write_source(stage / "resources", meta, table)  # the table as data, for reference
-        for p in platforms:
-            _, _, suffix, folder2, folder3 = PLATFORMS[p]
-            out = stage / "binaries" / (folder2 if fmi == 2 else folder3) / (name + suffix)
-            out.parent.mkdir(parents=True, exist_ok=True)
-            _compile(p, src, fmi, out, SOURCE_SOURCES)
-        staged = Path(tmp) / f"{name}.fmu"
-        staged.write_bytes(_zip(stage))
-        problems = _validate(staged)
-        if problems:
-            raise BodyvibError(f"{name}.fmu (native, FMI {fmi}.0): fmpy validate found "
-                               "problems: " + "; ".join(problems))
-        target = dest / f"{name}.fmu"
-        atomic_write_bytes(target, staged.read_bytes())
-    return target
+    with tempfile.TemporaryDirectory(prefix="bodyvib_source_") as tmp:  # the table as data
+        resources = {Path(p).name: Path(p).read_bytes() for p in write_source(tmp, meta, table)}
+    return package_native_fmu(nm, lambda token: source_model_source(nm, table, token),
+                              SOURCE_SOURCES, resources, dest, fmi, platforms)
