@@ -442,11 +442,11 @@ def test_road_fmu_of_a_file_is_the_driven_road(files, folder):
     beyond it, where the table reproduces the profile's cubics)."""
     from fmpy import simulate_fmu
 
-    from vehicle.fmus import build_road_fmu
+    from vehicle.fmus import build_project_fmu
     from vehicle.road.synthetic import table_spacing
 
     speed = 17.3
-    fmu = build_road_fmu(os.path.join(folder, "roadfmu"), road=files["csv"])
+    fmu = build_project_fmu("Road", os.path.join(folder, "roadfmu"), files["csv"])
     res = simulate_fmu(str(fmu), stop_time=10.0, output_interval=1e-3,
                        start_values={"speed": speed})
     road = driven_road(files["csv"], speed, 10.0, step=1e-3)

@@ -21,8 +21,7 @@ from .quarter_car import load_car
 from .road.driven import is_road_file
 from .road.synthetic import ISO8608_CLASSES, TaperedRoad, make_road, random_road, road_source
 
-__all__ = ["FMUS", "ROAD_DEFAULTS", "build_fmus", "build_project_fmu", "build_native_project_fmu",
-           "build_road_fmu", "build_native_road_fmu",
+__all__ = ["FMUS", "ROAD_DEFAULTS", "build_fmus", "build_project_fmu",
            "fmu_road", "fmu_road_length", "load_fmu_model", "temporary_fmu_dir"]
 
 #: Road.fmu's defaults: ISO 8608 class C, seed 0, 601 m (30 s at 20 m/s and a metre
@@ -105,62 +104,11 @@ def fmu_road_length(road, length: float) -> float:
     return float(inner.length) if hasattr(inner, "spacing") else float(length)
 
 
-def build_road_fmu(dest="dist", road: str = "C", seed: int = 0, length: float = 601.0,
-                   speed: float = 20.0, taper: float = 5.0, track: float = 0.0,
-                   units: Optional[str] = None, envelope: bool = False,
-                   repeat: bool = False) -> Path:
-    """Build ``Road.fmu``: the road a run drives (synthetic or a file) as a table, at a speed.
-
-    Parameters
-    ----------
-    dest : str or path
-    road, seed, length, taper, track, units, envelope, repeat
-        As :func:`fmu_road`.
-    speed : float
-        Start value of the FMU's ``speed`` parameter (and a sweep's design speed), m/s.
-
-    Returns
-    -------
-    Path
-        ``dest/Road.fmu``.
-    """
-    meta, table = _road_source(road, seed, length, speed, taper, track, units, envelope, repeat)
-    return build_source_fmu(meta, table, "Road", FMUS["Road"][2], dest)
-
-
-def _road_source(road, seed, length, speed, taper, track, units, envelope, repeat):
+def _road_source(road="C", seed=0, length=601.0, speed=20.0, taper=5.0, track=0.0, units=None,
+                 envelope=False, repeat=False):
     """The source description and table of Road.fmu, pythonfmu or native alike."""
     rd = fmu_road(road, length, seed, speed, taper, track, units, envelope, repeat)
     return road_source(rd, fmu_road_length(rd, length), speed)
-
-
-def build_native_road_fmu(dest="dist/native", road: str = "C", seed: int = 0,
-                          length: float = 601.0, speed: float = 20.0, taper: float = 5.0,
-                          track: float = 0.0, units: Optional[str] = None,
-                          envelope: bool = False, repeat: bool = False,
-                          fmi: int = 2, platforms=("linux64", "win64")) -> Path:
-    """Build the native (C) ``Road.fmu``: the table of :func:`build_road_fmu`, no Python.
-
-    Parameters
-    ----------
-    dest : str or path
-    road, seed, length, speed, taper, track, units, envelope, repeat
-        As :func:`build_road_fmu`.
-    fmi : int
-        FMI version, 2 or 3.
-    platforms : iterable of str
-        :data:`bodyvib.fmu.native.PLATFORMS` to compile.
-
-    Returns
-    -------
-    Path
-        ``dest/Road.fmu``.
-    """
-    from bodyvib.fmu.native_source import build_native_source_fmu
-
-    meta, table = _road_source(road, seed, length, speed, taper, track, units, envelope, repeat)
-    return build_native_source_fmu(meta, table, "Road", FMUS["Road"][2], dest, fmi=fmi,
-                                   platforms=platforms)
 
 
 def load_fmu_model(name: str, model: Optional[str] = None):
@@ -186,12 +134,14 @@ def load_fmu_model(name: str, model: Optional[str] = None):
         raise BodyvibError(f"unknown FMU '{name}'; FMUs are {', '.join(FMUS)}")
     kind, default, _ = FMUS[name]
     if kind == "source":
-        raise BodyvibError(f"{name}.fmu carries a road table, not a model (build_road_fmu)")
+        raise BodyvibError(f"{name}.fmu carries a road table, not a model (build_project_fmu('{name}', road=...))")
     return (load_car if kind == "car" else load_model)(model or default)
 
 
-def build_project_fmu(name: str, dest="dist", model: Optional[str] = None) -> Path:
-    """Build one FMU of :data:`FMUS`.
+def build_project_fmu(name: str, dest="dist", model: Optional[str] = None, *,
+                      road: Optional[dict] = None, native: bool = False, fmi: int = 2,
+                      platforms: Iterable[str] = ("linux64", "win64")) -> Path:
+    """Build one FMU of :data:`FMUS`, pythonfmu or native: the one entry for every kind.
 
     Parameters
     ----------
@@ -200,41 +150,18 @@ def build_project_fmu(name: str, dest="dist", model: Optional[str] = None) -> Pa
     dest : str or path
         Output folder.
     model : str, optional
-        Shipped model name or parameter file to bake in (the FMU's default if None).
-
-    Returns
-    -------
-    Path
-        ``dest/<name>.fmu``.
-
-    Raises
-    ------
-    BodyvibError
-        See :func:`load_fmu_model` and :func:`bodyvib.fmu.pythonfmu.build_fmu`.
-    """
-    if name in FMUS and FMUS[name][0] == "source":
-        return build_road_fmu(dest, **({"road": model} if model else {}))
-    network = load_fmu_model(name, model)
-    kind, _, description = FMUS[name]
-    return build_fmu(network, kind, name, description, dest)
-
-
-def build_native_project_fmu(name: str, dest="dist/native", model: Optional[str] = None,
-                             fmi: int = 2, platforms=("linux64", "win64")) -> Path:
-    """Build one FMU of :data:`FMUS` as a native C FMU (:mod:`bodyvib.fmu.native`).
-
-    Parameters
-    ----------
-    name : str
-        A key of :data:`FMUS`.
-    dest : str or path
-        Output folder.
-    model : str, optional
-        Shipped model name or parameter file to bake in (the FMU's default if None).
+        Shipped model name or parameter file to bake in (the FMU's default if None); for
+        ``Road``, the road (an ISO 8608 class, ``bump``, ``sweep`` or a road file).
+    road : dict, optional
+        ``Road`` only: the options of :func:`fmu_road` (``seed``, ``length``, ``speed``,
+        ``taper``, ``track``, ``units``, ``envelope``, ``repeat``) over
+        :data:`ROAD_DEFAULTS`.
+    native : bool
+        A native C FMU (:mod:`bodyvib.fmu.native`) instead of a pythonfmu one.
     fmi : int
-        FMI version, 2 or 3.
+        With ``native``: FMI version, 2 or 3 (pythonfmu FMUs are FMI 2.0).
     platforms : iterable of str
-        :data:`bodyvib.fmu.native.PLATFORMS` to compile.
+        With ``native``: :data:`bodyvib.fmu.native.PLATFORMS` to compile.
 
     Returns
     -------
@@ -244,16 +171,35 @@ def build_native_project_fmu(name: str, dest="dist/native", model: Optional[str]
     Raises
     ------
     BodyvibError
-        See :func:`load_fmu_model` and :func:`bodyvib.fmu.native.build_native_fmu`.
-    """
-    from bodyvib.fmu.native import build_native_fmu
+        An unknown FMU; see :func:`load_fmu_model`, :func:`fmu_road` and the builders
+        :func:`bodyvib.fmu.pythonfmu.build_fmu`, :func:`bodyvib.fmu.native.build_native_fmu`.
 
-    if name in FMUS and FMUS[name][0] == "source":
-        return build_native_road_fmu(dest, **({"road": model} if model else {}), fmi=fmi,
-                                     platforms=platforms)
-    network = load_fmu_model(name, model)
+    Examples
+    --------
+    >>> build_project_fmu("QuarterCar", "dist")  # doctest: +SKIP
+    PosixPath('dist/QuarterCar.fmu')
+    >>> build_project_fmu("Road", "dist/native", "road.crg", native=True, fmi=3)  # doctest: +SKIP
+    PosixPath('dist/native/Road.fmu')
+    """
+    if name not in FMUS:
+        raise BodyvibError(f"unknown FMU '{name}'; FMUs are {', '.join(FMUS)}")
     kind, _, description = FMUS[name]
-    return build_native_fmu(network, kind, name, description, dest, fmi=fmi, platforms=platforms)
+    if kind == "source":
+        meta, table = _road_source(**dict(ROAD_DEFAULTS, **(road or {}),
+                                          **({"road": model} if model else {})))
+        if native:
+            from bodyvib.fmu.native_source import build_native_source_fmu
+
+            return build_native_source_fmu(meta, table, name, description, dest, fmi=fmi,
+                                           platforms=platforms)
+        return build_source_fmu(meta, table, name, description, dest)
+    network = load_fmu_model(name, model)
+    if native:
+        from bodyvib.fmu.native import build_native_fmu
+
+        return build_native_fmu(network, kind, name, description, dest, fmi=fmi,
+                                platforms=platforms)
+    return build_fmu(network, kind, name, description, dest)
 
 
 def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-car",
@@ -277,7 +223,7 @@ def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-ca
     echo : callable, optional
         Called with one line per FMU written.
     road : dict, optional
-        Keyword arguments of :func:`build_road_fmu` for ``Road.fmu``
+        Options of :func:`fmu_road` for ``Road.fmu`` (``road``, ``seed``, ...)
         (:data:`ROAD_DEFAULTS` by default).
     native : bool
         Build the native C FMUs instead of the pythonfmu ones: FMI 2.0 into
@@ -321,31 +267,19 @@ def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-ca
     out = {}
     what = {}
     with staged_writes(guard=interrupts.critical):  # all FMUs or none: a failed (or
-        if native:                                      # interrupted) build keeps the old ones
-            for version in fmi:
-                folder = Path(dest) if version == 2 else Path(dest) / "fmi3"
-                for n in names:
-                    key = n if version == 2 else f"fmi3/{n}"
-                    if FMUS[n][0] == "source":
-                        out[key] = build_native_road_fmu(folder, **road, fmi=version,
-                                                         platforms=platforms)
-                        what[key] = (f"native C, FMI {version}.0, road {road['road']}, seed "
-                                     f"{road['seed']}, {road['length']:g} m")
-                    else:
-                        out[key] = build_native_project_fmu(n, folder, chosen.get(n), fmi=version,
-                                                            platforms=platforms)
-                        what[key] = (f"native C, FMI {version}.0, model "
-                                     f"{chosen.get(n) or FMUS[n][1]}")
-                    what[key] += f", {'+'.join(platforms)}"
-        else:
+        for version in (fmi if native else (2,)):   # interrupted) build keeps the old ones
+            folder = Path(dest) if version == 2 else Path(dest) / "fmi3"
             for n in names:
-                if FMUS[n][0] == "source":
-                    out[n] = build_road_fmu(dest, **road)
-                    what[n] = (f"road {road['road']}" if is_road_file(road["road"]) else
-                               f"road {road['road']}, seed {road['seed']}, {road['length']:g} m")
-                else:
-                    out[n] = build_project_fmu(n, dest, chosen.get(n))
-                    what[n] = f"model {chosen.get(n) or FMUS[n][1]}"
+                key = n if version == 2 else f"fmi3/{n}"
+                source = FMUS[n][0] == "source"
+                out[key] = build_project_fmu(n, folder, None if source else chosen.get(n),
+                                             road=road if source else None, native=native,
+                                             fmi=version, platforms=platforms)
+                what[key] = ((f"road {road['road']}" if is_road_file(road["road"]) else
+                              f"road {road['road']}, seed {road['seed']}, {road['length']:g} m")
+                             if source else f"model {chosen.get(n) or FMUS[n][1]}")
+                if native:
+                    what[key] = f"native C, FMI {version}.0, {what[key]}, {'+'.join(platforms)}"
         interrupts.check()
     if echo:
         for key in out:
