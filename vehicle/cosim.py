@@ -384,7 +384,7 @@ class Master:
                 F_prev = F
                 F, a1, x1, x2 = b_get(body_out)
                 if not j & 255 and interrupts.requested():  # a safe point: no FMU call runs
-                    raise KeyboardInterrupt
+                    interrupts.check()  # raises: the signal is taken here
         except BodyvibError:
             raise
         except Exception as exc:

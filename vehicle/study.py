@@ -297,7 +297,8 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
     err = {label: [0.0, 0.0] for label in refs}                        # sum (a - r)^2, sum r^2
     pairs = {(a, b): [0.0, 0.0] for a in labels for b in labels if a != b}
     w0 = max(0.0, (n - 1) * step / 2 - window_s / 2)                   # the plot's window
-    k0, k1 = int(math.ceil(w0 / step - 1e-9)), int(math.floor((w0 + window_s) / step + 1e-9))
+    k0 = int(math.ceil(w0 / step - 1e-9))
+    k1 = min(n - 1, int(math.floor((w0 + window_s) / step + 1e-9)))  # a run shorter than it
     windows = {label: [] for label in labels}
     kept = {label: [] for label in labels} if histories else None
     kept_ref = {label: [] for label in refs} if histories else None

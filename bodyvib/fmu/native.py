@@ -31,7 +31,6 @@ import hashlib
 import io
 import json
 import shutil
-import subprocess
 import tempfile
 import zipfile
 from dataclasses import dataclass
@@ -45,6 +44,7 @@ from .. import __version__
 from ..runtime.contract import MODEL_FILE, RATE_PREFIX, UNITS, Variable
 from ..runtime.engine import FmuCore
 from ..runtime.errors import BodyvibError
+from ..process import interrupts
 from ..process.outputs import atomic_write_bytes
 from ..runtime.network import Network, descriptor_model
 from .sources import native_dir
@@ -446,7 +446,8 @@ def _compile(platform: str, src: Path, fmi: int, out: Path) -> None:
     files = [str(src / s) for s in NATIVE_SOURCES if s.endswith(".c")]
     files += [str(src / MODEL_C), str(src / FMI_FILES[fmi])]
     cmd = [compiler] + COMMON_FLAGS + flags + [f"-I{src}", "-o", str(out)] + files + ["-lm"]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
+    # its own process group, killed on a signal; its temporary files in the build's folder
+    proc = interrupts.run_process(cmd, scratch=src.parent.parent / "compiler-tmp")
     if proc.returncode != 0 or not out.is_file():
         raise BodyvibError(f"{compiler} failed for {out.name} ({platform}, FMI {fmi}.0): "
                            + " | ".join((proc.stderr or proc.stdout).strip().splitlines()[-4:]))

@@ -2,10 +2,12 @@
 
 Not physics and not part of the FMU run-time: :mod:`~bodyvib.process.outputs`
 checks every output before the work starts and writes them atomically, all or
-none; :mod:`~bodyvib.process.interrupts` defers Ctrl-C to safe points;
-:mod:`~bodyvib.process.limits` refuses sizes the memory cannot hold, up front.
+none; :mod:`~bodyvib.process.interrupts` defers Ctrl-C, SIGTERM and SIGHUP to safe
+points; :mod:`~bodyvib.process.scratch` gives each command a private temporary folder,
+removed however the command ends; :mod:`~bodyvib.process.limits` refuses sizes the
+memory cannot hold, up front.
 """
 
-from . import interrupts, limits, outputs
+from . import interrupts, limits, outputs, scratch
 
-__all__ = ["interrupts", "limits", "outputs"]
+__all__ = ["interrupts", "limits", "outputs", "scratch"]

@@ -49,7 +49,8 @@ import sys
 import uuid
 from typing import Callable, Dict, List, Optional, Sequence, Union
 
-from bodyvib import __version__, interrupts
+from bodyvib import __version__
+from bodyvib.process import interrupts
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.process.outputs import atomic_write_bytes, atomic_write_text
 
