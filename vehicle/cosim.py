@@ -52,6 +52,7 @@ from bodyvib.process.outputs import PendingFile
 from .quarter_car import CAR_FMU_OUTPUTS
 
 __all__ = [
+    "check_fmu",
     "BODY_INPUTS", "BODY_OUTPUTS", "CAR_INPUTS", "CAR_OUTPUTS",
     "MASTER_SIGNALS", "Master", "Slave", "open_fmu", "model_from_fmu", "cosimulate", "write_csv",
     "CsvStream",
@@ -104,16 +105,60 @@ class Slave:
             shutil.rmtree(self._unzipdir, ignore_errors=True)
 
 
-def _check_interface(md, path, kind):
+_OPTIONS = {"body": "--body", "car": "--car-fmu"}
+
+
+def _missing(md, kind):
     inputs, outputs = _INTERFACES[kind]
     have = {v.name: v.causality for v in md.modelVariables}
-    missing = [n for n in inputs if have.get(n) != "input"]
-    missing += [n for n in outputs if have.get(n) != "output"]
+    return ([n for n in inputs if have.get(n) != "input"]
+            + [n for n in outputs if have.get(n) != "output"])
+
+
+def _check_interface(md, path, kind):
+    inputs, outputs = _INTERFACES[kind]
+    missing = _missing(md, kind)
     if missing:
+        other = [k for k in _INTERFACES if k != kind and not _missing(md, k)]
+        what = (f"it is a {other[0]} FMU (give it to {_OPTIONS[other[0]]})" if other else
+                f"no {', '.join(missing)}")
         raise BodyvibError(
-            f"FMU '{path}' lacks the {kind} interface: no {', '.join(missing)}; a {kind} FMU "
+            f"FMU '{path}' lacks the {kind} interface: {what}; a {kind} FMU "
             f"needs inputs {', '.join(inputs)} and outputs {', '.join(outputs)} (the FMU contract: README, FMUs)"
         )
+
+
+def check_fmu(path, kind: str) -> None:
+    """Refuse an FMU that is not an FMI 2.0 co-simulation FMU of ``kind``, without running it.
+
+    Reads only the model description: a body FMU given as the car (``cosim --car-fmu
+    HumanBody3DOF.fmu``) is named for what it is before anything is built or run.
+
+    Parameters
+    ----------
+    path : str
+        ``.fmu`` file.
+    kind : str
+        ``"body"`` or ``"car"``.
+
+    Raises
+    ------
+    BodyvibError
+        Missing or unreadable file, another FMI version, missing interface variables
+        (naming the interface the FMU has, if it has the other one).
+    """
+    from fmpy import read_model_description
+
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise BodyvibError(f"FMU file '{path}' does not exist")
+    try:
+        md = read_model_description(path)
+    except Exception as exc:
+        raise BodyvibError(f"'{path}' is not a readable FMU: {exc}") from None
+    if md.fmiVersion != "2.0":
+        raise BodyvibError(f"FMU '{path}' is FMI {md.fmiVersion}; FMI 2.0 is needed")
+    _check_interface(md, path, kind)
     if md.coSimulation is None:
         raise BodyvibError(f"FMU '{path}' is not a co-simulation FMU (FMI 2.0 CS needed)")
 

@@ -25,7 +25,7 @@ from bodyvib.process import interrupts
 from bodyvib.process.limits import require_memory
 from bodyvib.runtime.errors import BodyvibError
 
-from .cosim import MASTER_SIGNALS, CsvStream, Master, model_from_fmu, open_fmu
+from .cosim import MASTER_SIGNALS, CsvStream, Master, check_fmu, model_from_fmu, open_fmu
 from .reference import ReferenceStream
 from .road.synthetic import make_road, road_input
 
@@ -287,6 +287,9 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
     n = int(round(duration / step)) + 1
     fs = 1.0 / step
     labels = list(body_fmus)
+    check_fmu(car_fmu, "car")  # a body FMU given as the car: named, before any work
+    for path in body_fmus.values():
+        check_fmu(path, "body")
     car_net = model_from_fmu(car_fmu) if reference else None
     nets = {label: model_from_fmu(path) if reference else None
             for label, path in body_fmus.items()}
