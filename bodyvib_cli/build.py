@@ -4,7 +4,8 @@ import os
 import sys
 from pathlib import Path
 
-from bodyvib.process.outputs import check_outputs
+from bodyvib.process import interrupts
+from bodyvib.process.outputs import check_outputs, staged_writes
 from vehicle.fmus import FMUS, ROAD_DEFAULTS, build_fmus
 from vehicle.ssp import COMPONENTS, SSP_NAME, write_ssp
 
@@ -21,7 +22,11 @@ def _run(args) -> int:
                       + [(f"--dest native/{n}.fmu", str(dest / f"{n}.fmu"), None) for n in names]
                       + [(f"--dest native/fmi3/{n}.fmu", str(dest / "fmi3" / f"{n}.fmu"), None)
                          for n in names], inputs)
-        build_fmus(dest, args.params, names=names, echo=print, native=True)
+        lines = []
+        with staged_writes(guard=interrupts.critical):
+            build_fmus(dest, args.params, names=names, echo=lines.append, native=True)
+        for line in lines:
+            print(line)
         return 0
     ssp = all(name in names for name in COMPONENTS.values())
     check_outputs([("--dest", args.dest, None, True)]
@@ -30,11 +35,19 @@ def _run(args) -> int:
                      if ssp else []), inputs)
     road = {"road": args.road, "seed": args.road_seed, "length": args.road_length,
             "speed": args.road_speed, "taper": args.road_taper}
-    built = build_fmus(args.dest, args.params, names=args.fmus, echo=print, road=road)
-    if ssp:
-        path = write_ssp(f"{args.dest}/{SSP_NAME}.ssp",
-                         {comp: str(built[name]) for comp, name in COMPONENTS.items()})
-        print(f"wrote {path} (Road -> QuarterCar <-> HumanBody3DOF, parameter set, 1 ms step)")
+    lines = []
+    # the FMUs and the SSP made of them are committed together or not at all: a full
+    # disk at the SSP left new FMUs beside the old SSP
+    with staged_writes(guard=interrupts.critical):
+        built = build_fmus(args.dest, args.params, names=args.fmus, echo=lines.append, road=road)
+        if ssp:
+            path = write_ssp(f"{args.dest}/{SSP_NAME}.ssp",
+                             {comp: str(built[name]) for comp, name in COMPONENTS.items()})
+            lines.append(f"wrote {path} (Road -> QuarterCar <-> HumanBody3DOF, parameter set, "
+                         "1 ms step)")
+        interrupts.check()
+    for line in lines:
+        print(line)
     return 0
 
 
