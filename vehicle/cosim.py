@@ -179,6 +179,8 @@ def _check_tree(unzipdir, md, path):
     if not os.path.isfile(binary):
         raise BodyvibError(f"FMU '{path}' has no binary for this platform "
                            f"(binaries/{system}64/{md.coSimulation.modelIdentifier}{ext})")
+    if system == "linux":
+        _check_elf(binary, path, f"binaries/linux64/{md.coSimulation.modelIdentifier}.so")
     if not (md.generationTool or "").startswith("PythonFMU"):
         return
     resources = os.path.join(unzipdir, "resources")
@@ -193,6 +195,60 @@ def _check_tree(unzipdir, md, path):
                              for e in (".py", "")):
         raise BodyvibError(f"FMU '{path}' is incomplete: resources/{module or '?'}.py (its "
                            "slave script) is missing; rebuild it")
+
+
+def _check_elf(binary, path, member):
+    """Refuse an ELF shared library that is not whole, before ``dlopen`` maps it.
+
+    ``dlopen`` of a truncated library maps pages beyond the end of the file and the
+    process dies of SIGBUS (measured: ``cosim --body`` of a native FMU whose binary was
+    cut in half), with no message and its temporary folders left behind. The header,
+    every program segment and every section (but the ``NOBITS`` ones) must lie inside
+    the file.
+    """
+    import struct
+
+    what = f"FMU '{path}': its binary {member}"
+    with open(binary, "rb") as f:
+        data = f.read()
+    size = len(data)
+    if size < 64 or data[:4] != b"\x7fELF" or data[4] not in (1, 2) or data[5] not in (1, 2):
+        raise BodyvibError(f"{what} is not an ELF shared library ({size} bytes); rebuild "
+                           "the FMU")
+    bits64, order = data[4] == 2, "<" if data[5] == 1 else ">"
+    if bits64:
+        phoff, shoff = struct.unpack_from(order + "QQ", data, 0x20)
+        phentsize, phnum, shentsize, shnum = struct.unpack_from(order + "HHHH", data, 0x36)
+    else:
+        phoff, shoff = struct.unpack_from(order + "II", data, 0x1C)
+        phentsize, phnum, shentsize, shnum = struct.unpack_from(order + "HHHH", data, 0x2A)
+
+    def truncated(need):
+        return BodyvibError(f"{what} is truncated: {size} bytes, its headers describe at "
+                            f"least {need}; the file was cut short (copy or download it "
+                            "again, or rebuild the FMU)")
+
+    for off, entsize, num in ((phoff, phentsize, phnum), (shoff, shentsize, shnum)):
+        if num and off + entsize * num > size:
+            raise truncated(off + entsize * num)
+    for k in range(phnum):
+        base = phoff + k * phentsize
+        if bits64:
+            p_offset, _, _, p_filesz = struct.unpack_from(order + "QQQQ", data, base + 8)
+        else:
+            p_offset, _, _, p_filesz = struct.unpack_from(order + "IIII", data, base + 4)
+        if p_offset + p_filesz > size:
+            raise truncated(p_offset + p_filesz)
+    for k in range(shnum):
+        base = shoff + k * shentsize
+        if bits64:
+            sh_type, = struct.unpack_from(order + "I", data, base + 4)
+            sh_offset, sh_size = struct.unpack_from(order + "QQ", data, base + 24)
+        else:
+            sh_type, = struct.unpack_from(order + "I", data, base + 4)
+            sh_offset, sh_size = struct.unpack_from(order + "II", data, base + 16)
+        if sh_type != 8 and sh_offset + sh_size > size:  # 8: SHT_NOBITS (.bss), no bytes
+            raise truncated(sh_offset + sh_size)
 
 
 @contextlib.contextmanager
