@@ -135,6 +135,10 @@ class BodyvibSlave(Fmi2Slave):  # build_fmu.py: renamed to the FMU's model name
         return self.core.get_state()
 
     def _set_fmu_state(self, state):
+        if isinstance(state, dict) and set(state) == {"error"}:  # bytes refused at deserializing
+            self.log(f"{type(self).__name__}: FMU state refused, state unchanged: "
+                     f"{state['error']}", Fmi2Status.error)
+            return
         try:
             self.core.set_state(state)
         except Exception as exc:  # a state of another FMU, or invalid: refused, logged

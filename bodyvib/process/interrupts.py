@@ -139,7 +139,7 @@ def run_process(cmd, poll: float = 0.05, scratch=None, **kwargs) -> subprocess.C
         kwargs["env"] = dict(kwargs.get("env") or os.environ, TMPDIR=scratch, TMP=scratch,
                              TEMP=scratch)
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True, **kwargs)
+                            start_new_session=hasattr(os, "killpg"), **kwargs)
     try:
         while True:
             try:
@@ -150,7 +150,10 @@ def run_process(cmd, poll: float = 0.05, scratch=None, **kwargs) -> subprocess.C
                     _raise()
     except BaseException:
         with contextlib.suppress(OSError):
-            os.killpg(proc.pid, signal.SIGKILL)  # the group: no orphan cc1, as or ld
+            if hasattr(os, "killpg"):
+                os.killpg(proc.pid, signal.SIGKILL)  # the group: no orphan cc1, as or ld
+            else:  # Windows: no process groups of this kind
+                proc.kill()
         proc.communicate()
         raise
     check()

@@ -14,7 +14,7 @@ import os
 import shutil
 import tempfile
 
-from . import interrupts
+from .interrupts import critical
 
 __all__ = ["private_tempdir", "PREFIX"]
 
@@ -56,7 +56,7 @@ def private_tempdir():
     try:
         yield folder
     finally:
-        with interrupts.critical():
+        with critical():
             tempfile.tempdir = saved_dir
             for k, v in saved_env.items():
                 if v is None:
