@@ -105,8 +105,10 @@ class BodyvibSlave(Fmi2Slave):  # build_fmu.py: renamed to the FMU's model name
         return True
 
     def _unknown(self, vrs, what):
-        """Value references this FMU does not have, logged at error level (or None)."""
+        """Value references this FMU does not have, logged at error level (or [])."""
         n = len(self.core.variables)
+        if not vrs or (min(vrs) >= 0 and max(vrs) < n):  # the hot path: every call
+            return []
         bad = [vr for vr in vrs if not 0 <= vr < n]
         if bad:
             self.log(f"{type(self).__name__}: {what}: unknown value reference(s) "
