@@ -4,7 +4,8 @@ import os
 import sys
 from pathlib import Path
 
-from bodyvib.process.outputs import check_outputs
+from bodyvib.process import interrupts
+from bodyvib.process.outputs import check_outputs, staged_writes
 from bodyvib.runtime.errors import BodyvibError
 from vehicle.fmus import FMUS, ROAD_DEFAULTS, build_fmus
 from vehicle.road.driven import is_road_file
@@ -16,48 +17,47 @@ __all__ = ["add_command", "main"]
 
 
 def _run(args) -> int:
+    """Every FMU asked for (pythonfmu, or with ``--native`` C for FMI 2.0 and 3.0) and, with
+    all three components, the SSP of each FMI version: checked first, committed together."""
     inputs = [("--params", args.params)] if args.params and os.path.isfile(args.params) else []
     names = list(args.fmus or FMUS)
+    platforms = None
     if args.native:
-        return _native(args, names, inputs)
-    ssp = all(name in names for name in COMPONENTS.values())
-    check_outputs([("--dest", args.dest, None, True)]
-                  + [(f"--dest {n}.fmu", os.path.join(args.dest, f"{n}.fmu"), None) for n in names]
-                  + ([(f"--dest {SSP_NAME}.ssp", os.path.join(args.dest, f"{SSP_NAME}.ssp"), None)]
-                     if ssp else []), inputs)
-    built = build_fmus(args.dest, args.params, names=args.fmus, echo=print, road=_road(args))
-    if ssp:
-        path = write_ssp(f"{args.dest}/{SSP_NAME}.ssp",
-                         {comp: str(built[name]) for comp, name in COMPONENTS.items()})
-        print(f"wrote {path} (Road -> QuarterCar <-> HumanBody3DOF, parameter set, 1 ms step)")
-    return 0
+        from bodyvib.fmu.native import choose_platforms
 
-
-def _native(args, names, inputs) -> int:
-    """``--native``: C FMUs (FMI 2.0 and 3.0) and, with all three components, both SSPs."""
-    from bodyvib.fmu.native import choose_platforms
-
-    choice = choose_platforms(args.platforms)  # refuses an unusable --platforms before work
-    dest = Path(args.dest) / "native"
+        choice = choose_platforms(args.platforms)  # refuses an unusable --platforms first
+        platforms = choice.platforms
+    dest = Path(args.dest) / "native" if args.native else Path(args.dest)
+    label = "native/" if args.native else ""
+    versions = ((2, ""), (3, "fmi3/")) if args.native else ((2, ""),)
     ssp = all(name in names for name in COMPONENTS.values())
     outs = [("--dest", args.dest, None, True)]
-    for sub in ("", "fmi3/"):
-        outs += [(f"--dest native/{sub}{n}.fmu", str(dest / sub / f"{n}.fmu"), None)
+    for _, sub in versions:
+        outs += [(f"--dest {label}{sub}{n}.fmu", str(dest / sub / f"{n}.fmu"), None)
                  for n in names]
         if ssp:
-            outs.append((f"--dest native/{sub}{SSP_NAME}.ssp", str(dest / sub / f"{SSP_NAME}.ssp"),
+            outs.append((f"--dest {label}{sub}{SSP_NAME}.ssp", str(dest / sub / f"{SSP_NAME}.ssp"),
                          None))
     check_outputs(outs, inputs)
-    for line in choice.skipped:
-        print(line, file=sys.stderr, flush=True)
-    built = build_fmus(dest, args.params, names=names, echo=print, road=_road(args), native=True,
-                       platforms=choice.platforms)
-    if ssp:
-        for version, sub in ((2, ""), (3, "fmi3/")):
-            path = write_ssp(dest / sub / f"{SSP_NAME}.ssp",
-                             {comp: str(built[sub + name]) for comp, name in COMPONENTS.items()})
-            print(f"wrote {path} (native, FMI {version}.0: Road -> QuarterCar <-> HumanBody3DOF, "
-                  "parameter set, 1 ms step)")
+    if args.native:
+        for line in choice.skipped:
+            print(line, file=sys.stderr, flush=True)
+    lines = []
+    # the FMUs and the SSPs made of them are committed together or not at all: a full
+    # disk at the SSP left new FMUs beside the old SSP
+    with staged_writes(guard=interrupts.critical):
+        built = build_fmus(dest, args.params, names=names, echo=lines.append, road=_road(args),
+                           native=args.native, platforms=platforms)
+        if ssp:
+            for version, sub in versions:
+                path = write_ssp(dest / sub / f"{SSP_NAME}.ssp",
+                                 {comp: str(built[sub + name]) for comp, name in COMPONENTS.items()})
+                kind = f"native, FMI {version}.0: " if args.native else ""
+                lines.append(f"wrote {path} ({kind}Road -> QuarterCar <-> HumanBody3DOF, "
+                             "parameter set, 1 ms step)")
+        interrupts.check()
+    for line in lines:
+        print(line)
     return 0
 
 

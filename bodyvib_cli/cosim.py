@@ -17,6 +17,7 @@ from bodyvib.runtime.errors import BodyvibError
 from bodyvib.process import interrupts
 from bodyvib.process.outputs import check_outputs, staged_writes, write_json
 from vehicle.check import compare
+from vehicle.cosim import check_fmu
 from vehicle.fmus import build_fmus, temporary_fmu_dir
 from vehicle.plots import plot_study
 from vehicle.quarter_car import load_car
@@ -65,10 +66,12 @@ def _check_disk(path, rows):
 
 def _fmus(args, want_iso: bool):
     """Paths of (reduced body, ISO body or None, car) and a temporary folder to delete."""
-    for opt in ("body", "car_fmu", "iso_body"):
+    for opt, kind in (("body", "body"), ("car_fmu", "car"), ("iso_body", "body")):
         p = getattr(args, opt, None)
         if p is not None and not os.path.isfile(p):
             raise BodyvibError(f"FMU file '{p}' does not exist (option --{opt.replace('_', '-')})")
+        if p is not None:
+            check_fmu(p, kind)  # the wrong kind of FMU, named before anything is built
     need = []
     if args.body is None:
         need.append("HumanBody3DOF")

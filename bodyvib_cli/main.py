@@ -1,24 +1,43 @@
 """The ``bodyvib`` command line: the parser and the one place where errors become exit codes.
 
 Each sub-command is a module of :mod:`bodyvib_cli` that registers itself through
-an ``add_command(subparsers)`` function listed in :data:`COMMAND_MODULES`. Errors a user
-can cause (:class:`bodyvib.runtime.errors.BodyvibError`, unreadable files) print one line
-and exit with status 2, without a traceback. Ctrl-C ends any command with the single line
-``interrupted`` and status 130: the command runs
-inside :func:`bodyvib.process.interrupts.deferred`, so the interrupt is taken at a safe point,
-never inside an FMU, and outputs are committed all together or not at all.
+an ``add_command(subparsers)`` function listed in :data:`COMMAND_MODULES`. Errors a user can cause (:class:`BodyvibError`,
+unreadable files, bad options) print one line and exit with status 2, without a
+traceback. Ctrl-C ends any command with the single line ``interrupted`` and status 130,
+SIGTERM with ``terminated (SIGTERM)`` and 143, SIGHUP with ``hung up (SIGHUP)`` and 129:
+the command runs inside :func:`bodyvib.process.interrupts.deferred`, so the signal is
+taken at a safe point, never inside an FMU, temporary files are removed, and outputs are
+committed all together or not at all.
 """
 
+import argparse
 import signal
 import sys
 import threading
 
-# SIGINTs that arrive while the modules load (before bodyvib.process.interrupts takes over)
+# signals that arrive while the modules load (before bodyvib.process.interrupts takes over)
 _early = []
+_EARLY_SIGNALS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP")
+                       if hasattr(signal, n))
 
 
 def _early_handler(signum, frame):
     _early.append(signum)
+
+
+class UsageError(Exception):
+    """A command line argparse refuses (an unknown option, a value of the wrong type)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser, whose errors become one line and status 2 like every other error.
+
+    argparse prints the usage (5 to 7 lines) and exits from inside ``parse_args``; here the
+    error is raised and :func:`main` prints ``bodyvib CMD: error: MESSAGE`` alone.
+    """
+
+    def error(self, message):
+        raise UsageError(f"{self.prog}: error: {message} (see {self.prog} --help)")
 
 
 __all__ = ["COMMAND_MODULES", "main", "build_parser"]
@@ -42,18 +61,17 @@ def build_parser():
     -------
     argparse.ArgumentParser
     """
-    import argparse
     import importlib
 
     from bodyvib import __version__
 
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="bodyvib",
         description="Seated human-body vibration models: frequency responses, FMUs, "
         "quarter-car co-simulation with ISO 2631-1 comfort figures, GA refit.",
     )
     parser.add_argument("--version", action="version", version=f"bodyvib {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for name in COMMAND_MODULES:
         importlib.import_module(name).add_command(sub)
     return parser
@@ -66,25 +84,33 @@ def main(argv=None) -> int:
     ----------
     argv : list of str, optional
         Arguments (``sys.argv[1:]`` by default: the process's command line, after which
-        the process exits, so SIGINT is left ignored; with ``argv`` given, the previous
-        SIGINT handler is restored).
+        the process exits, so SIGINT, SIGTERM and SIGHUP are left ignored; with ``argv``
+        given, the previous handlers are restored).
 
     Returns
     -------
     int
-        0 on success, 2 on a user error, 130 when interrupted.
+        0 on success, 2 on a user error, 130 when interrupted (Ctrl-C), 143 on SIGTERM,
+        129 on SIGHUP.
     """
     main_thread = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGINT, _early_handler) if main_thread else None
+    previous = ({s: signal.signal(s, _early_handler) for s in _EARLY_SIGNALS}
+                if main_thread else {})
     try:
         from bodyvib.process import interrupts
+        from bodyvib.process.scratch import private_tempdir
         from bodyvib.runtime.errors import BodyvibError
     finally:
-        if main_thread:
-            signal.signal(signal.SIGINT, previous)
+        for s, handler in previous.items():
+            signal.signal(s, handler if handler is not None else signal.SIG_DFL)
     command = "bodyvib"
+
+    def stopped():
+        print(interrupts.message(), file=sys.stderr)
+        return interrupts.exit_status()
+
     with interrupts.deferred(exiting=argv is None):  # argv None: the process's own command
-        interrupts.pending_from(len(_early))
+        interrupts.pending_from(list(_early))
         _early.clear()
         try:
             interrupts.check()
@@ -94,25 +120,28 @@ def main(argv=None) -> int:
                 parser.print_help()
                 return 2
             command = f"bodyvib {args.command}"
-            status = int(args.func(args) or 0)
-            interrupts.check()  # pressed during the last step: the outputs are all written
+            with private_tempdir():  # every temporary file of the command, removed at its end
+                status = int(args.func(args) or 0)
+                interrupts.check()  # pressed during the last step: the outputs are all written
             return status
+        except UsageError as exc:
+            if interrupts.requested():
+                return stopped()
+            print(exc, file=sys.stderr)
+            return 2
         except BodyvibError as exc:
             if interrupts.requested():
-                print("interrupted", file=sys.stderr)
-                return 130
+                return stopped()
             print(f"{command}: error: {exc}", file=sys.stderr)
             return 2
         except OSError as exc:
             if interrupts.requested():
-                print("interrupted", file=sys.stderr)
-                return 130
+                return stopped()
             where = f" '{exc.filename}'" if exc.filename else ""
             print(f"{command}: error:{where} {exc.strerror or exc}", file=sys.stderr)
             return 2
         except KeyboardInterrupt:
-            print("interrupted", file=sys.stderr)
-            return 130
+            return stopped()
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -27,7 +27,17 @@ short of fmi2Fatal), and every later step is refused with the same reason.
 A state that is not one of this FMU's (another FMU's, bytes that are no serialized
 state, invalid parameters) is refused with the reason logged at error level and the
 instance's state unchanged; fmi2SetFMUstate and fmi2DeSerializeFMUstate still return
-fmi2OK, for the same reason.
+fmi2OK, for the same reason. Serialized states carry a SHA-256 checksum
+(``bodyvib.runtime.statebytes``): changed bytes (a flipped bit, a truncation) are refused.
+
+An unknown value reference (including 2**32 - 1, which pythonfmu 0.7.0 passes through a
+C ``int`` as -1) is logged at error level, reads as NaN and is ignored when set; the call
+returns fmi2OK, because pythonfmu 0.7.0 maps every Python exception of fmi2GetReal and
+fmi2SetReal to fmi2Fatal (``handle_py_exception`` throws ``cppfmu::FatalError``) and has
+no other status for them: fmi2Error cannot be returned from the slave. Likewise
+``fmi2GetReal(c, NULL, 3, NULL)`` dereferences the NULL arrays inside pythonfmu's C++
+wrapper (``PySlaveInstance::GetReal`` reads ``vr[i]`` to build the Python list) before
+the slave is called: the host crashes, and nothing in the slave can prevent it.
 
 Each instance registers its FMU binary with ``bodyvib.runtime.teardown``, which releases
 pythonfmu's interpreter state when a Python host exits: pythonfmu 0.7.0's own exit-time
@@ -48,6 +58,7 @@ _contract = importlib.import_module(RUNTIME + ".contract")
 _engine = importlib.import_module(RUNTIME + ".engine")
 _modelfile = importlib.import_module(RUNTIME + ".modelfile")
 _source = importlib.import_module(RUNTIME + ".source")
+_statebytes = importlib.import_module(RUNTIME + ".statebytes")
 _teardown = importlib.import_module(RUNTIME + ".teardown")
 
 
@@ -93,24 +104,55 @@ class BodyvibSlave(Fmi2Slave):  # build_fmu.py: renamed to the FMU's model name
             return False
         return True
 
+    def _unknown(self, vrs, what):
+        """Value references this FMU does not have, logged at error level (or [])."""
+        n = len(self.core.variables)
+        if not vrs or (min(vrs) >= 0 and max(vrs) < n):  # the hot path: every call
+            return []
+        bad = [vr for vr in vrs if not 0 <= vr < n]
+        if bad:
+            self.log(f"{type(self).__name__}: {what}: unknown value reference(s) "
+                     f"{', '.join(map(str, bad[:5]))} (this FMU has 0 to {n - 1}); "
+                     "their values are NaN / ignored", Fmi2Status.error)
+        return bad
+
     def get_real(self, vrs):
+        # pythonfmu passes a value reference through a C int: 2**32 - 1 arrives as -1,
+        # which would index the last variable
+        if self._unknown(vrs, "fmi2GetReal"):
+            n, nan = len(self.core.variables), float("nan")
+            known = [vr for vr in vrs if 0 <= vr < n]
+            values = dict(zip(known, self.core.get_real(known)))
+            return [values.get(vr, nan) if 0 <= vr < n else nan for vr in vrs]
         return self.core.get_real(vrs)
 
     def set_real(self, vrs, values):
+        if self._unknown(vrs, "fmi2SetReal"):
+            n = len(self.core.variables)
+            pairs = [(vr, v) for vr, v in zip(vrs, values) if 0 <= vr < n]
+            vrs, values = [vr for vr, _ in pairs], [v for _, v in pairs]
         self.core.set_real(vrs, values)
 
     def _get_fmu_state(self):
         return self.core.get_state()
 
     def _set_fmu_state(self, state):
+        if isinstance(state, dict) and set(state) == {"error"}:  # bytes refused at deserializing
+            self.log(f"{type(self).__name__}: FMU state refused, state unchanged: "
+                     f"{state['error']}", Fmi2Status.error)
+            return
         try:
             self.core.set_state(state)
         except Exception as exc:  # a state of another FMU, or invalid: refused, logged
             self.log(str(exc), Fmi2Status.error)
 
     @staticmethod
+    def _fmu_state_to_bytes(state):
+        return _statebytes.pack_state(state)  # with a checksum: a flipped bit is refused
+
+    @staticmethod
     def _fmu_state_from_bytes(state):
         try:
-            return Fmi2Slave._fmu_state_from_bytes(state)
-        except Exception as exc:  # not a serialized state: _set_fmu_state refuses it
-            return {"error": f"not a serialized FMU state ({exc})"}
+            return _statebytes.unpack_state(state)
+        except Exception as exc:  # changed or foreign bytes: _set_fmu_state refuses them
+            return {"error": str(exc)}

@@ -280,3 +280,18 @@ def test_readme_command_runs_the_c_host(host, fmus, tmp_path):
     run = subprocess.run(["bash", "-c", script + command], capture_output=True, text=True,
                          timeout=120, env=env, cwd=str(fake))
     check_run(run, "HumanBody3DOF")
+
+
+def test_null_arrays_to_get_real_crash_inside_pythonfmus_wrapper(host, fmus, tmp_path):
+    """``fmi2GetReal(c, NULL, 3, NULL)`` (issue 20, item 9): the native FMU returns
+    fmi2Error; a pythonfmu FMU cannot. pythonfmu 0.7.0's ``PySlaveInstance::GetReal`` reads
+    ``vr[0..2]`` to build the Python list before the slave's code runs, so the host dies of
+    SIGSEGV in the wrapper: nothing a slave can change. This test pins that limit (the
+    README states it); it fails, and should be turned around, once pythonfmu checks its
+    arguments."""
+    import signal
+
+    run = run_host(host, extracted(fmus["HumanBody3DOF"], tmp_path), "--null-get", "5")
+    assert run.returncode == -signal.SIGSEGV, (run.returncode, run.stderr[-2000:])
+    rows, other = parse(run.stdout)
+    assert not [line for line in other if line.startswith("nullget")]  # never returned

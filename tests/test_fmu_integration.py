@@ -644,9 +644,10 @@ def test_step_of_1e100_s_is_refused_not_ok_with_nan(fmus):
 
 def test_state_of_another_fmu_or_with_bad_parameters_is_refused(fmus):
     """A deserialized FMU state with negative parameters was accepted; a state of another FMU
-    must not be taken either. Refused with an error logged, the instance keeps its own state
-    and stays usable (pythonfmu 0.7.0 can only answer fmi2OK or fmi2Fatal here)."""
-    import json
+    must not be taken either, nor bytes that are no state. Refused with an error logged, the
+    instance keeps its own state and stays usable (pythonfmu 0.7.0 can only answer fmi2OK
+    or fmi2Fatal here)."""
+    from bodyvib.runtime.statebytes import pack_state, unpack_state
 
     iso = Slave(fmus["HumanBodyISO7962"])
     foreign = iso.fmu.serializeFMUstate(iso.fmu.getFMUstate())
@@ -654,11 +655,12 @@ def test_state_of_another_fmu_or_with_bad_parameters_is_refused(fmus):
     s.set(["seat_displacement", "seat_velocity"], [0.01, 0.1])
     s.fmu.doStep(0.0, 1e-3)
     mine = s.get(BODY_OUT)
-    state = json.loads(bytes(s.fmu.serializeFMUstate(s.fmu.getFMUstate())).decode())
+    state = unpack_state(bytes(s.fmu.serializeFMUstate(s.fmu.getFMUstate())))
     state["params"][0] = -4.88
-    negative = json.dumps(state).encode()
+    negative = pack_state(state)  # a valid checksum over an invalid state
     for blob, words in ((foreign, "belongs to another FMU"), (negative, "m1 = -4.88"),
-                        (b"\x00not json", "not a state of a bodyvib FMU")):
+                        (b"\x00not json", "not a bodyvib FMU state"),
+                        (pack_state({"time": 0.0}), "not a state of a bodyvib FMU")):
         s.messages.clear()
         s.fmu.setFMUstate(s.fmu.deSerializeFMUstate(blob))
         assert any(words in m and st == 3 for st, m in s.messages), s.messages

@@ -54,6 +54,7 @@ from .quarter_car import CAR_FMU_OUTPUTS
 from .signals import BODY_SIGNALS, CAR_SIGNALS, MASTER_SIGNALS, SIGNALS, header
 
 __all__ = [
+    "check_fmu",
     "BODY_INPUTS", "BODY_OUTPUTS", "CAR_INPUTS", "CAR_OUTPUTS",
     "MASTER_SIGNALS", "Master", "Slave", "open_fmu", "model_from_fmu", "cosimulate", "write_csv",
     "CsvStream",
@@ -98,16 +99,60 @@ class Slave:
             shutil.rmtree(self._unzipdir, ignore_errors=True)
 
 
-def _check_interface(md, path, kind):
+_OPTIONS = {"body": "--body", "car": "--car-fmu"}
+
+
+def _missing(md, kind):
     inputs, outputs = _INTERFACES[kind]
     have = {v.name: v.causality for v in md.modelVariables}
-    missing = [n for n in inputs if have.get(n) != "input"]
-    missing += [n for n in outputs if have.get(n) != "output"]
+    return ([n for n in inputs if have.get(n) != "input"]
+            + [n for n in outputs if have.get(n) != "output"])
+
+
+def _check_interface(md, path, kind):
+    inputs, outputs = _INTERFACES[kind]
+    missing = _missing(md, kind)
     if missing:
+        other = [k for k in _INTERFACES if k != kind and not _missing(md, k)]
+        what = (f"it is a {other[0]} FMU (give it to {_OPTIONS[other[0]]})" if other else
+                f"no {', '.join(missing)}")
         raise BodyvibError(
-            f"FMU '{path}' lacks the {kind} interface: no {', '.join(missing)}; a {kind} FMU "
+            f"FMU '{path}' lacks the {kind} interface: {what}; a {kind} FMU "
             f"needs inputs {', '.join(inputs)} and outputs {', '.join(outputs)} (the FMU contract: README, FMUs)"
         )
+
+
+def check_fmu(path, kind: str) -> None:
+    """Refuse an FMU that is not an FMI 2.0 co-simulation FMU of ``kind``, without running it.
+
+    Reads only the model description: a body FMU given as the car (``cosim --car-fmu
+    HumanBody3DOF.fmu``) is named for what it is before anything is built or run.
+
+    Parameters
+    ----------
+    path : str
+        ``.fmu`` file.
+    kind : str
+        ``"body"`` or ``"car"``.
+
+    Raises
+    ------
+    BodyvibError
+        Missing or unreadable file, another FMI version, missing interface variables
+        (naming the interface the FMU has, if it has the other one).
+    """
+    from fmpy import read_model_description
+
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise BodyvibError(f"FMU file '{path}' does not exist")
+    try:
+        md = read_model_description(path)
+    except Exception as exc:
+        raise BodyvibError(f"'{path}' is not a readable FMU: {exc}") from None
+    if md.fmiVersion != "2.0":
+        raise BodyvibError(f"FMU '{path}' is FMI {md.fmiVersion}; FMI 2.0 is needed")
+    _check_interface(md, path, kind)
     if md.coSimulation is None:
         raise BodyvibError(f"FMU '{path}' is not a co-simulation FMU (FMI 2.0 CS needed)")
 
@@ -128,6 +173,8 @@ def _check_tree(unzipdir, md, path):
     if not os.path.isfile(binary):
         raise BodyvibError(f"FMU '{path}' has no binary for this platform "
                            f"(binaries/{system}64/{md.coSimulation.modelIdentifier}{ext})")
+    if system == "linux":
+        _check_elf(binary, path, f"binaries/linux64/{md.coSimulation.modelIdentifier}.so")
     if not (md.generationTool or "").startswith("PythonFMU"):
         return
     resources = os.path.join(unzipdir, "resources")
@@ -142,6 +189,60 @@ def _check_tree(unzipdir, md, path):
                              for e in (".py", "")):
         raise BodyvibError(f"FMU '{path}' is incomplete: resources/{module or '?'}.py (its "
                            "slave script) is missing; rebuild it")
+
+
+def _check_elf(binary, path, member):
+    """Refuse an ELF shared library that is not whole, before ``dlopen`` maps it.
+
+    ``dlopen`` of a truncated library maps pages beyond the end of the file and the
+    process dies of SIGBUS (measured: ``cosim --body`` of a native FMU whose binary was
+    cut in half), with no message and its temporary folders left behind. The header,
+    every program segment and every section (but the ``NOBITS`` ones) must lie inside
+    the file.
+    """
+    import struct
+
+    what = f"FMU '{path}': its binary {member}"
+    with open(binary, "rb") as f:
+        data = f.read()
+    size = len(data)
+    if size < 64 or data[:4] != b"\x7fELF" or data[4] not in (1, 2) or data[5] not in (1, 2):
+        raise BodyvibError(f"{what} is not an ELF shared library ({size} bytes); rebuild "
+                           "the FMU")
+    bits64, order = data[4] == 2, "<" if data[5] == 1 else ">"
+    if bits64:
+        phoff, shoff = struct.unpack_from(order + "QQ", data, 0x20)
+        phentsize, phnum, shentsize, shnum = struct.unpack_from(order + "HHHH", data, 0x36)
+    else:
+        phoff, shoff = struct.unpack_from(order + "II", data, 0x1C)
+        phentsize, phnum, shentsize, shnum = struct.unpack_from(order + "HHHH", data, 0x2A)
+
+    def truncated(need):
+        return BodyvibError(f"{what} is truncated: {size} bytes, its headers describe at "
+                            f"least {need}; the file was cut short (copy or download it "
+                            "again, or rebuild the FMU)")
+
+    for off, entsize, num in ((phoff, phentsize, phnum), (shoff, shentsize, shnum)):
+        if num and off + entsize * num > size:
+            raise truncated(off + entsize * num)
+    for k in range(phnum):
+        base = phoff + k * phentsize
+        if bits64:
+            p_offset, _, _, p_filesz = struct.unpack_from(order + "QQQQ", data, base + 8)
+        else:
+            p_offset, _, _, p_filesz = struct.unpack_from(order + "IIII", data, base + 4)
+        if p_offset + p_filesz > size:
+            raise truncated(p_offset + p_filesz)
+    for k in range(shnum):
+        base = shoff + k * shentsize
+        if bits64:
+            sh_type, = struct.unpack_from(order + "I", data, base + 4)
+            sh_offset, sh_size = struct.unpack_from(order + "QQ", data, base + 24)
+        else:
+            sh_type, = struct.unpack_from(order + "I", data, base + 4)
+            sh_offset, sh_size = struct.unpack_from(order + "II", data, base + 16)
+        if sh_type != 8 and sh_offset + sh_size > size:  # 8: SHT_NOBITS (.bss), no bytes
+            raise truncated(sh_offset + sh_size)
 
 
 @contextlib.contextmanager
@@ -374,7 +475,7 @@ class Master:
                 F_prev = F
                 F, a1, x1, x2 = b_get(body_out)
                 if not j & 255 and interrupts.requested():  # a safe point: no FMU call runs
-                    raise KeyboardInterrupt
+                    interrupts.check()  # raises: the signal is taken here
         except BodyvibError:
             raise
         except Exception as exc:

@@ -32,7 +32,7 @@ from xml.etree import ElementTree as ET
 import numpy as np
 
 from bodyvib.runtime.contract import UNITS
-from bodyvib.process.outputs import atomic_write_bytes
+from bodyvib.process.outputs import atomic_write_bytes, staged_source
 
 __all__ = ["SSP_NAME", "CONNECTIONS", "COMPONENTS", "parameter_values", "ssp_parameters",
            "ssp_reference", "system_structure", "write_ssp"]
@@ -70,7 +70,7 @@ def _q(prefix, tag):
 
 def _variables(fmu_path):
     """(name, causality, unit, start) of an FMU's real variables (FMI 2.0 or 3.0)."""
-    with zipfile.ZipFile(fmu_path) as zf:
+    with zipfile.ZipFile(staged_source(fmu_path)) as zf:  # built in this block: staged
         root = ET.fromstring(zf.read("modelDescription.xml"))
     out = []
     for sv in root.find("ModelVariables"):
@@ -206,7 +206,7 @@ def write_ssp(path, fmus: Dict[str, str], stop_time: float = 30.0, step: float =
         zf.writestr("SystemStructure.ssd", system_structure(fmus, stop_time, step, connections))
         for comp, fmu in fmus.items():
             zf.writestr(f"resources/{comp}.ssv", parameter_values(fmu))
-            zf.write(fmu, f"resources/{Path(fmu).name}")
+            zf.write(staged_source(fmu), f"resources/{Path(fmu).name}")
     atomic_write_bytes(path, buf.getvalue())
     return Path(path)
 

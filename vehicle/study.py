@@ -27,7 +27,7 @@ from bodyvib.runtime.errors import BodyvibError
 
 from bodyvib.process.progress import progress_bar
 
-from .cosim import CsvStream, Master, model_from_fmu, open_fmu
+from .cosim import CsvStream, Master, check_fmu, model_from_fmu, open_fmu
 from .reference import ReferenceStream
 from .road.driven import RoadOptions, driven_road
 from .road.synthetic import road_input
@@ -299,6 +299,9 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
     n = int(round(duration / step)) + 1
     fs = 1.0 / step
     labels = list(body_fmus)
+    check_fmu(car_fmu, "car")  # a body FMU given as the car: named, before any work
+    for path in body_fmus.values():
+        check_fmu(path, "body")
     car_net = model_from_fmu(car_fmu) if reference else None
     nets = {label: model_from_fmu(path) if reference else None
             for label, path in body_fmus.items()}
@@ -309,7 +312,8 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
     err = {label: [0.0, 0.0] for label in refs}                        # sum (a - r)^2, sum r^2
     pairs = {(a, b): [0.0, 0.0] for a in labels for b in labels if a != b}
     w0 = max(0.0, (n - 1) * step / 2 - window_s / 2)                   # the plot's window
-    k0, k1 = int(math.ceil(w0 / step - 1e-9)), int(math.floor((w0 + window_s) / step + 1e-9))
+    k0 = int(math.ceil(w0 / step - 1e-9))
+    k1 = min(n - 1, int(math.floor((w0 + window_s) / step + 1e-9)))  # a run shorter than it
     windows = {label: [] for label in labels}
     kept = {label: [] for label in labels} if histories else None
     kept_ref = {label: [] for label in refs} if histories else None

@@ -36,7 +36,6 @@ import hashlib
 import io
 import json
 import shutil
-import subprocess
 import tempfile
 import zipfile
 from dataclasses import dataclass
@@ -51,6 +50,8 @@ from ..process.outputs import atomic_write_bytes
 from ..runtime.contract import MODEL_FILE, RATE_PREFIX, Variable
 from ..runtime.engine import FmuCore
 from ..runtime.errors import BodyvibError
+from ..process import interrupts
+from ..process.outputs import atomic_write_bytes
 from ..runtime.network import Network, descriptor_model
 from .description import MODEL_STOP_TIME, display_unit, initial_dependencies, unit_definitions
 from .sources import native_dir
@@ -666,7 +667,8 @@ def _compile(platform: str, src: Path, fmi: int, out: Path,
     files = [str(src / s) for s in sources if s.endswith(".c")]
     files += [str(src / MODEL_C), str(src / FMI_FILES[fmi])]
     cmd = [compiler] + COMMON_FLAGS + flags + [f"-I{src}", "-o", str(out)] + files + ["-lm"]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
+    # its own process group, killed on a signal; its temporary files in the build's folder
+    proc = interrupts.run_process(cmd, scratch=src.parent.parent / "compiler-tmp")
     if proc.returncode != 0 or not out.is_file():
         raise BodyvibError(f"{compiler} failed for {out.name} ({platform}, FMI {fmi}.0): "
                            + " | ".join((proc.stderr or proc.stdout).strip().splitlines()[-4:]))

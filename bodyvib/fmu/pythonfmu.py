@@ -28,7 +28,6 @@ import io
 import json
 import os
 import re
-import subprocess
 import sys
 import tempfile
 import zipfile
@@ -247,8 +246,8 @@ def _build(core, kind: str, name: str, description: str, resources: Dict[str, by
         cmd = [sys.executable, "-m", "pythonfmu", "build", "-f", str(stage / f"{module}.py"),
                "-d", str(out), "--no-external-tool", "--handle-state", "--serialize-state",
                str(pkg)] + [str(stage / fname) for fname in resources]
-        proc = subprocess.run(cmd, cwd=tmp, capture_output=True, text=True)
-        interrupts.check()  # Ctrl-C reached pythonfmu's process too: not a build failure
+        # a signal kills its process group; its temporary files stay in the build's folder
+        proc = interrupts.run_process(cmd, cwd=tmp, scratch=Path(tmp) / "pythonfmu-tmp")
         built = out / f"{name}.fmu"
         if proc.returncode != 0 or not built.is_file():
             tail = (proc.stderr or proc.stdout).strip().splitlines()[-3:]

@@ -12,7 +12,8 @@ The file is plain CSV with a header row naming the columns::
 ``phase_deg`` (degrees, negative when the head lags the seat) is optional.
 Further columns are ignored; blank lines and lines starting with ``#`` are
 skipped. Every problem (a missing or doubled column, a value that is not a number,
-a NaN, a frequency that does not increase, a negative modulus, one above
+a NaN, a frequency that does not increase or is above :data:`MAX_FREQUENCY_HZ`, a
+negative modulus, one above
 :data:`MAX_MODULUS`, all moduli zero, too few rows) is a
 :class:`~bodyvib.runtime.errors.BodyvibError` naming the line and the fix.
 
@@ -31,7 +32,7 @@ import numpy as np
 
 from ..runtime.errors import BodyvibError
 
-__all__ = ["MIN_ROWS", "MAX_MODULUS", "MeasuredTransmissibility", "read_transmissibility_csv",
+__all__ = ["MIN_ROWS", "MAX_MODULUS", "MAX_FREQUENCY_HZ", "MeasuredTransmissibility", "read_transmissibility_csv",
            "write_transmissibility_csv"]
 
 #: Fewest data rows accepted: the reduced model has six free ratios.
@@ -40,6 +41,12 @@ MIN_ROWS = 8
 #: Largest modulus accepted. A seated body's seat-to-head |T| stays below about 3; a value
 #: above this is not a transmissibility ratio (a percentage, a force, a wrong column).
 MAX_MODULUS = 100.0
+
+#: Highest frequency accepted, Hz. Whole-body vibration is measured up to 80 Hz (ISO 2631-1)
+#: and the reduced model's fastest pole is at 40 Hz; far beyond, the model's terms
+#: ((2 pi f)^2 m) overflow (1e308 Hz made the fit fail inside scipy). A frequency above
+#: this is not a seated body's transmissibility (kHz for Hz, a wrong column).
+MAX_FREQUENCY_HZ = 1000.0
 
 _REQUIRED = ("frequency_hz", "modulus")
 _OPTIONAL = ("phase_deg",)
@@ -180,6 +187,13 @@ def read_transmissibility_csv(path) -> MeasuredTransmissibility:
         raise BodyvibError(
             f"{src}: line {data_lines[k]}: frequency_hz = {f[k]:g} does not increase "
             f"(previous row {f[k - 1]:g}); sort the rows by frequency and remove duplicates"
+        )
+    if f[-1] > MAX_FREQUENCY_HZ:
+        k = int(np.nonzero(f > MAX_FREQUENCY_HZ)[0][0])
+        raise BodyvibError(
+            f"{src}: line {data_lines[k]}: frequency_hz = {f[k]:g} is above "
+            f"{MAX_FREQUENCY_HZ:g} Hz; a seated body's transmissibility is measured up to "
+            "about 80 Hz: give frequencies in Hz and drop rows beyond"
         )
     neg = np.nonzero(mod < 0)[0]
     if neg.size:

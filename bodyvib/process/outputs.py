@@ -25,7 +25,7 @@ from ..runtime.errors import BodyvibError
 
 __all__ = ["atomic_write_text", "atomic_write_bytes", "write_json",
            "staged_writes", "StagedWrites", "open_staged", "PendingFile", "check_output_path",
-           "check_outputs"]
+           "check_outputs", "staged_source"]
 
 _KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
           (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
@@ -278,7 +278,9 @@ def staged_writes(guard=None):
     writes each file to a temporary beside its destination; when the block
     ends normally all of them are renamed onto their destinations, one after
     the other; if it fails (an error, an interrupt) all are deleted and every
-    destination keeps its old content.
+    destination keeps its old content. A block nested in another hands its
+    writes to the outer one, which commits them with its own (``bodyvib build``:
+    the FMUs and the SSP made of them, together or none).
 
     Parameters
     ----------
@@ -300,12 +302,43 @@ def staged_writes(guard=None):
         stage.discard()
         raise
     _local.stage = outer
+    if outer is not None:  # nested: the outer block commits these with its own, or none
+        for entry in stage._entries:
+            outer._add(*entry)
+        stage._entries = []
+        return
     try:
         with (guard() if guard is not None else contextlib.nullcontext()):
             stage.commit()
     except BaseException:
         stage.discard()
         raise
+
+
+def staged_source(path) -> str:
+    """Where the content written to ``path`` is now: its staged temporary file, if any.
+
+    Inside :func:`staged_writes` a file written earlier in the block is not yet at its
+    destination; code that reads it back (the SSP packs the FMUs just built) reads it
+    here.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+
+    Returns
+    -------
+    str
+        The temporary file holding the staged content, or ``path`` itself.
+    """
+    path = os.fspath(path)
+    stage = getattr(_local, "stage", None)
+    if stage is not None:
+        real = os.path.realpath(path)
+        for tmp, r, _ in reversed(stage._entries):
+            if r == real:
+                return tmp
+    return path
 
 
 def _same(a: str, b: str) -> bool:

@@ -299,8 +299,24 @@ class FmuCore:
         if not self._initialized:
             raise BodyvibError(self._init_error or f"{self.name}: do_step before initialization; "
                                "call fmi2ExitInitializationMode first")
-        if self._fallback:
-            self._slope_fallback(current_time, h)
+        if not self._fallback:
+            self._advance(current_time, h)
+            return
+        # the unconnected-velocity bookkeeping moves before the step is known to be
+        # possible: a refused step puts it back (a continuation equals an undisturbed run)
+        saved = (list(self._slope_on), list(self._warned), list(self._x_prev),
+                 list(self._h_prev), [float(self._s[j]) for _, j in self._fallback])
+        self._slope_fallback(current_time, h)
+        try:
+            self._advance(current_time, h)
+        except BodyvibError:
+            self._slope_on, self._warned, self._x_prev, self._h_prev, rates = saved
+            for (_, j), v in zip(self._fallback, rates):
+                self._s[j] = v
+            raise
+
+    def _advance(self, current_time: float, h: float) -> None:
+        """The exact step itself: refused (BodyvibError) with the state unchanged if not finite."""
         if h != self._h:
             with np.errstate(all="ignore"):  # an overflow is refused below, not warned about
                 M = self._steps.get(h)

@@ -9,7 +9,25 @@ import os
 
 from .errors import BodyvibError
 
-__all__ = ["read_json"]
+__all__ = ["read_json", "MAX_DEPTH"]
+
+#: Deepest nesting of arrays and objects accepted. bodyvib's files nest four levels at
+#: most (a model's elements: object, list, object, value); beyond a few hundred, Python's
+#: parser (and every walk of the document) ends in RecursionError.
+MAX_DEPTH = 32
+
+
+def _depth(value) -> int:
+    """Nesting depth of a parsed JSON value, without recursion."""
+    deepest, stack = 0, [(value, 1)]
+    while stack:
+        v, d = stack.pop()
+        if isinstance(v, dict):
+            v = list(v.values())
+        if isinstance(v, list):
+            deepest = max(deepest, d)
+            stack.extend((x, d + 1) for x in v if isinstance(x, (list, dict)))
+    return deepest
 
 
 def read_json(path, what: str = "file"):
@@ -30,13 +48,17 @@ def read_json(path, what: str = "file"):
     Raises
     ------
     BodyvibError
-        The file cannot be opened, is not UTF-8 text, or is not valid JSON
-        (with the line and column).
+        The file cannot be opened, is not UTF-8 text, is not valid JSON
+        (with the line and column), or nests deeper than :data:`MAX_DEPTH`.
     """
     path = os.fspath(path)
+    deep = BodyvibError(f"{path}: arrays or objects nested more than {MAX_DEPTH} levels "
+                        f"deep; a {what} nests a few levels: is this the right file?")
     try:
         with open(path, encoding="utf-8") as f:
-            return json.load(f)
+            value = json.load(f)
+    except RecursionError:
+        raise deep from None
     except OSError as exc:
         raise BodyvibError(f"cannot read {what} '{path}': {exc.strerror}") from None
     except UnicodeDecodeError:
@@ -45,3 +67,6 @@ def read_json(path, what: str = "file"):
         raise BodyvibError(
             f"{path}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})"
         ) from None
+    if _depth(value) > MAX_DEPTH:
+        raise deep
+    return value

@@ -129,10 +129,11 @@ def release_python_states():
     """
     if threading.get_native_id() != os.getpid():  # not the process's main thread
         return 0
-    try:  # the process is exiting: a Ctrl-C now must not leave a traceback behind
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-    except (ValueError, OSError):
-        pass
+    for name in ("SIGINT", "SIGTERM", "SIGHUP"):  # the process is exiting: a Ctrl-C or
+        try:                                       # a kill now must not leave a traceback
+            signal.signal(getattr(signal, name), signal.SIG_IGN)
+        except (AttributeError, ValueError, OSError):
+            pass
     released = 0
     for path in registered_binaries():
         try:

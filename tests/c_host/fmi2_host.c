@@ -6,7 +6,7 @@
  * outputs, so the test can check that a C program (no Python of its own) runs the pythonfmu
  * FMUs and exits cleanly.
  *
- *   fmi2_host [--nan-step K] [--skip-finalize]
+ *   fmi2_host [--nan-step K] [--null-get K] [--skip-finalize]
  *             FMU_DIR MODEL_IDENTIFIER GUID IN_VRS OUT_VRS STEP_SIZE N_STEPS
  *
  *   FMU_DIR           extracted FMU folder (modelDescription.xml, binaries/, resources/)
@@ -16,6 +16,9 @@
  *   N_STEPS           number of doStep calls; communication points t_k = k h, k = 0..N_STEPS
  *   --nan-step K      before the normal step from t_K, set seat_displacement = NaN and call
  *                     fmi2DoStep once, printing the status it returns; then go on as usual.
+ *   --null-get K      before the step from t_K, call fmi2GetReal(c, NULL, 3, NULL) (a host
+ *                     bug: three values asked for with no arrays), printing
+ *                     "nullget K status" if it returns.
  *   --skip-finalize   do not call finalizePythonInterpreter before exiting (see "Exit" below).
  *
  * Seat motion (computed here, in C): a triangular bump of height BUMP_HEIGHT that rises from
@@ -171,7 +174,7 @@ int main(int argc, char **argv)
     fmi2CallbackFunctions callbacks = {logger, calloc, free, NULL, NULL};
     char path[PATH_MAX], dir[PATH_MAX];
     size_t n_in, n_out, i;
-    long k, n_steps, nan_step = -1;
+    long k, n_steps, nan_step = -1, null_step = -1;
     double h;
     char *uri, *end;
     void *lib;
@@ -197,6 +200,14 @@ int main(int argc, char **argv)
             }
             argv += 2;
             argc -= 2;
+        } else if (strcmp(argv[1], "--null-get") == 0 && argc > 2) {
+            null_step = strtol(argv[2], &end, 10);
+            if (*end || null_step < 0) {
+                fprintf(stderr, "fmi2_host: --null-get needs a step index >= 0\n");
+                return 1;
+            }
+            argv += 2;
+            argc -= 2;
         } else if (strcmp(argv[1], "--skip-finalize") == 0) {
             skip_finalize = 1;
             argv++;
@@ -207,7 +218,7 @@ int main(int argc, char **argv)
         }
     }
     if (argc != 8) {
-        fprintf(stderr, "usage: fmi2_host [--nan-step K] [--skip-finalize] FMU_DIR "
+        fprintf(stderr, "usage: fmi2_host [--nan-step K] [--null-get K] [--skip-finalize] FMU_DIR "
                         "MODEL_IDENTIFIER GUID IN_VRS OUT_VRS STEP_SIZE N_STEPS\n");
         return 1;
     }
@@ -273,6 +284,10 @@ int main(int argc, char **argv)
             inputs[1] = 0.0;
             check(set_real(c, in_vrs, 2, inputs), "fmi2SetReal (NaN)");
             printf("refused %ld %d\n", k, (int)do_step(c, t, h, fmi2True));
+        }
+        if (k == null_step) {
+            fflush(stdout);
+            printf("nullget %ld %d\n", k, (int)get_real(c, NULL, 3, NULL));
         }
         inputs[0] = seat_displacement(t);
         inputs[1] = (seat_displacement((k + 1) * h) - inputs[0]) / h;

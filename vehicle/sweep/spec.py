@@ -49,6 +49,7 @@ import numpy as np
 
 from bodyvib.models import load_model
 from bodyvib.runtime.errors import BodyvibError
+from bodyvib.process.limits import require_memory
 from bodyvib.runtime.jsonfile import read_json
 from bodyvib.runtime.modelfile import network_to_dict
 
@@ -328,6 +329,22 @@ def _bodies(spec) -> List[Tuple[str, str, int, tuple]]:
     return out
 
 
+#: Memory one case holds while a sweep is planned, run and tabulated, bytes: its Case
+#: (about 600 B measured by tracemalloc over 2,000 and 10,000 cases), its task and its
+#: result row.
+CASE_BYTES = 2048
+
+
+def _count(spec, roads, seeds, speeds, durations, steps) -> int:
+    """Number of cases of a spec, from the lengths of its lists (nothing is sampled)."""
+    bodies = 0
+    for entry in _list(spec["body"]):
+        n = entry.get("samples", 1) if isinstance(entry, dict) else 1
+        bodies += n if isinstance(n, int) and not isinstance(n, bool) and n > 0 else 1
+    return (len(roads) * len(seeds) * len(speeds) * len(durations) * len(steps) * bodies
+            * len(_list(spec["car"])))
+
+
 def _digest(net) -> str:
     """Hash of a model's content (topology and parameter values)."""
     text = json.dumps(network_to_dict(net), sort_keys=True, default=repr)
@@ -356,7 +373,8 @@ def expand(spec: dict) -> List[Case]:
     ------
     BodyvibError
         Unknown or missing keys, bad values, unknown roads, models or cars,
-        bad ranges; the message names the key.
+        bad ranges; the message names the key. More cases than half the available
+        memory can hold (:data:`CASE_BYTES` each), before any is made.
 
     Examples
     --------
@@ -388,6 +406,9 @@ def expand(spec: dict) -> List[Case]:
     for r, sd, v, d, h in product(roads, seeds[:1], speeds, durations, steps):
         # refuses unknown roads and files that cannot be driven, steps longer than half a run
         check_settings(r, v, d, h, sd, road_options=RoadOptions(**dict(road_opts)))
+    count = _count(spec, roads, seeds, speeds, durations, steps)  # before sampling anything
+    require_memory(count * CASE_BYTES, f"a sweep of {count:.3g} cases",
+                   "fewer cases (samples, seeds, speeds, roads), or several sweeps")
     road_digests = {r: _file_digest(r) for r in roads if is_road_file(r)}
     bodies = _bodies(spec)
     cars = [str(c) for c in _list(spec["car"])]
