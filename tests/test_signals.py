@@ -30,7 +30,6 @@ import time
 
 import pytest
 
-from conftest import ROOT
 
 pytestmark = pytest.mark.integration
 

@@ -51,7 +51,6 @@ from ..runtime.contract import MODEL_FILE, RATE_PREFIX, Variable
 from ..runtime.engine import FmuCore
 from ..runtime.errors import BodyvibError
 from ..process import interrupts
-from ..process.outputs import atomic_write_bytes
 from ..runtime.network import Network, descriptor_model
 from .description import MODEL_STOP_TIME, display_unit, initial_dependencies, unit_definitions
 from .sources import native_dir
