@@ -122,7 +122,7 @@ def test_check_report_points_to_the_front_when_the_peak_fails():
     from vehicle.report import PEAK_HINT, format_report
 
     peak = NS(to_dict=lambda: {"modulus": 1.45, "frequency_hz": 4.3})
-    body = NS(figures=NS(weighted_rms=1.0, vdv=3.0, peak=4.0, crest_factor=4.0,
+    body = NS(figures=NS(weighted_rms=1.0, vdv=3.0, peak=4.0, crest_factor=4.0, mtvv=1.2,
                          comfort="uncomfortable"),
               transmissibility=NS(peak=peak), coupling_nrmse=3e-4, real_time_factor=30.0,
               seat_figures=NS(weighted_rms=0.9))

@@ -6,7 +6,7 @@ from scipy.special import erf
 
 from bodyvib.comfort.figures import (ComfortFigures, basic_method_checks, comfort_figures, mtvv,
                                      running_rms, wk_response)
-from bodyvib.comfort.stream import stream_comfort_figures
+from bodyvib.comfort.stream import stream_batch_figures, stream_comfort_figures
 
 FS = 1000.0
 
@@ -75,11 +75,11 @@ def test_a_batch_streams_each_signal_with_its_own_window():
     t = np.arange(0, 5, 1 / FS)
     tone = np.sin(2 * np.pi * 8 * t)
     a = np.vstack([tone, np.where(t < 2.5, 0.0, 2 * tone)])
-    out = stream_comfort_figures(a, FS, block=700)
+    out = stream_batch_figures(a, FS, block=700)
     for i in range(2):
         single = stream_comfort_figures(a[i], FS, block=1000)
-        assert out["mtvv"][i] == pytest.approx(single.mtvv, rel=1e-12)
-    assert out["mtvv"][1] == pytest.approx(2 * out["mtvv"][0], rel=1e-3)
+        assert out.mtvv[i] == pytest.approx(single.mtvv, rel=1e-12)
+    assert out.mtvv[1] == pytest.approx(2 * out.mtvv[0], rel=1e-3)
 
 
 def test_basic_method_checks_of_a_sine_and_of_a_shock():
