@@ -1,7 +1,7 @@
 """The ``bodyvib`` command line: the parser and the one place where errors become exit codes.
 
 Each sub-command is a module of :mod:`bodyvib_cli` that registers itself through
-an ``add_command(subparsers)`` function listed in :data:`COMMAND_MODULES`. Errors a user can cause (:class:`BodyvibError`,
+an ``add_command(subparsers)`` function listed in :data:`COMMAND_MODULES`. Errors a user can cause (:class:`bodyvib.runtime.errors.BodyvibError`,
 unreadable files, bad options) print one line and exit with status 2, without a
 traceback. Ctrl-C ends any command with the single line ``interrupted`` and status 130,
 SIGTERM with ``terminated (SIGTERM)`` and 143, SIGHUP with ``hung up (SIGHUP)`` and 129:

@@ -1,9 +1,9 @@
 """The pythonfmu slave of every bodyvib FMU (HumanBody3DOF, HumanBodyISO7962, QuarterCar, Road).
 
-A thin slave: it declares the variables of ``bodyvib.runtime.contract`` and delegates
-to :class:`bodyvib.runtime.engine.FmuCore`, which holds the state and the exact
-stepping (or, for ``KIND = "source"``, to :class:`bodyvib.runtime.source.SourceCore`,
-a tabulated signal in ``resources/bodyvib_source.json``). ``python build_fmu.py`` (or ``bodyvib build``) renders this one
+A thin slave: it declares its core's variables and delegates every call to the core
+that :data:`bodyvib.runtime.cores.CORES` makes for its ``KIND`` (a network's exact
+stepping, :class:`bodyvib.runtime.engine.FmuCore`, or a tabulated signal,
+:class:`bodyvib.runtime.source.SourceCore`). ``python build_fmu.py`` (or ``bodyvib build``) renders this one
 source per FMU (:func:`bodyvib.fmu.pythonfmu.render_slave_script`): it renames the
 class to the FMU's model name, sets ``KIND`` and ``DESCRIPTION``, points
 ``RUNTIME`` at the FMU's private copy of the run-time modules, and puts the
@@ -45,7 +45,6 @@ teardown writes into freed memory and sometimes aborts the host after its work i
 """
 
 import importlib
-import os
 
 from pythonfmu import DefaultExperiment, Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Real
 from pythonfmu.enums import Fmi2Status
@@ -54,10 +53,7 @@ RUNTIME = "bodyvib.runtime"  # build_fmu.py: the FMU's private copy of the run-t
 KIND = "body"  # build_fmu.py: "body", "car" or "source"
 DESCRIPTION = "bodyvib FMU"  # build_fmu.py: the FMU's one-line description
 
-_contract = importlib.import_module(RUNTIME + ".contract")
-_engine = importlib.import_module(RUNTIME + ".engine")
-_modelfile = importlib.import_module(RUNTIME + ".modelfile")
-_source = importlib.import_module(RUNTIME + ".source")
+_cores = importlib.import_module(RUNTIME + ".cores")
 _statebytes = importlib.import_module(RUNTIME + ".statebytes")
 _teardown = importlib.import_module(RUNTIME + ".teardown")
 
@@ -70,12 +66,7 @@ class BodyvibSlave(Fmi2Slave):  # build_fmu.py: renamed to the FMU's model name
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
         _teardown.release_at_exit(self.resources, type(self).__name__)  # pythonfmu 0.7.0 exit bug
-        if KIND == "source":
-            meta, table = _source.read_source(os.path.join(self.resources, _source.SOURCE_FILE))
-            self.core = _source.SourceCore(meta, table, type(self).__name__, log=self._log_core)
-        else:
-            network = _modelfile.network_from_file(os.path.join(self.resources, _contract.MODEL_FILE))
-            self.core = _engine.FmuCore(KIND, network, type(self).__name__, log=self._log_core)
+        self.core = _cores.load_core(KIND, self.resources, type(self).__name__, log=self._log_core)
         for vr, v in enumerate(self.core.variables):
             var = Real(v.name, causality=getattr(Fmi2Causality, v.causality),
                        variability=getattr(Fmi2Variability, v.variability),

@@ -13,5 +13,6 @@ library; a test keeps it so. The modules:
 * :mod:`.contract` - the FMU variables, units and value references;
 * :mod:`.engine` - the stepping engine of one FMU instance;
 * :mod:`.source` - the road source (a baked table, Hermite-interpolated);
+* :mod:`.cores` - every FMU kind in one table (`CORES`) behind one protocol (`Core`);
 * :mod:`.teardown` - the pythonfmu 0.7.0 exit-time workaround.
 """
