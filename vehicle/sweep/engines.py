@@ -39,12 +39,14 @@ import numpy as np
 from bodyvib.comfort.figures import comfort_category, wk_response
 from bodyvib.comfort.stream import ComfortStream
 from bodyvib.frequency.response import frequency_response
+from bodyvib.models import load_model
 from bodyvib.runtime.discretize import Discretization
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import linear_model
 
 from ..quarter_car import seated_system
 from ..road.synthetic import ISO8608_CLASSES, N_BAND, displacement_psd, make_road, road_input
+from .kernel import advance
 from .spec import Case
 
 __all__ = ["ENGINES", "ENGINE_SETTINGS", "FIGURES", "run_engine", "run_batched", "run_spectral", "run_cosim",
@@ -136,7 +138,11 @@ class _Seated:
         car = cars.get(case.car)
         if car is None:
             car = cars[case.car] = case.car_network()
-        self.lm = linear_model(seated_system(car, case.body_network()))
+        base = cars.get(("body", case.body_model))
+        if base is None:  # the model file read once per task, not once per parameter set
+            base = cars[("body", case.body_model)] = load_model(case.body_model)
+        body = base.with_parameters(**dict(case.body_values)) if case.body_values else base
+        self.lm = linear_model(seated_system(car, body))
         self.seat = car.roles["seat"]
         self.outputs = [self.lm.output_index("body.head.a"), self.lm.output_index(f"{self.seat}.a")]
 
@@ -191,30 +197,17 @@ def _batched_group(cases, models, cars, roads, block_steps, record):
         z[i], v[i] = _roads(cs, roads)
     stream = ComfortStream(1.0 / step, 2 * c)
     hist = np.empty((2, c, N)) if record else None
-    # buffers allocated once: no allocation inside the time loop
-    x = np.zeros((c, n, 1))
-    out = np.empty((c, n + 2, 1))
-    drive_buf = np.empty((block_steps, c, n + 2))
-    tmp = np.empty((block_steps, c, n + 2))
-    ys_buf = np.empty((block_steps, c, 2))
+    x = np.zeros((c, n))
+    ys_buf = np.empty((2, c, block_steps))
     for k0 in range(0, N, block_steps):
         k1 = min(N, k0 + block_steps)
-        drive, ys = drive_buf[:k1 - k0], ys_buf[:k1 - k0]
-        np.multiply(z[:, k0:k1].T[:, :, None], gz, out=drive)
-        np.multiply(v[:, k0:k1].T[:, :, None], gv, out=tmp[:k1 - k0])
-        drive += tmp[:k1 - k0]
-        drive4 = drive[..., None]
-        for j in range(k1 - k0):
-            np.matmul(M, x, out=out)
-            out += drive4[j]
-            ys[j] = out[:, n:, 0]
-            x[...] = out[:, :n]
+        ys = ys_buf if k1 - k0 == block_steps else np.empty((2, c, k1 - k0))
+        advance(M, gz, gv, z, v, x, k0, ys)   # compiled: one case at a time
         if not np.all(np.isfinite(ys)):
             raise BodyvibError("the response is not finite (parameters out of numerical range?)")
-        y = ys.transpose(2, 1, 0)             # (2, c, samples): head, seat
-        stream.update(y.reshape(2 * c, k1 - k0))
+        stream.update(ys.reshape(2 * c, k1 - k0))   # rows: head of each case, then seat
         if record:
-            hist[:, :, k0:k1] = y
+            hist[:, :, k0:k1] = ys
     fig = stream.figures()
     rows = []
     for i in range(c):

@@ -380,7 +380,10 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
                        desc="sweep", mininterval=0.5, disable=None)
 
         def pending():
-            return (c for c in prep.cases() if c.case_key not in done_keys)
+            # batched: consecutive cases share a road (generated once per task);
+            # spectral and cosim: they share a model (one frequency response, one FMU)
+            return (c for c in prep.cases(body_major=engine != "batched")
+                    if c.case_key not in done_keys)
 
         def arrived(task_no, task, figures):
             if replaces and not os.path.exists(os.path.join(folder, REPLACES_OUT)):

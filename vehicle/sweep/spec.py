@@ -414,25 +414,48 @@ class _Prepared:
         self.count = (len(roads) * len(seeds) * len(speeds) * len(durations) * len(steps)
                       * len(self.bodies) * len(self.cars))
 
-    def cases(self, start: int = 0) -> Iterator[Case]:
-        """The cases in product order, from ``case_id`` ``start`` on, made one at a time."""
-        case_id = 0
-        inner = len(self.bodies) * len(self.cars)
-        for r, sd, v, d, h in product(self.roads, self.seeds, self.speeds, self.durations,
-                                      self.steps):
-            if case_id + inner <= start:
-                case_id += inner
-                continue
-            fields = {"road": r, "seed": sd, "speed": v, "duration": d, "step": h}
-            head = json.dumps(fields, sort_keys=True)
-            for (bname, model, sample, values), bd in zip(self.bodies, self.body_digests):
-                for c in self.cars:
-                    if case_id >= start:
-                        key = hashlib.sha256((head + bd + self.car_digests[c]).encode())
-                        yield Case(case_id=case_id, body=bname, body_model=model,
-                                   body_sample=sample, body_values=values, car=c,
-                                   case_key=key.hexdigest()[:20], **fields)
-                    case_id += 1
+    def cases(self, body_major: bool = False) -> Iterator[Case]:
+        """The cases, made one at a time.
+
+        Product order (road, seed, speed, duration, step, body, car: consecutive
+        cases share a road) or, with ``body_major``, body and car first
+        (consecutive cases share a model); ``case_id`` is the product-order
+        position either way.
+        """
+        axes = (self.roads, self.seeds, self.speeds, self.durations, self.steps)
+        n_settings = math.prod(len(a) for a in axes)
+        models = [(b, c) for b in range(len(self.bodies)) for c in range(len(self.cars))]
+        inner = len(models)
+
+        def setting(i):  # the i-th (road, seed, speed, duration, step) in product order
+            out = []
+            for a in reversed(axes):
+                i, k = divmod(i, len(a))
+                out.append(a[k])
+            return out[::-1]
+
+        heads: Dict[int, tuple] = {}  # settings and their JSON, made once (bounded)
+
+        def case(i, j):
+            got = heads.get(i)
+            if got is None:
+                if len(heads) > 65536:
+                    heads.clear()
+                r, sd, v, d, h = setting(i)
+                got = heads[i] = (r, sd, v, d, h, json.dumps(
+                    {"road": r, "seed": sd, "speed": v, "duration": d, "step": h}, sort_keys=True))
+            r, sd, v, d, h, head = got
+            (bname, model, sample, values), bd = self.bodies[models[j][0]], \
+                self.body_digests[models[j][0]]
+            c = self.cars[models[j][1]]
+            key = hashlib.sha256((head + bd + self.car_digests[c]).encode())
+            return Case(case_id=i * inner + j, road=r, seed=sd, speed=v, duration=d, step=h,
+                        body=bname, body_model=model, body_sample=sample, body_values=values,
+                        car=c, case_key=key.hexdigest()[:20])
+
+        if body_major:
+            return (case(i, j) for j in range(inner) for i in range(n_settings))
+        return (case(i, j) for i in range(n_settings) for j in range(inner))
 
 
 def count_cases(spec: dict) -> int:

@@ -62,8 +62,8 @@ def table_schema(body_units: Dict[str, str], car_units: Dict[str, str], figures:
     Examples
     --------
     >>> s = table_schema({"m1": "kg"}, {"ms": "kg"}, ["head_weighted_rms"])
-    >>> s.field("body_m1").metadata[b"unit"], s.names[-6]
-    (b'kg', 'head_weighted_rms')
+    >>> s.field("body_m1").metadata[b"unit"], s.field("head_weighted_rms").metadata[b"unit"]
+    (b'kg', b'm/s2')
     """
     import pyarrow as pa
 
