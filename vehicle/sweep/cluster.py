@@ -330,8 +330,9 @@ def _lost_reason(fut) -> Optional[str]:
 
 
 def run_tasks(cluster: Cluster, fn, tasks: Iterator, window: int, on_result: Callable,
-              worker_timeout: float = 60.0, connect_timeout: float = 10.0) -> int:
-    """Run ``fn(task)`` for every task with at most ``window`` in flight; returns tasks lost.
+              worker_timeout: float = 60.0, connect_timeout: float = 10.0,
+              shared=None) -> int:
+    """Run ``fn(shared, task)`` for every task with at most ``window`` in flight.
 
     ``on_result(task_no, task, value)`` gets each task that ran (``value`` the
     exception for a task that raised by itself). Submission stops at the first
@@ -341,7 +342,7 @@ def run_tasks(cluster: Cluster, fn, tasks: Iterator, window: int, on_result: Cal
     ----------
     cluster : Cluster
     fn : callable
-        Submitted as ``fn(task)`` (``pure=False``).
+        Submitted as ``fn(shared, task)`` (``pure=False``).
     tasks : iterator
         The tasks, made lazily.
     window : int
@@ -351,11 +352,18 @@ def run_tasks(cluster: Cluster, fn, tasks: Iterator, window: int, on_result: Cal
         A run with no worker for this many seconds stops (its tasks lost).
     connect_timeout : float
         Seconds a scheduler may take to answer.
+    shared : object
+        Sent to every worker once (``Client.scatter``), the first argument of ``fn``.
 
     Returns
     -------
     int
-        Number of tasks lost (0: all ran).
+        0 (all tasks ran).
+
+    Raises
+    ------
+    ClusterLost
+        Tasks were lost (their cases are not reported).
     """
     from distributed import as_completed
 
@@ -363,6 +371,14 @@ def run_tasks(cluster: Cluster, fn, tasks: Iterator, window: int, on_result: Cal
     ac = as_completed()
     meta = {}
     state = {"task_no": 0, "exhausted": False}
+    try:
+        ref = _call(lambda: client.scatter(shared, broadcast=True, hash=False),
+                    connect_timeout + 60, "send the spec to the workers")
+    except (KeyboardInterrupt, BodyvibError):
+        raise
+    except Exception as exc:
+        raise ClusterLost(f"the spec could not be sent to the workers ({type(exc).__name__})"
+                          ) from None
 
     def submit():
         while not state["exhausted"] and ac.count() < window:
@@ -371,7 +387,7 @@ def run_tasks(cluster: Cluster, fn, tasks: Iterator, window: int, on_result: Cal
             except StopIteration:
                 state["exhausted"] = True
                 return
-            fut = client.submit(fn, task, pure=False)
+            fut = client.submit(fn, ref, task, pure=False)
             meta[fut.key] = (state["task_no"], task)
             ac.add(fut)
             state["task_no"] += 1

@@ -49,6 +49,9 @@ import tempfile
 import time
 import uuid
 from itertools import islice
+
+import numpy as np
+from numpy.linalg import LinAlgError
 from typing import Callable, Dict, Iterator, List, Optional, Sequence, Union
 
 from bodyvib import __version__
@@ -59,7 +62,8 @@ from bodyvib.runtime.errors import BodyvibError
 from .cluster import ClusterLost, open_cluster, run_tasks
 from .engines import ENGINE_SETTINGS, FIGURES, check_engine, run_engine
 from .spec import Case, _Prepared, load_spec, spec_hash
-from .table import REPLACES_OUT, parts_dir, part_name, provenance, scan, table_schema, write_part, assemble
+from .table import (REPLACES_OUT, assemble, part_bytes, part_name, parts_dir, provenance, scan,
+                    table_schema, write_part)
 
 __all__ = ["BASE_COLUMNS", "run_sweep", "plan_tasks", "read_results", "parts_dir",
            "task_size"]
@@ -72,8 +76,6 @@ BASE_COLUMNS = ("case_id", "case_key", "road", "seed", "speed_m_s", "duration_s"
 
 #: Cases per task: (smallest, largest) by engine; between them, four tasks per worker thread.
 TASK_SIZES = {"batched": (16, 512), "spectral": (200, 20000), "cosim": (1, 16)}
-#: Cases in flight on a cluster at most (bounds the client's memory).
-IN_FLIGHT_CASES = 200_000
 
 
 def task_size(engine: str, cases: int, threads: int, block: Optional[int] = None) -> int:
@@ -225,6 +227,38 @@ class _Rows:
             cols["spec_hash"].append(self.sh)
             cols["run_id"].append(self.run_id)
         return cols
+
+
+class _Work:
+    """What a task computes: the rows of some cases (by ``case_id``) as Parquet bytes.
+
+    Sent to each worker once; a task is only an array of case numbers, so the
+    client holds little per case in flight, and the rows are made where the
+    figures are.
+    """
+
+    def __init__(self, rows: "_Rows", engine: str):
+        self.rows, self.engine = rows, engine
+
+    def cases(self, ids) -> List[Case]:
+        return [self.rows.prep.case_at(i) for i in ids]
+
+    def failed(self, ids, exc) -> bytes:
+        cases = self.cases(ids)
+        return part_bytes(self.rows.columns(cases, _failed_rows(cases, exc)), self.rows.schema)
+
+    def __call__(self, ids) -> bytes:
+        cases = self.cases(ids)
+        try:
+            figures = run_engine(self.engine, cases)
+        except (BodyvibError, ArithmeticError, ValueError, MemoryError, LinAlgError) as exc:
+            figures = _failed_rows(cases, exc)  # the task's own failure: its cases failed
+        return part_bytes(self.rows.columns(cases, figures), self.rows.schema)
+
+
+def _run_work(work: _Work, ids) -> bytes:
+    """A sweep task on a worker."""
+    return work(ids)
 
 
 def _failed_rows(task, exc):
@@ -380,45 +414,55 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
                        desc="sweep", mininterval=0.5, disable=None)
 
         def pending():
-            # batched: consecutive cases share a road (generated once per task);
-            # spectral and cosim: they share a model (one frequency response, one FMU)
-            return (c for c in prep.cases(body_major=engine != "batched")
-                    if c.case_key not in done_keys)
+            """Case numbers to run, lazily: consecutive cases of one road (batched) or of one
+            model (spectral and cosim: one frequency response, one FMU build per task)."""
+            body_major = engine != "batched"
+            if done_keys:
+                return (c.case_id for c in prep.cases(body_major) if c.case_key not in done_keys)
+            if not body_major:
+                return iter(range(total))
+            inner = len(prep.bodies) * len(prep.cars)
+            return (i * inner + j for j in range(inner) for i in range(total // inner))
 
-        def arrived(task_no, task, figures):
+        def tasks(size):
+            it = pending()
+            while True:
+                ids = np.fromiter(islice(it, size), dtype=np.int64)
+                if not len(ids):
+                    return
+                yield ids
+
+        work = _Work(rows, engine)
+
+        def arrived(task_no, ids, data):
             if replaces and not os.path.exists(os.path.join(folder, REPLACES_OUT)):
                 # until the table is written, the parts are the sweep and OUT is not
                 atomic_write_bytes(os.path.join(folder, REPLACES_OUT), b"")
-            if isinstance(figures, BaseException):
-                figures = _failed_rows(task, figures)
-            write_part(folder, part_name(start_ns, run_id, task_no), rows.columns(task, figures),
-                       rows.schema)
+            if isinstance(data, BaseException):  # the task raised by itself
+                data = work.failed(ids, data)
+            write_part(folder, part_name(start_ns, run_id, task_no), data)
             if bar is not None:
-                bar.update(len(task))
+                bar.update(len(ids))
 
         if todo and serial:
             size = task_size(engine, todo, 1, block)
             say(f"sweep: {total} cases, {total - todo} already done, {todo} to run in "
                 f"{math.ceil(todo / size)} tasks, engine {engine}, in this process")
-            for i, task in enumerate(plan_tasks(pending(), size)):
-                try:
-                    figures = run_engine(engine, task)
-                except (BodyvibError, ArithmeticError, ValueError, MemoryError) as exc:
-                    figures = exc
-                arrived(i, task, figures)
+            for i, ids in enumerate(tasks(size)):
+                arrived(i, ids, work(ids))
                 interrupts.check()  # Ctrl-C: stop between tasks, keep what arrived
         elif todo:
             with open_cluster(None if local else scheduler, scheduler_file, workers,
                               connect_timeout, worker_timeout) as cluster:
                 threads = cluster.threads(connect_timeout)
                 size = task_size(engine, todo, threads, block)
-                window = max(2, min(4 * threads, IN_FLIGHT_CASES // size))
+                window = max(2, 2 * threads)   # one running and one waiting per thread
                 say(f"sweep: {total} cases, {total - todo} already done, {todo} to run in "
                     f"{math.ceil(todo / size)} tasks, engine {engine}, {cluster.where} "
                     f"({threads} threads)")
                 try:
-                    run_tasks(cluster, _Task(engine), plan_tasks(pending(), size), window,
-                              arrived, worker_timeout, connect_timeout)
+                    run_tasks(cluster, _run_work, tasks(size), window, arrived, worker_timeout,
+                              connect_timeout, shared=work)
                 except ClusterLost as exc:
                     where = (f"kept in {folder}/: run again with --resume" if out is not None
                              else "lost (no --out)")
@@ -460,16 +504,6 @@ class _RoadOnly:
 
     def __init__(self, road):
         self.road = road
-
-
-class _Task:
-    """The function a sweep task runs on a worker (``run_engine`` with its engine)."""
-
-    def __init__(self, engine):
-        self.engine = engine
-
-    def __call__(self, cases):
-        return run_engine(self.engine, cases)
 
 
 def _open(path):

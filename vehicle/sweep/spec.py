@@ -414,6 +414,34 @@ class _Prepared:
         self.count = (len(roads) * len(seeds) * len(speeds) * len(durations) * len(steps)
                       * len(self.bodies) * len(self.cars))
 
+    def _axes(self):
+        return (self.roads, self.seeds, self.speeds, self.durations, self.steps)
+
+    def case_at(self, case_id: int) -> Case:
+        """The case at a product-order position (made from the spec, nothing stored)."""
+        inner = len(self.bodies) * len(self.cars)
+        i, j = divmod(int(case_id), inner)
+        heads = self.__dict__.setdefault("_heads", {})  # settings and their JSON, bounded
+        got = heads.get(i)
+        if got is None:
+            if len(heads) > 65536:
+                heads.clear()
+            out, k = [], i
+            for a in reversed(self._axes()):
+                k, pos = divmod(k, len(a))
+                out.append(a[pos])
+            r, sd, v, d, h = out[::-1]
+            got = heads[i] = (r, sd, v, d, h, json.dumps(
+                {"road": r, "seed": sd, "speed": v, "duration": d, "step": h}, sort_keys=True))
+        r, sd, v, d, h, head = got
+        b, c = divmod(j, len(self.cars))
+        bname, model, sample, values = self.bodies[b]
+        car = self.cars[c]
+        key = hashlib.sha256((head + self.body_digests[b] + self.car_digests[car]).encode())
+        return Case(case_id=int(case_id), road=r, seed=sd, speed=v, duration=d, step=h,
+                    body=bname, body_model=model, body_sample=sample, body_values=values,
+                    car=car, case_key=key.hexdigest()[:20])
+
     def cases(self, body_major: bool = False) -> Iterator[Case]:
         """The cases, made one at a time.
 
@@ -422,40 +450,14 @@ class _Prepared:
         (consecutive cases share a model); ``case_id`` is the product-order
         position either way.
         """
-        axes = (self.roads, self.seeds, self.speeds, self.durations, self.steps)
-        n_settings = math.prod(len(a) for a in axes)
-        models = [(b, c) for b in range(len(self.bodies)) for c in range(len(self.cars))]
-        inner = len(models)
-
-        def setting(i):  # the i-th (road, seed, speed, duration, step) in product order
-            out = []
-            for a in reversed(axes):
-                i, k = divmod(i, len(a))
-                out.append(a[k])
-            return out[::-1]
-
-        heads: Dict[int, tuple] = {}  # settings and their JSON, made once (bounded)
-
-        def case(i, j):
-            got = heads.get(i)
-            if got is None:
-                if len(heads) > 65536:
-                    heads.clear()
-                r, sd, v, d, h = setting(i)
-                got = heads[i] = (r, sd, v, d, h, json.dumps(
-                    {"road": r, "seed": sd, "speed": v, "duration": d, "step": h}, sort_keys=True))
-            r, sd, v, d, h, head = got
-            (bname, model, sample, values), bd = self.bodies[models[j][0]], \
-                self.body_digests[models[j][0]]
-            c = self.cars[models[j][1]]
-            key = hashlib.sha256((head + bd + self.car_digests[c]).encode())
-            return Case(case_id=i * inner + j, road=r, seed=sd, speed=v, duration=d, step=h,
-                        body=bname, body_model=model, body_sample=sample, body_values=values,
-                        car=c, case_key=key.hexdigest()[:20])
-
+        n_settings = math.prod(len(a) for a in self._axes())
+        inner = len(self.bodies) * len(self.cars)
         if body_major:
-            return (case(i, j) for j in range(inner) for i in range(n_settings))
-        return (case(i, j) for i in range(n_settings) for j in range(inner))
+            return (self.case_at(i * inner + j) for j in range(inner) for i in range(n_settings))
+        return (self.case_at(k) for k in range(n_settings * inner))
+
+    def __getstate__(self):  # sent to workers without the cache
+        return {k: v for k, v in self.__dict__.items() if k != "_heads"}
 
 
 def count_cases(spec: dict) -> int:

@@ -27,7 +27,7 @@ from bodyvib import __version__
 from bodyvib.runtime.errors import BodyvibError
 
 __all__ = ["CASE_COLUMNS", "TRAILING_COLUMNS", "FIGURE_UNITS", "table_schema", "provenance",
-           "parts_dir", "part_name", "REPLACES_OUT", "write_part", "Scan", "scan", "assemble", "csv_header"]
+           "parts_dir", "part_name", "REPLACES_OUT", "part_bytes", "write_part", "Scan", "scan", "assemble", "csv_header"]
 
 #: Case columns before the model parameters, with units.
 CASE_COLUMNS = (("case_id", ""), ("case_key", ""), ("road", ""), ("seed", ""),
@@ -169,8 +169,31 @@ def part_name(start_ns: int, run_id: str, task_no: int) -> str:
     return f"part-{start_ns:020d}-{run_id}-{task_no:08d}.parquet"
 
 
-def write_part(folder: str, name: str, columns: Dict[str, list], schema) -> None:
-    """Write one task's rows as a Parquet part, atomically.
+def part_bytes(columns: Dict[str, list], schema) -> bytes:
+    """One task's rows as a Parquet file's bytes (made where the task ran).
+
+    Parameters
+    ----------
+    columns : dict
+        Column name -> values (every column of ``schema``).
+    schema : pyarrow.Schema
+
+    Returns
+    -------
+    bytes
+    """
+    import io
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    buf = io.BytesIO()
+    pq.write_table(pa.Table.from_pydict(columns, schema=schema), buf)
+    return buf.getvalue()
+
+
+def write_part(folder: str, name: str, data: bytes) -> None:
+    """Write one task's Parquet bytes as a part, atomically.
 
     Parameters
     ----------
@@ -178,20 +201,12 @@ def write_part(folder: str, name: str, columns: Dict[str, list], schema) -> None
         ``OUT.parts``; created if missing.
     name : str
         :func:`part_name`.
-    columns : dict
-        Column name -> values (every column of ``schema``).
-    schema : pyarrow.Schema
+    data : bytes
+        :func:`part_bytes`.
     """
-    import io
-
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
     from bodyvib.process.outputs import atomic_write_bytes
 
-    buf = io.BytesIO()
-    pq.write_table(pa.Table.from_pydict(columns, schema=schema), buf)
-    atomic_write_bytes(os.path.join(folder, name), buf.getvalue())
+    atomic_write_bytes(os.path.join(folder, name), data)
 
 
 #: A file in ``OUT.parts/`` saying that the parts replace ``OUT`` (a run with ``--overwrite``).
