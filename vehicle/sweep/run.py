@@ -159,11 +159,11 @@ def read_results(out: str):
     import pyarrow.parquet as pq
 
     found = scan(out)
-    if found.index is None:
+    if not found.rows:
         return None
     schema = pq.read_schema(found.sources[-1])
     buf = io.BytesIO()
-    assemble(found.sources, found.index, schema, out_file=buf)
+    assemble(found, schema, out_file=buf)
     buf.seek(0)
     return pq.read_table(buf).to_pandas()
 
@@ -379,21 +379,21 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
     workers = workers or os.cpu_count() or 1
     check_outputs([("--out", out, None), ("--csv", csv, None)], _spec_inputs(spec, spec_path))
     sh = spec_hash(spec)
-    done_keys: set = set()
+    done = np.zeros(prep.count, dtype=bool)   # per case: kept from an earlier run
     if out is not None:
         if resume:
             found = scan(out)
-            if found.index is not None:
-                other = sorted(set(found.index["spec_hash"]) - {sh})
+            if found.rows:
+                other = sorted(found.spec_hashes - {sh})
                 if other:
                     raise BodyvibError(f"'{out}' holds rows of another spec (hash {other[0]}, "
                                        f"this spec {sh}); use another output file")
-                done_keys = found.done(retry_failed)
+                done = found.done(prep.count, retry_failed)
         elif (os.path.exists(out) or os.path.isdir(parts_dir(out))) and not overwrite:
             raise BodyvibError(f"output '{out}' exists; pass --resume to continue that sweep or "
                                "--overwrite to replace it")
     total = prep.count
-    todo = total - len(done_keys)
+    todo = total - int(done.sum())
     local = scheduler in (None, "local") and scheduler_file is None
     serial = scheduler == "serial" or (scheduler is None and scheduler_file is None
                                        and todo <= task_size(engine, todo, workers, block))
@@ -416,13 +416,12 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
         def pending():
             """Case numbers to run, lazily: consecutive cases of one road (batched) or of one
             model (spectral and cosim: one frequency response, one FMU build per task)."""
-            body_major = engine != "batched"
-            if done_keys:
-                return (c.case_id for c in prep.cases(body_major) if c.case_key not in done_keys)
-            if not body_major:
-                return iter(range(total))
             inner = len(prep.bodies) * len(prep.cars)
-            return (i * inner + j for j in range(inner) for i in range(total // inner))
+            if engine == "batched":
+                order = iter(range(total))
+            else:
+                order = (i * inner + j for j in range(inner) for i in range(total // inner))
+            return (k for k in order if not done[k])
 
         def tasks(size):
             it = pending()
@@ -477,7 +476,7 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
         result = None
         try:
             with staged_writes(guard=interrupts.critical),                     _open(out) as fout, _open(csv) as fcsv:
-                n = assemble(found.sources, found.index, schema, fout, fcsv, interrupts.check)
+                n = assemble(found, schema, fout, fcsv, interrupts.check)
         except OSError as exc:
             kept = f"; the finished cases are kept in {folder}/ (--resume)" if out else ""
             raise BodyvibError(f"cannot write '{exc.filename}': {exc.strerror or exc}{kept}") from None
@@ -518,6 +517,6 @@ def _read_folder(found, schema):
     import pyarrow.parquet as pq
 
     buf = io.BytesIO()
-    assemble(found.sources, found.index, schema, out_file=buf)
+    assemble(found, schema, out_file=buf)
     buf.seek(0)
     return pq.read_table(buf).to_pandas()

@@ -225,37 +225,53 @@ def _sources(out: Optional[str], folder: Optional[str] = None) -> List[str]:
 
 @dataclass
 class Scan:
-    """What an output holds so far (key columns only).
+    """What an output holds so far: per stored row, its source, ``case_id`` and success.
+
+    Within one spec a ``case_id`` names one case (resuming refuses rows of
+    another spec), so numbers are all the bookkeeping holds: 13 bytes per stored
+    row, none per case of the spec.
 
     Attributes
     ----------
     sources : list of str
         ``OUT`` (if it exists), then the parts, oldest first.
-    index : pandas.DataFrame or None
-        One row per stored row: ``src`` (position in ``sources``), ``case_id``,
-        ``case_key``, ``ok`` (no error), ``spec_hash``.
+    src, case_id : ndarray of int
+        Per stored row: its source (position in ``sources``) and case.
+    ok : ndarray of bool
+        Per stored row: no error.
+    spec_hashes : set of str
+        The spec hashes found.
     """
 
     sources: List[str]
-    index: object
+    src: object
+    case_id: object
+    ok: object
+    spec_hashes: set
 
-    def done(self, retry_failed: bool = False) -> set:
-        """Keys of the cases not to run again (every stored case, or only those that succeeded)."""
-        if self.index is None:
-            return set()
-        idx = self.index[self.index["ok"]] if retry_failed else self.index
-        return set(idx["case_key"])
+    @property
+    def rows(self) -> int:
+        """Stored rows (duplicates included)."""
+        return len(self.case_id)
+
+    def done(self, count: int, retry_failed: bool = False):
+        """Boolean mask over the spec's ``count`` cases: stored (or, with ``retry_failed``, stored without error)."""
+        import numpy as np
+
+        mask = np.zeros(count, dtype=bool)
+        ids = self.case_id[self.ok] if retry_failed else self.case_id
+        mask[ids[ids < count]] = True
+        return mask
 
     def failed(self) -> int:
         """Number of stored cases with an error and no successful row."""
-        if self.index is None:
-            return 0
-        ok = set(self.index.loc[self.index["ok"], "case_key"])
-        return len(set(self.index.loc[~self.index["ok"], "case_key"]) - ok)
+        import numpy as np
+
+        return int(np.setdiff1d(self.case_id[~self.ok], self.case_id[self.ok]).size)
 
 
 def scan(out: Optional[str], folder: Optional[str] = None) -> Scan:
-    """Read the key columns of ``OUT`` and ``OUT.parts/``.
+    """Read the bookkeeping columns of ``OUT`` and ``OUT.parts/``.
 
     Parameters
     ----------
@@ -273,45 +289,46 @@ def scan(out: Optional[str], folder: Optional[str] = None) -> Scan:
     BodyvibError
         A file that is not a sweep table.
     """
-    import pandas as pd
+    import numpy as np
+    import pyarrow.compute as pc
     import pyarrow.parquet as pq
 
     sources = _sources(out, folder)
-    frames = []
+    srcs, ids, oks, hashes = [], [], [], set()
     for i, f in enumerate(sources):
         try:
-            t = pq.read_table(f, columns=["case_id", "case_key", "error", "spec_hash"])
+            t = pq.read_table(f, columns=["case_id", "error", "spec_hash"])
         except Exception as exc:
             raise BodyvibError(f"'{f}' is not a readable sweep table ({exc}); move it away or "
                                "pass --overwrite") from None
-        df = pd.DataFrame({"src": i, "case_id": t["case_id"].to_numpy(),
-                           "case_key": t["case_key"].to_pandas(),
-                           "ok": t["error"].is_null().to_numpy(zero_copy_only=False),
-                           "spec_hash": t["spec_hash"].to_pandas()})
-        frames.append(df)
-    index = pd.concat(frames, ignore_index=True) if frames else None
-    return Scan(sources, index)
+        ids.append(t["case_id"].to_numpy())
+        oks.append(t["error"].is_null().to_numpy(zero_copy_only=False))
+        srcs.append(np.full(t.num_rows, i, dtype=np.int32))
+        hashes.update(pc.unique(t["spec_hash"]).to_pylist())
+    cat = (lambda xs, dt: np.concatenate(xs) if xs else np.empty(0, dt))
+    return Scan(sources, cat(srcs, np.int32), cat(ids, np.int64), cat(oks, bool), hashes)
 
 
-def _selection(index):
-    """One stored row per case: a successful one (the oldest), else the newest failure."""
-    rank = index["src"].where(index["ok"], -index["src"])
-    order = index.assign(_bad=~index["ok"], _rank=rank).sort_values(["_bad", "_rank"],
-                                                                      kind="stable")
-    return order.drop_duplicates("case_key")[["src", "case_id", "case_key"]].sort_values(
-        "case_id", kind="stable").reset_index(drop=True)
+def _selection(found: Scan):
+    """One stored row per case: ``(case_id, src)`` sorted by case, a successful row (the
+    oldest) where there is one, else the newest failure."""
+    import numpy as np
+
+    rank = np.where(found.ok, found.src, -found.src)
+    order = np.lexsort((rank, ~found.ok, found.case_id))
+    ids = found.case_id[order]
+    first = np.ones(len(ids), dtype=bool)
+    first[1:] = ids[1:] != ids[:-1]
+    return ids[first], found.src[order][first]
 
 
-def assemble(sources: Sequence[str], index, schema, out_file=None, csv_file=None,
-             check=None) -> int:
-    """Stream the chosen rows of the sources into a Parquet and/or a CSV file, by ``case_id``.
+def assemble(found: Scan, schema, out_file=None, csv_file=None, check=None) -> int:
+    """Stream one row per case of the scanned sources into Parquet and/or CSV, by ``case_id``.
 
     Parameters
     ----------
-    sources : sequence of str
-        Parquet files (:attr:`Scan.sources`).
-    index : pandas.DataFrame
-        :attr:`Scan.index` of those sources.
+    found : Scan
+        The sources and their bookkeeping (:func:`scan`).
     schema : pyarrow.Schema
         The table's schema with its file metadata.
     out_file, csv_file : binary file object, optional
@@ -324,31 +341,36 @@ def assemble(sources: Sequence[str], index, schema, out_file=None, csv_file=None
     int
         Rows written.
     """
+    import numpy as np
     import pyarrow as pa
     import pyarrow.compute as pc
     import pyarrow.csv as pacsv
     import pyarrow.parquet as pq
 
-    sel = _selection(index)
-    bounds = sel.groupby("src")["case_id"].agg(["min", "max"])
+    ids, srcs = _selection(found)
+    lo_src = np.full(len(found.sources), np.iinfo(np.int64).max)
+    hi_src = np.full(len(found.sources), -1)
+    np.minimum.at(lo_src, srcs, ids)
+    np.maximum.at(hi_src, srcs, ids)
     writer = pq.ParquetWriter(out_file, schema) if out_file is not None else None
     csv_schema = pa.schema([f.with_name(n) for f, n in zip(schema, csv_header(schema))])
     csv_writer = pacsv.CSVWriter(csv_file, csv_schema) if csv_file is not None else None
+    pool = pa.default_memory_pool()
     written = 0
     try:
-        for a in range(0, len(sel), WINDOW):
+        for a in range(0, len(ids), WINDOW):
             if check is not None:
                 check()
-            win = sel.iloc[a:a + WINDOW]
-            lo, hi = int(win["case_id"].iloc[0]), int(win["case_id"].iloc[-1])
+            w_ids, w_src = ids[a:a + WINDOW], srcs[a:a + WINDOW]
+            lo, hi = int(w_ids[0]), int(w_ids[-1])
             pieces = []
-            for src in bounds.index[(bounds["min"] <= hi) & (bounds["max"] >= lo)]:
-                keys = win.loc[win["src"] == src, "case_key"]
-                if not len(keys):
+            for src in np.flatnonzero((lo_src <= hi) & (hi_src >= lo)):
+                want = w_ids[w_src == src]
+                if not len(want):
                     continue
-                t = pq.read_table(sources[src], filters=[("case_id", ">=", lo),
-                                                         ("case_id", "<=", hi)])
-                t = t.filter(pc.is_in(t["case_key"], value_set=pa.array(keys.tolist())))
+                t = pq.read_table(found.sources[src], filters=[("case_id", ">=", int(want[0])),
+                                                               ("case_id", "<=", int(want[-1]))])
+                t = t.filter(pc.is_in(t["case_id"], value_set=pa.array(want)))
                 pieces.append(t.select(schema.names).cast(schema))
             table = pa.concat_tables(pieces).sort_by("case_id").replace_schema_metadata(
                 schema.metadata)
@@ -357,6 +379,8 @@ def assemble(sources: Sequence[str], index, schema, out_file=None, csv_file=None
             if csv_writer is not None:
                 csv_writer.write_table(table.rename_columns(csv_schema.names).cast(csv_schema))
             written += table.num_rows
+            del table, pieces
+            pool.release_unused()
         if writer is not None and not written:
             writer.write_table(schema.empty_table())
     finally:
