@@ -1,23 +1,25 @@
-"""Running a sweep: cases grouped into tasks, executed on Dask, written as they arrive.
+"""Running a sweep: cases cut into tasks, executed here or on Dask, written as they arrive.
 
-:func:`run_sweep` expands a spec (:mod:`vehicle.sweep.spec`), skips the cases
-already in the output when resuming, groups the rest into tasks (blocks of
-cases with the same body model, car, duration and step, so that the batched
-engine advances a whole block with one matrix product per step), runs them on
-a Dask scheduler -- a :class:`distributed.LocalCluster` with one
-single-threaded worker process per core by default, any scheduler address, or
-``"serial"`` in-process -- and collects the results with
-:func:`distributed.as_completed`.
+:func:`run_sweep` validates a spec (:mod:`vehicle.sweep.spec`) and checks the
+outputs before any work, skips the cases already stored when resuming, cuts
+the pending case numbers into tasks of consecutive cases (:func:`plan_tasks`,
+sized by :func:`task_size` from the cluster's threads) and runs them in this
+process or on Dask (:mod:`vehicle.sweep.cluster`: a LocalCluster of
+single-threaded worker processes by default, any scheduler address or
+scheduler file). A task is an array of case numbers; it returns its rows as
+Parquet bytes.
 
-Output: each finished task is written at once, atomically, as one Parquet file
-in ``OUT.parts/``; at the end (and on Ctrl-C) all rows are gathered into
-``OUT`` (atomically, sorted by ``case_id``) and the parts are deleted. A sweep
-killed at any point keeps every finished task; ``resume=True`` reads ``OUT``
-and ``OUT.parts/``, refuses an output written by another spec, and runs only
-the cases whose ``case_key`` is missing.
+Output: each finished task is written at once, atomically, as one Parquet part
+in ``OUT.parts/``; at the end the parts are streamed into ``OUT`` (and the
+CSV) by ``case_id``, all outputs or none (:mod:`vehicle.sweep.table`), and
+deleted. A sweep that is interrupted, killed or loses its cluster keeps every
+finished task; ``resume=True`` refuses an output written by another spec and
+runs only the cases not stored (``retry_failed=True``: also those stored
+with an error).
 
-The table, one row per case (:data:`BASE_COLUMNS`, then one ``body_<name>``
-column per varied body parameter in SI units):
+The table, one row per case (:data:`BASE_COLUMNS`, with one ``body_<name>``
+and ``car_<name>`` column per parameter of every model after ``car``; units
+in the schema, see :mod:`vehicle.sweep.table`):
 
 ================== ===========================================================
 case_id, case_key  position in the spec; hash identifying the case
@@ -34,6 +36,7 @@ head_crest_factor  peak / r.m.s. (NaN for ``spectral``)
 head_comfort       ISO 2631-1 Annex C words for the head's weighted r.m.s.
 seat_weighted_rms  seat (the car's seat point) Wk-weighted r.m.s., m/s2
 engine             ``batched``, ``spectral`` or ``cosim``
+engine_settings    the engine's settings (JSON)
 error              why the case failed (empty when it did not)
 bodyvib_version    version that computed the row
 spec_hash          hash of the spec and the files it names
@@ -49,10 +52,10 @@ import tempfile
 import time
 import uuid
 from itertools import islice
+from typing import Callable, Dict, Iterator, List, Optional, Sequence, Union
 
 import numpy as np
 from numpy.linalg import LinAlgError
-from typing import Callable, Dict, Iterator, List, Optional, Sequence, Union
 
 from bodyvib import __version__
 from bodyvib.process import interrupts

@@ -41,7 +41,7 @@ TRAILING_COLUMNS = ("engine", "engine_settings", "error", "bodyvib_version", "sp
                     "run_id")
 _INTS = {"case_id", "seed", "body_sample"}
 _STRINGS = {"case_key", "road", "body", "body_model", "car", "head_comfort"} | set(TRAILING_COLUMNS)
-WINDOW = 65536  # rows assembled at a time
+WINDOW = 16384  # rows assembled at a time
 
 
 def table_schema(body_units: Dict[str, str], car_units: Dict[str, str], figures: Sequence[str]):
@@ -322,6 +322,20 @@ def _selection(found: Scan):
     return ids[first], found.src[order][first]
 
 
+def _read_range(path: str, lo: int, hi: int):
+    """The row groups of a Parquet file whose ``case_id`` range meets ``[lo, hi]`` (one thread)."""
+    import pyarrow.parquet as pq
+
+    f = pq.ParquetFile(path)
+    col = f.schema_arrow.get_field_index("case_id")
+    groups = []
+    for g in range(f.num_row_groups):
+        st = f.metadata.row_group(g).column(col).statistics
+        if st is None or not st.has_min_max or (st.min <= hi and st.max >= lo):
+            groups.append(g)
+    return f.read_row_groups(groups, use_threads=False)
+
+
 def assemble(found: Scan, schema, out_file=None, csv_file=None, check=None) -> int:
     """Stream one row per case of the scanned sources into Parquet and/or CSV, by ``case_id``.
 
@@ -353,6 +367,7 @@ def assemble(found: Scan, schema, out_file=None, csv_file=None, check=None) -> i
     np.minimum.at(lo_src, srcs, ids)
     np.maximum.at(hi_src, srcs, ids)
     writer = pq.ParquetWriter(out_file, schema) if out_file is not None else None
+    # (row groups of WINDOW rows: a resume reads back only the groups it needs)
     csv_schema = pa.schema([f.with_name(n) for f, n in zip(schema, csv_header(schema))])
     csv_writer = pacsv.CSVWriter(csv_file, csv_schema) if csv_file is not None else None
     pool = pa.default_memory_pool()
@@ -368,8 +383,7 @@ def assemble(found: Scan, schema, out_file=None, csv_file=None, check=None) -> i
                 want = w_ids[w_src == src]
                 if not len(want):
                     continue
-                t = pq.read_table(found.sources[src], filters=[("case_id", ">=", int(want[0])),
-                                                               ("case_id", "<=", int(want[-1]))])
+                t = _read_range(found.sources[src], int(want[0]), int(want[-1]))
                 t = t.filter(pc.is_in(t["case_id"], value_set=pa.array(want)))
                 pieces.append(t.select(schema.names).cast(schema))
             table = pa.concat_tables(pieces).sort_by("case_id").replace_schema_metadata(
