@@ -177,8 +177,9 @@ def _batched_group(cases, models, cars, roads, block_steps, record):
     M = np.empty((c, n + 2, n))
     gz = np.empty((c, n + 2))
     gv = np.empty((c, n + 2))
-    z = np.empty((c, N))
-    v = np.empty((c, N))
+    road = np.empty(c, dtype=np.int64)   # cases share roads: one row per (road, seed, speed)
+    rows_of: Dict[tuple, int] = {}
+    zs, vs = [], []
     for i, (cs, s) in enumerate(zip(cases, sys)):
         lm = s.lm
         with np.errstate(over="ignore", invalid="ignore"):
@@ -194,7 +195,14 @@ def _batched_group(cases, models, cars, roads, block_steps, record):
         gv[i, :n] = G0[:, iv] + G1[:, iz]
         gz[i, n:] = lm.D[s.outputs, iz]
         gv[i, n:] = lm.D[s.outputs, iv]
-        z[i], v[i] = _roads(cs, roads)
+        rkey = (cs.road, cs.seed, cs.speed, cs.duration, cs.step)
+        if rkey not in rows_of:
+            rows_of[rkey] = len(zs)
+            zr, vr = _roads(cs, roads)
+            zs.append(zr)
+            vs.append(vr)
+        road[i] = rows_of[rkey]
+    z, v = np.array(zs), np.array(vs)
     stream = ComfortStream(1.0 / step, 2 * c)
     hist = np.empty((2, c, N)) if record else None
     x = np.zeros((c, n))
@@ -202,7 +210,7 @@ def _batched_group(cases, models, cars, roads, block_steps, record):
     for k0 in range(0, N, block_steps):
         k1 = min(N, k0 + block_steps)
         ys = ys_buf if k1 - k0 == block_steps else np.empty((2, c, k1 - k0))
-        advance(M, gz, gv, z, v, x, k0, ys)   # compiled: one case at a time
+        advance(M, gz, gv, z, v, road, x, k0, ys)   # compiled: one case at a time
         if not np.all(np.isfinite(ys)):
             raise BodyvibError("the response is not finite (parameters out of numerical range?)")
         stream.update(ys.reshape(2 * c, k1 - k0))   # rows: head of each case, then seat

@@ -23,14 +23,15 @@ def _kernel():
         from numba import njit
 
         @njit(cache=True, nogil=True, boundscheck=False)
-        def kernel(M, gz, gv, z, v, x, k0, ys):  # pragma: no cover (compiled)
+        def kernel(M, gz, gv, z, v, road, x, k0, ys):  # pragma: no cover (compiled)
             c, m, n = M.shape
             L = ys.shape[2]
             out = np.empty(m)
             for i in range(c):
+                ri = road[i]
                 for j in range(L):
-                    zk = z[i, k0 + j]
-                    vk = v[i, k0 + j]
+                    zk = z[ri, k0 + j]
+                    vk = v[ri, k0 + j]
                     for r in range(m):
                         acc = 0.0
                         for q in range(n):
@@ -45,7 +46,7 @@ def _kernel():
     return _compiled
 
 
-def advance(M, gz, gv, z, v, x, k0: int, ys) -> None:
+def advance(M, gz, gv, z, v, road, x, k0: int, ys) -> None:
     """Advance every case ``ys.shape[2]`` steps from sample ``k0``; outputs into ``ys``.
 
     Parameters
@@ -54,8 +55,10 @@ def advance(M, gz, gv, z, v, x, k0: int, ys) -> None:
         ``[Phi; C_out]`` of each case.
     gz, gv : (cases, n + 2) ndarray
         Input columns of the road displacement and velocity (with the in-step slope).
-    z, v : (cases, samples) ndarray
+    z, v : (roads, samples) ndarray
         Road displacement (m) and velocity (m/s) at every sample.
+    road : (cases,) ndarray of int
+        The row of ``z`` and ``v`` each case drives on (cases share roads).
     x : (cases, n) ndarray
         States at sample ``k0``; updated in place.
     k0 : int
@@ -66,8 +69,8 @@ def advance(M, gz, gv, z, v, x, k0: int, ys) -> None:
     --------
     >>> M = np.array([[[0.5], [1.0], [2.0]]]); g = np.zeros((1, 3)); g1 = np.array([[1.0, 0, 0]])
     >>> x = np.zeros((1, 1)); ys = np.empty((2, 1, 3))
-    >>> advance(M, g1, g, np.ones((1, 3)), np.zeros((1, 3)), x, 0, ys)
+    >>> advance(M, g1, g, np.ones((1, 3)), np.zeros((1, 3)), np.zeros(1, int), x, 0, ys)
     >>> ys[0, 0].tolist(), float(x[0, 0])
     ([0.0, 1.0, 1.5], 1.75)
     """
-    _kernel()(M, gz, gv, z, v, x, int(k0), ys)
+    _kernel()(M, gz, gv, z, v, road, x, int(k0), ys)
