@@ -101,15 +101,21 @@ def test_tasks_are_consecutive_cases_of_any_size():
     assert task_size("spectral", 10**6, 2) == 20000 and task_size("cosim", 3, 2, block=7) == 7
 
 
+#: How far a case's figures may move with the cases sharing its task: the compiled step
+#: advances each case alone (same bits), and the Wk filter's block product (BLAS) is the
+#: one place where cases meet. Measured: 0 in every grouping since the compiled step;
+#: before it, up to 2.2e-16 m/s2 (2.8e-16 relative) with identical histories.
+GROUPING_RTOL = 1e-15
+
+
 def test_figures_do_not_depend_on_how_cases_are_grouped_into_tasks():
-    # the compiled step advances each case alone; the Wk filter's block product
-    # (BLAS) is the only place where cases meet, and its rows come out the same
     figures = ["head_weighted_rms", "head_vdv", "head_peak", "head_crest_factor",
                "seat_weighted_rms"]
     whole = run_sweep(SMALL, scheduler="serial", block=64)
     for block in (1, 5, 13):
         other = run_sweep(SMALL, scheduler="serial", block=block)
-        pd.testing.assert_frame_equal(other[figures], whole[figures], check_exact=True)
+        for f in figures:
+            np.testing.assert_allclose(other[f], whole[f], rtol=GROUPING_RTOL, atol=0)
 
 
 def test_local_cluster_equals_serial_exactly():
@@ -176,9 +182,10 @@ def test_killed_sweep_resumes_without_running_a_case_twice(tmp_path):
     # what the first run wrote is kept as it was
     kept = df.set_index("case_key").loc[first["case_key"]]
     np.testing.assert_array_equal(kept["head_weighted_rms"], first["head_weighted_rms"])
-    # the same bits as the sweep run in one piece (any grouping of cases gives the same)
+    # the sweep run in one piece gives the same figures (to the grouping tolerance)
     fresh = run_sweep(KILL_SPEC, scheduler="serial")
-    pd.testing.assert_frame_equal(_figures(df), _figures(fresh), check_exact=True)
+    for f in ("head_weighted_rms", "head_vdv", "head_peak", "seat_weighted_rms"):
+        np.testing.assert_allclose(df[f], fresh[f], rtol=GROUPING_RTOL, atol=0)
     # resuming a finished sweep runs nothing
     said.clear()
     again = run_sweep(str(spec_file), out=out, resume=True, scheduler="serial", echo=said.append)

@@ -4,10 +4,9 @@
 ``M = [Phi; C_out]`` (``(n + 2) x n``), over ``steps`` samples, keeping the two
 outputs (head and seat acceleration). Compiled by numba (no fast-math: each
 sum in a fixed order, no contraction), one case at a time with its state in
-registers: a case's figures are the same bits whatever other cases share its
-task. The Python loop it replaces (one batched ``matmul`` per step) took 42 %
-of a serial sweep (measured by profile) and varied in the last bit with the
-batch size.
+registers: a case's history is the same bits whatever other cases share its
+task. The Python loop it replaces (one batched ``matmul`` per step) took 64 %
+of a serial sweep (measured by profile).
 """
 
 import numpy as np
