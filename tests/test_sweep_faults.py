@@ -230,6 +230,16 @@ def test_outputs_are_checked_before_the_work(tmp_path, capsys):
                  "--overwrite"]) == 2
     assert "character device" in capsys.readouterr().err and time.time() - t0 < 10
     assert not os.path.exists("/dev/full.parts")
+    # --csv on a device: refused before the work, the previous --out untouched
+    out = tmp_path / "a.parquet"
+    assert main(["sweep", str(spec), "--scheduler", "serial", "--quiet", "--out", str(out)]) == 0
+    old = out.read_bytes()
+    capsys.readouterr()
+    assert main(["sweep", str(spec), "--scheduler", "serial", "--quiet", "--out", str(out),
+                 "--overwrite", "--csv", "/dev/full"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--csv '/dev/full' is a character device" in err[0], err
+    assert out.read_bytes() == old and not os.path.exists(parts_dir(str(out)))
 
 
 def test_all_outputs_or_none_on_a_full_disk(tmp_path):
