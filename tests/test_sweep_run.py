@@ -73,6 +73,9 @@ def test_table_columns_provenance_and_files(tmp_path):
     assert schema.field("body_k1").metadata[b"unit"] == b"N/m"
     assert schema.field("car_ms").metadata[b"unit"] == b"kg"
     meta = schema.metadata
+    file_units = json.loads(meta[b"bodyvib.units"])
+    assert file_units["head_weighted_rms"] == "m/s2" and file_units["car_kt"] == "N/m"
+    assert set(file_units) == set(schema.names)
     assert json.loads(meta[b"bodyvib.spec"]) == json.loads(json.dumps(SMALL))
     versions = json.loads(meta[b"bodyvib.versions"])
     assert versions["numpy"] == np.__version__ and versions["dask"] and versions["scipy"]

@@ -44,6 +44,7 @@ run_id             the invocation that computed the row
 ================== ===========================================================
 """
 
+import json
 import math
 import os
 import shutil
@@ -66,7 +67,7 @@ from .cluster import ClusterLost, open_cluster, run_tasks
 from .engines import ENGINE_SETTINGS, FIGURES, check_engine, run_engine
 from .spec import Case, _Prepared, load_spec, spec_hash
 from .table import (REPLACES_OUT, assemble, part_bytes, part_name, parts_dir, provenance, scan,
-                    table_schema, write_part)
+                    table_schema, units, write_part)
 
 __all__ = ["BASE_COLUMNS", "run_sweep", "plan_tasks", "read_results", "parts_dir",
            "task_size"]
@@ -403,7 +404,8 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
     run_id = uuid.uuid4().hex[:12]
     start_ns = time.time_ns()
     rows = _Rows(prep, engine, sh, run_id)
-    schema = rows.schema.with_metadata(provenance(spec, engine))
+    schema = rows.schema.with_metadata({**provenance(spec, engine),
+                                        "bodyvib.units": json.dumps(units(rows.schema))})
     replaces = out is not None and overwrite and not resume
     if replaces:
         shutil.rmtree(parts_dir(out), ignore_errors=True)

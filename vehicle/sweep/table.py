@@ -27,7 +27,7 @@ from bodyvib import __version__
 from bodyvib.runtime.errors import BodyvibError
 
 __all__ = ["CASE_COLUMNS", "TRAILING_COLUMNS", "FIGURE_UNITS", "table_schema", "provenance",
-           "parts_dir", "part_name", "REPLACES_OUT", "part_bytes", "write_part", "Scan", "scan", "assemble", "csv_header"]
+           "parts_dir", "part_name", "REPLACES_OUT", "part_bytes", "write_part", "Scan", "scan", "assemble", "csv_header", "units"]
 
 #: Case columns before the model parameters, with units.
 CASE_COLUMNS = (("case_id", ""), ("case_key", ""), ("road", ""), ("seed", ""),
@@ -79,7 +79,17 @@ def table_schema(body_units: Dict[str, str], car_units: Dict[str, str], figures:
     return pa.schema(fields)
 
 
-def _units(schema) -> Dict[str, str]:
+def units(schema) -> Dict[str, str]:
+    """Column name -> unit ("" for none) from a sweep schema's field metadata.
+
+    Parameters
+    ----------
+    schema : pyarrow.Schema
+
+    Returns
+    -------
+    dict
+    """
     return {f.name: (f.metadata or {}).get(b"unit", b"").decode() for f in schema}
 
 
@@ -94,7 +104,7 @@ def csv_header(schema) -> List[str]:
     -------
     list of str
     """
-    return [f"{n} [{u}]" if u else n for n, u in _units(schema).items()]
+    return [f"{n} [{u}]" if u else n for n, u in units(schema).items()]
 
 
 def _git_commit() -> Optional[str]:
