@@ -26,8 +26,9 @@ from typing import Dict, List, Optional, Sequence
 from bodyvib import __version__
 from bodyvib.runtime.errors import BodyvibError
 
-__all__ = ["CASE_COLUMNS", "TRAILING_COLUMNS", "FIGURE_UNITS", "table_schema", "provenance",
-           "parts_dir", "part_name", "REPLACES_OUT", "part_bytes", "write_part", "Scan", "scan", "assemble", "csv_header", "units"]
+__all__ = ["CASE_COLUMNS", "TRAILING_COLUMNS", "FIGURE_UNITS", "REPLACES_OUT", "table_schema",
+           "units", "csv_header", "provenance", "parts_dir", "part_name", "part_bytes",
+           "write_part", "Scan", "scan", "assemble"]
 
 #: Case columns before the model parameters, with units.
 CASE_COLUMNS = (("case_id", ""), ("case_key", ""), ("road", ""), ("seed", ""),
