@@ -11,11 +11,14 @@ reduced-body parameter sets (Latin hypercube, m1, k1, k2, c1, c2 within
   two FMU builds, start-up, 30 s co-simulation): the per-case reference cost;
 * ``spectral`` on a LocalCluster of ``--workers`` workers (two tasks per
   worker) and by default (all cases make one task, run in this process);
-* ``batched`` on the LocalCluster, all cases (the target: at most 120 s), and
-  serially in this process;
+* ``batched`` on the LocalCluster, all cases (the target: 10,000 cases in at
+  most 30 s on 2 workers), and serially in this process (target: 2 workers at
+  least 1.8x one);
 * the Dask overhead: ``batched`` on ``--overhead-cases`` cases on a LocalCluster
   of one worker against the same cases serially in this process (same tasks,
-  same engine; target at most 10 %);
+  same engine; target at most 10 %, wall and CPU); the two tables are compared
+  (they are equal bit for bit: a case's figures do not depend on its task) and
+  the largest difference is reported, not asserted;
 * ``cosim`` on ``--cosim-cases`` cases serially (FMUs built once, parameters
   set per case), extrapolated per case.
 
@@ -120,7 +123,8 @@ def main(argv=None):
         t_dask1, d2 = timed(lambda: run(small, workers=1), a.repeats, "small_local1")
         res["overhead_cases"] = n_small
         res["batched_small_serial_s"], res["batched_small_local1_s"] = t_serial, t_dask1
-        assert (d1["head_weighted_rms"].values == d2["head_weighted_rms"].values).all()
+        res["serial_vs_dask_max_abs_diff"] = float(
+            (d1["head_weighted_rms"] - d2["head_weighted_rms"]).abs().max())
         print(f"batched, {n} cases, LocalCluster of {a.workers} ...", file=sys.stderr, flush=True)
         res["batched_local_s"], df = timed(lambda: run(spec, workers=a.workers), a.repeats, "batched_local")
         assert len(df) == n and df["error"].isna().all()
@@ -155,13 +159,17 @@ def main(argv=None):
     res["dask_overhead"] = over
     print(f"\nDask overhead in CPU time (1-worker LocalCluster vs serial, {n_small} batched cases): "
           f"{100 * (CPU['small_local1'] / CPU['small_serial'] - 1):+.1f} %")
-    print(f"\nbatched, {n} cases on {a.workers} workers: {res['batched_local_s']:.1f} s (target <= 120 s)")
+    print(f"serial vs Dask, largest difference in head_weighted_rms: "
+          f"{res['serial_vs_dask_max_abs_diff']:.3g} m/s2")
+    print(f"\nbatched, {n} cases on {a.workers} workers: {res['batched_local_s']:.1f} s "
+          f"(target for 10,000: <= 30 s)")
     print(f"spectral, {n} cases on {a.workers} workers: {res['spectral_local_s']:.2f} s (target <= 10 s)")
     print(f"Dask overhead (1-worker LocalCluster vs serial, {n_small} batched cases): "
           f"{100 * over:+.1f} % (target <= 10 %)")
     if "batched_serial_s" in res:
         print(f"batched speed-up of {a.workers} workers over serial: "
-              f"{res['batched_serial_s'] / res['batched_local_s']:.2f}x")
+              f"{res['batched_serial_s'] / res['batched_local_s']:.2f}x (target >= 1.8x); "
+              f"CPU {CPU['batched_local']:.1f} s against {CPU['batched_serial']:.1f} s")
     print(f"cosim engine: {res['cosim_serial_s'] / res['cosim_cases']:.2f} s per case; "
           f"{n} cases would take {res['cosim_serial_s'] / res['cosim_cases'] * n / 3600 / a.workers:.1f} h "
           f"on {a.workers} workers")

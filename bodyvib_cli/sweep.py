@@ -1,9 +1,11 @@
 """The ``bodyvib sweep`` command: many cases from a spec or a grid, one table."""
 
-import os
 import sys
 
+from bodyvib.process.outputs import check_outputs
 from bodyvib.runtime.errors import BodyvibError
+
+from .outputs import PLOT_EXTENSIONS
 
 __all__ = ["add_command"]
 
@@ -29,8 +31,12 @@ def _run(args):
                            "to plot a finished sweep)")
     if not args.out and not args.csv:
         raise BodyvibError("give --out FILE.parquet (and/or --csv FILE) for the results")
-    if args.plot:
-        _check_plot(args.plot)
+    if args.scheduler and args.scheduler_file:
+        raise BodyvibError("give --scheduler or --scheduler-file, not both")
+    # every output checked before any work, against each other and the inputs
+    check_outputs([("--out", args.out, None), ("--csv", args.csv, None),
+                   ("--plot", args.plot, PLOT_EXTENSIONS)],
+                  [("SPEC", args.spec)] if args.spec else [])
     from vehicle.road.driven import RoadOptions
 
     from .cosim import options_from_args
@@ -49,7 +55,10 @@ def _run(args):
     say = None if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
     df = run_sweep(spec, out=args.out, engine=args.engine, scheduler=args.scheduler,
                    resume=args.resume, overwrite=args.overwrite, csv=args.csv,
-                   progress=not args.quiet, block=args.block, workers=args.workers, echo=say)
+                   progress=not args.quiet, block=args.block, workers=args.workers, echo=say,
+                   retry_failed=args.retry_failed, scheduler_file=args.scheduler_file,
+                   connect_timeout=args.connect_timeout, worker_timeout=args.worker_timeout,
+                   table=bool(args.plot))
     for f in (args.out, args.csv):
         if f:
             print(f"wrote {f}")
@@ -63,14 +72,20 @@ def _run(args):
 
 def _check_plot(path):
     """Refuse a plot file that could not be written, before the sweep runs."""
-    ext = os.path.splitext(path)[1].lower()
-    if ext not in (".png", ".pdf", ".svg"):
-        raise BodyvibError(f"plot file '{path}' must end in .png, .pdf or .svg")
-    folder = os.path.dirname(os.path.abspath(path))
-    while not os.path.isdir(folder) and os.path.dirname(folder) != folder:
-        folder = os.path.dirname(folder)
-    if not os.access(folder, os.W_OK):
-        raise BodyvibError(f"cannot write plot file '{path}': folder '{folder}' is not writable")
+    check_outputs([("--plot", path, PLOT_EXTENSIONS)])
+
+
+def _seconds(text):
+    import argparse
+    import math
+
+    try:
+        v = float(text)
+    except ValueError:
+        v = 0.0
+    if not (0 < v < math.inf):
+        raise argparse.ArgumentTypeError(f"must be a positive number of seconds, got {text!r}")
+    return v
 
 
 def _positive_int(text):
@@ -110,9 +125,19 @@ def add_command(subparsers):
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="Dask scheduler address (tcp://host:8786); default: a LocalCluster, one "
                    "worker per core; 'serial' runs in this process")
+    p.add_argument("--scheduler-file", metavar="FILE",
+                   help="connect to the scheduler of this file (dask scheduler --scheduler-file, "
+                   "dask-jobqueue)")
+    p.add_argument("--connect-timeout", type=_seconds, default=10.0, metavar="S",
+                   help="seconds to wait for the scheduler to answer (10)")
+    p.add_argument("--worker-timeout", type=_seconds, default=60.0, metavar="S",
+                   help="seconds to wait for a first worker; a running sweep with no worker for "
+                   "this long stops, resumable (60)")
     p.add_argument("--workers", type=_positive_int, help="LocalCluster workers (default: cores)")
     p.add_argument("--block", type=_positive_int, help="cases per task (default: by engine)")
     p.add_argument("--resume", action="store_true", help="keep the cases already in --out, run the rest")
+    p.add_argument("--retry-failed", action="store_true",
+                   help="with --resume: run again the cases stored with an error")
     p.add_argument("--overwrite", action="store_true", help="replace an existing --out")
     p.add_argument("--plot", metavar="FILE.png", help="comfort maps with the ISO 2631-1 bands")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")

@@ -13,7 +13,9 @@ import pytest
 
 from bodyvib import __version__
 from bodyvib_cli.main import main
-from vehicle.sweep.run import BASE_COLUMNS, parts_dir, plan_tasks, read_results, run_sweep
+from bodyvib.models import load_model
+from vehicle.quarter_car import load_car
+from vehicle.sweep.run import BASE_COLUMNS, parts_dir, plan_tasks, read_results, run_sweep, task_size
 from vehicle.sweep.spec import expand, spec_hash
 
 SMALL = {"road": ["C", "E"], "speed": [10, 25], "seed": [0, 1], "duration": 2,
@@ -32,8 +34,13 @@ def test_table_columns_provenance_and_files(tmp_path):
     df = run_sweep(SMALL, out=str(out), csv=str(csv), scheduler="serial")
     cases = expand(SMALL)
     assert len(df) == len(cases) == 64
+    reduced, iso = load_model("reduced-paper"), load_model("iso7962")
+    body_params = list(dict.fromkeys([*reduced.parameters, *iso.parameters]))
+    car = load_car("quarter-car-cushion")
     cols = list(BASE_COLUMNS)
-    cols.insert(cols.index("car") + 1, "body_k1")
+    at = cols.index("car") + 1
+    cols[at:at] = [f"body_{p}" for p in body_params] + [
+        f"car_{p}" for p in dict.fromkeys([*load_car("quarter-car").parameters, *car.parameters])]
     assert list(df.columns) == cols
     assert list(df["case_id"]) == list(range(64))
     assert set(df["engine"]) == {"batched"} and set(df["bodyvib_version"]) == {__version__}
@@ -42,25 +49,76 @@ def test_table_columns_provenance_and_files(tmp_path):
     assert (df["head_weighted_rms"] > 0).all() and (df["seat_weighted_rms"] > 0).all()
     np.testing.assert_allclose(df["head_crest_factor"], df["head_peak"] / df["head_weighted_rms"],
                                rtol=1e-12)
+    # every parameter of every model, per case: the model's value unless the case varies it
+    for c, (_, row) in zip(cases, df.iterrows()):
+        net = c.body_network()
+        for p in body_params:
+            want = net.parameters.get(p, float("nan"))
+            assert row[f"body_{p}"] == want or (np.isnan(want) and np.isnan(row[f"body_{p}"]))
+        for p, v in c.car_network().parameters.items():
+            assert row[f"car_{p}"] == v
     varied = df[df["body"] == "varied"]
-    assert varied["body_k1"].notna().all() and df[df["body"] != "varied"]["body_k1"].isna().all()
+    assert (varied["body_k1"] != reduced.parameters["k1"]).all()
+    assert (df[df["body"] == "reduced-paper"]["body_k1"] == reduced.parameters["k1"]).all()
+    assert df[df["body"] == "reduced-paper"]["body_k2s"].isna().all()
+    assert (df[df["car"] == "quarter-car-cushion"]["car_ms"] == car.parameters["ms"]).all()
     back = pd.read_parquet(out)
     pd.testing.assert_frame_equal(back, df, check_exact=True)
+    # units and provenance in the file
+    import pyarrow.parquet as pq
+
+    schema = pq.read_schema(out)
+    assert schema.field("head_vdv").metadata[b"unit"] == b"m/s^1.75"
+    assert schema.field("speed_m_s").metadata[b"unit"] == b"m/s"
+    assert schema.field("body_k1").metadata[b"unit"] == b"N/m"
+    assert schema.field("car_ms").metadata[b"unit"] == b"kg"
+    meta = schema.metadata
+    file_units = json.loads(meta[b"bodyvib.units"])
+    assert file_units["head_weighted_rms"] == "m/s2" and file_units["car_kt"] == "N/m"
+    assert set(file_units) == set(schema.names)
+    assert json.loads(meta[b"bodyvib.spec"]) == json.loads(json.dumps(SMALL))
+    versions = json.loads(meta[b"bodyvib.versions"])
+    assert versions["numpy"] == np.__version__ and versions["dask"] and versions["scipy"]
+    assert meta[b"bodyvib.version"].decode() == __version__
+    assert meta[b"bodyvib.created"].decode().endswith("Z")
+    commit = meta[b"bodyvib.commit"].decode()
+    assert commit == "" or len(commit.split("-")[0]) == 40
+    assert json.loads(df["engine_settings"][0])["block_steps"] == 256
+    # the CSV: the same values, units in the header
     from_csv = pd.read_csv(csv)
-    np.testing.assert_allclose(from_csv["head_vdv"], df["head_vdv"], rtol=1e-12)
+    assert "head_vdv [m/s^1.75]" in from_csv.columns and "case_id" in from_csv.columns
+    assert "body_k1 [N/m]" in from_csv.columns and "speed_m_s [m/s]" in from_csv.columns
+    np.testing.assert_array_equal(from_csv["head_vdv [m/s^1.75]"], df["head_vdv"])
     assert not os.path.exists(parts_dir(str(out)))
     # one table with the class ordering physics expects: rougher road, more vibration
     piv = df.groupby(["road"])["head_weighted_rms"].median()
     assert piv["E"] > 3 * piv["C"]
 
 
-def test_tasks_group_cases_of_one_model_length_and_car():
+def test_tasks_are_consecutive_cases_of_any_size():
     cases = expand(SMALL)
-    tasks = plan_tasks(cases, "batched", workers=2, block=5)
-    assert sorted(c.case_id for t in tasks for c in t) == list(range(64))
-    for t in tasks:
-        assert len(t) <= 5
-        assert len({(c.body_model, c.car, c.duration, c.step) for c in t}) == 1
+    tasks = list(plan_tasks(iter(cases), 5))
+    assert [c.case_id for t in tasks for c in t] == list(range(64))
+    assert [len(t) for t in tasks] == [5] * 12 + [4]
+    assert task_size("batched", 10000, 2) == 512 and task_size("batched", 10000, 100) == 25
+    assert task_size("spectral", 10**6, 2) == 20000 and task_size("cosim", 3, 2, block=7) == 7
+
+
+#: How far a case's figures may move with the cases sharing its task: the compiled step
+#: advances each case alone (same bits), and the Wk filter's block product (BLAS) is the
+#: one place where cases meet. Measured: 0 in every grouping since the compiled step;
+#: before it, up to 2.2e-16 m/s2 (2.8e-16 relative) with identical histories.
+GROUPING_RTOL = 1e-15
+
+
+def test_figures_do_not_depend_on_how_cases_are_grouped_into_tasks():
+    figures = ["head_weighted_rms", "head_vdv", "head_peak", "head_crest_factor",
+               "seat_weighted_rms"]
+    whole = run_sweep(SMALL, scheduler="serial", block=64)
+    for block in (1, 5, 13):
+        other = run_sweep(SMALL, scheduler="serial", block=block)
+        for f in figures:
+            np.testing.assert_allclose(other[f], whole[f], rtol=GROUPING_RTOL, atol=0)
 
 
 def test_local_cluster_equals_serial_exactly():
@@ -127,35 +185,14 @@ def test_killed_sweep_resumes_without_running_a_case_twice(tmp_path):
     # what the first run wrote is kept as it was
     kept = df.set_index("case_key").loc[first["case_key"]]
     np.testing.assert_array_equal(kept["head_weighted_rms"], first["head_weighted_rms"])
-    # the same tasks give the same bits (other groupings differ by rounding, 1e-15)
-    fresh = run_sweep(KILL_SPEC, scheduler="serial", block=1)
-    pd.testing.assert_frame_equal(_figures(df), _figures(fresh), check_exact=True)
-    other = run_sweep(KILL_SPEC, scheduler="serial")
-    np.testing.assert_allclose(other["head_weighted_rms"], df["head_weighted_rms"], rtol=1e-13)
+    # the sweep run in one piece gives the same figures (to the grouping tolerance)
+    fresh = run_sweep(KILL_SPEC, scheduler="serial")
+    for f in ("head_weighted_rms", "head_vdv", "head_peak", "seat_weighted_rms"):
+        np.testing.assert_allclose(df[f], fresh[f], rtol=GROUPING_RTOL, atol=0)
     # resuming a finished sweep runs nothing
     said.clear()
     again = run_sweep(str(spec_file), out=out, resume=True, scheduler="serial", echo=said.append)
     assert "30 already done, 0 to run" in said[0] and len(again) == 30
-
-
-@pytest.mark.integration
-def test_ctrl_c_on_a_local_cluster_ends_cleanly_and_resumes(tmp_path):
-    spec_file = tmp_path / "spec.json"
-    spec_file.write_text(json.dumps(KILL_SPEC))
-    out = str(tmp_path / "r.parquet")
-    proc = _cli(str(spec_file), "--out", out, "--block", "1", "--workers", "2")
-    _wait_for_parts(out, proc, 2)
-    proc.send_signal(signal.SIGINT)
-    stdout, stderr = proc.communicate(timeout=60)
-    assert proc.returncode == 130, stderr
-    assert stderr.strip().splitlines()[-1] == "interrupted"
-    partial = pd.read_parquet(out)  # what was done is gathered into the table
-    assert 2 <= len(partial) < 30
-    proc = _cli(str(spec_file), "--out", out, "--resume", "--scheduler", "serial", "--quiet")
-    stdout, stderr = proc.communicate(timeout=120)
-    assert proc.returncode == 0, stderr
-    df = pd.read_parquet(out)
-    assert len(df) == 30 and df["case_key"].is_unique
 
 
 def _one_line_error(capsys, *argv):

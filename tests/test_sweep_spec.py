@@ -110,3 +110,25 @@ def test_the_readme_spec_example_expands():
     cases = expand(spec)
     assert len(cases) == 5 * 5 * (1 + 400) * 2
     assert {c.body for c in cases} == {"iso7962", "reduced-varied"}
+
+
+def test_seed_ranges_in_specs_and_grids():
+    from vehicle.sweep.spec import count_cases, iter_cases
+
+    spec = {"road": "C", "speed": [10, 20], "seed": "0..24", "body": "reduced-paper"}
+    cases = expand(spec)
+    assert sorted({c.seed for c in cases}) == list(range(25)) and len(cases) == 50
+    assert count_cases(spec) == 50 and [c.case_key for c in iter_cases(spec)] == [
+        c.case_key for c in cases]
+    listed = expand({**spec, "seed": list(range(25))})
+    assert [c.case_key for c in listed] == [c.case_key for c in cases]
+    mixed = expand({**spec, "seed": ["0..2", 7]})
+    assert sorted({c.seed for c in mixed}) == [0, 1, 2, 7]
+    assert grid_spec(["seed=0..3,9"])["seed"] == ["0..3", 9]
+    assert sorted({c.seed for c in expand({**grid_spec(["road=C", "speed=10", "seed=0..3,9",
+                                                         "body=reduced-paper"])})}) == [0, 1, 2, 3, 9]
+    for bad in ("3..1", "a..b", "-1..2", "0..", "0...3"):
+        with pytest.raises(BodyvibError, match="FIRST..LAST"):
+            expand({**spec, "seed": bad})
+    with pytest.raises(BodyvibError, match="listed twice"):
+        expand({**spec, "seed": ["0..3", 2]})

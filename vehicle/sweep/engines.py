@@ -41,6 +41,7 @@ import numpy as np
 from bodyvib.comfort.figures import comfort_category, wk_response
 from bodyvib.comfort.stream import ComfortStream
 from bodyvib.frequency.response import frequency_response
+from bodyvib.models import load_model
 from bodyvib.runtime.discretize import Discretization
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import linear_model
@@ -48,9 +49,10 @@ from bodyvib.runtime.network import linear_model
 from ..quarter_car import seated_system
 from ..road.driven import driven_road
 from ..road.synthetic import ISO8608_CLASSES, N_BAND, displacement_psd, road_input
+from .kernel import advance
 from .spec import Case
 
-__all__ = ["ENGINES", "FIGURES", "run_engine", "run_batched", "run_spectral", "run_cosim",
+__all__ = ["ENGINES", "ENGINE_SETTINGS", "FIGURES", "run_engine", "run_batched", "run_spectral", "run_cosim",
            "case_road_input", "check_engine"]
 
 #: Engine names.
@@ -58,6 +60,12 @@ ENGINES = ("batched", "spectral", "cosim")
 #: Figure columns every engine returns (NaN where it has none).
 FIGURES = ("head_weighted_rms", "head_vdv", "head_peak", "head_crest_factor", "head_comfort",
            "seat_weighted_rms", "head_mtvv")
+#: Settings of each engine as stored in the table's ``engine_settings`` column (JSON).
+ENGINE_SETTINGS = {
+    "batched": '{"method": "exact zero-order-hold-plus-slope step", "block_steps": 256}',
+    "spectral": '{"method": "expected Wk r.m.s. from the ISO 8608 PSD", "points": 500}',
+    "cosim": '{"method": "FMU co-simulation, extrapolating master"}',
+}
 #: Points of the spectral engine's log-spaced frequency grid per road band
 #: (0.011-2.83 cycle/m at one speed): relative quadrature error below 1e-7 for
 #: the shipped bodies and cars (5e-8 measured against 32,000 points).
@@ -134,7 +142,11 @@ class _Seated:
         car = cars.get(case.car)
         if car is None:
             car = cars[case.car] = case.car_network()
-        self.lm = linear_model(seated_system(car, case.body_network()))
+        base = cars.get(("body", case.body_model))
+        if base is None:  # the model file read once per task, not once per parameter set
+            base = cars[("body", case.body_model)] = load_model(case.body_model)
+        body = base.with_parameters(**dict(case.body_values)) if case.body_values else base
+        self.lm = linear_model(seated_system(car, body))
         self.seat = car.roles["seat"]
         self.outputs = [self.lm.output_index("body.head.a"), self.lm.output_index(f"{self.seat}.a")]
 
@@ -169,8 +181,9 @@ def _batched_group(cases, models, cars, roads, block_steps, record):
     M = np.empty((c, n + 2, n))
     gz = np.empty((c, n + 2))
     gv = np.empty((c, n + 2))
-    z = np.empty((c, N))
-    v = np.empty((c, N))
+    road = np.empty(c, dtype=np.int64)   # cases share roads: one row per (road, seed, speed)
+    rows_of: Dict[tuple, int] = {}
+    zs, vs = [], []
     for i, (cs, s) in enumerate(zip(cases, sys)):
         lm = s.lm
         with np.errstate(over="ignore", invalid="ignore"):
@@ -186,33 +199,27 @@ def _batched_group(cases, models, cars, roads, block_steps, record):
         gv[i, :n] = G0[:, iv] + G1[:, iz]
         gz[i, n:] = lm.D[s.outputs, iz]
         gv[i, n:] = lm.D[s.outputs, iv]
-        z[i], v[i] = _roads(cs, roads)
+        rkey = (cs.road, cs.seed, cs.speed, cs.duration, cs.step)
+        if rkey not in rows_of:
+            rows_of[rkey] = len(zs)
+            zr, vr = _roads(cs, roads)
+            zs.append(zr)
+            vs.append(vr)
+        road[i] = rows_of[rkey]
+    z, v = np.array(zs), np.array(vs)
     stream = ComfortStream(1.0 / step, 2 * c)
     hist = np.empty((2, c, N)) if record else None
-    # buffers allocated once: no allocation inside the time loop
-    x = np.zeros((c, n, 1))
-    out = np.empty((c, n + 2, 1))
-    drive_buf = np.empty((block_steps, c, n + 2))
-    tmp = np.empty((block_steps, c, n + 2))
-    ys_buf = np.empty((block_steps, c, 2))
+    x = np.zeros((c, n))
+    ys_buf = np.empty((2, c, block_steps))
     for k0 in range(0, N, block_steps):
         k1 = min(N, k0 + block_steps)
-        drive, ys = drive_buf[:k1 - k0], ys_buf[:k1 - k0]
-        np.multiply(z[:, k0:k1].T[:, :, None], gz, out=drive)
-        np.multiply(v[:, k0:k1].T[:, :, None], gv, out=tmp[:k1 - k0])
-        drive += tmp[:k1 - k0]
-        drive4 = drive[..., None]
-        for j in range(k1 - k0):
-            np.matmul(M, x, out=out)
-            out += drive4[j]
-            ys[j] = out[:, n:, 0]
-            x[...] = out[:, :n]
+        ys = ys_buf if k1 - k0 == block_steps else np.empty((2, c, k1 - k0))
+        advance(M, gz, gv, z, v, road, x, k0, ys)   # compiled: one case at a time
         if not np.all(np.isfinite(ys)):
             raise BodyvibError("the response is not finite (parameters out of numerical range?)")
-        y = ys.transpose(2, 1, 0)             # (2, c, samples): head, seat
-        stream.update(y.reshape(2 * c, k1 - k0))
+        stream.update(ys.reshape(2 * c, k1 - k0))   # rows: head of each case, then seat
         if record:
-            hist[:, :, k0:k1] = y
+            hist[:, :, k0:k1] = ys
     fig = stream.figures()
     rows = []
     for i in range(c):

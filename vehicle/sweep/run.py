@@ -1,23 +1,25 @@
-"""Running a sweep: cases grouped into tasks, executed on Dask, written as they arrive.
+"""Running a sweep: cases cut into tasks, executed here or on Dask, written as they arrive.
 
-:func:`run_sweep` expands a spec (:mod:`vehicle.sweep.spec`), skips the cases
-already in the output when resuming, groups the rest into tasks (blocks of
-cases with the same body model, car, duration and step, so that the batched
-engine advances a whole block with one matrix product per step), runs them on
-a Dask scheduler -- a :class:`distributed.LocalCluster` with one
-single-threaded worker process per core by default, any scheduler address, or
-``"serial"`` in-process -- and collects the results with
-:func:`distributed.as_completed`.
+:func:`run_sweep` validates a spec (:mod:`vehicle.sweep.spec`) and checks the
+outputs before any work, skips the cases already stored when resuming, cuts
+the pending case numbers into tasks of consecutive cases (:func:`plan_tasks`,
+sized by :func:`task_size` from the cluster's threads) and runs them in this
+process or on Dask (:mod:`vehicle.sweep.cluster`: a LocalCluster of
+single-threaded worker processes by default, any scheduler address or
+scheduler file). A task is an array of case numbers; it returns its rows as
+Parquet bytes.
 
-Output: each finished task is written at once, atomically, as one Parquet file
-in ``OUT.parts/``; at the end (and on Ctrl-C) all rows are gathered into
-``OUT`` (atomically, sorted by ``case_id``) and the parts are deleted. A sweep
-killed at any point keeps every finished task; ``resume=True`` reads ``OUT``
-and ``OUT.parts/``, refuses an output written by another spec, and runs only
-the cases whose ``case_key`` is missing.
+Output: each finished task is written at once, atomically, as one Parquet part
+in ``OUT.parts/``; at the end the parts are streamed into ``OUT`` (and the
+CSV) by ``case_id``, all outputs or none (:mod:`vehicle.sweep.table`), and
+deleted. A sweep that is interrupted, killed or loses its cluster keeps every
+finished task; ``resume=True`` refuses an output written by another spec and
+runs only the cases not stored (``retry_failed=True``: also those stored
+with an error).
 
-The table, one row per case (:data:`BASE_COLUMNS`, then one ``body_<name>``
-column per varied body parameter in SI units):
+The table, one row per case (:data:`BASE_COLUMNS`, with one ``body_<name>``
+and ``car_<name>`` column per parameter of every model after ``car``; units
+in the schema, see :mod:`vehicle.sweep.table`):
 
 ================== ===========================================================
 case_id, case_key  position in the spec; hash identifying the case
@@ -36,6 +38,7 @@ seat_weighted_rms  seat (the car's seat point) Wk-weighted r.m.s., m/s2
 head_mtvv          head maximum transient vibration value (largest 1 s running
                    r.m.s.), m/s2 (NaN for ``spectral``)
 engine             ``batched``, ``spectral`` or ``cosim``
+engine_settings    the engine's settings (JSON)
 error              why the case failed (empty when it did not)
 bodyvib_version    version that computed the row
 spec_hash          hash of the spec and the files it names
@@ -43,91 +46,104 @@ run_id             the invocation that computed the row
 ================== ===========================================================
 """
 
-import io
+import json
 import math
 import os
 import shutil
 import sys
+import tempfile
+import time
 import uuid
-from typing import Callable, Dict, List, Optional, Sequence, Union
+from itertools import islice
+from typing import Callable, Dict, Iterator, List, Optional, Sequence, Union
+
+import numpy as np
+from numpy.linalg import LinAlgError
 
 from bodyvib import __version__
 from bodyvib.process import interrupts
+from bodyvib.process.outputs import atomic_write_bytes, check_outputs, open_staged, staged_writes
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib.process.outputs import atomic_write_bytes, atomic_write_text
 
-from .engines import FIGURES, check_engine, run_engine
-from .spec import Case, expand, load_spec, spec_hash, varied_parameters
+from .cluster import ClusterLost, open_cluster, run_tasks
+from .engines import ENGINE_SETTINGS, FIGURES, check_engine, run_engine
+from .spec import Case, _Prepared, load_spec, spec_hash
+from .table import (REPLACES_OUT, assemble, part_bytes, part_name, parts_dir, provenance, scan,
+                    table_schema, units, write_part)
 
-__all__ = ["BASE_COLUMNS", "run_sweep", "plan_tasks", "read_results", "parts_dir"]
+__all__ = ["BASE_COLUMNS", "run_sweep", "plan_tasks", "read_results", "parts_dir",
+           "task_size"]
 
-#: Columns of every sweep table, in order (``body_<parameter>`` columns follow ``car``).
+#: Columns of every sweep table, in order (``body_<parameter>`` and ``car_<parameter>``
+#: columns, every parameter of every model of the sweep, follow ``car``).
 BASE_COLUMNS = ("case_id", "case_key", "road", "seed", "speed_m_s", "duration_s", "step_s",
                 "body", "body_model", "body_sample", "car") + FIGURES + (
-                "engine", "error", "bodyvib_version", "spec_hash", "run_id")
+                "engine", "engine_settings", "error", "bodyvib_version", "spec_hash", "run_id")
+
+#: Cases per task: (smallest, largest) by engine; between them, four tasks per worker thread.
+TASK_SIZES = {"batched": (16, 512), "spectral": (200, 20000), "cosim": (1, 16)}
 
 
-def parts_dir(out: str) -> str:
-    """Folder holding the per-task files of a running sweep (``OUT.parts``).
+def task_size(engine: str, cases: int, threads: int, block: Optional[int] = None) -> int:
+    """Cases per task: ``block`` if given, else four tasks per worker thread within the engine's bounds.
 
     Parameters
     ----------
-    out : str
-        The sweep's output file.
+    engine : str
+    cases : int
+        Cases to run.
+    threads : int
+        Worker threads of the cluster (1 in this process).
+    block : int, optional
 
     Returns
     -------
-    str
+    int
 
     Examples
     --------
-    >>> parts_dir("results.parquet")
-    'results.parquet.parts'
+    >>> task_size("batched", 10000, 2), task_size("batched", 10000, 100)
+    (512, 25)
     """
-    return os.fspath(out) + ".parts"
+    if block is not None:
+        return max(1, int(block))
+    lo, hi = TASK_SIZES[engine]
+    return min(hi, max(lo, math.ceil(cases / max(1, 4 * threads))))
 
 
-def _schema(params: Sequence[str]):
-    import pyarrow as pa
+def plan_tasks(cases, block: int) -> Iterator[List[Case]]:
+    """Cut a stream of cases into tasks of ``block`` consecutive cases (made lazily).
 
-    types = {"case_id": pa.int64(), "seed": pa.int64(), "body_sample": pa.int64(),
-             "speed_m_s": pa.float64(), "duration_s": pa.float64(), "step_s": pa.float64()}
-    for f in FIGURES:
-        if f != "head_comfort":
-            types[f] = pa.float64()
-    names = list(BASE_COLUMNS)
-    at = names.index("car") + 1
-    names[at:at] = [f"body_{p}" for p in params]
-    for p in params:
-        types[f"body_{p}"] = pa.float64()
-    return pa.schema([(n, types.get(n, pa.string())) for n in names])
+    Consecutive cases share their road, seed and speed (the spec's outer keys),
+    so a task generates few roads; the batched engine groups a task's cases by
+    state size itself. The figures of a case do not depend on the task it is in.
 
+    Parameters
+    ----------
+    cases : iterable of Case
+    block : int
 
-def _row(case: Case, figures: dict, engine: str, sh: str, run_id: str, params) -> dict:
-    values = dict(case.body_values)
-    row = {"case_id": case.case_id, "case_key": case.case_key, "road": case.road,
-           "seed": case.seed, "speed_m_s": case.speed, "duration_s": case.duration,
-           "step_s": case.step, "body": case.body, "body_model": case.body_model,
-           "body_sample": case.body_sample, "car": case.car}
-    for p in params:
-        row[f"body_{p}"] = values.get(p, float("nan"))
-    row.update({k: figures.get(k) for k in FIGURES})
-    row.update(engine=engine, error=figures.get("error"), bodyvib_version=__version__,
-               spec_hash=sh, run_id=run_id)
-    return row
+    Yields
+    ------
+    list of Case
 
-
-def _parquet_bytes(rows: List[dict], schema) -> bytes:
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
-    buf = io.BytesIO()
-    pq.write_table(pa.Table.from_pylist(rows, schema=schema), buf)
-    return buf.getvalue()
+    Examples
+    --------
+    >>> from vehicle.sweep.spec import expand
+    >>> cases = expand({"road": ["C", "D"], "speed": [10, 20], "body": ["reduced-paper", "iso7962"]})
+    >>> [len(t) for t in plan_tasks(cases, 3)]
+    [3, 3, 2]
+    """
+    it = iter(cases)
+    while True:
+        task = list(islice(it, block))
+        if not task:
+            return
+        yield task
 
 
 def read_results(out: str):
-    """Rows of a sweep output so far: ``OUT`` and ``OUT.parts/`` (duplicates dropped).
+    """Rows of a sweep output so far: ``OUT`` and ``OUT.parts/``, one per case, by ``case_id``.
 
     Parameters
     ----------
@@ -144,126 +160,137 @@ def read_results(out: str):
     BodyvibError
         A file that is not a sweep table.
     """
-    import pandas as pd
+    import io
+
     import pyarrow.parquet as pq
 
-    frames = []
-    files = [out] if os.path.isfile(out) else []
-    pd_dir = parts_dir(out)
-    if os.path.isdir(pd_dir):
-        files += [os.path.join(pd_dir, f) for f in sorted(os.listdir(pd_dir))
-                  if f.endswith(".parquet") and not f.startswith(".")]
-    for f in files:
-        try:
-            frames.append(pq.read_table(f).to_pandas())
-        except Exception as exc:
-            raise BodyvibError(f"'{f}' is not a readable sweep table: {exc}") from None
-    if not frames:
+    found = scan(out)
+    if not found.rows:
         return None
-    df = pd.concat(frames, ignore_index=True)
-    if "case_key" not in df.columns:
-        raise BodyvibError(f"'{out}' is not a sweep table (no case_key column)")
-    return df.drop_duplicates("case_key", keep="first")
+    schema = pq.read_schema(found.sources[-1])
+    buf = io.BytesIO()
+    assemble(found, schema, out_file=buf)
+    buf.seek(0)
+    return pq.read_table(buf).to_pandas()
 
 
-def plan_tasks(cases: Sequence[Case], engine: str, workers: int = 1,
-               block: Optional[int] = None) -> List[List[Case]]:
-    """Group cases into tasks.
+class _Rows:
+    """Turns a task's figures into table columns: the case, every model parameter, provenance."""
 
-    Cases with the same body model, car, duration and step go together (the
-    batched engine advances a task's cases in one array), ordered by body
-    parameters so that cases sharing a model are adjacent; each group is cut
-    into blocks of ``block`` cases.
+    def __init__(self, prep: _Prepared, engine: str, sh: str, run_id: str):
+        from vehicle.quarter_car import load_car
 
-    Parameters
-    ----------
-    cases : sequence of Case
-    engine : str
-    workers : int
-        Workers the tasks are for: by default blocks are sized to give each
-        worker at least four tasks.
-    block : int, optional
-        Cases per task. Default: batched 16-512, spectral 20,000, cosim 1-16
-        (its FMUs are built once per task).
+        from bodyvib.models import load_model
 
-    Returns
-    -------
-    list of list of Case
+        self.prep, self.engine, self.sh, self.run_id = prep, engine, sh, run_id
+        self.base = {m: load_model(m) for m in dict.fromkeys(b[1] for b in prep.bodies)}
+        self.cars = {c: load_car(c) for c in prep.cars}
+        body_units: Dict[str, str] = {}
+        for net in self.base.values():
+            for p in net.parameters:
+                body_units.setdefault(p, net.units.get(p, ""))
+        car_units: Dict[str, str] = {}
+        for net in self.cars.values():
+            for p in net.parameters:
+                car_units.setdefault(p, net.units.get(p, ""))
+        self.body_params, self.car_params = list(body_units), list(car_units)
+        self.schema = table_schema(body_units, car_units, FIGURES)
+        self.settings = ENGINE_SETTINGS[engine]
+        self._body_values: Dict[tuple, dict] = {}
 
-    Examples
-    --------
-    >>> from vehicle.sweep.spec import expand
-    >>> cases = expand({"road": ["C", "D"], "speed": [10, 20], "body": ["reduced-paper", "iso7962"]})
-    >>> [len(t) for t in plan_tasks(cases, "batched", block=3)]
-    [3, 1, 3, 1]
+    def _body(self, case: Case) -> dict:
+        key = (case.body_model, case.body_values)
+        v = self._body_values.get(key)
+        if v is None:
+            if len(self._body_values) > 4096:
+                self._body_values.clear()
+            v = {**self.base[case.body_model].parameters, **dict(case.body_values)}
+            v = self._body_values[key] = {p: float(v.get(p, math.nan)) for p in self.body_params}
+        return v
+
+    def columns(self, cases: Sequence[Case], figures: Sequence[dict]) -> Dict[str, list]:
+        if len(cases) != len(figures):
+            raise BodyvibError(f"an engine returned {len(figures)} rows for {len(cases)} cases")
+        cols: Dict[str, list] = {n: [] for n in self.schema.names}
+        for c, f in zip(cases, figures):
+            for name, value in (("case_id", c.case_id), ("case_key", c.case_key),
+                                ("road", c.road), ("seed", c.seed), ("speed_m_s", c.speed),
+                                ("duration_s", c.duration), ("step_s", c.step),
+                                ("body", c.body), ("body_model", c.body_model),
+                                ("body_sample", c.body_sample), ("car", c.car)):
+                cols[name].append(value)
+            for p, x in self._body(c).items():
+                cols[f"body_{p}"].append(x)
+            car = self.cars[c.car].parameters
+            for p in self.car_params:
+                cols[f"car_{p}"].append(float(car.get(p, math.nan)))
+            for k in FIGURES:
+                cols[k].append(f.get(k))
+            cols["engine"].append(self.engine)
+            cols["engine_settings"].append(self.settings)
+            cols["error"].append(f.get("error"))
+            cols["bodyvib_version"].append(__version__)
+            cols["spec_hash"].append(self.sh)
+            cols["run_id"].append(self.run_id)
+        return cols
+
+
+class _Work:
+    """What a task computes: the rows of some cases (by ``case_id``) as Parquet bytes.
+
+    Sent to each worker once; a task is only an array of case numbers, so the
+    client holds little per case in flight, and the rows are made where the
+    figures are.
     """
-    if block is None:
-        share = math.ceil(len(cases) / max(1, 4 * workers)) if cases else 1
-        block = {"batched": min(512, max(16, share)), "spectral": 20000,
-                 "cosim": min(16, max(1, share))}[engine]
-    block = max(1, int(block))
-    groups: Dict[tuple, List[Case]] = {}
-    for c in cases:
-        groups.setdefault((c.body_model, c.car, c.duration, c.step), []).append(c)
-    tasks = []
-    for group in groups.values():
-        group = sorted(group, key=lambda c: (c.body_values, c.case_id))
-        tasks += [group[i:i + block] for i in range(0, len(group), block)]
-    return tasks
 
+    def __init__(self, rows: "_Rows", engine: str):
+        self.rows, self.engine = rows, engine
 
-def _check_output(path, what):
-    if path is None:
-        return
-    folder = os.path.dirname(os.path.abspath(path))
-    probe = folder
-    while not os.path.isdir(probe):
-        parent = os.path.dirname(probe)
-        if parent == probe:
-            break
-        probe = parent
-    if os.path.isdir(path):
-        raise BodyvibError(f"{what} '{path}' is a folder")
-    if not os.access(probe, os.W_OK):
-        raise BodyvibError(f"cannot write {what} '{path}': folder '{probe}' is not writable")
+    def cases(self, ids) -> List[Case]:
+        return [self.rows.prep.case_at(i) for i in ids]
 
+    def failed(self, ids, exc) -> bytes:
+        cases = self.cases(ids)
+        return part_bytes(self.rows.columns(cases, _failed_rows(cases, exc)), self.rows.schema)
 
-def _client(scheduler, workers):
-    """(client, cluster, scratch folder or None) for a scheduler setting."""
-    import logging
-    import tempfile
-
-    from dask.distributed import Client, LocalCluster
-
-    if scheduler in (None, "local"):
-        import dask
-
-        # Dask's workers return freed memory to the system at once (glibc
-        # MALLOC_TRIM_THRESHOLD_ = 64 kB), which made the batched engine's
-        # block buffers fault in again and again: 1.36x the in-process time
-        # against 1.12x with the default threshold (measured).
-        # the workers' scratch space goes into a folder of this run, deleted after it
-        scratch = tempfile.mkdtemp(prefix="bodyvib-sweep-dask-")
+    def __call__(self, ids) -> bytes:
+        cases = self.cases(ids)
         try:
-            with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_":
-                                  128 * 1024 * 1024, "temporary-directory": scratch}):
-                cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                       dashboard_address=None, silence_logs=logging.ERROR,
-                                       local_directory=scratch)
-            return Client(cluster), cluster, scratch
-        except BaseException:
-            shutil.rmtree(scratch, ignore_errors=True)
-            raise
-    try:
-        return Client(scheduler, timeout="5s"), None, None
-    except Exception as exc:
-        raise BodyvibError(f"cannot connect to the Dask scheduler '{scheduler}': {exc}") from None
+            figures = run_engine(self.engine, cases)
+        except (BodyvibError, ArithmeticError, ValueError, MemoryError, LinAlgError) as exc:
+            figures = _failed_rows(cases, exc)  # the task's own failure: its cases failed
+        return part_bytes(self.rows.columns(cases, figures), self.rows.schema)
+
+
+def _run_work(work: _Work, ids) -> bytes:
+    """A sweep task on a worker."""
+    return work(ids)
+
+
+def _failed_rows(task, exc):
+    msg = f"task failed: {type(exc).__name__}: {exc}"
+    return [{"error": msg} for _ in task]
+
+
+def _spec_inputs(spec: dict, spec_path: Optional[str]):
+    """(option, path) of the files a sweep reads: its spec and the model files it names."""
+    inputs = [("SPEC", spec_path)] if spec_path else []
+    for key in ("body", "car"):
+        entries = spec.get(key, [])
+        for e in entries if isinstance(entries, list) else [entries]:
+            src = e.get("model") if isinstance(e, dict) else e
+            if isinstance(src, str) and os.path.isfile(src):
+                inputs.append((f"spec {key}", src))
+    return inputs
 
 
 def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "batched",
               scheduler: Optional[str] = None, resume: bool = False, overwrite: bool = False,
               csv: Optional[str] = None, progress: bool = False, block: Optional[int] = None,
-              workers: Optional[int] = None, echo: Optional[Callable[[str], None]] = None):
+              workers: Optional[int] = None, echo: Optional[Callable[[str], None]] = None,
+              retry_failed: bool = False, scheduler_file: Optional[str] = None,
+              connect_timeout: float = 10.0, worker_timeout: float = 60.0,
+              table: bool = True):
     """Run a sweep and return its table.
 
     Parameters
@@ -272,43 +299,62 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
         A spec (:mod:`vehicle.sweep.spec`) or the path of a JSON spec.
     out : str, optional
         Parquet file for the table (also the key of ``--resume``); None keeps
-        the table in memory only.
+        the table in memory (and in ``csv``) only.
     engine : str
         ``"batched"`` (default), ``"spectral"`` or ``"cosim"``.
     scheduler : str, optional
         None or ``"local"``: a LocalCluster of ``workers`` single-threaded
         processes (None: in this process when all cases make one task);
-        ``"serial"``: in this process, no Dask; otherwise the
-        address of a running Dask scheduler (``tcp://host:8786``), whose
-        workers must have bodyvib installed.
+        ``"serial"``: in this process, no Dask; otherwise the address of a
+        running Dask scheduler (``tcp://host:8786``), whose workers must have
+        bodyvib installed.
     resume : bool
-        Keep the rows already in ``out`` (and its parts) and run the rest.
+        Keep the cases already in ``out`` (and its parts) and run the rest.
     overwrite : bool
         Replace an existing ``out`` instead of refusing.
     csv : str, optional
-        Also write the table as CSV.
+        Also write the table as CSV (header ``name [unit]``).
     progress : bool
         Progress bar on stderr.
     block : int, optional
-        Cases per task (see :func:`plan_tasks`).
+        Cases per task (default: :func:`task_size`).
     workers : int, optional
         LocalCluster size (default: the number of cores).
     echo : callable, optional
         Called with one-line status messages.
+    retry_failed : bool
+        With ``resume``: run again the cases stored with an error.
+    scheduler_file : str, optional
+        Connect to the scheduler of this file instead (``dask scheduler
+        --scheduler-file``, dask-jobqueue).
+    connect_timeout : float
+        Seconds to wait for a scheduler to answer.
+    worker_timeout : float
+        Seconds to wait for a first worker, and the longest a running sweep
+        goes on without any worker.
+    table : bool
+        Return the table (False: return None; the table is only on disk,
+        which a million-case sweep needs).
 
     Returns
     -------
-    pandas.DataFrame
+    pandas.DataFrame or None
         One row per case, sorted by ``case_id`` (columns in the module docstring).
 
     Raises
     ------
     BodyvibError
-        A bad spec or engine, an output that exists (without ``resume`` or
-        ``overwrite``) or cannot be written, an output of another spec on
-        resume, an unreachable scheduler.
+        A bad spec or engine; an output that exists (without ``resume`` or
+        ``overwrite``), cannot be written, or is one of the sweep's inputs; an
+        output of another spec on resume; an unreachable scheduler or no worker
+        in time.
+    vehicle.sweep.cluster.ClusterLost
+        The cluster lost tasks (scheduler gone, workers dead, no worker): the
+        finished cases are kept in ``OUT.parts/``, the lost ones are not
+        written, and ``resume`` runs them.
     KeyboardInterrupt
-        After writing what was done (resumable).
+        Ctrl-C: the finished tasks are kept in ``OUT.parts/`` (``resume``
+        continues), ``out`` and ``csv`` are left as they were.
 
     Examples
     --------
@@ -318,134 +364,166 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
     ([10.0, 20.0], True)
     """
     say = echo or (lambda msg: None)
+    spec_path = None
     if isinstance(spec, (str, os.PathLike)):
-        spec = load_spec(os.fspath(spec))
-    cases = expand(spec)
-    check_engine(engine, cases)
+        spec_path = os.fspath(spec)
+        spec = load_spec(spec_path)
+    prep = _Prepared(spec)
+    check_engine(engine, [_RoadOnly(r) for r in prep.roads])
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
                                 or workers < 1):
         raise BodyvibError(f"workers must be a positive integer, got {workers!r}")
-    workers = workers or os.cpu_count() or 1
-    sh = spec_hash(spec)
-    params = varied_parameters(cases)
-    schema = _schema(params)
+    for value, name in ((connect_timeout, "connect_timeout"), (worker_timeout, "worker_timeout")):
+        if not (isinstance(value, (int, float)) and 0 < value < math.inf):
+            raise BodyvibError(f"{name} must be a positive number of seconds, got {value!r}")
+    if retry_failed and not resume:
+        raise BodyvibError("--retry-failed goes with --resume")
     if resume and out is None:
-        raise BodyvibError("resume needs an output file")
-    _check_output(out, "output")
-    _check_output(csv, "CSV output")
-    done = None
+        raise BodyvibError("resume needs an output file (--out)")
+    if out is None and csv is None and not table:
+        raise BodyvibError("give an output file (--out and/or --csv)")
+    workers = workers or os.cpu_count() or 1
+    check_outputs([("--out", out, None), ("--csv", csv, None)], _spec_inputs(spec, spec_path))
+    sh = spec_hash(spec)
+    done = np.zeros(prep.count, dtype=bool)   # per case: kept from an earlier run
     if out is not None:
         if resume:
-            done = read_results(out)
-            if done is not None:
-                other = sorted(set(done["spec_hash"]) - {sh})
+            found = scan(out)
+            if found.rows:
+                other = sorted(found.spec_hashes - {sh})
                 if other:
                     raise BodyvibError(f"'{out}' holds rows of another spec (hash {other[0]}, "
                                        f"this spec {sh}); use another output file")
-                done = done[done["case_key"].isin({c.case_key for c in cases})]
+                done = found.done(prep.count, retry_failed)
         elif (os.path.exists(out) or os.path.isdir(parts_dir(out))) and not overwrite:
             raise BodyvibError(f"output '{out}' exists; pass --resume to continue that sweep or "
                                "--overwrite to replace it")
-        elif overwrite:
-            shutil.rmtree(parts_dir(out), ignore_errors=True)
-    done_keys = set(done["case_key"]) if done is not None else set()
-    todo = [c for c in cases if c.case_key not in done_keys]
+    total = prep.count
+    todo = total - int(done.sum())
+    local = scheduler in (None, "local") and scheduler_file is None
+    serial = scheduler == "serial" or (scheduler is None and scheduler_file is None
+                                       and todo <= task_size(engine, todo, workers, block))
     run_id = uuid.uuid4().hex[:12]
-    tasks = plan_tasks(todo, engine, workers=workers, block=block)  # same tasks on any scheduler
-    say(f"sweep: {len(cases)} cases, {len(done_keys)} already done, {len(todo)} to run in "
-        f"{len(tasks)} tasks, engine {engine}, "
-        + ("in this process" if scheduler == "serial" or (scheduler is None and len(tasks) == 1) else
-           f"LocalCluster of {workers} workers" if scheduler in (None, "local") else
-           f"scheduler {scheduler}"))
-    new_rows: List[dict] = []
-    part_folder = parts_dir(out) if out is not None else None
-
-    def arrived(task_no, task, figures):
-        rows = [_row(c, f, engine, sh, run_id, params) for c, f in zip(task, figures)]
-        new_rows.extend(rows)
-        if part_folder is not None:
-            atomic_write_bytes(os.path.join(part_folder, f"part-{run_id}-{task_no:06d}.parquet"),
-                               _parquet_bytes(rows, schema))
-        if bar is not None:
-            bar.update(len(rows))
-
+    start_ns = time.time_ns()
+    rows = _Rows(prep, engine, sh, run_id)
+    schema = rows.schema.with_metadata({**provenance(spec, engine),
+                                        "bodyvib.units": json.dumps(units(rows.schema))})
+    replaces = out is not None and overwrite and not resume
+    if replaces:
+        shutil.rmtree(parts_dir(out), ignore_errors=True)
+    folder = parts_dir(out) if out is not None else tempfile.mkdtemp(prefix="bodyvib-sweep-parts-")
     bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=len(cases), initial=len(done_keys), unit="case", file=sys.stderr,
-                   desc="sweep", mininterval=0.5, disable=None)
-    # one task and no scheduler asked for: starting a cluster would cost more than the task
-    serial = scheduler == "serial" or (scheduler is None and len(tasks) == 1)
     try:
-        if tasks and serial:
-            for i, task in enumerate(tasks):
-                arrived(i, task, run_engine(engine, task))
-                interrupts.check()  # Ctrl-C: stop between tasks, keep what arrived
-        elif tasks:
-            from dask.distributed import as_completed
+        if progress:
+            from tqdm import tqdm
 
-            client, cluster, scratch = _client(scheduler, workers)
-            try:
-                futures = {client.submit(run_engine, engine, task, pure=False): i
-                           for i, task in enumerate(tasks)}
-                for fut in as_completed(futures):
-                    i = futures[fut]
-                    try:
-                        figures = fut.result()
-                    except Exception as exc:  # a lost worker: the task's cases are failed
-                        figures = [{"error": f"task failed: {type(exc).__name__}: {exc}"}
-                                   for _ in tasks[i]]
-                    arrived(i, tasks[i], figures)
-                    fut.release()
-                    interrupts.check()  # Ctrl-C: stop between arrivals, keep what arrived
-            finally:
-                client.close()
-                if cluster is not None:
-                    cluster.close()
-                if scratch is not None:
-                    shutil.rmtree(scratch, ignore_errors=True)
-    except KeyboardInterrupt:
+            bar = tqdm(total=total, initial=total - todo, unit="case", file=sys.stderr,
+                       desc="sweep", mininterval=0.5, disable=None)
+
+        def pending():
+            """Case numbers to run, lazily: consecutive cases of one road (batched) or of one
+            model (spectral and cosim: one frequency response, one FMU build per task)."""
+            inner = len(prep.bodies) * len(prep.cars)
+            if engine == "batched":
+                order = iter(range(total))
+            else:
+                order = (i * inner + j for j in range(inner) for i in range(total // inner))
+            return (k for k in order if not done[k])
+
+        def tasks(size):
+            it = pending()
+            while True:
+                ids = np.fromiter(islice(it, size), dtype=np.int64)
+                if not len(ids):
+                    return
+                yield ids
+
+        work = _Work(rows, engine)
+
+        def arrived(task_no, ids, data):
+            if replaces and not os.path.exists(os.path.join(folder, REPLACES_OUT)):
+                # until the table is written, the parts are the sweep and OUT is not
+                atomic_write_bytes(os.path.join(folder, REPLACES_OUT), b"")
+            if isinstance(data, BaseException):  # the task raised by itself
+                data = work.failed(ids, data)
+            write_part(folder, part_name(start_ns, run_id, task_no), data)
+            if bar is not None:
+                bar.update(len(ids))
+
+        if todo and serial:
+            size = task_size(engine, todo, 1, block)
+            say(f"sweep: {total} cases, {total - todo} already done, {todo} to run in "
+                f"{math.ceil(todo / size)} tasks, engine {engine}, in this process")
+            for i, ids in enumerate(tasks(size)):
+                arrived(i, ids, work(ids))
+                interrupts.check()  # Ctrl-C: stop between tasks, keep what arrived
+        elif todo:
+            with open_cluster(None if local else scheduler, scheduler_file, workers,
+                              connect_timeout, worker_timeout) as cluster:
+                threads = cluster.threads(connect_timeout)
+                size = task_size(engine, todo, threads, block)
+                window = max(2, 2 * threads)   # one running and one waiting per thread
+                say(f"sweep: {total} cases, {total - todo} already done, {todo} to run in "
+                    f"{math.ceil(todo / size)} tasks, engine {engine}, {cluster.where} "
+                    f"({threads} threads)")
+                try:
+                    run_tasks(cluster, _run_work, tasks(size), window, arrived, worker_timeout,
+                              connect_timeout, shared=work)
+                except ClusterLost as exc:
+                    where = (f"kept in {folder}/: run again with --resume" if out is not None
+                             else "lost (no --out)")
+                    raise ClusterLost(f"{exc}; the sweep is incomplete, the cases finished are "
+                                      f"{where}") from None
+        else:
+            say(f"sweep: {total} cases, {total} already done, 0 to run")
+        if bar is not None:
+            bar.close()
+            bar = None
+        found = scan(out, folder)
+        result = None
+        try:
+            with staged_writes(guard=interrupts.critical),                     _open(out) as fout, _open(csv) as fcsv:
+                n = assemble(found, schema, fout, fcsv, interrupts.check)
+        except OSError as exc:
+            kept = f"; the finished cases are kept in {folder}/ (--resume)" if out else ""
+            raise BodyvibError(f"cannot write '{exc.filename}': {exc.strerror or exc}{kept}") from None
         if out is not None:
-            _gather(out, done, new_rows, schema, None)
-        raise
+            shutil.rmtree(folder, ignore_errors=True)
+        failed = found.failed()
+        say(f"sweep: {n} cases" + (f", {failed} failed (see the error column; --resume "
+                                  "--retry-failed runs them again)" if failed else "")
+            + (f"; wrote {out}" if out else ""))
+        if table:
+            import pandas as pd
+
+            result = pd.read_parquet(out) if out is not None else _read_folder(found, schema)
+        return result
     finally:
         if bar is not None:
             bar.close()
-    df = _table(done, new_rows, schema)
-    if out is not None:
-        _gather(out, done, new_rows, schema, csv, df)
-    elif csv is not None:
-        atomic_write_text(csv, df.to_csv(index=False))
-    failed = int(df["error"].notna().sum()) if len(df) else 0
-    say(f"sweep: {len(df)} cases" + (f", {failed} failed (see the error column)" if failed else "")
-        + (f"; wrote {out}" if out else ""))
-    return df
+        if out is None:
+            shutil.rmtree(folder, ignore_errors=True)
 
 
-def _table(done, new_rows, schema):
-    import pandas as pd
-    import pyarrow as pa
+class _RoadOnly:
+    """What :func:`check_engine` looks at: a case's road."""
 
-    new = pa.Table.from_pylist(new_rows, schema=schema).to_pandas()
-    frames = [f for f in (done, new) if f is not None and len(f)]
-    if not frames:
-        return new
-    df = pd.concat([f[new.columns] for f in frames], ignore_index=True)
-    return df.sort_values("case_id", kind="stable").reset_index(drop=True)
+    def __init__(self, road):
+        self.road = road
 
 
-def _gather(out, done, new_rows, schema, csv, df=None):
-    """Write all rows so far into ``out`` (and ``csv``), then drop the parts."""
-    import pyarrow as pa
+def _open(path):
+    import contextlib
+
+    return open_staged(path, "wb") if path is not None else contextlib.nullcontext()
+
+
+def _read_folder(found, schema):
+    import io
+
     import pyarrow.parquet as pq
 
-    if df is None:
-        df = _table(done, new_rows, schema)
-    table = pa.Table.from_pandas(df, schema=schema, preserve_index=False)
     buf = io.BytesIO()
-    pq.write_table(table, buf)
-    atomic_write_bytes(out, buf.getvalue())
-    if csv is not None:
-        atomic_write_text(csv, df.to_csv(index=False))
-    shutil.rmtree(parts_dir(out), ignore_errors=True)
+    assemble(found, schema, out_file=buf)
+    buf.seek(0)
+    return pq.read_table(buf).to_pandas()

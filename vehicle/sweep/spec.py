@@ -9,7 +9,7 @@ the order road, seed, speed, duration, step, body, car)::
                                            (.crg, .csv, .erd; relative to the working folder)
       "road_options": {"taper": 5},        how roads are driven: taper (m), track (m), units,
                                            envelope, repeat (as the --road-* options)
-      "seed": [0],                         random-road seed(s) (no effect on bump/sweep)
+      "seed": [0],                         random-road seed(s), or a range "0..24" (no effect on bump/sweep)
       "speed": [10, 15, 20, 25, 30],       m/s
       "duration": 30,                      s
       "step": 0.001,                       s
@@ -43,7 +43,7 @@ import math
 import os
 from dataclasses import dataclass
 from itertools import product
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Dict, Iterator, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -57,7 +57,8 @@ from ..road.driven import RoadOptions, is_road_file, road_label
 from ..study import check_settings
 from ..quarter_car import load_car
 
-__all__ = ["Case", "SPEC_KEYS", "load_spec", "grid_spec", "expand", "spec_hash", "varied_parameters"]
+__all__ = ["Case", "SPEC_KEYS", "load_spec", "grid_spec", "expand", "iter_cases", "count_cases",
+           "spec_hash", "varied_parameters", "seed_range"]
 
 #: Keys of a spec and their defaults (None: required).
 SPEC_KEYS = {"road": None, "seed": 0, "speed": None, "duration": 30.0, "step": 1e-3,
@@ -136,6 +137,45 @@ class Case:
 
 def _list(value):
     return list(value) if isinstance(value, (list, tuple)) else [value]
+
+
+def seed_range(text: str) -> List[int]:
+    """Seeds of a range written ``"FIRST..LAST"`` (both included).
+
+    Parameters
+    ----------
+    text : str
+
+    Returns
+    -------
+    list of int
+
+    Raises
+    ------
+    BodyvibError
+        Not two non-negative integers with FIRST <= LAST.
+
+    Examples
+    --------
+    >>> seed_range("0..3")
+    [0, 1, 2, 3]
+    """
+    first, sep, last = str(text).partition("..")
+    try:
+        a, b = int(first), int(last)
+    except ValueError:
+        a = b = -1
+    if not sep or a < 0 or b < a:
+        raise BodyvibError(f"spec: seed range '{text}' must look like FIRST..LAST with "
+                           "0 <= FIRST <= LAST, e.g. 0..24")
+    return list(range(a, b + 1))
+
+
+def _seed_list(value) -> list:
+    out = []
+    for v in _list(value):
+        out += seed_range(v) if isinstance(v, str) else [v]
+    return out
 
 
 def _number(v, what, unit, integer=False):
@@ -217,7 +257,9 @@ def grid_spec(items: Sequence[str], duration: float = 30.0, step: float = 1e-3,
             raise BodyvibError(f"--grid key '{key}' is given twice")
         seen.add(key)
         parts = [v.strip() for v in values.split(",") if v.strip()]
-        if key in ("speed", "duration", "step", "seed"):
+        if key == "seed" and any(".." in v for v in parts):
+            parts = [v if ".." in v else _grid_number(v, key, values) for v in parts]
+        elif key in ("speed", "duration", "step", "seed"):
             try:
                 nums = [float(v) for v in parts]
             except ValueError:
@@ -225,6 +267,14 @@ def grid_spec(items: Sequence[str], duration: float = 30.0, step: float = 1e-3,
             parts = [int(v) for v in nums] if key == "seed" and all(v.is_integer() for v in nums) else nums
         spec[key] = parts
     return spec
+
+
+def _grid_number(v, key, values):
+    try:
+        x = float(v)
+    except ValueError:
+        raise BodyvibError(f"--grid {key}: '{values}' is not a list of numbers") from None
+    return int(x) if x.is_integer() else x
 
 
 def _file_digest(source: str) -> Optional[str]:
@@ -351,9 +401,153 @@ def _digest(net) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def _key(fields: dict, body_digest: str, car_digest: str) -> str:
-    text = json.dumps(fields, sort_keys=True) + body_digest + car_digest
-    return hashlib.sha256(text.encode()).hexdigest()[:20]
+class _Prepared:
+    """A validated spec: the value lists of every key and the digests the case keys need."""
+
+    def __init__(self, spec: dict):
+        if not isinstance(spec, dict):
+            raise BodyvibError("sweep spec must be a JSON object")
+        unknown = sorted(set(spec) - set(SPEC_KEYS))
+        if unknown:
+            raise BodyvibError(f"spec: unknown key(s) {', '.join(unknown)}; keys are "
+                               + ", ".join(SPEC_KEYS))
+        for k, default in SPEC_KEYS.items():
+            if default is None and k not in spec:
+                raise BodyvibError(f"spec: '{k}' is required")
+        spec = {**SPEC_KEYS, **spec}
+        roads = [road_label(r) for r in _list(spec["road"])]
+        road_opts = _road_options(spec["road_options"])
+        seeds = [_number(s, "seed", "", integer=True) for s in _seed_list(spec["seed"])]
+        speeds = [_number(v, "speed", "m/s") for v in _list(spec["speed"])]
+        durations = [_number(v, "duration", "s") for v in _list(spec["duration"])]
+        steps = [_number(v, "step", "s") for v in _list(spec["step"])]
+        for name, values in (("road", roads), ("seed", seeds), ("speed", speeds),
+                             ("duration", durations), ("step", steps),
+                             ("body", _list(spec["body"])), ("car", _list(spec["car"]))):
+            if not values:
+                raise BodyvibError(f"spec: '{name}' is an empty list")
+        for r, sd, v, d, h in product(roads, seeds[:1], speeds, durations, steps):
+            # refuses unknown roads and files that cannot be driven, steps longer than half a run
+            check_settings(r, v, d, h, sd, road_options=RoadOptions(**dict(road_opts)))
+        count = _count(spec, roads, seeds, speeds, durations, steps)  # before sampling anything
+        require_memory(count * CASE_BYTES, f"a sweep of {count:.3g} cases",
+                       "fewer cases (samples, seeds, speeds, roads), or several sweeps")
+        self.roads, self.road_options = roads, road_opts
+        self.road_digests = {r: _file_digest(r) for r in roads if is_road_file(r)}
+        self.seeds, self.speeds, self.durations, self.steps = seeds, speeds, durations, steps
+        self.bodies = _bodies(spec)
+        self.cars = [str(c) for c in _list(spec["car"])]
+        self.car_digests = {c: _digest(load_car(c)) for c in self.cars}
+        base = {m: load_model(m) for m in dict.fromkeys(b[1] for b in self.bodies)}
+        self.body_digests = [_digest(base[m].with_parameters(**dict(v)) if v else base[m])
+                             for _, m, _, v in self.bodies]
+        # the same case twice: a repeated value in a list, or two bodies (cars) with one content
+        for name, values in (("road", self.roads), ("seed", seeds), ("speed", speeds),
+                             ("duration", durations), ("step", steps),
+                             ("body", self.body_digests),
+                             ("car", [self.car_digests[c] for c in self.cars])):
+            seen: Dict[object, int] = {}
+            for i, x in enumerate(values):
+                if x in seen:
+                    raise BodyvibError(f"spec: '{name}' entries {seen[x]} and {i} give the same "
+                                       "cases (listed twice?)")
+                seen[x] = i
+        self.count = (len(roads) * len(seeds) * len(speeds) * len(durations) * len(steps)
+                      * len(self.bodies) * len(self.cars))
+
+    def _axes(self):
+        return (self.roads, self.seeds, self.speeds, self.durations, self.steps)
+
+    def case_at(self, case_id: int) -> Case:
+        """The case at a product-order position (made from the spec, nothing stored)."""
+        inner = len(self.bodies) * len(self.cars)
+        i, j = divmod(int(case_id), inner)
+        heads = self.__dict__.setdefault("_heads", {})  # settings and their JSON, bounded
+        got = heads.get(i)
+        if got is None:
+            if len(heads) > 65536:
+                heads.clear()
+            out, k = [], i
+            for a in reversed(self._axes()):
+                k, pos = divmod(k, len(a))
+                out.append(a[pos])
+            r, sd, v, d, h = out[::-1]
+            keyed = {"road": r, "seed": sd, "speed": v, "duration": d, "step": h}
+            if self.road_options:
+                keyed["road_options"] = dict(self.road_options)
+            if r in self.road_digests:  # a road file is its content, not its name
+                keyed["road_file"] = self.road_digests[r]
+            got = heads[i] = (r, sd, v, d, h, json.dumps(keyed, sort_keys=True))
+        r, sd, v, d, h, head = got
+        b, c = divmod(j, len(self.cars))
+        bname, model, sample, values = self.bodies[b]
+        car = self.cars[c]
+        key = hashlib.sha256((head + self.body_digests[b] + self.car_digests[car]).encode())
+        return Case(case_id=int(case_id), road=r, seed=sd, speed=v, duration=d, step=h,
+                    body=bname, body_model=model, body_sample=sample, body_values=values,
+                    car=car, case_key=key.hexdigest()[:20], road_options=self.road_options)
+
+    def cases(self, body_major: bool = False) -> Iterator[Case]:
+        """The cases, made one at a time.
+
+        Product order (road, seed, speed, duration, step, body, car: consecutive
+        cases share a road) or, with ``body_major``, body and car first
+        (consecutive cases share a model); ``case_id`` is the product-order
+        position either way.
+        """
+        n_settings = math.prod(len(a) for a in self._axes())
+        inner = len(self.bodies) * len(self.cars)
+        if body_major:
+            return (self.case_at(i * inner + j) for j in range(inner) for i in range(n_settings))
+        return (self.case_at(k) for k in range(n_settings * inner))
+
+    def __getstate__(self):  # sent to workers without the cache
+        return {k: v for k, v in self.__dict__.items() if k != "_heads"}
+
+
+def count_cases(spec: dict) -> int:
+    """Number of cases of a spec, validated, without making them.
+
+    Parameters
+    ----------
+    spec : dict
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    BodyvibError
+        As :func:`expand`.
+
+    Examples
+    --------
+    >>> count_cases({"road": ["C", "D"], "speed": [10, 20], "seed": "0..24",
+    ...              "body": "reduced-paper"})
+    100
+    """
+    return _Prepared(spec).count
+
+
+def iter_cases(spec: dict) -> Iterator[Case]:
+    """The cases of a spec one at a time (validated first): a million cases in little memory.
+
+    Parameters
+    ----------
+    spec : dict
+
+    Returns
+    -------
+    iterator of Case
+        In product order, as :func:`expand`.
+
+    Raises
+    ------
+    BodyvibError
+        As :func:`expand` (at the call, before the first case).
+    """
+    return _Prepared(spec).cases()
 
 
 def expand(spec: dict) -> List[Case]:
@@ -373,8 +567,8 @@ def expand(spec: dict) -> List[Case]:
     ------
     BodyvibError
         Unknown or missing keys, bad values, unknown roads, models or cars,
-        bad ranges; the message names the key. More cases than half the available
-        memory can hold (:data:`CASE_BYTES` each), before any is made.
+        bad ranges, a case listed twice; the message names the key. More cases than half
+        the available memory can hold (:data:`CASE_BYTES` each), before any is made.
 
     Examples
     --------
@@ -382,59 +576,7 @@ def expand(spec: dict) -> List[Case]:
     >>> len(cases), cases[-1].road, cases[-1].speed
     (4, 'D', 20.0)
     """
-    if not isinstance(spec, dict):
-        raise BodyvibError("sweep spec must be a JSON object")
-    unknown = sorted(set(spec) - set(SPEC_KEYS))
-    if unknown:
-        raise BodyvibError(f"spec: unknown key(s) {', '.join(unknown)}; keys are "
-                           + ", ".join(SPEC_KEYS))
-    for k, default in SPEC_KEYS.items():
-        if default is None and k not in spec:
-            raise BodyvibError(f"spec: '{k}' is required")
-    spec = {**SPEC_KEYS, **spec}
-    roads = [road_label(r) for r in _list(spec["road"])]
-    road_opts = _road_options(spec["road_options"])
-    seeds = [_number(s, "seed", "", integer=True) for s in _list(spec["seed"])]
-    speeds = [_number(v, "speed", "m/s") for v in _list(spec["speed"])]
-    durations = [_number(v, "duration", "s") for v in _list(spec["duration"])]
-    steps = [_number(v, "step", "s") for v in _list(spec["step"])]
-    for name, values in (("road", roads), ("seed", seeds), ("speed", speeds),
-                         ("duration", durations), ("step", steps), ("body", _list(spec["body"])),
-                         ("car", _list(spec["car"]))):
-        if not values:
-            raise BodyvibError(f"spec: '{name}' is an empty list")
-    for r, sd, v, d, h in product(roads, seeds[:1], speeds, durations, steps):
-        # refuses unknown roads and files that cannot be driven, steps longer than half a run
-        check_settings(r, v, d, h, sd, road_options=RoadOptions(**dict(road_opts)))
-    count = _count(spec, roads, seeds, speeds, durations, steps)  # before sampling anything
-    require_memory(count * CASE_BYTES, f"a sweep of {count:.3g} cases",
-                   "fewer cases (samples, seeds, speeds, roads), or several sweeps")
-    road_digests = {r: _file_digest(r) for r in roads if is_road_file(r)}
-    bodies = _bodies(spec)
-    cars = [str(c) for c in _list(spec["car"])]
-    car_digests = {c: _digest(load_car(c)) for c in cars}
-    body_digests = {}
-    base_nets: dict = {}
-    cases = []
-    for r, sd, v, d, h, (bname, model, sample, values), c in product(
-            roads, seeds, speeds, durations, steps, bodies, cars):
-        bkey = (model, values)
-        if bkey not in body_digests:
-            net = base_nets.get(model) or base_nets.setdefault(model, load_model(model))
-            body_digests[bkey] = _digest(net.with_parameters(**dict(values)) if values else net)
-        fields = {"road": r, "seed": sd, "speed": v, "duration": d, "step": h}
-        keyed = dict(fields, **({"road_options": dict(road_opts)} if road_opts else {}),
-                     **({"road_file": road_digests[r]} if r in road_digests else {}))
-        cases.append(Case(case_id=len(cases), body=bname, body_model=model, body_sample=sample,
-                          body_values=values, car=c, road_options=road_opts,
-                          case_key=_key(keyed, body_digests[bkey], car_digests[c]), **fields))
-    keys = {}
-    for cs in cases:
-        if cs.case_key in keys:
-            raise BodyvibError(f"spec: cases {keys[cs.case_key]} and {cs.case_id} are the same "
-                               "case (listed twice?)")
-        keys[cs.case_key] = cs.case_id
-    return cases
+    return list(iter_cases(spec))
 
 
 def _road_options(value) -> Tuple[Tuple[str, object], ...]:

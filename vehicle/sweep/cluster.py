@@ -1,0 +1,474 @@
+"""Running sweep tasks on Dask: connecting with time limits, a bounded window, lost tasks.
+
+:func:`open_cluster` starts a :class:`distributed.LocalCluster` (its worker
+processes start with SIGINT blocked, so a terminal's Ctrl-C, sent to the whole
+process group, reaches only the command, which shuts them down) or connects to
+a running scheduler (an address ``tcp://host:port`` or a scheduler file, as
+written by ``dask scheduler --scheduler-file`` and dask-jobqueue), waiting at
+most ``connect_timeout`` seconds for the scheduler and ``worker_timeout``
+seconds for a first worker. :func:`run_tasks` keeps a bounded number of tasks
+in flight (:class:`distributed.as_completed`, refilled as tasks finish) and
+reports each task's fate: finished, or *lost* -- cancelled because the
+scheduler went away, or given up after its workers died
+(:class:`distributed.KilledWorker`), or stalled for ``worker_timeout`` seconds
+with no worker. A lost task is not a failed case: its cases are run again by
+``--resume``. Every blocking call of the client runs in a helper thread while
+the main thread waits for it in short slices, so that Ctrl-C is taken at once.
+distributed's own loggers are silenced while a sweep runs: the command reports
+in one line.
+"""
+
+import contextlib
+import logging
+import os
+import shutil
+import tempfile
+import threading
+import time
+import warnings
+from dataclasses import dataclass
+from typing import Callable, Iterator, Optional
+
+from bodyvib.process import interrupts
+from bodyvib.runtime.errors import BodyvibError
+
+__all__ = ["ClusterLost", "Cluster", "open_cluster", "run_tasks", "check_address"]
+
+_QUIET = ("distributed", "tornado", "asyncio", "bokeh")
+
+
+class ClusterLost(BodyvibError):
+    """The cluster could not run (all of) the tasks; the cases not done are kept for ``--resume``."""
+
+
+def check_address(address: str) -> str:
+    """Refuse a scheduler address without a protocol (``host:8786`` for ``tcp://host:8786``).
+
+    Parameters
+    ----------
+    address : str
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    BodyvibError
+
+    Examples
+    --------
+    >>> check_address("tcp://127.0.0.1:8786")
+    'tcp://127.0.0.1:8786'
+    """
+    if "://" not in address:
+        raise BodyvibError(f"--scheduler '{address}' has no protocol: write it as "
+                           f"tcp://{address} (or 'serial', or leave it out for a LocalCluster)")
+    return address
+
+
+class _Silence(logging.Filter):
+    """Drops every record of distributed (and the libraries under it) while a sweep runs."""
+
+    def filter(self, record):
+        return not record.name.split(".")[0] in _QUIET
+
+
+@contextlib.contextmanager
+def _quiet_logs():
+    # distributed configures a level and a handler per named logger; a filter on
+    # every handler of those loggers (and of the root) drops their records wherever
+    # they propagate, including loggers created while the sweep runs
+    silence = _Silence()
+    filtered = []
+
+    def cover():
+        names = [n for n in logging.root.manager.loggerDict if n.split(".")[0] in _QUIET]
+        for lg in [logging.getLogger(n) for n in names] + [logging.getLogger()]:
+            for h in lg.handlers:
+                if silence not in h.filters:
+                    h.addFilter(silence)
+                    filtered.append(h)
+
+    cover()
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            yield cover
+    finally:
+        cover()
+        for h in filtered:
+            h.removeFilter(silence)
+
+
+def _call(fn: Callable, timeout: float, what: str, interruptible: bool = True):
+    """``fn()`` in a helper thread; the main thread takes Ctrl-C while it waits.
+
+    Raises the call's exception, ``KeyboardInterrupt``, or ``TimeoutError`` after
+    ``timeout`` seconds (the thread is then left to end by itself).
+    """
+    box = {}
+
+    def target():
+        try:
+            box["value"] = fn()
+        except BaseException as exc:  # handed to the caller
+            box["error"] = exc
+
+    t = threading.Thread(target=target, name=f"bodyvib-sweep-{what}", daemon=True)
+    t.start()
+    t_end = time.monotonic() + timeout
+    while t.is_alive():
+        if interruptible:
+            interrupts.check()
+        left = t_end - time.monotonic()
+        if left <= 0:
+            raise TimeoutError(f"{what}: no answer in {timeout:g} s")
+        t.join(min(0.05, left))
+    if interruptible:
+        interrupts.check()
+    if "error" in box:
+        raise box["error"]
+    return box.get("value")
+
+
+@contextlib.contextmanager
+def _workers_ignore_sigint(folder: str):
+    """Worker processes spawned in the block start with SIGINT ignored.
+
+    A terminal's Ctrl-C goes to the whole process group: workers that took it
+    died with tracebacks or "Nanny failed to start". multiprocessing spawns them
+    through a two-line shell script that ignores SIGINT and executes Python (an
+    ignored signal stays ignored across exec, and Python then installs no
+    KeyboardInterrupt handler); the command alone takes the Ctrl-C and shuts
+    the cluster down.
+    """
+    import multiprocessing.spawn as mp_spawn
+    import shlex
+
+    exe = mp_spawn.get_executable()
+    wrapper = os.path.join(folder, "python-ignoring-sigint")
+    with open(wrapper, "w") as f:
+        f.write(f"#!/bin/sh\ntrap '' INT\nexec {shlex.quote(os.fsdecode(exe))} \"$@\"\n")
+    os.chmod(wrapper, 0o700)
+    mp_spawn.set_executable(wrapper)
+    try:
+        yield
+    finally:
+        mp_spawn.set_executable(exe)
+
+
+@dataclass
+class Cluster:
+    """A connected client and what to close with it.
+
+    Attributes
+    ----------
+    client : distributed.Client
+    where : str
+        For messages (``"LocalCluster of 2 workers"``, the scheduler's address).
+    """
+
+    client: object
+    where: str
+    local: object = None
+    scratch: Optional[str] = None
+    spawn: Optional[contextlib.ExitStack] = None
+
+    def threads(self, timeout: float) -> int:
+        """Total worker threads now (0: no worker)."""
+        return sum(_call(self.client.nthreads, timeout, "ask the scheduler").values())
+
+    def close(self) -> None:
+        """Close the client (and the LocalCluster), bounded in time, whatever state they are in."""
+        with interrupts.critical():
+            with contextlib.suppress(BaseException):
+                _call(lambda: self.client.close(timeout=5), 10, "close the client", False)
+            if self.local is not None:
+                with contextlib.suppress(BaseException):
+                    _call(lambda: self.local.close(timeout=10), 15, "close the LocalCluster",
+                          False)
+            if self.spawn is not None:
+                self.spawn.close()
+            if self.scratch is not None:
+                shutil.rmtree(self.scratch, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def open_cluster(scheduler: Optional[str] = None, scheduler_file: Optional[str] = None,
+                 workers: int = 1, connect_timeout: float = 10.0,
+                 worker_timeout: float = 60.0) -> Iterator[Cluster]:
+    """A Dask client for a sweep, with at least one worker; closed when the block ends.
+
+    Parameters
+    ----------
+    scheduler : str, optional
+        None or ``"local"``: a LocalCluster of ``workers`` single-threaded
+        processes; otherwise a scheduler address ``tcp://host:port``.
+    scheduler_file : str, optional
+        A scheduler file (``dask scheduler --scheduler-file``, dask-jobqueue).
+    workers : int
+        LocalCluster size.
+    connect_timeout : float
+        Seconds to wait for the scheduler.
+    worker_timeout : float
+        Seconds to wait for a first worker.
+
+    Yields
+    ------
+    Cluster
+
+    Raises
+    ------
+    BodyvibError
+        An address without protocol, an unreachable scheduler, no worker in time.
+    KeyboardInterrupt
+        Ctrl-C while waiting.
+    """
+    with _quiet_logs() as cover:
+        cluster = _start(scheduler, scheduler_file, workers, connect_timeout)
+        cover()  # the loggers the client made
+        try:
+            t_end = time.monotonic() + worker_timeout
+            while True:
+                try:
+                    if cluster.threads(connect_timeout) > 0:
+                        break
+                except (KeyboardInterrupt, BodyvibError):
+                    raise
+                except Exception as exc:
+                    raise ClusterLost(f"the Dask scheduler {cluster.where} stopped answering "
+                                      f"({type(exc).__name__})") from None
+                if time.monotonic() > t_end:
+                    raise BodyvibError(f"the Dask scheduler {cluster.where} has no worker after "
+                                       f"{worker_timeout:g} s (--worker-timeout); start "
+                                       f"workers with 'dask worker {cluster.where}'")
+                for _ in range(5):
+                    interrupts.check()
+                    time.sleep(0.05)
+            yield cluster
+        finally:
+            cluster.close()
+
+
+def _start(scheduler, scheduler_file, workers, connect_timeout) -> Cluster:
+    from dask.distributed import Client
+
+    if scheduler_file is not None:
+        if not os.path.isfile(scheduler_file):
+            raise BodyvibError(f"--scheduler-file '{scheduler_file}' does not exist (the file "
+                               "'dask scheduler --scheduler-file' writes)")
+        where = f"of '{scheduler_file}'"
+        kw = {"scheduler_file": scheduler_file}
+    elif scheduler not in (None, "local"):
+        where = check_address(scheduler)
+        kw = {"address": scheduler}
+    else:
+        return _local(workers, connect_timeout)
+    try:
+        client = _call(lambda: Client(timeout=f"{connect_timeout}s", **kw),
+                       connect_timeout + 5, "connect")
+    except (KeyboardInterrupt, BodyvibError):
+        raise
+    except Exception as exc:
+        raise BodyvibError(f"cannot connect to the Dask scheduler {where} within "
+                           f"{connect_timeout:g} s (--connect-timeout): "
+                           f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
+                           ) from None
+    return Cluster(client, where)
+
+
+def _local(workers, connect_timeout) -> Cluster:
+    import dask
+    from dask.distributed import Client, LocalCluster
+
+    scratch = tempfile.mkdtemp(prefix="bodyvib-sweep-dask-")
+    try:
+        # Dask's workers return freed memory to the system at once (glibc
+        # MALLOC_TRIM_THRESHOLD_ = 64 kB), which made the batched engine's block
+        # buffers fault in again and again: 1.36x the in-process time against
+        # 1.12x with the default threshold (measured).
+        # Setting the trim threshold also fixes glibc's mmap threshold at 128 kB (it
+        # is dynamic, up to 32 MB, only while neither is set), so every block buffer
+        # of the Wk filter was mapped and faulted in afresh: 160k page faults per
+        # 256-case task against 59k in-process, 1.45x its CPU (measured). Both set.
+        config = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": 128 * 1024 * 1024,
+                  "distributed.nanny.pre-spawn-environ.MALLOC_MMAP_THRESHOLD_": 32 * 1024 * 1024,
+                  "temporary-directory": scratch}
+        spawn = contextlib.ExitStack()  # until the cluster is closed (a worker may restart)
+        spawn.enter_context(_workers_ignore_sigint(scratch))
+        # a second Ctrl-C waits too: a cluster half started would leave its workers behind
+        with dask.config.set(config), interrupts.critical():
+            local = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                 dashboard_address=None, silence_logs=logging.CRITICAL + 1,
+                                 local_directory=scratch)
+            try:
+                client = Client(local, timeout=f"{max(connect_timeout, 10)}s")
+            except BaseException:
+                local.close()
+                raise
+    except BaseException as exc:
+        if "spawn" in locals():
+            spawn.close()
+        shutil.rmtree(scratch, ignore_errors=True)
+        if isinstance(exc, (KeyboardInterrupt, BodyvibError)):
+            raise
+        raise BodyvibError(f"cannot start a LocalCluster of {workers} workers: "
+                           f"{type(exc).__name__}: {exc}") from None
+    return Cluster(client, f"LocalCluster of {workers} workers", local, scratch, spawn)
+
+
+def _lost_reason(fut) -> Optional[str]:
+    """Why a finished future's task was lost to the cluster (None: it ran)."""
+    from distributed import KilledWorker
+
+    if fut.status == "cancelled":
+        return "cancelled by the cluster (scheduler connection lost?)"
+    if fut.status == "error":
+        exc = fut.exception()
+        if isinstance(exc, KilledWorker):
+            return "its workers died (KilledWorker)"
+        if type(exc).__module__.split(".")[0] in ("distributed", "tornado") or isinstance(
+                exc, (OSError, TimeoutError)):
+            return f"{type(exc).__name__}"
+    return None
+
+
+def run_tasks(cluster: Cluster, fn, tasks: Iterator, window: int, on_result: Callable,
+              worker_timeout: float = 60.0, connect_timeout: float = 10.0,
+              shared=None) -> int:
+    """Run ``fn(shared, task)`` for every task with at most ``window`` in flight.
+
+    ``on_result(task_no, task, value)`` gets each task that ran (``value`` the
+    exception for a task that raised by itself). Submission stops at the first
+    lost task; the ones in flight are drained.
+
+    Parameters
+    ----------
+    cluster : Cluster
+    fn : callable
+        Submitted as ``fn(shared, task)`` (``pure=False``).
+    tasks : iterator
+        The tasks, made lazily.
+    window : int
+        Tasks in flight at most.
+    on_result : callable
+    worker_timeout : float
+        A run with no worker for this many seconds stops (its tasks lost).
+    connect_timeout : float
+        Seconds a scheduler may take to answer.
+    shared : object
+        Sent to every worker once (``Client.scatter``), the first argument of ``fn``.
+
+    Returns
+    -------
+    int
+        0 (all tasks ran).
+
+    Raises
+    ------
+    ClusterLost
+        Tasks were lost (their cases are not reported).
+    """
+    from distributed import as_completed
+
+    client = cluster.client
+    ac = as_completed()
+    meta = {}
+    state = {"task_no": 0, "exhausted": False}
+    try:
+        ref = _call(lambda: client.scatter(shared, broadcast=True, hash=False),
+                    connect_timeout + 60, "send the spec to the workers")
+    except (KeyboardInterrupt, BodyvibError):
+        raise
+    except Exception as exc:
+        raise ClusterLost(f"the spec could not be sent to the workers ({type(exc).__name__})"
+                          ) from None
+
+    def submit():
+        while not state["exhausted"] and ac.count() < window:
+            try:
+                task = next(tasks)
+            except StopIteration:
+                state["exhausted"] = True
+                return
+            fut = client.submit(fn, ref, task, pure=False)
+            meta[fut.key] = (state["task_no"], task)
+            ac.add(fut)
+            state["task_no"] += 1
+
+    try:
+        return _run(client, cluster, ac, meta, submit, on_result, worker_timeout,
+                    connect_timeout, state)
+    except _ResultError as exc:  # writing a result failed: that error, as it is
+        raise exc.__cause__
+    except (KeyboardInterrupt, BodyvibError):
+        raise
+    except Exception as exc:  # the client library failed: the tasks in flight are lost
+        _cancel(client, ac)
+        raise ClusterLost(f"{ac.count() or 'some'} task(s) lost: the Dask client failed "
+                          f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})"
+                          ) from None
+
+
+def _cancel(client, ac):
+    futures = list(ac.futures)
+    with contextlib.suppress(BaseException):
+        _call(lambda: client.cancel(futures, force=True), 5, "cancel", False)
+
+
+class _ResultError(Exception):
+    """An exception of ``on_result`` (not the cluster's), carried out of the client code."""
+
+
+def _run(client, cluster, ac, meta, submit, on_result, worker_timeout, connect_timeout, state):
+    lost = 0
+    reason = None
+    submit()
+    last_worker = time.monotonic()
+    last_look = 0.0
+    while not ac.is_empty():
+        interrupts.check()
+        if ac.has_ready():
+            for fut in ac.next_batch(block=False):
+                no, task = meta.pop(fut.key)
+                why = _lost_reason(fut)
+                if why is not None:
+                    lost += 1
+                    reason = reason or why
+                    state["exhausted"] = True  # the cluster is failing: submit nothing more
+                    continue
+                value = fut.exception() if fut.status == "error" else fut.result()
+                fut.release()
+                try:
+                    on_result(no, task, value)
+                except Exception as exc:
+                    raise _ResultError() from exc
+            if reason is None:
+                submit()
+            continue
+        if client.status != "running":  # the scheduler went away
+            reason = reason or "the connection to the scheduler was lost"
+            lost += ac.count()
+            break
+        now = time.monotonic()
+        if now - last_look > 1.0:
+            last_look = now
+            try:
+                threads = cluster.threads(connect_timeout)
+            except (KeyboardInterrupt, BodyvibError):
+                raise
+            except Exception:
+                threads = -1
+            if threads > 0:
+                last_worker = now
+            elif threads < 0 or now - last_worker > worker_timeout:
+                reason = ("the scheduler stopped answering" if threads < 0 else
+                          f"no Dask worker for {worker_timeout:g} s (--worker-timeout)")
+                lost += ac.count()
+                break
+        time.sleep(0.02)
+    if lost:
+        _cancel(client, ac)
+        raise ClusterLost(f"{lost} task(s) lost: {reason}")
+    return 0
