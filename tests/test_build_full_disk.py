@@ -41,8 +41,8 @@ def _mount_tmpfs(folder, size):
     return proc.returncode == 0
 
 
-def test_build_on_a_full_disk_keeps_every_old_output(project_fmus, tmp_path):
-    dist = os.path.dirname(project_fmus["HumanBody3DOF"])
+def test_build_on_a_full_disk_keeps_every_old_output(python_fmus, tmp_path):
+    dist = os.path.dirname(python_fmus["HumanBody3DOF"])
     sizes = {n: os.path.getsize(os.path.join(dist, n)) for n in NAMES}
     fmus = sum(v for n, v in sizes.items() if n.endswith(".fmu"))
     size = fmus + sizes["QuarterCarWithOccupant.ssp"] // 2  # room for the FMUs, not the SSP

@@ -51,13 +51,13 @@ def test_deeply_nested_json_is_refused_in_one_line(capsys, tmp_path, text):
     assert not out.exists()
 
 
-def test_body_fmu_given_as_the_car_is_named(capsys, project_fmus, tmp_path):
+def test_body_fmu_given_as_the_car_is_named(capsys, python_fmus, tmp_path):
     """``cosim --car-fmu HumanBody3DOF.fmu`` ended in KeyError: 'seat'."""
-    line = _one_line(capsys, ["cosim", "--car-fmu", project_fmus["HumanBody3DOF"],
-                              "--body", project_fmus["HumanBody3DOF"], "--duration", "1"],
+    line = _one_line(capsys, ["cosim", "--car-fmu", python_fmus["HumanBody3DOF"],
+                              "--body", python_fmus["HumanBody3DOF"], "--duration", "1"],
                      "lacks the car interface", "it is a body FMU", "--body")
     assert "HumanBody3DOF.fmu" in line
-    _one_line(capsys, ["cosim", "--body", project_fmus["QuarterCar"], "--duration", "1"],
+    _one_line(capsys, ["cosim", "--body", python_fmus["QuarterCar"], "--duration", "1"],
               "lacks the body interface", "it is a car FMU", "--car-fmu")
 
 
