@@ -168,7 +168,12 @@ def test_killed_sweep_resumes_without_running_a_case_twice(tmp_path):
     spec_file = tmp_path / "spec.json"
     spec_file.write_text(json.dumps(KILL_SPEC))
     out = str(tmp_path / "r.parquet")
-    proc = _cli(str(spec_file), "--out", out, "--scheduler", "serial", "--block", "1", "--quiet")
+    # SIGKILL leaves the command's private temporary folder behind (nothing can remove it):
+    # the killed process gets a temporary folder of the test's own
+    own_tmp = tmp_path / "tmp"
+    own_tmp.mkdir()
+    proc = _cli(str(spec_file), "--out", out, "--scheduler", "serial", "--block", "1", "--quiet",
+                env=dict(os.environ, TMPDIR=str(own_tmp)))
     _wait_for_parts(out, proc, 3)
     proc.send_signal(signal.SIGKILL)
     proc.wait()
