@@ -160,7 +160,7 @@ def build_native_source_fmu(meta: dict, table, name: str, description: str, dest
     Examples
     --------
     >>> from vehicle.fmus import fmu_road
-    >>> from vehicle.roads import road_source
+    >>> from vehicle.road.synthetic import road_source
     >>> meta, table = road_source(fmu_road(), 601.0)  # doctest: +SKIP
     >>> build_native_source_fmu(meta, table, "Road", "road", "dist/native")  # doctest: +SKIP
     PosixPath('dist/native/Road.fmu')
