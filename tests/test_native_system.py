@@ -54,7 +54,7 @@ def test_native_road_is_the_pythonfmu_road_sample_for_sample(native_dist, python
     from fmpy import simulate_fmu
 
     from vehicle.fmus import fmu_road
-    from vehicle.roads import road_table
+    from vehicle.road.synthetic import road_table
 
     speed = 17.3
     sub = "fmi3/" if fmi == 3 else ""

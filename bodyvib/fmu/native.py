@@ -61,9 +61,11 @@ __all__ = ["NATIVE_SOURCES", "PLATFORMS", "PlatformChoice", "choose_platforms", 
 
 
 #: The model-independent C sources and the FMI function file of each FMI version.
-NATIVE_SOURCES = ("bodyvib_core.h", "bodyvib_core.c")
+#: The FMI state machine both cores share (bodyvib_fsm.c) is compiled into every native FMU.
+NATIVE_SOURCES = ("bodyvib_core.h", "bodyvib_fsm.h", "bodyvib_fsm.c", "bodyvib_core.c")
 #: The core of a source FMU (a table, bodyvib_source.c) in place of the linear one: the same API.
-SOURCE_SOURCES = ("bodyvib_core.h", "bodyvib_source.h", "bodyvib_source.c")
+SOURCE_SOURCES = ("bodyvib_core.h", "bodyvib_fsm.h", "bodyvib_fsm.c", "bodyvib_source.h",
+                  "bodyvib_source.c")
 FMI_FILES = {2: "fmi2Functions.c", 3: "fmi3Functions.c"}
 FMI_HEADERS = {2: ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"),
                3: ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")}
@@ -443,6 +445,7 @@ def model_description(nm: NativeModel, token: str, fmi: int) -> bytes:
         UTF-8 XML.
     """
     sources = _c_files(nm, fmi)
+    directional = _directional(nm)
     root = ET.Element("fmiModelDescription", {
         "fmiVersion": "2.0" if fmi == 2 else "3.0",
         "modelName": nm.name,
@@ -462,7 +465,7 @@ def model_description(nm: NativeModel, token: str, fmi: int) -> bytes:
             "maxOutputDerivativeOrder": str(MAX_OUTPUT_DERIVATIVE_ORDER),
             "canRunAsynchronuously": "false", "canBeInstantiatedOnlyOncePerProcess": "false",
             "canNotUseMemoryManagementFunctions": "true", "canGetAndSetFMUstate": "true",
-            "canSerializeFMUstate": "true", "providesDirectionalDerivative": "true"})
+            "canSerializeFMUstate": "true", "providesDirectionalDerivative": directional})
         files = ET.SubElement(cs, "SourceFiles")
         for s in sources:
             ET.SubElement(files, "File", name=s)
@@ -471,7 +474,7 @@ def model_description(nm: NativeModel, token: str, fmi: int) -> bytes:
         ET.SubElement(root, "CoSimulation", {
             "modelIdentifier": nm.name, "needsExecutionTool": "false",
             "canBeInstantiatedOnlyOncePerProcess": "false", "canGetAndSetFMUState": "true",
-            "canSerializeFMUState": "true", "providesDirectionalDerivatives": "true",
+            "canSerializeFMUState": "true", "providesDirectionalDerivatives": directional,
             "canHandleVariableCommunicationStepSize": "true",
             "maxOutputDerivativeOrder": str(MAX_OUTPUT_DERIVATIVE_ORDER), "hasEventMode": "false",
             "providesIntermediateUpdate": "false", "canReturnEarlyAfterIntermediateUpdate": "false"})
@@ -607,15 +610,25 @@ def _state_variables(mv, nm: NativeModel, fmi: int) -> None:
             ET.SubElement(mv, "Float64", attrs)
 
 
+def _directional(nm: NativeModel) -> str:
+    """``providesDirectionalDerivative(s)``: a source has no states and no inputs (no knowns)."""
+    return "false" if nm.kind == "source" else "true"
+
+
 def _model_exchange_element(root, nm: NativeModel, fmi: int, sources) -> None:
-    """The ``ModelExchange`` element (same binary and model identifier as co-simulation)."""
+    """The ``ModelExchange`` element (same binary and model identifier as co-simulation).
+
+    A source has no continuous states: in model exchange its outputs are the table at the
+    time the host sets (``SetTime``).
+    """
+    directional = _directional(nm)
     if fmi == 2:
         me = ET.SubElement(root, "ModelExchange", {
             "modelIdentifier": nm.name, "needsExecutionTool": "false",
             "completedIntegratorStepNotNeeded": "true",
             "canBeInstantiatedOnlyOncePerProcess": "false",
             "canNotUseMemoryManagementFunctions": "true", "canGetAndSetFMUstate": "true",
-            "canSerializeFMUstate": "true", "providesDirectionalDerivative": "true"})
+            "canSerializeFMUstate": "true", "providesDirectionalDerivative": directional})
         files = ET.SubElement(me, "SourceFiles")
         for s in sources:
             ET.SubElement(files, "File", name=s)
@@ -623,7 +636,7 @@ def _model_exchange_element(root, nm: NativeModel, fmi: int, sources) -> None:
         ET.SubElement(root, "ModelExchange", {
             "modelIdentifier": nm.name, "needsExecutionTool": "false",
             "canBeInstantiatedOnlyOncePerProcess": "false", "canGetAndSetFMUState": "true",
-            "canSerializeFMUState": "true", "providesDirectionalDerivatives": "true",
+            "canSerializeFMUState": "true", "providesDirectionalDerivatives": directional,
             "needsCompletedIntegratorStep": "false", "providesEvaluateDiscreteStates": "false"})
 
 

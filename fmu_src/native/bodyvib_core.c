@@ -25,23 +25,17 @@
  * into the velocity input for that step and the rest of the run (until a non-zero
  * velocity is set); the input reads back as 0, and one warning is logged.
  */
-#include "bodyvib_core.h"
+#include "bodyvib_fsm.h"
 
 #include <math.h>
-#include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#define BV_MESSAGE 640
 
 struct bv_instance {
-    int mode;           /* first (BV_STATE_IS): BV_INSTANTIATED .. BV_FAILED, the FMI state */
-    const bv_model *md;
-    char name[128];
-    bv_log_fn log;
-    void *env;
+    bv_common bc;       /* first (BV_STATE_IS): state, model, name, logger, time, flags */
     int n, m, ni, no, np, N; /* N = n + 3 m, the largest augmented matrix */
     int curved;         /* R^2 != 0: some input is a parabola over the step */
     /* parameters */
@@ -60,18 +54,13 @@ struct bv_instance {
     double *Sc;         /* [Phi | Gamma0 U + Gamma1 U R + Gamma2 U R^2] row-major: x <- Sc z */
     double *Ms;         /* I + h R + h^2/2 R^2 (ni x ni): s <- Ms s */
     /* what evolves */
-    double time;
     double *x, *s;
     double *x_prev, *h_prev; /* per fallback pair: displacement and step at the last DoStep */
     unsigned char *has_prev, *vel_set, *slope_on, *warned;
-    int initialized;
-    int init_failed;
-    double start_time;  /* fmi2SetupExperiment / fmi3EnterInitializationMode */
     /* a refused step restores these: the fallback bookkeeping and the inputs */
     double *save_x_prev, *save_h_prev, *save_s;
     unsigned char *save_flags;
     double *zd;         /* 3 (n + ni): z and its time derivatives (output derivatives) */
-    char init_error[BV_MESSAGE];
     /* scratch */
     double *zn, *work;
     int *piv;
@@ -79,35 +68,8 @@ struct bv_instance {
 
 /* ---------------------------------------------------------------- messages */
 
-static void say(const bv_instance *c, int status, const char *fmt, ...)
-#if defined(__GNUC__)
-    __attribute__((format(printf, 3, 4)))
-#endif
-    ;
-
-static void say(const bv_instance *c, int status, const char *fmt, ...)
-{
-    char text[BV_MESSAGE];
-    va_list ap;
-    if (c->log == NULL)
-        return;
-    va_start(ap, fmt);
-    vsnprintf(text, sizeof text, fmt, ap);
-    va_end(ap);
-    c->log(c->env, status, text);
-}
-
-/* The shortest %g text that reads back as v (as Python's repr), into buf[32]. */
-static const char *shortest(double v, char *buf)
-{
-    int p;
-    for (p = 1; p <= 17; p++) {
-        snprintf(buf, 32, "%.*g", p, v);
-        if (strtod(buf, NULL) == v)
-            break;
-    }
-    return buf;
-}
+#define say(c, ...) bv_say(&(c)->bc, __VA_ARGS__)
+#define shortest bv_shortest
 
 /* ---------------------------------------------------------------- dense linear algebra */
 
@@ -348,12 +310,12 @@ static int params_valid(const bv_instance *c, const double *p, int quiet)
     for (j = 0; j < c->np; j++)
         if (!(isfinite(p[j]) && p[j] > 0.0)) {
             if (!quiet) {
-                const bv_model *md = c->md;
+                const bv_model *md = c->bc.md;
                 char text[32];
-                snprintf(((bv_instance *)c)->init_error, BV_MESSAGE,
+                snprintf(((bv_instance *)c)->bc.init_error, BV_MESSAGE,
                          "%s: parameter %s = %s %s is invalid: it must be a positive finite "
                          "number; set a value > 0 (the FMU's default is %g %s)",
-                         c->name, var_name(md, BV_PARAMETER, j), shortest(p[j], text),
+                         c->bc.name, var_name(md, BV_PARAMETER, j), shortest(p[j], text),
                          md->param_unit[j], md->param_start[j], md->param_unit[j]);
             }
             return 0;
@@ -364,7 +326,7 @@ static int params_valid(const bv_instance *c, const double *p, int quiet)
 /* Assemble the descriptor form for p, solve it, form the output rows; 0 if E is singular. */
 static int build(bv_instance *c, const double *p)
 {
-    const bv_model *md = c->md;
+    const bv_model *md = c->bc.md;
     int n = c->n, m = c->m, ni = c->ni, no = c->no, R = md->rows, w = n + ni, k, i, j;
     double *E = c->work, *AB = E + (size_t)n * n, *Cz = AB + (size_t)n * (n + m);
     double *Cd = Cz + (size_t)R * n, *Dd = Cd + (size_t)R * n;
@@ -497,7 +459,7 @@ static int discretize(bv_instance *c, double h)
     int n = c->n, m = c->m, ni = c->ni, i, j, k;
     int N2 = n + 2 * m, N3 = n + 3 * m;
     double key, *E, *G, *T;
-    const double *R = c->md->R;
+    const double *R = c->bc.md->R;
     if (c->h_key != 0.0 && h == c->h_raw)
         return 1;
     key = round12(h);
@@ -518,7 +480,7 @@ static int discretize(bv_instance *c, double h)
     for (i = 0; i < n; i++)
         for (j = 0; j < m; j++)
             G[i * m + j] = E[i * N2 + n + j];
-    mul(T, G, c->md->U, n, m, ni);
+    mul(T, G, c->bc.md->U, n, m, ni);
     for (i = 0; i < n; i++)
         for (j = 0; j < ni; j++)
             c->Sc[(size_t)i * (n + ni) + n + j] = T[i * ni + j];
@@ -562,21 +524,16 @@ static int discretize(bv_instance *c, double h)
 
 static void clear_state(bv_instance *c)
 {
-    int j, np1 = c->md->npairs + 1;
+    int j, np1 = c->bc.md->npairs + 1;
     for (j = 0; j < c->np; j++)
-        c->p[j] = c->md->param_start[j];
+        c->p[j] = c->bc.md->param_start[j];
     memset(c->x, 0, (size_t)c->n * sizeof(double));
     memset(c->s, 0, (size_t)c->ni * sizeof(double));
     memset(c->x_prev, 0, (size_t)np1 * sizeof(double));
     memset(c->h_prev, 0, (size_t)np1 * sizeof(double));
     memset(c->has_prev, 0, 4 * (size_t)np1);
     c->dirty = 1;
-    c->time = 0.0;
-    c->start_time = 0.0;
-    c->mode = BV_INSTANTIATED;
-    c->initialized = 0;
-    c->init_failed = 0;
-    c->init_error[0] = '\0';
+    bv_common_clear(&c->bc);
 }
 
 bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *env)
@@ -588,10 +545,7 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
     double *d;
     if (c == NULL)
         return NULL;
-    c->md = md;
-    snprintf(c->name, sizeof c->name, "%s", name ? name : md->model_name);
-    c->log = log;
-    c->env = env;
+    bv_common_init(&c->bc, md, name, log, env);
     c->n = n, c->m = m, c->ni = ni, c->no = no, c->np = np, c->N = N;
     /* work: the larger of the assembly (E, [A|B], C, Cd, D, a few rows) and the
      * discretization (E, M, expm's 9 matrices, two n x max(m, ni) blocks) */
@@ -656,7 +610,7 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
     clear_state(c);
     if (!build(c, c->p)) {
         say(c, BV_ERROR, "%s: the model with its default parameters cannot be assembled "
-                         "(singular descriptor matrix)", c->name);
+                         "(singular descriptor matrix)", c->bc.name);
         bv_free(c);
         return NULL;
     }
@@ -680,91 +634,27 @@ void bv_reset(bv_instance *c)
         build(c, c->p); /* the defaults always build (checked at instantiation) */
 }
 
-double bv_time(const bv_instance *c) { return c->time; }
-
-/* ---------------------------------------------------------------- state machine */
-
-static const char *mode_name(int mode)
-{
-    switch (mode) {
-    case BV_INSTANTIATED: return "Instantiated";
-    case BV_INITIALIZATION: return "InitializationMode";
-    case BV_STEPPING: return "StepMode (stepComplete)";
-    case BV_TERMINATED: return "Terminated";
-    default: return "Error (initialization failed)";
-    }
-}
-
-int bv_state(const bv_instance *c) { return c->mode; }
-
-int bv_allowed(bv_instance *c, const char *function, int mask)
-{
-    char text[200];
-    size_t l = 0;
-    int b;
-    if (c->mode & mask)
-        return 1;
-    text[0] = '\0';
-    for (b = BV_INSTANTIATED; b <= BV_FAILED; b <<= 1)
-        if (mask & b)
-            l += (size_t)snprintf(text + l, sizeof text - l, "%s%s", l ? ", " : "",
-                                  mode_name(b));
-    if (l == 0)
-        snprintf(text, sizeof text, "none: this FMU never needs it");
-    if (c->mode == BV_FAILED && c->init_failed && c->init_error[0])
-        say(c, BV_ERROR, "%s", c->init_error);
-    say(c, BV_ERROR, "%s: %s is not allowed in state %s (allowed in: %s); call refused, "
-                     "nothing changed", c->name, function, mode_name(c->mode), text);
-    return 0;
-}
-
-bv_status bv_setup(bv_instance *c, double start_time)
-{
-    char text[32];
-    if (!isfinite(start_time)) {
-        say(c, BV_ERROR, "%s: the start time must be finite, got %s s", c->name,
-            shortest(start_time, text));
-        return BV_ERROR;
-    }
-    c->start_time = start_time;
-    c->time = start_time;
-    return BV_OK;
-}
-
-void bv_enter_initialization(bv_instance *c) { c->mode = BV_INITIALIZATION; }
-
-void bv_terminate(bv_instance *c) { c->mode = BV_TERMINATED; }
-
 bv_status bv_initialize(bv_instance *c)
 {
-    c->initialized = 0;
-    c->time = c->start_time;
-    c->mode = BV_FAILED; /* until the checks below pass */
+    bv_common_begin_initialize(&c->bc);
     if (!params_valid(c, c->p, 0)) {
-        size_t l = strlen(c->init_error);
-        snprintf(c->init_error + l, BV_MESSAGE - l,
+        size_t l = strlen(c->bc.init_error);
+        snprintf(c->bc.init_error + l, BV_MESSAGE - l,
                  "; the instance refuses to step (reset and set valid parameters)");
-        c->init_failed = 1;
-        say(c, BV_ERROR, "%s", c->init_error);
-        return BV_ERROR;
+        return bv_common_failed(&c->bc);
     }
     if (!c->built || memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0) {
         if (!build(c, c->p)) {
-            snprintf(c->init_error, BV_MESSAGE,
+            snprintf(c->bc.init_error, BV_MESSAGE,
                      "%s: the parameters give a singular or unusable model (a massless node "
                      "without damping, or a parameter so small or large that the model's "
                      "matrices are not finite); the instance refuses to step (reset and set "
                      "valid parameters)",
-                     c->name);
-            c->init_failed = 1;
-            say(c, BV_ERROR, "%s", c->init_error);
-            return BV_ERROR;
+                     c->bc.name);
+            return bv_common_failed(&c->bc);
         }
     }
-    c->init_failed = 0;
-    c->init_error[0] = '\0';
-    c->initialized = 1;
-    c->mode = BV_STEPPING;
+    bv_common_initialized(&c->bc);
     return BV_OK;
 }
 
@@ -775,14 +665,14 @@ static int me_var_set(bv_instance *c, unsigned int vr, double value);
 /* A value reference of the model-exchange states or their derivatives. */
 static int is_me_var(const bv_instance *c, unsigned int vr)
 {
-    unsigned int first = (unsigned int)BV_STATE_VR(c->md, 0);
+    unsigned int first = (unsigned int)BV_STATE_VR(c->bc.md, 0);
     return vr >= first && vr < first + 2u * (unsigned int)c->n;
 }
 
 static int check_vr(const bv_instance *c, unsigned int vr)
 {
-    if (vr >= (unsigned int)c->md->nvars) {
-        say(c, BV_ERROR, "%s: no variable with value reference %u", c->name, vr);
+    if (vr >= (unsigned int)c->bc.md->nvars) {
+        say(c, BV_ERROR, "%s: no variable with value reference %u", c->bc.name, vr);
         return 0;
     }
     return 1;
@@ -790,7 +680,7 @@ static int check_vr(const bv_instance *c, unsigned int vr)
 
 bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const double value[])
 {
-    const bv_model *md = c->md;
+    const bv_model *md = c->bc.md;
     bv_status status = BV_OK;
     size_t i;
     int k;
@@ -815,16 +705,16 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
                         c->slope_on[k] = 0;
                     }
         } else if (kind == BV_PARAMETER) {
-            if (c->initialized) {
+            if (c->bc.initialized) {
                 say(c, BV_ERROR, "%s: parameter %s is fixed after initialization; set it "
                                  "before ExitInitializationMode (ignored)",
-                    c->name, md->vr_name[vr[i]]);
+                    c->bc.name, md->vr_name[vr[i]]);
                 status = BV_ERROR;
             } else {
                 c->p[idx] = value[i];
             }
         } else {
-            say(c, BV_ERROR, "%s: %s is an output and cannot be set (ignored)", c->name,
+            say(c, BV_ERROR, "%s: %s is an output and cannot be set (ignored)", c->bc.name,
                 md->vr_name[vr[i]]);
             status = BV_ERROR;
         }
@@ -834,11 +724,11 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
 
 bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double value[])
 {
-    const bv_model *md = c->md;
+    const bv_model *md = c->bc.md;
     bv_status status = BV_OK;
     size_t i;
     int k;
-    if (!c->initialized && memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0 &&
+    if (!c->bc.initialized && memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0 &&
         params_valid(c, c->p, 1))
         build(c, c->p); /* parameters changed before initialization: follow them if valid */
     for (i = 0; i < nvr; i++) {
@@ -868,7 +758,7 @@ bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double val
             if (!isfinite(value[i]) && status == BV_OK) {
                 say(c, BV_ERROR, "%s: output %s is not finite: an input is not finite or too "
                                  "large (set finite inputs of physical size)",
-                    c->name, md->vr_name[vr[i]]);
+                    c->bc.name, md->vr_name[vr[i]]);
                 status = BV_ERROR;
             }
         }
@@ -879,7 +769,7 @@ bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double val
 /* The unconnected-velocity rule, before a step (bodyvib.runtime.engine's _slope_fallback). */
 static void slope_fallback(bv_instance *c, double t, double h)
 {
-    const bv_model *md = c->md;
+    const bv_model *md = c->bc.md;
     int k;
     for (k = 0; k < md->npairs; k++) {
         const bv_pair *pr = &md->pairs[k];
@@ -895,7 +785,7 @@ static void slope_fallback(bv_instance *c, double t, double h)
                 say(c, BV_WARNING, "%s: %s moves (t = %g s) but %s was never set: using the "
                                    "slope of successive %s values as its in-step rate; connect "
                                    "%s for the exact coupling",
-                    c->name, dname, t, vname, dname, vname);
+                    c->bc.name, dname, t, vname, dname, vname);
             }
         }
         if (c->slope_on[k])
@@ -911,7 +801,7 @@ static void slope_fallback(bv_instance *c, double t, double h)
  * the hot path makes no library calls. */
 static inline void save_bookkeeping(bv_instance *c, int restore)
 {
-    const bv_model *md = c->md;
+    const bv_model *md = c->bc.md;
     int k, np1 = md->npairs + 1;
     unsigned char *f = c->save_flags;
     for (k = 0; k < md->npairs; k++) {
@@ -936,37 +826,18 @@ static inline void save_bookkeeping(bv_instance *c, int restore)
 bv_status bv_step(bv_instance *c, double t, double h)
 {
     int n = c->n, ni = c->ni, j;
-    double *zn = c->zn, zz = 0.0, zz2 = 0.0, at = fabs(c->time);
-    char text[32], text2[32];
-    if (!(h > 0.0 && h < INFINITY)) {
-        say(c, BV_ERROR, "%s: communication step size must be positive and finite, got %s s",
-            c->name, shortest(h, text));
+    double *zn = c->zn, zz = 0.0, zz2 = 0.0;
+    char text[32];
+    if (bv_common_step_check(&c->bc, t, h) != BV_OK)
         return BV_ERROR;
-    }
-    if (!c->initialized) {
-        if (c->init_failed)
-            say(c, BV_ERROR, "%s", c->init_error);
-        else
-            say(c, BV_ERROR, "%s: DoStep before initialization; call ExitInitializationMode "
-                             "first", c->name);
-        return BV_ERROR;
-    }
-    /* the step starts where the last one ended (or at the start time): a host whose clock
-     * differs by more than rounding is out of step with the model */
-    if (!(fabs(t - c->time) <= 1e-9 * (at > 1.0 ? at : 1.0))) {
-        say(c, BV_ERROR, "%s: DoStep from t = %s s, but the model is at t = %s s (the start "
-                         "time or the end of the last step); step refused, state unchanged",
-            c->name, shortest(t, text), shortest(c->time, text2));
-        return BV_ERROR;
-    }
     save_bookkeeping(c, 0);
-    if (c->md->npairs)
+    if (c->bc.md->npairs)
         slope_fallback(c, t, h);
     if (!discretize(c, h)) {
         save_bookkeeping(c, 1);
         say(c, BV_ERROR, "%s: a step of %s s overflows the exact discretization (not "
                          "finite); step refused (discard), state unchanged (use shorter steps)",
-            c->name, shortest(h, text));
+            c->bc.name, shortest(h, text));
         return BV_DISCARD;
     }
     matvec(zn, c->Sc, c->x, n, n + ni);
@@ -986,17 +857,17 @@ bv_status bv_step(bv_instance *c, double t, double h)
             if (!isfinite(c->s[j])) {
                 say(c, BV_ERROR, "%s: input %s = %g at t = %g s is not finite; step refused, "
                                  "state unchanged (set a finite value and step again)",
-                    c->name, var_name(c->md, BV_INPUT, j), c->s[j], t);
+                    c->bc.name, var_name(c->bc.md, BV_INPUT, j), c->s[j], t);
                 return BV_ERROR;
             }
         say(c, BV_ERROR, "%s: the state after the step from t = %g s is not finite (inputs or "
                          "state too large); step refused (discard), state unchanged",
-            c->name, t);
+            c->bc.name, t);
         return BV_DISCARD;
     }
     for (j = 0; j < n + ni; j++) /* small: plain loops, no library calls on the hot path */
         c->x[j] = zn[j];
-    c->time = t + h;
+    c->bc.time = t + h;
     c->dirty = 1;
     return BV_OK;
 }
@@ -1018,7 +889,7 @@ static int rate_of(const bv_model *md, int i, double *coef)
 bv_status bv_set_input_derivatives(bv_instance *c, const unsigned int vr[], size_t nvr,
                                    const int order[], const double value[])
 {
-    const bv_model *md = c->md;
+    const bv_model *md = c->bc.md;
     size_t i;
     int k;
     /* all checked before any is applied: a refused call changes nothing */
@@ -1029,12 +900,12 @@ bv_status bv_set_input_derivatives(bv_instance *c, const unsigned int vr[], size
             return BV_ERROR;
         if (md->vr_kind[vr[i]] != BV_INPUT) {
             say(c, BV_ERROR, "%s: %s is not an input; input derivatives are for inputs only",
-                c->name, md->vr_name[vr[i]]);
+                c->bc.name, md->vr_name[vr[i]]);
             return BV_ERROR;
         }
         if (order[i] < 1) {
             say(c, BV_ERROR, "%s: derivative order %d of %s: the order must be 1 or more",
-                c->name, order[i], md->vr_name[vr[i]]);
+                c->bc.name, order[i], md->vr_name[vr[i]]);
             return BV_ERROR;
         }
         j = md->vr_index[vr[i]];
@@ -1047,12 +918,12 @@ bv_status bv_set_input_derivatives(bv_instance *c, const unsigned int vr[], size
             say(c, BV_ERROR, "%s: %s has no in-step derivative of order %d (its rate chain is "
                              "shorter; orders it has: see canInterpolateInputs in the README); "
                              "call refused",
-                c->name, md->vr_name[vr[i]], order[i]);
+                c->bc.name, md->vr_name[vr[i]], order[i]);
             return BV_ERROR;
         }
         if (!isfinite(value[i])) {
             say(c, BV_ERROR, "%s: derivative order %d of %s is not finite; call refused",
-                c->name, order[i], md->vr_name[vr[i]]);
+                c->bc.name, order[i], md->vr_name[vr[i]]);
             return BV_ERROR;
         }
     }
@@ -1081,7 +952,7 @@ bv_status bv_set_input_derivatives(bv_instance *c, const unsigned int vr[], size
 /* z' = [A x + B U s, R s] for z = [x | s] (the state equations and the in-step rates). */
 static void zdot(const bv_instance *c, const double *z, double *out)
 {
-    const bv_model *md = c->md;
+    const bv_model *md = c->bc.md;
     int n = c->n, m = c->m, ni = c->ni, i, j;
     double *u = out + n + ni; /* m doubles of scratch past out (zd has room) */
     /* plain loops, not matvec: matvec stays inlined where the steps need it */
@@ -1110,7 +981,7 @@ static void zdot(const bv_instance *c, const double *z, double *out)
 bv_status bv_get_output_derivatives(bv_instance *c, const unsigned int vr[], size_t nvr,
                                     const int order[], double value[])
 {
-    const bv_model *md = c->md;
+    const bv_model *md = c->bc.md;
     int w = c->n + c->ni;
     size_t i;
     double *z1 = c->zd, *z2 = c->zd + w;
@@ -1120,13 +991,13 @@ bv_status bv_get_output_derivatives(bv_instance *c, const unsigned int vr[], siz
             return BV_ERROR;
         if (md->vr_kind[vr[i]] != BV_OUTPUT) {
             say(c, BV_ERROR, "%s: %s is not an output; output derivatives are for outputs only",
-                c->name, md->vr_name[vr[i]]);
+                c->bc.name, md->vr_name[vr[i]]);
             return BV_ERROR;
         }
         if (order[i] < 1 || order[i] > BV_MAX_OUTPUT_ORDER) {
             say(c, BV_ERROR, "%s: derivative order %d of %s: this FMU gives orders 1 to %d "
                              "(maxOutputDerivativeOrder)",
-                c->name, order[i], md->vr_name[vr[i]], BV_MAX_OUTPUT_ORDER);
+                c->bc.name, order[i], md->vr_name[vr[i]], BV_MAX_OUTPUT_ORDER);
             return BV_ERROR;
         }
     }
@@ -1141,7 +1012,7 @@ bv_status bv_get_output_derivatives(bv_instance *c, const unsigned int vr[], siz
         value[i] = v;
         if (!isfinite(v) && status == BV_OK) {
             say(c, BV_ERROR, "%s: derivative %d of output %s is not finite (inputs too large)",
-                c->name, order[i], md->vr_name[vr[i]]);
+                c->bc.name, order[i], md->vr_name[vr[i]]);
             status = BV_ERROR;
         }
     }
@@ -1167,7 +1038,7 @@ static uint64_t fnv1a(const unsigned char *p, size_t n)
  * pair x_prev, h_prev, has_prev, vel_set, slope_on, warned. */
 static size_t payload_doubles(const bv_instance *c)
 {
-    return 3 + (size_t)c->np + (size_t)c->n + (size_t)c->ni + 6 * (size_t)c->md->npairs;
+    return 3 + (size_t)c->np + (size_t)c->n + (size_t)c->ni + 6 * (size_t)c->bc.md->npairs;
 }
 
 size_t bv_state_size(const bv_instance *c)
@@ -1183,7 +1054,7 @@ static unsigned char *put(unsigned char *q, const double *v, size_t k)
 
 static uint64_t token_hash(const bv_instance *c)
 {
-    return fnv1a((const unsigned char *)c->md->token, strlen(c->md->token));
+    return fnv1a((const unsigned char *)c->bc.md->token, strlen(c->bc.md->token));
 }
 
 void bv_state_write(const bv_instance *c, unsigned char *buf)
@@ -1196,14 +1067,14 @@ void bv_state_write(const bv_instance *c, unsigned char *buf)
     memcpy(q + 8, &size, 8);
     memcpy(q + 16, &token, 8);
     q += 24;
-    head[0] = c->time;
-    head[1] = c->initialized;
-    head[2] = c->init_failed;
+    head[0] = c->bc.time;
+    head[1] = c->bc.initialized;
+    head[2] = c->bc.init_failed;
     q = put(q, head, 3);
     q = put(q, c->p, (size_t)c->np);
     q = put(q, c->x, (size_t)c->n);
     q = put(q, c->s, (size_t)c->ni);
-    for (k = 0; k < c->md->npairs; k++) {
+    for (k = 0; k < c->bc.md->npairs; k++) {
         pair[0] = c->x_prev[k];
         pair[1] = c->h_prev[k];
         pair[2] = c->has_prev[k];
@@ -1225,26 +1096,26 @@ bv_status bv_state_check(const bv_instance *c, const unsigned char *buf, size_t 
     int k;
     double head[3], pair[6], *p, v;
     if (buf == NULL || size < 24 || memcmp(buf, MAGIC, 8) != 0) {
-        say(c, BV_ERROR, "%s: not a bodyvib FMU state (bad magic)", c->name);
+        say(c, BV_ERROR, "%s: not a bodyvib FMU state (bad magic)", c->bc.name);
         return BV_ERROR;
     }
     memcpy(&got, buf + 8, 8);
     memcpy(&token, buf + 16, 8);
     if (got != want || size != want || token != token_hash(c)) {
         say(c, BV_ERROR, "%s: the FMU state belongs to another model or version (size %llu, "
-                         "expected %llu); refused", c->name, (unsigned long long)size,
+                         "expected %llu); refused", c->bc.name, (unsigned long long)size,
             (unsigned long long)want);
         return BV_ERROR;
     }
     memcpy(&sum, buf + want - 8, 8);
     if (sum != fnv1a(buf, (size_t)want - 8)) {
-        say(c, BV_ERROR, "%s: the FMU state is corrupt (checksum mismatch); refused", c->name);
+        say(c, BV_ERROR, "%s: the FMU state is corrupt (checksum mismatch); refused", c->bc.name);
         return BV_ERROR;
     }
     memcpy(head, buf + 24, sizeof head);
     off = 24 + sizeof head;
     if (!(isfinite(head[0]) && flag_ok(head[1]) && flag_ok(head[2]))) {
-        say(c, BV_ERROR, "%s: the FMU state is invalid (time or flags); refused", c->name);
+        say(c, BV_ERROR, "%s: the FMU state is invalid (time or flags); refused", c->bc.name);
         return BV_ERROR;
     }
     p = malloc((size_t)c->np * sizeof *p + 1);
@@ -1253,7 +1124,7 @@ bv_status bv_state_check(const bv_instance *c, const unsigned char *buf, size_t 
     memcpy(p, buf + off, (size_t)c->np * sizeof *p);
     if (head[1] != 0.0 && !params_valid(c, p, 1)) {
         free(p);
-        say(c, BV_ERROR, "%s: the FMU state holds invalid parameters; refused", c->name);
+        say(c, BV_ERROR, "%s: the FMU state holds invalid parameters; refused", c->bc.name);
         return BV_ERROR;
     }
     free(p);
@@ -1262,12 +1133,12 @@ bv_status bv_state_check(const bv_instance *c, const unsigned char *buf, size_t 
         memcpy(&v, buf + off + 8 * i, 8);
         if (!isfinite(v)) {
             say(c, BV_ERROR, "%s: the FMU state holds a non-finite model state; refused",
-                c->name);
+                c->bc.name);
             return BV_ERROR;
         }
     }
     off += 8 * ((size_t)c->n + (size_t)c->ni);
-    for (k = 0; k < c->md->npairs; k++) {
+    for (k = 0; k < c->bc.md->npairs; k++) {
         memcpy(pair, buf + off + sizeof pair * (size_t)k, sizeof pair);
         /* consistent as only stepping makes it: a slope in use was seen (a previous
          * displacement and a normal positive step to divide by), never with the velocity
@@ -1279,7 +1150,7 @@ bv_status bv_state_check(const bv_instance *c, const unsigned char *buf, size_t 
                         : pair[0] == 0.0 && pair[1] == 0.0) &&
               (!slope_on || (has_prev && !vel_set && pair[5] != 0.0)))) {
             say(c, BV_ERROR, "%s: the FMU state is invalid (fallback bookkeeping); refused",
-                c->name);
+                c->bc.name);
             return BV_ERROR;
         }
     }
@@ -1303,7 +1174,7 @@ bv_status bv_state_read(bv_instance *c, const unsigned char *buf, size_t size)
     q = get(q, c->p, (size_t)c->np);
     q = get(q, c->x, (size_t)c->n);
     q = get(q, c->s, (size_t)c->ni);
-    for (k = 0; k < c->md->npairs; k++) {
+    for (k = 0; k < c->bc.md->npairs; k++) {
         q = get(q, pair, 6);
         c->x_prev[k] = pair[0];
         c->h_prev[k] = pair[1];
@@ -1313,24 +1184,12 @@ bv_status bv_state_read(bv_instance *c, const unsigned char *buf, size_t size)
         c->warned[k] = (unsigned char)(pair[5] != 0.0);
     }
     c->dirty = 1;
-    c->time = head[0];
-    c->initialized = head[1] != 0.0;
-    c->init_failed = head[2] != 0.0;
-    /* the state machine follows the snapshot: initialized ones step; a failed one is in
-     * error; one from before initialization keeps Instantiated / InitializationMode */
-    if (c->initialized)
-        c->mode = BV_STEPPING;
-    else if (c->init_failed)
-        c->mode = BV_FAILED;
-    else if (c->mode != BV_INITIALIZATION)
-        c->mode = BV_INSTANTIATED;
-    if (c->init_failed)
-        snprintf(c->init_error, BV_MESSAGE, "%s: the restored state was not initialized "
-                 "successfully; reset and set valid parameters", c->name);
+    /* the state machine follows the snapshot */
+    bv_common_restored(&c->bc, head[0], head[1] != 0.0, head[2] != 0.0, "valid parameters");
     if (memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0 && params_valid(c, c->p, 1))
-        if (!build(c, c->p) && c->initialized) {
-            c->initialized = 0;
-            say(c, BV_ERROR, "%s: the restored parameters give a singular model", c->name);
+        if (!build(c, c->p) && c->bc.initialized) {
+            c->bc.initialized = 0;
+            say(c, BV_ERROR, "%s: the restored parameters give a singular model", c->bc.name);
             return BV_ERROR;
         }
     return BV_OK;
@@ -1342,7 +1201,7 @@ bv_status bv_state_read(bv_instance *c, const unsigned char *buf, size_t size)
  * Jacobians read in initialization mode are those of the parameters set. */
 static void follow_parameters(bv_instance *c)
 {
-    if (!c->initialized && memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0 &&
+    if (!c->bc.initialized && memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0 &&
         params_valid(c, c->p, 1))
         build(c, c->p);
 }
@@ -1350,7 +1209,7 @@ static void follow_parameters(bv_instance *c)
 /* Row i of the derivative on z = [x | s]: [A_i | (B U)_i], into row (n + ni). */
 static void derivative_row(const bv_instance *c, int i, double *row)
 {
-    const bv_model *md = c->md;
+    const bv_model *md = c->bc.md;
     int n = c->n, m = c->m, ni = c->ni, j, l;
     for (j = 0; j < n; j++)
         row[j] = c->A[(size_t)i * n + j];
@@ -1364,7 +1223,7 @@ static void derivative_row(const bv_instance *c, int i, double *row)
 
 static double derivative_value(const bv_instance *c, int i)
 {
-    const bv_model *md = c->md;
+    const bv_model *md = c->bc.md;
     int n = c->n, m = c->m, ni = c->ni, j, l;
     double v = 0.0;
     for (j = 0; j < n; j++)
@@ -1382,13 +1241,13 @@ int bv_me_nstates(const bv_instance *c) { return c->n; }
 
 void bv_me_set_time(bv_instance *c, double t)
 {
-    c->time = t; /* the model is time-invariant: time only labels the state */
+    c->bc.time = t; /* the model is time-invariant: time only labels the state */
 }
 
 static int n_ok(const bv_instance *c, size_t nx, const char *what)
 {
     if (nx != (size_t)c->n) {
-        say(c, BV_ERROR, "%s: %s: %lu continuous states passed, the model has %d", c->name, what,
+        say(c, BV_ERROR, "%s: %s: %lu continuous states passed, the model has %d", c->bc.name, what,
             (unsigned long)nx, c->n);
         return 0;
     }
@@ -1422,7 +1281,7 @@ bv_status bv_me_get_states(bv_instance *c, double x[], size_t nx)
  * unused in model exchange and holds the first displacement seen. */
 static void me_unconnected_velocity(bv_instance *c)
 {
-    const bv_model *md = c->md;
+    const bv_model *md = c->bc.md;
     int k;
     for (k = 0; k < md->npairs; k++) {
         const bv_pair *pr = &md->pairs[k];
@@ -1439,7 +1298,7 @@ static void me_unconnected_velocity(bv_instance *c)
             say(c, BV_WARNING, "%s: %s moves (t = %g s) but %s was never set: in model exchange "
                                "the velocity input is used as given (0); set %s to the time "
                                "derivative of %s",
-                c->name, dname, c->time, vname, vname, dname);
+                c->bc.name, dname, c->bc.time, vname, vname, dname);
         }
     }
 }
@@ -1450,7 +1309,7 @@ bv_status bv_me_derivatives(bv_instance *c, double dx[], size_t nx)
     if (!n_ok(c, nx, "GetDerivatives"))
         return BV_ERROR;
     follow_parameters(c);
-    if (c->md->npairs)
+    if (c->bc.md->npairs)
         me_unconnected_velocity(c);
     for (i = 0; i < c->n; i++)
         dx[i] = derivative_value(c, i);
@@ -1469,7 +1328,7 @@ bv_status bv_me_nominals(bv_instance *c, double nominal[], size_t nx)
 
 static int me_var_get(bv_instance *c, unsigned int vr, double *value)
 {
-    const bv_model *md = c->md;
+    const bv_model *md = c->bc.md;
     unsigned int first = (unsigned int)BV_STATE_VR(md, 0);
     if (vr < first || vr >= first + 2u * (unsigned int)c->n)
         return -1;
@@ -1484,19 +1343,19 @@ static int me_var_get(bv_instance *c, unsigned int vr, double *value)
 
 static int me_var_set(bv_instance *c, unsigned int vr, double value)
 {
-    const bv_model *md = c->md;
+    const bv_model *md = c->bc.md;
     unsigned int first = (unsigned int)BV_STATE_VR(md, 0);
     if (vr < first || vr >= first + 2u * (unsigned int)c->n)
         return -1;
     if (vr >= first + (unsigned int)c->n) {
         say(c, BV_ERROR, "%s: a state derivative (value reference %u) is calculated and cannot "
-                         "be set (ignored)", c->name, vr);
+                         "be set (ignored)", c->bc.name, vr);
         return BV_ERROR;
     }
-    if (c->initialized) {
+    if (c->bc.initialized) {
         say(c, BV_ERROR, "%s: a state's start value (value reference %u) can be set only before "
                          "ExitInitializationMode; in model exchange use SetContinuousStates "
-                         "(ignored)", c->name, vr);
+                         "(ignored)", c->bc.name, vr);
         return BV_ERROR;
     }
     c->x[vr - first] = value;
@@ -1507,7 +1366,7 @@ static int me_var_set(bv_instance *c, unsigned int vr, double value)
 /* Column of a known on z = [x | s]: a state or an input; -1 otherwise. */
 static int known_column(const bv_instance *c, unsigned int vr)
 {
-    const bv_model *md = c->md;
+    const bv_model *md = c->bc.md;
     unsigned int first = (unsigned int)BV_STATE_VR(md, 0);
     if (vr >= first && vr < first + (unsigned int)c->n)
         return (int)(vr - first);
@@ -1520,7 +1379,7 @@ bv_status bv_directional(bv_instance *c, const unsigned int unknowns[], size_t n
                          const unsigned int knowns[], size_t nk, const double seed[],
                          double sensitivity[])
 {
-    const bv_model *md = c->md;
+    const bv_model *md = c->bc.md;
     unsigned int first = (unsigned int)BV_STATE_VR(md, 0);
     int w = c->n + c->ni;
     size_t a, b;
@@ -1528,7 +1387,7 @@ bv_status bv_directional(bv_instance *c, const unsigned int unknowns[], size_t n
     for (b = 0; b < nk; b++)
         if (known_column(c, knowns[b]) < 0) {
             say(c, BV_ERROR, "%s: directional derivative: value reference %u is not a known "
-                             "(a continuous state or an input)", c->name, knowns[b]);
+                             "(a continuous state or an input)", c->bc.name, knowns[b]);
             return BV_ERROR;
         }
     follow_parameters(c);
@@ -1541,7 +1400,7 @@ bv_status bv_directional(bv_instance *c, const unsigned int unknowns[], size_t n
             memcpy(row, c->Yc + (size_t)md->vr_index[vr] * w, (size_t)w * sizeof *row);
         } else {
             say(c, BV_ERROR, "%s: directional derivative: value reference %u is not an unknown "
-                             "(a state derivative or an output)", c->name, vr);
+                             "(a state derivative or an output)", c->bc.name, vr);
             return BV_ERROR;
         }
         for (b = 0; b < nk; b++)

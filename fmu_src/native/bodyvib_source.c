@@ -2,64 +2,30 @@
  * bodyvib native source core (see bodyvib_source.h): the bv_* API of bodyvib_core.h for a
  * tabulated profile, the C twin of bodyvib.runtime.source.SourceCore.
  *
- * Per instance: the speed parameter, the time, whether it is initialized. Outputs are
- * computed on read at p = speed * time. DoStep(t, h) sets the time to t + h (outputs read
- * after it are those of the step's end), as the pythonfmu source FMU does.
+ * Per instance: the shared state machine (bv_common of bodyvib_fsm.h: state, time, start
+ * time, initialization flags) and the speed parameter. Outputs are computed on read at
+ * p = speed * time, the time starting at the run's start time. DoStep(t, h) sets the time to
+ * t + h (outputs read after it are those of the step's end), as the pythonfmu source FMU
+ * does. No inputs, no continuous states: model exchange sets the time and reads the outputs
+ * there; input derivatives and directional derivatives are refused.
  */
 #include "bodyvib_source.h"
+#include "bodyvib_fsm.h"
 
 #include <math.h>
-#include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#define BV_MESSAGE 640
-
 struct bv_instance {
-    const bv_model *md;
+    bv_common bc; /* first (BV_STATE_IS) */
     const bv_source *tb;
-    char name[128];
-    bv_log_fn log;
-    void *env;
     double speed;
-    double time;
-    int initialized;
-    int init_failed;
-    char init_error[BV_MESSAGE];
-    double *z, *dz; /* [signals] scratch */
+    double *z, *dz, *d2z, *d3z; /* [signals] scratch: the interpolant and its derivatives */
 };
 
-static void say(const bv_instance *c, int status, const char *fmt, ...)
-#if defined(__GNUC__)
-    __attribute__((format(printf, 3, 4)))
-#endif
-    ;
-
-static void say(const bv_instance *c, int status, const char *fmt, ...)
-{
-    char text[BV_MESSAGE];
-    va_list ap;
-    if (c->log == NULL)
-        return;
-    va_start(ap, fmt);
-    vsnprintf(text, sizeof text, fmt, ap);
-    va_end(ap);
-    c->log(c->env, status, text);
-}
-
-/* The shortest %g text that reads back as v (as Python's repr), into buf[32]. */
-static const char *shortest(double v, char *buf)
-{
-    int p;
-    for (p = 1; p <= 17; p++) {
-        snprintf(buf, 32, "%.*g", p, v);
-        if (strtod(buf, NULL) == v)
-            break;
-    }
-    return buf;
-}
+#define say(c, ...) bv_say(&(c)->bc, __VA_ARGS__)
 
 /* numpy's float modulo (np.mod): the sign of the divisor, +0 for an exact multiple. */
 static double py_mod(double a, double b)
@@ -74,10 +40,12 @@ static double py_mod(double a, double b)
     return r;
 }
 
-void bv_source_evaluate(const bv_source *t, double p, double *z, double *dz)
+/* The segment i and the local coordinate s in [0, 1] of position p, as
+ * HermiteTable.evaluate locates them; returns 0 when p is off a non-periodic table (held). */
+static int locate(const bv_source *t, double p, int *seg, double *local)
 {
-    int k = t->rows - 1, S = t->signals, i, c;
-    double u = (p - t->p0) / t->dp, uc, s, s2, s3, dp = t->dp;
+    int k = t->rows - 1, i;
+    double u = (p - t->p0) / t->dp, uc;
     int inside;
     if (t->periodic)
         u = py_mod(u, (double)k);
@@ -88,7 +56,16 @@ void bv_source_evaluate(const bv_source *t, double p, double *z, double *dz)
     i = isnan(uc) ? 0 : (int)floor(uc);
     if (i > k - 1)
         i = k - 1;
-    s = uc - i;
+    *seg = i;
+    *local = uc - i;
+    return t->periodic || inside;
+}
+
+void bv_source_evaluate(const bv_source *t, double p, double *z, double *dz)
+{
+    int S = t->signals, i, c, on;
+    double s, s2, s3, dp = t->dp;
+    on = locate(t, p, &i, &s);
     s2 = s * s;
     s3 = s * s * s;
     for (c = 0; c < S; c++) {
@@ -99,32 +76,47 @@ void bv_source_evaluate(const bv_source *t, double p, double *z, double *dz)
                (s3 - s2) * m1;
         dz[c] = ((6 * s2 - 6 * s) * (z0 - z1) + (3 * s2 - 4 * s + 1) * m0 + (3 * s2 - 2 * s) * m1) /
                 dp;
-        if (!t->periodic && !inside)
+        if (!on)
             dz[c] = 0.0;
     }
 }
+
+void bv_source_curvature(const bv_source *t, double p, double *d2z, double *d3z)
+{
+    int S = t->signals, i, c, on;
+    double s, dp = t->dp;
+    on = locate(t, p, &i, &s);
+    for (c = 0; c < S; c++) {
+        double z0 = t->value[(size_t)i * S + c], z1 = t->value[(size_t)(i + 1) * S + c];
+        double m0 = t->slope[(size_t)i * S + c] * dp, m1 = t->slope[(size_t)(i + 1) * S + c] * dp;
+        d2z[c] = on ? ((12 * s - 6) * (z0 - z1) + (6 * s - 4) * m0 + (6 * s - 2) * m1) / (dp * dp)
+                    : 0.0;
+        d3z[c] = on ? (12 * (z0 - z1) + 6 * m0 + 6 * m1) / (dp * dp * dp) : 0.0;
+    }
+}
+
+/* ---------------------------------------------------------------- instances */
 
 bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *env)
 {
     const bv_source *tb = &bv_source_data;
     bv_instance *c;
-    if (md->no != 2 * tb->signals || md->np != 1 || md->ni != 0 || tb->rows < 2 ||
+    if (md->no != 2 * tb->signals || md->np != 1 || md->ni != 0 || md->n != 0 || tb->rows < 2 ||
         !(tb->dp > 0.0))
         return NULL; /* a generated model that does not fit its table: a build error */
     c = calloc(1, sizeof *c);
     if (c == NULL)
         return NULL;
-    c->z = calloc(2 * (size_t)tb->signals, sizeof *c->z);
+    c->z = calloc(4 * (size_t)tb->signals, sizeof *c->z);
     if (c->z == NULL) {
         free(c);
         return NULL;
     }
     c->dz = c->z + tb->signals;
-    c->md = md;
+    c->d2z = c->dz + tb->signals;
+    c->d3z = c->d2z + tb->signals;
     c->tb = tb;
-    snprintf(c->name, sizeof c->name, "%s", name ? name : md->model_name);
-    c->log = log;
-    c->env = env;
+    bv_common_init(&c->bc, md, name, log, env);
     bv_reset(c);
     return c;
 }
@@ -139,46 +131,37 @@ void bv_free(bv_instance *c)
 
 void bv_reset(bv_instance *c)
 {
-    c->speed = c->md->param_start[0];
-    c->time = 0.0;
-    c->initialized = 0;
-    c->init_failed = 0;
-    c->init_error[0] = '\0';
+    c->speed = c->bc.md->param_start[0];
+    bv_common_clear(&c->bc);
 }
-
-double bv_time(const bv_instance *c) { return c->time; }
 
 static int speed_valid(double v) { return isfinite(v) && v > 0.0; }
 
 bv_status bv_initialize(bv_instance *c)
 {
-    const bv_model *md = c->md;
-    c->initialized = 0;
+    const bv_model *md = c->bc.md;
+    bv_common_begin_initialize(&c->bc);
     if (!speed_valid(c->speed)) {
         char text[32];
         int pvr;
         for (pvr = 0; pvr < md->nvars && md->vr_kind[pvr] != BV_PARAMETER; pvr++)
             ;
-        snprintf(c->init_error, BV_MESSAGE,
+        snprintf(c->bc.init_error, BV_MESSAGE,
                  "%s: parameter %s = %s %s is invalid: it must be a positive finite number (the "
                  "FMU's default is %g %s); the instance refuses to step (reset and set a valid "
                  "value)",
-                 c->name, md->vr_name[pvr], shortest(c->speed, text), md->param_unit[0],
+                 c->bc.name, md->vr_name[pvr], bv_shortest(c->speed, text), md->param_unit[0],
                  md->param_start[0], md->param_unit[0]);
-        c->init_failed = 1;
-        say(c, BV_ERROR, "%s", c->init_error);
-        return BV_ERROR;
+        return bv_common_failed(&c->bc);
     }
-    c->init_failed = 0;
-    c->init_error[0] = '\0';
-    c->initialized = 1;
+    bv_common_initialized(&c->bc);
     return BV_OK;
 }
 
 static int check_vr(const bv_instance *c, unsigned int vr)
 {
-    if (vr >= (unsigned int)c->md->nvars) {
-        say(c, BV_ERROR, "%s: no variable with value reference %u", c->name, vr);
+    if (vr >= (unsigned int)c->bc.md->nvars) {
+        say(c, BV_ERROR, "%s: no variable with value reference %u", c->bc.name, vr);
         return 0;
     }
     return 1;
@@ -186,23 +169,25 @@ static int check_vr(const bv_instance *c, unsigned int vr)
 
 bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const double value[])
 {
-    const bv_model *md = c->md;
+    const bv_model *md = c->bc.md;
     bv_status status = BV_OK;
     size_t i;
-    for (i = 0; i < nvr; i++) {
+    /* an unknown value reference refuses the call: nothing set */
+    for (i = 0; i < nvr; i++)
         if (!check_vr(c, vr[i]))
             return BV_ERROR;
+    for (i = 0; i < nvr; i++) {
         if (md->vr_kind[vr[i]] == BV_PARAMETER) {
-            if (c->initialized) {
+            if (c->bc.initialized) {
                 say(c, BV_ERROR, "%s: parameter %s is fixed after initialization; set it "
                                  "before ExitInitializationMode (ignored)",
-                    c->name, md->vr_name[vr[i]]);
+                    c->bc.name, md->vr_name[vr[i]]);
                 status = BV_ERROR;
             } else {
                 c->speed = value[i];
             }
         } else {
-            say(c, BV_ERROR, "%s: %s is an output and cannot be set (ignored)", c->name,
+            say(c, BV_ERROR, "%s: %s is an output and cannot be set (ignored)", c->bc.name,
                 md->vr_name[vr[i]]);
             status = BV_ERROR;
         }
@@ -212,7 +197,7 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
 
 bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double value[])
 {
-    const bv_model *md = c->md;
+    const bv_model *md = c->bc.md;
     size_t i;
     int evaluated = 0;
     for (i = 0; i < nvr; i++) {
@@ -225,7 +210,7 @@ bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double val
             continue;
         }
         if (!evaluated) {
-            bv_source_evaluate(c->tb, c->speed * c->time, c->z, c->dz);
+            bv_source_evaluate(c->tb, c->speed * c->bc.time, c->z, c->dz);
             evaluated = 1;
         }
         value[i] = idx % 2 == 0 ? c->z[idx / 2] : c->speed * c->dz[idx / 2];
@@ -235,22 +220,128 @@ bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double val
 
 bv_status bv_step(bv_instance *c, double t, double h)
 {
-    if (!(h > 0.0 && h < INFINITY)) {
-        char text[32];
-        say(c, BV_ERROR, "%s: communication step size must be positive and finite, got %s s",
-            c->name, shortest(h, text));
+    if (bv_common_step_check(&c->bc, t, h) != BV_OK)
         return BV_ERROR;
-    }
-    if (!c->initialized) {
-        if (c->init_failed)
-            say(c, BV_ERROR, "%s", c->init_error);
-        else
-            say(c, BV_ERROR, "%s: DoStep before initialization; call ExitInitializationMode "
-                             "first", c->name);
-        return BV_ERROR;
-    }
-    c->time = t + h;
+    c->bc.time = t + h;
     return BV_OK;
+}
+
+/* ---------------------------------------------------------------- interpolation interface */
+
+/* No inputs: every value reference is refused (nothing is set). */
+bv_status bv_set_input_derivatives(bv_instance *c, const unsigned int vr[], size_t nvr,
+                                   const int order[], const double value[])
+{
+    (void)order, (void)value;
+    if (nvr == 0)
+        return BV_OK;
+    if (!check_vr(c, vr[0]))
+        return BV_ERROR;
+    say(c, BV_ERROR, "%s: %s is not an input; input derivatives are for inputs only (this FMU "
+                     "has none); call refused",
+        c->bc.name, c->bc.md->vr_name[vr[0]]);
+    return BV_ERROR;
+}
+
+/* Order k of an output is its k-th time derivative at p = speed t: the displacement's
+ * orders 1, 2 are speed z'(p) (the rate output) and speed^2 z''(p), the rate's speed^2 z''(p)
+ * and speed^3 z'''(p), z the cubic Hermite interpolant. It is continuously differentiable;
+ * its second and third derivatives are those of the cubic of the segment p lies in (at a
+ * table row, the next segment's: they may jump there). Off a non-periodic table the outputs
+ * are held: every derivative is 0. */
+bv_status bv_get_output_derivatives(bv_instance *c, const unsigned int vr[], size_t nvr,
+                                    const int order[], double value[])
+{
+    const bv_model *md = c->bc.md;
+    double v = c->speed, p = c->speed * c->bc.time;
+    size_t i;
+    for (i = 0; i < nvr; i++) {
+        if (!check_vr(c, vr[i]))
+            return BV_ERROR;
+        if (md->vr_kind[vr[i]] != BV_OUTPUT) {
+            say(c, BV_ERROR, "%s: %s is not an output; output derivatives are for outputs only",
+                c->bc.name, md->vr_name[vr[i]]);
+            return BV_ERROR;
+        }
+        if (order[i] < 1 || order[i] > BV_MAX_OUTPUT_ORDER) {
+            say(c, BV_ERROR, "%s: derivative order %d of %s: this FMU gives orders 1 to %d "
+                             "(maxOutputDerivativeOrder)",
+                c->bc.name, order[i], md->vr_name[vr[i]], BV_MAX_OUTPUT_ORDER);
+            return BV_ERROR;
+        }
+    }
+    if (nvr == 0)
+        return BV_OK;
+    bv_source_evaluate(c->tb, p, c->z, c->dz);
+    bv_source_curvature(c->tb, p, c->d2z, c->d3z);
+    for (i = 0; i < nvr; i++) {
+        int idx = md->vr_index[vr[i]], k = idx / 2, total = order[i] + idx % 2;
+        if (total == 1)
+            value[i] = v * c->dz[k];
+        else if (total == 2)
+            value[i] = v * v * c->d2z[k];
+        else
+            value[i] = v * v * v * c->d3z[k];
+    }
+    return BV_OK;
+}
+
+/* ---------------------------------------------------------------- model exchange */
+
+/* No continuous states: the host sets the time and reads the outputs there. */
+int bv_me_nstates(const bv_instance *c)
+{
+    (void)c;
+    return 0;
+}
+
+void bv_me_set_time(bv_instance *c, double t) { c->bc.time = t; }
+
+static bv_status no_states(bv_instance *c, size_t nx, const char *what)
+{
+    if (nx != 0) {
+        say(c, BV_ERROR, "%s: %s: %lu continuous states passed, the model has 0", c->bc.name,
+            what, (unsigned long)nx);
+        return BV_ERROR;
+    }
+    return BV_OK;
+}
+
+bv_status bv_me_set_states(bv_instance *c, const double x[], size_t nx)
+{
+    (void)x;
+    return no_states(c, nx, "SetContinuousStates");
+}
+
+bv_status bv_me_get_states(bv_instance *c, double x[], size_t nx)
+{
+    (void)x;
+    return no_states(c, nx, "GetContinuousStates");
+}
+
+bv_status bv_me_derivatives(bv_instance *c, double dx[], size_t nx)
+{
+    (void)dx;
+    return no_states(c, nx, "GetDerivatives");
+}
+
+bv_status bv_me_nominals(bv_instance *c, double nominal[], size_t nx)
+{
+    (void)nominal;
+    return no_states(c, nx, "GetNominalsOfContinuousStates");
+}
+
+/* No states and no inputs: no knowns to differentiate by (the model description says
+ * providesDirectionalDerivative="false"). */
+bv_status bv_directional(bv_instance *c, const unsigned int unknowns[], size_t nu,
+                         const unsigned int knowns[], size_t nk, const double seed[],
+                         double sensitivity[])
+{
+    (void)unknowns, (void)nu, (void)knowns, (void)nk, (void)seed, (void)sensitivity;
+    say(c, BV_ERROR, "%s: directional derivatives: this FMU has no continuous states and no "
+                     "inputs, so it provides none (providesDirectionalDerivative is false); "
+                     "call refused", c->bc.name);
+    return BV_ERROR;
 }
 
 /* ---------------------------------------------------------------- snapshots */
@@ -272,19 +363,23 @@ static uint64_t fnv1a(const unsigned char *p, size_t n)
 
 static uint64_t token_hash(const bv_instance *c)
 {
-    return fnv1a((const unsigned char *)c->md->token, strlen(c->md->token));
+    return fnv1a((const unsigned char *)c->bc.md->token, strlen(c->bc.md->token));
 }
 
-size_t bv_state_size(const bv_instance *c) { return STATE_SIZE; }
+size_t bv_state_size(const bv_instance *c)
+{
+    (void)c;
+    return STATE_SIZE;
+}
 
 void bv_state_write(const bv_instance *c, unsigned char *buf)
 {
     uint64_t size = STATE_SIZE, token = token_hash(c), sum;
     double v[4];
-    v[0] = c->time;
+    v[0] = c->bc.time;
     v[1] = c->speed;
-    v[2] = c->initialized;
-    v[3] = c->init_failed;
+    v[2] = c->bc.initialized;
+    v[3] = c->bc.init_failed;
     memcpy(buf, MAGIC, 8);
     memcpy(buf + 8, &size, 8);
     memcpy(buf + 16, &token, 8);
@@ -298,26 +393,26 @@ bv_status bv_state_check(const bv_instance *c, const unsigned char *buf, size_t 
     uint64_t got, token, sum;
     double v[4];
     if (buf == NULL || size < 24 || memcmp(buf, MAGIC, 8) != 0) {
-        say(c, BV_ERROR, "%s: not a bodyvib FMU state (bad magic)", c->name);
+        say(c, BV_ERROR, "%s: not a bodyvib FMU state (bad magic)", c->bc.name);
         return BV_ERROR;
     }
     memcpy(&got, buf + 8, 8);
     memcpy(&token, buf + 16, 8);
     if (got != STATE_SIZE || size != STATE_SIZE || token != token_hash(c)) {
         say(c, BV_ERROR, "%s: the FMU state belongs to another model or version (size %llu, "
-                         "expected %llu); refused", c->name, (unsigned long long)size,
+                         "expected %llu); refused", c->bc.name, (unsigned long long)size,
             (unsigned long long)STATE_SIZE);
         return BV_ERROR;
     }
     memcpy(&sum, buf + STATE_SIZE - 8, 8);
     if (sum != fnv1a(buf, STATE_SIZE - 8)) {
-        say(c, BV_ERROR, "%s: the FMU state is corrupt (checksum mismatch); refused", c->name);
+        say(c, BV_ERROR, "%s: the FMU state is corrupt (checksum mismatch); refused", c->bc.name);
         return BV_ERROR;
     }
     memcpy(v, buf + 24, sizeof v);
     if (!(isfinite(v[0]) && (v[2] == 0.0 || v[2] == 1.0) && (v[3] == 0.0 || v[3] == 1.0) &&
           (v[2] == 0.0 || speed_valid(v[1])))) {
-        say(c, BV_ERROR, "%s: the FMU state is invalid (time, speed or flags); refused", c->name);
+        say(c, BV_ERROR, "%s: the FMU state is invalid (time, speed or flags); refused", c->bc.name);
         return BV_ERROR;
     }
     return BV_OK;
@@ -329,12 +424,8 @@ bv_status bv_state_read(bv_instance *c, const unsigned char *buf, size_t size)
     if (bv_state_check(c, buf, size) != BV_OK)
         return BV_ERROR;
     memcpy(v, buf + 24, sizeof v);
-    c->time = v[0];
     c->speed = v[1];
-    c->initialized = v[2] != 0.0;
-    c->init_failed = v[3] != 0.0;
-    if (c->init_failed)
-        snprintf(c->init_error, BV_MESSAGE, "%s: the restored state was not initialized "
-                 "successfully; reset and set a valid value", c->name);
+    /* the state machine follows the snapshot */
+    bv_common_restored(&c->bc, v[0], v[2] != 0.0, v[3] != 0.0, "a valid value");
     return BV_OK;
 }

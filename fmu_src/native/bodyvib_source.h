@@ -1,9 +1,9 @@
 /*
  * bodyvib native source FMUs (Road.fmu): a tabulated profile driven through at a speed.
  *
- * The same API as the linear core (bodyvib_core.h: bv_new .. bv_state_read), implemented
- * by bodyvib_source.c instead of bodyvib_core.c, so the FMI 2.0 and 3.0 function files
- * wrap either unchanged. The generated model file (bodyvib_model.c) defines, besides
+ * The same API as the linear core (bodyvib_core.h: bv_new .. bv_directional), implemented
+ * by bodyvib_source.c instead of bodyvib_core.c, with the same state machine
+ * (bodyvib_fsm.c), so the FMI 2.0 and 3.0 function files wrap either unchanged. The generated model file (bodyvib_model.c) defines, besides
  * bv_model_data (names, value references, the speed parameter), the table:
  *
  *     rows p_i = p0 + i dp (i = 0 .. rows - 1) of the profiles z_c(p_i) and slopes
@@ -34,5 +34,9 @@ extern const bv_source bv_source_data;
 
 /* Values z[signals] and slopes dz[signals] (per unit of the coordinate) at position p. */
 void bv_source_evaluate(const bv_source *t, double p, double *z, double *dz);
+/* Second and third derivatives d2z[signals], d3z[signals] (per unit of the coordinate) at
+ * position p: those of the segment's cubic (the next segment's at a table row); 0 off a
+ * non-periodic table. */
+void bv_source_curvature(const bv_source *t, double p, double *d2z, double *d3z);
 
 #endif

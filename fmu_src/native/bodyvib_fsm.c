@@ -1,0 +1,178 @@
+/*
+ * bodyvib native FMUs: the FMI state machine and messages both cores share (see
+ * bodyvib_fsm.h). Compiled into every native FMU, linear or source.
+ */
+#include "bodyvib_fsm.h"
+
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+void bv_say(const bv_common *b, int status, const char *fmt, ...)
+{
+    char text[BV_MESSAGE];
+    va_list ap;
+    if (b->log == NULL)
+        return;
+    va_start(ap, fmt);
+    vsnprintf(text, sizeof text, fmt, ap);
+    va_end(ap);
+    b->log(b->env, status, text);
+}
+
+const char *bv_shortest(double v, char *buf)
+{
+    int p;
+    for (p = 1; p <= 17; p++) {
+        snprintf(buf, 32, "%.*g", p, v);
+        if (strtod(buf, NULL) == v)
+            break;
+    }
+    return buf;
+}
+
+void bv_common_init(bv_common *b, const bv_model *md, const char *name, bv_log_fn log,
+                    void *env)
+{
+    b->md = md;
+    snprintf(b->name, sizeof b->name, "%s", name ? name : md->model_name);
+    b->log = log;
+    b->env = env;
+    bv_common_clear(b);
+}
+
+void bv_common_clear(bv_common *b)
+{
+    b->mode = BV_INSTANTIATED;
+    b->time = 0.0;
+    b->start_time = 0.0;
+    b->initialized = 0;
+    b->init_failed = 0;
+    b->init_error[0] = '\0';
+}
+
+double bv_time(const bv_instance *c) { return BV_COMMON(c)->time; }
+
+static const char *mode_name(int mode)
+{
+    switch (mode) {
+    case BV_INSTANTIATED: return "Instantiated";
+    case BV_INITIALIZATION: return "InitializationMode";
+    case BV_STEPPING: return "StepMode (stepComplete)";
+    case BV_TERMINATED: return "Terminated";
+    default: return "Error (initialization failed)";
+    }
+}
+
+int bv_state(const bv_instance *c) { return BV_COMMON(c)->mode; }
+
+int bv_allowed(bv_instance *c, const char *function, int mask)
+{
+    bv_common *b = BV_COMMON(c);
+    char text[200];
+    size_t l = 0;
+    int bit;
+    if (b->mode & mask)
+        return 1;
+    text[0] = '\0';
+    for (bit = BV_INSTANTIATED; bit <= BV_FAILED; bit <<= 1)
+        if (mask & bit)
+            l += (size_t)snprintf(text + l, sizeof text - l, "%s%s", l ? ", " : "",
+                                  mode_name(bit));
+    if (l == 0)
+        snprintf(text, sizeof text, "none: this FMU never needs it");
+    if (b->mode == BV_FAILED && b->init_failed && b->init_error[0])
+        bv_say(b, BV_ERROR, "%s", b->init_error);
+    bv_say(b, BV_ERROR, "%s: %s is not allowed in state %s (allowed in: %s); call refused, "
+                        "nothing changed", b->name, function, mode_name(b->mode), text);
+    return 0;
+}
+
+bv_status bv_setup(bv_instance *c, double start_time)
+{
+    bv_common *b = BV_COMMON(c);
+    char text[32];
+    if (!isfinite(start_time)) {
+        bv_say(b, BV_ERROR, "%s: the start time must be finite, got %s s", b->name,
+               bv_shortest(start_time, text));
+        return BV_ERROR;
+    }
+    b->start_time = start_time;
+    b->time = start_time;
+    return BV_OK;
+}
+
+void bv_enter_initialization(bv_instance *c) { BV_COMMON(c)->mode = BV_INITIALIZATION; }
+
+void bv_terminate(bv_instance *c) { BV_COMMON(c)->mode = BV_TERMINATED; }
+
+void bv_common_begin_initialize(bv_common *b)
+{
+    b->initialized = 0;
+    b->time = b->start_time;
+    b->mode = BV_FAILED; /* until the core's checks pass */
+}
+
+bv_status bv_common_failed(bv_common *b)
+{
+    b->initialized = 0;
+    b->init_failed = 1;
+    b->mode = BV_FAILED;
+    bv_say(b, BV_ERROR, "%s", b->init_error);
+    return BV_ERROR;
+}
+
+void bv_common_initialized(bv_common *b)
+{
+    b->init_failed = 0;
+    b->init_error[0] = '\0';
+    b->initialized = 1;
+    b->mode = BV_STEPPING;
+}
+
+bv_status bv_common_step_check(bv_common *b, double t, double h)
+{
+    char text[32], text2[32];
+    double at = fabs(b->time);
+    if (!(h > 0.0 && h < INFINITY)) {
+        bv_say(b, BV_ERROR, "%s: communication step size must be positive and finite, got %s s",
+               b->name, bv_shortest(h, text));
+        return BV_ERROR;
+    }
+    if (!b->initialized) {
+        if (b->init_failed)
+            bv_say(b, BV_ERROR, "%s", b->init_error);
+        else
+            bv_say(b, BV_ERROR, "%s: DoStep before initialization; call "
+                                "ExitInitializationMode first", b->name);
+        return BV_ERROR;
+    }
+    /* the step starts where the last one ended (or at the start time): a host whose clock
+     * differs by more than rounding is out of step with the model */
+    if (!(fabs(t - b->time) <= 1e-9 * (at > 1.0 ? at : 1.0))) {
+        bv_say(b, BV_ERROR, "%s: DoStep from t = %s s, but the model is at t = %s s (the start "
+                            "time or the end of the last step); step refused, state unchanged",
+               b->name, bv_shortest(t, text), bv_shortest(b->time, text2));
+        return BV_ERROR;
+    }
+    return BV_OK;
+}
+
+void bv_common_restored(bv_common *b, double time, int initialized, int init_failed,
+                        const char *fix)
+{
+    b->time = time;
+    b->initialized = initialized;
+    b->init_failed = init_failed;
+    if (initialized)
+        b->mode = BV_STEPPING;
+    else if (init_failed)
+        b->mode = BV_FAILED;
+    else if (b->mode != BV_INITIALIZATION)
+        b->mode = BV_INSTANTIATED;
+    if (init_failed)
+        snprintf(b->init_error, BV_MESSAGE, "%s: the restored state was not initialized "
+                 "successfully; reset and set %s", b->name, fix);
+}

@@ -1,0 +1,70 @@
+/*
+ * bodyvib native FMUs: the FMI state machine both cores share (bodyvib_fsm.c).
+ *
+ * Every core's instance struct (struct bv_instance of bodyvib_core.c, of bodyvib_source.c)
+ * begins with a bv_common: the FMI state (its first member, so BV_STATE_IS of
+ * bodyvib_core.h reads it), the model, the instance's name and logger, the model's time
+ * and start time, the initialization flags and the reason a failed initialization gave.
+ * bodyvib_fsm.c implements on it the functions that are the same for every core
+ * (bv_state, bv_allowed, bv_setup, bv_enter_initialization, bv_terminate, bv_time) and
+ * the transitions the cores' bv_initialize, bv_step, bv_reset and bv_state_read make, so
+ * that one implementation decides the states, the allowed calls and their messages.
+ * Internal to the cores: the FMI wrappers see only bodyvib_core.h.
+ */
+#ifndef BODYVIB_FSM_H
+#define BODYVIB_FSM_H
+
+#include "bodyvib_core.h"
+
+#define BV_MESSAGE 640
+
+typedef struct {
+    int mode;           /* first (BV_STATE_IS): BV_INSTANTIATED .. BV_FAILED, the FMI state */
+    const bv_model *md;
+    char name[128];
+    bv_log_fn log;
+    void *env;
+    double time;        /* the model's time (s) */
+    double start_time;  /* fmi2SetupExperiment / fmi3EnterInitializationMode */
+    int initialized;
+    int init_failed;
+    char init_error[BV_MESSAGE];
+} bv_common;
+
+/* The bv_common of an instance (its first member). */
+#define BV_COMMON(c) ((bv_common *)(void *)(c))
+
+/* Log a message through the instance's logger (printf-like). */
+void bv_say(const bv_common *b, int status, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+
+/* The shortest %g text that reads back as v (as Python's repr), into buf[32]. */
+const char *bv_shortest(double v, char *buf);
+
+/* At bv_new: the model, the name (the model's if NULL), the logger; then bv_common_clear. */
+void bv_common_init(bv_common *b, const bv_model *md, const char *name, bv_log_fn log,
+                    void *env);
+/* Instantiated, time and start time 0, not initialized (bv_new, bv_reset). */
+void bv_common_clear(bv_common *b);
+/* ExitInitializationMode begins: not initialized, time = start time, state Error until
+ * bv_common_initialized. */
+void bv_common_begin_initialize(bv_common *b);
+/* ExitInitializationMode failed: b->init_error holds the reason (logged here); the
+ * instance stays in the error state and refuses to step until Reset. */
+bv_status bv_common_failed(bv_common *b);
+/* ExitInitializationMode succeeded: StepMode. */
+void bv_common_initialized(bv_common *b);
+/* The checks every DoStep(t, h) makes before it changes anything: h positive and finite,
+ * the instance initialized, t the model's time (up to rounding). BV_OK or BV_ERROR
+ * (logged). */
+bv_status bv_common_step_check(bv_common *b, double t, double h);
+/* A snapshot restored with these flags: initialized ones step, a failed one is in error
+ * (`fix` ends the message: what to set), one from before initialization keeps
+ * Instantiated / InitializationMode. */
+void bv_common_restored(bv_common *b, double time, int initialized, int init_failed,
+                        const char *fix);
+
+#endif
