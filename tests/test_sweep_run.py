@@ -9,7 +9,6 @@ import time
 
 import numpy as np
 import pandas as pd
-import pytest
 
 from bodyvib import __version__
 from bodyvib_cli.main import main
