@@ -23,6 +23,7 @@ line (an orphan compiler or pythonfmu build).
 import json
 import os
 import random
+import shutil
 import signal
 import subprocess
 import sys
@@ -39,7 +40,7 @@ LINES = {signal.SIGTERM: "terminated (SIGTERM)", signal.SIGINT: "interrupted",
 
 
 def _commands(tmp):
-    """(name, argv, outputs, longest useful delay in s) of each command tried."""
+    """(name, argv, outputs, a rough run time in s) of each command tried."""
     cfg = tmp / "cfg.json"
     cfg.write_text(json.dumps({"ga": {"population": 30, "generations": 40},
                                "restarts": {"model": 1}}))
@@ -83,7 +84,8 @@ def _naming(text):
     return out
 
 
-def _run(argv, signum, to_group, delay, twice, cwd, tmpdir):
+def _start(argv, cwd, tmpdir):
+    """The command started as a shell starts it, once its signal handlers are in place."""
     env = dict(os.environ, TMPDIR=str(tmpdir))
     proc = subprocess.Popen([sys.executable, "-m", "bodyvib_cli", *argv], cwd=cwd, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
@@ -93,6 +95,20 @@ def _run(argv, signum, to_group, delay, twice, cwd, tmpdir):
     while not _handles(proc.pid, signal.SIGTERM) and proc.poll() is None \
             and time.monotonic() < t0 + 60:
         time.sleep(0.005)
+    return proc
+
+
+def _duration(argv, cwd, tmpdir):
+    """Seconds a command runs on this machine now, from its handlers in place to its end."""
+    proc = _start(argv, cwd, tmpdir)
+    t0 = time.monotonic()
+    _, err = proc.communicate(timeout=600)
+    assert proc.returncode == 0, err
+    return time.monotonic() - t0
+
+
+def _run(argv, signum, to_group, delay, twice, cwd, tmpdir):
+    proc = _start(argv, cwd, tmpdir)
     time.sleep(delay)
     for _ in range(2 if twice else 1):
         try:
@@ -118,14 +134,22 @@ def test_signals_at_random_moments_leave_nothing_behind(tmp_path):
     trials = [(commands[i % len(commands)], signum, group)
               for i, (signum, group) in enumerate(plan)]
     rng.shuffle(trials)
+    # the signals fall within each command's run as this machine runs it now: measured once,
+    # undisturbed (so most runs are stopped by their signal, on a fast machine or a loaded one)
+    longest = {}
+    for name, argv, outputs, _ in commands:
+        tmpdir = tmp_path / f"tmp-{name.split()[0]}"
+        tmpdir.mkdir()
+        longest[name] = 0.8 * _duration(argv, tmp_path, tmpdir)
+        shutil.rmtree(tmpdir)
     stopped = {s: 0 for s in LINES}
-    for k, ((name, argv, outputs, longest), signum, group) in enumerate(trials):
+    for k, ((name, argv, outputs, _), signum, group) in enumerate(trials):
         for p in outputs:
             p.parent.mkdir(parents=True, exist_ok=True)
             p.write_text(OLD)
         tmpdir = tmp_path / f"tmp{k}"
         tmpdir.mkdir()
-        delay, twice = rng.uniform(0.0, longest), rng.random() < 0.25
+        delay, twice = rng.uniform(0.0, longest[name]), rng.random() < 0.25
         rc, out, err = _run(argv, signum, group, delay, twice, tmp_path, tmpdir)
         what = (f"{name}: {signal.Signals(signum).name} to the "
                 f"{'group' if group else 'process'} after {delay:.2f} s"
