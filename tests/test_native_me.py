@@ -311,6 +311,48 @@ def test_interface_functions_refuse_the_other_interface(native_fmus):
 
 
 @pytest.mark.parametrize("fmi", (2, 3))
+def test_model_exchange_calls_out_of_order_are_errors(native_fmus, fmi):
+    """Model-exchange calls are checked against the instance's state, as the co-simulation
+    ones: before ExitInitializationMode and after Terminate they return Error, logged."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Model
+    from fmpy.fmi3 import FMU3Model
+
+    path = _path(native_fmus, "HumanBody3DOF", fmi)
+    md = read_model_description(path)
+    folder = extract(path)
+    said = []
+    logger = lambda *a: said.append(a[-1])  # noqa: E731
+    try:
+        if fmi == 2:
+            fmu = FMU2Model(guid=md.guid, unzipDirectory=folder, instanceName="me",
+                            modelIdentifier=md.modelExchange.modelIdentifier)
+            fmu.instantiate(loggingOn=True, callbacks=_fmi2_callbacks(logger))
+            fmu.setupExperiment(startTime=0.0)
+            names = ("fmi2EnterContinuousTimeMode", "fmi2CompletedIntegratorStep")
+        else:
+            fmu = FMU3Model(guid=md.instantiationToken, unzipDirectory=folder,
+                            instanceName="me", modelIdentifier=md.modelExchange.modelIdentifier)
+            fmu.instantiate(loggingOn=True, logMessage=lambda env, status, cat, msg: said.append(msg))
+            names = ("fmi3EnterContinuousTimeMode",)
+        error = 3
+        enter = getattr(fmu.dll, names[0])
+        enter.argtypes, enter.restype = [c_void_p], c_int
+        set_time = getattr(fmu.dll, f"fmi{fmi}SetTime")
+        set_time.argtypes, set_time.restype = [c_void_p, c_double], c_int
+        assert enter(fmu.component) == error  # Instantiated: not yet
+        assert any(b"not allowed" in (m if isinstance(m, bytes) else m.encode()) for m in said)
+        fmu.enterInitializationMode()
+        fmu.exitInitializationMode()
+        assert set_time(fmu.component, 0.001) == 0 and enter(fmu.component) == 0
+        fmu.terminate()
+        assert set_time(fmu.component, 0.002) == error  # Terminated
+        fmu.freeInstance()
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+@pytest.mark.parametrize("fmi", (2, 3))
 def test_unconnected_velocity_warns_once_in_model_exchange(native_fmus, fmi):
     """No slope fallback in model exchange (the velocity input is used as given), but the
     co-simulation's single warning when the displacement moves and the velocity never was set."""

@@ -415,20 +415,29 @@ static int me_entry(Fmu2 *f, const char *function)
     return 1;
 }
 
-#define ME_ENTRY(c, function)                                                                \
+/* Model exchange: the standard's Event Mode and Continuous-Time Mode are both the core's
+ * BV_STEPPING (the models have no events); the calls are checked against it as the
+ * co-simulation ones are. */
+#define S_ME_MODES BV_STEPPING
+#define S_ME_SET (BV_INITIALIZATION | BV_STEPPING)
+#define S_ME_NOMINALS (BV_INSTANTIATED | S_GET)
+
+#define ME_ENTRY(c, function, mask)                                                          \
     Fmu2 *f = (Fmu2 *)(c);                                                                   \
     if (!me_entry(f, function))                                                              \
+        return fmi2Error;                                                                      \
+    if (!BV_STATE_IS(f->core, mask) && !bv_allowed(f->core, function, mask))                \
         return fmi2Error
 
 fmi2Status fmi2EnterEventMode(fmi2Component c)
 {
-    ME_ENTRY(c, "fmi2EnterEventMode");
+    ME_ENTRY(c, "fmi2EnterEventMode", S_ME_MODES);
     return fmi2OK;
 }
 
 fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *eventInfo)
 {
-    ME_ENTRY(c, "fmi2NewDiscreteStates");
+    ME_ENTRY(c, "fmi2NewDiscreteStates", S_ME_MODES);
     if (eventInfo == NULL)
         return fmi2Error;
     eventInfo->newDiscreteStatesNeeded = fmi2False;
@@ -442,7 +451,7 @@ fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *eventInfo)
 
 fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c)
 {
-    ME_ENTRY(c, "fmi2EnterContinuousTimeMode");
+    ME_ENTRY(c, "fmi2EnterContinuousTimeMode", S_ME_MODES);
     return fmi2OK;
 }
 
@@ -451,7 +460,7 @@ fmi2Status fmi2CompletedIntegratorStep(fmi2Component c,
                                        fmi2Boolean *enterEventMode,
                                        fmi2Boolean *terminateSimulation)
 {
-    ME_ENTRY(c, "fmi2CompletedIntegratorStep");
+    ME_ENTRY(c, "fmi2CompletedIntegratorStep", S_ME_MODES);
     (void)noSetFMUStatePriorToCurrentPoint;
     if (enterEventMode != NULL)
         *enterEventMode = fmi2False;
@@ -462,14 +471,14 @@ fmi2Status fmi2CompletedIntegratorStep(fmi2Component c,
 
 fmi2Status fmi2SetTime(fmi2Component c, fmi2Real time)
 {
-    ME_ENTRY(c, "fmi2SetTime");
+    ME_ENTRY(c, "fmi2SetTime", S_ME_SET);
     bv_me_set_time(f->core, time);
     return fmi2OK;
 }
 
 fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t nx)
 {
-    ME_ENTRY(c, "fmi2SetContinuousStates");
+    ME_ENTRY(c, "fmi2SetContinuousStates", S_ME_SET);
     if (x == NULL && nx > 0)
         return fmi2Error;
     return st(bv_me_set_states(f->core, x, nx));
@@ -477,7 +486,7 @@ fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t n
 
 fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real derivatives[], size_t nx)
 {
-    ME_ENTRY(c, "fmi2GetDerivatives");
+    ME_ENTRY(c, "fmi2GetDerivatives", S_GET);
     if (derivatives == NULL && nx > 0)
         return fmi2Error;
     return st(bv_me_derivatives(f->core, derivatives, nx));
@@ -485,7 +494,7 @@ fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real derivatives[], size_t nx
 
 fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], size_t ni)
 {
-    ME_ENTRY(c, "fmi2GetEventIndicators");
+    ME_ENTRY(c, "fmi2GetEventIndicators", S_GET);
     (void)eventIndicators;
     if (ni != 0) {
         fmu_log(f, BV_ERROR, "fmi2GetEventIndicators: the model has no event indicators");
@@ -496,7 +505,7 @@ fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], s
 
 fmi2Status fmi2GetContinuousStates(fmi2Component c, fmi2Real x[], size_t nx)
 {
-    ME_ENTRY(c, "fmi2GetContinuousStates");
+    ME_ENTRY(c, "fmi2GetContinuousStates", S_GET);
     if (x == NULL && nx > 0)
         return fmi2Error;
     return st(bv_me_get_states(f->core, x, nx));
@@ -504,7 +513,7 @@ fmi2Status fmi2GetContinuousStates(fmi2Component c, fmi2Real x[], size_t nx)
 
 fmi2Status fmi2GetNominalsOfContinuousStates(fmi2Component c, fmi2Real x_nominal[], size_t nx)
 {
-    ME_ENTRY(c, "fmi2GetNominalsOfContinuousStates");
+    ME_ENTRY(c, "fmi2GetNominalsOfContinuousStates", S_ME_NOMINALS);
     if (x_nominal == NULL && nx > 0)
         return fmi2Error;
     return st(bv_me_nominals(f->core, x_nominal, nx));

@@ -593,14 +593,23 @@ static int me_entry(Fmu3 *f, const char *function)
     return 1;
 }
 
-#define ME_ENTRY(c, function)                                                                \
+/* Model exchange: the standard's Event Mode and Continuous-Time Mode are both the core's
+ * BV_STEPPING (the models have no events); the calls are checked against it as the
+ * co-simulation ones are. */
+#define S_ME_MODES BV_STEPPING
+#define S_ME_SET (BV_INITIALIZATION | BV_STEPPING)
+#define S_ME_NOMINALS (BV_INSTANTIATED | S_GET)
+
+#define ME_ENTRY(c, function, mask)                                                          \
     Fmu3 *f = (Fmu3 *)(c);                                                                   \
     if (!me_entry(f, function))                                                              \
+        return fmi3Error;                                                                      \
+    if (!BV_STATE_IS(f->core, mask) && !bv_allowed(f->core, function, mask))                \
         return fmi3Error
 
 fmi3Status fmi3EnterEventMode(fmi3Instance instance)
 {
-    ME_ENTRY(instance, "fmi3EnterEventMode"); /* co-simulation: no event mode */
+    ME_ENTRY(instance, "fmi3EnterEventMode", S_ME_MODES); /* co-simulation: no event mode */
     return fmi3OK;
 }
 
@@ -610,7 +619,7 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *discrete
                                     fmi3Boolean *valuesOfContinuousStatesChanged,
                                     fmi3Boolean *nextEventTimeDefined, fmi3Float64 *nextEventTime)
 {
-    ME_ENTRY(instance, "fmi3UpdateDiscreteStates");
+    ME_ENTRY(instance, "fmi3UpdateDiscreteStates", S_ME_MODES);
     if (discreteStatesNeedUpdate)
         *discreteStatesNeedUpdate = fmi3False;
     if (terminateSimulation)
@@ -628,7 +637,7 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *discrete
 
 fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance instance)
 {
-    ME_ENTRY(instance, "fmi3EnterContinuousTimeMode");
+    ME_ENTRY(instance, "fmi3EnterContinuousTimeMode", S_ME_MODES);
     return fmi3OK;
 }
 
@@ -637,7 +646,7 @@ fmi3Status fmi3CompletedIntegratorStep(fmi3Instance instance,
                                        fmi3Boolean *enterEventMode,
                                        fmi3Boolean *terminateSimulation)
 {
-    ME_ENTRY(instance, "fmi3CompletedIntegratorStep");
+    ME_ENTRY(instance, "fmi3CompletedIntegratorStep", S_ME_MODES);
     (void)noSetFMUStatePriorToCurrentPoint;
     if (enterEventMode)
         *enterEventMode = fmi3False;
@@ -648,7 +657,7 @@ fmi3Status fmi3CompletedIntegratorStep(fmi3Instance instance,
 
 fmi3Status fmi3SetTime(fmi3Instance instance, fmi3Float64 time)
 {
-    ME_ENTRY(instance, "fmi3SetTime");
+    ME_ENTRY(instance, "fmi3SetTime", S_ME_SET);
     bv_me_set_time(f->core, time);
     return fmi3OK;
 }
@@ -656,7 +665,7 @@ fmi3Status fmi3SetTime(fmi3Instance instance, fmi3Float64 time)
 fmi3Status fmi3SetContinuousStates(fmi3Instance instance, const fmi3Float64 continuousStates[],
                                    size_t nContinuousStates)
 {
-    ME_ENTRY(instance, "fmi3SetContinuousStates");
+    ME_ENTRY(instance, "fmi3SetContinuousStates", S_ME_SET);
     if (continuousStates == NULL && nContinuousStates > 0)
         return fmi3Error;
     return st(bv_me_set_states(f->core, continuousStates, nContinuousStates));
@@ -665,7 +674,7 @@ fmi3Status fmi3SetContinuousStates(fmi3Instance instance, const fmi3Float64 cont
 fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance instance, fmi3Float64 derivatives[],
                                              size_t nContinuousStates)
 {
-    ME_ENTRY(instance, "fmi3GetContinuousStateDerivatives");
+    ME_ENTRY(instance, "fmi3GetContinuousStateDerivatives", S_GET);
     if (derivatives == NULL && nContinuousStates > 0)
         return fmi3Error;
     return st(bv_me_derivatives(f->core, derivatives, nContinuousStates));
@@ -674,7 +683,7 @@ fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance instance, fmi3Float64 
 fmi3Status fmi3GetEventIndicators(fmi3Instance instance, fmi3Float64 eventIndicators[],
                                   size_t nEventIndicators)
 {
-    ME_ENTRY(instance, "fmi3GetEventIndicators");
+    ME_ENTRY(instance, "fmi3GetEventIndicators", S_GET);
     (void)eventIndicators;
     if (nEventIndicators != 0) {
         fmu_log(f, BV_ERROR, "fmi3GetEventIndicators: the model has no event indicators");
@@ -686,7 +695,7 @@ fmi3Status fmi3GetEventIndicators(fmi3Instance instance, fmi3Float64 eventIndica
 fmi3Status fmi3GetContinuousStates(fmi3Instance instance, fmi3Float64 continuousStates[],
                                    size_t nContinuousStates)
 {
-    ME_ENTRY(instance, "fmi3GetContinuousStates");
+    ME_ENTRY(instance, "fmi3GetContinuousStates", S_GET);
     if (continuousStates == NULL && nContinuousStates > 0)
         return fmi3Error;
     return st(bv_me_get_states(f->core, continuousStates, nContinuousStates));
@@ -695,7 +704,7 @@ fmi3Status fmi3GetContinuousStates(fmi3Instance instance, fmi3Float64 continuous
 fmi3Status fmi3GetNominalsOfContinuousStates(fmi3Instance instance, fmi3Float64 nominals[],
                                              size_t nContinuousStates)
 {
-    ME_ENTRY(instance, "fmi3GetNominalsOfContinuousStates");
+    ME_ENTRY(instance, "fmi3GetNominalsOfContinuousStates", S_ME_NOMINALS);
     if (nominals == NULL && nContinuousStates > 0)
         return fmi3Error;
     return st(bv_me_nominals(f->core, nominals, nContinuousStates));
