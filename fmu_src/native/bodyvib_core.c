@@ -669,14 +669,7 @@ static int is_me_var(const bv_instance *c, unsigned int vr)
     return vr >= first && vr < first + 2u * (unsigned int)c->n;
 }
 
-static int check_vr(const bv_instance *c, unsigned int vr)
-{
-    if (vr >= (unsigned int)c->bc.md->nvars) {
-        say(c, BV_ERROR, "%s: no variable with value reference %u", c->bc.name, vr);
-        return 0;
-    }
-    return 1;
-}
+#define check_vr(c, vr) bv_common_check_vr(&(c)->bc, (vr))
 
 bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const double value[])
 {
@@ -986,21 +979,8 @@ bv_status bv_get_output_derivatives(bv_instance *c, const unsigned int vr[], siz
     size_t i;
     double *z1 = c->zd, *z2 = c->zd + w;
     bv_status status = BV_OK;
-    for (i = 0; i < nvr; i++) {
-        if (!check_vr(c, vr[i]))
-            return BV_ERROR;
-        if (md->vr_kind[vr[i]] != BV_OUTPUT) {
-            say(c, BV_ERROR, "%s: %s is not an output; output derivatives are for outputs only",
-                c->bc.name, md->vr_name[vr[i]]);
-            return BV_ERROR;
-        }
-        if (order[i] < 1 || order[i] > BV_MAX_OUTPUT_ORDER) {
-            say(c, BV_ERROR, "%s: derivative order %d of %s: this FMU gives orders 1 to %d "
-                             "(maxOutputDerivativeOrder)",
-                c->bc.name, order[i], md->vr_name[vr[i]], BV_MAX_OUTPUT_ORDER);
-            return BV_ERROR;
-        }
-    }
+    if (bv_common_check_output_orders(&c->bc, vr, nvr, order) != BV_OK)
+        return BV_ERROR;
     zdot(c, c->x, z1);  /* c->x, c->s contiguous: z */
     zdot(c, z1, z2);
     for (i = 0; i < nvr; i++) {

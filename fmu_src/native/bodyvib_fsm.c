@@ -176,3 +176,35 @@ void bv_common_restored(bv_common *b, double time, int initialized, int init_fai
         snprintf(b->init_error, BV_MESSAGE, "%s: the restored state was not initialized "
                  "successfully; reset and set %s", b->name, fix);
 }
+
+int bv_common_check_vr(const bv_common *b, unsigned int vr)
+{
+    if (vr >= (unsigned int)b->md->nvars) {
+        bv_say(b, BV_ERROR, "%s: no variable with value reference %u", b->name, vr);
+        return 0;
+    }
+    return 1;
+}
+
+bv_status bv_common_check_output_orders(const bv_common *b, const unsigned int vr[],
+                                        size_t nvr, const int order[])
+{
+    const bv_model *md = b->md;
+    size_t i;
+    for (i = 0; i < nvr; i++) {
+        if (!bv_common_check_vr(b, vr[i]))
+            return BV_ERROR;
+        if (md->vr_kind[vr[i]] != BV_OUTPUT) {
+            bv_say(b, BV_ERROR, "%s: %s is not an output; output derivatives are for outputs "
+                                "only", b->name, md->vr_name[vr[i]]);
+            return BV_ERROR;
+        }
+        if (order[i] < 1 || order[i] > BV_MAX_OUTPUT_ORDER) {
+            bv_say(b, BV_ERROR, "%s: derivative order %d of %s: this FMU gives orders 1 to %d "
+                                "(maxOutputDerivativeOrder)",
+                   b->name, order[i], md->vr_name[vr[i]], BV_MAX_OUTPUT_ORDER);
+            return BV_ERROR;
+        }
+    }
+    return BV_OK;
+}

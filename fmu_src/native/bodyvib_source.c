@@ -158,14 +158,7 @@ bv_status bv_initialize(bv_instance *c)
     return BV_OK;
 }
 
-static int check_vr(const bv_instance *c, unsigned int vr)
-{
-    if (vr >= (unsigned int)c->bc.md->nvars) {
-        say(c, BV_ERROR, "%s: no variable with value reference %u", c->bc.name, vr);
-        return 0;
-    }
-    return 1;
-}
+#define check_vr(c, vr) bv_common_check_vr(&(c)->bc, (vr))
 
 bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const double value[])
 {
@@ -255,21 +248,8 @@ bv_status bv_get_output_derivatives(bv_instance *c, const unsigned int vr[], siz
     const bv_model *md = c->bc.md;
     double v = c->speed, p = c->speed * c->bc.time;
     size_t i;
-    for (i = 0; i < nvr; i++) {
-        if (!check_vr(c, vr[i]))
-            return BV_ERROR;
-        if (md->vr_kind[vr[i]] != BV_OUTPUT) {
-            say(c, BV_ERROR, "%s: %s is not an output; output derivatives are for outputs only",
-                c->bc.name, md->vr_name[vr[i]]);
-            return BV_ERROR;
-        }
-        if (order[i] < 1 || order[i] > BV_MAX_OUTPUT_ORDER) {
-            say(c, BV_ERROR, "%s: derivative order %d of %s: this FMU gives orders 1 to %d "
-                             "(maxOutputDerivativeOrder)",
-                c->bc.name, order[i], md->vr_name[vr[i]], BV_MAX_OUTPUT_ORDER);
-            return BV_ERROR;
-        }
-    }
+    if (bv_common_check_output_orders(&c->bc, vr, nvr, order) != BV_OK)
+        return BV_ERROR;
     if (nvr == 0)
         return BV_OK;
     bv_source_evaluate(c->tb, p, c->z, c->dz);
