@@ -65,6 +65,7 @@ __all__ = [
     "mtvv",
     "basic_method_checks",
     "BASIC_METHOD_LIMITS",
+    "check_rate",
 ]
 
 #: Integration time of the running r.m.s. of the MTVV (ISO 2631-1 eq. (4)), s.
@@ -121,26 +122,77 @@ def wk_response(frequencies_hz) -> np.ndarray:
     return high * low * transition * step
 
 
+# What every function of one unweighted record takes and refuses, written once and put
+# into their docstrings by :func:`_record_doc` (``%(record)s``, ``%(record_raises)s``).
+_RECORD_DOC = {
+    "record": """Parameters
+    ----------
+    acceleration : (n,) array_like
+        Unweighted vertical (z) acceleration in m/s2, uniformly sampled, at
+        least two finite samples.
+    fs : float
+        Sampling rate in Hz, positive and finite.""",
+    "record_raises": """Raises
+    ------
+    BodyvibError
+        Non-finite samples, fewer than two samples, or a bad sampling rate.""",
+}
+
+
+def _record_doc(function):
+    """Fill the shared parameter and error sections into ``function``'s docstring."""
+    if function.__doc__:  # None under python -OO
+        function.__doc__ = function.__doc__ % _RECORD_DOC
+    return function
+
+
 def _check_signal(a, fs):
     a = np.asarray(a, dtype=float)
     if a.ndim != 1 or a.size < 2:
         raise BodyvibError("acceleration must be a 1-D array of at least 2 samples")
     if not np.all(np.isfinite(a)):
         raise BodyvibError("acceleration contains NaN or infinite values; clean the signal")
-    if not (np.isfinite(fs) and fs > 0):
-        raise BodyvibError(f"sampling rate must be a positive number of Hz, got {fs!r}")
+    check_rate(fs)
     return a
 
 
-def weighted_acceleration(acceleration, fs: float) -> np.ndarray:
-    """Wk-weighted acceleration time history (ISO 2631-1).
+def check_rate(fs) -> float:
+    """A sampling rate, checked: a positive finite number of Hz.
 
     Parameters
     ----------
-    acceleration : (n,) array_like
-        Unweighted vertical acceleration in m/s2, uniformly sampled.
     fs : float
         Sampling rate in Hz.
+
+    Returns
+    -------
+    float
+        ``fs`` as a float.
+
+    Raises
+    ------
+    BodyvibError
+        ``fs`` is not a number, not finite or not positive.
+
+    Examples
+    --------
+    >>> check_rate(1000)
+    1000.0
+    """
+    try:
+        ok = bool(np.isfinite(fs) and fs > 0)
+    except TypeError:
+        ok = False
+    if not ok:
+        raise BodyvibError(f"sampling rate must be a positive number of Hz, got {fs!r}")
+    return float(fs)
+
+
+@_record_doc
+def weighted_acceleration(acceleration, fs: float) -> np.ndarray:
+    """Wk-weighted acceleration time history (ISO 2631-1).
+
+    %(record)s
 
     Returns
     -------
@@ -150,10 +202,7 @@ def weighted_acceleration(acceleration, fs: float) -> np.ndarray:
         circular FFT convolution equals the linear one for the filter's
         impulse response, which decays within a few seconds).
 
-    Raises
-    ------
-    BodyvibError
-        Non-finite samples, fewer than two samples, or a bad sampling rate.
+    %(record_raises)s
     """
     a = _check_signal(acceleration, fs)
     n = a.size
@@ -231,6 +280,7 @@ def _mtvv(aw, fs: float) -> float:
     return float(np.sqrt(np.max(_running_ms(aw, fs))))
 
 
+@_record_doc
 def running_rms(weighted, fs: float) -> np.ndarray:
     """Running r.m.s. of an already weighted signal (ISO 2631-1 eq. (4), linear, 1 s).
 
@@ -247,10 +297,7 @@ def running_rms(weighted, fs: float) -> np.ndarray:
         ``sqrt(mean(a_w^2))`` over the ``round(fs)`` samples ending at each
         sample, the signal taken as zero before the record; m/s2.
 
-    Raises
-    ------
-    BodyvibError
-        Non-finite samples, fewer than two samples, or a bad sampling rate.
+    %(record_raises)s
 
     Examples
     --------
@@ -261,82 +308,58 @@ def running_rms(weighted, fs: float) -> np.ndarray:
     return np.sqrt(_running_ms(_check_signal(weighted, fs), fs))
 
 
-def mtvv(acceleration, fs: float) -> float:
-    """ISO 2631-1 maximum transient vibration value (Wk weighted) in m/s2.
+def _figure_of_record(name: str, figure, summary: str, returns: str, examples: str = ""):
+    """The public function ``name(acceleration, fs)``: ``figure`` of the Wk-weighted record.
 
-    Parameters
-    ----------
-    acceleration : (n,) array_like
-        Unweighted acceleration in m/s2.
-    fs : float
-        Sampling rate in Hz.
-
-    Returns
-    -------
-    float
-        The largest 1 s running r.m.s. (linear integration) of the weighted
-        record; see the module docstring.
+    The single figures (:func:`weighted_rms`, :func:`vdv`, :func:`peak`, :func:`mtvv`)
+    differ only in the figure of the weighted record and in words, so they are made
+    here, once, from :data:`_SINGLE_FIGURES`.
     """
-    return _mtvv(weighted_acceleration(acceleration, fs), fs)
+    def of_record(acceleration, fs: float) -> float:
+        return figure(weighted_acceleration(acceleration, fs), fs)
 
+    of_record.__name__ = of_record.__qualname__ = name
+    of_record.__module__ = __name__
+    of_record.__doc__ = (f"""{summary}
 
-def weighted_rms(acceleration, fs: float) -> float:
-    """ISO 2631-1 frequency-weighted r.m.s. acceleration (Wk) in m/s2.
-
-    Parameters
-    ----------
-    acceleration : (n,) array_like
-        Unweighted acceleration in m/s2.
-    fs : float
-        Sampling rate in Hz.
+    %(record)s
 
     Returns
     -------
     float
-        ``sqrt(mean(a_w^2))`` over the whole record.
+        {returns}
 
+    %(record_raises)s
+    """ + (f"""
     Examples
     --------
-    >>> t = np.arange(0, 60, 1e-3)
+    {examples}
+    """ if examples else ""))
+    return _record_doc(of_record)
+
+
+#: The single figures of one record: (name, figure of ``(a_w, fs)``, summary, what the
+#: number is, docstring example).
+_SINGLE_FIGURES = (
+    ("weighted_rms", lambda aw, fs: _rms(aw),
+     "ISO 2631-1 frequency-weighted r.m.s. acceleration (Wk) in m/s2.",
+     "``sqrt(mean(a_w^2))`` over the whole record.",
+     """>>> t = np.arange(0, 60, 1e-3)
     >>> round(float(weighted_rms(np.sin(2 * np.pi * 5 * t), 1000.0) * np.sqrt(2)), 2)
-    1.04
-    """
-    return _rms(weighted_acceleration(acceleration, fs))
+    1.04"""),
+    ("vdv", _vdv,
+     "ISO 2631-1 vibration dose value (Wk weighted) in m/s^1.75.",
+     "``(sum(a_w^4) / fs)^(1/4)``, the fourth-power dose over the record.", ""),
+    ("peak", lambda aw, fs: _peak(aw),
+     "Peak of the Wk-weighted acceleration, ``max |a_w|`` in m/s2.",
+     "The largest magnitude of the weighted record, either sign.", ""),
+    ("mtvv", _mtvv,
+     "ISO 2631-1 maximum transient vibration value (Wk weighted) in m/s2.",
+     "The largest 1 s running r.m.s. (linear integration) of the weighted\n"
+     "        record; see the module docstring.", ""),
+)
 
-
-def vdv(acceleration, fs: float) -> float:
-    """ISO 2631-1 vibration dose value (Wk weighted) in m/s^1.75.
-
-    Parameters
-    ----------
-    acceleration : (n,) array_like
-        Unweighted acceleration in m/s2.
-    fs : float
-        Sampling rate in Hz.
-
-    Returns
-    -------
-    float
-        ``(sum(a_w^4) / fs)^(1/4)``, the fourth-power dose over the record.
-    """
-    return _vdv(weighted_acceleration(acceleration, fs), fs)
-
-
-def peak(acceleration, fs: float) -> float:
-    """Peak of the Wk-weighted acceleration, ``max |a_w|`` in m/s2.
-
-    Parameters
-    ----------
-    acceleration : (n,) array_like
-        Unweighted acceleration in m/s2.
-    fs : float
-        Sampling rate in Hz.
-
-    Returns
-    -------
-    float
-    """
-    return _peak(weighted_acceleration(acceleration, fs))
+weighted_rms, vdv, peak, mtvv = (_figure_of_record(*row) for row in _SINGLE_FIGURES)
 
 
 def comfort_category(weighted_rms_value: float) -> str:
@@ -398,15 +421,11 @@ class ComfortFigures:
         return asdict(self)
 
 
+@_record_doc
 def comfort_figures(acceleration, fs: float) -> ComfortFigures:
     """Weighted r.m.s., VDV, peak and crest factor of one record (one filtering pass).
 
-    Parameters
-    ----------
-    acceleration : (n,) array_like
-        Unweighted acceleration in m/s2.
-    fs : float
-        Sampling rate in Hz.
+    %(record)s
 
     Returns
     -------
@@ -414,17 +433,14 @@ def comfort_figures(acceleration, fs: float) -> ComfortFigures:
         ``weighted_rms`` [m/s2], ``vdv`` [m/s^1.75], ``peak`` [m/s2],
         ``crest_factor`` [-], ``comfort`` (ISO 2631-1 Annex C words),
         ``mtvv`` [m/s2].
+
+    %(record_raises)s
     """
     aw = weighted_acceleration(acceleration, fs)
-    rms, pk = _rms(aw), _peak(aw)
-    return ComfortFigures(
-        weighted_rms=rms,
-        vdv=_vdv(aw, fs),
-        peak=pk,
-        crest_factor=pk / rms if rms > 0 else float("nan"),
-        comfort=comfort_category(rms),
-        mtvv=_mtvv(aw, fs),
-    )
+    f = {name: figure(aw, fs) for name, figure, *_ in _SINGLE_FIGURES}
+    rms, pk = f["weighted_rms"], f["peak"]
+    return ComfortFigures(crest_factor=pk / rms if rms > 0 else float("nan"),
+                          comfort=comfort_category(rms), **f)
 
 
 #: ISO 2631-1 clause 6.3: above these ratios the basic method (the weighted

@@ -29,7 +29,7 @@ from typing import Dict, Optional, Tuple
 
 import numpy as np
 
-from .figures import (WK_PARAMETERS, ComfortFigures, _RunningWindow, _window_samples,
+from .figures import (WK_PARAMETERS, ComfortFigures, _RunningWindow, _window_samples, check_rate,
                       comfort_category)
 from ..runtime.discretize import discretize
 from ..runtime.errors import BodyvibError
@@ -199,15 +199,9 @@ class WkFilter:
     LIFT = 64
 
     def __init__(self, fs: float, cases: int):
-        try:
-            ok = np.isfinite(fs) and fs > 0
-        except TypeError:
-            ok = False
-        if not ok:
-            raise BodyvibError(f"sampling rate must be a positive number of Hz, got {fs!r}")
+        self.fs = check_rate(fs)
         if int(cases) < 1:
             raise BodyvibError(f"need at least one case, got {cases!r}")
-        self.fs = float(fs)
         self.cases = int(cases)
         A, B, C, D = wk_statespace()
         h = 1.0 / self.fs

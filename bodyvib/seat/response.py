@@ -27,7 +27,7 @@ from typing import Dict, Sequence
 
 import numpy as np
 
-from ..comfort.figures import ComfortFigures, basic_method_checks, comfort_figures
+from ..comfort.figures import ComfortFigures, basic_method_checks, check_rate, comfort_figures
 from ..models import load_model
 from ..runtime.discretize import Discretization
 from ..runtime.errors import BodyvibError
@@ -71,9 +71,7 @@ def head_acceleration(body: Network, acceleration, fs: float) -> np.ndarray:
     """
     lm = linear_model(body)
     a = np.asarray(acceleration, dtype=float)
-    if not (np.isfinite(fs) and fs > 0):
-        raise BodyvibError(f"sampling rate must be a positive number of Hz, got {fs!r}")
-    h = 1.0 / fs
+    h = 1.0 / check_rate(fs)
     rate = np.zeros_like(a)
     rate[:-1] = np.diff(a) / h                  # linear between samples
     base = body.base
@@ -124,8 +122,11 @@ class Response:
     Attributes
     ----------
     signal : SeatSignal
+        The checked seat record the figures are of.
     seat_figures : ComfortFigures
+        ISO 2631-1 figures of the seat acceleration itself (what the occupant sits on).
     seat_checks : dict
+        :func:`bodyvib.comfort.figures.basic_method_checks` of the seat record.
     bodies : dict of str to BodyResponse
         By model label, in the order given.
     """
