@@ -77,15 +77,16 @@ def check_signal(time, acceleration, name: str = "seat acceleration") -> SeatSig
     Parameters
     ----------
     time : (n,) array_like
-        Sample times, s.
+        Sample times in s, increasing and uniform within 0.1 %.
     acceleration : (n,) array_like
-        m/s2.
+        Seat vertical acceleration in m/s2, one sample per time, all finite.
     name : str
         Label, used in the messages.
 
     Returns
     -------
     SeatSignal
+        The record as float arrays, its rate ``fs`` from the mean step.
 
     Raises
     ------
@@ -153,6 +154,8 @@ def read_csv_signal(path, channel: Optional[str] = None) -> SeatSignal:
     Parameters
     ----------
     path : str or os.PathLike
+        A CSV file: ``#`` comment lines, a header row with a time column (``time``,
+        ``t``, ``t [s]``, in s), then one row of numbers per sample.
     channel : str, optional
         Name of the acceleration column (with or without its unit); needed when
         the file has more than one column besides the time.
@@ -160,6 +163,7 @@ def read_csv_signal(path, channel: Optional[str] = None) -> SeatSignal:
     Returns
     -------
     SeatSignal
+        The column against the time column, named ``path:column``.
 
     Raises
     ------
@@ -207,12 +211,14 @@ def read_mdf_signal(path, channel: Optional[str]) -> SeatSignal:
     Parameters
     ----------
     path : str or os.PathLike
+        An ASAM MDF file (``.mf4``, ``.mdf``).
     channel : str
-        Channel name.
+        Channel name (the acceleration in m/s2).
 
     Returns
     -------
     SeatSignal
+        The channel at its time stamps, named ``path:channel``.
 
     Raises
     ------
@@ -257,12 +263,14 @@ def read_signal(path, channel: Optional[str] = None) -> SeatSignal:
     Parameters
     ----------
     path : str or os.PathLike
+        ``.mf4`` or ``.mdf`` is read as MDF, anything else as CSV.
     channel : str, optional
         Column (CSV) or channel (MDF) name.
 
     Returns
     -------
     SeatSignal
+        As :func:`read_csv_signal` or :func:`read_mdf_signal` returns it.
 
     Raises
     ------
