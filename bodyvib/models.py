@@ -51,12 +51,14 @@ def load_network(name_or_path: Union[str, os.PathLike], folder: str,
     Returns
     -------
     Network
+        The file's network, validated by :func:`~bodyvib.runtime.modelfile.network_from_file`.
 
     Raises
     ------
     BodyvibError
         A missing file (a name ending in ``.json`` or with a path separator),
-        an unknown name (the message lists the shipped ones), or invalid content.
+        an unknown name (the message lists the shipped ones), or what
+        :func:`~bodyvib.runtime.modelfile.network_from_file` refuses.
     """
     s = os.fspath(name_or_path)
     if os.path.isfile(s):
@@ -81,12 +83,12 @@ def load_model(name_or_path: Union[str, os.PathLike]) -> Network:
     Returns
     -------
     Network
+        The body model, as :func:`load_network` loads it from :data:`MODEL_DIR`.
 
     Raises
     ------
     BodyvibError
-        Unknown name, unreadable file, or invalid content (the message names
-        the field).
+        What :func:`load_network` refuses (the message names the file and field).
 
     Examples
     --------
@@ -103,6 +105,7 @@ def save_model(net: Network, path: Union[str, os.PathLike]) -> None:
     Parameters
     ----------
     net : Network
+        The model to keep, e.g. a refit one.
     path : str or os.PathLike
         Destination (its folder is created if missing).
 

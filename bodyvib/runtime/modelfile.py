@@ -76,11 +76,13 @@ def network_from_file(path: Union[str, os.PathLike]) -> Network:
     Returns
     -------
     Network
+        The validated network; messages about it name ``path``.
 
     Raises
     ------
     BodyvibError
-        Unreadable file, not UTF-8, not valid JSON, or invalid content.
+        What :func:`bodyvib.runtime.jsonfile.read_json` refuses (an unreadable file,
+        not UTF-8, not JSON) or :func:`network_from_dict` refuses (the content).
     """
     path = os.fspath(path)
     return network_from_dict(read_json(path, "model file"), source=path)
@@ -108,11 +110,12 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
     Returns
     -------
     Network
+        Its elements, masses, roles and parameter values (SI), as the file says.
 
     Raises
     ------
     BodyvibError
-        Missing or extra field, a parameter name that is not a valid FMU
+        The one list of a parameter file's content checks: missing or extra field, a parameter name that is not a valid FMU
         variable name, non-numeric or non-finite value, non-positive
         parameter or mass, a parameter outside :data:`PARAMETER_RANGE`, unknown element kind, unknown point or parameter,
         a mass not connected to the base, or an unused parameter.
@@ -345,11 +348,12 @@ def network_to_dict(net: Network) -> dict:
     Parameters
     ----------
     net : Network
+        Any network, e.g. one :func:`network_from_dict` built.
 
     Returns
     -------
     dict
-        JSON-serializable.
+        JSON-serializable; :func:`network_from_dict` builds ``net`` back from it.
     """
     elements = []
     for el in net.elements:
