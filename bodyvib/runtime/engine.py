@@ -45,12 +45,13 @@ import numpy as np
 from .contract import RATE_PREFIX, fmu_variables
 from .discretize import Discretization, StepCache, discretize_quadratic
 from .errors import BodyvibError
+from .lifecycle import Lifecycle
 from .network import Network, linear_model
 
 __all__ = ["FmuCore"]
 
 
-class FmuCore:
+class FmuCore(Lifecycle):
     """State and stepping of one FMU instance; plain Python, no pythonfmu.
 
     Parameters
@@ -96,8 +97,7 @@ class FmuCore:
         # value reference -> 0 input, 1 output, 2 parameter
         self._kind_of = [0] * self._ni + [1] * self._no + [2] * self._np
         self._R = iface.rate_matrix()
-        self._initialized = False
-        self._init_error = None
+        self._not_initialized()
         self._build(np.array([p.start for p in self.parameters]))
         # one buffer [x | s | y] so the step and the outputs are single products
         self._buf = np.zeros(self._n + self._ni + self._no)
@@ -199,18 +199,14 @@ class FmuCore:
             An invalid parameter (see :meth:`check_parameters`) or a model the
             builder refuses.
         """
-        self._initialized = False
-        try:
-            self.check_parameters()
-            if not np.array_equal(self._params, self._built_params):
-                self._build(self._params)
-        except BodyvibError as exc:
-            self._init_error = f"{exc}; the instance refuses to step (reset and set valid parameters)"
-            raise
-        self._init_error = None
+        self._initialize(self._prepare, "set valid parameters")
         self._stale = False
-        self._initialized = True
         self._dirty = True
+
+    def _prepare(self) -> None:
+        self.check_parameters()
+        if not np.array_equal(self._params, self._built_params):
+            self._build(self._params)
 
     # -- variables -----------------------------------------------------------
     def get_real(self, vrs: Sequence[int]) -> List[float]:
@@ -265,10 +261,6 @@ class FmuCore:
                               "set (ignored)")
         self._dirty = True
 
-    def _message(self, text: str, level: str = "error"):
-        if self._log is not None:
-            self._log(text, level)
-
     # -- stepping ------------------------------------------------------------
     def do_step(self, current_time: float, step_size: float) -> None:
         """Advance one communication step with in-step input extrapolation.
@@ -287,18 +279,14 @@ class FmuCore:
             non-finite input; the state is left unchanged.
         """
         h = step_size
-        if not 0.0 < h < math.inf:
-            raise BodyvibError(f"{self.name}: communication step size must be positive and "
-                               f"finite, got {h!r} s")
+        self._check_step_size(h)
         if True in self._bad:
             bad = [f"{v.name} = {float(self._s[i])!r}" for i, v in enumerate(self.interface.inputs)
                    if self._bad[i]]
             raise BodyvibError(f"{self.name}: input {', '.join(bad)} at t = {current_time:g} s is "
                                "not finite; step refused, state unchanged (set a finite value "
                                "and step again)")
-        if not self._initialized:
-            raise BodyvibError(self._init_error or f"{self.name}: do_step before initialization; "
-                               "call fmi2ExitInitializationMode first")
+        self._check_initialized()
         if not self._fallback:
             self._advance(current_time, h)
             return

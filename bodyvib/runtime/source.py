@@ -37,6 +37,7 @@ import numpy as np
 
 from .contract import PARAMETER_LIMITS, Interface, Variable
 from .errors import BodyvibError
+from .lifecycle import Lifecycle
 
 __all__ = ["SOURCE_FILE", "HermiteTable", "SourceCore", "read_source", "write_source"]
 
@@ -193,7 +194,7 @@ def read_source(path):
     return meta, HermiteTable(data[:, 0], data[:, 1::2], data[:, 2::2], bool(meta.get("periodic")))
 
 
-class SourceCore:
+class SourceCore(Lifecycle):
     """State and stepping of one source FMU instance (the :class:`bodyvib.runtime.engine.FmuCore` API).
 
     Parameters
@@ -242,8 +243,7 @@ class SourceCore:
         self.variables = self.interface.outputs + self.parameters
         self._no = len(outputs)
         self._speed = float(sp["start"])
-        self._initialized = False
-        self._init_error = None
+        self._not_initialized()
         self.time = 0.0
         self._cache = None
 
@@ -273,14 +273,7 @@ class SourceCore:
         ------
         BodyvibError
         """
-        self._initialized = False
-        try:
-            self.check_parameters()
-        except BodyvibError as exc:
-            self._init_error = f"{exc}; the instance refuses to step (reset and set a valid value)"
-            raise
-        self._init_error = None
-        self._initialized = True
+        self._initialize(self.check_parameters, "set a valid value")
         self._cache = None
 
     def _outputs(self) -> List[float]:
@@ -313,10 +306,6 @@ class SourceCore:
                 self._message(f"{self.name}: {self.variables[vr].name} is an output and cannot be "
                               "set (ignored)")
 
-    def _message(self, text: str, level: str = "error"):
-        if self._log is not None:
-            self._log(text, level)
-
     def do_step(self, current_time: float, step_size: float) -> None:
         """Advance to ``current_time + step_size``; outputs are then those of that time.
 
@@ -325,12 +314,7 @@ class SourceCore:
         BodyvibError
             Not initialized, or a step size that is not positive and finite.
         """
-        if not 0.0 < step_size < math.inf:
-            raise BodyvibError(f"{self.name}: communication step size must be positive and "
-                               f"finite, got {step_size!r} s")
-        if not self._initialized:
-            raise BodyvibError(self._init_error or f"{self.name}: do_step before initialization; "
-                               "call fmi2ExitInitializationMode first")
+        self._check_step(step_size)
         self.time = current_time + step_size
         self._cache = None
 
