@@ -98,13 +98,16 @@ def discretize(A: np.ndarray, B: np.ndarray, h: float) -> Tuple[np.ndarray, np.n
     Parameters
     ----------
     A : (n, n) ndarray
+        State matrix of ``x' = A x + B u`` (1/s).
     B : (n, m) ndarray
+        Input matrix (state units per input unit and second).
     h : float
         Step length in seconds, positive and finite.
 
     Returns
     -------
     Phi : (n, n) ndarray
+        State transition ``e^{A h}``.
     Gamma0 : (n, m) ndarray
         Zero-order-hold input matrix.
     Gamma1 : (n, m) ndarray
@@ -115,10 +118,16 @@ def discretize(A: np.ndarray, B: np.ndarray, h: float) -> Tuple[np.ndarray, np.n
     BodyvibError
         If ``h`` is not a positive finite number.
     """
+    Phi, (Gamma0, Gamma1) = _input_blocks(A, B, h, 2)
+    return Phi, Gamma0, Gamma1
+
+
+def _input_blocks(A: np.ndarray, B: np.ndarray, h: float, blocks: int):
+    """``Phi`` and ``[Gamma_0, .., Gamma_{blocks-1}]`` from one exponential of :func:`_augmented`."""
     check_step(h)
     n, m = B.shape
-    E = expm(_augmented(A, B, 2) * h)
-    return E[:n, :n], E[:n, n:n + m], E[:n, n + m:]
+    E = expm(_augmented(A, B, blocks) * h)
+    return E[:n, :n], [E[:n, n + j * m:n + (j + 1) * m] for j in range(blocks)]
 
 
 def _augmented(A: np.ndarray, B: np.ndarray, blocks: int) -> np.ndarray:
@@ -148,23 +157,20 @@ def discretize_quadratic(A: np.ndarray, B: np.ndarray, h: float) -> np.ndarray:
 
     Parameters
     ----------
-    A : (n, n) ndarray
-    B : (n, m) ndarray
-    h : float
-        Step length in seconds, positive and finite.
+    A, B, h
+        As in :func:`discretize`.
 
     Returns
     -------
     (n, m) ndarray
+        ``Gamma2``.
 
     Raises
     ------
     BodyvibError
-        If ``h`` is not a positive finite number.
+        If ``h`` is not a positive finite number (:func:`check_step`).
     """
-    check_step(h)
-    n, m = B.shape
-    return expm(_augmented(A, B, 3) * h)[:n, n + 2 * m:]
+    return _input_blocks(A, B, h, 3)[1][2]
 
 
 class StepCache:
