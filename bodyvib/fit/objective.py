@@ -185,6 +185,7 @@ def impulse_response(model, t_end: float, dt: float, point: str = "head"):
     Parameters
     ----------
     model : Network or LinearModel
+        The model whose impulse response is sampled.
     t_end : float
         Horizon in s.
     dt : float

@@ -37,10 +37,12 @@ def control_labels(names) -> list:
     Parameters
     ----------
     names : sequence of str
+        Signal names of a model (``"m1.x"``, ``"seat_displacement"``).
 
     Returns
     -------
     list of str
+        The same names with ``.`` as ``_`` (``"m1_x"``), in the same order.
     """
     return [n.replace(".", "_") for n in names]
 
@@ -51,6 +53,7 @@ def to_statespace(model):
     Parameters
     ----------
     model : Network or LinearModel
+        The model to name; a network is assembled first.
 
     Returns
     -------
@@ -132,6 +135,7 @@ def transmissibility(model, frequencies_hz, point: str = "head") -> np.ndarray:
     Parameters
     ----------
     model : Network or LinearModel
+        A body model (or a car, with a point on it).
     frequencies_hz : array_like
         Frequencies in Hz.
     point : str
@@ -153,6 +157,7 @@ def apparent_mass(model, frequencies_hz) -> np.ndarray:
     Parameters
     ----------
     model : Network or LinearModel
+        A body model on its base (the seat).
     frequencies_hz : array_like
         Frequencies in Hz, all above 0.
 
@@ -251,6 +256,7 @@ def displacement_input_matrices(model):
     Parameters
     ----------
     model : Network or LinearModel
+        A model with a base (displacement and velocity inputs).
 
     Returns
     -------
@@ -284,6 +290,7 @@ def displacement_input_statespace(model):
     Parameters
     ----------
     model : Network or LinearModel
+        As in :func:`displacement_input_matrices`.
 
     Returns
     -------

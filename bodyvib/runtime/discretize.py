@@ -284,6 +284,7 @@ def simulate(model, t, u, du: Optional[np.ndarray] = None, x0=None):
     Parameters
     ----------
     model : Network or LinearModel
+        The model to simulate, from rest unless ``x0`` is given.
     t : (n,) array_like
         Strictly increasing times in s.
     u : (n, m) array_like

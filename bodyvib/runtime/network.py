@@ -483,10 +483,12 @@ def as_linear_model(model) -> LinearModel:
     Parameters
     ----------
     model : Network or LinearModel
+        A network (assembled here) or its state space (returned as it is).
 
     Returns
     -------
     LinearModel
+        The state space of ``model``.
     """
     return linear_model(model) if isinstance(model, Network) else model
 
