@@ -307,9 +307,12 @@ def load_config(path=None, overrides: Optional[dict] = None) -> FitConfig:
             raise BodyvibError(f"{where}: {section}.{key} must be a positive "
                                f"{'integer' if integer else 'number'}, got {v!r}")
 
-    if cfg["method"] not in METHODS:
-        raise BodyvibError(f"{where}: method must be one of {', '.join(METHODS)}, "
-                           f"got {cfg['method']!r}")
+    def one_of(name, value, choices, note=""):
+        if value not in choices:
+            raise BodyvibError(f"{where}: {name} must be one of {', '.join(choices)}{note}, "
+                               f"got {value!r}")
+
+    one_of("method", cfg["method"], METHODS)
     r = cfg["restarts"]
     if isinstance(r, int) and not isinstance(r, bool):
         r = cfg["restarts"] = {"model": r, "measured": r}
@@ -342,23 +345,18 @@ def load_config(path=None, overrides: Optional[dict] = None) -> FitConfig:
             and 0 <= mut[0] <= mut[1] < 2):
         raise BodyvibError(f"{where}: de.mutation must be [low, high] with 0 <= low <= high < 2, "
                            f"got {mut!r}")
-    if cfg["de"]["strategy"] not in DE_STRATEGIES:
-        raise BodyvibError(f"{where}: de.strategy must be one of {', '.join(DE_STRATEGIES)}, "
-                           f"got {cfg['de']['strategy']!r}")
+    one_of("de.strategy", cfg["de"]["strategy"], DE_STRATEGIES)
     for k in ("population", "generations"):
         positive("pareto", k, integer=True)
     positive("pareto", "crossover_eta")
     positive("pareto", "mutation_eta")
     for m in METHODS:
-        if cfg[m]["coordinates"] not in COORDINATES:
-            raise BodyvibError(f"{where}: {m}.coordinates must be one of "
-                               f"{', '.join(COORDINATES)}, got {cfg[m]['coordinates']!r}")
+        one_of(f"{m}.coordinates", cfg[m]["coordinates"], COORDINATES)
     pol = cfg["polish"]
     if not isinstance(pol["enabled"], bool):
         raise BodyvibError(f"{where}: polish.enabled must be true or false")
-    if pol["method"] not in POLISH_METHODS:
-        raise BodyvibError(f"{where}: polish.method must be one of {', '.join(POLISH_METHODS)} "
-                           f"(bounded scipy.optimize.minimize methods), got {pol['method']!r}")
+    one_of("polish.method", pol["method"], POLISH_METHODS,
+           " (bounded scipy.optimize.minimize methods)")
     positive("polish", "max_iterations", integer=True)
     for k in ("f_first_panel_hz", "f_split_hz"):
         positive("quadrature", k)

@@ -162,6 +162,22 @@ def _stalled(history, ftol, stall):
     return len(history) > stall and history[-stall - 1] - history[-1] <= ftol * abs(history[-1])
 
 
+def _end_generation(best: float, history: list, on_generation, settings=None) -> Optional[str]:
+    """Record and report a generation's best objective; why to stop, if the search stalled.
+
+    Every method ends a generation so; ``settings`` (``ftol``, ``stall_generations``)
+    None for a method with its own stopping rule.
+    """
+    history.append(best)
+    if on_generation is not None:
+        on_generation(best)
+    if settings is not None and _stalled(history, float(settings.ftol),
+                                         int(settings.stall_generations)):
+        return (f"best improved by less than {settings.ftol:g} (relative) in "
+                f"{settings.stall_generations} generations")
+    return None
+
+
 def ga_search(objective: Callable, space: SearchSpace, settings, seed: int,
               on_generation: Optional[Callable[[float], None]] = None) -> SearchResult:
     """Minimize ``objective`` by the real-coded genetic algorithm (DEAP's operators).
@@ -227,12 +243,9 @@ def ga_search(objective: Callable, space: SearchSpace, settings, seed: int,
         for gen in range(1, int(settings.generations) + 1):
             C = breed(pop)
             pop = tools.selBest(pop, elite) + tools.selBest(_individuals(C, f(C)), n - elite)
-            history.append(f.best_J)
-            if on_generation is not None:
-                on_generation(f.best_J)
-            if _stalled(history, float(settings.ftol), int(settings.stall_generations)):
-                stopped = (f"best improved by less than {settings.ftol:g} (relative) in "
-                           f"{settings.stall_generations} generations")
+            stall = _end_generation(f.best_J, history, on_generation, settings)
+            if stall:
+                stopped = stall
                 break
     finally:
         random.setstate(saved)
@@ -304,12 +317,8 @@ def cmaes_search(objective: Callable, space: SearchSpace, settings, seed: int,
         U = np.array(es.ask())
         es.tell(list(U), list(f(space.zlo + U * span)))
         gen += 1
-        history.append(f.best_J)
-        if on_generation is not None:
-            on_generation(f.best_J)
-        if _stalled(history, float(settings.ftol), int(settings.stall_generations)):
-            stopped = (f"best improved by less than {settings.ftol:g} (relative) in "
-                       f"{settings.stall_generations} generations")
+        stopped = _end_generation(f.best_J, history, on_generation, settings) or ""
+        if stopped:
             break
     return f.result(gen, history, stopped or "cma: " + ", ".join(es.stop()))
 
@@ -340,9 +349,7 @@ def de_search(objective: Callable, space: SearchSpace, settings, seed: int,
     history = []
 
     def callback(*_args, **_kwargs):
-        history.append(f.best_J)
-        if on_generation is not None:
-            on_generation(f.best_J)
+        _end_generation(f.best_J, history, on_generation)
 
     res = differential_evolution(
         lambda zt: f(zt.T), list(zip(space.zlo, space.zhi)), vectorized=True,

@@ -346,13 +346,14 @@ def write_pareto(folder, front: ParetoFront, command: str = "") -> List[str]:
     folder : str or os.PathLike
         Created if missing.
     front : ParetoFront
+        The front to publish, from :func:`pareto_front`.
     command : str
         The command that made it (recorded).
 
     Returns
     -------
     list of str
-        The files written.
+        The table, the plot and one parameter file per chosen point, in that order.
     """
     from importlib.metadata import version
 

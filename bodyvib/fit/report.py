@@ -207,12 +207,14 @@ def write_report(folder, result, refit):
     folder : str or os.PathLike
         Created if missing.
     result : bodyvib.fit.result.FitResult
+        The search's outcome (targets, parameters, objective values).
     refit : Network
+        The reduced model with the refit parameters.
 
     Returns
     -------
     list of str
-        The files written.
+        ``comparison.md``, ``comparison.json``, then the plots.
     """
     folder = os.fspath(folder)
     os.makedirs(folder, exist_ok=True)
