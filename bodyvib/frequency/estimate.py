@@ -95,6 +95,7 @@ def segment_length(samples: int, fs: float, segment_s: float = 8.0) -> int:
     Returns
     -------
     int
+        Samples per Welch segment, at least 16.
 
     Raises
     ------

@@ -34,6 +34,7 @@ def pack_state(state) -> bytes:
     Returns
     -------
     bytes
+        What ``fmi2SerializeFMUstate`` hands the host; :func:`unpack_state` reads it.
 
     Examples
     --------
@@ -50,10 +51,12 @@ def unpack_state(data: bytes):
     Parameters
     ----------
     data : bytes
+        What the host stored of :func:`pack_state`'s bytes (``fmi2DeSerializeFMUstate``).
 
     Returns
     -------
     dict
+        The state as it was packed.
 
     Raises
     ------
