@@ -208,6 +208,8 @@ def body_interface(network: Network) -> Interface:
     Returns
     -------
     Interface
+        Inputs :data:`BODY_INPUTS` (seat motion), outputs :data:`BODY_OUTPUTS` (head,
+        torso, seat force and its rate) and then the model's ``fmu_outputs``.
 
     Raises
     ------
@@ -290,11 +292,13 @@ def car_interface(network: Network) -> Interface:
     Returns
     -------
     Interface
+        Inputs :data:`CAR_INPUTS` (road motion, the occupant's seat force), outputs
+        :data:`CAR_OUTPUTS` (seat point motion) and then the model's ``fmu_outputs``.
 
     Raises
     ------
     BodyvibError
-        If the model lacks the seat role or its force input.
+        What :func:`seat_point` refuses.
     """
     seat = seat_point(network)
     inputs = _inputs(CAR_INPUTS, (

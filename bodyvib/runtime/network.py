@@ -50,6 +50,7 @@ __all__ = [
     "ELEMENT_KINDS",
     "Element",
     "Network",
+    "SignalNames",
     "LinearModel",
     "DescriptorModel",
     "descriptor_model",
@@ -244,14 +245,15 @@ class Network:
         return springs, dampers
 
 
-@dataclass(frozen=True)
-class LinearModel:
-    """Continuous-time state space ``x' = A x + B u``, ``y = C x + D u``.
+@dataclass(frozen=True, kw_only=True)
+class SignalNames:
+    """The named signals of a network's state space, and the network (both forms share them).
+
+    Keyword-only fields, after the matrices of :class:`LinearModel` and
+    :class:`DescriptorModel`.
 
     Attributes
     ----------
-    A, B, C, D : ndarray
-        System matrices (SI units).
     states, inputs, outputs : tuple of str
         Names: states ``"<mass>.x"``, ``"<mass>.v"``, ``"<node>.y"``; inputs
         ``"<base>_displacement"``, ``"<base>_velocity"``, ``"<mass>.force"``;
@@ -262,10 +264,6 @@ class LinearModel:
         The network it was built from.
     """
 
-    A: np.ndarray
-    B: np.ndarray
-    C: np.ndarray
-    D: np.ndarray
     states: Tuple[str, ...]
     inputs: Tuple[str, ...]
     outputs: Tuple[str, ...]
@@ -294,7 +292,25 @@ class LinearModel:
 
 
 @dataclass(frozen=True)
-class DescriptorModel:
+class LinearModel(SignalNames):
+    """Continuous-time state space ``x' = A x + B u``, ``y = C x + D u``.
+
+    Attributes
+    ----------
+    A, B, C, D : ndarray
+        System matrices (SI units).
+    states, inputs, outputs, network
+        Its :class:`SignalNames`.
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+
+
+@dataclass(frozen=True)
+class DescriptorModel(SignalNames):
     """Descriptor form ``E z' = A z + B u``, ``y = C z + Cd z' + D u`` of a network.
 
     Every matrix is linear (affine, with literal values) in the network's
@@ -311,9 +327,8 @@ class DescriptorModel:
         Output rows on the state and on its derivative (accelerations, node
         velocities).
     D : (no, ni) ndarray
-    states, inputs, outputs : tuple of str
-        As in :class:`LinearModel`.
-    network : Network
+    states, inputs, outputs, network
+        Its :class:`SignalNames` (those of the :class:`LinearModel` it solves to).
     """
 
     E: np.ndarray
@@ -322,10 +337,6 @@ class DescriptorModel:
     C: np.ndarray
     Cd: np.ndarray
     D: np.ndarray
-    states: Tuple[str, ...]
-    inputs: Tuple[str, ...]
-    outputs: Tuple[str, ...]
-    network: Network
 
     def solve(self) -> LinearModel:
         """The explicit state space ``x' = E^-1 (A x + B u)``, outputs with ``z'`` substituted.
