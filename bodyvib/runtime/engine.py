@@ -279,14 +279,16 @@ class FmuCore(Lifecycle):
             non-finite input; the state is left unchanged.
         """
         h = step_size
-        self._check_step_size(h)
+        if not 0.0 < h < math.inf:
+            self._refuse_step_size(h)
         if True in self._bad:
             bad = [f"{v.name} = {float(self._s[i])!r}" for i, v in enumerate(self.interface.inputs)
                    if self._bad[i]]
             raise BodyvibError(f"{self.name}: input {', '.join(bad)} at t = {current_time:g} s is "
                                "not finite; step refused, state unchanged (set a finite value "
                                "and step again)")
-        self._check_initialized()
+        if not self._initialized:
+            self._refuse_step()
         if not self._fallback:
             self._advance(current_time, h)
             return

@@ -9,7 +9,6 @@ that is not positive and finite, and a step before initialization; warnings and
 errors go to the host's logger when there is one.
 """
 
-import math
 from typing import Callable, Optional
 
 from .errors import BodyvibError
@@ -30,8 +29,13 @@ class Lifecycle:
     ...     def __init__(self):
     ...         self._not_initialized()
     >>> core = Core()
+    >>> core._refuse_step()
+    Traceback (most recent call last):
+    ...
+    bodyvib.runtime.errors.BodyvibError: Demo: do_step before initialization; call fmi2ExitInitializationMode first
     >>> core._initialize(lambda: None, "set a valid value")
-    >>> core._check_step(1e-3)
+    >>> core._initialized
+    True
     """
 
     name: str
@@ -66,22 +70,17 @@ class Lifecycle:
         self._init_error = None
         self._initialized = True
 
-    def _check_step_size(self, step_size: float) -> None:
+    # A step tests its preconditions inline (``0.0 < h < math.inf``, ``self._initialized``:
+    # no call on the hot path) and calls these to refuse, in the same words for both cores.
+    def _refuse_step_size(self, step_size: float) -> None:
         """Refuse a communication step size that is not positive and finite (s)."""
-        if not 0.0 < step_size < math.inf:
-            raise BodyvibError(f"{self.name}: communication step size must be positive and "
-                               f"finite, got {step_size!r} s")
+        raise BodyvibError(f"{self.name}: communication step size must be positive and "
+                           f"finite, got {step_size!r} s")
 
-    def _check_initialized(self) -> None:
+    def _refuse_step(self) -> None:
         """Refuse a step before initialization, or after a failed one (with its reason)."""
-        if not self._initialized:
-            raise BodyvibError(self._init_error or f"{self.name}: do_step before initialization; "
-                               "call fmi2ExitInitializationMode first")
-
-    def _check_step(self, step_size: float) -> None:
-        """Both preconditions of a step: :meth:`_check_step_size`, :meth:`_check_initialized`."""
-        self._check_step_size(step_size)
-        self._check_initialized()
+        raise BodyvibError(self._init_error or f"{self.name}: do_step before initialization; "
+                           "call fmi2ExitInitializationMode first")
 
     def _message(self, text: str, level: str = "error") -> None:
         """Send ``text`` to the host's logger (``level`` ``"warning"`` or ``"error"``), if any."""

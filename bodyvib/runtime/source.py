@@ -314,7 +314,10 @@ class SourceCore(Lifecycle):
         BodyvibError
             Not initialized, or a step size that is not positive and finite.
         """
-        self._check_step(step_size)
+        if not 0.0 < step_size < math.inf:
+            self._refuse_step_size(step_size)
+        if not self._initialized:
+            self._refuse_step()
         self.time = current_time + step_size
         self._cache = None
 
