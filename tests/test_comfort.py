@@ -4,10 +4,13 @@ import numpy as np
 import pytest
 
 from bodyvib.comfort.figures import (
-    comfort_category, comfort_figures, peak, vdv, weighted_acceleration, weighted_rms,
+    comfort_category, comfort_figures, mtvv, peak, vdv, weighted_acceleration, weighted_rms,
     wk_response,
 )
+from bodyvib.comfort.stream import WkFilter
+from bodyvib.models import load_model
 from bodyvib.runtime.errors import BodyvibError
+from bodyvib.seat.response import head_acceleration
 
 # ISO 2631-1:1997, Table 3: principal weighting Wk, factor x 1000, at the nominal
 # one-third-octave centre frequencies of bands -10 ... 26 (0.1-400 Hz). Typed
@@ -111,3 +114,39 @@ def test_bad_signals_are_refused():
         weighted_rms([0.0, 1.0], -1.0)
     with pytest.raises(BodyvibError, match="1-D"):
         vdv([1.0], 100.0)
+
+
+def test_each_single_figure_is_its_field_of_the_record_figures(rng):
+    """The single figures and comfort_figures come from one table: the same numbers to the
+    bit, and each is its closed form of the weighted record (ISO 2631-1 clause 6)."""
+    fs = 500.0
+    a = rng.standard_normal(3000)
+    a[1500] = -60.0  # a downward shock: the peak is a magnitude, not the largest value
+    figures = comfort_figures(a, fs)
+    aw = weighted_acceleration(a, fs)
+    window = int(fs)
+    running = [np.mean(np.concatenate([np.zeros(window), aw ** 2])[k + 1:k + 1 + window])
+               for k in range(aw.size)]
+    independent = {"weighted_rms": np.sqrt(np.mean(aw ** 2)),
+                   "vdv": (np.sum(aw ** 4) / fs) ** 0.25,
+                   "peak": np.max(np.abs(aw)),
+                   "mtvv": np.sqrt(np.max(running))}
+    for function in (weighted_rms, vdv, peak, mtvv):
+        name = function.__name__
+        assert function(a, fs) == getattr(figures, name), name
+        # summing 3000 squares in another order: rounding of a few 1e-16 relative
+        assert function(a, fs) == pytest.approx(independent[name], rel=1e-12), name
+        doc = function.__doc__
+        assert "%(" not in doc and "acceleration : (n,) array_like" in doc and "Raises" in doc
+
+
+@pytest.mark.parametrize("call", [
+    lambda fs: weighted_rms([0.0, 1.0], fs),
+    lambda fs: comfort_figures([0.0, 1.0], fs),
+    lambda fs: WkFilter(fs, 1),
+    lambda fs: head_acceleration(load_model("reduced-paper"), [0.0, 1.0], fs),
+])
+@pytest.mark.parametrize("fs", [0.0, -1.0, float("nan"), float("inf"), "1000"])
+def test_every_entry_point_refuses_a_bad_rate_in_the_same_words(call, fs):
+    with pytest.raises(BodyvibError, match=r"^sampling rate must be a positive number of Hz, got "):
+        call(fs)

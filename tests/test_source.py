@@ -11,6 +11,8 @@ import json
 import numpy as np
 import pytest
 
+from bodyvib.models import load_model
+from bodyvib.runtime.engine import FmuCore
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.source import HermiteTable, SourceCore, read_source, write_source
 from vehicle.reference import nrmse
@@ -135,3 +137,38 @@ def test_road_slave_in_plain_python(tmp_path):
     assert z == pytest.approx(zr[0], rel=1e-6) and v == pytest.approx(vr[0], rel=1e-4)
     assert slave.do_step(1.05, -1.0) is False
     assert "step size must be positive" in slave.log_queue[-1].msg
+
+
+def _body_core():
+    core = FmuCore("body", load_model("reduced-paper"), "Core")
+    return core, [v.name for v in core.variables].index("m1"), 4.88, "set valid parameters"
+
+
+def _source_core():
+    meta, tab = road_source(BumpRoad(), 30.0)
+    return SourceCore(meta, tab, "Core"), 2, 5.0, "set a valid value"
+
+
+@pytest.mark.parametrize("make", [_body_core, _source_core])
+def test_both_cores_refuse_a_step_in_the_same_words(make):
+    """One life cycle (bodyvib.runtime.lifecycle) for the network and the source core: the
+    same refusals, word for word, and a refused step leaves the instance as it was."""
+    core, vr, good, fix = make()
+    with pytest.raises(BodyvibError, match=r"^Core: do_step before initialization; "
+                                           r"call fmi2ExitInitializationMode first$"):
+        core.do_step(0.0, 1e-3)
+    core.set_real([vr], [-1.0])
+    with pytest.raises(BodyvibError) as failed:
+        core.initialize()
+    with pytest.raises(BodyvibError) as refused:
+        core.do_step(0.0, 1e-3)
+    assert str(refused.value) == f"{failed.value}; the instance refuses to step (reset and {fix})"
+    core.set_real([vr], [good])
+    core.initialize()
+    for h in (0.0, -1e-3, float("nan"), float("inf")):
+        with pytest.raises(BodyvibError) as bad:
+            core.do_step(0.0, h)
+        assert str(bad.value) == f"Core: communication step size must be positive and finite, got {h!r} s"
+    assert core.time == 0.0
+    core.do_step(0.0, 1e-3)
+    assert core.time == pytest.approx(1e-3, abs=1e-15)
