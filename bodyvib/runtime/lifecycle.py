@@ -59,7 +59,7 @@ class Lifecycle:
         Raises
         ------
         BodyvibError
-            What ``prepare`` raised; :meth:`_check_step` repeats it, with the remedy.
+            What ``prepare`` raised; a later step repeats it with the remedy (:meth:`_refuse_step`).
         """
         self._initialized = False
         try:
