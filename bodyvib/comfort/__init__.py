@@ -9,7 +9,8 @@ are a :class:`~bodyvib.comfort.figures.ComfortFigures`, a batch's a
 """
 
 from .figures import (BASIC_METHOD_LIMITS, COMFORT_SCALE, MTVV_WINDOW_S, WK_PARAMETERS,
-                      ComfortFigures, basic_method_checks, comfort_category, comfort_figures,
+                      ComfortFigures, basic_method_checks, check_rate, comfort_category,
+                      comfort_figures,
                       mtvv, peak, running_rms, vdv, weighted_acceleration, weighted_rms,
                       wk_response)
 from .stream import (BatchComfortFigures, ComfortStream, WkFilter, stream_batch_figures,
@@ -17,6 +18,6 @@ from .stream import (BatchComfortFigures, ComfortStream, WkFilter, stream_batch_
 
 __all__ = ["WK_PARAMETERS", "COMFORT_SCALE", "wk_response", "weighted_acceleration",
            "weighted_rms", "vdv", "peak", "MTVV_WINDOW_S", "running_rms", "mtvv",
-           "BASIC_METHOD_LIMITS", "basic_method_checks", "comfort_category", "ComfortFigures",
+           "BASIC_METHOD_LIMITS", "basic_method_checks", "check_rate", "comfort_category", "ComfortFigures",
            "comfort_figures", "wk_statespace", "WkFilter", "ComfortStream",
            "BatchComfortFigures", "stream_comfort_figures", "stream_batch_figures"]
