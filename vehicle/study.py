@@ -13,7 +13,7 @@ import contextlib
 import math
 import os
 import sys
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from typing import Dict, List, Optional
 
 import numpy as np
@@ -28,6 +28,7 @@ from bodyvib.runtime.errors import BodyvibError
 from bodyvib.process.progress import progress_bar
 
 from .cosim import CsvStream, Master, check_fmu, model_from_fmu, open_fmu
+from .records import Record
 from .reference import ReferenceStream
 from .road.driven import RoadOptions, driven_road
 from .road.synthetic import road_input
@@ -38,7 +39,7 @@ __all__ = ["StudySettings", "BodyRun", "Study", "StudyCsv", "check_settings", "r
 
 
 @dataclass(frozen=True)
-class StudySettings:
+class StudySettings(Record):
     """The settings of a study, as given to :func:`run_study`.
 
     Attributes
@@ -59,10 +60,6 @@ class StudySettings:
     step_s: float
     seed: int
     master: str
-
-    def to_dict(self) -> dict:
-        """The settings as a JSON-ready dict."""
-        return asdict(self)
 
 
 @dataclass
