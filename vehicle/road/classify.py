@@ -179,10 +179,8 @@ def classify_profile(distance, elevation, segment_m: float = None,
 
     Parameters
     ----------
-    distance : (n,) array_like
-        Distances, m, uniformly spaced.
-    elevation : (n,) array_like
-        Heights, m.
+    distance, elevation : (n,) array_like
+        The profile, m, as :func:`profile_psd` takes it (uniformly spaced distances).
     segment_m : float, optional
         Welch segment length, m (see :func:`profile_psd`).
     band : (float, float)
