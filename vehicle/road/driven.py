@@ -57,7 +57,9 @@ def is_road_file(spec) -> bool:
 
     Parameters
     ----------
-    spec : str
+    spec : str or os.PathLike
+        A road as ``--road`` or a sweep spec's ``road`` names it (surrounding spaces
+        ignored).
 
     Returns
     -------
@@ -110,6 +112,7 @@ def driven_road(spec, speed: float, duration: float, seed: int = 0,
     step : float, optional
         Communication step, s (a measured profile's spacing is checked against it).
     options : RoadOptions, optional
+        How the road is driven (the ``--road-*`` options); the defaults if None.
 
     Returns
     -------
