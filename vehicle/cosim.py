@@ -561,6 +561,7 @@ class CsvStream:
     Parameters
     ----------
     path : str
+        The CSV file; left as it was until :meth:`place`.
     """
 
     def __init__(self, path):
@@ -606,6 +607,7 @@ def write_csv(path, result: Dict[str, np.ndarray]) -> None:
     Parameters
     ----------
     path : str
+        The CSV file, replaced whole or left as it was.
     result : dict of str to ndarray
         Equal-length columns (:func:`cosimulate`, :func:`vehicle.reference.reference_run`).
     """

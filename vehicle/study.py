@@ -116,6 +116,7 @@ class Study:
     Attributes
     ----------
     settings : StudySettings
+        Road, speed, duration, step, seed and master, as given.
     road : dict
         The road's description (:meth:`vehicle.road.synthetic.Road.describe`).
     time, road_displacement, road_velocity : ndarray or None
@@ -417,6 +418,7 @@ class StudyCsv:
     Parameters
     ----------
     path : str
+        The CSV file; left as it was until :meth:`place`.
     labels : sequence of str
         The study's bodies, in order.
     """
@@ -434,6 +436,7 @@ class StudyCsv:
         Parameters
         ----------
         label : str
+            One of the study's ``labels``.
         signals : dict of str to ndarray
             The block's :data:`vehicle.signals.MASTER_SIGNALS`.
         reference : dict of str to ndarray or None
@@ -484,7 +487,8 @@ def coupling_error_sweep(steps, body_fmu: str, car_fmu: str, road: str = "C", sp
         Communication steps, s.
     body_fmu, car_fmu : str
         FMU paths (bodyvib FMUs: the reference comes from their parameter files).
-    road, speed, duration, seed : see :func:`run_study`.
+    road, speed, duration, seed : str, float, float, int
+        As :func:`run_study` takes them (road name or file, m/s, s, random-road seed).
     extrapolate : bool
         Master with (True) or without seat-force extrapolation.
 
