@@ -99,6 +99,52 @@ def test_csv_round_trip(fmus, tmp_path):
     assert np.allclose(back, run["head_acceleration"], rtol=1e-9, atol=1e-12)
 
 
+def _description_only_fmu(path, fmi):
+    """A ``.fmu`` holding only the reduced body's model description (FMI 2.0 or 3.0), as the
+    native build writes it: enough for the refusals made from the description alone."""
+    import zipfile
+
+    from bodyvib.fmu.native import model_description, native_model
+    from bodyvib.models import load_model
+
+    nm = native_model("body", load_model("reduced-paper"), "HumanBody3DOF")
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr("modelDescription.xml", model_description(nm, "{0-0-0-0-0}", fmi))
+    return str(path)
+
+
+@pytest.mark.parametrize("what, kind, message", [
+    ("junk", "body", r"'.*junk\.fmu' is not a readable FMU: File is not a zip file"),
+    ("fmi3", "body", r"FMU '.*fmi3\.fmu' is FMI 3\.0; FMI 2\.0 is needed"),
+    ("fmi2", "car", r"lacks the car interface: it is a body FMU \(give it to --body\)"),
+])
+def test_check_fmu_and_open_fmu_refuse_a_description_alike(tmp_path, what, kind, message):
+    # both read the model description through one function: the same refusal, and open_fmu
+    # makes it before extracting or instantiating anything
+    from vehicle.cosim import check_fmu
+
+    path = tmp_path / f"{what}.fmu"
+    if what == "junk":
+        path.write_text("not a zip")
+    else:
+        _description_only_fmu(path, 3 if what == "fmi3" else 2)
+    with pytest.raises(BodyvibError, match=message):
+        check_fmu(path, kind)
+    with pytest.raises(BodyvibError, match=message):
+        with open_fmu(path, kind):
+            pass
+
+
+def test_a_description_that_passes_check_fmu_goes_on_to_the_binary(tmp_path):
+    from vehicle.cosim import check_fmu
+
+    path = _description_only_fmu(tmp_path / "fmi2.fmu", 2)
+    check_fmu(path, "body")  # the description is a valid FMI 2.0 body
+    with pytest.raises(BodyvibError, match="has no binary for this platform"):
+        with open_fmu(path, "body"):
+            pass
+
+
 def test_fmu_without_body_interface_is_refused(fmus):
     with pytest.raises(BodyvibError, match="lacks the body interface"):
         with open_fmu(fmus["car"], "body"):

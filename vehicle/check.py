@@ -7,8 +7,10 @@ PASS/FAIL line per criterion and a verdict, as a :class:`Comparison` of
 :class:`Criterion`.
 """
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from typing import Dict, List
+
+from .records import Record
 
 
 __all__ = ["TOLERANCES", "Criterion", "Comparison", "compare"]
@@ -26,7 +28,7 @@ TOLERANCES = {
 
 
 @dataclass(frozen=True)
-class Criterion:
+class Criterion(Record):
     """One criterion of the check.
 
     Attributes
@@ -53,10 +55,6 @@ class Criterion:
     tolerance: float
     unit: str
     passed: bool
-
-    def to_dict(self) -> dict:
-        """The criterion as a JSON-ready dict."""
-        return asdict(self)
 
 
 @dataclass(frozen=True)

@@ -122,6 +122,24 @@ def _check_interface(md, path, kind):
         )
 
 
+def _model_description(path, kind):
+    """The model description of an existing ``.fmu`` file of the ``kind`` interface.
+
+    What :func:`check_fmu` and :func:`open_fmu` both read first: a file fmpy cannot
+    read, another FMI version than 2.0 or a missing interface variable is refused.
+    """
+    from fmpy import read_model_description
+
+    try:
+        md = read_model_description(path)
+    except Exception as exc:
+        raise BodyvibError(f"'{path}' is not a readable FMU: {exc}") from None
+    if md.fmiVersion != "2.0":
+        raise BodyvibError(f"FMU '{path}' is FMI {md.fmiVersion}; FMI 2.0 is needed")
+    _check_interface(md, path, kind)
+    return md
+
+
 def check_fmu(path, kind: str) -> None:
     """Refuse an FMU that is not an FMI 2.0 co-simulation FMU of ``kind``, without running it.
 
@@ -141,18 +159,10 @@ def check_fmu(path, kind: str) -> None:
         Missing or unreadable file, another FMI version, missing interface variables
         (naming the interface the FMU has, if it has the other one).
     """
-    from fmpy import read_model_description
-
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise BodyvibError(f"FMU file '{path}' does not exist")
-    try:
-        md = read_model_description(path)
-    except Exception as exc:
-        raise BodyvibError(f"'{path}' is not a readable FMU: {exc}") from None
-    if md.fmiVersion != "2.0":
-        raise BodyvibError(f"FMU '{path}' is FMI {md.fmiVersion}; FMI 2.0 is needed")
-    _check_interface(md, path, kind)
+    md = _model_description(path, kind)
     if md.coSimulation is None:
         raise BodyvibError(f"FMU '{path}' is not a co-simulation FMU (FMI 2.0 CS needed)")
 
@@ -285,16 +295,10 @@ def open_fmu(path, kind: str, instance_name: Optional[str] = None,
 
 @contextlib.contextmanager
 def _instantiated(path, kind, instance_name, start_values=None):
-    from fmpy import extract, read_model_description
+    from fmpy import extract
     from fmpy.fmi2 import FMU2Slave
 
-    try:
-        md = read_model_description(path)
-    except Exception as exc:
-        raise BodyvibError(f"'{path}' is not a readable FMU: {exc}") from None
-    if md.fmiVersion != "2.0":
-        raise BodyvibError(f"FMU '{path}' is FMI {md.fmiVersion}; FMI 2.0 is needed")
-    _check_interface(md, path, kind)
+    md = _model_description(path, kind)
     refs = {v.name: v.valueReference for v in md.modelVariables}
     unknown = sorted(set(start_values or {}) - set(refs))
     if unknown:
@@ -557,6 +561,7 @@ class CsvStream:
     Parameters
     ----------
     path : str
+        The CSV file; left as it was until :meth:`place`.
     """
 
     def __init__(self, path):
@@ -602,6 +607,7 @@ def write_csv(path, result: Dict[str, np.ndarray]) -> None:
     Parameters
     ----------
     path : str
+        The CSV file, replaced whole or left as it was.
     result : dict of str to ndarray
         Equal-length columns (:func:`cosimulate`, :func:`vehicle.reference.reference_run`).
     """

@@ -6,6 +6,7 @@ import numpy as np
 
 from .check import Comparison
 from .cosim import model_from_fmu
+from .figure import stacked_panels
 from .signals import UNITS, axis_label
 from .study import Study
 
@@ -33,31 +34,30 @@ def plot_study(study: Study, path, comparison: Optional[Comparison] = None, wind
         An unsupported plot file extension.
     """
     from bodyvib.frequency.response import transmissibility
-    from bodyvib.plotting import new_figure, save_figure, transmissibility_axes
+    from bodyvib.plotting import transmissibility_axes
 
-    fig, (ax1, ax2) = new_figure(2, 1, figsize=(8, 8))
-    fig.subplots_adjust(hspace=0.35)
     t = study.window_time  # the window the study kept (run_study's window_s)
     window_s = float(t[-1] - t[0]) if t.size > 1 else window_s
     unit = UNITS["head_acceleration"]
-    for label, b in study.bodies.items():
-        ax1.plot(t, b.head_window, lw=0.9,
-                 label=f"{label}: a_w = {b.figures.weighted_rms:.3f} {unit}")
-    ax1.set_xlabel(axis_label("time"))
-    ax1.set_ylabel(axis_label("head_acceleration"))
-    ax1.set_title(f"{study.road['name']}, {study.settings.speed_m_s:g} m/s: head acceleration "
-                  f"({window_s:g} s window)")
-    ax1.grid(True, alpha=0.3)
-    ax1.legend(fontsize=8, loc="upper right")
-    for label, b in study.bodies.items():
-        T = b.transmissibility
-        line, = ax2.plot(T.frequency_hz, T.modulus, label=f"{label} (estimated from run)")
-        if b.model is not None:
-            net = model_from_fmu(b.fmu)
-            f = np.asarray(T.frequency_hz)
-            ax2.plot(f, np.abs(transmissibility(net, f)), "--", color=line.get_color(), lw=0.8,
-                     label=f"{label} (model)")
-    transmissibility_axes(ax2, ylabel="|T| head / seat [-]", title=None if comparison is None
-                          else f"seat-to-head transmissibility; check verdict: {comparison.verdict}")
-    ax2.legend(fontsize=8)
-    save_figure(fig, path)
+    with stacked_panels(path) as (ax1, ax2):
+        for label, b in study.bodies.items():
+            ax1.plot(t, b.head_window, lw=0.9,
+                     label=f"{label}: a_w = {b.figures.weighted_rms:.3f} {unit}")
+        ax1.set_xlabel(axis_label("time"))
+        ax1.set_ylabel(axis_label("head_acceleration"))
+        ax1.set_title(f"{study.road['name']}, {study.settings.speed_m_s:g} m/s: head acceleration "
+                      f"({window_s:g} s window)")
+        ax1.grid(True, alpha=0.3)
+        ax1.legend(fontsize=8, loc="upper right")
+        for label, b in study.bodies.items():
+            T = b.transmissibility
+            line, = ax2.plot(T.frequency_hz, T.modulus, label=f"{label} (estimated from run)")
+            if b.model is not None:
+                net = model_from_fmu(b.fmu)
+                f = np.asarray(T.frequency_hz)
+                ax2.plot(f, np.abs(transmissibility(net, f)), "--", color=line.get_color(), lw=0.8,
+                         label=f"{label} (model)")
+        title = (None if comparison is None
+                 else f"seat-to-head transmissibility; check verdict: {comparison.verdict}")
+        transmissibility_axes(ax2, ylabel="|T| head / seat [-]", title=title)
+        ax2.legend(fontsize=8)

@@ -28,13 +28,17 @@ def format_report(study: Study, comparison: Optional[Comparison] = None) -> str:
     Parameters
     ----------
     study : Study
-        From :func:`vehicle.study.run_study`.
+        From :func:`vehicle.study.run_study`: its settings head the report, one column
+        per body.
     comparison : Comparison, optional
-        From :func:`vehicle.check.compare`.
+        From :func:`vehicle.check.compare`: adds one PASS/FAIL line per criterion, the
+        hint :data:`PEAK_HINT` if a transmissibility-peak criterion failed, and the verdict.
 
     Returns
     -------
     str
+        The lines ``bodyvib cosim`` and ``bodyvib check`` print, joined by newlines
+        (no trailing newline); figures in m/s2, m/s^1.75 (VDV), Hz and percent.
     """
     s = study.settings
     taper = study.road.get("taper_m")
@@ -94,9 +98,9 @@ def study_json(study: Study, comparison: Optional[Comparison] = None) -> dict:
     Parameters
     ----------
     study : Study
-        From :func:`vehicle.study.run_study`.
+        From :func:`vehicle.study.run_study`; its time histories are left out.
     comparison : Comparison, optional
-        From :func:`vehicle.check.compare`.
+        From :func:`vehicle.check.compare`; None for ``bodyvib cosim`` (no check keys).
 
     Returns
     -------

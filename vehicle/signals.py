@@ -105,10 +105,13 @@ def header(column: str) -> str:
     Parameters
     ----------
     column : str
+        A column of a run's table, e.g. ``head_acceleration`` or
+        ``HumanBody3DOF.reference_head_acceleration``.
 
     Returns
     -------
     str
+        ``column [unit]``, or ``column`` alone when no signal gives it a unit.
 
     Examples
     --------
@@ -127,11 +130,12 @@ def axis_label(name: str) -> str:
     Parameters
     ----------
     name : str
-        A signal's name.
+        A signal's name (a key of :data:`UNITS`).
 
     Returns
     -------
     str
+        The name with spaces for underscores, then its unit in brackets.
 
     Examples
     --------

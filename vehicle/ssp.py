@@ -88,10 +88,14 @@ def ssp_parameters(fmu_path):
     Parameters
     ----------
     fmu_path : str
+        ``.fmu`` file (FMI 2.0 or 3.0); one written earlier in the same staged-writes
+        block is read from its staged copy.
 
     Returns
     -------
     list of (str, float, str)
+        Name, start value (in that unit) and unit of each parameter, in
+        model-description order.
     """
     return [(name, float(start), unit)
             for name, causality, unit, start in _variables(fmu_path) if causality == "parameter"]
@@ -166,10 +170,13 @@ def parameter_values(fmu_path) -> bytes:
     Parameters
     ----------
     fmu_path : str
+        ``.fmu`` file, as for :func:`ssp_parameters`.
 
     Returns
     -------
     bytes
+        UTF-8 XML: a ``ParameterSet`` named :data:`SSP_NAME` with one ``Real`` per
+        parameter (value and unit) and the units' SI base units.
     """
     root = ET.Element(_q("ssv", "ParameterSet"), version="1.0", name=SSP_NAME)
     params = ET.SubElement(root, _q("ssv", "Parameters"))

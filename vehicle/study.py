@@ -13,7 +13,7 @@ import contextlib
 import math
 import os
 import sys
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from typing import Dict, List, Optional
 
 import numpy as np
@@ -28,6 +28,7 @@ from bodyvib.runtime.errors import BodyvibError
 from bodyvib.process.progress import progress_bar
 
 from .cosim import CsvStream, Master, check_fmu, model_from_fmu, open_fmu
+from .records import Record
 from .reference import ReferenceStream
 from .road.driven import RoadOptions, driven_road
 from .road.synthetic import road_input
@@ -38,7 +39,7 @@ __all__ = ["StudySettings", "BodyRun", "Study", "StudyCsv", "check_settings", "r
 
 
 @dataclass(frozen=True)
-class StudySettings:
+class StudySettings(Record):
     """The settings of a study, as given to :func:`run_study`.
 
     Attributes
@@ -59,10 +60,6 @@ class StudySettings:
     step_s: float
     seed: int
     master: str
-
-    def to_dict(self) -> dict:
-        """The settings as a JSON-ready dict."""
-        return asdict(self)
 
 
 @dataclass
@@ -119,6 +116,7 @@ class Study:
     Attributes
     ----------
     settings : StudySettings
+        Road, speed, duration, step, seed and master, as given.
     road : dict
         The road's description (:meth:`vehicle.road.synthetic.Road.describe`).
     time, road_displacement, road_velocity : ndarray or None
@@ -420,6 +418,7 @@ class StudyCsv:
     Parameters
     ----------
     path : str
+        The CSV file; left as it was until :meth:`place`.
     labels : sequence of str
         The study's bodies, in order.
     """
@@ -437,6 +436,7 @@ class StudyCsv:
         Parameters
         ----------
         label : str
+            One of the study's ``labels``.
         signals : dict of str to ndarray
             The block's :data:`vehicle.signals.MASTER_SIGNALS`.
         reference : dict of str to ndarray or None
@@ -487,7 +487,8 @@ def coupling_error_sweep(steps, body_fmu: str, car_fmu: str, road: str = "C", sp
         Communication steps, s.
     body_fmu, car_fmu : str
         FMU paths (bodyvib FMUs: the reference comes from their parameter files).
-    road, speed, duration, seed : see :func:`run_study`.
+    road, speed, duration, seed : str, float, float, int
+        As :func:`run_study` takes them (road name or file, m/s, s, random-road seed).
     extrapolate : bool
         Master with (True) or without seat-force extrapolation.
 

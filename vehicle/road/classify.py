@@ -20,13 +20,14 @@ limit).
 """
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from typing import List, Tuple
 
 import numpy as np
 
 from bodyvib.runtime.errors import BodyvibError
 
+from ..records import Record
 from .iri import _check_profile
 from .synthetic import ISO8608_CLASSES, N0, N_BAND, class_psd_n0
 
@@ -135,7 +136,7 @@ def _third_octaves(lo: float, hi: float):
 
 
 @dataclass(frozen=True)
-class RoadClass:
+class RoadClass(Record):
     """ISO 8608 description of a profile (:func:`classify_profile`).
 
     Attributes
@@ -167,7 +168,7 @@ class RoadClass:
 
     def to_dict(self) -> dict:
         """JSON-ready dict (an infinite limit as None)."""
-        d = asdict(self)
+        d = super().to_dict()
         d["class_limits_m3"] = [v if math.isfinite(v) else None for v in self.class_limits_m3]
         return d
 
@@ -178,10 +179,8 @@ def classify_profile(distance, elevation, segment_m: float = None,
 
     Parameters
     ----------
-    distance : (n,) array_like
-        Distances, m, uniformly spaced.
-    elevation : (n,) array_like
-        Heights, m.
+    distance, elevation : (n,) array_like
+        The profile, m, as :func:`profile_psd` takes it (uniformly spaced distances).
     segment_m : float, optional
         Welch segment length, m (see :func:`profile_psd`).
     band : (float, float)

@@ -13,11 +13,12 @@ cannot do.
 
 import math
 import os
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from typing import Optional
 
 from bodyvib.runtime.errors import BodyvibError
 
+from ..records import Record
 from .synthetic import ISO8608_CLASSES, Road, TaperedRoad, make_road
 
 __all__ = ["DEFAULT_TAPER_M", "RoadOptions", "is_road_file", "driven_road", "road_label"]
@@ -27,7 +28,7 @@ DEFAULT_TAPER_M = 5.0
 
 
 @dataclass(frozen=True)
-class RoadOptions:
+class RoadOptions(Record):
     """How a road is driven (the ``--road-*`` options).
 
     Attributes
@@ -50,17 +51,15 @@ class RoadOptions:
     envelope: bool = False
     repeat: bool = False
 
-    def to_dict(self) -> dict:
-        """The options as JSON."""
-        return asdict(self)
-
 
 def is_road_file(spec) -> bool:
     """Whether a road spec names a file rather than a synthetic road.
 
     Parameters
     ----------
-    spec : str
+    spec : str or os.PathLike
+        A road as ``--road`` or a sweep spec's ``road`` names it (surrounding spaces
+        ignored).
 
     Returns
     -------
@@ -113,6 +112,7 @@ def driven_road(spec, speed: float, duration: float, seed: int = 0,
     step : float, optional
         Communication step, s (a measured profile's spacing is checked against it).
     options : RoadOptions, optional
+        How the road is driven (the ``--road-*`` options); the defaults if None.
 
     Returns
     -------

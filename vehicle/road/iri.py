@@ -32,13 +32,15 @@ suspension velocity is a sine of amplitude ``a M |H(2 pi V / lambda)|``, with
 """
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from typing import Dict, Tuple
 
 import numpy as np
 
 from bodyvib.runtime.discretize import discretize
 from bodyvib.runtime.errors import BodyvibError
+
+from ..records import Record
 
 __all__ = ["GOLDEN_CAR", "IRI_SPEED_M_S", "SMOOTHING_BASE_M", "START_BASE_M", "golden_car",
            "moving_average", "IriResult", "international_roughness_index"]
@@ -162,7 +164,7 @@ def moving_average(elevation, spacing: float, base: float = SMOOTHING_BASE_M) ->
 
 
 @dataclass(frozen=True)
-class IriResult:
+class IriResult(Record):
     """The International Roughness Index of a profile.
 
     Attributes
@@ -181,10 +183,6 @@ class IriResult:
     length_m: float
     speed_m_s: float
     smoothing_samples: int
-
-    def to_dict(self) -> dict:
-        """JSON-ready dict."""
-        return asdict(self)
 
 
 def international_roughness_index(distance, elevation, speed: float = IRI_SPEED_M_S,

@@ -180,6 +180,47 @@ def _given_units(units, base) -> Optional[Tuple[float, float]]:
     return _unit(parts[0], "distance", base), _unit(parts[1], "elevation", base)
 
 
+def _scales(base, units, given, header, header_text, no_units) -> Tuple[float, float]:
+    """The factors from a file's distance and elevation units to metres.
+
+    Parameters
+    ----------
+    base : str
+        The file's name, for the messages.
+    units : str or None
+        ``--road-units`` as given (``"DIST,ELEV"``), for the messages.
+    given : (float, float) or None
+        ``units`` read by :func:`_given_units`.
+    header : (str, str) or None
+        The distance and elevation units the file's header names, None if it names none.
+    header_text : str
+        The header as a message quotes it.
+    no_units : str
+        What a message says when neither the header nor ``--road-units`` names the
+        units (the fix ``or give --road-units m,mm`` is appended).
+
+    Returns
+    -------
+    (float, float)
+        Metres per distance unit and per elevation unit: the header's, else ``given``.
+
+    Raises
+    ------
+    BodyvibError
+        An unknown unit in the header, ``--road-units`` disagreeing with the header, or
+        units named nowhere.
+    """
+    if header is not None:
+        scales = (_unit(header[0], "distance", base), _unit(header[1], "elevation", base))
+        if given is not None and given != scales:
+            raise BodyvibError(f"road '{base}': --road-units {units} disagrees with the header "
+                               f"{header_text}; drop one of them")
+        return scales
+    if given is None:
+        raise BodyvibError(f"road '{base}': {no_units} or give --road-units m,mm")
+    return given
+
+
 # -- CSV ------------------------------------------------------------------------------
 
 _HEADER_UNIT = re.compile(r"^\s*([A-Za-z][A-Za-z0-9 ]*?)\s*(?:_|\[|\()\s*([A-Za-zµ]+)\s*[\])]?\s*$")
@@ -201,17 +242,11 @@ def _read_csv(path, units, channel):
         raise BodyvibError(f"road '{base}': the header '{rows[0][1].strip()}' needs two columns, "
                            "distance and elevation")
     named = [_HEADER_UNIT.match(h) for h in head[:2]]
-    if all(named):
-        scales = (_unit(named[0].group(2), "distance", base),
-                  _unit(named[1].group(2), "elevation", base))
-        if given is not None and given != scales:
-            raise BodyvibError(f"road '{base}': --road-units {units} disagrees with the header "
-                               f"'{','.join(head[:2])}'; drop one of them")
-    elif given is not None:
-        scales = given
-    else:
-        raise BodyvibError(f"road '{base}': the header '{','.join(head[:2])}' names no units; name "
-                           "them (distance_m,elevation_mm) or give --road-units m,mm")
+    scales = _scales(base, units, given,
+                     (named[0].group(2), named[1].group(2)) if all(named) else None,
+                     f"'{','.join(head[:2])}'",
+                     f"the header '{','.join(head[:2])}' names no units; name them "
+                     "(distance_m,elevation_mm)")
     x, z = [], []
     for k, (lineno, ln) in enumerate(rows[1:]):
         f = ln.split(",")
@@ -298,17 +333,10 @@ def _read_erd(path, units, channel):
     xu = keys.get("XUNITS") or keys.get("GENUNITS")
     yu = keys.get("YUNITS") or keys.get("UNITSNAM") or keys.get("UNITS")
     given = _given_units(units, base)
-    if xu and yu:
-        yname = yu[channel - 1] if len(yu) >= channel else yu[0]
-        scales = (_unit(xu[0], "distance", base), _unit(yname, "elevation", base))
-        if given is not None and given != scales:
-            raise BodyvibError(f"road '{base}': --road-units {units} disagrees with the header "
-                               f"(XUNITS {xu[0]}, YUNITS {yname}); drop one of them")
-    elif given is not None:
-        scales = given
-    else:
-        raise BodyvibError(f"road '{base}': the ERD header names no units (XUNITS and YUNITS); "
-                           "add them or give --road-units m,mm")
+    yname = (yu[channel - 1] if len(yu) >= channel else yu[0]) if yu else None
+    scales = _scales(base, units, given, (xu[0], yname) if xu and yu else None,
+                     f"(XUNITS {xu[0] if xu else ''}, YUNITS {yname})",
+                     "the ERD header names no units (XUNITS and YUNITS); add them")
     text = " ".join(lines[end + 1:]).replace(",", " ")
     try:
         values = np.array([float(v) for v in text.split()], dtype=float)

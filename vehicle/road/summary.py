@@ -10,6 +10,7 @@ its text and its plot (``bodyvib road``).
 from dataclasses import dataclass
 import numpy as np
 
+from ..figure import stacked_panels
 from .classify import RoadClass, class_limits, classify_profile, profile_psd
 from .iri import IriResult, _check_profile, international_roughness_index
 from .synthetic import ISO8608_CLASSES, N0, class_psd_n0
@@ -28,6 +29,7 @@ class RoadSummary:
     length_m, spacing_m : float
         Extent and sample spacing, m.
     samples : int
+        Number of profile points.
     elevation_m : dict
         ``mean``, ``rms`` (about the mean), ``min``, ``max``, ``range``, m.
     psd_n : ndarray
@@ -35,7 +37,9 @@ class RoadSummary:
     psd_gd : ndarray
         Displacement PSD, m^3.
     iso8608 : RoadClass
+        The ISO 8608 line fitted to the PSD and the class it falls in.
     iri : IriResult
+        The International Roughness Index, m/km.
     distance, elevation : ndarray
         The profile (for the plot).
     """
@@ -108,10 +112,13 @@ def format_summary(s: RoadSummary) -> str:
     Parameters
     ----------
     s : RoadSummary
+        From :func:`summarize_profile`; its elevations (m) are printed in mm.
 
     Returns
     -------
     str
+        Five lines (no trailing newline): the name; length, spacing and samples;
+        elevation statistics in mm; the ISO 8608 fit and class; the IRI in m/km.
     """
     e = {k: 1000 * v for k, v in s.elevation_m.items()}
     c = s.iso8608
@@ -136,6 +143,8 @@ def plot_summary(s: RoadSummary, path) -> None:
     Parameters
     ----------
     s : RoadSummary
+        From :func:`summarize_profile`: its profile goes on top, its PSD, band means and
+        fitted line below, against the class limits.
     path : str or os.PathLike
         Plot file (.png, .pdf or .svg).
 
@@ -144,33 +153,30 @@ def plot_summary(s: RoadSummary, path) -> None:
     BodyvibError
         An unsupported plot file extension.
     """
-    from bodyvib.plotting import new_figure, save_figure
-
-    fig, (ax1, ax2) = new_figure(2, 1, figsize=(8, 8))
-    fig.subplots_adjust(hspace=0.35)
-    ax1.plot(s.distance, 1000 * s.elevation, lw=0.6)
-    ax1.set_xlabel("distance [m]")
-    ax1.set_ylabel("elevation [mm]")
-    ax1.set_title(f"{s.name}: IRI {s.iri.iri_m_per_km:.2f} m/km")
-    ax1.grid(True, alpha=0.3)
-    n = np.geomspace(0.01, 3.0, 50)
-    for i, c in enumerate(ISO8608_CLASSES):   # class limits: twice each geometric mean
-        if c != "H":
-            ax2.loglog(n, class_limits(c)[1] * (n / N0) ** -2, color="0.6", lw=0.7)
-        ax2.text(0.0105, class_psd_n0(c) * (0.0105 / N0) ** -2, c, color="0.4", va="center")
-    ax2.loglog(s.psd_n, s.psd_gd, lw=0.6, label="Welch PSD")
-    r = s.iso8608
-    ax2.loglog(r.band_centres, r.band_gd, "o", ms=4, label="one-third-octave means")
-    band = np.geomspace(*r.band_cycles_per_m, 20)
-    ax2.loglog(band, r.gd_n0_m3 * (band / N0) ** -r.waviness, "k--",
-               label=f"fit: Gd(n0) = {r.gd_n0_m3:.3g} m^3, w = {r.waviness:.2f} "
-                     f"(class {r.iso8608_class})")
-    ax2.set_xlim(0.01, 3.0)
-    # every class in view: A's lower half at 3 cycle/m to H's upper limit at 0.01 cycle/m
-    low = min(class_psd_n0("A") / 2 * (3.0 / N0) ** -2, float(np.min(r.band_gd)) / 3)
-    ax2.set_ylim(low, max(2 * class_psd_n0("H") * (0.01 / N0) ** -2, 3 * float(np.max(r.band_gd))))
-    ax2.set_xlabel("spatial frequency n [cycle/m]")
-    ax2.set_ylabel("Gd(n) [m^3]")
-    ax2.grid(True, which="both", alpha=0.3)
-    ax2.legend(fontsize=8, loc="lower left")
-    save_figure(fig, path)
+    with stacked_panels(path) as (ax1, ax2):
+        ax1.plot(s.distance, 1000 * s.elevation, lw=0.6)
+        ax1.set_xlabel("distance [m]")
+        ax1.set_ylabel("elevation [mm]")
+        ax1.set_title(f"{s.name}: IRI {s.iri.iri_m_per_km:.2f} m/km")
+        ax1.grid(True, alpha=0.3)
+        n = np.geomspace(0.01, 3.0, 50)
+        for i, c in enumerate(ISO8608_CLASSES):   # class limits: twice each geometric mean
+            if c != "H":
+                ax2.loglog(n, class_limits(c)[1] * (n / N0) ** -2, color="0.6", lw=0.7)
+            ax2.text(0.0105, class_psd_n0(c) * (0.0105 / N0) ** -2, c, color="0.4", va="center")
+        ax2.loglog(s.psd_n, s.psd_gd, lw=0.6, label="Welch PSD")
+        r = s.iso8608
+        ax2.loglog(r.band_centres, r.band_gd, "o", ms=4, label="one-third-octave means")
+        band = np.geomspace(*r.band_cycles_per_m, 20)
+        ax2.loglog(band, r.gd_n0_m3 * (band / N0) ** -r.waviness, "k--",
+                   label=f"fit: Gd(n0) = {r.gd_n0_m3:.3g} m^3, w = {r.waviness:.2f} "
+                         f"(class {r.iso8608_class})")
+        ax2.set_xlim(0.01, 3.0)
+        # every class in view: A's lower half at 3 cycle/m to H's upper limit at 0.01 cycle/m
+        low = min(class_psd_n0("A") / 2 * (3.0 / N0) ** -2, float(np.min(r.band_gd)) / 3)
+        high = max(2 * class_psd_n0("H") * (0.01 / N0) ** -2, 3 * float(np.max(r.band_gd)))
+        ax2.set_ylim(low, high)
+        ax2.set_xlabel("spatial frequency n [cycle/m]")
+        ax2.set_ylabel("Gd(n) [m^3]")
+        ax2.grid(True, which="both", alpha=0.3)
+        ax2.legend(fontsize=8, loc="lower left")

@@ -47,14 +47,18 @@ def check_address(address: str) -> str:
     Parameters
     ----------
     address : str
+        ``--scheduler`` as given: a Dask scheduler address with its protocol, e.g.
+        ``tcp://10.0.0.5:8786``.
 
     Returns
     -------
     str
+        ``address``, unchanged.
 
     Raises
     ------
     BodyvibError
+        No ``://`` in it; the message names the ``tcp://`` form to write.
 
     Examples
     --------

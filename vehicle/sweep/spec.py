@@ -80,6 +80,7 @@ class Case:
     road : str
         ISO 8608 class, ``"bump"``, ``"sweep"`` or a road file's absolute path.
     seed : int
+        Random-road seed (>= 0; no effect on ``bump`` and ``sweep``).
     speed : float
         m/s.
     duration, step : float
@@ -145,10 +146,13 @@ def seed_range(text: str) -> List[int]:
     Parameters
     ----------
     text : str
+        ``"FIRST..LAST"`` with integers 0 <= FIRST <= LAST (a spec's ``seed`` entry or a
+        ``--grid seed=`` item).
 
     Returns
     -------
     list of int
+        FIRST, FIRST + 1, ..., LAST.
 
     Raises
     ------
@@ -196,11 +200,12 @@ def load_spec(path) -> dict:
     Parameters
     ----------
     path : str
-        JSON file.
+        JSON file holding one object (keys in the module docstring).
 
     Returns
     -------
     dict
+        The object as read, not yet validated (:func:`iter_cases` validates it).
 
     Raises
     ------
@@ -230,6 +235,10 @@ def grid_spec(items: Sequence[str], duration: float = 30.0, step: float = 1e-3,
     Returns
     -------
     dict
+        A spec, not yet validated: each item's key with its list of values (speeds,
+        durations and steps as floats; seeds as ints or ``"FIRST..LAST"`` ranges; roads,
+        bodies and cars as text), ``duration`` and ``step`` (the arguments unless given as
+        items) and ``road_options`` when given.
 
     Raises
     ------
@@ -290,10 +299,14 @@ def spec_hash(spec: dict) -> str:
     Parameters
     ----------
     spec : dict
+        A spec (keys in the module docstring); need not be validated. The files its
+        roads, bodies and cars name are read; names that are not files are hashed as text.
 
     Returns
     -------
     str
+        The first 12 hex digits of the SHA-256 of the spec (keys sorted) and of the
+        files' contents: equal for equal studies, different when a named file changes.
 
     Examples
     --------
@@ -511,10 +524,13 @@ def count_cases(spec: dict) -> int:
     Parameters
     ----------
     spec : dict
+        A spec (keys in the module docstring), e.g. from :func:`load_spec`.
 
     Returns
     -------
     int
+        The product of the numbers of roads, seeds, speeds, durations, steps, body
+        parameter sets and cars.
 
     Raises
     ------
@@ -536,6 +552,8 @@ def iter_cases(spec: dict) -> Iterator[Case]:
     Parameters
     ----------
     spec : dict
+        A spec (keys in the module docstring); the whole spec is checked, and every
+        body and car loaded, before the iterator is returned.
 
     Returns
     -------
@@ -618,10 +636,12 @@ def varied_parameters(cases: Sequence[Case]) -> List[str]:
     Parameters
     ----------
     cases : sequence of Case
+        From :func:`expand` or :func:`iter_cases`.
 
     Returns
     -------
     list of str
+        Parameter names of the ``vary`` entries' models; empty when no body varies.
 
     Examples
     --------
