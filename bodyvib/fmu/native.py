@@ -47,14 +47,14 @@ import numpy as np
 
 from .. import __version__
 from ..process.outputs import atomic_write_bytes
-from ..runtime.contract import MODEL_FILE, RATE_PREFIX, Variable
+from ..runtime.contract import RATE_PREFIX, Variable
 from ..runtime.engine import FmuCore
 from ..runtime.errors import BodyvibError
 from ..process import interrupts
 from ..runtime.network import Network, descriptor_model
 from .description import (MODEL_STOP_TIME, Interface, ModelDescription, validate_fmu_file,
                           write_model_description)
-from .sources import native_dir
+from .sources import model_resources, native_dir
 
 __all__ = ["NATIVE_SOURCES", "PLATFORMS", "PlatformChoice", "choose_platforms", "NativeModel",
            "native_model", "model_source", "native_description", "model_description",
@@ -616,12 +616,9 @@ def build_native_fmu(network: Network, kind: str, name: str, description: str, d
     ...                  "reduced body", "dist/native")  # doctest: +SKIP
     PosixPath('dist/native/HumanBody3DOF.fmu')
     """
-    from ..runtime.modelfile import network_to_dict
-
     nm = native_model(kind, network, name, description)
-    model_json = (json.dumps(network_to_dict(network), indent=2) + "\n").encode()
     return package_native_fmu(nm, lambda token: model_source(nm, token), NATIVE_SOURCES,
-                              {MODEL_FILE: model_json}, dest, fmi, platforms)
+                              model_resources(network), dest, fmi, platforms)
 
 
 def package_native_fmu(nm: NativeModel, model_c: Callable[[str], str], core: Sequence[str],

@@ -11,15 +11,15 @@ implements the same ``bv_*`` API (``bodyvib_core.h``).
 Build-time needs: as :mod:`bodyvib.fmu.native`.
 """
 
-import tempfile
 from pathlib import Path
 from typing import Iterable
 
 import numpy as np
 
 from .. import __version__
-from ..runtime.source import SourceCore, write_source
+from ..runtime.source import SourceCore
 from .description import default_stop_time
+from .sources import source_resources
 from .native import (SOURCE_SOURCES, NativeModel, _c_doubles, _c_ints, _c_string,
                      package_native_fmu)
 
@@ -152,7 +152,5 @@ def build_native_source_fmu(meta: dict, table, name: str, description: str, dest
     PosixPath('dist/native/Road.fmu')
     """
     nm = native_source_model(meta, table, name, description)
-    with tempfile.TemporaryDirectory(prefix="bodyvib_source_") as tmp:  # the table as data
-        resources = {Path(p).name: Path(p).read_bytes() for p in write_source(tmp, meta, table)}
     return package_native_fmu(nm, lambda token: source_model_source(nm, table, token),
-                              SOURCE_SOURCES, resources, dest, fmi, platforms)
+                              SOURCE_SOURCES, source_resources(meta, table), dest, fmi, platforms)

@@ -26,8 +26,6 @@ numpy (the slave imports pythonfmu, which the FMU carries in its resources).
 
 import hashlib
 import io
-import json
-import os
 import re
 import sys
 import tempfile
@@ -39,12 +37,11 @@ from xml.etree import ElementTree as ET
 from .. import __version__
 from ..process import interrupts
 from ..process.outputs import atomic_write_bytes
-from ..runtime.contract import MODEL_FILE
 from ..runtime.errors import BodyvibError
 from ..runtime.network import Network
 from .description import (Interface, ModelDescription, default_stop_time, validate_fmu_file,
                           write_model_description)
-from .sources import RUNTIME_DIR, fmu_src_dir
+from .sources import RUNTIME_DIR, fmu_src_dir, model_resources, source_resources
 
 __all__ = ["SLAVE_SCRIPT", "build_fmu", "build_source_fmu", "pythonfmu_description",
            "render_slave_script", "runtime_sources", "write_runtime_package"]
@@ -182,12 +179,10 @@ def build_fmu(network: Network, kind: str, name: str, description: str, dest="di
     PosixPath('dist/HumanBody3DOF.fmu')
     """
     from ..runtime.engine import FmuCore
-    from ..runtime.modelfile import network_to_dict
 
     core = FmuCore(kind, network, name)  # refuses a model the FMU could not run
     core.check_parameters()
-    model_bytes = (json.dumps(network_to_dict(network), indent=2) + "\n").encode()
-    return _build(core, kind, name, description, {MODEL_FILE: model_bytes},
+    return _build(core, kind, name, description, model_resources(network),
                   f"Model '{network.name}': {network.description}", dest)
 
 
@@ -214,14 +209,11 @@ def build_source_fmu(meta: dict, table, name: str, description: str, dest="dist"
     BodyvibError
         As :func:`build_fmu`.
     """
-    from ..runtime.source import SOURCE_FILE, SourceCore, write_source
+    from ..runtime.source import SourceCore
 
     core = SourceCore(meta, table, name)
     core.check_parameters()
-    with tempfile.TemporaryDirectory(prefix="bodyvib_source_") as tmp:
-        files = {os.path.basename(p): Path(p).read_bytes() for p in write_source(tmp, meta, table)}
-    assert SOURCE_FILE in files
-    return _build(core, "source", name, description, files,
+    return _build(core, "source", name, description, source_resources(meta, table),
                   f"Source '{meta['name']}': {meta['description']}", dest)
 
 
