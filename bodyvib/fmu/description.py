@@ -31,7 +31,7 @@ from .. import __version__
 from ..runtime.contract import UNITS, Variable
 from ..runtime.errors import BodyvibError
 
-__all__ = ["DISPLAY_UNITS", "MODEL_STOP_TIME", "Interface", "ModelDescription",
+__all__ = ["DISPLAY_UNITS", "MODEL_STOP_TIME", "InterfaceElement", "ModelDescription",
            "default_stop_time", "display_unit", "initial_dependencies", "number",
            "state_units", "unit_definitions", "validate_fmu_file", "write_model_description"]
 
@@ -184,13 +184,13 @@ def state_units(state: str) -> Tuple[str, str]:
 
 
 @dataclass(frozen=True)
-class Interface:
-    """One interface element of an FMU (``CoSimulation`` or ``ModelExchange``).
+class InterfaceElement:
+    """One interface element of an FMU: what it offers a co-simulation or model-exchange host.
 
     Attributes
     ----------
-    element : str
-        ``"CoSimulation"`` or ``"ModelExchange"``.
+    element : {"CoSimulation", "ModelExchange"}
+        The element's tag.
     flags : tuple of (str, str)
         Its capability attributes besides ``modelIdentifier`` (name, XML value), in order.
     source_files : tuple of str
@@ -230,7 +230,7 @@ class ModelDescription:
     output_dependencies : tuple of tuple of int
         Per output (in value-reference order): the input value references it depends on
         directly.
-    interfaces : tuple of Interface
+    interfaces : tuple of InterfaceElement
         The interface elements.
     log_categories : tuple of (str, str)
         Log category names and descriptions the FMU accepts.
@@ -257,7 +257,7 @@ class ModelDescription:
     generation_tool: str
     variables: Tuple[Variable, ...]
     output_dependencies: Tuple[Tuple[int, ...], ...]
-    interfaces: Tuple[Interface, ...]
+    interfaces: Tuple[InterfaceElement, ...]
     log_categories: Tuple[Tuple[str, str], ...]
     stop_time: float
     source: bool = False

@@ -52,8 +52,8 @@ from ..runtime.engine import FmuCore
 from ..runtime.errors import BodyvibError
 from ..process import interrupts
 from ..runtime.network import Network, descriptor_model
-from .description import (MODEL_STOP_TIME, Interface, ModelDescription, validate_fmu_file,
-                          write_model_description)
+from .description import (MODEL_STOP_TIME, InterfaceElement, ModelDescription,
+                          validate_fmu_file, write_model_description)
 from .sources import model_resources, native_dir
 
 __all__ = ["NATIVE_SOURCES", "PLATFORMS", "PlatformChoice", "choose_platforms", "NativeModel",
@@ -95,7 +95,6 @@ COMPILER_PACKAGES = {"linux64": "gcc", "win64": "gcc-mingw-w64-x86-64"}
 _MATRICES = ("E", "A", "B", "C", "Cd", "D")
 
 
-
 @dataclass(frozen=True)
 class NativeModel:
     """Everything the C core needs for one FMU, from the Python contract and the network.
@@ -104,11 +103,11 @@ class NativeModel:
     ----------
     name : str
         FMU model name.
-    kind : str
-        ``"body"`` or ``"car"``.
+    kind : {"body", "car", "source"}
+        The contract's FMU kind (:data:`bodyvib.runtime.contract.KINDS`).
     description : str
         One-line description of the FMU.
-    network : Network
+    network : Network or None
     variables : tuple of Variable
         By value reference.
     kinds : tuple of int
@@ -437,7 +436,7 @@ def _description(nm: NativeModel) -> str:
 # derivatives (seat_force_rate).
 
 
-def _interfaces(nm: NativeModel, fmi: int) -> Tuple[Interface, ...]:
+def _interfaces(nm: NativeModel, fmi: int) -> Tuple[InterfaceElement, ...]:
     """Model Exchange and co-simulation from one binary: what the native core offers.
 
     A source has no states and no inputs (no knowns): no directional derivatives; in model
@@ -451,10 +450,10 @@ def _interfaces(nm: NativeModel, fmi: int) -> Tuple[Interface, ...]:
                   ("canGetAndSetFMUstate", "true"), ("canSerializeFMUstate", "true"),
                   ("providesDirectionalDerivative", directional))
         files = tuple(_c_files(nm, fmi))
-        return (Interface("ModelExchange", (("needsExecutionTool", "false"),
-                                            ("completedIntegratorStepNotNeeded", "true"))
-                          + common, files),
-                Interface("CoSimulation", (
+        return (InterfaceElement("ModelExchange", (
+                    ("needsExecutionTool", "false"),
+                    ("completedIntegratorStepNotNeeded", "true")) + common, files),
+                InterfaceElement("CoSimulation", (
                     ("needsExecutionTool", "false"),
                     ("canHandleVariableCommunicationStepSize", "true"),
                     ("canInterpolateInputs", "true"), ("maxOutputDerivativeOrder", order),
@@ -462,9 +461,10 @@ def _interfaces(nm: NativeModel, fmi: int) -> Tuple[Interface, ...]:
     common = (("needsExecutionTool", "false"), ("canBeInstantiatedOnlyOncePerProcess", "false"),
               ("canGetAndSetFMUState", "true"), ("canSerializeFMUState", "true"),
               ("providesDirectionalDerivatives", directional))
-    return (Interface("ModelExchange", common + (("needsCompletedIntegratorStep", "false"),
-                                                 ("providesEvaluateDiscreteStates", "false"))),
-            Interface("CoSimulation", common + (
+    return (InterfaceElement("ModelExchange", common + (
+                ("needsCompletedIntegratorStep", "false"),
+                ("providesEvaluateDiscreteStates", "false"))),
+            InterfaceElement("CoSimulation", common + (
                 ("canHandleVariableCommunicationStepSize", "true"),
                 ("maxOutputDerivativeOrder", order), ("hasEventMode", "false"),
                 ("providesIntermediateUpdate", "false"),
@@ -479,9 +479,9 @@ def native_description(nm: NativeModel, token: str, fmi: int) -> ModelDescriptio
     nm : NativeModel
         The FMU's interface.
     token : str
-        GUID (FMI 2.0) or instantiation token (FMI 3.0).
-    fmi : int
-        2 or 3.
+        GUID (FMI 2.0) or instantiation token (FMI 3.0): the hash :func:`_token` computes.
+    fmi : {2, 3}
+        FMI version.
 
     Returns
     -------
@@ -493,8 +493,8 @@ def native_description(nm: NativeModel, token: str, fmi: int) -> ModelDescriptio
         description=_description(nm), generation_tool=f"bodyvib {__version__} native_build",
         variables=nm.variables, output_dependencies=nm.dependencies,
         interfaces=_interfaces(nm, fmi), log_categories=LOG_CATEGORIES, stop_time=nm.stop_time,
-        source=nm.kind == "source", states=nm.states, output_state_dependencies=nm.output_state_deps,
-        derivative_dependencies=nm.derivative_deps)
+        source=nm.kind == "source", states=nm.states,
+        output_state_dependencies=nm.output_state_deps, derivative_dependencies=nm.derivative_deps)
 
 
 def model_description(nm: NativeModel, token: str, fmi: int) -> bytes:
@@ -502,12 +502,8 @@ def model_description(nm: NativeModel, token: str, fmi: int) -> bytes:
 
     Parameters
     ----------
-    nm : NativeModel
-        The FMU's interface.
-    token : str
-        GUID (FMI 2.0) or instantiation token (FMI 3.0).
-    fmi : int
-        2 or 3.
+    nm, token, fmi
+        As :func:`native_description`.
 
     Returns
     -------
@@ -600,7 +596,8 @@ def build_native_fmu(network: Network, kind: str, name: str, description: str, d
     Returns
     -------
     Path
-        ``dest/<name>.fmu``.
+        The FMU written, ``dest/<name>.fmu``: FMI ``fmi``.0, co-simulation and Model
+        Exchange, binaries for ``platforms`` and its C sources.
 
     Raises
     ------

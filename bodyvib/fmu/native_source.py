@@ -31,13 +31,10 @@ def native_source_model(meta: dict, table, name: str, description: str = "") -> 
 
     Parameters
     ----------
-    meta : dict
-        Source description (:mod:`bodyvib.runtime.source`).
-    table : bodyvib.runtime.source.HermiteTable
-    name : str
-        FMU model name.
-    description : str
-        One-line description of the FMU.
+    meta, table
+        As :func:`bodyvib.fmu.pythonfmu.build_source_fmu`.
+    name, description
+        As :func:`bodyvib.fmu.native.native_model`.
 
     Returns
     -------
@@ -127,16 +124,15 @@ def build_native_source_fmu(meta: dict, table, name: str, description: str, dest
 
     Parameters
     ----------
-    meta : dict
-        Source description (:mod:`bodyvib.runtime.source`), without ``table``/``periodic``.
-    table : bodyvib.runtime.source.HermiteTable
+    meta, table
+        As :func:`bodyvib.fmu.pythonfmu.build_source_fmu`.
     name, description, dest, fmi, platforms
         As :func:`bodyvib.fmu.native.build_native_fmu`.
 
     Returns
     -------
     Path
-        ``dest/<name>.fmu``.
+        The FMU written, ``dest/<name>.fmu``: the table as C data, no Python.
 
     Raises
     ------

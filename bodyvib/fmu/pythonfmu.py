@@ -4,8 +4,9 @@
 ``modelDescription.xml`` with the one the native FMUs' writer writes
 (:func:`bodyvib.fmu.description.write_model_description`; units, min/max, ModelStructure with
 Outputs and InitialUnknowns, which pythonfmu 0.7.0 does not write), keeping what pythonfmu
-decides (:func:`pythonfmu_description`), and checks it with ``fmpy validate``. The project's own set of FMUs (``HumanBody3DOF``, ``HumanBodyISO7962``,
-``QuarterCar``) and ``python build_fmu.py`` are :mod:`vehicle.fmus`.
+decides (:func:`pythonfmu_description`), and checks it with ``fmpy validate``. The
+project's own set of FMUs (``HumanBody3DOF``, ``HumanBodyISO7962``, ``QuarterCar``) and
+``python build_fmu.py`` are :mod:`vehicle.fmus`.
 
 Private module names. A module name loaded inside an FMU is global to the host
 process and the first loaded copy wins, so each FMU ships:
@@ -39,8 +40,8 @@ from ..process import interrupts
 from ..process.outputs import atomic_write_bytes
 from ..runtime.errors import BodyvibError
 from ..runtime.network import Network
-from .description import (Interface, ModelDescription, default_stop_time, validate_fmu_file,
-                          write_model_description)
+from .description import (InterfaceElement, ModelDescription, default_stop_time,
+                          validate_fmu_file, write_model_description)
 from .sources import RUNTIME_DIR, fmu_src_dir, model_resources, source_resources
 
 __all__ = ["SLAVE_SCRIPT", "build_fmu", "build_source_fmu", "pythonfmu_description",
@@ -163,7 +164,7 @@ def build_fmu(network: Network, kind: str, name: str, description: str, dest="di
     Returns
     -------
     Path
-        ``dest/<name>.fmu``.
+        The FMU written, ``dest/<name>.fmu``: FMI 2.0 co-simulation, the slave in Python.
 
     Raises
     ------
@@ -202,12 +203,13 @@ def build_source_fmu(meta: dict, table, name: str, description: str, dest="dist"
     Returns
     -------
     Path
-        ``dest/<name>.fmu``.
+        The FMU written, ``dest/<name>.fmu``, a source FMU (no inputs).
 
     Raises
     ------
     BodyvibError
-        As :func:`build_fmu`.
+        As :func:`build_fmu`; a source the contract refuses (signals not matching the
+        table, a bad speed).
     """
     from ..runtime.source import SourceCore
 
@@ -304,8 +306,8 @@ def pythonfmu_description(generated: bytes, core, description: str) -> ModelDesc
         variables=tuple(core.variables),
         output_dependencies=tuple(tuple(per_output[v.name]) for v in core.variables
                                   if v.causality == "output"),
-        interfaces=(Interface("CoSimulation", tuple((k, v) for k, v in cs.attrib.items()
-                                                    if k != "modelIdentifier")),),
+        interfaces=(InterfaceElement("CoSimulation", tuple(
+            (k, v) for k, v in cs.attrib.items() if k != "modelIdentifier")),),
         log_categories=tuple((c.get("name"), c.get("description"))
                              for c in root.iterfind("LogCategories/Category")),
         stop_time=default_stop_time(core), source=core.kind == "source")

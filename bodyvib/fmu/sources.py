@@ -75,11 +75,8 @@ def source_resources(meta: dict, table) -> Dict[str, bytes]:
 
     Parameters
     ----------
-    meta : dict
-        The source description (:mod:`bodyvib.runtime.source`), without ``table`` and
-        ``periodic``.
-    table : bodyvib.runtime.source.HermiteTable
-        The profiles and their slopes over the coordinate.
+    meta, table
+        As :func:`bodyvib.fmu.pythonfmu.build_source_fmu`.
 
     Returns
     -------
