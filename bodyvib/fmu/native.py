@@ -102,7 +102,7 @@ class NativeModel:
     Attributes
     ----------
     name : str
-        FMU model name.
+        FMU model name (``modelName``, ``modelIdentifier``: the binaries' file name).
     kind : {"body", "car", "source"}
         The contract's FMU kind (:data:`bodyvib.runtime.contract.KINDS`).
     description : str
@@ -578,18 +578,10 @@ def build_native_fmu(network: Network, kind: str, name: str, description: str, d
 
     Parameters
     ----------
-    network : Network
-        The model to bake in (its parameter values become the parameters' start values).
-    kind : str
-        FMU kind of the contract: ``"body"`` or ``"car"``.
-    name : str
-        FMU model name (``"HumanBody3DOF"``); the file is ``dest/<name>.fmu``.
-    description : str
-        One-line description written into the model description.
-    dest : str or path
-        Output folder (created if missing).
-    fmi : int
-        FMI version, 2 or 3.
+    network, kind, name, description, dest
+        As :func:`bodyvib.fmu.pythonfmu.build_fmu`.
+    fmi : {2, 3}
+        FMI version.
     platforms : iterable of str
         Binaries to compile (:data:`PLATFORMS`).
 
@@ -609,9 +601,9 @@ def build_native_fmu(network: Network, kind: str, name: str, description: str, d
     Examples
     --------
     >>> from bodyvib.models import load_model
-    >>> build_native_fmu(load_model("reduced-paper"), "body", "HumanBody3DOF",
-    ...                  "reduced body", "dist/native")  # doctest: +SKIP
-    PosixPath('dist/native/HumanBody3DOF.fmu')
+    >>> build_native_fmu(load_model("reduced-paper"), "body", "HumanBody3DOF", "reduced body",
+    ...                  "dist/native/fmi3", fmi=3, platforms=["linux64"])  # doctest: +SKIP
+    PosixPath('dist/native/fmi3/HumanBody3DOF.fmu')
     """
     nm = native_model(kind, network, name, description)
     return package_native_fmu(nm, lambda token: model_source(nm, token), NATIVE_SOURCES,
@@ -635,12 +627,8 @@ def package_native_fmu(nm: NativeModel, model_c: Callable[[str], str], core: Seq
         :data:`SOURCE_SOURCES`), compiled with the FMI version's wrapper.
     resources : dict of str to bytes
         Files for the FMU's ``resources/`` folder.
-    dest : str or path
-        Output folder.
-    fmi : int
-        FMI version, 2 or 3.
-    platforms : iterable of str
-        Binaries to compile (:data:`PLATFORMS`).
+    dest, fmi, platforms
+        As :func:`build_native_fmu`.
 
     Returns
     -------
