@@ -32,7 +32,7 @@ from ..runtime.contract import UNITS, Variable
 from ..runtime.errors import BodyvibError
 
 __all__ = ["DISPLAY_UNITS", "MODEL_STOP_TIME", "InterfaceElement", "ModelDescription",
-           "default_stop_time", "display_unit", "initial_dependencies", "number",
+           "default_stop_time", "describe_fmu", "display_unit", "initial_dependencies", "number",
            "state_units", "unit_definitions", "validate_fmu_file", "write_model_description"]
 
 #: Unit -> (display unit, factor) pairs: a value in the unit is factor times the value in the
@@ -114,6 +114,34 @@ def initial_dependencies(output_inputs: Sequence[Sequence[int]], parameters: Seq
     """
     return [sorted(set(deps) | set(parameters)) if (deps or source) else []
             for deps in output_inputs]
+
+
+def describe_fmu(line: str, network=None, source: Optional[dict] = None) -> str:
+    """The ``description`` attribute of an FMU: its one-line description and its content's.
+
+    Parameters
+    ----------
+    line : str
+        The FMU's one-line description.
+    network : bodyvib.runtime.network.Network, optional
+        The model a model FMU bakes in.
+    source : dict, optional
+        The description of a source FMU's table (:mod:`bodyvib.runtime.source`).
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> describe_fmu("Road profile", source={"name": "C", "description": "ISO 8608 class C"})
+    "Road profile. Source 'C': ISO 8608 class C"
+    """
+    if network is not None:
+        return f"{line}. Model '{network.name}': {network.description}".strip()
+    if source is not None:
+        return f"{line}. Source '{source['name']}': {source['description']}"
+    return line
 
 
 def default_stop_time(core) -> float:

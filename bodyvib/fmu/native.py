@@ -52,7 +52,7 @@ from ..runtime.engine import FmuCore
 from ..runtime.errors import BodyvibError
 from ..process import interrupts
 from ..runtime.network import Network, descriptor_model
-from .description import (MODEL_STOP_TIME, InterfaceElement, ModelDescription,
+from .description import (MODEL_STOP_TIME, InterfaceElement, ModelDescription, describe_fmu,
                           validate_fmu_file, write_model_description)
 from .sources import model_resources, native_dir
 
@@ -421,13 +421,6 @@ def _c_files(nm: NativeModel, fmi: int) -> List[str]:
     return [s for s in core_sources(nm.kind) if s.endswith(".c")] + [MODEL_C, FMI_FILES[fmi]]
 
 
-def _description(nm: NativeModel) -> str:
-    text = nm.description or nm.name
-    if nm.network is None:
-        return text
-    return f"{text}. Model '{nm.network.name}': {nm.network.description}".strip()
-
-
 # The continuous state x of x' = A x + B U s is exposed for model exchange as local variables
 # after the contract's (bodyvib.fmu.description.ModelDescription.state_vr, BV_STATE_VR /
 # BV_DER_VR of bodyvib_core.h). In model exchange the host sets the inputs at each time, the
@@ -490,7 +483,8 @@ def native_description(nm: NativeModel, token: str, fmi: int) -> ModelDescriptio
     """
     return ModelDescription(
         fmi=fmi, model_name=nm.name, model_identifier=nm.name, token=token,
-        description=_description(nm), generation_tool=f"bodyvib {__version__} native_build",
+        description=describe_fmu(nm.description or nm.name, nm.network),
+        generation_tool=f"bodyvib {__version__} native_build",
         variables=nm.variables, output_dependencies=nm.dependencies,
         interfaces=_interfaces(nm, fmi), log_categories=LOG_CATEGORIES, stop_time=nm.stop_time,
         source=nm.kind == "source", states=nm.states,

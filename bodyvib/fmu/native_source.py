@@ -18,7 +18,7 @@ import numpy as np
 
 from .. import __version__
 from ..runtime.source import SourceCore
-from .description import default_stop_time
+from .description import default_stop_time, describe_fmu
 from .sources import source_resources
 from .native import (SOURCE_SOURCES, NativeModel, _c_doubles, _c_ints, _c_string,
                      package_native_fmu)
@@ -53,9 +53,9 @@ def native_source_model(meta: dict, table, name: str, description: str = "") -> 
     no = len(core.interface.outputs)
     kinds = tuple(1 if v.causality == "output" else 2 for v in variables)
     index = tuple(range(no)) + (0,)
-    about = f"Source '{meta['name']}': {meta['description']}"
     return NativeModel(
-        name=name, kind="source", description=f"{description or name}. {about}", network=None,
+        name=name, kind="source", description=describe_fmu(description or name, source=meta),
+        network=None,
         variables=variables, kinds=kinds, index=index, inputs=(), outputs=tuple(range(no)),
         parameters=(no,), input_map=np.zeros((0, 0)), rate_matrix=np.zeros((0, 0)), pairs=(),
         out_row=tuple(range(no)), out_derivative=(False,) * no, rows=(), stencils=[], n=0, m=0,

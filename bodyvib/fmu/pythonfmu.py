@@ -40,7 +40,7 @@ from ..process import interrupts
 from ..process.outputs import atomic_write_bytes
 from ..runtime.errors import BodyvibError
 from ..runtime.network import Network
-from .description import (InterfaceElement, ModelDescription, default_stop_time,
+from .description import (InterfaceElement, ModelDescription, default_stop_time, describe_fmu,
                           validate_fmu_file, write_model_description)
 from .sources import RUNTIME_DIR, fmu_src_dir, model_resources, source_resources
 
@@ -184,7 +184,7 @@ def build_fmu(network: Network, kind: str, name: str, description: str, dest="di
     core = FmuCore(kind, network, name)  # refuses a model the FMU could not run
     core.check_parameters()
     return _build(core, kind, name, description, model_resources(network),
-                  f"Model '{network.name}': {network.description}", dest)
+                  describe_fmu(description, network), dest)
 
 
 def build_source_fmu(meta: dict, table, name: str, description: str, dest="dist") -> Path:
@@ -216,12 +216,13 @@ def build_source_fmu(meta: dict, table, name: str, description: str, dest="dist"
     core = SourceCore(meta, table, name)
     core.check_parameters()
     return _build(core, "source", name, description, source_resources(meta, table),
-                  f"Source '{meta['name']}': {meta['description']}", dest)
+                  describe_fmu(description, source=meta), dest)
 
 
 def _build(core, kind: str, name: str, description: str, resources: Dict[str, bytes],
-           about: str, dest) -> Path:
-    """Package a slave over ``core`` with pythonfmu, finish and validate its model description."""
+           described: str, dest) -> Path:
+    """Package a slave over ``core`` with pythonfmu, write and validate its model description
+    (``described``: its description attribute, :func:`describe_fmu`)."""
     sources = runtime_sources()
     template = render_slave_script(name, kind, description, "bodyvib.runtime")
     digest = _content_hash([template.encode()] + [resources[k] for k in sorted(resources)]
@@ -249,7 +250,7 @@ def _build(core, kind: str, name: str, description: str, resources: Dict[str, by
             tail = (proc.stderr or proc.stdout).strip().splitlines()[-3:]
             raise BodyvibError(f"pythonfmu could not build {name}.fmu (is pythonfmu installed? "
                                f"pip install pythonfmu): {' | '.join(tail)}")
-        data = _finish(built, core, f"{description}. {about}")
+        data = _finish(built, core, described)
         checked = Path(tmp) / f"{name}.fmu"  # validated before it may replace a good FMU
         checked.write_bytes(data)
         target = dest / f"{name}.fmu"
