@@ -53,10 +53,12 @@ def display_unit(variable) -> Optional[str]:
     Parameters
     ----------
     variable : bodyvib.runtime.contract.Variable
+        A contract variable (its unit and causality decide).
 
     Returns
     -------
     str or None
+        None: the variable is shown in its own unit.
 
     Examples
     --------
@@ -150,6 +152,8 @@ def default_stop_time(core) -> float:
     Parameters
     ----------
     core : bodyvib.runtime.engine.FmuCore or bodyvib.runtime.source.SourceCore
+        The FMU's core: a source's has a ``table`` (its length in the coordinate, m) and
+        the speed as its one parameter (m/s).
 
     Returns
     -------
