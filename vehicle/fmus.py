@@ -166,7 +166,7 @@ def build_project_fmu(name: str, dest="dist", model: Optional[str] = None, *,
     Returns
     -------
     Path
-        ``dest/<name>.fmu``.
+        The FMU written, ``dest/<name>.fmu`` (pythonfmu FMI 2.0 or native FMI ``fmi``.0).
 
     Raises
     ------

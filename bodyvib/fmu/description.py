@@ -1,7 +1,13 @@
-"""The modelDescription.xml facts both FMU kinds share (pythonfmu and native C).
+"""The one writer of modelDescription.xml, for both FMU kinds (pythonfmu and native C).
 
-:mod:`bodyvib.fmu.pythonfmu` (pythonfmu, post-processed) and :mod:`bodyvib.fmu.native`
-(native, written whole) take these from here, so both kinds declare the same interface:
+Every FMU's description is written here from one neutral, typed description,
+:class:`ModelDescription` (:func:`write_model_description`): the native builder
+(:mod:`bodyvib.fmu.native`) fills it from its ``NativeModel``, FMI 2.0 or 3.0, co-simulation
+and Model Exchange with the continuous states; the pythonfmu builder
+(:mod:`bodyvib.fmu.pythonfmu`) fills it from the slave's core and takes from pythonfmu's own
+XML only what pythonfmu decides (GUID, model identifier, co-simulation flags, log categories,
+and the value references it assigned, checked against the core's). The facts both kinds
+share live here too:
 
 * units and the display units engineers read them in (:data:`DISPLAY_UNITS`,
   :func:`display_unit`): displacements in mm, velocities in mm/s, the vehicle speed in
@@ -11,16 +17,23 @@
   starts from the zero state and depends on nothing, so a host that checks initialization
   sees no algebraic loop between car and body;
 * the default experiment (:func:`default_stop_time`): a source FMU's table duration at its
-  default speed, 10 s for a model FMU.
+  default speed, 10 s for a model FMU;
+* the check every FMU passes before it replaces a previous file (:func:`validate_fmu_file`:
+  ``fmpy validate``).
 """
 
-from typing import List, Optional, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import List, Optional, Sequence, Tuple
 from xml.etree import ElementTree as ET
 
-from ..runtime.contract import UNITS
+from .. import __version__
+from ..runtime.contract import UNITS, Variable
+from ..runtime.errors import BodyvibError
 
-__all__ = ["DISPLAY_UNITS", "MODEL_STOP_TIME", "default_stop_time", "display_unit",
-           "initial_dependencies", "unit_definitions"]
+__all__ = ["DISPLAY_UNITS", "MODEL_STOP_TIME", "InterfaceElement", "ModelDescription",
+           "default_stop_time", "describe_fmu", "display_unit", "initial_dependencies", "number",
+           "state_units", "unit_definitions", "validate_fmu_file", "write_model_description"]
 
 #: Unit -> (display unit, factor) pairs: a value in the unit is factor times the value in the
 #: display unit (FMI: ``unit = factor * displayUnit + offset``).
@@ -40,10 +53,12 @@ def display_unit(variable) -> Optional[str]:
     Parameters
     ----------
     variable : bodyvib.runtime.contract.Variable
+        A contract variable (its unit and causality decide).
 
     Returns
     -------
     str or None
+        None: the variable is shown in its own unit.
 
     Examples
     --------
@@ -103,12 +118,42 @@ def initial_dependencies(output_inputs: Sequence[Sequence[int]], parameters: Seq
             for deps in output_inputs]
 
 
+def describe_fmu(line: str, network=None, source: Optional[dict] = None) -> str:
+    """The ``description`` attribute of an FMU: its one-line description and its content's.
+
+    Parameters
+    ----------
+    line : str
+        The FMU's one-line description.
+    network : bodyvib.runtime.network.Network, optional
+        The model a model FMU bakes in.
+    source : dict, optional
+        The description of a source FMU's table (:mod:`bodyvib.runtime.source`).
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> describe_fmu("Road profile", source={"name": "C", "description": "ISO 8608 class C"})
+    "Road profile. Source 'C': ISO 8608 class C"
+    """
+    if network is not None:
+        return f"{line}. Model '{network.name}': {network.description}".strip()
+    if source is not None:
+        return f"{line}. Source '{source['name']}': {source['description']}"
+    return line
+
+
 def default_stop_time(core) -> float:
     """DefaultExperiment stop time: a source's table duration at its speed, else 10 s.
 
     Parameters
     ----------
     core : bodyvib.runtime.engine.FmuCore or bodyvib.runtime.source.SourceCore
+        The FMU's core: a source's has a ``table`` (its length in the coordinate, m) and
+        the speed as its one parameter (m/s).
 
     Returns
     -------
@@ -119,3 +164,332 @@ def default_stop_time(core) -> float:
     if table is None:
         return MODEL_STOP_TIME
     return float(table.length) / float(core.parameters[0].start)
+
+
+def number(x: float) -> str:
+    """A real as modelDescription.xml writes it: the shortest text that reads back exactly.
+
+    Parameters
+    ----------
+    x : float
+        The value (a start, min, max or time in the variable's unit).
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> number(1e-6), number(20)
+    ('1e-06', '20.0')
+    """
+    return repr(float(x))
+
+
+#: Per state quantity (the last part of a state name): its unit and its derivative's.
+_STATE_UNITS = {"x": ("m", "m/s"), "y": ("m", "m/s"), "v": ("m/s", "m/s2")}
+_STATE_WORDS = {"x": "displacement", "y": "displacement", "v": "velocity"}
+
+#: The order FMI's schemas want the interface elements in.
+_INTERFACE_ORDER = ("ModelExchange", "CoSimulation")
+
+
+def state_units(state: str) -> Tuple[str, str]:
+    """Units of a continuous state and of its time derivative.
+
+    Parameters
+    ----------
+    state : str
+        ``"<mass>.x"`` or ``"<node>.y"`` (a displacement), ``"<mass>.v"`` (a velocity).
+
+    Returns
+    -------
+    (str, str)
+        The state's unit and its derivative's.
+
+    Examples
+    --------
+    >>> state_units("m1.v")
+    ('m/s', 'm/s2')
+    """
+    return _STATE_UNITS[state.rpartition(".")[2]]
+
+
+@dataclass(frozen=True)
+class InterfaceElement:
+    """One interface element of an FMU: what it offers a co-simulation or model-exchange host.
+
+    Attributes
+    ----------
+    element : {"CoSimulation", "ModelExchange"}
+        The element's tag.
+    flags : tuple of (str, str)
+        Its capability attributes besides ``modelIdentifier`` (name, XML value), in order.
+    source_files : tuple of str
+        FMI 2.0's ``SourceFiles`` (C files ``fmpy compile`` builds); empty: none listed.
+    """
+
+    element: str
+    flags: Tuple[Tuple[str, str], ...]
+    source_files: Tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class ModelDescription:
+    """Everything a modelDescription.xml says, independent of the FMU kind that built it.
+
+    The value reference of a contract variable is its position in ``variables``; after them
+    come FMI 3.0's ``time``, then (model exchange) the states and their derivatives
+    (:meth:`state_vr`, :meth:`derivative_vr`; ``BV_STATE_VR``/``BV_DER_VR`` of the native
+    core).
+
+    Attributes
+    ----------
+    fmi : int
+        FMI version, 2 or 3.
+    model_name : str
+        The FMU's model name.
+    model_identifier : str
+        The binaries' name (the same for every interface element).
+    token : str
+        GUID (FMI 2.0) or instantiation token (FMI 3.0).
+    description : str
+        The FMU's description (its one-line description and the model's).
+    generation_tool : str
+        Who wrote the FMU.
+    variables : tuple of bodyvib.runtime.contract.Variable
+        The contract's variables, by value reference.
+    output_dependencies : tuple of tuple of int
+        Per output (in value-reference order): the input value references it depends on
+        directly.
+    interfaces : tuple of InterfaceElement
+        The interface elements.
+    log_categories : tuple of (str, str)
+        Log category names and descriptions the FMU accepts.
+    stop_time : float
+        The DefaultExperiment's stop time, s.
+    source : bool
+        A source FMU (no inputs; its outputs depend on its parameters at initialization).
+    states : tuple of str
+        Model exchange: the continuous states (``"<mass>.x"`` ...), in the core's order.
+    output_state_dependencies : tuple of tuple of int
+        Per output: the states (indices) it depends on (empty: none for every output).
+    derivative_dependencies : tuple of (tuple of int, tuple of int)
+        Per state: the states (indices) and input value references its derivative
+        depends on.
+    step_size : float
+        The DefaultExperiment's step size, s.
+    """
+
+    fmi: int
+    model_name: str
+    model_identifier: str
+    token: str
+    description: str
+    generation_tool: str
+    variables: Tuple[Variable, ...]
+    output_dependencies: Tuple[Tuple[int, ...], ...]
+    interfaces: Tuple[InterfaceElement, ...]
+    log_categories: Tuple[Tuple[str, str], ...]
+    stop_time: float
+    source: bool = False
+    states: Tuple[str, ...] = ()
+    output_state_dependencies: Tuple[Tuple[int, ...], ...] = ()
+    derivative_dependencies: Tuple[Tuple[Tuple[int, ...], Tuple[int, ...]], ...] = ()
+    step_size: float = 0.001
+
+    @property
+    def outputs(self) -> Tuple[int, ...]:
+        """Value references of the outputs, in order."""
+        return tuple(vr for vr, v in enumerate(self.variables) if v.causality == "output")
+
+    @property
+    def parameters(self) -> Tuple[int, ...]:
+        """Value references of the parameters, in order."""
+        return tuple(vr for vr, v in enumerate(self.variables) if v.causality == "parameter")
+
+    def state_vr(self, i: int) -> int:
+        """Value reference of state ``i`` (after the variables and FMI 3.0's time)."""
+        return len(self.variables) + 1 + i
+
+    def derivative_vr(self, i: int) -> int:
+        """Value reference of the derivative of state ``i`` (after the states)."""
+        return len(self.variables) + 1 + len(self.states) + i
+
+    def reference(self, vr: int) -> str:
+        """How ModelStructure names a variable: FMI 2.0 by index (position + 1, no time
+        variable), FMI 3.0 by value reference."""
+        if self.fmi == 3:
+            return str(vr)
+        return str(vr + 1 if vr < len(self.variables) else vr)
+
+
+def _typed(v: Variable) -> dict:
+    """The unit, display unit, start and limits of a contract variable."""
+    typed = {"unit": v.unit}
+    if display_unit(v):
+        typed["displayUnit"] = display_unit(v)
+    if v.start is not None and v.causality != "output":
+        typed["start"] = number(v.start)
+    if v.min is not None:
+        typed["min"] = number(v.min)
+    if v.max is not None:
+        typed["max"] = number(v.max)
+    return typed
+
+
+def _real(parent, fmi: int, attrs: dict, typed: dict) -> None:
+    """One real variable: a ``ScalarVariable`` with its ``Real`` (2.0), a ``Float64`` (3.0)."""
+    if fmi == 2:
+        ET.SubElement(ET.SubElement(parent, "ScalarVariable", attrs), "Real", typed)
+    else:
+        ET.SubElement(parent, "Float64", dict(attrs, **typed))
+
+
+def _variables(root, md: ModelDescription) -> None:
+    """``ModelVariables``: the contract's, FMI 3.0's time, the states and their derivatives."""
+    mv = ET.SubElement(root, "ModelVariables")
+    for vr, v in enumerate(md.variables):
+        attrs = {"name": v.name, "valueReference": str(vr), "description": v.description,
+                 "causality": v.causality, "variability": v.variability}
+        if v.causality == "output":
+            attrs["initial"] = "calculated"
+        _real(mv, md.fmi, attrs, _typed(v))
+    if md.fmi == 3:  # the independent variable, after the contract's value references
+        ET.SubElement(mv, "Float64", {"name": "time", "valueReference": str(len(md.variables)),
+                                      "causality": "independent", "variability": "continuous",
+                                      "unit": "s", "description": "Simulation time"})
+    for i, state in enumerate(md.states):
+        point, _, q = state.rpartition(".")
+        _real(mv, md.fmi, {
+            "name": f"state.{state}", "valueReference": str(md.state_vr(i)),
+            "description": f"Continuous state: {point} {_STATE_WORDS[q]} (model exchange)",
+            "causality": "local", "variability": "continuous", "initial": "exact"},
+            {"unit": state_units(state)[0], "start": "0.0"})
+    for i, state in enumerate(md.states):
+        _real(mv, md.fmi, {
+            "name": f"der(state.{state})", "valueReference": str(md.derivative_vr(i)),
+            "description": f"Time derivative of state.{state}",
+            "causality": "local", "variability": "continuous", "initial": "calculated"},
+            {"unit": state_units(state)[1], "derivative": md.reference(md.state_vr(i))})
+
+
+def _structure(root, md: ModelDescription) -> None:
+    """``ModelStructure``: outputs, state derivatives and initial unknowns with dependencies.
+
+    FMI 2.0 refers to variables by index, FMI 3.0 by value reference; the states follow the
+    contract's variables (and FMI 3.0's time), so both are monotonic.
+    """
+    ms = ET.SubElement(root, "ModelStructure")
+    ders = [md.derivative_vr(i) for i in range(len(md.states))]
+    state_deps = md.output_state_dependencies or tuple(() for _ in md.outputs)
+
+    def text(inputs, states):
+        return " ".join([md.reference(d) for d in inputs]
+                        + [md.reference(md.state_vr(j)) for j in states])
+
+    outputs = [(vr, text(d, sd)) for vr, d, sd in
+               zip(md.outputs, md.output_dependencies, state_deps)]
+    derivatives = [(vr, text(d, sd)) for vr, (sd, d) in zip(ders, md.derivative_dependencies)]
+    # at initialization: the feedthrough inputs and the parameters scaling them, and the
+    # states' start values (exposed for model exchange)
+    initial = initial_dependencies(
+        list(md.output_dependencies) + [d for _, d in md.derivative_dependencies],
+        md.parameters, md.source)
+    initial = [(vr, text(i, sd)) for vr, i, sd in
+               zip(list(md.outputs) + ders, initial,
+                   list(state_deps) + [sd for sd, _ in md.derivative_dependencies])]
+    if md.fmi == 2:
+        for group, rows in (("Outputs", outputs), ("Derivatives", derivatives),
+                            ("InitialUnknowns", sorted(initial))):
+            if rows or group != "Derivatives":
+                element = ET.SubElement(ms, group)
+                for vr, deps in rows:
+                    ET.SubElement(element, "Unknown", index=md.reference(vr), dependencies=deps)
+    else:
+        for tag, rows in (("Output", outputs), ("ContinuousStateDerivative", derivatives),
+                          ("InitialUnknown", initial)):
+            for vr, deps in rows:
+                ET.SubElement(ms, tag, valueReference=str(vr), dependencies=deps)
+
+
+def write_model_description(md: ModelDescription) -> bytes:
+    """The complete ``modelDescription.xml`` of an FMU, any kind, FMI 2.0 or 3.0.
+
+    Parameters
+    ----------
+    md : ModelDescription
+        What the FMU declares.
+
+    Returns
+    -------
+    bytes
+        UTF-8 XML.
+
+    Raises
+    ------
+    BodyvibError
+        An FMI version other than 2 or 3, or an interface element FMI does not have.
+    """
+    if md.fmi not in (2, 3):
+        raise BodyvibError(f"FMI version must be 2 or 3, got {md.fmi!r}")
+    unknown = [i.element for i in md.interfaces if i.element not in _INTERFACE_ORDER]
+    if unknown or not md.interfaces:
+        raise BodyvibError(f"{md.model_name}: interface elements must be among "
+                           f"{', '.join(_INTERFACE_ORDER)}, got {unknown or 'none'}")
+    root = ET.Element("fmiModelDescription", {
+        "fmiVersion": f"{md.fmi}.0",
+        "modelName": md.model_name,
+        ("guid" if md.fmi == 2 else "instantiationToken"): md.token,
+        "description": md.description,
+        "author": "bodyvib",
+        "version": __version__,
+        "generationTool": md.generation_tool,
+        "variableNamingConvention": "flat",
+    })
+    interfaces = sorted(md.interfaces, key=lambda i: _INTERFACE_ORDER.index(i.element))
+    if md.fmi == 2 and interfaces[0].element == "ModelExchange":
+        root.set("numberOfEventIndicators", "0")
+    for interface in interfaces:
+        element = ET.SubElement(root, interface.element,
+                                dict((("modelIdentifier", md.model_identifier),)
+                                     + interface.flags))
+        if interface.source_files:
+            files = ET.SubElement(element, "SourceFiles")
+            for s in interface.source_files:
+                ET.SubElement(files, "File", name=s)
+    used = ([v.unit for v in md.variables]
+            + [u for s in md.states for u in state_units(s)])
+    root.append(unit_definitions(list(dict.fromkeys((["s"] if md.fmi == 3 else []) + used))))
+    if md.log_categories:
+        cats = ET.SubElement(root, "LogCategories")
+        for name, text in md.log_categories:
+            ET.SubElement(cats, "Category", name=name, description=text)
+    ET.SubElement(root, "DefaultExperiment", startTime="0.0", stopTime=number(md.stop_time),
+                  stepSize=number(md.step_size))
+    _variables(root, md)
+    _structure(root, md)
+    ET.indent(root)
+    return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
+
+
+def validate_fmu_file(path, label: str) -> None:
+    """Check a built FMU with ``fmpy validate`` before it may replace a previous file.
+
+    Parameters
+    ----------
+    path : str or path
+        The staged FMU.
+    label : str
+        How the error names the FMU (its target path, or name and kind).
+
+    Raises
+    ------
+    BodyvibError
+        fmpy validate found problems (each named).
+    """
+    from fmpy.validation import validate_fmu
+
+    problems = validate_fmu(str(Path(path)))
+    if problems:
+        raise BodyvibError(f"{label}: fmpy validate found problems: " + "; ".join(problems))

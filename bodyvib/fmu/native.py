@@ -47,17 +47,18 @@ import numpy as np
 
 from .. import __version__
 from ..process.outputs import atomic_write_bytes
-from ..runtime.contract import MODEL_FILE, RATE_PREFIX, Variable
+from ..runtime.contract import RATE_PREFIX, Variable
 from ..runtime.engine import FmuCore
 from ..runtime.errors import BodyvibError
 from ..process import interrupts
 from ..runtime.network import Network, descriptor_model
-from .description import MODEL_STOP_TIME, display_unit, initial_dependencies, unit_definitions
-from .sources import native_dir
+from .description import (MODEL_STOP_TIME, InterfaceElement, ModelDescription, describe_fmu,
+                          validate_fmu_file, write_model_description)
+from .sources import model_resources, native_dir
 
-__all__ = ["NATIVE_SOURCES", "PLATFORMS", "PlatformChoice", "choose_platforms", "NativeModel", "native_model", "model_source",
-           "model_description", "build_description", "build_native_fmu", "package_native_fmu",
-           "fmi_headers"]
+__all__ = ["NATIVE_SOURCES", "PLATFORMS", "PlatformChoice", "choose_platforms", "NativeModel",
+           "native_model", "model_source", "native_description", "model_description",
+           "build_description", "build_native_fmu", "package_native_fmu", "fmi_headers"]
 
 
 #: The model-independent C sources and the FMI function file of each FMI version.
@@ -83,12 +84,15 @@ COMMON_FLAGS = ["-std=c99", "-O2", "-shared", "-Wall", "-Wextra", "-Wno-unused-p
 #: (bodyvib_core.h, BV_MAX_OUTPUT_ORDER).
 MAX_OUTPUT_DERIVATIVE_ORDER = 2
 
+#: The log categories the native core logs under (fmi2SetDebugLogging / fmi3SetDebugLogging).
+LOG_CATEGORIES = (("logStatusWarning", "warnings (unconnected velocity input)"),
+                  ("logStatusError", "errors (refused steps, parameters, states)"))
+
 #: Platform -> Debian package of its compiler (what the message on a missing one names).
 COMPILER_PACKAGES = {"linux64": "gcc", "win64": "gcc-mingw-w64-x86-64"}
 
 #: Matrix codes of the stencils (bodyvib_core.h: BV_E .. BV_D).
 _MATRICES = ("E", "A", "B", "C", "Cd", "D")
-
 
 
 @dataclass(frozen=True)
@@ -98,12 +102,12 @@ class NativeModel:
     Attributes
     ----------
     name : str
-        FMU model name.
-    kind : str
-        ``"body"`` or ``"car"``.
+        FMU model name (``modelName``, ``modelIdentifier``: the binaries' file name).
+    kind : {"body", "car", "source"}
+        The contract's FMU kind (:data:`bodyvib.runtime.contract.KINDS`).
     description : str
         One-line description of the FMU.
-    network : Network
+    network : Network or None
     variables : tuple of Variable
         By value reference.
     kinds : tuple of int
@@ -408,10 +412,6 @@ def model_source(nm: NativeModel, token: str) -> str:
     return "\n".join(lines)
 
 
-def _num(x: float) -> str:
-    return repr(float(x))
-
-
 def core_sources(kind: str) -> Tuple[str, ...]:
     """The model-independent C sources an FMU of ``kind`` compiles (its core)."""
     return SOURCE_SOURCES if kind == "source" else NATIVE_SOURCES
@@ -421,11 +421,74 @@ def _c_files(nm: NativeModel, fmi: int) -> List[str]:
     return [s for s in core_sources(nm.kind) if s.endswith(".c")] + [MODEL_C, FMI_FILES[fmi]]
 
 
-def _description(nm: NativeModel) -> str:
-    text = nm.description or nm.name
-    if nm.network is None:
-        return text
-    return f"{text}. Model '{nm.network.name}': {nm.network.description}".strip()
+# The continuous state x of x' = A x + B U s is exposed for model exchange as local variables
+# after the contract's (bodyvib.fmu.description.ModelDescription.state_vr, BV_STATE_VR /
+# BV_DER_VR of bodyvib_core.h). In model exchange the host sets the inputs at each time, the
+# velocity inputs included: the FMU does not differentiate the displacement;
+# seat_acceleration and seat_force_rate enter only the outputs that are exact time
+# derivatives (seat_force_rate).
+
+
+def _interfaces(nm: NativeModel, fmi: int) -> Tuple[InterfaceElement, ...]:
+    """Model Exchange and co-simulation from one binary: what the native core offers.
+
+    A source has no states and no inputs (no knowns): no directional derivatives; in model
+    exchange its outputs are the table at the time the host sets (``SetTime``).
+    """
+    directional = "false" if nm.kind == "source" else "true"
+    order = str(MAX_OUTPUT_DERIVATIVE_ORDER)
+    if fmi == 2:
+        common = (("canBeInstantiatedOnlyOncePerProcess", "false"),
+                  ("canNotUseMemoryManagementFunctions", "true"),
+                  ("canGetAndSetFMUstate", "true"), ("canSerializeFMUstate", "true"),
+                  ("providesDirectionalDerivative", directional))
+        files = tuple(_c_files(nm, fmi))
+        return (InterfaceElement("ModelExchange", (
+                    ("needsExecutionTool", "false"),
+                    ("completedIntegratorStepNotNeeded", "true")) + common, files),
+                InterfaceElement("CoSimulation", (
+                    ("needsExecutionTool", "false"),
+                    ("canHandleVariableCommunicationStepSize", "true"),
+                    ("canInterpolateInputs", "true"), ("maxOutputDerivativeOrder", order),
+                    ("canRunAsynchronuously", "false")) + common, files))
+    common = (("needsExecutionTool", "false"), ("canBeInstantiatedOnlyOncePerProcess", "false"),
+              ("canGetAndSetFMUState", "true"), ("canSerializeFMUState", "true"),
+              ("providesDirectionalDerivatives", directional))
+    return (InterfaceElement("ModelExchange", common + (
+                ("needsCompletedIntegratorStep", "false"),
+                ("providesEvaluateDiscreteStates", "false"))),
+            InterfaceElement("CoSimulation", common + (
+                ("canHandleVariableCommunicationStepSize", "true"),
+                ("maxOutputDerivativeOrder", order), ("hasEventMode", "false"),
+                ("providesIntermediateUpdate", "false"),
+                ("canReturnEarlyAfterIntermediateUpdate", "false"))))
+
+
+def native_description(nm: NativeModel, token: str, fmi: int) -> ModelDescription:
+    """What a native FMU's modelDescription.xml declares, read off its :class:`NativeModel`.
+
+    Parameters
+    ----------
+    nm : NativeModel
+        The FMU's interface.
+    token : str
+        GUID (FMI 2.0) or instantiation token (FMI 3.0): the hash :func:`_token` computes.
+    fmi : {2, 3}
+        FMI version.
+
+    Returns
+    -------
+    bodyvib.fmu.description.ModelDescription
+        Co-simulation and Model Exchange, with the continuous states.
+    """
+    return ModelDescription(
+        fmi=fmi, model_name=nm.name, model_identifier=nm.name, token=token,
+        description=describe_fmu(nm.description or nm.name, nm.network),
+        generation_tool=f"bodyvib {__version__} native_build",
+        variables=nm.variables, output_dependencies=nm.dependencies,
+        interfaces=_interfaces(nm, fmi), log_categories=LOG_CATEGORIES, stop_time=nm.stop_time,
+        source=nm.kind == "source", states=nm.states,
+        output_state_dependencies=nm.output_state_deps, derivative_dependencies=nm.derivative_deps)
 
 
 def model_description(nm: NativeModel, token: str, fmi: int) -> bytes:
@@ -433,211 +496,16 @@ def model_description(nm: NativeModel, token: str, fmi: int) -> bytes:
 
     Parameters
     ----------
-    nm : NativeModel
-    token : str
-        GUID (FMI 2.0) or instantiation token (FMI 3.0).
-    fmi : int
-        2 or 3.
+    nm, token, fmi
+        As :func:`native_description`.
 
     Returns
     -------
     bytes
-        UTF-8 XML.
+        UTF-8 XML (:func:`bodyvib.fmu.description.write_model_description`).
     """
-    sources = _c_files(nm, fmi)
-    directional = _directional(nm)
-    root = ET.Element("fmiModelDescription", {
-        "fmiVersion": "2.0" if fmi == 2 else "3.0",
-        "modelName": nm.name,
-        ("guid" if fmi == 2 else "instantiationToken"): token,
-        "description": _description(nm),
-        "author": "bodyvib",
-        "version": __version__,
-        "generationTool": f"bodyvib {__version__} native_build",
-        "variableNamingConvention": "flat",
-    })
-    if fmi == 2:
-        root.set("numberOfEventIndicators", "0")
-        _model_exchange_element(root, nm, fmi, sources)
-        cs = ET.SubElement(root, "CoSimulation", {
-            "modelIdentifier": nm.name, "needsExecutionTool": "false",
-            "canHandleVariableCommunicationStepSize": "true", "canInterpolateInputs": "true",
-            "maxOutputDerivativeOrder": str(MAX_OUTPUT_DERIVATIVE_ORDER),
-            "canRunAsynchronuously": "false", "canBeInstantiatedOnlyOncePerProcess": "false",
-            "canNotUseMemoryManagementFunctions": "true", "canGetAndSetFMUstate": "true",
-            "canSerializeFMUstate": "true", "providesDirectionalDerivative": directional})
-        files = ET.SubElement(cs, "SourceFiles")
-        for s in sources:
-            ET.SubElement(files, "File", name=s)
-    else:
-        _model_exchange_element(root, nm, fmi, sources)
-        ET.SubElement(root, "CoSimulation", {
-            "modelIdentifier": nm.name, "needsExecutionTool": "false",
-            "canBeInstantiatedOnlyOncePerProcess": "false", "canGetAndSetFMUState": "true",
-            "canSerializeFMUState": "true", "providesDirectionalDerivatives": directional,
-            "canHandleVariableCommunicationStepSize": "true",
-            "maxOutputDerivativeOrder": str(MAX_OUTPUT_DERIVATIVE_ORDER), "hasEventMode": "false",
-            "providesIntermediateUpdate": "false", "canReturnEarlyAfterIntermediateUpdate": "false"})
-    used = list(dict.fromkeys([v.unit for v in nm.variables]
-                              + [u for s in nm.states for u in _state_units(s)]))
-    if fmi == 3:
-        used = list(dict.fromkeys(["s"] + used))
-    root.append(unit_definitions(used))
-    cats = ET.SubElement(root, "LogCategories")
-    for c, text in (("logStatusWarning", "warnings (unconnected velocity input)"),
-                    ("logStatusError", "errors (refused steps, parameters, states)")):
-        ET.SubElement(cats, "Category", name=c, description=text)
-    ET.SubElement(root, "DefaultExperiment", startTime="0.0", stopTime=_num(nm.stop_time),
-                  stepSize="0.001")
-    mv = ET.SubElement(root, "ModelVariables")
-    for vr, v in enumerate(nm.variables):
-        attrs = {"name": v.name, "valueReference": str(vr), "description": v.description,
-                 "causality": v.causality, "variability": v.variability}
-        if v.causality == "output":
-            attrs["initial"] = "calculated"
-        typed = {"unit": v.unit}
-        if display_unit(v):
-            typed["displayUnit"] = display_unit(v)
-        if v.start is not None and v.causality != "output":
-            typed["start"] = _num(v.start)
-        if v.min is not None:
-            typed["min"] = _num(v.min)
-        if v.max is not None:
-            typed["max"] = _num(v.max)
-        if fmi == 2:
-            sv = ET.SubElement(mv, "ScalarVariable", attrs)
-            ET.SubElement(sv, "Real", typed)
-        else:
-            attrs.update(typed)
-            ET.SubElement(mv, "Float64", attrs)
-    if fmi == 3:  # the independent variable, after the contract's value references
-        ET.SubElement(mv, "Float64", {"name": "time", "valueReference": str(len(nm.variables)),
-                                      "causality": "independent", "variability": "continuous",
-                                      "unit": "s", "description": "Simulation time"})
-    _state_variables(mv, nm, fmi)
-    ms = ET.SubElement(root, "ModelStructure")
-    # FMI 2.0 refers to variables by index (position + 1), FMI 3.0 by value reference; the
-    # states follow the contract's variables (and FMI 3.0's time), so both are monotonic.
-    ref = (lambda vr: str(_index2(nm, vr))) if fmi == 2 else str
-    ders = [_der_vr(nm, i) for i in range(len(nm.states))]
-    state_deps = nm.output_state_deps or tuple(() for _ in nm.outputs)
+    return write_model_description(native_description(nm, token, fmi))
 
-    def text(inputs, states):
-        return " ".join([ref(d) for d in inputs] + [ref(_state_vr(nm, j)) for j in states])
-
-    outputs = [(vr, text(d, sd)) for vr, d, sd in zip(nm.outputs, nm.dependencies, state_deps)]
-    derivatives = [(vr, text(d, sd)) for vr, (sd, d) in zip(ders, nm.derivative_deps)]
-    # at initialization: the feedthrough inputs and the parameters scaling them, and the
-    # states' start values (exposed for model exchange)
-    initial = initial_dependencies(list(nm.dependencies) + [d for _, d in nm.derivative_deps],
-                                   nm.parameters, nm.kind == "source")
-    initial = [(vr, text(i, sd)) for vr, i, sd in
-               zip(list(nm.outputs) + ders, initial,
-                   list(state_deps) + [sd for sd, _ in nm.derivative_deps])]
-    if fmi == 2:
-        for group, rows in (("Outputs", outputs), ("Derivatives", derivatives),
-                            ("InitialUnknowns", sorted(initial))):
-            if rows or group != "Derivatives":
-                element = ET.SubElement(ms, group)
-                for vr, deps in rows:
-                    ET.SubElement(element, "Unknown", index=ref(vr), dependencies=deps)
-    else:
-        for tag, rows in (("Output", outputs), ("ContinuousStateDerivative", derivatives),
-                          ("InitialUnknown", initial)):
-            for vr, deps in rows:
-                ET.SubElement(ms, tag, valueReference=str(vr), dependencies=deps)
-    ET.indent(root)
-    return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
-
-
-# ---------------------------------------------------------------- model exchange
-#
-# The continuous state x of x' = A x + B U s is exposed as local variables after the
-# contract's (value references BV_STATE_VR / BV_DER_VR of bodyvib_core.h: nvars + 1 + i for
-# state i, nvars + 1 + n + i for its derivative; nvars is FMI 3.0's time). In model exchange
-# the host sets the inputs at each time, the velocity inputs included: the FMU does not
-# differentiate the displacement; seat_acceleration and seat_force_rate enter only the
-# outputs that are exact time derivatives (seat_force_rate).
-
-
-def _state_vr(nm: NativeModel, i: int) -> int:
-    return len(nm.variables) + 1 + i
-
-
-def _der_vr(nm: NativeModel, i: int) -> int:
-    return len(nm.variables) + 1 + len(nm.states) + i
-
-
-def _index2(nm: NativeModel, vr: int) -> int:
-    """FMI 2.0 ScalarVariable index (1-based) of a value reference (no time variable)."""
-    return vr + 1 if vr < len(nm.variables) else vr
-
-
-_STATE_UNITS = {"x": ("m", "m/s"), "y": ("m", "m/s"), "v": ("m/s", "m/s2")}
-_STATE_WORDS = {"x": "displacement", "y": "displacement", "v": "velocity"}
-
-
-def _state_units(state: str) -> Tuple[str, str]:
-    """Units of a state (``"<mass>.x"``, ``"<mass>.v"``, ``"<node>.y"``) and its derivative."""
-    return _STATE_UNITS[state.rpartition(".")[2]]
-
-
-def _state_variables(mv, nm: NativeModel, fmi: int) -> None:
-    """Append the continuous states and their derivatives to ``ModelVariables``."""
-    for i, state in enumerate(nm.states):
-        unit, _ = _state_units(state)
-        point, _, q = state.rpartition(".")
-        attrs = {"name": f"state.{state}", "valueReference": str(_state_vr(nm, i)),
-                 "description": f"Continuous state: {point} {_STATE_WORDS[q]} (model exchange)",
-                 "causality": "local", "variability": "continuous", "initial": "exact"}
-        if fmi == 2:
-            sv = ET.SubElement(mv, "ScalarVariable", attrs)
-            ET.SubElement(sv, "Real", unit=unit, start="0.0")
-        else:
-            attrs.update(unit=unit, start="0.0")
-            ET.SubElement(mv, "Float64", attrs)
-    for i, state in enumerate(nm.states):
-        _, unit = _state_units(state)
-        attrs = {"name": f"der(state.{state})", "valueReference": str(_der_vr(nm, i)),
-                 "description": f"Time derivative of state.{state}",
-                 "causality": "local", "variability": "continuous", "initial": "calculated"}
-        if fmi == 2:
-            sv = ET.SubElement(mv, "ScalarVariable", attrs)
-            ET.SubElement(sv, "Real", unit=unit,
-                          derivative=str(_index2(nm, _state_vr(nm, i))))
-        else:
-            attrs.update(unit=unit, derivative=str(_state_vr(nm, i)))
-            ET.SubElement(mv, "Float64", attrs)
-
-
-def _directional(nm: NativeModel) -> str:
-    """``providesDirectionalDerivative(s)``: a source has no states and no inputs (no knowns)."""
-    return "false" if nm.kind == "source" else "true"
-
-
-def _model_exchange_element(root, nm: NativeModel, fmi: int, sources) -> None:
-    """The ``ModelExchange`` element (same binary and model identifier as co-simulation).
-
-    A source has no continuous states: in model exchange its outputs are the table at the
-    time the host sets (``SetTime``).
-    """
-    directional = _directional(nm)
-    if fmi == 2:
-        me = ET.SubElement(root, "ModelExchange", {
-            "modelIdentifier": nm.name, "needsExecutionTool": "false",
-            "completedIntegratorStepNotNeeded": "true",
-            "canBeInstantiatedOnlyOncePerProcess": "false",
-            "canNotUseMemoryManagementFunctions": "true", "canGetAndSetFMUstate": "true",
-            "canSerializeFMUstate": "true", "providesDirectionalDerivative": directional})
-        files = ET.SubElement(me, "SourceFiles")
-        for s in sources:
-            ET.SubElement(files, "File", name=s)
-    else:
-        ET.SubElement(root, "ModelExchange", {
-            "modelIdentifier": nm.name, "needsExecutionTool": "false",
-            "canBeInstantiatedOnlyOncePerProcess": "false", "canGetAndSetFMUState": "true",
-            "canSerializeFMUState": "true", "providesDirectionalDerivatives": directional,
-            "needsCompletedIntegratorStep": "false", "providesEvaluateDiscreteStates": "false"})
 
 
 def build_description(nm: NativeModel) -> bytes:
@@ -704,25 +572,18 @@ def build_native_fmu(network: Network, kind: str, name: str, description: str, d
 
     Parameters
     ----------
-    network : Network
-        The model to bake in (its parameter values become the parameters' start values).
-    kind : str
-        FMU kind of the contract: ``"body"`` or ``"car"``.
-    name : str
-        FMU model name (``"HumanBody3DOF"``); the file is ``dest/<name>.fmu``.
-    description : str
-        One-line description written into the model description.
-    dest : str or path
-        Output folder (created if missing).
-    fmi : int
-        FMI version, 2 or 3.
+    network, kind, name, description, dest
+        As :func:`bodyvib.fmu.pythonfmu.build_fmu`.
+    fmi : {2, 3}
+        FMI version.
     platforms : iterable of str
         Binaries to compile (:data:`PLATFORMS`).
 
     Returns
     -------
     Path
-        ``dest/<name>.fmu``.
+        The FMU written, ``dest/<name>.fmu``: FMI ``fmi``.0, co-simulation and Model
+        Exchange, binaries for ``platforms`` and its C sources.
 
     Raises
     ------
@@ -734,16 +595,13 @@ def build_native_fmu(network: Network, kind: str, name: str, description: str, d
     Examples
     --------
     >>> from bodyvib.models import load_model
-    >>> build_native_fmu(load_model("reduced-paper"), "body", "HumanBody3DOF",
-    ...                  "reduced body", "dist/native")  # doctest: +SKIP
-    PosixPath('dist/native/HumanBody3DOF.fmu')
+    >>> build_native_fmu(load_model("reduced-paper"), "body", "HumanBody3DOF", "reduced body",
+    ...                  "dist/native/fmi3", fmi=3, platforms=["linux64"])  # doctest: +SKIP
+    PosixPath('dist/native/fmi3/HumanBody3DOF.fmu')
     """
-    from ..runtime.modelfile import network_to_dict
-
     nm = native_model(kind, network, name, description)
-    model_json = (json.dumps(network_to_dict(network), indent=2) + "\n").encode()
     return package_native_fmu(nm, lambda token: model_source(nm, token), NATIVE_SOURCES,
-                              {MODEL_FILE: model_json}, dest, fmi, platforms)
+                              model_resources(network), dest, fmi, platforms)
 
 
 def package_native_fmu(nm: NativeModel, model_c: Callable[[str], str], core: Sequence[str],
@@ -763,12 +621,8 @@ def package_native_fmu(nm: NativeModel, model_c: Callable[[str], str], core: Seq
         :data:`SOURCE_SOURCES`), compiled with the FMI version's wrapper.
     resources : dict of str to bytes
         Files for the FMU's ``resources/`` folder.
-    dest : str or path
-        Output folder.
-    fmi : int
-        FMI version, 2 or 3.
-    platforms : iterable of str
-        Binaries to compile (:data:`PLATFORMS`).
+    dest, fmi, platforms
+        As :func:`build_native_fmu`.
 
     Returns
     -------
@@ -813,16 +667,8 @@ def package_native_fmu(nm: NativeModel, model_c: Callable[[str], str], core: Seq
             _compile(p, src, fmi, out, core)
         staged = Path(tmp) / f"{name}.fmu"
         staged.write_bytes(_zip(stage))
-        problems = _validate(staged)
-        if problems:
-            raise BodyvibError(f"{name}.fmu (native, FMI {fmi}.0): fmpy validate found "
-                               "problems: " + "; ".join(problems))
+        validate_fmu_file(staged, f"{name}.fmu (native, FMI {fmi}.0)")
         target = dest / f"{name}.fmu"
         atomic_write_bytes(target, staged.read_bytes())
     return target
 
-
-def _validate(path: Path):
-    from fmpy.validation import validate_fmu
-
-    return validate_fmu(str(path))

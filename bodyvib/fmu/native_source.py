@@ -11,15 +11,15 @@ implements the same ``bv_*`` API (``bodyvib_core.h``).
 Build-time needs: as :mod:`bodyvib.fmu.native`.
 """
 
-import tempfile
 from pathlib import Path
 from typing import Iterable
 
 import numpy as np
 
 from .. import __version__
-from ..runtime.source import SourceCore, write_source
-from .description import default_stop_time
+from ..runtime.source import SourceCore
+from .description import default_stop_time, describe_fmu
+from .sources import source_resources
 from .native import (SOURCE_SOURCES, NativeModel, _c_doubles, _c_ints, _c_string,
                      package_native_fmu)
 
@@ -31,13 +31,10 @@ def native_source_model(meta: dict, table, name: str, description: str = "") -> 
 
     Parameters
     ----------
-    meta : dict
-        Source description (:mod:`bodyvib.runtime.source`).
-    table : bodyvib.runtime.source.HermiteTable
-    name : str
-        FMU model name.
-    description : str
-        One-line description of the FMU.
+    meta, table
+        As :func:`bodyvib.fmu.pythonfmu.build_source_fmu`.
+    name, description
+        As :func:`bodyvib.fmu.native.native_model`.
 
     Returns
     -------
@@ -56,9 +53,9 @@ def native_source_model(meta: dict, table, name: str, description: str = "") -> 
     no = len(core.interface.outputs)
     kinds = tuple(1 if v.causality == "output" else 2 for v in variables)
     index = tuple(range(no)) + (0,)
-    about = f"Source '{meta['name']}': {meta['description']}"
     return NativeModel(
-        name=name, kind="source", description=f"{description or name}. {about}", network=None,
+        name=name, kind="source", description=describe_fmu(description or name, source=meta),
+        network=None,
         variables=variables, kinds=kinds, index=index, inputs=(), outputs=tuple(range(no)),
         parameters=(no,), input_map=np.zeros((0, 0)), rate_matrix=np.zeros((0, 0)), pairs=(),
         out_row=tuple(range(no)), out_derivative=(False,) * no, rows=(), stencils=[], n=0, m=0,
@@ -127,16 +124,15 @@ def build_native_source_fmu(meta: dict, table, name: str, description: str, dest
 
     Parameters
     ----------
-    meta : dict
-        Source description (:mod:`bodyvib.runtime.source`), without ``table``/``periodic``.
-    table : bodyvib.runtime.source.HermiteTable
+    meta, table
+        As :func:`bodyvib.fmu.pythonfmu.build_source_fmu`.
     name, description, dest, fmi, platforms
         As :func:`bodyvib.fmu.native.build_native_fmu`.
 
     Returns
     -------
     Path
-        ``dest/<name>.fmu``.
+        The FMU written, ``dest/<name>.fmu``: the table as C data, no Python.
 
     Raises
     ------
@@ -152,7 +148,5 @@ def build_native_source_fmu(meta: dict, table, name: str, description: str, dest
     PosixPath('dist/native/Road.fmu')
     """
     nm = native_source_model(meta, table, name, description)
-    with tempfile.TemporaryDirectory(prefix="bodyvib_source_") as tmp:  # the table as data
-        resources = {Path(p).name: Path(p).read_bytes() for p in write_source(tmp, meta, table)}
     return package_native_fmu(nm, lambda token: source_model_source(nm, table, token),
-                              SOURCE_SOURCES, resources, dest, fmi, platforms)
+                              SOURCE_SOURCES, source_resources(meta, table), dest, fmi, platforms)

@@ -1,10 +1,12 @@
 """Build one pythonfmu FMU from a model: any network, any FMU kind of the contract.
 
-:func:`build_fmu` writes ``<name>.fmu`` with pythonfmu, then finishes its
-``modelDescription.xml`` (units, min/max, ModelStructure with Outputs and
-InitialUnknowns) so that ``fmpy validate`` reports no problem, and checks that
-it does. The project's own set of FMUs (``HumanBody3DOF``, ``HumanBodyISO7962``,
-``QuarterCar``) and ``python build_fmu.py`` are :mod:`vehicle.fmus`.
+:func:`build_fmu` writes ``<name>.fmu`` with pythonfmu, then replaces its
+``modelDescription.xml`` with the one the native FMUs' writer writes
+(:func:`bodyvib.fmu.description.write_model_description`; units, min/max, ModelStructure with
+Outputs and InitialUnknowns, which pythonfmu 0.7.0 does not write), keeping what pythonfmu
+decides (:func:`pythonfmu_description`), and checks it with ``fmpy validate``. The
+project's own set of FMUs (``HumanBody3DOF``, ``HumanBodyISO7962``, ``QuarterCar``) and
+``python build_fmu.py`` are :mod:`vehicle.fmus`.
 
 Private module names. A module name loaded inside an FMU is global to the host
 process and the first loaded copy wins, so each FMU ships:
@@ -25,8 +27,6 @@ numpy (the slave imports pythonfmu, which the FMU carries in its resources).
 
 import hashlib
 import io
-import json
-import os
 import re
 import sys
 import tempfile
@@ -38,14 +38,14 @@ from xml.etree import ElementTree as ET
 from .. import __version__
 from ..process import interrupts
 from ..process.outputs import atomic_write_bytes
-from ..runtime.contract import MODEL_FILE
 from ..runtime.errors import BodyvibError
 from ..runtime.network import Network
-from .description import default_stop_time, display_unit, initial_dependencies, unit_definitions
-from .sources import RUNTIME_DIR, fmu_src_dir
+from .description import (InterfaceElement, ModelDescription, default_stop_time, describe_fmu,
+                          validate_fmu_file, write_model_description)
+from .sources import RUNTIME_DIR, fmu_src_dir, model_resources, source_resources
 
-__all__ = ["SLAVE_SCRIPT", "build_fmu", "build_source_fmu", "render_slave_script",
-           "runtime_sources", "write_runtime_package"]
+__all__ = ["SLAVE_SCRIPT", "build_fmu", "build_source_fmu", "pythonfmu_description",
+           "render_slave_script", "runtime_sources", "write_runtime_package"]
 
 #: The one slave script, rendered per FMU (shipped in the ``fmu_src`` package).
 SLAVE_SCRIPT = "bodyvib_fmu_slave.py"
@@ -164,7 +164,7 @@ def build_fmu(network: Network, kind: str, name: str, description: str, dest="di
     Returns
     -------
     Path
-        ``dest/<name>.fmu``.
+        The FMU written, ``dest/<name>.fmu``: FMI 2.0 co-simulation, the slave in Python.
 
     Raises
     ------
@@ -180,13 +180,11 @@ def build_fmu(network: Network, kind: str, name: str, description: str, dest="di
     PosixPath('dist/HumanBody3DOF.fmu')
     """
     from ..runtime.engine import FmuCore
-    from ..runtime.modelfile import network_to_dict
 
     core = FmuCore(kind, network, name)  # refuses a model the FMU could not run
     core.check_parameters()
-    model_bytes = (json.dumps(network_to_dict(network), indent=2) + "\n").encode()
-    return _build(core, kind, name, description, {MODEL_FILE: model_bytes},
-                  f"Model '{network.name}': {network.description}", dest)
+    return _build(core, kind, name, description, model_resources(network),
+                  describe_fmu(description, network), dest)
 
 
 def build_source_fmu(meta: dict, table, name: str, description: str, dest="dist") -> Path:
@@ -205,27 +203,26 @@ def build_source_fmu(meta: dict, table, name: str, description: str, dest="dist"
     Returns
     -------
     Path
-        ``dest/<name>.fmu``.
+        The FMU written, ``dest/<name>.fmu``, a source FMU (no inputs).
 
     Raises
     ------
     BodyvibError
-        As :func:`build_fmu`.
+        As :func:`build_fmu`; a source the contract refuses (signals not matching the
+        table, a bad speed).
     """
-    from ..runtime.source import SOURCE_FILE, SourceCore, write_source
+    from ..runtime.source import SourceCore
 
     core = SourceCore(meta, table, name)
     core.check_parameters()
-    with tempfile.TemporaryDirectory(prefix="bodyvib_source_") as tmp:
-        files = {os.path.basename(p): Path(p).read_bytes() for p in write_source(tmp, meta, table)}
-    assert SOURCE_FILE in files
-    return _build(core, "source", name, description, files,
-                  f"Source '{meta['name']}': {meta['description']}", dest)
+    return _build(core, "source", name, description, source_resources(meta, table),
+                  describe_fmu(description, source=meta), dest)
 
 
 def _build(core, kind: str, name: str, description: str, resources: Dict[str, bytes],
-           about: str, dest) -> Path:
-    """Package a slave over ``core`` with pythonfmu, finish and validate its model description."""
+           described: str, dest) -> Path:
+    """Package a slave over ``core`` with pythonfmu, write and validate its model description
+    (``described``: its description attribute, :func:`describe_fmu`)."""
     sources = runtime_sources()
     template = render_slave_script(name, kind, description, "bodyvib.runtime")
     digest = _content_hash([template.encode()] + [resources[k] for k in sorted(resources)]
@@ -253,73 +250,79 @@ def _build(core, kind: str, name: str, description: str, resources: Dict[str, by
             tail = (proc.stderr or proc.stdout).strip().splitlines()[-3:]
             raise BodyvibError(f"pythonfmu could not build {name}.fmu (is pythonfmu installed? "
                                f"pip install pythonfmu): {' | '.join(tail)}")
-        data = _finish(built, core, about)
+        data = _finish(built, core, described)
         checked = Path(tmp) / f"{name}.fmu"  # validated before it may replace a good FMU
         checked.write_bytes(data)
-        problems = _validate(checked)
-    target = dest / f"{name}.fmu"
-    if problems:
-        raise BodyvibError(f"{target}: fmpy validate found problems: " + "; ".join(problems))
+        target = dest / f"{name}.fmu"
+        validate_fmu_file(checked, str(target))
     atomic_write_bytes(target, data)
     return target
 
 
-def _num(x: float) -> str:
-    return repr(float(x))
+def pythonfmu_description(generated: bytes, core, description: str) -> ModelDescription:
+    """What a pythonfmu FMU's modelDescription.xml declares: the core's interface, and from
+    the XML pythonfmu generated only what pythonfmu decides.
+
+    pythonfmu decides the GUID, the model identifier, the co-simulation capability flags,
+    the log categories its slave accepts, and the value references (checked here to be the
+    core's). Its C wrapper reads only ``resources/slavemodule.txt`` at run time, never the
+    XML, so the rest is written from the core (units, limits, display units, the default
+    experiment, the dependencies pythonfmu 0.7.0 does not write).
+
+    Parameters
+    ----------
+    generated : bytes
+        The modelDescription.xml pythonfmu wrote.
+    core : bodyvib.runtime.engine.FmuCore or bodyvib.runtime.source.SourceCore
+        The core the slave runs.
+    description : str
+        The FMU's description.
+
+    Returns
+    -------
+    bodyvib.fmu.description.ModelDescription
+        FMI 2.0, co-simulation only.
+
+    Raises
+    ------
+    BodyvibError
+        pythonfmu assigned value references other than the core's.
+    """
+    root = ET.fromstring(generated)
+    cs = root.find("CoSimulation")
+    assigned = {sv.get("name"): int(sv.get("valueReference"))
+                for sv in root.iter("ScalarVariable")}
+    wanted = {v.name: vr for vr, v in enumerate(core.variables)}
+    if assigned != wanted:
+        moved = sorted(set(assigned.items()) ^ set(wanted.items()))
+        raise BodyvibError(f"{root.get('modelName')}.fmu: pythonfmu assigned value references "
+                           f"other than the core's order ({moved[:4]}): the slave's "
+                           "register_variable order changed; use pythonfmu 0.7.0 (pip install "
+                           "pythonfmu==0.7.0) or register the variables in core order")
+    per_output = dict(zip((v.name for v in core.interface.outputs), core.output_dependencies()))
+    return ModelDescription(
+        fmi=2, model_name=root.get("modelName"), model_identifier=cs.get("modelIdentifier"),
+        token=root.get("guid"), description=description,
+        generation_tool=f"bodyvib {__version__} with {root.get('generationTool')}",
+        variables=tuple(core.variables),
+        output_dependencies=tuple(tuple(per_output[v.name]) for v in core.variables
+                                  if v.causality == "output"),
+        interfaces=(InterfaceElement("CoSimulation", tuple(
+            (k, v) for k, v in cs.attrib.items() if k != "modelIdentifier")),),
+        log_categories=tuple((c.get("name"), c.get("description"))
+                             for c in root.iterfind("LogCategories/Category")),
+        stop_time=default_stop_time(core), source=core.kind == "source")
 
 
-def _finish(fmu: Path, core, about: str) -> bytes:
-    """The FMU's bytes with its modelDescription.xml completed."""
+def _finish(fmu: Path, core, description: str) -> bytes:
+    """The FMU's bytes with its modelDescription.xml written by the one writer."""
     with zipfile.ZipFile(fmu) as zf:
         entries = [(info, zf.read(info)) for info in zf.infolist()]
-    md = next(data for info, data in entries if info.filename == "modelDescription.xml")
     if not any(info.filename.startswith("binaries/") for info, _ in entries):
         raise BodyvibError(f"{fmu.name}: pythonfmu packaged no binaries (pythonfmu without "
                            "its resources/binaries?); reinstall pythonfmu")
-    root = ET.fromstring(md)
-    root.set("description", f"{root.get('description', '')}. {about}".strip())
-    root.set("version", __version__)
-
-    by_name = {v.name: v for v in core.variables}
-    used = []
-    svs = root.find("ModelVariables").findall("ScalarVariable")
-    for sv in svs:
-        v = by_name[sv.get("name")]
-        real = sv.find("Real")
-        real.set("unit", v.unit)
-        if real.get("start") is not None and v.start is not None:
-            real.set("start", _num(v.start))  # pythonfmu writes 16 digits: may be 1 ulp off
-        if v.min is not None:
-            real.set("min", _num(v.min))
-        if v.max is not None:
-            real.set("max", _num(v.max))
-        if display_unit(v):
-            real.set("displayUnit", display_unit(v))
-        if v.unit not in used:
-            used.append(v.unit)
-
-    children = list(root)
-    root.insert(children.index(root.find("CoSimulation")) + 1, unit_definitions(used))
-    root.find("DefaultExperiment").set("stopTime", _num(default_stop_time(core)))
-
-    structure = root.find("ModelStructure")
-    for child in list(structure):
-        structure.remove(child)
-    index = {sv.get("name"): i + 1 for i, sv in enumerate(svs)}
-    deps = [[index[core.variables[i].name] for i in d] for d in core.output_dependencies()]
-    initial_deps = initial_dependencies(deps, [index[p.name] for p in core.parameters],
-                                        core.kind == "source")
-    outputs = ET.SubElement(structure, "Outputs")
-    initial = ET.SubElement(structure, "InitialUnknowns")
-    for j, v in enumerate(core.interface.outputs):
-        ET.SubElement(outputs, "Unknown", index=str(index[v.name]),
-                      dependencies=" ".join(str(d) for d in deps[j]))
-    for j, v in sorted(enumerate(core.interface.outputs), key=lambda jv: index[jv[1].name]):
-        ET.SubElement(initial, "Unknown", index=str(index[v.name]),
-                      dependencies=" ".join(str(d) for d in initial_deps[j]))
-
-    ET.indent(root)
-    xml = ET.tostring(root, encoding="UTF-8", xml_declaration=True)
+    generated = next(data for info, data in entries if info.filename == "modelDescription.xml")
+    xml = write_model_description(pythonfmu_description(generated, core, description))
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
         for info, data in entries:
@@ -327,9 +330,3 @@ def _finish(fmu: Path, core, about: str) -> bytes:
                 data = xml
             zf.writestr(info.filename, data, compress_type=zipfile.ZIP_DEFLATED)
     return buf.getvalue()
-
-
-def _validate(path: Path):
-    from fmpy.validation import validate_fmu
-
-    return validate_fmu(str(path))

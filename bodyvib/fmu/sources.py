@@ -1,17 +1,22 @@
-"""Where the sources an FMU is made of live: the run-time package and ``fmu_src``.
+"""What an FMU is made of, for both builders: the sources and the model's resources.
 
 One place answers it for both builders: the pythonfmu builder copies
 :mod:`bodyvib.runtime` and renders ``fmu_src/bodyvib_fmu_slave.py``; the native
 builder compiles ``fmu_src/native/*.c``. ``fmu_src`` is found as an installed
-package (it travels in the wheel), never by a path relative to this file.
+package (it travels in the wheel), never by a path relative to this file. Both kinds
+carry the same ``resources/``: a model's parameter file (:func:`model_resources`) or a
+source's table (:func:`source_resources`).
 """
 
 import importlib.util
+import json
+import tempfile
 from pathlib import Path
+from typing import Dict
 
 from ..runtime.errors import BodyvibError
 
-__all__ = ["RUNTIME_DIR", "fmu_src_dir", "native_dir"]
+__all__ = ["RUNTIME_DIR", "fmu_src_dir", "model_resources", "native_dir", "source_resources"]
 
 #: The run-time package copied into every pythonfmu FMU.
 RUNTIME_DIR = Path(__file__).resolve().parent.parent / "runtime"
@@ -44,3 +49,41 @@ def native_dir() -> Path:
     pathlib.Path
     """
     return fmu_src_dir() / "native"
+
+
+def model_resources(network) -> Dict[str, bytes]:
+    """The ``resources/`` of a model FMU: the parameter file of the model baked in.
+
+    Parameters
+    ----------
+    network : bodyvib.runtime.network.Network
+        The model.
+
+    Returns
+    -------
+    dict of str to bytes
+        :data:`bodyvib.runtime.contract.MODEL_FILE` -> its JSON text.
+    """
+    from ..runtime.contract import MODEL_FILE
+    from ..runtime.modelfile import network_to_dict
+
+    return {MODEL_FILE: (json.dumps(network_to_dict(network), indent=2) + "\n").encode()}
+
+
+def source_resources(meta: dict, table) -> Dict[str, bytes]:
+    """The ``resources/`` of a source FMU: its description and table files.
+
+    Parameters
+    ----------
+    meta, table
+        As :func:`bodyvib.fmu.pythonfmu.build_source_fmu`.
+
+    Returns
+    -------
+    dict of str to bytes
+        File name -> contents (:func:`bodyvib.runtime.source.write_source`).
+    """
+    from ..runtime.source import write_source
+
+    with tempfile.TemporaryDirectory(prefix="bodyvib_source_") as tmp:
+        return {Path(p).name: Path(p).read_bytes() for p in write_source(tmp, meta, table)}
