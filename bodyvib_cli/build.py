@@ -11,7 +11,7 @@ from vehicle.fmus import FMUS, ROAD_DEFAULTS, build_fmus
 from vehicle.road.driven import is_road_file
 from vehicle.ssp import COMPONENTS, SSP_NAME, write_ssp
 
-from .cosim import add_road_options
+from .options import add_road_options
 
 __all__ = ["add_command", "main"]
 

@@ -1,0 +1,108 @@
+"""The option groups several ``bodyvib`` commands share, declared once: output files, body
+models and the ``--road-*`` options of a driven road."""
+
+import os
+
+from vehicle.road.driven import DEFAULT_TAPER_M, RoadOptions
+
+from .outputs import OUTPUT_OPTIONS
+
+__all__ = ["add_output_options", "add_models_option", "model_inputs", "add_road_options",
+           "road_options_from_args"]
+
+
+def add_output_options(p, **helps) -> None:
+    """Add output-file options (``--plot``, ``--csv``, ``--json``) to a command's parser.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The command's parser.
+    **helps : str
+        Option name (a key of :data:`bodyvib_cli.outputs.OUTPUT_OPTIONS`) to its help text,
+        in the order the options are listed in the help.
+
+    Examples
+    --------
+    >>> import argparse
+    >>> p = argparse.ArgumentParser()
+    >>> add_output_options(p, plot="write the plot", json="write the figures as JSON")
+    >>> p.parse_args(["--json", "a.json"]).json
+    'a.json'
+    """
+    for name, text in helps.items():
+        p.add_argument(f"--{name}", metavar=OUTPUT_OPTIONS[name][0], help=text)
+
+
+def add_models_option(p, default) -> None:
+    """Add ``--models MODEL ...``: the body models a command compares.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The command's parser.
+    default : sequence of str
+        Model names used when the option is not given.
+    """
+    p.add_argument("--models", nargs="+", default=list(default), metavar="MODEL",
+                   help="shipped model names or parameter-file paths (default: %(default)s)")
+
+
+def model_inputs(models) -> list:
+    """The ``(option, path)`` inputs of ``--models``: those that are parameter files.
+
+    Parameters
+    ----------
+    models : sequence of str
+        Shipped model names or parameter-file paths.
+
+    Returns
+    -------
+    list of (str, str)
+        ``("--models", path)`` of every existing file, for
+        :func:`bodyvib_cli.outputs.check_files` (no output may overwrite one).
+    """
+    return [("--models", m) for m in models if os.path.isfile(m)]
+
+
+def add_road_options(p, taper_help=None) -> None:
+    """The ``--road-*`` options of a command that drives a road (cosim, check, sweep, build).
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The command's parser.
+    taper_help : str, optional
+        Help of ``--road-taper`` where the taper means something else (``build``: the
+        default of Road.fmu).
+    """
+    p.add_argument("--road-taper", type=float, default=DEFAULT_TAPER_M, metavar="M",
+                   help=taper_help or "the road fades in from level over its first M metres (and "
+                   "out over its last), so the car starts at rest on it (default: 5; 0: none)")
+    p.add_argument("--road-track", type=float, default=0.0, metavar="M",
+                   help="OpenCRG road: lateral offset of the wheel from the reference line, m, "
+                   "positive to the left (default: 0)")
+    p.add_argument("--road-units", metavar="DIST,ELEV",
+                   help="CSV/ERD road: units of distance and elevation when the file does not "
+                   "name them, e.g. m,mm")
+    p.add_argument("--road-envelope", action="store_true",
+                   help="road file: tire enveloping, the 250 mm moving average of the IRI standard")
+    p.add_argument("--road-repeat", action="store_true",
+                   help="road file: repeat the profile when the run is longer than it (default: "
+                   "refuse such a run)")
+
+
+def road_options_from_args(args) -> RoadOptions:
+    """The road options of parsed ``--road-*`` options.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        A command line parsed by a parser with :func:`add_road_options`.
+
+    Returns
+    -------
+    vehicle.road.driven.RoadOptions
+    """
+    return RoadOptions(taper_m=args.road_taper, track_m=args.road_track, units=args.road_units,
+                       envelope=args.road_envelope, repeat=args.road_repeat)
