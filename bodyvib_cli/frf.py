@@ -1,10 +1,9 @@
 """``bodyvib frf``: seat-to-head transmissibility of models side by side."""
 
 from bodyvib.frequency.compare import DEFAULT_MODELS, compare_transmissibility, format_table, plot_transmissibility
-from bodyvib.process.outputs import write_json
 
 from .options import add_models_option, add_output_options, model_inputs
-from .outputs import check_files, write_outputs
+from .outputs import check_files, write_result
 
 __all__ = ["add_command"]
 
@@ -13,8 +12,7 @@ def _run(args):
     check_files(args, ("json", "plot"), inputs=model_inputs(args.models))
     result = compare_transmissibility(args.models, args.fmin, args.fmax, args.points)
     print(format_table(result))
-    write_outputs([(args.json, lambda path: write_json(path, result.to_dict())),
-                   (args.plot, lambda path: plot_transmissibility(result, path))])
+    write_result(args, result, plot_transmissibility)
     return 0
 
 

@@ -2,10 +2,10 @@
 how they are written (all together or none, each named once written)."""
 
 from bodyvib.process import interrupts
-from bodyvib.process.outputs import check_outputs, staged_writes
+from bodyvib.process.outputs import atomic_write_text, check_outputs, staged_writes, write_json
 
 __all__ = ["PLOT_EXTENSIONS", "JSON_EXTENSIONS", "CSV_EXTENSIONS", "OUTPUT_OPTIONS",
-           "check_files", "write_outputs"]
+           "check_files", "write_outputs", "write_result"]
 
 #: Plot files: the formats :func:`bodyvib.plotting.save_figure` writes.
 PLOT_EXTENSIONS = (".png", ".pdf", ".svg")
@@ -78,3 +78,30 @@ def write_outputs(writes) -> list:
     for path in written.paths:
         print(f"wrote {path}")
     return list(written.paths)
+
+
+def write_result(args, result, plot, csv_text=None) -> list:
+    """Write a command's typed result to the files its ``--json``, ``--csv`` and ``--plot`` name.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line, with ``json`` and ``plot`` (and ``csv`` when ``csv_text`` is
+        given): paths, or None for an option not given.
+    result : object
+        The result; ``result.to_dict()`` is its JSON document.
+    plot : callable
+        ``plot(result, path)`` draws it into a plot file.
+    csv_text : callable, optional
+        ``csv_text(result)``: its time histories as CSV text.
+
+    Returns
+    -------
+    list of str
+        The files written (:func:`write_outputs`: all of them or none).
+    """
+    return write_outputs([
+        (args.json, lambda path: write_json(path, result.to_dict())),
+        (args.csv if csv_text else None, lambda path: atomic_write_text(path, csv_text(result))),
+        (args.plot, lambda path: plot(result, path)),
+    ])

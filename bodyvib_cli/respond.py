@@ -5,10 +5,9 @@ import io
 import numpy as np
 
 from bodyvib.process import interrupts
-from bodyvib.process.outputs import atomic_write_text, write_json
 
 from .options import add_models_option, add_output_options, model_inputs
-from .outputs import check_files, write_outputs
+from .outputs import check_files, write_result
 
 __all__ = ["add_command", "format_response", "plot_response"]
 
@@ -108,9 +107,7 @@ def _run(args):
     interrupts.check()
     result = respond(signal, args.models)
     print(format_response(result))
-    write_outputs([(args.json, lambda path: write_json(path, result.to_dict())),
-                   (args.csv, lambda path: atomic_write_text(path, _csv_text(result))),
-                   (args.plot, lambda path: plot_response(result, path))])
+    write_result(args, result, plot_response, csv_text=_csv_text)
     return 0
 
 

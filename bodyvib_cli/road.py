@@ -3,11 +3,10 @@
 import os
 
 from bodyvib.process import interrupts
-from bodyvib.process.outputs import write_json
 from bodyvib.runtime.errors import BodyvibError
 
 from .options import add_output_options
-from .outputs import check_files, write_outputs
+from .outputs import check_files, write_result
 
 __all__ = ["add_command", "load_road"]
 
@@ -74,8 +73,7 @@ def _run(args):
     interrupts.check()
     summary = summarize_profile(x, z, name)
     print(format_summary(summary))
-    write_outputs([(args.json, lambda path: write_json(path, summary.to_dict())),
-                   (args.plot, lambda path: plot_summary(summary, path))])
+    write_result(args, summary, plot_summary)
     return 0
 
 
