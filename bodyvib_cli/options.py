@@ -4,11 +4,12 @@ models and the ``--road-*`` options of a driven road."""
 import os
 
 from vehicle.road.driven import DEFAULT_TAPER_M, RoadOptions
+from vehicle.sweep.spec import ROAD_OPTION_KEYS
 
 from .outputs import OUTPUT_OPTIONS
 
-__all__ = ["add_output_options", "add_models_option", "model_inputs", "add_road_options",
-           "road_options_from_args"]
+__all__ = ["add_output_options", "add_models_option", "model_inputs", "ROAD_ARGUMENTS",
+           "add_road_options", "road_options_from_args"]
 
 
 def add_output_options(p, **helps) -> None:
@@ -65,6 +66,28 @@ def model_inputs(models) -> list:
     return [("--models", m) for m in models if os.path.isfile(m)]
 
 
+#: The ``--road-KEY`` options' argparse settings, by KEY: a key of a sweep spec's
+#: ``road_options`` and of Road.fmu's road options (:data:`vehicle.sweep.spec.ROAD_OPTION_KEYS`
+#: names the :class:`~vehicle.road.driven.RoadOptions` field each one sets).
+ROAD_ARGUMENTS = {
+    "taper": dict(type=float, default=DEFAULT_TAPER_M, metavar="M",
+                  help="the road fades in from level over its first M metres (and out over its "
+                  "last), so the car starts at rest on it (default: 5; 0: none)"),
+    "track": dict(type=float, default=0.0, metavar="M",
+                  help="OpenCRG road: lateral offset of the wheel from the reference line, m, "
+                  "positive to the left (default: 0)"),
+    "units": dict(metavar="DIST,ELEV",
+                  help="CSV/ERD road: units of distance and elevation when the file does not "
+                  "name them, e.g. m,mm"),
+    "envelope": dict(action="store_true",
+                     help="road file: tire enveloping, the 250 mm moving average of the IRI "
+                     "standard"),
+    "repeat": dict(action="store_true",
+                   help="road file: repeat the profile when the run is longer than it (default: "
+                   "refuse such a run)"),
+}
+
+
 def add_road_options(p, taper_help=None) -> None:
     """The ``--road-*`` options of a command that drives a road (cosim, check, sweep, build).
 
@@ -76,20 +99,10 @@ def add_road_options(p, taper_help=None) -> None:
         Help of ``--road-taper`` where the taper means something else (``build``: the
         default of Road.fmu).
     """
-    p.add_argument("--road-taper", type=float, default=DEFAULT_TAPER_M, metavar="M",
-                   help=taper_help or "the road fades in from level over its first M metres (and "
-                   "out over its last), so the car starts at rest on it (default: 5; 0: none)")
-    p.add_argument("--road-track", type=float, default=0.0, metavar="M",
-                   help="OpenCRG road: lateral offset of the wheel from the reference line, m, "
-                   "positive to the left (default: 0)")
-    p.add_argument("--road-units", metavar="DIST,ELEV",
-                   help="CSV/ERD road: units of distance and elevation when the file does not "
-                   "name them, e.g. m,mm")
-    p.add_argument("--road-envelope", action="store_true",
-                   help="road file: tire enveloping, the 250 mm moving average of the IRI standard")
-    p.add_argument("--road-repeat", action="store_true",
-                   help="road file: repeat the profile when the run is longer than it (default: "
-                   "refuse such a run)")
+    for key, settings in ROAD_ARGUMENTS.items():
+        if key == "taper" and taper_help:
+            settings = dict(settings, help=taper_help)
+        p.add_argument(f"--road-{key}", **settings)
 
 
 def road_options_from_args(args) -> RoadOptions:
@@ -104,5 +117,5 @@ def road_options_from_args(args) -> RoadOptions:
     -------
     vehicle.road.driven.RoadOptions
     """
-    return RoadOptions(taper_m=args.road_taper, track_m=args.road_track, units=args.road_units,
-                       envelope=args.road_envelope, repeat=args.road_repeat)
+    return RoadOptions(**{field: getattr(args, f"road_{key}")
+                          for key, field in ROAD_OPTION_KEYS.items()})

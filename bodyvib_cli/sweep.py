@@ -12,7 +12,7 @@ __all__ = ["add_command"]
 
 
 def _run(args):
-    from vehicle.sweep.spec import grid_spec
+    from vehicle.sweep.spec import ROAD_OPTION_KEYS, grid_spec
 
     if args.spec and args.grid:
         raise BodyvibError("give a SPEC file or --grid, not both")
@@ -44,9 +44,7 @@ def _run(args):
     if args.spec and opts != RoadOptions():
         raise BodyvibError("--road-* options go with --grid; a SPEC file gives them as "
                            "\"road_options\": {\"taper\": 5, \"track\": 0.8, ...}")
-    given = {k: getattr(opts, f) for k, f in (("taper", "taper_m"), ("track", "track_m"),
-                                               ("units", "units"), ("envelope", "envelope"),
-                                               ("repeat", "repeat"))
+    given = {k: getattr(opts, f) for k, f in ROAD_OPTION_KEYS.items()
              if getattr(opts, f) != getattr(RoadOptions(), f)}
     spec = args.spec if args.spec else grid_spec(args.grid, args.duration, args.step, given)
     from vehicle.sweep.run import run_sweep

@@ -30,7 +30,7 @@ def run(ssp_path=DEFAULT_SSP, duration=30.0, step=1e-3, signals=SIGNALS):
     ssp_path : str
         The ``.ssp`` file (Ecos extracts it into ``TMPDIR``).
     duration : float
-        Simulated time, s.
+        Simulated time, s: ``round(duration / step)`` steps.
     step : float
         Communication step, s: Ecos takes it from here, not from the SSP.
     signals : sequence of (str, str)

@@ -62,9 +62,10 @@ def run(ssp_path=DEFAULT_SSP, duration=30.0, step=1e-3):
     Parameters
     ----------
     ssp_path : str
-        The ``.ssp`` file.
+        The ``.ssp`` file; :func:`parameter_set` reads its bindings.
     duration : float
-        Simulated time, s.
+        Simulated time, s (``stop_time`` half a step short of it, so that fmpy takes the
+        last step exactly once).
     step : float
         Communication step, s: ``simulate_ssp``'s ``step_size`` (its default, 1 % of the
         stop time, is far too coarse).
