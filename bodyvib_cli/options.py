@@ -116,6 +116,18 @@ def road_options_from_args(args) -> RoadOptions:
     Returns
     -------
     vehicle.road.driven.RoadOptions
+
+    Examples
+    --------
+    Every option sets one field (the spec's keys and the options are the same five):
+
+    >>> list(ROAD_ARGUMENTS) == list(ROAD_OPTION_KEYS)
+    True
+    >>> import argparse
+    >>> p = argparse.ArgumentParser()
+    >>> add_road_options(p)
+    >>> road_options_from_args(p.parse_args(["--road-taper", "3", "--road-repeat"]))
+    RoadOptions(taper_m=3.0, track_m=0.0, units=None, envelope=False, repeat=True)
     """
     return RoadOptions(**{field: getattr(args, f"road_{key}")
                           for key, field in ROAD_OPTION_KEYS.items()})
