@@ -113,22 +113,18 @@ def main(argv=None):
         times["cli"].append(timed(cli))
     tmp.cleanup()
     med = {k: statistics.median(v) for k, v in times.items()}
-    rate = {
-        "vectorized": args.population / med["vectorized"],
-        "loop": args.population / med["loop"],
-        "state_space": n_state_space / med["state_space"],
-        "time_domain": n_time / med["time_domain"],
+    # each evaluation: its row label and how many individuals one timed call evaluates
+    evaluations = {
+        "vectorized": ("vectorized population (one call)", args.population),
+        "loop": ("per-individual loop, analytic TFs", args.population),
+        "state_space": ("per-individual state space + FRF", n_state_space),
+        "time_domain": ("per-individual time-domain definition", n_time),
     }
+    rate = {k: n / med[k] for k, (_, n) in evaluations.items()}
     print(f"objective: {len(roles)} pairs ({', '.join(roles)}), {f.size} quadrature nodes; "
           f"population {args.population}; medians of {args.repeats} interleaved repeats")
     print(f"{'evaluation':<44} {'evals/s':>12} {'vectorized / this':>18}")
-    labels = {
-        "vectorized": "vectorized population (one call)",
-        "loop": "per-individual loop, analytic TFs",
-        "state_space": "per-individual state space + FRF",
-        "time_domain": "per-individual time-domain definition",
-    }
-    for k, label in labels.items():
+    for k, (label, _) in evaluations.items():
         print(f"{label:<44} {rate[k]:12.0f} {rate['vectorized'] / rate[k]:18.1f}")
     print(f"default fit (GA, 40 per generation, + polish), wall time: {med['fit']:.2f} s "
           f"(min {min(times['fit']):.2f}, max {max(times['fit']):.2f})")

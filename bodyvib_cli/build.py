@@ -9,9 +9,10 @@ from bodyvib.process.outputs import check_outputs, staged_writes
 from bodyvib.runtime.errors import BodyvibError
 from vehicle.fmus import FMUS, ROAD_DEFAULTS, build_fmus
 from vehicle.road.driven import is_road_file
+from vehicle.sweep.spec import ROAD_OPTION_KEYS
 from vehicle.ssp import COMPONENTS, SSP_NAME, write_ssp
 
-from .cosim import add_road_options
+from .options import add_road_options, road_options_from_args
 
 __all__ = ["add_command", "main"]
 
@@ -66,10 +67,11 @@ def _road(args) -> dict:
     if args.road_length is not None and is_road_file(args.road):
         raise BodyvibError("--road-length sets a synthetic road's length; Road.fmu tabulates a "
                            "road file over its own length: drop --road-length")
+    opts = road_options_from_args(args)
     return {"road": args.road, "seed": args.road_seed,
             "length": ROAD_DEFAULTS["length"] if args.road_length is None else args.road_length,
-            "speed": args.road_speed, "taper": args.road_taper, "track": args.road_track,
-            "units": args.road_units, "envelope": args.road_envelope, "repeat": args.road_repeat}
+            "speed": args.road_speed,
+            **{key: getattr(opts, field) for key, field in ROAD_OPTION_KEYS.items()}}
 
 
 def add_command(subparsers):

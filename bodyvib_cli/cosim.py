@@ -14,20 +14,19 @@ import sys
 
 from bodyvib.models import load_model
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib.process import interrupts
-from bodyvib.process.outputs import check_outputs, staged_writes, write_json
+from bodyvib.process.outputs import write_json
 from vehicle.check import compare
 from vehicle.cosim import check_fmu
 from vehicle.fmus import build_fmus, temporary_fmu_dir
 from vehicle.plots import plot_study
 from vehicle.quarter_car import load_car
-from vehicle.road.driven import DEFAULT_TAPER_M, RoadOptions
 from vehicle.report import format_report, study_json
 from vehicle.study import StudyCsv, check_settings, run_study
 
-from .outputs import CSV_EXTENSIONS, JSON_EXTENSIONS, PLOT_EXTENSIONS
+from .options import add_output_options, add_road_options, road_options_from_args
+from .outputs import check_files, write_outputs
 
-__all__ = ["add_command", "add_road_options", "options_from_args"]
+__all__ = ["add_command"]
 
 
 def _check_options(args):
@@ -41,9 +40,8 @@ def _check_options(args):
     inputs = [("--body", args.body), ("--car-fmu", args.car_fmu),
               ("--iso-body", getattr(args, "iso_body", None)), ("--params", args.params),
               ("--car", args.car), ("--road", args.road)]
-    check_outputs([("--json", args.json, JSON_EXTENSIONS), ("--plot", args.plot, PLOT_EXTENSIONS),
-                   ("--csv", args.csv, CSV_EXTENSIONS)],
-                  inputs=[(o, p) for o, p in inputs if p is not None and os.path.isfile(p)])
+    check_files(args, ("json", "plot", "csv"),
+                inputs=[(o, p) for o, p in inputs if p is not None and os.path.isfile(p)])
 
 
 #: CSV bytes per communication point and body: 9 to 13 columns of up to 17 characters.
@@ -107,22 +105,9 @@ def _label(path, default):
     return base or default
 
 
-def _write_outputs(args, study, comparison, csv):
-    with staged_writes(guard=interrupts.critical) as written:  # all outputs or none
-        if args.json:
-            write_json(args.json, study_json(study, comparison))
-        if args.plot:
-            plot_study(study, args.plot, comparison)
-        if csv is not None:
-            csv.place()  # streamed during the run, staged with the others
-        interrupts.check()  # Ctrl-C while rendering: discard, keep the old files
-    for path in written.paths:
-        print(f"wrote {path}")
-
-
 def _run(args, want_iso):
     _check_options(args)
-    road_options = options_from_args(args)
+    road_options = road_options_from_args(args)
     check_settings(args.road, args.speed, args.duration, args.step, args.seed,  # before building
                    bodies=2 if want_iso else 1, road_options=road_options)
     if args.csv:
@@ -143,7 +128,11 @@ def _run(args, want_iso):
                               quiet=args.quiet, csv=csv, road_options=road_options)
             comparison = compare(study, *bodies) if want_iso else None
             print(format_report(study, comparison))
-            _write_outputs(args, study, comparison, csv)
+            write_outputs([
+                (args.json, lambda path: write_json(path, study_json(study, comparison))),
+                (args.plot, lambda path: plot_study(study, path, comparison)),
+                # streamed during the run, staged with the others
+                (args.csv, lambda path: csv.place())])
         finally:
             if csv is not None:
                 csv.discard()  # no-op once placed
@@ -153,30 +142,6 @@ def _run(args, want_iso):
     if comparison is not None and args.strict and comparison.verdict != "PASS":
         return 1
     return 0
-
-
-def add_road_options(p, taper_help=None):
-    """The ``--road-*`` options of a command that drives a road (cosim, check, sweep, build)."""
-    p.add_argument("--road-taper", type=float, default=DEFAULT_TAPER_M, metavar="M",
-                   help=taper_help or "the road fades in from level over its first M metres (and "
-                   "out over its last), so the car starts at rest on it (default: 5; 0: none)")
-    p.add_argument("--road-track", type=float, default=0.0, metavar="M",
-                   help="OpenCRG road: lateral offset of the wheel from the reference line, m, "
-                   "positive to the left (default: 0)")
-    p.add_argument("--road-units", metavar="DIST,ELEV",
-                   help="CSV/ERD road: units of distance and elevation when the file does not "
-                   "name them, e.g. m,mm")
-    p.add_argument("--road-envelope", action="store_true",
-                   help="road file: tire enveloping, the 250 mm moving average of the IRI standard")
-    p.add_argument("--road-repeat", action="store_true",
-                   help="road file: repeat the profile when the run is longer than it (default: "
-                   "refuse such a run)")
-
-
-def options_from_args(args) -> RoadOptions:
-    """The :class:`~vehicle.road.driven.RoadOptions` of parsed ``--road-*`` options."""
-    return RoadOptions(taper_m=args.road_taper, track_m=args.road_track, units=args.road_units,
-                       envelope=args.road_envelope, repeat=args.road_repeat)
 
 
 def _common(p):
@@ -204,9 +169,8 @@ def _common(p):
                    "(FMUs given with --body/--car-fmu/--iso-body are used as they are)")
     p.add_argument("--hold", action="store_true",
                    help="plain master: hold the seat force over each step (first order)")
-    p.add_argument("--plot", metavar="FILE.png", help="write the plot")
-    p.add_argument("--csv", metavar="FILE", help="write the time histories as CSV")
-    p.add_argument("--json", metavar="FILE", help="write the figures as JSON")
+    add_output_options(p, plot="write the plot", csv="write the time histories as CSV",
+                       json="write the figures as JSON")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
 

@@ -1,14 +1,13 @@
 """``bodyvib respond``: a measured seat acceleration through body models; figures of seat and head."""
 
 import io
-import os
 
 import numpy as np
 
 from bodyvib.process import interrupts
-from bodyvib.process.outputs import atomic_write_text, check_outputs, staged_writes, write_json
 
-from .outputs import CSV_EXTENSIONS, JSON_EXTENSIONS, PLOT_EXTENSIONS
+from .options import add_models_option, add_output_options, model_inputs
+from .outputs import check_files, write_result
 
 __all__ = ["add_command", "format_response", "plot_response"]
 
@@ -100,25 +99,15 @@ def _run(args):
     from bodyvib.seat.response import respond
     from bodyvib.seat.signal import read_signal
 
-    inputs = [("SIGNAL", args.signal)] + [("--models", m) for m in args.models if os.path.isfile(m)]
-    check_outputs([("--json", args.json, JSON_EXTENSIONS), ("--plot", args.plot, PLOT_EXTENSIONS),
-                   ("--csv", args.csv, CSV_EXTENSIONS)], inputs=inputs)
+    check_files(args, ("json", "plot", "csv"),
+                inputs=[("SIGNAL", args.signal)] + model_inputs(args.models))
     for m in args.models:      # an unknown model is refused before the signal is read
         load_model(m)
     signal = read_signal(args.signal, args.channel)
     interrupts.check()
     result = respond(signal, args.models)
     print(format_response(result))
-    with staged_writes(guard=interrupts.critical) as written:  # all outputs or none
-        if args.json:
-            write_json(args.json, result.to_dict())
-        if args.csv:
-            atomic_write_text(args.csv, _csv_text(result))
-        if args.plot:
-            plot_response(result, args.plot)
-        interrupts.check()
-    for path in written.paths:
-        print(f"wrote {path}")
+    write_result(args, result, plot_response, csv_text=_csv_text)
     return 0
 
 
@@ -141,10 +130,9 @@ def add_command(subparsers):
     p.add_argument("--channel", metavar="NAME",
                    help="the acceleration's column (CSV) or channel (MDF4); needed when there "
                    "is more than one")
-    p.add_argument("--models", nargs="+", default=list(DEFAULT_MODELS), metavar="MODEL",
-                   help="shipped model names or parameter-file paths (default: %(default)s)")
-    p.add_argument("--plot", metavar="FILE.png", help="write accelerations and running r.m.s.")
-    p.add_argument("--csv", metavar="FILE", help="write time, seat and head accelerations")
-    p.add_argument("--json", metavar="FILE", help="write the figures and checks as JSON")
+    add_models_option(p, DEFAULT_MODELS)
+    add_output_options(p, plot="write accelerations and running r.m.s.",
+                       csv="write time, seat and head accelerations",
+                       json="write the figures and checks as JSON")
     p.set_defaults(func=_run)
     return p

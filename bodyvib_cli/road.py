@@ -3,10 +3,10 @@
 import os
 
 from bodyvib.process import interrupts
-from bodyvib.process.outputs import check_outputs, staged_writes, write_json
 from bodyvib.runtime.errors import BodyvibError
 
-from .outputs import JSON_EXTENSIONS, PLOT_EXTENSIONS
+from .options import add_output_options
+from .outputs import check_files, write_result
 
 __all__ = ["add_command", "load_road"]
 
@@ -66,22 +66,14 @@ def load_road(source: str, length: float = 1000.0, spacing: float = 0.05, seed: 
 def _run(args):
     from vehicle.road.summary import format_summary, plot_summary, summarize_profile
 
-    inputs = [("ROAD", args.road)] if os.path.isfile(args.road) else []
-    check_outputs([("--json", args.json, JSON_EXTENSIONS), ("--plot", args.plot, PLOT_EXTENSIONS)],
-                  inputs=inputs)
+    check_files(args, ("json", "plot"),
+                inputs=[("ROAD", args.road)] if os.path.isfile(args.road) else [])
     x, z, name = load_road(args.road, args.length, args.spacing, args.seed, args.track,
                            args.units)
     interrupts.check()
     summary = summarize_profile(x, z, name)
     print(format_summary(summary))
-    with staged_writes(guard=interrupts.critical) as written:  # all outputs or none
-        if args.json:
-            write_json(args.json, summary.to_dict())
-        if args.plot:
-            plot_summary(summary, args.plot)
-        interrupts.check()
-    for path in written.paths:
-        print(f"wrote {path}")
+    write_result(args, summary, plot_summary)
     return 0
 
 
@@ -105,7 +97,7 @@ def add_command(subparsers):
                    help="lateral offset of the wheel track in a CRG file, m")
     p.add_argument("--units", default=None,
                    help="height units of a profile file without them in its header (m, mm)")
-    p.add_argument("--plot", metavar="FILE.png", help="write the profile and PSD plot")
-    p.add_argument("--json", metavar="FILE", help="write the summary (and the PSD) as JSON")
+    add_output_options(p, plot="write the profile and PSD plot",
+                       json="write the summary (and the PSD) as JSON")
     p.set_defaults(func=_run)
     return p

@@ -5,13 +5,14 @@ import sys
 from bodyvib.process.outputs import check_outputs
 from bodyvib.runtime.errors import BodyvibError
 
-from .outputs import PLOT_EXTENSIONS
+from .options import add_output_options, add_road_options, road_options_from_args
+from .outputs import PLOT_EXTENSIONS, check_files
 
 __all__ = ["add_command"]
 
 
 def _run(args):
-    from vehicle.sweep.spec import grid_spec
+    from vehicle.sweep.spec import ROAD_OPTION_KEYS, grid_spec
 
     if args.spec and args.grid:
         raise BodyvibError("give a SPEC file or --grid, not both")
@@ -20,7 +21,7 @@ def _run(args):
             from vehicle.sweep.plot import plot_comfort_maps
             from vehicle.sweep.run import read_results
 
-            _check_plot(args.plot)
+            check_files(args, ("plot",))  # before the table is read
             df = read_results(args.out)
             if df is None:
                 raise BodyvibError(f"no sweep table at '{args.out}'")
@@ -39,15 +40,11 @@ def _run(args):
                   [("SPEC", args.spec)] if args.spec else [])
     from vehicle.road.driven import RoadOptions
 
-    from .cosim import options_from_args
-
-    opts = options_from_args(args)
+    opts = road_options_from_args(args)
     if args.spec and opts != RoadOptions():
         raise BodyvibError("--road-* options go with --grid; a SPEC file gives them as "
                            "\"road_options\": {\"taper\": 5, \"track\": 0.8, ...}")
-    given = {k: getattr(opts, f) for k, f in (("taper", "taper_m"), ("track", "track_m"),
-                                               ("units", "units"), ("envelope", "envelope"),
-                                               ("repeat", "repeat"))
+    given = {k: getattr(opts, f) for k, f in ROAD_OPTION_KEYS.items()
              if getattr(opts, f) != getattr(RoadOptions(), f)}
     spec = args.spec if args.spec else grid_spec(args.grid, args.duration, args.step, given)
     from vehicle.sweep.run import run_sweep
@@ -68,11 +65,6 @@ def _run(args):
         plot_comfort_maps(df, args.plot)
         print(f"wrote {args.plot}")
     return 0
-
-
-def _check_plot(path):
-    """Refuse a plot file that could not be written, before the sweep runs."""
-    check_outputs([("--plot", path, PLOT_EXTENSIONS)])
 
 
 def _seconds(text):
@@ -114,8 +106,6 @@ def add_command(subparsers):
                    "body=reduced-paper,iso7962 car=quarter-car")
     p.add_argument("--duration", type=float, default=30.0, help="with --grid: run length, s (30)")
     p.add_argument("--step", type=float, default=1e-3, help="with --grid: time step, s (0.001)")
-    from .cosim import add_road_options
-
     add_road_options(p)
     p.add_argument("--out", metavar="FILE.parquet", help="results table (Parquet)")
     p.add_argument("--csv", metavar="FILE", help="the table as CSV too")
@@ -139,7 +129,7 @@ def add_command(subparsers):
     p.add_argument("--retry-failed", action="store_true",
                    help="with --resume: run again the cases stored with an error")
     p.add_argument("--overwrite", action="store_true", help="replace an existing --out")
-    p.add_argument("--plot", metavar="FILE.png", help="comfort maps with the ISO 2631-1 bands")
+    add_output_options(p, plot="comfort maps with the ISO 2631-1 bands")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=_run)
     return p

@@ -12,31 +12,27 @@ variables are named ``"<component>::<variable>"``. ecospy needs Intel TBB at run
 ``apt-get install libtbb12``). tests/test_ssp.py runs this function.
 """
 
-import sys
-
 import numpy as np
+
+from _ssp_host import DEFAULT_SSP, SIGNALS, main, record
 
 __all__ = ["PARAMETER_SET", "SIGNALS", "run"]
 
 #: Name of the SSP's parameter set (its ``.ssv`` files).
 PARAMETER_SET = "QuarterCarWithOccupant"
 
-#: (component, variable) recorded at every communication point.
-SIGNALS = (("Body", "head_acceleration"), ("Body", "seat_force"), ("Car", "seat_displacement"),
-           ("Road", "road_displacement"))
 
-
-def run(ssp_path="dist/QuarterCarWithOccupant.ssp", duration=30.0, step=1e-3, signals=SIGNALS,
-):
+def run(ssp_path=DEFAULT_SSP, duration=30.0, step=1e-3, signals=SIGNALS):
     """Simulate the SSP in Ecos.
 
     Parameters
     ----------
     ssp_path : str
+        The ``.ssp`` file (Ecos extracts it into ``TMPDIR``).
     duration : float
-        s.
+        Simulated time, s: ``round(duration / step)`` steps.
     step : float
-        Communication step, s.
+        Communication step, s: Ecos takes it from here, not from the SSP.
     signals : sequence of (str, str)
         Component and variable names to record.
 
@@ -63,15 +59,8 @@ def run(ssp_path="dist/QuarterCarWithOccupant.ssp", duration=30.0, step=1e-3, si
         sim.terminate()
     finally:
         sim.free()
-    out = {"time": times}
-    for (comp, var), col in zip(signals, rows.T):
-        out[f"{comp}.{var}"] = col
-    return out
+    return record(times, rows, signals)
 
 
 if __name__ == "__main__":
-    args = sys.argv[1:]
-    res = run(args[0] if args else "dist/QuarterCarWithOccupant.ssp",
-              float(args[1]) if len(args) > 1 else 30.0)
-    a = res["Body.head_acceleration"]
-    print(f"{res['time'][-1]:g} s simulated; head acceleration r.m.s. {np.sqrt(np.mean(a ** 2)):.4f} m/s2")
+    main(run)

@@ -22,9 +22,9 @@ what a user must therefore give it:
 tests/test_ssp.py runs this function.
 """
 
-import sys
-
 import numpy as np
+
+from _ssp_host import DEFAULT_SSP, main
 
 __all__ = ["parameter_set", "run"]
 
@@ -35,6 +35,7 @@ def parameter_set(ssp_path):
     Parameters
     ----------
     ssp_path : str
+        The ``.ssp`` file, whose SSD binds one ``.ssv`` to each component.
 
     Returns
     -------
@@ -55,16 +56,19 @@ def parameter_set(ssp_path):
     return out
 
 
-def run(ssp_path="dist/QuarterCarWithOccupant.ssp", duration=30.0, step=1e-3):
+def run(ssp_path=DEFAULT_SSP, duration=30.0, step=1e-3):
     """Simulate the SSP with ``fmpy.ssp.simulation.simulate_ssp``.
 
     Parameters
     ----------
     ssp_path : str
+        The ``.ssp`` file; :func:`parameter_set` reads its bindings.
     duration : float
-        s.
+        Simulated time, s (``stop_time`` half a step short of it, so that fmpy takes the
+        last step exactly once).
     step : float
-        Communication step, s.
+        Communication step, s: ``simulate_ssp``'s ``step_size`` (its default, 1 % of the
+        stop time, is far too coarse).
 
     Returns
     -------
@@ -84,8 +88,4 @@ def run(ssp_path="dist/QuarterCarWithOccupant.ssp", duration=30.0, step=1e-3):
 
 
 if __name__ == "__main__":
-    args = sys.argv[1:]
-    res = run(args[0] if args else "dist/QuarterCarWithOccupant.ssp",
-              float(args[1]) if len(args) > 1 else 30.0)
-    a = res["Body.head_acceleration"]
-    print(f"{res['time'][-1]:g} s simulated; head acceleration r.m.s. {np.sqrt(np.mean(a ** 2)):.4f} m/s2")
+    main(run)

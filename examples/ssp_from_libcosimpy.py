@@ -9,18 +9,12 @@ script only records signals (time in integer nanoseconds; its default log is ver
 verbose, so it is lowered). tests/test_ssp.py runs this function.
 """
 
-import sys
-
-import numpy as np
+from _ssp_host import DEFAULT_SSP, SIGNALS, main, record
 
 __all__ = ["SIGNALS", "run"]
 
-#: (component, variable) recorded at every communication point.
-SIGNALS = (("Body", "head_acceleration"), ("Body", "seat_force"), ("Car", "seat_displacement"),
-           ("Road", "road_displacement"))
 
-
-def run(ssp_path="dist/QuarterCarWithOccupant.ssp", duration=30.0, step=None, signals=SIGNALS,
+def run(ssp_path=DEFAULT_SSP, duration=30.0, step=None, signals=SIGNALS,
         log_level="ERROR"):
     """Simulate the SSP in libcosim.
 
@@ -66,15 +60,8 @@ def run(ssp_path="dist/QuarterCarWithOccupant.ssp", duration=30.0, step=None, si
         rows.append([observer.last_real_values(i, [vr])[0] for i, vr in where])
         if times[-1] >= duration - 1e-12:
             break
-    out = {"time": np.array(times)}
-    for (comp, var), col in zip(signals, np.array(rows).T):
-        out[f"{comp}.{var}"] = col
-    return out
+    return record(times, rows, signals)
 
 
 if __name__ == "__main__":
-    args = sys.argv[1:]
-    res = run(args[0] if args else "dist/QuarterCarWithOccupant.ssp",
-              float(args[1]) if len(args) > 1 else 30.0)
-    a = res["Body.head_acceleration"]
-    print(f"{res['time'][-1]:g} s simulated; head acceleration r.m.s. {np.sqrt(np.mean(a ** 2)):.4f} m/s2")
+    main(run)

@@ -1,16 +1,22 @@
-"""Helpers the tests share: the repository's root, the command line, independent references.
+"""Helpers the tests share: the repository's root, the command line, what a command stopped
+by a signal must leave, a C host built for win64, independent references.
 
 Imported as ``from helpers import ...`` (``tests/`` is on ``sys.path`` under pytest's default
 import mode, as ``conftest.py`` is). Fixtures live in ``conftest.py``.
 """
 
+import contextlib
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
 
 import numpy as np
+import pytest
 
-__all__ = ["ROOT", "run_cli", "dynamic_stiffness_response"]
+__all__ = ["ROOT", "run_cli", "OLD_CONTENT", "write_old_outputs", "check_stopped_run",
+           "win64_host", "dynamic_stiffness_response"]
 
 #: The repository's root (where ``build_fmu.py`` is).
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -20,6 +26,64 @@ def run_cli(*args, cwd=None, timeout=600):
     """``python -m bodyvib_cli ARGS`` as a user runs it: the finished process, output as text."""
     return subprocess.run([sys.executable, "-m", "bodyvib_cli", *args], cwd=cwd,
                           capture_output=True, text=True, timeout=timeout)
+
+
+#: What every output holds before a command that is sent a signal runs.
+OLD_CONTENT = "old content\n"
+
+
+def write_old_outputs(outputs):
+    """Give every output file (``pathlib.Path``) :data:`OLD_CONTENT`, creating its folder."""
+    for p in outputs:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        p.write_text(OLD_CONTENT)
+
+
+def check_stopped_run(rc, err, outputs, status, line, what):
+    """Assert what a command sent a signal must leave; True if the signal stopped it.
+
+    It ends with ``status`` and ``line`` last on stderr (or with 0 when the signal came
+    after the work), never killed by a signal, without a traceback or a fatal FMU status;
+    its outputs are all new or all :data:`OLD_CONTENT`, and no staged ``.tmp-*`` file is
+    left beside them.
+    """
+    assert rc in (0, status), what  # never killed by a signal (segfault, abort)
+    assert "Traceback" not in err and "fatal" not in err.lower(), what
+    new = [p.read_text(errors="replace") != OLD_CONTENT for p in outputs]
+    if rc:
+        assert err.strip().splitlines()[-1] == line, what
+        assert all(new) or not any(new), (what, new)  # all outputs or none
+    else:
+        assert all(new), what
+    beside = [f for d in {p.parent for p in outputs} for f in os.listdir(d)
+              if f.startswith(".tmp-")]
+    assert not beside, (what, beside)
+    return bool(rc)
+
+
+@contextlib.contextmanager
+def win64_host(source, headers, exe, home):
+    """A C host compiled for win64 (mingw-w64, static) and wine to run it; skips without them.
+
+    Yields ``(wine, env)``: the wine program and the environment to run ``exe`` with (its
+    own ``WINEPREFIX``, removed afterwards; ``WINEDEBUG=-all``; ``HOME`` = ``home``).
+    """
+    mingw = shutil.which("x86_64-w64-mingw32-gcc")
+    wine = shutil.which("wine") or shutil.which("wine64") or next(
+        (p for p in ("/usr/lib/wine/wine64",) if os.access(p, os.X_OK)), None)
+    if mingw is None or wine is None:
+        pytest.skip(f"{'x86_64-w64-mingw32-gcc' if mingw is None else 'wine'} not found: "
+                    "install gcc-mingw-w64-x86-64 and wine64 to run the win64 binary")
+    out = subprocess.run([mingw, "-std=c99", "-O2", "-Wall", "-Werror", "-static", "-I", headers,
+                          str(source), "-o", str(exe)], capture_output=True, text=True,
+                         timeout=120)
+    assert out.returncode == 0, out.stderr
+    prefix = tempfile.mkdtemp(prefix="bodyvib-wine-")
+    try:
+        yield wine, {"WINEPREFIX": prefix, "WINEDEBUG": "-all", "HOME": str(home),
+                     "PATH": os.environ.get("PATH", "/usr/bin:/bin")}
+    finally:
+        shutil.rmtree(prefix, ignore_errors=True)
 
 
 def dynamic_stiffness_response(net, f_hz, point):

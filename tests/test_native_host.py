@@ -13,14 +13,13 @@ matrices are defined to about 1e-10 only).
 import os
 import shutil
 import subprocess
-import tempfile
 import zipfile
 
 import numpy as np
 import pytest
 
 from bodyvib.models import load_model
-from helpers import ROOT
+from helpers import ROOT, win64_host
 from test_native_fmu import BODY_OUT, MODEL_OF, TIGHT, body_reference, relative_error, tolerance
 
 pytestmark = pytest.mark.integration
@@ -201,18 +200,8 @@ def test_c_host_under_valgrind_is_clean(host, unpacked, mode):
 
 
 def test_win64_binary_under_wine_matches_linux64(host, unpacked, tmp_path):
-    mingw, wine = shutil.which("x86_64-w64-mingw32-gcc"), shutil.which("wine")
-    if mingw is None or wine is None:
-        pytest.skip(f"{'x86_64-w64-mingw32-gcc' if mingw is None else 'wine'} not found: "
-                    "install gcc-mingw-w64-x86-64 and wine64 to run the win64 binary")
     exe = str(tmp_path / "native_host.exe")
-    out = subprocess.run([mingw, "-std=c99", "-O2", "-Wall", "-Werror", "-static", "-I", headers(),
-                          HOST, "-o", exe], capture_output=True, text=True, timeout=120)
-    assert out.returncode == 0, out.stderr
-    prefix = tempfile.mkdtemp(prefix="bodyvib-wine-")
-    env = {"WINEPREFIX": prefix, "WINEDEBUG": "-all", "HOME": str(tmp_path),
-           "PATH": os.environ.get("PATH", "/usr/bin:/bin")}
-    try:
+    with win64_host(HOST, headers(), exe, tmp_path) as (wine, env):
         for name in MODEL_OF:
             win = run(exe, unpacked, name, "run", platform="win64", suffix=".dll",
                       prefix=(wine,), env=env)
@@ -225,5 +214,3 @@ def test_win64_binary_under_wine_matches_linux64(host, unpacked, tmp_path):
             assert np.max(np.abs(a[:, 2:4] - b[:, 2:4])) <= 1e-15
             err = relative_error(a[:, 4:], b[:, 4:])
             assert np.all(err <= np.maximum(TIGHT, tolerance(name, b[:, 1], b[:, 2], b[:, 3]))), err
-    finally:
-        shutil.rmtree(prefix, ignore_errors=True)

@@ -27,7 +27,6 @@ checked against the analytic sine response, on linux64 and, under wine, win64.
 import os
 import shutil
 import subprocess
-import tempfile
 import zipfile
 from ctypes import POINTER, c_double, c_int, c_void_p
 from xml.etree import ElementTree as ET
@@ -40,7 +39,7 @@ from bodyvib.models import load_model
 from bodyvib.runtime.contract import KINDS
 from bodyvib.runtime.discretize import discretize
 from bodyvib.runtime.network import linear_model
-from helpers import ROOT
+from helpers import ROOT, win64_host
 from test_native_fmu import _fmi2_callbacks
 from vehicle.quarter_car import load_car
 
@@ -469,21 +468,8 @@ def test_c_host_rk4_converges_to_the_analytic_sine_response(me_host, native_fmus
 
 
 def test_win64_model_exchange_under_wine_matches_linux64(me_host, native_fmus, tmp_path):
-    mingw = shutil.which("x86_64-w64-mingw32-gcc")
-    wine = shutil.which("wine") or shutil.which("wine64") or next(
-        (p for p in ("/usr/lib/wine/wine64",) if os.access(p, os.X_OK)), None)
-    if mingw is None or wine is None:
-        pytest.skip(f"{'x86_64-w64-mingw32-gcc' if mingw is None else 'wine'} not found: "
-                    "install gcc-mingw-w64-x86-64 and wine64 to run the win64 binary")
     exe = str(tmp_path / "me_host.exe")
-    out = subprocess.run([mingw, "-std=c99", "-O2", "-Wall", "-Werror", "-static", "-I",
-                          _fmpy_headers(), ME_HOST, "-o", exe],
-                         capture_output=True, text=True, timeout=120)
-    assert out.returncode == 0, out.stderr
-    prefix = tempfile.mkdtemp(prefix="bodyvib-wine-")
-    env = {"WINEPREFIX": prefix, "WINEDEBUG": "-all", "HOME": str(tmp_path),
-           "PATH": os.environ.get("PATH", "/usr/bin:/bin")}
-    try:
+    with win64_host(ME_HOST, _fmpy_headers(), exe, tmp_path) as (wine, env):
         for name in ME_CASES:
             folder = tmp_path / name
             with zipfile.ZipFile(native_fmus[name]) as z:
@@ -494,5 +480,3 @@ def test_win64_model_exchange_under_wine_matches_linux64(me_host, native_fmus, t
             # the sine comes from each platform's own libm (1 ulp apart at most)
             assert np.max(np.abs(xw - xl) / np.max(np.abs(xl), axis=0)) <= 1e-12
             assert np.array_equal(jw, jl)
-    finally:
-        shutil.rmtree(prefix, ignore_errors=True)

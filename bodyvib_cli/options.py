@@ -1,0 +1,133 @@
+"""The option groups several ``bodyvib`` commands share, declared once: output files, body
+models and the ``--road-*`` options of a driven road."""
+
+import os
+
+from vehicle.road.driven import DEFAULT_TAPER_M, RoadOptions
+from vehicle.sweep.spec import ROAD_OPTION_KEYS
+
+from .outputs import OUTPUT_OPTIONS
+
+__all__ = ["add_output_options", "add_models_option", "model_inputs", "ROAD_ARGUMENTS",
+           "add_road_options", "road_options_from_args"]
+
+
+def add_output_options(p, **helps) -> None:
+    """Add output-file options (``--plot``, ``--csv``, ``--json``) to a command's parser.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The command's parser.
+    **helps : str
+        Option name (a key of :data:`bodyvib_cli.outputs.OUTPUT_OPTIONS`) to its help text,
+        in the order the options are listed in the help.
+
+    Examples
+    --------
+    >>> import argparse
+    >>> p = argparse.ArgumentParser()
+    >>> add_output_options(p, plot="write the plot", json="write the figures as JSON")
+    >>> p.parse_args(["--json", "a.json"]).json
+    'a.json'
+    """
+    for name, text in helps.items():
+        p.add_argument(f"--{name}", metavar=OUTPUT_OPTIONS[name][0], help=text)
+
+
+def add_models_option(p, default) -> None:
+    """Add ``--models MODEL ...``: the body models a command compares.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The command's parser.
+    default : sequence of str
+        Model names used when the option is not given.
+    """
+    p.add_argument("--models", nargs="+", default=list(default), metavar="MODEL",
+                   help="shipped model names or parameter-file paths (default: %(default)s)")
+
+
+def model_inputs(models) -> list:
+    """The ``(option, path)`` inputs of ``--models``: those that are parameter files.
+
+    Parameters
+    ----------
+    models : sequence of str
+        Shipped model names or parameter-file paths.
+
+    Returns
+    -------
+    list of (str, str)
+        ``("--models", path)`` of every existing file, for
+        :func:`bodyvib_cli.outputs.check_files` (no output may overwrite one).
+    """
+    return [("--models", m) for m in models if os.path.isfile(m)]
+
+
+#: The ``--road-KEY`` options' argparse settings, by KEY: a key of a sweep spec's
+#: ``road_options`` and of Road.fmu's road options (:data:`vehicle.sweep.spec.ROAD_OPTION_KEYS`
+#: names the :class:`~vehicle.road.driven.RoadOptions` field each one sets).
+ROAD_ARGUMENTS = {
+    "taper": dict(type=float, default=DEFAULT_TAPER_M, metavar="M",
+                  help="the road fades in from level over its first M metres (and out over its "
+                  "last), so the car starts at rest on it (default: 5; 0: none)"),
+    "track": dict(type=float, default=0.0, metavar="M",
+                  help="OpenCRG road: lateral offset of the wheel from the reference line, m, "
+                  "positive to the left (default: 0)"),
+    "units": dict(metavar="DIST,ELEV",
+                  help="CSV/ERD road: units of distance and elevation when the file does not "
+                  "name them, e.g. m,mm"),
+    "envelope": dict(action="store_true",
+                     help="road file: tire enveloping, the 250 mm moving average of the IRI "
+                     "standard"),
+    "repeat": dict(action="store_true",
+                   help="road file: repeat the profile when the run is longer than it (default: "
+                   "refuse such a run)"),
+}
+
+
+def add_road_options(p, taper_help=None) -> None:
+    """The ``--road-*`` options of a command that drives a road (cosim, check, sweep, build).
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The command's parser.
+    taper_help : str, optional
+        Help of ``--road-taper`` where the taper means something else (``build``: the
+        default of Road.fmu).
+    """
+    for key, settings in ROAD_ARGUMENTS.items():
+        if key == "taper" and taper_help:
+            settings = dict(settings, help=taper_help)
+        p.add_argument(f"--road-{key}", **settings)
+
+
+def road_options_from_args(args) -> RoadOptions:
+    """The road options of parsed ``--road-*`` options.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        A command line parsed by a parser with :func:`add_road_options`.
+
+    Returns
+    -------
+    vehicle.road.driven.RoadOptions
+
+    Examples
+    --------
+    Every option sets one field (the spec's keys and the options are the same five):
+
+    >>> list(ROAD_ARGUMENTS) == list(ROAD_OPTION_KEYS)
+    True
+    >>> import argparse
+    >>> p = argparse.ArgumentParser()
+    >>> add_road_options(p)
+    >>> road_options_from_args(p.parse_args(["--road-taper", "3", "--road-repeat"]))
+    RoadOptions(taper_m=3.0, track_m=0.0, units=None, envelope=False, repeat=True)
+    """
+    return RoadOptions(**{field: getattr(args, f"road_{key}")
+                          for key, field in ROAD_OPTION_KEYS.items()})
