@@ -57,7 +57,7 @@ from ..road.driven import RoadOptions, is_road_file, road_label
 from ..study import check_settings
 from ..quarter_car import load_car
 
-__all__ = ["Case", "SPEC_KEYS", "load_spec", "grid_spec", "expand", "iter_cases", "count_cases",
+__all__ = ["Case", "ROAD_OPTION_KEYS", "SPEC_KEYS", "load_spec", "grid_spec", "expand", "iter_cases", "count_cases",
            "spec_hash", "varied_parameters", "seed_range"]
 
 #: Keys of a spec and their defaults (None: required).
