@@ -109,7 +109,7 @@ def main(argv=None):
         def run(s, **kw):
             return run_sweep(s, out=out, overwrite=True, **kw)
 
-        print(f"one bodyvib cosim run ...", file=sys.stderr, flush=True)
+        print("one bodyvib cosim run ...", file=sys.stderr, flush=True)
         res["bodyvib_cosim_s"], _ = timed(lambda: one_cosim_run(tmp), a.repeats, "bodyvib_cosim")
         print("spectral ...", file=sys.stderr, flush=True)
         res["spectral_local_s"], df = timed(lambda: run(spec, engine="spectral", workers=a.workers,

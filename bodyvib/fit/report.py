@@ -108,7 +108,7 @@ def format_comparison(cmp) -> str:
     names = ("target", "table2", "refit")
     head = "| quantity | target | paper's Table 2 | refit |"
     lines = [f"Target: {cmp['target']}.", "",
-             f"Pairs (role = weight): "
+             "Pairs (role = weight): "
              + ", ".join(f"{r} = {w:g}" for r, w in cmp["pairs"].items())
              + f"; total mass pinned to {cmp['total_mass_kg']:g} kg.", "",
              head, "|---|---|---|---|"]
