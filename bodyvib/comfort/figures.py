@@ -308,58 +308,75 @@ def running_rms(weighted, fs: float) -> np.ndarray:
     return np.sqrt(_running_ms(_check_signal(weighted, fs), fs))
 
 
-def _figure_of_record(name: str, figure, summary: str, returns: str, examples: str = ""):
-    """The public function ``name(acceleration, fs)``: ``figure`` of the Wk-weighted record.
-
-    The single figures (:func:`weighted_rms`, :func:`vdv`, :func:`peak`, :func:`mtvv`)
-    differ only in the figure of the weighted record and in words, so they are made
-    here, once, from :data:`_SINGLE_FIGURES`.
-    """
-    def of_record(acceleration, fs: float) -> float:
-        return figure(weighted_acceleration(acceleration, fs), fs)
-
-    of_record.__name__ = of_record.__qualname__ = name
-    of_record.__module__ = __name__
-    of_record.__doc__ = (f"""{summary}
+@_record_doc
+def weighted_rms(acceleration, fs: float) -> float:
+    """ISO 2631-1 frequency-weighted r.m.s. acceleration (Wk) in m/s2.
 
     %(record)s
 
     Returns
     -------
     float
-        {returns}
+        ``sqrt(mean(a_w^2))`` over the whole record.
 
     %(record_raises)s
-    """ + (f"""
+
     Examples
     --------
-    {examples}
-    """ if examples else ""))
-    return _record_doc(of_record)
-
-
-#: The single figures of one record: (name, figure of ``(a_w, fs)``, summary, what the
-#: number is, docstring example).
-_SINGLE_FIGURES = (
-    ("weighted_rms", lambda aw, fs: _rms(aw),
-     "ISO 2631-1 frequency-weighted r.m.s. acceleration (Wk) in m/s2.",
-     "``sqrt(mean(a_w^2))`` over the whole record.",
-     """>>> t = np.arange(0, 60, 1e-3)
+    >>> t = np.arange(0, 60, 1e-3)
     >>> round(float(weighted_rms(np.sin(2 * np.pi * 5 * t), 1000.0) * np.sqrt(2)), 2)
-    1.04"""),
-    ("vdv", _vdv,
-     "ISO 2631-1 vibration dose value (Wk weighted) in m/s^1.75.",
-     "``(sum(a_w^4) / fs)^(1/4)``, the fourth-power dose over the record.", ""),
-    ("peak", lambda aw, fs: _peak(aw),
-     "Peak of the Wk-weighted acceleration, ``max |a_w|`` in m/s2.",
-     "The largest magnitude of the weighted record, either sign.", ""),
-    ("mtvv", _mtvv,
-     "ISO 2631-1 maximum transient vibration value (Wk weighted) in m/s2.",
-     "The largest 1 s running r.m.s. (linear integration) of the weighted\n"
-     "        record; see the module docstring.", ""),
-)
+    1.04
+    """
+    return _rms(weighted_acceleration(acceleration, fs))
 
-weighted_rms, vdv, peak, mtvv = (_figure_of_record(*row) for row in _SINGLE_FIGURES)
+
+@_record_doc
+def vdv(acceleration, fs: float) -> float:
+    """ISO 2631-1 vibration dose value (Wk weighted) in m/s^1.75.
+
+    %(record)s
+
+    Returns
+    -------
+    float
+        ``(sum(a_w^4) / fs)^(1/4)``, the fourth-power dose over the record.
+
+    %(record_raises)s
+    """
+    return _vdv(weighted_acceleration(acceleration, fs), fs)
+
+
+@_record_doc
+def peak(acceleration, fs: float) -> float:
+    """Peak of the Wk-weighted acceleration, ``max |a_w|`` in m/s2.
+
+    %(record)s
+
+    Returns
+    -------
+    float
+        The largest magnitude of the weighted record, either sign.
+
+    %(record_raises)s
+    """
+    return _peak(weighted_acceleration(acceleration, fs))
+
+
+@_record_doc
+def mtvv(acceleration, fs: float) -> float:
+    """ISO 2631-1 maximum transient vibration value (Wk weighted) in m/s2.
+
+    %(record)s
+
+    Returns
+    -------
+    float
+        The largest 1 s running r.m.s. (linear integration) of the weighted
+        record; see the module docstring.
+
+    %(record_raises)s
+    """
+    return _mtvv(weighted_acceleration(acceleration, fs), fs)
 
 
 def comfort_category(weighted_rms_value: float) -> str:
@@ -437,10 +454,10 @@ def comfort_figures(acceleration, fs: float) -> ComfortFigures:
     %(record_raises)s
     """
     aw = weighted_acceleration(acceleration, fs)
-    f = {name: figure(aw, fs) for name, figure, *_ in _SINGLE_FIGURES}
-    rms, pk = f["weighted_rms"], f["peak"]
-    return ComfortFigures(crest_factor=pk / rms if rms > 0 else float("nan"),
-                          comfort=comfort_category(rms), **f)
+    rms, pk = _rms(aw), _peak(aw)
+    return ComfortFigures(weighted_rms=rms, vdv=_vdv(aw, fs), peak=pk,
+                          crest_factor=pk / rms if rms > 0 else float("nan"),
+                          comfort=comfort_category(rms), mtvv=_mtvv(aw, fs))
 
 
 #: ISO 2631-1 clause 6.3: above these ratios the basic method (the weighted
