@@ -1003,17 +1003,6 @@ bv_status bv_get_output_derivatives(bv_instance *c, const unsigned int vr[], siz
 
 static const unsigned char MAGIC[8] = {'B', 'V', 'S', 'T', 'A', 'T', 'E', '2'};
 
-static uint64_t fnv1a(const unsigned char *p, size_t n)
-{
-    uint64_t h = 1469598103934665603ULL;
-    size_t i;
-    for (i = 0; i < n; i++) {
-        h ^= p[i];
-        h *= 1099511628211ULL;
-    }
-    return h;
-}
-
 /* Payload: doubles time, initialized, init_failed, p[np], x[n], s[ni], then per fallback
  * pair x_prev, h_prev, has_prev, vel_set, slope_on, warned. */
 static size_t payload_doubles(const bv_instance *c)
@@ -1023,7 +1012,7 @@ static size_t payload_doubles(const bv_instance *c)
 
 size_t bv_state_size(const bv_instance *c)
 {
-    return 8 + 8 + 8 + 8 * payload_doubles(c) + 8;
+    return BV_SNAPSHOT_HEAD + 8 * payload_doubles(c) + 8;
 }
 
 static unsigned char *put(unsigned char *q, const double *v, size_t k)
@@ -1032,21 +1021,12 @@ static unsigned char *put(unsigned char *q, const double *v, size_t k)
     return q + k * sizeof *v;
 }
 
-static uint64_t token_hash(const bv_instance *c)
-{
-    return fnv1a((const unsigned char *)c->bc.md->token, strlen(c->bc.md->token));
-}
-
 void bv_state_write(const bv_instance *c, unsigned char *buf)
 {
     int k;
-    uint64_t size = bv_state_size(c), token = token_hash(c), sum;
+    size_t size = bv_state_size(c);
     double head[3], pair[6];
-    unsigned char *q = buf;
-    memcpy(q, MAGIC, 8);
-    memcpy(q + 8, &size, 8);
-    memcpy(q + 16, &token, 8);
-    q += 24;
+    unsigned char *q = bv_common_snapshot_head(&c->bc, buf, MAGIC, size);
     head[0] = c->bc.time;
     head[1] = c->bc.initialized;
     head[2] = c->bc.init_failed;
@@ -1063,37 +1043,20 @@ void bv_state_write(const bv_instance *c, unsigned char *buf)
         pair[5] = c->warned[k];
         q = put(q, pair, 6);
     }
-    sum = fnv1a(buf, (size_t)(q - buf));
-    memcpy(q, &sum, 8);
+    bv_common_snapshot_seal(buf, size);
 }
 
 static int flag_ok(double v) { return v == 0.0 || v == 1.0; }
 
 bv_status bv_state_check(const bv_instance *c, const unsigned char *buf, size_t size)
 {
-    uint64_t want = bv_state_size(c), got, token, sum;
     size_t off, i;
     int k;
     double head[3], pair[6], *p, v;
-    if (buf == NULL || size < 24 || memcmp(buf, MAGIC, 8) != 0) {
-        say(c, BV_ERROR, "%s: not a bodyvib FMU state (bad magic)", c->bc.name);
+    if (bv_common_snapshot_check(&c->bc, buf, size, MAGIC, bv_state_size(c)) != BV_OK)
         return BV_ERROR;
-    }
-    memcpy(&got, buf + 8, 8);
-    memcpy(&token, buf + 16, 8);
-    if (got != want || size != want || token != token_hash(c)) {
-        say(c, BV_ERROR, "%s: the FMU state belongs to another model or version (size %llu, "
-                         "expected %llu); refused", c->bc.name, (unsigned long long)size,
-            (unsigned long long)want);
-        return BV_ERROR;
-    }
-    memcpy(&sum, buf + want - 8, 8);
-    if (sum != fnv1a(buf, (size_t)want - 8)) {
-        say(c, BV_ERROR, "%s: the FMU state is corrupt (checksum mismatch); refused", c->bc.name);
-        return BV_ERROR;
-    }
-    memcpy(head, buf + 24, sizeof head);
-    off = 24 + sizeof head;
+    memcpy(head, buf + BV_SNAPSHOT_HEAD, sizeof head);
+    off = BV_SNAPSHOT_HEAD + sizeof head;
     if (!(isfinite(head[0]) && flag_ok(head[1]) && flag_ok(head[2]))) {
         say(c, BV_ERROR, "%s: the FMU state is invalid (time or flags); refused", c->bc.name);
         return BV_ERROR;
@@ -1150,7 +1113,7 @@ bv_status bv_state_read(bv_instance *c, const unsigned char *buf, size_t size)
     const unsigned char *q;
     if (bv_state_check(c, buf, size) != BV_OK)
         return BV_ERROR;
-    q = get(buf + 24, head, 3);
+    q = get(buf + BV_SNAPSHOT_HEAD, head, 3);
     q = get(q, c->p, (size_t)c->np);
     q = get(q, c->x, (size_t)c->n);
     q = get(q, c->s, (size_t)c->ni);
@@ -1217,42 +1180,19 @@ static double derivative_value(const bv_instance *c, int i)
     return v;
 }
 
-int bv_me_nstates(const bv_instance *c) { return c->n; }
-
-void bv_me_set_time(bv_instance *c, double t)
-{
-    c->bc.time = t; /* the model is time-invariant: time only labels the state */
-}
-
-static int n_ok(const bv_instance *c, size_t nx, const char *what)
-{
-    if (nx != (size_t)c->n) {
-        say(c, BV_ERROR, "%s: %s: %lu continuous states passed, the model has %d", c->bc.name, what,
-            (unsigned long)nx, c->n);
-        return 0;
-    }
-    return 1;
-}
-
-bv_status bv_me_set_states(bv_instance *c, const double x[], size_t nx)
+void bv_me_set_states(bv_instance *c, const double x[])
 {
     int i;
-    if (!n_ok(c, nx, "SetContinuousStates"))
-        return BV_ERROR;
     for (i = 0; i < c->n; i++)
         c->x[i] = x[i];
     c->dirty = 1;
-    return BV_OK;
 }
 
-bv_status bv_me_get_states(bv_instance *c, double x[], size_t nx)
+void bv_me_get_states(const bv_instance *c, double x[])
 {
     int i;
-    if (!n_ok(c, nx, "GetContinuousStates"))
-        return BV_ERROR;
     for (i = 0; i < c->n; i++)
         x[i] = c->x[i];
-    return BV_OK;
 }
 
 /* The unconnected velocity in model exchange: no slope fallback (the host owns the input
@@ -1283,27 +1223,14 @@ static void me_unconnected_velocity(bv_instance *c)
     }
 }
 
-bv_status bv_me_derivatives(bv_instance *c, double dx[], size_t nx)
+void bv_me_derivatives(bv_instance *c, double dx[])
 {
     int i;
-    if (!n_ok(c, nx, "GetDerivatives"))
-        return BV_ERROR;
     follow_parameters(c);
     if (c->bc.md->npairs)
         me_unconnected_velocity(c);
     for (i = 0; i < c->n; i++)
         dx[i] = derivative_value(c, i);
-    return BV_OK;
-}
-
-bv_status bv_me_nominals(bv_instance *c, double nominal[], size_t nx)
-{
-    int i;
-    if (!n_ok(c, nx, "GetNominalsOfContinuousStates"))
-        return BV_ERROR;
-    for (i = 0; i < c->n; i++)
-        nominal[i] = 1.0; /* SI units; displacements are mm, velocities m/s: no better scale */
-    return BV_OK;
 }
 
 static int me_var_get(bv_instance *c, unsigned int vr, double *value)

@@ -12,7 +12,8 @@
  * with the inputs extrapolated over the step at their rates du (and, where a rate has a
  * rate of its own, their curvature d2u).
  *
- * The FMI 2.0 and FMI 3.0 function files are thin wrappers around this API.
+ * The FMI 2.0 and FMI 3.0 function files are thin wrappers around this API and the
+ * version-neutral FMI calls built on it (bodyvib_calls.h).
  * C99, libc and libm only; no global mutable state: every instance is independent.
  */
 #ifndef BODYVIB_CORE_H
@@ -100,6 +101,7 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
 bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double value[]);
 bv_status bv_step(bv_instance *c, double t, double h);
 double bv_time(const bv_instance *c);
+const char *bv_name(const bv_instance *c); /* the name the messages begin with */
 
 /* The state machine: bv_allowed logs "<function>: not allowed in state <state> ..." and
  * returns 0 when the instance's state is not in `mask`; bv_enter_* change the state. */
@@ -141,12 +143,13 @@ bv_status bv_state_read(bv_instance *c, const unsigned char *buffer, size_t size
 #define BV_STATE_VR(md, i) ((md)->nvars + 1 + (i))
 #define BV_DER_VR(md, i) ((md)->nvars + 1 + (md)->n + (i))
 
-int bv_me_nstates(const bv_instance *c);
+int bv_me_nstates(const bv_instance *c); /* the model's n (0 for a source) */
 void bv_me_set_time(bv_instance *c, double t);
-bv_status bv_me_set_states(bv_instance *c, const double x[], size_t nx);
-bv_status bv_me_get_states(bv_instance *c, double x[], size_t nx);
-bv_status bv_me_derivatives(bv_instance *c, double dx[], size_t nx);
-bv_status bv_me_nominals(bv_instance *c, double nominal[], size_t nx);
+/* The continuous states and their derivatives, bv_me_nstates values each (the caller,
+ * bodyvib_calls.c, checked the host's count). */
+void bv_me_set_states(bv_instance *c, const double x[]);
+void bv_me_get_states(const bv_instance *c, double x[]);
+void bv_me_derivatives(bv_instance *c, double dx[]);
 /* Exact directional derivative: sensitivity = J seed, J the rows of A, B U (derivatives)
  * and Yx, Ys (outputs) of the unknowns on the columns of the knowns (states, inputs). */
 bv_status bv_directional(bv_instance *c, const unsigned int unknowns[], size_t nu,

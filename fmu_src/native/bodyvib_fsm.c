@@ -55,6 +55,13 @@ void bv_common_clear(bv_common *b)
 
 double bv_time(const bv_instance *c) { return BV_COMMON(c)->time; }
 
+const char *bv_name(const bv_instance *c) { return BV_COMMON(c)->name; }
+
+/* The models are time-invariant: in model exchange the time only labels the state. */
+void bv_me_set_time(bv_instance *c, double t) { BV_COMMON(c)->time = t; }
+
+int bv_me_nstates(const bv_instance *c) { return BV_COMMON(c)->md->n; }
+
 static const char *mode_name(int mode)
 {
     switch (mode) {
@@ -205,6 +212,64 @@ bv_status bv_common_check_output_orders(const bv_common *b, const unsigned int v
                    b->name, order[i], md->vr_name[vr[i]], BV_MAX_OUTPUT_ORDER);
             return BV_ERROR;
         }
+    }
+    return BV_OK;
+}
+
+/* ---------------------------------------------------------------- snapshots */
+
+static uint64_t fnv1a(const unsigned char *p, size_t n)
+{
+    uint64_t h = 1469598103934665603ULL;
+    size_t i;
+    for (i = 0; i < n; i++) {
+        h ^= p[i];
+        h *= 1099511628211ULL;
+    }
+    return h;
+}
+
+static uint64_t token_hash(const bv_common *b)
+{
+    return fnv1a((const unsigned char *)b->md->token, strlen(b->md->token));
+}
+
+unsigned char *bv_common_snapshot_head(const bv_common *b, unsigned char *buf,
+                                       const unsigned char magic[8], uint64_t size)
+{
+    uint64_t token = token_hash(b);
+    memcpy(buf, magic, 8);
+    memcpy(buf + 8, &size, 8);
+    memcpy(buf + 16, &token, 8);
+    return buf + BV_SNAPSHOT_HEAD;
+}
+
+void bv_common_snapshot_seal(unsigned char *buf, size_t size)
+{
+    uint64_t sum = fnv1a(buf, size - 8);
+    memcpy(buf + size - 8, &sum, 8);
+}
+
+bv_status bv_common_snapshot_check(const bv_common *b, const unsigned char *buf, size_t size,
+                                   const unsigned char magic[8], uint64_t want)
+{
+    uint64_t got, token, sum;
+    if (buf == NULL || size < BV_SNAPSHOT_HEAD || memcmp(buf, magic, 8) != 0) {
+        bv_say(b, BV_ERROR, "%s: not a bodyvib FMU state (bad magic)", b->name);
+        return BV_ERROR;
+    }
+    memcpy(&got, buf + 8, 8);
+    memcpy(&token, buf + 16, 8);
+    if (got != want || size != want || token != token_hash(b)) {
+        bv_say(b, BV_ERROR, "%s: the FMU state belongs to another model or version (size %llu, "
+                            "expected %llu); refused", b->name, (unsigned long long)size,
+               (unsigned long long)want);
+        return BV_ERROR;
+    }
+    memcpy(&sum, buf + want - 8, 8);
+    if (sum != fnv1a(buf, (size_t)want - 8)) {
+        bv_say(b, BV_ERROR, "%s: the FMU state is corrupt (checksum mismatch); refused", b->name);
+        return BV_ERROR;
     }
     return BV_OK;
 }

@@ -6,13 +6,16 @@
  * bodyvib_core.h reads it), the model, the instance's name and logger, the model's time
  * and start time, the initialization flags and the reason a failed initialization gave.
  * bodyvib_fsm.c implements on it the functions that are the same for every core
- * (bv_state, bv_allowed, bv_setup, bv_enter_initialization, bv_terminate, bv_time) and
+ * (bv_state, bv_allowed, bv_setup, bv_enter_initialization, bv_terminate, bv_time, bv_name,
+ * bv_me_nstates, bv_me_set_time), the snapshots' head and checksum, and
  * the transitions the cores' bv_initialize, bv_step, bv_reset and bv_state_read make, so
  * that one implementation decides the states, the allowed calls and their messages.
  * Internal to the cores: the FMI wrappers see only bodyvib_core.h.
  */
 #ifndef BODYVIB_FSM_H
 #define BODYVIB_FSM_H
+
+#include <stdint.h>
 
 #include "bodyvib_core.h"
 
@@ -73,11 +76,18 @@ int bv_common_check_vr(const bv_common *b, unsigned int vr);
 bv_status bv_common_check_output_orders(const bv_common *b, const unsigned int vr[],
                                         size_t nvr, const int order[]);
 
-/* A value reference the model has (logged and 0 if not). */
-int bv_common_check_vr(const bv_common *b, unsigned int vr);
-/* A request for output derivatives: every reference an output, every order 1 ..
- * BV_MAX_OUTPUT_ORDER. BV_OK, or BV_ERROR (logged) before anything is computed. */
-bv_status bv_common_check_output_orders(const bv_common *b, const unsigned int vr[],
-                                        size_t nvr, const int order[]);
+/* Snapshots (bv_state_write .. bv_state_read of either core): 8 bytes of the core's magic,
+ * the snapshot's size and the hash of the model's token (uint64 each), the core's payload,
+ * then a checksum (uint64, FNV-1a of every byte before it). */
+#define BV_SNAPSHOT_HEAD 24
+/* Write the head of a snapshot of `size` bytes; returns where the payload begins. */
+unsigned char *bv_common_snapshot_head(const bv_common *b, unsigned char *buf,
+                                       const unsigned char magic[8], uint64_t size);
+/* Write the checksum into the last 8 bytes of a snapshot of `size` bytes. */
+void bv_common_snapshot_seal(unsigned char *buf, size_t size);
+/* A snapshot of this core and model: the magic, the size `want` (of the buffer too), the
+ * token and the checksum. BV_OK, or BV_ERROR with the reason logged. */
+bv_status bv_common_snapshot_check(const bv_common *b, const unsigned char *buf, size_t size,
+                                   const unsigned char magic[8], uint64_t want);
 
 #endif
