@@ -227,6 +227,25 @@ static const double B13[14] = {
     40840800., 960960., 16380., 182., 1.};
 #define THETA13 5.371920351148152
 
+/* One sum of the Pade(13) approximant from the coefficient b_o (o = 1: the odd ones, U
+ * before its factor A; o = 0: the even ones, V):
+ *     out = A6 (b_{o+12} A6 + b_{o+10} A4 + b_{o+8} A2) + b_{o+6} A6 + b_{o+4} A4
+ *           + b_{o+2} A2 + b_o I,
+ * with A2, A4, A6 the scaled powers M2, M4, M6 (N x N); W: N x N scratch. */
+static void pade_sum(double *out, double *W, const double *M2, const double *M4,
+                     const double *M6, int N, int o)
+{
+    size_t NN = (size_t)N * N, i;
+    int k;
+    for (i = 0; i < NN; i++)
+        W[i] = B13[o + 12] * M6[i] + B13[o + 10] * M4[i] + B13[o + 8] * M2[i];
+    mul(out, M6, W, N, N, N);
+    for (i = 0; i < NN; i++)
+        out[i] += B13[o + 6] * M6[i] + B13[o + 4] * M4[i] + B13[o + 2] * M2[i];
+    for (k = 0; k < N; k++)
+        out[(size_t)k * N + k] += B13[o];
+}
+
 /* E = exp(M), M N x N, by scaling and squaring with a degree-13 Pade approximant; the
  * scaling from norms of powers of M (Al-Mohy & Higham 2009), as bodyvib.discretize.expm.
  * work: 9 N x N; piv: N. Returns 0 if the Pade denominator is singular. */
@@ -236,7 +255,7 @@ static int expm(double *E, const double *M, int N, double *work, int *piv)
     double *M2 = work, *M4 = M2 + NN, *M6 = M4 + NN, *T = M6 + NN, *A = T + NN;
     double *W = A + NN, *Uo = W + NN, *V = Uo + NN, *P = V + NN;
     double d6, d8, d10, eta, f2, f4, f6, f1;
-    int s = 0, k, j;
+    int s = 0, j;
 
     mul(M2, M, M, N, N, N);
     mul(M4, M2, M2, N, N, N);
@@ -262,22 +281,10 @@ static int expm(double *E, const double *M, int N, double *work, int *piv)
         M6[i] *= f6;
     }
     /* U = A (A6 (b13 A6 + b11 A4 + b9 A2) + b7 A6 + b5 A4 + b3 A2 + b1 I) */
-    for (i = 0; i < NN; i++)
-        W[i] = B13[13] * M6[i] + B13[11] * M4[i] + B13[9] * M2[i];
-    mul(T, M6, W, N, N, N);
-    for (i = 0; i < NN; i++)
-        T[i] += B13[7] * M6[i] + B13[5] * M4[i] + B13[3] * M2[i];
-    for (k = 0; k < N; k++)
-        T[(size_t)k * N + k] += B13[1];
+    pade_sum(T, W, M2, M4, M6, N, 1);
     mul(Uo, A, T, N, N, N);
     /* V = A6 (b12 A6 + b10 A4 + b8 A2) + b6 A6 + b4 A4 + b2 A2 + b0 I */
-    for (i = 0; i < NN; i++)
-        W[i] = B13[12] * M6[i] + B13[10] * M4[i] + B13[8] * M2[i];
-    mul(V, M6, W, N, N, N);
-    for (i = 0; i < NN; i++)
-        V[i] += B13[6] * M6[i] + B13[4] * M4[i] + B13[2] * M2[i];
-    for (k = 0; k < N; k++)
-        V[(size_t)k * N + k] += B13[0];
+    pade_sum(V, W, M2, M4, M6, N, 0);
     /* (V - U) E = V + U */
     for (i = 0; i < NN; i++) {
         P[i] = V[i] - Uo[i];
@@ -687,8 +694,10 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
                 status = BV_ERROR;
             continue;
         }
-        int kind = md->vr_kind[vr[i]], idx = md->vr_index[vr[i]];
-        if (kind == BV_INPUT) {
+        int idx = md->vr_index[vr[i]];
+        if (!bv_common_settable(&c->bc, vr[i])) {
+            status = BV_ERROR;
+        } else if (md->vr_kind[vr[i]] == BV_INPUT) {
             c->s[idx] = value[i];
             c->dirty = 1;
             if (value[i] != 0.0)
@@ -697,19 +706,8 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
                         c->vel_set[k] = 1;
                         c->slope_on[k] = 0;
                     }
-        } else if (kind == BV_PARAMETER) {
-            if (c->bc.initialized) {
-                say(c, BV_ERROR, "%s: parameter %s is fixed after initialization; set it "
-                                 "before ExitInitializationMode (ignored)",
-                    c->bc.name, md->vr_name[vr[i]]);
-                status = BV_ERROR;
-            } else {
-                c->p[idx] = value[i];
-            }
         } else {
-            say(c, BV_ERROR, "%s: %s is an output and cannot be set (ignored)", c->bc.name,
-                md->vr_name[vr[i]]);
-            status = BV_ERROR;
+            c->p[idx] = value[i]; /* a parameter */
         }
     }
     return status;

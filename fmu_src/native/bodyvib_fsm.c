@@ -193,6 +193,22 @@ int bv_common_check_vr(const bv_common *b, unsigned int vr)
     return 1;
 }
 
+int bv_common_settable(const bv_common *b, unsigned int vr)
+{
+    int kind = b->md->vr_kind[vr];
+    if (kind == BV_INPUT)
+        return 1;
+    if (kind != BV_PARAMETER)
+        bv_say(b, BV_ERROR, "%s: %s is an output and cannot be set (ignored)", b->name,
+               b->md->vr_name[vr]);
+    else if (b->initialized)
+        bv_say(b, BV_ERROR, "%s: parameter %s is fixed after initialization; set it before "
+                            "ExitInitializationMode (ignored)", b->name, b->md->vr_name[vr]);
+    else
+        return 1;
+    return 0;
+}
+
 bv_status bv_common_check_output_orders(const bv_common *b, const unsigned int vr[],
                                         size_t nvr, const int order[])
 {

@@ -71,6 +71,9 @@ void bv_common_restored(bv_common *b, double time, int initialized, int init_fai
                         const char *fix);
 /* A value reference the model has (logged and 0 if not). */
 int bv_common_check_vr(const bv_common *b, unsigned int vr);
+/* A value may be set for the model's variable vr now: an input, or a parameter before
+ * initialization (else the reason logged, 0). */
+int bv_common_settable(const bv_common *b, unsigned int vr);
 /* A request for output derivatives: every reference an output, every order 1 ..
  * BV_MAX_OUTPUT_ORDER. BV_OK, or BV_ERROR (logged) before anything is computed. */
 bv_status bv_common_check_output_orders(const bv_common *b, const unsigned int vr[],

@@ -162,7 +162,6 @@ bv_status bv_initialize(bv_instance *c)
 
 bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const double value[])
 {
-    const bv_model *md = c->bc.md;
     bv_status status = BV_OK;
     size_t i;
     /* an unknown value reference refuses the call: nothing set */
@@ -170,20 +169,10 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
         if (!check_vr(c, vr[i]))
             return BV_ERROR;
     for (i = 0; i < nvr; i++) {
-        if (md->vr_kind[vr[i]] == BV_PARAMETER) {
-            if (c->bc.initialized) {
-                say(c, BV_ERROR, "%s: parameter %s is fixed after initialization; set it "
-                                 "before ExitInitializationMode (ignored)",
-                    c->bc.name, md->vr_name[vr[i]]);
-                status = BV_ERROR;
-            } else {
-                c->speed = value[i];
-            }
-        } else {
-            say(c, BV_ERROR, "%s: %s is an output and cannot be set (ignored)", c->bc.name,
-                md->vr_name[vr[i]]);
+        if (bv_common_settable(&c->bc, vr[i]))
+            c->speed = value[i]; /* the one parameter (no inputs) */
+        else
             status = BV_ERROR;
-        }
     }
     return status;
 }

@@ -25,32 +25,15 @@
 #include <stdlib.h>
 #include <string.h>
 
-#ifdef _WIN32
-#include <windows.h>
-#else
-#include <dlfcn.h>
-#endif
-
 #include "fmi2Functions.h"
+#include "host_load.h"
 
 #define MAX_N 64
 
 static void *lib;
 
-static void *fn(const char *name)
-{
-    void *f;
-#ifdef _WIN32
-    f = (void *)GetProcAddress((HMODULE)lib, name);
-#else
-    f = dlsym(lib, name);
-#endif
-    if (f == NULL) {
-        fprintf(stderr, "missing function %s\n", name);
-        exit(2);
-    }
-    return f;
-}
+/* A function of the binary, or exit 2. */
+static void *fn(const char *name) { return host_symbol(lib, name, "me_host", exit); }
 
 static void logger(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status,
                    fmi2String category, fmi2String message, ...)
@@ -114,11 +97,7 @@ int main(int argc, char **argv)
     omega = 2.0 * 3.14159265358979323846 * atof(argv[10]);
     if (n == 0 || n > MAX_N || ni < 2 || !(h > 0.0) || steps < 1)
         return 1;
-#ifdef _WIN32
-    lib = (void *)LoadLibraryA(argv[1]);
-#else
-    lib = dlopen(argv[1], RTLD_NOW | RTLD_LOCAL);
-#endif
+    lib = host_open(argv[1]);
     if (lib == NULL) {
         fprintf(stderr, "cannot load %s\n", argv[1]);
         return 2;
