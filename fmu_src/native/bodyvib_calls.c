@@ -15,23 +15,17 @@ bv_fmu *bv_fmu_new(const char *name, int me, int logging_on, bv_host_fn logger, 
     bv_fmu *f = calloc(1, sizeof *f);
     if (f == NULL)
         return NULL;
-    if (name != NULL) {
-        f->name = malloc(strlen(name) + 1);
-        if (f->name == NULL) {
-            free(f);
-            return NULL;
-        }
-        strcpy(f->name, name);
-    }
     f->logger = logger;
     f->env = env;
     f->logging_on = logging_on;
     f->me = me;
     f->log = log;
-    f->core = bv_new(&bv_model_data, name, log, f);
-    if (f->core == NULL) {
-        free(f->name);
-        free(f);
+    if (name != NULL && (f->name = malloc(strlen(name) + 1)) != NULL)
+        strcpy(f->name, name);
+    if (name == NULL || f->name != NULL)
+        f->core = bv_new(&bv_model_data, name, log, f);
+    if (f->core == NULL) { /* out of memory, or the model cannot be assembled (logged) */
+        bv_fmu_free(f);
         return NULL;
     }
     return f;

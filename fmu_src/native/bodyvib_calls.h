@@ -93,6 +93,16 @@ bv_status bv_fmu_directional(bv_fmu *f, const unsigned int unknowns[], size_t nu
 typedef enum { BV_SET_STATES, BV_GET_STATES, BV_DERIVATIVES, BV_NOMINALS } bv_vector;
 bv_status bv_fmu_vector(bv_fmu *f, bv_vector which, const double in[], double out[],
                         size_t nx);
+/* The wrapper of bv_fmu_vector in a version: fn(instance, x, nx) of the version's Status and
+ * Instance types, x of type T (const for BV_SET_STATES, passed as `in`; else as `out`),
+ * entered through the version's CHECKED (the instance, its state, model exchange only). */
+#define BV_VECTOR_FUNCTION(Status, Instance, fn, which, T, in, out)                         \
+    Status fn(Instance instance, T x[], size_t nx)                                          \
+    {                                                                                       \
+        CHECKED(instance, fn);                                                              \
+        return (Status)bv_fmu_vector(f, which, in, out, nx);                                \
+    }
+
 /* No event indicators: ni must be 0 (else logged as `function`'s refusal). */
 bv_status bv_fmu_event_indicators(bv_fmu *f, const char *function, size_t ni);
 

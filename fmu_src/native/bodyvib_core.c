@@ -757,6 +757,26 @@ bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double val
     return status;
 }
 
+/* The one warning of fallback pair k: its displacement moves at time t but its velocity was
+ * never set; what the FMU does about it, co-simulation (me 0) or model exchange (me 1). */
+static void warn_unconnected(bv_instance *c, int k, double t, int me)
+{
+    const bv_pair *pr = &c->bc.md->pairs[k];
+    const char *dname = var_name(c->bc.md, BV_INPUT, pr->value);
+    const char *vname = var_name(c->bc.md, BV_INPUT, pr->rate);
+    c->warned[k] = 1;
+    if (me)
+        say(c, BV_WARNING, "%s: %s moves (t = %g s) but %s was never set: in model exchange "
+                           "the velocity input is used as given (0); set %s to the time "
+                           "derivative of %s",
+            c->bc.name, dname, t, vname, vname, dname);
+    else
+        say(c, BV_WARNING, "%s: %s moves (t = %g s) but %s was never set: using the slope of "
+                           "successive %s values as its in-step rate; connect %s for the exact "
+                           "coupling",
+            c->bc.name, dname, t, vname, dname, vname);
+}
+
 /* The unconnected-velocity rule, before a step (bodyvib.runtime.engine's _slope_fallback). */
 static void slope_fallback(bv_instance *c, double t, double h)
 {
@@ -769,15 +789,8 @@ static void slope_fallback(bv_instance *c, double t, double h)
             continue;
         if (c->has_prev[k] && x != c->x_prev[k] && !c->slope_on[k]) {
             c->slope_on[k] = 1;
-            if (!c->warned[k]) {
-                const char *dname = var_name(md, BV_INPUT, pr->value);
-                const char *vname = var_name(md, BV_INPUT, pr->rate);
-                c->warned[k] = 1;
-                say(c, BV_WARNING, "%s: %s moves (t = %g s) but %s was never set: using the "
-                                   "slope of successive %s values as its in-step rate; connect "
-                                   "%s for the exact coupling",
-                    c->bc.name, dname, t, vname, dname, vname);
-            }
+            if (!c->warned[k])
+                warn_unconnected(c, k, t, 0);
         }
         if (c->slope_on[k])
             c->s[pr->rate] = (x - c->x_prev[k]) / c->h_prev[k];
@@ -1210,13 +1223,7 @@ static void me_unconnected_velocity(bv_instance *c)
             c->x_prev[k] = x;
             c->has_prev[k] = 1;
         } else if (x != c->x_prev[k]) {
-            const char *dname = var_name(md, BV_INPUT, pr->value);
-            const char *vname = var_name(md, BV_INPUT, pr->rate);
-            c->warned[k] = 1;
-            say(c, BV_WARNING, "%s: %s moves (t = %g s) but %s was never set: in model exchange "
-                               "the velocity input is used as given (0); set %s to the time "
-                               "derivative of %s",
-                c->bc.name, dname, c->bc.time, vname, vname, dname);
+            warn_unconnected(c, k, c->bc.time, 1);
         }
     }
 }

@@ -365,11 +365,7 @@ fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], s
 
 /* The continuous-state vectors: in (x, set) or out (x, got), nx checked (bv_fmu_vector). */
 #define VECTOR(fn, which, T, in, out)                                                        \
-    fmi2Status fn(fmi2Component c, T x[], size_t nx)                                         \
-    {                                                                                        \
-        CHECKED(c, fn);                                                                      \
-        return st(bv_fmu_vector(f, which, in, out, nx));                                     \
-    }
+    BV_VECTOR_FUNCTION(fmi2Status, fmi2Component, fn, which, T, in, out)
 VECTOR(fmi2SetContinuousStates, BV_SET_STATES, const fmi2Real, x, NULL)
 VECTOR(fmi2GetContinuousStates, BV_GET_STATES, fmi2Real, NULL, x)
 VECTOR(fmi2GetDerivatives, BV_DERIVATIVES, fmi2Real, NULL, x)

@@ -575,11 +575,7 @@ fmi3Status fmi3GetEventIndicators(fmi3Instance instance, fmi3Float64 eventIndica
 
 /* The continuous-state vectors: in (x, set) or out (x, got), nx checked (bv_fmu_vector). */
 #define VECTOR(fn, which, T, in, out)                                                        \
-    fmi3Status fn(fmi3Instance instance, T x[], size_t nx)                                   \
-    {                                                                                        \
-        CHECKED(instance, fn);                                                               \
-        return st(bv_fmu_vector(f, which, in, out, nx));                                     \
-    }
+    BV_VECTOR_FUNCTION(fmi3Status, fmi3Instance, fn, which, T, in, out)
 VECTOR(fmi3SetContinuousStates, BV_SET_STATES, const fmi3Float64, x, NULL)
 VECTOR(fmi3GetContinuousStates, BV_GET_STATES, fmi3Float64, NULL, x)
 VECTOR(fmi3GetContinuousStateDerivatives, BV_DERIVATIVES, fmi3Float64, NULL, x)
