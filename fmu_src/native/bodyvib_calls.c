@@ -12,31 +12,26 @@
 bv_fmu *bv_fmu_new(const char *name, int me, int logging_on, bv_host_fn logger, void *env,
                    bv_log_fn log)
 {
-    bv_fmu *f = calloc(1, sizeof *f);
+    bv_fmu *f = malloc(sizeof *f);
     if (f == NULL)
         return NULL;
-    f->logger = logger;
-    f->env = env;
-    f->logging_on = logging_on;
-    f->me = me;
-    f->log = log;
+    *f = (bv_fmu){.logger = logger, .env = env, .logging_on = logging_on, .me = me, .log = log};
     if (name != NULL && (f->name = malloc(strlen(name) + 1)) != NULL)
         strcpy(f->name, name);
     if (name == NULL || f->name != NULL)
         f->core = bv_new(&bv_model_data, name, log, f);
-    if (f->core == NULL) { /* out of memory, or the model cannot be assembled (logged) */
-        bv_fmu_free(f);
-        return NULL;
-    }
-    return f;
+    if (f->core != NULL)
+        return f;
+    bv_fmu_free(f); /* out of memory, or the model cannot be assembled (logged) */
+    return NULL;
 }
 
 void bv_fmu_free(bv_fmu *f)
 {
-    if (f == NULL)
-        return;
-    bv_free(f->core);
-    free(f->name);
+    if (f != NULL) {
+        bv_free(f->core);
+        free(f->name);
+    }
     free(f);
 }
 

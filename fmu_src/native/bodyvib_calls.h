@@ -35,6 +35,19 @@ typedef struct {
  * interface the function belongs to when it is not both. */
 enum { BV_CS_ONLY = 32, BV_ME_ONLY = 64 };
 
+/* The states the FMI functions are allowed in, from the standard's state tables (the same in
+ * FMI 2.0 and 3.0 for these; a version's own are in its file), with the interface flags.
+ * Single states: BV_INSTANTIATED (SetupExperiment, EnterInitializationMode),
+ * BV_INITIALIZATION (ExitInitializationMode), BV_STEPPING (Terminate). Model exchange: the
+ * standard's Event Mode and Continuous-Time Mode are both BV_STEPPING (no events). */
+#define BV_ON_GET (BV_INITIALIZATION | BV_STEPPING | BV_TERMINATED | BV_FAILED) /* values */
+#define BV_ON_SET (BV_INSTANTIATED | BV_INITIALIZATION | BV_STEPPING) /* values, input rates */
+#define BV_ON_STEP (BV_STEPPING | BV_CS_ONLY) /* DoStep */
+#define BV_ON_EVENT (BV_STEPPING | BV_ME_ONLY) /* the mode changes, discrete states, steps */
+#define BV_ON_ME_SET (BV_INITIALIZATION | BV_STEPPING | BV_ME_ONLY) /* time, states */
+#define BV_ON_ME_GET (BV_ON_GET | BV_ME_ONLY) /* states, derivatives, event indicators */
+#define BV_ON_NOMINALS (BV_INSTANTIATED | BV_ON_ME_GET)
+
 /* A new instance and its core (NULL when out of memory or the model cannot be assembled:
  * that reason logged). `log` is the wrapper's message function (called with this bv_fmu);
  * logger and env are the host's, set before the core is made so that it can log. */
@@ -95,11 +108,11 @@ bv_status bv_fmu_vector(bv_fmu *f, bv_vector which, const double in[], double ou
                         size_t nx);
 /* The wrapper of bv_fmu_vector in a version: fn(instance, x, nx) of the version's Status and
  * Instance types, x of type T (const for BV_SET_STATES, passed as `in`; else as `out`),
- * entered through the version's CHECKED (the instance, its state, model exchange only). */
-#define BV_VECTOR_FUNCTION(Status, Instance, fn, which, T, in, out)                         \
+ * entered through the version's CHECKED (the instance, its state in mask). */
+#define BV_VECTOR_FUNCTION(Status, Instance, fn, mask, which, T, in, out)                   \
     Status fn(Instance instance, T x[], size_t nx)                                          \
     {                                                                                       \
-        CHECKED(instance, fn);                                                              \
+        CHECKED(instance, fn, mask);                                                        \
         return (Status)bv_fmu_vector(f, which, in, out, nx);                                \
     }
 

@@ -42,45 +42,20 @@ static void fmu_log(void *env, int status, const char *message)
 
 static fmi2Status st(bv_status s) { return (fmi2Status)s; }
 
-/* The FMI 2.0 state table: the states each function is allowed in (MASK_<function>), and
- * BV_CS_ONLY / BV_ME_ONLY for a function of one interface. Model exchange: the standard's
- * Event Mode and Continuous-Time Mode are both the core's BV_STEPPING (no events). */
-#define S_GET (BV_INITIALIZATION | BV_STEPPING | BV_TERMINATED | BV_FAILED)
-#define S_SET (BV_INSTANTIATED | BV_INITIALIZATION | BV_STEPPING)
+/* The states of the FMI 2.0 functions not in bodyvib_calls.h's shared table. */
+#define S_OUTPUT_DERIVATIVES (BV_STEPPING | BV_TERMINATED | BV_FAILED)
 #define S_STATUS (BV_STEPPING | BV_TERMINATED)
-#define S_ME_SET (BV_INITIALIZATION | BV_STEPPING | BV_ME_ONLY)
-#define MASK_fmi2SetupExperiment BV_INSTANTIATED
-#define MASK_fmi2EnterInitializationMode BV_INSTANTIATED
-#define MASK_fmi2ExitInitializationMode BV_INITIALIZATION
-#define MASK_fmi2Terminate BV_STEPPING
-#define MASK_fmi2GetReal S_GET
-#define MASK_fmi2SetReal S_SET
-#define MASK_fmi2SetRealInputDerivatives S_SET
-#define MASK_fmi2GetRealOutputDerivatives (BV_STEPPING | BV_TERMINATED | BV_FAILED)
-#define MASK_fmi2DoStep (BV_STEPPING | BV_CS_ONLY)
-#define MASK_fmi2GetRealStatus S_STATUS
-#define MASK_fmi2EnterEventMode (BV_STEPPING | BV_ME_ONLY)
-#define MASK_fmi2NewDiscreteStates (BV_STEPPING | BV_ME_ONLY)
-#define MASK_fmi2EnterContinuousTimeMode (BV_STEPPING | BV_ME_ONLY)
-#define MASK_fmi2CompletedIntegratorStep (BV_STEPPING | BV_ME_ONLY)
-#define MASK_fmi2SetTime S_ME_SET
-#define MASK_fmi2SetContinuousStates S_ME_SET
-#define MASK_fmi2GetDerivatives (S_GET | BV_ME_ONLY)
-#define MASK_fmi2GetEventIndicators (S_GET | BV_ME_ONLY)
-#define MASK_fmi2GetContinuousStates (S_GET | BV_ME_ONLY)
-#define MASK_fmi2GetNominalsOfContinuousStates (BV_INSTANTIATED | S_GET | BV_ME_ONLY)
 
 /* The instance f of a function allowed in every state. */
 #define INSTANCE(c)                                                                          \
     bv_fmu *f = (bv_fmu *)(c);                                                               \
     if (f == NULL)                                                                           \
         return fmi2Error
-/* The instance f of a function allowed in the states of `mask` (named `name` in messages). */
-#define ENTER(c, name, mask)                                                                 \
+/* The instance f of a function allowed in the states of `mask` (bodyvib_calls.h). */
+#define CHECKED(c, function, mask)                                                           \
     INSTANCE(c);                                                                             \
-    if (!bv_fmu_enter(f, name, mask))                                                        \
+    if (!bv_fmu_enter(f, #function, mask))                                                   \
         return fmi2Error
-#define CHECKED(c, function) ENTER(c, #function, MASK_##function)
 
 const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
 const char *fmi2GetVersion(void) { return fmi2Version; }
@@ -130,27 +105,27 @@ void fmi2FreeInstance(fmi2Component c) { bv_fmu_free((bv_fmu *)c); }
 fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fmi2Real tolerance,
                                fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime)
 {
-    CHECKED(c, fmi2SetupExperiment);
+    CHECKED(c, fmi2SetupExperiment, BV_INSTANTIATED);
     (void)toleranceDefined, (void)tolerance, (void)stopTimeDefined, (void)stopTime;
     return st(bv_setup(f->core, startTime)); /* the model's time starts there */
 }
 
 fmi2Status fmi2EnterInitializationMode(fmi2Component c)
 {
-    CHECKED(c, fmi2EnterInitializationMode);
+    CHECKED(c, fmi2EnterInitializationMode, BV_INSTANTIATED);
     bv_enter_initialization(f->core);
     return fmi2OK;
 }
 
 fmi2Status fmi2ExitInitializationMode(fmi2Component c)
 {
-    CHECKED(c, fmi2ExitInitializationMode);
+    CHECKED(c, fmi2ExitInitializationMode, BV_INITIALIZATION);
     return st(bv_initialize(f->core));
 }
 
 fmi2Status fmi2Terminate(fmi2Component c)
 {
-    CHECKED(c, fmi2Terminate);
+    CHECKED(c, fmi2Terminate, BV_STEPPING);
     bv_terminate(f->core);
     return fmi2OK;
 }
@@ -165,14 +140,14 @@ fmi2Status fmi2Reset(fmi2Component c)
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                        fmi2Real value[])
 {
-    CHECKED(c, fmi2GetReal);
+    CHECKED(c, fmi2GetReal, BV_ON_GET);
     return st(bv_fmu_get(f, vr, nvr, value));
 }
 
 fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                        const fmi2Real value[])
 {
-    CHECKED(c, fmi2SetReal);
+    CHECKED(c, fmi2SetReal, BV_ON_SET);
     return st(bv_fmu_set(f, vr, nvr, value));
 }
 
@@ -180,16 +155,16 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
 #define NO_VARIABLES(fn, T, CONST, MASK)                                                       \
     fmi2Status fn(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, CONST T value[]) \
     {                                                                                          \
-        ENTER(c, #fn, MASK);                                                                   \
+        CHECKED(c, fn, MASK);                                                                  \
         (void)vr, (void)value;                                                                 \
         return nvr == 0 ? fmi2OK : fmi2Error;                                                  \
     }
-NO_VARIABLES(fmi2GetInteger, fmi2Integer, , S_GET)
-NO_VARIABLES(fmi2GetBoolean, fmi2Boolean, , S_GET)
-NO_VARIABLES(fmi2GetString, fmi2String, , S_GET)
-NO_VARIABLES(fmi2SetInteger, fmi2Integer, const, S_SET)
-NO_VARIABLES(fmi2SetBoolean, fmi2Boolean, const, S_SET)
-NO_VARIABLES(fmi2SetString, fmi2String, const, S_SET)
+NO_VARIABLES(fmi2GetInteger, fmi2Integer, , BV_ON_GET)
+NO_VARIABLES(fmi2GetBoolean, fmi2Boolean, , BV_ON_GET)
+NO_VARIABLES(fmi2GetString, fmi2String, , BV_ON_GET)
+NO_VARIABLES(fmi2SetInteger, fmi2Integer, const, BV_ON_SET)
+NO_VARIABLES(fmi2SetBoolean, fmi2Boolean, const, BV_ON_SET)
+NO_VARIABLES(fmi2SetString, fmi2String, const, BV_ON_SET)
 
 /* ------------------------------------------------------------------ FMU state */
 
@@ -250,7 +225,7 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReferenc
 fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                        const fmi2Integer order[], const fmi2Real value[])
 {
-    CHECKED(c, fmi2SetRealInputDerivatives);
+    CHECKED(c, fmi2SetRealInputDerivatives, BV_ON_SET);
     return st(bv_fmu_set_input_derivatives(f, vr, nvr, (const int *)order, value));
 }
 
@@ -258,7 +233,7 @@ fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference
 fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
                                         size_t nvr, const fmi2Integer order[], fmi2Real value[])
 {
-    CHECKED(c, fmi2GetRealOutputDerivatives);
+    CHECKED(c, fmi2GetRealOutputDerivatives, S_OUTPUT_DERIVATIVES);
     return st(bv_fmu_get_output_derivatives(f, vr, nvr, (const int *)order, value));
 }
 
@@ -267,7 +242,7 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReferenc
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
                       fmi2Real communicationStepSize, fmi2Boolean noSetFMUStatePriorToCurrentPoint)
 {
-    CHECKED(c, fmi2DoStep);
+    CHECKED(c, fmi2DoStep, BV_ON_STEP);
     (void)noSetFMUStatePriorToCurrentPoint;
     return st(bv_step(f->core, currentCommunicationPoint, communicationStepSize));
 }
@@ -280,7 +255,7 @@ fmi2Status fmi2CancelStep(fmi2Component c)
 
 fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value)
 {
-    CHECKED(c, fmi2GetRealStatus);
+    CHECKED(c, fmi2GetRealStatus, S_STATUS);
     if (s == fmi2LastSuccessfulTime && value != NULL) {
         *value = bv_time(f->core);
         return fmi2OK;
@@ -292,7 +267,7 @@ fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *
 #define NO_STATUS(fn, T)                                                                     \
     fmi2Status fn(fmi2Component c, const fmi2StatusKind s, T *value)                         \
     {                                                                                        \
-        ENTER(c, #fn, S_STATUS);                                                             \
+        CHECKED(c, fn, S_STATUS);                                                            \
         (void)s, (void)value;                                                                \
         return fmi2Discard;                                                                  \
     }
@@ -311,13 +286,13 @@ NO_STATUS(fmi2GetStringStatus, fmi2String)
 
 fmi2Status fmi2EnterEventMode(fmi2Component c)
 {
-    CHECKED(c, fmi2EnterEventMode);
+    CHECKED(c, fmi2EnterEventMode, BV_ON_EVENT);
     return fmi2OK;
 }
 
 fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *eventInfo)
 {
-    CHECKED(c, fmi2NewDiscreteStates);
+    CHECKED(c, fmi2NewDiscreteStates, BV_ON_EVENT);
     if (eventInfo == NULL)
         return fmi2Error;
     eventInfo->newDiscreteStatesNeeded = fmi2False;
@@ -331,7 +306,7 @@ fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *eventInfo)
 
 fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c)
 {
-    CHECKED(c, fmi2EnterContinuousTimeMode);
+    CHECKED(c, fmi2EnterContinuousTimeMode, BV_ON_EVENT);
     return fmi2OK;
 }
 
@@ -340,7 +315,7 @@ fmi2Status fmi2CompletedIntegratorStep(fmi2Component c,
                                        fmi2Boolean *enterEventMode,
                                        fmi2Boolean *terminateSimulation)
 {
-    CHECKED(c, fmi2CompletedIntegratorStep);
+    CHECKED(c, fmi2CompletedIntegratorStep, BV_ON_EVENT);
     (void)noSetFMUStatePriorToCurrentPoint;
     if (enterEventMode != NULL)
         *enterEventMode = fmi2False;
@@ -351,22 +326,22 @@ fmi2Status fmi2CompletedIntegratorStep(fmi2Component c,
 
 fmi2Status fmi2SetTime(fmi2Component c, fmi2Real time)
 {
-    CHECKED(c, fmi2SetTime);
+    CHECKED(c, fmi2SetTime, BV_ON_ME_SET);
     bv_me_set_time(f->core, time);
     return fmi2OK;
 }
 
 fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], size_t ni)
 {
-    CHECKED(c, fmi2GetEventIndicators);
+    CHECKED(c, fmi2GetEventIndicators, BV_ON_ME_GET);
     (void)eventIndicators;
     return st(bv_fmu_event_indicators(f, "fmi2GetEventIndicators", ni));
 }
 
 /* The continuous-state vectors: in (x, set) or out (x, got), nx checked (bv_fmu_vector). */
-#define VECTOR(fn, which, T, in, out)                                                        \
-    BV_VECTOR_FUNCTION(fmi2Status, fmi2Component, fn, which, T, in, out)
-VECTOR(fmi2SetContinuousStates, BV_SET_STATES, const fmi2Real, x, NULL)
-VECTOR(fmi2GetContinuousStates, BV_GET_STATES, fmi2Real, NULL, x)
-VECTOR(fmi2GetDerivatives, BV_DERIVATIVES, fmi2Real, NULL, x)
-VECTOR(fmi2GetNominalsOfContinuousStates, BV_NOMINALS, fmi2Real, NULL, x)
+#define VECTOR(fn, mask, which, T, in, out)                                                  \
+    BV_VECTOR_FUNCTION(fmi2Status, fmi2Component, fn, mask, which, T, in, out)
+VECTOR(fmi2SetContinuousStates, BV_ON_ME_SET, BV_SET_STATES, const fmi2Real, x, NULL)
+VECTOR(fmi2GetContinuousStates, BV_ON_ME_GET, BV_GET_STATES, fmi2Real, NULL, x)
+VECTOR(fmi2GetDerivatives, BV_ON_ME_GET, BV_DERIVATIVES, fmi2Real, NULL, x)
+VECTOR(fmi2GetNominalsOfContinuousStates, BV_ON_NOMINALS, BV_NOMINALS, fmi2Real, NULL, x)

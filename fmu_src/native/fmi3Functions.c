@@ -29,43 +29,21 @@ static void fmu_log(void *env, int status, const char *message)
 
 static fmi3Status st(bv_status s) { return (fmi3Status)s; }
 
-/* The FMI 3.0 state table (co-simulation without event mode: Step Mode follows
- * fmi3ExitInitializationMode): the states each function is allowed in (MASK_<function>), and
- * BV_CS_ONLY / BV_ME_ONLY for a function of one interface. Model exchange: the standard's
- * Event Mode and Continuous-Time Mode are both the core's BV_STEPPING (no events). */
-#define S_GET (BV_INITIALIZATION | BV_STEPPING | BV_TERMINATED | BV_FAILED)
-#define S_SET (BV_INSTANTIATED | BV_INITIALIZATION | BV_STEPPING)
-#define S_ME_SET (BV_INITIALIZATION | BV_STEPPING | BV_ME_ONLY)
-#define MASK_fmi3EnterInitializationMode BV_INSTANTIATED
-#define MASK_fmi3ExitInitializationMode BV_INITIALIZATION
-#define MASK_fmi3Terminate BV_STEPPING
-#define MASK_fmi3GetFloat64 S_GET
-#define MASK_fmi3SetFloat64 S_SET
-#define MASK_fmi3EnterStepMode 0 /* Step Mode is entered from Event Mode, which it has not */
-#define MASK_fmi3GetOutputDerivatives (BV_STEPPING | BV_TERMINATED)
-#define MASK_fmi3DoStep (BV_STEPPING | BV_CS_ONLY)
-#define MASK_fmi3EnterEventMode (BV_STEPPING | BV_ME_ONLY)
-#define MASK_fmi3UpdateDiscreteStates (BV_STEPPING | BV_ME_ONLY)
-#define MASK_fmi3EnterContinuousTimeMode (BV_STEPPING | BV_ME_ONLY)
-#define MASK_fmi3CompletedIntegratorStep (BV_STEPPING | BV_ME_ONLY)
-#define MASK_fmi3SetTime S_ME_SET
-#define MASK_fmi3SetContinuousStates S_ME_SET
-#define MASK_fmi3GetContinuousStateDerivatives (S_GET | BV_ME_ONLY)
-#define MASK_fmi3GetEventIndicators (S_GET | BV_ME_ONLY)
-#define MASK_fmi3GetContinuousStates (S_GET | BV_ME_ONLY)
-#define MASK_fmi3GetNominalsOfContinuousStates (BV_INSTANTIATED | S_GET | BV_ME_ONLY)
+/* The states of the FMI 3.0 functions not in bodyvib_calls.h's shared table (co-simulation
+ * has no event mode: Step Mode follows fmi3ExitInitializationMode). */
+#define S_OUTPUT_DERIVATIVES (BV_STEPPING | BV_TERMINATED)
+#define S_STEP_MODE 0 /* Step Mode is entered from Event Mode, which it has not */
 
 /* The instance f of a function allowed in every state. */
 #define INSTANCE(c)                                                                          \
     bv_fmu *f = (bv_fmu *)(c);                                                               \
     if (f == NULL)                                                                           \
         return fmi3Error
-/* The instance f of a function allowed in the states of `mask` (named `name` in messages). */
-#define ENTER(c, name, mask)                                                                 \
+/* The instance f of a function allowed in the states of `mask` (bodyvib_calls.h). */
+#define CHECKED(c, function, mask)                                                           \
     INSTANCE(c);                                                                             \
-    if (!bv_fmu_enter(f, name, mask))                                                        \
+    if (!bv_fmu_enter(f, #function, mask))                                                   \
         return fmi3Error
-#define CHECKED(c, function) ENTER(c, #function, MASK_##function)
 
 const char *fmi3GetVersion(void) { return fmi3Version; }
 
@@ -144,7 +122,7 @@ fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean tolera
                                        fmi3Boolean stopTimeDefined, fmi3Float64 stopTime)
 {
     bv_status s;
-    CHECKED(instance, fmi3EnterInitializationMode);
+    CHECKED(instance, fmi3EnterInitializationMode, BV_INSTANTIATED);
     (void)toleranceDefined, (void)tolerance, (void)stopTimeDefined, (void)stopTime;
     s = bv_setup(f->core, startTime); /* the model's time starts there */
     if (s == BV_OK)
@@ -154,13 +132,13 @@ fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean tolera
 
 fmi3Status fmi3ExitInitializationMode(fmi3Instance instance)
 {
-    CHECKED(instance, fmi3ExitInitializationMode);
+    CHECKED(instance, fmi3ExitInitializationMode, BV_INITIALIZATION);
     return st(bv_initialize(f->core));
 }
 
 fmi3Status fmi3Terminate(fmi3Instance instance)
 {
-    CHECKED(instance, fmi3Terminate);
+    CHECKED(instance, fmi3Terminate, BV_STEPPING);
     bv_terminate(f->core);
     return fmi3OK;
 }
@@ -178,7 +156,7 @@ fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], 
                           fmi3Float64 values[], size_t nValues)
 {
     size_t i;
-    CHECKED(instance, fmi3GetFloat64);
+    CHECKED(instance, fmi3GetFloat64, BV_ON_GET);
     if (nValues != nvr || (nvr > 0 && (vr == NULL || values == NULL)))
         return fmi3Error;
     for (i = 0; i < nvr; i++)
@@ -199,7 +177,7 @@ fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], 
                           const fmi3Float64 values[], size_t nValues)
 {
     size_t i;
-    CHECKED(instance, fmi3SetFloat64);
+    CHECKED(instance, fmi3SetFloat64, BV_ON_SET);
     if (nValues != nvr || (nvr > 0 && (vr == NULL || values == NULL)))
         return fmi3Error;
     for (i = 0; i < nvr; i++)
@@ -215,7 +193,7 @@ fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], 
     fmi3Status fn(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,          \
                   T values[], size_t nValues)                                                \
     {                                                                                        \
-        ENTER(instance, #fn, S_GET);                                                       \
+        CHECKED(instance, fn, BV_ON_GET);                                                    \
         (void)vr, (void)values, (void)nValues;                                               \
         return nvr == 0 ? fmi3OK : fmi3Error;                                                \
     }
@@ -223,7 +201,7 @@ fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], 
     fmi3Status fn(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,          \
                   const T values[], size_t nValues)                                          \
     {                                                                                        \
-        ENTER(instance, #fn, S_SET);                                                       \
+        CHECKED(instance, fn, BV_ON_SET);                                                    \
         (void)vr, (void)values, (void)nValues;                                               \
         return nvr == 0 ? fmi3OK : fmi3Error;                                                \
     }
@@ -461,7 +439,7 @@ fmi3Status fmi3EvaluateDiscreteStates(fmi3Instance instance)
 
 fmi3Status fmi3EnterStepMode(fmi3Instance instance)
 {
-    CHECKED(instance, fmi3EnterStepMode);
+    CHECKED(instance, fmi3EnterStepMode, S_STEP_MODE);
     return fmi3Error;
 }
 
@@ -470,7 +448,7 @@ fmi3Status fmi3GetOutputDerivatives(fmi3Instance instance, const fmi3ValueRefere
                                     size_t nvr, const fmi3Int32 orders[], fmi3Float64 values[],
                                     size_t nValues)
 {
-    CHECKED(instance, fmi3GetOutputDerivatives);
+    CHECKED(instance, fmi3GetOutputDerivatives, S_OUTPUT_DERIVATIVES);
     if (nValues != nvr)
         return fmi3Error;
     return st(bv_fmu_get_output_derivatives(f, vr, nvr, (const int *)orders, values));
@@ -483,7 +461,7 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
                       fmi3Boolean *earlyReturn, fmi3Float64 *lastSuccessfulTime)
 {
     bv_status s;
-    CHECKED(instance, fmi3DoStep);
+    CHECKED(instance, fmi3DoStep, BV_ON_STEP);
     (void)noSetFMUStatePriorToCurrentPoint;
     s = bv_step(f->core, currentCommunicationPoint, communicationStepSize);
     if (eventHandlingNeeded)
@@ -512,7 +490,7 @@ fmi3Status fmi3ActivateModelPartition(fmi3Instance instance, fmi3ValueReference 
 
 fmi3Status fmi3EnterEventMode(fmi3Instance instance)
 {
-    CHECKED(instance, fmi3EnterEventMode); /* co-simulation: no event mode */
+    CHECKED(instance, fmi3EnterEventMode, BV_ON_EVENT); /* co-simulation: no event mode */
     return fmi3OK;
 }
 
@@ -522,7 +500,7 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *discrete
                                     fmi3Boolean *valuesOfContinuousStatesChanged,
                                     fmi3Boolean *nextEventTimeDefined, fmi3Float64 *nextEventTime)
 {
-    CHECKED(instance, fmi3UpdateDiscreteStates);
+    CHECKED(instance, fmi3UpdateDiscreteStates, BV_ON_EVENT);
     if (discreteStatesNeedUpdate)
         *discreteStatesNeedUpdate = fmi3False;
     if (terminateSimulation)
@@ -540,7 +518,7 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *discrete
 
 fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance instance)
 {
-    CHECKED(instance, fmi3EnterContinuousTimeMode);
+    CHECKED(instance, fmi3EnterContinuousTimeMode, BV_ON_EVENT);
     return fmi3OK;
 }
 
@@ -549,7 +527,7 @@ fmi3Status fmi3CompletedIntegratorStep(fmi3Instance instance,
                                        fmi3Boolean *enterEventMode,
                                        fmi3Boolean *terminateSimulation)
 {
-    CHECKED(instance, fmi3CompletedIntegratorStep);
+    CHECKED(instance, fmi3CompletedIntegratorStep, BV_ON_EVENT);
     (void)noSetFMUStatePriorToCurrentPoint;
     if (enterEventMode)
         *enterEventMode = fmi3False;
@@ -560,7 +538,7 @@ fmi3Status fmi3CompletedIntegratorStep(fmi3Instance instance,
 
 fmi3Status fmi3SetTime(fmi3Instance instance, fmi3Float64 time)
 {
-    CHECKED(instance, fmi3SetTime);
+    CHECKED(instance, fmi3SetTime, BV_ON_ME_SET);
     bv_me_set_time(f->core, time);
     return fmi3OK;
 }
@@ -568,18 +546,18 @@ fmi3Status fmi3SetTime(fmi3Instance instance, fmi3Float64 time)
 fmi3Status fmi3GetEventIndicators(fmi3Instance instance, fmi3Float64 eventIndicators[],
                                   size_t nEventIndicators)
 {
-    CHECKED(instance, fmi3GetEventIndicators);
+    CHECKED(instance, fmi3GetEventIndicators, BV_ON_ME_GET);
     (void)eventIndicators;
     return st(bv_fmu_event_indicators(f, "fmi3GetEventIndicators", nEventIndicators));
 }
 
 /* The continuous-state vectors: in (x, set) or out (x, got), nx checked (bv_fmu_vector). */
-#define VECTOR(fn, which, T, in, out)                                                        \
-    BV_VECTOR_FUNCTION(fmi3Status, fmi3Instance, fn, which, T, in, out)
-VECTOR(fmi3SetContinuousStates, BV_SET_STATES, const fmi3Float64, x, NULL)
-VECTOR(fmi3GetContinuousStates, BV_GET_STATES, fmi3Float64, NULL, x)
-VECTOR(fmi3GetContinuousStateDerivatives, BV_DERIVATIVES, fmi3Float64, NULL, x)
-VECTOR(fmi3GetNominalsOfContinuousStates, BV_NOMINALS, fmi3Float64, NULL, x)
+#define VECTOR(fn, mask, which, T, in, out)                                                  \
+    BV_VECTOR_FUNCTION(fmi3Status, fmi3Instance, fn, mask, which, T, in, out)
+VECTOR(fmi3SetContinuousStates, BV_ON_ME_SET, BV_SET_STATES, const fmi3Float64, x, NULL)
+VECTOR(fmi3GetContinuousStates, BV_ON_ME_GET, BV_GET_STATES, fmi3Float64, NULL, x)
+VECTOR(fmi3GetContinuousStateDerivatives, BV_ON_ME_GET, BV_DERIVATIVES, fmi3Float64, NULL, x)
+VECTOR(fmi3GetNominalsOfContinuousStates, BV_ON_NOMINALS, BV_NOMINALS, fmi3Float64, NULL, x)
 
 fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance instance, size_t *nEventIndicators)
 {
