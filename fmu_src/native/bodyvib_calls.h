@@ -115,6 +115,12 @@ bv_status bv_fmu_vector(bv_fmu *f, bv_vector which, const double in[], double ou
         CHECKED(instance, fn, mask);                                                        \
         return (Status)bv_fmu_vector(f, which, in, out, nx);                                \
     }
+/* The four of a version (named set, get, der, nom there), Real its floating-point type. */
+#define BV_VECTOR_FUNCTIONS(Status, Instance, Real, set, get, der, nom)                     \
+    BV_VECTOR_FUNCTION(Status, Instance, set, BV_ON_ME_SET, BV_SET_STATES, const Real, x, NULL) \
+    BV_VECTOR_FUNCTION(Status, Instance, get, BV_ON_ME_GET, BV_GET_STATES, Real, NULL, x)   \
+    BV_VECTOR_FUNCTION(Status, Instance, der, BV_ON_ME_GET, BV_DERIVATIVES, Real, NULL, x)  \
+    BV_VECTOR_FUNCTION(Status, Instance, nom, BV_ON_NOMINALS, BV_NOMINALS, Real, NULL, x)
 
 /* No event indicators: ni must be 0 (else logged as `function`'s refusal). */
 bv_status bv_fmu_event_indicators(bv_fmu *f, const char *function, size_t ni);

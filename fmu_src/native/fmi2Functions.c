@@ -338,10 +338,6 @@ fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], s
     return st(bv_fmu_event_indicators(f, "fmi2GetEventIndicators", ni));
 }
 
-/* The continuous-state vectors: in (x, set) or out (x, got), nx checked (bv_fmu_vector). */
-#define VECTOR(fn, mask, which, T, in, out)                                                  \
-    BV_VECTOR_FUNCTION(fmi2Status, fmi2Component, fn, mask, which, T, in, out)
-VECTOR(fmi2SetContinuousStates, BV_ON_ME_SET, BV_SET_STATES, const fmi2Real, x, NULL)
-VECTOR(fmi2GetContinuousStates, BV_ON_ME_GET, BV_GET_STATES, fmi2Real, NULL, x)
-VECTOR(fmi2GetDerivatives, BV_ON_ME_GET, BV_DERIVATIVES, fmi2Real, NULL, x)
-VECTOR(fmi2GetNominalsOfContinuousStates, BV_ON_NOMINALS, BV_NOMINALS, fmi2Real, NULL, x)
+/* The continuous-state vectors: set, get, derivatives, nominals (bv_fmu_vector). */
+BV_VECTOR_FUNCTIONS(fmi2Status, fmi2Component, fmi2Real, fmi2SetContinuousStates,
+                    fmi2GetContinuousStates, fmi2GetDerivatives, fmi2GetNominalsOfContinuousStates)

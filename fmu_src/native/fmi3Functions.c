@@ -551,13 +551,10 @@ fmi3Status fmi3GetEventIndicators(fmi3Instance instance, fmi3Float64 eventIndica
     return st(bv_fmu_event_indicators(f, "fmi3GetEventIndicators", nEventIndicators));
 }
 
-/* The continuous-state vectors: in (x, set) or out (x, got), nx checked (bv_fmu_vector). */
-#define VECTOR(fn, mask, which, T, in, out)                                                  \
-    BV_VECTOR_FUNCTION(fmi3Status, fmi3Instance, fn, mask, which, T, in, out)
-VECTOR(fmi3SetContinuousStates, BV_ON_ME_SET, BV_SET_STATES, const fmi3Float64, x, NULL)
-VECTOR(fmi3GetContinuousStates, BV_ON_ME_GET, BV_GET_STATES, fmi3Float64, NULL, x)
-VECTOR(fmi3GetContinuousStateDerivatives, BV_ON_ME_GET, BV_DERIVATIVES, fmi3Float64, NULL, x)
-VECTOR(fmi3GetNominalsOfContinuousStates, BV_ON_NOMINALS, BV_NOMINALS, fmi3Float64, NULL, x)
+/* The continuous-state vectors: set, get, derivatives, nominals (bv_fmu_vector). */
+BV_VECTOR_FUNCTIONS(fmi3Status, fmi3Instance, fmi3Float64, fmi3SetContinuousStates,
+                    fmi3GetContinuousStates, fmi3GetContinuousStateDerivatives,
+                    fmi3GetNominalsOfContinuousStates)
 
 fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance instance, size_t *nEventIndicators)
 {
