@@ -20,8 +20,11 @@ bv_fmu *bv_fmu_new(const char *name, int me, int logging_on, bv_host_fn logger, 
         strcpy(f->name, name);
     if (name == NULL || f->name != NULL)
         f->core = bv_new(&bv_model_data, name, log, f);
-    if (f->core != NULL)
+    if (f->core != NULL) {
+        if (me)
+            bv_set_model_exchange(f->core);
         return f;
+    }
     bv_fmu_free(f); /* out of memory, or the model cannot be assembled (logged) */
     return NULL;
 }

@@ -31,20 +31,23 @@ typedef struct {
     bv_log_fn log;      /* the wrapper's message function: env is this bv_fmu */
 } bv_fmu;
 
-/* Flags of a function's mask besides its states (BV_INSTANTIATED .. BV_FAILED): the
+/* Flags of a function's mask besides its states (BV_INSTANTIATED .. BV_EVENT): the
  * interface the function belongs to when it is not both. */
-enum { BV_CS_ONLY = 32, BV_ME_ONLY = 64 };
+enum { BV_CS_ONLY = 64, BV_ME_ONLY = 128 };
 
 /* The states the FMI functions are allowed in, from the standard's state tables (the same in
  * FMI 2.0 and 3.0 for these; a version's own are in its file), with the interface flags.
  * Single states: BV_INSTANTIATED (SetupExperiment, EnterInitializationMode),
- * BV_INITIALIZATION (ExitInitializationMode), BV_STEPPING (Terminate). Model exchange: the
- * standard's Event Mode and Continuous-Time Mode are both BV_STEPPING (no events). */
-#define BV_ON_GET (BV_INITIALIZATION | BV_STEPPING | BV_TERMINATED | BV_FAILED) /* values */
-#define BV_ON_SET (BV_INSTANTIATED | BV_INITIALIZATION | BV_STEPPING) /* values, input rates */
+ * BV_INITIALIZATION (ExitInitializationMode). Model exchange: Event Mode is BV_EVENT,
+ * Continuous-Time Mode BV_STEPPING (a co-simulation instance is never in BV_EVENT). */
+#define BV_ON_GET (BV_INITIALIZATION | BV_EVENT | BV_STEPPING | BV_TERMINATED | BV_FAILED)
+#define BV_ON_SET (BV_INSTANTIATED | BV_INITIALIZATION | BV_EVENT | BV_STEPPING) /* values */
+#define BV_ON_TERMINATE (BV_EVENT | BV_STEPPING)
 #define BV_ON_STEP (BV_STEPPING | BV_CS_ONLY) /* DoStep */
-#define BV_ON_EVENT (BV_STEPPING | BV_ME_ONLY) /* the mode changes, discrete states, steps */
-#define BV_ON_ME_SET (BV_INITIALIZATION | BV_STEPPING | BV_ME_ONLY) /* time, states */
+#define BV_ON_EVENT_MODE (BV_EVENT | BV_ME_ONLY) /* discrete states, EnterContinuousTimeMode */
+#define BV_ON_CT_MODE (BV_STEPPING | BV_ME_ONLY) /* CompletedIntegratorStep */
+#define BV_ON_TIME (BV_INITIALIZATION | BV_EVENT | BV_STEPPING | BV_ME_ONLY) /* SetTime */
+#define BV_ON_ME_SET (BV_INITIALIZATION | BV_STEPPING | BV_ME_ONLY) /* SetContinuousStates */
 #define BV_ON_ME_GET (BV_ON_GET | BV_ME_ONLY) /* states, derivatives, event indicators */
 #define BV_ON_NOMINALS (BV_INSTANTIATED | BV_ON_ME_GET)
 

@@ -31,17 +31,20 @@ enum { BV_INPUT = 0, BV_OUTPUT = 1, BV_PARAMETER = 2 };
 typedef enum { BV_OK = 0, BV_WARNING = 1, BV_DISCARD = 2, BV_ERROR = 3 } bv_status;
 
 /* The instance's state in the FMI state machine (a bit each, so that a function's allowed
- * states are a mask). FMI 2.0 stepComplete and FMI 3.0 Step Mode are BV_STEPPING; a refused
- * call (fmi2Error / fmi2Discard from a DoStep that changed nothing) leaves the state as it
- * was; a failed initialization puts the instance into BV_FAILED (FMI "error"), from which
- * Reset, FreeInstance, GetReal and the FMU-state functions lead out. */
+ * states are a mask). FMI 2.0 stepComplete and FMI 3.0 Step Mode are BV_STEPPING; in model
+ * exchange BV_STEPPING is Continuous-Time Mode and BV_EVENT Event Mode (ExitInitialization
+ * Mode leads there). A refused call (fmi2Error / fmi2Discard from a DoStep that changed
+ * nothing) leaves the state as it was; a failed initialization puts the instance into
+ * BV_FAILED (FMI "error"), from which Reset, FreeInstance, GetReal and the FMU-state
+ * functions lead out. */
 enum {
     BV_INSTANTIATED = 1,
     BV_INITIALIZATION = 2,
     BV_STEPPING = 4,
     BV_TERMINATED = 8,
     BV_FAILED = 16,
-    BV_ANY_STATE = 31
+    BV_EVENT = 32,
+    BV_ANY_STATE = 63
 };
 
 /* One stencil entry: matrix[row][col] += coef * (param < 0 ? 1 : p[param]). */
@@ -113,6 +116,10 @@ int bv_allowed(bv_instance *c, const char *function, int mask);
 bv_status bv_setup(bv_instance *c, double start_time); /* Instantiated: the run's start time */
 void bv_enter_initialization(bv_instance *c);
 void bv_terminate(bv_instance *c);
+/* Model exchange: a model-exchange instance (set once, after bv_new) is in Event Mode after
+ * initialization; bv_me_enter changes between BV_EVENT and BV_STEPPING (Continuous-Time). */
+void bv_set_model_exchange(bv_instance *c);
+void bv_me_enter(bv_instance *c, int mode);
 
 /* The standard's interpolation interface.
  * Input derivatives: order k of input i is the input k rate pairs down its chain (order 1

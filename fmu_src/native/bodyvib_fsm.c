@@ -37,6 +37,7 @@ void bv_common_init(bv_common *b, const bv_model *md, const char *name, bv_log_f
                     void *env)
 {
     b->md = md;
+    b->me = 0;
     snprintf(b->name, sizeof b->name, "%s", name ? name : md->model_name);
     b->log = log;
     b->env = env;
@@ -62,16 +63,25 @@ void bv_me_set_time(bv_instance *c, double t) { BV_COMMON(c)->time = t; }
 
 int bv_me_nstates(const bv_instance *c) { return BV_COMMON(c)->md->n; }
 
-static const char *mode_name(int mode)
+static const char *mode_name(const bv_common *b, int mode)
 {
     switch (mode) {
     case BV_INSTANTIATED: return "Instantiated";
     case BV_INITIALIZATION: return "InitializationMode";
-    case BV_STEPPING: return "StepMode (stepComplete)";
+    case BV_EVENT: return "EventMode";
+    case BV_STEPPING: return b->me ? "ContinuousTimeMode" : "StepMode (stepComplete)";
     case BV_TERMINATED: return "Terminated";
     default: return "Error (initialization failed)";
     }
 }
+
+/* The states in the order a message lists them. */
+static const int MODES[] = {BV_INSTANTIATED, BV_INITIALIZATION, BV_EVENT, BV_STEPPING,
+                            BV_TERMINATED, BV_FAILED};
+
+void bv_set_model_exchange(bv_instance *c) { BV_COMMON(c)->me = 1; }
+
+void bv_me_enter(bv_instance *c, int mode) { BV_COMMON(c)->mode = mode; }
 
 int bv_state(const bv_instance *c) { return BV_COMMON(c)->mode; }
 
@@ -80,20 +90,20 @@ int bv_allowed(bv_instance *c, const char *function, int mask)
     bv_common *b = BV_COMMON(c);
     char text[200];
     size_t l = 0;
-    int bit;
+    size_t k;
     if (b->mode & mask)
         return 1;
     text[0] = '\0';
-    for (bit = BV_INSTANTIATED; bit <= BV_FAILED; bit <<= 1)
-        if (mask & bit)
+    for (k = 0; k < sizeof MODES / sizeof MODES[0]; k++)
+        if (mask & MODES[k] && (b->me || MODES[k] != BV_EVENT)) /* no Event Mode in CS */
             l += (size_t)snprintf(text + l, sizeof text - l, "%s%s", l ? ", " : "",
-                                  mode_name(bit));
+                                  mode_name(b, MODES[k]));
     if (l == 0)
         snprintf(text, sizeof text, "none: this FMU never needs it");
     if (b->mode == BV_FAILED && b->init_failed && b->init_error[0])
         bv_say(b, BV_ERROR, "%s", b->init_error);
     bv_say(b, BV_ERROR, "%s: %s is not allowed in state %s (allowed in: %s); call refused, "
-                        "nothing changed", b->name, function, mode_name(b->mode), text);
+                        "nothing changed", b->name, function, mode_name(b, b->mode), text);
     return 0;
 }
 
@@ -136,7 +146,7 @@ void bv_common_initialized(bv_common *b)
     b->init_failed = 0;
     b->init_error[0] = '\0';
     b->initialized = 1;
-    b->mode = BV_STEPPING;
+    b->mode = b->me ? BV_EVENT : BV_STEPPING;
 }
 
 bv_status bv_common_step_check(bv_common *b, double t, double h)
@@ -173,8 +183,10 @@ void bv_common_restored(bv_common *b, double time, int initialized, int init_fai
     b->time = time;
     b->initialized = initialized;
     b->init_failed = init_failed;
-    if (initialized)
-        b->mode = BV_STEPPING;
+    if (initialized) { /* model exchange: in the mode it is in, else Event Mode */
+        if (b->mode != BV_STEPPING && b->mode != BV_EVENT)
+            b->mode = b->me ? BV_EVENT : BV_STEPPING;
+    }
     else if (init_failed)
         b->mode = BV_FAILED;
     else if (b->mode != BV_INITIALIZATION)

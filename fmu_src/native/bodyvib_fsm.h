@@ -22,7 +22,8 @@
 #define BV_MESSAGE 640
 
 typedef struct {
-    int mode;           /* first (BV_STATE_IS): BV_INSTANTIATED .. BV_FAILED, the FMI state */
+    int mode;           /* first (BV_STATE_IS): BV_INSTANTIATED .. BV_EVENT, the FMI state */
+    int me;             /* a model-exchange instance: Event and Continuous-Time Mode */
     const bv_model *md;
     char name[128];
     bv_log_fn log;
@@ -58,7 +59,7 @@ void bv_common_begin_initialize(bv_common *b);
 /* ExitInitializationMode failed: b->init_error holds the reason (logged here); the
  * instance stays in the error state and refuses to step until Reset. */
 bv_status bv_common_failed(bv_common *b);
-/* ExitInitializationMode succeeded: StepMode. */
+/* ExitInitializationMode succeeded: Step Mode (co-simulation) or Event Mode (model exchange). */
 void bv_common_initialized(bv_common *b);
 /* The checks every DoStep(t, h) makes before it changes anything: h positive and finite,
  * the instance initialized, t the model's time (up to rounding). BV_OK or BV_ERROR

@@ -45,6 +45,8 @@ static fmi2Status st(bv_status s) { return (fmi2Status)s; }
 /* The states of the FMI 2.0 functions not in bodyvib_calls.h's shared table. */
 #define S_OUTPUT_DERIVATIVES (BV_STEPPING | BV_TERMINATED | BV_FAILED)
 #define S_STATUS (BV_STEPPING | BV_TERMINATED)
+/* FMI 2.0 allows fmi2EnterEventMode in Event Mode too (FMI 3.0 only in Continuous-Time Mode). */
+#define S_ENTER_EVENT_MODE (BV_EVENT | BV_STEPPING | BV_ME_ONLY)
 
 /* The instance f of a function allowed in every state. */
 #define INSTANCE(c)                                                                          \
@@ -125,7 +127,7 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c)
 
 fmi2Status fmi2Terminate(fmi2Component c)
 {
-    CHECKED(c, fmi2Terminate, BV_STEPPING);
+    CHECKED(c, fmi2Terminate, BV_ON_TERMINATE);
     bv_terminate(f->core);
     return fmi2OK;
 }
@@ -282,17 +284,21 @@ NO_STATUS(fmi2GetStringStatus, fmi2String)
  * inputs are taken as given (the host provides the input's derivative as its value),
  * rate-only inputs (seat_acceleration, seat_force_rate) enter only the outputs that are
  * exact time derivatives. No events: no event indicators, no discrete states, no time
- * events; the mode functions only acknowledge the host's calls. */
+ * events. The instance is in Event Mode after fmi2ExitInitializationMode and moves between it
+ * and Continuous-Time Mode as the host calls fmi2EnterContinuousTimeMode / fmi2EnterEventMode;
+ * a call the other mode allows (fmi2SetContinuousStates, fmi2CompletedIntegratorStep in
+ * Event Mode; fmi2NewDiscreteStates in Continuous-Time Mode) returns fmi2Error, logged. */
 
 fmi2Status fmi2EnterEventMode(fmi2Component c)
 {
-    CHECKED(c, fmi2EnterEventMode, BV_ON_EVENT);
+    CHECKED(c, fmi2EnterEventMode, S_ENTER_EVENT_MODE);
+    bv_me_enter(f->core, BV_EVENT);
     return fmi2OK;
 }
 
 fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *eventInfo)
 {
-    CHECKED(c, fmi2NewDiscreteStates, BV_ON_EVENT);
+    CHECKED(c, fmi2NewDiscreteStates, BV_ON_EVENT_MODE);
     if (eventInfo == NULL)
         return fmi2Error;
     eventInfo->newDiscreteStatesNeeded = fmi2False;
@@ -306,7 +312,8 @@ fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *eventInfo)
 
 fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c)
 {
-    CHECKED(c, fmi2EnterContinuousTimeMode, BV_ON_EVENT);
+    CHECKED(c, fmi2EnterContinuousTimeMode, BV_ON_EVENT_MODE);
+    bv_me_enter(f->core, BV_STEPPING);
     return fmi2OK;
 }
 
@@ -315,7 +322,7 @@ fmi2Status fmi2CompletedIntegratorStep(fmi2Component c,
                                        fmi2Boolean *enterEventMode,
                                        fmi2Boolean *terminateSimulation)
 {
-    CHECKED(c, fmi2CompletedIntegratorStep, BV_ON_EVENT);
+    CHECKED(c, fmi2CompletedIntegratorStep, BV_ON_CT_MODE);
     (void)noSetFMUStatePriorToCurrentPoint;
     if (enterEventMode != NULL)
         *enterEventMode = fmi2False;
@@ -326,7 +333,7 @@ fmi2Status fmi2CompletedIntegratorStep(fmi2Component c,
 
 fmi2Status fmi2SetTime(fmi2Component c, fmi2Real time)
 {
-    CHECKED(c, fmi2SetTime, BV_ON_ME_SET);
+    CHECKED(c, fmi2SetTime, BV_ON_TIME);
     bv_me_set_time(f->core, time);
     return fmi2OK;
 }

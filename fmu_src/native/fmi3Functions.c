@@ -138,7 +138,7 @@ fmi3Status fmi3ExitInitializationMode(fmi3Instance instance)
 
 fmi3Status fmi3Terminate(fmi3Instance instance)
 {
-    CHECKED(instance, fmi3Terminate, BV_STEPPING);
+    CHECKED(instance, fmi3Terminate, BV_ON_TERMINATE);
     bv_terminate(f->core);
     return fmi3OK;
 }
@@ -486,11 +486,13 @@ fmi3Status fmi3ActivateModelPartition(fmi3Instance instance, fmi3ValueReference 
 /* ------------------------------------------------------------------ model exchange
  *
  * x' = A x + B U s with the inputs s the host set for the current time (see
- * fmi2Functions.c): no events, no event indicators, no discrete states. */
+ * fmi2Functions.c): no events, no event indicators, no discrete states; Event Mode after
+ * fmi3ExitInitializationMode, and each call checked against the mode the host put it in. */
 
 fmi3Status fmi3EnterEventMode(fmi3Instance instance)
 {
-    CHECKED(instance, fmi3EnterEventMode, BV_ON_EVENT); /* co-simulation: no event mode */
+    CHECKED(instance, fmi3EnterEventMode, BV_ON_CT_MODE); /* co-simulation: no event mode */
+    bv_me_enter(f->core, BV_EVENT);
     return fmi3OK;
 }
 
@@ -500,7 +502,7 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *discrete
                                     fmi3Boolean *valuesOfContinuousStatesChanged,
                                     fmi3Boolean *nextEventTimeDefined, fmi3Float64 *nextEventTime)
 {
-    CHECKED(instance, fmi3UpdateDiscreteStates, BV_ON_EVENT);
+    CHECKED(instance, fmi3UpdateDiscreteStates, BV_ON_EVENT_MODE);
     if (discreteStatesNeedUpdate)
         *discreteStatesNeedUpdate = fmi3False;
     if (terminateSimulation)
@@ -518,7 +520,8 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *discrete
 
 fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance instance)
 {
-    CHECKED(instance, fmi3EnterContinuousTimeMode, BV_ON_EVENT);
+    CHECKED(instance, fmi3EnterContinuousTimeMode, BV_ON_EVENT_MODE);
+    bv_me_enter(f->core, BV_STEPPING);
     return fmi3OK;
 }
 
@@ -527,7 +530,7 @@ fmi3Status fmi3CompletedIntegratorStep(fmi3Instance instance,
                                        fmi3Boolean *enterEventMode,
                                        fmi3Boolean *terminateSimulation)
 {
-    CHECKED(instance, fmi3CompletedIntegratorStep, BV_ON_EVENT);
+    CHECKED(instance, fmi3CompletedIntegratorStep, BV_ON_CT_MODE);
     (void)noSetFMUStatePriorToCurrentPoint;
     if (enterEventMode)
         *enterEventMode = fmi3False;
@@ -538,7 +541,7 @@ fmi3Status fmi3CompletedIntegratorStep(fmi3Instance instance,
 
 fmi3Status fmi3SetTime(fmi3Instance instance, fmi3Float64 time)
 {
-    CHECKED(instance, fmi3SetTime, BV_ON_ME_SET);
+    CHECKED(instance, fmi3SetTime, BV_ON_TIME);
     bv_me_set_time(f->core, time);
     return fmi3OK;
 }
