@@ -2,12 +2,13 @@
  * bodyvib native FMUs: the FMI calls, once for both versions (bodyvib_calls.c).
  *
  * fmi2Functions.c and fmi3Functions.c keep only what differs between the versions: the
- * names and argument lists, the table of the states each function is allowed in, the
- * host's logger and the status enum (fmi2Status and fmi3Status have the values of
- * bv_status). An instance of either version is a bv_fmu; every function of either version
- * begins with bv_fmu_enter (the instance, its interface, its state), and what the call then
- * does beyond one core function (argument checks, FMU states, serialization, directional
- * derivatives, the model-exchange vectors) is a bv_fmu_* function here.
+ * names and argument lists, the states only one version allows a function in, the host's
+ * logger and the status enum (fmi2Status and fmi3Status have the values of bv_status). An
+ * instance of either version is a bv_fmu; every function of either version begins with
+ * bv_fmu_enter (the instance, its interface, its state against the function's BV_ON_* mask
+ * below), and what the call then does beyond one core function (argument checks, FMU
+ * states, serialization, directional derivatives, the model-exchange vectors) is a
+ * bv_fmu_* function here.
  */
 #ifndef BODYVIB_CALLS_H
 #define BODYVIB_CALLS_H
