@@ -352,6 +352,83 @@ def test_model_exchange_calls_out_of_order_are_errors(native_fmus, fmi):
 
 
 @pytest.mark.parametrize("fmi", (2, 3))
+def test_event_and_continuous_time_modes_refuse_each_others_calls(native_fmus, fmi):
+    """After ExitInitializationMode a model-exchange instance is in Event Mode; the calls of
+    Continuous-Time Mode (SetContinuousStates, CompletedIntegratorStep) are refused there,
+    and in Continuous-Time Mode those of Event Mode (NewDiscreteStates / UpdateDiscreteStates,
+    EnterContinuousTimeMode; FMI 3.0: EnterEventMode only from Continuous-Time Mode), each
+    with Error, the reason logged and the states unchanged (the standard's state tables, as
+    the Reference FMUs' masks have them); SetTime and the derivatives are allowed in both."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi1 import FMICallException
+    from fmpy.fmi2 import FMU2Model
+    from fmpy.fmi3 import FMU3Model
+
+    path = _path(native_fmus, "HumanBody3DOF", fmi)
+    md = read_model_description(path)
+    folder = extract(path)
+    said = []
+    n = md.numberOfContinuousStates
+
+    def status(call, *args):
+        try:
+            call(*args)
+        except FMICallException as exc:
+            return exc.status
+        return 0
+
+    try:
+        if fmi == 2:
+            fmu = FMU2Model(guid=md.guid, unzipDirectory=folder, instanceName="me",
+                            modelIdentifier=md.modelExchange.modelIdentifier)
+            fmu.instantiate(callbacks=_fmi2_callbacks(lambda *a: said.append(a[-1].decode())))
+            fmu.setupExperiment(startTime=0.0)
+            discrete, derivatives = fmu.newDiscreteStates, fmu.getDerivatives
+        else:
+            fmu = FMU3Model(guid=md.instantiationToken, unzipDirectory=folder,
+                            instanceName="me", modelIdentifier=md.modelExchange.modelIdentifier)
+            fmu.instantiate(logMessage=lambda env, st, cat, msg: said.append(msg.decode()))
+            discrete, derivatives = fmu.updateDiscreteStates, fmu.getContinuousStateDerivatives
+        x = (c_double * n)(*[1e-3 * (i + 1) for i in range(n)])
+        before, after, dx = (c_double * n)(), (c_double * n)(), (c_double * n)()
+        fmu.enterInitializationMode()
+        fmu.exitInitializationMode()
+        fmu.getContinuousStates(before, n)
+        seen = {  # Event Mode
+            "set_states": status(fmu.setContinuousStates, x, n),
+            "completed": status(fmu.completedIntegratorStep),
+            "enter_event": status(fmu.enterEventMode),
+            "set_time": status(fmu.setTime, 1e-3),
+            "derivatives": status(derivatives, dx, n),
+            "discrete": status(discrete),
+        }
+        fmu.getContinuousStates(after, n)
+        assert list(after) == list(before)  # the refusals changed nothing
+        seen["enter_continuous"] = status(fmu.enterContinuousTimeMode)
+        seen.update({  # Continuous-Time Mode
+            "ct_discrete": status(discrete),
+            "ct_enter_continuous": status(fmu.enterContinuousTimeMode),
+            "ct_set_states": status(fmu.setContinuousStates, x, n),
+            "ct_completed": status(fmu.completedIntegratorStep),
+            "ct_set_time": status(fmu.setTime, 2e-3),
+            "ct_enter_event": status(fmu.enterEventMode),
+            "back_set_states": status(fmu.setContinuousStates, x, n),  # Event Mode again
+            "terminate": status(fmu.terminate),
+        })
+        fmu.freeInstance()
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+    refused = {"set_states", "completed", "ct_discrete", "ct_enter_continuous",
+               "back_set_states"} | ({"enter_event"} if fmi == 3 else set())
+    assert {k for k, v in seen.items() if v == 3} == refused, seen
+    assert {k for k, v in seen.items() if v == 0} == set(seen) - refused, seen
+    text = "\n".join(said)
+    assert f"fmi{fmi}SetContinuousStates is not allowed in state EventMode" in text, text
+    discrete_name = "NewDiscreteStates" if fmi == 2 else "UpdateDiscreteStates"
+    assert f"fmi{fmi}{discrete_name} is not allowed in state ContinuousTimeMode" in text, text
+
+
+@pytest.mark.parametrize("fmi", (2, 3))
 def test_unconnected_velocity_warns_once_in_model_exchange(native_fmus, fmi):
     """No slope fallback in model exchange (the velocity input is used as given), but the
     co-simulation's single warning when the displacement moves and the velocity never was set."""
@@ -465,6 +542,40 @@ def test_c_host_rk4_converges_to_the_analytic_sine_response(me_host, native_fmus
     exact = np.hstack([lm.A, lm.B @ iface.input_map])
     rows = np.max(np.abs(exact), axis=1, keepdims=True)
     assert np.all(np.abs(jac - exact) <= 1e-12 * rows)
+
+
+ME_MODES = {  # me_host --modes: 3 = fmi2Error, a call of the other model-exchange mode
+    "states_event": "0", "setstates_event": "3", "completed_event": "3", "settime_event": "0",
+    "derivatives_event": "0", "discrete_event": "0", "refusals_left_states": "1",
+    "continuous_event": "0", "discrete_continuous": "3", "continuous_continuous": "3",
+    "setstates_continuous": "0", "completed_continuous": "0", "event_continuous": "0",
+    "event_event": "0", "setstates_event_again": "3", "terminate_event": "0",
+}
+
+
+@pytest.mark.parametrize("name", ME_CASES)
+def test_c_host_refuses_calls_of_the_other_model_exchange_mode(me_host, native_fmus, name,
+                                                                 tmp_path):
+    """A C host walks an instance from ExitInitializationMode (Event Mode) into Continuous-Time
+    Mode and back: each call the current mode does not allow returns fmi2Error with the reason
+    logged and leaves the states as they were; the others return fmi2OK."""
+    from fmpy import read_model_description
+
+    with zipfile.ZipFile(native_fmus[name]) as z:
+        z.extractall(tmp_path)
+    md = read_model_description(native_fmus[name])
+    states = [v for v in md.modelVariables if v.name.startswith("state.")]
+    ders = [v for v in md.modelVariables if v.name.startswith("der(state.")]
+    ni = sum(v.causality == "input" for v in md.modelVariables)
+    argv = [me_host, "--modes", os.path.join(str(tmp_path), "binaries", "linux64", name + ".so"),
+            md.guid, str(len(states)), str(ni), str(states[0].valueReference),
+            str(ders[0].valueReference), "1e-3", "1", "0.01", "2"]
+    out = subprocess.run(argv, capture_output=True, text=True, timeout=120, env={})
+    assert out.returncode == 0 and out.stdout.splitlines()[-1] == "ok", out.stderr
+    got = dict(l.split() for l in out.stdout.splitlines() if " " in l)
+    assert got == ME_MODES, out.stdout
+    assert "fmi2SetContinuousStates is not allowed in state EventMode" in out.stderr
+    assert "fmi2NewDiscreteStates is not allowed in state ContinuousTimeMode" in out.stderr
 
 
 def test_win64_model_exchange_under_wine_matches_linux64(me_host, native_fmus, tmp_path):

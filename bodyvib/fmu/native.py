@@ -63,10 +63,11 @@ __all__ = ["NATIVE_SOURCES", "PLATFORMS", "PlatformChoice", "choose_platforms", 
 
 #: The model-independent C sources and the FMI function file of each FMI version.
 #: The FMI state machine both cores share (bodyvib_fsm.c) is compiled into every native FMU.
-NATIVE_SOURCES = ("bodyvib_core.h", "bodyvib_fsm.h", "bodyvib_fsm.c", "bodyvib_core.c")
+NATIVE_SOURCES = ("bodyvib_core.h", "bodyvib_fsm.h", "bodyvib_fsm.c", "bodyvib_core.c",
+                  "bodyvib_calls.h", "bodyvib_calls.c")
 #: The core of a source FMU (a table, bodyvib_source.c) in place of the linear one: the same API.
 SOURCE_SOURCES = ("bodyvib_core.h", "bodyvib_fsm.h", "bodyvib_fsm.c", "bodyvib_source.h",
-                  "bodyvib_source.c")
+                  "bodyvib_source.c", "bodyvib_calls.h", "bodyvib_calls.c")
 FMI_FILES = {2: "fmi2Functions.c", 3: "fmi3Functions.c"}
 FMI_HEADERS = {2: ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"),
                3: ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")}

@@ -227,6 +227,25 @@ static const double B13[14] = {
     40840800., 960960., 16380., 182., 1.};
 #define THETA13 5.371920351148152
 
+/* One sum of the Pade(13) approximant from the coefficient b_o (o = 1: the odd ones, U
+ * before its factor A; o = 0: the even ones, V):
+ *     out = A6 (b_{o+12} A6 + b_{o+10} A4 + b_{o+8} A2) + b_{o+6} A6 + b_{o+4} A4
+ *           + b_{o+2} A2 + b_o I,
+ * with A2, A4, A6 the scaled powers M2, M4, M6 (N x N); W: N x N scratch. */
+static void pade_sum(double *out, double *W, const double *M2, const double *M4,
+                     const double *M6, int N, int o)
+{
+    size_t NN = (size_t)N * N, i;
+    int k;
+    for (i = 0; i < NN; i++)
+        W[i] = B13[o + 12] * M6[i] + B13[o + 10] * M4[i] + B13[o + 8] * M2[i];
+    mul(out, M6, W, N, N, N);
+    for (i = 0; i < NN; i++)
+        out[i] += B13[o + 6] * M6[i] + B13[o + 4] * M4[i] + B13[o + 2] * M2[i];
+    for (k = 0; k < N; k++)
+        out[(size_t)k * N + k] += B13[o];
+}
+
 /* E = exp(M), M N x N, by scaling and squaring with a degree-13 Pade approximant; the
  * scaling from norms of powers of M (Al-Mohy & Higham 2009), as bodyvib.discretize.expm.
  * work: 9 N x N; piv: N. Returns 0 if the Pade denominator is singular. */
@@ -236,7 +255,7 @@ static int expm(double *E, const double *M, int N, double *work, int *piv)
     double *M2 = work, *M4 = M2 + NN, *M6 = M4 + NN, *T = M6 + NN, *A = T + NN;
     double *W = A + NN, *Uo = W + NN, *V = Uo + NN, *P = V + NN;
     double d6, d8, d10, eta, f2, f4, f6, f1;
-    int s = 0, k, j;
+    int s = 0, j;
 
     mul(M2, M, M, N, N, N);
     mul(M4, M2, M2, N, N, N);
@@ -262,22 +281,10 @@ static int expm(double *E, const double *M, int N, double *work, int *piv)
         M6[i] *= f6;
     }
     /* U = A (A6 (b13 A6 + b11 A4 + b9 A2) + b7 A6 + b5 A4 + b3 A2 + b1 I) */
-    for (i = 0; i < NN; i++)
-        W[i] = B13[13] * M6[i] + B13[11] * M4[i] + B13[9] * M2[i];
-    mul(T, M6, W, N, N, N);
-    for (i = 0; i < NN; i++)
-        T[i] += B13[7] * M6[i] + B13[5] * M4[i] + B13[3] * M2[i];
-    for (k = 0; k < N; k++)
-        T[(size_t)k * N + k] += B13[1];
+    pade_sum(T, W, M2, M4, M6, N, 1);
     mul(Uo, A, T, N, N, N);
     /* V = A6 (b12 A6 + b10 A4 + b8 A2) + b6 A6 + b4 A4 + b2 A2 + b0 I */
-    for (i = 0; i < NN; i++)
-        W[i] = B13[12] * M6[i] + B13[10] * M4[i] + B13[8] * M2[i];
-    mul(V, M6, W, N, N, N);
-    for (i = 0; i < NN; i++)
-        V[i] += B13[6] * M6[i] + B13[4] * M4[i] + B13[2] * M2[i];
-    for (k = 0; k < N; k++)
-        V[(size_t)k * N + k] += B13[0];
+    pade_sum(V, W, M2, M4, M6, N, 0);
     /* (V - U) E = V + U */
     for (i = 0; i < NN; i++) {
         P[i] = V[i] - Uo[i];
@@ -687,8 +694,10 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
                 status = BV_ERROR;
             continue;
         }
-        int kind = md->vr_kind[vr[i]], idx = md->vr_index[vr[i]];
-        if (kind == BV_INPUT) {
+        int idx = md->vr_index[vr[i]];
+        if (!bv_common_settable(&c->bc, vr[i])) {
+            status = BV_ERROR;
+        } else if (md->vr_kind[vr[i]] == BV_INPUT) {
             c->s[idx] = value[i];
             c->dirty = 1;
             if (value[i] != 0.0)
@@ -697,19 +706,8 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
                         c->vel_set[k] = 1;
                         c->slope_on[k] = 0;
                     }
-        } else if (kind == BV_PARAMETER) {
-            if (c->bc.initialized) {
-                say(c, BV_ERROR, "%s: parameter %s is fixed after initialization; set it "
-                                 "before ExitInitializationMode (ignored)",
-                    c->bc.name, md->vr_name[vr[i]]);
-                status = BV_ERROR;
-            } else {
-                c->p[idx] = value[i];
-            }
         } else {
-            say(c, BV_ERROR, "%s: %s is an output and cannot be set (ignored)", c->bc.name,
-                md->vr_name[vr[i]]);
-            status = BV_ERROR;
+            c->p[idx] = value[i]; /* a parameter */
         }
     }
     return status;
@@ -759,6 +757,26 @@ bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double val
     return status;
 }
 
+/* The one warning of fallback pair k: its displacement moves at time t but its velocity was
+ * never set; what the FMU does about it, co-simulation (me 0) or model exchange (me 1). */
+static void warn_unconnected(bv_instance *c, int k, double t, int me)
+{
+    const bv_pair *pr = &c->bc.md->pairs[k];
+    const char *dname = var_name(c->bc.md, BV_INPUT, pr->value);
+    const char *vname = var_name(c->bc.md, BV_INPUT, pr->rate);
+    c->warned[k] = 1;
+    if (me)
+        say(c, BV_WARNING, "%s: %s moves (t = %g s) but %s was never set: in model exchange "
+                           "the velocity input is used as given (0); set %s to the time "
+                           "derivative of %s",
+            c->bc.name, dname, t, vname, vname, dname);
+    else
+        say(c, BV_WARNING, "%s: %s moves (t = %g s) but %s was never set: using the slope of "
+                           "successive %s values as its in-step rate; connect %s for the exact "
+                           "coupling",
+            c->bc.name, dname, t, vname, dname, vname);
+}
+
 /* The unconnected-velocity rule, before a step (bodyvib.runtime.engine's _slope_fallback). */
 static void slope_fallback(bv_instance *c, double t, double h)
 {
@@ -771,15 +789,8 @@ static void slope_fallback(bv_instance *c, double t, double h)
             continue;
         if (c->has_prev[k] && x != c->x_prev[k] && !c->slope_on[k]) {
             c->slope_on[k] = 1;
-            if (!c->warned[k]) {
-                const char *dname = var_name(md, BV_INPUT, pr->value);
-                const char *vname = var_name(md, BV_INPUT, pr->rate);
-                c->warned[k] = 1;
-                say(c, BV_WARNING, "%s: %s moves (t = %g s) but %s was never set: using the "
-                                   "slope of successive %s values as its in-step rate; connect "
-                                   "%s for the exact coupling",
-                    c->bc.name, dname, t, vname, dname, vname);
-            }
+            if (!c->warned[k])
+                warn_unconnected(c, k, t, 0);
         }
         if (c->slope_on[k])
             c->s[pr->rate] = (x - c->x_prev[k]) / c->h_prev[k];
@@ -1003,17 +1014,6 @@ bv_status bv_get_output_derivatives(bv_instance *c, const unsigned int vr[], siz
 
 static const unsigned char MAGIC[8] = {'B', 'V', 'S', 'T', 'A', 'T', 'E', '2'};
 
-static uint64_t fnv1a(const unsigned char *p, size_t n)
-{
-    uint64_t h = 1469598103934665603ULL;
-    size_t i;
-    for (i = 0; i < n; i++) {
-        h ^= p[i];
-        h *= 1099511628211ULL;
-    }
-    return h;
-}
-
 /* Payload: doubles time, initialized, init_failed, p[np], x[n], s[ni], then per fallback
  * pair x_prev, h_prev, has_prev, vel_set, slope_on, warned. */
 static size_t payload_doubles(const bv_instance *c)
@@ -1023,7 +1023,7 @@ static size_t payload_doubles(const bv_instance *c)
 
 size_t bv_state_size(const bv_instance *c)
 {
-    return 8 + 8 + 8 + 8 * payload_doubles(c) + 8;
+    return BV_SNAPSHOT_HEAD + 8 * payload_doubles(c) + 8;
 }
 
 static unsigned char *put(unsigned char *q, const double *v, size_t k)
@@ -1032,21 +1032,12 @@ static unsigned char *put(unsigned char *q, const double *v, size_t k)
     return q + k * sizeof *v;
 }
 
-static uint64_t token_hash(const bv_instance *c)
-{
-    return fnv1a((const unsigned char *)c->bc.md->token, strlen(c->bc.md->token));
-}
-
 void bv_state_write(const bv_instance *c, unsigned char *buf)
 {
     int k;
-    uint64_t size = bv_state_size(c), token = token_hash(c), sum;
+    size_t size = bv_state_size(c);
     double head[3], pair[6];
-    unsigned char *q = buf;
-    memcpy(q, MAGIC, 8);
-    memcpy(q + 8, &size, 8);
-    memcpy(q + 16, &token, 8);
-    q += 24;
+    unsigned char *q = bv_common_snapshot_head(&c->bc, buf, MAGIC, size);
     head[0] = c->bc.time;
     head[1] = c->bc.initialized;
     head[2] = c->bc.init_failed;
@@ -1063,37 +1054,20 @@ void bv_state_write(const bv_instance *c, unsigned char *buf)
         pair[5] = c->warned[k];
         q = put(q, pair, 6);
     }
-    sum = fnv1a(buf, (size_t)(q - buf));
-    memcpy(q, &sum, 8);
+    bv_common_snapshot_seal(buf, size);
 }
 
 static int flag_ok(double v) { return v == 0.0 || v == 1.0; }
 
 bv_status bv_state_check(const bv_instance *c, const unsigned char *buf, size_t size)
 {
-    uint64_t want = bv_state_size(c), got, token, sum;
     size_t off, i;
     int k;
     double head[3], pair[6], *p, v;
-    if (buf == NULL || size < 24 || memcmp(buf, MAGIC, 8) != 0) {
-        say(c, BV_ERROR, "%s: not a bodyvib FMU state (bad magic)", c->bc.name);
+    if (bv_common_snapshot_check(&c->bc, buf, size, MAGIC, bv_state_size(c)) != BV_OK)
         return BV_ERROR;
-    }
-    memcpy(&got, buf + 8, 8);
-    memcpy(&token, buf + 16, 8);
-    if (got != want || size != want || token != token_hash(c)) {
-        say(c, BV_ERROR, "%s: the FMU state belongs to another model or version (size %llu, "
-                         "expected %llu); refused", c->bc.name, (unsigned long long)size,
-            (unsigned long long)want);
-        return BV_ERROR;
-    }
-    memcpy(&sum, buf + want - 8, 8);
-    if (sum != fnv1a(buf, (size_t)want - 8)) {
-        say(c, BV_ERROR, "%s: the FMU state is corrupt (checksum mismatch); refused", c->bc.name);
-        return BV_ERROR;
-    }
-    memcpy(head, buf + 24, sizeof head);
-    off = 24 + sizeof head;
+    memcpy(head, buf + BV_SNAPSHOT_HEAD, sizeof head);
+    off = BV_SNAPSHOT_HEAD + sizeof head;
     if (!(isfinite(head[0]) && flag_ok(head[1]) && flag_ok(head[2]))) {
         say(c, BV_ERROR, "%s: the FMU state is invalid (time or flags); refused", c->bc.name);
         return BV_ERROR;
@@ -1150,7 +1124,7 @@ bv_status bv_state_read(bv_instance *c, const unsigned char *buf, size_t size)
     const unsigned char *q;
     if (bv_state_check(c, buf, size) != BV_OK)
         return BV_ERROR;
-    q = get(buf + 24, head, 3);
+    q = get(buf + BV_SNAPSHOT_HEAD, head, 3);
     q = get(q, c->p, (size_t)c->np);
     q = get(q, c->x, (size_t)c->n);
     q = get(q, c->s, (size_t)c->ni);
@@ -1217,42 +1191,19 @@ static double derivative_value(const bv_instance *c, int i)
     return v;
 }
 
-int bv_me_nstates(const bv_instance *c) { return c->n; }
-
-void bv_me_set_time(bv_instance *c, double t)
-{
-    c->bc.time = t; /* the model is time-invariant: time only labels the state */
-}
-
-static int n_ok(const bv_instance *c, size_t nx, const char *what)
-{
-    if (nx != (size_t)c->n) {
-        say(c, BV_ERROR, "%s: %s: %lu continuous states passed, the model has %d", c->bc.name, what,
-            (unsigned long)nx, c->n);
-        return 0;
-    }
-    return 1;
-}
-
-bv_status bv_me_set_states(bv_instance *c, const double x[], size_t nx)
+void bv_me_set_states(bv_instance *c, const double x[])
 {
     int i;
-    if (!n_ok(c, nx, "SetContinuousStates"))
-        return BV_ERROR;
     for (i = 0; i < c->n; i++)
         c->x[i] = x[i];
     c->dirty = 1;
-    return BV_OK;
 }
 
-bv_status bv_me_get_states(bv_instance *c, double x[], size_t nx)
+void bv_me_get_states(const bv_instance *c, double x[])
 {
     int i;
-    if (!n_ok(c, nx, "GetContinuousStates"))
-        return BV_ERROR;
     for (i = 0; i < c->n; i++)
         x[i] = c->x[i];
-    return BV_OK;
 }
 
 /* The unconnected velocity in model exchange: no slope fallback (the host owns the input
@@ -1272,38 +1223,19 @@ static void me_unconnected_velocity(bv_instance *c)
             c->x_prev[k] = x;
             c->has_prev[k] = 1;
         } else if (x != c->x_prev[k]) {
-            const char *dname = var_name(md, BV_INPUT, pr->value);
-            const char *vname = var_name(md, BV_INPUT, pr->rate);
-            c->warned[k] = 1;
-            say(c, BV_WARNING, "%s: %s moves (t = %g s) but %s was never set: in model exchange "
-                               "the velocity input is used as given (0); set %s to the time "
-                               "derivative of %s",
-                c->bc.name, dname, c->bc.time, vname, vname, dname);
+            warn_unconnected(c, k, c->bc.time, 1);
         }
     }
 }
 
-bv_status bv_me_derivatives(bv_instance *c, double dx[], size_t nx)
+void bv_me_derivatives(bv_instance *c, double dx[])
 {
     int i;
-    if (!n_ok(c, nx, "GetDerivatives"))
-        return BV_ERROR;
     follow_parameters(c);
     if (c->bc.md->npairs)
         me_unconnected_velocity(c);
     for (i = 0; i < c->n; i++)
         dx[i] = derivative_value(c, i);
-    return BV_OK;
-}
-
-bv_status bv_me_nominals(bv_instance *c, double nominal[], size_t nx)
-{
-    int i;
-    if (!n_ok(c, nx, "GetNominalsOfContinuousStates"))
-        return BV_ERROR;
-    for (i = 0; i < c->n; i++)
-        nominal[i] = 1.0; /* SI units; displacements are mm, velocities m/s: no better scale */
-    return BV_OK;
 }
 
 static int me_var_get(bv_instance *c, unsigned int vr, double *value)

@@ -12,7 +12,8 @@
  * with the inputs extrapolated over the step at their rates du (and, where a rate has a
  * rate of its own, their curvature d2u).
  *
- * The FMI 2.0 and FMI 3.0 function files are thin wrappers around this API.
+ * The FMI 2.0 and FMI 3.0 function files are thin wrappers around this API and the
+ * version-neutral FMI calls built on it (bodyvib_calls.h).
  * C99, libc and libm only; no global mutable state: every instance is independent.
  */
 #ifndef BODYVIB_CORE_H
@@ -30,17 +31,20 @@ enum { BV_INPUT = 0, BV_OUTPUT = 1, BV_PARAMETER = 2 };
 typedef enum { BV_OK = 0, BV_WARNING = 1, BV_DISCARD = 2, BV_ERROR = 3 } bv_status;
 
 /* The instance's state in the FMI state machine (a bit each, so that a function's allowed
- * states are a mask). FMI 2.0 stepComplete and FMI 3.0 Step Mode are BV_STEPPING; a refused
- * call (fmi2Error / fmi2Discard from a DoStep that changed nothing) leaves the state as it
- * was; a failed initialization puts the instance into BV_FAILED (FMI "error"), from which
- * Reset, FreeInstance, GetReal and the FMU-state functions lead out. */
+ * states are a mask). FMI 2.0 stepComplete and FMI 3.0 Step Mode are BV_STEPPING; in model
+ * exchange BV_STEPPING is Continuous-Time Mode and BV_EVENT Event Mode (ExitInitialization
+ * Mode leads there). A refused call (fmi2Error / fmi2Discard from a DoStep that changed
+ * nothing) leaves the state as it was; a failed initialization puts the instance into
+ * BV_FAILED (FMI "error"), from which Reset, FreeInstance, GetReal and the FMU-state
+ * functions lead out. */
 enum {
     BV_INSTANTIATED = 1,
     BV_INITIALIZATION = 2,
     BV_STEPPING = 4,
     BV_TERMINATED = 8,
     BV_FAILED = 16,
-    BV_ANY_STATE = 31
+    BV_EVENT = 32,
+    BV_ANY_STATE = 63
 };
 
 /* One stencil entry: matrix[row][col] += coef * (param < 0 ? 1 : p[param]). */
@@ -100,6 +104,7 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
 bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double value[]);
 bv_status bv_step(bv_instance *c, double t, double h);
 double bv_time(const bv_instance *c);
+const char *bv_name(const bv_instance *c); /* the name the messages begin with */
 
 /* The state machine: bv_allowed logs "<function>: not allowed in state <state> ..." and
  * returns 0 when the instance's state is not in `mask`; bv_enter_* change the state. */
@@ -111,6 +116,10 @@ int bv_allowed(bv_instance *c, const char *function, int mask);
 bv_status bv_setup(bv_instance *c, double start_time); /* Instantiated: the run's start time */
 void bv_enter_initialization(bv_instance *c);
 void bv_terminate(bv_instance *c);
+/* Model exchange: a model-exchange instance (set once, after bv_new) is in Event Mode after
+ * initialization; bv_me_enter changes between BV_EVENT and BV_STEPPING (Continuous-Time). */
+void bv_set_model_exchange(bv_instance *c);
+void bv_me_enter(bv_instance *c, int mode);
 
 /* The standard's interpolation interface.
  * Input derivatives: order k of input i is the input k rate pairs down its chain (order 1
@@ -141,12 +150,13 @@ bv_status bv_state_read(bv_instance *c, const unsigned char *buffer, size_t size
 #define BV_STATE_VR(md, i) ((md)->nvars + 1 + (i))
 #define BV_DER_VR(md, i) ((md)->nvars + 1 + (md)->n + (i))
 
-int bv_me_nstates(const bv_instance *c);
+int bv_me_nstates(const bv_instance *c); /* the model's n (0 for a source) */
 void bv_me_set_time(bv_instance *c, double t);
-bv_status bv_me_set_states(bv_instance *c, const double x[], size_t nx);
-bv_status bv_me_get_states(bv_instance *c, double x[], size_t nx);
-bv_status bv_me_derivatives(bv_instance *c, double dx[], size_t nx);
-bv_status bv_me_nominals(bv_instance *c, double nominal[], size_t nx);
+/* The continuous states and their derivatives, bv_me_nstates values each (the caller,
+ * bodyvib_calls.c, checked the host's count). */
+void bv_me_set_states(bv_instance *c, const double x[]);
+void bv_me_get_states(const bv_instance *c, double x[]);
+void bv_me_derivatives(bv_instance *c, double dx[]);
 /* Exact directional derivative: sensitivity = J seed, J the rows of A, B U (derivatives)
  * and Yx, Ys (outputs) of the unknowns on the columns of the knowns (states, inputs). */
 bv_status bv_directional(bv_instance *c, const unsigned int unknowns[], size_t nu,

@@ -37,6 +37,7 @@ void bv_common_init(bv_common *b, const bv_model *md, const char *name, bv_log_f
                     void *env)
 {
     b->md = md;
+    b->me = 0;
     snprintf(b->name, sizeof b->name, "%s", name ? name : md->model_name);
     b->log = log;
     b->env = env;
@@ -55,16 +56,32 @@ void bv_common_clear(bv_common *b)
 
 double bv_time(const bv_instance *c) { return BV_COMMON(c)->time; }
 
-static const char *mode_name(int mode)
+const char *bv_name(const bv_instance *c) { return BV_COMMON(c)->name; }
+
+/* The models are time-invariant: in model exchange the time only labels the state. */
+void bv_me_set_time(bv_instance *c, double t) { BV_COMMON(c)->time = t; }
+
+int bv_me_nstates(const bv_instance *c) { return BV_COMMON(c)->md->n; }
+
+static const char *mode_name(const bv_common *b, int mode)
 {
     switch (mode) {
     case BV_INSTANTIATED: return "Instantiated";
     case BV_INITIALIZATION: return "InitializationMode";
-    case BV_STEPPING: return "StepMode (stepComplete)";
+    case BV_EVENT: return "EventMode";
+    case BV_STEPPING: return b->me ? "ContinuousTimeMode" : "StepMode (stepComplete)";
     case BV_TERMINATED: return "Terminated";
     default: return "Error (initialization failed)";
     }
 }
+
+/* The states in the order a message lists them. */
+static const int MODES[] = {BV_INSTANTIATED, BV_INITIALIZATION, BV_EVENT, BV_STEPPING,
+                            BV_TERMINATED, BV_FAILED};
+
+void bv_set_model_exchange(bv_instance *c) { BV_COMMON(c)->me = 1; }
+
+void bv_me_enter(bv_instance *c, int mode) { BV_COMMON(c)->mode = mode; }
 
 int bv_state(const bv_instance *c) { return BV_COMMON(c)->mode; }
 
@@ -73,20 +90,20 @@ int bv_allowed(bv_instance *c, const char *function, int mask)
     bv_common *b = BV_COMMON(c);
     char text[200];
     size_t l = 0;
-    int bit;
+    size_t k;
     if (b->mode & mask)
         return 1;
     text[0] = '\0';
-    for (bit = BV_INSTANTIATED; bit <= BV_FAILED; bit <<= 1)
-        if (mask & bit)
+    for (k = 0; k < sizeof MODES / sizeof MODES[0]; k++)
+        if (mask & MODES[k] && (b->me || MODES[k] != BV_EVENT)) /* no Event Mode in CS */
             l += (size_t)snprintf(text + l, sizeof text - l, "%s%s", l ? ", " : "",
-                                  mode_name(bit));
+                                  mode_name(b, MODES[k]));
     if (l == 0)
         snprintf(text, sizeof text, "none: this FMU never needs it");
     if (b->mode == BV_FAILED && b->init_failed && b->init_error[0])
         bv_say(b, BV_ERROR, "%s", b->init_error);
     bv_say(b, BV_ERROR, "%s: %s is not allowed in state %s (allowed in: %s); call refused, "
-                        "nothing changed", b->name, function, mode_name(b->mode), text);
+                        "nothing changed", b->name, function, mode_name(b, b->mode), text);
     return 0;
 }
 
@@ -129,7 +146,7 @@ void bv_common_initialized(bv_common *b)
     b->init_failed = 0;
     b->init_error[0] = '\0';
     b->initialized = 1;
-    b->mode = BV_STEPPING;
+    b->mode = b->me ? BV_EVENT : BV_STEPPING;
 }
 
 bv_status bv_common_step_check(bv_common *b, double t, double h)
@@ -166,8 +183,10 @@ void bv_common_restored(bv_common *b, double time, int initialized, int init_fai
     b->time = time;
     b->initialized = initialized;
     b->init_failed = init_failed;
-    if (initialized)
-        b->mode = BV_STEPPING;
+    if (initialized) { /* model exchange: in the mode it is in, else Event Mode */
+        if (b->mode != BV_STEPPING && b->mode != BV_EVENT)
+            b->mode = b->me ? BV_EVENT : BV_STEPPING;
+    }
     else if (init_failed)
         b->mode = BV_FAILED;
     else if (b->mode != BV_INITIALIZATION)
@@ -184,6 +203,22 @@ int bv_common_check_vr(const bv_common *b, unsigned int vr)
         return 0;
     }
     return 1;
+}
+
+int bv_common_settable(const bv_common *b, unsigned int vr)
+{
+    int kind = b->md->vr_kind[vr];
+    if (kind == BV_INPUT)
+        return 1;
+    if (kind != BV_PARAMETER)
+        bv_say(b, BV_ERROR, "%s: %s is an output and cannot be set (ignored)", b->name,
+               b->md->vr_name[vr]);
+    else if (b->initialized)
+        bv_say(b, BV_ERROR, "%s: parameter %s is fixed after initialization; set it before "
+                            "ExitInitializationMode (ignored)", b->name, b->md->vr_name[vr]);
+    else
+        return 1;
+    return 0;
 }
 
 bv_status bv_common_check_output_orders(const bv_common *b, const unsigned int vr[],
@@ -205,6 +240,64 @@ bv_status bv_common_check_output_orders(const bv_common *b, const unsigned int v
                    b->name, order[i], md->vr_name[vr[i]], BV_MAX_OUTPUT_ORDER);
             return BV_ERROR;
         }
+    }
+    return BV_OK;
+}
+
+/* ---------------------------------------------------------------- snapshots */
+
+static uint64_t fnv1a(const unsigned char *p, size_t n)
+{
+    uint64_t h = 1469598103934665603ULL;
+    size_t i;
+    for (i = 0; i < n; i++) {
+        h ^= p[i];
+        h *= 1099511628211ULL;
+    }
+    return h;
+}
+
+static uint64_t token_hash(const bv_common *b)
+{
+    return fnv1a((const unsigned char *)b->md->token, strlen(b->md->token));
+}
+
+unsigned char *bv_common_snapshot_head(const bv_common *b, unsigned char *buf,
+                                       const unsigned char magic[8], uint64_t size)
+{
+    uint64_t token = token_hash(b);
+    memcpy(buf, magic, 8);
+    memcpy(buf + 8, &size, 8);
+    memcpy(buf + 16, &token, 8);
+    return buf + BV_SNAPSHOT_HEAD;
+}
+
+void bv_common_snapshot_seal(unsigned char *buf, size_t size)
+{
+    uint64_t sum = fnv1a(buf, size - 8);
+    memcpy(buf + size - 8, &sum, 8);
+}
+
+bv_status bv_common_snapshot_check(const bv_common *b, const unsigned char *buf, size_t size,
+                                   const unsigned char magic[8], uint64_t want)
+{
+    uint64_t got, token, sum;
+    if (buf == NULL || size < BV_SNAPSHOT_HEAD || memcmp(buf, magic, 8) != 0) {
+        bv_say(b, BV_ERROR, "%s: not a bodyvib FMU state (bad magic)", b->name);
+        return BV_ERROR;
+    }
+    memcpy(&got, buf + 8, 8);
+    memcpy(&token, buf + 16, 8);
+    if (got != want || size != want || token != token_hash(b)) {
+        bv_say(b, BV_ERROR, "%s: the FMU state belongs to another model or version (size %llu, "
+                            "expected %llu); refused", b->name, (unsigned long long)size,
+               (unsigned long long)want);
+        return BV_ERROR;
+    }
+    memcpy(&sum, buf + want - 8, 8);
+    if (sum != fnv1a(buf, (size_t)want - 8)) {
+        bv_say(b, BV_ERROR, "%s: the FMU state is corrupt (checksum mismatch); refused", b->name);
+        return BV_ERROR;
     }
     return BV_OK;
 }

@@ -6,7 +6,8 @@
  * bodyvib_core.h reads it), the model, the instance's name and logger, the model's time
  * and start time, the initialization flags and the reason a failed initialization gave.
  * bodyvib_fsm.c implements on it the functions that are the same for every core
- * (bv_state, bv_allowed, bv_setup, bv_enter_initialization, bv_terminate, bv_time) and
+ * (bv_state, bv_allowed, bv_setup, bv_enter_initialization, bv_terminate, bv_time, bv_name,
+ * bv_me_nstates, bv_me_set_time), the snapshots' head and checksum, and
  * the transitions the cores' bv_initialize, bv_step, bv_reset and bv_state_read make, so
  * that one implementation decides the states, the allowed calls and their messages.
  * Internal to the cores: the FMI wrappers see only bodyvib_core.h.
@@ -14,12 +15,15 @@
 #ifndef BODYVIB_FSM_H
 #define BODYVIB_FSM_H
 
+#include <stdint.h>
+
 #include "bodyvib_core.h"
 
 #define BV_MESSAGE 640
 
 typedef struct {
-    int mode;           /* first (BV_STATE_IS): BV_INSTANTIATED .. BV_FAILED, the FMI state */
+    int mode;           /* first (BV_STATE_IS): BV_INSTANTIATED .. BV_EVENT, the FMI state */
+    int me;             /* a model-exchange instance: Event and Continuous-Time Mode */
     const bv_model *md;
     char name[128];
     bv_log_fn log;
@@ -55,7 +59,7 @@ void bv_common_begin_initialize(bv_common *b);
 /* ExitInitializationMode failed: b->init_error holds the reason (logged here); the
  * instance stays in the error state and refuses to step until Reset. */
 bv_status bv_common_failed(bv_common *b);
-/* ExitInitializationMode succeeded: StepMode. */
+/* ExitInitializationMode succeeded: Step Mode (co-simulation) or Event Mode (model exchange). */
 void bv_common_initialized(bv_common *b);
 /* The checks every DoStep(t, h) makes before it changes anything: h positive and finite,
  * the instance initialized, t the model's time (up to rounding). BV_OK or BV_ERROR
@@ -68,16 +72,26 @@ void bv_common_restored(bv_common *b, double time, int initialized, int init_fai
                         const char *fix);
 /* A value reference the model has (logged and 0 if not). */
 int bv_common_check_vr(const bv_common *b, unsigned int vr);
+/* A value may be set for the model's variable vr now: an input, or a parameter before
+ * initialization (else the reason logged, 0). */
+int bv_common_settable(const bv_common *b, unsigned int vr);
 /* A request for output derivatives: every reference an output, every order 1 ..
  * BV_MAX_OUTPUT_ORDER. BV_OK, or BV_ERROR (logged) before anything is computed. */
 bv_status bv_common_check_output_orders(const bv_common *b, const unsigned int vr[],
                                         size_t nvr, const int order[]);
 
-/* A value reference the model has (logged and 0 if not). */
-int bv_common_check_vr(const bv_common *b, unsigned int vr);
-/* A request for output derivatives: every reference an output, every order 1 ..
- * BV_MAX_OUTPUT_ORDER. BV_OK, or BV_ERROR (logged) before anything is computed. */
-bv_status bv_common_check_output_orders(const bv_common *b, const unsigned int vr[],
-                                        size_t nvr, const int order[]);
+/* Snapshots (bv_state_write .. bv_state_read of either core): 8 bytes of the core's magic,
+ * the snapshot's size and the hash of the model's token (uint64 each), the core's payload,
+ * then a checksum (uint64, FNV-1a of every byte before it). */
+#define BV_SNAPSHOT_HEAD 24
+/* Write the head of a snapshot of `size` bytes; returns where the payload begins. */
+unsigned char *bv_common_snapshot_head(const bv_common *b, unsigned char *buf,
+                                       const unsigned char magic[8], uint64_t size);
+/* Write the checksum into the last 8 bytes of a snapshot of `size` bytes. */
+void bv_common_snapshot_seal(unsigned char *buf, size_t size);
+/* A snapshot of this core and model: the magic, the size `want` (of the buffer too), the
+ * token and the checksum. BV_OK, or BV_ERROR with the reason logged. */
+bv_status bv_common_snapshot_check(const bv_common *b, const unsigned char *buf, size_t size,
+                                   const unsigned char magic[8], uint64_t want);
 
 #endif

@@ -162,7 +162,6 @@ bv_status bv_initialize(bv_instance *c)
 
 bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const double value[])
 {
-    const bv_model *md = c->bc.md;
     bv_status status = BV_OK;
     size_t i;
     /* an unknown value reference refuses the call: nothing set */
@@ -170,20 +169,10 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
         if (!check_vr(c, vr[i]))
             return BV_ERROR;
     for (i = 0; i < nvr; i++) {
-        if (md->vr_kind[vr[i]] == BV_PARAMETER) {
-            if (c->bc.initialized) {
-                say(c, BV_ERROR, "%s: parameter %s is fixed after initialization; set it "
-                                 "before ExitInitializationMode (ignored)",
-                    c->bc.name, md->vr_name[vr[i]]);
-                status = BV_ERROR;
-            } else {
-                c->speed = value[i];
-            }
-        } else {
-            say(c, BV_ERROR, "%s: %s is an output and cannot be set (ignored)", c->bc.name,
-                md->vr_name[vr[i]]);
+        if (bv_common_settable(&c->bc, vr[i]))
+            c->speed = value[i]; /* the one parameter (no inputs) */
+        else
             status = BV_ERROR;
-        }
     }
     return status;
 }
@@ -268,48 +257,12 @@ bv_status bv_get_output_derivatives(bv_instance *c, const unsigned int vr[], siz
 
 /* ---------------------------------------------------------------- model exchange */
 
-/* No continuous states: the host sets the time and reads the outputs there. */
-int bv_me_nstates(const bv_instance *c)
-{
-    (void)c;
-    return 0;
-}
+/* No continuous states (n = 0): the host sets the time and reads the outputs there. */
+void bv_me_set_states(bv_instance *c, const double x[]) { (void)c, (void)x; }
 
-void bv_me_set_time(bv_instance *c, double t) { c->bc.time = t; }
+void bv_me_get_states(const bv_instance *c, double x[]) { (void)c, (void)x; }
 
-static bv_status no_states(bv_instance *c, size_t nx, const char *what)
-{
-    if (nx != 0) {
-        say(c, BV_ERROR, "%s: %s: %lu continuous states passed, the model has 0", c->bc.name,
-            what, (unsigned long)nx);
-        return BV_ERROR;
-    }
-    return BV_OK;
-}
-
-bv_status bv_me_set_states(bv_instance *c, const double x[], size_t nx)
-{
-    (void)x;
-    return no_states(c, nx, "SetContinuousStates");
-}
-
-bv_status bv_me_get_states(bv_instance *c, double x[], size_t nx)
-{
-    (void)x;
-    return no_states(c, nx, "GetContinuousStates");
-}
-
-bv_status bv_me_derivatives(bv_instance *c, double dx[], size_t nx)
-{
-    (void)dx;
-    return no_states(c, nx, "GetDerivatives");
-}
-
-bv_status bv_me_nominals(bv_instance *c, double nominal[], size_t nx)
-{
-    (void)nominal;
-    return no_states(c, nx, "GetNominalsOfContinuousStates");
-}
+void bv_me_derivatives(bv_instance *c, double dx[]) { (void)c, (void)dx; }
 
 /* No states and no inputs: no knowns to differentiate by (the model description says
  * providesDirectionalDerivative="false"). */
@@ -326,25 +279,10 @@ bv_status bv_directional(bv_instance *c, const unsigned int unknowns[], size_t n
 
 /* ---------------------------------------------------------------- snapshots */
 
-/* magic, size, token hash, then doubles time, speed, initialized, init_failed, checksum */
+/* the head (bodyvib_fsm.h), then doubles time, speed, initialized, init_failed, then the
+ * checksum */
 static const unsigned char MAGIC[8] = {'B', 'V', 'S', 'O', 'U', 'R', 'C', '1'};
-#define STATE_SIZE (24 + 4 * 8 + 8)
-
-static uint64_t fnv1a(const unsigned char *p, size_t n)
-{
-    uint64_t h = 1469598103934665603ULL;
-    size_t i;
-    for (i = 0; i < n; i++) {
-        h ^= p[i];
-        h *= 1099511628211ULL;
-    }
-    return h;
-}
-
-static uint64_t token_hash(const bv_instance *c)
-{
-    return fnv1a((const unsigned char *)c->bc.md->token, strlen(c->bc.md->token));
-}
+#define STATE_SIZE (BV_SNAPSHOT_HEAD + 4 * 8 + 8)
 
 size_t bv_state_size(const bv_instance *c)
 {
@@ -354,42 +292,21 @@ size_t bv_state_size(const bv_instance *c)
 
 void bv_state_write(const bv_instance *c, unsigned char *buf)
 {
-    uint64_t size = STATE_SIZE, token = token_hash(c), sum;
     double v[4];
     v[0] = c->bc.time;
     v[1] = c->speed;
     v[2] = c->bc.initialized;
     v[3] = c->bc.init_failed;
-    memcpy(buf, MAGIC, 8);
-    memcpy(buf + 8, &size, 8);
-    memcpy(buf + 16, &token, 8);
-    memcpy(buf + 24, v, sizeof v);
-    sum = fnv1a(buf, STATE_SIZE - 8);
-    memcpy(buf + STATE_SIZE - 8, &sum, 8);
+    memcpy(bv_common_snapshot_head(&c->bc, buf, MAGIC, STATE_SIZE), v, sizeof v);
+    bv_common_snapshot_seal(buf, STATE_SIZE);
 }
 
 bv_status bv_state_check(const bv_instance *c, const unsigned char *buf, size_t size)
 {
-    uint64_t got, token, sum;
     double v[4];
-    if (buf == NULL || size < 24 || memcmp(buf, MAGIC, 8) != 0) {
-        say(c, BV_ERROR, "%s: not a bodyvib FMU state (bad magic)", c->bc.name);
+    if (bv_common_snapshot_check(&c->bc, buf, size, MAGIC, STATE_SIZE) != BV_OK)
         return BV_ERROR;
-    }
-    memcpy(&got, buf + 8, 8);
-    memcpy(&token, buf + 16, 8);
-    if (got != STATE_SIZE || size != STATE_SIZE || token != token_hash(c)) {
-        say(c, BV_ERROR, "%s: the FMU state belongs to another model or version (size %llu, "
-                         "expected %llu); refused", c->bc.name, (unsigned long long)size,
-            (unsigned long long)STATE_SIZE);
-        return BV_ERROR;
-    }
-    memcpy(&sum, buf + STATE_SIZE - 8, 8);
-    if (sum != fnv1a(buf, STATE_SIZE - 8)) {
-        say(c, BV_ERROR, "%s: the FMU state is corrupt (checksum mismatch); refused", c->bc.name);
-        return BV_ERROR;
-    }
-    memcpy(v, buf + 24, sizeof v);
+    memcpy(v, buf + BV_SNAPSHOT_HEAD, sizeof v);
     if (!(isfinite(v[0]) && (v[2] == 0.0 || v[2] == 1.0) && (v[3] == 0.0 || v[3] == 1.0) &&
           (v[2] == 0.0 || speed_valid(v[1])))) {
         say(c, BV_ERROR, "%s: the FMU state is invalid (time, speed or flags); refused", c->bc.name);
@@ -403,7 +320,7 @@ bv_status bv_state_read(bv_instance *c, const unsigned char *buf, size_t size)
     double v[4];
     if (bv_state_check(c, buf, size) != BV_OK)
         return BV_ERROR;
-    memcpy(v, buf + 24, sizeof v);
+    memcpy(v, buf + BV_SNAPSHOT_HEAD, sizeof v);
     c->speed = v[1];
     /* the state machine follows the snapshot */
     bv_common_restored(&c->bc, v[0], v[2] != 0.0, v[3] != 0.0, "a valid value");

@@ -16,47 +16,33 @@
 #include <string.h>
 
 #include "fmi3Functions.h"
-#include "bodyvib_core.h"
-
-typedef struct {
-    bv_instance *core;
-    fmi3LogMessageCallback logger;
-    fmi3InstanceEnvironment env;
-    int logging_on;
-    int me; /* instantiated for model exchange */
-} Fmu3;
-
-typedef struct {
-    size_t size;
-    unsigned char bytes[1];
-} State3;
+#include "bodyvib_calls.h"
 
 static void fmu_log(void *env, int status, const char *message)
 {
-    Fmu3 *f = env;
+    bv_fmu *f = env;
     if (f->logger != NULL)
-        f->logger(f->env, (fmi3Status)status,
-                  status == BV_ERROR ? "logStatusError" : "logStatusWarning", message);
+        ((fmi3LogMessageCallback)f->logger)(
+            f->env, (fmi3Status)status, status == BV_ERROR ? "logStatusError" : "logStatusWarning",
+            message);
 }
 
 static fmi3Status st(bv_status s) { return (fmi3Status)s; }
 
+/* The states of the FMI 3.0 functions not in bodyvib_calls.h's shared table (co-simulation
+ * has no event mode: Step Mode follows fmi3ExitInitializationMode). */
+#define S_OUTPUT_DERIVATIVES (BV_STEPPING | BV_TERMINATED)
+#define S_STEP_MODE 0 /* Step Mode is entered from Event Mode, which it has not */
+
+/* The instance f of a function allowed in every state. */
 #define INSTANCE(c)                                                                          \
-    Fmu3 *f = (Fmu3 *)(c);                                                                   \
+    bv_fmu *f = (bv_fmu *)(c);                                                               \
     if (f == NULL)                                                                           \
         return fmi3Error
-
-/* The FMI 3.0 co-simulation state machine (no event mode: Step Mode follows
- * fmi3ExitInitializationMode), checked by the core: a call out of order returns fmi3Error
- * with the reason logged, and changes nothing. */
-#define S_ANY BV_ANY_STATE
-#define S_GET (BV_INITIALIZATION | BV_STEPPING | BV_TERMINATED | BV_FAILED)
-#define S_SET (BV_INSTANTIATED | BV_INITIALIZATION | BV_STEPPING)
-#define S_OUTPUT_DERIVATIVES (BV_STEPPING | BV_TERMINATED)
-
-#define CHECKED(c, function, mask)                                                          \
+/* The instance f of a function allowed in the states of `mask` (bodyvib_calls.h). */
+#define CHECKED(c, function, mask)                                                           \
     INSTANCE(c);                                                                             \
-    if (!BV_STATE_IS(f->core, mask) && !bv_allowed(f->core, function, mask))                \
+    if (!bv_fmu_enter(f, #function, mask))                                                   \
         return fmi3Error
 
 const char *fmi3GetVersion(void) { return fmi3Version; }
@@ -70,33 +56,27 @@ fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean loggingOn, siz
     return fmi3OK;
 }
 
+/* The instantiation token is this FMU's (else logged, 0). */
+static int token_ok(fmi3String token, fmi3InstanceEnvironment env, fmi3LogMessageCallback log)
+{
+    if (token != NULL && strcmp(token, bv_model_data.token) == 0)
+        return 1;
+    if (log)
+        log(env, fmi3Error, "logStatusError", "the instantiation token does not match this FMU's");
+    return 0;
+}
+
 fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String instantiationToken,
                                           fmi3String resourcePath, fmi3Boolean visible,
                                           fmi3Boolean loggingOn,
                                           fmi3InstanceEnvironment instanceEnvironment,
                                           fmi3LogMessageCallback logMessage)
 {
-    Fmu3 *f;
     (void)resourcePath, (void)visible;
-    if (instantiationToken == NULL || strcmp(instantiationToken, bv_model_data.token) != 0) {
-        if (logMessage)
-            logMessage(instanceEnvironment, fmi3Error, "logStatusError",
-                       "the instantiation token does not match this FMU's");
+    if (!token_ok(instantiationToken, instanceEnvironment, logMessage))
         return NULL;
-    }
-    f = calloc(1, sizeof *f);
-    if (f == NULL)
-        return NULL;
-    f->logger = logMessage;
-    f->env = instanceEnvironment;
-    f->logging_on = loggingOn;
-    f->me = 1;
-    f->core = bv_new(&bv_model_data, instanceName, fmu_log, f);
-    if (f->core == NULL) {
-        free(f);
-        return NULL;
-    }
-    return f;
+    return bv_fmu_new(instanceName, 1, loggingOn, (bv_host_fn)logMessage, instanceEnvironment,
+                      fmu_log);
 }
 
 fmi3Instance fmi3InstantiateCoSimulation(
@@ -106,34 +86,19 @@ fmi3Instance fmi3InstantiateCoSimulation(
     size_t nRequiredIntermediateVariables, fmi3InstanceEnvironment instanceEnvironment,
     fmi3LogMessageCallback logMessage, fmi3IntermediateUpdateCallback intermediateUpdate)
 {
-    Fmu3 *f;
     (void)resourcePath, (void)visible, (void)earlyReturnAllowed,
         (void)requiredIntermediateVariables, (void)nRequiredIntermediateVariables,
         (void)intermediateUpdate;
-    if (instantiationToken == NULL || strcmp(instantiationToken, bv_model_data.token) != 0) {
-        if (logMessage)
-            logMessage(instanceEnvironment, fmi3Error, "logStatusError",
-                       "the instantiation token does not match this FMU's");
+    if (!token_ok(instantiationToken, instanceEnvironment, logMessage))
         return NULL;
-    }
     if (eventModeUsed) {
         if (logMessage)
             logMessage(instanceEnvironment, fmi3Error, "logStatusError",
                        "this FMU has no event mode");
         return NULL;
     }
-    f = calloc(1, sizeof *f);
-    if (f == NULL)
-        return NULL;
-    f->logger = logMessage;
-    f->env = instanceEnvironment;
-    f->logging_on = loggingOn;
-    f->core = bv_new(&bv_model_data, instanceName, fmu_log, f);
-    if (f->core == NULL) {
-        free(f);
-        return NULL;
-    }
-    return f;
+    return bv_fmu_new(instanceName, 0, loggingOn, (bv_host_fn)logMessage, instanceEnvironment,
+                      fmu_log);
 }
 
 fmi3Instance fmi3InstantiateScheduledExecution(
@@ -150,21 +115,14 @@ fmi3Instance fmi3InstantiateScheduledExecution(
     return NULL;
 }
 
-void fmi3FreeInstance(fmi3Instance instance)
-{
-    Fmu3 *f = (Fmu3 *)instance;
-    if (f == NULL)
-        return;
-    bv_free(f->core);
-    free(f);
-}
+void fmi3FreeInstance(fmi3Instance instance) { bv_fmu_free((bv_fmu *)instance); }
 
 fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean toleranceDefined,
                                        fmi3Float64 tolerance, fmi3Float64 startTime,
                                        fmi3Boolean stopTimeDefined, fmi3Float64 stopTime)
 {
     bv_status s;
-    CHECKED(instance, "fmi3EnterInitializationMode", BV_INSTANTIATED);
+    CHECKED(instance, fmi3EnterInitializationMode, BV_INSTANTIATED);
     (void)toleranceDefined, (void)tolerance, (void)stopTimeDefined, (void)stopTime;
     s = bv_setup(f->core, startTime); /* the model's time starts there */
     if (s == BV_OK)
@@ -174,14 +132,13 @@ fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean tolera
 
 fmi3Status fmi3ExitInitializationMode(fmi3Instance instance)
 {
-    CHECKED(instance, "fmi3ExitInitializationMode", BV_INITIALIZATION);
+    CHECKED(instance, fmi3ExitInitializationMode, BV_INITIALIZATION);
     return st(bv_initialize(f->core));
 }
 
-
 fmi3Status fmi3Terminate(fmi3Instance instance)
 {
-    CHECKED(instance, "fmi3Terminate", BV_STEPPING);
+    CHECKED(instance, fmi3Terminate, BV_ON_TERMINATE);
     bv_terminate(f->core);
     return fmi3OK;
 }
@@ -199,7 +156,7 @@ fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], 
                           fmi3Float64 values[], size_t nValues)
 {
     size_t i;
-    CHECKED(instance, "fmi3GetFloat64", S_GET);
+    CHECKED(instance, fmi3GetFloat64, BV_ON_GET);
     if (nValues != nvr || (nvr > 0 && (vr == NULL || values == NULL)))
         return fmi3Error;
     for (i = 0; i < nvr; i++)
@@ -220,7 +177,7 @@ fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], 
                           const fmi3Float64 values[], size_t nValues)
 {
     size_t i;
-    CHECKED(instance, "fmi3SetFloat64", S_SET);
+    CHECKED(instance, fmi3SetFloat64, BV_ON_SET);
     if (nValues != nvr || (nvr > 0 && (vr == NULL || values == NULL)))
         return fmi3Error;
     for (i = 0; i < nvr; i++)
@@ -236,7 +193,7 @@ fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], 
     fmi3Status fn(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,          \
                   T values[], size_t nValues)                                                \
     {                                                                                        \
-        CHECKED(instance, #fn, S_GET);                                                       \
+        CHECKED(instance, fn, BV_ON_GET);                                                    \
         (void)vr, (void)values, (void)nValues;                                               \
         return nvr == 0 ? fmi3OK : fmi3Error;                                                \
     }
@@ -244,7 +201,7 @@ fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], 
     fmi3Status fn(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,          \
                   const T values[], size_t nValues)                                          \
     {                                                                                        \
-        CHECKED(instance, #fn, S_SET);                                                       \
+        CHECKED(instance, fn, BV_ON_SET);                                                    \
         (void)vr, (void)values, (void)nValues;                                               \
         return nvr == 0 ? fmi3OK : fmi3Error;                                                \
     }
@@ -328,81 +285,40 @@ fmi3Status fmi3GetVariableDependencies(fmi3Instance instance, fmi3ValueReference
 
 fmi3Status fmi3GetFMUState(fmi3Instance instance, fmi3FMUState *FMUState)
 {
-    size_t size;
-    State3 *s;
     INSTANCE(instance);
-    if (FMUState == NULL)
-        return fmi3Error;
-    size = bv_state_size(f->core);
-    s = *FMUState;
-    if (s == NULL || s->size != size) {
-        free(s);
-        *FMUState = NULL;
-        s = malloc(sizeof *s + size);
-        if (s == NULL)
-            return fmi3Error;
-        s->size = size;
-    }
-    bv_state_write(f->core, s->bytes);
-    *FMUState = s;
-    return fmi3OK;
+    return st(bv_fmu_get_state(f, FMUState));
 }
 
 fmi3Status fmi3SetFMUState(fmi3Instance instance, fmi3FMUState FMUState)
 {
-    State3 *s = FMUState;
     INSTANCE(instance);
-    if (s == NULL)
-        return fmi3Error;
-    return st(bv_state_read(f->core, s->bytes, s->size));
+    return st(bv_fmu_set_state(f, FMUState));
 }
 
 fmi3Status fmi3FreeFMUState(fmi3Instance instance, fmi3FMUState *FMUState)
 {
     INSTANCE(instance);
-    if (FMUState != NULL) {
-        free(*FMUState);
-        *FMUState = NULL;
-    }
-    return fmi3OK;
+    return st(bv_fmu_free_state(FMUState));
 }
 
 fmi3Status fmi3SerializedFMUStateSize(fmi3Instance instance, fmi3FMUState FMUState, size_t *size)
 {
-    State3 *s = FMUState;
     INSTANCE(instance);
-    if (s == NULL || size == NULL)
-        return fmi3Error;
-    *size = s->size;
-    return fmi3OK;
+    return st(bv_fmu_state_size(FMUState, size));
 }
 
 fmi3Status fmi3SerializeFMUState(fmi3Instance instance, fmi3FMUState FMUState,
                                  fmi3Byte serializedState[], size_t size)
 {
-    State3 *s = FMUState;
     INSTANCE(instance);
-    if (s == NULL || serializedState == NULL || size < s->size)
-        return fmi3Error;
-    memcpy(serializedState, s->bytes, s->size);
-    return fmi3OK;
+    return st(bv_fmu_serialize(FMUState, serializedState, size));
 }
 
 fmi3Status fmi3DeserializeFMUState(fmi3Instance instance, const fmi3Byte serializedState[],
                                    size_t size, fmi3FMUState *FMUState)
 {
-    State3 *s;
     INSTANCE(instance);
-    if (FMUState == NULL ||
-        bv_state_check(f->core, (const unsigned char *)serializedState, size) != BV_OK)
-        return fmi3Error;
-    s = malloc(sizeof *s + size);
-    if (s == NULL)
-        return fmi3Error;
-    s->size = size;
-    memcpy(s->bytes, serializedState, size);
-    *FMUState = s;
-    return fmi3OK;
+    return st(bv_fmu_deserialize(f, serializedState, size, FMUState));
 }
 
 /* Exact: the rows of A, B U (state derivatives) and of the output matrices on the columns
@@ -420,7 +336,7 @@ fmi3Status fmi3GetDirectionalDerivative(fmi3Instance instance, const fmi3ValueRe
                              "nSensitivity nUnknowns (scalar variables)");
         return fmi3Error;
     }
-    return st(bv_directional(f->core, unknowns, nUnknowns, knowns, nKnowns, seed, sensitivity));
+    return st(bv_fmu_directional(f, unknowns, nUnknowns, knowns, nKnowns, seed, sensitivity));
 }
 
 fmi3Status fmi3GetAdjointDerivative(fmi3Instance instance, const fmi3ValueReference unknowns[],
@@ -521,11 +437,9 @@ fmi3Status fmi3EvaluateDiscreteStates(fmi3Instance instance)
 
 /* ------------------------------------------------------------------ co-simulation */
 
-/* Step Mode is entered from Event Mode, which this FMU does not have (hasEventMode false:
- * fmi3ExitInitializationMode leads to Step Mode). */
 fmi3Status fmi3EnterStepMode(fmi3Instance instance)
 {
-    CHECKED(instance, "fmi3EnterStepMode", 0);
+    CHECKED(instance, fmi3EnterStepMode, S_STEP_MODE);
     return fmi3Error;
 }
 
@@ -534,10 +448,10 @@ fmi3Status fmi3GetOutputDerivatives(fmi3Instance instance, const fmi3ValueRefere
                                     size_t nvr, const fmi3Int32 orders[], fmi3Float64 values[],
                                     size_t nValues)
 {
-    CHECKED(instance, "fmi3GetOutputDerivatives", S_OUTPUT_DERIVATIVES);
-    if (nValues != nvr || (nvr > 0 && (vr == NULL || orders == NULL || values == NULL)))
+    CHECKED(instance, fmi3GetOutputDerivatives, S_OUTPUT_DERIVATIVES);
+    if (nValues != nvr)
         return fmi3Error;
-    return st(bv_get_output_derivatives(f->core, vr, nvr, (const int *)orders, values));
+    return st(bv_fmu_get_output_derivatives(f, vr, nvr, (const int *)orders, values));
 }
 
 fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoint,
@@ -547,12 +461,8 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
                       fmi3Boolean *earlyReturn, fmi3Float64 *lastSuccessfulTime)
 {
     bv_status s;
-    CHECKED(instance, "fmi3DoStep", BV_STEPPING);
+    CHECKED(instance, fmi3DoStep, BV_ON_STEP);
     (void)noSetFMUStatePriorToCurrentPoint;
-    if (f->me) {
-        fmu_log(f, BV_ERROR, "fmi3DoStep: the instance was instantiated for model exchange");
-        return fmi3Error;
-    }
     s = bv_step(f->core, currentCommunicationPoint, communicationStepSize);
     if (eventHandlingNeeded)
         *eventHandlingNeeded = fmi3False;
@@ -576,40 +486,13 @@ fmi3Status fmi3ActivateModelPartition(fmi3Instance instance, fmi3ValueReference 
 /* ------------------------------------------------------------------ model exchange
  *
  * x' = A x + B U s with the inputs s the host set for the current time (see
- * fmi2Functions.c): no events, no event indicators, no discrete states. */
-
-/* Entry of every model-exchange function (the place for the state machine's checks). */
-static int me_entry(Fmu3 *f, const char *function)
-{
-    char text[160];
-    if (f == NULL)
-        return 0;
-    if (!f->me) {
-        snprintf(text, sizeof text, "%s: a model-exchange function called on a co-simulation "
-                                    "instance", function);
-        fmu_log(f, BV_ERROR, text);
-        return 0;
-    }
-    return 1;
-}
-
-/* Model exchange: the standard's Event Mode and Continuous-Time Mode are both the core's
- * BV_STEPPING (the models have no events); the calls are checked against it as the
- * co-simulation ones are. */
-#define S_ME_MODES BV_STEPPING
-#define S_ME_SET (BV_INITIALIZATION | BV_STEPPING)
-#define S_ME_NOMINALS (BV_INSTANTIATED | S_GET)
-
-#define ME_ENTRY(c, function, mask)                                                          \
-    Fmu3 *f = (Fmu3 *)(c);                                                                   \
-    if (!me_entry(f, function))                                                              \
-        return fmi3Error;                                                                      \
-    if (!BV_STATE_IS(f->core, mask) && !bv_allowed(f->core, function, mask))                \
-        return fmi3Error
+ * fmi2Functions.c): no events, no event indicators, no discrete states; Event Mode after
+ * fmi3ExitInitializationMode, and each call checked against the mode the host put it in. */
 
 fmi3Status fmi3EnterEventMode(fmi3Instance instance)
 {
-    ME_ENTRY(instance, "fmi3EnterEventMode", S_ME_MODES); /* co-simulation: no event mode */
+    CHECKED(instance, fmi3EnterEventMode, BV_ON_CT_MODE); /* co-simulation: no event mode */
+    bv_me_enter(f->core, BV_EVENT);
     return fmi3OK;
 }
 
@@ -619,7 +502,7 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *discrete
                                     fmi3Boolean *valuesOfContinuousStatesChanged,
                                     fmi3Boolean *nextEventTimeDefined, fmi3Float64 *nextEventTime)
 {
-    ME_ENTRY(instance, "fmi3UpdateDiscreteStates", S_ME_MODES);
+    CHECKED(instance, fmi3UpdateDiscreteStates, BV_ON_EVENT_MODE);
     if (discreteStatesNeedUpdate)
         *discreteStatesNeedUpdate = fmi3False;
     if (terminateSimulation)
@@ -637,7 +520,8 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *discrete
 
 fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance instance)
 {
-    ME_ENTRY(instance, "fmi3EnterContinuousTimeMode", S_ME_MODES);
+    CHECKED(instance, fmi3EnterContinuousTimeMode, BV_ON_EVENT_MODE);
+    bv_me_enter(f->core, BV_STEPPING);
     return fmi3OK;
 }
 
@@ -646,7 +530,7 @@ fmi3Status fmi3CompletedIntegratorStep(fmi3Instance instance,
                                        fmi3Boolean *enterEventMode,
                                        fmi3Boolean *terminateSimulation)
 {
-    ME_ENTRY(instance, "fmi3CompletedIntegratorStep", S_ME_MODES);
+    CHECKED(instance, fmi3CompletedIntegratorStep, BV_ON_CT_MODE);
     (void)noSetFMUStatePriorToCurrentPoint;
     if (enterEventMode)
         *enterEventMode = fmi3False;
@@ -657,58 +541,23 @@ fmi3Status fmi3CompletedIntegratorStep(fmi3Instance instance,
 
 fmi3Status fmi3SetTime(fmi3Instance instance, fmi3Float64 time)
 {
-    ME_ENTRY(instance, "fmi3SetTime", S_ME_SET);
+    CHECKED(instance, fmi3SetTime, BV_ON_TIME);
     bv_me_set_time(f->core, time);
     return fmi3OK;
-}
-
-fmi3Status fmi3SetContinuousStates(fmi3Instance instance, const fmi3Float64 continuousStates[],
-                                   size_t nContinuousStates)
-{
-    ME_ENTRY(instance, "fmi3SetContinuousStates", S_ME_SET);
-    if (continuousStates == NULL && nContinuousStates > 0)
-        return fmi3Error;
-    return st(bv_me_set_states(f->core, continuousStates, nContinuousStates));
-}
-
-fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance instance, fmi3Float64 derivatives[],
-                                             size_t nContinuousStates)
-{
-    ME_ENTRY(instance, "fmi3GetContinuousStateDerivatives", S_GET);
-    if (derivatives == NULL && nContinuousStates > 0)
-        return fmi3Error;
-    return st(bv_me_derivatives(f->core, derivatives, nContinuousStates));
 }
 
 fmi3Status fmi3GetEventIndicators(fmi3Instance instance, fmi3Float64 eventIndicators[],
                                   size_t nEventIndicators)
 {
-    ME_ENTRY(instance, "fmi3GetEventIndicators", S_GET);
+    CHECKED(instance, fmi3GetEventIndicators, BV_ON_ME_GET);
     (void)eventIndicators;
-    if (nEventIndicators != 0) {
-        fmu_log(f, BV_ERROR, "fmi3GetEventIndicators: the model has no event indicators");
-        return fmi3Error;
-    }
-    return fmi3OK;
+    return st(bv_fmu_event_indicators(f, "fmi3GetEventIndicators", nEventIndicators));
 }
 
-fmi3Status fmi3GetContinuousStates(fmi3Instance instance, fmi3Float64 continuousStates[],
-                                   size_t nContinuousStates)
-{
-    ME_ENTRY(instance, "fmi3GetContinuousStates", S_GET);
-    if (continuousStates == NULL && nContinuousStates > 0)
-        return fmi3Error;
-    return st(bv_me_get_states(f->core, continuousStates, nContinuousStates));
-}
-
-fmi3Status fmi3GetNominalsOfContinuousStates(fmi3Instance instance, fmi3Float64 nominals[],
-                                             size_t nContinuousStates)
-{
-    ME_ENTRY(instance, "fmi3GetNominalsOfContinuousStates", S_ME_NOMINALS);
-    if (nominals == NULL && nContinuousStates > 0)
-        return fmi3Error;
-    return st(bv_me_nominals(f->core, nominals, nContinuousStates));
-}
+/* The continuous-state vectors: set, get, derivatives, nominals (bv_fmu_vector). */
+BV_VECTOR_FUNCTIONS(fmi3Status, fmi3Instance, fmi3Float64, fmi3SetContinuousStates,
+                    fmi3GetContinuousStates, fmi3GetContinuousStateDerivatives,
+                    fmi3GetNominalsOfContinuousStates)
 
 fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance instance, size_t *nEventIndicators)
 {

@@ -56,7 +56,6 @@
 #define _XOPEN_SOURCE 700 /* realpath */
 
 #include <ctype.h>
-#include <dlfcn.h>
 #include <limits.h>
 #include <math.h>
 #include <stdarg.h>
@@ -66,6 +65,7 @@
 #include <unistd.h>
 
 #include "fmi2Functions.h"
+#include "host_load.h"
 
 #define BUMP_HEIGHT 0.02 /* m */
 #define BUMP_START 0.1   /* s */
@@ -108,16 +108,6 @@ static void finish(int code)
     fflush(stdout);
     fflush(stderr);
     _exit(code);
-}
-
-static void *load(void *lib, const char *name)
-{
-    void *f = dlsym(lib, name);
-    if (f == NULL) {
-        fprintf(stderr, "fmi2_host: %s not found in the FMU binary: %s\n", name, dlerror());
-        finish(2);
-    }
-    return f;
 }
 
 static size_t parse_vrs(const char *text, fmi2ValueReference *vrs, const char *what)
@@ -179,31 +169,19 @@ int main(int argc, char **argv)
     char *uri, *end;
     void *lib;
     fmi2Component c;
-    fmi2InstantiateTYPE *instantiate;
-    fmi2SetupExperimentTYPE *setup;
-    fmi2EnterInitializationModeTYPE *enter_init;
-    fmi2ExitInitializationModeTYPE *exit_init;
-    fmi2SetRealTYPE *set_real;
-    fmi2GetRealTYPE *get_real;
-    fmi2DoStepTYPE *do_step;
-    fmi2TerminateTYPE *terminate;
-    fmi2FreeInstanceTYPE *free_instance;
+    HostCs cs;
     void (*finalize)(void);
     int skip_finalize = 0;
 
     while (argc > 1 && strncmp(argv[1], "--", 2) == 0) {
-        if (strcmp(argv[1], "--nan-step") == 0 && argc > 2) {
-            nan_step = strtol(argv[2], &end, 10);
-            if (*end || nan_step < 0) {
-                fprintf(stderr, "fmi2_host: --nan-step needs a step index >= 0\n");
-                return 1;
-            }
-            argv += 2;
-            argc -= 2;
-        } else if (strcmp(argv[1], "--null-get") == 0 && argc > 2) {
-            null_step = strtol(argv[2], &end, 10);
-            if (*end || null_step < 0) {
-                fprintf(stderr, "fmi2_host: --null-get needs a step index >= 0\n");
+        /* --nan-step K, --null-get K: the step index K into the option's variable */
+        long *step = strcmp(argv[1], "--nan-step") == 0   ? &nan_step
+                     : strcmp(argv[1], "--null-get") == 0 ? &null_step
+                                                          : NULL;
+        if (step != NULL && argc > 2) {
+            *step = strtol(argv[2], &end, 10);
+            if (*end || *step < 0) {
+                fprintf(stderr, "fmi2_host: %s needs a step index >= 0\n", argv[1]);
                 return 1;
             }
             argv += 2;
@@ -244,37 +222,29 @@ int main(int argc, char **argv)
         fprintf(stderr, "fmi2_host: path too long\n");
         return 1;
     }
-    lib = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+    lib = host_open(path);
     if (lib == NULL) {
-        fprintf(stderr, "fmi2_host: dlopen failed: %s\n", dlerror());
+        fprintf(stderr, "fmi2_host: dlopen failed: %s\n", host_error());
         return 2;
     }
-    /* POSIX: a function address from dlsym is assigned through a void * lvalue */
-    *(void **)&instantiate = load(lib, "fmi2Instantiate");
-    *(void **)&setup = load(lib, "fmi2SetupExperiment");
-    *(void **)&enter_init = load(lib, "fmi2EnterInitializationMode");
-    *(void **)&exit_init = load(lib, "fmi2ExitInitializationMode");
-    *(void **)&set_real = load(lib, "fmi2SetReal");
-    *(void **)&get_real = load(lib, "fmi2GetReal");
-    *(void **)&do_step = load(lib, "fmi2DoStep");
-    *(void **)&terminate = load(lib, "fmi2Terminate");
-    *(void **)&free_instance = load(lib, "fmi2FreeInstance");
-    *(void **)&finalize = load(lib, "finalizePythonInterpreter"); /* pythonfmu's, see "Exit" */
+    host_load_cs(&cs, lib, "fmi2_host", finish);
+    /* pythonfmu's, see "Exit" */
+    *(void **)&finalize = host_symbol(lib, "finalizePythonInterpreter", "fmi2_host", finish);
 
     if (snprintf(path, sizeof path, "%s/resources", dir) >= (int)sizeof path) {
         fprintf(stderr, "fmi2_host: path too long\n");
         return 1;
     }
     uri = file_uri(path);
-    c = instantiate("c_host", fmi2CoSimulation, argv[3], uri, &callbacks, fmi2False, fmi2True);
+    c = cs.instantiate("c_host", fmi2CoSimulation, argv[3], uri, &callbacks, fmi2False, fmi2True);
     free(uri);
     if (c == NULL) {
         fprintf(stderr, "fmi2_host: fmi2Instantiate returned NULL\n");
         finish(3);
     }
-    check(setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0), "fmi2SetupExperiment");
-    check(enter_init(c), "fmi2EnterInitializationMode");
-    check(exit_init(c), "fmi2ExitInitializationMode");
+    check(cs.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0), "fmi2SetupExperiment");
+    check(cs.enter_init(c), "fmi2EnterInitializationMode");
+    check(cs.exit_init(c), "fmi2ExitInitializationMode");
 
     for (k = 0; k <= n_steps; k++) {
         double t = k * h;
@@ -282,19 +252,19 @@ int main(int argc, char **argv)
         if (k == nan_step) {
             inputs[0] = NAN;
             inputs[1] = 0.0;
-            check(set_real(c, in_vrs, 2, inputs), "fmi2SetReal (NaN)");
-            printf("refused %ld %d\n", k, (int)do_step(c, t, h, fmi2True));
+            check(cs.set_real(c, in_vrs, 2, inputs), "fmi2SetReal (NaN)");
+            printf("refused %ld %d\n", k, (int)cs.do_step(c, t, h, fmi2True));
         }
         if (k == null_step) {
             fflush(stdout);
-            printf("nullget %ld %d\n", k, (int)get_real(c, NULL, 3, NULL));
+            printf("nullget %ld %d\n", k, (int)cs.get_real(c, NULL, 3, NULL));
         }
         inputs[0] = seat_displacement(t);
         inputs[1] = (seat_displacement((k + 1) * h) - inputs[0]) / h;
-        check(set_real(c, in_vrs, 2, inputs), "fmi2SetReal");
-        check(get_real(c, out_vrs, n_out, outputs), "fmi2GetReal");
+        check(cs.set_real(c, in_vrs, 2, inputs), "fmi2SetReal");
+        check(cs.get_real(c, out_vrs, n_out, outputs), "fmi2GetReal");
         if (k < n_steps) {
-            fmi2Status status = do_step(c, t, h, fmi2True);
+            fmi2Status status = cs.do_step(c, t, h, fmi2True);
             if (status != fmi2OK) {
                 fprintf(stderr, "fmi2_host: fmi2DoStep at t = %.17g returned %s (%d)\n", t,
                         status_name(status), (int)status);
@@ -308,8 +278,8 @@ int main(int argc, char **argv)
         printf(" %d\n", step_status);
     }
 
-    printf("terminate %d\n", (int)terminate(c));
-    free_instance(c);
+    printf("terminate %d\n", (int)cs.terminate(c));
+    cs.free_instance(c);
     printf("done\n");
     if (!skip_finalize) {
         finalize(); /* release pythonfmu's interpreter state now, not at exit */

@@ -9,11 +9,16 @@
  * the other inputs stay 0. Then it prints the exact Jacobian of the derivatives from
  * fmi2GetDirectionalDerivative, one unit seed per known (the states, then the inputs).
  *
- *   me_host BINARY GUID N_STATES N_INPUTS STATE_VR0 DER_VR0 STEP N_STEPS AMPLITUDE FREQ_HZ
+ *   me_host [--modes] BINARY GUID N_STATES N_INPUTS STATE_VR0 DER_VR0 STEP N_STEPS AMPLITUDE
+ *           FREQ_HZ
  *
  * stdout: one line per step "k t x_1 ... x_n" (%.17g), then one line per known
  * "jac j d_1 ... d_n" (the column of d(der)/d(known j)), then "ok". Exit status: 0 success,
  * 1 usage, 2 cannot load the binary or a function, 3 an FMI call did not return fmi2OK.
+ *
+ * --modes: instead, the model-exchange state machine after initialization: calls in Event
+ * Mode and in Continuous-Time Mode, those of the other mode among them (each must return
+ * fmi2Error, logged, and change nothing); stdout "name status" per call, then "ok".
  *
  * Build: gcc -std=c99 -O2 -I<fmpy>/c-code me_host.c -o me_host -ldl -lm
  *        x86_64-w64-mingw32-gcc -std=c99 -O2 -static -I<fmpy>/c-code me_host.c -o me_host.exe
@@ -25,32 +30,15 @@
 #include <stdlib.h>
 #include <string.h>
 
-#ifdef _WIN32
-#include <windows.h>
-#else
-#include <dlfcn.h>
-#endif
-
 #include "fmi2Functions.h"
+#include "host_load.h"
 
 #define MAX_N 64
 
 static void *lib;
 
-static void *fn(const char *name)
-{
-    void *f;
-#ifdef _WIN32
-    f = (void *)GetProcAddress((HMODULE)lib, name);
-#else
-    f = dlsym(lib, name);
-#endif
-    if (f == NULL) {
-        fprintf(stderr, "missing function %s\n", name);
-        exit(2);
-    }
-    return f;
-}
+/* A function of the binary, or exit 2. */
+static void *fn(const char *name) { return host_symbol(lib, name, "me_host", exit); }
 
 static void logger(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status,
                    fmi2String category, fmi2String message, ...)
@@ -86,6 +74,45 @@ static int rhs(fmi2Component c, double t, const double *x, double *dx, size_t n)
     return 1;
 }
 
+/* --modes (see the head of this file): the instance has just left initialization. */
+static void modes(fmi2Component c, size_t n)
+{
+    fmi2EnterEventModeTYPE *event = (fmi2EnterEventModeTYPE *)fn("fmi2EnterEventMode");
+    fmi2NewDiscreteStatesTYPE *discrete = (fmi2NewDiscreteStatesTYPE *)fn("fmi2NewDiscreteStates");
+    fmi2EnterContinuousTimeModeTYPE *continuous =
+        (fmi2EnterContinuousTimeModeTYPE *)fn("fmi2EnterContinuousTimeMode");
+    fmi2CompletedIntegratorStepTYPE *completed =
+        (fmi2CompletedIntegratorStepTYPE *)fn("fmi2CompletedIntegratorStep");
+    fmi2GetContinuousStatesTYPE *get_states =
+        (fmi2GetContinuousStatesTYPE *)fn("fmi2GetContinuousStates");
+    fmi2EventInfo info;
+    fmi2Boolean enter, stop;
+    double x[MAX_N], before[MAX_N], after[MAX_N];
+    size_t i;
+    int same = 1;
+    for (i = 0; i < n; i++)
+        x[i] = 1e-3 * (double)(i + 1);
+    printf("states_event %d\n", (int)get_states(c, before, n)); /* Event Mode */
+    printf("setstates_event %d\n", (int)set_states(c, x, n));
+    printf("completed_event %d\n", (int)completed(c, fmi2True, &enter, &stop));
+    printf("settime_event %d\n", (int)set_time(c, 1e-3));
+    printf("derivatives_event %d\n", (int)get_derivatives(c, after, n));
+    printf("discrete_event %d\n", (int)discrete(c, &info));
+    get_states(c, after, n);
+    for (i = 0; i < n; i++)
+        same = same && after[i] == before[i];
+    printf("refusals_left_states %d\n", same);
+    printf("continuous_event %d\n", (int)continuous(c)); /* into Continuous-Time Mode */
+    printf("discrete_continuous %d\n", (int)discrete(c, &info));
+    printf("continuous_continuous %d\n", (int)continuous(c));
+    printf("setstates_continuous %d\n", (int)set_states(c, x, n));
+    printf("completed_continuous %d\n", (int)completed(c, fmi2True, &enter, &stop));
+    printf("event_continuous %d\n", (int)event(c)); /* back into Event Mode */
+    printf("event_event %d\n", (int)event(c));      /* FMI 2.0 allows it there too */
+    printf("setstates_event_again %d\n", (int)set_states(c, x, n));
+    printf("terminate_event %d\n", (int)((fmi2TerminateTYPE *)fn("fmi2Terminate"))(c));
+}
+
 int main(int argc, char **argv)
 {
     fmi2CallbackFunctions cb = {logger, calloc, free, NULL, NULL};
@@ -99,9 +126,12 @@ int main(int argc, char **argv)
     size_t n, ni, i, j;
     long k, steps;
     unsigned state_vr0, der_vr0;
+    int check_modes = argc > 1 && strcmp(argv[1], "--modes") == 0;
+    argv += check_modes;
+    argc -= check_modes;
     if (argc != 11) {
-        fprintf(stderr, "usage: me_host BINARY GUID N_STATES N_INPUTS STATE_VR0 DER_VR0 STEP "
-                        "N_STEPS AMPLITUDE FREQ_HZ\n");
+        fprintf(stderr, "usage: me_host [--modes] BINARY GUID N_STATES N_INPUTS STATE_VR0 DER_VR0 "
+                        "STEP N_STEPS AMPLITUDE FREQ_HZ\n");
         return 1;
     }
     n = (size_t)atoi(argv[3]);
@@ -114,11 +144,7 @@ int main(int argc, char **argv)
     omega = 2.0 * 3.14159265358979323846 * atof(argv[10]);
     if (n == 0 || n > MAX_N || ni < 2 || !(h > 0.0) || steps < 1)
         return 1;
-#ifdef _WIN32
-    lib = (void *)LoadLibraryA(argv[1]);
-#else
-    lib = dlopen(argv[1], RTLD_NOW | RTLD_LOCAL);
-#endif
+    lib = host_open(argv[1]);
     if (lib == NULL) {
         fprintf(stderr, "cannot load %s\n", argv[1]);
         return 2;
@@ -139,6 +165,12 @@ int main(int argc, char **argv)
                                                                    fmi2False, 0.0));
     CHECK(((fmi2EnterInitializationModeTYPE *)fn("fmi2EnterInitializationMode"))(c));
     CHECK(((fmi2ExitInitializationModeTYPE *)fn("fmi2ExitInitializationMode"))(c));
+    if (check_modes) {
+        modes(c, n);
+        ((fmi2FreeInstanceTYPE *)fn("fmi2FreeInstance"))(c);
+        printf("ok\n");
+        return 0;
+    }
     CHECK(((fmi2NewDiscreteStatesTYPE *)fn("fmi2NewDiscreteStates"))(c, &info));
     CHECK(((fmi2EnterContinuousTimeModeTYPE *)fn("fmi2EnterContinuousTimeMode"))(c));
     CHECK(get_states(c, x, n));

@@ -48,31 +48,21 @@
 #include <string.h>
 #include <time.h>
 
-#ifdef _WIN32
-#include <windows.h>
-#else
-#include <dlfcn.h>
+#ifndef _WIN32
 #include <pthread.h>
 #include <unistd.h>
 #endif
 
 #include "fmi2Functions.h"
+#include "host_load.h"
 
 #define AMPLITUDE 0.01 /* m */
 #define F0 0.5         /* Hz */
 #define F1 20.0        /* Hz */
 #define MAX_VRS 16
 
+/* The functions beyond the state machine's (cs, host_load.h). */
 typedef struct {
-    fmi2InstantiateTYPE *instantiate;
-    fmi2SetupExperimentTYPE *setup;
-    fmi2EnterInitializationModeTYPE *enter_init;
-    fmi2ExitInitializationModeTYPE *exit_init;
-    fmi2SetRealTYPE *set_real;
-    fmi2GetRealTYPE *get_real;
-    fmi2DoStepTYPE *do_step;
-    fmi2TerminateTYPE *terminate;
-    fmi2FreeInstanceTYPE *free_instance;
     fmi2ResetTYPE *reset;
     fmi2GetFMUstateTYPE *get_state;
     fmi2SetFMUstateTYPE *set_state;
@@ -83,6 +73,7 @@ typedef struct {
     fmi2GetRealStatusTYPE *real_status;
 } Api;
 
+static HostCs cs;
 static Api api;
 static const char *guid;
 static fmi2ValueReference in_vrs[2], out_vrs[MAX_VRS];
@@ -110,42 +101,20 @@ static void logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status
     }
 }
 
+/* A function of the binary, or exit 2. */
 static void *symbol(void *lib, const char *name)
 {
-    void *f;
-#ifdef _WIN32
-    f = (void *)GetProcAddress((HMODULE)lib, name);
-#else
-    f = dlsym(lib, name);
-#endif
-    if (f == NULL) {
-        fprintf(stderr, "native_host: %s not found in the FMU binary\n", name);
-        exit(2);
-    }
-    return f;
+    return host_symbol(lib, name, "native_host", exit);
 }
 
 static void load(const char *path)
 {
-    void *lib;
-#ifdef _WIN32
-    lib = (void *)LoadLibraryA(path);
-#else
-    lib = dlopen(path, RTLD_NOW | RTLD_LOCAL);
-#endif
+    void *lib = host_open(path);
     if (lib == NULL) {
         fprintf(stderr, "native_host: cannot load %s\n", path);
         exit(2);
     }
-    *(void **)&api.instantiate = symbol(lib, "fmi2Instantiate");
-    *(void **)&api.setup = symbol(lib, "fmi2SetupExperiment");
-    *(void **)&api.enter_init = symbol(lib, "fmi2EnterInitializationMode");
-    *(void **)&api.exit_init = symbol(lib, "fmi2ExitInitializationMode");
-    *(void **)&api.set_real = symbol(lib, "fmi2SetReal");
-    *(void **)&api.get_real = symbol(lib, "fmi2GetReal");
-    *(void **)&api.do_step = symbol(lib, "fmi2DoStep");
-    *(void **)&api.terminate = symbol(lib, "fmi2Terminate");
-    *(void **)&api.free_instance = symbol(lib, "fmi2FreeInstance");
+    host_load_cs(&cs, lib, "native_host", exit);
     *(void **)&api.reset = symbol(lib, "fmi2Reset");
     *(void **)&api.get_state = symbol(lib, "fmi2GetFMUstate");
     *(void **)&api.set_state = symbol(lib, "fmi2SetFMUstate");
@@ -189,15 +158,15 @@ static fmi2CallbackFunctions callbacks = {logger, calloc, free, NULL, NULL};
 
 static fmi2Component start(const char *name)
 {
-    fmi2Component c = api.instantiate(name, fmi2CoSimulation, guid, resources, &callbacks, fmi2False,
+    fmi2Component c = cs.instantiate(name, fmi2CoSimulation, guid, resources, &callbacks, fmi2False,
                                       fmi2False);
     if (c == NULL) {
         fprintf(stderr, "native_host: fmi2Instantiate returned NULL\n");
         exit(3);
     }
-    expect(api.setup(c, fmi2False, 0.0, t_offset, fmi2False, 0.0), fmi2OK, "fmi2SetupExperiment");
-    expect(api.enter_init(c), fmi2OK, "fmi2EnterInitializationMode");
-    expect(api.exit_init(c), fmi2OK, "fmi2ExitInitializationMode");
+    expect(cs.setup(c, fmi2False, 0.0, t_offset, fmi2False, 0.0), fmi2OK, "fmi2SetupExperiment");
+    expect(cs.enter_init(c), fmi2OK, "fmi2EnterInitializationMode");
+    expect(cs.exit_init(c), fmi2OK, "fmi2ExitInitializationMode");
     return c;
 }
 
@@ -230,15 +199,15 @@ static void run(fmi2Component c, double h, long n_steps, int vary, double amp, d
     for (k = from; k <= to; k++) {
         double hk = step_size(h, k, vary);
         chirp(t, T, amp, &in[0], &in[1]);
-        expect(api.set_real(c, in_vrs, 2, in), fmi2OK, "fmi2SetReal");
-        expect(api.get_real(c, out_vrs, n_out, y + (size_t)k * n_out), fmi2OK, "fmi2GetReal");
+        expect(cs.set_real(c, in_vrs, 2, in), fmi2OK, "fmi2SetReal");
+        expect(cs.get_real(c, out_vrs, n_out, y + (size_t)k * n_out), fmi2OK, "fmi2GetReal");
         if (tx) {
             tx[3 * k] = t;
             tx[3 * k + 1] = in[0];
             tx[3 * k + 2] = in[1];
         }
         if (k < to) {
-            expect(api.do_step(c, t_offset + t, hk, fmi2True), fmi2OK, "fmi2DoStep");
+            expect(cs.do_step(c, t_offset + t, hk, fmi2True), fmi2OK, "fmi2DoStep");
             t += hk;
         }
     }
@@ -278,8 +247,8 @@ static void *worker(void *arg)
     for (r = 0; r < 20; r++) { /* repeat, so the two threads overlap */
         fmi2Component c = start("thread");
         run(c, j->h, j->n, 0, j->amp, j->y + (size_t)r * (j->n + 1) * n_out, NULL, 0, j->n);
-        api.terminate(c);
-        api.free_instance(c);
+        cs.terminate(c);
+        cs.free_instance(c);
     }
     return NULL;
 }
@@ -345,8 +314,8 @@ int main(int argc, char **argv)
         libpython_line();
         c = start("run");
         run(c, h, n_steps, strcmp(mode, "vary") == 0, AMPLITUDE, y, tx, 0, n_steps);
-        expect(api.terminate(c), fmi2OK, "fmi2Terminate");
-        api.free_instance(c);
+        expect(cs.terminate(c), fmi2OK, "fmi2Terminate");
+        cs.free_instance(c);
         for (k = 0; k <= n_steps; k++) {
             printf("%ld %.17g %.17g %.17g", k, tx[3 * k], tx[3 * k + 1], tx[3 * k + 2]);
             for (i = 0; i < n_out; i++)
@@ -370,7 +339,7 @@ int main(int argc, char **argv)
             ref[j] = calloc(rows * n_out, sizeof(double));
             c = start("sequential");
             run(c, h, n_steps, 0, jobs[j].amp, ref[j], NULL, 0, n_steps);
-            api.free_instance(c);
+            cs.free_instance(c);
         }
         for (j = 0; j < 2; j++)
             pthread_create(&th[j], NULL, worker, &jobs[j]);
@@ -403,39 +372,39 @@ int main(int argc, char **argv)
         c = start("checks");
         in[0] = NAN;
         in[1] = 0.0;
-        expect(api.set_real(c, in_vrs, 2, in), fmi2OK, "fmi2SetReal NaN");
-        printf("nan_step %d\n", (int)api.do_step(c, 0.0, h, fmi2True));
+        expect(cs.set_real(c, in_vrs, 2, in), fmi2OK, "fmi2SetReal NaN");
+        printf("nan_step %d\n", (int)cs.do_step(c, 0.0, h, fmi2True));
         in[0] = 0.0;
         in[1] = INFINITY;
-        expect(api.set_real(c, in_vrs, 2, in), fmi2OK, "fmi2SetReal inf");
-        printf("inf_step %d\n", (int)api.do_step(c, 0.0, h, fmi2True));
+        expect(cs.set_real(c, in_vrs, 2, in), fmi2OK, "fmi2SetReal inf");
+        printf("inf_step %d\n", (int)cs.do_step(c, 0.0, h, fmi2True));
         in[1] = 0.0;
-        expect(api.set_real(c, in_vrs, 2, in), fmi2OK, "fmi2SetReal 0");
-        printf("negative_step %d\n", (int)api.do_step(c, 0.0, -h, fmi2True));
-        printf("zero_step %d\n", (int)api.do_step(c, 0.0, 0.0, fmi2True));
+        expect(cs.set_real(c, in_vrs, 2, in), fmi2OK, "fmi2SetReal 0");
+        printf("negative_step %d\n", (int)cs.do_step(c, 0.0, -h, fmi2True));
+        printf("zero_step %d\n", (int)cs.do_step(c, 0.0, 0.0, fmi2True));
         /* after the refusals the run equals a fresh one */
         run(c, h, n_steps, 0, AMPLITUDE, y, NULL, 0, n_steps);
-        api.free_instance(c);
+        cs.free_instance(c);
         c = start("fresh");
         run(c, h, n_steps, 0, AMPLITUDE, y2, NULL, 0, n_steps);
         printf("refusals_leave_state %d\n", same(y, y2, rows * n_out));
-        api.free_instance(c);
+        cs.free_instance(c);
         /* an invalid parameter: fmi2ExitInitializationMode returns fmi2Error; steps refused */
-        c = api.instantiate("mass", fmi2CoSimulation, guid, "", &callbacks, fmi2False, fmi2False);
+        c = cs.instantiate("mass", fmi2CoSimulation, guid, "", &callbacks, fmi2False, fmi2False);
         v = -1.0;
-        expect(api.set_real(c, &mass_vr, 1, &v), fmi2OK, "fmi2SetReal mass");
-        api.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0);
-        api.enter_init(c);
-        printf("negative_mass_init %d\n", (int)api.exit_init(c));
-        printf("negative_mass_step %d\n", (int)api.do_step(c, 0.0, h, fmi2True));
+        expect(cs.set_real(c, &mass_vr, 1, &v), fmi2OK, "fmi2SetReal mass");
+        cs.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0);
+        cs.enter_init(c);
+        printf("negative_mass_init %d\n", (int)cs.exit_init(c));
+        printf("negative_mass_step %d\n", (int)cs.do_step(c, 0.0, h, fmi2True));
         /* reset: back to the defaults; the run equals a fresh one */
         expect(api.reset(c), fmi2OK, "fmi2Reset");
-        api.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0);
-        api.enter_init(c);
-        expect(api.exit_init(c), fmi2OK, "fmi2ExitInitializationMode after reset");
+        cs.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0);
+        cs.enter_init(c);
+        expect(cs.exit_init(c), fmi2OK, "fmi2ExitInitializationMode after reset");
         run(c, h, n_steps, 0, AMPLITUDE, y3, NULL, 0, n_steps);
         printf("reset_equals_fresh %d\n", same(y3, y2, rows * n_out));
-        api.free_instance(c);
+        cs.free_instance(c);
         /* FMU state: get at half-way, run on, restore, run again: bit-identical */
         c = start("state");
         run(c, h, n_steps, 0, AMPLITUDE, y, NULL, 0, half); /* steps 0..half-1 */
@@ -474,7 +443,7 @@ int main(int argc, char **argv)
         api.free_state(c, &s);
         api.free_state(c, &s2);
         free(bytes);
-        api.free_instance(c);
+        cs.free_instance(c);
     } else if (strcmp(mode, "fsm") == 0) {
         /* every call out of order returns fmi2Error (3) and changes nothing */
         fmi2ValueReference mass_vr;
@@ -483,75 +452,75 @@ int main(int argc, char **argv)
         if (argc < 9)
             return 1;
         mass_vr = (fmi2ValueReference)strtoul(argv[8], NULL, 10);
-        c = api.instantiate("fsm", fmi2CoSimulation, guid, "", &callbacks, fmi2False, fmi2False);
-        printf("getreal_instantiated %d\n", (int)api.get_real(c, out_vrs, n_out, out));
-        printf("dostep_instantiated %d\n", (int)api.do_step(c, 0.0, h, fmi2True));
-        printf("exit_instantiated %d\n", (int)api.exit_init(c));
-        printf("terminate_instantiated %d\n", (int)api.terminate(c));
-        printf("setreal_instantiated %d\n", (int)api.set_real(c, in_vrs, 2, in));
-        printf("setup_instantiated %d\n", (int)api.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0));
-        printf("enter %d\n", (int)api.enter_init(c));
+        c = cs.instantiate("fsm", fmi2CoSimulation, guid, "", &callbacks, fmi2False, fmi2False);
+        printf("getreal_instantiated %d\n", (int)cs.get_real(c, out_vrs, n_out, out));
+        printf("dostep_instantiated %d\n", (int)cs.do_step(c, 0.0, h, fmi2True));
+        printf("exit_instantiated %d\n", (int)cs.exit_init(c));
+        printf("terminate_instantiated %d\n", (int)cs.terminate(c));
+        printf("setreal_instantiated %d\n", (int)cs.set_real(c, in_vrs, 2, in));
+        printf("setup_instantiated %d\n", (int)cs.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0));
+        printf("enter %d\n", (int)cs.enter_init(c));
         printf("setup_initialization %d\n",
-               (int)api.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0));
-        printf("enter_initialization %d\n", (int)api.enter_init(c));
-        printf("dostep_initialization %d\n", (int)api.do_step(c, 0.0, h, fmi2True));
-        printf("terminate_initialization %d\n", (int)api.terminate(c));
-        printf("getreal_initialization %d\n", (int)api.get_real(c, &mass_vr, 1, &m0));
-        printf("exit %d\n", (int)api.exit_init(c));
-        printf("exit_stepping %d\n", (int)api.exit_init(c));
-        printf("enter_stepping %d\n", (int)api.enter_init(c));
+               (int)cs.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0));
+        printf("enter_initialization %d\n", (int)cs.enter_init(c));
+        printf("dostep_initialization %d\n", (int)cs.do_step(c, 0.0, h, fmi2True));
+        printf("terminate_initialization %d\n", (int)cs.terminate(c));
+        printf("getreal_initialization %d\n", (int)cs.get_real(c, &mass_vr, 1, &m0));
+        printf("exit %d\n", (int)cs.exit_init(c));
+        printf("exit_stepping %d\n", (int)cs.exit_init(c));
+        printf("enter_stepping %d\n", (int)cs.enter_init(c));
         v = 2.0 * m0;
-        printf("set_parameter_stepping %d\n", (int)api.set_real(c, &mass_vr, 1, &v));
-        printf("dostep_wrong_time %d\n", (int)api.do_step(c, 1.0, h, fmi2True));
-        printf("dostep %d\n", (int)api.do_step(c, 0.0, h, fmi2True));
+        printf("set_parameter_stepping %d\n", (int)cs.set_real(c, &mass_vr, 1, &v));
+        printf("dostep_wrong_time %d\n", (int)cs.do_step(c, 1.0, h, fmi2True));
+        printf("dostep %d\n", (int)cs.do_step(c, 0.0, h, fmi2True));
         {
             /* an unknown value reference after a valid one: Error, and nothing set */
             fmi2ValueReference bad[2];
             double two[2] = {0.5, 0.5}, x0 = -1.0, x1 = -2.0;
             bad[0] = in_vrs[0];
             bad[1] = 99999;
-            api.get_real(c, in_vrs, 1, &x0);
-            printf("unknown_vr_set %d\n", (int)api.set_real(c, bad, 2, two));
-            api.get_real(c, in_vrs, 1, &x1);
+            cs.get_real(c, in_vrs, 1, &x0);
+            printf("unknown_vr_set %d\n", (int)cs.set_real(c, bad, 2, two));
+            cs.get_real(c, in_vrs, 1, &x1);
             printf("unknown_vr_nothing_set %d\n", x0 == x1);
         }
-        printf("terminate %d\n", (int)api.terminate(c));
-        printf("dostep_terminated %d\n", (int)api.do_step(c, h, h, fmi2True));
-        printf("setreal_terminated %d\n", (int)api.set_real(c, in_vrs, 2, in));
-        printf("terminate_terminated %d\n", (int)api.terminate(c));
-        printf("getreal_terminated %d\n", (int)api.get_real(c, &mass_vr, 1, &v));
+        printf("terminate %d\n", (int)cs.terminate(c));
+        printf("dostep_terminated %d\n", (int)cs.do_step(c, h, h, fmi2True));
+        printf("setreal_terminated %d\n", (int)cs.set_real(c, in_vrs, 2, in));
+        printf("terminate_terminated %d\n", (int)cs.terminate(c));
+        printf("getreal_terminated %d\n", (int)cs.get_real(c, &mass_vr, 1, &v));
         printf("parameter_unchanged %d\n", v == m0);
         printf("reset %d\n", (int)api.reset(c));
-        printf("getreal_after_reset %d\n", (int)api.get_real(c, out_vrs, n_out, out));
-        api.free_instance(c);
+        printf("getreal_after_reset %d\n", (int)cs.get_real(c, out_vrs, n_out, out));
+        cs.free_instance(c);
         /* a failed initialization is the error state: no step, no terminate; Reset recovers */
-        c = api.instantiate("failed", fmi2CoSimulation, guid, "", &callbacks, fmi2False,
+        c = cs.instantiate("failed", fmi2CoSimulation, guid, "", &callbacks, fmi2False,
                             fmi2False);
         v = -1.0;
-        api.set_real(c, &mass_vr, 1, &v);
-        api.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0);
-        api.enter_init(c);
-        printf("exit_invalid %d\n", (int)api.exit_init(c));
-        printf("dostep_failed %d\n", (int)api.do_step(c, 0.0, h, fmi2True));
-        printf("terminate_failed %d\n", (int)api.terminate(c));
-        printf("getreal_failed %d\n", (int)api.get_real(c, &mass_vr, 1, &v));
+        cs.set_real(c, &mass_vr, 1, &v);
+        cs.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0);
+        cs.enter_init(c);
+        printf("exit_invalid %d\n", (int)cs.exit_init(c));
+        printf("dostep_failed %d\n", (int)cs.do_step(c, 0.0, h, fmi2True));
+        printf("terminate_failed %d\n", (int)cs.terminate(c));
+        printf("getreal_failed %d\n", (int)cs.get_real(c, &mass_vr, 1, &v));
         printf("reset_failed %d\n", (int)api.reset(c));
-        api.free_instance(c);
+        cs.free_instance(c);
         /* the start time: the model's time starts there, steps must start there, and a run
          * from 2.5 s equals the run from 0 (the model does not depend on the time) */
         c = start("from0");
         run(c, h, n_steps, 0, AMPLITUDE, y, NULL, 0, n_steps);
-        api.free_instance(c);
+        cs.free_instance(c);
         t_offset = 2.5;
         c = start("from2.5");
         api.real_status(c, fmi2LastSuccessfulTime, &last);
         printf("time_at_start %d\n", last == 2.5);
-        printf("dostep_from_zero %d\n", (int)api.do_step(c, 0.0, h, fmi2True));
+        printf("dostep_from_zero %d\n", (int)cs.do_step(c, 0.0, h, fmi2True));
         run(c, h, n_steps, 0, AMPLITUDE, y2, NULL, 0, n_steps);
         printf("start_time_run_equals %d\n", same(y, y2, rows * n_out));
         api.real_status(c, fmi2LastSuccessfulTime, &last);
         printf("last_time_ok %d\n", fabs(last - (2.5 + h * (double)n_steps)) < 1e-9);
-        api.free_instance(c);
+        cs.free_instance(c);
         t_offset = 0.0;
     } else if (strcmp(mode, "overflow") == 0) {
         fmi2ValueReference mass_vr;
@@ -566,20 +535,20 @@ int main(int argc, char **argv)
         mass_vr = (fmi2ValueReference)strtoul(argv[8], NULL, 10);
         c = start("fresh");
         run(c, h, n_steps, 0, AMPLITUDE, y2, tx, 0, n_steps);
-        api.free_instance(c);
+        cs.free_instance(c);
         /* finite inputs that overflow the step: discarded (2), nothing changed */
         c = start("overflow");
         run(c, h, n_steps, 0, AMPLITUDE, y, NULL, 0, at);
         in[0] = in[1] = 1e308;
-        expect(api.set_real(c, in_vrs, 2, in), fmi2OK, "fmi2SetReal 1e308");
-        printf("overflow_getreal %d\n", (int)api.get_real(c, out_vrs, n_out, out));
-        printf("overflow_step %d\n", (int)api.do_step(c, tx[3 * at], h, fmi2True));
+        expect(cs.set_real(c, in_vrs, 2, in), fmi2OK, "fmi2SetReal 1e308");
+        printf("overflow_getreal %d\n", (int)cs.get_real(c, out_vrs, n_out, out));
+        printf("overflow_step %d\n", (int)cs.do_step(c, tx[3 * at], h, fmi2True));
         api.real_status(c, fmi2LastSuccessfulTime, &last);
         printf("overflow_last_time %d\n", last == tx[3 * at]);
         run(c, h, n_steps, 0, AMPLITUDE, y, NULL, at, n_steps);
         printf("overflow_leaves_state %d\n", same(y + at * n_out, y2 + at * n_out,
                                                   (rows - at) * n_out));
-        api.free_instance(c);
+        cs.free_instance(c);
         /* the velocity never set (its slope stands in): a huge step, then displacements
          * +-1e300, are refused and leave the slope bookkeeping as it was */
         for (j = 0; j < 2; j++) {
@@ -590,26 +559,26 @@ int main(int argc, char **argv)
                 double x = tx[3 * k + 1];
                 if (k == at) {
                     if (j == 0) {
-                        printf("huge_step %d\n", (int)api.do_step(c, tx[3 * k], 1e300, fmi2True));
+                        printf("huge_step %d\n", (int)cs.do_step(c, tx[3 * k], 1e300, fmi2True));
                     } else {
                         v = 1e300;
-                        api.set_real(c, &in_vrs[0], 1, &v);
+                        cs.set_real(c, &in_vrs[0], 1, &v);
                         printf("huge_displacement %d\n",
-                               (int)api.do_step(c, tx[3 * k], h, fmi2True));
+                               (int)cs.do_step(c, tx[3 * k], h, fmi2True));
                         v = -1e300;
-                        api.set_real(c, &in_vrs[0], 1, &v);
+                        cs.set_real(c, &in_vrs[0], 1, &v);
                         printf("huge_displacement_back %d\n",
-                               (int)api.do_step(c, tx[3 * k], h, fmi2True));
+                               (int)cs.do_step(c, tx[3 * k], h, fmi2True));
                     }
                 }
-                expect(api.set_real(c, &in_vrs[0], 1, &x), fmi2OK, "fmi2SetReal x");
-                expect(api.get_real(c, out_vrs, n_out, yy + (size_t)k * n_out), fmi2OK,
+                expect(cs.set_real(c, &in_vrs[0], 1, &x), fmi2OK, "fmi2SetReal x");
+                expect(cs.get_real(c, out_vrs, n_out, yy + (size_t)k * n_out), fmi2OK,
                        "fmi2GetReal");
                 if (k < n_steps)
-                    expect(api.do_step(c, tx[3 * k], tx[3 * k + 3] - tx[3 * k], fmi2True),
+                    expect(cs.do_step(c, tx[3 * k], tx[3 * k + 3] - tx[3 * k], fmi2True),
                            fmi2OK, "fmi2DoStep");
             }
-            api.free_instance(c);
+            cs.free_instance(c);
         }
         /* the undisturbed slope run */
         {
@@ -618,10 +587,10 @@ int main(int argc, char **argv)
             quiet_log = 1;
             for (k = 0; k <= n_steps; k++) {
                 double x = tx[3 * k + 1];
-                api.set_real(c, &in_vrs[0], 1, &x);
-                api.get_real(c, out_vrs, n_out, y2 + (size_t)k * n_out);
+                cs.set_real(c, &in_vrs[0], 1, &x);
+                cs.get_real(c, out_vrs, n_out, y2 + (size_t)k * n_out);
                 if (k < n_steps)
-                    api.do_step(c, tx[3 * k], tx[3 * k + 3] - tx[3 * k], fmi2True);
+                    cs.do_step(c, tx[3 * k], tx[3 * k + 3] - tx[3 * k], fmi2True);
             }
             quiet_log = 0;
             /* a crafted state, checksum valid, bookkeeping inconsistent: refused */
@@ -629,7 +598,7 @@ int main(int argc, char **argv)
             expect(api.state_size(c, s, &size), fmi2OK, "fmi2SerializedFMUstateSize");
             bytes = malloc(size);
             expect(api.serialize(c, s, bytes, size), fmi2OK, "fmi2SerializeFMUstate");
-            api.free_instance(c);
+            cs.free_instance(c);
         }
         printf("huge_step_leaves_slope %d\n", same(y, y2, rows * n_out));
         printf("huge_displacement_leaves_slope %d\n", same(y3, y2, rows * n_out));
@@ -663,43 +632,43 @@ int main(int argc, char **argv)
                        (int)api.deserialize(c, bytes, size, &s2));
                 api.free_state(c, &s2);
             }
-            api.free_instance(c);
+            cs.free_instance(c);
         }
         api.free_state(c, &s);
         free(bytes);
         /* a denormal mass: initialization refused; Reset and valid parameters recover */
         c = start("fresh2");
         run(c, h, n_steps, 0, AMPLITUDE, y2, NULL, 0, n_steps);
-        api.free_instance(c);
-        c = api.instantiate("denormal", fmi2CoSimulation, guid, "", &callbacks, fmi2False,
+        cs.free_instance(c);
+        c = cs.instantiate("denormal", fmi2CoSimulation, guid, "", &callbacks, fmi2False,
                             fmi2False);
         v = 1e-310;
-        api.set_real(c, &mass_vr, 1, &v);
-        api.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0);
-        api.enter_init(c);
-        printf("denormal_init %d\n", (int)api.exit_init(c));
+        cs.set_real(c, &mass_vr, 1, &v);
+        cs.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0);
+        cs.enter_init(c);
+        printf("denormal_init %d\n", (int)cs.exit_init(c));
         expect(api.reset(c), fmi2OK, "fmi2Reset");
-        api.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0);
-        api.enter_init(c);
-        printf("reset_init %d\n", (int)api.exit_init(c));
+        cs.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0);
+        cs.enter_init(c);
+        printf("reset_init %d\n", (int)cs.exit_init(c));
         run(c, h, n_steps, 0, AMPLITUDE, y, NULL, 0, n_steps);
         printf("denormal_reset_recovers %d\n", same(y, y2, rows * n_out));
-        api.free_instance(c);
+        cs.free_instance(c);
         /* the same with the outputs read while the denormal mass was set, then the mass set
          * back (no Reset) */
-        c = api.instantiate("denormal2", fmi2CoSimulation, guid, "", &callbacks, fmi2False,
+        c = cs.instantiate("denormal2", fmi2CoSimulation, guid, "", &callbacks, fmi2False,
                             fmi2False);
-        api.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0);
-        api.enter_init(c);
-        api.get_real(c, &mass_vr, 1, &m0);
+        cs.setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0);
+        cs.enter_init(c);
+        cs.get_real(c, &mass_vr, 1, &m0);
         v = 1e-310;
-        api.set_real(c, &mass_vr, 1, &v);
-        printf("denormal_getreal %d\n", (int)api.get_real(c, out_vrs, n_out, out));
-        api.set_real(c, &mass_vr, 1, &m0);
-        printf("mass_back_init %d\n", (int)api.exit_init(c));
+        cs.set_real(c, &mass_vr, 1, &v);
+        printf("denormal_getreal %d\n", (int)cs.get_real(c, out_vrs, n_out, out));
+        cs.set_real(c, &mass_vr, 1, &m0);
+        printf("mass_back_init %d\n", (int)cs.exit_init(c));
         run(c, h, n_steps, 0, AMPLITUDE, y, NULL, 0, n_steps);
         printf("denormal_mass_back_recovers %d\n", same(y, y2, rows * n_out));
-        api.free_instance(c);
+        cs.free_instance(c);
 #ifndef _WIN32
     } else if (strcmp(mode, "bench") == 0 || strcmp(mode, "bench-vary") == 0) {
         int vary = strcmp(mode, "bench-vary") == 0;
@@ -720,13 +689,13 @@ int main(int argc, char **argv)
                 double hk = vary ? step_size(h, k, 1) : h;
                 in[0] = table[2 * (k & 1023)];
                 in[1] = table[2 * (k & 1023) + 1];
-                api.set_real(c, in_vrs, 2, in);
-                if (api.do_step(c, tb, hk, fmi2True) != fmi2OK) {
+                cs.set_real(c, in_vrs, 2, in);
+                if (cs.do_step(c, tb, hk, fmi2True) != fmi2OK) {
                     fprintf(stderr, "native_host: fmi2DoStep refused a benchmark step\n");
                     exit(3);
                 }
                 tb += hk;
-                api.get_real(c, out_vrs, n_out, out);
+                cs.get_real(c, out_vrs, n_out, out);
             }
             clock_gettime(CLOCK_MONOTONIC, &b);
             clock_gettime(CLOCK_THREAD_CPUTIME_ID, &cb);
@@ -741,7 +710,7 @@ int main(int argc, char **argv)
             if (cpu < best_cpu)
                 best_cpu = cpu;
         }
-        api.free_instance(c);
+        cs.free_instance(c);
         printf("best_ns_per_step %.3f\n", best / (double)n_steps);
         printf("best_cpu_ns_per_step %.3f\n", best_cpu / (double)n_steps);
         finish_python(argv[2]);
