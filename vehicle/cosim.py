@@ -185,7 +185,8 @@ def _check_tree(unzipdir, md, path):
                            f"(binaries/{system}64/{md.coSimulation.modelIdentifier}{ext})")
     if system == "linux":
         _check_elf(binary, path, f"binaries/linux64/{md.coSimulation.modelIdentifier}.so")
-    if not (md.generationTool or "").startswith("PythonFMU"):
+    # pythonfmu writes "PythonFMU x.y"; bodyvib's writer "bodyvib v with PythonFMU x.y"
+    if "PythonFMU" not in (md.generationTool or ""):
         return
     resources = os.path.join(unzipdir, "resources")
     listing = os.path.join(resources, "slavemodule.txt")
