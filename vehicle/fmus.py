@@ -1,9 +1,8 @@
 """The project's FMUs: HumanBody3DOF, HumanBodyISO7962, QuarterCar and Road.
 
 ``python build_fmu.py`` and ``bodyvib build`` build these with
-:func:`bodyvib.fmu.pythonfmu.build_fmu` (``Road`` with
-:func:`bodyvib.fmu.pythonfmu.build_source_fmu`: a road of :mod:`vehicle.road.synthetic`
-tabulated at build time); the co-simulation commands build the ones they are
+:func:`bodyvib.fmu.build.build`, pythonfmu or native (``Road``: a road of
+:mod:`vehicle.road.synthetic` or a road file, tabulated at build time); the co-simulation commands build the ones they are
 not given into a temporary folder (:func:`temporary_fmu_dir`).
 """
 
@@ -12,7 +11,7 @@ from pathlib import Path
 from typing import Dict, Iterable, Optional
 
 from bodyvib.process import interrupts
-from bodyvib.fmu.pythonfmu import build_fmu, build_source_fmu
+from bodyvib.fmu.build import build
 from bodyvib.models import load_model
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.process.outputs import staged_writes
@@ -171,8 +170,8 @@ def build_project_fmu(name: str, dest="dist", model: Optional[str] = None, *,
     Raises
     ------
     BodyvibError
-        An unknown FMU; see :func:`load_fmu_model`, :func:`fmu_road` and the builders
-        :func:`bodyvib.fmu.pythonfmu.build_fmu`, :func:`bodyvib.fmu.native.build_native_fmu`.
+        An unknown FMU; see :func:`load_fmu_model`, :func:`fmu_road` and
+        :func:`bodyvib.fmu.build.build`.
 
     Examples
     --------
@@ -185,21 +184,12 @@ def build_project_fmu(name: str, dest="dist", model: Optional[str] = None, *,
         raise BodyvibError(f"unknown FMU '{name}'; FMUs are {', '.join(FMUS)}")
     kind, _, description = FMUS[name]
     if kind == "source":
-        meta, table = _road_source(**dict(ROAD_DEFAULTS, **(road or {}),
-                                          **({"road": model} if model else {})))
-        if native:
-            from bodyvib.fmu.native_source import build_native_source_fmu
-
-            return build_native_source_fmu(meta, table, name, description, dest, fmi=fmi,
-                                           platforms=platforms)
-        return build_source_fmu(meta, table, name, description, dest)
-    network = load_fmu_model(name, model)
-    if native:
-        from bodyvib.fmu.native import build_native_fmu
-
-        return build_native_fmu(network, kind, name, description, dest, fmi=fmi,
-                                platforms=platforms)
-    return build_fmu(network, kind, name, description, dest)
+        model = _road_source(**dict(ROAD_DEFAULTS, **(road or {}),
+                                    **({"road": model} if model else {})))
+    else:
+        model = load_fmu_model(name, model)
+    return build(model, kind, name, description, dest,
+                 backend="native" if native else "pythonfmu", fmi=fmi, platforms=platforms)
 
 
 def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-car",

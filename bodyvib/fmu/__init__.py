@@ -1,5 +1,6 @@
 """Building FMUs from models: pythonfmu (Python) and native (C), FMI 2.0 and 3.0.
 
+:func:`~bodyvib.fmu.build.build` is the one entry: any kind, either backend.
 :mod:`~bodyvib.fmu.pythonfmu` builds a pythonfmu FMU whose slave runs the copied
 run-time package :mod:`bodyvib.runtime`; :mod:`~bodyvib.fmu.native` compiles the
 one C code base in ``fmu_src/native`` for the model baked in as data;
@@ -11,6 +12,7 @@ needed when building).
 import importlib
 
 _HOME = {
+    "build": "build", "BACKENDS": "build",
     "build_fmu": "pythonfmu", "build_source_fmu": "pythonfmu",
     "build_native_fmu": "native", "native_model": "native", "PLATFORMS": "native",
     "fmu_src_dir": "sources", "native_dir": "sources", "RUNTIME_DIR": "sources",
