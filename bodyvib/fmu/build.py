@@ -36,7 +36,7 @@ def build(model: Union[Network, Tuple[dict, object]], kind: str, name: str,
     ----------
     model : Network or (dict, HermiteTable)
         For ``kind`` ``"body"`` or ``"car"``: the model
-        (:func:`bodyvib.models.load_model`, :func:`bodyvib.models.load_car`). For
+        (:func:`bodyvib.models.load_model`; a car: :func:`bodyvib.runtime.modelfile.load_network`). For
         ``"source"``: the source description and its table
         (:mod:`bodyvib.runtime.source`).
     kind : {"body", "car", "source"}
@@ -102,7 +102,7 @@ def build(model: Union[Network, Tuple[dict, object]], kind: str, name: str,
         return build_source_fmu(meta, table, name, description, dest)
     if not isinstance(model, Network):
         raise BodyvibError(f"a {kind} FMU is built from a Network (bodyvib.models.load_model "
-                           f"or load_car), got {type(model).__name__}")
+                           f"or a car file), got {type(model).__name__}")
     if backend == "native":
         from .native import build_native_fmu
 
