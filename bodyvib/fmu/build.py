@@ -36,7 +36,7 @@ def build(model: Union[Network, Tuple[dict, object]], kind: str, name: str,
     ----------
     model : Network or (dict, HermiteTable)
         For ``kind`` ``"body"`` or ``"car"``: the model
-        (:func:`bodyvib.models.load_model`; a car: :func:`bodyvib.runtime.modelfile.load_network`). For
+        (:func:`bodyvib.models.load_model`; a car: :func:`bodyvib.models.load_network`). For
         ``"source"``: the source description and its table
         (:mod:`bodyvib.runtime.source`).
     kind : {"body", "car", "source"}
