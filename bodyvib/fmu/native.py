@@ -318,17 +318,10 @@ def native_model(kind: str, network: Network, name: str, description: str = "") 
     pairs = [(i, j, True) for i, j in iface.slope_fallback]
     params = [variables[vr].name for vr in par_vrs]
     stencils = _stencils(network, params, rows)
-    # direct dependencies: y = Ys s + Yd ds with ds = R s
+    # direct dependencies (feedthrough): the core's, as the pythonfmu FMU declares them
     U = iface.input_map
     R = iface.rate_matrix()
-    deps = []
-    for j in range(len(out_vrs)):
-        r = signals[j]
-        if derivative[j]:
-            direct = lm.C[r] @ lm.B @ U + lm.D[r] @ U @ R
-        else:
-            direct = lm.D[r] @ U
-        deps.append(tuple(in_vrs[i] for i in range(ni) if direct[i] != 0.0))
+    deps = [tuple(in_vrs[i] for i in d) for d in core.output_dependencies()]
     # model exchange: outputs on the states, derivatives A x + B U s
     out_state = [lm.C[r] @ lm.A if d else lm.C[r] for r, d in zip(signals, derivative)]
     BU = lm.B @ U
