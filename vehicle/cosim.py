@@ -126,7 +126,8 @@ def _model_description(path, kind):
     """The model description of an existing ``.fmu`` file of the ``kind`` interface.
 
     What :func:`check_fmu` and :func:`open_fmu` both read first: a file fmpy cannot
-    read, another FMI version than 2.0 or a missing interface variable is refused.
+    read, another FMI version than 2.0, no co-simulation or a missing interface
+    variable is refused.
     """
     from fmpy import read_model_description
 
@@ -137,6 +138,8 @@ def _model_description(path, kind):
     if md.fmiVersion != "2.0":
         raise BodyvibError(f"FMU '{path}' is FMI {md.fmiVersion}; FMI 2.0 is needed")
     _check_interface(md, path, kind)
+    if md.coSimulation is None:
+        raise BodyvibError(f"FMU '{path}' is not a co-simulation FMU (FMI 2.0 CS needed)")
     return md
 
 
@@ -162,9 +165,7 @@ def check_fmu(path, kind: str) -> None:
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise BodyvibError(f"FMU file '{path}' does not exist")
-    md = _model_description(path, kind)
-    if md.coSimulation is None:
-        raise BodyvibError(f"FMU '{path}' is not a co-simulation FMU (FMI 2.0 CS needed)")
+    _model_description(path, kind)
 
 
 def _check_tree(unzipdir, md, path):
