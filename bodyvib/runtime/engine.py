@@ -289,8 +289,8 @@ class FmuCore(Lifecycle):
                                "and step again)")
         if not self._initialized:
             self._refuse_step()
-        if not self._fallback:
-            self._advance(current_time, h)
+        if False not in self._vel_seen:  # no fallback pair, or every velocity connected:
+            self._advance(current_time, h)  # the rule below would change nothing
             return
         # the unconnected-velocity bookkeeping moves before the step is known to be
         # possible: a refused step puts it back (a continuation equals an undisturbed run)
