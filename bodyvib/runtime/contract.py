@@ -43,7 +43,7 @@ from .network import Network
 
 __all__ = ["Variable", "Interface", "body_interface", "car_interface", "seat_point",
            "parameter_variables", "BODY_INPUTS", "BODY_OUTPUTS", "CAR_INPUTS", "CAR_OUTPUTS",
-           "fmu_variables", "rate_signal", "KINDS", "MODEL_FILE", "PARAMETER_LIMITS", "PARAMETER_UNITS", "POSITIVE_MIN",
+           "fmu_variables", "rate_signal", "KINDS", "MODEL_FILE", "PARAMETER_LIMITS", "PARAMETER_UNITS",
            "RATE_PREFIX", "UNITS"]
 
 #: Names of the body interface's inputs and outputs, in value-reference order.
@@ -65,10 +65,6 @@ RATE_PREFIX = "d/dt "
 
 #: Unit of a network parameter by the element field (or mass) that uses it.
 PARAMETER_UNITS = {"mass": "kg", "k": "N/m", "k_series": "N/m", "c": "N.s/m"}
-
-#: Smallest positive normal double: the ``min`` written for strictly positive
-#: parameters (FMI's ``min`` is inclusive, so ``0`` would admit a zero mass).
-POSITIVE_MIN = 2.2250738585072014e-308
 
 #: Parameter values a model accepts (SI: kg, N/m, N s/m), the loader's range
 #: (:data:`bodyvib.runtime.modelfile.PARAMETER_RANGE`) and the ``min``/``max`` the FMUs
