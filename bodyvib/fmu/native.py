@@ -523,24 +523,23 @@ def fmi_headers() -> Path:
     return folder
 
 
-def _token(model_text: str, core: Sequence[str] = None) -> str:
+def _token(model_text: str, core: Sequence[str]) -> str:
     """The instantiation token: a hash of the model's C text and every C source it builds with."""
     h = hashlib.sha256(model_text.encode())
-    for s in tuple(core or NATIVE_SOURCES) + tuple(FMI_FILES.values()):
+    for s in tuple(core) + tuple(FMI_FILES.values()):
         h.update((native_dir() / s).read_bytes())
     d = h.hexdigest()
     return "{" + f"{d[:8]}-{d[8:12]}-{d[12:16]}-{d[16:20]}-{d[20:32]}" + "}"
 
 
-def _compile(platform: str, src: Path, fmi: int, out: Path,
-             sources: Sequence[str] = NATIVE_SOURCES) -> None:
+def _compile(platform: str, src: Path, fmi: int, out: Path, files: Sequence[str]) -> None:
+    """Compile the C ``files`` in ``src`` into the binary ``out`` for ``platform``."""
     compiler, flags, _, _, _ = PLATFORMS[platform]
     if shutil.which(compiler) is None:
         raise BodyvibError(f"{platform}: {_missing_compiler(platform)}, or build the other "
                            "platforms only (bodyvib build --native --platforms ...)")
-    files = [str(src / s) for s in sources if s.endswith(".c")]
-    files += [str(src / MODEL_C), str(src / FMI_FILES[fmi])]
-    cmd = [compiler] + COMMON_FLAGS + flags + [f"-I{src}", "-o", str(out)] + files + ["-lm"]
+    cmd = ([compiler] + COMMON_FLAGS + flags + [f"-I{src}", "-o", str(out)]
+           + [str(src / f) for f in files] + ["-lm"])
     # its own process group, killed on a signal; its temporary files in the build's folder
     proc = interrupts.run_process(cmd, scratch=src.parent.parent / "compiler-tmp")
     if proc.returncode != 0 or not out.is_file():
@@ -594,11 +593,11 @@ def build_native_fmu(network: Network, kind: str, name: str, description: str, d
     PosixPath('dist/native/fmi3/HumanBody3DOF.fmu')
     """
     nm = native_model(kind, network, name, description)
-    return package_native_fmu(nm, lambda token: model_source(nm, token), NATIVE_SOURCES,
+    return package_native_fmu(nm, lambda token: model_source(nm, token),
                               model_resources(network), dest, fmi, platforms)
 
 
-def package_native_fmu(nm: NativeModel, model_c: Callable[[str], str], core: Sequence[str],
+def package_native_fmu(nm: NativeModel, model_c: Callable[[str], str],
                        resources: Dict[str, bytes], dest, fmi: int,
                        platforms: Iterable[str]) -> Path:
     """Compile, package, validate and place one native FMU: what every native kind shares.
@@ -609,10 +608,8 @@ def package_native_fmu(nm: NativeModel, model_c: Callable[[str], str], core: Seq
         The FMU's interface (its model description is written from it).
     model_c : callable
         ``model_c(token)`` -> the text of ``bodyvib_model.c`` (the model as C data),
-        given the instantiation token.
-    core : sequence of str
-        The core's C sources in ``fmu_src/native`` (:data:`NATIVE_SOURCES` or
-        :data:`SOURCE_SOURCES`), compiled with the FMI version's wrapper.
+        given the instantiation token; it is compiled with the core of ``nm.kind``
+        (:func:`core_sources`) and the FMI version's wrapper.
     resources : dict of str to bytes
         Files for the FMU's ``resources/`` folder.
     dest, fmi, platforms
@@ -635,6 +632,7 @@ def package_native_fmu(nm: NativeModel, model_c: Callable[[str], str], core: Seq
     unknown = [p for p in platforms if p not in PLATFORMS]
     if unknown or not platforms:
         raise BodyvibError(f"platforms must be among {', '.join(PLATFORMS)}, got {platforms}")
+    core = core_sources(nm.kind)
     token = _token(model_c(""), core)
     headers = fmi_headers()
     dest = Path(dest)
@@ -658,7 +656,7 @@ def package_native_fmu(nm: NativeModel, model_c: Callable[[str], str], core: Seq
             _, _, suffix, folder2, folder3 = PLATFORMS[p]
             out = stage / "binaries" / (folder2 if fmi == 2 else folder3) / (name + suffix)
             out.parent.mkdir(parents=True, exist_ok=True)
-            _compile(p, src, fmi, out, core)
+            _compile(p, src, fmi, out, _c_files(nm, fmi))
         staged = Path(tmp) / f"{name}.fmu"
         staged.write_bytes(_zip(stage))
         validate_fmu_file(staged, f"{name}.fmu (native, FMI {fmi}.0)")

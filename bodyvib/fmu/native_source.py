@@ -20,7 +20,7 @@ from .. import __version__
 from ..runtime.source import SourceCore
 from .description import default_stop_time, describe_fmu
 from .sources import source_resources
-from .native import (SOURCE_SOURCES, NativeModel, _c_doubles, _c_ints, _c_string,
+from .native import (NativeModel, _c_doubles, _c_ints, _c_string,
                      package_native_fmu)
 
 __all__ = ["build_native_source_fmu", "native_source_model", "source_model_source"]
@@ -149,4 +149,4 @@ def build_native_source_fmu(meta: dict, table, name: str, description: str, dest
     """
     nm = native_source_model(meta, table, name, description)
     return package_native_fmu(nm, lambda token: source_model_source(nm, table, token),
-                              SOURCE_SOURCES, source_resources(meta, table), dest, fmi, platforms)
+                              source_resources(meta, table), dest, fmi, platforms)
