@@ -13,7 +13,11 @@ from .process.outputs import write_json
 from .runtime.modelfile import network_from_file, network_to_dict
 from .runtime.network import Network
 
-__all__ = ["MODEL_DIR", "available_models", "load_model", "load_network", "save_model", "shipped_names"]
+__all__ = ["DEFAULT_MODELS", "MODEL_DIR", "available_models", "load_model", "load_network", "save_model", "shipped_names"]
+
+#: The body models run and compared by default (shipped names): the reduced model with
+#: the paper's parameters and the ISO 7962 model it reduces.
+DEFAULT_MODELS = ("reduced-paper", "iso7962")
 
 #: Folder of the shipped parameter files.
 MODEL_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")

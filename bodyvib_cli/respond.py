@@ -113,7 +113,7 @@ def _run(args):
 
 def add_command(subparsers):
     """Register ``bodyvib respond``."""
-    from bodyvib.seat.response import DEFAULT_MODELS
+    from bodyvib.models import DEFAULT_MODELS
 
     p = subparsers.add_parser(
         "respond",

@@ -13,7 +13,7 @@ import numpy as np
 from .response import Peak, find_peaks, transmissibility
 from ..process.limits import require_memory
 from ..runtime.errors import BodyvibError
-from ..models import load_model
+from ..models import DEFAULT_MODELS, load_model
 
 __all__ = [
     "THIRD_OCTAVE_HZ",
@@ -33,9 +33,6 @@ THIRD_OCTAVE_HZ = (0.5, 0.63, 0.8, 1.0, 1.25, 1.6, 2.0, 2.5, 3.15, 4.0, 5.0, 6.3
 #: bytes: the complex response, modulus and phase arrays, the two lists of Python floats,
 #: the JSON text and the plot's copies (measured peak RSS of 1e6 points: about 150 B).
 BYTES_PER_POINT = 200
-
-#: Models compared by default.
-DEFAULT_MODELS = ("reduced-paper", "iso7962")
 
 
 @dataclass(frozen=True)

@@ -52,7 +52,6 @@ _MESSAGES = {"SIGINT": "interrupted", "SIGTERM": "terminated (SIGTERM)",
 
 _count = 0      # signals received while deferred
 _first = None   # the first of them (its number)
-_critical = 0   # depth of critical sections (an FMU alive, outputs being committed)
 _depth = 0      # depth of deferred()
 
 
@@ -239,9 +238,4 @@ def critical():
     ------
     None
     """
-    global _critical
-    _critical += 1
-    try:
-        yield
-    finally:
-        _critical -= 1
+    yield

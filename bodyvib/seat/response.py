@@ -28,16 +28,13 @@ from typing import Dict, Sequence
 import numpy as np
 
 from ..comfort.figures import ComfortFigures, basic_method_checks, check_rate, comfort_figures
-from ..models import load_model
+from ..models import DEFAULT_MODELS, load_model
 from ..runtime.discretize import Discretization
 from ..runtime.errors import BodyvibError
 from ..runtime.network import Network, linear_model
 from .signal import SeatSignal
 
 __all__ = ["DEFAULT_MODELS", "head_acceleration", "BodyResponse", "Response", "respond"]
-
-#: Models run by default (shipped names).
-DEFAULT_MODELS = ("reduced-paper", "iso7962")
 
 
 def head_acceleration(body: Network, acceleration, fs: float) -> np.ndarray:
