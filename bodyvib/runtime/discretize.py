@@ -255,6 +255,30 @@ class Discretization:
         Phi, G0, G1 = self.matrices(h)
         return Phi @ x + G0 @ np.asarray(u, float) + G1 @ np.asarray(du, float)
 
+    def run(self, u: np.ndarray, du: np.ndarray, h: float) -> np.ndarray:
+        """States over a uniform grid from the zero state: ``x[k+1] = Phi x[k] + G0 u[k] + G1 du[k]``.
+
+        Parameters
+        ----------
+        u, du : (samples, inputs) ndarray
+            Inputs at each sample and their rate over the step that starts there (the
+            last row's rate is unused), in the model's input units.
+        h : float
+            The grid's step, s.
+
+        Returns
+        -------
+        (samples, states) ndarray
+            ``x[0] = 0``; the forcing of all steps is formed at once, so a sample costs
+            one state-matrix product.
+        """
+        Phi, G0, G1 = self.matrices(h)
+        forcing = u[:-1] @ G0.T + du[:-1] @ G1.T        # (samples - 1, states)
+        x = np.zeros((u.shape[0], Phi.shape[0]))
+        for k in range(u.shape[0] - 1):
+            x[k + 1] = Phi @ x[k] + forcing[k]
+        return x
+
 
 def input_rates(model: LinearModel, u: np.ndarray) -> np.ndarray:
     """Default in-step input rates: base displacement rises at the base velocity.
