@@ -21,7 +21,7 @@ from .road.driven import is_road_file
 from .road.synthetic import ISO8608_CLASSES, TaperedRoad, make_road, random_road, road_source
 
 __all__ = ["FMUS", "ROAD_DEFAULTS", "build_fmus", "build_project_fmu",
-           "fmu_road", "fmu_road_length", "load_fmu_model", "temporary_fmu_dir"]
+           "fmu_road", "fmu_road_length", "fmu_road_of", "load_fmu_model", "temporary_fmu_dir"]
 
 #: Road.fmu's defaults: ISO 8608 class C, seed 0, 601 m (30 s at 20 m/s and a metre
 #: to spare, the road of ``bodyvib check``), faded in and out over 5 m, speed
@@ -103,11 +103,30 @@ def fmu_road_length(road, length: float) -> float:
     return float(inner.length) if hasattr(inner, "spacing") else float(length)
 
 
-def _road_source(road="C", seed=0, length=601.0, speed=20.0, taper=5.0, track=0.0, units=None,
-                 envelope=False, repeat=False):
+def fmu_road_of(options: dict):
+    """Road.fmu's road and the extent of its table (m) from options over :data:`ROAD_DEFAULTS`.
+
+    Parameters
+    ----------
+    options : dict
+        Keys of :data:`ROAD_DEFAULTS` (``road`` is the road, :func:`fmu_road`'s ``spec``).
+
+    Returns
+    -------
+    road : vehicle.road.synthetic.TaperedRoad
+    length : float
+        m, :func:`fmu_road_length`.
+    """
+    r = dict(ROAD_DEFAULTS, **options)
+    rd = fmu_road(r["road"], r["length"], r["seed"], r["speed"], r["taper"], r["track"],
+                  r["units"], r["envelope"], r["repeat"])
+    return rd, fmu_road_length(rd, r["length"])
+
+
+def _road_source(**options):
     """The source description and table of Road.fmu, pythonfmu or native alike."""
-    rd = fmu_road(road, length, seed, speed, taper, track, units, envelope, repeat)
-    return road_source(rd, fmu_road_length(rd, length), speed)
+    r = dict(ROAD_DEFAULTS, **options)
+    return road_source(*fmu_road_of(r), r["speed"])
 
 
 def load_fmu_model(name: str, model: Optional[str] = None):
@@ -184,8 +203,7 @@ def build_project_fmu(name: str, dest="dist", model: Optional[str] = None, *,
         raise BodyvibError(f"unknown FMU '{name}'; FMUs are {', '.join(FMUS)}")
     kind, _, description = FMUS[name]
     if kind == "source":
-        model = _road_source(**dict(ROAD_DEFAULTS, **(road or {}),
-                                    **({"road": model} if model else {})))
+        model = _road_source(**dict(road or {}, **({"road": model} if model else {})))
     else:
         model = load_fmu_model(name, model)
     return build(model, kind, name, description, dest,
@@ -245,9 +263,10 @@ def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-ca
     names = list(names or FMUS)
     chosen = {"HumanBody3DOF": params, "QuarterCar": car}
     road = dict(ROAD_DEFAULTS, **(road or {}))
+    source = None
     for n in names:  # refuse a bad model (or road) before building anything
         if n in FMUS and FMUS[n][0] == "source":
-            fmu_road(**{("spec" if k == "road" else k): v for k, v in road.items()})
+            source = _road_source(**road)  # tabulated once for every FMI version
         else:
             load_fmu_model(n, chosen.get(n))
     if native:
@@ -261,13 +280,17 @@ def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-ca
             folder = Path(dest) if version == 2 else Path(dest) / "fmi3"
             for n in names:
                 key = n if version == 2 else f"fmi3/{n}"
-                source = FMUS[n][0] == "source"
-                out[key] = build_project_fmu(n, folder, None if source else chosen.get(n),
-                                             road=road if source else None, native=native,
-                                             fmi=version, platforms=platforms)
+                is_source = FMUS[n][0] == "source"
+                if is_source:
+                    out[key] = build(source, "source", n, FMUS[n][2], folder,
+                                     backend="native" if native else "pythonfmu",
+                                     fmi=version, platforms=platforms)
+                else:
+                    out[key] = build_project_fmu(n, folder, chosen.get(n), native=native,
+                                                 fmi=version, platforms=platforms)
                 what[key] = ((f"road {road['road']}" if is_road_file(road["road"]) else
                               f"road {road['road']}, seed {road['seed']}, {road['length']:g} m")
-                             if source else f"model {chosen.get(n) or FMUS[n][1]}")
+                             if is_source else f"model {chosen.get(n) or FMUS[n][1]}")
                 if native:
                     what[key] = f"native C, FMI {version}.0, {what[key]}, {'+'.join(platforms)}"
         interrupts.check()

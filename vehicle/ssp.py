@@ -242,14 +242,13 @@ def ssp_reference(duration: float = 30.0, step: float = 1e-3, body: str = "reduc
     """
     from bodyvib.models import load_model
 
-    from .fmus import ROAD_DEFAULTS, fmu_road, fmu_road_length
+    from .fmus import ROAD_DEFAULTS, fmu_road_of
     from .quarter_car import load_car
     from .reference import reference_run
     from .road.synthetic import road_table
 
     r = dict(ROAD_DEFAULTS, **(road or {}))
-    rd = fmu_road(**{("spec" if k == "road" else k): v for k, v in r.items()})
-    table = road_table(rd, fmu_road_length(rd, r["length"]))
+    table = road_table(*fmu_road_of(r))
     t = np.arange(int(round(duration / step)) + 1) * step
     z, dz = table.evaluate(r["speed"] * t)
     return reference_run(load_car(car), load_model(body), z[:, 0], r["speed"] * dz[:, 0], step)
