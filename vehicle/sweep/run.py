@@ -421,20 +421,10 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
         def pending():
             """Case numbers to run, lazily: consecutive cases of one road (batched) or of one
             model (spectral and cosim: one frequency response, one FMU build per task)."""
-            inner = len(prep.bodies) * len(prep.cars)
-            if engine == "batched":
-                order = iter(range(total))
-            else:
-                order = (i * inner + j for j in range(inner) for i in range(total // inner))
-            return (k for k in order if not done[k])
+            return (k for k in prep.order(body_major=engine != "batched") if not done[k])
 
         def tasks(size):
-            it = pending()
-            while True:
-                ids = np.fromiter(islice(it, size), dtype=np.int64)
-                if not len(ids):
-                    return
-                yield ids
+            return (np.array(ids, dtype=np.int64) for ids in plan_tasks(pending(), size))
 
         work = _Work(rows, engine)
 
