@@ -203,7 +203,12 @@ def classify_profile(distance, elevation, segment_m: float = None,
     >>> classify_profile(x, random_road("C", 1000.0, seed=3).displacement(x)).iso8608_class
     'C'
     """
-    n, gd, segment = profile_psd(distance, elevation, segment_m)
+    return _fit_band(*profile_psd(distance, elevation, segment_m), band)
+
+
+def _fit_band(n, gd, segment: float, band: Tuple[float, float] = N_BAND) -> RoadClass:
+    """:func:`classify_profile` on a PSD already made: ``n``, ``gd`` and ``segment`` as
+    :func:`profile_psd` returns them (cycle/m, m^3, m); ``band`` as there."""
     dx = 1.0 / (2 * n[-1]) if n.size else float("nan")
     lo = max(band[0], 4.0 / segment)
     hi = min(band[1], 1.0 / (4 * dx))

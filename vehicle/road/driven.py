@@ -19,6 +19,7 @@ from typing import Optional
 from bodyvib.runtime.errors import BodyvibError
 
 from ..records import Record
+from .measured import PROFILE_EXTENSIONS
 from .synthetic import ISO8608_CLASSES, Road, TaperedRoad, make_road
 
 __all__ = ["DEFAULT_TAPER_M", "RoadOptions", "is_road_file", "driven_road", "road_label"]
@@ -76,7 +77,7 @@ def is_road_file(spec) -> bool:
     s = str(spec).strip()
     if (len(s) == 1 and s.upper() in ISO8608_CLASSES) or s.lower() in ("bump", "sweep"):
         return False
-    return (os.path.splitext(s)[1].lower() in (".crg", ".csv", ".erd") or os.sep in s
+    return (os.path.splitext(s)[1].lower() in PROFILE_EXTENSIONS or os.sep in s
             or os.path.isfile(s))
 
 

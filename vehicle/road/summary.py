@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..figure import stacked_panels
-from .classify import RoadClass, class_limits, classify_profile, profile_psd
+from .classify import RoadClass, _fit_band, class_limits, profile_psd
 from .iri import IriResult, _check_profile, international_roughness_index
 from .synthetic import ISO8608_CLASSES, N0, class_psd_n0
 
@@ -99,10 +99,10 @@ def summarize_profile(distance, elevation, name: str = "profile") -> RoadSummary
     x, z, dx = _check_profile(distance, elevation)
     stats = {"mean": float(z.mean()), "rms": float(z.std()), "min": float(z.min()),
              "max": float(z.max()), "range": float(z.max() - z.min())}
-    n, gd, _ = profile_psd(x, z)
+    n, gd, segment = profile_psd(x, z)  # one Welch PSD, shown and fitted
     return RoadSummary(name=str(name), length_m=float(x[-1] - x[0]), spacing_m=dx,
                        samples=int(x.size), elevation_m=stats, psd_n=n, psd_gd=gd,
-                       iso8608=classify_profile(x, z), iri=international_roughness_index(x, z),
+                       iso8608=_fit_band(n, gd, segment), iri=international_roughness_index(x, z),
                        distance=x, elevation=z)
 
 

@@ -161,8 +161,13 @@ def _seated(case, models, cars):
     return m
 
 
+def _road_key(case) -> tuple:
+    """What makes a case's road input: the road, its seed, the speed, the run and the options."""
+    return (case.road, case.seed, case.speed, case.duration, case.step, case.road_options)
+
+
 def _roads(case, roads):
-    key = (case.road, case.seed, case.speed, case.duration, case.step, case.road_options)
+    key = _road_key(case)
     r = roads.get(key)
     if r is None:
         if len(roads) > 64:
@@ -199,7 +204,7 @@ def _batched_group(cases, models, cars, roads, block_steps, record):
         gv[i, :n] = G0[:, iv] + G1[:, iz]
         gz[i, n:] = lm.D[s.outputs, iz]
         gv[i, n:] = lm.D[s.outputs, iv]
-        rkey = (cs.road, cs.seed, cs.speed, cs.duration, cs.step)
+        rkey = _road_key(cs)
         if rkey not in rows_of:
             rows_of[rkey] = len(zs)
             zr, vr = _roads(cs, roads)

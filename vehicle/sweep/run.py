@@ -68,17 +68,15 @@ from bodyvib.runtime.errors import BodyvibError
 from .cluster import ClusterLost, open_cluster, run_tasks
 from .engines import ENGINE_SETTINGS, FIGURES, check_engine, run_engine
 from .spec import Case, _Prepared, load_spec, spec_hash
-from .table import (REPLACES_OUT, assemble, part_bytes, part_name, parts_dir, provenance, scan,
-                    table_schema, units, write_part)
+from .table import (CASE_COLUMNS, REPLACES_OUT, TRAILING_COLUMNS, assemble, part_bytes,
+                    part_name, parts_dir, provenance, scan, table_schema, units, write_part)
 
 __all__ = ["BASE_COLUMNS", "run_sweep", "plan_tasks", "read_results", "parts_dir",
            "task_size"]
 
 #: Columns of every sweep table, in order (``body_<parameter>`` and ``car_<parameter>``
 #: columns, every parameter of every model of the sweep, follow ``car``).
-BASE_COLUMNS = ("case_id", "case_key", "road", "seed", "speed_m_s", "duration_s", "step_s",
-                "body", "body_model", "body_sample", "car") + FIGURES + (
-                "engine", "engine_settings", "error", "bodyvib_version", "spec_hash", "run_id")
+BASE_COLUMNS = tuple(n for n, _ in CASE_COLUMNS) + FIGURES + TRAILING_COLUMNS
 
 #: Cases per task: (smallest, largest) by engine; between them, four tasks per worker thread.
 TASK_SIZES = {"batched": (16, 512), "spectral": (200, 20000), "cosim": (1, 16)}
@@ -423,20 +421,10 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
         def pending():
             """Case numbers to run, lazily: consecutive cases of one road (batched) or of one
             model (spectral and cosim: one frequency response, one FMU build per task)."""
-            inner = len(prep.bodies) * len(prep.cars)
-            if engine == "batched":
-                order = iter(range(total))
-            else:
-                order = (i * inner + j for j in range(inner) for i in range(total // inner))
-            return (k for k in order if not done[k])
+            return (k for k in prep.order(body_major=engine != "batched") if not done[k])
 
         def tasks(size):
-            it = pending()
-            while True:
-                ids = np.fromiter(islice(it, size), dtype=np.int64)
-                if not len(ids):
-                    return
-                yield ids
+            return (np.array(ids, dtype=np.int64) for ids in plan_tasks(pending(), size))
 
         work = _Work(rows, engine)
 

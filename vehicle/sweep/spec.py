@@ -500,19 +500,23 @@ class _Prepared:
                     body=bname, body_model=model, body_sample=sample, body_values=values,
                     car=car, case_key=key.hexdigest()[:20], road_options=self.road_options)
 
-    def cases(self, body_major: bool = False) -> Iterator[Case]:
-        """The cases, made one at a time.
+    def order(self, body_major: bool = False) -> Iterator[int]:
+        """The case ids, one at a time, in the order cases are run.
 
         Product order (road, seed, speed, duration, step, body, car: consecutive
         cases share a road) or, with ``body_major``, body and car first
-        (consecutive cases share a model); ``case_id`` is the product-order
+        (consecutive cases share a model); a ``case_id`` is the product-order
         position either way.
         """
         n_settings = math.prod(len(a) for a in self._axes())
         inner = len(self.bodies) * len(self.cars)
         if body_major:
-            return (self.case_at(i * inner + j) for j in range(inner) for i in range(n_settings))
-        return (self.case_at(k) for k in range(n_settings * inner))
+            return (i * inner + j for j in range(inner) for i in range(n_settings))
+        return iter(range(n_settings * inner))
+
+    def cases(self, body_major: bool = False) -> Iterator[Case]:
+        """The cases, made one at a time, in :meth:`order`."""
+        return (self.case_at(k) for k in self.order(body_major))
 
     def __getstate__(self):  # sent to workers without the cache
         return {k: v for k, v in self.__dict__.items() if k != "_heads"}
