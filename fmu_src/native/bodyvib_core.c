@@ -665,6 +665,9 @@ bv_status bv_initialize(bv_instance *c)
     return BV_OK;
 }
 
+/* Parameters set before initialization: rebuild the model for them if valid. */
+static void follow_parameters(bv_instance *c);
+
 /* Model-exchange variables (states, derivatives): -1 if vr is not one, else a bv_status. */
 static int me_var_get(bv_instance *c, unsigned int vr, double *value);
 static int me_var_set(bv_instance *c, unsigned int vr, double value);
@@ -719,9 +722,7 @@ bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double val
     bv_status status = BV_OK;
     size_t i;
     int k;
-    if (!c->bc.initialized && memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0 &&
-        params_valid(c, c->p, 1))
-        build(c, c->p); /* parameters changed before initialization: follow them if valid */
+    follow_parameters(c);
     for (i = 0; i < nvr; i++) {
         int kind, idx, me = me_var_get(c, vr[i], &value[i]);
         if (me >= 0) {
@@ -1151,8 +1152,8 @@ bv_status bv_state_read(bv_instance *c, const unsigned char *buf, size_t size)
 
 /* ---------------------------------------------------------------- model exchange */
 
-/* Follow parameters set before initialization (as bv_get does), so derivatives and
- * Jacobians read in initialization mode are those of the parameters set. */
+/* Follow parameters set before initialization (bv_get, derivatives, Jacobians), so what
+ * is read in initialization mode is that of the parameters set. */
 static void follow_parameters(bv_instance *c)
 {
     if (!c->bc.initialized && memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0 &&
