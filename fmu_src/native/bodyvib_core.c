@@ -891,6 +891,22 @@ static int rate_of(const bv_model *md, int i, double *coef)
     return -1;
 }
 
+/* Walk `order` rate pairs down input j's chain: the input the last one reaches (-1 if the
+ * chain is shorter), with *coef the product of the rates' coefficients along it. */
+static int chain(const bv_model *md, int j, int order, double *coef)
+{
+    int r = -1, o;
+    double cf;
+    *coef = 1.0;
+    for (o = 0; o < order && j >= 0; o++) {
+        r = rate_of(md, j, &cf);
+        if (r >= 0)
+            *coef *= cf;
+        j = r;
+    }
+    return r;
+}
+
 bv_status bv_set_input_derivatives(bv_instance *c, const unsigned int vr[], size_t nvr,
                                    const int order[], const double value[])
 {
@@ -899,8 +915,7 @@ bv_status bv_set_input_derivatives(bv_instance *c, const unsigned int vr[], size
     int k;
     /* all checked before any is applied: a refused call changes nothing */
     for (i = 0; i < nvr; i++) {
-        int j, r = -1, o;
-        double coef = 1.0, cf;
+        double coef;
         if (!check_vr(c, vr[i]))
             return BV_ERROR;
         if (md->vr_kind[vr[i]] != BV_INPUT) {
@@ -913,13 +928,7 @@ bv_status bv_set_input_derivatives(bv_instance *c, const unsigned int vr[], size
                 c->bc.name, order[i], md->vr_name[vr[i]]);
             return BV_ERROR;
         }
-        j = md->vr_index[vr[i]];
-        for (o = 0; o < order[i] && j >= 0; o++) {
-            r = rate_of(md, j, &cf);
-            coef *= cf;
-            j = r;
-        }
-        if (r < 0 && value[i] != 0.0) {
+        if (chain(md, md->vr_index[vr[i]], order[i], &coef) < 0 && value[i] != 0.0) {
             say(c, BV_ERROR, "%s: %s has no in-step derivative of order %d (its rate chain is "
                              "shorter; orders it has: see canInterpolateInputs in the README); "
                              "call refused",
@@ -933,13 +942,8 @@ bv_status bv_set_input_derivatives(bv_instance *c, const unsigned int vr[], size
         }
     }
     for (i = 0; i < nvr; i++) {
-        int j = md->vr_index[vr[i]], r = -1, o;
-        double coef = 1.0, cf;
-        for (o = 0; o < order[i] && j >= 0; o++) {
-            r = rate_of(md, j, &cf);
-            coef *= cf;
-            j = r;
-        }
+        double coef;
+        int r = chain(md, md->vr_index[vr[i]], order[i], &coef);
         if (r < 0)
             continue; /* a zero derivative the input has no rate for: it is held anyway */
         c->s[r] = value[i] / coef;
