@@ -668,7 +668,8 @@ bv_status bv_initialize(bv_instance *c)
 /* Parameters set before initialization: rebuild the model for them if valid. */
 static void follow_parameters(bv_instance *c);
 
-/* Model-exchange variables (states, derivatives): -1 if vr is not one, else a bv_status. */
+/* Model-exchange variables (states, derivatives): me_var_get -1 if vr is not one, else a
+ * bv_status; me_var_set only for one (is_me_var), a bv_status. */
 static int me_var_get(bv_instance *c, unsigned int vr, double *value);
 static int me_var_set(bv_instance *c, unsigned int vr, double value);
 
@@ -1248,7 +1249,7 @@ static int me_var_get(bv_instance *c, unsigned int vr, double *value)
 {
     const bv_model *md = c->bc.md;
     unsigned int first = (unsigned int)BV_STATE_VR(md, 0);
-    if (vr < first || vr >= first + 2u * (unsigned int)c->n)
+    if (!is_me_var(c, vr))
         return -1;
     if (vr < first + (unsigned int)c->n) {
         *value = c->x[vr - first];
@@ -1263,8 +1264,6 @@ static int me_var_set(bv_instance *c, unsigned int vr, double value)
 {
     const bv_model *md = c->bc.md;
     unsigned int first = (unsigned int)BV_STATE_VR(md, 0);
-    if (vr < first || vr >= first + 2u * (unsigned int)c->n)
-        return -1;
     if (vr >= first + (unsigned int)c->n) {
         say(c, BV_ERROR, "%s: a state derivative (value reference %u) is calculated and cannot "
                          "be set (ignored)", c->bc.name, vr);
