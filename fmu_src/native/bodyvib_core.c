@@ -36,7 +36,7 @@
 
 struct bv_instance {
     bv_common bc;       /* first (BV_STATE_IS): state, model, name, logger, time, flags */
-    int n, m, ni, no, np, N; /* N = n + 3 m, the largest augmented matrix */
+    int n, m, ni, no, np;
     int curved;         /* R^2 != 0: some input is a parabola over the step */
     /* parameters */
     double *p, *p_built;
@@ -547,13 +547,13 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
 {
     bv_instance *c = calloc(1, sizeof *c);
     int n = md->n, m = md->m, ni = md->ni, no = md->no, np = md->np, R = md->rows;
-    int N = n + 3 * m, np1 = md->npairs + 1, i, j, k;
+    int N = n + 3 * m, np1 = md->npairs + 1, i, j, k; /* N: the largest augmented matrix */
     size_t nd, nw, assembly;
     double *d;
     if (c == NULL)
         return NULL;
     bv_common_init(&c->bc, md, name, log, env);
-    c->n = n, c->m = m, c->ni = ni, c->no = no, c->np = np, c->N = N;
+    c->n = n, c->m = m, c->ni = ni, c->no = no, c->np = np;
     /* work: the larger of the assembly (E, [A|B], C, Cd, D, a few rows) and the
      * discretization (E, M, expm's 9 matrices, two n x max(m, ni) blocks) */
     assembly = (size_t)n * n + (size_t)n * (n + m) + 2 * (size_t)R * n + (size_t)R * m + n +
