@@ -39,8 +39,7 @@ struct bv_instance {
     int n, m, ni, no, np;
     int curved;         /* R^2 != 0: some input is a parabola over the step */
     /* parameters */
-    double *p, *p_built;
-    int built;          /* A, B, Yc valid for p_built */
+    double *p, *p_built; /* A, B, Yc are valid for p_built (bv_new builds them) */
     /* continuous time and outputs */
     double *A, *B;
     double *UR, *UR2;   /* U R, U R^2 (m x ni) */
@@ -408,7 +407,6 @@ static int build(bv_instance *c, const double *p)
     swap = c->B, c->B = B, c->B2 = swap;
     swap = c->Yc, c->Yc = Yc, c->Yc2 = swap;
     memcpy(c->p_built, p, (size_t)c->np * sizeof(double));
-    c->built = 1;
     c->dirty = 1;
     c->h_key = 0.0;
     return 1;
@@ -650,7 +648,7 @@ bv_status bv_initialize(bv_instance *c)
                  "; the instance refuses to step (reset and set valid parameters)");
         return bv_common_failed(&c->bc);
     }
-    if (!c->built || memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0) {
+    if (memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0) {
         if (!build(c, c->p)) {
             snprintf(c->bc.init_error, BV_MESSAGE,
                      "%s: the parameters give a singular or unusable model (a massless node "
