@@ -9,13 +9,12 @@
 #include <stdlib.h>
 #include <string.h>
 
-bv_fmu *bv_fmu_new(const char *name, int me, int logging_on, bv_host_fn logger, void *env,
-                   bv_log_fn log)
+bv_fmu *bv_fmu_new(const char *name, int me, bv_host_fn logger, void *env, bv_log_fn log)
 {
     bv_fmu *f = malloc(sizeof *f);
     if (f == NULL)
         return NULL;
-    *f = (bv_fmu){.logger = logger, .env = env, .logging_on = logging_on, .me = me, .log = log};
+    *f = (bv_fmu){.logger = logger, .env = env, .me = me, .log = log};
     if (name != NULL && (f->name = malloc(strlen(name) + 1)) != NULL)
         strcpy(f->name, name);
     if (name == NULL || f->name != NULL)

@@ -27,7 +27,6 @@ typedef struct {
     bv_host_fn logger;  /* the host's logger, or NULL */
     void *env;          /* its componentEnvironment / instanceEnvironment */
     char *name;         /* the instance name the host gave ("" if none; NULL for FMI 3.0's NULL) */
-    int logging_on;
     int me;             /* instantiated for model exchange */
     bv_log_fn log;      /* the wrapper's message function: env is this bv_fmu */
 } bv_fmu;
@@ -55,8 +54,7 @@ enum { BV_CS_ONLY = 64, BV_ME_ONLY = 128 };
 /* A new instance and its core (NULL when out of memory or the model cannot be assembled:
  * that reason logged). `log` is the wrapper's message function (called with this bv_fmu);
  * logger and env are the host's, set before the core is made so that it can log. */
-bv_fmu *bv_fmu_new(const char *name, int me, int logging_on, bv_host_fn logger, void *env,
-                   bv_log_fn log);
+bv_fmu *bv_fmu_new(const char *name, int me, bv_host_fn logger, void *env, bv_log_fn log);
 void bv_fmu_free(bv_fmu *f);
 
 /* Log a message as the instance (printf-like). */

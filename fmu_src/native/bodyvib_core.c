@@ -36,11 +36,10 @@
 
 struct bv_instance {
     bv_common bc;       /* first (BV_STATE_IS): state, model, name, logger, time, flags */
-    int n, m, ni, no, np, N; /* N = n + 3 m, the largest augmented matrix */
+    int n, m, ni, no, np;
     int curved;         /* R^2 != 0: some input is a parabola over the step */
     /* parameters */
-    double *p, *p_built;
-    int built;          /* A, B, Yc valid for p_built */
+    double *p, *p_built; /* A, B, Yc are valid for p_built (bv_new builds them) */
     /* continuous time and outputs */
     double *A, *B;
     double *UR, *UR2;   /* U R, U R^2 (m x ni) */
@@ -408,7 +407,6 @@ static int build(bv_instance *c, const double *p)
     swap = c->B, c->B = B, c->B2 = swap;
     swap = c->Yc, c->Yc = Yc, c->Yc2 = swap;
     memcpy(c->p_built, p, (size_t)c->np * sizeof(double));
-    c->built = 1;
     c->dirty = 1;
     c->h_key = 0.0;
     return 1;
@@ -547,13 +545,13 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
 {
     bv_instance *c = calloc(1, sizeof *c);
     int n = md->n, m = md->m, ni = md->ni, no = md->no, np = md->np, R = md->rows;
-    int N = n + 3 * m, np1 = md->npairs + 1, i, j, k;
+    int N = n + 3 * m, np1 = md->npairs + 1, i, j, k; /* N: the largest augmented matrix */
     size_t nd, nw, assembly;
     double *d;
     if (c == NULL)
         return NULL;
     bv_common_init(&c->bc, md, name, log, env);
-    c->n = n, c->m = m, c->ni = ni, c->no = no, c->np = np, c->N = N;
+    c->n = n, c->m = m, c->ni = ni, c->no = no, c->np = np;
     /* work: the larger of the assembly (E, [A|B], C, Cd, D, a few rows) and the
      * discretization (E, M, expm's 9 matrices, two n x max(m, ni) blocks) */
     assembly = (size_t)n * n + (size_t)n * (n + m) + 2 * (size_t)R * n + (size_t)R * m + n +
@@ -650,7 +648,7 @@ bv_status bv_initialize(bv_instance *c)
                  "; the instance refuses to step (reset and set valid parameters)");
         return bv_common_failed(&c->bc);
     }
-    if (!c->built || memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0) {
+    if (memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0) {
         if (!build(c, c->p)) {
             snprintf(c->bc.init_error, BV_MESSAGE,
                      "%s: the parameters give a singular or unusable model (a massless node "
@@ -665,7 +663,11 @@ bv_status bv_initialize(bv_instance *c)
     return BV_OK;
 }
 
-/* Model-exchange variables (states, derivatives): -1 if vr is not one, else a bv_status. */
+/* Parameters set before initialization: rebuild the model for them if valid. */
+static void follow_parameters(bv_instance *c);
+
+/* Model-exchange variables (states, derivatives): me_var_get -1 if vr is not one, else a
+ * bv_status; me_var_set only for one (is_me_var), a bv_status. */
 static int me_var_get(bv_instance *c, unsigned int vr, double *value);
 static int me_var_set(bv_instance *c, unsigned int vr, double value);
 
@@ -719,9 +721,7 @@ bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double val
     bv_status status = BV_OK;
     size_t i;
     int k;
-    if (!c->bc.initialized && memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0 &&
-        params_valid(c, c->p, 1))
-        build(c, c->p); /* parameters changed before initialization: follow them if valid */
+    follow_parameters(c);
     for (i = 0; i < nvr; i++) {
         int kind, idx, me = me_var_get(c, vr[i], &value[i]);
         if (me >= 0) {
@@ -890,6 +890,22 @@ static int rate_of(const bv_model *md, int i, double *coef)
     return -1;
 }
 
+/* Walk `order` rate pairs down input j's chain: the input the last one reaches (-1 if the
+ * chain is shorter), with *coef the product of the rates' coefficients along it. */
+static int chain(const bv_model *md, int j, int order, double *coef)
+{
+    int r = -1, o;
+    double cf;
+    *coef = 1.0;
+    for (o = 0; o < order && j >= 0; o++) {
+        r = rate_of(md, j, &cf);
+        if (r >= 0)
+            *coef *= cf;
+        j = r;
+    }
+    return r;
+}
+
 bv_status bv_set_input_derivatives(bv_instance *c, const unsigned int vr[], size_t nvr,
                                    const int order[], const double value[])
 {
@@ -898,8 +914,7 @@ bv_status bv_set_input_derivatives(bv_instance *c, const unsigned int vr[], size
     int k;
     /* all checked before any is applied: a refused call changes nothing */
     for (i = 0; i < nvr; i++) {
-        int j, r = -1, o;
-        double coef = 1.0, cf;
+        double coef;
         if (!check_vr(c, vr[i]))
             return BV_ERROR;
         if (md->vr_kind[vr[i]] != BV_INPUT) {
@@ -912,13 +927,7 @@ bv_status bv_set_input_derivatives(bv_instance *c, const unsigned int vr[], size
                 c->bc.name, order[i], md->vr_name[vr[i]]);
             return BV_ERROR;
         }
-        j = md->vr_index[vr[i]];
-        for (o = 0; o < order[i] && j >= 0; o++) {
-            r = rate_of(md, j, &cf);
-            coef *= cf;
-            j = r;
-        }
-        if (r < 0 && value[i] != 0.0) {
+        if (chain(md, md->vr_index[vr[i]], order[i], &coef) < 0 && value[i] != 0.0) {
             say(c, BV_ERROR, "%s: %s has no in-step derivative of order %d (its rate chain is "
                              "shorter; orders it has: see canInterpolateInputs in the README); "
                              "call refused",
@@ -932,13 +941,8 @@ bv_status bv_set_input_derivatives(bv_instance *c, const unsigned int vr[], size
         }
     }
     for (i = 0; i < nvr; i++) {
-        int j = md->vr_index[vr[i]], r = -1, o;
-        double coef = 1.0, cf;
-        for (o = 0; o < order[i] && j >= 0; o++) {
-            r = rate_of(md, j, &cf);
-            coef *= cf;
-            j = r;
-        }
+        double coef;
+        int r = chain(md, md->vr_index[vr[i]], order[i], &coef);
         if (r < 0)
             continue; /* a zero derivative the input has no rate for: it is held anyway */
         c->s[r] = value[i] / coef;
@@ -1151,8 +1155,8 @@ bv_status bv_state_read(bv_instance *c, const unsigned char *buf, size_t size)
 
 /* ---------------------------------------------------------------- model exchange */
 
-/* Follow parameters set before initialization (as bv_get does), so derivatives and
- * Jacobians read in initialization mode are those of the parameters set. */
+/* Follow parameters set before initialization (bv_get, derivatives, Jacobians), so what
+ * is read in initialization mode is that of the parameters set. */
 static void follow_parameters(bv_instance *c)
 {
     if (!c->bc.initialized && memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0 &&
@@ -1230,19 +1234,20 @@ static void me_unconnected_velocity(bv_instance *c)
 
 void bv_me_derivatives(bv_instance *c, double dx[])
 {
-    int i;
     follow_parameters(c);
     if (c->bc.md->npairs)
         me_unconnected_velocity(c);
-    for (i = 0; i < c->n; i++)
-        dx[i] = derivative_value(c, i);
+    /* u = U s once for all rows (zd: n + ni out, m of scratch after; 3 (n + ni) >= that as
+     * zdot's second use needs); same sums in the same order as derivative_value */
+    zdot(c, c->x, c->zd);
+    memcpy(dx, c->zd, (size_t)c->n * sizeof *dx);
 }
 
 static int me_var_get(bv_instance *c, unsigned int vr, double *value)
 {
     const bv_model *md = c->bc.md;
     unsigned int first = (unsigned int)BV_STATE_VR(md, 0);
-    if (vr < first || vr >= first + 2u * (unsigned int)c->n)
+    if (!is_me_var(c, vr))
         return -1;
     if (vr < first + (unsigned int)c->n) {
         *value = c->x[vr - first];
@@ -1257,8 +1262,6 @@ static int me_var_set(bv_instance *c, unsigned int vr, double value)
 {
     const bv_model *md = c->bc.md;
     unsigned int first = (unsigned int)BV_STATE_VR(md, 0);
-    if (vr < first || vr >= first + 2u * (unsigned int)c->n)
-        return -1;
     if (vr >= first + (unsigned int)c->n) {
         say(c, BV_ERROR, "%s: a state derivative (value reference %u) is calculated and cannot "
                          "be set (ignored)", c->bc.name, vr);

@@ -108,7 +108,6 @@ const char *bv_name(const bv_instance *c); /* the name the messages begin with *
 
 /* The state machine: bv_allowed logs "<function>: not allowed in state <state> ..." and
  * returns 0 when the instance's state is not in `mask`; bv_enter_* change the state. */
-int bv_state(const bv_instance *c);
 int bv_allowed(bv_instance *c, const char *function, int mask);
 /* The state is an instance's first member: the wrappers test it inline on the hot path and
  * call bv_allowed (which logs) only when the test fails. */

@@ -83,8 +83,6 @@ void bv_set_model_exchange(bv_instance *c) { BV_COMMON(c)->me = 1; }
 
 void bv_me_enter(bv_instance *c, int mode) { BV_COMMON(c)->mode = mode; }
 
-int bv_state(const bv_instance *c) { return BV_COMMON(c)->mode; }
-
 int bv_allowed(bv_instance *c, const char *function, int mask)
 {
     bv_common *b = BV_COMMON(c);

@@ -6,7 +6,7 @@
  * bodyvib_core.h reads it), the model, the instance's name and logger, the model's time
  * and start time, the initialization flags and the reason a failed initialization gave.
  * bodyvib_fsm.c implements on it the functions that are the same for every core
- * (bv_state, bv_allowed, bv_setup, bv_enter_initialization, bv_terminate, bv_time, bv_name,
+ * (bv_allowed, bv_setup, bv_enter_initialization, bv_terminate, bv_time, bv_name,
  * bv_me_nstates, bv_me_set_time), the snapshots' head and checksum, and
  * the transitions the cores' bv_initialize, bv_step, bv_reset and bv_state_read make, so
  * that one implementation decides the states, the allowed calls and their messages.

@@ -68,7 +68,7 @@ fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nC
     INSTANCE(c);
     (void)nCategories;
     (void)categories;
-    f->logging_on = loggingOn != fmi2False;
+    (void)f, (void)loggingOn;
     return fmi2OK;
 }
 
@@ -80,6 +80,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     const char *name = instanceName ? instanceName : "";
     (void)fmuResourceLocation;
     (void)visible;
+    (void)loggingOn;
     if (functions != NULL && functions->logger != NULL) {
         if (fmuType != fmi2CoSimulation && fmuType != fmi2ModelExchange) {
             functions->logger(functions->componentEnvironment, name, fmi2Error, "logStatusError",
@@ -97,7 +98,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
                strcmp(fmuGUID, bv_model_data.token) != 0) {
         return NULL;
     }
-    return bv_fmu_new(name, fmuType == fmi2ModelExchange, loggingOn != fmi2False,
+    return bv_fmu_new(name, fmuType == fmi2ModelExchange,
                       functions ? (bv_host_fn)functions->logger : NULL,
                       functions ? functions->componentEnvironment : NULL, fmu_log);
 }

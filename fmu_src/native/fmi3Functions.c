@@ -52,7 +52,7 @@ fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean loggingOn, siz
 {
     INSTANCE(instance);
     (void)nCategories, (void)categories;
-    f->logging_on = loggingOn;
+    (void)f, (void)loggingOn;
     return fmi3OK;
 }
 
@@ -72,11 +72,10 @@ fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String in
                                           fmi3InstanceEnvironment instanceEnvironment,
                                           fmi3LogMessageCallback logMessage)
 {
-    (void)resourcePath, (void)visible;
+    (void)resourcePath, (void)visible, (void)loggingOn;
     if (!token_ok(instantiationToken, instanceEnvironment, logMessage))
         return NULL;
-    return bv_fmu_new(instanceName, 1, loggingOn, (bv_host_fn)logMessage, instanceEnvironment,
-                      fmu_log);
+    return bv_fmu_new(instanceName, 1, (bv_host_fn)logMessage, instanceEnvironment, fmu_log);
 }
 
 fmi3Instance fmi3InstantiateCoSimulation(
@@ -86,7 +85,7 @@ fmi3Instance fmi3InstantiateCoSimulation(
     size_t nRequiredIntermediateVariables, fmi3InstanceEnvironment instanceEnvironment,
     fmi3LogMessageCallback logMessage, fmi3IntermediateUpdateCallback intermediateUpdate)
 {
-    (void)resourcePath, (void)visible, (void)earlyReturnAllowed,
+    (void)resourcePath, (void)visible, (void)loggingOn, (void)earlyReturnAllowed,
         (void)requiredIntermediateVariables, (void)nRequiredIntermediateVariables,
         (void)intermediateUpdate;
     if (!token_ok(instantiationToken, instanceEnvironment, logMessage))
@@ -97,8 +96,7 @@ fmi3Instance fmi3InstantiateCoSimulation(
                        "this FMU has no event mode");
         return NULL;
     }
-    return bv_fmu_new(instanceName, 0, loggingOn, (bv_host_fn)logMessage, instanceEnvironment,
-                      fmu_log);
+    return bv_fmu_new(instanceName, 0, (bv_host_fn)logMessage, instanceEnvironment, fmu_log);
 }
 
 fmi3Instance fmi3InstantiateScheduledExecution(
