@@ -3,12 +3,12 @@
 
     python build_fmu.py [--params FILE] [--dest DIR] [--fmus NAME ...]
 
-The same as ``bodyvib build`` (:mod:`bodyvib_cli.build`).
+The same as ``bodyvib build`` (:mod:`bodyvib.cli.build`).
 """
 
 import sys
 
-from bodyvib_cli.build import main
+from bodyvib.cli.build import main
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -2,7 +2,7 @@
 
     python benchmarks/bench_cosim.py [--steps 5000] [--repeats 7] [--body HumanBody3DOF]
 
-One macro-step of :func:`vehicle.cosim.cosimulate` makes eight fmpy calls:
+One macro-step of :func:`bodyvib.vehicle.cosim.cosimulate` makes eight fmpy calls:
 car ``setReal`` (road, seat force and its rate), ``getReal`` (five outputs),
 ``doStep``, ``getReal`` (seat motion); body ``setReal``, ``doStep``,
 ``setReal``, ``getReal`` (four outputs). Measured side by side in one run,
@@ -24,11 +24,11 @@ import tempfile
 import time
 
 import numpy as np
+from bodyvib.vehicle.cosim import BODY_INPUTS, BODY_OUTPUTS, CAR_OUTPUTS, cosimulate, open_fmu
+from bodyvib.vehicle.fmus import build_project_fmu
+from bodyvib.vehicle.road.synthetic import make_road, road_input
 
 from bodyvib.runtime import contract
-from vehicle.fmus import build_project_fmu
-from vehicle.cosim import BODY_INPUTS, BODY_OUTPUTS, CAR_OUTPUTS, cosimulate, open_fmu
-from vehicle.road.synthetic import make_road, road_input
 
 
 def bare_calls(car, body, z, v, steps, h):
@@ -60,7 +60,7 @@ def bare_calls(car, body, z, v, steps, h):
 def master(car, body, z, v, steps, h):
     """The master over the same number of macro-steps. Returns seconds per macro-step."""
     t0 = time.perf_counter()
-    cosimulate(car, body, z[:steps + 1], v[:steps + 1], h)
+    cosimulate(car, body, z[: steps + 1], v[: steps + 1], h)
     return (time.perf_counter() - t0) / steps
 
 
@@ -68,8 +68,12 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--steps", type=int, default=5000, help="macro-steps per repeat")
     ap.add_argument("--repeats", type=int, default=7, help="repeats (medians reported)")
-    ap.add_argument("--body", default="HumanBody3DOF",
-                    choices=["HumanBody3DOF", "HumanBodyISO7962"], help="body FMU")
+    ap.add_argument(
+        "--body",
+        default="HumanBody3DOF",
+        choices=["HumanBody3DOF", "HumanBodyISO7962"],
+        help="body FMU",
+    )
     a = ap.parse_args(argv)
     h, V = 1e-3, 20.0
     with tempfile.TemporaryDirectory() as d:
@@ -84,15 +88,21 @@ def main(argv=None):
                 with open_fmu(car_path, "car") as car, open_fmu(body_path, "body") as body:
                     times[name].append(fn(car, body, z, v, a.steps, h))
     med = {k: statistics.median(x) for k, x in times.items()}
-    print(f"{a.body} on QuarterCar, class C road at {V:g} m/s, step {h:g} s, "
-          f"{a.steps} macro-steps x {a.repeats} repeats (medians)")
+    print(
+        f"{a.body} on QuarterCar, class C road at {V:g} m/s, step {h:g} s, "
+        f"{a.steps} macro-steps x {a.repeats} repeats (medians)"
+    )
     for k, m in med.items():
         print(f"  {k:<16} {1e6 * m:8.1f} us per macro-step")
     ratio = med["master"] / med["bare FMI calls"]
-    print(f"  ratio master / bare FMI calls: {ratio:.3f} (target <= 1.3: "
-          f"{'met' if ratio <= 1.3 else 'NOT met'})")
-    print(f"  real-time factor of the master: {h / med['master']:.1f} "
-          "(simulated seconds per wall-clock second)")
+    print(
+        f"  ratio master / bare FMI calls: {ratio:.3f} (target <= 1.3: "
+        f"{'met' if ratio <= 1.3 else 'NOT met'})"
+    )
+    print(
+        f"  real-time factor of the master: {h / med['master']:.1f} "
+        "(simulated seconds per wall-clock second)"
+    )
     return 0
 
 

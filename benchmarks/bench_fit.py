@@ -34,12 +34,13 @@ from bodyvib.fit.config import load_config
 from bodyvib.fit.objective import model_target, objective_time_domain, parameter_array
 from bodyvib.fit.search import fit
 from bodyvib.fit.space import GENES, genes_to_parameters, parameters_to_genes, reduced_network
-from bodyvib.models import load_model
 from bodyvib.frequency.response import frequency_response
+from bodyvib.models import load_model
 from bodyvib.runtime.network import linear_model
 
-REFIT = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "params",
-                     "refit-iso7962.json")
+REFIT = os.path.join(
+    os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "params", "refit-iso7962.json"
+)
 
 
 def population(n, seed=0):
@@ -99,8 +100,22 @@ def main(argv=None):
     out = os.path.join(tmp.name, "refit.json")
 
     def cli():
-        subprocess.run([sys.executable, "-m", "bodyvib_cli", "fit", "--reference", "iso7962",
-                        "--seed", "1", "--out", out, "--quiet"], check=True)
+        subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "bodyvib.cli",
+                "fit",
+                "--reference",
+                "iso7962",
+                "--seed",
+                "1",
+                "--out",
+                out,
+                "--quiet",
+            ],
+            check=True,
+        )
 
     vectorized(), loop(), state_space(), time_domain()  # warm up
     times = {k: [] for k in ("vectorized", "loop", "state_space", "time_domain", "fit", "cli")}
@@ -121,13 +136,17 @@ def main(argv=None):
         "time_domain": ("per-individual time-domain definition", n_time),
     }
     rate = {k: n / med[k] for k, (_, n) in evaluations.items()}
-    print(f"objective: {len(roles)} pairs ({', '.join(roles)}), {f.size} quadrature nodes; "
-          f"population {args.population}; medians of {args.repeats} interleaved repeats")
+    print(
+        f"objective: {len(roles)} pairs ({', '.join(roles)}), {f.size} quadrature nodes; "
+        f"population {args.population}; medians of {args.repeats} interleaved repeats"
+    )
     print(f"{'evaluation':<44} {'evals/s':>12} {'vectorized / this':>18}")
     for k, (label, _) in evaluations.items():
         print(f"{label:<44} {rate[k]:12.0f} {rate['vectorized'] / rate[k]:18.1f}")
-    print(f"default fit (GA, 40 per generation, + polish), wall time: {med['fit']:.2f} s "
-          f"(min {min(times['fit']):.2f}, max {max(times['fit']):.2f})")
+    print(
+        f"default fit (GA, 40 per generation, + polish), wall time: {med['fit']:.2f} s "
+        f"(min {min(times['fit']):.2f}, max {max(times['fit']):.2f})"
+    )
     print(f"'bodyvib fit --reference iso7962 --seed 1' in a fresh process: {med['cli']:.2f} s")
     return 0
 

@@ -28,10 +28,10 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from bodyvib.fit.config import load_config, log_bounds
+from bodyvib.fit.methods import search
 from bodyvib.fit.objective import model_target
 from bodyvib.fit.search import polish
 from bodyvib.fit.space import genes_to_parameters
-from bodyvib.fit.methods import search
 
 #: Best known objective of the default fit, 1/s (L-BFGS-B from every method's best agrees).
 J_STAR = 1.4807819
@@ -67,8 +67,12 @@ def main(argv=None):
     cfg = load_config()
     target = model_target("iso7962", config=cfg)
     lo, hi = log_bounds(cfg)
-    settings = {"ga": cfg.ga, "ga-genes": replace(cfg.ga, coordinates="genes"),
-                "cmaes": cfg.cmaes, "de": cfg.de}
+    settings = {
+        "ga": cfg.ga,
+        "ga-genes": replace(cfg.ga, coordinates="genes"),
+        "cmaes": cfg.cmaes,
+        "de": cfg.de,
+    }
     methods = args.methods.split(",")
     rows = {m: [] for m in methods}
     with threadpool_limits(1, user_api="blas"):
@@ -77,20 +81,26 @@ def main(argv=None):
                 rows[m].append(run(m.split("-")[0], settings[m], seed, target, lo, hi))
                 print(".", end="", file=sys.stderr, flush=True)
     print(file=sys.stderr)
-    print(f"objective: paper Eq. 3 against iso7962 (head + torso), J* = {J_STAR} 1/s; "
-          f"success: J <= J*(1 + {TOLERANCE:g}), no polish; seeds 1..{args.seeds}")
-    head = (f"{'method':<10} {'success':>8} {'evals to J* med':>16} {'max':>7} "
-            f"{'evals med':>10} {'gens med':>9} {'wall s med':>11} {'worst J/J*-1':>13}")
+    print(
+        f"objective: paper Eq. 3 against iso7962 (head + torso), J* = {J_STAR} 1/s; "
+        f"success: J <= J*(1 + {TOLERANCE:g}), no polish; seeds 1..{args.seeds}"
+    )
+    head = (
+        f"{'method':<10} {'success':>8} {'evals to J* med':>16} {'max':>7} "
+        f"{'evals med':>10} {'gens med':>9} {'wall s med':>11} {'worst J/J*-1':>13}"
+    )
     print(head)
     for m, res in rows.items():
         hits = [h for _, h, _ in res if h is not None]
         worst = max(r.objective / J_STAR - 1 for r, _, _ in res)
-        print(f"{m:<10} {len(hits):>5}/{len(res):<2} "
-              f"{(statistics.median(hits) if hits else float('nan')):>16.0f} "
-              f"{(max(hits) if hits else float('nan')):>7.0f} "
-              f"{statistics.median(r.evaluations for r, _, _ in res):>10.0f} "
-              f"{statistics.median(r.generations for r, _, _ in res):>9.0f} "
-              f"{statistics.median(t for _, _, t in res):>11.3f} {worst:>13.1e}")
+        print(
+            f"{m:<10} {len(hits):>5}/{len(res):<2} "
+            f"{(statistics.median(hits) if hits else float('nan')):>16.0f} "
+            f"{(max(hits) if hits else float('nan')):>7.0f} "
+            f"{statistics.median(r.evaluations for r, _, _ in res):>10.0f} "
+            f"{statistics.median(r.generations for r, _, _ in res):>9.0f} "
+            f"{statistics.median(t for _, _, t in res):>11.3f} {worst:>13.1e}"
+        )
 
     # the polish from the GA's best, BLAS on one thread against its default, interleaved
     best = rows[methods[0]][0][0].genes + 0.01
@@ -106,9 +116,11 @@ def main(argv=None):
                 polish(objective, best, lo, hi, cfg.polish)
                 times[key].append(time.perf_counter() - t0)
     med = {k: statistics.median(v) for k, v in times.items()}
-    print(f"L-BFGS-B polish from 0.01 decades off the optimum, median of {args.repeats}: "
-          f"BLAS 1 thread {med['1 thread'] * 1e3:.0f} ms, BLAS default "
-          f"{med['BLAS default'] * 1e3:.0f} ms (ratio {med['BLAS default'] / med['1 thread']:.1f})")
+    print(
+        f"L-BFGS-B polish from 0.01 decades off the optimum, median of {args.repeats}: "
+        f"BLAS 1 thread {med['1 thread'] * 1e3:.0f} ms, BLAS default "
+        f"{med['BLAS default'] * 1e3:.0f} ms (ratio {med['BLAS default'] / med['1 thread']:.1f})"
+    )
     return 0
 
 

@@ -29,12 +29,12 @@ import tempfile
 import time
 
 import numpy as np
+from bodyvib.vehicle.cosim import open_fmu
+from bodyvib.vehicle.fmus import build_project_fmu
 
-from vehicle.fmus import build_project_fmu
 from bodyvib.models import load_model
 from bodyvib.runtime.contract import BODY_OUTPUTS
 from bodyvib.runtime.discretize import Discretization
-from vehicle.cosim import open_fmu
 
 OUT = list(BODY_OUTPUTS[:4])  # as the master reads them (not seat_force_rate)
 SIG = ["head.a", "head.x", "torso.x", "seat_force"]
@@ -42,7 +42,11 @@ SIG = ["head.a", "head.x", "torso.x", "seat_force"]
 
 def seat(n, h):
     t = np.arange(n + 1) * h
-    return t, 0.01 * np.sin(2 * np.pi * 4.4 * t), 0.01 * 2 * np.pi * 4.4 * np.cos(2 * np.pi * 4.4 * t)
+    return (
+        t,
+        0.01 * np.sin(2 * np.pi * 4.4 * t),
+        0.01 * 2 * np.pi * 4.4 * np.cos(2 * np.pi * 4.4 * t),
+    )
 
 
 def run_fmpy(fmu, vr, t, xr, vs, h):
@@ -96,7 +100,7 @@ def run_numpy_lean(mats, C, D, t, xr, vs, h):
     Phi, G0, G1 = mats
     n = Phi.shape[0]
     M = np.hstack([Phi, G0 + G1 @ np.array([[0.0, 1.0], [0.0, 0.0]])])  # x+ = M [x | u]
-    Y = np.hstack([C, D])                                              # y  = Y [x | u]
+    Y = np.hstack([C, D])  # y  = Y [x | u]
     z = np.zeros(n + 2)
     xn = np.empty(n)
     y = np.empty(Y.shape[0])
@@ -148,8 +152,13 @@ def main(argv=None):
         mats = lm.matrices(h)
         C, D = lm.model.C[idx], lm.model.D[idx]
         t, xr, vs = seat(args.steps, h)
-        times = {"fmpy FMU2Slave": [], "fmpy raw": [], "plain numpy": [], "lean numpy": [],
-                 "FMU core alone": []}
+        times = {
+            "fmpy FMU2Slave": [],
+            "fmpy raw": [],
+            "plain numpy": [],
+            "lean numpy": [],
+            "FMU core alone": [],
+        }
         for r in range(args.repeats):
             t_r = t + r * t[-1]  # FMU time keeps increasing
             times["fmpy FMU2Slave"].append(run_fmpy(fmu_a, vr, t_r, xr, vs, h)[0])
@@ -159,12 +168,16 @@ def main(argv=None):
             times["FMU core alone"].append(run_core(t, xr, vs, h)[0])
 
     med = {k: statistics.median(v) for k, v in times.items()}
-    print(f"one communication step (set 2 inputs, doStep, get 4 outputs), HumanBody3DOF, "
-          f"h = {h:g} s; median of {args.repeats} repeats x {args.steps} steps")
+    print(
+        f"one communication step (set 2 inputs, doStep, get 4 outputs), HumanBody3DOF, "
+        f"h = {h:g} s; median of {args.repeats} repeats x {args.steps} steps"
+    )
     for k, v in med.items():
         print(f"  {k:16s} {v * 1e6:8.2f} us/step")
     base = med["plain numpy"]
-    print(f"ratio fmpy FMU2Slave / plain numpy: {med['fmpy FMU2Slave'] / base:.2f}x   (target <= 2x)")
+    print(
+        f"ratio fmpy FMU2Slave / plain numpy: {med['fmpy FMU2Slave'] / base:.2f}x   (target <= 2x)"
+    )
     print(f"ratio fmpy raw / plain numpy:       {med['fmpy raw'] / base:.2f}x")
     lean = med["lean numpy"]
     print(f"ratio fmpy FMU2Slave / lean numpy:  {med['fmpy FMU2Slave'] / lean:.2f}x")

@@ -45,21 +45,38 @@ def main(argv=None):
     args = ap.parse_args(argv)
     durations = sorted(args.durations + ([3600.0] if args.hour else []))
     with tempfile.TemporaryDirectory(prefix="bench_memory_") as tmp:
-        subprocess.run([sys.executable, os.path.join(ROOT, "build_fmu.py"), "--dest", tmp],
-                       check=True, cwd=ROOT, capture_output=True)
+        subprocess.run(
+            [sys.executable, os.path.join(ROOT, "build_fmu.py"), "--dest", tmp],
+            check=True,
+            cwd=ROOT,
+            capture_output=True,
+        )
         rows = []
         for d in durations:
-            cmd = [sys.executable, "-m", "bodyvib_cli", "cosim", "--quiet", "--duration",
-                   f"{d:g}", "--body", os.path.join(tmp, "HumanBody3DOF.fmu"),
-                   "--car-fmu", os.path.join(tmp, "QuarterCar.fmu"),
-                   "--json", os.path.join(tmp, "out.json")]
+            cmd = [
+                sys.executable,
+                "-m",
+                "bodyvib.cli",
+                "cosim",
+                "--quiet",
+                "--duration",
+                f"{d:g}",
+                "--body",
+                os.path.join(tmp, "HumanBody3DOF.fmu"),
+                "--car-fmu",
+                os.path.join(tmp, "QuarterCar.fmu"),
+                "--json",
+                os.path.join(tmp, "out.json"),
+            ]
             if args.csv:
                 cmd += ["--csv", os.path.join(tmp, "out.csv")]
             mb, wall = peak_rss_mb(cmd, ROOT)
             rows.append((d, mb, wall))
-            print(f"duration {d:7g} s ({d * 1000:9.0f} steps): peak RSS {mb:7.1f} MB "
-                  f"(x{mb / rows[0][1]:.3f} of the {rows[0][0]:g} s run), wall {wall:6.1f} s",
-                  flush=True)
+            print(
+                f"duration {d:7g} s ({d * 1000:9.0f} steps): peak RSS {mb:7.1f} MB "
+                f"(x{mb / rows[0][1]:.3f} of the {rows[0][0]:g} s run), wall {wall:6.1f} s",
+                flush=True,
+            )
     (d1, m1, _), (d2, m2, _) = rows[-2], rows[-1]
     slope = (m2 - m1) / (d2 - d1)
     if 3600.0 in durations:
@@ -67,11 +84,15 @@ def main(argv=None):
         print(f"one hour measured: {hour:.1f} MB")
     else:
         hour = m2 + slope * (3600.0 - d2)
-        print(f"growth {slope * 1000:.3f} MB per 1000 s simulated; one hour extrapolated: "
-              f"{hour:.1f} MB")
+        print(
+            f"growth {slope * 1000:.3f} MB per 1000 s simulated; one hour extrapolated: "
+            f"{hour:.1f} MB"
+        )
     ok = hour <= 300.0 and hour <= 1.10 * rows[0][1]
-    print(f"target (one hour <= 300 MB and <= 1.10 x the {rows[0][0]:g} s run): "
-          f"{'met' if ok else 'NOT met'} (x{hour / rows[0][1]:.3f})")
+    print(
+        f"target (one hour <= 300 MB and <= 1.10 x the {rows[0][0]:g} s run): "
+        f"{'met' if ok else 'NOT met'} (x{hour / rows[0][1]:.3f})"
+    )
     return 0 if ok else 1
 
 

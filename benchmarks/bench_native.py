@@ -15,7 +15,7 @@ tests/c_host/native_host.c and measures, side by side in one run:
   tests/test_fmu_c_host.py); the native FMU runs with an empty environment.
 * the same loop with a new step size at every step (native only): what a step-size change
   costs (the matrix exponential of the augmented matrix and the output rows);
-* bodyvib's master (vehicle.cosim.cosimulate, fmpy FMU2Slave): microseconds per
+* bodyvib's master (bodyvib.vehicle.cosim.cosimulate, fmpy FMU2Slave): microseconds per
   macro-step of the body on the quarter car over an ISO 8608 class C road, native body +
   native car against pythonfmu body + pythonfmu car; median of the repeats.
 
@@ -38,11 +38,16 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from vehicle.fmus import build_fmus  # noqa: E402
+from bodyvib.vehicle.fmus import build_fmus  # noqa: E402
 
 HOST = ROOT / "tests" / "c_host" / "native_host.c"
-BODY_OUT = ["head_acceleration", "head_displacement", "torso_displacement", "seat_force",
-            "seat_force_rate"]
+BODY_OUT = [
+    "head_acceleration",
+    "head_displacement",
+    "torso_displacement",
+    "seat_force",
+    "seat_force_rate",
+]
 
 
 def compile_host(folder: Path) -> str:
@@ -50,8 +55,10 @@ def compile_host(folder: Path) -> str:
 
     exe = str(folder / "native_host")
     headers = os.path.join(os.path.dirname(fmpy.__file__), "c-code")
-    subprocess.run(["gcc", "-std=c99", "-O2", "-I", headers, str(HOST), "-o", exe, "-ldl", "-lm",
-                    "-lpthread"], check=True)
+    subprocess.run(
+        ["gcc", "-std=c99", "-O2", "-I", headers, str(HOST), "-o", exe, "-ldl", "-lm", "-lpthread"],
+        check=True,
+    )
     return exe
 
 
@@ -59,15 +66,20 @@ def python_env() -> dict:
     """What a C host needs to run a pythonfmu FMU (nothing else, not even PATH)."""
     import numpy
 
-    lib = os.path.join(sysconfig.get_config_var("LIBDIR") or "",
-                       sysconfig.get_config_var("LDLIBRARY") or "")
+    lib = os.path.join(
+        sysconfig.get_config_var("LIBDIR") or "", sysconfig.get_config_var("LDLIBRARY") or ""
+    )
     if not (sysconfig.get_config_var("Py_ENABLE_SHARED") and os.path.isfile(lib)):
-        raise SystemExit(f"{sys.executable} has no shared libpython: a C host cannot run "
-                         "pythonfmu FMUs with it")
-    env = {"LD_PRELOAD": lib,
-           "PYTHONHOME": sys.base_prefix if sys.base_prefix == sys.base_exec_prefix
-           else f"{sys.base_prefix}:{sys.base_exec_prefix}",
-           "PYTHONPATH": os.path.dirname(os.path.dirname(numpy.__file__))}
+        raise SystemExit(
+            f"{sys.executable} has no shared libpython: a C host cannot run pythonfmu FMUs with it"
+        )
+    env = {
+        "LD_PRELOAD": lib,
+        "PYTHONHOME": sys.base_prefix
+        if sys.base_prefix == sys.base_exec_prefix
+        else f"{sys.base_prefix}:{sys.base_exec_prefix}",
+        "PYTHONPATH": os.path.dirname(os.path.dirname(numpy.__file__)),
+    }
     return env
 
 
@@ -82,10 +94,24 @@ def c_host_step(exe, fmu, folder: Path, steps: int, env: dict, mode: str = "benc
         z.extractall(folder)
     binary = folder / "binaries" / "linux64" / f"{md.coSimulation.modelIdentifier}.so"
     res = (folder / "resources").as_uri()
-    out = subprocess.run([exe, "--resources", res, mode, str(binary), md.guid,
-                          f"{vr['seat_displacement']},{vr['seat_velocity']}",
-                          ",".join(str(vr[n]) for n in outs), "0.001", str(steps)],
-                         capture_output=True, text=True, env=env, timeout=1800)
+    out = subprocess.run(
+        [
+            exe,
+            "--resources",
+            res,
+            mode,
+            str(binary),
+            md.guid,
+            f"{vr['seat_displacement']},{vr['seat_velocity']}",
+            ",".join(str(vr[n]) for n in outs),
+            "0.001",
+            str(steps),
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=1800,
+    )
     if out.returncode != 0:
         raise SystemExit(f"C host failed on {fmu}: {out.stderr[-500:]}")
     wall, cpu = [], []
@@ -98,11 +124,10 @@ def c_host_step(exe, fmu, folder: Path, steps: int, env: dict, mode: str = "benc
 
 
 def master_step(body, car, duration, repeats):
-    """Median microseconds per macro-step of vehicle.cosim.cosimulate."""
+    """Median microseconds per macro-step of bodyvib.vehicle.cosim.cosimulate."""
     import numpy as np
-
-    from vehicle.cosim import cosimulate, open_fmu
-    from vehicle.road.synthetic import make_road, road_input
+    from bodyvib.vehicle.cosim import cosimulate, open_fmu
+    from bodyvib.vehicle.road.synthetic import make_road, road_input
 
     h = 1e-3
     t = np.arange(int(round(duration / h)) + 1) * h
@@ -118,12 +143,21 @@ def master_step(body, car, duration, repeats):
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--native-steps", type=int, default=1_000_000,
-                   help="steps per loop for the native FMUs (default 1e6)")
-    p.add_argument("--python-steps", type=int, default=20_000,
-                   help="steps per loop for the pythonfmu FMUs (default 2e4)")
-    p.add_argument("--duration", type=float, default=2.0,
-                   help="simulated seconds per master run (default 2)")
+    p.add_argument(
+        "--native-steps",
+        type=int,
+        default=1_000_000,
+        help="steps per loop for the native FMUs (default 1e6)",
+    )
+    p.add_argument(
+        "--python-steps",
+        type=int,
+        default=20_000,
+        help="steps per loop for the pythonfmu FMUs (default 2e4)",
+    )
+    p.add_argument(
+        "--duration", type=float, default=2.0, help="simulated seconds per master run (default 2)"
+    )
     p.add_argument("--repeats", type=int, default=5, help="master runs per kind (default 5)")
     args = p.parse_args(argv)
     if shutil.which("gcc") is None:
@@ -136,26 +170,36 @@ def main(argv=None):
         python = build_fmus(tmp / "python", names=names)
         exe = compile_host(tmp)
         print("one step in a C host (set 2 inputs, doStep, get outputs), medians of 7 loops:")
-        print(f"  {'FMU':18s} {'states':>6s} {'native wall':>12s} {'native CPU':>11s} "
-              f"{'pythonfmu wall':>15s} {'pythonfmu CPU':>14s} {'ratio (CPU)':>12s}")
+        print(
+            f"  {'FMU':18s} {'states':>6s} {'native wall':>12s} {'native CPU':>11s} "
+            f"{'pythonfmu wall':>15s} {'pythonfmu CPU':>14s} {'ratio (CPU)':>12s}"
+        )
         for name, states in (("HumanBody3DOF", 5), ("HumanBodyISO7962", 12)):
             nw, nc, _ = c_host_step(exe, native[name], tmp / f"n-{name}", args.native_steps, {})
-            pw, pc, _ = c_host_step(exe, python[name], tmp / f"p-{name}", args.python_steps,
-                                    python_env())
-            print(f"  {name:18s} {states:6d} {nw:9.1f} ns {nc:8.1f} ns {pw / 1e3:12.2f} us "
-                  f"{pc / 1e3:11.2f} us {pc / nc:11.0f}x")
+            pw, pc, _ = c_host_step(
+                exe, python[name], tmp / f"p-{name}", args.python_steps, python_env()
+            )
+            print(
+                f"  {name:18s} {states:6d} {nw:9.1f} ns {nc:8.1f} ns {pw / 1e3:12.2f} us "
+                f"{pc / 1e3:11.2f} us {pc / nc:11.0f}x"
+            )
             if states == 5:
                 five = (nw, nc, pc / nc, pw / nw)
         print("a new step size at every step (native, each step rediscretizes), median CPU:")
         for name, states in (("HumanBody3DOF", 5), ("HumanBodyISO7962", 12)):
-            _, vc, _ = c_host_step(exe, native[name], tmp / f"v-{name}", 20_000, {},
-                                   mode="bench-vary")
+            _, vc, _ = c_host_step(
+                exe, native[name], tmp / f"v-{name}", 20_000, {}, mode="bench-vary"
+            )
             print(f"  {name:18s} {states:6d} {vc / 1e3:9.2f} us per step")
-        print(f"targets: <= 100 ns per 5-state step: wall {five[0]:.1f} ns, CPU {five[1]:.1f} ns; "
-              f">= 300x faster than pythonfmu in the same host: {five[2]:.0f}x (CPU), "
-              f"{five[3]:.0f}x (wall)")
-        print(f"bodyvib master (vehicle.cosim, fmpy), class C road, 1 ms, {args.duration:g} s, "
-              f"median of {args.repeats}:")
+        print(
+            f"targets: <= 100 ns per 5-state step: wall {five[0]:.1f} ns, CPU {five[1]:.1f} ns; "
+            f">= 300x faster than pythonfmu in the same host: {five[2]:.0f}x (CPU), "
+            f"{five[3]:.0f}x (wall)"
+        )
+        print(
+            f"bodyvib master (bodyvib.vehicle.cosim, fmpy), class C road, 1 ms, {args.duration:g} s, "
+            f"median of {args.repeats}:"
+        )
         mn = master_step(native["HumanBody3DOF"], native["QuarterCar"], args.duration, args.repeats)
         mp = master_step(python["HumanBody3DOF"], python["QuarterCar"], args.duration, args.repeats)
         print(f"  native body + car    {mn:8.2f} us/macro-step")

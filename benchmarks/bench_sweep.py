@@ -38,18 +38,30 @@ import sys
 import tempfile
 import time
 
+from bodyvib.vehicle.sweep.run import run_sweep
+from bodyvib.vehicle.sweep.spec import expand
+
 from bodyvib.models import MODEL_DIR
-from vehicle.sweep.run import run_sweep
-from vehicle.sweep.spec import expand
 
 
 def sweep_spec(cases: int) -> dict:
     """The benchmark's spec (25 road x speed cells x cases/25 bodies)."""
-    return {"road": list("ABCDE"), "speed": [10, 15, 20, 25, 30], "seed": 0, "duration": 30,
-            "step": 1e-3,
-            "body": [{"model": "reduced-paper", "samples": max(1, cases // 25), "seed": 0,
-                      "vary": {p: [0.8, 1.2] for p in ("m1", "k1", "k2", "c1", "c2")},
-                      "name": "reduced-varied"}]}
+    return {
+        "road": list("ABCDE"),
+        "speed": [10, 15, 20, 25, 30],
+        "seed": 0,
+        "duration": 30,
+        "step": 1e-3,
+        "body": [
+            {
+                "model": "reduced-paper",
+                "samples": max(1, cases // 25),
+                "seed": 0,
+                "vary": {p: [0.8, 1.2] for p in ("m1", "k1", "k2", "c1", "c2")},
+                "name": "reduced-varied",
+            }
+        ],
+    }
 
 
 CPU = {}
@@ -82,9 +94,26 @@ def one_cosim_run(folder) -> float:
     with open(params, "w") as f:
         json.dump(data, f)
     t0 = time.perf_counter()
-    subprocess.run([sys.executable, "-m", "bodyvib_cli", "cosim", "--params", params, "--road", "C",
-                    "--speed", "20", "--duration", "30", "--quiet"], check=True,
-                   stdout=subprocess.DEVNULL, cwd=folder)
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "bodyvib.cli",
+            "cosim",
+            "--params",
+            params,
+            "--road",
+            "C",
+            "--speed",
+            "20",
+            "--duration",
+            "30",
+            "--quiet",
+        ],
+        check=True,
+        stdout=subprocess.DEVNULL,
+        cwd=folder,
+    )
     return time.perf_counter() - t0
 
 
@@ -112,69 +141,125 @@ def main(argv=None):
         print("one bodyvib cosim run ...", file=sys.stderr, flush=True)
         res["bodyvib_cosim_s"], _ = timed(lambda: one_cosim_run(tmp), a.repeats, "bodyvib_cosim")
         print("spectral ...", file=sys.stderr, flush=True)
-        res["spectral_local_s"], df = timed(lambda: run(spec, engine="spectral", workers=a.workers,
-                                                        scheduler="local", block=max(1, n // (2 * a.workers))),
-                                            a.repeats, "spectral_local")
+        res["spectral_local_s"], df = timed(
+            lambda: run(
+                spec,
+                engine="spectral",
+                workers=a.workers,
+                scheduler="local",
+                block=max(1, n // (2 * a.workers)),
+            ),
+            a.repeats,
+            "spectral_local",
+        )
         assert len(df) == n and df["error"].isna().all()
-        res["spectral_default_s"], _ = timed(lambda: run(spec, engine="spectral"), a.repeats, "spectral_default")
-        print(f"Dask overhead: batched, {n_small} cases, 1 worker vs serial ...", file=sys.stderr,
-              flush=True)
-        t_serial, d1 = timed(lambda: run(small, scheduler="serial", workers=1), a.repeats, "small_serial")
+        res["spectral_default_s"], _ = timed(
+            lambda: run(spec, engine="spectral"), a.repeats, "spectral_default"
+        )
+        print(
+            f"Dask overhead: batched, {n_small} cases, 1 worker vs serial ...",
+            file=sys.stderr,
+            flush=True,
+        )
+        t_serial, d1 = timed(
+            lambda: run(small, scheduler="serial", workers=1), a.repeats, "small_serial"
+        )
         t_dask1, d2 = timed(lambda: run(small, workers=1), a.repeats, "small_local1")
         res["overhead_cases"] = n_small
         res["batched_small_serial_s"], res["batched_small_local1_s"] = t_serial, t_dask1
         res["serial_vs_dask_max_abs_diff"] = float(
-            (d1["head_weighted_rms"] - d2["head_weighted_rms"]).abs().max())
+            (d1["head_weighted_rms"] - d2["head_weighted_rms"]).abs().max()
+        )
         print(f"batched, {n} cases, LocalCluster of {a.workers} ...", file=sys.stderr, flush=True)
-        res["batched_local_s"], df = timed(lambda: run(spec, workers=a.workers), a.repeats, "batched_local")
+        res["batched_local_s"], df = timed(
+            lambda: run(spec, workers=a.workers), a.repeats, "batched_local"
+        )
         assert len(df) == n and df["error"].isna().all()
         if not a.skip_serial:
             print(f"batched, {n} cases, serial ...", file=sys.stderr, flush=True)
-            res["batched_serial_s"], _ = timed(lambda: run(spec, scheduler="serial", workers=a.workers),
-                                               a.repeats, "batched_serial")
+            res["batched_serial_s"], _ = timed(
+                lambda: run(spec, scheduler="serial", workers=a.workers),
+                a.repeats,
+                "batched_serial",
+            )
         print(f"cosim engine, {a.cosim_cases} cases ...", file=sys.stderr, flush=True)
-        few = dict(spec, body=[dict(spec["body"][0], samples=1)], road=["C"],
-                   speed=[10, 15, 20, 25, 30][:max(1, a.cosim_cases)])
+        few = dict(
+            spec,
+            body=[dict(spec["body"][0], samples=1)],
+            road=["C"],
+            speed=[10, 15, 20, 25, 30][: max(1, a.cosim_cases)],
+        )
         res["cosim_cases"] = len(expand(few))
-        res["cosim_serial_s"], df = timed(lambda: run(few, engine="cosim", scheduler="serial"), 1, "cosim")
+        res["cosim_serial_s"], df = timed(
+            lambda: run(few, engine="cosim", scheduler="serial"), 1, "cosim"
+        )
         assert df["error"].isna().all(), df["error"].tolist()
     res["load_after"] = os.getloadavg()
     res["cpu_s"] = dict(CPU)
     ref = res["bodyvib_cosim_s"]
     rows = [("bodyvib cosim (1 process)", 1, ref, "bodyvib_cosim")]
-    rows += [(f"spectral, LocalCluster x{a.workers}", n, res["spectral_local_s"], "spectral_local"),
-             ("spectral, default (1 task: in-process)", n, res["spectral_default_s"], "spectral_default"),
-             (f"batched, LocalCluster x{a.workers}", n, res["batched_local_s"], "batched_local")]
+    rows += [
+        (f"spectral, LocalCluster x{a.workers}", n, res["spectral_local_s"], "spectral_local"),
+        (
+            "spectral, default (1 task: in-process)",
+            n,
+            res["spectral_default_s"],
+            "spectral_default",
+        ),
+        (f"batched, LocalCluster x{a.workers}", n, res["batched_local_s"], "batched_local"),
+    ]
     if "batched_serial_s" in res:
         rows.append(("batched, serial", n, res["batched_serial_s"], "batched_serial"))
-    rows += [("batched, LocalCluster x1", n_small, res["batched_small_local1_s"], "small_local1"),
-             ("batched, serial", n_small, res["batched_small_serial_s"], "small_serial"),
-             ("cosim engine, serial", res["cosim_cases"], res["cosim_serial_s"], "cosim")]
-    print(f"\n{'run':40s} {'cases':>6s} {'wall [s]':>9s} {'CPU [s]':>9s} {'wall/case [ms]':>15s} "
-          f"{'x bodyvib cosim':>16s}")
+    rows += [
+        ("batched, LocalCluster x1", n_small, res["batched_small_local1_s"], "small_local1"),
+        ("batched, serial", n_small, res["batched_small_serial_s"], "small_serial"),
+        ("cosim engine, serial", res["cosim_cases"], res["cosim_serial_s"], "cosim"),
+    ]
+    print(
+        f"\n{'run':40s} {'cases':>6s} {'wall [s]':>9s} {'CPU [s]':>9s} {'wall/case [ms]':>15s} "
+        f"{'x bodyvib cosim':>16s}"
+    )
     for name, cases, wall, key in rows:
         per = wall / cases
-        print(f"{name:40s} {cases:6d} {wall:9.2f} {CPU[key]:9.2f} {per * 1e3:15.3f} {ref / per:15.0f}x")
+        print(
+            f"{name:40s} {cases:6d} {wall:9.2f} {CPU[key]:9.2f} {per * 1e3:15.3f} {ref / per:15.0f}x"
+        )
     over = res["batched_small_local1_s"] / res["batched_small_serial_s"] - 1
     res["dask_overhead"] = over
-    print(f"\nDask overhead in CPU time (1-worker LocalCluster vs serial, {n_small} batched cases): "
-          f"{100 * (CPU['small_local1'] / CPU['small_serial'] - 1):+.1f} %")
-    print(f"serial vs Dask, largest difference in head_weighted_rms: "
-          f"{res['serial_vs_dask_max_abs_diff']:.3g} m/s2")
-    print(f"\nbatched, {n} cases on {a.workers} workers: {res['batched_local_s']:.1f} s "
-          f"(target for 10,000: <= 30 s)")
-    print(f"spectral, {n} cases on {a.workers} workers: {res['spectral_local_s']:.2f} s (target <= 10 s)")
-    print(f"Dask overhead (1-worker LocalCluster vs serial, {n_small} batched cases): "
-          f"{100 * over:+.1f} % (target <= 10 %)")
+    print(
+        f"\nDask overhead in CPU time (1-worker LocalCluster vs serial, {n_small} batched cases): "
+        f"{100 * (CPU['small_local1'] / CPU['small_serial'] - 1):+.1f} %"
+    )
+    print(
+        f"serial vs Dask, largest difference in head_weighted_rms: "
+        f"{res['serial_vs_dask_max_abs_diff']:.3g} m/s2"
+    )
+    print(
+        f"\nbatched, {n} cases on {a.workers} workers: {res['batched_local_s']:.1f} s "
+        f"(target for 10,000: <= 30 s)"
+    )
+    print(
+        f"spectral, {n} cases on {a.workers} workers: {res['spectral_local_s']:.2f} s (target <= 10 s)"
+    )
+    print(
+        f"Dask overhead (1-worker LocalCluster vs serial, {n_small} batched cases): "
+        f"{100 * over:+.1f} % (target <= 10 %)"
+    )
     if "batched_serial_s" in res:
-        print(f"batched speed-up of {a.workers} workers over serial: "
-              f"{res['batched_serial_s'] / res['batched_local_s']:.2f}x (target >= 1.8x); "
-              f"CPU {CPU['batched_local']:.1f} s against {CPU['batched_serial']:.1f} s")
-    print(f"cosim engine: {res['cosim_serial_s'] / res['cosim_cases']:.2f} s per case; "
-          f"{n} cases would take {res['cosim_serial_s'] / res['cosim_cases'] * n / 3600 / a.workers:.1f} h "
-          f"on {a.workers} workers")
-    print(f"load average before/after: {res['load_before'][0]:.1f} / {res['load_after'][0]:.1f} "
-          f"({os.cpu_count()} cores)")
+        print(
+            f"batched speed-up of {a.workers} workers over serial: "
+            f"{res['batched_serial_s'] / res['batched_local_s']:.2f}x (target >= 1.8x); "
+            f"CPU {CPU['batched_local']:.1f} s against {CPU['batched_serial']:.1f} s"
+        )
+    print(
+        f"cosim engine: {res['cosim_serial_s'] / res['cosim_cases']:.2f} s per case; "
+        f"{n} cases would take {res['cosim_serial_s'] / res['cosim_cases'] * n / 3600 / a.workers:.1f} h "
+        f"on {a.workers} workers"
+    )
+    print(
+        f"load average before/after: {res['load_before'][0]:.1f} / {res['load_after'][0]:.1f} "
+        f"({os.cpu_count()} cores)"
+    )
     if a.json:
         with open(a.json, "w") as f:
             json.dump(res, f, indent=2)

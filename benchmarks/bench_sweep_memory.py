@@ -26,10 +26,21 @@ import time
 
 def spec(cases: int) -> dict:
     seeds = max(1, cases // (5 * 20 * 100))
-    return {"road": list("ABCDE"), "speed": list(range(5, 45, 2)), "seed": f"0..{seeds - 1}",
-            "duration": 30, "body": [{"model": "reduced-paper", "samples": 100, "seed": 0,
-                                      "vary": {p: [0.8, 1.2] for p in ("m1", "k1", "k2", "c1", "c2")},
-                                      "name": "reduced-varied"}]}
+    return {
+        "road": list("ABCDE"),
+        "speed": list(range(5, 45, 2)),
+        "seed": f"0..{seeds - 1}",
+        "duration": 30,
+        "body": [
+            {
+                "model": "reduced-paper",
+                "samples": 100,
+                "seed": 0,
+                "vary": {p: [0.8, 1.2] for p in ("m1", "k1", "k2", "c1", "c2")},
+                "name": "reduced-varied",
+            }
+        ],
+    }
 
 
 def _hwm(pid: int) -> float:
@@ -59,10 +70,25 @@ def _tree(pid: int):
 def measure(cases: int, workers: int, folder: str) -> dict:
     env = {**os.environ, "DASK_TEMPORARY_DIRECTORY": folder}
     sf = os.path.join(folder, "scheduler.json")
-    sched = subprocess.Popen([sys.executable, "-m", "dask", "scheduler", "--host", "127.0.0.1",
-                              "--port", "0", "--no-dashboard", "--scheduler-file", sf], env=env,
-                             start_new_session=True, stdout=subprocess.DEVNULL,
-                             stderr=subprocess.DEVNULL)
+    sched = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "dask",
+            "scheduler",
+            "--host",
+            "127.0.0.1",
+            "--port",
+            "0",
+            "--no-dashboard",
+            "--scheduler-file",
+            sf,
+        ],
+        env=env,
+        start_new_session=True,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     procs = [sched]
     try:
         while not os.path.exists(sf):
@@ -70,18 +96,49 @@ def measure(cases: int, workers: int, folder: str) -> dict:
         time.sleep(0.3)
         address = json.load(open(sf))["address"]
         for i in range(workers):
-            procs.append(subprocess.Popen(
-                [sys.executable, "-m", "dask", "worker", address, "--nthreads", "1",
-                 "--no-dashboard", "--local-directory", os.path.join(folder, f"w{i}")], env=env,
-                start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+            procs.append(
+                subprocess.Popen(
+                    [
+                        sys.executable,
+                        "-m",
+                        "dask",
+                        "worker",
+                        address,
+                        "--nthreads",
+                        "1",
+                        "--no-dashboard",
+                        "--local-directory",
+                        os.path.join(folder, f"w{i}"),
+                    ],
+                    env=env,
+                    start_new_session=True,
+                    stdout=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL,
+                )
+            )
         spec_file = os.path.join(folder, "spec.json")
         with open(spec_file, "w") as f:
             json.dump(spec(cases), f)
         out = os.path.join(folder, "r.parquet")
         t0 = time.perf_counter()
-        client = subprocess.Popen([sys.executable, "-m", "bodyvib_cli", "sweep", spec_file,
-                                   "--engine", "spectral", "--scheduler-file", sf, "--out", out,
-                                   "--overwrite", "--quiet"], env=env)
+        client = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "bodyvib.cli",
+                "sweep",
+                spec_file,
+                "--engine",
+                "spectral",
+                "--scheduler-file",
+                sf,
+                "--out",
+                out,
+                "--overwrite",
+                "--quiet",
+            ],
+            env=env,
+        )
         worker_peak = 0.0
         while True:  # the client's own rusage; the workers sampled while they live
             pid, status, usage = os.wait4(client.pid, os.WNOHANG)
@@ -103,10 +160,16 @@ def measure(cases: int, workers: int, folder: str) -> dict:
             except ProcessLookupError:
                 pass
             p.wait()
-    return {"cases": cases, "rows": rows, "wall_s": wall, "returncode": client.returncode,
-            "client_peak_mb": usage.ru_maxrss / 1024,
-            "scheduler_peak_mb": sched_peak, "worker_peak_mb": worker_peak,
-            "file_mb": os.path.getsize(out) / 1e6 if os.path.exists(out) else 0}
+    return {
+        "cases": cases,
+        "rows": rows,
+        "wall_s": wall,
+        "returncode": client.returncode,
+        "client_peak_mb": usage.ru_maxrss / 1024,
+        "scheduler_peak_mb": sched_peak,
+        "worker_peak_mb": worker_peak,
+        "file_mb": os.path.getsize(out) / 1e6 if os.path.exists(out) else 0,
+    }
 
 
 def main(argv=None):
@@ -114,17 +177,22 @@ def main(argv=None):
     ap.add_argument("--cases", type=int, nargs="+", default=[10_000, 100_000, 1_000_000])
     ap.add_argument("--workers", type=int, default=2)
     a = ap.parse_args(argv)
-    print(f"{'cases':>9s} {'rows':>9s} {'wall [s]':>9s} {'client [MB]':>12s} "
-          f"{'scheduler [MB]':>15s} {'worker [MB]':>12s} {'file [MB]':>10s}   load {os.getloadavg()[0]:.1f}")
+    print(
+        f"{'cases':>9s} {'rows':>9s} {'wall [s]':>9s} {'client [MB]':>12s} "
+        f"{'scheduler [MB]':>15s} {'worker [MB]':>12s} {'file [MB]':>10s}   load {os.getloadavg()[0]:.1f}"
+    )
     for n in a.cases:
         folder = tempfile.mkdtemp(prefix="bodyvib-bench-mem-")
         try:
             r = measure(n, a.workers, folder)
         finally:
             shutil.rmtree(folder, ignore_errors=True)
-        print(f"{r['cases']:9d} {r['rows']:9d} {r['wall_s']:9.1f} {r['client_peak_mb']:12.0f} "
-              f"{r['scheduler_peak_mb']:15.0f} {r['worker_peak_mb']:12.0f} {r['file_mb']:10.1f}"
-              f"   load {os.getloadavg()[0]:.1f}", flush=True)
+        print(
+            f"{r['cases']:9d} {r['rows']:9d} {r['wall_s']:9.1f} {r['client_peak_mb']:12.0f} "
+            f"{r['scheduler_peak_mb']:15.0f} {r['worker_peak_mb']:12.0f} {r['file_mb']:10.1f}"
+            f"   load {os.getloadavg()[0]:.1f}",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":

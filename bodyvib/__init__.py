@@ -10,7 +10,7 @@ the GA refit (``bodyvib.fit_*``) and FMUs (:mod:`bodyvib.fmu.pythonfmu`).
 
 :mod:`bodyvib.runtime` is the numpy-only sub-package that travels inside every
 pythonfmu FMU. This package never imports :mod:`vehicle` (the application) or
-:mod:`bodyvib_cli` (the command line): the layers run upward
+:mod:`bodyvib.cli` (the command line): the layers run upward
 (docs/architecture.md).
 """
 

@@ -51,10 +51,16 @@ def characteristic_coefficients(m1, m2, k1, k2, c1, c2, ks):
     """
     A0 = -k1 * k2 * ks
     A1 = -c1 * k2 * ks - c2 * k1 * ks
-    A2 = (-c1 * c2 * ks - k1 * k2 * m1 - k1 * k2 * m2 - k1 * ks * m1
-          - k1 * ks * m2 - k2 * ks * m1)
-    A3 = (-c1 * k2 * m1 - c2 * k1 * m1 - c1 * k2 * m2 - c2 * k1 * m2
-          - c1 * ks * m1 - c1 * ks * m2 - c2 * ks * m1)
+    A2 = -c1 * c2 * ks - k1 * k2 * m1 - k1 * k2 * m2 - k1 * ks * m1 - k1 * ks * m2 - k2 * ks * m1
+    A3 = (
+        -c1 * k2 * m1
+        - c2 * k1 * m1
+        - c1 * k2 * m2
+        - c2 * k1 * m2
+        - c1 * ks * m1
+        - c1 * ks * m2
+        - c2 * ks * m1
+    )
     A4 = -c1 * c2 * m1 - c1 * c2 * m2 - k2 * m1 * m2 - ks * m1 * m2
     A5 = -c2 * m1 * m2
     return A0, A1, A2, A3, A4, A5

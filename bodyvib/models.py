@@ -8,12 +8,20 @@ parameter file (:mod:`bodyvib.runtime.modelfile`) loads the same way by path.
 import os
 from typing import List, Union
 
-from .runtime.errors import BodyvibError
 from .process.outputs import write_json
+from .runtime.errors import BodyvibError
 from .runtime.modelfile import network_from_file, network_to_dict
 from .runtime.network import Network
 
-__all__ = ["DEFAULT_MODELS", "MODEL_DIR", "available_models", "load_model", "load_network", "save_model", "shipped_names"]
+__all__ = [
+    "DEFAULT_MODELS",
+    "MODEL_DIR",
+    "available_models",
+    "load_model",
+    "load_network",
+    "save_model",
+    "shipped_names",
+]
 
 #: The body models run and compared by default (shipped names): the reduced model with
 #: the paper's parameters and the ISO 7962 model it reduces.
@@ -39,8 +47,9 @@ def available_models() -> List[str]:
     return shipped_names(MODEL_DIR)
 
 
-def load_network(name_or_path: Union[str, os.PathLike], folder: str,
-                 what: str = "model") -> Network:
+def load_network(
+    name_or_path: Union[str, os.PathLike], folder: str, what: str = "model"
+) -> Network:
     """Load a parameter file by path, or by its name among the files of ``folder``.
 
     Parameters
@@ -72,8 +81,9 @@ def load_network(name_or_path: Union[str, os.PathLike], folder: str,
         return network_from_file(os.path.join(folder, s + ".json"))
     if s.endswith(".json") or os.sep in s:
         raise BodyvibError(f"{what} file '{s}' does not exist")
-    raise BodyvibError(f"unknown {what} '{s}'; give a parameter file path or one of: "
-                       + ", ".join(names))
+    raise BodyvibError(
+        f"unknown {what} '{s}'; give a parameter file path or one of: " + ", ".join(names)
+    )
 
 
 def load_model(name_or_path: Union[str, os.PathLike]) -> Network:

@@ -1,12 +1,19 @@
-"""Small plotting helpers shared by the commands (matplotlib, headless)."""
+"""Small plotting helpers shared by the commands (matplotlib, headless).
 
+Every plot the commands write goes through :func:`new_figure` (the Agg backend) and
+:func:`save_figure` (the format from the file extension, written atomically);
+:func:`stacked_panels` is the two-panel page of ``bodyvib cosim --plot`` and
+``bodyvib road --plot``.
+"""
+
+import contextlib
 import io
 import os
 
-from .runtime.errors import BodyvibError
 from .process.outputs import atomic_write_bytes
+from .runtime.errors import BodyvibError
 
-__all__ = ["new_figure", "save_figure", "transmissibility_axes"]
+__all__ = ["new_figure", "save_figure", "stacked_panels", "transmissibility_axes"]
 
 #: Label of a seat-to-head transmissibility modulus axis.
 MODULUS_LABEL = "|T| = |X_head / X_seat|  [-]"
@@ -71,3 +78,44 @@ def save_figure(fig, path) -> None:
     fig.savefig(buf, format=ext, dpi=120, bbox_inches="tight")
     plt.close(fig)
     atomic_write_bytes(path, buf.getvalue())
+
+
+@contextlib.contextmanager
+def stacked_panels(path):
+    """Two stacked panels; the figure is saved to ``path`` when the block ends.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Plot file: ``.png``, ``.pdf`` or ``.svg``, written atomically when the block
+        ends without an exception; nothing is written otherwise.
+
+    Yields
+    ------
+    (matplotlib.axes.Axes, matplotlib.axes.Axes)
+        The upper and the lower panel.
+
+    Raises
+    ------
+    BodyvibError
+        An unsupported plot file extension (on saving, as :func:`save_figure`).
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> folder = tempfile.mkdtemp()
+    >>> with stacked_panels(os.path.join(folder, "two.png")) as (top, bottom):
+    ...     _ = top.plot([0, 1], [0, 1]); _ = bottom.plot([0, 1], [1, 0])
+    >>> os.listdir(folder)
+    ['two.png']
+    >>> import shutil; shutil.rmtree(folder)
+    """
+    fig, (upper, lower) = new_figure(2, 1, figsize=(8, 8))
+    import matplotlib.pyplot as plt  # after new_figure has chosen the Agg backend
+
+    try:
+        fig.subplots_adjust(hspace=0.35)
+        yield upper, lower
+        save_figure(fig, path)
+    finally:
+        plt.close(fig)  # also when drawing or saving failed (save_figure closes it otherwise)

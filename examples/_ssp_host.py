@@ -11,8 +11,12 @@ __all__ = ["DEFAULT_SSP", "SIGNALS", "record", "main"]
 DEFAULT_SSP = "dist/QuarterCarWithOccupant.ssp"
 
 #: (component, variable) recorded at every communication point.
-SIGNALS = (("Body", "head_acceleration"), ("Body", "seat_force"), ("Car", "seat_displacement"),
-           ("Road", "road_displacement"))
+SIGNALS = (
+    ("Body", "head_acceleration"),
+    ("Body", "seat_force"),
+    ("Car", "seat_displacement"),
+    ("Road", "road_displacement"),
+)
 
 
 def record(times, rows, signals=SIGNALS):
@@ -52,5 +56,7 @@ def main(run, argv=None):
     args = sys.argv[1:] if argv is None else list(argv)
     res = run(args[0] if args else DEFAULT_SSP, float(args[1]) if len(args) > 1 else 30.0)
     a = res["Body.head_acceleration"]
-    print(f"{res['time'][-1]:g} s simulated; head acceleration r.m.s. "
-          f"{np.sqrt(np.mean(a ** 2)):.4f} m/s2")
+    print(
+        f"{res['time'][-1]:g} s simulated; head acceleration r.m.s. "
+        f"{np.sqrt(np.mean(a**2)):.4f} m/s2"
+    )

@@ -11,8 +11,8 @@ head-acceleration NRMSE against the monolithic reference.
 import sys
 import tempfile
 
-from vehicle.fmus import build_fmus
-from vehicle.study import coupling_error_sweep
+from bodyvib.vehicle.fmus import build_fmus
+from bodyvib.vehicle.study import coupling_error_sweep
 
 STEPS = (1e-4, 2e-4, 5e-4, 1e-3, 2e-3, 5e-3, 1e-2)
 
@@ -28,12 +28,18 @@ def run(steps=STEPS, duration=30.0, body="HumanBody3DOF", car="quarter-car"):
     with tempfile.TemporaryDirectory() as d:
         fmus = {n: str(p) for n, p in build_fmus(d, car=car, names=(body, "QuarterCar")).items()}
         rows = []
-        held = coupling_error_sweep(steps, fmus[body], fmus["QuarterCar"], duration=duration,
-                                    extrapolate=False)
+        held = coupling_error_sweep(
+            steps, fmus[body], fmus["QuarterCar"], duration=duration, extrapolate=False
+        )
         extr = coupling_error_sweep(steps, fmus[body], fmus["QuarterCar"], duration=duration)
         for a, b in zip(held, extr):
-            rows.append({"step_s": a["step_s"], "held": a["coupling_nrmse"],
-                         "extrapolated": b["coupling_nrmse"]})
+            rows.append(
+                {
+                    "step_s": a["step_s"],
+                    "held": a["coupling_nrmse"],
+                    "extrapolated": b["coupling_nrmse"],
+                }
+            )
     return rows
 
 

@@ -48,10 +48,16 @@ def run(fmu_path="dist/HumanBody3DOF.fmu", stop_time=1.0, step=1e-3):
 
     t = np.arange(round(stop_time / step) + 1) * step
     x, v = seat_bump(t)
-    signals = np.array(list(zip(t, x, v)), dtype=[("time", float), ("seat_displacement", float),
-                                                  ("seat_velocity", float)])
+    signals = np.array(
+        list(zip(t, x, v)),
+        dtype=[("time", float), ("seat_displacement", float), ("seat_velocity", float)],
+    )
     return simulate_fmu(
-        fmu_path, start_time=0.0, stop_time=stop_time, output_interval=step, input=signals,
+        fmu_path,
+        start_time=0.0,
+        stop_time=stop_time,
+        output_interval=step,
+        input=signals,
         output=["head_acceleration", "head_displacement", "torso_displacement", "seat_force"],
     )
 
@@ -59,5 +65,7 @@ def run(fmu_path="dist/HumanBody3DOF.fmu", stop_time=1.0, step=1e-3):
 if __name__ == "__main__":
     res = run(*sys.argv[1:2])
     k = int(np.argmax(np.abs(res["head_acceleration"])))
-    print(f"peak head acceleration {res['head_acceleration'][k]:.3f} m/s2 at {res['time'][k]:.3f} s; "
-          f"peak seat force {np.max(np.abs(res['seat_force'])):.1f} N")
+    print(
+        f"peak head acceleration {res['head_acceleration'][k]:.3f} m/s2 at {res['time'][k]:.3f} s; "
+        f"peak seat force {np.max(np.abs(res['seat_force'])):.1f} N"
+    )

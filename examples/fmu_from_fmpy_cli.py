@@ -41,8 +41,13 @@ def seat_bump_csv(path, duration=10.0, step=1e-3, height=0.02, start=0.1, width=
     t = np.arange(round(duration / step) + 1) * step
     x = height * np.clip(1 - np.abs(2 * (t - start) / width - 1), 0, None)
     v = np.append(np.diff(x) / np.diff(t), 0.0)
-    np.savetxt(path, np.c_[t, x, v], delimiter=",", header="time,seat_displacement,seat_velocity",
-               comments="")
+    np.savetxt(
+        path,
+        np.c_[t, x, v],
+        delimiter=",",
+        header="time,seat_displacement,seat_velocity",
+        comments="",
+    )
     return t, x, v
 
 
@@ -67,9 +72,20 @@ def run(fmu_path="dist/HumanBody3DOF.fmu", output_interval=1e-3, folder=None):
     with tempfile.TemporaryDirectory() as tmp:
         folder = folder or tmp
         seat_bump_csv(os.path.join(folder, "seat_bump.csv"))
-        cmd = [sys.executable, "-m", "fmpy", "simulate", os.path.abspath(fmu_path),
-               "--input-file", "seat_bump.csv", "--output-variables", "head_acceleration",
-               "seat_force", "--output-file", "result.csv"]
+        cmd = [
+            sys.executable,
+            "-m",
+            "fmpy",
+            "simulate",
+            os.path.abspath(fmu_path),
+            "--input-file",
+            "seat_bump.csv",
+            "--output-variables",
+            "head_acceleration",
+            "seat_force",
+            "--output-file",
+            "result.csv",
+        ]
         if output_interval is not None:
             cmd += ["--output-interval", repr(float(output_interval))]
         subprocess.run(cmd, cwd=folder, check=True, capture_output=True, text=True)
@@ -79,4 +95,6 @@ def run(fmu_path="dist/HumanBody3DOF.fmu", output_interval=1e-3, folder=None):
 if __name__ == "__main__":
     res = run(*sys.argv[1:2])
     k = int(np.argmax(np.abs(res["head_acceleration"])))
-    print(f"peak head acceleration {res['head_acceleration'][k]:.3f} m/s2 at {res['time'][k]:.3f} s")
+    print(
+        f"peak head acceleration {res['head_acceleration'][k]:.3f} m/s2 at {res['time'][k]:.3f} s"
+    )

@@ -58,7 +58,9 @@ def run(fmu_path="dist/HumanBody3DOF.fmu", seat_displacement=None, seat_velocity
     inputs = [vr["seat_displacement"], vr["seat_velocity"]]
     out = {name: [] for name in ["time"] + outputs}
     for k in range(len(seat_displacement) - 1):
-        manipulator.slave_real_values(body, inputs, [float(seat_displacement[k]), float(seat_velocity[k])])
+        manipulator.slave_real_values(
+            body, inputs, [float(seat_displacement[k]), float(seat_velocity[k])]
+        )
         if not execution.step():
             raise RuntimeError(f"libcosim step {k} failed")
         values = observer.last_real_values(body, [vr[n] for n in outputs])
@@ -70,5 +72,7 @@ def run(fmu_path="dist/HumanBody3DOF.fmu", seat_displacement=None, seat_velocity
 
 if __name__ == "__main__":
     res = run(*sys.argv[1:2])
-    print(f"peak head acceleration {np.max(np.abs(res['head_acceleration'])):.3f} m/s2, "
-          f"peak seat force {np.max(np.abs(res['seat_force'])):.1f} N")
+    print(
+        f"peak head acceleration {np.max(np.abs(res['head_acceleration'])):.3f} m/s2, "
+        f"peak seat force {np.max(np.abs(res['seat_force'])):.1f} N"
+    )

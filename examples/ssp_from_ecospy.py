@@ -13,7 +13,6 @@ variables are named ``"<component>::<variable>"``. ecospy needs Intel TBB at run
 """
 
 import numpy as np
-
 from _ssp_host import DEFAULT_SSP, SIGNALS, main, record
 
 __all__ = ["PARAMETER_SET", "SIGNALS", "run"]

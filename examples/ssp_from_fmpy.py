@@ -23,7 +23,6 @@ tests/test_ssp.py runs this function.
 """
 
 import numpy as np
-
 from _ssp_host import DEFAULT_SSP, main
 
 __all__ = ["parameter_set", "run"]
@@ -50,9 +49,12 @@ def parameter_set(ssp_path):
             prefix = binding.prefix or ""
             for values in binding.parameterValues:
                 for p in values.parameters:
-                    name = p.name[len(prefix):] if prefix and p.name.startswith(prefix) else p.name
-                    out.parameters.append(Parameter(name=f"{comp.name}.{name}", type=p.type,
-                                                    value=p.value, unit=p.unit))
+                    name = p.name[len(prefix) :] if prefix and p.name.startswith(prefix) else p.name
+                    out.parameters.append(
+                        Parameter(
+                            name=f"{comp.name}.{name}", type=p.type, value=p.value, unit=p.unit
+                        )
+                    )
     return out
 
 
@@ -78,8 +80,12 @@ def run(ssp_path=DEFAULT_SSP, duration=30.0, step=1e-3):
     """
     from fmpy.ssp.simulation import simulate_ssp
 
-    res = simulate_ssp(str(ssp_path), stop_time=duration - step / 2, step_size=step,
-                       parameter_set=parameter_set(ssp_path))
+    res = simulate_ssp(
+        str(ssp_path),
+        stop_time=duration - step / 2,
+        step_size=step,
+        parameter_set=parameter_set(ssp_path),
+    )
     n = res.size
     out = {"time": np.arange(n + 1) * step}
     for name in res.dtype.names[1:]:

@@ -14,8 +14,7 @@ from _ssp_host import DEFAULT_SSP, SIGNALS, main, record
 __all__ = ["SIGNALS", "run"]
 
 
-def run(ssp_path=DEFAULT_SSP, duration=30.0, step=None, signals=SIGNALS,
-        log_level="ERROR"):
+def run(ssp_path=DEFAULT_SSP, duration=30.0, step=None, signals=SIGNALS, log_level="ERROR"):
     """Simulate the SSP in libcosim.
 
     Parameters
@@ -42,8 +41,11 @@ def run(ssp_path=DEFAULT_SSP, duration=30.0, step=None, signals=SIGNALS,
     from libcosimpy.CosimObserver import CosimObserver
 
     log_output_level(getattr(CosimLogLevel, log_level))
-    execution = (CosimExecution.from_ssp_file(str(ssp_path)) if step is None else
-                 CosimExecution.from_ssp_file(str(ssp_path), step_size=int(round(step * 1e9))))
+    execution = (
+        CosimExecution.from_ssp_file(str(ssp_path))
+        if step is None
+        else CosimExecution.from_ssp_file(str(ssp_path), step_size=int(round(step * 1e9)))
+    )
     observer = CosimObserver.create_last_value()
     execution.add_observer(observer=observer)
     where = []

@@ -34,17 +34,23 @@ def write(path="road.crg", length=300.0, spacing=0.05, width=3.5):
         ``path``.
     """
     import pycrg
-
-    from vehicle.road.synthetic import random_road
+    from bodyvib.vehicle.road.synthetic import random_road
 
     u = np.arange(0.0, length + spacing / 2, spacing)
     right = random_road("C", length + 50.0, seed=1).displacement(u)
     left = random_road("C", length + 50.0, seed=2).displacement(u)
     v = np.linspace(-width / 2, width / 2, 5)
-    share = (v + width / 2) / width                       # 0 at the right edge, 1 at the left
+    share = (v + width / 2) / width  # 0 at the right edge, 1 at the left
     z = right[:, None] * (1 - share) + left[:, None] * share
-    pycrg.write(path, z, spacing, v, slope=0.01, fmt="KDBI",
-                comment=["bodyvib example: ISO 8608 class C edges (seeds 1, 2) on a 1 % grade"])
+    pycrg.write(
+        path,
+        z,
+        spacing,
+        v,
+        slope=0.01,
+        fmt="KDBI",
+        comment=["bodyvib example: ISO 8608 class C edges (seeds 1, 2) on a 1 % grade"],
+    )
     return path
 
 

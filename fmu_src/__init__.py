@@ -3,3 +3,5 @@
 Not imported at run time: :mod:`bodyvib.fmu.pythonfmu` reads ``bodyvib_fmu_slave.py``
 from here and renders it per FMU.
 """
+
+__all__ = []  # type: list[str]

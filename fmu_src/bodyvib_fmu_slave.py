@@ -3,7 +3,7 @@
 A thin slave: it declares its core's variables and delegates every call to the core
 that :data:`bodyvib.runtime.cores.CORES` makes for its ``KIND`` (a network's exact
 stepping, :class:`bodyvib.runtime.engine.FmuCore`, or a tabulated signal,
-:class:`bodyvib.runtime.source.SourceCore`). ``python build_fmu.py`` (or ``bodyvib build``) renders this one
+:class:`bodyvib.runtime.tabulated.SourceCore`). ``python build_fmu.py`` (or ``bodyvib build``) renders this one
 source per FMU (:func:`bodyvib.fmu.pythonfmu.render_slave_script`): it renames the
 class to the FMU's model name, sets ``KIND`` and ``DESCRIPTION``, points
 ``RUNTIME`` at the FMU's private copy of the run-time modules, and puts the
@@ -46,7 +46,14 @@ teardown writes into freed memory and sometimes aborts the host after its work i
 
 import importlib
 
-from pythonfmu import DefaultExperiment, Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Real
+from pythonfmu import (
+    DefaultExperiment,
+    Fmi2Causality,
+    Fmi2Initial,
+    Fmi2Slave,
+    Fmi2Variability,
+    Real,
+)
 from pythonfmu.enums import Fmi2Status
 
 RUNTIME = "bodyvib.runtime"  # build_fmu.py: the FMU's private copy of the run-time package
@@ -68,10 +75,14 @@ class BodyvibSlave(Fmi2Slave):  # build_fmu.py: renamed to the FMU's model name
         _teardown.release_at_exit(self.resources, type(self).__name__)  # pythonfmu 0.7.0 exit bug
         self.core = _cores.load_core(KIND, self.resources, type(self).__name__, log=self._log_core)
         for vr, v in enumerate(self.core.variables):
-            var = Real(v.name, causality=getattr(Fmi2Causality, v.causality),
-                       variability=getattr(Fmi2Variability, v.variability),
-                       initial=Fmi2Initial.calculated if v.causality == "output" else None,
-                       description=v.description, start=v.start)
+            var = Real(
+                v.name,
+                causality=getattr(Fmi2Causality, v.causality),
+                variability=getattr(Fmi2Variability, v.variability),
+                initial=Fmi2Initial.calculated if v.causality == "output" else None,
+                description=v.description,
+                start=v.start,
+            )
             self.register_variable(var, nested=False)
             assert var.value_reference == vr
 
@@ -102,9 +113,12 @@ class BodyvibSlave(Fmi2Slave):  # build_fmu.py: renamed to the FMU's model name
             return []
         bad = [vr for vr in vrs if not 0 <= vr < n]
         if bad:
-            self.log(f"{type(self).__name__}: {what}: unknown value reference(s) "
-                     f"{', '.join(map(str, bad[:5]))} (this FMU has 0 to {n - 1}); "
-                     "their values are NaN / ignored", Fmi2Status.error)
+            self.log(
+                f"{type(self).__name__}: {what}: unknown value reference(s) "
+                f"{', '.join(map(str, bad[:5]))} (this FMU has 0 to {n - 1}); "
+                "their values are NaN / ignored",
+                Fmi2Status.error,
+            )
         return bad
 
     def get_real(self, vrs):
@@ -129,8 +143,10 @@ class BodyvibSlave(Fmi2Slave):  # build_fmu.py: renamed to the FMU's model name
 
     def _set_fmu_state(self, state):
         if isinstance(state, dict) and set(state) == {"error"}:  # bytes refused at deserializing
-            self.log(f"{type(self).__name__}: FMU state refused, state unchanged: "
-                     f"{state['error']}", Fmi2Status.error)
+            self.log(
+                f"{type(self).__name__}: FMU state refused, state unchanged: {state['error']}",
+                Fmi2Status.error,
+            )
             return
         try:
             self.core.set_state(state)

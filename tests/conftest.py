@@ -9,7 +9,6 @@ import tempfile
 
 import numpy as np
 import pytest
-
 from helpers import ROOT
 
 FMU_NAMES = ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar")
@@ -21,8 +20,13 @@ def python_fmu_dir(tmp_path_factory):
     builds it (a subprocess): the pythonfmu FMUs, ``Road.fmu`` and the SSP. Shared by every
     test: read it, never change it (copy an FMU into ``tmp_path`` first)."""
     dest = tmp_path_factory.mktemp("python_fmus")
-    out = subprocess.run([sys.executable, os.path.join(ROOT, "build_fmu.py"), "--dest", str(dest)],
-                         cwd=ROOT, capture_output=True, text=True, timeout=600)
+    out = subprocess.run(
+        [sys.executable, os.path.join(ROOT, "build_fmu.py"), "--dest", str(dest)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert out.returncode == 0, out.stdout + out.stderr
     return dest
 
@@ -69,8 +73,10 @@ def pytest_sessionfinish(session, exitstatus):
     left = sorted(os.listdir(private)) if os.path.isdir(private) else []
     if left:
         tr = session.config.pluginmanager.get_plugin("terminalreporter")
-        msg = (f"the test run left {len(left)} entr{'y' if len(left) == 1 else 'ies'} in the "
-               f"temporary directory: {', '.join(left[:10])}{' ...' if len(left) > 10 else ''}")
+        msg = (
+            f"the test run left {len(left)} entr{'y' if len(left) == 1 else 'ies'} in the "
+            f"temporary directory: {', '.join(left[:10])}{' ...' if len(left) > 10 else ''}"
+        )
         if tr is not None:
             tr.ensure_newline()
             tr.write_line(msg, red=True)
@@ -85,8 +91,13 @@ def native_dist(tmp_path_factory):
     """What ``build_fmu.py --native`` writes (once per session): its ``native`` folder, with
     the FMI 2.0 FMUs and SSP, and ``fmi3/`` with the FMI 3.0 ones."""
     dest = tmp_path_factory.mktemp("native_fmus")
-    out = subprocess.run([sys.executable, "build_fmu.py", "--native", "--dest", str(dest)],
-                         cwd=ROOT, capture_output=True, text=True, timeout=600)
+    out = subprocess.run(
+        [sys.executable, "build_fmu.py", "--native", "--dest", str(dest)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert out.returncode == 0, out.stdout + out.stderr
     return dest / "native"
 

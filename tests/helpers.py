@@ -15,17 +15,29 @@ import tempfile
 import numpy as np
 import pytest
 
-__all__ = ["ROOT", "run_cli", "OLD_CONTENT", "write_old_outputs", "check_stopped_run",
-           "win64_host", "dynamic_stiffness_response"]
+__all__ = [
+    "ROOT",
+    "run_cli",
+    "OLD_CONTENT",
+    "write_old_outputs",
+    "check_stopped_run",
+    "win64_host",
+    "dynamic_stiffness_response",
+]
 
 #: The repository's root (where ``build_fmu.py`` is).
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def run_cli(*args, cwd=None, timeout=600):
-    """``python -m bodyvib_cli ARGS`` as a user runs it: the finished process, output as text."""
-    return subprocess.run([sys.executable, "-m", "bodyvib_cli", *args], cwd=cwd,
-                          capture_output=True, text=True, timeout=timeout)
+    """``python -m bodyvib.cli ARGS`` as a user runs it: the finished process, output as text."""
+    return subprocess.run(
+        [sys.executable, "-m", "bodyvib.cli", *args],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
 
 
 #: What every output holds before a command that is sent a signal runs.
@@ -55,8 +67,9 @@ def check_stopped_run(rc, err, outputs, status, line, what):
         assert all(new) or not any(new), (what, new)  # all outputs or none
     else:
         assert all(new), what
-    beside = [f for d in {p.parent for p in outputs} for f in os.listdir(d)
-              if f.startswith(".tmp-")]
+    beside = [
+        f for d in {p.parent for p in outputs} for f in os.listdir(d) if f.startswith(".tmp-")
+    ]
     assert not beside, (what, beside)
     return bool(rc)
 
@@ -69,19 +82,46 @@ def win64_host(source, headers, exe, home):
     own ``WINEPREFIX``, removed afterwards; ``WINEDEBUG=-all``; ``HOME`` = ``home``).
     """
     mingw = shutil.which("x86_64-w64-mingw32-gcc")
-    wine = shutil.which("wine") or shutil.which("wine64") or next(
-        (p for p in ("/usr/lib/wine/wine64",) if os.access(p, os.X_OK)), None)
+    wine = (
+        shutil.which("wine")
+        or shutil.which("wine64")
+        or next((p for p in ("/usr/lib/wine/wine64",) if os.access(p, os.X_OK)), None)
+    )
     if mingw is None or wine is None:
-        pytest.skip(f"{'x86_64-w64-mingw32-gcc' if mingw is None else 'wine'} not found: "
-                    "install gcc-mingw-w64-x86-64 and wine64 to run the win64 binary")
-    out = subprocess.run([mingw, "-std=c99", "-O2", "-Wall", "-Werror", "-static", "-I", headers,
-                          str(source), "-o", str(exe)], capture_output=True, text=True,
-                         timeout=120)
+        pytest.skip(
+            f"{'x86_64-w64-mingw32-gcc' if mingw is None else 'wine'} not found: "
+            "install gcc-mingw-w64-x86-64 and wine64 to run the win64 binary"
+        )
+    out = subprocess.run(
+        [
+            mingw,
+            "-std=c99",
+            "-O2",
+            "-Wall",
+            "-Werror",
+            "-static",
+            "-I",
+            headers,
+            str(source),
+            "-o",
+            str(exe),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert out.returncode == 0, out.stderr
     prefix = tempfile.mkdtemp(prefix="bodyvib-wine-")
     try:
-        yield wine, {"WINEPREFIX": prefix, "WINEDEBUG": "-all", "HOME": str(home),
-                     "PATH": os.environ.get("PATH", "/usr/bin:/bin")}
+        yield (
+            wine,
+            {
+                "WINEPREFIX": prefix,
+                "WINEDEBUG": "-all",
+                "HOME": str(home),
+                "PATH": os.environ.get("PATH", "/usr/bin:/bin"),
+            },
+        )
     finally:
         shutil.rmtree(prefix, ignore_errors=True)
 
@@ -102,7 +142,7 @@ def dynamic_stiffness_response(net, f_hz, point):
         s = 2j * np.pi * f
         K = np.zeros((len(pts), len(pts)), complex)
         F = np.zeros(len(pts), complex)
-        for (a, b, z) in [(a, b, k) for a, b, k in springs] + [(a, b, c * s) for a, b, c in dampers]:
+        for a, b, z in [(a, b, k) for a, b, k in springs] + [(a, b, c * s) for a, b, c in dampers]:
             for p, q in ((a, b), (b, a)):
                 if p in idx:
                     K[idx[p], idx[p]] += z

@@ -26,9 +26,14 @@ def memcheck(argv, env=None, cwd=None, timeout=600):
     if valgrind is None:
         pytest.skip("valgrind not found")
     env = dict(os.environ if env is None else env, PYTHONMALLOC="malloc")
-    return subprocess.Popen([valgrind, "--tool=memcheck", "--error-limit=no", "--num-callers=40",
-                             *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env=env, cwd=cwd)
+    return subprocess.Popen(
+        [valgrind, "--tool=memcheck", "--error-limit=no", "--num-callers=40", *argv],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+        cwd=cwd,
+    )
 
 
 def freed_memory_errors(valgrind_log, where):
@@ -48,5 +53,8 @@ def freed_memory_errors(valgrind_log, where):
         One entry per matching report.
     """
     reports = re.split(r"\n==\d+== \n", valgrind_log)
-    return [r for r in reports
-            if re.search(r"Invalid (read|write|free)", r) and " free'd" in r and where in r]
+    return [
+        r
+        for r in reports
+        if re.search(r"Invalid (read|write|free)", r) and " free'd" in r and where in r
+    ]

@@ -3,8 +3,12 @@
 import numpy as np
 import pytest
 
-from bodyvib.analytic import (characteristic_coefficients, head_transmissibility,
-                              platform_transmissibility, torso_transmissibility)
+from bodyvib.analytic import (
+    characteristic_coefficients,
+    head_transmissibility,
+    platform_transmissibility,
+    torso_transmissibility,
+)
 from bodyvib.frequency.response import frequency_response
 from bodyvib.models import load_model
 from bodyvib.runtime.network import linear_model
@@ -28,11 +32,14 @@ def test_delta_is_the_characteristic_polynomial(rng):
         np.testing.assert_allclose(monic, np.poly(A), rtol=1e-9)
 
 
-@pytest.mark.parametrize("fn, output", [
-    (head_transmissibility, "m1.x"),
-    (torso_transmissibility, "m2.x"),
-    (platform_transmissibility, "platform.y"),
-])
+@pytest.mark.parametrize(
+    "fn, output",
+    [
+        (head_transmissibility, "m1.x"),
+        (torso_transmissibility, "m2.x"),
+        (platform_transmissibility, "platform.y"),
+    ],
+)
 def test_analytic_equals_state_space_at_random_parameters(rng, fn, output):
     net = load_model("reduced-paper")
     f = np.geomspace(0.1, 100, 80)
@@ -50,8 +57,9 @@ def test_population_broadcasting(rng):
     T = head_transmissibility(s, *(pop[k] for k in NAMES))
     assert T.shape == (7, 30)
     for i, p in enumerate(sets):
-        np.testing.assert_allclose(T[i], head_transmissibility(s, *(p[k] for k in NAMES)),
-                                   rtol=1e-14)
+        np.testing.assert_allclose(
+            T[i], head_transmissibility(s, *(p[k] for k in NAMES)), rtol=1e-14
+        )
 
 
 def relative_degree(lm, output):
@@ -71,11 +79,14 @@ def relative_degree(lm, output):
     raise AssertionError(f"{output} does not depend on the seat")
 
 
-@pytest.mark.parametrize("fn, output", [
-    (head_transmissibility, "m1.x"),
-    (torso_transmissibility, "m2.x"),
-    (platform_transmissibility, "platform.y"),
-])
+@pytest.mark.parametrize(
+    "fn, output",
+    [
+        (head_transmissibility, "m1.x"),
+        (torso_transmissibility, "m2.x"),
+        (platform_transmissibility, "platform.y"),
+    ],
+)
 def test_analytic_falls_off_as_the_state_space(fn, output):
     """The library's transfer functions are proper with the state space's relative degree:
     between 1 and 10 kHz (far above every pole, 250 rad/s at most) |T| falls by 10^r. The

@@ -13,14 +13,18 @@ import subprocess
 import sys
 
 import pytest
-
 from helpers import ROOT
 
 pytestmark = pytest.mark.integration
 
 OLD = b"old content\n"
-NAMES = ("HumanBody3DOF.fmu", "HumanBodyISO7962.fmu", "QuarterCar.fmu", "Road.fmu",
-         "QuarterCarWithOccupant.ssp")
+NAMES = (
+    "HumanBody3DOF.fmu",
+    "HumanBodyISO7962.fmu",
+    "QuarterCar.fmu",
+    "Road.fmu",
+    "QuarterCarWithOccupant.ssp",
+)
 
 
 def _old(folder):
@@ -36,8 +40,9 @@ def _assert_all_old(folder):
 def _mount_tmpfs(folder, size):
     if os.geteuid() != 0 or shutil.which("mount") is None:
         return False
-    proc = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(folder)],
-                          capture_output=True)
+    proc = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(folder)], capture_output=True
+    )
     return proc.returncode == 0
 
 
@@ -49,12 +54,19 @@ def test_build_on_a_full_disk_keeps_every_old_output(python_fmus, tmp_path):
     dest = tmp_path / "dest"
     dest.mkdir()
     if not _mount_tmpfs(dest, size):
-        pytest.skip("cannot mount a tmpfs here; test_build_write_failure_keeps_every_old_output "
-                    "injects the failure instead")
+        pytest.skip(
+            "cannot mount a tmpfs here; test_build_write_failure_keeps_every_old_output "
+            "injects the failure instead"
+        )
     try:
         _old(dest)
-        proc = subprocess.run([sys.executable, "-m", "bodyvib_cli", "build", "--dest", str(dest)],
-                              cwd=ROOT, capture_output=True, text=True, timeout=600)
+        proc = subprocess.run(
+            [sys.executable, "-m", "bodyvib.cli", "build", "--dest", str(dest)],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
         lines = proc.stderr.strip().splitlines()
         assert proc.returncode == 2, proc.stderr
         assert len(lines) == 1 and "No space left" in lines[0], proc.stderr
@@ -65,17 +77,17 @@ def test_build_on_a_full_disk_keeps_every_old_output(python_fmus, tmp_path):
 
 def test_build_write_failure_keeps_every_old_output(tmp_path, monkeypatch, capsys):
     """The same failure injected at the SSP's write: ENOSPC after the four FMUs were staged."""
-    import vehicle.ssp
+    import bodyvib.vehicle.ssp
 
-    from bodyvib_cli.main import main
+    from bodyvib.cli.main import main
 
-    real = vehicle.ssp.atomic_write_bytes
+    real = bodyvib.vehicle.ssp.atomic_write_bytes
 
     def full(path, data):
         assert len(data) > 3 * len(OLD)  # packed from the FMUs just built (staged, not placed)
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), os.fspath(path))
 
-    monkeypatch.setattr(vehicle.ssp, "atomic_write_bytes", full)
+    monkeypatch.setattr(bodyvib.vehicle.ssp, "atomic_write_bytes", full)
     dest = tmp_path / "dest"
     dest.mkdir()
     _old(dest)
@@ -83,6 +95,6 @@ def test_build_write_failure_keeps_every_old_output(tmp_path, monkeypatch, capsy
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "No space left" in err[0], err
     _assert_all_old(dest)
-    monkeypatch.setattr(vehicle.ssp, "atomic_write_bytes", real)
+    monkeypatch.setattr(bodyvib.vehicle.ssp, "atomic_write_bytes", real)
     assert main(["build", "--dest", str(dest)]) == 0  # and with room, all five are new
     assert all((dest / n).read_bytes() != OLD for n in NAMES)

@@ -9,7 +9,7 @@ import time
 
 import pytest
 
-from bodyvib_cli.main import main
+from bodyvib.cli.main import main
 
 
 def _one_line(capsys, argv, *words):
@@ -24,41 +24,62 @@ def _one_line(capsys, argv, *words):
     return lines[0]
 
 
-@pytest.mark.parametrize("argv,words", [
-    (["cosim", "--seed", "1.5"], ["bodyvib cosim: error:", "--seed", "1.5"]),
-    (["sweep", "s.json", "--workers", "0"], ["bodyvib sweep: error:", "--workers"]),
-    (["sweep", "s.json", "--block", "-1"], ["bodyvib sweep: error:", "--block"]),
-    (["frf", "--points", "many"], ["bodyvib frf: error:", "--points"]),
-    (["no-such-command"], ["bodyvib: error:", "no-such-command"]),
-    (["cosim", "--no-such-option"], ["error:", "--no-such-option"]),
-])
+@pytest.mark.parametrize(
+    "argv,words",
+    [
+        (["cosim", "--seed", "1.5"], ["bodyvib cosim: error:", "--seed", "1.5"]),
+        (["sweep", "s.json", "--workers", "0"], ["bodyvib sweep: error:", "--workers"]),
+        (["sweep", "s.json", "--block", "-1"], ["bodyvib sweep: error:", "--block"]),
+        (["frf", "--points", "many"], ["bodyvib frf: error:", "--points"]),
+        (["no-such-command"], ["bodyvib: error:", "no-such-command"]),
+        (["cosim", "--no-such-option"], ["error:", "--no-such-option"]),
+    ],
+)
 def test_argparse_errors_are_one_line_and_status_2(capsys, argv, words):
     _one_line(capsys, argv, *words)
 
 
-@pytest.mark.parametrize("text", ["[" * 100000 + "]" * 100000,
-                                  '{"a":' * 40 + "1" + "}" * 40])
+@pytest.mark.parametrize("text", ["[" * 100000 + "]" * 100000, '{"a":' * 40 + "1" + "}" * 40])
 def test_deeply_nested_json_is_refused_in_one_line(capsys, tmp_path, text):
     """A nesting Python's parser cannot follow (RecursionError) or no bodyvib file has."""
     deep = tmp_path / "deep.json"
     deep.write_text(text)
     out = tmp_path / "out.json"
-    for argv in (["frf", "--models", str(deep), "--json", str(out)],
-                 ["cosim", "--params", str(deep), "--json", str(out)],
-                 ["fit", "--config", str(deep), "--out", str(out)],
-                 ["sweep", str(deep), "--out", str(tmp_path / "r.parquet")]):
+    for argv in (
+        ["frf", "--models", str(deep), "--json", str(out)],
+        ["cosim", "--params", str(deep), "--json", str(out)],
+        ["fit", "--config", str(deep), "--out", str(out)],
+        ["sweep", str(deep), "--out", str(tmp_path / "r.parquet")],
+    ):
         _one_line(capsys, argv, str(deep), "nested")
     assert not out.exists()
 
 
 def test_body_fmu_given_as_the_car_is_named(capsys, python_fmus, tmp_path):
     """``cosim --car-fmu HumanBody3DOF.fmu`` ended in KeyError: 'seat'."""
-    line = _one_line(capsys, ["cosim", "--car-fmu", python_fmus["HumanBody3DOF"],
-                              "--body", python_fmus["HumanBody3DOF"], "--duration", "1"],
-                     "lacks the car interface", "it is a body FMU", "--body")
+    line = _one_line(
+        capsys,
+        [
+            "cosim",
+            "--car-fmu",
+            python_fmus["HumanBody3DOF"],
+            "--body",
+            python_fmus["HumanBody3DOF"],
+            "--duration",
+            "1",
+        ],
+        "lacks the car interface",
+        "it is a body FMU",
+        "--body",
+    )
     assert "HumanBody3DOF.fmu" in line
-    _one_line(capsys, ["cosim", "--body", python_fmus["QuarterCar"], "--duration", "1"],
-              "lacks the body interface", "it is a car FMU", "--car-fmu")
+    _one_line(
+        capsys,
+        ["cosim", "--body", python_fmus["QuarterCar"], "--duration", "1"],
+        "lacks the body interface",
+        "it is a car FMU",
+        "--car-fmu",
+    )
 
 
 def test_measured_frequency_beyond_any_body_is_refused(capsys, tmp_path):
@@ -67,18 +88,37 @@ def test_measured_frequency_beyond_any_body_is_refused(capsys, tmp_path):
     rows = [0.5, 1, 2, 3, 4, 5, 6, 8, 10, 1e308]
     csv.write_text("frequency_hz,modulus\n" + "".join(f"{f!r},1.0\n" for f in rows))
     out = tmp_path / "p.json"
-    _one_line(capsys, ["fit", "--measured", str(csv), "--out", str(out), "--quiet"],
-              "line 11", "1e+308", "1000 Hz")
+    _one_line(
+        capsys,
+        ["fit", "--measured", str(csv), "--out", str(out), "--quiet"],
+        "line 11",
+        "1e+308",
+        "1000 Hz",
+    )
     assert not out.exists()
 
 
 def test_sweep_too_large_for_memory_is_refused_before_sampling(capsys, tmp_path):
     """``samples: 1000000000`` ended in MemoryError after minutes of sampling."""
     spec = tmp_path / "s.json"
-    spec.write_text(json.dumps({"road": "C", "speed": 20, "body": [
-        {"model": "reduced-paper", "vary": {"c1": [0.5, 2]}, "samples": 1000000000}]}))
+    spec.write_text(
+        json.dumps(
+            {
+                "road": "C",
+                "speed": 20,
+                "body": [
+                    {"model": "reduced-paper", "vary": {"c1": [0.5, 2]}, "samples": 1000000000}
+                ],
+            }
+        )
+    )
     t0 = time.monotonic()
-    _one_line(capsys, ["sweep", str(spec), "--out", str(tmp_path / "r.parquet"),
-                       "--scheduler", "serial"], "1e+09 cases", "TB", "half the memory")
+    _one_line(
+        capsys,
+        ["sweep", str(spec), "--out", str(tmp_path / "r.parquet"), "--scheduler", "serial"],
+        "1e+09 cases",
+        "TB",
+        "half the memory",
+    )
     assert time.monotonic() - t0 < 30
     assert not (tmp_path / "r.parquet").exists()

@@ -4,7 +4,13 @@ import numpy as np
 import pytest
 
 from bodyvib.comfort.figures import (
-    comfort_category, comfort_figures, mtvv, peak, vdv, weighted_acceleration, weighted_rms,
+    comfort_category,
+    comfort_figures,
+    mtvv,
+    peak,
+    vdv,
+    weighted_acceleration,
+    weighted_rms,
     wk_response,
 )
 from bodyvib.comfort.stream import WkFilter
@@ -15,14 +21,84 @@ from bodyvib.seat.response import head_acceleration
 # ISO 2631-1:1997, Table 3: principal weighting Wk, factor x 1000, at the nominal
 # one-third-octave centre frequencies of bands -10 ... 26 (0.1-400 Hz). Typed
 # from the standard's table (and checked against two independent transcriptions).
-ISO2631_TABLE3_HZ = [0.1, 0.125, 0.16, 0.2, 0.25, 0.315, 0.4, 0.5, 0.63, 0.8, 1.0, 1.25,
-                     1.6, 2.0, 2.5, 3.15, 4.0, 5.0, 6.3, 8.0, 10.0, 12.5, 16.0, 20.0, 25.0,
-                     31.5, 40.0, 50.0, 63.0, 80.0, 100.0, 125.0, 160.0, 200.0, 250.0,
-                     315.0, 400.0]
-ISO2631_TABLE3_WK = ["31.2", "48.6", "79.0", "121", "182", "263", "352", "418", "459", "477",
-                     "482", "484", "494", "531", "631", "804", "967", "1039", "1054", "1036",
-                     "988", "902", "768", "636", "513", "405", "314", "246", "186", "132",
-                     "88.7", "54.0", "28.5", "15.2", "7.90", "3.98", "1.95"]
+ISO2631_TABLE3_HZ = [
+    0.1,
+    0.125,
+    0.16,
+    0.2,
+    0.25,
+    0.315,
+    0.4,
+    0.5,
+    0.63,
+    0.8,
+    1.0,
+    1.25,
+    1.6,
+    2.0,
+    2.5,
+    3.15,
+    4.0,
+    5.0,
+    6.3,
+    8.0,
+    10.0,
+    12.5,
+    16.0,
+    20.0,
+    25.0,
+    31.5,
+    40.0,
+    50.0,
+    63.0,
+    80.0,
+    100.0,
+    125.0,
+    160.0,
+    200.0,
+    250.0,
+    315.0,
+    400.0,
+]
+ISO2631_TABLE3_WK = [
+    "31.2",
+    "48.6",
+    "79.0",
+    "121",
+    "182",
+    "263",
+    "352",
+    "418",
+    "459",
+    "477",
+    "482",
+    "484",
+    "494",
+    "531",
+    "631",
+    "804",
+    "967",
+    "1039",
+    "1054",
+    "1036",
+    "988",
+    "902",
+    "768",
+    "636",
+    "513",
+    "405",
+    "314",
+    "246",
+    "186",
+    "132",
+    "88.7",
+    "54.0",
+    "28.5",
+    "15.2",
+    "7.90",
+    "3.98",
+    "1.95",
+]
 
 
 def _last_digit(s):
@@ -55,7 +131,7 @@ def test_weighted_sine_amplitude_matches_table(f_hz, table):
     t = np.arange(0, 40, 1 / fs)
     aw = weighted_acceleration(A * np.sin(2 * np.pi * f_hz * t), fs)
     steady = aw[t >= 10]
-    amp = np.sqrt(2 * np.mean(steady ** 2))
+    amp = np.sqrt(2 * np.mean(steady**2))
     assert abs(amp / A - table) <= 0.5e-3 + 1e-4
 
 
@@ -89,20 +165,25 @@ def test_weighting_is_linear_and_time_invariant(rng):
     fs = 200.0
     a = rng.standard_normal(4000)
     b = rng.standard_normal(4000)
-    assert np.allclose(weighted_acceleration(2 * a + b, fs),
-                       2 * weighted_acceleration(a, fs) + weighted_acceleration(b, fs))
+    assert np.allclose(
+        weighted_acceleration(2 * a + b, fs),
+        2 * weighted_acceleration(a, fs) + weighted_acceleration(b, fs),
+    )
     shifted = weighted_acceleration(np.r_[np.zeros(100), a], fs)[100:]
     assert np.allclose(shifted, weighted_acceleration(a, fs), atol=1e-12)
 
 
-@pytest.mark.parametrize("value, words", [
-    (0.2, "not uncomfortable"),
-    (0.4, "a little uncomfortable"),
-    (0.55, "a little uncomfortable / fairly uncomfortable"),
-    (0.9, "fairly uncomfortable / uncomfortable"),
-    (1.4, "uncomfortable / very uncomfortable"),
-    (3.0, "extremely uncomfortable"),
-])
+@pytest.mark.parametrize(
+    "value, words",
+    [
+        (0.2, "not uncomfortable"),
+        (0.4, "a little uncomfortable"),
+        (0.55, "a little uncomfortable / fairly uncomfortable"),
+        (0.9, "fairly uncomfortable / uncomfortable"),
+        (1.4, "uncomfortable / very uncomfortable"),
+        (3.0, "extremely uncomfortable"),
+    ],
+)
 def test_comfort_category_follows_annex_c(value, words):
     assert comfort_category(value) == words
 
@@ -125,12 +206,16 @@ def test_each_single_figure_is_its_field_of_the_record_figures(rng):
     figures = comfort_figures(a, fs)
     aw = weighted_acceleration(a, fs)
     window = int(fs)
-    running = [np.mean(np.concatenate([np.zeros(window), aw ** 2])[k + 1:k + 1 + window])
-               for k in range(aw.size)]
-    independent = {"weighted_rms": np.sqrt(np.mean(aw ** 2)),
-                   "vdv": (np.sum(aw ** 4) / fs) ** 0.25,
-                   "peak": np.max(np.abs(aw)),
-                   "mtvv": np.sqrt(np.max(running))}
+    running = [
+        np.mean(np.concatenate([np.zeros(window), aw**2])[k + 1 : k + 1 + window])
+        for k in range(aw.size)
+    ]
+    independent = {
+        "weighted_rms": np.sqrt(np.mean(aw**2)),
+        "vdv": (np.sum(aw**4) / fs) ** 0.25,
+        "peak": np.max(np.abs(aw)),
+        "mtvv": np.sqrt(np.max(running)),
+    }
     for function in (weighted_rms, vdv, peak, mtvv):
         name = function.__name__
         assert function(a, fs) == getattr(figures, name), name
@@ -140,12 +225,15 @@ def test_each_single_figure_is_its_field_of_the_record_figures(rng):
         assert "%(" not in doc and "acceleration : (n,) array_like" in doc and "Raises" in doc
 
 
-@pytest.mark.parametrize("call", [
-    lambda fs: weighted_rms([0.0, 1.0], fs),
-    lambda fs: comfort_figures([0.0, 1.0], fs),
-    lambda fs: WkFilter(fs, 1),
-    lambda fs: head_acceleration(load_model("reduced-paper"), [0.0, 1.0], fs),
-])
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda fs: weighted_rms([0.0, 1.0], fs),
+        lambda fs: comfort_figures([0.0, 1.0], fs),
+        lambda fs: WkFilter(fs, 1),
+        lambda fs: head_acceleration(load_model("reduced-paper"), [0.0, 1.0], fs),
+    ],
+)
 @pytest.mark.parametrize("fs", [0.0, -1.0, float("nan"), float("inf"), "1000"])
 def test_every_entry_point_refuses_a_bad_rate_in_the_same_words(call, fs):
     with pytest.raises(BodyvibError, match=r"^sampling rate must be a positive number of Hz, got "):

@@ -4,16 +4,27 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from bodyvib.vehicle.quarter_car import load_car
+from bodyvib.vehicle.reference import reference_run
+from bodyvib.vehicle.road.synthetic import make_road, road_input
 from scipy import signal
 
-from bodyvib.comfort.figures import WK_PARAMETERS, comfort_category, comfort_figures, weighted_acceleration, wk_response
-from bodyvib.comfort.stream import (ComfortStream, WkFilter, stream_batch_figures,
-                                    stream_comfort_figures, wk_statespace)
-from bodyvib.runtime.errors import BodyvibError
+from bodyvib.comfort.figures import (
+    WK_PARAMETERS,
+    comfort_category,
+    comfort_figures,
+    weighted_acceleration,
+    wk_response,
+)
+from bodyvib.comfort.stream import (
+    ComfortStream,
+    WkFilter,
+    stream_batch_figures,
+    stream_comfort_figures,
+    wk_statespace,
+)
 from bodyvib.models import load_model
-from vehicle.quarter_car import load_car
-from vehicle.reference import reference_run
-from vehicle.road.synthetic import make_road, road_input
+from bodyvib.runtime.errors import BodyvibError
 
 
 @pytest.fixture(scope="module")
@@ -29,11 +40,17 @@ def _wk_lti():
     """Wk as one scipy transfer function, written out from ISO 2631-1 Annex A here."""
     P = WK_PARAMETERS
     w = {k: 2 * np.pi * P[k] for k in ("f1", "f2", "f3", "f4", "f5", "f6")}
-    num = np.polymul(np.polymul([1, 0, 0], [w["f2"] ** 2]),
-                     np.polymul([1 / w["f3"], 1], [1 / w["f5"] ** 2, 1 / (P["Q5"] * w["f5"]), 1]))
-    den = np.polymul(np.polymul([1, w["f1"] / P["Q1"], w["f1"] ** 2], [1, w["f2"] / P["Q1"], w["f2"] ** 2]),
-                     np.polymul([1 / w["f4"] ** 2, 1 / (P["Q4"] * w["f4"]), 1],
-                                [1 / w["f6"] ** 2, 1 / (P["Q6"] * w["f6"]), 1]))
+    num = np.polymul(
+        np.polymul([1, 0, 0], [w["f2"] ** 2]),
+        np.polymul([1 / w["f3"], 1], [1 / w["f5"] ** 2, 1 / (P["Q5"] * w["f5"]), 1]),
+    )
+    den = np.polymul(
+        np.polymul([1, w["f1"] / P["Q1"], w["f1"] ** 2], [1, w["f2"] / P["Q1"], w["f2"] ** 2]),
+        np.polymul(
+            [1 / w["f4"] ** 2, 1 / (P["Q4"] * w["f4"]), 1],
+            [1 / w["f6"] ** 2, 1 / (P["Q6"] * w["f6"]), 1],
+        ),
+    )
     num = np.polymul(num, [(w["f5"] / w["f6"]) ** 2])
     return signal.lti(num, den)
 
@@ -54,7 +71,7 @@ def test_filter_is_the_analog_filter_on_the_linear_interpolant(head):
     t = np.arange(head.size) * 1e-3
     _, ref, _ = signal.lsim(_wk_lti(), head, t, interp=True)
     got = WkFilter(1000.0, 1).update(head[None])[0]
-    scale = np.sqrt(np.mean(ref ** 2))
+    scale = np.sqrt(np.mean(ref**2))
     assert np.max(np.abs(got - ref)) < 1e-9 * scale
 
 
@@ -69,7 +86,7 @@ def test_figures_agree_with_fft_method_within_interpolation_error(head):
     aw = weighted_acceleration(head, fs)
     F = np.fft.rfftfreq(aw.size, 1 / fs)
     P = np.abs(np.fft.rfft(aw)) ** 2
-    predicted = -(np.pi / fs) ** 2 * np.sum(F ** 2 * P) / np.sum(P) / 3
+    predicted = -((np.pi / fs) ** 2) * np.sum(F**2 * P) / np.sum(P) / 3
     rel = got.weighted_rms / ref.weighted_rms - 1
     assert rel == pytest.approx(predicted, rel=0.1)
     for k in ("vdv", "peak"):  # the same attenuation, within its spread over frequency
@@ -87,7 +104,7 @@ def test_fft_method_on_a_fine_linear_interpolant_converges_to_the_filter(head):
     fine = np.interp(fine_t, np.arange(seg.size) * 1e-3, seg)
     ref = weighted_acceleration(fine, 1e4)[::10]
     got = WkFilter(1000.0, 1).update(seg[None])[0]
-    scale = np.sqrt(np.mean(ref ** 2))
+    scale = np.sqrt(np.mean(ref**2))
     assert np.sqrt(np.mean((got - ref) ** 2)) < 2e-5 * scale
 
 
@@ -99,7 +116,7 @@ def test_block_splitting_and_batching_do_not_change_figures(head):
     k = 0
     while k < batch.shape[1]:
         n = int(rng.integers(1, 3000))
-        s.update(batch[:, k:k + n])
+        s.update(batch[:, k : k + n])
         k += n
     split = s.figures()
     assert len(one) == len(split) == 3

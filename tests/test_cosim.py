@@ -12,15 +12,15 @@ import sys
 
 import numpy as np
 import pytest
+from bodyvib.vehicle.cosim import cosimulate, model_from_fmu, open_fmu, write_csv
+from bodyvib.vehicle.reference import nrmse, reference_run
+from bodyvib.vehicle.road.synthetic import make_road, road_input
+from bodyvib.vehicle.study import coupling_error_sweep, run_study
+from helpers import ROOT, run_cli
 
 from bodyvib.comfort.figures import weighted_rms
 from bodyvib.comfort.stream import stream_comfort_figures
 from bodyvib.runtime.errors import BodyvibError
-from helpers import ROOT, run_cli
-from vehicle.study import coupling_error_sweep, run_study
-from vehicle.cosim import cosimulate, model_from_fmu, open_fmu, write_csv
-from vehicle.reference import nrmse, reference_run
-from vehicle.road.synthetic import make_road, road_input
 
 pytestmark = pytest.mark.integration
 
@@ -28,12 +28,24 @@ pytestmark = pytest.mark.integration
 @pytest.fixture(scope="session")
 def fmus(python_fmus, tmp_path_factory):
     cushion = tmp_path_factory.mktemp("fmus_cushion")
-    subprocess.run([sys.executable, "-c",
-                    "import sys; from vehicle.fmus import build_project_fmu; "
-                    "build_project_fmu('QuarterCar', sys.argv[1], 'quarter-car-cushion')", str(cushion)],
-                   check=True, cwd=ROOT, capture_output=True)
-    return {"body": python_fmus["HumanBody3DOF"], "iso": python_fmus["HumanBodyISO7962"],
-            "car": python_fmus["QuarterCar"], "cushion": str(cushion / "QuarterCar.fmu")}
+    subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "import sys; from bodyvib.vehicle.fmus import build_project_fmu; "
+            "build_project_fmu('QuarterCar', sys.argv[1], 'quarter-car-cushion')",
+            str(cushion),
+        ],
+        check=True,
+        cwd=ROOT,
+        capture_output=True,
+    )
+    return {
+        "body": python_fmus["HumanBody3DOF"],
+        "iso": python_fmus["HumanBodyISO7962"],
+        "car": python_fmus["QuarterCar"],
+        "cushion": str(cushion / "QuarterCar.fmu"),
+    }
 
 
 @pytest.mark.parametrize("which", ["body", "iso"])
@@ -68,8 +80,9 @@ def test_cushion_car_co_simulates_against_its_reference(fmus):
     assert study.bodies["b"].coupling_nrmse <= 5e-4
     # the cushion's 3-4 Hz seat resonance changes the ride: not the rigid seat's figures
     rigid = run_study({"b": fmus["body"]}, fmus["car"], "C", 20.0, 5.0, 5e-4)
-    assert (study.bodies["b"].figures.weighted_rms
-            != pytest.approx(rigid.bodies["b"].figures.weighted_rms, rel=0.02))
+    assert study.bodies["b"].figures.weighted_rms != pytest.approx(
+        rigid.bodies["b"].figures.weighted_rms, rel=0.02
+    )
 
 
 def test_master_outputs_match_reference_signal_by_signal(fmus):
@@ -79,8 +92,16 @@ def test_master_outputs_match_reference_signal_by_signal(fmus):
     with open_fmu(fmus["car"], "car") as car, open_fmu(fmus["iso"], "body") as body:
         run = cosimulate(car, body, z, v, h)
     ref = reference_run(model_from_fmu(fmus["car"]), model_from_fmu(fmus["iso"]), z, v, h)
-    for k in ("seat_displacement", "seat_acceleration", "tire_force", "suspension_deflection",
-              "seat_force", "head_acceleration", "head_displacement", "torso_displacement"):
+    for k in (
+        "seat_displacement",
+        "seat_acceleration",
+        "tire_force",
+        "suspension_deflection",
+        "seat_force",
+        "head_acceleration",
+        "head_displacement",
+        "torso_displacement",
+    ):
         assert nrmse(run[k], ref[k]) < 2e-3, k
 
 
@@ -113,15 +134,18 @@ def _description_only_fmu(path, fmi):
     return str(path)
 
 
-@pytest.mark.parametrize("what, kind, message", [
-    ("junk", "body", r"'.*junk\.fmu' is not a readable FMU: File is not a zip file"),
-    ("fmi3", "body", r"FMU '.*fmi3\.fmu' is FMI 3\.0; FMI 2\.0 is needed"),
-    ("fmi2", "car", r"lacks the car interface: it is a body FMU \(give it to --body\)"),
-])
+@pytest.mark.parametrize(
+    "what, kind, message",
+    [
+        ("junk", "body", r"'.*junk\.fmu' is not a readable FMU: File is not a zip file"),
+        ("fmi3", "body", r"FMU '.*fmi3\.fmu' is FMI 3\.0; FMI 2\.0 is needed"),
+        ("fmi2", "car", r"lacks the car interface: it is a body FMU \(give it to --body\)"),
+    ],
+)
 def test_check_fmu_and_open_fmu_refuse_a_description_alike(tmp_path, what, kind, message):
     # both read the model description through one function: the same refusal, and open_fmu
     # makes it before extracting or instantiating anything
-    from vehicle.cosim import check_fmu
+    from bodyvib.vehicle.cosim import check_fmu
 
     path = tmp_path / f"{what}.fmu"
     if what == "junk":
@@ -136,7 +160,7 @@ def test_check_fmu_and_open_fmu_refuse_a_description_alike(tmp_path, what, kind,
 
 
 def test_a_description_that_passes_check_fmu_goes_on_to_the_binary(tmp_path):
-    from vehicle.cosim import check_fmu
+    from bodyvib.vehicle.cosim import check_fmu
 
     path = _description_only_fmu(tmp_path / "fmi2.fmu", 2)
     check_fmu(path, "body")  # the description is a valid FMI 2.0 body
@@ -154,13 +178,22 @@ def test_fmu_without_body_interface_is_refused(fmus):
             pass
 
 
-
 def test_check_cli_end_to_end(fmus, tmp_path):
     """`bodyvib check` with FMUs built by the command itself; JSON keys as documented
     and consistent with the CSV written in the same run (the weighted r.m.s. is
     recomputed from the CSV's head acceleration)."""
-    p = run_cli("check", "--duration", "6", "--json", "c.json", "--plot", "c.png", "--csv", "c.csv",
-             cwd=tmp_path)
+    p = run_cli(
+        "check",
+        "--duration",
+        "6",
+        "--json",
+        "c.json",
+        "--plot",
+        "c.png",
+        "--csv",
+        "c.csv",
+        cwd=tmp_path,
+    )
     assert p.returncode == 0, p.stderr
     assert "verdict: " in p.stdout
     doc = json.loads((tmp_path / "c.json").read_text())
@@ -170,8 +203,9 @@ def test_check_cli_end_to_end(fmus, tmp_path):
             assert np.isfinite(b[key]), key
         assert b["coupling_nrmse"] <= 5e-4
     assert doc["verdict"] in ("PASS", "FAIL")
-    assert doc["verdict"] == ("PASS" if all(c["passed"] for c in doc["check"]["criteria"])
-                              else "FAIL")
+    assert doc["verdict"] == (
+        "PASS" if all(c["passed"] for c in doc["check"]["criteria"]) else "FAIL"
+    )
     assert (tmp_path / "c.png").stat().st_size > 10000
     with open(tmp_path / "c.csv") as f:
         rows = list(csv.reader(f))
@@ -190,24 +224,40 @@ def test_check_cli_end_to_end(fmus, tmp_path):
 
 
 def test_cosim_cli_with_iso_body_fmu(fmus, tmp_path):
-    p = run_cli("cosim", "--road", "B", "--duration", "3", "--body", fmus["iso"], "--car-fmu",
-             fmus["car"], "--json", "r.json", "--quiet", cwd=tmp_path)
+    p = run_cli(
+        "cosim",
+        "--road",
+        "B",
+        "--duration",
+        "3",
+        "--body",
+        fmus["iso"],
+        "--car-fmu",
+        fmus["car"],
+        "--json",
+        "r.json",
+        "--quiet",
+        cwd=tmp_path,
+    )
     assert p.returncode == 0, p.stderr
     doc = json.loads((tmp_path / "r.json").read_text())
     assert list(doc["bodies"]) == ["HumanBodyISO7962"]
     assert doc["bodies"]["HumanBodyISO7962"]["coupling_nrmse"] <= 5e-4
 
 
-@pytest.mark.parametrize("args, words", [
-    (["--road", "Q"], "unknown road"),
-    (["--speed", "-3"], "speed must be a positive"),
-    (["--step", "0"], "step must be a positive"),
-    (["--duration", "-1"], "duration must be a positive"),
-    (["--body", "missing.fmu"], "does not exist"),
-    (["--seed", "-1"], "seed must be a non-negative integer"),
-    (["--car", "nope"], "unknown vehicle model 'nope'"),
-    (["--params", "missing.json"], "model file 'missing.json' does not exist"),
-])
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["--road", "Q"], "unknown road"),
+        (["--speed", "-3"], "speed must be a positive"),
+        (["--step", "0"], "step must be a positive"),
+        (["--duration", "-1"], "duration must be a positive"),
+        (["--body", "missing.fmu"], "does not exist"),
+        (["--seed", "-1"], "seed must be a non-negative integer"),
+        (["--car", "nope"], "unknown vehicle model 'nope'"),
+        (["--params", "missing.json"], "model file 'missing.json' does not exist"),
+    ],
+)
 def test_cli_errors_are_one_line(tmp_path, args, words):
     p = run_cli("cosim", "--quiet", *args, cwd=tmp_path)
     assert p.returncode == 2

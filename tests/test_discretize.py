@@ -6,9 +6,9 @@ import pytest
 import scipy.linalg
 from scipy.integrate import solve_ivp
 
+from bodyvib.models import load_model
 from bodyvib.runtime.discretize import Discretization, discretize, expm, simulate
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib.models import load_model
 from bodyvib.runtime.network import linear_model
 
 
@@ -68,9 +68,17 @@ def test_linear_input_step_is_exact_against_radau(name, h):
     for t0, t1 in ((0, 0.05), (0.05, 0.1), (0.1, t[-1])):
         seg = (t >= t0 - h / 2) & (t <= t1 + h / 2)
         x0, v0 = triangle_bump(np.array([t0 + 1e-12]))
-        sol = solve_ivp(lambda tau, z: lm.A @ z + lm.B @ np.array([x0[0] + v0[0] * (tau - t0), v0[0]]),
-                        (t0, t1), state, method="Radau", jac=lm.A, rtol=1e-10, atol=1e-16,
-                        t_eval=t[seg], dense_output=False)
+        sol = solve_ivp(
+            lambda tau, z: lm.A @ z + lm.B @ np.array([x0[0] + v0[0] * (tau - t0), v0[0]]),
+            (t0, t1),
+            state,
+            method="Radau",
+            jac=lm.A,
+            rtol=1e-10,
+            atol=1e-16,
+            t_eval=t[seg],
+            dense_output=False,
+        )
         state = sol.y[:, -1]
         xs = x0[0] + v0[0] * (sol.t - t0)
         ys = sol.y.T @ lm.C[i] + lm.D[i, 0] * xs + lm.D[i, 1] * v0[0]

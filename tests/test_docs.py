@@ -11,8 +11,8 @@ import re
 import subprocess
 
 import pytest
-
 from helpers import ROOT
+
 ARCH = os.path.join(ROOT, "docs", "architecture.md")
 
 
@@ -45,8 +45,11 @@ def test_every_reference_to_the_design_names_a_section_it_has():
 
 
 def test_no_reference_to_a_design_file_the_repository_lacks():
-    bad = [f for f in tracked() if f != "tests/test_docs.py"
-           and re.search(r"DESIGN\.md|shared/", text(f))]
+    bad = [
+        f
+        for f in tracked()
+        if f != "tests/test_docs.py" and re.search(r"DESIGN\.md|shared/", text(f))
+    ]
     assert not bad, bad
 
 
@@ -73,8 +76,11 @@ def test_readme_layout_lists_the_top_level_of_the_tree():
     readme = text("README.md")
     block = re.search(r"^## Layout\n+```\n(.*?)```", readme, re.M | re.S)
     assert block, "README has a Layout section with a code block"
-    listed = {ln.split()[0].rstrip("/").split("/")[0] for ln in block.group(1).splitlines()
-              if ln and not ln.startswith(" ")}
+    listed = {
+        ln.split()[0].rstrip("/").split("/")[0]
+        for ln in block.group(1).splitlines()
+        if ln and not ln.startswith(" ")
+    }
     top = {f.split("/")[0] for f in tracked()} - {".gitignore"}
     assert top <= listed, f"not in the README layout: {sorted(top - listed)}"
     assert listed <= top, f"listed but not in the tree: {sorted(listed - top)}"
@@ -87,7 +93,7 @@ def test_readme_layout_lists_the_top_level_of_the_tree():
 
 # -- cross-references resolve -------------------------------------------------
 ROLE = re.compile(r":(func|class|mod|meth|data|attr):`([^`]+)`")
-PACKAGES = ("bodyvib", "vehicle", "bodyvib_cli")
+PACKAGES = ("bodyvib", "vehicle", "bodyvib.cli")
 
 
 def module_of(path):
@@ -109,9 +115,17 @@ def _walk(obj, parts):
             obj = getattr(obj, part)
             continue
         last = i == len(parts) - 1
-        if last and inspect.isclass(obj) and (
-                (dataclasses.is_dataclass(obj) and part in {f.name for f in dataclasses.fields(obj)})
-                or re.search(rf"^\s*{re.escape(part)}\b.*:", inspect.getdoc(obj) or "", re.M)):
+        if (
+            last
+            and inspect.isclass(obj)
+            and (
+                (
+                    dataclasses.is_dataclass(obj)
+                    and part in {f.name for f in dataclasses.fields(obj)}
+                )
+                or re.search(rf"^\s*{re.escape(part)}\b.*:", inspect.getdoc(obj) or "", re.M)
+            )
+        ):
             return True
         return False
     return True
@@ -126,10 +140,14 @@ def resolves(target, context):
 
     target = target.strip().lstrip("~")
     if "<" in target:  # "title <target>"
-        target = target[target.index("<") + 1:target.rindex(">")]
+        target = target[target.index("<") + 1 : target.rindex(">")]
     if target.startswith(".") and context:  # relative to the current package
-        pkg = context if context in PACKAGES or os.path.basename(
-            importlib.import_module(context).__file__) == "__init__.py" else context.rpartition(".")[0]
+        pkg = (
+            context
+            if context in PACKAGES
+            or os.path.basename(importlib.import_module(context).__file__) == "__init__.py"
+            else context.rpartition(".")[0]
+        )
         target = f"{pkg}{target}"
     parts = target.split(".")
     for i in range(len(parts), 0, -1):
@@ -165,12 +183,15 @@ def test_every_cross_reference_resolves_to_a_real_object():
     assert not bad, bad
 
 
-@pytest.mark.parametrize("ref, context", [
-    ("bodyvib.network.LinearModel.output_index", None),   # the module moved
-    ("bodyvib.models.network_from_dict", None),           # the function moved
-    ("SIGNALS.nope", "vehicle.signals"),
-    ("no_such_name", "vehicle.cosim"),
-    ("bodyvib.runtime.engine.FmuCore.no_such_attribute", None),
-])
+@pytest.mark.parametrize(
+    "ref, context",
+    [
+        ("bodyvib.network.LinearModel.output_index", None),  # the module moved
+        ("bodyvib.models.network_from_dict", None),  # the function moved
+        ("SIGNALS.nope", "bodyvib.vehicle.signals"),
+        ("no_such_name", "bodyvib.vehicle.cosim"),
+        ("bodyvib.runtime.engine.FmuCore.no_such_attribute", None),
+    ],
+)
 def test_a_stale_reference_is_caught(ref, context):
     assert not resolves(ref, context)

@@ -1,11 +1,11 @@
-"""The two-panel frame of the study and road plots (vehicle.figure.stacked_panels)."""
+"""The two-panel frame of the study and road plots (bodyvib.plotting.stacked_panels)."""
 
 import os
 
 import pytest
 
+from bodyvib.plotting import stacked_panels
 from bodyvib.runtime.errors import BodyvibError
-from vehicle.figure import stacked_panels
 
 plt = pytest.importorskip("matplotlib.pyplot")
 

@@ -8,9 +8,15 @@ import stat
 
 import pytest
 
+from bodyvib.process.outputs import (
+    atomic_write_bytes,
+    atomic_write_text,
+    check_outputs,
+    open_staged,
+    staged_writes,
+    write_json,
+)
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib.process.outputs import (atomic_write_bytes, atomic_write_text, check_outputs,
-                                    open_staged, staged_writes, write_json)
 
 
 def _no_temporaries(folder):
@@ -52,10 +58,13 @@ def test_read_only_file_is_refused_or_keeps_its_mode(tmp_path):
     assert stat.S_IMODE(os.stat(p).st_mode) == 0o444
 
 
-@pytest.mark.parametrize("make, words", [
-    (lambda p: os.mkfifo(p), "FIFO"),
-    (lambda p: os.mkdir(p), "folder"),
-])
+@pytest.mark.parametrize(
+    "make, words",
+    [
+        (lambda p: os.mkfifo(p), "FIFO"),
+        (lambda p: os.mkdir(p), "folder"),
+    ],
+)
 def test_special_destinations_are_refused(tmp_path, make, words):
     p = tmp_path / "out.json"
     make(p)
@@ -105,8 +114,9 @@ def test_output_that_is_an_input_is_refused(tmp_path):
 
 def test_two_outputs_on_one_file_and_bad_extension_are_refused(tmp_path):
     with pytest.raises(BodyvibError, match="name the same file"):
-        check_outputs([("--json", str(tmp_path / "x.json"), None),
-                       ("--csv", str(tmp_path / "x.json"), None)])
+        check_outputs(
+            [("--json", str(tmp_path / "x.json"), None), ("--csv", str(tmp_path / "x.json"), None)]
+        )
     with pytest.raises(BodyvibError, match=r"must end in \.png"):
         check_outputs([("--plot", str(tmp_path / "result.txt"), (".png", ".pdf", ".svg"))])
     (tmp_path / "f").write_text("")

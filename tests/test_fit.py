@@ -5,28 +5,45 @@ import os
 
 import numpy as np
 import pytest
+from helpers import ROOT, dynamic_stiffness_response, run_cli
 from scipy.linalg import solve_continuous_lyapunov
 from scipy.signal import residue
 
 from bodyvib.analytic import characteristic_coefficients
-from bodyvib.runtime.errors import BodyvibError
 from bodyvib.fit.config import load_config, parse_pairs
-from bodyvib.fit.objective import impulse_response, measured_target, model_target, objective_frequency_domain, objective_time_domain, parameter_array, quadrature_grid
+from bodyvib.fit.objective import (
+    impulse_response,
+    measured_target,
+    model_target,
+    objective_frequency_domain,
+    objective_time_domain,
+    parameter_array,
+    quadrature_grid,
+)
 from bodyvib.fit.result import write_parameter_file
 from bodyvib.fit.search import fit
-from bodyvib.fit.space import GENES, genes_to_parameters, parameters_to_genes, reduced_network, REDUCED_PARAMETERS
+from bodyvib.fit.space import (
+    GENES,
+    REDUCED_PARAMETERS,
+    genes_to_parameters,
+    parameters_to_genes,
+    reduced_network,
+)
+from bodyvib.frequency.measured import (
+    MIN_ROWS,
+    MeasuredTransmissibility,
+    read_transmissibility_csv,
+    write_transmissibility_csv,
+)
 from bodyvib.frequency.response import displacement_input_statespace, transmissibility
-from bodyvib.frequency.measured import (MIN_ROWS, MeasuredTransmissibility, read_transmissibility_csv,
-                              write_transmissibility_csv)
 from bodyvib.models import load_model
+from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import linear_model
-from helpers import ROOT, dynamic_stiffness_response, run_cli
 
 COMMITTED = os.path.join(ROOT, "params", "refit-iso7962.json")
 COMMITTED_COMMAND = "bodyvib fit --reference iso7962 --seed 1 --out params/refit-iso7962.json"
 #: Small GA settings for tests that only need "some search happened".
 SMALL = {"restarts": 1, "ga": {"population": 30, "generations": 25}}
-
 
 
 @pytest.fixture(scope="module")
@@ -50,7 +67,7 @@ def h2_norm_squared(reference, reduced, role):
         lm = linear_model(net)
         ss = displacement_input_statespace(lm)
         i = lm.output_index(f"{role}.x")
-        parts.append((np.asarray(ss.A), np.asarray(ss.B), np.asarray(ss.C)[i:i + 1]))
+        parts.append((np.asarray(ss.A), np.asarray(ss.B), np.asarray(ss.C)[i : i + 1]))
     (A1, B1, C1), (A2, B2, C2) = parts
     n1, n2 = A1.shape[0], A2.shape[0]
     A = np.block([[A1, np.zeros((n1, n2))], [np.zeros((n2, n1)), A2]])
@@ -64,9 +81,9 @@ def h2_norm_squared(reference, reduced, role):
 def test_quadrature_integrates_a_rational_tail_exactly():
     # |1/(1+jw)^3|^2 at w = f: int_0^inf (1+f^2)^-3 df = 3 pi / 16, and its f^-6 tail
     f, w = quadrature_grid()
-    assert w @ (1 + f ** 2) ** -3 == pytest.approx(3 * np.pi / 16, rel=1e-10)
+    assert w @ (1 + f**2) ** -3 == pytest.approx(3 * np.pi / 16, rel=1e-10)
     f, w = quadrature_grid(f_split_hz=2.0)  # most of the integral in the mapped tail
-    assert w @ (1 + f ** 2) ** -3 == pytest.approx(3 * np.pi / 16, rel=1e-9)
+    assert w @ (1 + f**2) ** -3 == pytest.approx(3 * np.pi / 16, rel=1e-9)
 
 
 def test_impulse_response_equals_partial_fractions_of_the_analytic_tf(paper):
@@ -134,8 +151,7 @@ def test_time_domain_objective_equals_parseval_by_nodal_analysis(paper, role):
     p = paper.parameters
     other = paper.with_parameters(k1=1.3 * p["k1"], c2=0.7 * p["c2"], m1=0.9 * p["m1"])
     f = np.concatenate([[0.0], np.geomspace(1e-3, 2e3, 80001)])
-    dH = (dynamic_stiffness_response(paper, f, role)
-          - dynamic_stiffness_response(other, f, role))
+    dH = dynamic_stiffness_response(paper, f, role) - dynamic_stiffness_response(other, f, role)
     expected = 2 * np.trapezoid(np.abs(dH) ** 2, f)
     got = objective_time_domain(paper, other, {role: 1.0})
     assert got == pytest.approx(expected, rel=1e-6)
@@ -207,7 +223,8 @@ def test_committed_refit_beats_table2_and_is_what_the_command_makes(iso, paper):
     # on the definition (time domain), for the committed pairs and for the head alone
     assert objective_time_domain(iso, refit, pairs) < 0.5 * objective_time_domain(iso, paper, pairs)
     assert objective_time_domain(iso, refit, {"head": 1}) < 0.5 * objective_time_domain(
-        iso, paper, {"head": 1})
+        iso, paper, {"head": 1}
+    )
     assert refit.total_mass() == pytest.approx(iso.total_mass(), rel=1e-12)
     assert prov["scale_pinning"]["total_mass_kg"] == pytest.approx(75.0)
     for key in ("date", "bodyvib_version", "algorithm", "reference_model"):
@@ -215,8 +232,11 @@ def test_committed_refit_beats_table2_and_is_what_the_command_makes(iso, paper):
     assert prov["algorithm"]["seed"] == 1
     # rerunning the default fit (under a second) reproduces it
     r = fit(model_target("iso7962"), seed=1)
-    np.testing.assert_allclose([r.parameters[k] for k in REDUCED_PARAMETERS],
-                               [refit.parameters[k] for k in REDUCED_PARAMETERS], rtol=1e-6)
+    np.testing.assert_allclose(
+        [r.parameters[k] for k in REDUCED_PARAMETERS],
+        [refit.parameters[k] for k in REDUCED_PARAMETERS],
+        rtol=1e-6,
+    )
     assert r.objective == pytest.approx(prov["objective"]["value_per_s"], rel=1e-9)
 
 
@@ -273,36 +293,63 @@ def write_csv(path, text):
 GOOD_ROWS = "".join(f"{f},{1 + f / 50},{-f}\n" for f in range(1, MIN_ROWS + 2))
 
 
-@pytest.mark.parametrize("text, match", [
-    ("frequency_hz,phase_deg\n" + "1,2\n" * 10, "missing column.*modulus"),
-    ("1.0,1.0\n2.0,1.1\n", "missing column"),  # no header row
-    ("frequency_hz,modulus\n" + "".join(f"{f},{1}\n" for f in (1, 2, 3, 3, 4, 5, 6, 7, 8)),
-     "line 5: frequency_hz = 3 does not increase"),
-    ("frequency_hz,modulus\n" + "".join(f"{f},{1}\n" for f in (1, 2, 5, 4, 6, 7, 8, 9, 10)),
-     "line 5.*sort the rows"),
-    ("frequency_hz,modulus\n1,1\n2,nan\n" + "".join(f"{f},1\n" for f in range(3, 10)),
-     "line 3: modulus is nan"),
-    ("frequency_hz,modulus,phase_deg\n1,1,0\n2,1,NaN\n" + "".join(f"{f},1,0\n" for f in range(3, 10)),
-     "phase_deg is NaN"),
-    ("frequency_hz,modulus\n1,1\n2,-0.5\n" + "".join(f"{f},1\n" for f in range(3, 10)),
-     "line 3: modulus = -0.5 is negative"),
-    ("frequency_hz,modulus\n1,1\n2,abc\n" + "".join(f"{f},1\n" for f in range(3, 10)),
-     "'abc' is not a number"),
-    ("frequency_hz,modulus\n0,1\n" + "".join(f"{f},1\n" for f in range(1, 10)),
-     "must be positive"),
-    ("frequency_hz,modulus\n1,1\n2,1\n", f"at least {MIN_ROWS}"),
-    ("frequency_hz,modulus\n1,1\n2\n" + "".join(f"{f},1\n" for f in range(3, 10)),
-     "line 3: 1 value"),
-    ("", "empty file"),
-    # all-zero modulus: a ZeroDivisionError traceback in the fit
-    ("frequency_hz,modulus\n" + "".join(f"{f},0\n" for f in range(1, 11)), "every modulus is 0"),
-    # a modulus of 1e300 wrote a parameter file holding Infinity
-    ("frequency_hz,modulus\n1,1\n2,1e300\n" + "".join(f"{f},1\n" for f in range(3, 11)),
-     "line 3: modulus = 1e.300 is not a plausible"),
-    # a duplicated column was accepted (the first one silently used)
-    ("frequency_hz,modulus,modulus\n" + "".join(f"{f},1,2\n" for f in range(1, 11)),
-     "column.s. modulus named more than once"),
-])
+@pytest.mark.parametrize(
+    "text, match",
+    [
+        ("frequency_hz,phase_deg\n" + "1,2\n" * 10, "missing column.*modulus"),
+        ("1.0,1.0\n2.0,1.1\n", "missing column"),  # no header row
+        (
+            "frequency_hz,modulus\n" + "".join(f"{f},{1}\n" for f in (1, 2, 3, 3, 4, 5, 6, 7, 8)),
+            "line 5: frequency_hz = 3 does not increase",
+        ),
+        (
+            "frequency_hz,modulus\n" + "".join(f"{f},{1}\n" for f in (1, 2, 5, 4, 6, 7, 8, 9, 10)),
+            "line 5.*sort the rows",
+        ),
+        (
+            "frequency_hz,modulus\n1,1\n2,nan\n" + "".join(f"{f},1\n" for f in range(3, 10)),
+            "line 3: modulus is nan",
+        ),
+        (
+            "frequency_hz,modulus,phase_deg\n1,1,0\n2,1,NaN\n"
+            + "".join(f"{f},1,0\n" for f in range(3, 10)),
+            "phase_deg is NaN",
+        ),
+        (
+            "frequency_hz,modulus\n1,1\n2,-0.5\n" + "".join(f"{f},1\n" for f in range(3, 10)),
+            "line 3: modulus = -0.5 is negative",
+        ),
+        (
+            "frequency_hz,modulus\n1,1\n2,abc\n" + "".join(f"{f},1\n" for f in range(3, 10)),
+            "'abc' is not a number",
+        ),
+        (
+            "frequency_hz,modulus\n0,1\n" + "".join(f"{f},1\n" for f in range(1, 10)),
+            "must be positive",
+        ),
+        ("frequency_hz,modulus\n1,1\n2,1\n", f"at least {MIN_ROWS}"),
+        (
+            "frequency_hz,modulus\n1,1\n2\n" + "".join(f"{f},1\n" for f in range(3, 10)),
+            "line 3: 1 value",
+        ),
+        ("", "empty file"),
+        # all-zero modulus: a ZeroDivisionError traceback in the fit
+        (
+            "frequency_hz,modulus\n" + "".join(f"{f},0\n" for f in range(1, 11)),
+            "every modulus is 0",
+        ),
+        # a modulus of 1e300 wrote a parameter file holding Infinity
+        (
+            "frequency_hz,modulus\n1,1\n2,1e300\n" + "".join(f"{f},1\n" for f in range(3, 11)),
+            "line 3: modulus = 1e.300 is not a plausible",
+        ),
+        # a duplicated column was accepted (the first one silently used)
+        (
+            "frequency_hz,modulus,modulus\n" + "".join(f"{f},1,2\n" for f in range(1, 11)),
+            "column.s. modulus named more than once",
+        ),
+    ],
+)
 def test_malformed_measured_csv_is_refused(tmp_path, text, match):
     p = write_csv(tmp_path / "t.csv", text)
     with pytest.raises(BodyvibError, match=match):
@@ -310,18 +357,28 @@ def test_malformed_measured_csv_is_refused(tmp_path, text, match):
 
 
 def test_measured_csv_reads_comments_extra_columns_and_optional_phase(tmp_path):
-    p = write_csv(tmp_path / "t.csv", "# subject 3\nFrequency_Hz,modulus,phase_deg,coherence\n"
-                  + "".join(f"{f},{1 + f / 50},{-f},0.9\n" for f in range(1, 11)))
+    p = write_csv(
+        tmp_path / "t.csv",
+        "# subject 3\nFrequency_Hz,modulus,phase_deg,coherence\n"
+        + "".join(f"{f},{1 + f / 50},{-f},0.9\n" for f in range(1, 11)),
+    )
     m = read_transmissibility_csv(p)
     assert m.has_phase and m.frequency_hz.size == 10
     np.testing.assert_allclose(m.complex()[0], 1.02 * np.exp(-1j * np.radians(1)))
-    p2 = write_csv(tmp_path / "u.csv", "frequency_hz,modulus\n"
-                   + "".join(f"{f},{1 + f / 50}\n" for f in range(1, 11)))
+    p2 = write_csv(
+        tmp_path / "u.csv",
+        "frequency_hz,modulus\n" + "".join(f"{f},{1 + f / 50}\n" for f in range(1, 11)),
+    )
     assert not read_transmissibility_csv(p2).has_phase
 
 
-@pytest.mark.parametrize("rows", ["".join(f"{f},0\n" for f in range(1, 11)),
-                                  "1,1\n2,1e300\n" + "".join(f"{f},1\n" for f in range(3, 11))])
+@pytest.mark.parametrize(
+    "rows",
+    [
+        "".join(f"{f},0\n" for f in range(1, 11)),
+        "1,1\n2,1e300\n" + "".join(f"{f},1\n" for f in range(3, 11)),
+    ],
+)
 def test_cli_refuses_zero_or_huge_moduli_and_writes_nothing(tmp_path, rows):
     p = write_csv(tmp_path / "m.csv", "frequency_hz,modulus\n" + rows)
     r = run_cli("fit", "--measured", str(p), "--out", str(tmp_path / "x.json"), "--quiet")
@@ -337,6 +394,7 @@ def test_fit_output_equal_to_an_input_is_refused_before_work(tmp_path, option):
     save = load_model("iso7962") if option == "--reference" else None
     if save is not None:
         from bodyvib.models import save_model
+
         save_model(save, inp)
     else:
         inp.write_text("{}\n")
@@ -347,8 +405,10 @@ def test_fit_output_equal_to_an_input_is_refused_before_work(tmp_path, option):
 
 
 def test_cli_reports_a_bad_csv_in_one_line(tmp_path):
-    p = write_csv(tmp_path / "bad.csv", "frequency_hz,modulus\n1,1\n2,-1\n"
-                  + "".join(f"{f},1\n" for f in range(3, 10)))
+    p = write_csv(
+        tmp_path / "bad.csv",
+        "frequency_hz,modulus\n1,1\n2,-1\n" + "".join(f"{f},1\n" for f in range(3, 10)),
+    )
     r = run_cli("fit", "--measured", str(p), "--out", str(tmp_path / "x.json"), "--quiet")
     assert r.returncode == 2
     assert r.stderr.count("\n") == 1 and "negative" in r.stderr and "Traceback" not in r.stderr
@@ -356,7 +416,7 @@ def test_cli_reports_a_bad_csv_in_one_line(tmp_path):
 
 
 def weighted_rms(x, w):
-    return float(np.sqrt(np.sum(w * x ** 2) / np.sum(w)))
+    return float(np.sqrt(np.sum(w * x**2) / np.sum(w)))
 
 
 NOISE = 0.02  # relative modulus noise (1 sigma); the phase gets the same in radians
@@ -376,7 +436,7 @@ def noise_bound(target):
     free ratios, N_eff = (sum w)^2 / sum w^2 the effective number of points of the
     trapezoid weights (the log-spaced points weigh unequally). Relative to |T|."""
     w = target.weights
-    return 3 * NOISE * np.sqrt(len(GENES) / (w.sum() ** 2 / (w ** 2).sum()))
+    return 3 * NOISE * np.sqrt(len(GENES) / (w.sum() ** 2 / (w**2).sum()))
 
 
 @pytest.mark.parametrize("phase", [True, False])
@@ -399,8 +459,9 @@ def test_fit_to_noisy_iso_data_is_as_close_to_iso_as_the_noise_allows(iso, phase
     ISO model's than the noise-free refit's (the reduced model's own limit) plus the
     noise's least-squares bound."""
     T = transmissibility(iso, F_DATA)
-    clean = MeasuredTransmissibility(F_DATA, np.abs(T), np.degrees(np.unwrap(np.angle(T)))
-                                     if phase else None, "iso-clean")
+    clean = MeasuredTransmissibility(
+        F_DATA, np.abs(T), np.degrees(np.unwrap(np.angle(T))) if phase else None, "iso-clean"
+    )
     t_clean = measured_target(clean)
     r_clean = fit(t_clean, seed=1)
     t_noisy = measured_target(noisy_data(iso, seed=0, phase=phase))
@@ -413,8 +474,9 @@ def test_fit_to_noisy_iso_data_is_as_close_to_iso_as_the_noise_allows(iso, phase
 
     assert err(r_noisy) < err(r_clean) + noise_bound(t_noisy)
     # the noise-free fit is the best on noise-free data (the search found the optimum)
-    assert r_clean.objective <= t_clean.objective(parameter_array(
-        reduced_network(r_noisy.parameters))) * (1 + 1e-9)
+    assert r_clean.objective <= t_clean.objective(
+        parameter_array(reduced_network(r_noisy.parameters))
+    ) * (1 + 1e-9)
     assert r_clean.objective < r_clean.objective_table2
     assert reduced_network(r_noisy.parameters).total_mass() == pytest.approx(75.0)
 
@@ -426,8 +488,20 @@ def test_measured_fit_through_the_cli_with_report(tmp_path, iso):
     cfg = tmp_path / "small.json"
     cfg.write_text(json.dumps(SMALL))
     out, rep = tmp_path / "refit.json", tmp_path / "report"
-    r = run_cli("fit", "--measured", str(csv), "--total-mass", "82", "--config", str(cfg),
-                "--out", str(out), "--report", str(rep), "--quiet")
+    r = run_cli(
+        "fit",
+        "--measured",
+        str(csv),
+        "--total-mass",
+        "82",
+        "--config",
+        str(cfg),
+        "--out",
+        str(out),
+        "--report",
+        str(rep),
+        "--quiet",
+    )
     assert r.returncode == 0, r.stderr
     net = load_model(out)
     assert net.name == "reduced-refit-subject"
@@ -443,8 +517,9 @@ def test_measured_fit_through_the_cli_with_report(tmp_path, iso):
 def test_cli_default_fit_with_report(tmp_path, iso, paper):
     """The command a user runs: parameter file, provenance, and the comparison report."""
     out, rep = tmp_path / "params" / "refit.json", tmp_path / "rep"
-    r = run_cli("fit", "--reference", "iso7962", "--seed", "1", "--out", str(out),
-                "--report", str(rep))
+    r = run_cli(
+        "fit", "--reference", "iso7962", "--seed", "1", "--out", str(out), "--report", str(rep)
+    )
     assert r.returncode == 0, r.stderr
     assert "wrote" in r.stdout
     refit = load_model(out)
@@ -455,10 +530,13 @@ def test_cli_default_fit_with_report(tmp_path, iso, paper):
     assert o["refit"]["total_per_s"] < o["table2"]["total_per_s"]
     # the report's numbers are the time-domain definition too
     assert o["table2"]["time_domain_per_s"] == pytest.approx(
-        objective_time_domain(iso, paper), rel=1e-9)
+        objective_time_domain(iso, paper), rel=1e-9
+    )
     # peaks against the ISO model: the paper's 1.446 at 4.43 Hz (the README, "The models")
     assert cmp["transmissibility_peaks"]["table2"][0]["modulus"] == pytest.approx(1.446, abs=5e-4)
-    assert cmp["transmissibility_peaks"]["target"][0]["frequency_hz"] == pytest.approx(4.45, abs=0.01)
+    assert cmp["transmissibility_peaks"]["target"][0]["frequency_hz"] == pytest.approx(
+        4.45, abs=0.01
+    )
     md = (rep / "comparison.md").read_text()
     assert "objective J" in md and "apparent mass" in md
     assert (rep / "transmissibility.png").read_bytes()[:4] == b"\x89PNG"
@@ -468,8 +546,16 @@ def test_cli_default_fit_with_report(tmp_path, iso, paper):
 
 
 def test_cli_refuses_conflicting_options(tmp_path):
-    r = run_cli("fit", "--reference", "iso7962", "--total-mass", "80", "--quiet",
-                "--out", str(tmp_path / "x.json"))
+    r = run_cli(
+        "fit",
+        "--reference",
+        "iso7962",
+        "--total-mass",
+        "80",
+        "--quiet",
+        "--out",
+        str(tmp_path / "x.json"),
+    )
     assert r.returncode == 2 and "--total-mass" in r.stderr
     r = run_cli("fit", "--reference", "nosuchmodel", "--quiet", "--out", str(tmp_path / "x.json"))
     assert r.returncode == 2 and "unknown model" in r.stderr
@@ -478,13 +564,15 @@ def test_cli_refuses_conflicting_options(tmp_path):
 def test_recorded_command_reproduces_the_polish_choice():
     """The provenance's command dropped an explicit --polish, so with a configuration that
     disables the polish it would not remake the file."""
-    from bodyvib_cli.main import build_parser
-    from bodyvib_cli.fit import _command_line
+    from bodyvib.cli.fit import _command_line
+    from bodyvib.cli.main import build_parser
 
     parser = build_parser()
     for extra in ([], ["--polish"], ["--no-polish"]):
         args = parser.parse_args(["fit", "--config", "c.json", "--out", "o.json"] + extra)
         again = parser.parse_args(_command_line(args).split()[1:])
         assert again.polish == args.polish and again.config == "c.json"
-    assert _command_line(parser.parse_args(["fit", "--out", "params/refit-iso7962.json"])) \
+    assert (
+        _command_line(parser.parse_args(["fit", "--out", "params/refit-iso7962.json"]))
         == COMMITTED_COMMAND
+    )

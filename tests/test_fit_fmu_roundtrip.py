@@ -18,16 +18,21 @@ import zipfile
 import numpy as np
 import pytest
 
+from bodyvib.models import load_model
 from bodyvib.runtime.contract import MODEL_FILE
 from bodyvib.runtime.discretize import simulate
-from bodyvib.models import load_model
 from bodyvib.runtime.network import linear_model
 
 pytestmark = pytest.mark.integration
 
 from helpers import ROOT
-OUTPUTS = {"head_acceleration": "head.a", "head_displacement": "head.x",
-           "torso_displacement": "torso.x", "seat_force": "seat_force"}
+
+OUTPUTS = {
+    "head_acceleration": "head.a",
+    "head_displacement": "head.x",
+    "torso_displacement": "torso.x",
+    "seat_force": "seat_force",
+}
 
 RUN_FMU = textwrap.dedent(f"""
     import json, sys
@@ -53,15 +58,43 @@ RUN_FMU = textwrap.dedent(f"""
 
 def test_refit_flows_into_the_rebuilt_fmu(tmp_path):
     refit_file = tmp_path / "refit.json"
-    fit = subprocess.run([sys.executable, "-m", "bodyvib_cli", "fit", "--reference", "iso7962",
-                          "--seed", "1", "--out", str(refit_file), "--quiet"],
-                         capture_output=True, text=True, timeout=300)
+    fit = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "bodyvib.cli",
+            "fit",
+            "--reference",
+            "iso7962",
+            "--seed",
+            "1",
+            "--out",
+            str(refit_file),
+            "--quiet",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert fit.returncode == 0, fit.stderr
     refit = load_model(refit_file)
 
-    build = subprocess.run([sys.executable, "build_fmu.py", "--params", str(refit_file),
-                            "--dest", str(tmp_path), "--fmus", "HumanBody3DOF"], cwd=ROOT,
-                           capture_output=True, text=True, timeout=300)
+    build = subprocess.run(
+        [
+            sys.executable,
+            "build_fmu.py",
+            "--params",
+            str(refit_file),
+            "--dest",
+            str(tmp_path),
+            "--fmus",
+            "HumanBody3DOF",
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert build.returncode == 0, build.stdout + build.stderr
     fmu_path = tmp_path / "HumanBody3DOF.fmu"
 
@@ -69,8 +102,11 @@ def test_refit_flows_into_the_rebuilt_fmu(tmp_path):
     # (the build rewrites pythonfmu's 16-digit values with repr)
     with zipfile.ZipFile(fmu_path) as zf:
         root = ET.fromstring(zf.read("modelDescription.xml"))
-    starts = {sv.get("name"): float(sv.find("Real").get("start"))
-              for sv in root.iter("ScalarVariable") if sv.get("causality") == "parameter"}
+    starts = {
+        sv.get("name"): float(sv.find("Real").get("start"))
+        for sv in root.iter("ScalarVariable")
+        if sv.get("causality") == "parameter"
+    }
     assert set(starts) == set(refit.parameters)
     for name, value in refit.parameters.items():
         assert starts[name] == value, name
@@ -81,8 +117,12 @@ def test_refit_flows_into_the_rebuilt_fmu(tmp_path):
         baked = json.loads(zf.read("resources/" + MODEL_FILE))
     assert baked["units"] == dict(refit.units)
 
-    run = subprocess.run([sys.executable, "-c", RUN_FMU, str(fmu_path), ",".join(OUTPUTS)],
-                         capture_output=True, text=True, timeout=300)
+    run = subprocess.run(
+        [sys.executable, "-c", RUN_FMU, str(fmu_path), ",".join(OUTPUTS)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert run.returncode == 0, run.stderr[-3000:]
     res = json.loads(run.stdout.strip().splitlines()[-1])
     # the FMU runs with the refit's values, bit for bit

@@ -20,8 +20,12 @@ HANDBOOK = {"m1": 8.25, "k2s": 65e9}
 
 def peak(net, lo, hi):
     """A |T| maximum by a bounded scalar search (xatol 1e-9 Hz)."""
-    r = minimize_scalar(lambda f: -abs(transmissibility(net, [f])[0]), bounds=(lo, hi),
-                        method="bounded", options={"xatol": 1e-9})
+    r = minimize_scalar(
+        lambda f: -abs(transmissibility(net, [f])[0]),
+        bounds=(lo, hi),
+        method="bounded",
+        options={"xatol": 1e-9},
+    )
     return -r.fun, r.x
 
 

@@ -5,27 +5,39 @@ import json
 
 import numpy as np
 import pytest
+from helpers import ROOT, run_cli
 from scipy.optimize import minimize_scalar
 
 from bodyvib.fit.config import load_config
 from bodyvib.fit.objective import model_target, parameter_array
-from bodyvib.fit.pareto import (_GRID, FREQUENCY_TOLERANCE_HZ, MODULUS_TOLERANCE, chosen_points,
-                                pareto_front, peak_error, peaks, reference_peak, write_pareto)
+from bodyvib.fit.pareto import (
+    _GRID,
+    FREQUENCY_TOLERANCE_HZ,
+    MODULUS_TOLERANCE,
+    chosen_points,
+    pareto_front,
+    peak_error,
+    peaks,
+    reference_peak,
+    write_pareto,
+)
 from bodyvib.fit.space import REDUCED_PARAMETERS
 from bodyvib.frequency.response import transmissibility
 from bodyvib.models import load_model
-from helpers import ROOT, run_cli
 
 #: A short NSGA-II for tests (the shipped 100 x 200 takes a few seconds).
 SMALL = {"pareto": {"population": 40, "generations": 40}}
 SHIPPED = load_model(f"{ROOT}/params/refit-iso7962.json")
 
 
-
 def exact_peak(net, f0):
     """The |T| maximum by a bounded scalar search on the state-space response."""
-    r = minimize_scalar(lambda f: -abs(transmissibility(net, [f])[0]), bounds=(0.9 * f0, 1.1 * f0),
-                        method="bounded", options={"xatol": 1e-10})
+    r = minimize_scalar(
+        lambda f: -abs(transmissibility(net, [f])[0]),
+        bounds=(0.9 * f0, 1.1 * f0),
+        method="bounded",
+        options={"xatol": 1e-10},
+    )
     return -r.fun, r.x
 
 
@@ -41,8 +53,8 @@ def test_peaks_match_a_scalar_search_on_the_state_space_response(name):
         net = SHIPPED if name == "refit" else load_model(name)
         m, f = peaks(parameter_array(net))
     m_exact, f_exact = exact_peak(net, f)
-    assert m == pytest.approx(m_exact, rel=h ** 3)
-    assert f == pytest.approx(f_exact, rel=h ** 2)
+    assert m == pytest.approx(m_exact, rel=h**3)
+    assert f == pytest.approx(f_exact, rel=h**2)
 
 
 def test_peak_error_is_in_units_of_the_check_tolerances():
@@ -71,8 +83,9 @@ def test_front_is_non_dominated_and_its_min_J_end_is_the_refit(front):
     assert J.min() == pytest.approx(SHIPPED.provenance["objective"]["value_per_s"], rel=1e-9)
     # the values are what they claim: recompute the objective and the peak error
     np.testing.assert_allclose(front.target.objective(front.parameters), J, rtol=1e-12)
-    np.testing.assert_allclose(peak_error(peaks(front.parameters), front.reference_peak), e,
-                               rtol=1e-12)
+    np.testing.assert_allclose(
+        peak_error(peaks(front.parameters), front.reference_peak), e, rtol=1e-12
+    )
     # every point keeps the pinned total mass
     np.testing.assert_allclose(front.parameters[:, 0] + front.parameters[:, 1], 75.0, rtol=1e-12)
 
@@ -91,13 +104,21 @@ def test_front_files_parse_and_carry_provenance(front, tmp_path):
         assert str(path) in files
         net = load_model(path)  # a model every command reads
         prov = json.loads(path.read_text())["provenance"]
-        for key in ("method", "seed", "objectives", "reference_model", "date", "bodyvib_version",
-                    "library"):
+        for key in (
+            "method",
+            "seed",
+            "objectives",
+            "reference_model",
+            "date",
+            "bodyvib_version",
+            "library",
+        ):
             assert prov[key] is not None, key
         assert prov["method"] == "NSGA-II" and prov["reference_model"] == "iso7962"
         assert prov["objectives"]["J_per_s"] == pytest.approx(front.objective[i])
         assert float(front.target.objective(parameter_array(net))) == pytest.approx(
-            front.objective[i], rel=1e-9)
+            front.objective[i], rel=1e-9
+        )
 
 
 def test_cli_pareto_errors_are_one_line(tmp_path):
@@ -118,22 +139,36 @@ def test_cli_pareto_errors_are_one_line(tmp_path):
 def test_check_report_points_to_the_front_when_the_peak_fails():
     from types import SimpleNamespace as NS
 
-    from vehicle.check import Comparison, Criterion
-    from vehicle.report import PEAK_HINT, format_report
+    from bodyvib.vehicle.check import Comparison, Criterion
+    from bodyvib.vehicle.report import PEAK_HINT, format_report
 
     peak = NS(to_dict=lambda: {"modulus": 1.45, "frequency_hz": 4.3})
-    body = NS(figures=NS(weighted_rms=1.0, vdv=3.0, peak=4.0, crest_factor=4.0, mtvv=1.2,
-                         comfort="uncomfortable"),
-              transmissibility=NS(peak=peak), coupling_nrmse=3e-4, real_time_factor=30.0,
-              seat_figures=NS(weighted_rms=0.9))
-    study = NS(settings=NS(speed_m_s=20, duration_s=30, step_s=1e-3, master="m"),
-               road={"name": "C"}, bodies={"A": body, "B": body})
+    body = NS(
+        figures=NS(
+            weighted_rms=1.0, vdv=3.0, peak=4.0, crest_factor=4.0, mtvv=1.2, comfort="uncomfortable"
+        ),
+        transmissibility=NS(peak=peak),
+        coupling_nrmse=3e-4,
+        real_time_factor=30.0,
+        seat_figures=NS(weighted_rms=0.9),
+    )
+    study = NS(
+        settings=NS(speed_m_s=20, duration_s=30, step_s=1e-3, master="m"),
+        road={"name": "C"},
+        bodies={"A": body, "B": body},
+    )
 
     def comparison(passed):
-        c = Criterion(name="transmissibility_peak", reduced=1.45, iso=1.67, difference=0.13,
-                      tolerance=0.1, unit="", passed=passed)
-        return Comparison(reduced="A", iso="B", criteria=[c],
-                          verdict="PASS" if passed else "FAIL")
+        c = Criterion(
+            name="transmissibility_peak",
+            reduced=1.45,
+            iso=1.67,
+            difference=0.13,
+            tolerance=0.1,
+            unit="",
+            passed=passed,
+        )
+        return Comparison(reduced="A", iso="B", criteria=[c], verdict="PASS" if passed else "FAIL")
 
     assert PEAK_HINT in format_report(study, comparison(False)).splitlines()
     assert "--pareto" not in format_report(study, comparison(True))

@@ -11,13 +11,16 @@ from bodyvib.models import load_model
 from bodyvib.runtime.errors import BodyvibError
 
 
-@pytest.mark.parametrize("args, kwargs, words", [
-    (("body",), {"backend": "pythonfmu", "fmi": 3}, "pythonfmu FMUs are FMI 2.0 only"),
-    (("seat",), {}, "unknown FMU kind 'seat'; kinds are body, car, source"),
-    (("body",), {"backend": "modelica"}, "unknown FMU backend 'modelica'"),
-    (("body",), {"backend": "native", "fmi": 1}, "FMI version must be 2 or 3"),
-    (("source",), {}, "a source FMU is built from (meta, table)"),
-])
+@pytest.mark.parametrize(
+    "args, kwargs, words",
+    [
+        (("body",), {"backend": "pythonfmu", "fmi": 3}, "pythonfmu FMUs are FMI 2.0 only"),
+        (("seat",), {}, "unknown FMU kind 'seat'; kinds are body, car, source"),
+        (("body",), {"backend": "modelica"}, "unknown FMU backend 'modelica'"),
+        (("body",), {"backend": "native", "fmi": 1}, "FMI version must be 2 or 3"),
+        (("source",), {}, "a source FMU is built from (meta, table)"),
+    ],
+)
 def test_build_refuses_what_does_not_exist_before_any_work(tmp_path, args, kwargs, words):
     with pytest.raises(BodyvibError) as err:
         build(load_model("reduced-paper"), *args, "X", "", tmp_path / "out", **kwargs)

@@ -42,14 +42,15 @@ import numpy as np
 import pytest
 from memcheck import freed_memory_errors, memcheck
 
+from bodyvib.models import load_model
 from bodyvib.runtime.contract import BODY_OUTPUTS
 from bodyvib.runtime.discretize import simulate
-from bodyvib.models import load_model
 from bodyvib.runtime.network import linear_model
 
 pytestmark = pytest.mark.integration
 
 from helpers import ROOT
+
 HOST_SOURCE = os.path.join(ROOT, "tests", "c_host", "fmi2_host.c")
 MODEL_OF = {"HumanBody3DOF": "reduced-paper", "HumanBodyISO7962": "iso7962"}
 BODY_OUT = list(BODY_OUTPUTS[:4])  # the four the host reads (not seat_force_rate)
@@ -61,11 +62,14 @@ FMI_OK, FMI_DISCARD = 0, 2
 
 def libpython():
     """The running interpreter's shared libpython (skip if it was built without one)."""
-    path = os.path.join(sysconfig.get_config_var("LIBDIR") or "",
-                        sysconfig.get_config_var("LDLIBRARY") or "")
+    path = os.path.join(
+        sysconfig.get_config_var("LIBDIR") or "", sysconfig.get_config_var("LDLIBRARY") or ""
+    )
     if not sysconfig.get_config_var("Py_ENABLE_SHARED") or not os.path.isfile(path):
-        pytest.skip(f"{sys.executable} was built without a shared libpython ({path}); a C host "
-                    "cannot run pythonfmu FMUs with it")
+        pytest.skip(
+            f"{sys.executable} was built without a shared libpython ({path}); a C host "
+            "cannot run pythonfmu FMUs with it"
+        )
     return path
 
 
@@ -84,12 +88,17 @@ def host_env(preload=True, home=True):
 
     env = {"LD_PRELOAD": libpython()} if preload else {}
     if home:
-        env["PYTHONHOME"] = (sys.base_prefix if sys.base_prefix == sys.base_exec_prefix
-                             else f"{sys.base_prefix}:{sys.base_exec_prefix}")
+        env["PYTHONHOME"] = (
+            sys.base_prefix
+            if sys.base_prefix == sys.base_exec_prefix
+            else f"{sys.base_prefix}:{sys.base_exec_prefix}"
+        )
     site = os.path.dirname(os.path.dirname(numpy.__file__))
     base = sysconfig.get_paths(vars={"base": sys.base_prefix, "platbase": sys.base_exec_prefix})
-    if os.path.realpath(site) not in {os.path.realpath(base["purelib"]),
-                                      os.path.realpath(base["platlib"])}:
+    if os.path.realpath(site) not in {
+        os.path.realpath(base["purelib"]),
+        os.path.realpath(base["platlib"]),
+    }:
         env["PYTHONPATH"] = site
     return env
 
@@ -103,9 +112,27 @@ def host(tmp_path_factory):
 
     exe = str(tmp_path_factory.mktemp("c_host") / "fmi2_host")
     headers = os.path.join(os.path.dirname(fmpy.__file__), "c-code")
-    out = subprocess.run([gcc, "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror",
-                          "-ffp-contract=off", "-I", headers, HOST_SOURCE, "-o", exe, "-ldl", "-lm"],
-                         capture_output=True, text=True, timeout=120)
+    out = subprocess.run(
+        [
+            gcc,
+            "-std=c99",
+            "-O2",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-ffp-contract=off",
+            "-I",
+            headers,
+            HOST_SOURCE,
+            "-o",
+            exe,
+            "-ldl",
+            "-lm",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert out.returncode == 0, out.stderr
     return exe
 
@@ -122,15 +149,24 @@ def extracted(path, folder):
 
     md = read_model_description(path)
     vr = {v.name: v.valueReference for v in md.modelVariables}
-    return [str(extract(path, unzipdir=str(folder))), md.coSimulation.modelIdentifier, md.guid,
-            f"{vr['seat_displacement']},{vr['seat_velocity']}",
-            ",".join(str(vr[n]) for n in BODY_OUT)]
+    return [
+        str(extract(path, unzipdir=str(folder))),
+        md.coSimulation.modelIdentifier,
+        md.guid,
+        f"{vr['seat_displacement']},{vr['seat_velocity']}",
+        ",".join(str(vr[n]) for n in BODY_OUT),
+    ]
 
 
 def run_host(host, fmu_args, *options, env=None, cwd=None):
-    return subprocess.run([host, *options, *fmu_args, repr(STEP), str(N_STEPS)],
-                          capture_output=True, text=True, timeout=120, cwd=cwd,
-                          env=host_env() if env is None else env)
+    return subprocess.run(
+        [host, *options, *fmu_args, repr(STEP), str(N_STEPS)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=cwd,
+        env=host_env() if env is None else env,
+    )
 
 
 def parse(stdout):
@@ -194,8 +230,10 @@ def test_c_host_exit_does_not_touch_freed_memory(host, fmus, tmp_path):
     the check sees the bug when it is there. Both runs exit 0: the damage is silent here,
     which is why valgrind is the judge."""
     args = extracted(fmus["HumanBody3DOF"], tmp_path)
-    runs = {opt: memcheck([host, *opt, *args, repr(STEP), str(N_STEPS)], env=host_env())
-            for opt in [(), ("--skip-finalize",)]}
+    runs = {
+        opt: memcheck([host, *opt, *args, repr(STEP), str(N_STEPS)], env=host_env())
+        for opt in [(), ("--skip-finalize",)]
+    }
     logs = {}
     for opt, proc in runs.items():
         stdout, logs[opt] = proc.communicate(timeout=600)
@@ -265,20 +303,29 @@ def test_readme_command_runs_the_c_host(host, fmus, tmp_path):
     PYTHONHOME is for)."""
     with open(os.path.join(ROOT, "README.md"), encoding="utf-8") as f:
         readme = f.read()
-    section = readme[readme.index("## FMUs"):]
-    section = section[:section.index("\n## ", 5)]
+    section = readme[readme.index("## FMUs") :]
+    section = section[: section.index("\n## ", 5)]
     (block,) = [b for b in re.findall(r"```bash\n(.*?)```", section, re.S) if "LD_PRELOAD" in b]
     args = extracted(fmus["HumanBody3DOF"], tmp_path / "fmu")
     command = " ".join(shlex.quote(a) for a in [host, *args, repr(STEP), str(N_STEPS)])
     assert block.startswith("PY=python3 ") and block.rstrip().endswith("host ...")
-    script = f"PY={shlex.quote(sys.executable)} " + block.split(" ", 1)[1].rstrip()[:-len("host ...")]
-    env = {k: v for k, v in os.environ.items()
-           if k not in ("LD_PRELOAD", "PYTHONHOME", "PYTHONPATH")}
+    script = (
+        f"PY={shlex.quote(sys.executable)} " + block.split(" ", 1)[1].rstrip()[: -len("host ...")]
+    )
+    env = {
+        k: v for k, v in os.environ.items() if k not in ("LD_PRELOAD", "PYTHONHOME", "PYTHONPATH")
+    }
     env.update({k: v for k, v in host_env().items() if k == "PYTHONPATH"})  # the venv case
     fake = fake_prefix(tmp_path)
     env["PATH"] = os.pathsep.join([str(fake / "bin"), env.get("PATH", os.defpath)])
-    run = subprocess.run(["bash", "-c", script + command], capture_output=True, text=True,
-                         timeout=120, env=env, cwd=str(fake))
+    run = subprocess.run(
+        ["bash", "-c", script + command],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=env,
+        cwd=str(fake),
+    )
     check_run(run, "HumanBody3DOF")
 
 

@@ -17,15 +17,14 @@ import textwrap
 
 import numpy as np
 import pytest
+from bodyvib.vehicle.quarter_car import load_car
 
-from bodyvib.runtime.discretize import simulate
-from bodyvib.runtime.errors import BodyvibError
+from bodyvib.models import load_model, save_model
 from bodyvib.runtime.contract import MODEL_FILE
+from bodyvib.runtime.discretize import simulate
 from bodyvib.runtime.engine import FmuCore
-from bodyvib.models import load_model
-from bodyvib.models import save_model
+from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import linear_model
-from vehicle.quarter_car import load_car
 
 BODY_OUT = ("head.a", "head.x", "torso.x", "seat_force")
 
@@ -77,7 +76,7 @@ def test_body_core_equals_library_simulation(model, grid):
     x, v = seat_motion(t)
     core = FmuCore("body", net, "Body")
     core.initialize()
-    y = run_core(core, t, np.c_[x, v])[:, :len(BODY_OUT)]  # seat_force_rate: its own test
+    y = run_core(core, t, np.c_[x, v])[:, : len(BODY_OUT)]  # seat_force_rate: its own test
     lm = linear_model(net)
     _, ref = simulate(lm, t, np.c_[x, v])
     ref = ref[:, [lm.output_index(o) for o in BODY_OUT]]
@@ -152,12 +151,15 @@ def test_static_equilibrium_body_and_car():
     assert tire == pytest.approx(F, rel=1e-9)
 
 
-@pytest.mark.parametrize("name, value", [("m1", 0.0), ("m2", -65.0), ("k1", -1.0),
-                                         ("c2", float("nan")), ("ks", float("inf"))])
+@pytest.mark.parametrize(
+    "name, value",
+    [("m1", 0.0), ("m2", -65.0), ("k1", -1.0), ("c2", float("nan")), ("ks", float("inf"))],
+)
 def test_invalid_parameter_refused_at_initialization(name, value):
     logged = []
-    core = FmuCore("body", load_model("reduced-paper"), "HumanBody3DOF",
-                   log=lambda m, lvl: logged.append(m))
+    core = FmuCore(
+        "body", load_model("reduced-paper"), "HumanBody3DOF", log=lambda m, lvl: logged.append(m)
+    )
     vr = [v.name for v in core.variables].index(name)
     core.set_real([vr], [value])
     with pytest.raises(BodyvibError, match=rf"parameter {name} = .* invalid.*positive finite"):
@@ -174,7 +176,7 @@ def test_parameters_set_before_initialization_are_used():
     core.initialize()
     t = np.arange(0, 0.3, 1e-3)
     x, v = seat_motion(t)
-    y = run_core(core, t, np.c_[x, v])[:, :len(BODY_OUT)]  # seat_force_rate: its own test
+    y = run_core(core, t, np.c_[x, v])[:, : len(BODY_OUT)]  # seat_force_rate: its own test
     lm = linear_model(net.with_parameters(m1=6.0, ks=5e5))
     _, ref = simulate(lm, t, np.c_[x, v])
     ref = ref[:, [lm.output_index(o) for o in BODY_OUT]]
@@ -184,7 +186,9 @@ def test_parameters_set_before_initialization_are_used():
 
 def test_parameter_after_initialization_is_ignored_and_logged():
     logged = []
-    core = FmuCore("body", load_model("reduced-paper"), "B", log=lambda m, lvl: logged.append((lvl, m)))
+    core = FmuCore(
+        "body", load_model("reduced-paper"), "B", log=lambda m, lvl: logged.append((lvl, m))
+    )
     core.initialize()
     m1 = [v.name for v in core.variables].index("m1")
     core.set_real([m1], [1.0])
@@ -280,18 +284,21 @@ def _states():
     return body, body.get_state()
 
 
-@pytest.mark.parametrize("change, words", [
-    (lambda s: s.update(kind="car"), "belongs to another FMU"),
-    (lambda s: s.update(parameter_names=s["parameter_names"][::-1]), "belongs to another FMU"),
-    (lambda s: s.update(buf=s["buf"][:-1]), "buf has shape"),
-    (lambda s: s.update(params=s["params"] + [1.0]), "params has shape"),
-    (lambda s: s["params"].__setitem__(0, -4.88), "parameter m1 = -4.88 kg is invalid"),
-    (lambda s: s["params"].__setitem__(2, float("nan")), "parameter k1 = nan"),
-    (lambda s: s["buf"].__setitem__(0, float("inf")), "not finite"),
-    (lambda s: s.pop("time"), "not a state of a bodyvib FMU"),
-    (lambda s: s.update(bad="no"), "malformed input flags"),
-    (lambda s: s.update(buf=["x"] * len(s["buf"])), "non-numeric"),
-])
+@pytest.mark.parametrize(
+    "change, words",
+    [
+        (lambda s: s.update(kind="car"), "belongs to another FMU"),
+        (lambda s: s.update(parameter_names=s["parameter_names"][::-1]), "belongs to another FMU"),
+        (lambda s: s.update(buf=s["buf"][:-1]), "buf has shape"),
+        (lambda s: s.update(params=s["params"] + [1.0]), "params has shape"),
+        (lambda s: s["params"].__setitem__(0, -4.88), "parameter m1 = -4.88 kg is invalid"),
+        (lambda s: s["params"].__setitem__(2, float("nan")), "parameter k1 = nan"),
+        (lambda s: s["buf"].__setitem__(0, float("inf")), "not finite"),
+        (lambda s: s.pop("time"), "not a state of a bodyvib FMU"),
+        (lambda s: s.update(bad="no"), "malformed input flags"),
+        (lambda s: s.update(buf=["x"] * len(s["buf"])), "non-numeric"),
+    ],
+)
 def test_foreign_or_invalid_state_is_refused_and_nothing_changes(change, words):
     """A deserialized state with negative parameters was accepted."""
     core, state = _states()
@@ -317,22 +324,37 @@ def test_interfaces_follow_the_design_table():
     body = FmuCore("body", load_model("reduced-paper"))
     table = [(v.name, v.causality, v.unit) for v in body.variables]
     assert table[:8] == [
-        ("seat_displacement", "input", "m"), ("seat_velocity", "input", "m/s"),
-        ("seat_acceleration", "input", "m/s2"), ("head_acceleration", "output", "m/s2"), ("head_displacement", "output", "m"),
-        ("torso_displacement", "output", "m"), ("seat_force", "output", "N"),
-        ("seat_force_rate", "output", "N/s")]
+        ("seat_displacement", "input", "m"),
+        ("seat_velocity", "input", "m/s"),
+        ("seat_acceleration", "input", "m/s2"),
+        ("head_acceleration", "output", "m/s2"),
+        ("head_displacement", "output", "m"),
+        ("torso_displacement", "output", "m"),
+        ("seat_force", "output", "N"),
+        ("seat_force_rate", "output", "N/s"),
+    ]
     assert [v.name for v in body.parameters] == ["m1", "m2", "k1", "k2", "ks", "c1", "c2"]
     assert [v.unit for v in body.parameters] == ["kg", "kg", "N/m", "N/m", "N/m", "N.s/m", "N.s/m"]
     iso = FmuCore("body", load_model("iso7962"))
     assert sorted(v.name for v in iso.parameters) == sorted(
-        [f"m{i}" for i in range(1, 5)] + [f"k{i}" for i in range(1, 5)]
-        + [f"k{i}s" for i in range(1, 5)] + [f"c{i}" for i in range(1, 5)])
+        [f"m{i}" for i in range(1, 5)]
+        + [f"k{i}" for i in range(1, 5)]
+        + [f"k{i}s" for i in range(1, 5)]
+        + [f"c{i}" for i in range(1, 5)]
+    )
     assert all(v.min > 0 for v in iso.parameters)
     car = FmuCore("car", load_car())
     assert [v.name for v in car.variables if v.causality != "parameter"] == [
-        "road_displacement", "road_velocity", "seat_force", "seat_force_rate",
-        "seat_displacement", "seat_velocity", "sprung_acceleration",
-        "suspension_deflection", "tire_force"]
+        "road_displacement",
+        "road_velocity",
+        "seat_force",
+        "seat_force_rate",
+        "seat_displacement",
+        "seat_velocity",
+        "sprung_acceleration",
+        "suspension_deflection",
+        "tire_force",
+    ]
     # feedthrough: seat force on seat displacement, its rate on both inputs (C B and
     # D through the displacement's rate); car acceleration on seat force, tire force
     # on road displacement
@@ -340,26 +362,55 @@ def test_interfaces_follow_the_design_table():
     assert car.output_dependencies() == [[], [], [2], [], [0]]
 
 
-
 #: The car interface as the contract hard-coded it before the extra outputs became
 #: data (fmu_outputs of the car's parameter file): value reference, name, unit,
 #: description; the descriptions of the seat outputs name the seat mass.
 _CAR_BEFORE = [
     (0, "road_displacement", "input", "m", "Road profile height under the tire"),
-    (1, "road_velocity", "input", "m/s", "Road profile vertical velocity; also the slope of "
-        "road_displacement over the coming step"),
-    (2, "seat_force", "input", "N", "Force the occupant exerts on the seat, positive in "
-        "compression (pushes the car body down)"),
-    (3, "seat_force_rate", "input", "N/s", "Optional slope of seat_force over the coming step "
-        "(0, the default, holds seat_force)"),
+    (
+        1,
+        "road_velocity",
+        "input",
+        "m/s",
+        "Road profile vertical velocity; also the slope of road_displacement over the coming step",
+    ),
+    (
+        2,
+        "seat_force",
+        "input",
+        "N",
+        "Force the occupant exerts on the seat, positive in compression (pushes the car body down)",
+    ),
+    (
+        3,
+        "seat_force_rate",
+        "input",
+        "N/s",
+        "Optional slope of seat_force over the coming step (0, the default, holds seat_force)",
+    ),
     (4, "seat_displacement", "output", "m", "Seat point ({seat}) vertical displacement"),
     (5, "seat_velocity", "output", "m/s", "Seat point ({seat}) vertical velocity"),
-    (6, "sprung_acceleration", "output", "m/s2",
-     "Absolute vertical acceleration of the mass under the seat ({seat})"),
-    (7, "suspension_deflection", "output", "m", "Suspension deflection, sprung minus unsprung "
-        "displacement (positive in extension)"),
-    (8, "tire_force", "output", "N", "Dynamic tire force, positive in compression "
-        "(perturbation about the static wheel load)"),
+    (
+        6,
+        "sprung_acceleration",
+        "output",
+        "m/s2",
+        "Absolute vertical acceleration of the mass under the seat ({seat})",
+    ),
+    (
+        7,
+        "suspension_deflection",
+        "output",
+        "m",
+        "Suspension deflection, sprung minus unsprung displacement (positive in extension)",
+    ),
+    (
+        8,
+        "tire_force",
+        "output",
+        "N",
+        "Dynamic tire force, positive in compression (perturbation about the static wheel load)",
+    ),
 ]
 
 
@@ -373,14 +424,20 @@ def test_car_interface_from_data_is_the_one_hard_coded_before(car, seat):
     got = [(i, v.name, v.causality, v.unit, v.description) for i, v in enumerate(variables[:9])]
     assert got == [(i, n, c, u, d.format(seat=seat)) for i, n, c, u, d in _CAR_BEFORE]
     assert all(v.causality == "parameter" for v in variables[9:])
-    assert iface.output_signals == ("seat.x", "seat.v", "seat.a", "suspension.deflection",
-                                    "tire.force")
+    assert iface.output_signals == (
+        "seat.x",
+        "seat.v",
+        "seat.a",
+        "suspension.deflection",
+        "tire.force",
+    )
     assert iface.rate_pairs == ((0, 1), (2, 3))
 
 
 def _car_dict(**changes):
-    with open(os.path.join(os.path.dirname(__file__), "..", "vehicle", "data",
-                           "quarter-car.json")) as f:
+    with open(
+        os.path.join(os.path.dirname(__file__), "..", "vehicle", "data", "quarter-car.json")
+    ) as f:
         d = json.load(f)
     d.update(changes)
     return d
@@ -405,26 +462,38 @@ def test_car_without_fmu_outputs_has_the_seat_outputs_only():
     assert core.get_real([4])[0] < 0  # the seat force pushes the car body down
 
 
-@pytest.mark.parametrize("outputs, match", [
-    ({"name": "x"}, r"fmu_outputs\[0\] must be an object with exactly the fields"),
-    ("tire_force", "'fmu_outputs' must be a list"),
-    ({"name": "tire force", "signal": "tire.force", "unit": "N", "description": "d"},
-     "must be a unique identifier"),
-    ({"name": "f", "signal": "tire.stretch", "unit": "N", "description": "d"},
-     "signal 'tire.stretch' is not an output of the model"),
-    ({"name": "f", "signal": "roof.a", "unit": "m/s2", "description": "d"},
-     "signal 'roof.a' is not an output"),
-    ({"name": "f", "signal": "tire.force", "unit": "kN", "description": "d"},
-     "unit 'kN' is not one of"),
-    ({"name": "f", "signal": "tire.force", "unit": "N", "description": 3},
-     r"fmu_outputs\[0\].description must be a non-empty string"),
-])
+@pytest.mark.parametrize(
+    "outputs, match",
+    [
+        ({"name": "x"}, r"fmu_outputs\[0\] must be an object with exactly the fields"),
+        ("tire_force", "'fmu_outputs' must be a list"),
+        (
+            {"name": "tire force", "signal": "tire.force", "unit": "N", "description": "d"},
+            "must be a unique identifier",
+        ),
+        (
+            {"name": "f", "signal": "tire.stretch", "unit": "N", "description": "d"},
+            "signal 'tire.stretch' is not an output of the model",
+        ),
+        (
+            {"name": "f", "signal": "roof.a", "unit": "m/s2", "description": "d"},
+            "signal 'roof.a' is not an output",
+        ),
+        (
+            {"name": "f", "signal": "tire.force", "unit": "kN", "description": "d"},
+            "unit 'kN' is not one of",
+        ),
+        (
+            {"name": "f", "signal": "tire.force", "unit": "N", "description": 3},
+            r"fmu_outputs\[0\].description must be a non-empty string",
+        ),
+    ],
+)
 def test_bad_fmu_outputs_are_refused_naming_the_field(outputs, match):
     from bodyvib.runtime.modelfile import network_from_dict
 
     with pytest.raises(BodyvibError, match=match):
-        network_from_dict(_car_dict(fmu_outputs=outputs if isinstance(outputs, str)
-                                    else [outputs]))
+        network_from_dict(_car_dict(fmu_outputs=outputs if isinstance(outputs, str) else [outputs]))
 
 
 def test_fmu_output_clashing_with_the_interface_is_refused():
@@ -435,6 +504,7 @@ def test_fmu_output_clashing_with_the_interface_is_refused():
     d["fmu_outputs"][0]["name"] = "seat_velocity"
     with pytest.raises(BodyvibError, match="'seat_velocity' is declared twice"):
         fmu_variables("car", network_from_dict(d))
+
 
 BLOCKER = textwrap.dedent("""
     import sys
@@ -465,8 +535,14 @@ def test_runtime_package_needs_numpy_only(tmp_path):
               {'scipy', 'control', 'matplotlib', 'bodyvib'}))
     """)
     env = dict(os.environ, PYTHONPATH=str(tmp_path))
-    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env,
-                         capture_output=True, text=True, timeout=120)
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert out.returncode == 0, out.stderr
     force, mods = out.stdout.split("\n")[:2]
     assert math.isfinite(float(force)) and float(force) != 0.0
@@ -477,21 +553,31 @@ def load_slave_class(name):
     """The FMU's slave script, rendered as the build renders it, run against the library."""
     import types
 
+    from bodyvib.vehicle.fmus import FMUS
+
     from bodyvib.fmu.pythonfmu import render_slave_script
-    from vehicle.fmus import FMUS
 
     kind, _, description = FMUS[name]
     mod = types.ModuleType(f"slave_{name}")
-    exec(compile(render_slave_script(name, kind, description, "bodyvib.runtime"), f"<{name} slave>",
-                 "exec"), mod.__dict__)
+    exec(
+        compile(
+            render_slave_script(name, kind, description, "bodyvib.runtime"),
+            f"<{name} slave>",
+            "exec",
+        ),
+        mod.__dict__,
+    )
     return mod
 
 
-@pytest.mark.parametrize("cls, model", [
-    ("HumanBody3DOF", "reduced-paper"),
-    ("HumanBodyISO7962", "iso7962"),
-    ("QuarterCar", None),
-])
+@pytest.mark.parametrize(
+    "cls, model",
+    [
+        ("HumanBody3DOF", "reduced-paper"),
+        ("HumanBodyISO7962", "iso7962"),
+        ("QuarterCar", None),
+    ],
+)
 def test_slave_class_in_plain_python(tmp_path, cls, model):
     """pythonfmu style: the slave class without building the FMU."""
     pytest.importorskip("pythonfmu")
@@ -504,7 +590,7 @@ def test_slave_class_in_plain_python(tmp_path, cls, model):
     slave.exit_initialization_mode()
     assert slave.do_step(0.0, 1e-3) is True
     slave.set_real([0], [float("nan")])
-    assert slave.do_step(1e-3, 1e-3) is False           # refused, not raised
+    assert slave.do_step(1e-3, 1e-3) is False  # refused, not raised
     assert "not finite" in slave.log_queue[-1].msg
     assert slave.do_step(1e-3, -1.0) is False
     slave.set_real([0], [0.0])
@@ -590,14 +676,16 @@ def test_unconnected_seat_velocity_falls_back_to_the_slope_with_one_warning():
     core.initialize()
     y = _seat_run(core, t, x)
     assert [lvl for lvl, _ in logged] == ["warning"]
-    assert "seat_displacement moves" in logged[0][1] and "seat_velocity was never set" in logged[0][1]
+    assert (
+        "seat_displacement moves" in logged[0][1] and "seat_velocity was never set" in logged[0][1]
+    )
     assert core.get_real([1]) == [0.0]  # the input reads back as set
     lm = linear_model(net)
     v = np.where(t >= 0.1, 0.05, 0.0)
     cols = [lm.output_index(o) for o in BODY_OUT]
-    yref = simulate(lm, t, np.c_[x, v])[1][:, cols]                       # velocity connected
+    yref = simulate(lm, t, np.c_[x, v])[1][:, cols]  # velocity connected
     yheld = simulate(lm, t, np.c_[x, v], du=np.zeros((t.size, 2)))[1][:, cols]  # seat held
-    rms = lambda e: np.sqrt(np.mean(e ** 2, axis=0))  # noqa: E731
+    rms = lambda e: np.sqrt(np.mean(e**2, axis=0))  # noqa: E731
     err, err_held = rms(y[:, :4] - yref) / rms(yref), rms(yheld - yref) / rms(yref)
     # held: the seat force misses ks v h / 2 throughout (66 % r.m.s. here); the slope is
     # one step late once, at the ramp's start (measured 1.3 %; head acceleration 0.44 %
@@ -671,8 +759,12 @@ def test_seat_acceleration_makes_a_parabolic_seat_exact(model):
     coarse.do_step(0.0, 4e-3)
     for k in range(40):
         fine.do_step(k * 1e-4, 1e-4)
-    np.testing.assert_allclose(model_state(coarse), model_state(fine), rtol=1e-9,
-                               atol=1e-12 * np.abs(model_state(fine)).max())
+    np.testing.assert_allclose(
+        model_state(coarse),
+        model_state(fine),
+        rtol=1e-9,
+        atol=1e-12 * np.abs(model_state(fine)).max(),
+    )
     x, v, a = coarse.get_real([0, 1, 2])
     assert x == pytest.approx(x0 + v0 * 4e-3 + a0 * 8e-6, rel=1e-12)
     assert v == pytest.approx(v0 + a0 * 4e-3, rel=1e-12) and a == a0

@@ -1,7 +1,7 @@
 """One modelDescription.xml writer for both FMU kinds (bodyvib.fmu.description).
 
 References: the FMU contract's cores (bodyvib.runtime.engine.FmuCore,
-bodyvib.runtime.source.SourceCore: variables by value reference, output dependencies),
+bodyvib.runtime.tabulated.SourceCore: variables by value reference, output dependencies),
 the native FMI 2.0 FMU of the same model (co-simulation and Model Exchange), and the
 pythonfmu FMU run with and without its modelDescription.xml.
 """
@@ -23,9 +23,15 @@ NAMES = ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar", "Road")
 
 #: Co-simulation flags whose meaning both kinds share (the others differ by design: the
 #: native FMU interpolates inputs, gives output derivatives and directional derivatives).
-SHARED_FLAGS = ("modelIdentifier", "needsExecutionTool", "canHandleVariableCommunicationStepSize",
-                "canBeInstantiatedOnlyOncePerProcess", "canNotUseMemoryManagementFunctions",
-                "canGetAndSetFMUstate", "canSerializeFMUstate")
+SHARED_FLAGS = (
+    "modelIdentifier",
+    "needsExecutionTool",
+    "canHandleVariableCommunicationStepSize",
+    "canBeInstantiatedOnlyOncePerProcess",
+    "canNotUseMemoryManagementFunctions",
+    "canGetAndSetFMUstate",
+    "canSerializeFMUstate",
+)
 
 
 def _root(path):
@@ -35,9 +41,10 @@ def _root(path):
 
 def _core(name):
     """The core a pythonfmu FMU of the project runs (the contract both kinds declare)."""
+    from bodyvib.vehicle.fmus import FMUS, ROAD_DEFAULTS, _road_source, load_fmu_model
+
     from bodyvib.runtime.engine import FmuCore
-    from bodyvib.runtime.source import SourceCore
-    from vehicle.fmus import FMUS, ROAD_DEFAULTS, _road_source, load_fmu_model
+    from bodyvib.runtime.tabulated import SourceCore
 
     kind = FMUS[name][0]
     if kind == "source":
@@ -71,35 +78,45 @@ def test_both_kinds_write_the_same_description_of_the_contract(python_fmu_dir, n
     py, nat = _root(python_fmu_dir / f"{name}.fmu"), _root(native_dist / f"{name}.fmu")
     core = _core(name)
     n = len(core.variables)
-    for attr in ("fmiVersion", "modelName", "description", "author", "version",
-                 "variableNamingConvention"):
+    for attr in (
+        "fmiVersion",
+        "modelName",
+        "description",
+        "author",
+        "version",
+        "variableNamingConvention",
+    ):
         assert py.get(attr) == nat.get(attr), attr
     assert py.find("ModelExchange") is None and nat.find("ModelExchange") is not None
-    assert [py.find("CoSimulation").get(f) for f in SHARED_FLAGS] == \
-        [nat.find("CoSimulation").get(f) for f in SHARED_FLAGS]
+    assert [py.find("CoSimulation").get(f) for f in SHARED_FLAGS] == [
+        nat.find("CoSimulation").get(f) for f in SHARED_FLAGS
+    ]
     assert py.find("DefaultExperiment").attrib == nat.find("DefaultExperiment").attrib
 
     py_vars = py.findall("ModelVariables/ScalarVariable")
     nat_vars = nat.findall("ModelVariables/ScalarVariable")
     assert len(py_vars) == n and all(v.get("causality") == "local" for v in nat_vars[n:])
     assert [_text(v) for v in py_vars] == [_text(v) for v in nat_vars[:n]]
-    assert [(v.get("name"), int(v.get("valueReference"))) for v in py_vars] == \
-        [(v.name, vr) for vr, v in enumerate(core.variables)]
+    assert [(v.get("name"), int(v.get("valueReference"))) for v in py_vars] == [
+        (v.name, vr) for vr, v in enumerate(core.variables)
+    ]
 
     units = {u.get("name"): _text(u) for u in nat.iterfind("UnitDefinitions/Unit")}
-    assert [_text(u) for u in py.iterfind("UnitDefinitions/Unit")] == \
-        [units[u] for u in dict.fromkeys(v.unit for v in core.variables)]
+    assert [_text(u) for u in py.iterfind("UnitDefinitions/Unit")] == [
+        units[u] for u in dict.fromkeys(v.unit for v in core.variables)
+    ]
 
     outputs = _unknowns(py, "Outputs", n)
     assert outputs == _unknowns(nat, "Outputs", n)
     assert _unknowns(py, "InitialUnknowns", n) == _unknowns(nat, "InitialUnknowns", n)
     index = {v.name: vr + 1 for vr, v in enumerate(core.variables)}
-    assert outputs == {index[v.name]: [d + 1 for d in deps] for v, deps in
-                       zip(core.interface.outputs, core.output_dependencies())}
+    assert outputs == {
+        index[v.name]: [d + 1 for d in deps]
+        for v, deps in zip(core.interface.outputs, core.output_dependencies())
+    }
 
 
-def test_pythonfmu_value_references_are_checked_and_the_writer_is_the_only_author(
-        python_fmu_dir):
+def test_pythonfmu_value_references_are_checked_and_the_writer_is_the_only_author(python_fmu_dir):
     """Written again from its own XML, the pythonfmu FMU's description is byte for byte the
     same (nothing of pythonfmu's layout is left; the generation tool, read from pythonfmu's
     XML, aside); value references other than the core's are refused by name."""
@@ -166,8 +183,13 @@ def test_pythonfmu_wrapper_reads_no_model_description_at_run_time(python_fmu_dir
     path = str(python_fmu_dir / "HumanBody3DOF.fmu")
     runs = []
     for how in ("keep", "drop"):
-        out = subprocess.run([sys.executable, "-c", _RUN, path, how], capture_output=True,
-                             text=True, timeout=300, cwd=Path(__file__).parent)
+        out = subprocess.run(
+            [sys.executable, "-c", _RUN, path, how],
+            capture_output=True,
+            text=True,
+            timeout=300,
+            cwd=Path(__file__).parent,
+        )
         assert out.returncode == 0, out.stderr[-2000:]
         runs.append(out.stdout.strip().splitlines()[-1])
     assert runs[0] == runs[1]

@@ -21,17 +21,17 @@ import zipfile
 
 import numpy as np
 import pytest
+from bodyvib.vehicle.quarter_car import CAR_FMU_OUTPUTS, load_car
 
+from bodyvib.models import load_model, save_model
 from bodyvib.runtime.contract import BODY_OUTPUTS, CAR_INPUTS, CAR_OUTPUTS
 from bodyvib.runtime.discretize import simulate
-from bodyvib.models import load_model
-from bodyvib.models import save_model
 from bodyvib.runtime.network import linear_model
-from vehicle.quarter_car import CAR_FMU_OUTPUTS, load_car
 
 pytestmark = pytest.mark.integration
 
 from helpers import ROOT
+
 NAMES = ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar")
 MODEL_OF = {"HumanBody3DOF": "reduced-paper", "HumanBodyISO7962": "iso7962"}
 BODY_RATE = "seat_force_rate"
@@ -83,23 +83,33 @@ class Slave:
         import weakref
 
         from fmpy import calloc, extract, free, read_model_description
-        from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
-                               fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
+        from fmpy.fmi2 import (
+            FMU2Slave,
+            fmi2CallbackAllocateMemoryTYPE,
+            fmi2CallbackFreeMemoryTYPE,
+            fmi2CallbackFunctions,
+            fmi2CallbackLoggerTYPE,
+        )
 
         self.md = read_model_description(path)
         self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
         self.messages = []
         cb = fmi2CallbackFunctions()
         cb.logger = fmi2CallbackLoggerTYPE(
-            lambda env, inst, status, cat, msg: self.messages.append((status, msg.decode())))
+            lambda env, inst, status, cat, msg: self.messages.append((status, msg.decode()))
+        )
         cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
         cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
         # extracted into a folder of its own, deleted by close() (or, at the latest,
         # when the Slave is collected or the process exits)
         unzipdir = extract(path, unzipdir=tempfile.mkdtemp(prefix="bodyvib-test-fmu-"))
         self._cleanup = weakref.finalize(self, shutil.rmtree, unzipdir, True)
-        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=unzipdir,
-                             modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
+        self.fmu = FMU2Slave(
+            guid=self.md.guid,
+            unzipDirectory=unzipdir,
+            modelIdentifier=self.md.coSimulation.modelIdentifier,
+            instanceName=name,
+        )
         self.fmu.instantiate(callbacks=cb, loggingOn=True)
         if initialize:
             self.init(params)
@@ -127,7 +137,9 @@ class Slave:
                 self.set(in_names, inputs[k])
                 y[k] = self.get(out_names)
             if k + 1 < t.size:
-                self.fmu.doStep(currentCommunicationPoint=t[k], communicationStepSize=t[k + 1] - t[k])
+                self.fmu.doStep(
+                    currentCommunicationPoint=t[k], communicationStepSize=t[k + 1] - t[k]
+                )
         return y
 
     def close(self):
@@ -146,6 +158,7 @@ def smooth_seat(t):
 
 # -- build and model description ---------------------------------------------------
 
+
 def test_fmpy_validate_reports_no_problems(fmus):
     from fmpy.validation import validate_fmu
 
@@ -161,15 +174,29 @@ def test_model_description_interface(fmus, name):
         root = ET.fromstring(zf.read("modelDescription.xml"))
         files = zf.namelist()
     svs = {sv.get("name"): sv for sv in root.iter("ScalarVariable")}
-    expected = ({"seat_displacement": ("input", "m"), "seat_velocity": ("input", "m/s"),
-                 "seat_acceleration": ("input", "m/s2"), "seat_force_rate": ("output", "N/s"),
-                 "head_acceleration": ("output", "m/s2"), "head_displacement": ("output", "m"),
-                 "torso_displacement": ("output", "m"), "seat_force": ("output", "N")}
-                if name != "QuarterCar" else
-                {"road_displacement": ("input", "m"), "road_velocity": ("input", "m/s"),
-                 "seat_force": ("input", "N"), "seat_displacement": ("output", "m"),
-                 "seat_velocity": ("output", "m/s"), "sprung_acceleration": ("output", "m/s2"),
-                 "suspension_deflection": ("output", "m"), "tire_force": ("output", "N")})
+    expected = (
+        {
+            "seat_displacement": ("input", "m"),
+            "seat_velocity": ("input", "m/s"),
+            "seat_acceleration": ("input", "m/s2"),
+            "seat_force_rate": ("output", "N/s"),
+            "head_acceleration": ("output", "m/s2"),
+            "head_displacement": ("output", "m"),
+            "torso_displacement": ("output", "m"),
+            "seat_force": ("output", "N"),
+        }
+        if name != "QuarterCar"
+        else {
+            "road_displacement": ("input", "m"),
+            "road_velocity": ("input", "m/s"),
+            "seat_force": ("input", "N"),
+            "seat_displacement": ("output", "m"),
+            "seat_velocity": ("output", "m/s"),
+            "sprung_acceleration": ("output", "m/s2"),
+            "suspension_deflection": ("output", "m"),
+            "tire_force": ("output", "N"),
+        }
+    )
     for var, (causality, unit) in expected.items():
         assert svs[var].get("causality") == causality
         assert svs[var].find("Real").get("unit") == unit
@@ -185,8 +212,12 @@ def test_model_description_interface(fmus, name):
     outputs = [u.get("index") for u in root.find("ModelStructure/Outputs")]
     assert len(outputs) == sum(sv.get("causality") == "output" for sv in svs.values())
     index = {sv.get("name"): str(i + 1) for i, sv in enumerate(root.iter("ScalarVariable"))}
-    deps = {u.get("index"): u.get("dependencies").split() for u in root.find("ModelStructure/Outputs")}
-    if name != "QuarterCar":  # the exact dependencies: seat force on the displacement, its rate on both
+    deps = {
+        u.get("index"): u.get("dependencies").split() for u in root.find("ModelStructure/Outputs")
+    }
+    if (
+        name != "QuarterCar"
+    ):  # the exact dependencies: seat force on the displacement, its rate on both
         assert svs[BODY_RATE].get("causality") == "output"
         assert svs[BODY_RATE].find("Real").get("unit") == "N/s"
         assert deps[index["seat_force"]] == [index["seat_displacement"]]
@@ -203,15 +234,29 @@ def test_params_file_is_baked_into_humanbody3dof(fmus, tmp_path):
     also beside the default HumanBody3DOF.fmu in the same process (different hashed names)."""
     net = load_model("reduced-paper").with_parameters(m1=5.5, c1=400.0)
     save_model(net, tmp_path / "refit.json")
-    out = subprocess.run([sys.executable, "-m", "bodyvib_cli", "build", "--params",
-                          str(tmp_path / "refit.json"), "--fmus", "HumanBody3DOF",
-                          "--dest", str(tmp_path)], cwd=ROOT, capture_output=True, text=True,
-                         timeout=300)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "bodyvib.cli",
+            "build",
+            "--params",
+            str(tmp_path / "refit.json"),
+            "--fmus",
+            "HumanBody3DOF",
+            "--dest",
+            str(tmp_path),
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert out.returncode == 0, out.stderr
     assert "HumanBody3DOF.fmu" in out.stdout
     code = textwrap.dedent(f"""
         import json, sys
-        sys.path.insert(0, {os.path.join(ROOT, 'tests')!r})
+        sys.path.insert(0, {os.path.join(ROOT, "tests")!r})
         import numpy as np
         from test_fmu_integration import Slave, piecewise_linear, BODY_OUT
         t = np.arange(0, 0.5, 1e-3)
@@ -223,8 +268,12 @@ def test_params_file_is_baked_into_humanbody3dof(fmus, tmp_path):
                                                                     'seat_velocity'], BODY_OUT).tolist()])
         print(json.dumps(out))
     """)
-    run = subprocess.run([sys.executable, "-c", code, str(tmp_path / "HumanBody3DOF.fmu"),
-                          fmus["HumanBody3DOF"]], capture_output=True, text=True, timeout=120)
+    run = subprocess.run(
+        [sys.executable, "-c", code, str(tmp_path / "HumanBody3DOF.fmu"), fmus["HumanBody3DOF"]],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert run.returncode == 0, run.stderr
     (params, y), (params0, y0) = json.loads(run.stdout.strip().splitlines()[-1])
     assert params == [5.5, 400.0] and params0 == [4.88, 333.0]
@@ -239,13 +288,13 @@ def test_build_in_a_process_that_already_ran_an_fmu(fmus, tmp_path):
     embedded copy (no binaries): building must still give a complete, working FMU."""
     code = textwrap.dedent(f"""
         import sys
-        sys.path.insert(0, {os.path.join(ROOT, 'tests')!r})
+        sys.path.insert(0, {os.path.join(ROOT, "tests")!r})
         from test_fmu_integration import Slave
-        s = Slave({fmus['QuarterCar']!r}, name='first')
+        s = Slave({fmus["QuarterCar"]!r}, name='first')
         s.fmu.doStep(0.0, 1e-3)
         import pythonfmu
         print(pythonfmu.__file__)
-        from vehicle.fmus import build_project_fmu
+        from bodyvib.vehicle.fmus import build_project_fmu
         path = build_project_fmu('QuarterCar', {str(tmp_path)!r})
         t = Slave(str(path), name='second')
         for fmu in (s, t):  # the same inputs from the same state: identical outputs
@@ -253,8 +302,9 @@ def test_build_in_a_process_that_already_ran_an_fmu(fmus, tmp_path):
             fmu.fmu.doStep(1e-3, 1e-3)
         print(s.get(['tire_force'])[0] == t.get(['tire_force'])[0] != 0.0)
     """)
-    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
-                         cwd=ROOT)
+    run = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=ROOT
+    )
     assert run.returncode == 0, run.stderr[-3000:]
     embedded, same = run.stdout.split()[-2:]
     assert "site-packages" not in embedded  # the situation this test is about
@@ -263,15 +313,29 @@ def test_build_in_a_process_that_already_ran_an_fmu(fmus, tmp_path):
 
 def test_bad_params_file_is_refused_by_the_build_command(tmp_path):
     (tmp_path / "bad.json").write_text('{"name": "x"}')
-    out = subprocess.run([sys.executable, "-m", "bodyvib_cli", "build", "--params",
-                          str(tmp_path / "bad.json"), "--dest", str(tmp_path)],
-                         cwd=ROOT, capture_output=True, text=True, timeout=120)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "bodyvib.cli",
+            "build",
+            "--params",
+            str(tmp_path / "bad.json"),
+            "--dest",
+            str(tmp_path),
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert out.returncode == 2
     assert out.stderr.count("\n") == 1 and "missing field" in out.stderr
     assert not (tmp_path / "HumanBody3DOF.fmu").exists()
 
 
 # -- importers -------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("name", ["HumanBody3DOF", "HumanBodyISO7962"])
 def test_fmpy_simulate_fmu_example_agrees_with_library(fmus, name):
@@ -294,8 +358,11 @@ def test_fmpy_simulate_fmu_example_agrees_with_library(fmus, name):
 @pytest.mark.parametrize("grid", ["fixed", "varying"])
 @pytest.mark.parametrize("name", ["HumanBody3DOF", "HumanBodyISO7962"])
 def test_fmu2slave_equals_library_fixed_and_varying_steps(fmus, name, grid):
-    t = (np.arange(0, 1.0, 1e-3) if grid == "fixed" else
-         np.concatenate([[0.0], np.cumsum(np.random.default_rng(5).uniform(2e-4, 3e-3, 600))]))
+    t = (
+        np.arange(0, 1.0, 1e-3)
+        if grid == "fixed"
+        else np.concatenate([[0.0], np.cumsum(np.random.default_rng(5).uniform(2e-4, 3e-3, 600))])
+    )
     x, v = smooth_seat(t)
     s = Slave(fmus[name])
     y = s.run(t, np.c_[x, v], ["seat_displacement", "seat_velocity"], BODY_OUT)
@@ -307,7 +374,9 @@ def test_outputs_right_after_do_step_are_those_of_the_step_end(fmus):
     t = np.arange(0, 0.6, 1e-3)
     x, v = piecewise_linear(t)
     s = Slave(fmus["HumanBody3DOF"])
-    y = s.run(t, np.c_[x, v], ["seat_displacement", "seat_velocity"], BODY_OUT, read_before_set=True)
+    y = s.run(
+        t, np.c_[x, v], ["seat_displacement", "seat_velocity"], BODY_OUT, read_before_set=True
+    )
     s.close()
     assert np.all(rel_err(y, body_reference("reduced-paper", t, x, v)) < 1e-9)
 
@@ -316,8 +385,11 @@ def test_outputs_right_after_do_step_are_those_of_the_step_end(fmus):
 def test_quarter_car_equals_library(fmus, grid):
     """QuarterCar: seat_force enters as -seat_force on the sprung mass, its slope
     from seat_force_rate; road displacement rises at road velocity."""
-    t = (np.arange(0, 1.0, 1e-3) if grid == "fixed" else
-         np.concatenate([[0.0], np.cumsum(np.random.default_rng(9).uniform(2e-4, 3e-3, 600))]))
+    t = (
+        np.arange(0, 1.0, 1e-3)
+        if grid == "fixed"
+        else np.concatenate([[0.0], np.cumsum(np.random.default_rng(9).uniform(2e-4, 3e-3, 600))])
+    )
     zr, vr = smooth_seat(t)
     fs, dfs = 400 * np.sin(2 * np.pi * 2 * t), 400 * 2 * np.pi * 2 * np.cos(2 * np.pi * 2 * t)
     s = Slave(fmus["QuarterCar"])
@@ -338,7 +410,7 @@ def test_libcosimpy_runs_both_body_fmus(fmus):
     code = textwrap.dedent(f"""
         import json, sys
         import numpy as np
-        sys.path.insert(0, {os.path.join(ROOT, 'examples')!r})
+        sys.path.insert(0, {os.path.join(ROOT, "examples")!r})
         from fmu_from_libcosimpy import run
         x, v = np.array(json.loads(sys.argv[1]))
         out = {{}}
@@ -348,8 +420,12 @@ def test_libcosimpy_runs_both_body_fmus(fmus):
         print(json.dumps(out))
     """)
     paths = [fmus["HumanBody3DOF"], fmus["HumanBodyISO7962"]]
-    run = subprocess.run([sys.executable, "-c", code, json.dumps([x.tolist(), v.tolist()])] + paths,
-                         capture_output=True, text=True, timeout=300)
+    run = subprocess.run(
+        [sys.executable, "-c", code, json.dumps([x.tolist(), v.tolist()])] + paths,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert run.returncode == 0, run.stderr[-3000:]
     res = json.loads(run.stdout.strip().splitlines()[-1])
     for path, model in zip(paths, ["reduced-paper", "iso7962"]):
@@ -365,12 +441,17 @@ def test_readme_fmu_snippets_run(fmus):
 
     with open(os.path.join(ROOT, "README.md"), encoding="utf-8") as f:
         readme = f.read()
-    section = readme[readme.index("## FMUs"):]
-    section = section[:section.index("\n## ", 5)]
+    section = readme[readme.index("## FMUs") :]
+    section = section[: section.index("\n## ", 5)]
     code = "\n".join(re.findall(r"```python\n(.*?)```", section, re.S))
     code = code.replace("dist/HumanBody3DOF.fmu", fmus["HumanBody3DOF"].replace("\\", "/"))
-    run = subprocess.run([sys.executable, "-c", code + "\nprint(float(res['seat_force'][150]), seat_force)"],
-                         capture_output=True, text=True, timeout=120, cwd=ROOT)
+    run = subprocess.run(
+        [sys.executable, "-c", code + "\nprint(float(res['seat_force'][150]), seat_force)"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=ROOT,
+    )
     assert run.returncode == 0, run.stderr[-3000:]
     f_fmpy, f_cosim = map(float, run.stdout.split()[-2:])
     t = np.arange(1001) * 1e-3
@@ -382,8 +463,10 @@ def test_readme_fmu_snippets_run(fmus):
 
 # -- robustness ---------------------------------------------------------------------
 
-@pytest.mark.parametrize("name, value", [("m1", 0.0), ("m2", -3.0), ("k2", -1.0),
-                                         ("c1", float("nan"))])
+
+@pytest.mark.parametrize(
+    "name, value", [("m1", 0.0), ("m2", -3.0), ("k2", -1.0), ("c1", float("nan"))]
+)
 def test_invalid_parameter_refused_at_initialization_with_reason(fmus, name, value):
     """Refused at fmi2ExitInitializationMode with the reason logged at error level;
     every step is then refused (fmi2Discard), never fmi2Fatal. (pythonfmu gives
@@ -393,8 +476,10 @@ def test_invalid_parameter_refused_at_initialization_with_reason(fmus, name, val
 
     s = Slave(fmus["HumanBody3DOF"], initialize=False)
     s.init({name: value})
-    assert any(status == 3 and f"parameter {name} =" in m and "positive finite" in m
-               for status, m in s.messages)
+    assert any(
+        status == 3 and f"parameter {name} =" in m and "positive finite" in m
+        for status, m in s.messages
+    )
     for k in range(2):
         with pytest.raises(FMICallException) as exc:
             s.fmu.doStep(k * 1e-3, 1e-3)
@@ -503,7 +588,9 @@ def test_two_instances_and_all_three_fmus_in_one_process(fmus):
         s.close()
     net = load_model("reduced-paper")
     assert np.all(rel_err(ys["a"], body_reference(net, t, x, v)) < 1e-9)
-    assert np.all(rel_err(ys["b"], body_reference(net.with_parameters(m2=50.0, ks=6e5), t, x, v)) < 1e-9)
+    assert np.all(
+        rel_err(ys["b"], body_reference(net.with_parameters(m2=50.0, ks=6e5), t, x, v)) < 1e-9
+    )
     assert np.all(rel_err(ys["c"], body_reference("iso7962", t, x, v)) < 1e-9)
     lm = linear_model(load_car())
     _, ref = simulate(lm, t, np.c_[x, v, 0 * t])
@@ -516,11 +603,11 @@ def test_many_instances_in_one_process(fmus):
     methods failed at the second). Run in a fresh process: a failure may crash it."""
     code = textwrap.dedent(f"""
         import sys
-        sys.path.insert(0, {os.path.join(ROOT, 'tests')!r})
+        sys.path.insert(0, {os.path.join(ROOT, "tests")!r})
         from test_fmu_integration import Slave
         alive = []
         for i in range(25):
-            s = Slave({fmus['HumanBody3DOF']!r}, name=f'n{{i}}')
+            s = Slave({fmus["HumanBody3DOF"]!r}, name=f'n{{i}}')
             s.set(['seat_displacement', 'seat_velocity'], [0.01, 0.0])
             s.fmu.doStep(0.0, 1e-3)
             if i % 2:
@@ -529,8 +616,9 @@ def test_many_instances_in_one_process(fmus):
                 alive.append(s)
         print(len(alive), alive[-1].get(['seat_force'])[0] > 0)
     """)
-    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
-                         cwd=ROOT)
+    run = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=ROOT
+    )
     assert run.returncode == 0, run.stderr[-3000:]
     assert run.stdout.split() == ["13", "True"]
 
@@ -546,9 +634,9 @@ def test_python_host_exit_does_not_touch_freed_memory(fmus):
 
     code = textwrap.dedent(f"""
         import atexit, sys
-        sys.path.insert(0, {os.path.join(ROOT, 'tests')!r})
+        sys.path.insert(0, {os.path.join(ROOT, "tests")!r})
         from test_fmu_integration import Slave
-        s = Slave({fmus['HumanBody3DOF']!r}, name='exit')
+        s = Slave({fmus["HumanBody3DOF"]!r}, name='exit')
         s.set(['seat_displacement', 'seat_velocity'], [0.01, 0.0])
         s.fmu.doStep(0.0, 1e-3)
         s.close()
@@ -558,8 +646,10 @@ def test_python_host_exit_does_not_touch_freed_memory(fmus):
             atexit.unregister(teardown.release_python_states)
         print('ok')
     """)
-    runs = {mode: memcheck([sys.executable, "-c", code, mode], cwd=ROOT)
-            for mode in ("as built", "unregister")}
+    runs = {
+        mode: memcheck([sys.executable, "-c", code, mode], cwd=ROOT)
+        for mode in ("as built", "unregister")
+    }
     logs = {}
     for mode, proc in runs.items():
         stdout, logs[mode] = proc.communicate(timeout=600)
@@ -575,12 +665,14 @@ def test_host_with_another_bodyvib_already_imported(fmus, tmp_path):
     fake.mkdir(parents=True)
     (fake / "__init__.py").write_text('__version__ = "9.9-fake"\n')
     for mod in ("runtime", "fmu_build", "network", "models", "discretize", "errors"):
-        (fake / f"{mod}.py").write_text(f"raise ImportError('fake bodyvib: {mod} must not be used')\n")
+        (fake / f"{mod}.py").write_text(
+            f"raise ImportError('fake bodyvib: {mod} must not be used')\n"
+        )
     t = np.arange(0, 0.3, 1e-3)
     x, v = smooth_seat(t)
     code = textwrap.dedent(f"""
         import json, os, sys, tempfile
-        sys.path.insert(0, {str(tmp_path / 'fake')!r})
+        sys.path.insert(0, {str(tmp_path / "fake")!r})
         import bodyvib
         assert bodyvib.__version__ == '9.9-fake'
         import numpy as np
@@ -613,8 +705,14 @@ def test_host_with_another_bodyvib_already_imported(fmus, tmp_path):
     """)
     paths = [fmus["HumanBody3DOF"], fmus["HumanBodyISO7962"]]
     env = {k: val for k, val in os.environ.items() if k != "PYTHONPATH"}
-    run = subprocess.run([sys.executable, "-c", code, json.dumps([x.tolist(), v.tolist()])] + paths,
-                         capture_output=True, text=True, timeout=300, env=env, cwd=tmp_path)
+    run = subprocess.run(
+        [sys.executable, "-c", code, json.dumps([x.tolist(), v.tolist()])] + paths,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=env,
+        cwd=tmp_path,
+    )
     assert run.returncode == 0, run.stderr[-3000:]
     res = json.loads(run.stdout.strip().splitlines()[-1])
     for path, model in zip(paths, ["reduced-paper", "iso7962"]):
@@ -658,9 +756,12 @@ def test_state_of_another_fmu_or_with_bad_parameters_is_refused(fmus):
     state = unpack_state(bytes(s.fmu.serializeFMUstate(s.fmu.getFMUstate())))
     state["params"][0] = -4.88
     negative = pack_state(state)  # a valid checksum over an invalid state
-    for blob, words in ((foreign, "belongs to another FMU"), (negative, "m1 = -4.88"),
-                        (b"\x00not json", "not a bodyvib FMU state"),
-                        (pack_state({"time": 0.0}), "not a state of a bodyvib FMU")):
+    for blob, words in (
+        (foreign, "belongs to another FMU"),
+        (negative, "m1 = -4.88"),
+        (b"\x00not json", "not a bodyvib FMU state"),
+        (pack_state({"time": 0.0}), "not a state of a bodyvib FMU"),
+    ):
         s.messages.clear()
         s.fmu.setFMUstate(s.fmu.deSerializeFMUstate(blob))
         assert any(words in m and st == 3 for st, m in s.messages), s.messages

@@ -14,11 +14,11 @@ import random
 
 import numpy as np
 import pytest
+from test_fmu_integration import Slave
 
 from bodyvib.models import load_model
 from bodyvib.runtime.engine import FmuCore
 from bodyvib.runtime.errors import BodyvibError
-from test_fmu_integration import Slave
 
 pytestmark = pytest.mark.integration
 

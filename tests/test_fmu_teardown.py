@@ -26,7 +26,8 @@ def clean_registry(monkeypatch):
 def test_binary_path_is_the_linux64_binary_beside_resources(tmp_path):
     resources = tmp_path / "fmu" / "resources"
     assert fmu_teardown.binary_path(str(resources), "HumanBody3DOF") == str(
-        tmp_path / "fmu" / "binaries" / "linux64" / "HumanBody3DOF.so")
+        tmp_path / "fmu" / "binaries" / "linux64" / "HumanBody3DOF.so"
+    )
 
 
 @linux
@@ -36,7 +37,9 @@ def test_registration_is_once_per_binary_with_one_handler(clean_registry, tmp_pa
     for resources in (a, b, a, a):
         assert fmu_teardown.release_at_exit(resources, "HumanBody3DOF")
     assert fmu_teardown.registered_binaries() == [
-        fmu_teardown.binary_path(a, "HumanBody3DOF"), fmu_teardown.binary_path(b, "HumanBody3DOF")]
+        fmu_teardown.binary_path(a, "HumanBody3DOF"),
+        fmu_teardown.binary_path(b, "HumanBody3DOF"),
+    ]
     assert clean_registry == [fmu_teardown.release_python_states]
 
 

@@ -11,9 +11,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from bodyvib.vehicle.ssp import COMPONENTS, CONNECTIONS
 
 from bodyvib.runtime.modelfile import PARAMETER_RANGE
-from vehicle.ssp import COMPONENTS, CONNECTIONS
 
 pytestmark = pytest.mark.integration
 
@@ -25,8 +25,11 @@ def all_fmus(native_dist, python_fmus):
     py = Path(python_fmus["QuarterCar"]).parent
     out = []
     for name in NAMES:
-        out += [(f"pythonfmu/{name}", py / f"{name}.fmu"), (f"native/{name}", native_dist / f"{name}.fmu"),
-                (f"native/fmi3/{name}", native_dist / "fmi3" / f"{name}.fmu")]
+        out += [
+            (f"pythonfmu/{name}", py / f"{name}.fmu"),
+            (f"native/{name}", native_dist / f"{name}.fmu"),
+            (f"native/fmi3/{name}", native_dist / "fmi3" / f"{name}.fmu"),
+        ]
     return out
 
 
@@ -43,8 +46,11 @@ def structure(path):
 def _inputs_only(deps):
     """The unknowns and dependencies without the model-exchange states (``state.*``, their
     derivatives ``der(state.*)``), which only the native FMUs have."""
-    return {k: {d for d in v if not d.startswith("state.")} for k, v in deps.items()
-            if not k.startswith("der(state.")}
+    return {
+        k: {d for d in v if not d.startswith("state.")}
+        for k, v in deps.items()
+        if not k.startswith("der(state.")
+    }
 
 
 def test_every_fmu_validates_and_both_kinds_declare_the_same_interface(native_dist, python_fmus):
@@ -65,8 +71,11 @@ def test_every_fmu_validates_and_both_kinds_declare_the_same_interface(native_di
             for v in md.modelVariables:
                 if v.name in ref:
                     for attr in ("min", "max", "unit", "displayUnit", "start"):
-                        assert str(getattr(v, attr)) == str(getattr(ref[v.name], attr)), \
-                            (label, v.name, attr)
+                        assert str(getattr(v, attr)) == str(getattr(ref[v.name], attr)), (
+                            label,
+                            v.name,
+                            attr,
+                        )
 
 
 def test_limits_are_the_loaders_and_readable(native_dist, python_fmus):
@@ -125,7 +134,9 @@ def measured_feedthrough(path):
 
     md = read_model_description(str(path))
     unzipped = extract(str(path))
-    fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier=md.coSimulation.modelIdentifier)
+    fmu = FMU2Slave(
+        guid=md.guid, unzipDirectory=unzipped, modelIdentifier=md.coSimulation.modelIdentifier
+    )
     inputs = [v for v in md.modelVariables if v.causality == "input"]
     outputs = [v for v in md.modelVariables if v.causality == "output"]
     moved = {}
@@ -154,8 +165,9 @@ def test_initial_dependencies_are_the_measured_feedthrough(native_dist, name):
     moved = measured_feedthrough(native_dist / f"{name}.fmu")
     for inp, outs in moved.items():
         # the outputs (the states' derivatives, native only, are not measured here)
-        assert outs == {o for o, deps in init.items()
-                        if inp in deps and not o.startswith("der(state.")}, inp
+        assert outs == {
+            o for o, deps in init.items() if inp in deps and not o.startswith("der(state.")
+        }, inp
 
 
 def _cycle(graph):
@@ -185,8 +197,11 @@ def _cycle(graph):
 def test_car_and_body_have_no_algebraic_loop(native_dist, python_fmus):
     """The SSP's connections with the initial unknowns' dependencies form no cycle (before,
     an initial unknown without dependencies depended on every input: car and body looped)."""
-    for label, folder in (("native", native_dist), ("native/fmi3", native_dist / "fmi3"),
-                          ("pythonfmu", Path(python_fmus["QuarterCar"]).parent)):
+    for label, folder in (
+        ("native", native_dist),
+        ("native/fmi3", native_dist / "fmi3"),
+        ("pythonfmu", Path(python_fmus["QuarterCar"]).parent),
+    ):
         graph = {}
         for comp, name in COMPONENTS.items():
             _, _, init = structure(folder / f"{name}.fmu")

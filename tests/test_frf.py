@@ -4,12 +4,11 @@ import json
 
 import numpy as np
 import pytest
-
-from bodyvib.frequency.response import find_peaks, transmissibility
-from bodyvib.frequency.compare import compare_transmissibility, format_table
 from helpers import dynamic_stiffness_response, run_cli
-from bodyvib.models import load_model
 
+from bodyvib.frequency.compare import compare_transmissibility, format_table
+from bodyvib.frequency.response import find_peaks, transmissibility
+from bodyvib.models import load_model
 
 
 def test_frf_writes_plot_and_json(tmp_path):
@@ -34,20 +33,25 @@ def test_frf_writes_plot_and_json(tmp_path):
 
 def test_frf_accepts_a_parameter_file(tmp_path):
     from bodyvib.models import save_model
+
     net = load_model("reduced-paper").with_parameters(m1=6.0)
     from dataclasses import replace
+
     save_model(replace(net, name="heavier-head"), tmp_path / "h.json")
     r = run_cli("frf", "--models", str(tmp_path / "h.json"))
     assert r.returncode == 0, r.stderr
     assert "peaks of heavier-head" in r.stdout
 
 
-@pytest.mark.parametrize("args, message", [
-    (["frf", "--models", "nope"], "unknown model 'nope'"),
-    (["frf", "--fmin", "-1"], "0 < fmin < fmax"),
-    (["frf", "--fmax", "inf"], "fmax < inf"),  # ran on with NaN and exit status 0
-    (["frf", "--plot", "x.bmp"], "must end in .png"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["frf", "--models", "nope"], "unknown model 'nope'"),
+        (["frf", "--fmin", "-1"], "0 < fmin < fmax"),
+        (["frf", "--fmax", "inf"], "fmax < inf"),  # ran on with NaN and exit status 0
+        (["frf", "--plot", "x.bmp"], "must end in .png"),
+    ],
+)
 def test_frf_errors_are_one_line(tmp_path, args, message):
     r = run_cli(*args, cwd=tmp_path)
     assert r.returncode == 2
@@ -59,6 +63,7 @@ def test_peak_refinement_against_dense_grid():
     coarse = compare_transmissibility(["iso7962"], points=300).models["iso7962"].peaks
     f = np.linspace(3, 13, 20001)
     from bodyvib.frequency.response import transmissibility
+
     dense = find_peaks(f, np.abs(transmissibility(load_model("iso7962"), f)))
     assert len(coarse) == len(dense) == 2  # ISO 7962's two resonances in 3-13 Hz
     for c, d in zip(coarse, dense, strict=True):
@@ -87,6 +92,7 @@ def test_models_with_one_name_keep_both_curves(tmp_path):
     from dataclasses import replace
 
     from bodyvib.models import save_model
+
     base = load_model("reduced-paper")
     save_model(replace(base, name="refit"), tmp_path / "a.json")
     save_model(replace(base.with_parameters(m1=6.0), name="refit"), tmp_path / "b.json")
@@ -105,7 +111,9 @@ def test_absurd_parameters_are_refused_not_printed(tmp_path):
     of such a result is lost (scaling all parameters leaves |T| unchanged, yet it came out
     0.03 instead of 1)."""
     import json as _json
+
     from bodyvib.runtime.modelfile import network_to_dict
+
     net = load_model("reduced-paper")
     data = network_to_dict(net)
     data["parameters"]["k1"] = 1e300
@@ -125,6 +133,7 @@ def test_frf_outputs_checked_before_work_and_all_or_none(tmp_path):
     assert keep.read_text() == "old"
     model = tmp_path / "m.json"
     from bodyvib.models import save_model
+
     save_model(load_model("reduced-paper"), model)
     r = run_cli("frf", "--models", str(model), "--json", str(model))
     assert r.returncode == 2 and "is the input of --models" in r.stderr

@@ -17,7 +17,6 @@ import sys
 import time
 
 import pytest
-
 from helpers import check_stopped_run, write_old_outputs
 
 pytestmark = pytest.mark.integration
@@ -32,36 +31,91 @@ def _fit_config(folder):
 
 def _commands(fmus, tmp):
     """(name, argv, outputs, typical duration in s) of each command tried."""
-    out = {n: tmp / n for n in ("c.json", "c.png", "c.csv", "f.json", "f.png", "p.json",
-                                "k.json")}
-    body, iso, car = (str(fmus / f) for f in ("HumanBody3DOF.fmu", "HumanBodyISO7962.fmu",
-                                                "QuarterCar.fmu"))
-    common = ["--quiet", "--json", str(out["c.json"]), "--plot", str(out["c.png"]),
-              "--csv", str(out["c.csv"])]
+    out = {n: tmp / n for n in ("c.json", "c.png", "c.csv", "f.json", "f.png", "p.json", "k.json")}
+    body, iso, car = (
+        str(fmus / f) for f in ("HumanBody3DOF.fmu", "HumanBodyISO7962.fmu", "QuarterCar.fmu")
+    )
+    common = [
+        "--quiet",
+        "--json",
+        str(out["c.json"]),
+        "--plot",
+        str(out["c.png"]),
+        "--csv",
+        str(out["c.csv"]),
+    ]
     return [
-        ("cosim", ["cosim", "--duration", "40", "--body", body, "--car-fmu", car] + common,
-         [out["c.json"], out["c.png"], out["c.csv"]], 3.0),
-        ("check", ["check", "--duration", "20", "--body", body, "--iso-body", iso,
-                   "--car-fmu", car] + common, [out["c.json"], out["c.png"], out["c.csv"]], 3.0),
-        ("cosim+build", ["cosim", "--duration", "10"] + common,
-         [out["c.json"], out["c.png"], out["c.csv"]], 4.0),
-        ("frf", ["frf", "--points", "300000", "--json", str(out["f.json"]), "--plot",
-                 str(out["f.png"])], [out["f.json"], out["f.png"]], 6.0),
-        ("fit", ["fit", "--quiet", "--config", str(_fit_config(tmp)), "--out", str(out["p.json"]),
-                 "--report", str(tmp / "report")],
-         [out["p.json"], tmp / "report" / "comparison.json"], 5.0),
-        ("build", ["build", "--dest", str(tmp / "dist")],
-         [tmp / "dist" / f"{n}.fmu" for n in ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar")],
-         4.0),
+        (
+            "cosim",
+            ["cosim", "--duration", "40", "--body", body, "--car-fmu", car] + common,
+            [out["c.json"], out["c.png"], out["c.csv"]],
+            3.0,
+        ),
+        (
+            "check",
+            ["check", "--duration", "20", "--body", body, "--iso-body", iso, "--car-fmu", car]
+            + common,
+            [out["c.json"], out["c.png"], out["c.csv"]],
+            3.0,
+        ),
+        (
+            "cosim+build",
+            ["cosim", "--duration", "10"] + common,
+            [out["c.json"], out["c.png"], out["c.csv"]],
+            4.0,
+        ),
+        (
+            "frf",
+            [
+                "frf",
+                "--points",
+                "300000",
+                "--json",
+                str(out["f.json"]),
+                "--plot",
+                str(out["f.png"]),
+            ],
+            [out["f.json"], out["f.png"]],
+            6.0,
+        ),
+        (
+            "fit",
+            [
+                "fit",
+                "--quiet",
+                "--config",
+                str(_fit_config(tmp)),
+                "--out",
+                str(out["p.json"]),
+                "--report",
+                str(tmp / "report"),
+            ],
+            [out["p.json"], tmp / "report" / "comparison.json"],
+            5.0,
+        ),
+        (
+            "build",
+            ["build", "--dest", str(tmp / "dist")],
+            [
+                tmp / "dist" / f"{n}.fmu"
+                for n in ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar")
+            ],
+            4.0,
+        ),
     ]
 
 
 def _interrupt(argv, delay, cwd, twice=False):
-    proc = subprocess.Popen([sys.executable, "-m", "bodyvib_cli", *argv], cwd=cwd,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "bodyvib.cli", *argv],
+        cwd=cwd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
     time.sleep(delay)
-    for i in range(2 if twice else 1):
+    for _i in range(2 if twice else 1):
         try:
             os.killpg(proc.pid, signal.SIGINT)
         except ProcessLookupError:  # already finished
@@ -71,8 +125,9 @@ def _interrupt(argv, delay, cwd, twice=False):
     return proc.returncode, out, err
 
 
-def test_ctrl_c_at_random_points_never_crashes_and_keeps_outputs_all_or_none(python_fmu_dir,
-                                                                            tmp_path):
+def test_ctrl_c_at_random_points_never_crashes_and_keeps_outputs_all_or_none(
+    python_fmu_dir, tmp_path
+):
     rng = random.Random(20261201)
     tmp_path.joinpath("report").mkdir()
     tmp_path.joinpath("dist").mkdir()

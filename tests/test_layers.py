@@ -1,7 +1,7 @@
 """The layers stay visible: who may import whom (docs/architecture.md, "Layers").
 
-* ``bodyvib`` (the physics library) imports neither ``vehicle`` nor ``bodyvib_cli``;
-* ``vehicle`` (the application) never imports ``bodyvib_cli``;
+* ``bodyvib`` (the physics library) imports neither ``vehicle`` nor ``bodyvib.cli``;
+* ``vehicle`` (the application) never imports ``bodyvib.cli``;
 * ``bodyvib.runtime`` (what travels inside every FMU) imports only itself, numpy and
   the standard library;
 * ``bodyvib.process`` (outputs, interrupts, limits: the commands' process concerns)
@@ -18,23 +18,25 @@ import os
 import sys
 
 import pytest
-
 from helpers import ROOT
 
-PACKAGES = ("bodyvib", "vehicle", "bodyvib_cli", "fmu_src")
+#: Repository folder -> the package it installs as (pyproject.toml's package-dir).
+FOLDERS = {"bodyvib": "bodyvib", "vehicle": "bodyvib.vehicle", "fmu_src": "bodyvib.fmu_src"}
+PACKAGES = ("bodyvib", "bodyvib.vehicle", "bodyvib.cli", "bodyvib.fmu_src")
 
 
 def module_files():
     """Project module name -> source path."""
     out = {}
-    for pkg in PACKAGES:
-        for folder, _, files in os.walk(os.path.join(ROOT, pkg)):
+    for folder_name, package in FOLDERS.items():
+        root = os.path.join(ROOT, folder_name)
+        for folder, _, files in os.walk(root):
             for f in files:
                 if f.endswith(".py"):
-                    rel = os.path.relpath(os.path.join(folder, f), ROOT)[:-3].split(os.sep)
+                    rel = os.path.relpath(os.path.join(folder, f), root)[:-3].split(os.sep)
                     if rel[-1] == "__init__":
                         rel = rel[:-1]
-                    out[".".join(rel)] = os.path.join(folder, f)
+                    out[".".join([package, *rel])] = os.path.join(folder, f)
     return out
 
 
@@ -58,7 +60,7 @@ def imports_in(source, name, is_package=False):
         elif isinstance(node, ast.ImportFrom):
             if node.level:
                 base = package.split(".")
-                base = base[:len(base) - node.level + 1]
+                base = base[: len(base) - node.level + 1]
                 mod = ".".join(base + ([node.module] if node.module else []))
             else:
                 mod = node.module
@@ -73,37 +75,64 @@ def top(mod):
     return mod.split(".")[0]
 
 
+def layer(mod):
+    """The layer a module belongs to: cli, application, fmu sources, or its top-level name."""
+    for package, name in (
+        ("bodyvib.cli", "cli"),
+        ("bodyvib.vehicle", "application"),
+        ("bodyvib.fmu_src", "fmu sources"),
+    ):
+        if mod == package or mod.startswith(package + "."):
+            return name
+    return top(mod)
+
+
 def test_the_source_tree_is_what_the_checks_read():
-    assert "bodyvib.runtime.engine" in MODULES and "vehicle.cosim" in MODULES
-    assert "bodyvib_cli.main" in MODULES
+    assert "bodyvib.runtime.engine" in MODULES and "bodyvib.vehicle.cosim" in MODULES
+    assert "bodyvib.cli.main" in MODULES
 
 
 def upward(imports):
     """The imports of a library module that reach a layer above it."""
-    return sorted(m for m in imports if top(m) in ("vehicle", "bodyvib_cli"))
+    return sorted(m for m in imports if layer(m) in ("application", "cli"))
 
 
 def outside_runtime(imports):
     """The imports of a run-time module that an FMU could not satisfy."""
-    return sorted(m for m in imports if not (m.startswith("bodyvib.runtime") or top(m) == "numpy"
-                                             or top(m) in sys.stdlib_module_names))
+    return sorted(
+        m
+        for m in imports
+        if not (
+            m.startswith("bodyvib.runtime")
+            or top(m) == "numpy"
+            or top(m) in sys.stdlib_module_names
+        )
+    )
 
 
 def into_physics(imports):
     """The imports of a process module other than the run-time's errors, the stdlib and tqdm."""
-    return sorted(m for m in imports if not (m == "bodyvib.runtime.errors" or m.startswith("bodyvib.process")
-                                             or top(m) in sys.stdlib_module_names or m == "tqdm"))
+    return sorted(
+        m
+        for m in imports
+        if not (
+            m == "bodyvib.runtime.errors"
+            or m.startswith("bodyvib.process")
+            or top(m) in sys.stdlib_module_names
+            or m == "tqdm"
+        )
+    )
 
 
-@pytest.mark.parametrize("name", sorted(m for m in MODULES if top(m) == "bodyvib"))
+@pytest.mark.parametrize("name", sorted(m for m in MODULES if layer(m) == "bodyvib"))
 def test_library_imports_neither_application_nor_command_line(name):
     bad = upward(imports_of(name))
     assert bad == [], f"{name} imports {bad}: the physics library must not know the layers above it"
 
 
-@pytest.mark.parametrize("name", sorted(m for m in MODULES if top(m) == "vehicle"))
+@pytest.mark.parametrize("name", sorted(m for m in MODULES if layer(m) == "application"))
 def test_application_does_not_import_command_line(name):
-    bad = sorted(m for m in imports_of(name) if top(m) == "bodyvib_cli")
+    bad = sorted(m for m in imports_of(name) if layer(m) == "cli")
     assert bad == [], f"{name} imports {bad}"
 
 
@@ -123,11 +152,26 @@ SUBPACKAGES = sorted(m for m, p in MODULES.items() if p.endswith("__init__.py") 
 
 
 def test_the_subjects_are_subpackages():
-    for pkg in ("bodyvib.comfort", "bodyvib.fit", "bodyvib.fmu", "bodyvib.frequency",
-                "bodyvib.process", "bodyvib.runtime", "vehicle.road", "vehicle.sweep"):
+    for pkg in (
+        "bodyvib.comfort",
+        "bodyvib.fit",
+        "bodyvib.fmu",
+        "bodyvib.frequency",
+        "bodyvib.process",
+        "bodyvib.runtime",
+        "bodyvib.vehicle.road",
+        "bodyvib.vehicle.sweep",
+    ):
         assert pkg in SUBPACKAGES, f"{pkg} is not a subpackage"
-    flat = sorted(m for m in MODULES if m.count(".") == 1 and "_" in m.split(".")[1]
-                  and m.split(".")[1].split("_")[0] in {"fit", "sweep", "comfort", "fmu", "native"})
+    # bodyvib.fmu_src is the repository's fmu_src/ folder installed (its name is the layout's)
+    flat = sorted(
+        m
+        for m in MODULES
+        if m.count(".") == 1
+        and "_" in m.split(".")[1]
+        and m != "bodyvib.fmu_src"
+        and m.split(".")[1].split("_")[0] in {"fit", "sweep", "comfort", "fmu", "native"}
+    )
     assert flat == [], f"prefix-named modules instead of subpackages: {flat}"
 
 
@@ -135,11 +179,18 @@ def test_the_subjects_are_subpackages():
 def test_every_subpackage_says_what_it_is(name):
     tree = ast.parse(open(MODULES[name], encoding="utf-8").read())
     doc = ast.get_docstring(tree)
-    assert doc and len(doc.split()) >= 15, f"{name}/__init__.py needs a paragraph saying what it holds"
+    assert doc and len(doc.split()) >= 15, (
+        f"{name}/__init__.py needs a paragraph saying what it holds"
+    )
     if name == "bodyvib.runtime":
         return  # copied into FMUs under another name: its modules are its interface
-    assigned = {t.id for n in tree.body if isinstance(n, ast.Assign) for t in n.targets
-                if isinstance(t, ast.Name)}
+    assigned = {
+        t.id
+        for n in tree.body
+        if isinstance(n, ast.Assign)
+        for t in n.targets
+        if isinstance(t, ast.Name)
+    }
     assert "__all__" in assigned, f"{name} has no __all__"
 
 
@@ -147,7 +198,11 @@ def test_no_import_cycle():
     graph = {m: {i for i in imports_of(m) if i in MODULES and i != m} for m in MODULES}
     # a package's __init__ importing its own submodules is not a cycle of subjects
     for m in graph:
-        graph[m] = {i for i in graph[m] if not (i.startswith(m + ".") and m in PACKAGES + ("bodyvib.runtime",))}
+        graph[m] = {
+            i
+            for i in graph[m]
+            if not (i.startswith(m + ".") and m in PACKAGES + ("bodyvib.runtime",))
+        }
     state, stack, cycles = {}, [], []
 
     def visit(m):
@@ -155,7 +210,7 @@ def test_no_import_cycle():
         stack.append(m)
         for n in sorted(graph[m]):
             if state.get(n) == 1:
-                cycles.append(stack[stack.index(n):] + [n])
+                cycles.append(stack[stack.index(n) :] + [n])
             elif n not in state:
                 visit(n)
         stack.pop()
@@ -170,12 +225,19 @@ def test_no_import_cycle():
 def test_checks_can_fail():
     """The checks above flag what they guard: fed a source that breaks each rule (an
     import inside a function, a relative import), the same functions name the culprit."""
-    src = ("def f():\n    from vehicle.quarter_car import load_car\n"
-           "from ..frequency.response import transmissibility\nimport scipy.linalg\n")
+    src = (
+        "def f():\n    from bodyvib.vehicle.quarter_car import load_car\n"
+        "from ..frequency.response import transmissibility\nimport scipy.linalg\n"
+    )
     found = imports_in(src, "bodyvib.runtime.network")
-    assert "vehicle.quarter_car" in found and "bodyvib.frequency.response" in found
-    assert upward(found) == ["vehicle.quarter_car"]
-    assert outside_runtime(found) == ["bodyvib.frequency.response", "scipy.linalg", "vehicle.quarter_car"]
-    assert into_physics(imports_in("from ..models import load_model\n", "bodyvib.process.outputs")) \
-        == ["bodyvib.models"]
+    assert "bodyvib.vehicle.quarter_car" in found and "bodyvib.frequency.response" in found
+    assert upward(found) == ["bodyvib.vehicle.quarter_car"]
+    assert outside_runtime(found) == [
+        "bodyvib.frequency.response",
+        "bodyvib.vehicle.quarter_car",
+        "scipy.linalg",
+    ]
+    assert into_physics(
+        imports_in("from ..models import load_model\n", "bodyvib.process.outputs")
+    ) == ["bodyvib.models"]
     assert "bodyvib.runtime.errors" in imports_of("bodyvib.runtime.network")

@@ -8,18 +8,18 @@ import tempfile
 
 import numpy as np
 import pytest
+from bodyvib.vehicle.road.driven import RoadOptions, driven_road
+from bodyvib.vehicle.road.measured import load_profile
+from bodyvib.vehicle.road.profile import ProfileRoad, envelope
+from bodyvib.vehicle.road.synthetic import random_road, road_input
 
 from bodyvib.runtime.errors import BodyvibError
-from vehicle.road.driven import RoadOptions, driven_road
-from vehicle.road.measured import load_profile
-from vehicle.road.profile import ProfileRoad, envelope
-from vehicle.road.synthetic import random_road, road_input
 
 pycrg = pytest.importorskip("pycrg")
 
 DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "opencrg")
-DX = 0.05          # m, profile spacing
-LENGTH = 250.0     # m
+DX = 0.05  # m, profile spacing
+LENGTH = 250.0  # m
 
 
 @pytest.fixture(scope="module")
@@ -61,14 +61,21 @@ def files(folder):
     # the grade as the reference line's slope, the rest in the grid (which OpenCRG keeps in
     # single precision: 6e-8 of the grid's 3 cm, 2e-9 m)
     grid = z - 0.01 * x
-    pycrg.write(paths["crg"], np.column_stack([grid, grid, grid]), DX, [-1.0, 0.0, 1.0],
-                slope=0.01, fmt="KDBI")
+    pycrg.write(
+        paths["crg"],
+        np.column_stack([grid, grid, grid]),
+        DX,
+        [-1.0, 0.0, 1.0],
+        slope=0.01,
+        fmt="KDBI",
+    )
     write_csv(paths["csv"], x, z)
     write_erd(paths["erd"], z)
     return paths
 
 
 # -- readers ---------------------------------------------------------------------------
+
 
 def test_three_formats_read_the_same_profile(files):
     """Heights relative to the first sample equal the ones written: exactly for CSV (repr), to
@@ -78,8 +85,9 @@ def test_three_formats_read_the_same_profile(files):
     for kind, path in files.items():
         p = load_profile(path)
         assert p.spacing == pytest.approx(DX, rel=1e-12) and p.length == pytest.approx(LENGTH)
-        np.testing.assert_allclose(p.elevation - p.elevation[0], z - z[0], rtol=0,
-                                   atol=tol[kind], err_msg=kind)
+        np.testing.assert_allclose(
+            p.elevation - p.elevation[0], z - z[0], rtol=0, atol=tol[kind], err_msg=kind
+        )
         assert p.grade == pytest.approx((z[-1] - z[0]) / LENGTH, abs=1e-12)
         assert isinstance(p, ProfileRoad) and p.describe()["format"] in ("opencrg", "csv", "erd")
 
@@ -88,7 +96,7 @@ def test_crg_track_is_the_lateral_interpolation(folder):
     """OpenCRG interpolates linearly across the long sections: at v = 0.25 m between
     sections at 0 and 1 m the height is 3/4 of one plus 1/4 of the other."""
     x, z = profile_heights()
-    z = z - 0.01 * x                       # grid values of 3 cm: single precision 2e-9 m
+    z = z - 0.01 * x  # grid values of 3 cm: single precision 2e-9 m
     zl = 0.5 * z
     path = os.path.join(folder, "track.crg")
     pycrg.write(path, np.column_stack([z, z, zl]), DX, [-1.0, 0.0, 1.0], fmt="KDBI")
@@ -106,7 +114,7 @@ def _crg_columns(path):
     for ln in text:
         if not ln.strip():
             continue
-        fields = [ln[i:i + 10] for i in range(0, len(ln.rstrip()), 10)]
+        fields = [ln[i : i + 10] for i in range(0, len(ln.rstrip()), 10)]
         rows.append([np.nan if "*" in f else float(f) for f in fields])
     return np.array(rows)
 
@@ -118,13 +126,14 @@ def test_opencrg_samples_along_the_reference_line():
     straight = _crg_columns(os.path.join(DATA, "handmade_straight.crg"))
     p = load_profile(os.path.join(DATA, "handmade_straight.crg"))
     assert p.spacing == 1.0 and p.length == 22.0
-    np.testing.assert_allclose(p.elevation - p.elevation[0], straight[:, 3] - straight[0, 3],
-                               atol=1e-6)   # the file's 7 digits, single precision
+    np.testing.assert_allclose(
+        p.elevation - p.elevation[0], straight[:, 3] - straight[0, 3], atol=1e-6
+    )  # the file's 7 digits, single precision
     sloped = _crg_columns(os.path.join(DATA, "handmade_sloped.crg"))
-    slope = np.nan_to_num(sloped[:, 0])      # the first row's slope is unused
+    slope = np.nan_to_num(sloped[:, 0])  # the first row's slope is unused
     ref_z = np.cumsum(slope) * 1.0
     p = load_profile(os.path.join(DATA, "handmade_sloped.crg"))
-    want = ref_z + sloped[:, 4]               # the v = 0 long section
+    want = ref_z + sloped[:, 4]  # the v = 0 long section
     np.testing.assert_allclose(p.elevation - p.elevation[0], want - want[0], atol=1e-6)
     p = load_profile(os.path.join(DATA, "handmade_sloped.crg"), track_m=1.25)
     want = ref_z + sloped[:, 6]
@@ -132,6 +141,7 @@ def test_opencrg_samples_along_the_reference_line():
 
 
 # -- the interpolant -------------------------------------------------------------------
+
 
 def test_interpolant_error_is_bounded_and_velocity_is_its_derivative():
     """A sine of 0.5 m wavelength sampled every 5 cm. The cubic Hermite with exact slopes errs
@@ -142,15 +152,15 @@ def test_interpolant_error_is_bounded_and_velocity_is_its_derivative():
     k = 2 * np.pi / lam
     x = np.arange(0, 20 + DX / 2, DX)
     p = ProfileRoad(A * np.sin(k * x), DX, name="sine")
-    xf = np.linspace(0.2, 19.8, 20001) + 0.0123   # between samples (C1 there, C2 between)
-    exact = A * np.sin(k * xf)           # no grade: the sine ends where it starts
-    bound = DX ** 4 / 384 * A * k ** 4 + 2 * (4 / 27) * DX * DX ** 2 / 6 * A * k ** 3
+    xf = np.linspace(0.2, 19.8, 20001) + 0.0123  # between samples (C1 there, C2 between)
+    exact = A * np.sin(k * xf)  # no grade: the sine ends where it starts
+    bound = DX**4 / 384 * A * k**4 + 2 * (4 / 27) * DX * DX**2 / 6 * A * k**3
     err = np.max(np.abs(p.displacement(xf) - exact))
     assert err <= bound, (err, bound)
-    assert err > 0.1 * bound              # the bound is tight enough to mean something
+    assert err > 0.1 * bound  # the bound is tight enough to mean something
     h = 1e-6
     fd = (p.displacement(xf + h) - p.displacement(xf - h)) / (2 * h)
-    between = np.abs(xf / DX - np.round(xf / DX)) * DX > 2 * h   # not straddling a sample
+    between = np.abs(xf / DX - np.round(xf / DX)) * DX > 2 * h  # not straddling a sample
     assert np.max(np.abs(fd - p.slope(xf))[between]) <= 1e-6 * A * k
     np.testing.assert_allclose(p.displacement(x), p.table.value[:, 0], atol=1e-18)
 
@@ -165,18 +175,22 @@ def test_tire_envelope_is_the_250mm_moving_average():
     e = envelope(z, DX)
     assert e.size == z.size - 4
     gain = np.sin(np.pi * L / lam) / (5 * np.sin(np.pi * DX / lam))
-    assert np.max(np.abs(e)) == pytest.approx(gain, rel=1e-12)   # 20 samples a period: a peak
+    assert np.max(np.abs(e)) == pytest.approx(gain, rel=1e-12)  # 20 samples a period: a peak
     p = ProfileRoad(z, DX, enveloped=True)
     assert p.length == pytest.approx(40 - 4 * DX)
 
 
 # -- start at rest and repeat ------------------------------------------------------------
 
+
 def test_measured_road_starts_level_and_repeats_on_request(files):
     road = driven_road(files["csv"], 20.0, 10.0, step=1e-3)
     assert float(road.displacement(0.0)) == 0.0 and float(road.slope(0.0)) == 0.0
-    with pytest.raises(BodyvibError, match=r"250 m long; a 30 s run at 20 m/s needs 600 m: "
-                                           r"shorten the run to 12\.5 s .*--road-repeat"):
+    with pytest.raises(
+        BodyvibError,
+        match=r"250 m long; a 30 s run at 20 m/s needs 600 m: "
+        r"shorten the run to 12\.5 s .*--road-repeat",
+    ):
         driven_road(files["csv"], 20.0, 30.0, step=1e-3)
     rep = driven_road(files["csv"], 20.0, 30.0, step=1e-3, options=RoadOptions(repeat=True))
     xs = np.linspace(0, LENGTH, 5001)
@@ -185,6 +199,7 @@ def test_measured_road_starts_level_and_repeats_on_request(files):
 
 
 # -- refusals -------------------------------------------------------------------------
+
 
 def _csv(folder, name, text):
     path = os.path.join(folder, name)
@@ -196,31 +211,75 @@ def _csv(folder, name, text):
 ROWS = "".join(f"{i * 0.05:.2f},{np.sin(i / 7.0):.4f}\n" for i in range(200))
 
 
-@pytest.mark.parametrize("name, text, units, match", [
-    ("decreasing.csv", "distance_m,elevation_mm\n0,0\n0.1,1\n0.05,2\n0.2,1\n0.3,0\n", None,
-     r"distance goes back at sample 3 .*sort the profile"),
-    ("repeated.csv", "distance_m,elevation_mm\n0,0\n0.1,1\n0.1,2\n0.2,1\n0.3,0\n", None,
-     r"distance repeats at sample 3 .*drop repeated rows"),
-    ("nan.csv", "distance_m,elevation_mm\n0,0\n0.1,1\n0.2,nan\n0.3,1\n0.4,0\n", None,
-     r"sample 3 \(distance 0.2\) is not a number; fill the gap"),
-    ("empty-field.csv", "distance_m,elevation_mm\n0,0\n0.1,1\n0.2,\n0.3,1\n0.4,0\n", None,
-     r"sample 3 .* is not a number"),
-    ("gap.csv", "distance_m,elevation_mm\n0,0\n0.1,1\n0.2,2\n0.9,1\n1.0,0\n1.1,0\n", None,
-     r"a gap of 0.7 between distances 0.2 and 0.9 .*fill the gap or cut"),
-    ("jitter.csv", "distance_m,elevation_mm\n0,0\n0.1,1\n0.22,2\n0.3,1\n0.4,0\n", None,
-     r"not uniformly spaced .*resample"),
-    ("nounits.csv", "distance,elevation\n" + ROWS, None,
-     r"names no units; name them \(distance_m,elevation_mm\) or give --road-units"),
-    ("noheader.csv", ROWS, None, r"has no header"),
-    ("badunit.csv", "distance_m,elevation_furlong\n" + ROWS, None, r"unknown elevation unit 'furlong'"),
-    ("wrongunit.csv", "distance_m,elevation_m\n" + ROWS, None,
-     r"units look wrong"),
-    ("clash.csv", "distance_m,elevation_mm\n" + ROWS, "m,m", r"disagrees with the header"),
-    ("truncated.csv", "distance_m,elevation_mm\n" + ROWS + "10.00", None,
-     r"line 202 has 1 field\(s\), not 2; the file looks truncated"),
-    ("words.csv", "distance_m,elevation_mm\n" + ROWS + "10.00,abc\n", None, r"is not two numbers"),
-    ("road.txt", "x", None, r"unknown kind of file '.txt'"),
-])
+@pytest.mark.parametrize(
+    "name, text, units, match",
+    [
+        (
+            "decreasing.csv",
+            "distance_m,elevation_mm\n0,0\n0.1,1\n0.05,2\n0.2,1\n0.3,0\n",
+            None,
+            r"distance goes back at sample 3 .*sort the profile",
+        ),
+        (
+            "repeated.csv",
+            "distance_m,elevation_mm\n0,0\n0.1,1\n0.1,2\n0.2,1\n0.3,0\n",
+            None,
+            r"distance repeats at sample 3 .*drop repeated rows",
+        ),
+        (
+            "nan.csv",
+            "distance_m,elevation_mm\n0,0\n0.1,1\n0.2,nan\n0.3,1\n0.4,0\n",
+            None,
+            r"sample 3 \(distance 0.2\) is not a number; fill the gap",
+        ),
+        (
+            "empty-field.csv",
+            "distance_m,elevation_mm\n0,0\n0.1,1\n0.2,\n0.3,1\n0.4,0\n",
+            None,
+            r"sample 3 .* is not a number",
+        ),
+        (
+            "gap.csv",
+            "distance_m,elevation_mm\n0,0\n0.1,1\n0.2,2\n0.9,1\n1.0,0\n1.1,0\n",
+            None,
+            r"a gap of 0.7 between distances 0.2 and 0.9 .*fill the gap or cut",
+        ),
+        (
+            "jitter.csv",
+            "distance_m,elevation_mm\n0,0\n0.1,1\n0.22,2\n0.3,1\n0.4,0\n",
+            None,
+            r"not uniformly spaced .*resample",
+        ),
+        (
+            "nounits.csv",
+            "distance,elevation\n" + ROWS,
+            None,
+            r"names no units; name them \(distance_m,elevation_mm\) or give --road-units",
+        ),
+        ("noheader.csv", ROWS, None, r"has no header"),
+        (
+            "badunit.csv",
+            "distance_m,elevation_furlong\n" + ROWS,
+            None,
+            r"unknown elevation unit 'furlong'",
+        ),
+        ("wrongunit.csv", "distance_m,elevation_m\n" + ROWS, None, r"units look wrong"),
+        ("clash.csv", "distance_m,elevation_mm\n" + ROWS, "m,m", r"disagrees with the header"),
+        (
+            "truncated.csv",
+            "distance_m,elevation_mm\n" + ROWS + "10.00",
+            None,
+            r"line 202 has 1 field\(s\), not 2; the file looks truncated",
+        ),
+        (
+            "words.csv",
+            "distance_m,elevation_mm\n" + ROWS + "10.00,abc\n",
+            None,
+            r"is not two numbers",
+        ),
+        ("road.txt", "x", None, r"unknown kind of file '.txt'"),
+    ],
+)
 def test_bad_csv_is_refused_naming_the_fix(folder, name, text, units, match):
     with pytest.raises(BodyvibError, match=match):
         load_profile(_csv(folder, name, text), units=units)
@@ -242,7 +301,9 @@ def test_bad_erd_is_refused(folder):
     z = z[:400]
     path = os.path.join(folder, "bad.erd")
     write_erd(path, z, nsamp=500)
-    with pytest.raises(BodyvibError, match=r"truncated: the header promises 500 samples .* holds 400"):
+    with pytest.raises(
+        BodyvibError, match=r"truncated: the header promises 500 samples .* holds 400"
+    ):
         load_profile(path)
     write_erd(path, z, units=None)
     with pytest.raises(BodyvibError, match=r"names no units \(XUNITS and YUNITS\)"):
@@ -272,8 +333,9 @@ def test_erd_fixed_column_header_as_profilers_write_it(folder):
     p = load_profile(path)
     assert p.spacing == pytest.approx(0.025) and p.elevation.size == 500
     np.testing.assert_allclose(p.elevation, np.round(prof[:, 0], 6) * 1e-3, atol=1e-15)
-    np.testing.assert_allclose(load_profile(path, channel=2).elevation,
-                               np.round(prof[:, 1], 6) * 1e-3, atol=1e-15)
+    np.testing.assert_allclose(
+        load_profile(path, channel=2).elevation, np.round(prof[:, 1], 6) * 1e-3, atol=1e-15
+    )
 
 
 def test_erd_keyword_header_and_channels(folder):
@@ -296,7 +358,7 @@ def test_bad_crg_is_refused(folder, files):
     pycrg.write(path, np.column_stack([z, z, z])[:400], DX, [-1.0, 0.0, 1.0], fmt="LDFI")
     text = open(path).read()
     with open(path, "w") as f:
-        f.write(text[:len(text) * 2 // 3])
+        f.write(text[: len(text) * 2 // 3])
     with pytest.raises(BodyvibError, match=r"truncated: its header ends the road at u = 19.95 m"):
         load_profile(path)
     with open(path, "w") as f:
@@ -313,13 +375,16 @@ def test_spacing_too_coarse_for_the_speed_and_step(files):
     """The 1 m OpenCRG sample at 20 m/s: wavelengths down to 2 m pass at 10 Hz, far below the
     80 Hz of ISO 2631-1's range; a 5 cm profile reaches 200 Hz. A 10 ms step resolves 50 Hz
     only, so it asks less."""
-    with pytest.raises(BodyvibError, match=r"spacing 1 m is too coarse for 20 m/s .* 10 Hz, "
-                                           r"below the 80 Hz .* every 0.125 m or finer"):
+    with pytest.raises(
+        BodyvibError,
+        match=r"spacing 1 m is too coarse for 20 m/s .* 10 Hz, "
+        r"below the 80 Hz .* every 0.125 m or finer",
+    ):
         driven_road(os.path.join(DATA, "handmade_straight.crg"), 20.0, 1.0, step=1e-3)
     driven_road(files["crg"], 20.0, 1.0, step=1e-3)
     with pytest.raises(BodyvibError, match=r"spacing 0.05 m is too coarse for 5 m/s .* 50 Hz"):
         driven_road(files["crg"], 5.0, 1.0, step=1e-3)
-    driven_road(files["crg"], 5.0, 1.0, step=1e-2)   # 50 Hz: what a 10 ms step resolves
+    driven_road(files["crg"], 5.0, 1.0, step=1e-2)  # 50 Hz: what a 10 ms step resolves
 
 
 def test_missing_file_and_options_on_a_synthetic_road(folder):
@@ -330,7 +395,7 @@ def test_missing_file_and_options_on_a_synthetic_road(folder):
 
 
 def test_cli_refuses_a_bad_road_in_one_line(folder, capsys):
-    from bodyvib_cli.main import main
+    from bodyvib.cli.main import main
 
     path = _csv(folder, "cli-nounits.csv", "distance,elevation\n" + ROWS)
     assert main(["cosim", "--road", path, "--duration", "1", "--quiet"]) == 2
@@ -340,9 +405,10 @@ def test_cli_refuses_a_bad_road_in_one_line(folder, capsys):
 
 # -- driven: cosim, sweep, Road.fmu ------------------------------------------------------
 
+
 @pytest.fixture(scope="module")
 def fmus(folder):
-    from vehicle.fmus import build_fmus
+    from bodyvib.vehicle.fmus import build_fmus
 
     built = build_fmus(os.path.join(folder, "fmus"), names=["HumanBody3DOF", "QuarterCar"])
     return {k: str(v) for k, v in built.items()}
@@ -353,12 +419,17 @@ def test_same_head_figures_from_crg_csv_and_erd(files, fmus):
     """10 s at 20 m/s in cosim. The three files hold the same samples (to 1e-12 m in the ERD
     file) and go through the same interpolant, so the figures agree to 1e-9 relative; the
     coupling error against the monolithic reference stays at its synthetic-road level."""
-    from vehicle.study import run_study
+    from bodyvib.vehicle.study import run_study
 
     figs = {}
     for kind, path in files.items():
-        st = run_study({"body": fmus["HumanBody3DOF"]}, fmus["QuarterCar"], road=path,
-                       speed=20.0, duration=10.0)
+        st = run_study(
+            {"body": fmus["HumanBody3DOF"]},
+            fmus["QuarterCar"],
+            road=path,
+            speed=20.0,
+            duration=10.0,
+        )
         b = st.bodies["body"]
         figs[kind] = b.figures
         assert b.coupling_nrmse < 6e-4, (kind, b.coupling_nrmse)
@@ -367,18 +438,17 @@ def test_same_head_figures_from_crg_csv_and_erd(files, fmus):
         for name in ("weighted_rms", "vdv", "peak"):
             a, b = getattr(figs[kind], name), getattr(figs["crg"], name)
             assert a == pytest.approx(b, rel=1e-9), (kind, name, a, b)
-    assert 0.1 < figs["crg"].weighted_rms < 3.0   # a class C road at 20 m/s: about 0.5 m/s^2
+    assert 0.1 < figs["crg"].weighted_rms < 3.0  # a class C road at 20 m/s: about 0.5 m/s^2
 
 
 @pytest.mark.integration
 def test_cosim_command_drives_a_crg_road(files, folder):
     import json
 
-    from bodyvib_cli.main import main
+    from bodyvib.cli.main import main
 
     out = os.path.join(folder, "crg.json")
-    assert main(["cosim", "--road", files["crg"], "--duration", "2", "--quiet",
-                 "--json", out]) == 0
+    assert main(["cosim", "--road", files["crg"], "--duration", "2", "--quiet", "--json", out]) == 0
     data = json.load(open(out))
     assert data["road"]["format"] == "opencrg" and data["road"]["track_m"] == 0.0
 
@@ -386,11 +456,15 @@ def test_cosim_command_drives_a_crg_road(files, folder):
 def test_sweep_takes_road_files(files):
     """The batched engine on the CRG and CSV files: the same figures; the spectral engine,
     which needs a stationary ISO 8608 road, refuses them."""
-    from vehicle.sweep.engines import check_engine, run_batched
-    from vehicle.sweep.spec import expand, spec_hash
+    from bodyvib.vehicle.sweep.engines import check_engine, run_batched
+    from bodyvib.vehicle.sweep.spec import expand, spec_hash
 
-    spec = {"road": [files["crg"], files["csv"]], "speed": 20, "duration": 2,
-            "body": "reduced-paper"}
+    spec = {
+        "road": [files["crg"], files["csv"]],
+        "speed": 20,
+        "duration": 2,
+        "body": "reduced-paper",
+    }
     cases = expand(spec)
     assert [c.road for c in cases] == [os.path.abspath(files["crg"]), os.path.abspath(files["csv"])]
     assert cases[0].case_key != cases[1].case_key
@@ -403,7 +477,8 @@ def test_sweep_takes_road_files(files):
     opts = expand(dict(spec, road_options={"repeat": True, "taper": 2}))
     assert opts[0].road_settings() == RoadOptions(taper_m=2.0, repeat=True)
     assert opts[0].case_key != cases[0].case_key and spec_hash(spec) != spec_hash(
-        dict(spec, road_options={"repeat": True}))
+        dict(spec, road_options={"repeat": True})
+    )
     with pytest.raises(BodyvibError, match="unknown road option"):
         expand(dict(spec, road_options={"trak": 1}))
 
@@ -423,14 +498,19 @@ def table_bounds(profile, taper, h):
     m0, m1 = t.slope[:-1, 0] * dx, t.slope[1:, 0] * dx
     a3 = 2 * (z0 - z1) + m0 + m1
     a2 = -3 * z0 + 3 * z1 - 2 * m0 - m1
-    z3 = 6 * a3 / dx ** 3                                   # third derivative on each segment
-    z2 = np.maximum(np.abs(2 * a2), np.abs(6 * a3 + 2 * a2)) / dx ** 2
+    z3 = 6 * a3 / dx**3  # third derivative on each segment
+    z2 = np.maximum(np.abs(2 * a2), np.abs(6 * a3 + 2 * a2)) / dx**2
     xs = np.linspace(0, profile.length, 200001)
-    zm = [np.max(np.abs(profile.displacement(xs))), 1.01 * np.max(np.abs(profile.slope(xs))),
-          np.max(z2), np.max(np.abs(z3)), 0.0]
+    zm = [
+        np.max(np.abs(profile.displacement(xs))),
+        1.01 * np.max(np.abs(profile.slope(xs))),
+        np.max(z2),
+        np.max(np.abs(z3)),
+        0.0,
+    ]
     wm = [1.0] + [(np.pi / taper) ** j / 2 for j in range(1, 5)]
     m4 = sum(comb(4, j) * wm[j] * zm[4 - j] for j in range(1, 5))
-    return h ** 4 / 384 * m4 + 1e-15, np.sqrt(3) / 216 * h ** 3 * m4 + 1e-13
+    return h**4 / 384 * m4 + 1e-15, np.sqrt(3) / 216 * h**3 * m4 + 1e-13
 
 
 @pytest.mark.integration
@@ -440,15 +520,15 @@ def test_road_fmu_of_a_file_is_the_driven_road(files, folder):
     interpolation error (table_bounds; rows every 5/3 cm, a third of the profile's spacing:
     measured 3.4e-9 m and 1.3e-5 m/s in the fade, half the bounds, and 1e-15 m, 2e-12 m/s
     beyond it, where the table reproduces the profile's cubics)."""
+    from bodyvib.vehicle.fmus import build_project_fmu
+    from bodyvib.vehicle.road.synthetic import table_spacing
     from fmpy import simulate_fmu
-
-    from vehicle.fmus import build_project_fmu
-    from vehicle.road.synthetic import table_spacing
 
     speed = 17.3
     fmu = build_project_fmu("Road", os.path.join(folder, "roadfmu"), files["csv"])
-    res = simulate_fmu(str(fmu), stop_time=10.0, output_interval=1e-3,
-                       start_values={"speed": speed})
+    res = simulate_fmu(
+        str(fmu), stop_time=10.0, output_interval=1e-3, start_values={"speed": speed}
+    )
     road = driven_road(files["csv"], speed, 10.0, step=1e-3)
     z, v = road_input(road, speed, res["time"])
     assert res["road_displacement"][0] == 0.0 and res["road_velocity"][0] == 0.0
@@ -459,7 +539,7 @@ def test_road_fmu_of_a_file_is_the_driven_road(files, folder):
     dv = np.abs(res["road_velocity"] - v)
     assert dz.max() <= bz and dv.max() <= speed * bs, (dz.max(), bz, dv.max(), speed * bs)
     beyond = speed * res["time"] > road.taper
-    assert dz[beyond].max() <= 1e-14 and dv[beyond].max() <= 1e-11   # the cubics, to rounding
+    assert dz[beyond].max() <= 1e-14 and dv[beyond].max() <= 1e-11  # the cubics, to rounding
 
 
 @pytest.mark.integration
@@ -467,42 +547,89 @@ def test_sweep_engines_drive_a_road_file_as_cosim_does(files, folder, capsys):
     """A sweep case on the ERD file: its road input is bodyvib cosim's, sample for sample from
     t = 0 (the CSV's 10 digits); the cosim engine gives cosim's head acceleration, the batched
     engine the same within the coupling error."""
-    from bodyvib_cli.main import main
-    from vehicle.reference import nrmse
-    from vehicle.sweep.engines import case_road_input, run_batched, run_cosim
-    from vehicle.sweep.spec import expand, grid_spec
+    from bodyvib.vehicle.reference import nrmse
+    from bodyvib.vehicle.sweep.engines import case_road_input, run_batched, run_cosim
+    from bodyvib.vehicle.sweep.spec import expand, grid_spec
+
+    from bodyvib.cli.main import main
 
     csv = os.path.join(folder, "erd-run.csv")
-    assert main(["cosim", "--road", files["erd"], "--road-taper", "3", "--duration", "2",
-                 "--csv", csv, "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "cosim",
+                "--road",
+                files["erd"],
+                "--road-taper",
+                "3",
+                "--duration",
+                "2",
+                "--csv",
+                csv,
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     data = np.genfromtxt(csv, delimiter=",", names=True)
-    spec = grid_spec([f"road={files['erd']}", "speed=20", "body=reduced-paper"], duration=2.0,
-                     road_options={"taper": 3.0})
+    spec = grid_spec(
+        [f"road={files['erd']}", "speed=20", "body=reduced-paper"],
+        duration=2.0,
+        road_options={"taper": 3.0},
+    )
     (case,) = expand(spec)
     z, v = case_road_input(case)
     assert z[0] == 0.0 and v[0] == 0.0
-    np.testing.assert_allclose(data["road_displacement_m"], z, rtol=1e-9, atol=1e-9 * np.abs(z).max())
+    np.testing.assert_allclose(
+        data["road_displacement_m"], z, rtol=1e-9, atol=1e-9 * np.abs(z).max()
+    )
     np.testing.assert_allclose(data["road_velocity_ms"], v, rtol=1e-9, atol=1e-9 * np.abs(v).max())
     co, co_hist = run_cosim([case], record=True)
     a = co_hist[0]["head_acceleration"]
-    np.testing.assert_allclose(data["head_acceleration_ms2"], a, rtol=1e-9, atol=1e-9 * np.abs(a).max())
+    np.testing.assert_allclose(
+        data["head_acceleration_ms2"], a, rtol=1e-9, atol=1e-9 * np.abs(a).max()
+    )
     ba, ba_hist = run_batched([case], record=True)
     assert nrmse(a, ba_hist[0]["head_acceleration"]) < 5e-4
-    assert main(["sweep", str(os.path.join(folder, "x.json")), "--road-taper", "3",
-                 "--out", os.path.join(folder, "x.parquet")]) == 2
+    assert (
+        main(
+            [
+                "sweep",
+                str(os.path.join(folder, "x.json")),
+                "--road-taper",
+                "3",
+                "--out",
+                os.path.join(folder, "x.parquet"),
+            ]
+        )
+        == 2
+    )
     assert "--road-* options go with --grid" in capsys.readouterr().err
 
 
 def test_build_refuses_a_length_for_a_road_file(files, folder, capsys):
-    from bodyvib_cli.main import main
+    from bodyvib.cli.main import main
 
     dest = os.path.join(folder, "dist-refused")
-    assert main(["build", "--dest", dest, "--fmus", "Road", "--road", files["crg"],
-                 "--road-length", "100"]) == 2
+    assert (
+        main(
+            [
+                "build",
+                "--dest",
+                dest,
+                "--fmus",
+                "Road",
+                "--road",
+                files["crg"],
+                "--road-length",
+                "100",
+            ]
+        )
+        == 2
+    )
     assert "tabulates a road file over its own length" in capsys.readouterr().err
-    assert main(["build", "--dest", dest, "--fmus", "Road", "--road", "C",
-                 "--road-repeat"]) == 2
+    assert main(["build", "--dest", dest, "--fmus", "Road", "--road", "C", "--road-repeat"]) == 2
     assert "apply to road files; road 'C' is synthetic" in capsys.readouterr().err
     assert not os.path.exists(os.path.join(dest, "Road.fmu"))
 
@@ -514,7 +641,7 @@ def test_readme_worked_example(folder):
     import json
     import sys
 
-    from bodyvib_cli.main import main
+    from bodyvib.cli.main import main
 
     sys.path.insert(0, os.path.join(os.path.dirname(DATA), "..", "..", "examples"))
     try:
@@ -523,14 +650,34 @@ def test_readme_worked_example(folder):
         sys.path.pop(0)
     crg = write(os.path.join(folder, "road.crg"))
     out = os.path.join(folder, "example.json")
-    assert main(["cosim", "--road", crg, "--road-track", "0.875", "--duration", "10",
-                 "--quiet", "--json", out]) == 0
+    assert (
+        main(
+            [
+                "cosim",
+                "--road",
+                crg,
+                "--road-track",
+                "0.875",
+                "--duration",
+                "10",
+                "--quiet",
+                "--json",
+                out,
+            ]
+        )
+        == 0
+    )
     (body,) = json.load(open(out))["bodies"].values()
     readme = open(os.path.join(os.path.dirname(DATA), "..", "..", "README.md")).read()
     example = readme.split("**Worked example**", 1)[1].split("### The car", 1)[0]
-    printed = {k: float(re.search(pat, example).group(1)) for k, pat in (
-        ("weighted_rms", r"Wk-weighted r\.m\.s\. \[m/s2\]\s+([\d.]+)"),
-        ("vdv", r"VDV \[m/s\^1\.75\]\s+([\d.]+)"), ("peak", r"weighted peak \[m/s2\]\s+([\d.]+)"))}
+    printed = {
+        k: float(re.search(pat, example).group(1))
+        for k, pat in (
+            ("weighted_rms", r"Wk-weighted r\.m\.s\. \[m/s2\]\s+([\d.]+)"),
+            ("vdv", r"VDV \[m/s\^1\.75\]\s+([\d.]+)"),
+            ("peak", r"weighted peak \[m/s2\]\s+([\d.]+)"),
+        )
+    }
     for k, v in printed.items():
         assert body[k] == pytest.approx(v, abs=5e-5), (k, body[k], v)
     assert body["coupling_nrmse"] < 5e-4

@@ -6,9 +6,8 @@ import os
 
 import pytest
 
+from bodyvib.models import available_models, load_model, save_model
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib.models import available_models, load_model
-from bodyvib.models import save_model
 from bodyvib.runtime.modelfile import network_from_dict, network_to_dict
 
 
@@ -19,8 +18,15 @@ def reduced_dict():
 def test_shipped_models_load_by_name():
     assert {"reduced-paper", "iso7962"} <= set(available_models())
     red = load_model("reduced-paper")
-    assert red.parameters == {"m1": 4.88, "m2": 65.0, "k1": 6.18e4, "k2": 6.41e4,
-                              "ks": 8e5, "c1": 333.0, "c2": 2935.0}
+    assert red.parameters == {
+        "m1": 4.88,
+        "m2": 65.0,
+        "k1": 6.18e4,
+        "k2": 6.41e4,
+        "ks": 8e5,
+        "c1": 333.0,
+        "c2": 2935.0,
+    }
     iso = load_model("iso7962")
     assert iso.node_names == ("y1", "y2", "y3", "y4")
     assert "Fig. 1.7" in iso.provenance["topology"]  # sourced: the handbook figure
@@ -37,8 +43,9 @@ def test_round_trip_through_file(tmp_path):
 
 def test_units_are_kept_through_files_and_mounting(tmp_path):
     """The units field was validated and then dropped; it now travels with the model."""
+    from bodyvib.vehicle.quarter_car import load_car
+
     from bodyvib.runtime.network import mount
-    from vehicle.quarter_car import load_car
 
     d = reduced_dict()
     assert d["units"]["k1"] == "N/m"  # network_to_dict writes it
@@ -58,29 +65,43 @@ def mutate(fn):
     return d
 
 
-@pytest.mark.parametrize("change, message", [
-    (lambda d: d["parameters"].update(m1=-4.88), "parameters.m1 = -4.88 must be positive"),
-    (lambda d: d["parameters"].update(m2=0), "parameters.m2 = 0 must be positive"),
-    (lambda d: d["parameters"].update(k1="stiff"), "parameters.k1: expected a number"),
-    (lambda d: d["parameters"].update(c1=float("nan")), "parameters.c1: must be finite"),
-    (lambda d: d.pop("masses"), "missing field(s) masses"),
-    (lambda d: d.update(colour="red"), "unknown field(s) colour"),
-    (lambda d: d["elements"][2].update(to="m9"), "connects unknown point 'm9'"),
-    (lambda d: d["elements"][1].update(k="k7"), "unknown parameter 'k7'"),
-    (lambda d: d["elements"][1].pop("c"), "a kelvin needs field(s) c"),
-    (lambda d: d["elements"][0].update(c="c1"), "unknown field(s) c for a spring"),
-    (lambda d: d["elements"][0].update(kind="rubber"), "unknown kind 'rubber'"),
-    (lambda d: (d["masses"].update(m3="m1"), d["parameters"].update()),
-     "m3 not connected to the seat"),
-    (lambda d: d["parameters"].update(k9=1.0), "parameter(s) k9 not used"),
-    (lambda d: d["roles"].update(head="m7"), "roles.head names unknown point 'm7'"),
-    # wrong JSON types: a clear message, not a TypeError from hashing a list
-    (lambda d: d["elements"][0].update(name=["neck"]), "elements[0].name: expected a non-empty string"),
-    (lambda d: d["elements"][0].update(kind=["spring"]), "elements[0].kind: expected a non-empty string"),
-    (lambda d: d["elements"][0].update(to={"m": 1}), "elements[0].to: expected a non-empty string"),
-    (lambda d: d["roles"].update(head=["m1"]), "roles.head names unknown point"),
-    (lambda d: d.update(force_inputs=[["m1"]]), "'force_inputs' must list mass names"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (lambda d: d["parameters"].update(m1=-4.88), "parameters.m1 = -4.88 must be positive"),
+        (lambda d: d["parameters"].update(m2=0), "parameters.m2 = 0 must be positive"),
+        (lambda d: d["parameters"].update(k1="stiff"), "parameters.k1: expected a number"),
+        (lambda d: d["parameters"].update(c1=float("nan")), "parameters.c1: must be finite"),
+        (lambda d: d.pop("masses"), "missing field(s) masses"),
+        (lambda d: d.update(colour="red"), "unknown field(s) colour"),
+        (lambda d: d["elements"][2].update(to="m9"), "connects unknown point 'm9'"),
+        (lambda d: d["elements"][1].update(k="k7"), "unknown parameter 'k7'"),
+        (lambda d: d["elements"][1].pop("c"), "a kelvin needs field(s) c"),
+        (lambda d: d["elements"][0].update(c="c1"), "unknown field(s) c for a spring"),
+        (lambda d: d["elements"][0].update(kind="rubber"), "unknown kind 'rubber'"),
+        (
+            lambda d: (d["masses"].update(m3="m1"), d["parameters"].update()),
+            "m3 not connected to the seat",
+        ),
+        (lambda d: d["parameters"].update(k9=1.0), "parameter(s) k9 not used"),
+        (lambda d: d["roles"].update(head="m7"), "roles.head names unknown point 'm7'"),
+        # wrong JSON types: a clear message, not a TypeError from hashing a list
+        (
+            lambda d: d["elements"][0].update(name=["neck"]),
+            "elements[0].name: expected a non-empty string",
+        ),
+        (
+            lambda d: d["elements"][0].update(kind=["spring"]),
+            "elements[0].kind: expected a non-empty string",
+        ),
+        (
+            lambda d: d["elements"][0].update(to={"m": 1}),
+            "elements[0].to: expected a non-empty string",
+        ),
+        (lambda d: d["roles"].update(head=["m1"]), "roles.head names unknown point"),
+        (lambda d: d.update(force_inputs=[["m1"]]), "'force_inputs' must list mass names"),
+    ],
+)
 def test_invalid_files_name_the_field(change, message):
     with pytest.raises(BodyvibError) as exc:
         network_from_dict(mutate(change), source="bad.json")
@@ -92,7 +113,7 @@ def test_unreadable_and_malformed_files(tmp_path):
     with pytest.raises(BodyvibError, match="does not exist"):
         load_model(str(tmp_path / "none.json"))
     bad = tmp_path / "bad.json"
-    bad.write_text("{\"name\": 1,,}")
+    bad.write_text('{"name": 1,,}')
     with pytest.raises(BodyvibError, match="not valid JSON .line 1"):
         load_model(str(bad))
     with pytest.raises(BodyvibError, match="unknown model 'nope'.*iso7962"):
@@ -113,6 +134,7 @@ def test_with_parameters_rejects_unknown_names():
 
 def test_shipped_files_are_plain_json():
     from bodyvib.models import MODEL_DIR
+
     for name in available_models():
         with open(os.path.join(MODEL_DIR, name + ".json")) as f:
             data = json.load(f)
@@ -122,6 +144,7 @@ def test_shipped_files_are_plain_json():
 def test_atomic_write_gives_ordinary_file_mode(tmp_path):
     """Files written atomically get the mode open() would give (umask applied), not 0600."""
     from bodyvib.process.outputs import atomic_write_text
+
     umask = os.umask(0o022)
     try:
         atomic_write_text(tmp_path / "a.txt", "x")
@@ -134,6 +157,7 @@ def test_atomic_write_gives_ordinary_file_mode(tmp_path):
 def test_atomic_write_error_names_the_destination(tmp_path):
     """A failed write used to report the hidden temporary file ('.tmp-...') as the culprit."""
     from bodyvib.process.outputs import atomic_write_text
+
     folder = tmp_path / "ro"
     folder.mkdir()
     folder.chmod(0o500)
@@ -148,8 +172,22 @@ def test_atomic_write_error_names_the_destination(tmp_path):
     assert not [p for p in os.listdir(folder) if p.startswith(".tmp-")]
 
 
-_NAMES = ["m1", "k_seat", "_c2", "K1s", "m 1", "1m", "k-1", "k\n1", "k.1", "k[1]", "'k1'", "",
-          "k\t", "m\u00e9"]
+_NAMES = [
+    "m1",
+    "k_seat",
+    "_c2",
+    "K1s",
+    "m 1",
+    "1m",
+    "k-1",
+    "k\n1",
+    "k.1",
+    "k[1]",
+    "'k1'",
+    "",
+    "k\t",
+    "m\u00e9",
+]
 
 
 def _fmpy_accepts(name):

@@ -4,8 +4,14 @@ import numpy as np
 import pytest
 from scipy.special import erf
 
-from bodyvib.comfort.figures import (ComfortFigures, basic_method_checks, comfort_figures, mtvv,
-                                     running_rms, wk_response)
+from bodyvib.comfort.figures import (
+    ComfortFigures,
+    basic_method_checks,
+    comfort_figures,
+    mtvv,
+    running_rms,
+    wk_response,
+)
 from bodyvib.comfort.stream import stream_batch_figures, stream_comfort_figures
 
 FS = 1000.0
@@ -21,7 +27,7 @@ def test_running_rms_of_a_rectangular_burst_is_the_closed_form():
         w = np.where(on, 3.0 * np.sin(2 * np.pi * 5 * (t - 2.0)), 0.0)
         r = running_rms(w, FS)
         assert r.max() == pytest.approx(3.0 * expected, rel=1e-12)
-        assert r[int(1.9 * FS)] == 0.0                      # before the burst
+        assert r[int(1.9 * FS)] == 0.0  # before the burst
 
 
 def test_mtvv_of_a_gaussian_tone_burst_is_the_closed_form():
@@ -35,12 +41,12 @@ def test_mtvv_of_a_gaussian_tone_burst_is_the_closed_form():
     sigma = 2.0
     t = np.arange(0, 60, 1 / FS)
     for f in (4.0, 8.0):
-        a = np.exp(-(t - 30) ** 2 / (2 * sigma ** 2)) * np.sin(2 * np.pi * f * t)
+        a = np.exp(-((t - 30) ** 2) / (2 * sigma**2)) * np.sin(2 * np.pi * f * t)
         H = abs(wk_response(f)[0])
         expected = H / np.sqrt(2) * np.sqrt(sigma * np.sqrt(np.pi) * erf(0.5 / sigma))
         w, d = 2 * np.pi * f, 1e-2
         h = lambda x: wk_response(x / (2 * np.pi))[0]  # noqa: E731
-        tol = abs((h(w + d) - 2 * h(w) + h(w - d)) / d ** 2 / h(w)) / (2 * sigma ** 2)
+        tol = abs((h(w + d) - 2 * h(w) + h(w - d)) / d**2 / h(w)) / (2 * sigma**2)
         assert mtvv(a, FS) == pytest.approx(expected, rel=tol)
         assert comfort_figures(a, FS).mtvv == mtvv(a, FS)
 
@@ -57,11 +63,11 @@ def test_streamed_mtvv_equals_whole_record_within_interpolation_error():
     # The window sums are the same code (rounding: 1e-13).
     t = np.arange(0, 40, 1 / FS)
     for f in (4.0, 16.0):
-        a = np.exp(-(t - 20) ** 2 / (2 * 2.0 ** 2)) * np.sin(2 * np.pi * f * t)
+        a = np.exp(-((t - 20) ** 2) / (2 * 2.0**2)) * np.sin(2 * np.pi * f * t)
         whole = mtvv(a, FS)
         predicted = np.sinc(f / FS) ** 2 - 1
         for block in (1, 333, 4096, a.size):
-            got = stream_comfort_figures(a[: 3000] if block == 1 else a, FS, block=block)
+            got = stream_comfort_figures(a[:3000] if block == 1 else a, FS, block=block)
             ref = mtvv(a[:3000], FS) if block == 1 else whole
             if block == 1:  # sample-by-sample streaming: the window bookkeeping at its limit
                 assert got.mtvv / ref - 1 == pytest.approx(predicted, abs=5e-6)
@@ -96,25 +102,31 @@ def test_basic_method_checks_of_a_sine_and_of_a_shock():
     assert c["vdv_ratio"]["value"] == pytest.approx((3 / 8) ** 0.25 * np.sqrt(2), rel=2e-2)
     assert not any(v["exceeded"] for v in c.values())
     # a single shock on a quiet record exceeds all three limits
-    a = 0.01 * np.sin(2 * np.pi * 8 * t) + np.where(np.abs(t - 50) < 0.05,
-                                                   20 * np.sin(2 * np.pi * 10 * (t - 50)), 0)
+    a = 0.01 * np.sin(2 * np.pi * 8 * t) + np.where(
+        np.abs(t - 50) < 0.05, 20 * np.sin(2 * np.pi * 10 * (t - 50)), 0
+    )
     c = basic_method_checks(comfort_figures(a, FS), 100.0)
     assert all(v["exceeded"] for v in c.values())
-    assert basic_method_checks(ComfortFigures(0.0, 0.0, 0.0, float("nan"), "", 0.0), 1.0)[
-        "mtvv_ratio"]["exceeded"] is False
+    assert (
+        basic_method_checks(ComfortFigures(0.0, 0.0, 0.0, float("nan"), "", 0.0), 1.0)[
+            "mtvv_ratio"
+        ]["exceeded"]
+        is False
+    )
 
 
 def test_sweep_rows_carry_the_head_mtvv():
     # the batched engine's head_mtvv is the streamed MTVV of the head history it ran
     # (the same filter, block by block: 1e-12); the spectral engine has none (NaN)
-    from vehicle.sweep.engines import run_batched, run_spectral
-    from vehicle.sweep.spec import expand
+    from bodyvib.vehicle.sweep.engines import run_batched, run_spectral
+    from bodyvib.vehicle.sweep.spec import expand
 
     cases = expand({"road": "C", "speed": 20, "duration": 3, "body": ["reduced-paper"]})
     rows, hist = run_batched(cases, record=True)
     head = hist[0]["head_acceleration"]
     assert rows[0]["head_mtvv"] == pytest.approx(
-        stream_comfort_figures(head, 1000.0).mtvv, rel=1e-12)
+        stream_comfort_figures(head, 1000.0).mtvv, rel=1e-12
+    )
     # the largest 1 s mean square is at least the mean of all of them, about a_w^2
     assert rows[0]["head_mtvv"] > rows[0]["head_weighted_rms"]
     assert np.isnan(run_spectral(cases)[0]["head_mtvv"])

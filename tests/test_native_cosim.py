@@ -4,7 +4,7 @@ libcosimpy (libcosim) and ecospy (Ecos) are Jacobi masters: each FMU steps on th
 outputs from the step start. Wired both ways with a first-order hold (the car's seat
 velocity drives the body's seat_velocity, the body's seat_force_rate the car's
 seat_force_rate), the coupling error against the monolithic reference
-(vehicle.reference.reference_run) is second order in the step. Measured on the 1-8 Hz road
+(bodyvib.vehicle.reference.reference_run) is second order in the step. Measured on the 1-8 Hz road
 sweep below: head-acceleration NRMSE 0.215 % at 1 ms and 0.0556 % at 0.5 ms in both hosts
 (ratio 3.86). So the tolerance is that of the coupling, not of the FMUs: the error must
 shrink about four-fold when the step halves (ratio between 3 and 5), which leaves no room
@@ -18,11 +18,11 @@ import json
 
 import numpy as np
 import pytest
+from bodyvib.vehicle.quarter_car import load_car
+from bodyvib.vehicle.reference import nrmse, reference_run
+from helpers import ROOT, run_cli
 
 from bodyvib.models import load_model
-from helpers import ROOT, run_cli
-from vehicle.quarter_car import load_car
-from vehicle.reference import nrmse, reference_run
 
 pytestmark = pytest.mark.integration
 
@@ -31,7 +31,7 @@ DURATION = 4.0
 
 def road(t):
     """A 1 cm road sine sweep, 1 to 8 Hz over DURATION."""
-    phase = 2 * np.pi * (t + 7 * t ** 2 / (2 * DURATION))
+    phase = 2 * np.pi * (t + 7 * t**2 / (2 * DURATION))
     return 0.01 * np.sin(phase), 0.01 * 2 * np.pi * (1 + 7 * t / DURATION) * np.cos(phase)
 
 
@@ -68,8 +68,9 @@ def libcosim_run(body, car, h, rate=True, accel=False):
     z, v = road(t)
     head = np.zeros(n + 1)
     for k in range(n):
-        manipulator.slave_real_values(ic, [vc["road_displacement"], vc["road_velocity"]],
-                                      [z[k], v[k]])
+        manipulator.slave_real_values(
+            ic, [vc["road_displacement"], vc["road_velocity"]], [z[k], v[k]]
+        )
         ex.step(1)
         head[k + 1] = observer.last_real_values(ib, [vb["head_acceleration"]])[0]
     return z, v, head
@@ -152,13 +153,22 @@ def test_libcosim_and_ecos_agree(hosts, native_fmus):
     assert np.max(np.abs(a - b)) <= 1e-12 * np.max(np.abs(a))
 
 
-
 def test_bodyvib_master_takes_native_fmus_given_as_files(native_fmus, python_fmus, tmp_path):
     runs = {}
     for label, fmus in (("native", native_fmus), ("python", python_fmus)):
-        out = run_cli("cosim", "--body", fmus["HumanBody3DOF"], "--car-fmu", fmus["QuarterCar"],
-                   "--duration", "2", "--quiet", "--json", str(tmp_path / f"{label}.json"),
-                   cwd=ROOT)
+        out = run_cli(
+            "cosim",
+            "--body",
+            fmus["HumanBody3DOF"],
+            "--car-fmu",
+            fmus["QuarterCar"],
+            "--duration",
+            "2",
+            "--quiet",
+            "--json",
+            str(tmp_path / f"{label}.json"),
+            cwd=ROOT,
+        )
         assert out.returncode == 0, out.stderr
         runs[label] = json.load(open(tmp_path / f"{label}.json"))
     a, b = runs["native"]["bodies"], runs["python"]["bodies"]
@@ -174,8 +184,9 @@ def test_bodyvib_master_takes_native_fmus_given_as_files(native_fmus, python_fmu
 
 @pytest.mark.parametrize("command", ["cosim", "check"])
 def test_native_option_builds_native_fmus_for_the_run(command, tmp_path):
-    out = run_cli(command, "--native", "--duration", "1", "--json", str(tmp_path / "r.json"),
-               cwd=ROOT)
+    out = run_cli(
+        command, "--native", "--duration", "1", "--json", str(tmp_path / "r.json"), cwd=ROOT
+    )
     assert out.returncode == 0, out.stderr
     assert "building" in out.stderr
     result = json.load(open(tmp_path / "r.json"))

@@ -22,12 +22,12 @@ import shutil
 
 import numpy as np
 import pytest
-
-from bodyvib.models import load_model
+from bodyvib.vehicle.quarter_car import load_car
+from bodyvib.vehicle.reference import nrmse, reference_run
 from test_native_cosim import DURATION, road
 from test_native_fmu import BODY_OUT, _fmi2_callbacks, chirp, grid
-from vehicle.quarter_car import load_car
-from vehicle.reference import nrmse, reference_run
+
+from bodyvib.models import load_model
 
 pytestmark = pytest.mark.integration
 
@@ -46,15 +46,26 @@ class Raw:
         self.dir = extract(path)
         self.messages = []
         cls = FMU3Slave if self.fmi3 else FMU2Slave
-        self.fmu = cls(guid=self.md.guid, unzipDirectory=self.dir, instanceName=name,
-                       modelIdentifier=self.md.coSimulation.modelIdentifier)
+        self.fmu = cls(
+            guid=self.md.guid,
+            unzipDirectory=self.dir,
+            instanceName=name,
+            modelIdentifier=self.md.coSimulation.modelIdentifier,
+        )
         if self.fmi3:
-            self.fmu.instantiate(logMessage=lambda env, status, category, message:
-                                 self.messages.append(message.decode()))
+            self.fmu.instantiate(
+                logMessage=lambda env, status, category, message: self.messages.append(
+                    message.decode()
+                )
+            )
         else:
-            self.fmu.instantiate(callbacks=_fmi2_callbacks(
-                lambda env, name, status, category, message:
-                self.messages.append(message.decode())))
+            self.fmu.instantiate(
+                callbacks=_fmi2_callbacks(
+                    lambda env, name, status, category, message: self.messages.append(
+                        message.decode()
+                    )
+                )
+            )
 
     def status(self, fn, *args, **kw):
         """The FMI status of one call (0 OK, 2 Discard, 3 Error)."""
@@ -110,23 +121,26 @@ def test_calls_out_of_order_are_errors_that_change_nothing(native_fmus, fmi):
             seen["enter"] = f.status("enterInitializationMode", startTime=1.5)
         else:
             seen["enter"] = f.status("setupExperiment", startTime=1.5) + f.status(
-                "enterInitializationMode")
+                "enterInitializationMode"
+            )
             seen["setup_initialization"] = f.status("setupExperiment", startTime=0.0)
-        seen.update({
-            "enter_initialization": f.status("enterInitializationMode"),
-            "step_initialization": f.status(step, 1.5, h),
-            "get_initialization": f.status(get, head),
-            "exit": f.status("exitInitializationMode"),
-            "exit_stepping": f.status("exitInitializationMode"),
-            "parameter_stepping": f.status(set_, [m1], [9.0]),
-            "step_from_zero": f.status(step, 0.0, h),
-            "step_from_start": f.status(step, 1.5, h),
-            "terminate": f.status("terminate"),
-            "step_terminated": f.status(step, 1.5 + h, h),
-            "set_terminated": f.status(set_, [f.vr["seat_displacement"]], [0.1]),
-            "terminate_terminated": f.status("terminate"),
-            "get_terminated": f.status(get, [m1]),
-        })
+        seen.update(
+            {
+                "enter_initialization": f.status("enterInitializationMode"),
+                "step_initialization": f.status(step, 1.5, h),
+                "get_initialization": f.status(get, head),
+                "exit": f.status("exitInitializationMode"),
+                "exit_stepping": f.status("exitInitializationMode"),
+                "parameter_stepping": f.status(set_, [m1], [9.0]),
+                "step_from_zero": f.status(step, 0.0, h),
+                "step_from_start": f.status(step, 1.5, h),
+                "terminate": f.status("terminate"),
+                "step_terminated": f.status(step, 1.5 + h, h),
+                "set_terminated": f.status(set_, [f.vr["seat_displacement"]], [0.1]),
+                "terminate_terminated": f.status("terminate"),
+                "get_terminated": f.status(get, [m1]),
+            }
+        )
         if f.fmi3:
             seen["step_mode"] = f.status("enterStepMode")
         assert f.get(["m1"]) == [pytest.approx(4.88)]  # the refused parameter change
@@ -136,10 +150,23 @@ def test_calls_out_of_order_are_errors_that_change_nothing(native_fmus, fmi):
         f.close()
     errors = {k for k, v in seen.items() if v == 3}
     assert {k for k, v in seen.items() if v == 0} == {
-        "enter", "get_initialization", "exit", "step_from_start", "terminate",
-        "get_terminated", "reset"}, seen
-    assert errors == set(seen) - {"enter", "get_initialization", "exit", "step_from_start",
-                                  "terminate", "get_terminated", "reset"}, seen
+        "enter",
+        "get_initialization",
+        "exit",
+        "step_from_start",
+        "terminate",
+        "get_terminated",
+        "reset",
+    }, seen
+    assert errors == set(seen) - {
+        "enter",
+        "get_initialization",
+        "exit",
+        "step_from_start",
+        "terminate",
+        "get_terminated",
+        "reset",
+    }, seen
     text = "\n".join(f.messages)
     for fn in ("DoStep", "GetReal" if not f.fmi3 else "GetFloat64"):
         assert f"fmi{3 if f.fmi3 else 2}{fn} is not allowed in state" in text, text
@@ -217,8 +244,13 @@ def test_input_derivatives_are_the_rate_inputs_bit_for_bit(native_fmus):
         try:
             for k in range(t.size):
                 if mode == "rates":
-                    f.set({"seat_displacement": x[k], "seat_velocity": v[k],
-                           "seat_acceleration": a[k]})
+                    f.set(
+                        {
+                            "seat_displacement": x[k],
+                            "seat_velocity": v[k],
+                            "seat_acceleration": a[k],
+                        }
+                    )
                 else:
                     f.set({"seat_displacement": x[k]})
                     f.fmu.setRealInputDerivatives([vr, vr], [1, 2], [v[k], a[k]])
@@ -236,8 +268,9 @@ def test_input_derivatives_are_the_rate_inputs_bit_for_bit(native_fmus):
         road_vr = car.vr["road_displacement"]
         assert car.status("setRealInputDerivatives", [road_vr], [2], [3.0]) == 3
         assert car.status("setRealInputDerivatives", [road_vr], [2], [0.0]) == 0
-        assert car.status("setRealInputDerivatives", [car.vr["seat_displacement"]], [1],
-                          [1.0]) == 3  # an output
+        assert (
+            car.status("setRealInputDerivatives", [car.vr["seat_displacement"]], [1], [1.0]) == 3
+        )  # an output
         assert any("no in-step derivative of order 2" in m for m in car.messages)
     finally:
         car.close()
@@ -263,8 +296,14 @@ def test_output_derivatives_are_exact(native_fmus, fmi):
             derivs.append(car.derivatives(["seat_displacement"] * 2, [1, 2]))
             if k < n:
                 car.fmu.doStep(t[k], h)
-        assert car.status("getRealOutputDerivatives" if not car.fmi3 else
-                          "getOutputDerivatives", [car.vr["seat_displacement"]], [3]) == 3
+        assert (
+            car.status(
+                "getRealOutputDerivatives" if not car.fmi3 else "getOutputDerivatives",
+                [car.vr["seat_displacement"]],
+                [3],
+            )
+            == 3
+        )
     finally:
         car.close()
     rows, derivs = np.array(rows), np.array(derivs)
@@ -280,7 +319,7 @@ def test_output_derivatives_are_exact(native_fmus, fmi):
             body.fmu.doStep(t[k], h)
         body.set({"seat_displacement": 0.0, "seat_velocity": 0.0})
         hf, time = 1e-5, t[n]
-        for k in range(400):
+        for _k in range(400):
             rate.append(body.get(["seat_force_rate"])[0])
             a, b = body.derivatives(["seat_force", "seat_force"], [1, 2])
             d1.append(a)
@@ -305,8 +344,11 @@ def coupled_by_derivatives(native_fmus, h, derivatives=True):
     z, zv = road(t)
     car, body = Raw(native_fmus["QuarterCar"]), Raw(native_fmus["HumanBody3DOF"])
     head = np.zeros(n + 1)
-    seat, force, road_x = car.vr["seat_displacement"], car.vr["seat_force"], \
-        car.vr["road_displacement"]
+    seat, force, road_x = (
+        car.vr["seat_displacement"],
+        car.vr["seat_force"],
+        car.vr["road_displacement"],
+    )
     body_seat, body_force = body.vr["seat_displacement"], body.vr["seat_force"]
     try:
         car.init()

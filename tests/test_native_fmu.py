@@ -29,22 +29,32 @@ import zipfile
 import numpy as np
 import pytest
 import scipy.linalg
+from bodyvib.vehicle.quarter_car import load_car
+from helpers import ROOT
 
 from bodyvib.models import load_model
 from bodyvib.runtime.discretize import input_rates, simulate
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import linear_model
-from helpers import ROOT
-from vehicle.quarter_car import load_car
 
 pytestmark = pytest.mark.integration
 
 MODEL_OF = {"HumanBody3DOF": "reduced-paper", "HumanBodyISO7962": "iso7962"}
-BODY_OUT = ["head_acceleration", "head_displacement", "torso_displacement", "seat_force",
-            "seat_force_rate"]
+BODY_OUT = [
+    "head_acceleration",
+    "head_displacement",
+    "torso_displacement",
+    "seat_force",
+    "seat_force_rate",
+]
 BODY_SIG = ["head.a", "head.x", "torso.x", "seat_force"]
-CAR_OUT = ["seat_displacement", "seat_velocity", "sprung_acceleration", "suspension_deflection",
-           "tire_force"]
+CAR_OUT = [
+    "seat_displacement",
+    "seat_velocity",
+    "sprung_acceleration",
+    "suspension_deflection",
+    "tire_force",
+]
 CAR_SIG = ["seat.x", "seat.v", "seat.a", "suspension.deflection", "tire.force"]
 TIGHT = 1e-12
 ISO_FACTOR = 2
@@ -59,7 +69,7 @@ def grid(vary, n=N, h=1e-3):
 
 def chirp(t, amp=0.01, f0=0.5, f1=20.0):
     T = t[-1]
-    phase = 2 * np.pi * (f0 * t + (f1 - f0) * t ** 2 / (2 * T))
+    phase = 2 * np.pi * (f0 * t + (f1 - f0) * t**2 / (2 * T))
     return amp * np.sin(phase), amp * 2 * np.pi * (f0 + (f1 - f0) * t / T) * np.cos(phase)
 
 
@@ -68,9 +78,13 @@ def _fmi2_callbacks(logger):
     from ctypes import byref
 
     from fmpy import calloc, free
-    from fmpy.fmi2 import (defaultCallbacks, fmi2CallbackAllocateMemoryTYPE,
-                           fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions,
-                           fmi2CallbackLoggerTYPE)
+    from fmpy.fmi2 import (
+        defaultCallbacks,
+        fmi2CallbackAllocateMemoryTYPE,
+        fmi2CallbackFreeMemoryTYPE,
+        fmi2CallbackFunctions,
+        fmi2CallbackLoggerTYPE,
+    )
     from fmpy.logging import addLoggerProxy
 
     if logger is None:
@@ -99,16 +113,26 @@ class Fmu:
         self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
         self.dir = extract(path)
         cls = FMU2Slave if self.md.fmiVersion == "2.0" else FMU3Slave
-        self.fmu = cls(guid=self.md.guid, unzipDirectory=self.dir,
-                       modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName="t")
+        self.fmu = cls(
+            guid=self.md.guid,
+            unzipDirectory=self.dir,
+            modelIdentifier=self.md.coSimulation.modelIdentifier,
+            instanceName="t",
+        )
         if self.md.fmiVersion == "2.0":
             self.fmu.instantiate(loggingOn=True, callbacks=_fmi2_callbacks(logger))
             self.fmu.setupExperiment(startTime=0.0)
             self.get, self.set = self.fmu.getReal, self.fmu.setReal
         else:
-            kw = {} if logger is None else {
-                "logMessage": lambda env, status, category, message: logger(
-                    None, None, status, category, message)}
+            kw = (
+                {}
+                if logger is None
+                else {
+                    "logMessage": lambda env, status, category, message: logger(
+                        None, None, status, category, message
+                    )
+                }
+            )
             self.fmu.instantiate(loggingOn=True, **kw)
             self.get, self.set = self.fmu.getFloat64, self.fmu.setFloat64
         try:
@@ -173,9 +197,9 @@ def stepped(lm, t, u, expm):
         h = float(f"{t[k + 1] - t[k]:.12g}")
         if h not in cache:
             M = np.zeros((n + 2 * m, n + 2 * m))
-            M[:n, :n], M[:n, n:n + m], M[n:n + m, n + m:] = lm.A, lm.B, np.eye(m)
+            M[:n, :n], M[:n, n : n + m], M[n : n + m, n + m :] = lm.A, lm.B, np.eye(m)
             E = expm(M * h)
-            cache[h] = E[:n, :n], E[:n, n:n + m], E[:n, n + m:]
+            cache[h] = E[:n, :n], E[:n, n : n + m], E[:n, n + m :]
         Phi, G0, G1 = cache[h]
         X[k + 1] = Phi @ X[k] + G0 @ u[k] + G1 @ du[k]
     return X
@@ -195,11 +219,11 @@ def rounding_bound(model, steps):
     lm = linear_model(model) if not hasattr(model, "A") else model
     n, m = lm.B.shape
     aug = np.zeros((n + 2 * m, n + 2 * m))
-    aug[:n, :n], aug[:n, n:n + m], aug[n:n + m, n + m:] = lm.A, lm.B, np.eye(m)
+    aug[:n, :n], aug[:n, n : n + m], aug[n : n + m, n + m :] = lm.A, lm.B, np.eye(m)
     steps = np.asarray(steps, dtype=float)
     s = max(0, int(np.ceil(np.log2(np.linalg.norm(aug * steps.max(), 1) / 5.37))))
     memory = 1.0 / (np.min(np.abs(np.linalg.eigvals(lm.A).real)) * steps.mean())
-    return 2.0 ** s * np.finfo(float).eps * memory
+    return 2.0**s * np.finfo(float).eps * memory
 
 
 def tolerance(name, t, x=None, v=None):
@@ -226,41 +250,55 @@ def test_archives_hold_both_binaries_sources_and_model(native_fmus):
         plat = ("x86_64-linux", "x86_64-windows") if fmi3 else ("linux64", "win64")
         assert f"binaries/{plat[0]}/{name}.so" in files
         assert f"binaries/{plat[1]}/{name}.dll" in files
-        assert {"sources/bodyvib_core.c", "sources/bodyvib_core.h", "sources/bodyvib_model.c",
-                f"sources/fmi{3 if fmi3 else 2}Functions.c",
-                "resources/bodyvib_model.json"} <= files
+        assert {
+            "sources/bodyvib_core.c",
+            "sources/bodyvib_core.h",
+            "sources/bodyvib_model.c",
+            f"sources/fmi{3 if fmi3 else 2}Functions.c",
+            "resources/bodyvib_model.json",
+        } <= files
         assert ("sources/buildDescription.xml" in files) == fmi3
 
 
-def test_binaries_need_only_libc_and_libm_export_only_fmi_and_have_no_mutable_globals(native_fmus, tmp_path):
+def test_binaries_need_only_libc_and_libm_export_only_fmi_and_have_no_mutable_globals(
+    native_fmus, tmp_path
+):
     with zipfile.ZipFile(native_fmus["HumanBody3DOF"]) as z:
         z.extractall(tmp_path)
     so = tmp_path / "binaries" / "linux64" / "HumanBody3DOF.so"
     dyn = subprocess.run(["readelf", "-d", str(so)], capture_output=True, text=True).stdout
     needed = sorted(l.split("[")[1].rstrip("]") for l in dyn.splitlines() if "(NEEDED)" in l)
     assert needed == ["libc.so.6", "libm.so.6"], needed
-    syms = subprocess.run(["nm", "-D", "--defined-only", str(so)], capture_output=True,
-                          text=True).stdout.split()
+    syms = subprocess.run(
+        ["nm", "-D", "--defined-only", str(so)], capture_output=True, text=True
+    ).stdout.split()
     exported = [s for s in syms if s.startswith(("fmi", "bv_", "_"))]
     assert exported and all(s.startswith("fmi2") for s in exported), exported
     # old glibc suffices (pow/exp/log would need 2.29; the core avoids them)
     versions = subprocess.run(["objdump", "-T", str(so)], capture_output=True, text=True).stdout
-    newest = max(tuple(int(p) for p in v.split(".")) for v in
-                 re.findall(r"GLIBC_([0-9.]+)", versions))
+    newest = max(
+        tuple(int(p) for p in v.split(".")) for v in re.findall(r"GLIBC_([0-9.]+)", versions)
+    )
     assert newest <= (2, 17), newest
     # no mutable global state: the only writable objects are the C runtime's own
     table = subprocess.run(["objdump", "-t", str(so)], capture_output=True, text=True).stdout
-    writable = {l.split()[-1] for l in table.splitlines()
-                if any(f" {sec}\t" in l for sec in (".data", ".bss"))}
+    writable = {
+        l.split()[-1]
+        for l in table.splitlines()
+        if any(f" {sec}\t" in l for sec in (".data", ".bss"))
+    }
     assert writable <= {"completed.0", "__dso_handle", "__TMC_END__"}, writable
     dll = tmp_path / "binaries" / "win64" / "HumanBody3DOF.dll"
-    dump = subprocess.run(["x86_64-w64-mingw32-objdump", "-p", str(dll)], capture_output=True,
-                          text=True)
+    dump = subprocess.run(
+        ["x86_64-w64-mingw32-objdump", "-p", str(dll)], capture_output=True, text=True
+    )
     if dump.returncode == 0:
-        imports = {l.split(":")[1].strip().lower() for l in dump.stdout.splitlines()
-                   if "DLL Name:" in l}
-        assert imports <= {"kernel32.dll", "msvcrt.dll"} | {i for i in imports
-                                                           if i.startswith("api-ms-win-crt")}, imports
+        imports = {
+            l.split(":")[1].strip().lower() for l in dump.stdout.splitlines() if "DLL Name:" in l
+        }
+        assert imports <= {"kernel32.dll", "msvcrt.dll"} | {
+            i for i in imports if i.startswith("api-ms-win-crt")
+        }, imports
 
 
 def test_contract_is_the_pythonfmu_contract_plus_seat_force_rate(native_fmus, python_fmus):
@@ -269,11 +307,21 @@ def test_contract_is_the_pythonfmu_contract_plus_seat_force_rate(native_fmus, py
     for name in ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar"):
         py = {v.name: v for v in read_model_description(python_fmus[name]).modelVariables}
         nat = {v.name: v for v in read_model_description(native_fmus[name]).modelVariables}
-        nat3 = {v.name: v for v in read_model_description(native_fmus[f"fmi3/{name}"]).modelVariables}
+        nat3 = {
+            v.name: v for v in read_model_description(native_fmus[f"fmi3/{name}"]).modelVariables
+        }
         for vname, p in py.items():
             for other in (nat[vname], nat3[vname]):
-                for attr in ("valueReference", "causality", "variability", "unit", "start",
-                             "min", "max", "description"):
+                for attr in (
+                    "valueReference",
+                    "causality",
+                    "variability",
+                    "unit",
+                    "start",
+                    "min",
+                    "max",
+                    "description",
+                ):
                     assert str(getattr(other, attr)) == str(getattr(p, attr)), (name, vname, attr)
         # plus, for model exchange, the continuous states and their derivatives (locals)
         me = {n for n in nat if n.startswith(("state.", "der(state."))}
@@ -289,8 +337,10 @@ def test_seat_force_rate_depends_on_both_seat_inputs(native_fmus):
     from fmpy import read_model_description
 
     md = read_model_description(native_fmus["HumanBody3DOF"])
-    deps = {u.variable.name: sorted(d.name for d in u.dependencies if d.causality == "input")
-            for u in md.outputs}  # the states (model exchange) are dependencies too
+    deps = {
+        u.variable.name: sorted(d.name for d in u.dependencies if d.causality == "input")
+        for u in md.outputs
+    }  # the states (model exchange) are dependencies too
     assert deps["seat_force_rate"] == ["seat_displacement", "seat_velocity"]
     assert deps["seat_force"] == ["seat_displacement"]
     assert deps["head_displacement"] == []
@@ -313,12 +363,14 @@ def test_iso_tolerance_is_needed_and_sufficient(native_fmus):
     double implementations, disagree within it too (the bound describes double precision)."""
     t = grid(False)
     x, v = chirp(t)
-    y = drive(native_fmus["HumanBodyISO7962"], t, {"seat_displacement": x, "seat_velocity": v},
-              BODY_OUT)
+    y = drive(
+        native_fmus["HumanBodyISO7962"], t, {"seat_displacement": x, "seat_velocity": v}, BODY_OUT
+    )
     model = load_model("iso7962")
     err = relative_error(y, body_reference(model, t, x, v))
-    spread = relative_error(body_reference(model, t, x, v, scipy.linalg.expm),
-                            body_reference(model, t, x, v))
+    spread = relative_error(
+        body_reference(model, t, x, v, scipy.linalg.expm), body_reference(model, t, x, v)
+    )
     tol = tolerance("HumanBodyISO7962", t)
     assert np.max(err) > TIGHT and np.max(spread) > TIGHT
     assert np.all(err <= tol), (err, tol)
@@ -331,8 +383,12 @@ def test_car_outputs_equal_the_library(native_fmus, vary):
     z, zv = chirp(t, amp=0.02)
     F = 300 * np.sin(2 * np.pi * 3 * t)
     Fr = 300 * 2 * np.pi * 3 * np.cos(2 * np.pi * 3 * t)
-    y = drive(native_fmus["QuarterCar"], t, {"road_displacement": z, "road_velocity": zv,
-                                            "seat_force": F, "seat_force_rate": Fr}, CAR_OUT)
+    y = drive(
+        native_fmus["QuarterCar"],
+        t,
+        {"road_displacement": z, "road_velocity": zv, "seat_force": F, "seat_force_rate": Fr},
+        CAR_OUT,
+    )
     lm = linear_model(load_car())
     u = np.column_stack([z, zv, -F])
     du = np.column_stack([zv, np.zeros_like(z), -Fr])
@@ -347,8 +403,12 @@ def test_outputs_equal_the_pythonfmu_fmus(native_fmus, python_fmus, name):
     t = grid(True, n=600)
     if name == "QuarterCar":
         z, zv = chirp(t, amp=0.02)
-        inputs = {"road_displacement": z, "road_velocity": zv,
-                  "seat_force": 200 * np.sin(9 * t), "seat_force_rate": 1800 * np.cos(9 * t)}
+        inputs = {
+            "road_displacement": z,
+            "road_velocity": zv,
+            "seat_force": 200 * np.sin(9 * t),
+            "seat_force_rate": 1800 * np.cos(9 * t),
+        }
         outs, tol = CAR_OUT, TIGHT
     else:
         x, v = chirp(t)
@@ -365,8 +425,13 @@ def test_parameters_are_tunable_before_initialization(native_fmus):
     t = grid(False, n=800)
     x, v = chirp(t)
     changed = {"m1": 6.0, "k2": 7.5e4, "c2": 2500.0}
-    y = drive(native_fmus["HumanBody3DOF"], t, {"seat_displacement": x, "seat_velocity": v},
-              BODY_OUT, start=changed)
+    y = drive(
+        native_fmus["HumanBody3DOF"],
+        t,
+        {"seat_displacement": x, "seat_velocity": v},
+        BODY_OUT,
+        start=changed,
+    )
     model = load_model("reduced-paper").with_parameters(**changed)
     err = relative_error(y, body_reference(model, t, x, v))
     assert np.all(err <= TIGHT), err
@@ -401,7 +466,8 @@ def slopes(t, x):
 
 @pytest.mark.parametrize("name", ["HumanBody3DOF", "QuarterCar"])
 def test_unconnected_velocity_falls_back_to_the_slope_like_the_pythonfmu_fmu(
-        native_fmus, python_fmus, name):
+    native_fmus, python_fmus, name
+):
     """The velocity input never set: from the first doStep that sees the displacement move,
     the velocity is the slope (x_k - x_{k-1}) / h_{k-1} (it reads back as 0); one warning
     names the input. Checked against the library with those inputs and against the
@@ -427,8 +493,9 @@ def test_unconnected_velocity_falls_back_to_the_slope_like_the_pythonfmu_fmu(
     step, read = slopes(t, x)
     zero = np.zeros_like(x)
     extra = [] if body else [zero]
-    X, _ = simulate(lm, t, np.column_stack([x, step] + extra),
-                    du=np.column_stack([step, zero] + extra))
+    X, _ = simulate(
+        lm, t, np.column_stack([x, step] + extra), du=np.column_stack([step, zero] + extra)
+    )
     u_read = np.column_stack([x, read] + extra)
     du_read = np.column_stack([read, zero] + extra)
     y = X @ lm.C.T + u_read @ lm.D.T
@@ -524,7 +591,8 @@ def test_fmu_state_round_trip_and_reset_in_fmpy(native_fmus, fmi):
         deserialize(bytes(bad))
     other = Fmu(native_fmus[fmi + "HumanBodyISO7962"], logger=lambda *a: None)
     foreign = (other.fmu.serializeFMUstate if two else other.fmu.serializeFMUState)(
-        (other.fmu.getFMUstate if two else other.fmu.getFMUState)())
+        (other.fmu.getFMUstate if two else other.fmu.getFMUState)()
+    )
     other.close()
     with pytest.raises(FMICallException):
         deserialize(foreign)
@@ -543,12 +611,20 @@ def test_fmpy_simulates_the_fmi3_versions(native_fmus):
 
     t = grid(False, n=1000)
     x, v = chirp(t)
-    signals = np.array(list(zip(t, x, v)), dtype=[("time", float), ("seat_displacement", float),
-                                                 ("seat_velocity", float)])
+    signals = np.array(
+        list(zip(t, x, v)),
+        dtype=[("time", float), ("seat_displacement", float), ("seat_velocity", float)],
+    )
     for name in MODEL_OF:
-        res = simulate_fmu(native_fmus[f"fmi3/{name}"], start_time=0.0, stop_time=float(t[-1]),
-                           step_size=1e-3, output_interval=1e-3, input=signals,
-                           output=BODY_OUT[:4])
+        res = simulate_fmu(
+            native_fmus[f"fmi3/{name}"],
+            start_time=0.0,
+            stop_time=float(t[-1]),
+            step_size=1e-3,
+            output_interval=1e-3,
+            input=signals,
+            output=BODY_OUT[:4],
+        )
         assert res["time"].size == t.size
         ref = body_reference(load_model(MODEL_OF[name]), t, x, v)[:, :4]
         y = np.column_stack([res[o] for o in BODY_OUT[:4]])
@@ -568,13 +644,20 @@ def test_fmpy_compile_builds_the_sources(native_fmus, fmi, tmp_path):
         pytest.skip("cmake not found: fmpy compile needs it")
     path = tmp_path / "HumanBody3DOF.fmu"
     folder = "x86_64-linux" if fmi else "linux64"
-    with zipfile.ZipFile(native_fmus[fmi + "HumanBody3DOF"]) as src, \
-            zipfile.ZipFile(path, "w") as dst:
+    with (
+        zipfile.ZipFile(native_fmus[fmi + "HumanBody3DOF"]) as src,
+        zipfile.ZipFile(path, "w") as dst,
+    ):
         for info in src.infolist():
             if not info.filename.startswith("binaries/"):  # only the sources remain
                 dst.writestr(info, src.read(info))
-    out = subprocess.run([sys.executable, "-m", "fmpy.cli", "compile", str(path)],
-                         capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    out = subprocess.run(
+        [sys.executable, "-m", "fmpy.cli", "compile", str(path)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=tmp_path,
+    )
     assert out.returncode == 0, out.stdout + out.stderr
     with zipfile.ZipFile(path) as z:
         assert f"binaries/{folder}/HumanBody3DOF.so" in z.namelist()
@@ -586,10 +669,25 @@ def test_fmpy_compile_builds_the_sources(native_fmus, fmi, tmp_path):
 
 
 def test_params_file_is_baked_in(tmp_path):
-    out = subprocess.run([sys.executable, "-m", "bodyvib_cli", "build", "--native", "--params",
-                          os.path.join(ROOT, "params", "refit-iso7962.json"), "--fmus",
-                          "HumanBody3DOF", "--dest", str(tmp_path)],
-                         capture_output=True, text=True, timeout=300, cwd=ROOT)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "bodyvib.cli",
+            "build",
+            "--native",
+            "--params",
+            os.path.join(ROOT, "params", "refit-iso7962.json"),
+            "--fmus",
+            "HumanBody3DOF",
+            "--dest",
+            str(tmp_path),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=ROOT,
+    )
     assert out.returncode == 0, out.stdout + out.stderr
     from fmpy import read_model_description
 
@@ -604,17 +702,28 @@ def test_a_failed_build_leaves_the_good_fmu(tmp_path, monkeypatch):
     from bodyvib.fmu import native as native_build
 
     model = load_model("reduced-paper")
-    good = native_build.build_native_fmu(model, "body", "HumanBody3DOF", "reduced body",
-                                         tmp_path, platforms=["linux64"])
+    good = native_build.build_native_fmu(
+        model, "body", "HumanBody3DOF", "reduced body", tmp_path, platforms=["linux64"]
+    )
     before = good.read_bytes()
     with pytest.raises(BodyvibError, match="m1"):
-        native_build.build_native_fmu(model.with_parameters(m1=-4.88), "body", "HumanBody3DOF",
-                                      "reduced body", tmp_path, platforms=["linux64"])
+        native_build.build_native_fmu(
+            model.with_parameters(m1=-4.88),
+            "body",
+            "HumanBody3DOF",
+            "reduced body",
+            tmp_path,
+            platforms=["linux64"],
+        )
     assert good.read_bytes() == before
     compiler, flags, *rest = native_build.PLATFORMS["linux64"]
-    monkeypatch.setitem(native_build.PLATFORMS, "linux64",
-                        (compiler, flags + ["-include", "bodyvib_no_such_header.h"], *rest))
+    monkeypatch.setitem(
+        native_build.PLATFORMS,
+        "linux64",
+        (compiler, flags + ["-include", "bodyvib_no_such_header.h"], *rest),
+    )
     with pytest.raises(BodyvibError, match="failed"):
-        native_build.build_native_fmu(model, "body", "HumanBody3DOF", "reduced body", tmp_path,
-                                      platforms=["linux64"])
+        native_build.build_native_fmu(
+            model, "body", "HumanBody3DOF", "reduced body", tmp_path, platforms=["linux64"]
+        )
     assert good.read_bytes() == before

@@ -17,10 +17,10 @@ import zipfile
 
 import numpy as np
 import pytest
-
-from bodyvib.models import load_model
 from helpers import ROOT, win64_host
 from test_native_fmu import BODY_OUT, MODEL_OF, TIGHT, body_reference, relative_error, tolerance
+
+from bodyvib.models import load_model
 
 pytestmark = pytest.mark.integration
 
@@ -39,9 +39,27 @@ def host(tmp_path_factory):
     if shutil.which("gcc") is None:
         pytest.skip("gcc not found: cannot build the C host")
     exe = str(tmp_path_factory.mktemp("native_host") / "native_host")
-    out = subprocess.run(["gcc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-I", headers(),
-                          HOST, "-o", exe, "-ldl", "-lm", "-lpthread"],
-                         capture_output=True, text=True, timeout=120)
+    out = subprocess.run(
+        [
+            "gcc",
+            "-std=c99",
+            "-O2",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-I",
+            headers(),
+            HOST,
+            "-o",
+            exe,
+            "-ldl",
+            "-lm",
+            "-lpthread",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert out.returncode == 0, out.stderr
     return exe
 
@@ -58,21 +76,38 @@ def unpacked(native_fmus, tmp_path_factory):
             z.extractall(folder)
         md = read_model_description(native_fmus[name])
         vr = {v.name: v.valueReference for v in md.modelVariables}
-        out[name] = (str(folder / "binaries"), md.guid,
-                     f"{vr['seat_displacement']},{vr['seat_velocity']}",
-                     ",".join(str(vr[n]) for n in BODY_OUT),
-                     str(vr["m1"] if "m1" in vr else vr[next(v.name for v in md.modelVariables
-                                                             if v.unit == "kg")]))
+        out[name] = (
+            str(folder / "binaries"),
+            md.guid,
+            f"{vr['seat_displacement']},{vr['seat_velocity']}",
+            ",".join(str(vr[n]) for n in BODY_OUT),
+            str(
+                vr["m1"]
+                if "m1" in vr
+                else vr[next(v.name for v in md.modelVariables if v.unit == "kg")]
+            ),
+        )
     return out
 
 
-def run(host, unpacked, name, mode, platform="linux64", suffix=".so", prefix=(), env=None,
-        steps=N_STEPS):
+def run(
+    host, unpacked, name, mode, platform="linux64", suffix=".so", prefix=(), env=None, steps=N_STEPS
+):
     binaries, guid, ins, outs, mass = unpacked[name]
-    argv = [*prefix, host, mode, os.path.join(binaries, platform, name + suffix), guid, ins, outs,
-            repr(STEP), str(steps)] + ([mass] if mode in ("checks", "fsm", "overflow") else [])
-    return subprocess.run(argv, capture_output=True, text=True, timeout=600,
-                          env={} if env is None else env)
+    argv = [
+        *prefix,
+        host,
+        mode,
+        os.path.join(binaries, platform, name + suffix),
+        guid,
+        ins,
+        outs,
+        repr(STEP),
+        str(steps),
+    ] + ([mass] if mode in ("checks", "fsm", "overflow") else [])
+    return subprocess.run(
+        argv, capture_output=True, text=True, timeout=600, env={} if env is None else env
+    )
 
 
 def table(stdout):
@@ -100,8 +135,9 @@ def test_c_host_sees_libpython_when_it_is_there(host, unpacked):
     """The host's libpython check can fail: with a libpython preloaded it reports it."""
     import sysconfig
 
-    lib = os.path.join(sysconfig.get_config_var("LIBDIR") or "",
-                       sysconfig.get_config_var("LDLIBRARY") or "")
+    lib = os.path.join(
+        sysconfig.get_config_var("LIBDIR") or "", sysconfig.get_config_var("LDLIBRARY") or ""
+    )
     if not (sysconfig.get_config_var("Py_ENABLE_SHARED") and os.path.isfile(lib)):
         pytest.skip("this Python has no shared libpython to preload")
     out = run(host, unpacked, "HumanBody3DOF", "run", env={"LD_PRELOAD": lib}, steps=10)
@@ -114,40 +150,82 @@ def test_statuses_state_and_reset_in_a_c_host(host, unpacked, name):
     assert out.returncode == 0, out.stderr
     got = dict(l.split() for l in out.stdout.splitlines() if " " in l)
     assert got == {
-        "nan_step": "3", "inf_step": "3", "negative_step": "3", "zero_step": "3",
+        "nan_step": "3",
+        "inf_step": "3",
+        "negative_step": "3",
+        "zero_step": "3",
         "refusals_leave_state": "1",
-        "negative_mass_init": "3", "negative_mass_step": "3",
+        "negative_mass_init": "3",
+        "negative_mass_step": "3",
         "reset_equals_fresh": "1",
-        "state_continue_equals_fresh": "1", "state_restore_equals_fresh": "1",
+        "state_continue_equals_fresh": "1",
+        "state_restore_equals_fresh": "1",
         "deserialized_equals_fresh": "1",
-        "corrupt_state": "3", "short_state": "3", "foreign_state": "3",
+        "corrupt_state": "3",
+        "short_state": "3",
+        "foreign_state": "3",
     }, out.stdout
     assert "not finite" in out.stderr and "is invalid" in out.stderr
 
 
 FSM = {  # the FMI 2.0 state machine: 3 = fmi2Error for every call out of order
-    "getreal_instantiated": "3", "dostep_instantiated": "3", "exit_instantiated": "3",
-    "terminate_instantiated": "3", "setreal_instantiated": "0", "setup_instantiated": "0",
-    "enter": "0", "setup_initialization": "3", "enter_initialization": "3",
-    "dostep_initialization": "3", "terminate_initialization": "3",
-    "getreal_initialization": "0", "exit": "0", "exit_stepping": "3", "enter_stepping": "3",
-    "set_parameter_stepping": "3", "dostep_wrong_time": "3", "dostep": "0",
-    "unknown_vr_set": "3", "unknown_vr_nothing_set": "1", "terminate": "0",
-    "dostep_terminated": "3", "setreal_terminated": "3", "terminate_terminated": "3",
-    "getreal_terminated": "0", "parameter_unchanged": "1", "reset": "0",
-    "getreal_after_reset": "3", "exit_invalid": "3", "dostep_failed": "3",
-    "terminate_failed": "3", "getreal_failed": "0", "reset_failed": "0",
-    "time_at_start": "1", "dostep_from_zero": "3", "start_time_run_equals": "1",
+    "getreal_instantiated": "3",
+    "dostep_instantiated": "3",
+    "exit_instantiated": "3",
+    "terminate_instantiated": "3",
+    "setreal_instantiated": "0",
+    "setup_instantiated": "0",
+    "enter": "0",
+    "setup_initialization": "3",
+    "enter_initialization": "3",
+    "dostep_initialization": "3",
+    "terminate_initialization": "3",
+    "getreal_initialization": "0",
+    "exit": "0",
+    "exit_stepping": "3",
+    "enter_stepping": "3",
+    "set_parameter_stepping": "3",
+    "dostep_wrong_time": "3",
+    "dostep": "0",
+    "unknown_vr_set": "3",
+    "unknown_vr_nothing_set": "1",
+    "terminate": "0",
+    "dostep_terminated": "3",
+    "setreal_terminated": "3",
+    "terminate_terminated": "3",
+    "getreal_terminated": "0",
+    "parameter_unchanged": "1",
+    "reset": "0",
+    "getreal_after_reset": "3",
+    "exit_invalid": "3",
+    "dostep_failed": "3",
+    "terminate_failed": "3",
+    "getreal_failed": "0",
+    "reset_failed": "0",
+    "time_at_start": "1",
+    "dostep_from_zero": "3",
+    "start_time_run_equals": "1",
     "last_time_ok": "1",
 }
 
 OVERFLOW = {  # 2 = fmi2Discard: a step whose result is not finite; nothing changes
-    "overflow_getreal": "3", "overflow_step": "2", "overflow_last_time": "1",
-    "overflow_leaves_state": "1", "huge_step": "2", "huge_displacement": "2",
-    "huge_displacement_back": "2", "huge_step_leaves_slope": "1",
-    "huge_displacement_leaves_slope": "1", "crafted_state_0": "3", "crafted_state_1": "3",
-    "crafted_state_2": "3", "denormal_init": "3", "reset_init": "0",
-    "denormal_reset_recovers": "1", "denormal_getreal": "0", "mass_back_init": "0",
+    "overflow_getreal": "3",
+    "overflow_step": "2",
+    "overflow_last_time": "1",
+    "overflow_leaves_state": "1",
+    "huge_step": "2",
+    "huge_displacement": "2",
+    "huge_displacement_back": "2",
+    "huge_step_leaves_slope": "1",
+    "huge_displacement_leaves_slope": "1",
+    "crafted_state_0": "3",
+    "crafted_state_1": "3",
+    "crafted_state_2": "3",
+    "denormal_init": "3",
+    "reset_init": "0",
+    "denormal_reset_recovers": "1",
+    "denormal_getreal": "0",
+    "mass_back_init": "0",
     "denormal_mass_back_recovers": "1",
 }
 
@@ -190,10 +268,21 @@ def test_c_host_under_valgrind_is_clean(host, unpacked, mode):
     valgrind = shutil.which("valgrind")
     if valgrind is None:
         pytest.skip("valgrind not found")
-    out = run(host, unpacked, "HumanBodyISO7962", mode, steps=300,
-              prefix=(valgrind, "--tool=memcheck", "--error-exitcode=9", "--leak-check=full",
-                      "--errors-for-leak-kinds=definite,indirect,possible",
-                      "--show-leak-kinds=definite,indirect,possible"))
+    out = run(
+        host,
+        unpacked,
+        "HumanBodyISO7962",
+        mode,
+        steps=300,
+        prefix=(
+            valgrind,
+            "--tool=memcheck",
+            "--error-exitcode=9",
+            "--leak-check=full",
+            "--errors-for-leak-kinds=definite,indirect,possible",
+            "--show-leak-kinds=definite,indirect,possible",
+        ),
+    )
     assert out.returncode == 0, out.stderr[-3000:]
     assert "ERROR SUMMARY: 0 errors" in out.stderr, out.stderr[-3000:]
     assert "definitely lost" not in out.stderr or "definitely lost: 0 bytes" in out.stderr
@@ -203,8 +292,9 @@ def test_win64_binary_under_wine_matches_linux64(host, unpacked, tmp_path):
     exe = str(tmp_path / "native_host.exe")
     with win64_host(HOST, headers(), exe, tmp_path) as (wine, env):
         for name in MODEL_OF:
-            win = run(exe, unpacked, name, "run", platform="win64", suffix=".dll",
-                      prefix=(wine,), env=env)
+            win = run(
+                exe, unpacked, name, "run", platform="win64", suffix=".dll", prefix=(wine,), env=env
+            )
             assert win.returncode == 0, win.stderr[-2000:]
             assert win.stdout.splitlines()[-1].strip() == "ok"
             linux = run(host, unpacked, name, "run")

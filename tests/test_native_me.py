@@ -34,29 +34,44 @@ from xml.etree import ElementTree as ET
 import numpy as np
 import pytest
 import scipy.linalg
+from bodyvib.vehicle.quarter_car import load_car
+from helpers import ROOT, win64_host
+from test_native_fmu import _fmi2_callbacks
 
 from bodyvib.models import load_model
 from bodyvib.runtime.contract import KINDS
 from bodyvib.runtime.discretize import discretize
 from bodyvib.runtime.network import linear_model
-from helpers import ROOT, win64_host
-from test_native_fmu import _fmi2_callbacks
-from vehicle.quarter_car import load_car
 
 pytestmark = pytest.mark.integration
 
 #: FMU -> (model loader, kind, driven displacement input, its velocity input, outputs checked)
 FMUS = {
-    "HumanBody3DOF": (lambda: load_model("reduced-paper"), "body", "seat_displacement",
-                      "seat_velocity", {"head_displacement": "head.x", "seat_force": "seat_force",
-                                        "head_acceleration": "head.a"}),
-    "HumanBodyISO7962": (lambda: load_model("iso7962"), "body", "seat_displacement",
-                         "seat_velocity", {"head_displacement": "head.x",
-                                           "seat_force": "seat_force",
-                                           "head_acceleration": "head.a"}),
-    "QuarterCar": (load_car, "car", "road_displacement", "road_velocity",
-                   {"seat_displacement": "seat.x", "tire_force": "tire.force",
-                    "suspension_deflection": "suspension.deflection"}),
+    "HumanBody3DOF": (
+        lambda: load_model("reduced-paper"),
+        "body",
+        "seat_displacement",
+        "seat_velocity",
+        {"head_displacement": "head.x", "seat_force": "seat_force", "head_acceleration": "head.a"},
+    ),
+    "HumanBodyISO7962": (
+        lambda: load_model("iso7962"),
+        "body",
+        "seat_displacement",
+        "seat_velocity",
+        {"head_displacement": "head.x", "seat_force": "seat_force", "head_acceleration": "head.a"},
+    ),
+    "QuarterCar": (
+        load_car,
+        "car",
+        "road_displacement",
+        "road_velocity",
+        {
+            "seat_displacement": "seat.x",
+            "tire_force": "tire.force",
+            "suspension_deflection": "suspension.deflection",
+        },
+    ),
 }
 CASES = [(name, fmi) for name in FMUS for fmi in (2, 3)]
 T_END, DT, HOLD, F_HZ, AMP = 0.5, 1e-3, 5, 3.0, 0.01
@@ -76,7 +91,7 @@ def _staircase(din, vin):
     sig["time"][0::2], sig["time"][1::2] = tk, tk[1:]
     sig[din][0::2], sig[din][1::2] = d, d[:-1]
     sig[vin][0::2], sig[vin][1::2] = v, v[:-1]
-    held = np.repeat(np.stack([d, v], 1), HOLD, axis=0)[:len(t)]
+    held = np.repeat(np.stack([d, v], 1), HOLD, axis=0)[: len(t)]
     return t, sig, held
 
 
@@ -97,9 +112,17 @@ def _exact(network, kind, held, n_inputs):
 def _simulate(path, sig, names, rtol):
     from fmpy import simulate_fmu
 
-    return simulate_fmu(path, fmi_type="ModelExchange", solver="CVode", relative_tolerance=rtol,
-                        stop_time=T_END, output_interval=DT, input=sig, record_events=False,
-                        output=names)
+    return simulate_fmu(
+        path,
+        fmi_type="ModelExchange",
+        solver="CVode",
+        relative_tolerance=rtol,
+        stop_time=T_END,
+        output_interval=DT,
+        input=sig,
+        record_events=False,
+        output=names,
+    )
 
 
 @pytest.mark.parametrize("name,fmi", CASES)
@@ -140,16 +163,26 @@ class _MeInstance:
         self.dir = extract(path)
         self.fmi = 2 if self.md.fmiVersion == "2.0" else 3
         cls = FMU2Model if self.fmi == 2 else FMU3Model
-        self.fmu = cls(guid=self.md.guid if self.fmi == 2 else self.md.instantiationToken,
-                       unzipDirectory=self.dir, instanceName="me",
-                       modelIdentifier=self.md.modelExchange.modelIdentifier)
+        self.fmu = cls(
+            guid=self.md.guid if self.fmi == 2 else self.md.instantiationToken,
+            unzipDirectory=self.dir,
+            instanceName="me",
+            modelIdentifier=self.md.modelExchange.modelIdentifier,
+        )
         if self.fmi == 2:
             self.fmu.instantiate(loggingOn=True, callbacks=_fmi2_callbacks(logger))
             self.fmu.setupExperiment(startTime=0.0)
         else:
-            self.fmu.instantiate(loggingOn=True, logMessage=None if logger is None else (
-                lambda env, status, category, message: logger(None, None, status, category,
-                                                              message)))
+            self.fmu.instantiate(
+                loggingOn=True,
+                logMessage=None
+                if logger is None
+                else (
+                    lambda env, status, category, message: logger(
+                        None, None, status, category, message
+                    )
+                ),
+            )
         self.fmu.enterInitializationMode()
         self.fmu.exitInitializationMode()
         if self.fmi == 2:
@@ -246,8 +279,9 @@ def test_directional_derivatives_are_exact(native_fmus, name, fmi):
         assert np.all(np.abs(J[:n] - ref) <= 1e-12 * rows), np.max(np.abs(J[:n] - ref) / rows)
         # a known that is not a state or an input is refused
         with pytest.raises(Exception):
-            inst.fmu.getDirectionalDerivative([inst.ders[0].valueReference],
-                                              [inst.outputs[0].valueReference], [1.0])
+            inst.fmu.getDirectionalDerivative(
+                [inst.ders[0].valueReference], [inst.outputs[0].valueReference], [1.0]
+            )
     finally:
         inst.close()
 
@@ -288,8 +322,9 @@ def test_interface_functions_refuse_the_other_interface(native_fmus):
     finally:
         inst.close()
     folder = extract(path)
-    cs = FMU2Slave(guid=md.guid, unzipDirectory=folder, modelIdentifier="HumanBody3DOF",
-                   instanceName="cs")
+    cs = FMU2Slave(
+        guid=md.guid, unzipDirectory=folder, modelIdentifier="HumanBody3DOF", instanceName="cs"
+    )
     try:
         cs.instantiate()
         cs.setupExperiment(startTime=0.0)
@@ -300,8 +335,7 @@ def test_interface_functions_refuse_the_other_interface(native_fmus):
         assert set_time(cs.component, 0.5) == fmi2Error
         cs.doStep(0.0, 1e-3)
         # the states are readable variables in co-simulation too
-        x = cs.getReal([v.valueReference for v in md.modelVariables
-                        if v.name.startswith("state.")])
+        x = cs.getReal([v.valueReference for v in md.modelVariables if v.name.startswith("state.")])
         assert len(x) == md.numberOfContinuousStates
         cs.terminate()
         cs.freeInstance()
@@ -324,15 +358,25 @@ def test_model_exchange_calls_out_of_order_are_errors(native_fmus, fmi):
     logger = lambda *a: said.append(a[-1])  # noqa: E731
     try:
         if fmi == 2:
-            fmu = FMU2Model(guid=md.guid, unzipDirectory=folder, instanceName="me",
-                            modelIdentifier=md.modelExchange.modelIdentifier)
+            fmu = FMU2Model(
+                guid=md.guid,
+                unzipDirectory=folder,
+                instanceName="me",
+                modelIdentifier=md.modelExchange.modelIdentifier,
+            )
             fmu.instantiate(loggingOn=True, callbacks=_fmi2_callbacks(logger))
             fmu.setupExperiment(startTime=0.0)
             names = ("fmi2EnterContinuousTimeMode", "fmi2CompletedIntegratorStep")
         else:
-            fmu = FMU3Model(guid=md.instantiationToken, unzipDirectory=folder,
-                            instanceName="me", modelIdentifier=md.modelExchange.modelIdentifier)
-            fmu.instantiate(loggingOn=True, logMessage=lambda env, status, cat, msg: said.append(msg))
+            fmu = FMU3Model(
+                guid=md.instantiationToken,
+                unzipDirectory=folder,
+                instanceName="me",
+                modelIdentifier=md.modelExchange.modelIdentifier,
+            )
+            fmu.instantiate(
+                loggingOn=True, logMessage=lambda env, status, cat, msg: said.append(msg)
+            )
             names = ("fmi3EnterContinuousTimeMode",)
         error = 3
         enter = getattr(fmu.dll, names[0])
@@ -379,14 +423,22 @@ def test_event_and_continuous_time_modes_refuse_each_others_calls(native_fmus, f
 
     try:
         if fmi == 2:
-            fmu = FMU2Model(guid=md.guid, unzipDirectory=folder, instanceName="me",
-                            modelIdentifier=md.modelExchange.modelIdentifier)
+            fmu = FMU2Model(
+                guid=md.guid,
+                unzipDirectory=folder,
+                instanceName="me",
+                modelIdentifier=md.modelExchange.modelIdentifier,
+            )
             fmu.instantiate(callbacks=_fmi2_callbacks(lambda *a: said.append(a[-1].decode())))
             fmu.setupExperiment(startTime=0.0)
             discrete, derivatives = fmu.newDiscreteStates, fmu.getDerivatives
         else:
-            fmu = FMU3Model(guid=md.instantiationToken, unzipDirectory=folder,
-                            instanceName="me", modelIdentifier=md.modelExchange.modelIdentifier)
+            fmu = FMU3Model(
+                guid=md.instantiationToken,
+                unzipDirectory=folder,
+                instanceName="me",
+                modelIdentifier=md.modelExchange.modelIdentifier,
+            )
             fmu.instantiate(logMessage=lambda env, st, cat, msg: said.append(msg.decode()))
             discrete, derivatives = fmu.updateDiscreteStates, fmu.getContinuousStateDerivatives
         x = (c_double * n)(*[1e-3 * (i + 1) for i in range(n)])
@@ -405,21 +457,28 @@ def test_event_and_continuous_time_modes_refuse_each_others_calls(native_fmus, f
         fmu.getContinuousStates(after, n)
         assert list(after) == list(before)  # the refusals changed nothing
         seen["enter_continuous"] = status(fmu.enterContinuousTimeMode)
-        seen.update({  # Continuous-Time Mode
-            "ct_discrete": status(discrete),
-            "ct_enter_continuous": status(fmu.enterContinuousTimeMode),
-            "ct_set_states": status(fmu.setContinuousStates, x, n),
-            "ct_completed": status(fmu.completedIntegratorStep),
-            "ct_set_time": status(fmu.setTime, 2e-3),
-            "ct_enter_event": status(fmu.enterEventMode),
-            "back_set_states": status(fmu.setContinuousStates, x, n),  # Event Mode again
-            "terminate": status(fmu.terminate),
-        })
+        seen.update(
+            {  # Continuous-Time Mode
+                "ct_discrete": status(discrete),
+                "ct_enter_continuous": status(fmu.enterContinuousTimeMode),
+                "ct_set_states": status(fmu.setContinuousStates, x, n),
+                "ct_completed": status(fmu.completedIntegratorStep),
+                "ct_set_time": status(fmu.setTime, 2e-3),
+                "ct_enter_event": status(fmu.enterEventMode),
+                "back_set_states": status(fmu.setContinuousStates, x, n),  # Event Mode again
+                "terminate": status(fmu.terminate),
+            }
+        )
         fmu.freeInstance()
     finally:
         shutil.rmtree(folder, ignore_errors=True)
-    refused = {"set_states", "completed", "ct_discrete", "ct_enter_continuous",
-               "back_set_states"} | ({"enter_event"} if fmi == 3 else set())
+    refused = {
+        "set_states",
+        "completed",
+        "ct_discrete",
+        "ct_enter_continuous",
+        "back_set_states",
+    } | ({"enter_event"} if fmi == 3 else set())
     assert {k for k, v in seen.items() if v == 3} == refused, seen
     assert {k for k, v in seen.items() if v == 0} == set(seen) - refused, seen
     text = "\n".join(said)
@@ -482,12 +541,16 @@ def _sine_response(network, kind, t):
     s[0], s[1] = -1j * RK4_AMP, RK4_AMP * w  # d = Re(s0 e^{iwt}), v = Re(s1 e^{iwt})
     X = np.linalg.solve(1j * w * np.eye(len(lm.A)) - lm.A, lm.B @ iface.input_map @ s)
     x0 = -X.real
-    return lm, iface, np.array([(X * np.exp(1j * w * tk)).real + scipy.linalg.expm(lm.A * tk) @ x0
-                                for tk in t])
+    return (
+        lm,
+        iface,
+        np.array([(X * np.exp(1j * w * tk)).real + scipy.linalg.expm(lm.A * tk) @ x0 for tk in t]),
+    )
 
 
-def _me_host_run(exe, native_fmus, name, h, platform="linux64", suffix=".so", prefix=(),
-                 env=None, folder=None):
+def _me_host_run(
+    exe, native_fmus, name, h, platform="linux64", suffix=".so", prefix=(), env=None, folder=None
+):
     from fmpy import read_model_description
 
     md = read_model_description(native_fmus[name])
@@ -495,11 +558,23 @@ def _me_host_run(exe, native_fmus, name, h, platform="linux64", suffix=".so", pr
     ders = [v for v in md.modelVariables if v.name.startswith("der(state.")]
     ni = sum(v.causality == "input" for v in md.modelVariables)
     binary = os.path.join(folder, "binaries", platform, name + suffix)
-    argv = [*prefix, exe, binary, md.guid, str(len(states)), str(ni),
-            str(states[0].valueReference), str(ders[0].valueReference), repr(h),
-            str(int(round(RK4_T / h))), repr(RK4_AMP), repr(RK4_HZ)]
-    out = subprocess.run(argv, capture_output=True, text=True, timeout=600,
-                         env={} if env is None else env)
+    argv = [
+        *prefix,
+        exe,
+        binary,
+        md.guid,
+        str(len(states)),
+        str(ni),
+        str(states[0].valueReference),
+        str(ders[0].valueReference),
+        repr(h),
+        str(int(round(RK4_T / h))),
+        repr(RK4_AMP),
+        repr(RK4_HZ),
+    ]
+    out = subprocess.run(
+        argv, capture_output=True, text=True, timeout=600, env={} if env is None else env
+    )
     assert out.returncode == 0, out.stderr[-2000:]
     lines = out.stdout.splitlines()
     assert lines[-1].strip() == "ok"
@@ -513,16 +588,32 @@ def me_host(tmp_path_factory):
     if shutil.which("gcc") is None:
         pytest.skip("gcc not found: cannot build the C host")
     exe = str(tmp_path_factory.mktemp("me_host") / "me_host")
-    out = subprocess.run(["gcc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-I",
-                          _fmpy_headers(), ME_HOST, "-o", exe, "-ldl", "-lm"],
-                         capture_output=True, text=True, timeout=120)
+    out = subprocess.run(
+        [
+            "gcc",
+            "-std=c99",
+            "-O2",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-I",
+            _fmpy_headers(),
+            ME_HOST,
+            "-o",
+            exe,
+            "-ldl",
+            "-lm",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert out.returncode == 0, out.stderr
     return exe
 
 
 @pytest.mark.parametrize("name", ME_CASES)
-def test_c_host_rk4_converges_to_the_analytic_sine_response(me_host, native_fmus, name,
-                                                             tmp_path):
+def test_c_host_rk4_converges_to_the_analytic_sine_response(me_host, native_fmus, name, tmp_path):
     """A C model-exchange host (no Python) integrates the FMU with RK4, inputs at every stage.
 
     Against the analytic response to a sine displacement with its exact velocity: fourth-order
@@ -545,17 +636,29 @@ def test_c_host_rk4_converges_to_the_analytic_sine_response(me_host, native_fmus
 
 
 ME_MODES = {  # me_host --modes: 3 = fmi2Error, a call of the other model-exchange mode
-    "states_event": "0", "setstates_event": "3", "completed_event": "3", "settime_event": "0",
-    "derivatives_event": "0", "discrete_event": "0", "refusals_left_states": "1",
-    "continuous_event": "0", "discrete_continuous": "3", "continuous_continuous": "3",
-    "setstates_continuous": "0", "completed_continuous": "0", "event_continuous": "0",
-    "event_event": "0", "setstates_event_again": "3", "terminate_event": "0",
+    "states_event": "0",
+    "setstates_event": "3",
+    "completed_event": "3",
+    "settime_event": "0",
+    "derivatives_event": "0",
+    "discrete_event": "0",
+    "refusals_left_states": "1",
+    "continuous_event": "0",
+    "discrete_continuous": "3",
+    "continuous_continuous": "3",
+    "setstates_continuous": "0",
+    "completed_continuous": "0",
+    "event_continuous": "0",
+    "event_event": "0",
+    "setstates_event_again": "3",
+    "terminate_event": "0",
 }
 
 
 @pytest.mark.parametrize("name", ME_CASES)
-def test_c_host_refuses_calls_of_the_other_model_exchange_mode(me_host, native_fmus, name,
-                                                                 tmp_path):
+def test_c_host_refuses_calls_of_the_other_model_exchange_mode(
+    me_host, native_fmus, name, tmp_path
+):
     """A C host walks an instance from ExitInitializationMode (Event Mode) into Continuous-Time
     Mode and back: each call the current mode does not allow returns fmi2Error with the reason
     logged and leaves the states as they were; the others return fmi2OK."""
@@ -567,9 +670,20 @@ def test_c_host_refuses_calls_of_the_other_model_exchange_mode(me_host, native_f
     states = [v for v in md.modelVariables if v.name.startswith("state.")]
     ders = [v for v in md.modelVariables if v.name.startswith("der(state.")]
     ni = sum(v.causality == "input" for v in md.modelVariables)
-    argv = [me_host, "--modes", os.path.join(str(tmp_path), "binaries", "linux64", name + ".so"),
-            md.guid, str(len(states)), str(ni), str(states[0].valueReference),
-            str(ders[0].valueReference), "1e-3", "1", "0.01", "2"]
+    argv = [
+        me_host,
+        "--modes",
+        os.path.join(str(tmp_path), "binaries", "linux64", name + ".so"),
+        md.guid,
+        str(len(states)),
+        str(ni),
+        str(states[0].valueReference),
+        str(ders[0].valueReference),
+        "1e-3",
+        "1",
+        "0.01",
+        "2",
+    ]
     out = subprocess.run(argv, capture_output=True, text=True, timeout=120, env={})
     assert out.returncode == 0 and out.stdout.splitlines()[-1] == "ok", out.stderr
     got = dict(l.split() for l in out.stdout.splitlines() if " " in l)
@@ -585,8 +699,17 @@ def test_win64_model_exchange_under_wine_matches_linux64(me_host, native_fmus, t
             folder = tmp_path / name
             with zipfile.ZipFile(native_fmus[name]) as z:
                 z.extractall(folder)
-            _, xw, jw = _me_host_run(exe, native_fmus, name, 1e-3, platform="win64",
-                                     suffix=".dll", prefix=(wine,), env=env, folder=str(folder))
+            _, xw, jw = _me_host_run(
+                exe,
+                native_fmus,
+                name,
+                1e-3,
+                platform="win64",
+                suffix=".dll",
+                prefix=(wine,),
+                env=env,
+                folder=str(folder),
+            )
             _, xl, jl = _me_host_run(me_host, native_fmus, name, 1e-3, folder=str(folder))
             # the sine comes from each platform's own libm (1 ulp apart at most)
             assert np.max(np.abs(xw - xl) / np.max(np.abs(xl), axis=0)) <= 1e-12

@@ -13,7 +13,6 @@ row interval the position lies in, checked against central differences of the ou
 
 import numpy as np
 import pytest
-
 from test_native_fmi_interface import Raw
 
 pytestmark = pytest.mark.integration
@@ -25,8 +24,8 @@ OUTS = ["road_displacement", "road_velocity"]
 @pytest.fixture(scope="module")
 def table():
     """The library's interpolant of the table Road.fmu carries (the independent reference)."""
-    from vehicle.fmus import fmu_road
-    from vehicle.road.synthetic import road_table
+    from bodyvib.vehicle.fmus import fmu_road
+    from bodyvib.vehicle.road.synthetic import road_table
 
     return road_table(fmu_road(), 601.0)
 
@@ -52,8 +51,10 @@ def test_road_obeys_the_state_machine_and_its_start_time(native_dist, table, fmi
     vr = [f.vr[n] for n in OUTS]
     t0, h = 2.5, 1e-3
     try:
-        seen = {"get_instantiated": f.status(get, vr),
-                "step_instantiated": f.status("doStep", t0, h)}
+        seen = {
+            "get_instantiated": f.status(get, vr),
+            "step_instantiated": f.status("doStep", t0, h),
+        }
         if f.fmi3:
             f.fmu.enterInitializationMode(startTime=t0)
         else:
@@ -72,8 +73,11 @@ def test_road_obeys_the_state_machine_and_its_start_time(native_dist, table, fmi
     finally:
         f.close()
     assert {k for k, v in seen.items() if v == 0} == {"step", "terminate", "get_terminated"}
-    assert {k for k, v in seen.items() if v == 3} == set(seen) - {"step", "terminate",
-                                                                  "get_terminated"}, seen
+    assert {k for k, v in seen.items() if v == 3} == set(seen) - {
+        "step",
+        "terminate",
+        "get_terminated",
+    }, seen
     assert at_start == _library(table, t0)
     assert after_step == _library(table, t0 + h)
     text = "\n".join(f.messages)
@@ -92,8 +96,9 @@ def test_road_started_late_gives_the_table_at_speed_times_time(native_dist, tabl
     from fmpy import simulate_fmu
 
     sub = "fmi3/" if fmi == 3 else ""
-    r = simulate_fmu(str(native_dist / f"{sub}Road.fmu"), start_time=3.21, stop_time=4.21,
-                     output_interval=1e-3)
+    r = simulate_fmu(
+        str(native_dist / f"{sub}Road.fmu"), start_time=3.21, stop_time=4.21, output_interval=1e-3
+    )
     assert r["time"][0] == 3.21
     z, dz = table.evaluate(SPEED * r["time"])
     np.testing.assert_array_equal(r["road_displacement"], z[:, 0])
@@ -134,11 +139,11 @@ def test_road_output_derivatives_equal_central_differences(native_dist, table, f
             rz = 4 * eps * (abs(z0) + abs(v0) * t)
             rv = 4 * eps * (abs(v0) + abs(der[1]) * t)
             assert der[0] == v0  # order 1 of road_displacement is road_velocity
-            assert abs((zp - zm) / (2 * d) - der[0]) <= d ** 2 / 6 * abs(third) + rz / d
-            assert abs((zp - 2 * z0 + zm) / d ** 2 - der[2]) <= 4 * rz / d ** 2
+            assert abs((zp - zm) / (2 * d) - der[0]) <= d**2 / 6 * abs(third) + rz / d
+            assert abs((zp - 2 * z0 + zm) / d**2 - der[2]) <= 4 * rz / d**2
             assert abs((vp - vm) / (2 * d) - der[1]) <= rv / d
             assert der[2] == der[1]  # both speed^2 z''
-            assert abs((vp - 2 * v0 + vm) / d ** 2 - third) <= 4 * rv / d ** 2
+            assert abs((vp - 2 * v0 + vm) / d**2 - third) <= 4 * rv / d**2
             assert abs(third) > 0 and abs(der[1]) > 0
             checked += 1
     finally:
@@ -163,15 +168,19 @@ def test_road_refuses_input_and_directional_derivatives(native_dist, fmi):
     try:
         f.init()
         if f.fmi3:
-            seen = [f.status("getDirectionalDerivative", [z], [speed], [1.0]),
-                    f.status("getOutputDerivatives", [speed], [1]),
-                    f.status("getOutputDerivatives", [z], [3])]
+            seen = [
+                f.status("getDirectionalDerivative", [z], [speed], [1.0]),
+                f.status("getOutputDerivatives", [speed], [1]),
+                f.status("getOutputDerivatives", [z], [3]),
+            ]
         else:
-            seen = [f.status("setRealInputDerivatives", [speed], [1], [0.0]),
-                    f.status("setRealInputDerivatives", [z], [1], [0.0]),
-                    f.status("getDirectionalDerivative", [z], [speed], [1.0]),
-                    f.status("getRealOutputDerivatives", [speed], [1]),
-                    f.status("getRealOutputDerivatives", [z], [3])]
+            seen = [
+                f.status("setRealInputDerivatives", [speed], [1], [0.0]),
+                f.status("setRealInputDerivatives", [z], [1], [0.0]),
+                f.status("getDirectionalDerivative", [z], [speed], [1.0]),
+                f.status("getRealOutputDerivatives", [speed], [1]),
+                f.status("getRealOutputDerivatives", [z], [3]),
+            ]
     finally:
         f.close()
     assert seen == [3] * len(seen)
@@ -188,8 +197,7 @@ def test_road_in_model_exchange_equals_co_simulation(native_dist, fmi):
     from fmpy import simulate_fmu
 
     path = str(native_dist / ("fmi3/" if fmi == 3 else "") / "Road.fmu")
-    kw = dict(start_time=1.5, stop_time=3.0, output_interval=1e-3,
-              start_values={"speed": 17.3})
+    kw = dict(start_time=1.5, stop_time=3.0, output_interval=1e-3, start_values={"speed": 17.3})
     cs = simulate_fmu(path, fmi_type="CoSimulation", **kw)
     me = simulate_fmu(path, fmi_type="ModelExchange", **kw)
     np.testing.assert_array_equal(me["time"], cs["time"])
@@ -206,9 +214,8 @@ def test_road_in_a_c_host_under_valgrind(native_dist, tmp_path):
     import subprocess
     import zipfile
 
-    from fmpy import read_model_description
-
     from conftest import ROOT
+    from fmpy import read_model_description
     from test_native_host import headers
 
     if shutil.which("gcc") is None:
@@ -219,9 +226,27 @@ def test_road_in_a_c_host_under_valgrind(native_dist, tmp_path):
     src = tmp_path / "fmu" / "sources"
     exe = str(tmp_path / "road_host")
     files = [str(src / f) for f in sorted(os.listdir(src)) if f.endswith(".c")]
-    out = subprocess.run(["gcc", "-std=c99", "-g", "-O1", "-Wall", "-I", str(src), "-I", headers(),
-                          os.path.join(ROOT, "tests", "c_host", "road_host.c"), *files, "-o", exe,
-                          "-lm"], capture_output=True, text=True, timeout=120)
+    out = subprocess.run(
+        [
+            "gcc",
+            "-std=c99",
+            "-g",
+            "-O1",
+            "-Wall",
+            "-I",
+            str(src),
+            "-I",
+            headers(),
+            os.path.join(ROOT, "tests", "c_host", "road_host.c"),
+            *files,
+            "-o",
+            exe,
+            "-lm",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert out.returncode == 0, out.stderr
     md = read_model_description(str(path))
     vr = {v.name: str(v.valueReference) for v in md.modelVariables}
@@ -232,8 +257,18 @@ def test_road_in_a_c_host_under_valgrind(native_dist, tmp_path):
     valgrind = shutil.which("valgrind")
     if valgrind is None:
         pytest.skip("valgrind not found")
-    run = subprocess.run([valgrind, "--tool=memcheck", "--error-exitcode=9", "--leak-check=full",
-                          "--errors-for-leak-kinds=definite,indirect,possible", *argv],
-                         capture_output=True, text=True, timeout=300)
+    run = subprocess.run(
+        [
+            valgrind,
+            "--tool=memcheck",
+            "--error-exitcode=9",
+            "--leak-check=full",
+            "--errors-for-leak-kinds=definite,indirect,possible",
+            *argv,
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert run.returncode == 0, run.stderr[-3000:]
     assert "ERROR SUMMARY: 0 errors" in run.stderr, run.stderr[-3000:]

@@ -5,10 +5,10 @@
 ``python_fmus``) the pythonfmu ones beside the body and car. References:
 
 * the road table's cubic Hermite interpolant evaluated by the library
-  (:class:`bodyvib.runtime.source.HermiteTable`) and the pythonfmu Road.fmu: the C source
+  (:class:`bodyvib.runtime.tabulated.HermiteTable`) and the pythonfmu Road.fmu: the C source
   performs the same operations on the same doubles, so they agree to rounding (1e-12 of
   the peak; measured: bit for bit);
-* the monolithic reference (:func:`vehicle.ssp.ssp_reference`) for the SSPs: the
+* the monolithic reference (:func:`bodyvib.vehicle.ssp.ssp_reference`) for the SSPs: the
   issue's 0.02 % head-acceleration NRMSE at 1 ms (measured 0.0124 % in every host);
 * the pythonfmu SSP in the same host: the native FMUs compute the same numbers as the
   pythonfmu ones (1e-12 of the body's; issue 9 measured 3e-14), so the two systems agree
@@ -24,11 +24,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
+from bodyvib.vehicle.reference import nrmse
+from bodyvib.vehicle.ssp import CONNECTIONS, SSP_NAME, ssp_reference
 from helpers import ROOT
 from test_ssp import DURATION, HOSTS, host_run
-from vehicle.reference import nrmse
-from vehicle.ssp import CONNECTIONS, SSP_NAME, ssp_reference
 
 pytestmark = pytest.mark.integration
 
@@ -51,17 +50,24 @@ def test_native_road_is_the_pythonfmu_road_sample_for_sample(native_dist, python
     """At 17.3 m/s (samples between rows) over 40 s (past the 601 m table: it repeats),
     in fmpy at 1 ms: the native Road.fmu's outputs equal the library's interpolant and
     the pythonfmu Road.fmu's to 1e-12 of their peaks (measured: identical)."""
+    from bodyvib.vehicle.fmus import fmu_road
+    from bodyvib.vehicle.road.synthetic import road_table
     from fmpy import simulate_fmu
-
-    from vehicle.fmus import fmu_road
-    from vehicle.road.synthetic import road_table
 
     speed = 17.3
     sub = "fmi3/" if fmi == 3 else ""
-    nat = simulate_fmu(str(native_dist / f"{sub}Road.fmu"), stop_time=40.0, output_interval=1e-3,
-                       start_values={"speed": speed})
-    py = simulate_fmu(str(python_dist(python_fmus) / "Road.fmu"), stop_time=40.0,
-                      output_interval=1e-3, start_values={"speed": speed})
+    nat = simulate_fmu(
+        str(native_dist / f"{sub}Road.fmu"),
+        stop_time=40.0,
+        output_interval=1e-3,
+        start_values={"speed": speed},
+    )
+    py = simulate_fmu(
+        str(python_dist(python_fmus) / "Road.fmu"),
+        stop_time=40.0,
+        output_interval=1e-3,
+        start_values={"speed": speed},
+    )
     z, dz = road_table(fmu_road(), 601.0).evaluate(speed * nat["time"])
     np.testing.assert_array_equal(nat["time"], py["time"])
     for name, lib in (("road_displacement", z[:, 0]), ("road_velocity", speed * dz[:, 0])):
@@ -81,14 +87,21 @@ def test_native_road_contract_and_default_experiment(native_dist, python_fmus):
         md = read_model_description(str(native_dist / f"{sub}Road.fmu"))
         nat = {v.name: v for v in md.modelVariables}
         for p in py.modelVariables:
-            for attr in ("valueReference", "causality", "variability", "unit", "start", "min",
-                         "description"):
+            for attr in (
+                "valueReference",
+                "causality",
+                "variability",
+                "unit",
+                "start",
+                "min",
+                "description",
+            ):
                 assert str(getattr(nat[p.name], attr)) == str(getattr(p, attr)), (p.name, attr)
         assert float(md.defaultExperiment.stopTime) == pytest.approx(601.0 / 20.0, rel=1e-15)
         with zipfile.ZipFile(native_dist / f"{sub}Road.fmu") as z:
             files = z.namelist()
         assert not [f for f in files if f.endswith(".py")], files
-        assert "sources/bodyvib_source.c" in files and "sources/bodyvib_core.c" not in files
+        assert "sources/bodyvib_table.c" in files and "sources/bodyvib_core.c" not in files
 
 
 def test_native_road_refuses_a_bad_speed_and_restores_its_state(native_dist):
@@ -142,8 +155,10 @@ def test_native_ssp_holds_only_native_fmus_of_its_version(native_dist, fmi):
 
     ssp = native_ssp(native_dist, fmi)
     ssd = read_ssd(str(ssp))
-    assert {(c.startElement, c.startConnector, c.endElement, c.endConnector)
-            for c in ssd.system.connections} == set(CONNECTIONS)
+    assert {
+        (c.startElement, c.startConnector, c.endElement, c.endConnector)
+        for c in ssd.system.connections
+    } == set(CONNECTIONS)
     with zipfile.ZipFile(ssp) as z:
         fmus = [n for n in z.namelist() if n.endswith(".fmu")]
         assert len(fmus) == 3
@@ -168,7 +183,8 @@ def reference():
 
 @pytest.mark.parametrize("host", list(HOSTS))
 def test_native_ssp_in_host_meets_the_target_and_equals_the_pythonfmu_ssp(
-        native_dist, python_fmus, reference, host):
+    native_dist, python_fmus, reference, host
+):
     """Ecos runs the FMI 3.0 SSP, libcosim and fmpy's SSP runner (step_size given) the FMI
     2.0 one: head-acceleration NRMSE within 0.02 % of the monolithic reference (measured
     0.0124 %), and the pythonfmu SSP in the same host gives the same numbers."""
@@ -206,8 +222,14 @@ def test_build_without_mingw_builds_linux_and_says_what_it_skipped(tmp_path):
     assert shutil.which(mingw + "gcc", path=env["PATH"]) is None
     assert shutil.which("gcc", path=env["PATH"]) is not None
     cmd = [sys.executable, "build_fmu.py", "--native", "--fmus", "Road", "QuarterCar"]
-    out = subprocess.run(cmd + ["--dest", str(tmp_path / "d")], cwd=ROOT, env=env,
-                         capture_output=True, text=True, timeout=600)
+    out = subprocess.run(
+        cmd + ["--dest", str(tmp_path / "d")],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert out.returncode == 0, out.stderr
     skipped = [line for line in out.stderr.splitlines() if "skipped" in line]
     assert len(skipped) == 1 and skipped[0].startswith("win64 skipped: " + mingw + "gcc not found")
@@ -218,8 +240,14 @@ def test_build_without_mingw_builds_linux_and_says_what_it_skipped(tmp_path):
             with zipfile.ZipFile(tmp_path / "d" / "native" / f"{sub}{name}.fmu") as z:
                 binaries = [f for f in z.namelist() if f.startswith("binaries/")]
             assert binaries == [f"binaries/{plat}/{name}.so"], binaries
-    refused = subprocess.run(cmd + ["--dest", str(tmp_path / "e"), "--platforms", "linux64,win64"],
-                             cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
+    refused = subprocess.run(
+        cmd + ["--dest", str(tmp_path / "e"), "--platforms", "linux64,win64"],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert refused.returncode == 2
     assert len(refused.stderr.strip().splitlines()) == 1, refused.stderr
     assert "win64" in refused.stderr and "--platforms linux64" in refused.stderr
@@ -227,9 +255,23 @@ def test_build_without_mingw_builds_linux_and_says_what_it_skipped(tmp_path):
 
 
 def test_platforms_option_builds_exactly_those(tmp_path):
-    out = subprocess.run([sys.executable, "build_fmu.py", "--native", "--fmus", "Road",
-                          "--platforms", "win64", "--dest", str(tmp_path)], cwd=ROOT,
-                         capture_output=True, text=True, timeout=600)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "build_fmu.py",
+            "--native",
+            "--fmus",
+            "Road",
+            "--platforms",
+            "win64",
+            "--dest",
+            str(tmp_path),
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     if shutil.which("x86_64-w64-mingw32-gcc") is None:
         pytest.skip("mingw-w64 not installed")
     assert out.returncode == 0, out.stderr
@@ -252,8 +294,13 @@ def test_fmpy_compile_builds_the_road_from_its_sources(native_dist, fmi, tmp_pat
         for info in src.infolist():
             if not info.filename.startswith("binaries/"):
                 dst.writestr(info, src.read(info))
-    out = subprocess.run([sys.executable, "-m", "fmpy.cli", "compile", str(path)],
-                         capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    out = subprocess.run(
+        [sys.executable, "-m", "fmpy.cli", "compile", str(path)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=tmp_path,
+    )
     assert out.returncode == 0, out.stdout + out.stderr
     a = simulate_fmu(str(path), stop_time=2.0, output_interval=1e-3)
     b = simulate_fmu(str(shipped), stop_time=2.0, output_interval=1e-3)

@@ -2,13 +2,13 @@
 
 import numpy as np
 import pytest
+from bodyvib.vehicle.quarter_car import load_car, seated_system
+from helpers import dynamic_stiffness_response
 
 from bodyvib.frequency.response import find_peaks, frequency_response, transmissibility
 from bodyvib.models import load_model
 from bodyvib.runtime.modelfile import network_from_dict
 from bodyvib.runtime.network import linear_model, mount
-from helpers import dynamic_stiffness_response
-from vehicle.quarter_car import load_car, seated_system
 
 
 def reduced_matrices(m1, m2, k1, k2, c1, c2, ks):
@@ -44,8 +44,9 @@ def test_reduced_model_poles_and_peak_match_design():
     lm = linear_model(load_model("reduced-paper"))
     poles = np.sort_complex(np.linalg.eigvals(lm.A))
     # the architecture notes print them to 3-4 significant digits
-    expected = np.sort_complex(np.array([-249, -38.7 + 110.8j, -38.7 - 110.8j,
-                                         -20.6 + 23.8j, -20.6 - 23.8j]))
+    expected = np.sort_complex(
+        np.array([-249, -38.7 + 110.8j, -38.7 - 110.8j, -20.6 + 23.8j, -20.6 - 23.8j])
+    )
     assert np.all(np.abs(poles - expected) <= 0.05 + 0.0005 * np.abs(expected)), poles
     f = np.linspace(0.5, 31.5, 6201)
     peaks = find_peaks(f, np.abs(transmissibility(lm, f)))
@@ -58,8 +59,10 @@ def test_iso_model_peaks_and_static_mass():
     net = load_model("iso7962")
     f = np.linspace(0.5, 31.5, 6201)
     peaks = find_peaks(f, np.abs(transmissibility(net, f)))
-    assert [p.frequency_hz for p in peaks] == [pytest.approx(4.45, abs=0.01),
-                                                  pytest.approx(11.0, abs=0.1)]
+    assert [p.frequency_hz for p in peaks] == [
+        pytest.approx(4.45, abs=0.01),
+        pytest.approx(11.0, abs=0.1),
+    ]
     assert peaks[0].modulus == pytest.approx(1.665, abs=0.001)
     assert peaks[1].modulus == pytest.approx(1.02, abs=0.005)
     assert net.total_mass() == pytest.approx(75.0, abs=1e-9)
@@ -85,17 +88,36 @@ def test_every_element_kind_equals_nodal_analysis(rng):
     """A network using all five element kinds, including a damper on the base."""
     data = {
         "name": "all-kinds",
-        "parameters": {p: float(v) for p, v in zip(
-            ["ma", "mb", "mc", "k1", "c1", "k2", "k3", "c3", "k3s", "k4", "c4", "k4s", "c5"],
-            rng.uniform(0.5, 2.0, 13) * [10, 20, 5, 1e4, 100, 2e4, 3e4, 300, 1e5, 1e4, 200, 4e4, 50])},
+        "parameters": {
+            p: float(v)
+            for p, v in zip(
+                ["ma", "mb", "mc", "k1", "c1", "k2", "k3", "c3", "k3s", "k4", "c4", "k4s", "c5"],
+                rng.uniform(0.5, 2.0, 13)
+                * [10, 20, 5, 1e4, 100, 2e4, 3e4, 300, 1e5, 1e4, 200, 4e4, 50],
+            )
+        },
         "masses": {"a": "ma", "b": "mb", "c": "mc"},
         "elements": [
             {"name": "e1", "kind": "kelvin", "from": "seat", "to": "a", "k": "k1", "c": "c1"},
             {"name": "e2", "kind": "spring", "from": "a", "to": "b", "k": "k2"},
-            {"name": "e3", "kind": "series_kelvin", "from": "a", "to": "c",
-             "k_series": "k3s", "k": "k3", "c": "c3"},
-            {"name": "e4", "kind": "zener", "from": "b", "to": "c", "k": "k4", "c": "c4",
-             "k_series": "k4s"},
+            {
+                "name": "e3",
+                "kind": "series_kelvin",
+                "from": "a",
+                "to": "c",
+                "k_series": "k3s",
+                "k": "k3",
+                "c": "c3",
+            },
+            {
+                "name": "e4",
+                "kind": "zener",
+                "from": "b",
+                "to": "c",
+                "k": "k4",
+                "c": "c4",
+                "k_series": "k4s",
+            },
             {"name": "e5", "kind": "damper", "from": "seat", "to": "b", "c": "c5"},
         ],
         "roles": {"head": "c"},
@@ -103,12 +125,16 @@ def test_every_element_kind_equals_nodal_analysis(rng):
     net = network_from_dict(data)
     f = np.geomspace(0.1, 50, 40)
     for p in "abc":
-        np.testing.assert_allclose(frequency_response(net, f, f"{p}.x"),
-                                   dynamic_stiffness_response(net, f, p), rtol=1e-9)
+        np.testing.assert_allclose(
+            frequency_response(net, f, f"{p}.x"), dynamic_stiffness_response(net, f, p), rtol=1e-9
+        )
     # acceleration output = -(2 pi f)^2 x, with the base-velocity feedthrough
     w = 2 * np.pi * f
-    np.testing.assert_allclose(frequency_response(net, f, "b.a"),
-                               -(w ** 2) * dynamic_stiffness_response(net, f, "b"), rtol=1e-9)
+    np.testing.assert_allclose(
+        frequency_response(net, f, "b.a"),
+        -(w**2) * dynamic_stiffness_response(net, f, "b"),
+        rtol=1e-9,
+    )
 
 
 @pytest.mark.parametrize("name", ["reduced-paper", "iso7962"])
@@ -118,8 +144,9 @@ def test_seat_force_is_total_inertia_force(name):
     lm = linear_model(net)
     f = np.geomspace(0.2, 40, 30)
     w = 2 * np.pi * f
-    inertia = sum(m * -(w ** 2) * dynamic_stiffness_response(net, f, p)
-                  for p, m in net.mass_values().items())
+    inertia = sum(
+        m * -(w**2) * dynamic_stiffness_response(net, f, p) for p, m in net.mass_values().items()
+    )
     # body pushes down (compression) when the masses accelerate upward
     np.testing.assert_allclose(frequency_response(lm, f, "seat_force"), inertia, rtol=RTOL[name])
 
@@ -136,8 +163,11 @@ def test_mounted_system_equals_nodal_analysis():
     net = seated_system(load_car(), load_model("iso7962"))
     f = np.geomspace(0.3, 30, 40)
     for p in ("sprung", "unsprung", "body.m1", "body.m3"):
-        np.testing.assert_allclose(frequency_response(net, f, f"{p}.x"),
-                                   dynamic_stiffness_response(net, f, p), rtol=RTOL["iso7962"])
+        np.testing.assert_allclose(
+            frequency_response(net, f, f"{p}.x"),
+            dynamic_stiffness_response(net, f, p),
+            rtol=RTOL["iso7962"],
+        )
     assert net.total_mass() == pytest.approx(290 + 59 + 75.0)
     assert "sprung.force" not in linear_model(net).inputs
 
@@ -164,12 +194,17 @@ def test_element_outputs_of_the_quarter_car():
     s = 2j * np.pi * f
     xs = dynamic_stiffness_response(car, f, "sprung")
     xu = dynamic_stiffness_response(car, f, "unsprung")
-    np.testing.assert_allclose(frequency_response(car, f, "tire.force"), p["kt"] * (1 - xu),
-                               rtol=1e-9)
-    np.testing.assert_allclose(frequency_response(car, f, "suspension.deflection"), xs - xu,
-                               rtol=1e-9)
-    np.testing.assert_allclose(frequency_response(car, f, "suspension.force"),
-                               (p["ks"] + p["cs"] * s) * (xu - xs), rtol=1e-9)
+    np.testing.assert_allclose(
+        frequency_response(car, f, "tire.force"), p["kt"] * (1 - xu), rtol=1e-9
+    )
+    np.testing.assert_allclose(
+        frequency_response(car, f, "suspension.deflection"), xs - xu, rtol=1e-9
+    )
+    np.testing.assert_allclose(
+        frequency_response(car, f, "suspension.force"),
+        (p["ks"] + p["cs"] * s) * (xu - xs),
+        rtol=1e-9,
+    )
 
 
 def test_series_element_force_equals_seat_force():
@@ -179,7 +214,8 @@ def test_series_element_force_equals_seat_force():
     net = load_model("iso7962")
     f = np.geomspace(0.5, 30, 10)
     s = 2j * np.pi * f
-    momentum = s ** 2 * sum(m * dynamic_stiffness_response(net, f, name)
-                            for name, m in net.mass_values().items())
+    momentum = s**2 * sum(
+        m * dynamic_stiffness_response(net, f, name) for name, m in net.mass_values().items()
+    )
     np.testing.assert_allclose(frequency_response(net, f, "e3.force"), momentum, rtol=1e-6)
     np.testing.assert_allclose(frequency_response(net, f, "seat_force"), momentum, rtol=1e-6)

@@ -2,15 +2,15 @@
 
 import numpy as np
 import pytest
+from bodyvib.vehicle.quarter_car import load_car, seated_system
+from bodyvib.vehicle.reference import nrmse, reference_run
+from bodyvib.vehicle.road.synthetic import make_road, road_input
+from helpers import dynamic_stiffness_response
 
-from bodyvib.runtime.errors import BodyvibError
+from bodyvib.frequency.estimate import estimate_transmissibility
 from bodyvib.frequency.response import transmissibility
 from bodyvib.models import load_model
-from helpers import dynamic_stiffness_response
-from bodyvib.frequency.estimate import estimate_transmissibility
-from vehicle.quarter_car import load_car, seated_system
-from vehicle.reference import nrmse, reference_run
-from vehicle.road.synthetic import make_road, road_input
+from bodyvib.runtime.errors import BodyvibError
 
 
 def _steady_phasor(t, y, f, t_from):
@@ -40,7 +40,7 @@ def test_sine_road_response_matches_nodal_analysis(body_name, car_name, f_hz):
     r = reference_run(car, body, Z * np.sin(w * t), Z * w * np.cos(w * t), h)
     net = seated_system(car, body)
     head = dynamic_stiffness_response(net, f_hz, "body.head")[0]  # X_head / X_road
-    expected_a = -(w ** 2) * head * Z / 1j  # road = Z sin = Re(-j Z e^{jwt})
+    expected_a = -(w**2) * head * Z / 1j  # road = Z sin = Re(-j Z e^{jwt})
     tol = (w * h) ** 2 / 2 + 1e-5
     got_a = _steady_phasor(t, r["head_acceleration"], f_hz, 8.0)
     assert abs(got_a - expected_a) <= tol * abs(expected_a)
@@ -50,8 +50,10 @@ def test_sine_road_response_matches_nodal_analysis(body_name, car_name, f_hz):
     springs, dampers = net.primitives()
     for a, b, k in springs + [(a, b, c * 1j * w) for a, b, c in dampers]:
         if a == seat and b.startswith("body."):
-            F += k * (dynamic_stiffness_response(net, f_hz, seat)[0]
-                      - dynamic_stiffness_response(net, f_hz, b)[0])
+            F += k * (
+                dynamic_stiffness_response(net, f_hz, seat)[0]
+                - dynamic_stiffness_response(net, f_hz, b)[0]
+            )
     got_F = _steady_phasor(t, r["seat_force"], f_hz, 8.0)
     expected_F = F * Z / 1j
     assert abs(got_F - expected_F) <= tol * abs(expected_F)

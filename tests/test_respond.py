@@ -4,17 +4,17 @@ import json
 
 import numpy as np
 import pytest
+from bodyvib.vehicle.quarter_car import load_car
+from bodyvib.vehicle.reference import reference_run
+from bodyvib.vehicle.road.synthetic import make_road, road_input
+from helpers import dynamic_stiffness_response
 
+from bodyvib.cli.main import main
 from bodyvib.comfort.figures import comfort_figures
 from bodyvib.models import load_model
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.seat.response import head_acceleration, respond
 from bodyvib.seat.signal import check_signal, read_signal
-from bodyvib_cli.main import main
-from helpers import dynamic_stiffness_response
-from vehicle.quarter_car import load_car
-from vehicle.reference import reference_run
-from vehicle.road.synthetic import make_road, road_input
 
 MODELS = ("reduced-paper", "iso7962")
 
@@ -28,12 +28,12 @@ def _reference(model, step, duration=10.0):
 
 
 def _nrmse(a, b):
-    return float(np.sqrt(np.mean((a - b) ** 2) / np.mean(b ** 2)))
+    return float(np.sqrt(np.mean((a - b) ** 2) / np.mean(b**2)))
 
 
 @pytest.mark.parametrize("model", MODELS)
 def test_head_acceleration_equals_the_monolithic_reference(model):
-    # The monolithic car + body (vehicle.reference) gives the seat's and the head's
+    # The monolithic car + body (bodyvib.vehicle.reference) gives the seat's and the head's
     # acceleration of one run. respond's body, driven by that seat acceleration
     # taken linear between samples, must give the same head acceleration up to the
     # interpolation error of a smooth signal, O(h^2): measured 2.3e-4 (1 ms) and
@@ -67,16 +67,19 @@ def test_steady_sine_is_scaled_by_the_transmissibility(model):
 def _write_csv(path, t, a, name="seat_z [m/s2]", extra=None):
     cols = [t, a] + ([extra] if extra is not None else [])
     header = "time [s]," + name + (",other [m/s2]" if extra is not None else "")
-    np.savetxt(path, np.column_stack(cols), delimiter=",", header=header, comments="",
-               fmt="%.12g")
+    np.savetxt(path, np.column_stack(cols), delimiter=",", header=header, comments="", fmt="%.12g")
 
 
 def _write_mdf(path, t, a, name="seat_z"):
     from asammdf import MDF, Signal
 
     with MDF(version="4.10") as mdf:
-        mdf.append([Signal(samples=a, timestamps=t, name=name, unit="m/s2"),
-                    Signal(samples=0 * a, timestamps=t, name="speed", unit="m/s")])
+        mdf.append(
+            [
+                Signal(samples=a, timestamps=t, name=name, unit="m/s2"),
+                Signal(samples=0 * a, timestamps=t, name="speed", unit="m/s"),
+            ]
+        )
         mdf.save(str(path), overwrite=True)
 
 
@@ -91,17 +94,34 @@ def test_mdf4_and_csv_give_the_same_figures(tmp_path):
     ra, rb = respond(a, ["reduced-paper"]), respond(b, ["reduced-paper"])
     for key in ("weighted_rms", "vdv", "mtvv", "peak"):
         assert getattr(ra.bodies["reduced-paper"].figures, key) == pytest.approx(
-            getattr(rb.bodies["reduced-paper"].figures, key), rel=1e-10)
-    assert ra.seat_figures.weighted_rms == pytest.approx(comfort_figures(seat, 1000.0).weighted_rms,
-                                                         rel=1e-10)
+            getattr(rb.bodies["reduced-paper"].figures, key), rel=1e-10
+        )
+    assert ra.seat_figures.weighted_rms == pytest.approx(
+        comfort_figures(seat, 1000.0).weighted_rms, rel=1e-10
+    )
 
 
 def test_command_writes_figures_csv_and_plot(tmp_path, capsys):
     t, seat, head = _reference("reduced-paper", 1e-3, duration=5.0)
     _write_csv(tmp_path / "seat.csv", t, seat, extra=0 * seat)
     out = {k: str(tmp_path / f"r.{k}") for k in ("json", "csv", "png")}
-    assert main(["respond", str(tmp_path / "seat.csv"), "--channel", "seat_z", "--json",
-                 out["json"], "--csv", out["csv"], "--plot", out["png"]]) == 0
+    assert (
+        main(
+            [
+                "respond",
+                str(tmp_path / "seat.csv"),
+                "--channel",
+                "seat_z",
+                "--json",
+                out["json"],
+                "--csv",
+                out["csv"],
+                "--plot",
+                out["png"],
+            ]
+        )
+        == 0
+    )
     text = capsys.readouterr().out
     assert "MTVV" in text and "basic method enough" in text
     doc = json.load(open(out["json"]))
@@ -109,23 +129,27 @@ def test_command_writes_figures_csv_and_plot(tmp_path, capsys):
     assert set(doc["seat"]["checks"]) == {"crest_factor", "mtvv_ratio", "vdv_ratio"}
     rows = np.loadtxt(out["csv"], delimiter=",", skiprows=1)
     assert rows.shape == (t.size, 4)
-    assert _nrmse(rows[:, 2], head) < 5e-4          # the reduced body's head, as above
+    assert _nrmse(rows[:, 2], head) < 5e-4  # the reduced body's head, as above
     assert doc["bodies"]["reduced-paper"]["mtvv"] == pytest.approx(
-        comfort_figures(rows[:, 2], 1000.0).mtvv, rel=1e-8)
+        comfort_figures(rows[:, 2], 1000.0).mtvv, rel=1e-8
+    )
 
 
-@pytest.mark.parametrize("case, words", [
-    ("decreasing", "time does not increase"),
-    ("jitter", "not uniformly sampled"),
-    ("nan", "NaN"),
-    ("slow", "below the 80 Hz"),
-    ("short", "shorter than the 1 s"),
-    ("column", "no column 'seat_y'"),
-    ("ambiguous", "choose one with --channel"),
-    ("truncated", "truncated file"),
-    ("mdf_channel", "no channel 'seat_y'"),
-    ("mdf_none", "name the channel with --channel"),
-])
+@pytest.mark.parametrize(
+    "case, words",
+    [
+        ("decreasing", "time does not increase"),
+        ("jitter", "not uniformly sampled"),
+        ("nan", "NaN"),
+        ("slow", "below the 80 Hz"),
+        ("short", "shorter than the 1 s"),
+        ("column", "no column 'seat_y'"),
+        ("ambiguous", "choose one with --channel"),
+        ("truncated", "truncated file"),
+        ("mdf_channel", "no channel 'seat_y'"),
+        ("mdf_none", "name the channel with --channel"),
+    ],
+)
 def test_bad_signals_are_refused_in_one_line(tmp_path, capsys, case, words):
     t = np.arange(0, 3, 1e-3)
     a = np.sin(2 * np.pi * 5 * t)
@@ -169,12 +193,12 @@ def test_outputs_are_checked_before_work_and_a_zero_record_still_writes_json(tmp
     t = np.arange(0, 2, 1e-3)
     path = tmp_path / "s.csv"
     _write_csv(path, t, 0 * t)
-    assert main(["respond", str(path), "--csv", str(path)]) == 2          # would overwrite input
+    assert main(["respond", str(path), "--csv", str(path)]) == 2  # would overwrite input
     assert "s.csv" in capsys.readouterr().err
     assert main(["respond", str(path), "--models", "nope"]) == 2
     assert "unknown model 'nope'" in capsys.readouterr().err
     js = tmp_path / "z.json"
-    assert main(["respond", str(path), "--json", str(js)]) == 0            # crest factor 0/0
+    assert main(["respond", str(path), "--json", str(js)]) == 0  # crest factor 0/0
     doc = json.load(open(js))
     assert doc["seat"]["weighted_rms"] == 0.0 and doc["seat"]["crest_factor"] is None
 

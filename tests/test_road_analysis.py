@@ -2,14 +2,19 @@
 
 import numpy as np
 import pytest
+from bodyvib.vehicle.road.classify import class_limits, class_of, classify_profile
+from bodyvib.vehicle.road.iri import (
+    GOLDEN_CAR,
+    IRI_SPEED_M_S,
+    golden_car,
+    international_roughness_index,
+    moving_average,
+)
+from bodyvib.vehicle.road.synthetic import class_psd_n0, random_road
 
 from bodyvib.runtime.errors import BodyvibError
-from vehicle.road.classify import class_limits, class_of, classify_profile
-from vehicle.road.iri import (GOLDEN_CAR, IRI_SPEED_M_S, golden_car,
-                              international_roughness_index, moving_average)
-from vehicle.road.synthetic import class_psd_n0, random_road
 
-DX = 0.025          # m: 10 samples in the 250 mm moving average
+DX = 0.025  # m: 10 samples in the 250 mm moving average
 #: Sayers (1986) / ASTM E1926, typed here from the standard, not imported
 PUBLISHED = {"kt": 653.0, "ks": 63.3, "cs": 6.0, "mu": 0.15}
 
@@ -62,7 +67,7 @@ def test_iri_started_at_steady_state_has_no_transient():
     A, B, C = golden_car()
     w = 2 * np.pi * IRI_SPEED_M_S / lam
     gain = np.sin(np.pi * k * DX / lam) / (k * np.sin(np.pi * DX / lam)) * np.sinc(DX / lam) ** 2
-    phase = 2 * np.pi * ((k - 1) * DX / 2) / lam   # the trailing average's first value's position
+    phase = 2 * np.pi * ((k - 1) * DX / 2) / lam  # the trailing average's first value's position
     X = np.linalg.solve(1j * w * np.eye(4) - A, B[:, 0]) * a * gain * np.exp(1j * phase)
     got = international_roughness_index(x, a * np.sin(2 * np.pi * x / lam), initial_state=X.imag)
     assert got.iri_m_per_km == pytest.approx(_analytic_iri(a, lam), rel=2e-3)
@@ -81,8 +86,8 @@ def test_iri_is_linear_and_zero_for_a_flat_or_inclined_road():
 
 def test_moving_average_covers_250_mm():
     z = np.arange(20.0)
-    assert np.allclose(moving_average(z, 0.05), np.arange(2.0, 18.0))   # 5 samples
-    assert np.array_equal(moving_average(z, 0.3), z)                     # coarser: none
+    assert np.allclose(moving_average(z, 0.05), np.arange(2.0, 18.0))  # 5 samples
+    assert np.array_equal(moving_average(z, 0.3), z)  # coarser: none
 
 
 @pytest.mark.parametrize("cls", list("ABCDE"))
@@ -126,8 +131,9 @@ def test_bad_profiles_are_refused():
 def test_modal_recursion_equals_stepping_the_discretization():
     # the IRI's recursion runs mode by mode (lfilter); stepping Phi directly from
     # the same start gives the same states to rounding (cond(V) ~ 76: 1e-12)
+    from bodyvib.vehicle.road.iri import _recursion
+
     from bodyvib.runtime.discretize import discretize
-    from vehicle.road.iri import _recursion
 
     A, B, C = golden_car()
     Phi, _, _ = discretize(A, B, 0.05 / IRI_SPEED_M_S)

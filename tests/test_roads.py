@@ -2,18 +2,25 @@
 
 import numpy as np
 import pytest
+from bodyvib.vehicle.road.synthetic import (
+    BumpRoad,
+    SweepRoad,
+    class_psd_n0,
+    displacement_psd,
+    make_road,
+    random_road,
+    road_input,
+)
 from scipy.signal import welch
 
 from bodyvib.runtime.errors import BodyvibError
-from vehicle.road.synthetic import (
-    BumpRoad, SweepRoad, class_psd_n0, displacement_psd, make_road, random_road, road_input,
-)
 
 
 def test_class_levels_follow_iso8608():
     # ISO 8608: Gd(n0) geometric means 16, 64, 256, ... 262144 x 1e-6 m^3 for A ... H
     assert [class_psd_n0(c) / 1e-6 for c in "ABCDEFGH"] == pytest.approx(
-        [16, 64, 256, 1024, 4096, 16384, 65536, 262144])
+        [16, 64, 256, 1024, 4096, 16384, 65536, 262144]
+    )
     assert displacement_psd(0.2, "C") == pytest.approx(256e-6 / 4)
 
 
@@ -51,11 +58,11 @@ def test_variance_is_the_integral_of_the_psd():
     road = random_road("D", length=2000.0, seed=2)
     dn = 1 / 2000.0
     a, b = road.n[0] - dn / 2, road.n[-1] + dn / 2
-    expected = class_psd_n0("D") * 0.1 ** 2 * (1 / a - 1 / b)
-    assert np.sum(road.amplitude ** 2) / 2 == pytest.approx(expected, rel=5e-4)
+    expected = class_psd_n0("D") * 0.1**2 * (1 / a - 1 / b)
+    assert np.sum(road.amplitude**2) / 2 == pytest.approx(expected, rel=5e-4)
     z = road.displacement(np.arange(0, 2000.0, 0.05))
     # over whole periods on a uniform grid the cross terms vanish: sum a_i^2 / 2 exactly
-    assert np.var(z) == pytest.approx(np.sum(road.amplitude ** 2) / 2, rel=1e-9)
+    assert np.var(z) == pytest.approx(np.sum(road.amplitude**2) / 2, rel=1e-9)
 
 
 def test_seed_reproduces_and_differs():
@@ -66,8 +73,14 @@ def test_seed_reproduces_and_differs():
     assert not np.allclose(a, c)
 
 
-@pytest.mark.parametrize("road", [random_road("C", 50.0, seed=4), BumpRoad(start=2.0),
-                                  SweepRoad(length=50.0, n_start=0.1, n_stop=2.0)])
+@pytest.mark.parametrize(
+    "road",
+    [
+        random_road("C", 50.0, seed=4),
+        BumpRoad(start=2.0),
+        SweepRoad(length=50.0, n_start=0.1, n_stop=2.0),
+    ],
+)
 def test_slope_is_the_derivative_of_the_profile(road):
     """Central differences with h = 1e-4 m: truncation error h^2/6 |z'''| < 1e-6 of the slope scale."""
     x = np.linspace(0.5, 45.0, 997)
@@ -124,7 +137,7 @@ def test_every_driven_road_starts_level_and_joins_the_road_smoothly(spec):
     road itself from 5 m on (and until 5 m before the end), and the slope continuous across
     the fade's end (central differences of 1e-6 m agree with the exact slope to 1e-6 of its
     scale: the product rule w' z + w z' is the derivative)."""
-    from vehicle.road.driven import RoadOptions, driven_road
+    from bodyvib.vehicle.road.driven import RoadOptions, driven_road
 
     road = driven_road(spec, 20.0, 10.0)
     assert float(road.displacement(0.0)) == 0.0 and float(road.slope(0.0)) == 0.0
@@ -141,7 +154,7 @@ def test_every_driven_road_starts_level_and_joins_the_road_smoothly(spec):
 
 
 def test_taper_longer_than_half_the_road_is_refused():
-    from vehicle.road.driven import RoadOptions, driven_road
+    from bodyvib.vehicle.road.driven import RoadOptions, driven_road
 
     with pytest.raises(BodyvibError, match=r"cannot fade in and out over 6 m .*--road-taper"):
         driven_road("C", 10.0, 1.0, options=RoadOptions(taper_m=6.0))
@@ -152,8 +165,8 @@ def test_taper_longer_than_half_the_road_is_refused():
 def test_cosim_and_road_fmu_take_the_same_road():
     """The default cosim road (class C, seed 0, 20 m/s, 30 s) is the road Road.fmu tabulates,
     bit for bit: one road, faded in, for both."""
-    from vehicle.fmus import fmu_road
-    from vehicle.road.driven import driven_road
+    from bodyvib.vehicle.fmus import fmu_road
+    from bodyvib.vehicle.road.driven import driven_road
 
     x = np.linspace(0.0, 601.0, 60101)
     a, b = driven_road("C", 20.0, 30.0), fmu_road()

@@ -30,30 +30,58 @@ import sys
 import time
 
 import pytest
-
 from helpers import check_stopped_run, write_old_outputs
 
 pytestmark = pytest.mark.integration
 
-LINES = {signal.SIGTERM: "terminated (SIGTERM)", signal.SIGINT: "interrupted",
-         signal.SIGHUP: "hung up (SIGHUP)"}
+LINES = {
+    signal.SIGTERM: "terminated (SIGTERM)",
+    signal.SIGINT: "interrupted",
+    signal.SIGHUP: "hung up (SIGHUP)",
+}
 
 
 def _commands(tmp):
     """(name, argv, outputs, a rough run time in s) of each command tried."""
     cfg = tmp / "cfg.json"
-    cfg.write_text(json.dumps({"ga": {"population": 30, "generations": 40},
-                               "restarts": {"model": 1}}))
+    cfg.write_text(
+        json.dumps({"ga": {"population": 30, "generations": 40}, "restarts": {"model": 1}})
+    )
     c = [tmp / n for n in ("c.json", "c.csv", "c.png")]
-    n = [tmp / "dist" / "native" / "HumanBody3DOF.fmu",
-         tmp / "dist" / "native" / "fmi3" / "HumanBody3DOF.fmu"]
+    n = [
+        tmp / "dist" / "native" / "HumanBody3DOF.fmu",
+        tmp / "dist" / "native" / "fmi3" / "HumanBody3DOF.fmu",
+    ]
     return [
-        ("cosim", ["cosim", "--duration", "2", "--quiet", "--json", str(c[0]), "--csv", str(c[1]),
-                   "--plot", str(c[2])], c, 6.0),
-        ("fit", ["fit", "--quiet", "--config", str(cfg), "--out", str(tmp / "p.json")],
-         [tmp / "p.json"], 3.0),
-        ("build --native", ["build", "--native", "--fmus", "HumanBody3DOF", "--dest",
-                            str(tmp / "dist")], n, 8.0),
+        (
+            "cosim",
+            [
+                "cosim",
+                "--duration",
+                "2",
+                "--quiet",
+                "--json",
+                str(c[0]),
+                "--csv",
+                str(c[1]),
+                "--plot",
+                str(c[2]),
+            ],
+            c,
+            6.0,
+        ),
+        (
+            "fit",
+            ["fit", "--quiet", "--config", str(cfg), "--out", str(tmp / "p.json")],
+            [tmp / "p.json"],
+            3.0,
+        ),
+        (
+            "build --native",
+            ["build", "--native", "--fmus", "HumanBody3DOF", "--dest", str(tmp / "dist")],
+            n,
+            8.0,
+        ),
     ]
 
 
@@ -87,13 +115,22 @@ def _naming(text):
 def _start(argv, cwd, tmpdir):
     """The command started as a shell starts it, once its signal handlers are in place."""
     env = dict(os.environ, TMPDIR=str(tmpdir))
-    proc = subprocess.Popen([sys.executable, "-m", "bodyvib_cli", *argv], cwd=cwd, env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "bodyvib.cli", *argv],
+        cwd=cwd,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
     t0 = time.monotonic()
     # bodyvib catches the three signals at once; Python catches SIGINT from its start
-    while not _handles(proc.pid, signal.SIGTERM) and proc.poll() is None \
-            and time.monotonic() < t0 + 60:
+    while (
+        not _handles(proc.pid, signal.SIGTERM)
+        and proc.poll() is None
+        and time.monotonic() < t0 + 60
+    ):
         time.sleep(0.005)
     return proc
 
@@ -129,15 +166,17 @@ def test_signals_at_random_moments_leave_nothing_behind(tmp_path):
     rng = random.Random(20261201)
     (tmp_path / "dist").mkdir()
     commands = _commands(tmp_path)
-    plan = ([(signal.SIGTERM, False)] * 20 + [(signal.SIGINT, True)] * 20
-            + [(signal.SIGHUP, True)] * 4)
-    trials = [(commands[i % len(commands)], signum, group)
-              for i, (signum, group) in enumerate(plan)]
+    plan = (
+        [(signal.SIGTERM, False)] * 20 + [(signal.SIGINT, True)] * 20 + [(signal.SIGHUP, True)] * 4
+    )
+    trials = [
+        (commands[i % len(commands)], signum, group) for i, (signum, group) in enumerate(plan)
+    ]
     rng.shuffle(trials)
     # the signals fall within each command's run as this machine runs it now: measured once,
     # undisturbed (so most runs are stopped by their signal, on a fast machine or a loaded one)
     longest = {}
-    for name, argv, outputs, _ in commands:
+    for name, argv, _outputs, _ in commands:
         tmpdir = tmp_path / f"tmp-{name.split()[0]}"
         tmpdir.mkdir()
         longest[name] = 0.8 * _duration(argv, tmp_path, tmpdir)
@@ -149,9 +188,11 @@ def test_signals_at_random_moments_leave_nothing_behind(tmp_path):
         tmpdir.mkdir()
         delay, twice = rng.uniform(0.0, longest[name]), rng.random() < 0.25
         rc, out, err = _run(argv, signum, group, delay, twice, tmp_path, tmpdir)
-        what = (f"{name}: {signal.Signals(signum).name} to the "
-                f"{'group' if group else 'process'} after {delay:.2f} s"
-                f"{' twice' if twice else ''}: rc {rc}\n{err}")
+        what = (
+            f"{name}: {signal.Signals(signum).name} to the "
+            f"{'group' if group else 'process'} after {delay:.2f} s"
+            f"{' twice' if twice else ''}: rc {rc}\n{err}"
+        )
         stopped[signum] += check_stopped_run(rc, err, outputs, 128 + signum, LINES[signum], what)
         t_end = time.monotonic() + 5  # a killed compiler's children are reaped by init
         while _naming(str(tmpdir)) and time.monotonic() < t_end:

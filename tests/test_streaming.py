@@ -10,17 +10,16 @@ about 2.2e-4 at a 1 ms step; every other figure equals the whole-record computat
 to rounding.
 """
 
-
 import numpy as np
 import pytest
+from bodyvib.vehicle.quarter_car import load_car
+from bodyvib.vehicle.reference import ReferenceStream, nrmse, reference_run
+from bodyvib.vehicle.road.synthetic import make_road, road_input
 
 from bodyvib.comfort.figures import comfort_figures
 from bodyvib.comfort.stream import stream_comfort_figures
 from bodyvib.frequency.estimate import TransmissibilityStream, estimate_transmissibility
 from bodyvib.models import load_model
-from vehicle.quarter_car import load_car
-from vehicle.reference import ReferenceStream, nrmse, reference_run
-from vehicle.road.synthetic import make_road, road_input
 
 
 def _road(duration=12.0, h=1e-3):
@@ -36,12 +35,11 @@ def test_transmissibility_stream_equals_welch_of_the_whole_record(block):
     whole = estimate_transmissibility(x, y, 1000.0)
     s = TransmissibilityStream(1000.0, x.size)
     for a in range(0, x.size, block):
-        s.update(x[a:a + block], y[a:a + block])
+        s.update(x[a : a + block], y[a : a + block])
     part = s.result()
     assert part.frequency_hz == whole.frequency_hz
     for key in ("modulus", "phase_deg", "coherence"):
-        np.testing.assert_allclose(getattr(part, key), getattr(whole, key), rtol=1e-11,
-                                   atol=1e-11)
+        np.testing.assert_allclose(getattr(part, key), getattr(whole, key), rtol=1e-11, atol=1e-11)
     assert part.peak.frequency_hz == pytest.approx(whole.peak.frequency_hz, rel=1e-12)
     assert part.peak.modulus == pytest.approx(whole.peak.modulus, rel=1e-12)
 
@@ -51,7 +49,7 @@ def test_reference_stream_equals_the_whole_reference(model, tol):
     t, (z, v) = _road(6.0)
     whole = reference_run(load_car(), load_model(model), z, v, 1e-3)
     s = ReferenceStream(load_car(), load_model(model), 1e-3)
-    parts = [s.advance(z[a:a + 1500], v[a:a + 1500]) for a in range(0, z.size, 1500)]
+    parts = [s.advance(z[a : a + 1500], v[a : a + 1500]) for a in range(0, z.size, 1500)]
     for k, ref in whole.items():
         if k in parts[0]:
             got = np.concatenate([p[k] for p in parts])
@@ -70,10 +68,11 @@ def test_streamed_figures_against_the_fft_weighting():
     fft, rec = comfort_figures(a, 1000.0), stream_comfort_figures(a, 1000.0, block=4096)
     # predicted: linear interpolation scales the spectrum by sinc^2(f/fs) ~ 1 - (pi f/fs)^2/3
     from bodyvib.comfort.figures import weighted_acceleration
+
     aw = weighted_acceleration(a, 1000.0)
     W = np.abs(np.fft.rfft(aw)) ** 2
     f = np.fft.rfftfreq(aw.size, 1e-3)
-    predicted = (np.pi / 1000.0) ** 2 * np.sum(f ** 2 * W) / np.sum(W) / 3
+    predicted = (np.pi / 1000.0) ** 2 * np.sum(f**2 * W) / np.sum(W) / 3
     gap = 1 - rec.weighted_rms / fft.weighted_rms
     assert gap == pytest.approx(predicted, rel=0.05)
     for key in ("vdv", "peak"):
@@ -82,22 +81,27 @@ def test_streamed_figures_against_the_fft_weighting():
 
 @pytest.fixture(scope="module")
 def fmus(python_fmus):
-    return {"body": python_fmus["HumanBody3DOF"], "iso": python_fmus["HumanBodyISO7962"],
-            "car": python_fmus["QuarterCar"]}
+    return {
+        "body": python_fmus["HumanBody3DOF"],
+        "iso": python_fmus["HumanBodyISO7962"],
+        "car": python_fmus["QuarterCar"],
+    }
 
 
 @pytest.mark.integration
 def test_master_block_by_block_equals_one_block(fmus):
-    from vehicle.cosim import Master, cosimulate, open_fmu
+    from bodyvib.vehicle.cosim import Master, cosimulate, open_fmu
 
     t, (z, v) = _road(3.0)
     with open_fmu(fmus["car"], "car") as car, open_fmu(fmus["body"], "body") as body:
         whole = cosimulate(car, body, z, v, 1e-3, block=z.size)
     with open_fmu(fmus["car"], "car") as car, open_fmu(fmus["body"], "body") as body:
         m = Master(car, body, 1e-3, z.size)
-        rows = np.concatenate([m.advance(z[a:a + 333], v[a:a + 333])
-                               for a in range(0, z.size, 333)])
-    from vehicle.cosim import MASTER_SIGNALS
+        rows = np.concatenate(
+            [m.advance(z[a : a + 333], v[a : a + 333]) for a in range(0, z.size, 333)]
+        )
+    from bodyvib.vehicle.cosim import MASTER_SIGNALS
+
     for i, k in enumerate(MASTER_SIGNALS):
         np.testing.assert_array_equal(rows[:, i], whole[k])  # bit for bit
 
@@ -108,11 +112,19 @@ def test_study_figures_equal_those_of_its_own_histories(fmus):
     histories: coupling NRMSE, transmissibility and the NRMSE between bodies to
     rounding; the comfort figures to rounding against the recursive filter on the whole
     record and within 5e-4 (measured 2.1e-4 to 2.5e-4) of the FFT weighting."""
-    from vehicle.study import run_study
+    from bodyvib.vehicle.study import run_study
 
-    st = run_study({"r": fmus["body"], "i": fmus["iso"]}, fmus["car"], "C", 20.0, 12.0, 1e-3,
-                   histories=True, block=1000)
-    for label, b in st.bodies.items():
+    st = run_study(
+        {"r": fmus["body"], "i": fmus["iso"]},
+        fmus["car"],
+        "C",
+        20.0,
+        12.0,
+        1e-3,
+        histories=True,
+        block=1000,
+    )
+    for _label, b in st.bodies.items():
         run, ref = b.run, b.reference
         a = run["head_acceleration"]
         assert b.coupling_nrmse == pytest.approx(nrmse(a, ref["head_acceleration"]), rel=1e-9)
@@ -125,7 +137,9 @@ def test_study_figures_equal_those_of_its_own_histories(fmus):
         assert b.seat_figures.weighted_rms == pytest.approx(seat.weighted_rms, rel=1e-12)
         whole = estimate_transmissibility(run["seat_acceleration"], a, 1000.0)
         np.testing.assert_allclose(b.transmissibility.modulus, whole.modulus, rtol=1e-10)
-        assert b.transmissibility.peak.frequency_hz == pytest.approx(whole.peak.frequency_hz, rel=1e-10)
+        assert b.transmissibility.peak.frequency_hz == pytest.approx(
+            whole.peak.frequency_hz, rel=1e-10
+        )
         w = (st.time >= st.window_time[0] - 1e-9) & (st.time <= st.window_time[-1] + 1e-9)
         np.testing.assert_array_equal(b.head_window, a[w])
     e = nrmse(st.bodies["r"].run["head_acceleration"], st.bodies["i"].run["head_acceleration"])

@@ -2,17 +2,17 @@
 
 import numpy as np
 import pytest
+from bodyvib.vehicle.quarter_car import seated_system
+from bodyvib.vehicle.reference import nrmse, reference_run
+from bodyvib.vehicle.road.synthetic import N_BAND, displacement_psd
+from bodyvib.vehicle.sweep.engines import case_road_input, run_batched, run_cosim, run_spectral
+from bodyvib.vehicle.sweep.spec import expand
 
 from bodyvib.comfort.figures import wk_response
 from bodyvib.comfort.stream import stream_comfort_figures
 from bodyvib.frequency.response import frequency_response
 from bodyvib.runtime.discretize import simulate
 from bodyvib.runtime.network import linear_model
-from vehicle.quarter_car import seated_system
-from vehicle.reference import nrmse, reference_run
-from vehicle.road.synthetic import N_BAND, displacement_psd
-from vehicle.sweep.engines import case_road_input, run_batched, run_cosim, run_spectral
-from vehicle.sweep.spec import expand
 
 EPS = np.finfo(float).eps
 
@@ -23,11 +23,23 @@ def _reference(case):
 
 
 def test_batched_equals_per_case_reference_reduced_bodies():
-    cases = expand({"road": ["C", "E"], "speed": [10, 27], "duration": 4,
-                    "body": ["reduced-paper",
-                             {"model": "reduced-paper", "vary": {"k1": [0.8, 1.2], "c2": [0.5, 2]},
-                              "samples": 2, "name": "varied"}],
-                    "car": ["quarter-car", "quarter-car-cushion"]})
+    cases = expand(
+        {
+            "road": ["C", "E"],
+            "speed": [10, 27],
+            "duration": 4,
+            "body": [
+                "reduced-paper",
+                {
+                    "model": "reduced-paper",
+                    "vary": {"k1": [0.8, 1.2], "c2": [0.5, 2]},
+                    "samples": 2,
+                    "name": "varied",
+                },
+            ],
+            "car": ["quarter-car", "quarter-car-cushion"],
+        }
+    )
     rows, hist = run_batched(cases, record=True)
     assert len(rows) == len(hist) == len(cases) == 24  # 2 roads, 2 speeds, 2 cars, 3 bodies
     for case, row, h in zip(cases, rows, hist):
@@ -52,8 +64,16 @@ def test_batched_equals_reference_stiff_iso_body_to_its_rounding_floor():
     # reference's time grid k*h differences to exactly h (with h = 1 ms the
     # differences of t = k*h round h to 0.000999999999999 s for part of the
     # run, which this stiff output turns into 1e-7 differences).
-    cases = expand({"road": ["D"], "speed": [25], "duration": 4, "step": 2.0 ** -10,
-                    "body": ["iso7962"], "car": ["quarter-car", "quarter-car-cushion"]})
+    cases = expand(
+        {
+            "road": ["D"],
+            "speed": [25],
+            "duration": 4,
+            "step": 2.0**-10,
+            "body": ["iso7962"],
+            "car": ["quarter-car", "quarter-car-cushion"],
+        }
+    )
     rows, hist = run_batched(cases, record=True)
     assert len(rows) == len(hist) == len(cases) == 2
     for case, h in zip(cases, hist):
@@ -99,8 +119,15 @@ def test_spectral_matches_long_time_domain_runs_within_estimator_statistics():
     # cut it by sqrt(8) for their mean.
     T, seeds = 60.0, 8
     for speed, road in ((12.0, "C"), (28.0, "B")):
-        cases = expand({"road": road, "speed": speed, "seed": list(range(seeds)), "duration": T,
-                        "body": "reduced-paper"})
+        cases = expand(
+            {
+                "road": road,
+                "speed": speed,
+                "seed": list(range(seeds)),
+                "duration": T,
+                "body": "reduced-paper",
+            }
+        )
         timed, _ = run_batched(cases)
         spec = run_spectral(cases)
         ms = np.array([r["head_weighted_rms"] ** 2 for r in timed])
@@ -109,7 +136,7 @@ def test_spectral_matches_long_time_domain_runs_within_estimator_statistics():
         f = np.geomspace(N_BAND[0] * speed, N_BAND[1] * speed, 4000)
         G = _spectral_density(cases[0], f)
         assert np.trapezoid(G, f) == pytest.approx(expected, rel=1e-6)
-        sigma = np.sqrt(np.trapezoid(G ** 2, f) / T)
+        sigma = np.sqrt(np.trapezoid(G**2, f) / T)
         assert abs(ms.mean() - expected) < 4 * sigma / np.sqrt(seeds)
         assert np.all(np.abs(ms - expected) < 4 * sigma)
         assert ms.std(ddof=1) < sigma
@@ -119,8 +146,15 @@ def test_spectral_matches_long_time_domain_runs_within_estimator_statistics():
 
 
 def test_spectral_quadrature_is_converged_and_scales_with_the_class():
-    cases = expand({"road": ["A", "D"], "speed": 20, "duration": 30,
-                    "body": ["reduced-paper", "iso7962"], "car": ["quarter-car", "quarter-car-cushion"]})
+    cases = expand(
+        {
+            "road": ["A", "D"],
+            "speed": 20,
+            "duration": 30,
+            "body": ["reduced-paper", "iso7962"],
+            "car": ["quarter-car", "quarter-car-cushion"],
+        }
+    )
     coarse = run_spectral(cases)
     fine = run_spectral(cases, points=16000)
     assert len(coarse) == len(fine) == len(cases) == 8
@@ -130,7 +164,10 @@ def test_spectral_quadrature_is_converged_and_scales_with_the_class():
     by = {(c.road, c.body, c.car): r for c, r in zip(cases, coarse)}
     for body in ("reduced-paper", "iso7962"):
         # Gd(n0) of class D is 4^3 times class A's: the r.m.s. scales by 8
-        ratio = by[("D", body, "quarter-car")]["head_weighted_rms"] / by[("A", body, "quarter-car")]["head_weighted_rms"]
+        ratio = (
+            by[("D", body, "quarter-car")]["head_weighted_rms"]
+            / by[("A", body, "quarter-car")]["head_weighted_rms"]
+        )
         assert ratio == pytest.approx(8.0, rel=1e-12)
 
 
@@ -138,14 +175,27 @@ def test_spectral_quadrature_is_converged_and_scales_with_the_class():
 def test_cosim_engine_agrees_with_batched_within_the_coupling_error():
     # |rms(a) - rms(b)| <= rms(a - b): the relative r.m.s. difference is at most
     # the coupling NRMSE, which is measured here on the same runs.
-    cases = expand({"road": "C", "speed": 20, "duration": 3,
-                    "body": ["reduced-paper", "iso7962",
-                             {"model": "reduced-paper", "vary": {"k1": [0.6, 0.7], "m1": [1.3, 1.4]},
-                              "samples": 1, "name": "soft-neck"}]})
+    cases = expand(
+        {
+            "road": "C",
+            "speed": 20,
+            "duration": 3,
+            "body": [
+                "reduced-paper",
+                "iso7962",
+                {
+                    "model": "reduced-paper",
+                    "vary": {"k1": [0.6, 0.7], "m1": [1.3, 1.4]},
+                    "samples": 1,
+                    "name": "soft-neck",
+                },
+            ],
+        }
+    )
     co, co_hist = run_cosim(cases, record=True)
     ba, ba_hist = run_batched(cases, record=True)
     assert len(co) == len(ba) == len(co_hist) == len(ba_hist) == len(cases) == 3
-    for case, c, b, ch, bh in zip(cases, co, ba, co_hist, ba_hist):
+    for _case, c, b, ch, bh in zip(cases, co, ba, co_hist, ba_hist):
         assert c["error"] is None, c["error"]
         err = nrmse(ch["head_acceleration"], bh["head_acceleration"])
         assert err < 5e-4  # the master's documented coupling error at 1 ms
@@ -160,26 +210,48 @@ def test_cosim_engine_agrees_with_batched_within_the_coupling_error():
 
 @pytest.mark.integration
 def test_a_sweep_case_runs_on_the_road_of_bodyvib_cosim(tmp_path, capsys):
-    from bodyvib_cli.main import main
+    from bodyvib.cli.main import main
 
     csv = tmp_path / "cosim.csv"
-    assert main(["cosim", "--road", "D", "--seed", "3", "--speed", "15", "--duration", "2",
-                 "--csv", str(csv), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "cosim",
+                "--road",
+                "D",
+                "--seed",
+                "3",
+                "--speed",
+                "15",
+                "--duration",
+                "2",
+                "--csv",
+                str(csv),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     data = np.genfromtxt(csv, delimiter=",", names=True)
     (case,) = expand({"road": "D", "seed": 3, "speed": 15, "duration": 2, "body": "reduced-paper"})
     z, v = case_road_input(case)
     # the CSV holds 10 significant digits
-    np.testing.assert_allclose(data["road_displacement_m"], z, rtol=1e-9, atol=1e-9 * np.abs(z).max())
+    np.testing.assert_allclose(
+        data["road_displacement_m"], z, rtol=1e-9, atol=1e-9 * np.abs(z).max()
+    )
     np.testing.assert_allclose(data["road_velocity_ms"], v, rtol=1e-9, atol=1e-9 * np.abs(v).max())
     _, hist = run_cosim([case], record=True)
     a = hist[0]["head_acceleration"]
-    np.testing.assert_allclose(data["head_acceleration_ms2"], a, rtol=1e-9, atol=1e-9 * np.abs(a).max())
+    np.testing.assert_allclose(
+        data["head_acceleration_ms2"], a, rtol=1e-9, atol=1e-9 * np.abs(a).max()
+    )
 
 
 def test_frequency_response_of_several_outputs_shares_one_solve():
+    from bodyvib.vehicle.quarter_car import load_car
+
     from bodyvib.models import load_model
-    from vehicle.quarter_car import load_car
 
     lm = linear_model(seated_system(load_car(), load_model("iso7962")))
     f = np.geomspace(0.1, 100, 50)

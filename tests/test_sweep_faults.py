@@ -15,17 +15,25 @@ import time
 import numpy as np
 import pandas as pd
 import pytest
-
+from bodyvib.vehicle.sweep.run import parts_dir, read_results, run_sweep
 from test_sweep_run import GROUPING_RTOL
-from vehicle.sweep.run import parts_dir, read_results, run_sweep
 
 pytestmark = pytest.mark.integration
 
-SPEC = {"road": ["C", "D"], "speed": [10, 15, 20, 25, 30], "seed": [0, 1, 2, 3], "duration": 4,
-        "body": "reduced-paper"}   # 40 cases
-ENV = {**os.environ, "PYTHONPATH": os.pathsep.join(
-    [os.path.dirname(os.path.dirname(os.path.abspath(__file__)))]
-    + ([os.environ["PYTHONPATH"]] if os.environ.get("PYTHONPATH") else []))}
+SPEC = {
+    "road": ["C", "D"],
+    "speed": [10, 15, 20, 25, 30],
+    "seed": [0, 1, 2, 3],
+    "duration": 4,
+    "body": "reduced-paper",
+}  # 40 cases
+ENV = {
+    **os.environ,
+    "PYTHONPATH": os.pathsep.join(
+        [os.path.dirname(os.path.dirname(os.path.abspath(__file__)))]
+        + ([os.environ["PYTHONPATH"]] if os.environ.get("PYTHONPATH") else [])
+    ),
+}
 
 
 def _start(args, env=ENV, **kw):
@@ -49,9 +57,24 @@ class Cluster:
         self.procs = []
         sf = os.path.join(folder, f"scheduler-{time.time_ns()}.json")
         env = {**ENV, "DASK_TEMPORARY_DIRECTORY": folder}  # their scratch space: not in /tmp
-        self.scheduler = _start([sys.executable, "-m", "dask", "scheduler", "--host", "127.0.0.1",
-                                 "--port", "0", "--no-dashboard", "--scheduler-file", sf],
-                                env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        self.scheduler = _start(
+            [
+                sys.executable,
+                "-m",
+                "dask",
+                "scheduler",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                "0",
+                "--no-dashboard",
+                "--scheduler-file",
+                sf,
+            ],
+            env=env,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
         self.procs.append(self.scheduler)
         t0 = time.time()
         while not os.path.exists(sf):
@@ -60,11 +83,26 @@ class Cluster:
         time.sleep(0.2)
         self.file = sf
         self.address = json.load(open(sf))["address"]
-        for i in range(workers):
-            self.procs.append(_start(
-                [sys.executable, "-m", "dask", "worker", self.address, "--nthreads", "1",
-                 "--no-dashboard", "--local-directory", os.path.join(folder, f"w{len(self.procs)}")],
-                env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        for _i in range(workers):
+            self.procs.append(
+                _start(
+                    [
+                        sys.executable,
+                        "-m",
+                        "dask",
+                        "worker",
+                        self.address,
+                        "--nthreads",
+                        "1",
+                        "--no-dashboard",
+                        "--local-directory",
+                        os.path.join(folder, f"w{len(self.procs)}"),
+                    ],
+                    env=env,
+                    stdout=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL,
+                )
+            )
 
     def close(self):
         for p in self.procs:
@@ -86,14 +124,21 @@ def clusters(tmp_path):
 
 
 def _cli(*args):
-    return _start([sys.executable, "-m", "bodyvib_cli", "sweep", *args], stdout=subprocess.PIPE,
-                  stderr=subprocess.PIPE, text=True)
+    return _start(
+        [sys.executable, "-m", "bodyvib.cli", "sweep", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
 
 
 def _parts(out):
     folder = parts_dir(out)
-    return [f for f in os.listdir(folder) if f.endswith(".parquet") and not f.startswith(".")] \
-        if os.path.isdir(folder) else []
+    return (
+        [f for f in os.listdir(folder) if f.endswith(".parquet") and not f.startswith(".")]
+        if os.path.isdir(folder)
+        else []
+    )
 
 
 def _wait_parts(out, proc, count, timeout=180):
@@ -128,7 +173,7 @@ def test_killed_scheduler_leaves_the_lost_cases_to_resume(tmp_path, clusters):
     assert waited < 30
     kept = read_results(out)
     assert 3 <= len(kept) < 40, "the scheduler was not killed midway"
-    assert kept["error"].isna().all()   # no lost case is written as failed
+    assert kept["error"].isna().all()  # no lost case is written as failed
     assert not os.path.exists(out)
     # a new cluster: --resume runs exactly the cases not kept
     c2 = clusters(1)
@@ -171,8 +216,16 @@ def test_no_worker_is_a_message_in_the_stated_time_and_ctrl_c_works(tmp_path, cl
 
 
 def test_bad_or_unreachable_scheduler_is_one_line(tmp_path):
-    grid = ["--grid", "road=C", "speed=10", "body=reduced-paper", "--duration", "1",
-            "--out", str(tmp_path / "r.parquet")]
+    grid = [
+        "--grid",
+        "road=C",
+        "speed=10",
+        "body=reduced-paper",
+        "--duration",
+        "1",
+        "--out",
+        str(tmp_path / "r.parquet"),
+    ]
     proc = _cli(*grid, "--scheduler", "127.0.0.1:8786")
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 2 and "write it as tcp://127.0.0.1:8786" in err, err
@@ -194,7 +247,7 @@ def test_ctrl_c_from_a_terminal_on_a_local_cluster(tmp_path):
     old = open(out, "rb").read()
     proc = _cli(str(spec), "--out", out, "--overwrite", "--block", "1", "--workers", "2")
     _wait_parts(out, proc, 2)
-    os.killpg(proc.pid, signal.SIGINT)   # as a terminal: the whole process group
+    os.killpg(proc.pid, signal.SIGINT)  # as a terminal: the whole process group
     time.sleep(0.3)
     if proc.poll() is None:
         os.killpg(proc.pid, signal.SIGINT)  # and a second Ctrl-C
@@ -204,7 +257,7 @@ def test_ctrl_c_from_a_terminal_on_a_local_cluster(tmp_path):
     assert err.strip().splitlines()[-1] == "interrupted"
     _clean(err)
     assert time.time() - t_int < 10
-    assert open(out, "rb").read() == old   # never a 0-row (or partial) table over it
+    assert open(out, "rb").read() == old  # never a 0-row (or partial) table over it
     assert before is None
     kept = _parts(out)
     assert len(kept) >= 2
@@ -212,13 +265,16 @@ def test_ctrl_c_from_a_terminal_on_a_local_cluster(tmp_path):
 
 
 def test_outputs_are_checked_before_the_work(tmp_path, capsys):
-    from bodyvib_cli.main import main
+    from bodyvib.cli.main import main
 
     spec = tmp_path / "s.json"
     spec.write_text(json.dumps({**SPEC, "speed": 10}))
     text = spec.read_text()
-    for args in (["--out", str(spec), "--overwrite"], ["--csv", str(spec)],
-                 ["--out", str(tmp_path / "x"), "--csv", str(tmp_path / "x")]):
+    for args in (
+        ["--out", str(spec), "--overwrite"],
+        ["--csv", str(spec)],
+        ["--out", str(tmp_path / "x"), "--csv", str(tmp_path / "x")],
+    ):
         assert main(["sweep", str(spec), "--scheduler", "serial", "--quiet", *args]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and ("input" in err[0] or "same file" in err[0]), err
@@ -226,8 +282,21 @@ def test_outputs_are_checked_before_the_work(tmp_path, capsys):
         assert not os.path.exists(tmp_path / "x")
     # a device is refused before the sweep runs (no OUT.parts left)
     t0 = time.time()
-    assert main(["sweep", str(spec), "--scheduler", "serial", "--quiet", "--out", "/dev/full",
-                 "--overwrite"]) == 2
+    assert (
+        main(
+            [
+                "sweep",
+                str(spec),
+                "--scheduler",
+                "serial",
+                "--quiet",
+                "--out",
+                "/dev/full",
+                "--overwrite",
+            ]
+        )
+        == 2
+    )
     assert "character device" in capsys.readouterr().err and time.time() - t0 < 10
     assert not os.path.exists("/dev/full.parts")
     # --csv on a device: refused before the work, the previous --out untouched
@@ -235,8 +304,23 @@ def test_outputs_are_checked_before_the_work(tmp_path, capsys):
     assert main(["sweep", str(spec), "--scheduler", "serial", "--quiet", "--out", str(out)]) == 0
     old = out.read_bytes()
     capsys.readouterr()
-    assert main(["sweep", str(spec), "--scheduler", "serial", "--quiet", "--out", str(out),
-                 "--overwrite", "--csv", "/dev/full"]) == 2
+    assert (
+        main(
+            [
+                "sweep",
+                str(spec),
+                "--scheduler",
+                "serial",
+                "--quiet",
+                "--out",
+                str(out),
+                "--overwrite",
+                "--csv",
+                "/dev/full",
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--csv '/dev/full' is a character device" in err[0], err
     assert out.read_bytes() == old and not os.path.exists(parts_dir(str(out)))
@@ -245,34 +329,57 @@ def test_outputs_are_checked_before_the_work(tmp_path, capsys):
 def test_all_outputs_or_none_on_a_full_disk(tmp_path):
     full = tmp_path / "full"
     full.mkdir()
-    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=32k", "tmpfs", str(full)],
-                      capture_output=True).returncode:
+    if subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", "size=32k", "tmpfs", str(full)], capture_output=True
+    ).returncode:
         pytest.skip("cannot mount a small tmpfs here")
     try:
         out = str(tmp_path / "a.parquet")
-        spec = {"road": ["C", "D"], "speed": list(range(5, 35)), "seed": [0, 1, 2, 3, 4],
-                "body": "reduced-paper"}   # 300 cases: a CSV of about 100 kB
+        spec = {
+            "road": ["C", "D"],
+            "speed": list(range(5, 35)),
+            "seed": [0, 1, 2, 3, 4],
+            "body": "reduced-paper",
+        }  # 300 cases: a CSV of about 100 kB
         run_sweep({**spec, "speed": 10}, out=out, engine="spectral", scheduler="serial")
         old = open(out, "rb").read()
         from bodyvib.runtime.errors import BodyvibError
 
         with pytest.raises(BodyvibError, match="No space left") as e:
-            run_sweep(spec, out=out, csv=str(full / "a.csv"), engine="spectral",
-                      scheduler="serial", overwrite=True)
+            run_sweep(
+                spec,
+                out=out,
+                csv=str(full / "a.csv"),
+                engine="spectral",
+                scheduler="serial",
+                overwrite=True,
+            )
         assert "--resume" in str(e.value)
         assert open(out, "rb").read() == old and not os.listdir(full)
         # the finished cases are kept: --resume writes both once there is room
-        df = run_sweep(spec, out=out, csv=str(tmp_path / "a.csv"), engine="spectral",
-                       scheduler="serial", resume=True)
+        df = run_sweep(
+            spec,
+            out=out,
+            csv=str(tmp_path / "a.csv"),
+            engine="spectral",
+            scheduler="serial",
+            resume=True,
+        )
         assert len(df) == 300 and len(pd.read_csv(tmp_path / "a.csv")) == 300
     finally:
         subprocess.run(["umount", str(full)], check=True)
 
 
 def test_failed_cases_are_recorded_and_retried_on_request(tmp_path):
-    spec = {"road": "C", "speed": [10, 20], "duration": 1,
-            "body": ["reduced-paper", {"model": "reduced-paper", "vary": {"k1": [1e290, 1e290]},
-                                       "name": "absurd"}]}
+    spec = {
+        "road": "C",
+        "speed": [10, 20],
+        "duration": 1,
+        "body": [
+            "reduced-paper",
+            {"model": "reduced-paper", "vary": {"k1": [1e290, 1e290]}, "name": "absurd"},
+        ],
+    }
     out = str(tmp_path / "r.parquet")
     first = run_sweep(spec, out=out, scheduler="serial")
     assert first["error"].notna().sum() == 2
@@ -281,8 +388,9 @@ def test_failed_cases_are_recorded_and_retried_on_request(tmp_path):
     assert "4 already done, 0 to run" in said[0]
     pd.testing.assert_frame_equal(again, first)
     said.clear()
-    retried = run_sweep(spec, out=out, scheduler="serial", resume=True, retry_failed=True,
-                        echo=said.append)
+    retried = run_sweep(
+        spec, out=out, scheduler="serial", resume=True, retry_failed=True, echo=said.append
+    )
     assert "2 already done, 2 to run" in said[0]
     bad = retried["error"].notna()
     assert bad.sum() == 2 and (retried.loc[bad, "run_id"] != first.loc[bad, "run_id"]).all()

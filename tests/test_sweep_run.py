@@ -9,19 +9,33 @@ import time
 
 import numpy as np
 import pandas as pd
+from bodyvib.vehicle.quarter_car import load_car
+from bodyvib.vehicle.sweep.run import (
+    BASE_COLUMNS,
+    parts_dir,
+    plan_tasks,
+    read_results,
+    run_sweep,
+    task_size,
+)
+from bodyvib.vehicle.sweep.spec import expand, spec_hash
 
 from bodyvib import __version__
-from bodyvib_cli.main import main
+from bodyvib.cli.main import main
 from bodyvib.models import load_model
-from vehicle.quarter_car import load_car
-from vehicle.sweep.run import BASE_COLUMNS, parts_dir, plan_tasks, read_results, run_sweep, task_size
-from vehicle.sweep.spec import expand, spec_hash
 
-SMALL = {"road": ["C", "E"], "speed": [10, 25], "seed": [0, 1], "duration": 2,
-         "body": ["reduced-paper", "iso7962",
-                  {"model": "reduced-paper", "vary": {"k1": [0.8, 1.2]}, "samples": 2,
-                   "name": "varied"}],
-         "car": ["quarter-car", "quarter-car-cushion"]}
+SMALL = {
+    "road": ["C", "E"],
+    "speed": [10, 25],
+    "seed": [0, 1],
+    "duration": 2,
+    "body": [
+        "reduced-paper",
+        "iso7962",
+        {"model": "reduced-paper", "vary": {"k1": [0.8, 1.2]}, "samples": 2, "name": "varied"},
+    ],
+    "car": ["quarter-car", "quarter-car-cushion"],
+}
 
 
 def _figures(df):
@@ -39,15 +53,17 @@ def test_table_columns_provenance_and_files(tmp_path):
     cols = list(BASE_COLUMNS)
     at = cols.index("car") + 1
     cols[at:at] = [f"body_{p}" for p in body_params] + [
-        f"car_{p}" for p in dict.fromkeys([*load_car("quarter-car").parameters, *car.parameters])]
+        f"car_{p}" for p in dict.fromkeys([*load_car("quarter-car").parameters, *car.parameters])
+    ]
     assert list(df.columns) == cols
     assert list(df["case_id"]) == list(range(64))
     assert set(df["engine"]) == {"batched"} and set(df["bodyvib_version"]) == {__version__}
     assert set(df["spec_hash"]) == {spec_hash(SMALL)} and df["run_id"].nunique() == 1
     assert df["error"].isna().all()
     assert (df["head_weighted_rms"] > 0).all() and (df["seat_weighted_rms"] > 0).all()
-    np.testing.assert_allclose(df["head_crest_factor"], df["head_peak"] / df["head_weighted_rms"],
-                               rtol=1e-12)
+    np.testing.assert_allclose(
+        df["head_crest_factor"], df["head_peak"] / df["head_weighted_rms"], rtol=1e-12
+    )
     # every parameter of every model, per case: the model's value unless the case varies it
     for c, (_, row) in zip(cases, df.iterrows()):
         net = c.body_network()
@@ -111,8 +127,13 @@ GROUPING_RTOL = 1e-15
 
 
 def test_figures_do_not_depend_on_how_cases_are_grouped_into_tasks():
-    figures = ["head_weighted_rms", "head_vdv", "head_peak", "head_crest_factor",
-               "seat_weighted_rms"]
+    figures = [
+        "head_weighted_rms",
+        "head_vdv",
+        "head_peak",
+        "head_crest_factor",
+        "seat_weighted_rms",
+    ]
     whole = run_sweep(SMALL, scheduler="serial", block=64)
     for block in (1, 5, 13):
         other = run_sweep(SMALL, scheduler="serial", block=block)
@@ -125,15 +146,22 @@ def test_local_cluster_equals_serial_exactly():
     dask = run_sweep(SMALL, workers=2, block=7)  # a real two-worker LocalCluster
     pd.testing.assert_frame_equal(_figures(dask), _figures(serial), check_exact=True)
     spectral = run_sweep({**SMALL, "duration": 30}, engine="spectral", workers=2, block=16)
-    spectral_serial = run_sweep({**SMALL, "duration": 30}, engine="spectral", scheduler="serial",
-                                block=16)
+    spectral_serial = run_sweep(
+        {**SMALL, "duration": 30}, engine="spectral", scheduler="serial", block=16
+    )
     pd.testing.assert_frame_equal(_figures(spectral), _figures(spectral_serial), check_exact=True)
 
 
 def test_a_failing_case_is_recorded_and_the_sweep_goes_on(tmp_path):
-    spec = {"road": "C", "speed": [10, 20], "duration": 1,
-            "body": ["reduced-paper", {"model": "reduced-paper", "vary": {"k1": [1e290, 1e290]},
-                                       "name": "absurd"}]}
+    spec = {
+        "road": "C",
+        "speed": [10, 20],
+        "duration": 1,
+        "body": [
+            "reduced-paper",
+            {"model": "reduced-paper", "vary": {"k1": [1e290, 1e290]}, "name": "absurd"},
+        ],
+    }
     df = run_sweep(spec, out=str(tmp_path / "r.parquet"), scheduler="serial")
     bad = df[df["body"] == "absurd"]
     assert len(df) == 4 and len(bad) == 2
@@ -142,25 +170,42 @@ def test_a_failing_case_is_recorded_and_the_sweep_goes_on(tmp_path):
 
 
 def _cli(*args, **kw):
-    return subprocess.Popen([sys.executable, "-m", "bodyvib_cli", "sweep", *args],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kw)
+    return subprocess.Popen(
+        [sys.executable, "-m", "bodyvib.cli", "sweep", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        **kw,
+    )
 
 
 def _wait_for_parts(out, proc, count, timeout=120):
     t0 = time.time()
     while time.time() - t0 < timeout:
         folder = parts_dir(out)
-        if os.path.isdir(folder) and len([f for f in os.listdir(folder)
-                                          if f.endswith(".parquet") and not f.startswith(".")]) >= count:
+        if (
+            os.path.isdir(folder)
+            and len(
+                [f for f in os.listdir(folder) if f.endswith(".parquet") and not f.startswith(".")]
+            )
+            >= count
+        ):
             return
         if proc.poll() is not None:
-            raise AssertionError(f"sweep ended before {count} tasks were written: {proc.communicate()}")
+            raise AssertionError(
+                f"sweep ended before {count} tasks were written: {proc.communicate()}"
+            )
         time.sleep(0.02)
     raise AssertionError("no parts written in time")
 
 
-KILL_SPEC = {"road": ["C", "D", "E"], "speed": [10, 15, 20, 25, 30], "seed": [0, 1], "duration": 8,
-             "body": "reduced-paper"}
+KILL_SPEC = {
+    "road": ["C", "D", "E"],
+    "speed": [10, 15, 20, 25, 30],
+    "seed": [0, 1],
+    "duration": 8,
+    "body": "reduced-paper",
+}
 
 
 def test_killed_sweep_resumes_without_running_a_case_twice(tmp_path):
@@ -171,8 +216,17 @@ def test_killed_sweep_resumes_without_running_a_case_twice(tmp_path):
     # the killed process gets a temporary folder of the test's own
     own_tmp = tmp_path / "tmp"
     own_tmp.mkdir()
-    proc = _cli(str(spec_file), "--out", out, "--scheduler", "serial", "--block", "1", "--quiet",
-                env=dict(os.environ, TMPDIR=str(own_tmp)))
+    proc = _cli(
+        str(spec_file),
+        "--out",
+        out,
+        "--scheduler",
+        "serial",
+        "--block",
+        "1",
+        "--quiet",
+        env=dict(os.environ, TMPDIR=str(own_tmp)),
+    )
     _wait_for_parts(out, proc, 3)
     proc.send_signal(signal.SIGKILL)
     proc.wait()
@@ -180,8 +234,9 @@ def test_killed_sweep_resumes_without_running_a_case_twice(tmp_path):
     assert 3 <= len(first) < 30, "the sweep was not killed midway"
     assert not os.path.exists(out)  # the table itself is only written at the end
     said = []
-    df = run_sweep(str(spec_file), out=out, resume=True, scheduler="serial", block=1,
-                   echo=said.append)
+    df = run_sweep(
+        str(spec_file), out=out, resume=True, scheduler="serial", block=1, echo=said.append
+    )
     assert f"{len(first)} already done, {30 - len(first)} to run" in said[0]
     assert len(df) == 30 and df["case_key"].is_unique and list(df["case_id"]) == list(range(30))
     runs = df["run_id"].value_counts()
@@ -209,34 +264,92 @@ def _one_line_error(capsys, *argv):
 def test_cli_errors_are_one_line_exit_2(tmp_path, capsys):
     spec = tmp_path / "s.json"
     spec.write_text(json.dumps({"road": "C", "speed": 10, "body": "reduced-paper", "wheels": 4}))
-    assert "unknown key(s) wheels" in _one_line_error(capsys, str(spec), "--out", str(tmp_path / "r.parquet"))
-    assert "No such file" in _one_line_error(capsys, str(tmp_path / "none.json"), "--out", "r.parquet")
-    assert "not both" in _one_line_error(capsys, str(spec), "--grid", "road=C", "--out", "r.parquet")
+    assert "unknown key(s) wheels" in _one_line_error(
+        capsys, str(spec), "--out", str(tmp_path / "r.parquet")
+    )
+    assert "No such file" in _one_line_error(
+        capsys, str(tmp_path / "none.json"), "--out", "r.parquet"
+    )
+    assert "not both" in _one_line_error(
+        capsys, str(spec), "--grid", "road=C", "--out", "r.parquet"
+    )
     assert "SPEC file or --grid" in _one_line_error(capsys, "--out", "r.parquet")
     assert "key=v1,v2" in _one_line_error(capsys, "--grid", "road", "--out", "r.parquet")
     assert "--out" in _one_line_error(capsys, "--grid", "road=C", "speed=10", "body=reduced-paper")
-    assert ".png" in _one_line_error(capsys, "--grid", "road=C", "speed=10", "body=reduced-paper",
-                                     "--out", str(tmp_path / "r.parquet"), "--plot", "x.gif")
+    assert ".png" in _one_line_error(
+        capsys,
+        "--grid",
+        "road=C",
+        "speed=10",
+        "body=reduced-paper",
+        "--out",
+        str(tmp_path / "r.parquet"),
+        "--plot",
+        "x.gif",
+    )
     assert "spectral engine needs" in _one_line_error(
-        capsys, "--grid", "road=bump", "speed=10", "body=reduced-paper", "--engine", "spectral",
-        "--out", str(tmp_path / "r.parquet"))
+        capsys,
+        "--grid",
+        "road=bump",
+        "speed=10",
+        "body=reduced-paper",
+        "--engine",
+        "spectral",
+        "--out",
+        str(tmp_path / "r.parquet"),
+    )
     out = tmp_path / "done.parquet"
     grid = ["--grid", "road=C", "speed=10", "body=reduced-paper", "--duration", "1"]
     assert main(["sweep", *grid, "--out", str(out), "--scheduler", "serial", "--quiet"]) == 0
     capsys.readouterr()
     assert "exists; pass --resume" in _one_line_error(capsys, *grid, "--out", str(out))
-    assert "another spec" in _one_line_error(capsys, "--grid", "road=D", "speed=10",
-                                             "body=reduced-paper", "--duration", "1",
-                                             "--out", str(out), "--resume")
-    assert "cannot connect" in _one_line_error(capsys, *grid, "--out", str(tmp_path / "x.parquet"),
-                                               "--scheduler", "tcp://127.0.0.1:9", "--quiet")
+    assert "another spec" in _one_line_error(
+        capsys,
+        "--grid",
+        "road=D",
+        "speed=10",
+        "body=reduced-paper",
+        "--duration",
+        "1",
+        "--out",
+        str(out),
+        "--resume",
+    )
+    assert "cannot connect" in _one_line_error(
+        capsys,
+        *grid,
+        "--out",
+        str(tmp_path / "x.parquet"),
+        "--scheduler",
+        "tcp://127.0.0.1:9",
+        "--quiet",
+    )
 
 
 def test_cli_grid_run_and_plot(tmp_path, capsys):
     out, png = tmp_path / "r.parquet", tmp_path / "map.png"
-    assert main(["sweep", "--grid", "road=C,D", "speed=10,20", "seed=0,1",
-                 "body=reduced-paper,iso7962", "--duration", "2", "--out", str(out),
-                 "--plot", str(png), "--scheduler", "serial", "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "sweep",
+                "--grid",
+                "road=C,D",
+                "speed=10,20",
+                "seed=0,1",
+                "body=reduced-paper,iso7962",
+                "--duration",
+                "2",
+                "--out",
+                str(out),
+                "--plot",
+                str(png),
+                "--scheduler",
+                "serial",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     text = capsys.readouterr().out
     assert f"wrote {out}" in text and f"wrote {png}" in text
     assert len(pd.read_parquet(out)) == 16

@@ -5,15 +5,21 @@ import os
 
 import numpy as np
 import pytest
+from bodyvib.vehicle.sweep.spec import expand, grid_spec, spec_hash, varied_parameters
 
 from bodyvib.models import MODEL_DIR, load_model
 from bodyvib.runtime.errors import BodyvibError
-from vehicle.sweep.spec import expand, grid_spec, spec_hash, varied_parameters
 
 
 def test_product_order_and_defaults():
-    cases = expand({"road": ["C", "d"], "speed": [10, 20], "seed": [0, 3],
-                    "body": ["reduced-paper", "iso7962"]})
+    cases = expand(
+        {
+            "road": ["C", "d"],
+            "speed": [10, 20],
+            "seed": [0, 3],
+            "body": ["reduced-paper", "iso7962"],
+        }
+    )
     assert len(cases) == 2 * 2 * 2 * 2
     assert [c.case_id for c in cases] == list(range(16))
     first, last = cases[0], cases[-1]
@@ -26,8 +32,12 @@ def test_product_order_and_defaults():
 
 def test_latin_hypercube_ranges_around_one_model():
     nominal = load_model("reduced-paper").parameters
-    entry = {"model": "reduced-paper", "vary": {"k1": [0.8, 1.2], "c1": [0.5, 2.0]},
-             "samples": 50, "seed": 7}
+    entry = {
+        "model": "reduced-paper",
+        "vary": {"k1": [0.8, 1.2], "c1": [0.5, 2.0]},
+        "samples": 50,
+        "seed": 7,
+    }
     cases = expand({"road": "C", "speed": 20, "body": [entry]})
     assert len(cases) == 50 and [c.body_sample for c in cases] == list(range(50))
     f = np.array([[dict(c.body_values)[p] / nominal[p] for p in ("k1", "c1")] for c in cases])
@@ -48,13 +58,24 @@ def test_latin_hypercube_ranges_around_one_model():
 
 
 def test_grid_items():
-    spec = grid_spec(["road=C,D", "speed=10,20", "seed=0,1", "body=reduced-paper,iso7962"],
-                     duration=5)
-    assert spec == {"duration": 5, "step": 1e-3, "road": ["C", "D"], "speed": [10.0, 20.0],
-                    "seed": [0, 1], "body": ["reduced-paper", "iso7962"]}
+    spec = grid_spec(
+        ["road=C,D", "speed=10,20", "seed=0,1", "body=reduced-paper,iso7962"], duration=5
+    )
+    assert spec == {
+        "duration": 5,
+        "step": 1e-3,
+        "road": ["C", "D"],
+        "speed": [10.0, 20.0],
+        "seed": [0, 1],
+        "body": ["reduced-paper", "iso7962"],
+    }
     assert len(expand(spec)) == 16
-    for bad, msg in ((["road"], "key=v1,v2"), (["colour=red"], "unknown"),
-                     (["speed=1,x"], "numbers"), (["road=C", "road=D"], "twice")):
+    for bad, msg in (
+        (["road"], "key=v1,v2"),
+        (["colour=red"], "unknown"),
+        (["speed=1,x"], "numbers"),
+        (["road=C", "road=D"], "twice"),
+    ):
         with pytest.raises(BodyvibError, match=msg):
             grid_spec(bad)
 
@@ -73,29 +94,79 @@ def test_spec_hash_covers_referenced_files(tmp_path):
     assert expand(spec)[0].body == "body"
 
 
-@pytest.mark.parametrize("spec, msg", [
-    ({"speed": 10, "body": "reduced-paper"}, "'road' is required"),
-    ({"road": "C", "speed": 10, "body": "reduced-paper", "colour": 1}, "unknown key"),
-    ({"road": "Z", "speed": 10, "body": "reduced-paper"}, "unknown road"),
-    ({"road": "C", "speed": -1, "body": "reduced-paper"}, "speed must be a positive"),
-    ({"road": "C", "speed": 10, "seed": 1.5, "body": "reduced-paper"}, "non-negative integer"),
-    ({"road": "C", "speed": 10, "body": "nobody"}, "unknown model"),
-    ({"road": "C", "speed": 10, "body": "reduced-paper", "car": "truck"}, "unknown vehicle"),
-    ({"road": "C", "speed": 10, "body": [], }, "empty list"),
-    ({"road": "C", "speed": 10, "body": "reduced-paper", "duration": 1, "step": 0.6}, "too long"),
-    ({"road": "C", "speed": 10, "body": [{"model": "reduced-paper", "vary": {"k9": [1, 2]}}]},
-     "no parameter 'k9'"),
-    ({"road": "C", "speed": 10, "body": [{"model": "reduced-paper", "vary": {"k1": [1.2, 0.8]}}]},
-     "low <= high"),
-    ({"road": "C", "speed": 10, "body": [{"model": "reduced-paper", "vary": {"k1": [1, 2]},
-                                          "samples": 0}]}, "positive integer"),
-    ({"road": "C", "speed": 10, "body": [{"model": "reduced-paper", "vary": {"k1": [1, 2]},
-                                          "method": "sobol"}]}, "lhs"),
-    ({"road": "C", "speed": 10, "body": ["reduced-paper", {"model": "reduced-paper",
-                                                            "vary": {"k1": [1, 2]}}]}, "named"),
-    ({"road": "C", "speed": 10, "body": ["reduced-paper"], "car": ["quarter-car", "quarter-car"]},
-     "same case"),
-])
+@pytest.mark.parametrize(
+    "spec, msg",
+    [
+        ({"speed": 10, "body": "reduced-paper"}, "'road' is required"),
+        ({"road": "C", "speed": 10, "body": "reduced-paper", "colour": 1}, "unknown key"),
+        ({"road": "Z", "speed": 10, "body": "reduced-paper"}, "unknown road"),
+        ({"road": "C", "speed": -1, "body": "reduced-paper"}, "speed must be a positive"),
+        ({"road": "C", "speed": 10, "seed": 1.5, "body": "reduced-paper"}, "non-negative integer"),
+        ({"road": "C", "speed": 10, "body": "nobody"}, "unknown model"),
+        ({"road": "C", "speed": 10, "body": "reduced-paper", "car": "truck"}, "unknown vehicle"),
+        (
+            {
+                "road": "C",
+                "speed": 10,
+                "body": [],
+            },
+            "empty list",
+        ),
+        (
+            {"road": "C", "speed": 10, "body": "reduced-paper", "duration": 1, "step": 0.6},
+            "too long",
+        ),
+        (
+            {
+                "road": "C",
+                "speed": 10,
+                "body": [{"model": "reduced-paper", "vary": {"k9": [1, 2]}}],
+            },
+            "no parameter 'k9'",
+        ),
+        (
+            {
+                "road": "C",
+                "speed": 10,
+                "body": [{"model": "reduced-paper", "vary": {"k1": [1.2, 0.8]}}],
+            },
+            "low <= high",
+        ),
+        (
+            {
+                "road": "C",
+                "speed": 10,
+                "body": [{"model": "reduced-paper", "vary": {"k1": [1, 2]}, "samples": 0}],
+            },
+            "positive integer",
+        ),
+        (
+            {
+                "road": "C",
+                "speed": 10,
+                "body": [{"model": "reduced-paper", "vary": {"k1": [1, 2]}, "method": "sobol"}],
+            },
+            "lhs",
+        ),
+        (
+            {
+                "road": "C",
+                "speed": 10,
+                "body": ["reduced-paper", {"model": "reduced-paper", "vary": {"k1": [1, 2]}}],
+            },
+            "named",
+        ),
+        (
+            {
+                "road": "C",
+                "speed": 10,
+                "body": ["reduced-paper"],
+                "car": ["quarter-car", "quarter-car"],
+            },
+            "same case",
+        ),
+    ],
+)
 def test_refusals_name_the_problem(spec, msg):
     with pytest.raises(BodyvibError, match=msg):
         expand(spec)
@@ -113,20 +184,27 @@ def test_the_readme_spec_example_expands():
 
 
 def test_seed_ranges_in_specs_and_grids():
-    from vehicle.sweep.spec import count_cases, iter_cases
+    from bodyvib.vehicle.sweep.spec import count_cases, iter_cases
 
     spec = {"road": "C", "speed": [10, 20], "seed": "0..24", "body": "reduced-paper"}
     cases = expand(spec)
     assert sorted({c.seed for c in cases}) == list(range(25)) and len(cases) == 50
     assert count_cases(spec) == 50 and [c.case_key for c in iter_cases(spec)] == [
-        c.case_key for c in cases]
+        c.case_key for c in cases
+    ]
     listed = expand({**spec, "seed": list(range(25))})
     assert [c.case_key for c in listed] == [c.case_key for c in cases]
     mixed = expand({**spec, "seed": ["0..2", 7]})
     assert sorted({c.seed for c in mixed}) == [0, 1, 2, 7]
     assert grid_spec(["seed=0..3,9"])["seed"] == ["0..3", 9]
-    assert sorted({c.seed for c in expand({**grid_spec(["road=C", "speed=10", "seed=0..3,9",
-                                                         "body=reduced-paper"])})}) == [0, 1, 2, 3, 9]
+    assert sorted(
+        {
+            c.seed
+            for c in expand(
+                {**grid_spec(["road=C", "speed=10", "seed=0..3,9", "body=reduced-paper"])}
+            )
+        }
+    ) == [0, 1, 2, 3, 9]
     for bad in ("3..1", "a..b", "-1..2", "0..", "0...3"):
         with pytest.raises(BodyvibError, match="FIRST..LAST"):
             expand({**spec, "seed": bad})

@@ -13,7 +13,6 @@ import sys
 import zipfile
 
 import pytest
-
 from helpers import ROOT
 
 pytestmark = pytest.mark.integration
@@ -21,13 +20,21 @@ pytestmark = pytest.mark.integration
 
 @pytest.fixture(scope="module")
 def native_body(tmp_path_factory):
+    from bodyvib.vehicle.fmus import FMUS, load_fmu_model
+
     from bodyvib.fmu.native import build_native_fmu
-    from vehicle.fmus import FMUS, load_fmu_model
 
     kind, _, description = FMUS["HumanBody3DOF"]
     dest = tmp_path_factory.mktemp("native_body")
-    return build_native_fmu(load_fmu_model("HumanBody3DOF"), kind, "HumanBody3DOF",
-                            description, dest, fmi=2, platforms=("linux64",))
+    return build_native_fmu(
+        load_fmu_model("HumanBody3DOF"),
+        kind,
+        "HumanBody3DOF",
+        description,
+        dest,
+        fmi=2,
+        platforms=("linux64",),
+    )
 
 
 def _truncated(fmu, out, fraction):
@@ -36,16 +43,31 @@ def _truncated(fmu, out, fraction):
         for item in zin.infolist():
             data = zin.read(item.filename)
             if item.filename == member:
-                data = data[:int(len(data) * fraction)]
+                data = data[: int(len(data) * fraction)]
             zout.writestr(item, data)
     return out
 
 
 def _cosim(body, tmp_path, tmpdir):
     env = dict(os.environ, TMPDIR=str(tmpdir))
-    return subprocess.run([sys.executable, "-m", "bodyvib_cli", "cosim", "--body", str(body),
-                           "--duration", "1", "--quiet"], cwd=ROOT, env=env,
-                          capture_output=True, text=True, timeout=300)
+    return subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "bodyvib.cli",
+            "cosim",
+            "--body",
+            str(body),
+            "--duration",
+            "1",
+            "--quiet",
+        ],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
 
 
 @pytest.mark.parametrize("fraction", [0.25, 0.5, 0.9, 0.99])

@@ -22,7 +22,9 @@ import pytest
 pytestmark = pytest.mark.integration
 
 from helpers import ROOT
-PACKAGES = ("bodyvib", "bodyvib_cli", "fmu_src", "vehicle")
+
+#: Repository folder -> its place in the wheel (pyproject.toml's package-dir).
+FOLDERS = {"bodyvib": "bodyvib", "vehicle": "bodyvib/vehicle", "fmu_src": "bodyvib/fmu_src"}
 
 
 def _tracked(*paths):
@@ -31,16 +33,29 @@ def _tracked(*paths):
     if out.returncode == 0 and out.stdout.strip():
         files = out.stdout.split()
     else:
-        files = [os.path.relpath(os.path.join(d, f), ROOT)
-                 for p in paths or (".",) for d, ds, fs in os.walk(os.path.join(ROOT, p))
-                 if not {".git", ".venv", "build"} & set(os.path.relpath(d, ROOT).split(os.sep))
-                 for f in fs]
-    return sorted(f for f in files if "__pycache__" not in f and not f.endswith(".pyc")
-                  and os.path.isfile(os.path.join(ROOT, f)))
+        files = [
+            os.path.relpath(os.path.join(d, f), ROOT)
+            for p in paths or (".",)
+            for d, ds, fs in os.walk(os.path.join(ROOT, p))
+            if not {".git", ".venv", "build"} & set(os.path.relpath(d, ROOT).split(os.sep))
+            for f in fs
+        ]
+    return sorted(
+        f
+        for f in files
+        if "__pycache__" not in f
+        and not f.endswith(".pyc")
+        and os.path.isfile(os.path.join(ROOT, f))
+    )
 
 
 def _package_files():
-    return _tracked(*PACKAGES)
+    """Tracked package files, as the paths they have inside the wheel."""
+    out = []
+    for folder, place in FOLDERS.items():
+        for f in _tracked(folder):
+            out.append(place + f.replace(os.sep, "/")[len(folder) :])
+    return out
 
 
 @pytest.fixture(scope="module")
@@ -52,9 +67,13 @@ def wheel(tmp_path_factory):
         os.makedirs(os.path.dirname(src / f), exist_ok=True)
         shutil.copy2(os.path.join(ROOT, f), src / f)
     dest = tmp_path_factory.mktemp("wheel")
-    out = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", str(src),
-                          "-w", str(dest)], capture_output=True, text=True, timeout=600,
-                         cwd=str(dest))
+    out = subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", str(src), "-w", str(dest)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        cwd=str(dest),
+    )
     assert out.returncode == 0, out.stdout + out.stderr
     wheels = list(dest.glob("bodyvib-*.whl"))
     assert len(wheels) == 1, wheels
@@ -64,27 +83,78 @@ def wheel(tmp_path_factory):
 def test_wheel_carries_every_package_file(wheel):
     with zipfile.ZipFile(wheel) as z:
         names = set(z.namelist())
-    missing = [f for f in _package_files() if f.replace(os.sep, "/") not in names]
+    missing = [f for f in _package_files() if f not in names]
     assert not missing, f"not in the wheel: {missing}"
-    for needed in ("fmu_src/bodyvib_fmu_slave.py", "bodyvib/runtime/engine.py",
-                   "bodyvib/data/reduced-paper.json", "bodyvib/data/fit/default-config.json",
-                   "vehicle/data/quarter-car.json"):
+    for needed in (
+        "bodyvib/fmu_src/bodyvib_fmu_slave.py",
+        "bodyvib/runtime/engine.py",
+        "bodyvib/data/reduced-paper.json",
+        "bodyvib/data/fit/default-config.json",
+        "bodyvib/vehicle/data/quarter-car.json",
+        "bodyvib/cli/main.py",
+    ):
         assert needed in names
+
+
+def test_wheel_has_one_import_root(wheel):
+    """site-packages receives bodyvib, its dist-info and nothing else."""
+    with zipfile.ZipFile(wheel) as z:
+        roots = {n.split("/")[0] for n in z.namelist()}
+    assert {r for r in roots if not r.endswith(".dist-info")} == {"bodyvib"}, roots
+
+
+def test_package_list_matches_the_tree():
+    """pyproject.toml lists every package folder (a new subpackage missing from the list
+    would be left out of the wheel)."""
+    tomllib = pytest.importorskip("tomllib")
+
+    with open(os.path.join(ROOT, "pyproject.toml"), "rb") as f:
+        tool = tomllib.load(f)["tool"]["setuptools"]
+    listed = set(tool["packages"])
+    found = set()
+    for folder, place in FOLDERS.items():
+        for d, _, files in os.walk(os.path.join(ROOT, folder)):
+            rel = os.path.relpath(d, os.path.join(ROOT, folder))
+            if "__pycache__" in rel or not any(f.endswith((".py", ".json")) for f in files):
+                continue
+            parts = place.split("/") + ([] if rel == "." else rel.split(os.sep))
+            found.add(".".join(parts))
+    assert listed == found, (sorted(listed - found), sorted(found - listed))
+    assert tool["package-dir"] == {"bodyvib.vehicle": "vehicle", "bodyvib.fmu_src": "fmu_src"}
 
 
 def test_installed_wheel_builds_fmus_and_runs_the_check(wheel, tmp_path):
     venv = tmp_path / "venv"
-    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True,
-                   timeout=120)
+    subprocess.run(
+        [sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True, timeout=120
+    )
     py = venv / "bin" / "python"
-    out = subprocess.run([sys.executable, "-m", "pip", "--python", str(py), "install", "-q",
-                          "--no-deps", "--no-index", str(wheel)],
-                         capture_output=True, text=True, timeout=300)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "--python",
+            str(py),
+            "install",
+            "-q",
+            "--no-deps",
+            "--no-index",
+            str(wheel),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert out.returncode == 0, out.stdout + out.stderr
     # the running environment's dependencies, as a plain path: its .pth files (an
     # editable install of the checkout among them) are not processed from there
-    purelib = subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_paths()"
-                              "['purelib'])"], capture_output=True, text=True, check=True)
+    purelib = subprocess.run(
+        [str(py), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     deps = [p for p in site.getsitepackages() if os.path.isdir(p)]
     with open(os.path.join(purelib.stdout.strip(), "borrowed-deps.pth"), "w") as f:
         f.write("\n".join(deps) + "\n")
@@ -93,20 +163,46 @@ def test_installed_wheel_builds_fmus_and_runs_the_check(wheel, tmp_path):
     work.mkdir()
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME")}
     env["MPLBACKEND"] = "Agg"
-    where = subprocess.run([str(py), "-c", "import bodyvib, fmu_src, vehicle; "
-                            "print(bodyvib.__file__, fmu_src.__file__, vehicle.__file__)"],
-                           cwd=work, env=env, capture_output=True, text=True, timeout=120)
+    where = subprocess.run(
+        [
+            str(py),
+            "-c",
+            "import bodyvib, bodyvib.fmu_src, bodyvib.vehicle; "
+            "print(bodyvib.__file__, bodyvib.fmu_src.__file__, bodyvib.vehicle.__file__)",
+        ],
+        cwd=work,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert where.returncode == 0, where.stderr
     assert all(p.startswith(str(venv)) for p in where.stdout.split()), where.stdout
 
     exe = str(venv / "bin" / "bodyvib")
-    build = subprocess.run([exe, "build", "--dest", "fmus"], cwd=work, env=env,
-                           capture_output=True, text=True, timeout=600)
+    build = subprocess.run(
+        [exe, "build", "--dest", "fmus"],
+        cwd=work,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert build.returncode == 0, build.stdout + build.stderr
     assert sorted(p.name for p in (work / "fmus").iterdir()) == [
-        "HumanBody3DOF.fmu", "HumanBodyISO7962.fmu", "QuarterCar.fmu", "QuarterCarWithOccupant.ssp",
-        "Road.fmu"]
-    check = subprocess.run([exe, "check", "--duration", "2", "--quiet"], cwd=work, env=env,
-                           capture_output=True, text=True, timeout=600)
+        "HumanBody3DOF.fmu",
+        "HumanBodyISO7962.fmu",
+        "QuarterCar.fmu",
+        "QuarterCarWithOccupant.ssp",
+        "Road.fmu",
+    ]
+    check = subprocess.run(
+        [exe, "check", "--duration", "2", "--quiet"],
+        cwd=work,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert check.returncode == 0, check.stdout + check.stderr
     assert "verdict: " in check.stdout

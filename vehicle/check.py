@@ -1,7 +1,7 @@
 """The check: the reduced body's head acceleration against the ISO 7962 body's.
 
 :func:`compare` takes a study of both bodies on the same road and car
-(:func:`vehicle.study.run_study`) and judges the reduced body criterion by
+(:func:`bodyvib.vehicle.study.run_study`) and judges the reduced body criterion by
 criterion against :data:`TOLERANCES` (the README explains each), giving one
 PASS/FAIL line per criterion and a verdict, as a :class:`Comparison` of
 :class:`Criterion`.
@@ -11,7 +11,6 @@ from dataclasses import dataclass, field
 from typing import Dict, List
 
 from .records import Record
-
 
 __all__ = ["TOLERANCES", "Criterion", "Comparison", "compare"]
 
@@ -80,8 +79,11 @@ class Comparison:
 
     def to_dict(self) -> dict:
         """The check section of the JSON document: ``criteria``, ``verdict``, ``tolerances``."""
-        return {"criteria": [c.to_dict() for c in self.criteria], "verdict": self.verdict,
-                "tolerances": dict(self.tolerances)}
+        return {
+            "criteria": [c.to_dict() for c in self.criteria],
+            "verdict": self.verdict,
+            "tolerances": dict(self.tolerances),
+        }
 
 
 def _rel(a, b):
@@ -93,8 +95,8 @@ def compare(study, reduced: str, iso: str) -> Comparison:
 
     Parameters
     ----------
-    study : vehicle.study.Study
-        From :func:`vehicle.study.run_study` with both labels.
+    study : bodyvib.vehicle.study.Study
+        From :func:`bodyvib.vehicle.study.run_study` with both labels.
     reduced, iso : str
         Labels of the reduced body and of the ISO 7962 body.
 
@@ -110,8 +112,17 @@ def compare(study, reduced: str, iso: str) -> Comparison:
 
     def add(name, r, i, diff, unit="relative"):
         tol = TOLERANCES[name]
-        crit.append(Criterion(name=name, reduced=r, iso=i, difference=diff, tolerance=tol,
-                              unit=unit, passed=bool(diff <= tol)))
+        crit.append(
+            Criterion(
+                name=name,
+                reduced=r,
+                iso=i,
+                difference=diff,
+                tolerance=tol,
+                unit=unit,
+                passed=bool(diff <= tol),
+            )
+        )
 
     for key in ("weighted_rms", "vdv", "peak"):
         r, i = getattr(R.figures, key), getattr(I.figures, key)
@@ -120,7 +131,16 @@ def compare(study, reduced: str, iso: str) -> Comparison:
     add("time_history_nrmse", e, 0.0, e)
     pr, pi = R.transmissibility.peak, I.transmissibility.peak
     add("transmissibility_peak", pr.modulus, pi.modulus, _rel(pr.modulus, pi.modulus))
-    add("transmissibility_peak_frequency_hz", pr.frequency_hz, pi.frequency_hz,
-        abs(pr.frequency_hz - pi.frequency_hz), unit="Hz")
-    return Comparison(reduced=reduced, iso=iso, criteria=crit,
-                      verdict="PASS" if all(c.passed for c in crit) else "FAIL")
+    add(
+        "transmissibility_peak_frequency_hz",
+        pr.frequency_hz,
+        pi.frequency_hz,
+        abs(pr.frequency_hz - pi.frequency_hz),
+        unit="Hz",
+    )
+    return Comparison(
+        reduced=reduced,
+        iso=iso,
+        criteria=crit,
+        verdict="PASS" if all(c.passed for c in crit) else "FAIL",
+    )

@@ -7,7 +7,7 @@ Any FMU with the body interface of the FMU contract
 (inputs ``road_displacement``, ``road_velocity``, ``seat_force`` and
 optionally ``seat_force_rate``; outputs ``seat_displacement``,
 ``seat_velocity``) that also has the outputs the shipped cars declare in their
-parameter files' ``fmu_outputs`` (:data:`vehicle.quarter_car.CAR_FMU_OUTPUTS`:
+parameter files' ``fmu_outputs`` (:data:`bodyvib.vehicle.quarter_car.CAR_FMU_OUTPUTS`:
 ``sprung_acceleration``, ``suspension_deflection``, ``tire_force``). Both run
 in fmpy's ``FMU2Slave`` with a fixed communication step ``h``.
 
@@ -29,7 +29,7 @@ One macro-step from ``t_k`` to ``t_{k+1}`` (Gauss-Seidel, car first):
 A plain master that holds ``F_k`` over the step (``extrapolate=False``) is
 first order in ``h``; the extrapolation makes the coupling second order. On a
 class C road at 20 m/s the head-acceleration NRMSE against the monolithic
-reference (:mod:`vehicle.reference`) at h = 1 ms is about 0.43 % held and
+reference (:mod:`bodyvib.vehicle.reference`) at h = 1 ms is about 0.43 % held and
 0.03 % extrapolated (README, "Coupling error").
 """
 
@@ -44,26 +44,35 @@ from typing import Dict, Optional
 import numpy as np
 
 from bodyvib.process import interrupts
+from bodyvib.process.outputs import PendingFile
+from bodyvib.process.progress import progress_bar
 from bodyvib.runtime import contract
 from bodyvib.runtime.discretize import check_step
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib.process.outputs import PendingFile
-from bodyvib.process.progress import progress_bar
 
 from .quarter_car import CAR_FMU_OUTPUTS
 from .signals import BODY_SIGNALS, CAR_SIGNALS, MASTER_SIGNALS, SIGNALS, header
 
 __all__ = [
     "check_fmu",
-    "BODY_INPUTS", "BODY_OUTPUTS", "CAR_INPUTS", "CAR_OUTPUTS",
-    "MASTER_SIGNALS", "Master", "Slave", "open_fmu", "model_from_fmu", "cosimulate", "write_csv",
+    "BODY_INPUTS",
+    "BODY_OUTPUTS",
+    "CAR_INPUTS",
+    "CAR_OUTPUTS",
+    "MASTER_SIGNALS",
+    "Master",
+    "Slave",
+    "open_fmu",
+    "model_from_fmu",
+    "cosimulate",
+    "write_csv",
     "CsvStream",
 ]
 
 #: What the master sets and reads (names from the FMU contract): of the body's, the
 #: seat motion and the first four outputs; of the car's, ``seat_force_rate`` is
 #: optional (used if present).
-BODY_INPUTS = contract.BODY_INPUTS[:2]    # seat_acceleration: optional, left at 0 (linear seat)
+BODY_INPUTS = contract.BODY_INPUTS[:2]  # seat_acceleration: optional, left at 0 (linear seat)
 BODY_OUTPUTS = contract.BODY_OUTPUTS[:4]  # seat_force_rate: not read by this master
 CAR_INPUTS = contract.CAR_INPUTS[:3]
 _SEAT_FORCE_RATE = contract.CAR_INPUTS[3]
@@ -105,8 +114,9 @@ _OPTIONS = {"body": "--body", "car": "--car-fmu"}
 def _missing(md, kind):
     inputs, outputs = _INTERFACES[kind]
     have = {v.name: v.causality for v in md.modelVariables}
-    return ([n for n in inputs if have.get(n) != "input"]
-            + [n for n in outputs if have.get(n) != "output"])
+    return [n for n in inputs if have.get(n) != "input"] + [
+        n for n in outputs if have.get(n) != "output"
+    ]
 
 
 def _check_interface(md, path, kind):
@@ -114,8 +124,11 @@ def _check_interface(md, path, kind):
     missing = _missing(md, kind)
     if missing:
         other = [k for k in _INTERFACES if k != kind and not _missing(md, k)]
-        what = (f"it is a {other[0]} FMU (give it to {_OPTIONS[other[0]]})" if other else
-                f"no {', '.join(missing)}")
+        what = (
+            f"it is a {other[0]} FMU (give it to {_OPTIONS[other[0]]})"
+            if other
+            else f"no {', '.join(missing)}"
+        )
         raise BodyvibError(
             f"FMU '{path}' lacks the {kind} interface: {what}; a {kind} FMU "
             f"needs inputs {', '.join(inputs)} and outputs {', '.join(outputs)} (the FMU contract: README, FMUs)"
@@ -179,11 +192,14 @@ def _check_tree(unzipdir, md, path):
 
     system = {"Linux": "linux", "Windows": "win", "Darwin": "darwin"}.get(platform.system(), "")
     ext = {"linux": ".so", "win": ".dll", "darwin": ".dylib"}.get(system, "")
-    binary = os.path.join(unzipdir, "binaries", f"{system}64",
-                          md.coSimulation.modelIdentifier + ext)
+    binary = os.path.join(
+        unzipdir, "binaries", f"{system}64", md.coSimulation.modelIdentifier + ext
+    )
     if not os.path.isfile(binary):
-        raise BodyvibError(f"FMU '{path}' has no binary for this platform "
-                           f"(binaries/{system}64/{md.coSimulation.modelIdentifier}{ext})")
+        raise BodyvibError(
+            f"FMU '{path}' has no binary for this platform "
+            f"(binaries/{system}64/{md.coSimulation.modelIdentifier}{ext})"
+        )
     if system == "linux":
         _check_elf(binary, path, f"binaries/linux64/{md.coSimulation.modelIdentifier}.so")
     # pythonfmu writes "PythonFMU x.y"; bodyvib's writer "bodyvib v with PythonFMU x.y"
@@ -195,12 +211,17 @@ def _check_tree(unzipdir, md, path):
         with open(listing, encoding="utf-8") as f:
             module = f.read().strip()
     except OSError:
-        raise BodyvibError(f"FMU '{path}' is incomplete: no resources/slavemodule.txt (a "
-                           "pythonfmu FMU needs its resources folder); rebuild it") from None
-    if not module or not any(os.path.isfile(os.path.join(resources, module + e))
-                             for e in (".py", "")):
-        raise BodyvibError(f"FMU '{path}' is incomplete: resources/{module or '?'}.py (its "
-                           "slave script) is missing; rebuild it")
+        raise BodyvibError(
+            f"FMU '{path}' is incomplete: no resources/slavemodule.txt (a "
+            "pythonfmu FMU needs its resources folder); rebuild it"
+        ) from None
+    if not module or not any(
+        os.path.isfile(os.path.join(resources, module + e)) for e in (".py", "")
+    ):
+        raise BodyvibError(
+            f"FMU '{path}' is incomplete: resources/{module or '?'}.py (its "
+            "slave script) is missing; rebuild it"
+        )
 
 
 def _check_elf(binary, path, member):
@@ -219,8 +240,7 @@ def _check_elf(binary, path, member):
         data = f.read()
     size = len(data)
     if size < 64 or data[:4] != b"\x7fELF" or data[4] not in (1, 2) or data[5] not in (1, 2):
-        raise BodyvibError(f"{what} is not an ELF shared library ({size} bytes); rebuild "
-                           "the FMU")
+        raise BodyvibError(f"{what} is not an ELF shared library ({size} bytes); rebuild the FMU")
     bits64, order = data[4] == 2, "<" if data[5] == 1 else ">"
     if bits64:
         phoff, shoff = struct.unpack_from(order + "QQ", data, 0x20)
@@ -230,9 +250,11 @@ def _check_elf(binary, path, member):
         phentsize, phnum, shentsize, shnum = struct.unpack_from(order + "HHHH", data, 0x2A)
 
     def truncated(need):
-        return BodyvibError(f"{what} is truncated: {size} bytes, its headers describe at "
-                            f"least {need}; the file was cut short (copy or download it "
-                            "again, or rebuild the FMU)")
+        return BodyvibError(
+            f"{what} is truncated: {size} bytes, its headers describe at "
+            f"least {need}; the file was cut short (copy or download it "
+            "again, or rebuild the FMU)"
+        )
 
     for off, entsize, num in ((phoff, phentsize, phnum), (shoff, shentsize, shnum)):
         if num and off + entsize * num > size:
@@ -248,18 +270,22 @@ def _check_elf(binary, path, member):
     for k in range(shnum):
         base = shoff + k * shentsize
         if bits64:
-            sh_type, = struct.unpack_from(order + "I", data, base + 4)
+            (sh_type,) = struct.unpack_from(order + "I", data, base + 4)
             sh_offset, sh_size = struct.unpack_from(order + "QQ", data, base + 24)
         else:
-            sh_type, = struct.unpack_from(order + "I", data, base + 4)
+            (sh_type,) = struct.unpack_from(order + "I", data, base + 4)
             sh_offset, sh_size = struct.unpack_from(order + "II", data, base + 16)
         if sh_type != 8 and sh_offset + sh_size > size:  # 8: SHT_NOBITS (.bss), no bytes
             raise truncated(sh_offset + sh_size)
 
 
 @contextlib.contextmanager
-def open_fmu(path, kind: str, instance_name: Optional[str] = None,
-             start_values: Optional[Dict[str, float]] = None):
+def open_fmu(
+    path,
+    kind: str,
+    instance_name: Optional[str] = None,
+    start_values: Optional[Dict[str, float]] = None,
+):
     """Instantiate and initialize an FMU of the body or car interface.
 
     Parameters
@@ -309,9 +335,12 @@ def _instantiated(path, kind, instance_name, start_values=None):
     fmu = None
     try:
         _check_tree(unzipdir, md, path)
-        fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
-                        modelIdentifier=md.coSimulation.modelIdentifier,
-                        instanceName=instance_name or kind)
+        fmu = FMU2Slave(
+            guid=md.guid,
+            unzipDirectory=unzipdir,
+            modelIdentifier=md.coSimulation.modelIdentifier,
+            instanceName=instance_name or kind,
+        )
         fmu.instantiate()
         if start_values:
             names = list(start_values)
@@ -348,8 +377,9 @@ def model_from_fmu(path):
         The model baked into the FMU, or None for an FMU that carries none
         (a foreign FMU: it still co-simulates, but has no monolithic reference).
     """
-    from bodyvib.runtime.modelfile import network_from_dict
     import json
+
+    from bodyvib.runtime.modelfile import network_from_dict
 
     try:
         with zipfile.ZipFile(path) as z:
@@ -392,8 +422,9 @@ class Master:
         A step that is not a positive number, or fewer than two samples.
     """
 
-    def __init__(self, car: Slave, body: Slave, step: float, samples: int,
-                 extrapolate: bool = True):
+    def __init__(
+        self, car: Slave, body: Slave, step: float, samples: int, extrapolate: bool = True
+    ):
         check_step(step, "communication step")
         if int(samples) < 2:
             raise BodyvibError("a co-simulation needs at least 2 communication points")
@@ -405,7 +436,8 @@ class Master:
         self._car, self._body = car, body
         self._has_rate = "seat_force_rate" in car.vr
         self._car_in = [car.vr[k] for k in CAR_INPUTS] + (
-            [car.vr["seat_force_rate"]] if self._has_rate else [])
+            [car.vr["seat_force_rate"]] if self._has_rate else []
+        )
         # what is recorded, in the signal table's order (seat motion first: read after a step)
         self._car_out = [car.vr[s.variable] for s in CAR_SIGNALS]
         self._body_in = [body.vr[k] for k in BODY_INPUTS]
@@ -425,7 +457,7 @@ class Master:
         Returns
         -------
         (m, 9) ndarray
-            The :data:`vehicle.signals.MASTER_SIGNALS` at those points (the car's, then
+            The :data:`bodyvib.vehicle.signals.MASTER_SIGNALS` at those points (the car's, then
             the body's).
 
         Raises
@@ -438,19 +470,23 @@ class Master:
         z = np.asarray(road_displacement, dtype=float)
         v = np.asarray(road_velocity, dtype=float)
         if z.shape != v.shape or z.ndim != 1:
-            raise BodyvibError("road displacement and velocity must be 1-D arrays of equal "
-                               "length")
+            raise BodyvibError("road displacement and velocity must be 1-D arrays of equal length")
         if self.k + z.size > self.n:
-            raise BodyvibError(f"the run has {self.n} communication points; {self.k + z.size} "
-                               "given")
+            raise BodyvibError(
+                f"the run has {self.n} communication points; {self.k + z.size} given"
+            )
         if not (np.all(np.isfinite(z)) and np.all(np.isfinite(v))):
             raise BodyvibError("road input is not finite; check the road profile")
         t0 = time.perf_counter()
         rows = [None] * z.size
         h, last, extrapolate, has_rate = self.h, self.n - 1, self.extrapolate, self._has_rate
         cf, bf = self._car.fmu, self._body.fmu
-        car_in, car_out, body_in, body_out = (self._car_in, self._car_out, self._body_in,
-                                              self._body_out)
+        car_in, car_out, body_in, body_out = (
+            self._car_in,
+            self._car_out,
+            self._body_in,
+            self._body_out,
+        )
         car_motion = car_out[:2]
         c_set, c_get, c_step = cf.setReal, cf.getReal, cf.doStep
         b_set, b_get, b_step = bf.setReal, bf.getReal, bf.doStep
@@ -493,12 +529,19 @@ class Master:
         return np.array(rows, dtype=float).reshape(z.size, len(MASTER_SIGNALS))
 
 
-def cosimulate(car: Slave, body: Slave, road_displacement, road_velocity, step: float,
-               extrapolate: bool = True, progress: bool = False,
-               block: int = 4096) -> Dict[str, np.ndarray]:
+def cosimulate(
+    car: Slave,
+    body: Slave,
+    road_displacement,
+    road_velocity,
+    step: float,
+    extrapolate: bool = True,
+    progress: bool = False,
+    block: int = 4096,
+) -> Dict[str, np.ndarray]:
     """Run the two-way coupled co-simulation over a sampled road, keeping every signal.
 
-    :class:`Master` over the whole record; :func:`vehicle.study.run_study` uses the
+    :class:`Master` over the whole record; :func:`bodyvib.vehicle.study.run_study` uses the
     master block by block without keeping the histories.
 
     Parameters
@@ -520,7 +563,7 @@ def cosimulate(car: Slave, body: Slave, road_displacement, road_velocity, step: 
     Returns
     -------
     dict of str to ndarray
-        The signals of :data:`vehicle.signals.SIGNALS` at the ``n``
+        The signals of :data:`bodyvib.vehicle.signals.SIGNALS` at the ``n``
         communication points (``seat_acceleration`` is the car's
         ``sprung_acceleration`` output: the seat point's acceleration).
 
@@ -540,7 +583,7 @@ def cosimulate(car: Slave, body: Slave, road_displacement, road_velocity, step: 
     parts = []
     try:
         for a in range(0, n, block):
-            parts.append(master.advance(z[a:a + block], v[a:a + block]))
+            parts.append(master.advance(z[a : a + block], v[a : a + block]))
             if bar is not None:
                 bar.update(min(block, n - 1 - a))
     finally:
@@ -591,8 +634,9 @@ class CsvStream:
         elif names != self.names:
             raise BodyvibError("CSV columns changed between blocks")
         cols = np.column_stack([np.asarray(columns[k], dtype=float) for k in names])
-        self._file.file.write("".join(",".join(f"{x:.10g}" for x in row) + "\n"
-                                      for row in cols.tolist()))
+        self._file.file.write(
+            "".join(",".join(f"{x:.10g}" for x in row) + "\n" for row in cols.tolist())
+        )
 
     def place(self) -> None:
         """Put the file at its path (or stage it)."""
@@ -611,7 +655,7 @@ def write_csv(path, result: Dict[str, np.ndarray]) -> None:
     path : str
         The CSV file, replaced whole or left as it was.
     result : dict of str to ndarray
-        Equal-length columns (:func:`cosimulate`, :func:`vehicle.reference.reference_run`).
+        Equal-length columns (:func:`cosimulate`, :func:`bodyvib.vehicle.reference.reference_run`).
     """
     out = CsvStream(path)
     try:

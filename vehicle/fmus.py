@@ -2,7 +2,7 @@
 
 ``python build_fmu.py`` and ``bodyvib build`` build these with
 :func:`bodyvib.fmu.build.build`, pythonfmu or native (``Road``: a road of
-:mod:`vehicle.road.synthetic` or a road file, tabulated at build time); the co-simulation commands build the ones they are
+:mod:`bodyvib.vehicle.road.synthetic` or a road file, tabulated at build time); the co-simulation commands build the ones they are
 not given into a temporary folder (:func:`temporary_fmu_dir`).
 """
 
@@ -10,45 +10,83 @@ import tempfile
 from pathlib import Path
 from typing import Dict, Iterable, Optional
 
-from bodyvib.process import interrupts
 from bodyvib.fmu.build import build
 from bodyvib.models import load_model
-from bodyvib.runtime.errors import BodyvibError
+from bodyvib.process import interrupts
 from bodyvib.process.outputs import staged_writes
+from bodyvib.runtime.errors import BodyvibError
 
 from .quarter_car import load_car
 from .road.driven import is_road_file
 from .road.synthetic import ISO8608_CLASSES, TaperedRoad, make_road, random_road, road_source
 
-__all__ = ["FMUS", "ROAD_DEFAULTS", "build_fmus", "build_project_fmu",
-           "fmu_road", "fmu_road_length", "fmu_road_of", "load_fmu_model", "temporary_fmu_dir"]
+__all__ = [
+    "FMUS",
+    "ROAD_DEFAULTS",
+    "build_fmus",
+    "build_project_fmu",
+    "fmu_road",
+    "fmu_road_length",
+    "fmu_road_of",
+    "load_fmu_model",
+    "temporary_fmu_dir",
+]
 
 #: Road.fmu's defaults: ISO 8608 class C, seed 0, 601 m (30 s at 20 m/s and a metre
 #: to spare, the road of ``bodyvib check``), faded in and out over 5 m, speed
 #: parameter 20 m/s.
-ROAD_DEFAULTS = {"road": "C", "seed": 0, "length": 601.0, "speed": 20.0, "taper": 5.0,
-                 "track": 0.0, "units": None, "envelope": False, "repeat": False}
+ROAD_DEFAULTS = {
+    "road": "C",
+    "seed": 0,
+    "length": 601.0,
+    "speed": 20.0,
+    "taper": 5.0,
+    "track": 0.0,
+    "units": None,
+    "envelope": False,
+    "repeat": False,
+}
 
 #: FMU name -> (kind, default model, description).
 FMUS = {
-    "HumanBody3DOF": ("body", "reduced-paper",
-                      "Reduced 3-DOF seated human body (Balci & Gundogdu 2025): seat motion in, "
-                      "head acceleration and seat force out; exact discretization"),
-    "HumanBodyISO7962": ("body", "iso7962",
-                         "ISO 7962 four-mass seated human body (reconstructed topology): seat motion "
-                         "in, head acceleration and seat force out; exact discretization"),
-    "QuarterCar": ("car", "quarter-car",
-                   "Quarter car (sprung mass, suspension, unsprung mass, tire): road and seat force "
-                   "in, seat motion, suspension deflection and tire force out; exact discretization"),
-    "Road": ("source", "C",
-             "Road profile under a wheel driving at a speed (a parameter): road_displacement and "
-             "its exact time derivative road_velocity, from a table built by vehicle.road"),
+    "HumanBody3DOF": (
+        "body",
+        "reduced-paper",
+        "Reduced 3-DOF seated human body (Balci & Gundogdu 2025): seat motion in, "
+        "head acceleration and seat force out; exact discretization",
+    ),
+    "HumanBodyISO7962": (
+        "body",
+        "iso7962",
+        "ISO 7962 four-mass seated human body (reconstructed topology): seat motion "
+        "in, head acceleration and seat force out; exact discretization",
+    ),
+    "QuarterCar": (
+        "car",
+        "quarter-car",
+        "Quarter car (sprung mass, suspension, unsprung mass, tire): road and seat force "
+        "in, seat motion, suspension deflection and tire force out; exact discretization",
+    ),
+    "Road": (
+        "source",
+        "C",
+        "Road profile under a wheel driving at a speed (a parameter): road_displacement and "
+        "its exact time derivative road_velocity, from a table built by bodyvib.vehicle.road",
+    ),
 }
 
 
-def fmu_road(spec: str = "C", length: float = 601.0, seed: int = 0, speed: float = 20.0,
-             taper: float = 5.0, track: float = 0.0, units: Optional[str] = None,
-             envelope: bool = False, repeat: bool = False):
+def fmu_road(
+    spec: str = "C",
+    length: float = 601.0,
+    seed: int = 0,
+    speed: float = 20.0,
+    taper: float = 5.0,
+    track: float = 0.0,
+    units: Optional[str] = None,
+    envelope: bool = False,
+    repeat: bool = False,
+):
     """The road a ``Road.fmu`` tabulates: the road a run drives (faded in from level).
 
     Parameters
@@ -65,16 +103,16 @@ def fmu_road(spec: str = "C", length: float = 601.0, seed: int = 0, speed: float
         Design speed of a sweep, and the speed a profile's spacing is checked at, m/s.
     taper : float
         Every road fades in from level over its first ``taper`` metres and out
-        over its last (:class:`vehicle.road.synthetic.TaperedRoad`; 0: none), as
-        every run's road does (:func:`vehicle.road.driven.driven_road`): the car
+        over its last (:class:`bodyvib.vehicle.road.synthetic.TaperedRoad`; 0: none), as
+        every run's road does (:func:`bodyvib.vehicle.road.driven.driven_road`): the car
         starts at rest on a level road.
     track, units, envelope, repeat
         A road file's track (OpenCRG), units (CSV/ERD), tire enveloping and
-        repetition (:class:`vehicle.road.driven.RoadOptions`).
+        repetition (:class:`bodyvib.vehicle.road.driven.RoadOptions`).
 
     Returns
     -------
-    vehicle.road.synthetic.TaperedRoad
+    bodyvib.vehicle.road.synthetic.TaperedRoad
 
     Raises
     ------
@@ -89,8 +127,10 @@ def fmu_road(spec: str = "C", length: float = 601.0, seed: int = 0, speed: float
         road.check_run(speed, road.length / speed, None, repeat=True)  # its spacing
         return TaperedRoad(road, road.length, taper, periodic=repeat)
     if track or units or envelope or repeat:
-        raise BodyvibError("--road-track, --road-units, --road-envelope and --road-repeat apply "
-                           f"to road files; road '{spec}' is synthetic")
+        raise BodyvibError(
+            "--road-track, --road-units, --road-envelope and --road-repeat apply "
+            f"to road files; road '{spec}' is synthetic"
+        )
     if len(s) == 1 and s.upper() in ISO8608_CLASSES:
         return TaperedRoad(random_road(s.upper(), length=length, seed=seed), length, taper)
     road = make_road(s, speed, length / speed if length > 0 else length, seed=seed)
@@ -113,13 +153,22 @@ def fmu_road_of(options: dict):
 
     Returns
     -------
-    road : vehicle.road.synthetic.TaperedRoad
+    road : bodyvib.vehicle.road.synthetic.TaperedRoad
     length : float
         m, :func:`fmu_road_length`.
     """
     r = dict(ROAD_DEFAULTS, **options)
-    rd = fmu_road(r["road"], r["length"], r["seed"], r["speed"], r["taper"], r["track"],
-                  r["units"], r["envelope"], r["repeat"])
+    rd = fmu_road(
+        r["road"],
+        r["length"],
+        r["seed"],
+        r["speed"],
+        r["taper"],
+        r["track"],
+        r["units"],
+        r["envelope"],
+        r["repeat"],
+    )
     return rd, fmu_road_length(rd, r["length"])
 
 
@@ -152,13 +201,22 @@ def load_fmu_model(name: str, model: Optional[str] = None):
         raise BodyvibError(f"unknown FMU '{name}'; FMUs are {', '.join(FMUS)}")
     kind, default, _ = FMUS[name]
     if kind == "source":
-        raise BodyvibError(f"{name}.fmu carries a road table, not a model (build_project_fmu('{name}', road=...))")
+        raise BodyvibError(
+            f"{name}.fmu carries a road table, not a model (build_project_fmu('{name}', road=...))"
+        )
     return (load_car if kind == "car" else load_model)(model or default)
 
 
-def build_project_fmu(name: str, dest="dist", model: Optional[str] = None, *,
-                      road: Optional[dict] = None, native: bool = False, fmi: int = 2,
-                      platforms: Iterable[str] = ("linux64", "win64")) -> Path:
+def build_project_fmu(
+    name: str,
+    dest="dist",
+    model: Optional[str] = None,
+    *,
+    road: Optional[dict] = None,
+    native: bool = False,
+    fmi: int = 2,
+    platforms: Iterable[str] = ("linux64", "win64"),
+) -> Path:
     """Build one FMU of :data:`FMUS`, pythonfmu or native: the one entry for every kind.
 
     Parameters
@@ -206,15 +264,29 @@ def build_project_fmu(name: str, dest="dist", model: Optional[str] = None, *,
         model = _road_source(**dict(road or {}, **({"road": model} if model else {})))
     else:
         model = load_fmu_model(name, model)
-    return build(model, kind, name, description, dest,
-                 backend="native" if native else "pythonfmu", fmi=fmi, platforms=platforms)
+    return build(
+        model,
+        kind,
+        name,
+        description,
+        dest,
+        backend="native" if native else "pythonfmu",
+        fmi=fmi,
+        platforms=platforms,
+    )
 
 
-def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-car",
-               names: Optional[Iterable[str]] = None, echo=None,
-               road: Optional[dict] = None, native: bool = False,
-               fmi: Iterable[int] = (2, 3),
-               platforms: Optional[Iterable[str]] = None) -> Dict[str, Path]:
+def build_fmus(
+    dest="dist",
+    params: Optional[str] = None,
+    car: str = "quarter-car",
+    names: Optional[Iterable[str]] = None,
+    echo=None,
+    road: Optional[dict] = None,
+    native: bool = False,
+    fmi: Iterable[int] = (2, 3),
+    platforms: Optional[Iterable[str]] = None,
+) -> Dict[str, Path]:
     """Build the project's FMUs.
 
     Parameters
@@ -276,21 +348,35 @@ def build_fmus(dest="dist", params: Optional[str] = None, car: str = "quarter-ca
     out = {}
     what = {}
     with staged_writes(guard=interrupts.critical):  # all FMUs or none: a failed (or
-        for version in (fmi if native else (2,)):   # interrupted) build keeps the old ones
+        for version in fmi if native else (2,):  # interrupted) build keeps the old ones
             folder = Path(dest) if version == 2 else Path(dest) / "fmi3"
             for n in names:
                 key = n if version == 2 else f"fmi3/{n}"
                 is_source = FMUS[n][0] == "source"
                 if is_source:
-                    out[key] = build(source, "source", n, FMUS[n][2], folder,
-                                     backend="native" if native else "pythonfmu",
-                                     fmi=version, platforms=platforms)
+                    out[key] = build(
+                        source,
+                        "source",
+                        n,
+                        FMUS[n][2],
+                        folder,
+                        backend="native" if native else "pythonfmu",
+                        fmi=version,
+                        platforms=platforms,
+                    )
                 else:
-                    out[key] = build_project_fmu(n, folder, chosen.get(n), native=native,
-                                                 fmi=version, platforms=platforms)
-                what[key] = ((f"road {road['road']}" if is_road_file(road["road"]) else
-                              f"road {road['road']}, seed {road['seed']}, {road['length']:g} m")
-                             if is_source else f"model {chosen.get(n) or FMUS[n][1]}")
+                    out[key] = build_project_fmu(
+                        n, folder, chosen.get(n), native=native, fmi=version, platforms=platforms
+                    )
+                what[key] = (
+                    (
+                        f"road {road['road']}"
+                        if is_road_file(road["road"])
+                        else f"road {road['road']}, seed {road['seed']}, {road['length']:g} m"
+                    )
+                    if is_source
+                    else f"model {chosen.get(n) or FMUS[n][1]}"
+                )
                 if native:
                     what[key] = f"native C, FMI {version}.0, {what[key]}, {'+'.join(platforms)}"
         interrupts.check()

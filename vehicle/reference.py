@@ -2,7 +2,7 @@
 
 The co-simulation splits the seated car into two FMUs that exchange seat
 motion and seat force only at communication points. The same coupled system
-assembled in one piece (:func:`vehicle.quarter_car.seated_system`, built by
+assembled in one piece (:func:`bodyvib.vehicle.quarter_car.seated_system`, built by
 :func:`bodyvib.runtime.network.mount`) and stepped by the exact discretization of
 :mod:`bodyvib.runtime.discretize` has no coupling error; with the same road samples and
 the same in-step road extrapolation (``z_k + v_k tau``) the difference between
@@ -30,7 +30,7 @@ from .signals import SIGNALS as _SIGNALS
 __all__ = ["SIGNALS", "reference_run", "ReferenceStream", "seat_force_weights", "nrmse"]
 
 #: Names of the signals of a run (reference or co-simulation), in column order; units,
-#: meanings and sources in :data:`vehicle.signals.SIGNALS`.
+#: meanings and sources in :data:`bodyvib.vehicle.signals.SIGNALS`.
 SIGNALS = tuple(s.name for s in _SIGNALS)
 
 
@@ -75,19 +75,22 @@ def seat_force_weights(lm, body: Network, seat: str, prefix: str = "body.") -> n
     for j, name in enumerate(own.inputs):
         if name in seat_motion:
             w[lm.output_index(seat_motion[name])] += own.D[row, j]
-        elif own.D[row, j] != 0.0:  # pragma: no cover - a force on a mass never reaches the seat directly
+        elif (
+            own.D[row, j] != 0.0
+        ):  # pragma: no cover - a force on a mass never reaches the seat directly
             raise BodyvibError(f"body '{body.name}': the seat force depends on input '{name}'")
     return w
 
 
-def reference_run(car: Network, body: Network, road_displacement, road_velocity,
-                  step: float) -> Dict[str, np.ndarray]:
+def reference_run(
+    car: Network, body: Network, road_displacement, road_velocity, step: float
+) -> Dict[str, np.ndarray]:
     """Simulate the seated car monolithically on a uniform time grid.
 
     Parameters
     ----------
     car : Network
-        From :func:`vehicle.quarter_car.load_car`.
+        From :func:`bodyvib.vehicle.quarter_car.load_car`.
     body : Network
         A body model (base ``seat``, roles ``head`` and ``torso``).
     road_displacement, road_velocity : (n,) array_like
@@ -110,7 +113,7 @@ def reference_run(car: Network, body: Network, road_displacement, road_velocity,
     Examples
     --------
     >>> from bodyvib.models import load_model
-    >>> from vehicle.quarter_car import load_car
+    >>> from bodyvib.vehicle.quarter_car import load_car
     >>> z = np.full(100, 0.01); v = np.zeros(100)
     >>> r = reference_run(load_car(), load_model("reduced-paper"), z, v, 1e-3)
     >>> r["head_acceleration"].shape
@@ -184,8 +187,7 @@ class ReferenceStream:
         z = np.asarray(road_displacement, dtype=float)
         v = np.asarray(road_velocity, dtype=float)
         if z.shape != v.shape or z.ndim != 1:
-            raise BodyvibError("road displacement and velocity must be 1-D arrays of equal "
-                               "length")
+            raise BodyvibError("road displacement and velocity must be 1-D arrays of equal length")
         if not (np.all(np.isfinite(z)) and np.all(np.isfinite(v))):
             raise BodyvibError("road input is not finite; check the road profile")
         lm, d, h = self._lm, self._disc, self._h
@@ -199,8 +201,9 @@ class ReferenceStream:
             xk = d.step(xk, u[k], du[k], h)
         self._x = xk
         y = x @ lm.C.T + u @ lm.D.T
-        return {name: y @ i if isinstance(i, np.ndarray) else y[:, i]
-                for name, i in self._rows.items()}
+        return {
+            name: y @ i if isinstance(i, np.ndarray) else y[:, i] for name, i in self._rows.items()
+        }
 
 
 def nrmse(estimate, reference) -> float:
@@ -230,7 +233,7 @@ def nrmse(estimate, reference) -> float:
     r = np.asarray(reference, dtype=float)
     if e.shape != r.shape:
         raise BodyvibError(f"cannot compare signals of shapes {e.shape} and {r.shape}")
-    den = np.sqrt(np.mean(r ** 2))
+    den = np.sqrt(np.mean(r**2))
     if den == 0:
         raise BodyvibError("reference signal is zero throughout; NRMSE undefined")
     return float(np.sqrt(np.mean((e - r) ** 2)) / den)

@@ -28,10 +28,10 @@ def format_report(study: Study, comparison: Optional[Comparison] = None) -> str:
     Parameters
     ----------
     study : Study
-        From :func:`vehicle.study.run_study`: its settings head the report, one column
+        From :func:`bodyvib.vehicle.study.run_study`: its settings head the report, one column
         per body.
     comparison : Comparison, optional
-        From :func:`vehicle.check.compare`: adds one PASS/FAIL line per criterion, the
+        From :func:`bodyvib.vehicle.check.compare`: adds one PASS/FAIL line per criterion, the
         hint :data:`PEAK_HINT` if a transmissibility-peak criterion failed, and the verdict.
 
     Returns
@@ -43,8 +43,11 @@ def format_report(study: Study, comparison: Optional[Comparison] = None) -> str:
     s = study.settings
     taper = study.road.get("taper_m")
     faded = f" faded in over {taper:g} m" if taper else ""
-    lines = [f"road {study.road['name']}{faded}, {s.speed_m_s:g} m/s, {s.duration_s:g} s, "
-             f"step {s.step_s:g} s ({s.master})", ""]
+    lines = [
+        f"road {study.road['name']}{faded}, {s.speed_m_s:g} m/s, {s.duration_s:g} s, "
+        f"step {s.step_s:g} s ({s.master})",
+        "",
+    ]
     bodies = study.bodies
     labels = list(bodies)
     w = max(24, *(len(label) for label in labels))
@@ -53,12 +56,25 @@ def format_report(study: Study, comparison: Optional[Comparison] = None) -> str:
         return f"{title:<28}" + "".join(f"{cell(bodies[b]):>{w}}" for b in labels)
 
     lines.append(f"{'head acceleration':<28}" + "".join(f"{label:>{w}}" for label in labels))
-    for key, fmt in (("weighted_rms", "{:.4f}"), ("vdv", "{:.4f}"), ("peak", "{:.4f}"),
-                     ("crest_factor", "{:.2f}"), ("mtvv", "{:.4f}")):
-        lines.append(row(_WORDS[key], lambda b: fmt.format(getattr(b.figures, key))))
+    for key, fmt in (
+        ("weighted_rms", "{:.4f}"),
+        ("vdv", "{:.4f}"),
+        ("peak", "{:.4f}"),
+        ("crest_factor", "{:.2f}"),
+        ("mtvv", "{:.4f}"),
+    ):
+        lines.append(
+            row(_WORDS[key], lambda b, fmt=fmt, key=key: fmt.format(getattr(b.figures, key)))
+        )
     lines.append(row("comfort (ISO 2631-1 C)", lambda b: b.figures.comfort))
-    lines.append(row("transmissibility peak", lambda b: "{modulus:.3f} at {frequency_hz:.2f} Hz".format(
-        **b.transmissibility.peak.to_dict())))
+    lines.append(
+        row(
+            "transmissibility peak",
+            lambda b: "{modulus:.3f} at {frequency_hz:.2f} Hz".format(
+                **b.transmissibility.peak.to_dict()
+            ),
+        )
+    )
     lines.append(row("coupling NRMSE vs reference", lambda b: _pct(b.coupling_nrmse)))
     lines.append(row("real-time factor", lambda b: f"{b.real_time_factor:.1f}"))
     seat = bodies[labels[0]].seat_figures.weighted_rms
@@ -68,24 +84,31 @@ def format_report(study: Study, comparison: Optional[Comparison] = None) -> str:
         for c in comparison.criteria:
             mark = "PASS" if c.passed else "FAIL"
             if c.unit == "Hz":
-                what = (f"{c.reduced:.2f} vs {c.iso:.2f} Hz: difference "
-                        f"{c.difference:.2f} Hz <= {c.tolerance:g} Hz?")
+                what = (
+                    f"{c.reduced:.2f} vs {c.iso:.2f} Hz: difference "
+                    f"{c.difference:.2f} Hz <= {c.tolerance:g} Hz?"
+                )
             elif c.name == "time_history_nrmse":
                 what = f"{100 * c.difference:.1f} % <= {100 * c.tolerance:g} %?"
             else:
-                what = (f"{c.reduced:.4g} vs {c.iso:.4g}: difference "
-                        f"{100 * c.difference:.1f} % <= {100 * c.tolerance:g} %?")
+                what = (
+                    f"{c.reduced:.4g} vs {c.iso:.4g}: difference "
+                    f"{100 * c.difference:.1f} % <= {100 * c.tolerance:g} %?"
+                )
             lines.append(f"  {mark}  {_WORDS[c.name]:<38} {what}")
-        if any(c.name.startswith("transmissibility_peak") and not c.passed
-               for c in comparison.criteria):
+        if any(
+            c.name.startswith("transmissibility_peak") and not c.passed for c in comparison.criteria
+        ):
             lines.append(PEAK_HINT)
         lines.append(f"verdict: {comparison.verdict}")
     return "\n".join(lines)
 
 
 #: The line under a failed transmissibility-peak criterion: where the trade-off is drawn.
-PEAK_HINT = ("  the 3-DOF chain trades Eq. 3's J for the peak: 'bodyvib fit --pareto --report DIR' "
-             "draws it (README, 'The trade-off')")
+PEAK_HINT = (
+    "  the 3-DOF chain trades Eq. 3's J for the peak: 'bodyvib fit --pareto --report DIR' "
+    "draws it (README, 'The trade-off')"
+)
 
 
 def _pct(x):
@@ -98,9 +121,9 @@ def study_json(study: Study, comparison: Optional[Comparison] = None) -> dict:
     Parameters
     ----------
     study : Study
-        From :func:`vehicle.study.run_study`; its time histories are left out.
+        From :func:`bodyvib.vehicle.study.run_study`; its time histories are left out.
     comparison : Comparison, optional
-        From :func:`vehicle.check.compare`; None for ``bodyvib cosim`` (no check keys).
+        From :func:`bodyvib.vehicle.check.compare`; None for ``bodyvib cosim`` (no check keys).
 
     Returns
     -------

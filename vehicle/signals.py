@@ -1,8 +1,8 @@
 """The signals of a run: one table of name, unit, meaning and where each comes from.
 
-A co-simulation (:func:`vehicle.cosim.cosimulate`, :class:`vehicle.cosim.Master`) and the
-monolithic reference (:func:`vehicle.reference.reference_run`,
-:class:`vehicle.reference.ReferenceStream`) give the same signals; the CSV header
+A co-simulation (:func:`bodyvib.vehicle.cosim.cosimulate`, :class:`bodyvib.vehicle.cosim.Master`) and the
+monolithic reference (:func:`bodyvib.vehicle.reference.reference_run`,
+:class:`bodyvib.vehicle.reference.ReferenceStream`) give the same signals; the CSV header
 (``name [unit]``), the study's CSV columns and the plot's axis labels read them here.
 The order of :data:`SIGNALS` is the order of a run's columns (result dicts and CSV).
 
@@ -16,14 +16,22 @@ Each signal says where it comes from:
 In the reference each car and body signal is an output of the seated system
 (:attr:`Signal.seated`, ``{seat}`` standing for the car's seat point); the seat force has
 none: it is the occupant's own output moved onto the seated system
-(:func:`vehicle.reference.seat_force_weights`).
+(:func:`bodyvib.vehicle.reference.seat_force_weights`).
 """
 
 from dataclasses import dataclass
 from typing import Dict, Literal, Optional, Tuple
 
-__all__ = ["Signal", "SIGNALS", "UNITS", "MASTER_SIGNALS", "CAR_SIGNALS", "BODY_SIGNALS",
-           "header", "axis_label"]
+__all__ = [
+    "Signal",
+    "SIGNALS",
+    "UNITS",
+    "MASTER_SIGNALS",
+    "CAR_SIGNALS",
+    "BODY_SIGNALS",
+    "header",
+    "axis_label",
+]
 
 
 @dataclass(frozen=True)
@@ -64,22 +72,53 @@ SIGNALS: Tuple[Signal, ...] = (
     Signal("time", "s", "communication point t_k = k h", "grid"),
     Signal("road_displacement", "m", "road profile under the tire", "road"),
     Signal("road_velocity", "m/s", "slope of the road profile in time", "road"),
-    Signal("seat_displacement", "m", "the car's seat point", "car",
-           "seat_displacement", "{seat}.x"),
+    Signal(
+        "seat_displacement", "m", "the car's seat point", "car", "seat_displacement", "{seat}.x"
+    ),
     Signal("seat_velocity", "m/s", "the car's seat point", "car", "seat_velocity", "{seat}.v"),
-    Signal("seat_acceleration", "m/s2", "the car's seat point, absolute", "car",
-           "sprung_acceleration", "{seat}.a"),
-    Signal("suspension_deflection", "m", "+ in extension", "car", "suspension_deflection",
-           "suspension.deflection"),
+    Signal(
+        "seat_acceleration",
+        "m/s2",
+        "the car's seat point, absolute",
+        "car",
+        "sprung_acceleration",
+        "{seat}.a",
+    ),
+    Signal(
+        "suspension_deflection",
+        "m",
+        "+ in extension",
+        "car",
+        "suspension_deflection",
+        "suspension.deflection",
+    ),
     Signal("tire_force", "N", "+ in compression", "car", "tire_force", "tire.force"),
-    Signal("seat_force", "N", "force of the occupant on the seat, + in compression", "body",
-           "seat_force"),
-    Signal("head_acceleration", "m/s2", "the occupant's head, absolute", "body",
-           "head_acceleration", "body.head.a"),
-    Signal("head_displacement", "m", "the occupant's head", "body", "head_displacement",
-           "body.head.x"),
-    Signal("torso_displacement", "m", "the occupant's torso", "body", "torso_displacement",
-           "body.torso.x"),
+    Signal(
+        "seat_force",
+        "N",
+        "force of the occupant on the seat, + in compression",
+        "body",
+        "seat_force",
+    ),
+    Signal(
+        "head_acceleration",
+        "m/s2",
+        "the occupant's head, absolute",
+        "body",
+        "head_acceleration",
+        "body.head.a",
+    ),
+    Signal(
+        "head_displacement", "m", "the occupant's head", "body", "head_displacement", "body.head.x"
+    ),
+    Signal(
+        "torso_displacement",
+        "m",
+        "the occupant's torso",
+        "body",
+        "torso_displacement",
+        "body.torso.x",
+    ),
 )
 
 #: Unit of each signal by name.
@@ -92,7 +131,7 @@ CAR_SIGNALS: Tuple[Signal, ...] = tuple(s for s in SIGNALS if s.source == "car")
 BODY_SIGNALS: Tuple[Signal, ...] = tuple(s for s in SIGNALS if s.source == "body")
 
 #: Names of the signals the master records (car, then body): the columns of
-#: :meth:`vehicle.cosim.Master.advance`.
+#: :meth:`bodyvib.vehicle.cosim.Master.advance`.
 MASTER_SIGNALS: Tuple[str, ...] = tuple(s.name for s in CAR_SIGNALS + BODY_SIGNALS)
 
 

@@ -31,16 +31,24 @@ from xml.etree import ElementTree as ET
 
 import numpy as np
 
-from bodyvib.runtime.contract import UNITS
 from bodyvib.process.outputs import atomic_write_bytes, staged_source
+from bodyvib.runtime.contract import UNITS
 
-__all__ = ["SSP_NAME", "CONNECTIONS", "COMPONENTS", "parameter_values", "ssp_parameters",
-           "ssp_reference", "system_structure", "write_ssp"]
+__all__ = [
+    "SSP_NAME",
+    "CONNECTIONS",
+    "COMPONENTS",
+    "parameter_values",
+    "ssp_parameters",
+    "ssp_reference",
+    "system_structure",
+    "write_ssp",
+]
 
 #: The package's name (``<SSP_NAME>.ssp``, the system, the parameter set).
 SSP_NAME = "QuarterCarWithOccupant"
 
-#: Component name -> FMU name of :data:`vehicle.fmus.FMUS` (the body may be any body FMU).
+#: Component name -> FMU name of :data:`bodyvib.vehicle.fmus.FMUS` (the body may be any body FMU).
 COMPONENTS = {"Road": "Road", "Car": "QuarterCar", "Body": "HumanBody3DOF"}
 
 #: (start element, start connector, end element, end connector).
@@ -97,8 +105,11 @@ def ssp_parameters(fmu_path):
         Name, start value (in that unit) and unit of each parameter, in
         model-description order.
     """
-    return [(name, float(start), unit)
-            for name, causality, unit, start in _variables(fmu_path) if causality == "parameter"]
+    return [
+        (name, float(start), unit)
+        for name, causality, unit, start in _variables(fmu_path)
+        if causality == "parameter"
+    ]
 
 
 def _units(root_parent, tag_prefix, used):
@@ -108,8 +119,9 @@ def _units(root_parent, tag_prefix, used):
         ET.SubElement(unit, _q("ssc", "BaseUnit"), {k: str(e) for k, e in UNITS[u].items()})
 
 
-def system_structure(fmus: Dict[str, str], stop_time: float = 30.0, step: float = 1e-3,
-                     connections=CONNECTIONS) -> bytes:
+def system_structure(
+    fmus: Dict[str, str], stop_time: float = 30.0, step: float = 1e-3, connections=CONNECTIONS
+) -> bytes:
     """``SystemStructure.ssd`` of the coupled system.
 
     Parameters
@@ -129,17 +141,29 @@ def system_structure(fmus: Dict[str, str], stop_time: float = 30.0, step: float 
     bytes
         UTF-8 XML.
     """
-    root = ET.Element(_q("ssd", "SystemStructureDescription"), version="1.0", name=SSP_NAME,
-                      generationTool="bodyvib (vehicle.ssp)")
-    system = ET.SubElement(root, _q("ssd", "System"), name=SSP_NAME,
-                           description="Quarter car on a road with a seated occupant, two-way "
-                           "coupled through seat motion and seat force (and their rates)")
+    root = ET.Element(
+        _q("ssd", "SystemStructureDescription"),
+        version="1.0",
+        name=SSP_NAME,
+        generationTool="bodyvib (bodyvib.vehicle.ssp)",
+    )
+    system = ET.SubElement(
+        root,
+        _q("ssd", "System"),
+        name=SSP_NAME,
+        description="Quarter car on a road with a seated occupant, two-way "
+        "coupled through seat motion and seat force (and their rates)",
+    )
     elements = ET.SubElement(system, _q("ssd", "Elements"))
     used = []
     for comp, path in fmus.items():
-        el = ET.SubElement(elements, _q("ssd", "Component"), name=comp,
-                           type="application/x-fmu-sharedlibrary",
-                           source=f"resources/{Path(path).name}")
+        el = ET.SubElement(
+            elements,
+            _q("ssd", "Component"),
+            name=comp,
+            type="application/x-fmu-sharedlibrary",
+            source=f"resources/{Path(path).name}",
+        )
         conns = ET.SubElement(el, _q("ssd", "Connectors"))
         for name, causality, unit, _ in _variables(path):
             if causality in ("input", "output"):
@@ -151,11 +175,18 @@ def system_structure(fmus: Dict[str, str], stop_time: float = 30.0, step: float 
         ET.SubElement(binds, _q("ssd", "ParameterBinding"), source=f"resources/{comp}.ssv")
     wires = ET.SubElement(system, _q("ssd", "Connections"))
     for a, ac, b, bc in connections:
-        ET.SubElement(wires, _q("ssd", "Connection"), startElement=a, startConnector=ac,
-                      endElement=b, endConnector=bc)
+        ET.SubElement(
+            wires,
+            _q("ssd", "Connection"),
+            startElement=a,
+            startConnector=ac,
+            endElement=b,
+            endConnector=bc,
+        )
     _units(root, "ssd", used)
-    experiment = ET.SubElement(root, _q("ssd", "DefaultExperiment"), startTime="0.0",
-                               stopTime=repr(float(stop_time)))
+    experiment = ET.SubElement(
+        root, _q("ssd", "DefaultExperiment"), startTime="0.0", stopTime=repr(float(stop_time))
+    )
     annotations = ET.SubElement(experiment, _q("ssd", "Annotations"))  # libcosim's step
     ann = ET.SubElement(annotations, _q("ssc", "Annotation"), type="com.opensimulationplatform")
     alg = ET.SubElement(ann, _q("osp", "Algorithm"))
@@ -191,8 +222,9 @@ def parameter_values(fmu_path) -> bytes:
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
 
 
-def write_ssp(path, fmus: Dict[str, str], stop_time: float = 30.0, step: float = 1e-3,
-              connections=CONNECTIONS) -> Path:
+def write_ssp(
+    path, fmus: Dict[str, str], stop_time: float = 30.0, step: float = 1e-3, connections=CONNECTIONS
+) -> Path:
     """Write the SSP of the coupled system.
 
     Parameters
@@ -218,8 +250,13 @@ def write_ssp(path, fmus: Dict[str, str], stop_time: float = 30.0, step: float =
     return Path(path)
 
 
-def ssp_reference(duration: float = 30.0, step: float = 1e-3, body: str = "reduced-paper",
-                  car: str = "quarter-car", road: Optional[dict] = None) -> Dict[str, np.ndarray]:
+def ssp_reference(
+    duration: float = 30.0,
+    step: float = 1e-3,
+    body: str = "reduced-paper",
+    car: str = "quarter-car",
+    road: Optional[dict] = None,
+) -> Dict[str, np.ndarray]:
     """The monolithic reference of the SSP's system on the road its ``Road.fmu`` carries.
 
     Parameters
@@ -232,12 +269,12 @@ def ssp_reference(duration: float = 30.0, step: float = 1e-3, body: str = "reduc
         Vehicle model of its ``QuarterCar.fmu``.
     road : dict, optional
         The keyword arguments its ``Road.fmu`` was built with
-        (:data:`vehicle.fmus.ROAD_DEFAULTS` by default); ``speed`` is the run's.
+        (:data:`bodyvib.vehicle.fmus.ROAD_DEFAULTS` by default); ``speed`` is the run's.
 
     Returns
     -------
     dict of str to ndarray
-        :func:`vehicle.reference.reference_run` on ``t = 0, step, ...`` with the
+        :func:`bodyvib.vehicle.reference.reference_run` on ``t = 0, step, ...`` with the
         road samples the FMU outputs (its table, evaluated as the FMU does).
     """
     from bodyvib.models import load_model

@@ -1,8 +1,8 @@
 """Co-simulation studies: one road and car, one or more body FMUs, figures and references.
 
 :func:`run_study` drives the quarter car over a road with one or more body FMUs
-(:func:`vehicle.cosim.cosimulate`), runs the monolithic reference of each
-(:func:`vehicle.reference.reference_run`) and reports, per body, the ISO 2631-1
+(:func:`bodyvib.vehicle.cosim.cosimulate`), runs the monolithic reference of each
+(:func:`bodyvib.vehicle.reference.reference_run`) and reports, per body, the ISO 2631-1
 figures of the head acceleration (:mod:`bodyvib.comfort.figures`), the coupling error
 and the seat-to-head transmissibility estimated from the run
 (:mod:`bodyvib.frequency.estimate`). The result is a :class:`Study` of :class:`BodyRun`;
@@ -23,9 +23,8 @@ from bodyvib.comfort.stream import ComfortStream
 from bodyvib.frequency.estimate import TransmissibilityEstimate, TransmissibilityStream
 from bodyvib.process import interrupts
 from bodyvib.process.limits import require_memory
-from bodyvib.runtime.errors import BodyvibError
-
 from bodyvib.process.progress import progress_bar
+from bodyvib.runtime.errors import BodyvibError
 
 from .cosim import CsvStream, Master, check_fmu, model_from_fmu, open_fmu
 from .records import Record
@@ -34,8 +33,15 @@ from .road.driven import RoadOptions, driven_road
 from .road.synthetic import road_input
 from .signals import BODY_SIGNALS, MASTER_SIGNALS
 
-__all__ = ["StudySettings", "BodyRun", "Study", "StudyCsv", "check_settings", "run_study",
-           "coupling_error_sweep"]
+__all__ = [
+    "StudySettings",
+    "BodyRun",
+    "Study",
+    "StudyCsv",
+    "check_settings",
+    "run_study",
+    "coupling_error_sweep",
+]
 
 
 @dataclass(frozen=True)
@@ -73,7 +79,7 @@ class BodyRun:
     model : str or None
         Name of the model baked into the FMU (None for a foreign FMU).
     run : dict of str to ndarray or None
-        Histories of the co-simulation (the signals of :func:`vehicle.cosim.cosimulate`),
+        Histories of the co-simulation (the signals of :func:`bodyvib.vehicle.cosim.cosimulate`),
         kept only with ``run_study(..., histories=True)``.
     reference : dict of str to ndarray or None
         Histories of the monolithic reference, kept only with ``histories=True``.
@@ -102,11 +108,15 @@ class BodyRun:
 
     def to_dict(self) -> dict:
         """The body's entry of the JSON document (figures, no histories; README "JSON output")."""
-        return {"fmu": self.fmu, "model": self.model, **self.figures.to_dict(),
-                "coupling_nrmse": self.coupling_nrmse,
-                "seat_weighted_rms": self.seat_figures.weighted_rms,
-                "transmissibility_peak": self.transmissibility.peak.to_dict(),
-                "real_time_factor": self.real_time_factor}
+        return {
+            "fmu": self.fmu,
+            "model": self.model,
+            **self.figures.to_dict(),
+            "coupling_nrmse": self.coupling_nrmse,
+            "seat_weighted_rms": self.seat_figures.weighted_rms,
+            "transmissibility_peak": self.transmissibility.peak.to_dict(),
+            "real_time_factor": self.real_time_factor,
+        }
 
 
 @dataclass
@@ -118,7 +128,7 @@ class Study:
     settings : StudySettings
         Road, speed, duration, step, seed and master, as given.
     road : dict
-        The road's description (:meth:`vehicle.road.synthetic.Road.describe`).
+        The road's description (:meth:`bodyvib.vehicle.road.synthetic.Road.describe`).
     time, road_displacement, road_velocity : ndarray or None
         Communication points (s) and the road input under the tire (m, m/s), kept only
         with ``run_study(..., histories=True)``.
@@ -168,8 +178,11 @@ class Study:
 
     def to_dict(self) -> dict:
         """The study as JSON: ``settings``, ``road`` and ``bodies`` (figures, no histories)."""
-        return {"settings": self.settings.to_dict(), "road": dict(self.road),
-                "bodies": {label: b.to_dict() for label, b in self.bodies.items()}}
+        return {
+            "settings": self.settings.to_dict(),
+            "road": dict(self.road),
+            "bodies": {label: b.to_dict() for label, b in self.bodies.items()},
+        }
 
 
 def _say(msg, quiet):
@@ -187,9 +200,16 @@ BYTES_PER_STEP = 800
 MAX_STEPS = 1e9
 
 
-def check_settings(road: str, speed: float, duration: float, step: float, seed: int = 0,
-                   bodies: int = 1, histories: bool = False,
-                   road_options: Optional[RoadOptions] = None):
+def check_settings(
+    road: str,
+    speed: float,
+    duration: float,
+    step: float,
+    seed: int = 0,
+    bodies: int = 1,
+    histories: bool = False,
+    road_options: Optional[RoadOptions] = None,
+):
     """Validate run settings before any work is done; returns the road.
 
     Parameters
@@ -200,13 +220,13 @@ def check_settings(road: str, speed: float, duration: float, step: float, seed: 
         Number of bodies the study will run (for its memory estimate).
     histories : bool
         The study keeps its histories (memory grows with the run).
-    road_options : vehicle.road.driven.RoadOptions, optional
+    road_options : bodyvib.vehicle.road.driven.RoadOptions, optional
         Taper, track, units, enveloping and repetition of the road.
 
     Returns
     -------
-    vehicle.road.synthetic.TaperedRoad
-        The road as driven (:func:`vehicle.road.driven.driven_road`).
+    bodyvib.vehicle.road.synthetic.TaperedRoad
+        The road as driven (:func:`bodyvib.vehicle.road.driven.driven_road`).
 
     Raises
     ------
@@ -215,32 +235,53 @@ def check_settings(road: str, speed: float, duration: float, step: float, seed: 
         than half the duration, an unknown road or a road file that cannot be
         driven, a negative seed, or a run (or a road) too long for the memory at hand.
     """
-    for value, what, unit in ((speed, "speed", "m/s"), (duration, "duration", "s"),
-                              (step, "step", "s")):
+    for value, what, unit in (
+        (speed, "speed", "m/s"),
+        (duration, "duration", "s"),
+        (step, "step", "s"),
+    ):
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
             raise BodyvibError(f"{what} must be a positive number of {unit}, got {value!r}")
     if step > duration / 2:
-        raise BodyvibError(f"step {step:g} s is too long for a {duration:g} s run; use a step "
-                           "of at most half the duration")
+        raise BodyvibError(
+            f"step {step:g} s is too long for a {duration:g} s run; use a step "
+            "of at most half the duration"
+        )
     steps = duration / step + 1
     if steps > MAX_STEPS:
-        raise BodyvibError(f"a {duration:g} s run at a {step:g} s step has {steps:.3g} "
-                           f"communication points; the limit is {MAX_STEPS:.3g} (about 9 hours "
-                           "of wall time per body): shorten --duration or lengthen --step")
+        raise BodyvibError(
+            f"a {duration:g} s run at a {step:g} s step has {steps:.3g} "
+            f"communication points; the limit is {MAX_STEPS:.3g} (about 9 hours "
+            "of wall time per body): shorten --duration or lengthen --step"
+        )
     if histories:
-        require_memory(steps * BYTES_PER_STEP * max(1, bodies),
-                       f"a {duration:g} s run at a {step:g} s step ({steps:.3g} steps, "
-                       f"{max(1, bodies)} body/bodies) with its histories",
-                       "shorten the run or do not keep the histories")
+        require_memory(
+            steps * BYTES_PER_STEP * max(1, bodies),
+            f"a {duration:g} s run at a {step:g} s step ({steps:.3g} steps, "
+            f"{max(1, bodies)} body/bodies) with its histories",
+            "shorten the run or do not keep the histories",
+        )
     return driven_road(road, speed, duration, seed=seed, step=step, options=road_options)
 
 
-def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: float = 20.0,
-              duration: float = 30.0, step: float = 1e-3, seed: int = 0,
-              extrapolate: bool = True, reference: bool = True, progress: bool = False,
-              quiet: bool = True, histories: bool = False, csv: "StudyCsv" = None,
-              block: int = 4096, window_s: float = 5.0,
-              road_options: Optional[RoadOptions] = None) -> Study:
+def run_study(
+    body_fmus: Dict[str, str],
+    car_fmu: str,
+    road: str = "C",
+    speed: float = 20.0,
+    duration: float = 30.0,
+    step: float = 1e-3,
+    seed: int = 0,
+    extrapolate: bool = True,
+    reference: bool = True,
+    progress: bool = False,
+    quiet: bool = True,
+    histories: bool = False,
+    csv: "StudyCsv" = None,
+    block: int = 4096,
+    window_s: float = 5.0,
+    road_options: Optional[RoadOptions] = None,
+) -> Study:
     """Co-simulate the car with each body FMU on one road; figures, references, transmissibility.
 
     Parameters
@@ -251,7 +292,7 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
         Car FMU path.
     road : str
         ISO 8608 class ``A``-``H``, ``bump``, ``sweep`` or a road file (``.crg``, ``.csv``,
-        ``.erd``), faded in from level (:func:`vehicle.road.driven.driven_road`).
+        ``.erd``), faded in from level (:func:`bodyvib.vehicle.road.driven.driven_road`).
     speed : float
         m/s.
     duration : float
@@ -261,7 +302,7 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
     seed : int
         Random-road seed.
     extrapolate : bool
-        Seat-force extrapolation in the master (see :mod:`vehicle.cosim`).
+        Seat-force extrapolation in the master (see :mod:`bodyvib.vehicle.cosim`).
     reference : bool
         Also run the monolithic reference and report the coupling error.
     progress : bool
@@ -278,7 +319,7 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
         Communication points per block.
     window_s : float
         Length of the plot window kept mid-run, s.
-    road_options : vehicle.road.driven.RoadOptions, optional
+    road_options : bodyvib.vehicle.road.driven.RoadOptions, optional
         Taper (default 5 m), track, units, enveloping and repetition of the road.
 
     Returns
@@ -292,8 +333,16 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
     BodyvibError
         Bad settings, missing or unsuitable FMUs.
     """
-    rd = check_settings(road, speed, duration, step, seed, bodies=len(body_fmus),
-                        histories=histories, road_options=road_options)
+    rd = check_settings(
+        road,
+        speed,
+        duration,
+        step,
+        seed,
+        bodies=len(body_fmus),
+        histories=histories,
+        road_options=road_options,
+    )
     n = int(round(duration / step)) + 1
     fs = 1.0 / step
     labels = list(body_fmus)
@@ -301,23 +350,28 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
     for path in body_fmus.values():
         check_fmu(path, "body")
     car_net = model_from_fmu(car_fmu) if reference else None
-    nets = {label: model_from_fmu(path) if reference else None
-            for label, path in body_fmus.items()}
-    refs = {label: ReferenceStream(car_net, net, step)
-            for label, net in nets.items() if net is not None and car_net is not None}
-    comfort = {label: ComfortStream(fs, 2) for label in labels}       # head, seat
+    nets = {label: model_from_fmu(path) if reference else None for label, path in body_fmus.items()}
+    refs = {
+        label: ReferenceStream(car_net, net, step)
+        for label, net in nets.items()
+        if net is not None and car_net is not None
+    }
+    comfort = {label: ComfortStream(fs, 2) for label in labels}  # head, seat
     trans = {label: TransmissibilityStream(fs, n) for label in labels}
-    err = {label: [0.0, 0.0] for label in refs}                        # sum (a - r)^2, sum r^2
+    err = {label: [0.0, 0.0] for label in refs}  # sum (a - r)^2, sum r^2
     pairs = {(a, b): [0.0, 0.0] for a in labels for b in labels if a != b}
-    w0 = max(0.0, (n - 1) * step / 2 - window_s / 2)                   # the plot's window
+    w0 = max(0.0, (n - 1) * step / 2 - window_s / 2)  # the plot's window
     k0 = int(math.ceil(w0 / step - 1e-9))
     k1 = min(n - 1, int(math.floor((w0 + window_s) / step + 1e-9)))  # a run shorter than it
     windows = {label: [] for label in labels}
     kept = {label: [] for label in labels} if histories else None
     kept_ref = {label: [] for label in refs} if histories else None
-    _say(f"co-simulating {', '.join(f'{b} ({os.path.basename(p)})' for b, p in body_fmus.items())}"
-         f" on {rd.name} at {speed:g} m/s, {duration:g} s, step {step:g} s"
-         + (" with the monolithic reference" if refs else ""), quiet)
+    _say(
+        f"co-simulating {', '.join(f'{b} ({os.path.basename(p)})' for b, p in body_fmus.items())}"
+        f" on {rd.name} at {speed:g} m/s, {duration:g} s, step {step:g} s"
+        + (" with the monolithic reference" if refs else ""),
+        quiet,
+    )
     bar = progress_bar(n, progress, "co-simulation")
     with contextlib.ExitStack() as stack:
         masters = {}
@@ -365,11 +419,19 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
             if bar is not None:
                 bar.close()
     out = Study(
-        settings=StudySettings(road=str(road), speed_m_s=speed, duration_s=duration,
-                               step_s=step, seed=seed, master="gauss-seidel, seat force "
-                               + ("extrapolated linearly" if extrapolate else "held")),
-        road=rd.describe(), window_time=np.arange(k0, k1 + 1) * step,
-        history_sums={k: tuple(v) for k, v in pairs.items()})
+        settings=StudySettings(
+            road=str(road),
+            speed_m_s=speed,
+            duration_s=duration,
+            step_s=step,
+            seed=seed,
+            master="gauss-seidel, seat force "
+            + ("extrapolated linearly" if extrapolate else "held"),
+        ),
+        road=rd.describe(),
+        window_time=np.arange(k0, k1 + 1) * step,
+        history_sums={k: tuple(v) for k, v in pairs.items()},
+    )
     if histories:
         out.time = np.arange(n) * step
         out.road_displacement, out.road_velocity = road_input(rd, speed, out.time)
@@ -378,14 +440,21 @@ def run_study(body_fmus: Dict[str, str], car_fmu: str, road: str = "C", speed: f
         head_fig, seat_fig = figs.case(0), figs.case(1)
         run = ref_hist = None
         if histories:
-            run = {"time": out.time, "road_displacement": out.road_displacement,
-                   "road_velocity": out.road_velocity}
+            run = {
+                "time": out.time,
+                "road_displacement": out.road_displacement,
+                "road_velocity": out.road_velocity,
+            }
             run.update({k: np.concatenate([b[k] for b in kept[label]]) for k in MASTER_SIGNALS})
             if label in refs:
-                ref_hist = {"time": out.time, "road_displacement": out.road_displacement,
-                            "road_velocity": out.road_velocity}
-                ref_hist.update({k: np.concatenate([b[k] for b in kept_ref[label]])
-                                 for k in kept_ref[label][0]})
+                ref_hist = {
+                    "time": out.time,
+                    "road_displacement": out.road_displacement,
+                    "road_velocity": out.road_velocity,
+                }
+                ref_hist.update(
+                    {k: np.concatenate([b[k] for b in kept_ref[label]]) for k in kept_ref[label][0]}
+                )
         coupling = None
         if label in err:
             if err[label][1] == 0:
@@ -413,7 +482,7 @@ class StudyCsv:
     Columns: ``time``, the road, the car's signals, and per body its head acceleration,
     head and torso displacement, seat force and the reference's head acceleration
     (prefixed ``<label>.`` when the study has several bodies); header ``name [unit]``.
-    Nothing is placed at the path before :meth:`place` (see :class:`vehicle.cosim.CsvStream`).
+    Nothing is placed at the path before :meth:`place` (see :class:`bodyvib.vehicle.cosim.CsvStream`).
 
     Parameters
     ----------
@@ -438,7 +507,7 @@ class StudyCsv:
         label : str
             One of the study's ``labels``.
         signals : dict of str to ndarray
-            The block's :data:`vehicle.signals.MASTER_SIGNALS`.
+            The block's :data:`bodyvib.vehicle.signals.MASTER_SIGNALS`.
         reference : dict of str to ndarray or None
             The reference's signals of the block.
         """
@@ -462,8 +531,11 @@ class StudyCsv:
                 elif not many or k in self._BODY:
                     cols[f"{label}.{k}" if many else k] = sig[k]
             if ref is not None:
-                cols[f"{label}.reference_head_acceleration" if many
-                     else "reference_head_acceleration"] = ref["head_acceleration"]
+                cols[
+                    f"{label}.reference_head_acceleration"
+                    if many
+                    else "reference_head_acceleration"
+                ] = ref["head_acceleration"]
         self._out.write(cols)
         self._blocks = {}
 
@@ -476,9 +548,16 @@ class StudyCsv:
         self._out.discard()
 
 
-def coupling_error_sweep(steps, body_fmu: str, car_fmu: str, road: str = "C", speed: float = 20.0,
-                         duration: float = 10.0, seed: int = 0, extrapolate: bool = True
-                         ) -> List[dict]:
+def coupling_error_sweep(
+    steps,
+    body_fmu: str,
+    car_fmu: str,
+    road: str = "C",
+    speed: float = 20.0,
+    duration: float = 10.0,
+    seed: int = 0,
+    extrapolate: bool = True,
+) -> List[dict]:
     """Head-acceleration coupling NRMSE against the monolithic reference, per step.
 
     Parameters
@@ -499,9 +578,22 @@ def coupling_error_sweep(steps, body_fmu: str, car_fmu: str, road: str = "C", sp
     """
     rows = []
     for h in steps:
-        st = run_study({"body": body_fmu}, car_fmu, road, speed, duration, float(h), seed,
-                       extrapolate=extrapolate)
+        st = run_study(
+            {"body": body_fmu},
+            car_fmu,
+            road,
+            speed,
+            duration,
+            float(h),
+            seed,
+            extrapolate=extrapolate,
+        )
         b = st.bodies["body"]
-        rows.append({"step_s": float(h), "coupling_nrmse": b.coupling_nrmse,
-                     "real_time_factor": b.real_time_factor})
+        rows.append(
+            {
+                "step_s": float(h),
+                "coupling_nrmse": b.coupling_nrmse,
+                "real_time_factor": b.real_time_factor,
+            }
+        )
     return rows

@@ -8,16 +8,54 @@ are a :class:`~bodyvib.comfort.figures.ComfortFigures`, a batch's a
 :class:`~bodyvib.comfort.stream.BatchComfortFigures` (arrays, one entry per case).
 """
 
-from .figures import (BASIC_METHOD_LIMITS, COMFORT_SCALE, MTVV_WINDOW_S, WK_PARAMETERS,
-                      ComfortFigures, basic_method_checks, check_rate, comfort_category,
-                      comfort_figures,
-                      mtvv, peak, running_rms, vdv, weighted_acceleration, weighted_rms,
-                      wk_response)
-from .stream import (BatchComfortFigures, ComfortStream, WkFilter, stream_batch_figures,
-                     stream_comfort_figures, wk_statespace)
+from .figures import (
+    BASIC_METHOD_LIMITS,
+    COMFORT_SCALE,
+    MTVV_WINDOW_S,
+    WK_PARAMETERS,
+    ComfortFigures,
+    basic_method_checks,
+    check_rate,
+    comfort_category,
+    comfort_figures,
+    mtvv,
+    peak,
+    running_rms,
+    vdv,
+    weighted_acceleration,
+    weighted_rms,
+    wk_response,
+)
+from .stream import (
+    BatchComfortFigures,
+    ComfortStream,
+    WkFilter,
+    stream_batch_figures,
+    stream_comfort_figures,
+    wk_statespace,
+)
 
-__all__ = ["WK_PARAMETERS", "COMFORT_SCALE", "wk_response", "weighted_acceleration",
-           "weighted_rms", "vdv", "peak", "MTVV_WINDOW_S", "running_rms", "mtvv",
-           "BASIC_METHOD_LIMITS", "basic_method_checks", "check_rate", "comfort_category", "ComfortFigures",
-           "comfort_figures", "wk_statespace", "WkFilter", "ComfortStream",
-           "BatchComfortFigures", "stream_comfort_figures", "stream_batch_figures"]
+__all__ = [
+    "WK_PARAMETERS",
+    "COMFORT_SCALE",
+    "wk_response",
+    "weighted_acceleration",
+    "weighted_rms",
+    "vdv",
+    "peak",
+    "MTVV_WINDOW_S",
+    "running_rms",
+    "mtvv",
+    "BASIC_METHOD_LIMITS",
+    "basic_method_checks",
+    "check_rate",
+    "comfort_category",
+    "ComfortFigures",
+    "comfort_figures",
+    "wk_statespace",
+    "WkFilter",
+    "ComfortStream",
+    "BatchComfortFigures",
+    "stream_comfort_figures",
+    "stream_batch_figures",
+]

@@ -73,9 +73,16 @@ MTVV_WINDOW_S = 1.0
 
 #: Wk parameters of ISO 2631-1:1997 Annex A, Table A.1 (Hz and dimensionless Q).
 WK_PARAMETERS: Dict[str, float] = {
-    "f1": 0.4, "f2": 100.0, "Q1": 2 ** -0.5,
-    "f3": 12.5, "f4": 12.5, "Q4": 0.63,
-    "f5": 2.37, "Q5": 0.91, "f6": 3.35, "Q6": 0.91,
+    "f1": 0.4,
+    "f2": 100.0,
+    "Q1": 2**-0.5,
+    "f3": 12.5,
+    "f4": 12.5,
+    "Q4": 0.63,
+    "f5": 2.37,
+    "Q5": 0.91,
+    "f6": 3.35,
+    "Q6": 0.91,
 }
 
 #: ISO 2631-1:1997 Annex C: likely reactions to overall weighted r.m.s. values
@@ -114,11 +121,14 @@ def wk_response(frequencies_hz) -> np.ndarray:
     p = 2j * np.pi * np.atleast_1d(np.asarray(frequencies_hz, dtype=float))
     w1, w2, w3, w4, w5, w6 = (2 * np.pi * P[k] for k in ("f1", "f2", "f3", "f4", "f5", "f6"))
     q1 = P["Q1"]
-    high = p ** 2 / (p ** 2 + w1 * p / q1 + w1 ** 2)
-    low = w2 ** 2 / (p ** 2 + w2 * p / q1 + w2 ** 2)
+    high = p**2 / (p**2 + w1 * p / q1 + w1**2)
+    low = w2**2 / (p**2 + w2 * p / q1 + w2**2)
     transition = (1 + p / w3) / (1 + p / (P["Q4"] * w4) + (p / w4) ** 2)
-    step = ((1 + p / (P["Q5"] * w5) + (p / w5) ** 2)
-            / (1 + p / (P["Q6"] * w6) + (p / w6) ** 2) * (w5 / w6) ** 2)
+    step = (
+        (1 + p / (P["Q5"] * w5) + (p / w5) ** 2)
+        / (1 + p / (P["Q6"] * w6) + (p / w6) ** 2)
+        * (w5 / w6) ** 2
+    )
     return high * low * transition * step
 
 
@@ -214,11 +224,11 @@ def weighted_acceleration(acceleration, fs: float) -> np.ndarray:
 
 # The figures of a weighted record, defined once (ISO 2631-1 clause 6).
 def _rms(aw) -> float:
-    return float(np.sqrt(np.mean(aw ** 2)))
+    return float(np.sqrt(np.mean(aw**2)))
 
 
 def _vdv(aw, fs: float) -> float:
-    return float((np.sum(aw ** 4) / fs) ** 0.25)
+    return float((np.sum(aw**4) / fs) ** 0.25)
 
 
 def _peak(aw) -> float:
@@ -244,9 +254,9 @@ class _RunningWindow:
     def __init__(self, window: int, cases: int):
         self.window = int(window)
         self.ring = np.zeros((cases, self.window))
-        self.at = 0                      # ring position of the oldest square
-        self.total = np.zeros(cases)     # sum of the ring
-        self.since = 0                   # samples since the sum was recomputed
+        self.at = 0  # ring position of the oldest square
+        self.total = np.zeros(cases)  # sum of the ring
+        self.since = 0  # samples since the sum was recomputed
 
     def update(self, squares) -> np.ndarray:
         """Window sums ``(cases, m)`` ending at each of the new ``(cases, m)`` squares."""
@@ -254,11 +264,11 @@ class _RunningWindow:
         n = self.window
         k = 0
         while k < squares.shape[1]:
-            m = min(n - self.at, squares.shape[1] - k)   # up to the ring's end
-            new = squares[:, k:k + m]
-            leaving = self.ring[:, self.at:self.at + m]
+            m = min(n - self.at, squares.shape[1] - k)  # up to the ring's end
+            new = squares[:, k : k + m]
+            leaving = self.ring[:, self.at : self.at + m]
             sums = self.total[:, None] + np.cumsum(new - leaving, axis=1)
-            out[:, k:k + m] = sums
+            out[:, k : k + m] = sums
             leaving[...] = new
             self.at = (self.at + m) % n
             self.since += m
@@ -455,9 +465,14 @@ def comfort_figures(acceleration, fs: float) -> ComfortFigures:
     """
     aw = weighted_acceleration(acceleration, fs)
     rms, pk = _rms(aw), _peak(aw)
-    return ComfortFigures(weighted_rms=rms, vdv=_vdv(aw, fs), peak=pk,
-                          crest_factor=pk / rms if rms > 0 else float("nan"),
-                          comfort=comfort_category(rms), mtvv=_mtvv(aw, fs))
+    return ComfortFigures(
+        weighted_rms=rms,
+        vdv=_vdv(aw, fs),
+        peak=pk,
+        crest_factor=pk / rms if rms > 0 else float("nan"),
+        comfort=comfort_category(rms),
+        mtvv=_mtvv(aw, fs),
+    )
 
 
 #: ISO 2631-1 clause 6.3: above these ratios the basic method (the weighted
@@ -497,8 +512,18 @@ def basic_method_checks(figures: ComfortFigures, duration_s: float) -> Dict[str,
         values = {
             "crest_factor": figures.crest_factor,
             "mtvv_ratio": figures.mtvv / rms if rms > 0 else float("nan"),
-            "vdv_ratio": (figures.vdv / (rms * float(duration_s) ** 0.25)
-                          if rms > 0 and duration_s > 0 else float("nan")),
+            "vdv_ratio": (
+                figures.vdv / (rms * float(duration_s) ** 0.25)
+                if rms > 0 and duration_s > 0
+                else float("nan")
+            ),
         }
-    return {k: {"value": float(values[k]), "limit": lim, "what": what,
-                "exceeded": bool(values[k] > lim)} for k, lim, what in BASIC_METHOD_LIMITS}
+    return {
+        k: {
+            "value": float(values[k]),
+            "limit": lim,
+            "what": what,
+            "exceeded": bool(values[k] > lim),
+        }
+        for k, lim, what in BASIC_METHOD_LIMITS
+    }

@@ -29,13 +29,25 @@ from typing import Dict, Optional, Tuple
 
 import numpy as np
 
-from .figures import (WK_PARAMETERS, ComfortFigures, _RunningWindow, _window_samples, check_rate,
-                      comfort_category)
 from ..runtime.discretize import discretize
 from ..runtime.errors import BodyvibError
+from .figures import (
+    WK_PARAMETERS,
+    ComfortFigures,
+    _RunningWindow,
+    _window_samples,
+    check_rate,
+    comfort_category,
+)
 
-__all__ = ["wk_statespace", "WkFilter", "ComfortStream", "BatchComfortFigures",
-           "stream_comfort_figures", "stream_batch_figures"]
+__all__ = [
+    "wk_statespace",
+    "WkFilter",
+    "ComfortStream",
+    "BatchComfortFigures",
+    "stream_comfort_figures",
+    "stream_batch_figures",
+]
 
 
 @dataclass(frozen=True)
@@ -92,13 +104,19 @@ class BatchComfortFigures:
         -------
         ComfortFigures
         """
-        return ComfortFigures(**{k: (self.comfort[i] if k == "comfort" else float(getattr(self, k)[i]))
-                                 for k in self._names()})
+        return ComfortFigures(
+            **{
+                k: (self.comfort[i] if k == "comfort" else float(getattr(self, k)[i]))
+                for k in self._names()
+            }
+        )
 
     def to_dict(self) -> Dict[str, list]:
         """The figures as a JSON-ready dict of lists, keys in the order of the attributes."""
-        return {k: list(self.comfort) if k == "comfort" else getattr(self, k).tolist()
-                for k in self._names()}
+        return {
+            k: list(self.comfort) if k == "comfort" else getattr(self, k).tolist()
+            for k in self._names()
+        }
 
 
 def _sections():
@@ -112,10 +130,10 @@ def _sections():
     w1, w2, w3, w4, w5, w6 = (2 * np.pi * P[k] for k in ("f1", "f2", "f3", "f4", "f5", "f6"))
     q1 = P["Q1"]
     return (
-        ((1.0, 0.0, 0.0), (w1 / q1, w1 ** 2)),                      # high pass
-        ((0.0, 0.0, w2 ** 2), (w2 / q1, w2 ** 2)),                  # low pass
-        ((0.0, w4 ** 2 / w3, w4 ** 2), (w4 / P["Q4"], w4 ** 2)),     # a-v transition
-        ((1.0, w5 / P["Q5"], w5 ** 2), (w6 / P["Q6"], w6 ** 2)),     # upward step
+        ((1.0, 0.0, 0.0), (w1 / q1, w1**2)),  # high pass
+        ((0.0, 0.0, w2**2), (w2 / q1, w2**2)),  # low pass
+        ((0.0, w4**2 / w3, w4**2), (w4 / P["Q4"], w4**2)),  # a-v transition
+        ((1.0, w5 / P["Q5"], w5**2), (w6 / P["Q6"], w6**2)),  # upward step
     )
 
 
@@ -207,8 +225,8 @@ class WkFilter:
         h = 1.0 / self.fs
         Phi, G0, G1 = discretize(A, B, h)
         self._PhiT = np.ascontiguousarray(Phi.T)
-        self._g_prev = G0[:, 0] - G1[:, 0] / h   # multiplies a_k
-        self._g_next = G1[:, 0] / h              # multiplies a_{k+1}
+        self._g_prev = G0[:, 0] - G1[:, 0] / h  # multiplies a_k
+        self._g_next = G1[:, 0] / h  # multiplies a_{k+1}
         self._c = C[0]
         self._d = float(D[0, 0])
         self._x = np.zeros((self.cases, A.shape[0]))
@@ -246,7 +264,7 @@ class WkFilter:
         first = self._last is None
         w = np.empty_like(a)
         start = 0
-        if first:               # the first sample: filter at rest
+        if first:  # the first sample: filter at rest
             w[:, 0] = self._d * a[:, 0]
             start = 1
         for s in range(start, a.shape[1], self.LIFT):
@@ -259,9 +277,9 @@ class WkFilter:
             lifted = self._buf
             lifted[:, :n] = self._x
             lifted[:, n] = prev
-            lifted[:, n + 1:] = a[:, s:s + L]
+            lifted[:, n + 1 :] = a[:, s : s + L]
             out = lifted @ self._lifted(L)
-            w[:, s:s + L] = out[:, :L]
+            w[:, s : s + L] = out[:, :L]
             self._x = out[:, L:]
         self._last = a[:, -1].copy()
         return w
@@ -280,18 +298,18 @@ class WkFilter:
         powers = [np.eye(n)]
         for _ in range(L):
             powers.append(Phi @ powers[-1])
-        P = np.array(powers)                                  # (L+1, n, n): Phi^k
-        gp, gn = P @ self._g_prev, P @ self._g_next          # (L+1, n): Phi^k g
+        P = np.array(powers)  # (L+1, n, n): Phi^k
+        gp, gn = P @ self._g_prev, P @ self._g_next  # (L+1, n): Phi^k g
         m = np.zeros((n + L + 1, L + n))
         j = np.arange(L)
         # outputs w_{k+j} = c x_{k+j} + d a_{k+j}
-        m[:n, :L] = (self._c @ P[1:]).T                       # c Phi^{j+1}, over the states
-        cgp, cgn = gp @ self._c, gn @ self._c                  # c Phi^k g
-        for col in j:                                          # e_i = a_{k+i-1}, i = 0..L
+        m[:n, :L] = (self._c @ P[1:]).T  # c Phi^{j+1}, over the states
+        cgp, cgn = gp @ self._c, gn @ self._c  # c Phi^k g
+        for col in j:  # e_i = a_{k+i-1}, i = 0..L
             i = np.arange(col + 1)
-            m[n + i, col] += cgp[col - i]                      # as the step's start sample
+            m[n + i, col] += cgp[col - i]  # as the step's start sample
             i = np.arange(1, col + 2)
-            m[n + i, col] += cgn[col - i + 1]                  # as the step's end sample
+            m[n + i, col] += cgn[col - i + 1]  # as the step's end sample
             m[n + col + 1, col] += self._d
         # state after the last sample
         m[:n, L:] = P[L].T
@@ -357,8 +375,8 @@ class ComfortStream:
         self._s4 = np.zeros(self.cases)
         self._peak = np.zeros(self.cases)
         self._window = _window_samples(self.fs)
-        self._running = _RunningWindow(self._window, self.cases)   # last second of a_w^2
-        self._ms_max = np.zeros(self.cases)                  # largest 1 s mean of a_w^2
+        self._running = _RunningWindow(self._window, self.cases)  # last second of a_w^2
+        self._ms_max = np.zeros(self.cases)  # largest 1 s mean of a_w^2
 
     def update(self, block) -> np.ndarray:
         """Weight the next samples and add them to the running figures.
@@ -412,8 +430,14 @@ class ComfortStream:
         with np.errstate(divide="ignore", invalid="ignore"):
             crest = np.where(rms > 0, peak / np.where(rms > 0, rms, 1.0), np.nan)
         words = tuple(comfort_category(v) for v in rms)
-        return BatchComfortFigures(weighted_rms=rms, vdv=vdv, peak=peak, crest_factor=crest,
-                                   comfort=words, mtvv=np.sqrt(self._ms_max))
+        return BatchComfortFigures(
+            weighted_rms=rms,
+            vdv=vdv,
+            peak=peak,
+            crest_factor=crest,
+            comfort=words,
+            mtvv=np.sqrt(self._ms_max),
+        )
 
 
 def stream_comfort_figures(acceleration, fs: float, block: int = 4096) -> ComfortFigures:
@@ -443,8 +467,10 @@ def stream_comfort_figures(acceleration, fs: float, block: int = 4096) -> Comfor
     """
     a = np.asarray(acceleration, dtype=float)
     if a.ndim != 1 or a.size < 2:
-        raise BodyvibError(f"acceleration must be one record (n,) with n >= 2 samples, got "
-                           f"shape {a.shape} (a batch (cases, n) goes to stream_batch_figures)")
+        raise BodyvibError(
+            f"acceleration must be one record (n,) with n >= 2 samples, got "
+            f"shape {a.shape} (a batch (cases, n) goes to stream_batch_figures)"
+        )
     return stream_batch_figures(a[None], fs, block).case(0)
 
 
@@ -481,5 +507,5 @@ def stream_batch_figures(acceleration, fs: float, block: int = 4096) -> BatchCom
         raise BodyvibError("acceleration must be (cases, n) with n >= 2 samples")
     s = ComfortStream(fs, a.shape[0])
     for k in range(0, a.shape[1], max(1, int(block))):
-        s.update(a[:, k:k + block])
+        s.update(a[:, k : k + block])
     return s.figures()

@@ -14,15 +14,27 @@ CMA-ES and pymoo, which a plain ``import bodyvib`` should not pay for).
 import importlib
 
 _HOME = {
-    "load_config": "config", "parse_pairs": "config", "FitConfig": "config",
-    "FitTarget": "objective", "model_target": "objective", "measured_target": "objective",
-    "objective_time_domain": "objective", "objective_frequency_domain": "objective",
-    "GENES": "space", "genes_to_parameters": "space", "parameters_to_genes": "space",
-    "METHODS": "methods", "SearchResult": "methods",
-    "fit": "search", "polish": "search",
-    "FitResult": "result", "write_parameter_file": "result",
-    "compare_fit": "report", "write_report": "report",
-    "ParetoFront": "pareto", "pareto_front": "pareto",
+    "load_config": "config",
+    "parse_pairs": "config",
+    "FitConfig": "config",
+    "FitTarget": "objective",
+    "model_target": "objective",
+    "measured_target": "objective",
+    "objective_time_domain": "objective",
+    "objective_frequency_domain": "objective",
+    "GENES": "space",
+    "genes_to_parameters": "space",
+    "parameters_to_genes": "space",
+    "METHODS": "methods",
+    "SearchResult": "methods",
+    "fit": "search",
+    "polish": "search",
+    "FitResult": "result",
+    "write_parameter_file": "result",
+    "compare_fit": "report",
+    "write_report": "report",
+    "ParetoFront": "pareto",
+    "pareto_front": "pareto",
 }
 
 __all__ = sorted(_HOME)

@@ -17,11 +17,11 @@ from typing import Dict, Mapping, Optional, Tuple
 
 import numpy as np
 
-from .methods import COORDINATES, METHODS
-from .space import GENES, PAIR_ROLES
 from ..models import MODEL_DIR
 from ..runtime.errors import BodyvibError
 from ..runtime.jsonfile import read_json
+from .methods import COORDINATES, METHODS
+from .space import GENES, PAIR_ROLES
 
 __all__ = [
     "DEFAULT_CONFIG_PATH",
@@ -47,9 +47,20 @@ DEFAULT_CONFIG_PATH = os.path.join(MODEL_DIR, "fit", "default-config.json")
 POLISH_METHODS = ("L-BFGS-B", "TNC", "SLSQP", "Powell", "Nelder-Mead", "trust-constr")
 
 #: Strategies of ``scipy.optimize.differential_evolution`` (``de.strategy``).
-DE_STRATEGIES = ("best1bin", "best1exp", "rand1bin", "rand1exp", "rand2bin", "rand2exp",
-                 "randtobest1bin", "randtobest1exp", "currenttobest1bin", "currenttobest1exp",
-                 "best2bin", "best2exp")
+DE_STRATEGIES = (
+    "best1bin",
+    "best1exp",
+    "rand1bin",
+    "rand1exp",
+    "rand2bin",
+    "rand2exp",
+    "randtobest1bin",
+    "randtobest1exp",
+    "currenttobest1bin",
+    "currenttobest1exp",
+    "best2bin",
+    "best2exp",
+)
 
 
 class _Section:
@@ -57,8 +68,10 @@ class _Section:
 
     def to_dict(self) -> dict:
         """The section as in the JSON file."""
-        return {f.name: (list(v) if isinstance(v := getattr(self, f.name), tuple) else v)
-                for f in fields(self)}
+        return {
+            f.name: (list(v) if isinstance(v := getattr(self, f.name), tuple) else v)
+            for f in fields(self)
+        }
 
 
 @dataclass(frozen=True)
@@ -149,9 +162,15 @@ class Restarts(_Section):
     measured: int
 
 
-_SECTIONS = {"ga": GaSettings, "cmaes": CmaesSettings, "de": DeSettings,
-             "pareto": ParetoSettings, "polish": PolishSettings,
-             "quadrature": QuadratureSettings, "time_domain": TimeDomainSettings}
+_SECTIONS = {
+    "ga": GaSettings,
+    "cmaes": CmaesSettings,
+    "de": DeSettings,
+    "pareto": ParetoSettings,
+    "polish": PolishSettings,
+    "quadrature": QuadratureSettings,
+    "time_domain": TimeDomainSettings,
+}
 
 
 @dataclass(frozen=True)
@@ -196,7 +215,9 @@ class FitConfig:
             Not a search method.
         """
         if method not in METHODS:
-            raise BodyvibError(f"unknown search method '{method}'; methods are {', '.join(METHODS)}")
+            raise BodyvibError(
+                f"unknown search method '{method}'; methods are {', '.join(METHODS)}"
+            )
         return getattr(self, method)
 
     def to_dict(self) -> dict:
@@ -290,37 +311,53 @@ def load_config(path=None, overrides: Optional[dict] = None) -> FitConfig:
     bounds = cfg["bounds_per_kg_total_mass"]
     for g in GENES:
         b = bounds.get(g)
-        ok = (isinstance(b, list) and len(b) == 2
-              and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in b)
-              and all(math.isfinite(v) for v in b) and 0 < b[0] < b[1])
+        ok = (
+            isinstance(b, list)
+            and len(b) == 2
+            and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in b)
+            and all(math.isfinite(v) for v in b)
+            and 0 < b[0] < b[1]
+        )
         if not ok:
-            raise BodyvibError(f"{where}: bounds_per_kg_total_mass.{g} must be [low, high] with "
-                               f"0 < low < high, got {b!r}")
+            raise BodyvibError(
+                f"{where}: bounds_per_kg_total_mass.{g} must be [low, high] with "
+                f"0 < low < high, got {b!r}"
+            )
     if bounds["m1"][1] >= 1:
-        raise BodyvibError(f"{where}: bounds_per_kg_total_mass.m1 is the head's fraction of the "
-                           "total mass and must stay below 1")
+        raise BodyvibError(
+            f"{where}: bounds_per_kg_total_mass.m1 is the head's fraction of the "
+            "total mass and must stay below 1"
+        )
 
     def positive(section, key, integer=False):
         v = cfg[section][key]
         kind = int if integer else (int, float)
         if isinstance(v, bool) or not isinstance(v, kind) or not (math.isfinite(v) and v > 0):
-            raise BodyvibError(f"{where}: {section}.{key} must be a positive "
-                               f"{'integer' if integer else 'number'}, got {v!r}")
+            raise BodyvibError(
+                f"{where}: {section}.{key} must be a positive "
+                f"{'integer' if integer else 'number'}, got {v!r}"
+            )
 
     def one_of(name, value, choices, note=""):
         if value not in choices:
-            raise BodyvibError(f"{where}: {name} must be one of {', '.join(choices)}{note}, "
-                               f"got {value!r}")
+            raise BodyvibError(
+                f"{where}: {name} must be one of {', '.join(choices)}{note}, got {value!r}"
+            )
 
     one_of("method", cfg["method"], METHODS)
     r = cfg["restarts"]
     if isinstance(r, int) and not isinstance(r, bool):
         r = cfg["restarts"] = {"model": r, "measured": r}
-    if not (isinstance(r, dict) and set(r) == {"model", "measured"} and all(
-            isinstance(v, int) and not isinstance(v, bool) and v >= 1 for v in r.values())):
-        raise BodyvibError(f"{where}: restarts must be a positive integer or "
-                           '{"model": N, "measured": N} (reference model / measured data), '
-                           f"got {cfg['restarts']!r}")
+    if not (
+        isinstance(r, dict)
+        and set(r) == {"model", "measured"}
+        and all(isinstance(v, int) and not isinstance(v, bool) and v >= 1 for v in r.values())
+    ):
+        raise BodyvibError(
+            f"{where}: restarts must be a positive integer or "
+            '{"model": N, "measured": N} (reference model / measured data), '
+            f"got {cfg['restarts']!r}"
+        )
     for k in ("population", "generations", "tournament_size", "elitism", "stall_generations"):
         positive("ga", k, integer=True)
     if cfg["ga"]["elitism"] >= cfg["ga"]["population"]:
@@ -333,18 +370,24 @@ def load_config(path=None, overrides: Optional[dict] = None) -> FitConfig:
     positive("cmaes", "ftol")
     p = cfg["cmaes"]["population"]
     if isinstance(p, bool) or not isinstance(p, int) or p < 0:
-        raise BodyvibError(f"{where}: cmaes.population must be a non-negative integer (0: "
-                           f"CMA-ES's default), got {p!r}")
+        raise BodyvibError(
+            f"{where}: cmaes.population must be a non-negative integer (0: "
+            f"CMA-ES's default), got {p!r}"
+        )
     for k in ("population_per_gene", "generations"):
         positive("de", k, integer=True)
     positive("de", "tol")
     positive("de", "recombination")
     mut = cfg["de"]["mutation"]
-    if not (isinstance(mut, list) and len(mut) == 2 and all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) for v in mut)
-            and 0 <= mut[0] <= mut[1] < 2):
-        raise BodyvibError(f"{where}: de.mutation must be [low, high] with 0 <= low <= high < 2, "
-                           f"got {mut!r}")
+    if not (
+        isinstance(mut, list)
+        and len(mut) == 2
+        and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in mut)
+        and 0 <= mut[0] <= mut[1] < 2
+    ):
+        raise BodyvibError(
+            f"{where}: de.mutation must be [low, high] with 0 <= low <= high < 2, got {mut!r}"
+        )
     one_of("de.strategy", cfg["de"]["strategy"], DE_STRATEGIES)
     for k in ("population", "generations"):
         positive("pareto", k, integer=True)
@@ -355,8 +398,9 @@ def load_config(path=None, overrides: Optional[dict] = None) -> FitConfig:
     pol = cfg["polish"]
     if not isinstance(pol["enabled"], bool):
         raise BodyvibError(f"{where}: polish.enabled must be true or false")
-    one_of("polish.method", pol["method"], POLISH_METHODS,
-           " (bounded scipy.optimize.minimize methods)")
+    one_of(
+        "polish.method", pol["method"], POLISH_METHODS, " (bounded scipy.optimize.minimize methods)"
+    )
     positive("polish", "max_iterations", integer=True)
     for k in ("f_first_panel_hz", "f_split_hz"):
         positive("quadrature", k)
@@ -370,10 +414,15 @@ def load_config(path=None, overrides: Optional[dict] = None) -> FitConfig:
     return FitConfig(
         pairs=cfg["pairs"],
         bounds_per_kg_total_mass={g: tuple(b) for g, b in bounds.items()},
-        method=cfg["method"], restarts=Restarts(**cfg["restarts"]),
-        **{name: section(**{k: (tuple(v) if isinstance(v, list) else v)
-                            for k, v in cfg[name].items()})
-           for name, section in _SECTIONS.items()})
+        method=cfg["method"],
+        restarts=Restarts(**cfg["restarts"]),
+        **{
+            name: section(
+                **{k: (tuple(v) if isinstance(v, list) else v) for k, v in cfg[name].items()}
+            )
+            for name, section in _SECTIONS.items()
+        },
+    )
 
 
 def log_bounds(cfg: FitConfig):
@@ -445,8 +494,10 @@ def check_pairs(items) -> Dict[str, float]:
     out: Dict[str, float] = {}
     for role, w in items:
         if role not in PAIR_ROLES:
-            raise BodyvibError(f"pairs: unknown role '{role}'; roles are "
-                               f"{', '.join(PAIR_ROLES)} (e.g. head=1,torso=0.5)")
+            raise BodyvibError(
+                f"pairs: unknown role '{role}'; roles are "
+                f"{', '.join(PAIR_ROLES)} (e.g. head=1,torso=0.5)"
+            )
         if role in out:
             raise BodyvibError(f"pairs: role '{role}' given twice")
         try:

@@ -44,8 +44,17 @@ import numpy as np
 
 from ..runtime.errors import BodyvibError
 
-__all__ = ["METHODS", "COORDINATES", "SearchSpace", "SearchResult", "search", "describe",
-           "ga_search", "cmaes_search", "de_search"]
+__all__ = [
+    "METHODS",
+    "COORDINATES",
+    "SearchSpace",
+    "SearchResult",
+    "search",
+    "describe",
+    "ga_search",
+    "cmaes_search",
+    "de_search",
+]
 
 #: Search methods of ``bodyvib fit --method``, the default first.
 METHODS = ("ga", "cmaes", "de")
@@ -152,9 +161,14 @@ class _Counted:
         return J
 
     def result(self, generations, history, stopped):
-        return SearchResult(genes=self.best_genes, objective=self.best_J,
-                            evaluations=self.evaluations, generations=generations,
-                            history=history, stopped=stopped)
+        return SearchResult(
+            genes=self.best_genes,
+            objective=self.best_J,
+            evaluations=self.evaluations,
+            generations=generations,
+            history=history,
+            stopped=stopped,
+        )
 
 
 def _stalled(history, ftol, stall):
@@ -171,15 +185,23 @@ def _end_generation(best: float, history: list, on_generation, settings=None) ->
     history.append(best)
     if on_generation is not None:
         on_generation(best)
-    if settings is not None and _stalled(history, float(settings.ftol),
-                                         int(settings.stall_generations)):
-        return (f"best improved by less than {settings.ftol:g} (relative) in "
-                f"{settings.stall_generations} generations")
+    if settings is not None and _stalled(
+        history, float(settings.ftol), int(settings.stall_generations)
+    ):
+        return (
+            f"best improved by less than {settings.ftol:g} (relative) in "
+            f"{settings.stall_generations} generations"
+        )
     return None
 
 
-def ga_search(objective: Callable, space: SearchSpace, settings, seed: int,
-              on_generation: Optional[Callable[[float], None]] = None) -> SearchResult:
+def ga_search(
+    objective: Callable,
+    space: SearchSpace,
+    settings,
+    seed: int,
+    on_generation: Optional[Callable[[float], None]] = None,
+) -> SearchResult:
     """Minimize ``objective`` by the real-coded genetic algorithm (DEAP's operators).
 
     Each generation: ``population`` parents are drawn by tournaments of
@@ -240,7 +262,7 @@ def ga_search(objective: Callable, space: SearchSpace, settings, seed: int,
         X = space.zlo + rng.random((n, 6)) * (space.zhi - space.zlo)
         pop = _individuals(X, f(X))
         history, stopped, gen = [], f"{settings.generations} generations", 0
-        for gen in range(1, int(settings.generations) + 1):
+        for gen in range(1, int(settings.generations) + 1):  # noqa: B007 (read after the loop)
             C = breed(pop)
             pop = tools.selBest(pop, elite) + tools.selBest(_individuals(C, f(C)), n - elite)
             stall = _end_generation(f.best_J, history, on_generation, settings)
@@ -254,7 +276,7 @@ def ga_search(objective: Callable, space: SearchSpace, settings, seed: int,
 
 # Not a cache of results: a class made once per process (the functools idiom), on first
 # use so that importing this module does not import DEAP.
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _individual_type():
     """DEAP's individual: a list of coordinates with a minimized ``fitness`` (made once)."""
     from deap import base
@@ -277,8 +299,13 @@ def _individuals(X, J):
     return [Individual(x, float(j)) for x, j in zip(X, J)]
 
 
-def cmaes_search(objective: Callable, space: SearchSpace, settings, seed: int,
-                 on_generation: Optional[Callable[[float], None]] = None) -> SearchResult:
+def cmaes_search(
+    objective: Callable,
+    space: SearchSpace,
+    settings,
+    seed: int,
+    on_generation: Optional[Callable[[float], None]] = None,
+) -> SearchResult:
     """Minimize ``objective`` by CMA-ES (``cma.CMAEvolutionStrategy``), a comparator.
 
     It searches the box scaled to ``[0, 1]^6`` (``cma``'s bound handling),
@@ -306,9 +333,15 @@ def cmaes_search(objective: Callable, space: SearchSpace, settings, seed: int,
     span = space.zhi - space.zlo
     rng = np.random.default_rng(seed)
     x0 = 0.5 + 0.1 * (rng.random(6) - 0.5)
-    opts = {"bounds": [0.0, 1.0], "seed": int(seed) + 1, "verbose": -9,
-            "maxfevals": int(settings.max_evaluations), "tolfun": 0.0, "tolx": 1e-14,
-            "tolflatfitness": 10}
+    opts = {
+        "bounds": [0.0, 1.0],
+        "seed": int(seed) + 1,
+        "verbose": -9,
+        "maxfevals": int(settings.max_evaluations),
+        "tolfun": 0.0,
+        "tolx": 1e-14,
+        "tolflatfitness": 10,
+    }
     if int(settings.population) > 0:
         opts["popsize"] = int(settings.population)
     es = cma.CMAEvolutionStrategy(x0, float(settings.sigma0), opts)
@@ -323,8 +356,13 @@ def cmaes_search(objective: Callable, space: SearchSpace, settings, seed: int,
     return f.result(gen, history, stopped or "cma: " + ", ".join(es.stop()))
 
 
-def de_search(objective: Callable, space: SearchSpace, settings, seed: int,
-              on_generation: Optional[Callable[[float], None]] = None) -> SearchResult:
+def de_search(
+    objective: Callable,
+    space: SearchSpace,
+    settings,
+    seed: int,
+    on_generation: Optional[Callable[[float], None]] = None,
+) -> SearchResult:
     """Minimize ``objective`` by differential evolution (scipy), a comparator.
 
     ``scipy.optimize.differential_evolution`` with ``vectorized=True`` (the
@@ -352,19 +390,35 @@ def de_search(objective: Callable, space: SearchSpace, settings, seed: int,
         _end_generation(f.best_J, history, on_generation)
 
     res = differential_evolution(
-        lambda zt: f(zt.T), list(zip(space.zlo, space.zhi)), vectorized=True,
-        updating="deferred", seed=int(seed), polish=False, tol=float(settings.tol),
-        popsize=int(settings.population_per_gene), maxiter=int(settings.generations),
-        strategy=settings.strategy, mutation=tuple(settings.mutation),
-        recombination=float(settings.recombination), callback=callback)
+        lambda zt: f(zt.T),
+        list(zip(space.zlo, space.zhi)),
+        vectorized=True,
+        updating="deferred",
+        seed=int(seed),
+        polish=False,
+        tol=float(settings.tol),
+        popsize=int(settings.population_per_gene),
+        maxiter=int(settings.generations),
+        strategy=settings.strategy,
+        mutation=tuple(settings.mutation),
+        recombination=float(settings.recombination),
+        callback=callback,
+    )
     return f.result(int(res.nit), history, f"scipy: {res.message}")
 
 
 _SEARCH = {"ga": ga_search, "cmaes": cmaes_search, "de": de_search}
 
 
-def search(method: str, objective: Callable, lo, hi, settings, seed: int,
-           on_generation: Optional[Callable[[float], None]] = None) -> SearchResult:
+def search(
+    method: str,
+    objective: Callable,
+    lo,
+    hi,
+    settings,
+    seed: int,
+    on_generation: Optional[Callable[[float], None]] = None,
+) -> SearchResult:
     """Minimize ``objective`` over the genes' box by one of :data:`METHODS`.
 
     Parameters
@@ -423,12 +477,16 @@ def describe(method: str) -> str:
     from importlib.metadata import version
 
     if method == "ga":
-        return (f"deap {version('deap')} (tools.selTournament, tools.cxSimulatedBinaryBounded, "
-                "tools.selBest) with bodyvib.fit.methods' Gaussian mutation scaled by the "
-                "population's spread: a real-coded generational GA with elitism")
+        return (
+            f"deap {version('deap')} (tools.selTournament, tools.cxSimulatedBinaryBounded, "
+            "tools.selBest) with bodyvib.fit.methods' Gaussian mutation scaled by the "
+            "population's spread: a real-coded generational GA with elitism"
+        )
     if method == "cmaes":
         return f"cma {version('cma')} (cma.CMAEvolutionStrategy, ask/tell, bounds [0, 1]^6)"
     if method == "de":
-        return (f"scipy {version('scipy')} (scipy.optimize.differential_evolution, vectorized, "
-                "deferred updating, no polish of its own)")
+        return (
+            f"scipy {version('scipy')} (scipy.optimize.differential_evolution, vectorized, "
+            "deferred updating, no polish of its own)"
+        )
     raise BodyvibError(f"unknown search method '{method}'; methods are {', '.join(METHODS)}")

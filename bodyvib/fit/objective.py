@@ -55,11 +55,11 @@ from typing import Dict, Mapping, Optional
 import numpy as np
 
 from ..analytic import head_transmissibility, torso_transmissibility
-from .config import FitConfig, load_config
-from .space import REDUCED_PARAMETERS
 from ..models import load_model
 from ..runtime.errors import BodyvibError
 from ..runtime.network import Network
+from .config import FitConfig, load_config
+from .space import REDUCED_PARAMETERS
 
 __all__ = [
     "DEFAULT_MEASURED_TOTAL_MASS",
@@ -83,8 +83,9 @@ _REDUCED_TF = {"head": head_transmissibility, "torso": torso_transmissibility}
 DEFAULT_MEASURED_TOTAL_MASS = 75.0
 
 
-def quadrature_grid(f_first_panel_hz=0.05, f_split_hz=50.0, panels=30, nodes_per_panel=6,
-                    tail_nodes=16, **_ignored):
+def quadrature_grid(
+    f_first_panel_hz=0.05, f_split_hz=50.0, panels=30, nodes_per_panel=6, tail_nodes=16, **_ignored
+):
     """Nodes and weights for ``int_0^inf g(f) df`` of a smooth, decaying ``g``.
 
     Gauss-Legendre panels on ``[0, f_first]`` and on ``panels - 1``
@@ -124,7 +125,7 @@ def quadrature_grid(f_first_panel_hz=0.05, f_split_hz=50.0, panels=30, nodes_per
     xt, wt = np.polynomial.legendre.leggauss(int(tail_nodes))
     u, wu = (xt + 1) / 2, wt / 2
     f = np.concatenate([f, f_split_hz / u[::-1]])
-    w = np.concatenate([w, (wu * f_split_hz / u ** 2)[::-1]])
+    w = np.concatenate([w, (wu * f_split_hz / u**2)[::-1]])
     return f, w
 
 
@@ -137,8 +138,10 @@ def _displacement_statespace(model, point: str):
     A, B, C, D = displacement_input_matrices(lm)
     i = lm.output_index(f"{point}.x")
     if float(D[i, 0]) != 0.0:
-        raise BodyvibError(f"{point} position of '{lm.network.name}' moves with the seat "
-                           "instantly; its impulse response is not square integrable")
+        raise BodyvibError(
+            f"{point} position of '{lm.network.name}' moves with the seat "
+            "instantly; its impulse response is not square integrable"
+        )
     return A, B[:, 0], C[i]
 
 
@@ -169,8 +172,9 @@ def default_horizon(*models, time_constants: float = 40.0) -> float:
 
     sigma = min(float(np.min(-np.linalg.eigvals(as_linear_model(m).A).real)) for m in models)
     if sigma <= 0:
-        raise BodyvibError("a model is not asymptotically stable; its impulse response "
-                           "does not decay")
+        raise BodyvibError(
+            "a model is not asymptotically stable; its impulse response does not decay"
+        )
     return time_constants / sigma
 
 
@@ -255,9 +259,14 @@ def _impulse_blocks(model, n: int, dt: float, point: str, block: int = 512):
         V = phi_block @ V
 
 
-def objective_time_domain(reference, reduced, pairs: Optional[Mapping[str, float]] = None,
-                          dt: Optional[float] = None, t_end: Optional[float] = None,
-                          config: Optional[FitConfig] = None) -> float:
+def objective_time_domain(
+    reference,
+    reduced,
+    pairs: Optional[Mapping[str, float]] = None,
+    dt: Optional[float] = None,
+    t_end: Optional[float] = None,
+    config: Optional[FitConfig] = None,
+) -> float:
     """The paper's Eq. 3 by its definition: integrated squared impulse-response difference.
 
     ``J = sum_p w_p int_0^T (h_ref,p - h_red,p)^2 dt``, trapezoid rule on exact
@@ -301,8 +310,9 @@ def objective_time_domain(reference, reduced, pairs: Optional[Mapping[str, float
     pairs = dict(pairs or cfg.pairs)
     dt = float(dt or cfg.time_domain.dt_s)
     if t_end is None:
-        t_end = default_horizon(reference, reduced,
-                                time_constants=cfg.time_domain.decay_time_constants)
+        t_end = default_horizon(
+            reference, reduced, time_constants=cfg.time_domain.decay_time_constants
+        )
     n = _samples(t_end, dt)
     total = 0.0
     for role, wgt in pairs.items():
@@ -323,8 +333,10 @@ def parameter_array(net: Network) -> np.ndarray:
     """The reduced model's parameters as an array in :data:`REDUCED_PARAMETERS` order."""
     missing = [k for k in REDUCED_PARAMETERS if k not in net.parameters]
     if missing:
-        raise BodyvibError(f"model '{net.name}' is not the reduced 3-DOF model: it lacks "
-                           f"parameter(s) {', '.join(missing)}")
+        raise BodyvibError(
+            f"model '{net.name}' is not the reduced 3-DOF model: it lacks "
+            f"parameter(s) {', '.join(missing)}"
+        )
     return np.array([net.parameters[k] for k in REDUCED_PARAMETERS], dtype=float)
 
 
@@ -397,7 +409,7 @@ class FitTarget:
             H = _REDUCED_TF[role](self._s, *cols)
             ref = self.responses[role]
             d = (np.abs(H) - ref) if self.modulus_only else (H - ref)
-            d2 = d.real ** 2 + d.imag ** 2
+            d2 = d.real**2 + d.imag**2
             total = total + wgt * 2.0 * (d2 @ self.weights)
         total = np.asarray(total, dtype=float)
         return np.where(np.isfinite(total), total, np.inf)
@@ -410,12 +422,13 @@ class FitTarget:
         total = 0.0
         for role, wgt in self.pairs.items():
             r = np.abs(self.responses[role])
-            total += wgt * 2.0 * float((r ** 2) @ self.weights)
+            total += wgt * 2.0 * float((r**2) @ self.weights)
         return total
 
 
-def model_target(reference, pairs: Optional[Mapping[str, float]] = None,
-                 config: Optional[FitConfig] = None) -> FitTarget:
+def model_target(
+    reference, pairs: Optional[Mapping[str, float]] = None, config: Optional[FitConfig] = None
+) -> FitTarget:
     """Target: a reference model's position impulse responses (by Parseval, its FRFs).
 
     Parameters
@@ -456,8 +469,14 @@ def model_target(reference, pairs: Optional[Mapping[str, float]] = None,
     responses = {role: transmissibility(net, f, role) for role in pairs}
     name = net.name
     return FitTarget(
-        name=name, kind="model", frequency_hz=f, weights=w, responses=responses, pairs=pairs,
-        total_mass=net.total_mass(), reference=net,
+        name=name,
+        kind="model",
+        frequency_hz=f,
+        weights=w,
+        responses=responses,
+        pairs=pairs,
+        total_mass=net.total_mass(),
+        reference=net,
         description=f"impulse responses of {', '.join(pairs)} position of model '{name}'",
     )
 
@@ -503,15 +522,26 @@ def measured_target(data, total_mass: Optional[float] = None) -> FitTarget:
     stem = os.path.splitext(os.path.basename(m.source))[0] or "measured"
     what = "complex transmissibility" if m.has_phase else "transmissibility modulus (no phase)"
     return FitTarget(
-        name=stem, kind="measured", frequency_hz=f, weights=w, responses={"head": resp},
-        pairs={"head": 1.0}, total_mass=M, modulus_only=not m.has_phase, measured=m,
+        name=stem,
+        kind="measured",
+        frequency_hz=f,
+        weights=w,
+        responses={"head": resp},
+        pairs={"head": 1.0},
+        total_mass=M,
+        modulus_only=not m.has_phase,
+        measured=m,
         description=f"measured seat-to-head {what} from '{m.source}', "
-                    f"{f[0]:g}-{f[-1]:g} Hz, {f.size} points",
+        f"{f[0]:g}-{f[-1]:g} Hz, {f.size} points",
     )
 
 
-def objective_frequency_domain(reference, reduced, pairs: Optional[Mapping[str, float]] = None,
-                               config: Optional[FitConfig] = None) -> float:
+def objective_frequency_domain(
+    reference,
+    reduced,
+    pairs: Optional[Mapping[str, float]] = None,
+    config: Optional[FitConfig] = None,
+) -> float:
     """The paper's Eq. 3 by Parseval, for one reduced model (see :class:`FitTarget`).
 
     Parameters

@@ -40,12 +40,12 @@ import numpy as np
 
 from .. import __version__
 from ..analytic import head_transmissibility
+from ..models import save_model
+from ..process.outputs import atomic_write_text
+from ..runtime.errors import BodyvibError
 from .config import log_bounds
 from .methods import SearchSpace
 from .space import REDUCED_PARAMETERS, genes_to_parameters, parameters_to_genes, reduced_network
-from ..models import save_model
-from ..runtime.errors import BodyvibError
-from ..process.outputs import atomic_write_text
 
 __all__ = [
     "PEAK_BAND_HZ",
@@ -135,8 +135,10 @@ def peak_error(peak, ref_peak) -> np.ndarray:
         Dimensionless; at most 1 where both of the check's peak criteria pass.
     """
     peak, ref_peak = np.asarray(peak), np.asarray(ref_peak)
-    return np.maximum(np.abs(peak[..., 0] - ref_peak[0]) / (MODULUS_TOLERANCE * ref_peak[0]),
-                      np.abs(peak[..., 1] - ref_peak[1]) / FREQUENCY_TOLERANCE_HZ)
+    return np.maximum(
+        np.abs(peak[..., 0] - ref_peak[0]) / (MODULUS_TOLERANCE * ref_peak[0]),
+        np.abs(peak[..., 1] - ref_peak[1]) / FREQUENCY_TOLERANCE_HZ,
+    )
 
 
 @dataclass
@@ -175,8 +177,7 @@ class ParetoFront:
     history: List[float] = field(default_factory=list)
 
 
-def pareto_front(target, config, seed: int = 1, start=None,
-                 progress: bool = False) -> ParetoFront:
+def pareto_front(target, config, seed: int = 1, start=None, progress: bool = False) -> ParetoFront:
     """NSGA-II on (``J``, peak error) for a reference-model target.
 
     Parameters
@@ -213,8 +214,10 @@ def pareto_front(target, config, seed: int = 1, start=None,
     from tqdm import tqdm
 
     if target.reference is None:
-        raise BodyvibError("--pareto needs a reference model (the peak error is against its "
-                           "transmissibility); measured data are not supported")
+        raise BodyvibError(
+            "--pareto needs a reference model (the peak error is against its "
+            "transmissibility); measured data are not supported"
+        )
     s = config.pareto
     lo, hi = log_bounds(config)
     space = SearchSpace(lo, hi, aligned=True)
@@ -241,25 +244,50 @@ def pareto_front(target, config, seed: int = 1, start=None,
     X0 = space.zlo + rng.random((n, 6)) * (space.zhi - space.zlo)
     if start is not None:
         X0[0] = space.coordinates(parameters_to_genes(np.asarray(start, dtype=float)))
-    bar = tqdm(total=int(s.generations), desc="bodyvib fit --pareto (NSGA-II)", unit="gen",
-               file=sys.stderr, disable=None if progress else True, leave=False)
-    algorithm = NSGA2(pop_size=n, sampling=X0,
-                      crossover=SBX(prob=0.9, eta=float(s.crossover_eta)),
-                      mutation=PM(eta=float(s.mutation_eta)), eliminate_duplicates=True)
+    bar = tqdm(
+        total=int(s.generations),
+        desc="bodyvib fit --pareto (NSGA-II)",
+        unit="gen",
+        file=sys.stderr,
+        disable=None if progress else True,
+        leave=False,
+    )
+    algorithm = NSGA2(
+        pop_size=n,
+        sampling=X0,
+        crossover=SBX(prob=0.9, eta=float(s.crossover_eta)),
+        mutation=PM(eta=float(s.mutation_eta)),
+        eliminate_duplicates=True,
+    )
     t0 = time.perf_counter()
     try:
         with threadpool_limits(1, user_api="blas"):
-            res = minimize(Trade(), algorithm, ("n_gen", int(s.generations)), seed=int(seed),
-                           verbose=False, callback=lambda _a: bar.update(1))
+            res = minimize(
+                Trade(),
+                algorithm,
+                ("n_gen", int(s.generations)),
+                seed=int(seed),
+                verbose=False,
+                callback=lambda _a: bar.update(1),
+            )
     finally:
         bar.close()
     elapsed = time.perf_counter() - t0
     F, Z = np.atleast_2d(res.F), np.atleast_2d(res.X)
     order = np.argsort(F[:, 0])
     P = genes_to_parameters(space.genes(Z[order]), M)
-    return ParetoFront(parameters=P, objective=F[order, 0], peak_error=F[order, 1],
-                       peak=peaks(P), reference_peak=ref, target=target, seed=int(seed),
-                       settings=s.to_dict(), evaluations=count[0], elapsed_s=elapsed)
+    return ParetoFront(
+        parameters=P,
+        objective=F[order, 0],
+        peak_error=F[order, 1],
+        peak=peaks(P),
+        reference_peak=ref,
+        target=target,
+        seed=int(seed),
+        settings=s.to_dict(),
+        evaluations=count[0],
+        elapsed_s=elapsed,
+    )
 
 
 def chosen_points(front: ParetoFront) -> Dict[str, int]:
@@ -281,8 +309,10 @@ def chosen_points(front: ParetoFront) -> Dict[str, int]:
     out = {"min-J": int(np.argmin(J)), "min-peak-error": int(np.argmin(e))}
     u = (J - J.min()) / max(np.ptp(J), 1e-300)
     v = (e - e.min()) / max(np.ptp(e), 1e-300)
-    a, b = np.array([u[out["min-J"]], v[out["min-J"]]]), np.array(
-        [u[out["min-peak-error"]], v[out["min-peak-error"]]])
+    a, b = (
+        np.array([u[out["min-J"]], v[out["min-J"]]]),
+        np.array([u[out["min-peak-error"]], v[out["min-peak-error"]]]),
+    )
     d = b - a
     dist = np.abs(d[0] * (v - a[1]) - d[1] * (u - a[0])) / max(np.hypot(*d), 1e-300)
     out["knee"] = int(np.argmax(dist))
@@ -296,11 +326,29 @@ def _table(front: ParetoFront) -> str:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     ref = front.reference_peak
-    w.writerow(["J_per_s", "peak_error", "peak_modulus", "peak_frequency_hz",
-                "modulus_error_relative", "frequency_error_hz"] + list(REDUCED_PARAMETERS))
+    w.writerow(
+        [
+            "J_per_s",
+            "peak_error",
+            "peak_modulus",
+            "peak_frequency_hz",
+            "modulus_error_relative",
+            "frequency_error_hz",
+        ]
+        + list(REDUCED_PARAMETERS)
+    )
     for p, J, e, (m, f) in zip(front.parameters, front.objective, front.peak_error, front.peak):
-        w.writerow([f"{J:.8g}", f"{e:.6g}", f"{m:.6g}", f"{f:.6g}", f"{m / ref[0] - 1:.6g}",
-                    f"{f - ref[1]:.6g}"] + [f"{v:.8g}" for v in p])
+        w.writerow(
+            [
+                f"{J:.8g}",
+                f"{e:.6g}",
+                f"{m:.6g}",
+                f"{f:.6g}",
+                f"{m / ref[0] - 1:.6g}",
+                f"{f - ref[1]:.6g}",
+            ]
+            + [f"{v:.8g}" for v in p]
+        )
     return buf.getvalue()
 
 
@@ -319,18 +367,27 @@ def _plot(front: ParetoFront, chosen: Dict[str, int], path) -> None:
     ax.legend(fontsize=8)
     ax.grid(True, which="both", alpha=0.3)
     f = np.geomspace(0.5, 31.5, 800)
-    bx.plot(f, np.abs(transmissibility(front.target.reference, f)), "k", lw=2,
-            label=front.target.reference.name)
+    bx.plot(
+        f,
+        np.abs(transmissibility(front.target.reference, f)),
+        "k",
+        lw=2,
+        label=front.target.reference.name,
+    )
     for name, i in chosen.items():
-        bx.plot(f, np.abs(transmissibility(reduced_network(front.parameters[i]), f)),
-                label=f"{name}: J {front.objective[i]:.3g}, e {front.peak_error[i]:.2g}")
+        bx.plot(
+            f,
+            np.abs(transmissibility(reduced_network(front.parameters[i]), f)),
+            label=f"{name}: J {front.objective[i]:.3g}, e {front.peak_error[i]:.2g}",
+        )
     bx.set_xscale("log")
     bx.set_xlabel("frequency [Hz]")
     bx.set_ylabel("|X_head / X_seat|")
     bx.legend(fontsize=8)
     bx.grid(True, which="both", alpha=0.3)
-    fig.suptitle("The reduced model's trade-off: impulse-response fit (J) against the resonance "
-                 "peak")
+    fig.suptitle(
+        "The reduced model's trade-off: impulse-response fit (J) against the resonance peak"
+    )
     save_figure(fig, path)
 
 
@@ -369,8 +426,8 @@ def write_pareto(folder, front: ParetoFront, command: str = "") -> List[str]:
         (m, f), J, e = front.peak[i], float(front.objective[i]), float(front.peak_error[i])
         prov = {
             "source": "a point of the Pareto front of the reduced 3-DOF model of Balci & "
-                      "Gundogdu (2025), Fig. 2: paper Eq. 3 against the transmissibility peak "
-                      "error, by 'bodyvib fit --pareto' (bodyvib.fit.pareto)",
+            "Gundogdu (2025), Fig. 2: paper Eq. 3 against the transmissibility peak "
+            "error, by 'bodyvib fit --pareto' (bodyvib.fit.pareto)",
             "point": name,
             "command": command,
             "date": date,
@@ -378,28 +435,32 @@ def write_pareto(folder, front: ParetoFront, command: str = "") -> List[str]:
             "reference_model": t.reference.name,
             "method": "NSGA-II",
             "library": f"pymoo {version('pymoo')} (pymoo.algorithms.moo.nsga2.NSGA2, SBX, "
-                       "polynomial mutation), first population holding the GA's optimum",
+            "polynomial mutation), first population holding the GA's optimum",
             "seed": front.seed,
             "settings": dict(front.settings),
             "objectives": {
                 "J_per_s": J,
-                "J_definition": "paper Eq. 3, pairs " + ", ".join(
-                    f"{k}={v:g}" for k, v in t.pairs.items()),
+                "J_definition": "paper Eq. 3, pairs "
+                + ", ".join(f"{k}={v:g}" for k, v in t.pairs.items()),
                 "peak_error": e,
                 "peak_error_definition": "max(|dM| / (0.10 M_ref), |df| / 0.5 Hz) of the "
-                                         "seat-to-head |T| peak over 0.5-20 Hz",
-                "peak_modulus": float(m), "peak_frequency_hz": float(f),
+                "seat-to-head |T| peak over 0.5-20 Hz",
+                "peak_modulus": float(m),
+                "peak_frequency_hz": float(f),
                 "reference_peak_modulus": float(ref[0]),
                 "reference_peak_frequency_hz": float(ref[1]),
             },
             "total_mass_kg": t.total_mass,
         }
-        net = reduced_network(front.parameters[i], name=f"reduced-pareto-{name}-{t.name}",
-                              description=f"Reduced 3-DOF model, the '{name}' point of the "
-                                          f"trade-off J / peak error against '{t.name}': "
-                                          f"J {J:.4g} 1/s, |T| peak {m:.3f} at {f:.2f} Hz "
-                                          f"(reference {ref[0]:.3f} at {ref[1]:.2f} Hz).",
-                              provenance=prov)
+        net = reduced_network(
+            front.parameters[i],
+            name=f"reduced-pareto-{name}-{t.name}",
+            description=f"Reduced 3-DOF model, the '{name}' point of the "
+            f"trade-off J / peak error against '{t.name}': "
+            f"J {J:.4g} 1/s, |T| peak {m:.3f} at {f:.2f} Hz "
+            f"(reference {ref[0]:.3f} at {ref[1]:.2f} Hz).",
+            provenance=prov,
+        )
         path = os.path.join(folder, f"pareto-{name}.json")
         save_model(net, path)
         files.append(path)

@@ -12,12 +12,18 @@ import os
 
 import numpy as np
 
-from ..process.outputs import atomic_write_text, write_json
 from ..frequency.response import apparent_mass, find_peaks, transmissibility
 from ..models import load_model
+from ..process.outputs import atomic_write_text, write_json
 
-__all__ = ["F_MIN_HZ", "F_MAX_HZ", "compare_fit", "format_comparison", "plot_comparison",
-           "write_report"]
+__all__ = [
+    "F_MIN_HZ",
+    "F_MAX_HZ",
+    "compare_fit",
+    "format_comparison",
+    "plot_comparison",
+    "write_report",
+]
 
 #: Frequency range of the comparison (ISO 7962's data), Hz.
 F_MIN_HZ, F_MAX_HZ = 0.5, 31.5
@@ -46,40 +52,55 @@ def compare_fit(result, refit):
     t = result.target
     paper = load_model("reduced-paper")
     models = {"table2": paper, "refit": refit}
-    out = {"target": t.description, "pairs": dict(t.pairs), "total_mass_kg": t.total_mass,
-           "objective": {}, "transmissibility_peaks": {}, "parameters": {}}
+    out = {
+        "target": t.description,
+        "pairs": dict(t.pairs),
+        "total_mass_kg": t.total_mass,
+        "objective": {},
+        "transmissibility_peaks": {},
+        "parameters": {},
+    }
     for key, net in models.items():
         p = parameter_array(net)
         by_pair = {}
-        for role, wgt in t.pairs.items():
+        for role, _wgt in t.pairs.items():
             single = _single_pair(t, role)
             by_pair[role] = float(single.objective(p))
         total = float(t.objective(p))
-        out["objective"][key] = {"total_per_s": total, "relative": total / t.energy(),
-                                 "by_pair_per_s": by_pair}
+        out["objective"][key] = {
+            "total_per_s": total,
+            "relative": total / t.energy(),
+            "by_pair_per_s": by_pair,
+        }
         out["parameters"][key] = dict(net.parameters)
-    out["objective"]["refit_over_table2"] = (out["objective"]["refit"]["total_per_s"]
-                                            / out["objective"]["table2"]["total_per_s"])
+    out["objective"]["refit_over_table2"] = (
+        out["objective"]["refit"]["total_per_s"] / out["objective"]["table2"]["total_per_s"]
+    )
     if t.kind == "model":
         from .objective import objective_time_domain
 
         for key, net in models.items():
             out["objective"][key]["time_domain_per_s"] = objective_time_domain(
-                t.reference, net, t.pairs, config=result.config)
+                t.reference, net, t.pairs, config=result.config
+            )
         f = np.geomspace(F_MIN_HZ, F_MAX_HZ, 3000)
         out["transmissibility_peaks"]["target"] = _peaks(
-            f, np.abs(transmissibility(t.reference, f)))
+            f, np.abs(transmissibility(t.reference, f))
+        )
         am_ref = np.abs(apparent_mass(t.reference, f))
         am = {"target": {"peaks_kg": _peaks(f, am_ref)}}
         for key, net in models.items():
             a = np.abs(apparent_mass(net, f))
-            am[key] = {"peaks_kg": _peaks(f, a),
-                       "rms_relative_difference": float(np.sqrt(np.mean((a / am_ref - 1) ** 2)))}
+            am[key] = {
+                "peaks_kg": _peaks(f, a),
+                "rms_relative_difference": float(np.sqrt(np.mean((a / am_ref - 1) ** 2))),
+            }
         out["apparent_mass"] = am
     else:
         f = np.geomspace(t.frequency_hz[0], t.frequency_hz[-1], 3000)
-        out["transmissibility_peaks"]["target"] = _peaks(t.measured.frequency_hz,
-                                                         t.measured.modulus)
+        out["transmissibility_peaks"]["target"] = _peaks(
+            t.measured.frequency_hz, t.measured.modulus
+        )
     for key, net in models.items():
         out["transmissibility_peaks"][key] = _peaks(f, np.abs(transmissibility(net, f)))
     return out
@@ -99,47 +120,68 @@ def _single_pair(target, role):
 def _fmt_peaks(peaks, unit="", digits=3):
     if not peaks:
         return "none"
-    return "; ".join(f"{p['modulus']:.{digits}f}{unit} at {p['frequency_hz']:.2f} Hz"
-                     for p in peaks)
+    return "; ".join(
+        f"{p['modulus']:.{digits}f}{unit} at {p['frequency_hz']:.2f} Hz" for p in peaks
+    )
 
 
 def format_comparison(cmp) -> str:
     """The comparison as a Markdown table (readable as plain text)."""
     names = ("target", "table2", "refit")
     head = "| quantity | target | paper's Table 2 | refit |"
-    lines = [f"Target: {cmp['target']}.", "",
-             "Pairs (role = weight): "
-             + ", ".join(f"{r} = {w:g}" for r, w in cmp["pairs"].items())
-             + f"; total mass pinned to {cmp['total_mass_kg']:g} kg.", "",
-             head, "|---|---|---|---|"]
+    lines = [
+        f"Target: {cmp['target']}.",
+        "",
+        "Pairs (role = weight): "
+        + ", ".join(f"{r} = {w:g}" for r, w in cmp["pairs"].items())
+        + f"; total mass pinned to {cmp['total_mass_kg']:g} kg.",
+        "",
+        head,
+        "|---|---|---|---|",
+    ]
     o = cmp["objective"]
-    lines.append(f"| objective J [1/s] (Parseval form) | 0 | {o['table2']['total_per_s']:.5g} | "
-                 f"{o['refit']['total_per_s']:.5g} ({cmp['objective']['refit_over_table2']:.1%}"
-                 " of Table 2) |")
+    lines.append(
+        f"| objective J [1/s] (Parseval form) | 0 | {o['table2']['total_per_s']:.5g} | "
+        f"{o['refit']['total_per_s']:.5g} ({cmp['objective']['refit_over_table2']:.1%}"
+        " of Table 2) |"
+    )
     if "time_domain_per_s" in o["refit"]:
-        lines.append(f"| objective J [1/s] (time-domain definition) | 0 | "
-                     f"{o['table2']['time_domain_per_s']:.5g} | "
-                     f"{o['refit']['time_domain_per_s']:.5g} |")
+        lines.append(
+            f"| objective J [1/s] (time-domain definition) | 0 | "
+            f"{o['table2']['time_domain_per_s']:.5g} | "
+            f"{o['refit']['time_domain_per_s']:.5g} |"
+        )
     for role in cmp["pairs"]:
-        lines.append(f"| J of the {role} alone [1/s] | 0 | {o['table2']['by_pair_per_s'][role]:.5g}"
-                     f" | {o['refit']['by_pair_per_s'][role]:.5g} |")
-    lines.append(f"| J / target energy [-] | 0 | {o['table2']['relative']:.4f} | "
-                 f"{o['refit']['relative']:.4f} |")
+        lines.append(
+            f"| J of the {role} alone [1/s] | 0 | {o['table2']['by_pair_per_s'][role]:.5g}"
+            f" | {o['refit']['by_pair_per_s'][role]:.5g} |"
+        )
+    lines.append(
+        f"| J / target energy [-] | 0 | {o['table2']['relative']:.4f} | "
+        f"{o['refit']['relative']:.4f} |"
+    )
     pk = cmp["transmissibility_peaks"]
-    lines.append("| seat-to-head \\|T\\| peaks | " + " | ".join(_fmt_peaks(pk[n]) for n in names)
-                 + " |")
+    lines.append(
+        "| seat-to-head \\|T\\| peaks | " + " | ".join(_fmt_peaks(pk[n]) for n in names) + " |"
+    )
     if "apparent_mass" in cmp:
         am = cmp["apparent_mass"]
-        lines.append("| apparent mass peaks [kg] | "
-                     + " | ".join(_fmt_peaks(am[n]["peaks_kg"], " kg", 1) for n in names) + " |")
-        lines.append(f"| apparent mass, r.m.s. relative difference from target, "
-                     f"{F_MIN_HZ:g}-{F_MAX_HZ:g} Hz | 0 | "
-                     f"{am['table2']['rms_relative_difference']:.1%} | "
-                     f"{am['refit']['rms_relative_difference']:.1%} |")
+        lines.append(
+            "| apparent mass peaks [kg] | "
+            + " | ".join(_fmt_peaks(am[n]["peaks_kg"], " kg", 1) for n in names)
+            + " |"
+        )
+        lines.append(
+            f"| apparent mass, r.m.s. relative difference from target, "
+            f"{F_MIN_HZ:g}-{F_MAX_HZ:g} Hz | 0 | "
+            f"{am['table2']['rms_relative_difference']:.1%} | "
+            f"{am['refit']['rms_relative_difference']:.1%} |"
+        )
     lines += ["", "| parameter | paper's Table 2 | refit |", "|---|---|---|"]
     for k in cmp["parameters"]["refit"]:
-        lines.append(f"| {k} | {cmp['parameters']['table2'][k]:.5g} | "
-                     f"{cmp['parameters']['refit'][k]:.5g} |")
+        lines.append(
+            f"| {k} | {cmp['parameters']['table2'][k]:.5g} | {cmp['parameters']['refit'][k]:.5g} |"
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -151,8 +193,8 @@ def plot_comparison(result, refit, folder):
     list of str
         The files written.
     """
-    from .objective import default_horizon, impulse_response
     from ..plotting import new_figure, save_figure, transmissibility_axes
+    from .objective import default_horizon, impulse_response
 
     t = result.target
     paper = load_model("reduced-paper")
@@ -178,8 +220,9 @@ def plot_comparison(result, refit, folder):
     save_figure(fig, files[0])
 
     roles = list(t.pairs)
-    fig, axes = new_figure(len(roles), 1, sharex=True, figsize=(7, 2.6 * len(roles) + 0.8),
-                           squeeze=False)
+    fig, axes = new_figure(
+        len(roles), 1, sharex=True, figsize=(7, 2.6 * len(roles) + 0.8), squeeze=False
+    )
     dt = result.config.time_domain.dt_s
     models = [(paper, "paper's Table 2", "--"), (refit, "refit (GA)", "-")]
     if t.kind == "model":

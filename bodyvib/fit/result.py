@@ -11,11 +11,11 @@ from dataclasses import dataclass, field
 from typing import Dict, List
 
 from .. import __version__
+from ..models import save_model
+from ..runtime.network import Network
 from .config import FitConfig
 from .objective import FitTarget, objective_time_domain
 from .space import reduced_network
-from ..models import save_model
-from ..runtime.network import Network
 
 __all__ = [
     "FitResult",
@@ -91,11 +91,16 @@ class FitResult:
             "objective_table2": self.objective_table2,
             "ga_objective": self.ga_objective,
             "relative_error": self.relative_error,
-            "target": {"name": t.name, "kind": t.kind, "description": t.description,
-                       "pairs": dict(t.pairs), "total_mass": t.total_mass,
-                       "modulus_only": t.modulus_only,
-                       "reference_model": t.reference.name if t.reference is not None else None,
-                       "measured_data": t.measured.source if t.measured is not None else None},
+            "target": {
+                "name": t.name,
+                "kind": t.kind,
+                "description": t.description,
+                "pairs": dict(t.pairs),
+                "total_mass": t.total_mass,
+                "modulus_only": t.modulus_only,
+                "reference_model": t.reference.name if t.reference is not None else None,
+                "measured_data": t.measured.source if t.measured is not None else None,
+            },
             "seed": self.seed,
             "config": self.config.to_dict(),
             "polished": self.polished,
@@ -133,8 +138,8 @@ def write_parameter_file(result: FitResult, path, command: str = "") -> Network:
     name = f"reduced-refit-{t.name}"
     prov = {
         "source": f"{'GA' if result.method == 'ga' else result.method} refit of the reduced "
-                  "3-DOF model of Balci & Gundogdu (2025), Fig. 2, by "
-                  "'bodyvib fit' (bodyvib.fit.search)",
+        "3-DOF model of Balci & Gundogdu (2025), Fig. 2, by "
+        "'bodyvib fit' (bodyvib.fit.search)",
         "command": command,
         "date": datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0).isoformat(),
         "bodyvib_version": __version__,
@@ -143,11 +148,10 @@ def write_parameter_file(result: FitResult, path, command: str = "") -> Network:
         "measured_data": t.measured.source if t.measured is not None else None,
         "objective": {
             "definition": "paper Eq. 3: J = sum_p w_p int_0^inf (h_ref,p(t) - h_red,p(t))^2 dt, "
-                          "h = position response to a unit impulse of seat displacement [1/s]; "
-                          "evaluated by Parseval, 2 int_0^inf |H_ref - H_red|^2 df"
-                          + (" (measured band only, trapezoid on the data)"
-                             if t.kind == "measured" else "")
-                          + (" on moduli only (no phase)" if t.modulus_only else ""),
+            "h = position response to a unit impulse of seat displacement [1/s]; "
+            "evaluated by Parseval, 2 int_0^inf |H_ref - H_red|^2 df"
+            + (" (measured band only, trapezoid on the data)" if t.kind == "measured" else "")
+            + (" on moduli only (no phase)" if t.modulus_only else ""),
             "pairs": dict(t.pairs),
             "value_per_s": result.objective,
             "relative_to_target_energy": result.relative_error,
@@ -156,12 +160,14 @@ def write_parameter_file(result: FitResult, path, command: str = "") -> Network:
         },
         "scale_pinning": {
             "total_mass_kg": t.total_mass,
-            "how": ("m1 + m2 pinned to the reference model's static apparent mass"
-                    if t.kind == "model" else
-                    "m1 + m2 pinned to --total-mass (75 kg by default)")
-                   + "; every transmissibility is invariant to scaling all m, k, c by one "
-                     "factor, so the fit searched only the six ratios m1/M, k1/M, k2/M, ks/M, "
-                     "c1/M, c2/M",
+            "how": (
+                "m1 + m2 pinned to the reference model's static apparent mass"
+                if t.kind == "model"
+                else "m1 + m2 pinned to --total-mass (75 kg by default)"
+            )
+            + "; every transmissibility is invariant to scaling all m, k, c by one "
+            "factor, so the fit searched only the six ratios m1/M, k1/M, k2/M, ks/M, "
+            "c1/M, c2/M",
         },
         "algorithm": {
             "method": result.method,
@@ -170,12 +176,19 @@ def write_parameter_file(result: FitResult, path, command: str = "") -> Network:
             "restarts": getattr(result.config.restarts, t.kind),
             "settings": result.config.settings(result.method).to_dict(),
             "bounds_per_kg_total_mass": result.config.to_dict()["bounds_per_kg_total_mass"],
-            "search_space": ("log10 of the six ratios within the bounds, searched as "
-                             + ("log(m1/M), log(k1/m1), log(k2/M), log(ks/M), log(c1/m1), "
-                                "log(c2/M)" if result.config.settings(result.method).coordinates
-                                == "aligned" else "themselves")),
-            "polish": (dict(result.config.polish.to_dict(), enabled=True) if result.polished
-                       else {"enabled": False}),
+            "search_space": (
+                "log10 of the six ratios within the bounds, searched as "
+                + (
+                    "log(m1/M), log(k1/m1), log(k2/M), log(ks/M), log(c1/m1), log(c2/M)"
+                    if result.config.settings(result.method).coordinates == "aligned"
+                    else "themselves"
+                )
+            ),
+            "polish": (
+                dict(result.config.polish.to_dict(), enabled=True)
+                if result.polished
+                else {"enabled": False}
+            ),
             "quadrature": result.config.quadrature.to_dict(),
             "runs": [dict(r) for r in result.runs],
             "evaluations": result.evaluations,
@@ -186,7 +199,8 @@ def write_parameter_file(result: FitResult, path, command: str = "") -> Network:
     if t.kind == "model":
         net = reduced_network(result.parameters)
         prov["objective"]["time_domain_value_per_s"] = objective_time_domain(
-            t.reference, net, t.pairs, config=result.config)
+            t.reference, net, t.pairs, config=result.config
+        )
     description = (
         f"Reduced 3-DOF seated human-body model (topology of Balci & Gundogdu 2025, Fig. 2: "
         f"seat --ks-- platform --(k2 || c2)-- torso m2 --(k1 || c1)-- head m1), parameters "

@@ -19,14 +19,14 @@ from typing import List, Optional
 
 import numpy as np
 
+from ..models import load_model
 from ..process import interrupts
+from ..runtime.errors import BodyvibError
 from .config import FitConfig, load_config, log_bounds
 from .methods import METHODS, search
 from .objective import FitTarget, parameter_array
 from .result import FitResult
 from .space import GENES, REDUCED_PARAMETERS, genes_to_parameters
-from ..models import load_model
-from ..runtime.errors import BodyvibError
 
 __all__ = [
     "fit",
@@ -34,9 +34,14 @@ __all__ = [
 ]
 
 
-def fit(target: FitTarget, config: Optional[FitConfig] = None, seed: int = 1,
-        polish: Optional[bool] = None, progress: bool = False,
-        method: Optional[str] = None) -> FitResult:
+def fit(
+    target: FitTarget,
+    config: Optional[FitConfig] = None,
+    seed: int = 1,
+    polish: Optional[bool] = None,
+    progress: bool = False,
+    method: Optional[str] = None,
+) -> FitResult:
     """Fit the reduced model to a target by a seeded search (the genetic algorithm by default).
 
     Parameters
@@ -101,8 +106,14 @@ def fit(target: FitTarget, config: Optional[FitConfig] = None, seed: int = 1,
     history: List[float] = []
     generations = getattr(settings, "generations", None)
     total = restarts * generations if generations is not None else None
-    bar = tqdm(total=total, desc=f"bodyvib fit ({method})", unit="gen", file=sys.stderr,
-               disable=None if progress else True, leave=False)
+    bar = tqdm(
+        total=total,
+        desc=f"bodyvib fit ({method})",
+        unit="gen",
+        file=sys.stderr,
+        disable=None if progress else True,
+        leave=False,
+    )
 
     def on_generation(best):
         history.append(best)
@@ -116,15 +127,29 @@ def fit(target: FitTarget, config: Optional[FitConfig] = None, seed: int = 1,
     try:
         with threadpool_limits(1, user_api="blas"):
             for run_seed in run_seeds:
-                found = search(method, objective_of_genes, lo, hi, settings, run_seed,
-                               on_generation=on_generation)
+                found = search(
+                    method,
+                    objective_of_genes,
+                    lo,
+                    hi,
+                    settings,
+                    run_seed,
+                    on_generation=on_generation,
+                )
                 genes, J = found.genes, found.objective
                 if do_polish:
                     genes, J = _polish(objective_of_genes, genes, lo, hi, cfg.polish)
-                runs.append({"seed": run_seed, "search_objective_per_s": found.objective,
-                             "objective_per_s": float(J), "evaluations": found.evaluations,
-                             "generations": found.generations, "stopped": found.stopped,
-                             "genes": genes})
+                runs.append(
+                    {
+                        "seed": run_seed,
+                        "search_objective_per_s": found.objective,
+                        "objective_per_s": float(J),
+                        "evaluations": found.evaluations,
+                        "generations": found.generations,
+                        "stopped": found.stopped,
+                        "genes": genes,
+                    }
+                )
     finally:
         bar.close()
     elapsed = time.perf_counter() - t0
@@ -133,17 +158,29 @@ def fit(target: FitTarget, config: Optional[FitConfig] = None, seed: int = 1,
     params = genes_to_parameters(best_genes, M)
     J_paper = float(target.objective(parameter_array(load_model("reduced-paper"))))
     tol = 1e-3 * (hi - lo)
-    at_bounds = [f"{g}/M at {'lower' if x - a <= t else 'upper'} bound"
-                 for g, x, a, b, t in zip(GENES, best_genes, lo, hi, tol)
-                 if x - a <= t or b - x <= t]
+    at_bounds = [
+        f"{g}/M at {'lower' if x - a <= t else 'upper'} bound"
+        for g, x, a, b, t in zip(GENES, best_genes, lo, hi, tol)
+        if x - a <= t or b - x <= t
+    ]
     for r in runs:
         del r["genes"]
     return FitResult(
         parameters=dict(zip(REDUCED_PARAMETERS, (float(v) for v in params))),
-        objective=float(J), objective_table2=J_paper, ga_objective=ga_J,
-        relative_error=float(J) / target.energy(), target=target, seed=int(seed), config=cfg,
-        polished=do_polish, evaluations=evaluations[0], elapsed_s=elapsed, history=history,
-        at_bounds=at_bounds, runs=runs, method=method,
+        objective=float(J),
+        objective_table2=J_paper,
+        ga_objective=ga_J,
+        relative_error=float(J) / target.energy(),
+        target=target,
+        seed=int(seed),
+        config=cfg,
+        polished=do_polish,
+        evaluations=evaluations[0],
+        elapsed_s=elapsed,
+        history=history,
+        at_bounds=at_bounds,
+        runs=runs,
+        method=method,
     )
 
 

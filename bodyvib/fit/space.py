@@ -61,8 +61,9 @@ def parameters_to_genes(params) -> np.ndarray:
     return np.log10(np.stack([m1, k1, k2, ks, c1, c2], axis=-1) / M[..., None])
 
 
-def reduced_network(params, name: str = "reduced-refit", description: str = "",
-                    provenance: Optional[dict] = None) -> Network:
+def reduced_network(
+    params, name: str = "reduced-refit", description: str = "", provenance: Optional[dict] = None
+) -> Network:
     """The reduced model (paper's topology) with the given parameters.
 
     Parameters
@@ -80,5 +81,9 @@ def reduced_network(params, name: str = "reduced-refit", description: str = "",
     if not isinstance(params, Mapping):
         params = dict(zip(REDUCED_PARAMETERS, (float(v) for v in params)))
     net = template.with_parameters(**params)
-    return replace(net, name=name, description=description or template.description,
-                   provenance=dict(provenance or {}))
+    return replace(
+        net,
+        name=name,
+        description=description or template.description,
+        provenance=dict(provenance or {}),
+    )

@@ -4,7 +4,7 @@
 :mod:`~bodyvib.fmu.pythonfmu` builds a pythonfmu FMU whose slave runs the copied
 run-time package :mod:`bodyvib.runtime`; :mod:`~bodyvib.fmu.native` compiles the
 one C code base in ``fmu_src/native`` for the model baked in as data;
-:mod:`~bodyvib.fmu.sources` locates the sources both start from. Names are
+:mod:`~bodyvib.fmu.contents` locates the sources both start from. Names are
 imported from their module on first use (pythonfmu and the compilers are only
 needed when building).
 """
@@ -12,10 +12,16 @@ needed when building).
 import importlib
 
 _HOME = {
-    "build": "build", "BACKENDS": "build",
-    "build_fmu": "pythonfmu", "build_source_fmu": "pythonfmu",
-    "build_native_fmu": "native", "native_model": "native", "PLATFORMS": "native",
-    "fmu_src_dir": "sources", "native_dir": "sources", "RUNTIME_DIR": "sources",
+    "build": "build",
+    "BACKENDS": "build",
+    "build_fmu": "pythonfmu",
+    "build_source_fmu": "pythonfmu",
+    "build_native_fmu": "native",
+    "native_model": "native",
+    "PLATFORMS": "native",
+    "fmu_src_dir": "sources",
+    "native_dir": "sources",
+    "RUNTIME_DIR": "sources",
 }
 
 __all__ = sorted(_HOME)

@@ -8,7 +8,7 @@ work:
 kind          backend ``"pythonfmu"`` (FMI 2.0)          backend ``"native"`` (FMI 2.0 or 3.0)
 ============  =========================================  ===========================================
 body, car     :func:`~bodyvib.fmu.pythonfmu.build_fmu`    :func:`~bodyvib.fmu.native.build_native_fmu`
-source        :func:`~bodyvib.fmu.pythonfmu.build_source_fmu`  :func:`~bodyvib.fmu.native_source.build_native_source_fmu`
+source        :func:`~bodyvib.fmu.pythonfmu.build_source_fmu`  :func:`~bodyvib.fmu.native_table.build_native_source_fmu`
 ============  =========================================  ===========================================
 
 Every builder writes its model description through :mod:`bodyvib.fmu.description`.
@@ -27,9 +27,17 @@ __all__ = ["BACKENDS", "build"]
 BACKENDS = ("pythonfmu", "native")
 
 
-def build(model: Union[Network, Tuple[dict, object]], kind: str, name: str,
-          description: str = "", dest="dist", *, backend: str = "pythonfmu", fmi: int = 2,
-          platforms: Iterable[str] = ("linux64", "win64")) -> Path:
+def build(
+    model: Union[Network, Tuple[dict, object]],
+    kind: str,
+    name: str,
+    description: str = "",
+    dest="dist",
+    *,
+    backend: str = "pythonfmu",
+    fmi: int = 2,
+    platforms: Iterable[str] = ("linux64", "win64"),
+) -> Path:
     """Build one FMU of ``kind`` with ``backend``: the library's one build entry.
 
     Parameters
@@ -38,7 +46,7 @@ def build(model: Union[Network, Tuple[dict, object]], kind: str, name: str,
         For ``kind`` ``"body"`` or ``"car"``: the model
         (:func:`bodyvib.models.load_model`; a car: :func:`bodyvib.models.load_network`). For
         ``"source"``: the source description and its table
-        (:mod:`bodyvib.runtime.source`).
+        (:mod:`bodyvib.runtime.tabulated`).
     kind : {"body", "car", "source"}
         The FMU's role (:data:`bodyvib.runtime.cores.CORES`).
     name : str
@@ -89,25 +97,29 @@ def build(model: Union[Network, Tuple[dict, object]], kind: str, name: str,
         raise BodyvibError("pythonfmu FMUs are FMI 2.0 only; build FMI 3.0 with backend='native'")
     if kind == "source":
         if not (isinstance(model, tuple) and len(model) == 2 and isinstance(model[0], dict)):
-            raise BodyvibError("a source FMU is built from (meta, table), the source description "
-                               "and its table (bodyvib.runtime.source)")
+            raise BodyvibError(
+                "a source FMU is built from (meta, table), the source description "
+                "and its table (bodyvib.runtime.tabulated)"
+            )
         meta, table = model
         if backend == "native":
-            from .native_source import build_native_source_fmu
+            from .native_table import build_native_source_fmu
 
-            return build_native_source_fmu(meta, table, name, description, dest, fmi=fmi,
-                                           platforms=platforms)
+            return build_native_source_fmu(
+                meta, table, name, description, dest, fmi=fmi, platforms=platforms
+            )
         from .pythonfmu import build_source_fmu
 
         return build_source_fmu(meta, table, name, description, dest)
     if not isinstance(model, Network):
-        raise BodyvibError(f"a {kind} FMU is built from a Network (bodyvib.models.load_model "
-                           f"or a car file), got {type(model).__name__}")
+        raise BodyvibError(
+            f"a {kind} FMU is built from a Network (bodyvib.models.load_model "
+            f"or a car file), got {type(model).__name__}"
+        )
     if backend == "native":
         from .native import build_native_fmu
 
-        return build_native_fmu(model, kind, name, description, dest, fmi=fmi,
-                                platforms=platforms)
+        return build_native_fmu(model, kind, name, description, dest, fmi=fmi, platforms=platforms)
     from .pythonfmu import build_fmu
 
     return build_fmu(model, kind, name, description, dest)

@@ -31,9 +31,21 @@ from .. import __version__
 from ..runtime.contract import UNITS, Variable
 from ..runtime.errors import BodyvibError
 
-__all__ = ["DISPLAY_UNITS", "MODEL_STOP_TIME", "InterfaceElement", "ModelDescription",
-           "default_stop_time", "describe_fmu", "display_unit", "initial_dependencies", "number",
-           "state_units", "unit_definitions", "validate_fmu_file", "write_model_description"]
+__all__ = [
+    "DISPLAY_UNITS",
+    "MODEL_STOP_TIME",
+    "InterfaceElement",
+    "ModelDescription",
+    "default_stop_time",
+    "describe_fmu",
+    "display_unit",
+    "initial_dependencies",
+    "number",
+    "state_units",
+    "unit_definitions",
+    "validate_fmu_file",
+    "write_model_description",
+]
 
 #: Unit -> (display unit, factor) pairs: a value in the unit is factor times the value in the
 #: display unit (FMI: ``unit = factor * displayUnit + offset``).
@@ -94,8 +106,9 @@ def unit_definitions(units: Sequence[str]) -> ET.Element:
     return root
 
 
-def initial_dependencies(output_inputs: Sequence[Sequence[int]], parameters: Sequence[int],
-                         source: bool = False) -> List[List[int]]:
+def initial_dependencies(
+    output_inputs: Sequence[Sequence[int]], parameters: Sequence[int], source: bool = False
+) -> List[List[int]]:
     """Dependencies of each output at initialization (the InitialUnknowns).
 
     Parameters
@@ -114,8 +127,9 @@ def initial_dependencies(output_inputs: Sequence[Sequence[int]], parameters: Seq
         Per output: its inputs and, if it has any (or for a source), the parameters;
         an output without feedthrough of a model FMU is ``C x`` at the zero state: none.
     """
-    return [sorted(set(deps) | set(parameters)) if (deps or source) else []
-            for deps in output_inputs]
+    return [
+        sorted(set(deps) | set(parameters)) if (deps or source) else [] for deps in output_inputs
+    ]
 
 
 def describe_fmu(line: str, network=None, source: Optional[dict] = None) -> str:
@@ -128,7 +142,7 @@ def describe_fmu(line: str, network=None, source: Optional[dict] = None) -> str:
     network : bodyvib.runtime.network.Network, optional
         The model a model FMU bakes in.
     source : dict, optional
-        The description of a source FMU's table (:mod:`bodyvib.runtime.source`).
+        The description of a source FMU's table (:mod:`bodyvib.runtime.tabulated`).
 
     Returns
     -------
@@ -151,7 +165,7 @@ def default_stop_time(core) -> float:
 
     Parameters
     ----------
-    core : bodyvib.runtime.engine.FmuCore or bodyvib.runtime.source.SourceCore
+    core : bodyvib.runtime.engine.FmuCore or bodyvib.runtime.tabulated.SourceCore
         The FMU's core: a source's has a ``table`` (its length in the coordinate, m) and
         the speed as its one parameter (m/s).
 
@@ -350,28 +364,58 @@ def _variables(root, md: ModelDescription) -> None:
     """``ModelVariables``: the contract's, FMI 3.0's time, the states and their derivatives."""
     mv = ET.SubElement(root, "ModelVariables")
     for vr, v in enumerate(md.variables):
-        attrs = {"name": v.name, "valueReference": str(vr), "description": v.description,
-                 "causality": v.causality, "variability": v.variability}
+        attrs = {
+            "name": v.name,
+            "valueReference": str(vr),
+            "description": v.description,
+            "causality": v.causality,
+            "variability": v.variability,
+        }
         if v.causality == "output":
             attrs["initial"] = "calculated"
         _real(mv, md.fmi, attrs, _typed(v))
     if md.fmi == 3:  # the independent variable, after the contract's value references
-        ET.SubElement(mv, "Float64", {"name": "time", "valueReference": str(len(md.variables)),
-                                      "causality": "independent", "variability": "continuous",
-                                      "unit": "s", "description": "Simulation time"})
+        ET.SubElement(
+            mv,
+            "Float64",
+            {
+                "name": "time",
+                "valueReference": str(len(md.variables)),
+                "causality": "independent",
+                "variability": "continuous",
+                "unit": "s",
+                "description": "Simulation time",
+            },
+        )
     for i, state in enumerate(md.states):
         point, _, q = state.rpartition(".")
-        _real(mv, md.fmi, {
-            "name": f"state.{state}", "valueReference": str(md.state_vr(i)),
-            "description": f"Continuous state: {point} {_STATE_WORDS[q]} (model exchange)",
-            "causality": "local", "variability": "continuous", "initial": "exact"},
-            {"unit": state_units(state)[0], "start": "0.0"})
+        _real(
+            mv,
+            md.fmi,
+            {
+                "name": f"state.{state}",
+                "valueReference": str(md.state_vr(i)),
+                "description": f"Continuous state: {point} {_STATE_WORDS[q]} (model exchange)",
+                "causality": "local",
+                "variability": "continuous",
+                "initial": "exact",
+            },
+            {"unit": state_units(state)[0], "start": "0.0"},
+        )
     for i, state in enumerate(md.states):
-        _real(mv, md.fmi, {
-            "name": f"der(state.{state})", "valueReference": str(md.derivative_vr(i)),
-            "description": f"Time derivative of state.{state}",
-            "causality": "local", "variability": "continuous", "initial": "calculated"},
-            {"unit": state_units(state)[1], "derivative": md.reference(md.state_vr(i))})
+        _real(
+            mv,
+            md.fmi,
+            {
+                "name": f"der(state.{state})",
+                "valueReference": str(md.derivative_vr(i)),
+                "description": f"Time derivative of state.{state}",
+                "causality": "local",
+                "variability": "continuous",
+                "initial": "calculated",
+            },
+            {"unit": state_units(state)[1], "derivative": md.reference(md.state_vr(i))},
+        )
 
 
 def _structure(root, md: ModelDescription) -> None:
@@ -385,30 +429,45 @@ def _structure(root, md: ModelDescription) -> None:
     state_deps = md.output_state_dependencies or tuple(() for _ in md.outputs)
 
     def text(inputs, states):
-        return " ".join([md.reference(d) for d in inputs]
-                        + [md.reference(md.state_vr(j)) for j in states])
+        return " ".join(
+            [md.reference(d) for d in inputs] + [md.reference(md.state_vr(j)) for j in states]
+        )
 
-    outputs = [(vr, text(d, sd)) for vr, d, sd in
-               zip(md.outputs, md.output_dependencies, state_deps)]
+    outputs = [
+        (vr, text(d, sd)) for vr, d, sd in zip(md.outputs, md.output_dependencies, state_deps)
+    ]
     derivatives = [(vr, text(d, sd)) for vr, (sd, d) in zip(ders, md.derivative_dependencies)]
     # at initialization: the feedthrough inputs and the parameters scaling them, and the
     # states' start values (exposed for model exchange)
     initial = initial_dependencies(
         list(md.output_dependencies) + [d for _, d in md.derivative_dependencies],
-        md.parameters, md.source)
-    initial = [(vr, text(i, sd)) for vr, i, sd in
-               zip(list(md.outputs) + ders, initial,
-                   list(state_deps) + [sd for sd, _ in md.derivative_dependencies])]
+        md.parameters,
+        md.source,
+    )
+    initial = [
+        (vr, text(i, sd))
+        for vr, i, sd in zip(
+            list(md.outputs) + ders,
+            initial,
+            list(state_deps) + [sd for sd, _ in md.derivative_dependencies],
+        )
+    ]
     if md.fmi == 2:
-        for group, rows in (("Outputs", outputs), ("Derivatives", derivatives),
-                            ("InitialUnknowns", sorted(initial))):
+        for group, rows in (
+            ("Outputs", outputs),
+            ("Derivatives", derivatives),
+            ("InitialUnknowns", sorted(initial)),
+        ):
             if rows or group != "Derivatives":
                 element = ET.SubElement(ms, group)
                 for vr, deps in rows:
                     ET.SubElement(element, "Unknown", index=md.reference(vr), dependencies=deps)
     else:
-        for tag, rows in (("Output", outputs), ("ContinuousStateDerivative", derivatives),
-                          ("InitialUnknown", initial)):
+        for tag, rows in (
+            ("Output", outputs),
+            ("ContinuousStateDerivative", derivatives),
+            ("InitialUnknown", initial),
+        ):
             for vr, deps in rows:
                 ET.SubElement(ms, tag, valueReference=str(vr), dependencies=deps)
 
@@ -435,38 +494,49 @@ def write_model_description(md: ModelDescription) -> bytes:
         raise BodyvibError(f"FMI version must be 2 or 3, got {md.fmi!r}")
     unknown = [i.element for i in md.interfaces if i.element not in _INTERFACE_ORDER]
     if unknown or not md.interfaces:
-        raise BodyvibError(f"{md.model_name}: interface elements must be among "
-                           f"{', '.join(_INTERFACE_ORDER)}, got {unknown or 'none'}")
-    root = ET.Element("fmiModelDescription", {
-        "fmiVersion": f"{md.fmi}.0",
-        "modelName": md.model_name,
-        ("guid" if md.fmi == 2 else "instantiationToken"): md.token,
-        "description": md.description,
-        "author": "bodyvib",
-        "version": __version__,
-        "generationTool": md.generation_tool,
-        "variableNamingConvention": "flat",
-    })
+        raise BodyvibError(
+            f"{md.model_name}: interface elements must be among "
+            f"{', '.join(_INTERFACE_ORDER)}, got {unknown or 'none'}"
+        )
+    root = ET.Element(
+        "fmiModelDescription",
+        {
+            "fmiVersion": f"{md.fmi}.0",
+            "modelName": md.model_name,
+            ("guid" if md.fmi == 2 else "instantiationToken"): md.token,
+            "description": md.description,
+            "author": "bodyvib",
+            "version": __version__,
+            "generationTool": md.generation_tool,
+            "variableNamingConvention": "flat",
+        },
+    )
     interfaces = sorted(md.interfaces, key=lambda i: _INTERFACE_ORDER.index(i.element))
     if md.fmi == 2 and interfaces[0].element == "ModelExchange":
         root.set("numberOfEventIndicators", "0")
     for interface in interfaces:
-        element = ET.SubElement(root, interface.element,
-                                dict((("modelIdentifier", md.model_identifier),)
-                                     + interface.flags))
+        element = ET.SubElement(
+            root,
+            interface.element,
+            dict((("modelIdentifier", md.model_identifier),) + interface.flags),
+        )
         if interface.source_files:
             files = ET.SubElement(element, "SourceFiles")
             for s in interface.source_files:
                 ET.SubElement(files, "File", name=s)
-    used = ([v.unit for v in md.variables]
-            + [u for s in md.states for u in state_units(s)])
+    used = [v.unit for v in md.variables] + [u for s in md.states for u in state_units(s)]
     root.append(unit_definitions(list(dict.fromkeys((["s"] if md.fmi == 3 else []) + used))))
     if md.log_categories:
         cats = ET.SubElement(root, "LogCategories")
         for name, text in md.log_categories:
             ET.SubElement(cats, "Category", name=name, description=text)
-    ET.SubElement(root, "DefaultExperiment", startTime="0.0", stopTime=number(md.stop_time),
-                  stepSize=number(md.step_size))
+    ET.SubElement(
+        root,
+        "DefaultExperiment",
+        startTime="0.0",
+        stopTime=number(md.stop_time),
+        stepSize=number(md.step_size),
+    )
     _variables(root, md)
     _structure(root, md)
     ET.indent(root)

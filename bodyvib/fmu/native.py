@@ -46,37 +46,75 @@ from xml.etree import ElementTree as ET
 import numpy as np
 
 from .. import __version__
+from ..process import interrupts
 from ..process.outputs import atomic_write_bytes
 from ..runtime.contract import RATE_PREFIX, Variable
 from ..runtime.engine import FmuCore
 from ..runtime.errors import BodyvibError
-from ..process import interrupts
 from ..runtime.network import Network, descriptor_model
-from .description import (MODEL_STOP_TIME, InterfaceElement, ModelDescription, describe_fmu,
-                          validate_fmu_file, write_model_description)
-from .sources import model_resources, native_dir
+from .contents import model_resources, native_dir
+from .description import (
+    MODEL_STOP_TIME,
+    InterfaceElement,
+    ModelDescription,
+    describe_fmu,
+    validate_fmu_file,
+    write_model_description,
+)
 
-__all__ = ["NATIVE_SOURCES", "PLATFORMS", "PlatformChoice", "choose_platforms", "NativeModel",
-           "native_model", "model_source", "native_description", "model_description",
-           "build_description", "build_native_fmu", "package_native_fmu", "fmi_headers"]
+__all__ = [
+    "NATIVE_SOURCES",
+    "PLATFORMS",
+    "PlatformChoice",
+    "choose_platforms",
+    "NativeModel",
+    "native_model",
+    "model_source",
+    "native_description",
+    "model_description",
+    "build_description",
+    "build_native_fmu",
+    "package_native_fmu",
+    "fmi_headers",
+]
 
 
 #: The model-independent C sources and the FMI function file of each FMI version.
 #: The FMI state machine both cores share (bodyvib_fsm.c) is compiled into every native FMU.
-NATIVE_SOURCES = ("bodyvib_core.h", "bodyvib_fsm.h", "bodyvib_fsm.c", "bodyvib_core.c",
-                  "bodyvib_calls.h", "bodyvib_calls.c")
-#: The core of a source FMU (a table, bodyvib_source.c) in place of the linear one: the same API.
-SOURCE_SOURCES = ("bodyvib_core.h", "bodyvib_fsm.h", "bodyvib_fsm.c", "bodyvib_source.h",
-                  "bodyvib_source.c", "bodyvib_calls.h", "bodyvib_calls.c")
+NATIVE_SOURCES = (
+    "bodyvib_core.h",
+    "bodyvib_fsm.h",
+    "bodyvib_fsm.c",
+    "bodyvib_core.c",
+    "bodyvib_calls.h",
+    "bodyvib_calls.c",
+)
+#: The core of a source FMU (a table, bodyvib_table.c) in place of the linear one: the same API.
+SOURCE_SOURCES = (
+    "bodyvib_core.h",
+    "bodyvib_fsm.h",
+    "bodyvib_fsm.c",
+    "bodyvib_table.h",
+    "bodyvib_table.c",
+    "bodyvib_calls.h",
+    "bodyvib_calls.c",
+)
 FMI_FILES = {2: "fmi2Functions.c", 3: "fmi3Functions.c"}
-FMI_HEADERS = {2: ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"),
-               3: ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")}
+FMI_HEADERS = {
+    2: ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"),
+    3: ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h"),
+}
 MODEL_C = "bodyvib_model.c"
 
 #: Platform -> (compiler, flags, binary suffix, FMI 2.0 folder, FMI 3.0 folder).
 PLATFORMS = {
-    "linux64": ("gcc", ["-fPIC", "-fvisibility=hidden", "-Wl,--no-undefined"], ".so",
-                "linux64", "x86_64-linux"),
+    "linux64": (
+        "gcc",
+        ["-fPIC", "-fvisibility=hidden", "-Wl,--no-undefined"],
+        ".so",
+        "linux64",
+        "x86_64-linux",
+    ),
     "win64": ("x86_64-w64-mingw32-gcc", ["-static-libgcc"], ".dll", "win64", "x86_64-windows"),
 }
 COMMON_FLAGS = ["-std=c99", "-O2", "-shared", "-Wall", "-Wextra", "-Wno-unused-parameter"]
@@ -86,8 +124,10 @@ COMMON_FLAGS = ["-std=c99", "-O2", "-shared", "-Wall", "-Wextra", "-Wno-unused-p
 MAX_OUTPUT_DERIVATIVE_ORDER = 2
 
 #: The log categories the native core logs under (fmi2SetDebugLogging / fmi3SetDebugLogging).
-LOG_CATEGORIES = (("logStatusWarning", "warnings (unconnected velocity input)"),
-                  ("logStatusError", "errors (refused steps, parameters, states)"))
+LOG_CATEGORIES = (
+    ("logStatusWarning", "warnings (unconnected velocity input)"),
+    ("logStatusError", "errors (refused steps, parameters, states)"),
+)
 
 #: Platform -> Debian package of its compiler (what the message on a missing one names).
 COMPILER_PACKAGES = {"linux64": "gcc", "win64": "gcc-mingw-w64-x86-64"}
@@ -190,8 +230,10 @@ class PlatformChoice:
 
 def _missing_compiler(platform: str) -> str:
     compiler = PLATFORMS[platform][0]
-    return (f"{compiler} not found on PATH; install it (Debian: apt-get install "
-            f"{COMPILER_PACKAGES[platform]})")
+    return (
+        f"{compiler} not found on PATH; install it (Debian: apt-get install "
+        f"{COMPILER_PACKAGES[platform]})"
+    )
 
 
 def choose_platforms(requested=None) -> PlatformChoice:
@@ -219,29 +261,43 @@ def choose_platforms(requested=None) -> PlatformChoice:
     ('linux64',)
     """
     if requested is not None:
-        names = [p.strip() for p in (requested.split(",") if isinstance(requested, str)
-                                     else requested) if p.strip()]
+        names = [
+            p.strip()
+            for p in (requested.split(",") if isinstance(requested, str) else requested)
+            if p.strip()
+        ]
         unknown = [p for p in names if p not in PLATFORMS]
         if unknown or not names:
-            raise BodyvibError(f"--platforms: unknown platform {', '.join(unknown) or '(none)'};"
-                               f" choose among {', '.join(PLATFORMS)} (comma-separated)")
+            raise BodyvibError(
+                f"--platforms: unknown platform {', '.join(unknown) or '(none)'};"
+                f" choose among {', '.join(PLATFORMS)} (comma-separated)"
+            )
         for p in names:
             if shutil.which(PLATFORMS[p][0]) is None:
                 others = [q for q in names if q != p]
-                raise BodyvibError(f"{p}: {_missing_compiler(p)}, or leave it out (--platforms "
-                                   f"{','.join(others) or 'another platform'})")
+                raise BodyvibError(
+                    f"{p}: {_missing_compiler(p)}, or leave it out (--platforms "
+                    f"{','.join(others) or 'another platform'})"
+                )
         return PlatformChoice(tuple(p for p in PLATFORMS if p in names), ())
     have = tuple(p for p in PLATFORMS if shutil.which(PLATFORMS[p][0]) is not None)
     if not have:
-        raise BodyvibError("no C compiler for any platform: "
-                           + "; ".join(f"{p}: {_missing_compiler(p)}" for p in PLATFORMS))
-    skipped = tuple(f"{p} skipped: {_missing_compiler(p)}, or pass --platforms "
-                    f"{','.join(have)} to build without it" for p in PLATFORMS if p not in have)
+        raise BodyvibError(
+            "no C compiler for any platform: "
+            + "; ".join(f"{p}: {_missing_compiler(p)}" for p in PLATFORMS)
+        )
+    skipped = tuple(
+        f"{p} skipped: {_missing_compiler(p)}, or pass --platforms "
+        f"{','.join(have)} to build without it"
+        for p in PLATFORMS
+        if p not in have
+    )
     return PlatformChoice(have, skipped)
 
 
 def _stencils(network, params: Sequence[str], rows: Sequence[int]):
     """Per-parameter stencils of the descriptor form; checked to reproduce it exactly."""
+
     def mats(values):
         dm = descriptor_model(network.with_parameters(**dict(zip(params, values))))
         return [dm.E, dm.A, dm.B, dm.C[list(rows)], dm.Cd[list(rows)], dm.D[list(rows)]]
@@ -267,8 +323,10 @@ def _stencils(network, params: Sequence[str], rows: Sequence[int]):
                 S[r, c] += v * (1.0 if j < 0 else values[j])
         scale = max(np.max(np.abs(M)), 1.0) if M.size else 1.0
         if M.size and np.max(np.abs(S - M)) > 1e-14 * scale:
-            raise BodyvibError(f"model '{network.name}': its {_MATRICES[code]} matrix is not "
-                               "affine in the parameters; the native FMU cannot assemble it")
+            raise BodyvibError(
+                f"model '{network.name}': its {_MATRICES[code]} matrix is not "
+                "affine in the parameters; the native FMU cannot assemble it"
+            )
     return out
 
 
@@ -302,8 +360,10 @@ def native_model(kind: str, network: Network, name: str, description: str = "") 
     ni, no = len(iface.inputs), len(iface.outputs)
     lm = descriptor_model(network).solve()
     derivative = [sig.startswith(RATE_PREFIX) for sig in iface.output_signals]
-    signals = [lm.output_index(sig[len(RATE_PREFIX):] if d else sig)
-               for sig, d in zip(iface.output_signals, derivative)]
+    signals = [
+        lm.output_index(sig[len(RATE_PREFIX) :] if d else sig)
+        for sig, d in zip(iface.output_signals, derivative)
+    ]
     out_vrs = list(range(ni, ni + no))
     rows = tuple(dict.fromkeys(signals))
     kinds, index = [0] * len(variables), [0] * len(variables)
@@ -325,16 +385,34 @@ def native_model(kind: str, network: Network, name: str, description: str = "") 
     # model exchange: outputs on the states, derivatives A x + B U s
     out_state = [lm.C[r] @ lm.A if d else lm.C[r] for r, d in zip(signals, derivative)]
     BU = lm.B @ U
-    der_deps = tuple((tuple(int(j) for j in np.nonzero(lm.A[i])[0]),
-                      tuple(in_vrs[j] for j in range(ni) if BU[i, j] != 0.0))
-                     for i in range(lm.A.shape[0]))
+    der_deps = tuple(
+        (
+            tuple(int(j) for j in np.nonzero(lm.A[i])[0]),
+            tuple(in_vrs[j] for j in range(ni) if BU[i, j] != 0.0),
+        )
+        for i in range(lm.A.shape[0])
+    )
     return NativeModel(
-        name=name, kind=kind, description=description, network=network,
-        variables=tuple(variables), kinds=tuple(kinds),
-        index=tuple(index), inputs=in_vrs, outputs=tuple(out_vrs), parameters=par_vrs,
-        input_map=U, rate_matrix=R, pairs=tuple(pairs), out_row=tuple(rows.index(s) for s in signals),
-        out_derivative=tuple(derivative), rows=rows, stencils=stencils,
-        n=lm.A.shape[0], m=lm.B.shape[1], dependencies=tuple(deps),
+        name=name,
+        kind=kind,
+        description=description,
+        network=network,
+        variables=tuple(variables),
+        kinds=tuple(kinds),
+        index=tuple(index),
+        inputs=in_vrs,
+        outputs=tuple(out_vrs),
+        parameters=par_vrs,
+        input_map=U,
+        rate_matrix=R,
+        pairs=tuple(pairs),
+        out_row=tuple(rows.index(s) for s in signals),
+        out_derivative=tuple(derivative),
+        rows=rows,
+        stencils=stencils,
+        n=lm.A.shape[0],
+        m=lm.B.shape[1],
+        dependencies=tuple(deps),
         states=tuple(lm.states),
         output_state_deps=tuple(tuple(int(j) for j in np.nonzero(row)[0]) for row in out_state),
         derivative_deps=der_deps,
@@ -377,14 +455,15 @@ def model_source(nm: NativeModel, token: str) -> str:
         f"static const int vr_kind[] = {{{_c_ints(nm.kinds)}}};",
         f"static const int vr_index[] = {{{_c_ints(nm.index)}}};",
         "static const char *const vr_name[] = {"
-        + ", ".join(_c_string(v.name) for v in nm.variables) + "};",
-        "static const char *const param_unit[] = {" + ", ".join(_c_string(u) for u in units)
+        + ", ".join(_c_string(v.name) for v in nm.variables)
         + "};",
+        "static const char *const param_unit[] = {" + ", ".join(_c_string(u) for u in units) + "};",
         f"static const double param_start[] = {{{_c_doubles(starts)}}};",
         f"static const double U[] = {{{_c_doubles(nm.input_map.ravel())}}};",
         f"static const double R[] = {{{_c_doubles(nm.rate_matrix.ravel())}}};",
         "static const bv_pair pairs[] = {"
-        + ", ".join(f"{{{i}, {j}, {int(f)}}}" for i, j, f in nm.pairs) + "};",
+        + ", ".join(f"{{{i}, {j}, {int(f)}}}" for i, j, f in nm.pairs)
+        + "};",
         f"static const int out_row[] = {{{_c_ints(nm.out_row)}}};",
         f"static const int out_derivative[] = {{{_c_ints(nm.out_derivative)}}};",
         "static const bv_stencil stencils[] = {",
@@ -432,30 +511,62 @@ def _interfaces(nm: NativeModel, fmi: int) -> Tuple[InterfaceElement, ...]:
     directional = "false" if nm.kind == "source" else "true"
     order = str(MAX_OUTPUT_DERIVATIVE_ORDER)
     if fmi == 2:
-        common = (("canBeInstantiatedOnlyOncePerProcess", "false"),
-                  ("canNotUseMemoryManagementFunctions", "true"),
-                  ("canGetAndSetFMUstate", "true"), ("canSerializeFMUstate", "true"),
-                  ("providesDirectionalDerivative", directional))
+        common = (
+            ("canBeInstantiatedOnlyOncePerProcess", "false"),
+            ("canNotUseMemoryManagementFunctions", "true"),
+            ("canGetAndSetFMUstate", "true"),
+            ("canSerializeFMUstate", "true"),
+            ("providesDirectionalDerivative", directional),
+        )
         files = tuple(_c_files(nm, fmi))
-        return (InterfaceElement("ModelExchange", (
-                    ("needsExecutionTool", "false"),
-                    ("completedIntegratorStepNotNeeded", "true")) + common, files),
-                InterfaceElement("CoSimulation", (
+        return (
+            InterfaceElement(
+                "ModelExchange",
+                (("needsExecutionTool", "false"), ("completedIntegratorStepNotNeeded", "true"))
+                + common,
+                files,
+            ),
+            InterfaceElement(
+                "CoSimulation",
+                (
                     ("needsExecutionTool", "false"),
                     ("canHandleVariableCommunicationStepSize", "true"),
-                    ("canInterpolateInputs", "true"), ("maxOutputDerivativeOrder", order),
-                    ("canRunAsynchronuously", "false")) + common, files))
-    common = (("needsExecutionTool", "false"), ("canBeInstantiatedOnlyOncePerProcess", "false"),
-              ("canGetAndSetFMUState", "true"), ("canSerializeFMUState", "true"),
-              ("providesDirectionalDerivatives", directional))
-    return (InterfaceElement("ModelExchange", common + (
+                    ("canInterpolateInputs", "true"),
+                    ("maxOutputDerivativeOrder", order),
+                    ("canRunAsynchronuously", "false"),
+                )
+                + common,
+                files,
+            ),
+        )
+    common = (
+        ("needsExecutionTool", "false"),
+        ("canBeInstantiatedOnlyOncePerProcess", "false"),
+        ("canGetAndSetFMUState", "true"),
+        ("canSerializeFMUState", "true"),
+        ("providesDirectionalDerivatives", directional),
+    )
+    return (
+        InterfaceElement(
+            "ModelExchange",
+            common
+            + (
                 ("needsCompletedIntegratorStep", "false"),
-                ("providesEvaluateDiscreteStates", "false"))),
-            InterfaceElement("CoSimulation", common + (
+                ("providesEvaluateDiscreteStates", "false"),
+            ),
+        ),
+        InterfaceElement(
+            "CoSimulation",
+            common
+            + (
                 ("canHandleVariableCommunicationStepSize", "true"),
-                ("maxOutputDerivativeOrder", order), ("hasEventMode", "false"),
+                ("maxOutputDerivativeOrder", order),
+                ("hasEventMode", "false"),
                 ("providesIntermediateUpdate", "false"),
-                ("canReturnEarlyAfterIntermediateUpdate", "false"))))
+                ("canReturnEarlyAfterIntermediateUpdate", "false"),
+            ),
+        ),
+    )
 
 
 def native_description(nm: NativeModel, token: str, fmi: int) -> ModelDescription:
@@ -476,13 +587,22 @@ def native_description(nm: NativeModel, token: str, fmi: int) -> ModelDescriptio
         Co-simulation and Model Exchange, with the continuous states.
     """
     return ModelDescription(
-        fmi=fmi, model_name=nm.name, model_identifier=nm.name, token=token,
+        fmi=fmi,
+        model_name=nm.name,
+        model_identifier=nm.name,
+        token=token,
         description=describe_fmu(nm.description or nm.name, nm.network),
         generation_tool=f"bodyvib {__version__} native_build",
-        variables=nm.variables, output_dependencies=nm.dependencies,
-        interfaces=_interfaces(nm, fmi), log_categories=LOG_CATEGORIES, stop_time=nm.stop_time,
-        source=nm.kind == "source", states=nm.states,
-        output_state_dependencies=nm.output_state_deps, derivative_dependencies=nm.derivative_deps)
+        variables=nm.variables,
+        output_dependencies=nm.dependencies,
+        interfaces=_interfaces(nm, fmi),
+        log_categories=LOG_CATEGORIES,
+        stop_time=nm.stop_time,
+        source=nm.kind == "source",
+        states=nm.states,
+        output_state_dependencies=nm.output_state_deps,
+        derivative_dependencies=nm.derivative_deps,
+    )
 
 
 def model_description(nm: NativeModel, token: str, fmi: int) -> bytes:
@@ -499,7 +619,6 @@ def model_description(nm: NativeModel, token: str, fmi: int) -> bytes:
         UTF-8 XML (:func:`bodyvib.fmu.description.write_model_description`).
     """
     return write_model_description(native_description(nm, token, fmi))
-
 
 
 def build_description(nm: NativeModel) -> bytes:
@@ -536,18 +655,30 @@ def _compile(platform: str, src: Path, fmi: int, out: Path, files: Sequence[str]
     """Compile the C ``files`` in ``src`` into the binary ``out`` for ``platform``."""
     compiler, flags, _, _, _ = PLATFORMS[platform]
     if shutil.which(compiler) is None:
-        raise BodyvibError(f"{platform}: {_missing_compiler(platform)}, or build the other "
-                           "platforms only (bodyvib build --native --platforms ...)")
-    cmd = ([compiler] + COMMON_FLAGS + flags + [f"-I{src}", "-o", str(out)]
-           + [str(src / f) for f in files] + ["-lm"])
+        raise BodyvibError(
+            f"{platform}: {_missing_compiler(platform)}, or build the other "
+            "platforms only (bodyvib build --native --platforms ...)"
+        )
+    cmd = (
+        [compiler]
+        + COMMON_FLAGS
+        + flags
+        + [f"-I{src}", "-o", str(out)]
+        + [str(src / f) for f in files]
+        + ["-lm"]
+    )
     # its own process group, killed on a signal; its temporary files in the build's folder
     proc = interrupts.run_process(cmd, scratch=src.parent.parent / "compiler-tmp")
     if proc.returncode != 0 or not out.is_file():
-        raise BodyvibError(f"{compiler} failed for {out.name} ({platform}, FMI {fmi}.0): "
-                           + " | ".join((proc.stderr or proc.stdout).strip().splitlines()[-4:]))
+        raise BodyvibError(
+            f"{compiler} failed for {out.name} ({platform}, FMI {fmi}.0): "
+            + " | ".join((proc.stderr or proc.stdout).strip().splitlines()[-4:])
+        )
     if proc.stderr.strip():
-        raise BodyvibError(f"{compiler} warned for {out.name} ({platform}, FMI {fmi}.0): "
-                           + " | ".join(proc.stderr.strip().splitlines()[-4:]))
+        raise BodyvibError(
+            f"{compiler} warned for {out.name} ({platform}, FMI {fmi}.0): "
+            + " | ".join(proc.stderr.strip().splitlines()[-4:])
+        )
 
 
 def _zip(folder: Path) -> bytes:
@@ -559,8 +690,15 @@ def _zip(folder: Path) -> bytes:
     return buf.getvalue()
 
 
-def build_native_fmu(network: Network, kind: str, name: str, description: str, dest="dist/native",
-                     fmi: int = 2, platforms: Iterable[str] = ("linux64", "win64")) -> Path:
+def build_native_fmu(
+    network: Network,
+    kind: str,
+    name: str,
+    description: str,
+    dest="dist/native",
+    fmi: int = 2,
+    platforms: Iterable[str] = ("linux64", "win64"),
+) -> Path:
     """Build one native FMU of a model (the counterpart of :func:`bodyvib.fmu.pythonfmu.build_fmu`).
 
     Parameters
@@ -593,13 +731,19 @@ def build_native_fmu(network: Network, kind: str, name: str, description: str, d
     PosixPath('dist/native/fmi3/HumanBody3DOF.fmu')
     """
     nm = native_model(kind, network, name, description)
-    return package_native_fmu(nm, lambda token: model_source(nm, token),
-                              model_resources(network), dest, fmi, platforms)
+    return package_native_fmu(
+        nm, lambda token: model_source(nm, token), model_resources(network), dest, fmi, platforms
+    )
 
 
-def package_native_fmu(nm: NativeModel, model_c: Callable[[str], str],
-                       resources: Dict[str, bytes], dest, fmi: int,
-                       platforms: Iterable[str]) -> Path:
+def package_native_fmu(
+    nm: NativeModel,
+    model_c: Callable[[str], str],
+    resources: Dict[str, bytes],
+    dest,
+    fmi: int,
+    platforms: Iterable[str],
+) -> Path:
     """Compile, package, validate and place one native FMU: what every native kind shares.
 
     Parameters
@@ -663,4 +807,3 @@ def package_native_fmu(nm: NativeModel, model_c: Callable[[str], str],
         target = dest / f"{name}.fmu"
         atomic_write_bytes(target, staged.read_bytes())
     return target
-

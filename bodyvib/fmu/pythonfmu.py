@@ -6,7 +6,7 @@
 Outputs and InitialUnknowns, which pythonfmu 0.7.0 does not write), keeping what pythonfmu
 decides (:func:`pythonfmu_description`), and checks it with ``fmpy validate``. The
 project's own set of FMUs (``HumanBody3DOF``, ``HumanBodyISO7962``, ``QuarterCar``) and
-``python build_fmu.py`` are :mod:`vehicle.fmus`.
+``python build_fmu.py`` are :mod:`bodyvib.vehicle.fmus`.
 
 Private module names. A module name loaded inside an FMU is global to the host
 process and the first loaded copy wins, so each FMU ships:
@@ -40,12 +40,25 @@ from ..process import interrupts
 from ..process.outputs import atomic_write_bytes
 from ..runtime.errors import BodyvibError
 from ..runtime.network import Network
-from .description import (InterfaceElement, ModelDescription, default_stop_time, describe_fmu,
-                          validate_fmu_file, write_model_description)
-from .sources import RUNTIME_DIR, fmu_src_dir, model_resources, source_resources
+from .contents import RUNTIME_DIR, fmu_src_dir, model_resources, source_resources
+from .description import (
+    InterfaceElement,
+    ModelDescription,
+    default_stop_time,
+    describe_fmu,
+    validate_fmu_file,
+    write_model_description,
+)
 
-__all__ = ["SLAVE_SCRIPT", "build_fmu", "build_source_fmu", "pythonfmu_description",
-           "render_slave_script", "runtime_sources", "write_runtime_package"]
+__all__ = [
+    "SLAVE_SCRIPT",
+    "build_fmu",
+    "build_source_fmu",
+    "pythonfmu_description",
+    "render_slave_script",
+    "runtime_sources",
+    "write_runtime_package",
+]
 
 #: The one slave script, rendered per FMU (shipped in the ``fmu_src`` package).
 SLAVE_SCRIPT = "bodyvib_fmu_slave.py"
@@ -96,7 +109,9 @@ def write_runtime_package(folder, package: str, owner: str = "an FMU") -> Path:
             (pkg / m).write_bytes(data)
     (pkg / "__init__.py").write_text(
         f'"""Private copy of the bodyvib {__version__} run-time package for {owner}."""\n'
-        f'__version__ = "{__version__}"\n', encoding="utf-8")
+        f'__version__ = "{__version__}"\n',
+        encoding="utf-8",
+    )
     return pkg
 
 
@@ -133,15 +148,14 @@ def render_slave_script(name: str, kind: str, description: str, runtime_package:
     text = script.read_text(encoding="utf-8")
     for pattern, line in (
         (r'^RUNTIME = "bodyvib.runtime".*$', f"RUNTIME = {runtime_package!r}"),
-        (r'^KIND = .*$', f"KIND = {kind!r}"),
-        (r'^DESCRIPTION = .*$', f"DESCRIPTION = {description!r}"),
-        (r'^class BodyvibSlave\(Fmi2Slave\):.*$', f"class {name}(Fmi2Slave):"),
+        (r"^KIND = .*$", f"KIND = {kind!r}"),
+        (r"^DESCRIPTION = .*$", f"DESCRIPTION = {description!r}"),
+        (r"^class BodyvibSlave\(Fmi2Slave\):.*$", f"class {name}(Fmi2Slave):"),
     ):
         text, count = re.subn(pattern, line.replace("\\", "\\\\"), text, count=1, flags=re.M)
         if count != 1:
             raise BodyvibError(f"{script}: no line matching {pattern!r} to render")
     return text
-
 
 
 def build_fmu(network: Network, kind: str, name: str, description: str, dest="dist") -> Path:
@@ -183,8 +197,15 @@ def build_fmu(network: Network, kind: str, name: str, description: str, dest="di
 
     core = FmuCore(kind, network, name)  # refuses a model the FMU could not run
     core.check_parameters()
-    return _build(core, kind, name, description, model_resources(network),
-                  describe_fmu(description, network), dest)
+    return _build(
+        core,
+        kind,
+        name,
+        description,
+        model_resources(network),
+        describe_fmu(description, network),
+        dest,
+    )
 
 
 def build_source_fmu(meta: dict, table, name: str, description: str, dest="dist") -> Path:
@@ -193,9 +214,9 @@ def build_source_fmu(meta: dict, table, name: str, description: str, dest="dist"
     Parameters
     ----------
     meta : dict
-        The source description (:mod:`bodyvib.runtime.source`), without
+        The source description (:mod:`bodyvib.runtime.tabulated`), without
         ``table`` and ``periodic``.
-    table : bodyvib.runtime.source.HermiteTable
+    table : bodyvib.runtime.tabulated.HermiteTable
         The profiles and their slopes over the coordinate.
     name, description, dest
         As :func:`build_fmu`.
@@ -211,22 +232,31 @@ def build_source_fmu(meta: dict, table, name: str, description: str, dest="dist"
         As :func:`build_fmu`; a source the contract refuses (signals not matching the
         table, a bad speed).
     """
-    from ..runtime.source import SourceCore
+    from ..runtime.tabulated import SourceCore
 
     core = SourceCore(meta, table, name)
     core.check_parameters()
-    return _build(core, "source", name, description, source_resources(meta, table),
-                  describe_fmu(description, source=meta), dest)
+    return _build(
+        core,
+        "source",
+        name,
+        description,
+        source_resources(meta, table),
+        describe_fmu(description, source=meta),
+        dest,
+    )
 
 
-def _build(core, kind: str, name: str, description: str, resources: Dict[str, bytes],
-           described: str, dest) -> Path:
+def _build(
+    core, kind: str, name: str, description: str, resources: Dict[str, bytes], described: str, dest
+) -> Path:
     """Package a slave over ``core`` with pythonfmu, write and validate its model description
     (``described``: its description attribute, :func:`describe_fmu`)."""
     sources = runtime_sources()
     template = render_slave_script(name, kind, description, "bodyvib.runtime")
-    digest = _content_hash([template.encode()] + [resources[k] for k in sorted(resources)]
-                           + list(sources.values()))
+    digest = _content_hash(
+        [template.encode()] + [resources[k] for k in sorted(resources)] + list(sources.values())
+    )
     package = f"bodyvib_rt_{name.lower()}_{digest}"
     module = f"bodyvib_fmu_{name.lower()}_{digest}"
     script_text = render_slave_script(name, kind, description, package)
@@ -240,16 +270,29 @@ def _build(core, kind: str, name: str, description: str, resources: Dict[str, by
         out = Path(tmp) / "out"
         # pythonfmu runs in a fresh process: in a process that has run a pythonfmu FMU,
         # 'pythonfmu' may be the FMU's embedded copy, which has no binaries to package.
-        cmd = [sys.executable, "-m", "pythonfmu", "build", "-f", str(stage / f"{module}.py"),
-               "-d", str(out), "--no-external-tool", "--handle-state", "--serialize-state",
-               str(pkg)] + [str(stage / fname) for fname in resources]
+        cmd = [
+            sys.executable,
+            "-m",
+            "pythonfmu",
+            "build",
+            "-f",
+            str(stage / f"{module}.py"),
+            "-d",
+            str(out),
+            "--no-external-tool",
+            "--handle-state",
+            "--serialize-state",
+            str(pkg),
+        ] + [str(stage / fname) for fname in resources]
         # a signal kills its process group; its temporary files stay in the build's folder
         proc = interrupts.run_process(cmd, cwd=tmp, scratch=Path(tmp) / "pythonfmu-tmp")
         built = out / f"{name}.fmu"
         if proc.returncode != 0 or not built.is_file():
             tail = (proc.stderr or proc.stdout).strip().splitlines()[-3:]
-            raise BodyvibError(f"pythonfmu could not build {name}.fmu (is pythonfmu installed? "
-                               f"pip install pythonfmu): {' | '.join(tail)}")
+            raise BodyvibError(
+                f"pythonfmu could not build {name}.fmu (is pythonfmu installed? "
+                f"pip install pythonfmu): {' | '.join(tail)}"
+            )
         data = _finish(built, core, described)
         checked = Path(tmp) / f"{name}.fmu"  # validated before it may replace a good FMU
         checked.write_bytes(data)
@@ -273,7 +316,7 @@ def pythonfmu_description(generated: bytes, core, description: str) -> ModelDesc
     ----------
     generated : bytes
         The modelDescription.xml pythonfmu wrote.
-    core : bodyvib.runtime.engine.FmuCore or bodyvib.runtime.source.SourceCore
+    core : bodyvib.runtime.engine.FmuCore or bodyvib.runtime.tabulated.SourceCore
         The core the slave runs.
     description : str
         The FMU's description.
@@ -290,28 +333,40 @@ def pythonfmu_description(generated: bytes, core, description: str) -> ModelDesc
     """
     root = ET.fromstring(generated)
     cs = root.find("CoSimulation")
-    assigned = {sv.get("name"): int(sv.get("valueReference"))
-                for sv in root.iter("ScalarVariable")}
+    assigned = {sv.get("name"): int(sv.get("valueReference")) for sv in root.iter("ScalarVariable")}
     wanted = {v.name: vr for vr, v in enumerate(core.variables)}
     if assigned != wanted:
         moved = sorted(set(assigned.items()) ^ set(wanted.items()))
-        raise BodyvibError(f"{root.get('modelName')}.fmu: pythonfmu assigned value references "
-                           f"other than the core's order ({moved[:4]}): the slave's "
-                           "register_variable order changed; use pythonfmu 0.7.0 (pip install "
-                           "pythonfmu==0.7.0) or register the variables in core order")
+        raise BodyvibError(
+            f"{root.get('modelName')}.fmu: pythonfmu assigned value references "
+            f"other than the core's order ({moved[:4]}): the slave's "
+            "register_variable order changed; use pythonfmu 0.7.0 (pip install "
+            "pythonfmu==0.7.0) or register the variables in core order"
+        )
     per_output = dict(zip((v.name for v in core.interface.outputs), core.output_dependencies()))
     return ModelDescription(
-        fmi=2, model_name=root.get("modelName"), model_identifier=cs.get("modelIdentifier"),
-        token=root.get("guid"), description=description,
+        fmi=2,
+        model_name=root.get("modelName"),
+        model_identifier=cs.get("modelIdentifier"),
+        token=root.get("guid"),
+        description=description,
         generation_tool=f"bodyvib {__version__} with {root.get('generationTool')}",
         variables=tuple(core.variables),
-        output_dependencies=tuple(tuple(per_output[v.name]) for v in core.variables
-                                  if v.causality == "output"),
-        interfaces=(InterfaceElement("CoSimulation", tuple(
-            (k, v) for k, v in cs.attrib.items() if k != "modelIdentifier")),),
-        log_categories=tuple((c.get("name"), c.get("description"))
-                             for c in root.iterfind("LogCategories/Category")),
-        stop_time=default_stop_time(core), source=core.kind == "source")
+        output_dependencies=tuple(
+            tuple(per_output[v.name]) for v in core.variables if v.causality == "output"
+        ),
+        interfaces=(
+            InterfaceElement(
+                "CoSimulation",
+                tuple((k, v) for k, v in cs.attrib.items() if k != "modelIdentifier"),
+            ),
+        ),
+        log_categories=tuple(
+            (c.get("name"), c.get("description")) for c in root.iterfind("LogCategories/Category")
+        ),
+        stop_time=default_stop_time(core),
+        source=core.kind == "source",
+    )
 
 
 def _finish(fmu: Path, core, description: str) -> bytes:
@@ -319,8 +374,10 @@ def _finish(fmu: Path, core, description: str) -> bytes:
     with zipfile.ZipFile(fmu) as zf:
         entries = [(info, zf.read(info)) for info in zf.infolist()]
     if not any(info.filename.startswith("binaries/") for info, _ in entries):
-        raise BodyvibError(f"{fmu.name}: pythonfmu packaged no binaries (pythonfmu without "
-                           "its resources/binaries?); reinstall pythonfmu")
+        raise BodyvibError(
+            f"{fmu.name}: pythonfmu packaged no binaries (pythonfmu without "
+            "its resources/binaries?); reinstall pythonfmu"
+        )
     generated = next(data for info, data in entries if info.filename == "modelDescription.xml")
     xml = write_model_description(pythonfmu_description(generated, core, description))
     buf = io.BytesIO()

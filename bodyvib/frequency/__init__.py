@@ -7,10 +7,26 @@ estimates a transmissibility from a run's time records (Welch H1);
 :mod:`~bodyvib.frequency.measured` reads a user's measured transmissibility.
 """
 
-from .response import (Peak, apparent_mass, control_labels, displacement_input_matrices,
-                       displacement_input_statespace, find_peaks, frequency_response,
-                       to_statespace, transmissibility)
+from .response import (
+    Peak,
+    apparent_mass,
+    control_labels,
+    displacement_input_matrices,
+    displacement_input_statespace,
+    find_peaks,
+    frequency_response,
+    to_statespace,
+    transmissibility,
+)
 
-__all__ = ["control_labels", "to_statespace", "frequency_response", "transmissibility",
-           "apparent_mass", "Peak", "find_peaks", "displacement_input_matrices",
-           "displacement_input_statespace"]
+__all__ = [
+    "control_labels",
+    "to_statespace",
+    "frequency_response",
+    "transmissibility",
+    "apparent_mass",
+    "Peak",
+    "find_peaks",
+    "displacement_input_matrices",
+    "displacement_input_statespace",
+]

@@ -10,10 +10,10 @@ from typing import Dict, Tuple
 
 import numpy as np
 
-from .response import Peak, find_peaks, transmissibility
+from ..models import DEFAULT_MODELS, load_model
 from ..process.limits import require_memory
 from ..runtime.errors import BodyvibError
-from ..models import DEFAULT_MODELS, load_model
+from .response import Peak, find_peaks, transmissibility
 
 __all__ = [
     "THIRD_OCTAVE_HZ",
@@ -26,8 +26,27 @@ __all__ = [
 ]
 
 #: One-third-octave centre frequencies of ISO 7962's range, Hz.
-THIRD_OCTAVE_HZ = (0.5, 0.63, 0.8, 1.0, 1.25, 1.6, 2.0, 2.5, 3.15, 4.0, 5.0, 6.3,
-                   8.0, 10.0, 12.5, 16.0, 20.0, 25.0, 31.5)
+THIRD_OCTAVE_HZ = (
+    0.5,
+    0.63,
+    0.8,
+    1.0,
+    1.25,
+    1.6,
+    2.0,
+    2.5,
+    3.15,
+    4.0,
+    5.0,
+    6.3,
+    8.0,
+    10.0,
+    12.5,
+    16.0,
+    20.0,
+    25.0,
+    31.5,
+)
 
 #: Working memory per frequency point and model in :func:`compare_transmissibility`,
 #: bytes: the complex response, modulus and phase arrays, the two lists of Python floats,
@@ -55,8 +74,11 @@ class ModelTransmissibility:
 
     def to_dict(self) -> dict:
         """``{"modulus": [...], "phase_deg": [...], "peaks": [{"frequency_hz", "modulus"}]}``."""
-        return {"modulus": self.modulus.tolist(), "phase_deg": self.phase_deg.tolist(),
-                "peaks": [p.to_dict() for p in self.peaks]}
+        return {
+            "modulus": self.modulus.tolist(),
+            "phase_deg": self.phase_deg.tolist(),
+            "peaks": [p.to_dict() for p in self.peaks],
+        }
 
 
 @dataclass(frozen=True)
@@ -71,12 +93,15 @@ class TransmissibilityComparison:
     def to_dict(self) -> dict:
         """The JSON document of ``bodyvib frf --json``: ``{"frequency_hz": [...], "models":
         {NAME: {"modulus", "phase_deg", "peaks"}}}``."""
-        return {"frequency_hz": self.frequency_hz.tolist(),
-                "models": {k: m.to_dict() for k, m in self.models.items()}}
+        return {
+            "frequency_hz": self.frequency_hz.tolist(),
+            "models": {k: m.to_dict() for k, m in self.models.items()},
+        }
 
 
-def compare_transmissibility(models=DEFAULT_MODELS, f_min=0.5, f_max=31.5,
-                             points=1200) -> TransmissibilityComparison:
+def compare_transmissibility(
+    models=DEFAULT_MODELS, f_min=0.5, f_max=31.5, points=1200
+) -> TransmissibilityComparison:
     """Transmissibility of each model on a common logarithmic frequency grid.
 
     Parameters
@@ -114,22 +139,27 @@ def compare_transmissibility(models=DEFAULT_MODELS, f_min=0.5, f_max=31.5,
         )
     nets = [(m, load_model(m) if isinstance(m, str) else m) for m in models]
     # per point and model: complex T, modulus, phase, and each as a list of Python floats
-    require_memory(points * (16 + len(nets) * BYTES_PER_POINT), f"{points} frequency points "
-                   f"for {len(nets)} model(s)", "use fewer points (--points; 1200 resolve "
-                   "every peak of the shipped models)")
+    require_memory(
+        points * (16 + len(nets) * BYTES_PER_POINT),
+        f"{points} frequency points for {len(nets)} model(s)",
+        "use fewer points (--points; 1200 resolve every peak of the shipped models)",
+    )
     f = np.geomspace(f_min, f_max, points)
     curves = {}
-    for (m, net), label in zip(nets, _labels(nets)):
+    for (_m, net), label in zip(nets, _labels(nets)):
         T = transmissibility(net, f)
         if not np.all(np.isfinite(T)):
             k = int(np.argmin(np.isfinite(T)))
             raise BodyvibError(
                 f"model '{label}': the transmissibility is not finite at {f[k]:.4g} Hz (the "
-                "parameter values overflow the computation); check the parameter file")
+                "parameter values overflow the computation); check the parameter file"
+            )
         mod = np.abs(T)
         curves[label] = ModelTransmissibility(
-            modulus=mod, phase_deg=np.degrees(np.unwrap(np.angle(T))),
-            peaks=tuple(find_peaks(f, mod)))
+            modulus=mod,
+            phase_deg=np.degrees(np.unwrap(np.angle(T))),
+            peaks=tuple(find_peaks(f, mod)),
+        )
     return TransmissibilityComparison(frequency_hz=f, models=curves)
 
 
@@ -143,7 +173,7 @@ def _labels(nets):
 
     names = [net.name for _, net in nets]
     labels = []
-    for (src, net), name in zip(nets, names):
+    for (src, _net), name in zip(nets, names):
         label = name
         if names.count(name) > 1:
             where = os.path.basename(os.fspath(src)) if isinstance(src, (str, os.PathLike)) else ""
@@ -215,7 +245,7 @@ def plot_transmissibility(result, path, title="Seat-to-head transmissibility"):
     fig, (ax1, ax2) = new_figure(2, 1, sharex=True, figsize=(7, 6))
     f = result.frequency_hz
     for name, r in result.models.items():
-        line, = ax1.plot(f, r.modulus, label=name)
+        (line,) = ax1.plot(f, r.modulus, label=name)
         for p in r.peaks:
             ax1.plot(p.frequency_hz, p.modulus, "o", color=line.get_color(), ms=4)
         ax2.plot(f, r.phase_deg, color=line.get_color(), label=name)

@@ -10,11 +10,17 @@ from typing import Dict, List
 
 import numpy as np
 
-from .response import Peak, find_peaks
 from ..runtime.errors import BodyvibError
+from .response import Peak, find_peaks
 
-__all__ = ["TRANSMISSIBILITY_BAND_HZ", "Peak", "TransmissibilityEstimate",
-           "estimate_transmissibility", "TransmissibilityStream", "segment_length"]
+__all__ = [
+    "TRANSMISSIBILITY_BAND_HZ",
+    "Peak",
+    "TransmissibilityEstimate",
+    "estimate_transmissibility",
+    "TransmissibilityStream",
+    "segment_length",
+]
 
 #: Band over which transmissibility is estimated and compared, Hz.
 TRANSMISSIBILITY_BAND_HZ = (0.5, 20.0)
@@ -44,8 +50,9 @@ class TransmissibilityEstimate:
         return asdict(self)
 
 
-def estimate_transmissibility(seat_acceleration, head_acceleration, fs: float,
-                              segment_s: float = 8.0) -> TransmissibilityEstimate:
+def estimate_transmissibility(
+    seat_acceleration, head_acceleration, fs: float, segment_s: float = 8.0
+) -> TransmissibilityEstimate:
     """Seat-to-head transmissibility from a run: the H1 estimator ``P_sh / P_ss``.
 
     Parameters
@@ -114,12 +121,16 @@ def _estimate(f, pxy, pxx, coh, duration_s, resolution_hz) -> TransmissibilityEs
     if sel.sum() < 3:
         raise BodyvibError(
             f"a {duration_s:g} s record resolves only {resolution_hz:.3g} Hz, too coarse for "
-            f"the transmissibility over {lo:g}-{hi:g} Hz; simulate longer (a few seconds)")
+            f"the transmissibility over {lo:g}-{hi:g} Hz; simulate longer (a few seconds)"
+        )
     H = pxy[sel] / pxx[sel]
     mod = np.abs(H)
     peaks = find_peaks(f[sel], mod)
-    top = max(peaks, key=lambda p: p.modulus) if peaks else Peak(
-        frequency_hz=float(f[sel][np.argmax(mod)]), modulus=float(mod.max()))
+    top = (
+        max(peaks, key=lambda p: p.modulus)
+        if peaks
+        else Peak(frequency_hz=float(f[sel][np.argmax(mod)]), modulus=float(mod.max()))
+    )
     return TransmissibilityEstimate(
         frequency_hz=f[sel].tolist(),
         modulus=mod.tolist(),
@@ -192,7 +203,7 @@ class TransmissibilityStream:
             self._sxx += (np.abs(X) ** 2).sum(axis=0)
             self._syy += (np.abs(Y) ** 2).sum(axis=0)
             self.segments += count
-        self._x, self._y = x[count * hop:], y[count * hop:]
+        self._x, self._y = x[count * hop :], y[count * hop :]
 
     def result(self) -> TransmissibilityEstimate:
         """The estimate from the segments completed so far.
@@ -211,5 +222,6 @@ class TransmissibilityStream:
         f = np.fft.rfftfreq(self.nperseg, 1.0 / self.fs)
         with np.errstate(divide="ignore", invalid="ignore"):
             coh = np.abs(self._sxy) ** 2 / (self._sxx * self._syy)
-        return _estimate(f, self._sxy, self._sxx, coh, self.samples / self.fs,
-                         self.fs / self.nperseg)
+        return _estimate(
+            f, self._sxy, self._sxx, coh, self.samples / self.fs, self.fs / self.nperseg
+        )

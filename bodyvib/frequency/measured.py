@@ -32,8 +32,14 @@ import numpy as np
 
 from ..runtime.errors import BodyvibError
 
-__all__ = ["MIN_ROWS", "MAX_MODULUS", "MAX_FREQUENCY_HZ", "MeasuredTransmissibility", "read_transmissibility_csv",
-           "write_transmissibility_csv"]
+__all__ = [
+    "MIN_ROWS",
+    "MAX_MODULUS",
+    "MAX_FREQUENCY_HZ",
+    "MeasuredTransmissibility",
+    "read_transmissibility_csv",
+    "write_transmissibility_csv",
+]
 
 #: Fewest data rows accepted: the reduced model has six free ratios.
 MIN_ROWS = 8
@@ -139,15 +145,20 @@ def read_transmissibility_csv(path) -> MeasuredTransmissibility:
     src = os.fspath(path)
     try:
         with open(src, newline="", encoding="utf-8-sig") as f:
-            lines = [(i, ln) for i, ln in enumerate(f, start=1)
-                     if ln.strip() and not ln.lstrip().startswith("#")]
+            lines = [
+                (i, ln)
+                for i, ln in enumerate(f, start=1)
+                if ln.strip() and not ln.lstrip().startswith("#")
+            ]
     except OSError as exc:
         raise BodyvibError(f"cannot read measured data '{src}': {exc.strerror}") from None
     except UnicodeDecodeError:
         raise BodyvibError(f"{src}: not a text (UTF-8) CSV file") from None
     if not lines:
-        raise BodyvibError(f"{src}: empty file; expected a header row "
-                           "'frequency_hz,modulus[,phase_deg]' and data rows")
+        raise BodyvibError(
+            f"{src}: empty file; expected a header row "
+            "'frequency_hz,modulus[,phase_deg]' and data rows"
+        )
     rows = list(csv.reader([ln for _, ln in lines]))
     header = [h.strip().lower() for h in rows[0]]
     missing = [c for c in _REQUIRED if c not in header]
@@ -159,28 +170,34 @@ def read_transmissibility_csv(path) -> MeasuredTransmissibility:
         )
     twice = sorted({h for h in header if h and header.count(h) > 1})
     if twice:
-        raise BodyvibError(f"{src}: line {lines[0][0]}: column(s) {', '.join(twice)} named more "
-                           "than once; which one holds the data is ambiguous: rename or remove "
-                           "the extra column")
+        raise BodyvibError(
+            f"{src}: line {lines[0][0]}: column(s) {', '.join(twice)} named more "
+            "than once; which one holds the data is ambiguous: rename or remove "
+            "the extra column"
+        )
     cols = {c: header.index(c) for c in _REQUIRED + _OPTIONAL if c in header}
     data = {c: [] for c in cols}
     for (lineno, _), row in zip(lines[1:], rows[1:]):
         where = f"{src}: line {lineno}"
         if len(row) < len(header):
-            raise BodyvibError(f"{where}: {len(row)} value(s), the header names {len(header)} "
-                               "columns")
+            raise BodyvibError(
+                f"{where}: {len(row)} value(s), the header names {len(header)} columns"
+            )
         for c, j in cols.items():
             data[c].append(_parse_number(row[j], where, c))
     n = len(data["frequency_hz"])
     if n < MIN_ROWS:
-        raise BodyvibError(f"{src}: {n} data row(s); at least {MIN_ROWS} are needed to fit the "
-                           "reduced model's six free ratios")
+        raise BodyvibError(
+            f"{src}: {n} data row(s); at least {MIN_ROWS} are needed to fit the "
+            "reduced model's six free ratios"
+        )
     f = np.array(data["frequency_hz"])
     mod = np.array(data["modulus"])
     data_lines = [ln for ln, _ in lines[1:]]
     if f[0] <= 0:
-        raise BodyvibError(f"{src}: line {data_lines[0]}: frequency_hz = {f[0]:g} must be "
-                           "positive (Hz)")
+        raise BodyvibError(
+            f"{src}: line {data_lines[0]}: frequency_hz = {f[0]:g} must be positive (Hz)"
+        )
     bad = np.nonzero(np.diff(f) <= 0)[0]
     if bad.size:
         k = int(bad[0]) + 1

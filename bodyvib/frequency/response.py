@@ -76,9 +76,16 @@ def to_statespace(model):
     import control
 
     lm = as_linear_model(model)
-    return control.ss(lm.A, lm.B, lm.C, lm.D, inputs=control_labels(lm.inputs),
-                      outputs=control_labels(lm.outputs), states=control_labels(lm.states),
-                      name=lm.network.name)
+    return control.ss(
+        lm.A,
+        lm.B,
+        lm.C,
+        lm.D,
+        inputs=control_labels(lm.inputs),
+        outputs=control_labels(lm.outputs),
+        states=control_labels(lm.states),
+        name=lm.network.name,
+    )
 
 
 def frequency_response(model, frequencies_hz, output) -> np.ndarray:
@@ -116,12 +123,12 @@ def frequency_response(model, frequencies_hz, output) -> np.ndarray:
     out = np.empty((len(idx), s.size), dtype=complex)
     for a in range(0, s.size, _CHUNK):  # (chunk, n, n) at a time: memory independent of nf
         interrupts.check()
-        sc = s[a:a + _CHUNK]
+        sc = s[a : a + _CHUNK]
         rhs = lm.B[:, 0][None, :] + sc[:, None] * lm.B[:, 1][None, :]  # (nf, n)
         lhs = sc[:, None, None] * np.eye(n)[None] - lm.A[None]
         x = np.linalg.solve(lhs, rhs[..., None])[..., 0]
         for r, i in enumerate(idx):
-            out[r, a:a + _CHUNK] = x @ lm.C[i] + lm.D[i, 0] + sc * lm.D[i, 1]
+            out[r, a : a + _CHUNK] = x @ lm.C[i] + lm.D[i, 0] + sc * lm.D[i, 1]
     return out[0] if one else out
 
 
@@ -176,7 +183,7 @@ def apparent_mass(model, frequencies_hz) -> np.ndarray:
         raise BodyvibError("apparent mass needs frequencies above 0 Hz")
     lm = as_linear_model(model)
     w = 2 * np.pi * f
-    return frequency_response(lm, f, f"{lm.network.base}_force") / (-(w ** 2))
+    return frequency_response(lm, f, f"{lm.network.base}_force") / (-(w**2))
 
 
 @dataclass(frozen=True)
@@ -192,8 +199,9 @@ class Peak:
         return asdict(self)
 
 
-def find_peaks(frequencies_hz: Sequence[float], modulus: Sequence[float],
-               min_prominence: float = 0.01) -> List[Peak]:
+def find_peaks(
+    frequencies_hz: Sequence[float], modulus: Sequence[float], min_prominence: float = 0.01
+) -> List[Peak]:
     """Local maxima of a modulus curve, refined by a parabola through 3 points.
 
     Parameters
@@ -225,14 +233,14 @@ def find_peaks(frequencies_hz: Sequence[float], modulus: Sequence[float],
             continue
         left = m[: i + 1]
         higher_left = np.nonzero(left > m[i])[0]
-        lmin = left[higher_left[-1]:].min() if higher_left.size else left.min()
+        lmin = left[higher_left[-1] :].min() if higher_left.size else left.min()
         right = m[i:]
         higher_right = np.nonzero(right > m[i])[0]
         rmin = right[: higher_right[0] + 1].min() if higher_right.size else right.min()
         if m[i] - max(lmin, rmin) < min_prominence:
             continue
         # parabolic refinement (uniform or not: fit through the three points)
-        x, y = f[i - 1:i + 2], m[i - 1:i + 2]
+        x, y = f[i - 1 : i + 2], m[i - 1 : i + 2]
         a, b, c = np.polyfit(x - f[i], y, 2)
         if a < 0:
             dx = -b / (2 * a)
@@ -306,5 +314,12 @@ def displacement_input_statespace(model):
 
     lm = as_linear_model(model)
     A, B, C, D = displacement_input_matrices(lm)
-    return control.ss(A, B, C, D, inputs=control_labels(lm.inputs[:1]),
-                      outputs=control_labels(lm.outputs), name=lm.network.name)
+    return control.ss(
+        A,
+        B,
+        C,
+        D,
+        inputs=control_labels(lm.inputs[:1]),
+        outputs=control_labels(lm.outputs),
+        name=lm.network.name,
+    )

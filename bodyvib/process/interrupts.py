@@ -38,21 +38,32 @@ import signal
 import subprocess
 import threading
 
-__all__ = ["deferred", "critical", "check", "requested", "pending_from", "SIGNALS",
-           "exit_status", "message", "run_process"]
+__all__ = [
+    "deferred",
+    "critical",
+    "check",
+    "requested",
+    "pending_from",
+    "SIGNALS",
+    "exit_status",
+    "message",
+    "run_process",
+]
 
 #: The signals taken at safe points: Ctrl-C, ``kill``/``timeout``/job schedulers, a
 #: closed terminal (SIGHUP does not exist on Windows).
-SIGNALS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP")
-                if hasattr(signal, n))
+SIGNALS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n))
 
 #: One line per signal, printed when a command stops on it.
-_MESSAGES = {"SIGINT": "interrupted", "SIGTERM": "terminated (SIGTERM)",
-             "SIGHUP": "hung up (SIGHUP)"}
+_MESSAGES = {
+    "SIGINT": "interrupted",
+    "SIGTERM": "terminated (SIGTERM)",
+    "SIGHUP": "hung up (SIGHUP)",
+}
 
-_count = 0      # signals received while deferred
-_first = None   # the first of them (its number)
-_depth = 0      # depth of deferred()
+_count = 0  # signals received while deferred
+_first = None  # the first of them (its number)
+_depth = 0  # depth of deferred()
 
 
 def _handler(signum, frame):
@@ -135,10 +146,17 @@ def run_process(cmd, poll: float = 0.05, scratch=None, **kwargs) -> subprocess.C
     if scratch is not None:
         scratch = os.fspath(scratch)
         os.makedirs(scratch, exist_ok=True)
-        kwargs["env"] = dict(kwargs.get("env") or os.environ, TMPDIR=scratch, TMP=scratch,
-                             TEMP=scratch)
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=hasattr(os, "killpg"), **kwargs)
+        kwargs["env"] = dict(
+            kwargs.get("env") or os.environ, TMPDIR=scratch, TMP=scratch, TEMP=scratch
+        )
+    proc = subprocess.Popen(
+        cmd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=hasattr(os, "killpg"),
+        **kwargs,
+    )
     try:
         while True:
             try:

@@ -90,5 +90,7 @@ def require_memory(nbytes: float, what: str, fix: str) -> None:
     """
     limit = MEMORY_FRACTION * available_memory()
     if not nbytes <= limit:
-        raise BodyvibError(f"{what} needs about {format_bytes(nbytes)} of memory; the limit is "
-                           f"{format_bytes(limit)} (half the memory available): {fix}")
+        raise BodyvibError(
+            f"{what} needs about {format_bytes(nbytes)} of memory; the limit is "
+            f"{format_bytes(limit)} (half the memory available): {fix}"
+        )

@@ -23,13 +23,26 @@ import threading
 
 from ..runtime.errors import BodyvibError
 
-__all__ = ["atomic_write_text", "atomic_write_bytes", "write_json",
-           "staged_writes", "StagedWrites", "open_staged", "PendingFile", "check_output_path",
-           "check_outputs", "staged_source"]
+__all__ = [
+    "atomic_write_text",
+    "atomic_write_bytes",
+    "write_json",
+    "staged_writes",
+    "StagedWrites",
+    "open_staged",
+    "PendingFile",
+    "check_output_path",
+    "check_outputs",
+    "staged_source",
+]
 
-_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
-          (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
-          (stat.S_ISSOCK, "a socket"))
+_KINDS = (
+    (stat.S_ISDIR, "a folder"),
+    (stat.S_ISFIFO, "a FIFO (named pipe)"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+)
 
 _local = threading.local()  # the active StagedWrites of this thread, if any
 
@@ -53,8 +66,9 @@ def _destination(path: str):
     except FileNotFoundError:
         return real, None
     if not stat.S_ISREG(st.st_mode):
-        raise BodyvibError(f"'{path}' is {_kind(st.st_mode)}, not a file; give a file path "
-                           "to write")
+        raise BodyvibError(
+            f"'{path}' is {_kind(st.st_mode)}, not a file; give a file path to write"
+        )
     if not os.access(real, os.W_OK):
         raise BodyvibError(f"'{path}' is read-only; make it writable or write elsewhere")
     return real, stat.S_IMODE(st.st_mode)
@@ -155,8 +169,9 @@ def open_staged(path, mode: str = "w", encoding: str = "utf-8"):
     except OSError as exc:
         raise _oserror(exc, path) from exc
     try:
-        with os.fdopen(fd, mode, **({} if "b" in mode else {"encoding": encoding,
-                                                              "newline": ""})) as f:
+        with os.fdopen(
+            fd, mode, **({} if "b" in mode else {"encoding": encoding, "newline": ""})
+        ) as f:
             yield f
             f.flush()
             os.fsync(f.fileno())
@@ -196,8 +211,9 @@ class PendingFile:
             fd, self._tmp = _temporary(self._real, keep)
         except OSError as exc:
             raise _oserror(exc, self.path) from exc
-        self.file = os.fdopen(fd, mode, **({} if "b" in mode else {"encoding": "utf-8",
-                                                                    "newline": ""}))
+        self.file = os.fdopen(
+            fd, mode, **({} if "b" in mode else {"encoding": "utf-8", "newline": ""})
+        )
 
     def place(self) -> None:
         """Flush, close and rename the file onto its destination (or stage it)."""
@@ -308,7 +324,7 @@ def staged_writes(guard=None):
         stage._entries = []
         return
     try:
-        with (guard() if guard is not None else contextlib.nullcontext()):
+        with guard() if guard is not None else contextlib.nullcontext():
             stage.commit()
     except BaseException:
         stage.discard()
@@ -383,8 +399,10 @@ def check_output_path(path, option: str, extensions=None, inputs=(), folder: boo
         raise BodyvibError(f"{option}: empty path")
     for opt, inp in inputs:
         if inp is not None and os.path.exists(os.fspath(inp)) and _same(path, os.fspath(inp)):
-            raise BodyvibError(f"{option} '{path}' is the input of {opt}; writing it would "
-                               "destroy the input: give another output path")
+            raise BodyvibError(
+                f"{option} '{path}' is the input of {opt}; writing it would "
+                "destroy the input: give another output path"
+            )
     if extensions and os.path.splitext(path)[1].lower() not in extensions:
         raise BodyvibError(f"{option} '{path}' must end in {' or '.join(extensions)}")
     real = os.path.realpath(path)
@@ -393,8 +411,10 @@ def check_output_path(path, option: str, extensions=None, inputs=(), folder: boo
         mode = os.stat(real).st_mode
         if folder:
             if not stat.S_ISDIR(mode):
-                raise BodyvibError(f"{where} is {_kind(mode) if not stat.S_ISREG(mode) else 'a file'}"
-                                   ", not a folder")
+                raise BodyvibError(
+                    f"{where} is {_kind(mode) if not stat.S_ISREG(mode) else 'a file'}"
+                    ", not a folder"
+                )
             if not os.access(real, os.W_OK | os.X_OK):
                 raise BodyvibError(f"{where}: folder is not writable")
             return real
@@ -438,8 +458,10 @@ def check_outputs(outputs, inputs=()) -> None:
             continue
         real = check_output_path(path, option, exts, inputs, folder)
         if real in seen:
-            raise BodyvibError(f"{option} and {seen[real]} name the same file '{path}'; give "
-                               "each output its own path")
+            raise BodyvibError(
+                f"{option} and {seen[real]} name the same file '{path}'; give "
+                "each output its own path"
+            )
         seen[real] = option
 
 
@@ -490,6 +512,8 @@ def write_json(path, obj) -> None:
         text = json.dumps(obj, indent=2, sort_keys=False, allow_nan=False)
     except ValueError:
         bad = _refuse_nonfinite(obj) or "a value"
-        raise BodyvibError(f"{os.fspath(path)}: {bad} is not a finite number; JSON cannot hold "
-                           "NaN or Infinity, nothing written") from None
+        raise BodyvibError(
+            f"{os.fspath(path)}: {bad} is not a finite number; JSON cannot hold "
+            "NaN or Infinity, nothing written"
+        ) from None
     atomic_write_text(path, text + "\n")

@@ -29,5 +29,12 @@ def progress_bar(total: int, enabled: bool, desc: str, unit: str = "step"):
         return None
     from tqdm import tqdm
 
-    return tqdm(total=total, unit=unit, file=sys.stderr, disable=None, leave=False,
-                desc=desc, mininterval=0.5)
+    return tqdm(
+        total=total,
+        unit=unit,
+        file=sys.stderr,
+        disable=None,
+        leave=False,
+        desc=desc,
+        mininterval=0.5,
+    )

@@ -41,15 +41,36 @@ import numpy as np
 from .errors import BodyvibError
 from .network import Network
 
-__all__ = ["Variable", "Interface", "body_interface", "car_interface", "seat_point",
-           "parameter_variables", "BODY_INPUTS", "BODY_OUTPUTS", "CAR_INPUTS", "CAR_OUTPUTS",
-           "fmu_variables", "rate_signal", "KINDS", "MODEL_FILE", "PARAMETER_LIMITS", "PARAMETER_UNITS",
-           "RATE_PREFIX", "UNITS"]
+__all__ = [
+    "Variable",
+    "Interface",
+    "body_interface",
+    "car_interface",
+    "seat_point",
+    "parameter_variables",
+    "BODY_INPUTS",
+    "BODY_OUTPUTS",
+    "CAR_INPUTS",
+    "CAR_OUTPUTS",
+    "fmu_variables",
+    "rate_signal",
+    "KINDS",
+    "MODEL_FILE",
+    "PARAMETER_LIMITS",
+    "PARAMETER_UNITS",
+    "RATE_PREFIX",
+    "UNITS",
+]
 
 #: Names of the body interface's inputs and outputs, in value-reference order.
 BODY_INPUTS = ("seat_displacement", "seat_velocity", "seat_acceleration")
-BODY_OUTPUTS = ("head_acceleration", "head_displacement", "torso_displacement", "seat_force",
-                "seat_force_rate")
+BODY_OUTPUTS = (
+    "head_acceleration",
+    "head_displacement",
+    "torso_displacement",
+    "seat_force",
+    "seat_force_rate",
+)
 #: Names of the car interface's inputs and of its fixed outputs (the parameter
 #: file's ``fmu_outputs`` follow them), in value-reference order.
 CAR_INPUTS = ("road_displacement", "road_velocity", "seat_force", "seat_force_rate")
@@ -73,9 +94,14 @@ PARAMETER_LIMITS = (1e-6, 1e12)
 
 #: SI units used by the FMUs, as exponents of the FMI base units.
 UNITS = {
-    "m": {"m": 1}, "m/s": {"m": 1, "s": -1}, "m/s2": {"m": 1, "s": -2},
-    "N": {"kg": 1, "m": 1, "s": -2}, "N/s": {"kg": 1, "m": 1, "s": -3},
-    "kg": {"kg": 1}, "N/m": {"kg": 1, "s": -2}, "N.s/m": {"kg": 1, "s": -1},
+    "m": {"m": 1},
+    "m/s": {"m": 1, "s": -1},
+    "m/s2": {"m": 1, "s": -2},
+    "N": {"kg": 1, "m": 1, "s": -2},
+    "N/s": {"kg": 1, "m": 1, "s": -3},
+    "kg": {"kg": 1},
+    "N/m": {"kg": 1, "s": -2},
+    "N.s/m": {"kg": 1, "s": -1},
 }
 
 
@@ -175,21 +201,25 @@ def rate_signal(signal: str) -> str:
 
 def _inputs(names, specs):
     """Input variables named ``names``, ``specs`` = ((unit, description), ...)."""
-    return tuple(Variable(n, "input", "continuous", u, d, start=0.0)
-                 for n, (u, d) in zip(names, specs, strict=True))
+    return tuple(
+        Variable(n, "input", "continuous", u, d, start=0.0)
+        for n, (u, d) in zip(names, specs, strict=True)
+    )
 
 
 def _outputs(names, specs):
     """Output variables named ``names``, ``specs`` = ((unit, description), ...)."""
-    return tuple(Variable(n, "output", "continuous", u, d)
-                 for n, (u, d) in zip(names, specs, strict=True))
+    return tuple(
+        Variable(n, "output", "continuous", u, d) for n, (u, d) in zip(names, specs, strict=True)
+    )
 
 
 def _with_extra_outputs(network: Network, outputs, signals):
     """Append the parameter file's ``fmu_outputs`` to an interface's outputs and signals."""
     extra = network.fmu_outputs
-    outputs = outputs + _outputs([o["name"] for o in extra],
-                                 [(o["unit"], o["description"]) for o in extra])
+    outputs = outputs + _outputs(
+        [o["name"] for o in extra], [(o["unit"], o["description"]) for o in extra]
+    )
     return outputs, tuple(signals) + tuple(o["signal"] for o in extra)
 
 
@@ -220,28 +250,50 @@ def body_interface(network: Network) -> Interface:
             )
     base = network.base
     head, torso = network.point("head"), network.point("torso")
-    inputs = _inputs(BODY_INPUTS, (
-        ("m", "Seat vertical displacement xr (z up, about static equilibrium)"),
-        ("m/s", "Seat vertical velocity; also the slope of seat_displacement over the coming "
-         "step (in-step extrapolation)"),
-        ("m/s2", "Optional seat vertical acceleration: the slope of seat_velocity over the "
-         "coming step, so the seat follows a parabola (0, the default, keeps the seat motion "
-         "linear over the step)"),
-    ))
-    outputs = _outputs(BODY_OUTPUTS, (
-        ("m/s2", f"Head ({head}) absolute vertical acceleration"),
-        ("m", f"Head ({head}) vertical displacement"),
-        ("m", f"Torso ({torso}) vertical displacement"),
-        ("N", "Force the body exerts on the seat, positive in compression "
-         "(body pushing down); perturbation about the static load"),
-        ("N/s", "Exact time derivative of seat_force (from the model's state equations and the "
-         "input rates); connect it to QuarterCar's seat_force_rate"),
-    ))
+    inputs = _inputs(
+        BODY_INPUTS,
+        (
+            ("m", "Seat vertical displacement xr (z up, about static equilibrium)"),
+            (
+                "m/s",
+                "Seat vertical velocity; also the slope of seat_displacement over the coming "
+                "step (in-step extrapolation)",
+            ),
+            (
+                "m/s2",
+                "Optional seat vertical acceleration: the slope of seat_velocity over the "
+                "coming step, so the seat follows a parabola (0, the default, keeps the seat motion "
+                "linear over the step)",
+            ),
+        ),
+    )
+    outputs = _outputs(
+        BODY_OUTPUTS,
+        (
+            ("m/s2", f"Head ({head}) absolute vertical acceleration"),
+            ("m", f"Head ({head}) vertical displacement"),
+            ("m", f"Torso ({torso}) vertical displacement"),
+            (
+                "N",
+                "Force the body exerts on the seat, positive in compression "
+                "(body pushing down); perturbation about the static load",
+            ),
+            (
+                "N/s",
+                "Exact time derivative of seat_force (from the model's state equations and the "
+                "input rates); connect it to QuarterCar's seat_force_rate",
+            ),
+        ),
+    )
     outputs, signals = _with_extra_outputs(
-        network, outputs, ("head.a", "head.x", "torso.x", f"{base}_force",
-                           rate_signal(f"{base}_force")))
+        network,
+        outputs,
+        ("head.a", "head.x", "torso.x", f"{base}_force", rate_signal(f"{base}_force")),
+    )
     return Interface(
-        kind="body", inputs=inputs, outputs=outputs,
+        kind="body",
+        inputs=inputs,
+        outputs=outputs,
         input_map=np.eye(2, 3),  # the model's inputs: seat displacement and velocity
         rate_pairs=((0, 1), (1, 2)),
         slope_fallback=((0, 1),),
@@ -297,19 +349,34 @@ def car_interface(network: Network) -> Interface:
         What :func:`seat_point` refuses.
     """
     seat = seat_point(network)
-    inputs = _inputs(CAR_INPUTS, (
-        ("m", "Road profile height under the tire"),
-        ("m/s", "Road profile vertical velocity; also the slope of road_displacement over the "
-         "coming step"),
-        ("N", "Force the occupant exerts on the seat, positive in compression (pushes the car "
-         "body down)"),
-        ("N/s", "Optional slope of seat_force over the coming step (0, the default, holds "
-         "seat_force)"),
-    ))
-    outputs = _outputs(CAR_OUTPUTS, (
-        ("m", f"Seat point ({seat}) vertical displacement"),
-        ("m/s", f"Seat point ({seat}) vertical velocity"),
-    ))
+    inputs = _inputs(
+        CAR_INPUTS,
+        (
+            ("m", "Road profile height under the tire"),
+            (
+                "m/s",
+                "Road profile vertical velocity; also the slope of road_displacement over the "
+                "coming step",
+            ),
+            (
+                "N",
+                "Force the occupant exerts on the seat, positive in compression (pushes the car "
+                "body down)",
+            ),
+            (
+                "N/s",
+                "Optional slope of seat_force over the coming step (0, the default, holds "
+                "seat_force)",
+            ),
+        ),
+    )
+    outputs = _outputs(
+        CAR_OUTPUTS,
+        (
+            ("m", f"Seat point ({seat}) vertical displacement"),
+            ("m/s", f"Seat point ({seat}) vertical velocity"),
+        ),
+    )
     outputs, signals = _with_extra_outputs(network, outputs, ("seat.x", "seat.v"))
     m = 2 + len(network.force_inputs)
     input_map = np.zeros((m, 4))
@@ -317,7 +384,10 @@ def car_interface(network: Network) -> Interface:
     input_map[1, 1] = 1.0
     input_map[2 + list(network.force_inputs).index(seat), 2] = -1.0  # sprung.force = -seat_force
     return Interface(
-        kind="car", inputs=inputs, outputs=outputs, input_map=input_map,
+        kind="car",
+        inputs=inputs,
+        outputs=outputs,
+        input_map=input_map,
         rate_pairs=((0, 1), (2, 3)),
         slope_fallback=((0, 1),),  # not the seat force: seat_force_rate 0 means hold
         output_signals=signals,
@@ -342,15 +412,29 @@ def parameter_variables(network: Network) -> Tuple[Variable, ...]:
     for el in network.elements:
         for fieldname, ref in el.values.items():
             if isinstance(ref, str):
-                use.setdefault(ref, (fieldname, f"{field_words[fieldname].capitalize()} of element "
-                                                f"'{el.name}' ({el.a} to {el.b})"))
+                use.setdefault(
+                    ref,
+                    (
+                        fieldname,
+                        f"{field_words[fieldname].capitalize()} of element "
+                        f"'{el.name}' ({el.a} to {el.b})",
+                    ),
+                )
     out = []
     for name, value in network.parameters.items():
         kind, text = use.get(name, ("mass", name))
-        out.append(Variable(name, "parameter", "fixed", PARAMETER_UNITS[kind],
-                            text,
-                            start=float(value), min=PARAMETER_LIMITS[0],
-                            max=PARAMETER_LIMITS[1]))
+        out.append(
+            Variable(
+                name,
+                "parameter",
+                "fixed",
+                PARAMETER_UNITS[kind],
+                text,
+                start=float(value),
+                min=PARAMETER_LIMITS[0],
+                max=PARAMETER_LIMITS[1],
+            )
+        )
     return tuple(out)
 
 
@@ -393,13 +477,17 @@ def fmu_variables(kind: str, network: Network):
     taken = {v.name for v in interface.inputs + interface.outputs}
     clash = [p.name for p in parameters if p.name in taken]
     if clash:
-        raise BodyvibError(f"model '{network.name}': parameter name(s) {', '.join(clash)} are "
-                           f"variables of the {kind} FMU's interface; rename the parameter(s)")
+        raise BodyvibError(
+            f"model '{network.name}': parameter name(s) {', '.join(clash)} are "
+            f"variables of the {kind} FMU's interface; rename the parameter(s)"
+        )
     seen = set()
     for v in variables:
         if v.name in seen:
-            raise BodyvibError(f"model '{network.name}': FMU variable '{v.name}' is declared "
-                               "twice (an fmu_outputs name clashes with the interface or a "
-                               "parameter); rename it")
+            raise BodyvibError(
+                f"model '{network.name}': FMU variable '{v.name}' is declared "
+                "twice (an fmu_outputs name clashes with the interface or a "
+                "parameter); rename it"
+            )
         seen.add(v.name)
     return interface, parameters, variables

@@ -5,7 +5,7 @@ wrappers for the C cores) around a *core*: the object that owns one instance's
 variables, parameters and state and answers the FMI calls. Two implementations
 exist: :class:`~bodyvib.runtime.engine.FmuCore` runs a network (the ``body`` and
 ``car`` kinds, whose interfaces :data:`bodyvib.runtime.contract.KINDS` defines),
-:class:`~bodyvib.runtime.source.SourceCore` a tabulated signal (the ``source``
+:class:`~bodyvib.runtime.tabulated.SourceCore` a tabulated signal (the ``source``
 kind, Road.fmu). :data:`CORES` says, per kind, how a core is made from the FMU's
 ``resources`` folder; :class:`Core` is what the wrappers may call.
 """
@@ -16,7 +16,7 @@ from typing import Callable, Dict, List, Optional, Protocol, Sequence
 from .contract import MODEL_FILE
 from .engine import FmuCore
 from .modelfile import network_from_file
-from .source import SOURCE_FILE, SourceCore, read_source
+from .tabulated import SOURCE_FILE, SourceCore, read_source
 
 __all__ = ["Core", "CORES", "load_core"]
 
@@ -47,6 +47,7 @@ class Core(Protocol):
 def _network_core(kind: str):
     def make(resources: str, name: str, log=None) -> Core:
         return FmuCore(kind, network_from_file(os.path.join(resources, MODEL_FILE)), name, log=log)
+
     return make
 
 

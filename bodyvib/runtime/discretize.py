@@ -24,13 +24,34 @@ import numpy as np
 from .errors import BodyvibError
 from .network import LinearModel, as_linear_model
 
-__all__ = ["check_step", "expm", "discretize", "discretize_quadratic", "Discretization",
-           "StepCache", "input_rates", "simulate"]
+__all__ = [
+    "check_step",
+    "expm",
+    "discretize",
+    "discretize_quadratic",
+    "Discretization",
+    "StepCache",
+    "input_rates",
+    "simulate",
+]
 
 # Pade(13) coefficients and the scaling threshold of Higham (2005).
-_B13 = (64764752532480000., 32382376266240000., 7771770303897600.,
-        1187353796428800., 129060195264000., 10559470521600., 670442572800.,
-        33522128640., 1323241920., 40840800., 960960., 16380., 182., 1.)
+_B13 = (
+    64764752532480000.0,
+    32382376266240000.0,
+    7771770303897600.0,
+    1187353796428800.0,
+    129060195264000.0,
+    10559470521600.0,
+    670442572800.0,
+    33522128640.0,
+    1323241920.0,
+    40840800.0,
+    960960.0,
+    16380.0,
+    182.0,
+    1.0,
+)
 _THETA13 = 5.371920351148152
 
 
@@ -78,14 +99,24 @@ def expm(M: np.ndarray) -> np.ndarray:
     d10 = np.linalg.norm(M4 @ M6, 1) ** (1 / 10)
     eta = min(max(d6, d8), max(d8, d10))
     s = max(0, int(math.ceil(math.log2(eta / _THETA13)))) if eta > 0 else 0
-    A = M / (2.0 ** s)
+    A = M / (2.0**s)
     b = _B13
     ident = np.eye(A.shape[0])
-    A2, A4, A6 = M2 / 4.0 ** s, M4 / 16.0 ** s, M6 / 64.0 ** s
-    U = A @ (A6 @ (b[13] * A6 + b[11] * A4 + b[9] * A2)
-             + b[7] * A6 + b[5] * A4 + b[3] * A2 + b[1] * ident)
-    V = (A6 @ (b[12] * A6 + b[10] * A4 + b[8] * A2)
-         + b[6] * A6 + b[4] * A4 + b[2] * A2 + b[0] * ident)
+    A2, A4, A6 = M2 / 4.0**s, M4 / 16.0**s, M6 / 64.0**s
+    U = A @ (
+        A6 @ (b[13] * A6 + b[11] * A4 + b[9] * A2)
+        + b[7] * A6
+        + b[5] * A4
+        + b[3] * A2
+        + b[1] * ident
+    )
+    V = (
+        A6 @ (b[12] * A6 + b[10] * A4 + b[8] * A2)
+        + b[6] * A6
+        + b[4] * A4
+        + b[2] * A2
+        + b[0] * ident
+    )
     E = np.linalg.solve(V - U, V + U)
     for _ in range(s):
         E = E @ E
@@ -127,7 +158,7 @@ def _input_blocks(A: np.ndarray, B: np.ndarray, h: float, blocks: int):
     check_step(h)
     n, m = B.shape
     E = expm(_augmented(A, B, blocks) * h)
-    return E[:n, :n], [E[:n, n + j * m:n + (j + 1) * m] for j in range(blocks)]
+    return E[:n, :n], [E[:n, n + j * m : n + (j + 1) * m] for j in range(blocks)]
 
 
 def _augmented(A: np.ndarray, B: np.ndarray, blocks: int) -> np.ndarray:
@@ -140,9 +171,9 @@ def _augmented(A: np.ndarray, B: np.ndarray, blocks: int) -> np.ndarray:
     n, m = B.shape
     M = np.zeros((n + blocks * m, n + blocks * m))
     M[:n, :n] = A
-    M[:n, n:n + m] = B
+    M[:n, n : n + m] = B
     for j in range(1, blocks):
-        M[n + (j - 1) * m:n + j * m, n + j * m:n + (j + 1) * m] = np.eye(m)
+        M[n + (j - 1) * m : n + j * m, n + j * m : n + (j + 1) * m] = np.eye(m)
     return M
 
 
@@ -273,7 +304,7 @@ class Discretization:
             one state-matrix product.
         """
         Phi, G0, G1 = self.matrices(h)
-        forcing = u[:-1] @ G0.T + du[:-1] @ G1.T        # (samples - 1, states)
+        forcing = u[:-1] @ G0.T + du[:-1] @ G1.T  # (samples - 1, states)
         x = np.zeros((u.shape[0], Phi.shape[0]))
         for k in range(u.shape[0] - 1):
             x[k + 1] = Phi @ x[k] + forcing[k]

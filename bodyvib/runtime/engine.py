@@ -84,8 +84,13 @@ class FmuCore(Lifecycle):
     5
     """
 
-    def __init__(self, kind: str, network: Network, name: str = "FMU",
-                 log: Optional[Callable[[str, str], None]] = None):
+    def __init__(
+        self,
+        kind: str,
+        network: Network,
+        name: str = "FMU",
+        log: Optional[Callable[[str, str], None]] = None,
+    ):
         self.kind = kind
         self.name = name
         self.network = network
@@ -114,16 +119,16 @@ class FmuCore(Lifecycle):
         self._vel_seen = [False] * nf  # a non-zero velocity was set
         self._slope_on = [False] * nf  # the slope replaces the velocity
         self._warned = [False] * nf
-        self._x_prev = [None] * nf     # displacement at the previous do_step
+        self._x_prev = [None] * nf  # displacement at the previous do_step
         self._h_prev = [None] * nf
 
     # -- set-up ------------------------------------------------------------
     def _views(self):
         n, ni = self._n, self._ni
-        self._z = self._buf[:n + ni]        # [x | s], what the step and outputs multiply
+        self._z = self._buf[: n + ni]  # [x | s], what the step and outputs multiply
         self._x = self._buf[:n]
-        self._s = self._buf[n:n + ni]
-        self._y = self._buf[n + ni:]
+        self._s = self._buf[n : n + ni]
+        self._y = self._buf[n + ni :]
         self._znew = np.empty(n + ni)
         self._zdot = self._znew.dot  # the after-step check: z.z is finite iff z is (no overflow)
         # value reference -> index into _buf (parameters are kept apart)
@@ -138,12 +143,14 @@ class FmuCore(Lifecycle):
         self._n = lm.A.shape[0]
         self._disc = Discretization(lm)
         self._U = U
-        self._dU = U @ self._R                      # du = dU @ s
+        self._dU = U @ self._R  # du = dU @ s
         rows = []
-        for sig in iface.output_signals:            # y = Y @ [x | s]
-            if sig.startswith(RATE_PREFIX):         # d/dt (C x + D u) = C (A x + B u) + D du
-                i = lm.output_index(sig[len(RATE_PREFIX):])
-                rows.append(np.concatenate([lm.C[i] @ lm.A, lm.C[i] @ lm.B @ U + lm.D[i] @ self._dU]))
+        for sig in iface.output_signals:  # y = Y @ [x | s]
+            if sig.startswith(RATE_PREFIX):  # d/dt (C x + D u) = C (A x + B u) + D du
+                i = lm.output_index(sig[len(RATE_PREFIX) :])
+                rows.append(
+                    np.concatenate([lm.C[i] @ lm.A, lm.C[i] @ lm.B @ U + lm.D[i] @ self._dU])
+                )
             else:
                 i = lm.output_index(sig)
                 rows.append(np.concatenate([lm.C[i], lm.D[i] @ U]))
@@ -225,7 +232,7 @@ class FmuCore(Lifecycle):
                 pass
             self._stale = False
         np.dot(self._Y, self._z, out=self._y)
-        self._values[:self._ni + self._no] = self._buf[self._n:].tolist()
+        self._values[: self._ni + self._no] = self._buf[self._n :].tolist()
         for p, (_, j) in enumerate(self._fallback):
             if self._slope_on[p]:  # an input reads back as set (never non-zero), not the slope
                 self._values[j] = 0.0
@@ -250,15 +257,19 @@ class FmuCore(Lifecycle):
                     self._slope_on[p] = False
             elif k == 2:
                 if self._initialized:
-                    self._message(f"{self.name}: parameter {self.variables[vr].name} is fixed after "
-                                  "initialization; set it before fmi2ExitInitializationMode (ignored)")
+                    self._message(
+                        f"{self.name}: parameter {self.variables[vr].name} is fixed after "
+                        "initialization; set it before fmi2ExitInitializationMode (ignored)"
+                    )
                 else:
                     self._params[vr - self._ni - self._no] = v
                     self._values[vr] = float(v)
                     self._stale = True
             else:
-                self._message(f"{self.name}: {self.variables[vr].name} is an output and cannot be "
-                              "set (ignored)")
+                self._message(
+                    f"{self.name}: {self.variables[vr].name} is an output and cannot be "
+                    "set (ignored)"
+                )
         self._dirty = True
 
     # -- stepping ------------------------------------------------------------
@@ -282,11 +293,16 @@ class FmuCore(Lifecycle):
         if not 0.0 < h < math.inf:
             self._refuse_step_size(h)
         if True in self._bad:
-            bad = [f"{v.name} = {float(self._s[i])!r}" for i, v in enumerate(self.interface.inputs)
-                   if self._bad[i]]
-            raise BodyvibError(f"{self.name}: input {', '.join(bad)} at t = {current_time:g} s is "
-                               "not finite; step refused, state unchanged (set a finite value "
-                               "and step again)")
+            bad = [
+                f"{v.name} = {float(self._s[i])!r}"
+                for i, v in enumerate(self.interface.inputs)
+                if self._bad[i]
+            ]
+            raise BodyvibError(
+                f"{self.name}: input {', '.join(bad)} at t = {current_time:g} s is "
+                "not finite; step refused, state unchanged (set a finite value "
+                "and step again)"
+            )
         if not self._initialized:
             self._refuse_step()
         if False not in self._vel_seen:  # no fallback pair, or every velocity connected:
@@ -294,8 +310,13 @@ class FmuCore(Lifecycle):
             return
         # the unconnected-velocity bookkeeping moves before the step is known to be
         # possible: a refused step puts it back (a continuation equals an undisturbed run)
-        saved = (list(self._slope_on), list(self._warned), list(self._x_prev),
-                 list(self._h_prev), [float(self._s[j]) for _, j in self._fallback])
+        saved = (
+            list(self._slope_on),
+            list(self._warned),
+            list(self._x_prev),
+            list(self._h_prev),
+            [float(self._s[j]) for _, j in self._fallback],
+        )
         self._slope_fallback(current_time, h)
         try:
             self._advance(current_time, h)
@@ -312,16 +333,20 @@ class FmuCore(Lifecycle):
                 M = self._steps.get(h)
             if not np.all(np.isfinite(M)):
                 self._steps.discard(h)
-                raise BodyvibError(f"{self.name}: a step of {h!r} s overflows the exact "
-                                   "discretization (not finite); step refused, state unchanged "
-                                   "(use shorter steps)")
+                raise BodyvibError(
+                    f"{self.name}: a step of {h!r} s overflows the exact "
+                    "discretization (not finite); step refused, state unchanged "
+                    "(use shorter steps)"
+                )
             self._M = M
             self._h = h
         np.dot(self._M, self._z, out=self._znew)  # state and inputs at the step's end
         if not math.isfinite(self._zdot(self._znew)):  # NaN or overflow: keep the old state
-            raise BodyvibError(f"{self.name}: the state after the step from t = "
-                               f"{current_time:g} s is not finite (inputs or state too large); "
-                               "step refused, state unchanged")
+            raise BodyvibError(
+                f"{self.name}: the state after the step from t = "
+                f"{current_time:g} s is not finite (inputs or state too large); "
+                "step refused, state unchanged"
+            )
         self._z[:] = self._znew
         self._dirty = True
         self.time = current_time + h
@@ -342,7 +367,9 @@ class FmuCore(Lifecycle):
                         f"{self.name}: {names[i].name} moves (t = {current_time:g} s) but "
                         f"{names[j].name} was never set: using the slope of successive "
                         f"{names[i].name} values as its in-step rate; connect {names[j].name} "
-                        "for the exact coupling", "warning")
+                        "for the exact coupling",
+                        "warning",
+                    )
             if self._slope_on[p]:
                 s[j] = (x - x_prev) / self._h_prev[p]
             self._x_prev[p], self._h_prev[p] = x, float(h)
@@ -358,9 +385,13 @@ class FmuCore(Lifecycle):
             "bad": list(self._bad),
             "initialized": self._initialized,
             "time": self.time,
-            "fallback": {"seen": list(self._vel_seen), "on": list(self._slope_on),
-                         "warned": list(self._warned), "x_prev": list(self._x_prev),
-                         "h_prev": list(self._h_prev)},
+            "fallback": {
+                "seen": list(self._vel_seen),
+                "on": list(self._slope_on),
+                "warned": list(self._warned),
+                "x_prev": list(self._x_prev),
+                "h_prev": list(self._h_prev),
+            },
         }
 
     def check_state(self, state) -> None:
@@ -376,12 +407,15 @@ class FmuCore(Lifecycle):
         where = f"{self.name}: FMU state refused, state unchanged"
         fields = ("kind", "parameter_names", "buf", "params", "bad", "initialized", "time")
         if not isinstance(state, dict) or any(k not in state for k in fields):
-            raise BodyvibError(f"{where}: not a state of a bodyvib FMU (fields "
-                               f"{', '.join(fields)} expected)")
+            raise BodyvibError(
+                f"{where}: not a state of a bodyvib FMU (fields {', '.join(fields)} expected)"
+            )
         if state["kind"] != self.kind or list(state["parameter_names"]) != self._pnames:
-            raise BodyvibError(f"{where}: it belongs to another FMU (kind {state['kind']!r}, "
-                               f"parameters {state['parameter_names']!r}; this one is "
-                               f"{self.kind!r} with {self._pnames!r})")
+            raise BodyvibError(
+                f"{where}: it belongs to another FMU (kind {state['kind']!r}, "
+                f"parameters {state['parameter_names']!r}; this one is "
+                f"{self.kind!r} with {self._pnames!r})"
+            )
         try:
             buf = np.array(state["buf"], dtype=float)
             params = np.array(state["params"], dtype=float)
@@ -391,16 +425,20 @@ class FmuCore(Lifecycle):
         sizes = ((buf, self._buf.size, "buf"), (params, self._np, "params"))
         for arr, size, name in sizes:
             if arr.shape != (size,):
-                raise BodyvibError(f"{where}: {name} has shape {arr.shape}, this model needs "
-                                   f"({size},)")
+                raise BodyvibError(
+                    f"{where}: {name} has shape {arr.shape}, this model needs ({size},)"
+                )
         bad = state["bad"]
-        if not isinstance(bad, list) or len(bad) != self._ni or \
-                not all(isinstance(b, bool) for b in bad) or \
-                not isinstance(state["initialized"], bool):
+        if (
+            not isinstance(bad, list)
+            or len(bad) != self._ni
+            or not all(isinstance(b, bool) for b in bad)
+            or not isinstance(state["initialized"], bool)
+        ):
             raise BodyvibError(f"{where}: malformed input flags")
         # inputs flagged bad may hold NaN (refused at the next step); nothing else may
         finite = np.isfinite(buf)
-        finite[self._n:self._n + self._ni] |= np.array(bad, dtype=bool)
+        finite[self._n : self._n + self._ni] |= np.array(bad, dtype=bool)
         if not (finite.all() and math.isfinite(t)):
             raise BodyvibError(f"{where}: it holds values that are not finite")
         try:
@@ -419,7 +457,7 @@ class FmuCore(Lifecycle):
         self.check_state(state)
         params = np.array(state["params"], dtype=float)
         self._params = params
-        self._values[self._ni + self._no:] = params.tolist()
+        self._values[self._ni + self._no :] = params.tolist()
         if state["initialized"] and not np.array_equal(params, self._built_params):
             self._build(params)
         self._stale = not state["initialized"] and not np.array_equal(params, self._built_params)
@@ -430,12 +468,15 @@ class FmuCore(Lifecycle):
         fb = state.get("fallback")
         if fb is not None:
             self._vel_seen, self._slope_on = list(fb["seen"]), list(fb["on"])
-            self._warned, self._x_prev, self._h_prev = list(fb["warned"]), list(fb["x_prev"]), list(fb["h_prev"])
+            self._warned, self._x_prev, self._h_prev = (
+                list(fb["warned"]),
+                list(fb["x_prev"]),
+                list(fb["h_prev"]),
+            )
         self._dirty = True
 
     # -- introspection ---------------------------------------------------------
     def output_dependencies(self) -> List[List[int]]:
         """For each output, the input value references it depends on directly (feedthrough)."""
-        D = self._Y[:, self._n:]
+        D = self._Y[:, self._n :]
         return [[i for i in range(self._ni) if D[j, i] != 0.0] for j in range(self._no)]
-

@@ -52,8 +52,10 @@ def read_json(path, what: str = "file"):
         (with the line and column), or nests deeper than :data:`MAX_DEPTH`.
     """
     path = os.fspath(path)
-    deep = BodyvibError(f"{path}: arrays or objects nested more than {MAX_DEPTH} levels "
-                        f"deep; a {what} nests a few levels: is this the right file?")
+    deep = BodyvibError(
+        f"{path}: arrays or objects nested more than {MAX_DEPTH} levels "
+        f"deep; a {what} nests a few levels: is this the right file?"
+    )
     try:
         with open(path, encoding="utf-8") as f:
             value = json.load(f)

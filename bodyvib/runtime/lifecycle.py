@@ -1,7 +1,7 @@
 """The FMI life cycle both cores share: initialization, the step's preconditions, messages.
 
 :class:`~bodyvib.runtime.engine.FmuCore` (a network) and
-:class:`~bodyvib.runtime.source.SourceCore` (a tabulated signal) answer the same
+:class:`~bodyvib.runtime.tabulated.SourceCore` (a tabulated signal) answer the same
 FMI calls (:class:`bodyvib.runtime.cores.Core`). What they do alike lives here
 once: ``fmi2ExitInitializationMode`` either succeeds or leaves the instance
 refusing to step with the reason it failed; ``fmi2DoStep`` refuses a step size
@@ -74,13 +74,16 @@ class Lifecycle:
     # no call on the hot path) and calls these to refuse, in the same words for both cores.
     def _refuse_step_size(self, step_size: float) -> None:
         """Refuse a communication step size that is not positive and finite (s)."""
-        raise BodyvibError(f"{self.name}: communication step size must be positive and "
-                           f"finite, got {step_size!r} s")
+        raise BodyvibError(
+            f"{self.name}: communication step size must be positive and finite, got {step_size!r} s"
+        )
 
     def _refuse_step(self) -> None:
         """Refuse a step before initialization, or after a failed one (with its reason)."""
-        raise BodyvibError(self._init_error or f"{self.name}: do_step before initialization; "
-                           "call fmi2ExitInitializationMode first")
+        raise BodyvibError(
+            self._init_error
+            or f"{self.name}: do_step before initialization; call fmi2ExitInitializationMode first"
+        )
 
     def _message(self, text: str, level: str = "error") -> None:
         """Send ``text`` to the host's logger (``level`` ``"warning"`` or ``"error"``), if any."""

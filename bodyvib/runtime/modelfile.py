@@ -49,8 +49,16 @@ __all__ = [
 ]
 
 _REQUIRED = ("name", "parameters", "masses", "elements")
-_OPTIONAL = ("description", "provenance", "base", "nodes", "force_inputs", "roles", "units",
-             "fmu_outputs")
+_OPTIONAL = (
+    "description",
+    "provenance",
+    "base",
+    "nodes",
+    "force_inputs",
+    "roles",
+    "units",
+    "fmu_outputs",
+)
 _ELEMENT_FIELDS = ("name", "kind", "from", "to")
 _FMU_OUTPUT_FIELDS = ("name", "signal", "unit", "description")
 
@@ -212,9 +220,7 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
         names.add(e["name"])
         kind = e["kind"]
         if kind not in ELEMENT_KINDS:
-            raise BodyvibError(
-                f"{ew}: unknown kind '{kind}'; kinds are {', '.join(ELEMENT_KINDS)}"
-            )
+            raise BodyvibError(f"{ew}: unknown kind '{kind}'; kinds are {', '.join(ELEMENT_KINDS)}")
         need = ELEMENT_KINDS[kind]
         allowed = set(_ELEMENT_FIELDS) | set(need)
         if kind in ("series_kelvin", "zener"):
@@ -230,8 +236,12 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
             )
         node = e.get("node")
         el = Element(
-            name=e["name"], kind=kind, a=e["from"], b=e["to"],
-            values={p: ref(e[p], f"{ew}.{p}") for p in need}, node=node,
+            name=e["name"],
+            kind=kind,
+            a=e["from"],
+            b=e["to"],
+            values={p: ref(e[p], f"{ew}.{p}") for p in need},
+            node=node,
         )
         if el.internal_node is not None:
             if el.internal_node in points:
@@ -269,7 +279,8 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
 
     force_inputs = data.get("force_inputs", [])
     if not isinstance(force_inputs, list) or any(
-            not isinstance(f, str) or f not in masses for f in force_inputs):
+        not isinstance(f, str) or f not in masses for f in force_inputs
+    ):
         raise BodyvibError(f"{where}: 'force_inputs' must list mass names")
     roles = data.get("roles", {})
     if not isinstance(roles, dict):
@@ -283,11 +294,21 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
             f"{where}: parameter(s) {', '.join(unused)} not used by any mass or element"
         )
     units = data.get("units", {})
-    if (not isinstance(units, dict) or any(u not in params for u in units)
-            or not all(isinstance(u, str) for u in units.values())):
+    if (
+        not isinstance(units, dict)
+        or any(u not in params for u in units)
+        or not all(isinstance(u, str) for u in units.values())
+    ):
         raise BodyvibError(f"{where}: 'units' must map parameter names to unit strings")
-    fmu_outputs = _fmu_outputs(data.get("fmu_outputs", []), where, masses, points,
-                               {el.name for el in elements}, roles, base)
+    fmu_outputs = _fmu_outputs(
+        data.get("fmu_outputs", []),
+        where,
+        masses,
+        points,
+        {el.name for el in elements},
+        roles,
+        base,
+    )
     provenance = data.get("provenance", {})
     if not isinstance(provenance, dict):
         raise BodyvibError(f"{where}: 'provenance' must be an object")
@@ -311,14 +332,17 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
 def _fmu_outputs(items, where, masses, points, element_names, roles, base):
     """Validate ``fmu_outputs``: each an object of name, signal, unit, description."""
     if not isinstance(items, list):
-        raise BodyvibError(f"{where}: 'fmu_outputs' must be a list of objects with fields "
-                           f"{', '.join(_FMU_OUTPUT_FIELDS)}")
+        raise BodyvibError(
+            f"{where}: 'fmu_outputs' must be a list of objects with fields "
+            f"{', '.join(_FMU_OUTPUT_FIELDS)}"
+        )
     out, names = [], set()
     for i, item in enumerate(items):
         w = f"{where}: fmu_outputs[{i}]"
         if not isinstance(item, dict) or set(item) != set(_FMU_OUTPUT_FIELDS):
-            raise BodyvibError(f"{w} must be an object with exactly the fields "
-                               f"{', '.join(_FMU_OUTPUT_FIELDS)}")
+            raise BodyvibError(
+                f"{w} must be an object with exactly the fields {', '.join(_FMU_OUTPUT_FIELDS)}"
+            )
         for key in _FMU_OUTPUT_FIELDS:
             if not isinstance(item[key], str) or not item[key]:
                 raise BodyvibError(f"{w}.{key} must be a non-empty string")
@@ -330,14 +354,17 @@ def _fmu_outputs(items, where, masses, points, element_names, roles, base):
             raise BodyvibError(f"{w}.unit '{unit}' is not one of {', '.join(UNITS)}")
         point, _, quantity = signal.rpartition(".")
         point = roles.get(point, point)
-        ok = (signal == f"{base}_force"
-              or (point in masses and quantity in ("x", "v", "a"))
-              or (point in points and point not in masses and point != base and quantity == "y")
-              or (point in element_names and quantity in ("deflection", "force")))
+        ok = (
+            signal == f"{base}_force"
+            or (point in masses and quantity in ("x", "v", "a"))
+            or (point in points and point not in masses and point != base and quantity == "y")
+            or (point in element_names and quantity in ("deflection", "force"))
+        )
         if not ok:
             raise BodyvibError(
                 f"{w}.signal '{signal}' is not an output of the model: use <mass or role>.x/.v/.a, "
-                f"<node>.y, <element>.deflection/.force or {base}_force")
+                f"<node>.y, <element>.deflection/.force or {base}_force"
+            )
         out.append({k: item[k] for k in _FMU_OUTPUT_FIELDS})
     return tuple(out)
 

@@ -286,9 +286,7 @@ class SignalNames:
         try:
             return self.inputs.index(name)
         except ValueError:
-            raise BodyvibError(
-                f"no input '{name}'; inputs are {', '.join(self.inputs)}"
-            ) from None
+            raise BodyvibError(f"no input '{name}'; inputs are {', '.join(self.inputs)}") from None
 
 
 @dataclass(frozen=True)
@@ -357,8 +355,14 @@ class DescriptorModel(SignalNames):
         ns = self.A.shape[0]
         A, B = AB[:, :ns], AB[:, ns:]
         return LinearModel(
-            A=A, B=B, C=self.C + self.Cd @ A, D=self.D + self.Cd @ B,
-            states=self.states, inputs=self.inputs, outputs=self.outputs, network=self.network,
+            A=A,
+            B=B,
+            C=self.C + self.Cd @ A,
+            D=self.D + self.Cd @ B,
+            states=self.states,
+            inputs=self.inputs,
+            outputs=self.outputs,
+            network=self.network,
         )
 
 
@@ -413,7 +417,9 @@ def descriptor_model(network: Network) -> DescriptorModel:
     for el in network.elements:
         el_springs, el_dampers = network.element_primitives(el)
         f_el = np.zeros(nw)
-        for (a, b, k), is_spring in [(p, True) for p in el_springs] + [(p, False) for p in el_dampers]:
+        for (a, b, k), is_spring in [(p, True) for p in el_springs] + [
+            (p, False) for p in el_dampers
+        ]:
             f = k * (pos[b] - pos[a]) if is_spring else k * (vel[b] - vel[a])  # force on a, up
             force_on[a] += f
             force_on[b] -= f
@@ -447,13 +453,22 @@ def descriptor_model(network: Network) -> DescriptorModel:
     out_rows.append(-force_on[base])
     out_names.append(f"{base}_force")
     out = np.array(out_rows).reshape(len(out_names), nw)
-    states = tuple(f"{m}.x" for m in masses) + tuple(f"{m}.v" for m in masses) + tuple(
-        f"{n}.y" for n in nodes
+    states = (
+        tuple(f"{m}.x" for m in masses)
+        + tuple(f"{m}.v" for m in masses)
+        + tuple(f"{n}.y" for n in nodes)
     )
     return DescriptorModel(
-        E=-eq[:, ns + ni:] + 0.0, A=eq[:, :ns], B=eq[:, ns:ns + ni],
-        C=out[:, :ns], Cd=out[:, ns + ni:], D=out[:, ns:ns + ni],
-        states=states, inputs=inputs, outputs=tuple(out_names), network=network,
+        E=-eq[:, ns + ni :] + 0.0,
+        A=eq[:, :ns],
+        B=eq[:, ns : ns + ni],
+        C=out[:, :ns],
+        Cd=out[:, ns + ni :],
+        D=out[:, ns : ns + ni],
+        states=states,
+        inputs=inputs,
+        outputs=tuple(out_names),
+        network=network,
     )
 
 
@@ -539,7 +554,10 @@ def mount(carrier: Network, occupant: Network, at: str, prefix: str = "body.") -
 
     elements = tuple(
         Element(
-            name=prefix + el.name, kind=el.kind, a=rename(el.a), b=rename(el.b),
+            name=prefix + el.name,
+            kind=el.kind,
+            a=rename(el.a),
+            b=rename(el.b),
             values={k: ref(v) for k, v in el.values.items()},
             node=prefix + el.internal_node if el.internal_node else None,
         )
@@ -565,4 +583,3 @@ def mount(carrier: Network, occupant: Network, at: str, prefix: str = "body.") -
         description=f"{occupant.name} seated on {carrier.name} at '{at}'",
         units=units,
     )
-

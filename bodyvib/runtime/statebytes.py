@@ -75,12 +75,15 @@ def unpack_state(data: bytes):
     """
     data = bytes(data)
     if not data.startswith(MAGIC):
-        raise BodyvibError("serialized FMU state refused: not a bodyvib FMU state (its tag "
-                           "is missing)")
-    digest, payload = data[len(MAGIC):len(MAGIC) + _DIGEST], data[len(MAGIC) + _DIGEST:]
+        raise BodyvibError(
+            "serialized FMU state refused: not a bodyvib FMU state (its tag is missing)"
+        )
+    digest, payload = data[len(MAGIC) : len(MAGIC) + _DIGEST], data[len(MAGIC) + _DIGEST :]
     if len(digest) != _DIGEST or hashlib.sha256(payload).digest() != digest:
-        raise BodyvibError("serialized FMU state refused: its checksum does not match (the "
-                           "bytes were changed or truncated)")
+        raise BodyvibError(
+            "serialized FMU state refused: its checksum does not match (the "
+            "bytes were changed or truncated)"
+        )
     try:
         return json.loads(payload.decode("utf-8"))
     except (UnicodeDecodeError, ValueError):

@@ -36,8 +36,13 @@ import signal
 import sys
 import threading
 
-__all__ = ["FINALIZE_SYMBOL", "binary_path", "registered_binaries", "release_at_exit",
-           "release_python_states"]
+__all__ = [
+    "FINALIZE_SYMBOL",
+    "binary_path",
+    "registered_binaries",
+    "release_at_exit",
+    "release_python_states",
+]
 
 #: The exported C function of pythonfmu's binary that releases its interpreter state.
 FINALIZE_SYMBOL = "finalizePythonInterpreter"
@@ -130,7 +135,7 @@ def release_python_states():
     if threading.get_native_id() != os.getpid():  # not the process's main thread
         return 0
     for name in ("SIGINT", "SIGTERM", "SIGHUP"):  # the process is exiting: a Ctrl-C or
-        try:                                       # a kill now must not leave a traceback
+        try:  # a kill now must not leave a traceback
             signal.signal(getattr(signal, name), signal.SIG_IGN)
         except (AttributeError, ValueError, OSError):
             pass

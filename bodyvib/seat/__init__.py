@@ -9,9 +9,29 @@ displacement) and gives the ISO 2631-1 figures of seat and head.
 """
 
 from .response import DEFAULT_MODELS, BodyResponse, Response, head_acceleration, respond
-from .signal import (MIN_DURATION_S, MIN_RATE_HZ, UNIFORM_TOLERANCE, SeatSignal, check_signal,
-                     read_csv_signal, read_mdf_signal, read_signal)
+from .signal import (
+    MIN_DURATION_S,
+    MIN_RATE_HZ,
+    UNIFORM_TOLERANCE,
+    SeatSignal,
+    check_signal,
+    read_csv_signal,
+    read_mdf_signal,
+    read_signal,
+)
 
-__all__ = ["MIN_RATE_HZ", "MIN_DURATION_S", "UNIFORM_TOLERANCE", "SeatSignal", "check_signal",
-           "read_csv_signal", "read_mdf_signal", "read_signal", "DEFAULT_MODELS",
-           "head_acceleration", "BodyResponse", "Response", "respond"]
+__all__ = [
+    "MIN_RATE_HZ",
+    "MIN_DURATION_S",
+    "UNIFORM_TOLERANCE",
+    "SeatSignal",
+    "check_signal",
+    "read_csv_signal",
+    "read_mdf_signal",
+    "read_signal",
+    "DEFAULT_MODELS",
+    "head_acceleration",
+    "BodyResponse",
+    "Response",
+    "respond",
+]

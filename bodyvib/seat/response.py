@@ -71,13 +71,13 @@ def head_acceleration(body: Network, acceleration, fs: float) -> np.ndarray:
     a = np.asarray(acceleration, dtype=float)
     h = 1.0 / check_rate(fs)
     rate = np.zeros_like(a)
-    rate[:-1] = np.diff(a) / h                  # linear between samples
+    rate[:-1] = np.diff(a) / h  # linear between samples
     base = body.base
     u = np.zeros((a.size, len(lm.inputs)))
     du = np.zeros_like(u)
     iz, iv = lm.input_index(f"{base}_displacement"), lm.input_index(f"{base}_velocity")
-    u[:, iz], u[:, iv] = a, rate                # acceleration in place of displacement
-    du[:, iz] = rate                            # its rate over each step; the rate is held
+    u[:, iz], u[:, iv] = a, rate  # acceleration in place of displacement
+    du[:, iz] = rate  # its rate over each step; the rate is held
     out = lm.output_index("head.x")
     x = Discretization(lm).run(u, du, h)
     return x @ lm.C[out] + u @ lm.D[out]
@@ -133,10 +133,18 @@ class Response:
     def to_dict(self) -> dict:
         """The JSON document of ``bodyvib respond --json`` (undefined ratios as None)."""
         s = self.signal
-        return _finite({"signal": {"name": s.name, "samples": int(s.acceleration.size),
-                           "sampling_rate_hz": s.fs, "duration_s": s.duration},
+        return _finite(
+            {
+                "signal": {
+                    "name": s.name,
+                    "samples": int(s.acceleration.size),
+                    "sampling_rate_hz": s.fs,
+                    "duration_s": s.duration,
+                },
                 "seat": {**self.seat_figures.to_dict(), "checks": self.seat_checks},
-                "bodies": {k: b.to_dict() for k, b in self.bodies.items()}})
+                "bodies": {k: b.to_dict() for k, b in self.bodies.items()},
+            }
+        )
 
 
 def _finite(obj):
@@ -176,16 +184,21 @@ def respond(signal: SeatSignal, models: Sequence[str] = DEFAULT_MODELS) -> Respo
     """
     if not models:
         raise BodyvibError("give at least one body model")
-    nets = [(m, load_model(m)) for m in models]       # every model checked before any work
+    nets = [(m, load_model(m)) for m in models]  # every model checked before any work
     seat = comfort_figures(signal.acceleration, signal.fs)
-    out = Response(signal=signal, seat_figures=seat,
-                   seat_checks=basic_method_checks(seat, signal.duration))
+    out = Response(
+        signal=signal, seat_figures=seat, seat_checks=basic_method_checks(seat, signal.duration)
+    )
     for name, net in nets:
         head = head_acceleration(net, signal.acceleration, signal.fs)
         fig = comfort_figures(head, signal.fs)
         label = _label(name)
         if label in out.bodies:
             label = name
-        out.bodies[label] = BodyResponse(model=name, head_acceleration=head, figures=fig,
-                                         checks=basic_method_checks(fig, signal.duration))
+        out.bodies[label] = BodyResponse(
+            model=name,
+            head_acceleration=head,
+            figures=fig,
+            checks=basic_method_checks(fig, signal.duration),
+        )
     return out

@@ -31,8 +31,16 @@ import numpy as np
 
 from ..runtime.errors import BodyvibError
 
-__all__ = ["MIN_RATE_HZ", "MIN_DURATION_S", "UNIFORM_TOLERANCE", "SeatSignal", "check_signal",
-           "read_csv_signal", "read_mdf_signal", "read_signal"]
+__all__ = [
+    "MIN_RATE_HZ",
+    "MIN_DURATION_S",
+    "UNIFORM_TOLERANCE",
+    "SeatSignal",
+    "check_signal",
+    "read_csv_signal",
+    "read_mdf_signal",
+    "read_signal",
+]
 
 #: Lowest sampling rate accepted, Hz.
 MIN_RATE_HZ = 80.0
@@ -111,26 +119,36 @@ def check_signal(time, acceleration, name: str = "seat acceleration") -> SeatSig
         if bad.any():
             k = int(np.argmax(bad))
             at = f"t = {t[k]:g} s" if np.isfinite(t[k]) else f"sample {k}"
-            raise BodyvibError(f"{name}: {what} is NaN or infinite at {at} (sample {k}); "
-                               "cut the record or fill the gap")
+            raise BodyvibError(
+                f"{name}: {what} is NaN or infinite at {at} (sample {k}); "
+                "cut the record or fill the gap"
+            )
     dt = np.diff(t)
     if np.any(dt <= 0):
         k = int(np.argmax(dt <= 0))
-        raise BodyvibError(f"{name}: time does not increase at sample {k + 1} "
-                           f"({t[k]:g} s then {t[k + 1]:g} s); sort or cut the record")
+        raise BodyvibError(
+            f"{name}: time does not increase at sample {k + 1} "
+            f"({t[k]:g} s then {t[k + 1]:g} s); sort or cut the record"
+        )
     h = (t[-1] - t[0]) / (t.size - 1)
     dev = float(np.max(np.abs(dt - h)))
     if dev > UNIFORM_TOLERANCE * h:
-        raise BodyvibError(f"{name}: time is not uniformly sampled (steps from {dt.min():.6g} to "
-                           f"{dt.max():.6g} s, more than {100 * UNIFORM_TOLERANCE:g} % apart); "
-                           "resample it to a constant rate")
+        raise BodyvibError(
+            f"{name}: time is not uniformly sampled (steps from {dt.min():.6g} to "
+            f"{dt.max():.6g} s, more than {100 * UNIFORM_TOLERANCE:g} % apart); "
+            "resample it to a constant rate"
+        )
     fs = 1.0 / h
     if fs < MIN_RATE_HZ:
-        raise BodyvibError(f"{name}: sampled at {fs:.4g} Hz, below the {MIN_RATE_HZ:g} Hz the Wk "
-                           "weighting needs; record at a higher rate")
+        raise BodyvibError(
+            f"{name}: sampled at {fs:.4g} Hz, below the {MIN_RATE_HZ:g} Hz the Wk "
+            "weighting needs; record at a higher rate"
+        )
     if (t.size - 1) * h < MIN_DURATION_S:
-        raise BodyvibError(f"{name}: {(t.size - 1) * h:.3g} s long, shorter than the "
-                           f"{MIN_DURATION_S:g} s the figures need (MTVV window)")
+        raise BodyvibError(
+            f"{name}: {(t.size - 1) * h:.3g} s long, shorter than the "
+            f"{MIN_DURATION_S:g} s the figures need (MTVV window)"
+        )
     return SeatSignal(time=t, acceleration=a, fs=float(fs), name=name)
 
 
@@ -173,35 +191,44 @@ def read_csv_signal(path, channel: Optional[str] = None) -> SeatSignal:
     """
     path = os.fspath(path)
     with open(path, newline="", encoding="utf-8") as f:
-        rows = [r for r in csv.reader(line for line in f if not line.lstrip().startswith("#"))
-                if r and any(c.strip() for c in r)]
+        rows = [
+            r
+            for r in csv.reader(line for line in f if not line.lstrip().startswith("#"))
+            if r and any(c.strip() for c in r)
+        ]
     if not rows:
         raise BodyvibError(f"{path}: empty file; expected a header row and samples")
     header = [h.strip() for h in rows[0]]
     times = [i for i, h in enumerate(header) if _is_time(h)]
     if not times:
-        raise BodyvibError(f"{path}: no time column in the header ({', '.join(header)}); name "
-                           "one 'time' (in s)")
+        raise BodyvibError(
+            f"{path}: no time column in the header ({', '.join(header)}); name one 'time' (in s)"
+        )
     ti = times[0]
     others = [i for i in range(len(header)) if i != ti]
     if channel is not None:
         found = [i for i in others if channel.strip() in (header[i], _column_name(header[i]))]
         if not found:
-            raise BodyvibError(f"{path}: no column '{channel}'; columns are "
-                               f"{', '.join(header[i] for i in others)}")
+            raise BodyvibError(
+                f"{path}: no column '{channel}'; columns are {', '.join(header[i] for i in others)}"
+            )
         ci = found[0]
     elif len(others) == 1:
         ci = others[0]
     else:
-        raise BodyvibError(f"{path}: {len(others)} signal columns "
-                           f"({', '.join(header[i] for i in others)}); choose one with --channel")
+        raise BodyvibError(
+            f"{path}: {len(others)} signal columns "
+            f"({', '.join(header[i] for i in others)}); choose one with --channel"
+        )
     data = np.empty((len(rows) - 1, 2))
     for k, r in enumerate(rows[1:]):
         try:
             data[k] = float(r[ti]), float(r[ci])
         except (ValueError, IndexError):
-            raise BodyvibError(f"{path}: line {k + 2} is not two numbers in columns "
-                               f"'{header[ti]}' and '{header[ci]}' (truncated file?)") from None
+            raise BodyvibError(
+                f"{path}: line {k + 2} is not two numbers in columns "
+                f"'{header[ti]}' and '{header[ci]}' (truncated file?)"
+            ) from None
     return check_signal(data[:, 0], data[:, 1], f"{path}:{_column_name(header[ci])}")
 
 
@@ -238,18 +265,20 @@ def read_mdf_signal(path, channel: Optional[str]) -> SeatSignal:
     except Exception as exc:  # asammdf raises many kinds on a bad file
         raise BodyvibError(f"{path}: not a readable MDF file ({exc})") from None
     try:
-        names = sorted(n for n in mdf.channels_db if not n.lower().startswith("time")
-                       and n != "t")
+        names = sorted(n for n in mdf.channels_db if not n.lower().startswith("time") and n != "t")
         if channel is None:
-            raise BodyvibError(f"{path}: name the channel with --channel; channels are "
-                               f"{', '.join(names)}")
+            raise BodyvibError(
+                f"{path}: name the channel with --channel; channels are {', '.join(names)}"
+            )
         if channel not in mdf.channels_db:
             raise BodyvibError(f"{path}: no channel '{channel}'; channels are {', '.join(names)}")
         try:
             sig = mdf.get(channel)
         except Exception as exc:
-            raise BodyvibError(f"{path}: channel '{channel}' cannot be read ({exc}); if "
-                               "the name occurs in several groups, rename it") from None
+            raise BodyvibError(
+                f"{path}: channel '{channel}' cannot be read ({exc}); if "
+                "the name occurs in several groups, rename it"
+            ) from None
         t = np.asarray(sig.timestamps, dtype=float)
         a = np.asarray(sig.samples, dtype=float)
     finally:

@@ -1,7 +1,7 @@
 /*
  * bodyvib native FMUs: the FMI state machine both cores share (bodyvib_fsm.c).
  *
- * Every core's instance struct (struct bv_instance of bodyvib_core.c, of bodyvib_source.c)
+ * Every core's instance struct (struct bv_instance of bodyvib_core.c, of bodyvib_table.c)
  * begins with a bv_common: the FMI state (its first member, so BV_STATE_IS of
  * bodyvib_core.h reads it), the model, the instance's name and logger, the model's time
  * and start time, the initialization flags and the reason a failed initialization gave.

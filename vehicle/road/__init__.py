@@ -1,34 +1,80 @@
 """Roads: profiles over distance, and the input a car sees at a speed.
 
-:mod:`~vehicle.road.synthetic` makes roads from a short name: ISO 8608 random
+:mod:`~bodyvib.vehicle.road.synthetic` makes roads from a short name: ISO 8608 random
 roads of classes A-H, a bump, a sine sweep; it also holds what every road shares
-(the :class:`~vehicle.road.synthetic.Road` interface, the fade-in
-:class:`~vehicle.road.synthetic.TaperedRoad`, the road input at a speed, and the
-table that ``Road.fmu`` carries). :mod:`~vehicle.road.measured` reads measured
-profiles (OpenCRG, CSV, ERD) into a :class:`~vehicle.road.profile.ProfileRoad`.
-:mod:`~vehicle.road.driven` gives the road every run and ``Road.fmu`` drive: any of
+(the :class:`~bodyvib.vehicle.road.synthetic.Road` interface, the fade-in
+:class:`~bodyvib.vehicle.road.synthetic.TaperedRoad`, the road input at a speed, and the
+table that ``Road.fmu`` carries). :mod:`~bodyvib.vehicle.road.measured` reads measured
+profiles (OpenCRG, CSV, ERD) into a :class:`~bodyvib.vehicle.road.profile.ProfileRoad`.
+:mod:`~bodyvib.vehicle.road.driven` gives the road every run and ``Road.fmu`` drive: any of
 them, faded in from level, so the car starts at rest on it.
-:mod:`~vehicle.road.iri` computes a profile's
+:mod:`~bodyvib.vehicle.road.iri` computes a profile's
 International Roughness Index (the Golden Car, exactly discretized) and
-:mod:`~vehicle.road.classify` its displacement PSD, fitted ISO 8608 line and class;
+:mod:`~bodyvib.vehicle.road.classify` its displacement PSD, fitted ISO 8608 line and class;
 both take plain ``(distance, elevation)`` arrays.
 """
 
+from .classify import RoadClass, class_limits, class_of, classify_profile, profile_psd
 from .driven import DEFAULT_TAPER_M, RoadOptions, driven_road, is_road_file
+from .iri import (
+    GOLDEN_CAR,
+    IRI_SPEED_M_S,
+    IriResult,
+    golden_car,
+    international_roughness_index,
+    moving_average,
+)
 from .measured import load_profile
 from .profile import ProfileRoad
-from .synthetic import (ISO8608_CLASSES, N0, N_BAND, BumpRoad, RandomRoad, Road, SweepRoad,
-                        TaperedRoad, class_psd_n0, displacement_psd, make_road, random_road,
-                        road_input, road_source, road_table)
+from .synthetic import (
+    ISO8608_CLASSES,
+    N0,
+    N_BAND,
+    BumpRoad,
+    RandomRoad,
+    Road,
+    SweepRoad,
+    TaperedRoad,
+    class_psd_n0,
+    displacement_psd,
+    make_road,
+    random_road,
+    road_input,
+    road_source,
+    road_table,
+)
 
-from .classify import RoadClass, class_limits, class_of, classify_profile, profile_psd
-from .iri import (GOLDEN_CAR, IRI_SPEED_M_S, IriResult, golden_car,
-                  international_roughness_index, moving_average)
-
-__all__ = ["ISO8608_CLASSES", "N0", "N_BAND", "class_psd_n0", "displacement_psd", "Road",
-           "RandomRoad", "BumpRoad", "SweepRoad", "TaperedRoad", "random_road", "road_source",
-           "road_table", "make_road", "road_input", "DEFAULT_TAPER_M", "RoadOptions",
-           "driven_road", "is_road_file", "ProfileRoad", "load_profile",
-           "RoadClass", "class_limits", "class_of", "classify_profile", "profile_psd",
-           "GOLDEN_CAR", "IRI_SPEED_M_S", "IriResult", "golden_car",
-           "international_roughness_index", "moving_average"]
+__all__ = [
+    "ISO8608_CLASSES",
+    "N0",
+    "N_BAND",
+    "class_psd_n0",
+    "displacement_psd",
+    "Road",
+    "RandomRoad",
+    "BumpRoad",
+    "SweepRoad",
+    "TaperedRoad",
+    "random_road",
+    "road_source",
+    "road_table",
+    "make_road",
+    "road_input",
+    "DEFAULT_TAPER_M",
+    "RoadOptions",
+    "driven_road",
+    "is_road_file",
+    "ProfileRoad",
+    "load_profile",
+    "RoadClass",
+    "class_limits",
+    "class_of",
+    "classify_profile",
+    "profile_psd",
+    "GOLDEN_CAR",
+    "IRI_SPEED_M_S",
+    "IriResult",
+    "golden_car",
+    "international_roughness_index",
+    "moving_average",
+]

@@ -85,8 +85,9 @@ def class_of(gd_n0: float) -> str:
     return ISO8608_CLASSES[-1]
 
 
-def profile_psd(distance, elevation,
-                segment_m: float = None) -> Tuple[np.ndarray, np.ndarray, float]:
+def profile_psd(
+    distance, elevation, segment_m: float = None
+) -> Tuple[np.ndarray, np.ndarray, float]:
     """One-sided displacement PSD of a profile over distance (Welch, Hann, 50 % overlap).
 
     Parameters
@@ -112,7 +113,7 @@ def profile_psd(distance, elevation,
     Raises
     ------
     BodyvibError
-        As :func:`vehicle.road.iri.international_roughness_index` for a bad profile.
+        As :func:`bodyvib.vehicle.road.iri.international_roughness_index` for a bad profile.
     """
     from scipy.signal import welch
 
@@ -121,8 +122,15 @@ def profile_psd(distance, elevation,
     if segment_m is None:
         segment_m = max(100.0, length / 4)
     nseg = int(min(x.size, max(8, round(segment_m / dx))))
-    n, gd = welch(z, fs=1.0 / dx, window="hann", nperseg=nseg, noverlap=nseg // 2,
-                  detrend="linear", scaling="density")
+    n, gd = welch(
+        z,
+        fs=1.0 / dx,
+        window="hann",
+        nperseg=nseg,
+        noverlap=nseg // 2,
+        detrend="linear",
+        scaling="density",
+    )
     return n[1:], gd[1:], nseg * dx
 
 
@@ -132,7 +140,7 @@ def _third_octaves(lo: float, hi: float):
     k0 = math.floor(math.log(lo / N0, step))
     k1 = math.ceil(math.log(hi / N0, step))
     centres = N0 * step ** np.arange(k0, k1 + 1)
-    return centres, centres / step ** 0.5, centres * step ** 0.5
+    return centres, centres / step**0.5, centres * step**0.5
 
 
 @dataclass(frozen=True)
@@ -173,8 +181,9 @@ class RoadClass(Record):
         return d
 
 
-def classify_profile(distance, elevation, segment_m: float = None,
-                     band: Tuple[float, float] = N_BAND) -> RoadClass:
+def classify_profile(
+    distance, elevation, segment_m: float = None, band: Tuple[float, float] = N_BAND
+) -> RoadClass:
     """Fit ISO 8608's ``Gd(n0) (n/n0)^-w`` to a profile's PSD and name its class.
 
     Parameters
@@ -198,7 +207,7 @@ def classify_profile(distance, elevation, segment_m: float = None,
 
     Examples
     --------
-    >>> from vehicle.road.synthetic import random_road
+    >>> from bodyvib.vehicle.road.synthetic import random_road
     >>> x = np.arange(0, 1000, 0.05)
     >>> classify_profile(x, random_road("C", 1000.0, seed=3).displacement(x)).iso8608_class
     'C'
@@ -225,11 +234,18 @@ def _fit_band(n, gd, segment: float, band: Tuple[float, float] = N_BAND) -> Road
             f"the profile resolves {lo:.3g}-{hi:.3g} cycle/m (segments of {segment:g} m, spacing "
             f"{dx:g} m), too little of ISO 8608's {band[0]}-{band[1]} cycle/m to fit a class "
             f"(the fit must reach n0 = {N0:g} cycle/m: segments of {4 / N0:g} m or more); "
-            "use a longer or finer profile")
+            "use a longer or finer profile"
+        )
     slope, intercept = np.polyfit(np.log(keep_c / N0), np.log(keep_g), 1)
     gd_n0 = float(math.exp(intercept))
     cls = class_of(gd_n0)
-    return RoadClass(gd_n0_m3=gd_n0, waviness=float(-slope), iso8608_class=cls,
-                     class_limits_m3=class_limits(cls), band_cycles_per_m=(float(lo), float(hi)),
-                     segment_m=float(segment), band_centres=keep_c.tolist(),
-                     band_gd=keep_g.tolist())
+    return RoadClass(
+        gd_n0_m3=gd_n0,
+        waviness=float(-slope),
+        iso8608_class=cls,
+        class_limits_m3=class_limits(cls),
+        band_cycles_per_m=(float(lo), float(hi)),
+        segment_m=float(segment),
+        band_centres=keep_c.tolist(),
+        band_gd=keep_g.tolist(),
+    )

@@ -4,7 +4,7 @@ Every run (``bodyvib cosim``, ``check``, every ``sweep`` engine) and ``Road.fmu`
 take their road from here, so they all start the same way: the car starts at rest
 on level road, and the road fades in over its first ``taper_m`` metres (5 m by
 default, ``--road-taper``) and out over its last
-(:class:`~vehicle.road.synthetic.TaperedRoad`): no initial height, no initial slope,
+(:class:`~bodyvib.vehicle.road.synthetic.TaperedRoad`): no initial height, no initial slope,
 whatever the road, and the car's own state untouched. The alternative, starting the
 car in static equilibrium at the road's first height, would need every car FMU to
 take an initial road height and every host to set it, which ``Road.fmu`` in an SSP
@@ -77,8 +77,7 @@ def is_road_file(spec) -> bool:
     s = str(spec).strip()
     if (len(s) == 1 and s.upper() in ISO8608_CLASSES) or s.lower() in ("bump", "sweep"):
         return False
-    return (os.path.splitext(s)[1].lower() in PROFILE_EXTENSIONS or os.sep in s
-            or os.path.isfile(s))
+    return os.path.splitext(s)[1].lower() in PROFILE_EXTENSIONS or os.sep in s or os.path.isfile(s)
 
 
 def road_label(spec) -> str:
@@ -95,15 +94,21 @@ def road_label(spec) -> str:
     return s.upper() if len(s) == 1 else s.lower()
 
 
-def driven_road(spec, speed: float, duration: float, seed: int = 0,
-                step: Optional[float] = None, options: Optional[RoadOptions] = None) -> Road:
+def driven_road(
+    spec,
+    speed: float,
+    duration: float,
+    seed: int = 0,
+    step: Optional[float] = None,
+    options: Optional[RoadOptions] = None,
+) -> Road:
     """The road a run drives, faded in from level.
 
     Parameters
     ----------
     spec : str
-        ISO 8608 class ``A``-``H``, ``bump``, ``sweep`` (:func:`vehicle.road.synthetic.make_road`)
-        or a road file (``.crg``, ``.csv``, ``.erd``: :func:`vehicle.road.measured.load_profile`).
+        ISO 8608 class ``A``-``H``, ``bump``, ``sweep`` (:func:`bodyvib.vehicle.road.synthetic.make_road`)
+        or a road file (``.crg``, ``.csv``, ``.erd``: :func:`bodyvib.vehicle.road.measured.load_profile`).
     speed : float
         m/s.
     duration : float
@@ -125,8 +130,8 @@ def driven_road(spec, speed: float, duration: float, seed: int = 0,
     ------
     BodyvibError
         Unknown road, bad settings, a file that cannot be driven (see
-        :func:`vehicle.road.measured.load_profile` and
-        :meth:`vehicle.road.profile.ProfileRoad.check_run`), a taper longer than
+        :func:`bodyvib.vehicle.road.measured.load_profile` and
+        :meth:`bodyvib.vehicle.road.profile.ProfileRoad.check_run`), a taper longer than
         half the road.
 
     Examples
@@ -141,12 +146,15 @@ def driven_road(spec, speed: float, duration: float, seed: int = 0,
 
         if not (isinstance(speed, (int, float)) and math.isfinite(speed) and speed > 0):
             raise BodyvibError(f"speed must be a positive number of m/s, got {speed!r}")
-        road = load_profile(str(spec).strip(), track_m=opt.track_m, units=opt.units,
-                            envelope=opt.envelope)
+        road = load_profile(
+            str(spec).strip(), track_m=opt.track_m, units=opt.units, envelope=opt.envelope
+        )
         road.check_run(speed, duration, step, repeat=opt.repeat)
         return TaperedRoad(road, road.length, opt.taper_m, periodic=opt.repeat)
     if opt.track_m or opt.units or opt.envelope or opt.repeat:
-        raise BodyvibError("--road-track, --road-units, --road-envelope and --road-repeat apply "
-                           f"to road files; road '{spec}' is synthetic")
+        raise BodyvibError(
+            "--road-track, --road-units, --road-envelope and --road-repeat apply "
+            f"to road files; road '{spec}' is synthetic"
+        )
     road = make_road(spec, speed, duration, seed=seed)
     return TaperedRoad(road, road.length, opt.taper_m)

@@ -42,8 +42,16 @@ from bodyvib.runtime.errors import BodyvibError
 
 from ..records import Record
 
-__all__ = ["GOLDEN_CAR", "IRI_SPEED_M_S", "SMOOTHING_BASE_M", "START_BASE_M", "golden_car",
-           "moving_average", "IriResult", "international_roughness_index"]
+__all__ = [
+    "GOLDEN_CAR",
+    "IRI_SPEED_M_S",
+    "SMOOTHING_BASE_M",
+    "START_BASE_M",
+    "golden_car",
+    "moving_average",
+    "IriResult",
+    "international_roughness_index",
+]
 
 #: The Golden Car per unit sprung mass (Sayers 1986; ASTM E1926): tire and
 #: suspension stiffness [s^-2], suspension damping [s^-1], mass ratio [-].
@@ -75,12 +83,19 @@ def golden_car() -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
     ((4, 4), (4, 1), (1, 4))
     """
     g = GOLDEN_CAR
-    A = np.array([
-        [0.0, 1.0, 0.0, 0.0],
-        [-g["ks"], -g["cs"], g["ks"], g["cs"]],
-        [0.0, 0.0, 0.0, 1.0],
-        [g["ks"] / g["mu"], g["cs"] / g["mu"], -(g["ks"] + g["kt"]) / g["mu"], -g["cs"] / g["mu"]],
-    ])
+    A = np.array(
+        [
+            [0.0, 1.0, 0.0, 0.0],
+            [-g["ks"], -g["cs"], g["ks"], g["cs"]],
+            [0.0, 0.0, 0.0, 1.0],
+            [
+                g["ks"] / g["mu"],
+                g["cs"] / g["mu"],
+                -(g["ks"] + g["kt"]) / g["mu"],
+                -g["cs"] / g["mu"],
+            ],
+        ]
+    )
     B = np.array([[0.0], [0.0], [0.0], [g["kt"] / g["mu"]]])
     C = np.array([[0.0, 1.0, 0.0, -1.0]])
     return A, B, C
@@ -112,8 +127,9 @@ def _check_profile(distance, elevation):
     x = np.asarray(distance, dtype=float)
     z = np.asarray(elevation, dtype=float)
     if x.ndim != 1 or z.shape != x.shape:
-        raise BodyvibError(f"distance and elevation must be 1-D arrays of one length, got "
-                           f"{x.shape} and {z.shape}")
+        raise BodyvibError(
+            f"distance and elevation must be 1-D arrays of one length, got {x.shape} and {z.shape}"
+        )
     if x.size < 3:
         raise BodyvibError("a profile needs at least 3 samples")
     if not (np.all(np.isfinite(x)) and np.all(np.isfinite(z))):
@@ -124,8 +140,10 @@ def _check_profile(distance, elevation):
         raise BodyvibError(f"profile distances must increase; they do not at {x[k + 1]:g} m")
     spacing = (x[-1] - x[0]) / (x.size - 1)
     if np.max(np.abs(dx - spacing)) > 1e-6 * spacing + 1e-9:
-        raise BodyvibError("profile distances are not uniformly spaced (spacing varies from "
-                           f"{dx.min():g} to {dx.max():g} m); resample it to a constant spacing")
+        raise BodyvibError(
+            "profile distances are not uniformly spaced (spacing varies from "
+            f"{dx.min():g} to {dx.max():g} m); resample it to a constant spacing"
+        )
     return x, z, float(spacing)
 
 
@@ -157,8 +175,9 @@ def moving_average(elevation, spacing: float, base: float = SMOOTHING_BASE_M) ->
     if k <= 1:
         return z.copy()
     if k > z.size:
-        raise BodyvibError(f"the profile ({z.size} samples) is shorter than the "
-                           f"{base:g} m moving average")
+        raise BodyvibError(
+            f"the profile ({z.size} samples) is shorter than the {base:g} m moving average"
+        )
     c = np.concatenate([[0.0], np.cumsum(z)])
     return (c[k:] - c[:-k]) / k
 
@@ -185,8 +204,9 @@ class IriResult(Record):
     smoothing_samples: int
 
 
-def international_roughness_index(distance, elevation, speed: float = IRI_SPEED_M_S,
-                                  smooth: bool = True, initial_state=None) -> IriResult:
+def international_roughness_index(
+    distance, elevation, speed: float = IRI_SPEED_M_S, smooth: bool = True, initial_state=None
+) -> IriResult:
     """IRI of a uniformly spaced profile: the Golden Car simulated exactly over it.
 
     Parameters
@@ -229,7 +249,7 @@ def international_roughness_index(distance, elevation, speed: float = IRI_SPEED_
     h = dx / speed
     Phi, G0, G1 = discretize(A, B, h)
     g0, g1 = G0[:, 0], G1[:, 0]
-    rate = np.diff(zr) / h                       # profile linear between samples: dz_r/dt
+    rate = np.diff(zr) / h  # profile linear between samples: dz_r/dt
     if initial_state is None:
         m = min(zr.size - 1, max(1, int(round(START_BASE_M / dx))))
         v0 = (zr[m] - zr[0]) / (m * dx) * speed
@@ -239,7 +259,11 @@ def international_roughness_index(distance, elevation, speed: float = IRI_SPEED_
     rel = C[0] @ _recursion(Phi, np.outer(g0, zr[:-1]) + np.outer(g1, rate), state)
     a = np.abs(rel)
     duration = (zr.size - 1) * h
-    accumulated = 0.5 * h * (a[0] + a[-1]) + h * a[1:-1].sum()   # int |z_s' - z_u'| dt, m
+    accumulated = 0.5 * h * (a[0] + a[-1]) + h * a[1:-1].sum()  # int |z_s' - z_u'| dt, m
     length = (zr.size - 1) * dx
-    return IriResult(iri_m_per_km=float(1000.0 * accumulated / (speed * duration)),
-                     length_m=float(length), speed_m_s=float(speed), smoothing_samples=k)
+    return IriResult(
+        iri_m_per_km=float(1000.0 * accumulated / (speed * duration)),
+        length_m=float(length),
+        speed_m_s=float(speed),
+        smoothing_samples=k,
+    )

@@ -2,8 +2,8 @@
 
 A :class:`ProfileRoad` is a profile sampled at a uniform spacing ``dx`` along the
 distance (what a profilometer, an OpenCRG file along a track, a CSV or an ERD file
-gives, :mod:`vehicle.road.measured`). Between the samples the height is the cubic
-Hermite interpolant of :class:`bodyvib.runtime.source.HermiteTable` (the one
+gives, :mod:`bodyvib.vehicle.road.measured`). Between the samples the height is the cubic
+Hermite interpolant of :class:`bodyvib.runtime.tabulated.HermiteTable` (the one
 ``Road.fmu`` evaluates) with the slopes at the samples from second-order central
 differences (one-sided at the ends), so the road velocity ``V dz/dx`` a car sees is
 the exact derivative of the displacement, continuous across the samples.
@@ -11,7 +11,7 @@ the exact derivative of the displacement, continuous across the samples.
 The car drives the profile from its first sample, with the profile's *grade* (the
 straight line from the first to the last sample, which a car at constant speed
 follows without vibrating) removed: the driven height starts and ends at 0, so the
-fade-in and fade-out of :class:`vehicle.road.synthetic.TaperedRoad` join level road,
+fade-in and fade-out of :class:`bodyvib.vehicle.road.synthetic.TaperedRoad` join level road,
 and a repeated profile (``--road-repeat``) joins itself without a step.
 
 Optional tire enveloping is the 250 mm moving average of the IRI standard (ASTM
@@ -25,7 +25,7 @@ from typing import Optional
 import numpy as np
 
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib.runtime.source import HermiteTable
+from bodyvib.runtime.tabulated import HermiteTable
 
 from .synthetic import Road
 
@@ -112,14 +112,21 @@ class ProfileRoad(Road):
     0.01
     """
 
-    def __init__(self, elevation, spacing: float, name: str = "measured profile",
-                 info: Optional[dict] = None, enveloped: bool = False):
+    def __init__(
+        self,
+        elevation,
+        spacing: float,
+        name: str = "measured profile",
+        info: Optional[dict] = None,
+        enveloped: bool = False,
+    ):
         z = np.asarray(elevation, dtype=float).ravel()
         if not (isinstance(spacing, (int, float)) and math.isfinite(spacing) and spacing > 0):
             raise BodyvibError(f"profile spacing must be a positive number of m, got {spacing!r}")
         if not np.all(np.isfinite(z)):
-            raise BodyvibError(f"profile '{name}' holds a height that is not a number; fill or "
-                               "cut the gap")
+            raise BodyvibError(
+                f"profile '{name}' holds a height that is not a number; fill or cut the gap"
+            )
         if enveloped:
             z = envelope(z, spacing)
         if z.size < 4:
@@ -150,12 +157,19 @@ class ProfileRoad(Road):
         return self._table.evaluate(x)[1][..., 0]
 
     def describe(self) -> dict:
-        return {"name": self.name, "length_m": self.length, "spacing_m": self.spacing,
-                "samples": int(self.elevation.size), "grade_removed": self.grade,
-                "tire_envelope_m": ENVELOPE_M if self.enveloped else None, **self.info}
+        return {
+            "name": self.name,
+            "length_m": self.length,
+            "spacing_m": self.spacing,
+            "samples": int(self.elevation.size),
+            "grade_removed": self.grade,
+            "tire_envelope_m": ENVELOPE_M if self.enveloped else None,
+            **self.info,
+        }
 
-    def check_run(self, speed: float, duration: float, step: Optional[float] = None,
-                  repeat: bool = False) -> None:
+    def check_run(
+        self, speed: float, duration: float, step: Optional[float] = None, repeat: bool = False
+    ) -> None:
         """Refuse a run this profile cannot drive.
 
         The profile resolves wavelengths down to ``2 dx``; at the speed ``V`` they pass
@@ -188,10 +202,12 @@ class ProfileRoad(Road):
                 f"{top:.3g} Hz, below the {need:.3g} Hz the figures need; use a profile sampled "
                 f"every {speed / (2 * need):.3g} m or finer, drive at "
                 f"{2 * self.spacing * need:.3g} m/s or faster, or step at {0.5 / top:.3g} s or "
-                "longer (which resolves less)")
+                "longer (which resolves less)"
+            )
         run = speed * duration
         if run > self.length * (1 + 1e-12) and not repeat:
             raise BodyvibError(
                 f"road '{self.name}' is {self.length:.6g} m long; a {duration:g} s run at "
                 f"{speed:g} m/s needs {run:.6g} m: shorten the run to {self.length / speed:.4g} s "
-                "or less, or repeat the road (--road-repeat)")
+                "or less, or repeat the road (--road-repeat)"
+            )

@@ -2,15 +2,17 @@
 
 :func:`summarize_profile` puts together, for plain ``(distance, elevation)``
 arrays, the elevation statistics, the displacement PSD and its ISO 8608 fit
-(:mod:`vehicle.road.classify`) and the International Roughness Index
-(:mod:`vehicle.road.iri`); :func:`format_summary` and :func:`plot_summary` are
+(:mod:`bodyvib.vehicle.road.classify`) and the International Roughness Index
+(:mod:`bodyvib.vehicle.road.iri`); :func:`format_summary` and :func:`plot_summary` are
 its text and its plot (``bodyvib road``).
 """
 
 from dataclasses import dataclass
+
 import numpy as np
 
-from ..figure import stacked_panels
+from bodyvib.plotting import stacked_panels
+
 from .classify import RoadClass, _fit_band, class_limits, profile_psd
 from .iri import IriResult, _check_profile, international_roughness_index
 from .synthetic import ISO8608_CLASSES, N0, class_psd_n0
@@ -58,9 +60,15 @@ class RoadSummary:
 
     def to_dict(self, psd: bool = True) -> dict:
         """JSON-ready dict (the PSD as two lists when ``psd``; no profile)."""
-        d = {"name": self.name, "length_m": self.length_m, "spacing_m": self.spacing_m,
-             "samples": self.samples, "elevation_m": dict(self.elevation_m),
-             "iso8608": self.iso8608.to_dict(), "iri": self.iri.to_dict()}
+        d = {
+            "name": self.name,
+            "length_m": self.length_m,
+            "spacing_m": self.spacing_m,
+            "samples": self.samples,
+            "elevation_m": dict(self.elevation_m),
+            "iso8608": self.iso8608.to_dict(),
+            "iri": self.iri.to_dict(),
+        }
         if psd:
             d["psd"] = {"n_cycles_per_m": self.psd_n.tolist(), "gd_m3": self.psd_gd.tolist()}
         return d
@@ -85,25 +93,39 @@ def summarize_profile(distance, elevation, name: str = "profile") -> RoadSummary
     Raises
     ------
     BodyvibError
-        A bad profile (see :func:`vehicle.road.iri.international_roughness_index`)
+        A bad profile (see :func:`bodyvib.vehicle.road.iri.international_roughness_index`)
         or one that resolves too little of ISO 8608's band to be classed.
 
     Examples
     --------
-    >>> from vehicle.road.synthetic import random_road
+    >>> from bodyvib.vehicle.road.synthetic import random_road
     >>> x = np.arange(0, 300, 0.05)
     >>> s = summarize_profile(x, random_road("B", 300.05, seed=1).displacement(x))
     >>> s.iso8608.iso8608_class, s.samples
     ('B', 6000)
     """
     x, z, dx = _check_profile(distance, elevation)
-    stats = {"mean": float(z.mean()), "rms": float(z.std()), "min": float(z.min()),
-             "max": float(z.max()), "range": float(z.max() - z.min())}
+    stats = {
+        "mean": float(z.mean()),
+        "rms": float(z.std()),
+        "min": float(z.min()),
+        "max": float(z.max()),
+        "range": float(z.max() - z.min()),
+    }
     n, gd, segment = profile_psd(x, z)  # one Welch PSD, shown and fitted
-    return RoadSummary(name=str(name), length_m=float(x[-1] - x[0]), spacing_m=dx,
-                       samples=int(x.size), elevation_m=stats, psd_n=n, psd_gd=gd,
-                       iso8608=_fit_band(n, gd, segment), iri=international_roughness_index(x, z),
-                       distance=x, elevation=z)
+    return RoadSummary(
+        name=str(name),
+        length_m=float(x[-1] - x[0]),
+        spacing_m=dx,
+        samples=int(x.size),
+        elevation_m=stats,
+        psd_n=n,
+        psd_gd=gd,
+        iso8608=_fit_band(n, gd, segment),
+        iri=international_roughness_index(x, z),
+        distance=x,
+        elevation=z,
+    )
 
 
 def format_summary(s: RoadSummary) -> str:
@@ -124,17 +146,19 @@ def format_summary(s: RoadSummary) -> str:
     c = s.iso8608
     lo, hi = c.class_limits_m3
     limits = f"{lo:.3g}-{hi:.3g}" if np.isfinite(hi) else f">= {lo:.3g}"
-    return "\n".join([
-        f"road {s.name}",
-        f"length {s.length_m:.6g} m, spacing {s.spacing_m:.4g} m ({s.samples} samples)",
-        f"elevation: mean {e['mean']:.2f} mm, r.m.s. about the mean {e['rms']:.2f} mm, "
-        f"min {e['min']:.2f} mm, max {e['max']:.2f} mm",
-        f"ISO 8608: Gd(n0 = 0.1 cycle/m) = {c.gd_n0_m3:.3g} m^3, waviness w = {c.waviness:.2f} "
-        f"(fitted over {c.band_cycles_per_m[0]:.3g}-{c.band_cycles_per_m[1]:.3g} cycle/m) "
-        f"-> class {c.iso8608_class} ({limits} m^3)",
-        f"IRI {s.iri.iri_m_per_km:.3f} m/km (Golden Car at 80 km/h over {s.iri.length_m:.6g} m, "
-        f"250 mm moving average)",
-    ])
+    return "\n".join(
+        [
+            f"road {s.name}",
+            f"length {s.length_m:.6g} m, spacing {s.spacing_m:.4g} m ({s.samples} samples)",
+            f"elevation: mean {e['mean']:.2f} mm, r.m.s. about the mean {e['rms']:.2f} mm, "
+            f"min {e['min']:.2f} mm, max {e['max']:.2f} mm",
+            f"ISO 8608: Gd(n0 = 0.1 cycle/m) = {c.gd_n0_m3:.3g} m^3, waviness w = {c.waviness:.2f} "
+            f"(fitted over {c.band_cycles_per_m[0]:.3g}-{c.band_cycles_per_m[1]:.3g} cycle/m) "
+            f"-> class {c.iso8608_class} ({limits} m^3)",
+            f"IRI {s.iri.iri_m_per_km:.3f} m/km (Golden Car at 80 km/h over {s.iri.length_m:.6g} m, "
+            f"250 mm moving average)",
+        ]
+    )
 
 
 def plot_summary(s: RoadSummary, path) -> None:
@@ -160,7 +184,7 @@ def plot_summary(s: RoadSummary, path) -> None:
         ax1.set_title(f"{s.name}: IRI {s.iri.iri_m_per_km:.2f} m/km")
         ax1.grid(True, alpha=0.3)
         n = np.geomspace(0.01, 3.0, 50)
-        for i, c in enumerate(ISO8608_CLASSES):   # class limits: twice each geometric mean
+        for _i, c in enumerate(ISO8608_CLASSES):  # class limits: twice each geometric mean
             if c != "H":
                 ax2.loglog(n, class_limits(c)[1] * (n / N0) ** -2, color="0.6", lw=0.7)
             ax2.text(0.0105, class_psd_n0(c) * (0.0105 / N0) ** -2, c, color="0.4", va="center")
@@ -168,9 +192,13 @@ def plot_summary(s: RoadSummary, path) -> None:
         r = s.iso8608
         ax2.loglog(r.band_centres, r.band_gd, "o", ms=4, label="one-third-octave means")
         band = np.geomspace(*r.band_cycles_per_m, 20)
-        ax2.loglog(band, r.gd_n0_m3 * (band / N0) ** -r.waviness, "k--",
-                   label=f"fit: Gd(n0) = {r.gd_n0_m3:.3g} m^3, w = {r.waviness:.2f} "
-                         f"(class {r.iso8608_class})")
+        ax2.loglog(
+            band,
+            r.gd_n0_m3 * (band / N0) ** -r.waviness,
+            "k--",
+            label=f"fit: Gd(n0) = {r.gd_n0_m3:.3g} m^3, w = {r.waviness:.2f} "
+            f"(class {r.iso8608_class})",
+        )
         ax2.set_xlim(0.01, 3.0)
         # every class in view: A's lower half at 3 cycle/m to H's upper limit at 0.01 cycle/m
         low = min(class_psd_n0("A") / 2 * (3.0 / N0) ** -2, float(np.min(r.band_gd)) / 3)

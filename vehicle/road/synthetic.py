@@ -71,8 +71,7 @@ def _class_index(road_class: str) -> int:
     c = str(road_class).strip().upper()
     if len(c) != 1 or c not in ISO8608_CLASSES:
         raise BodyvibError(
-            f"unknown ISO 8608 road class '{road_class}'; use one of "
-            + ", ".join(ISO8608_CLASSES)
+            f"unknown ISO 8608 road class '{road_class}'; use one of " + ", ".join(ISO8608_CLASSES)
         )
     return ISO8608_CLASSES.index(c)
 
@@ -178,8 +177,8 @@ class RandomRoad(Road):
                 return self._uniform(flat[0], dx, flat.size, weights, derivative).reshape(x.shape)
         out = np.empty_like(flat)
         for s in range(0, flat.size, self._CHUNK):
-            arg = np.outer(flat[s:s + self._CHUNK], k) + self.phase
-            out[s:s + self._CHUNK] = (-np.sin(arg) if derivative else np.cos(arg)) @ weights
+            arg = np.outer(flat[s : s + self._CHUNK], k) + self.phase
+            out[s : s + self._CHUNK] = (-np.sin(arg) if derivative else np.cos(arg)) @ weights
         return out.reshape(x.shape)
 
     def _uniform(self, x0, dx, count, weights, derivative):
@@ -197,9 +196,10 @@ class RandomRoad(Road):
         # harmonics a chunk at a time: the transform's buffers stay (chunk + count) long
         # however long the road (a run's length sets the number of harmonics)
         for a in range(0, self.n.size, self._HARMONICS):
-            n = self.n[a:a + self._HARMONICS]
-            c = weights[a:a + self._HARMONICS] * np.exp(
-                1j * (self.phase[a:a + self._HARMONICS] + 2 * np.pi * n * x0))
+            n = self.n[a : a + self._HARMONICS]
+            c = weights[a : a + self._HARMONICS] * np.exp(
+                1j * (self.phase[a : a + self._HARMONICS] + 2 * np.pi * n * x0)
+            )
             if derivative:
                 c = 1j * c
             i0 = round(n[0] * self.length)
@@ -219,8 +219,13 @@ class RandomRoad(Road):
         return {"name": self.name, "length_m": self.length, **self.info}
 
 
-def random_road(road_class: str = "C", length: float = 600.0, seed: int = 0,
-                band: Tuple[float, float] = N_BAND, waviness: float = 2.0) -> RandomRoad:
+def random_road(
+    road_class: str = "C",
+    length: float = 600.0,
+    seed: int = 0,
+    band: Tuple[float, float] = N_BAND,
+    waviness: float = 2.0,
+) -> RandomRoad:
     """An ISO 8608 random road of a class, reproducible from a seed.
 
     Parameters
@@ -262,20 +267,34 @@ def random_road(road_class: str = "C", length: float = 600.0, seed: int = 0,
         raise BodyvibError(f"spatial-frequency band must satisfy 0 < low < high, got {band}")
     dn = 1.0 / length
     count = (hi - lo) * length
-    require_memory(count * BYTES_PER_HARMONIC, f"an ISO 8608 road of {length:.4g} m "
-                   f"({count:.3g} harmonics)", "shorten the run (--duration) or lower --speed")
+    require_memory(
+        count * BYTES_PER_HARMONIC,
+        f"an ISO 8608 road of {length:.4g} m ({count:.3g} harmonics)",
+        "shorten the run (--duration) or lower --speed",
+    )
     i = np.arange(max(1, math.ceil(lo / dn)), math.floor(hi / dn) + 1)
     if i.size == 0:
-        raise BodyvibError(f"a {length:g} m road holds no harmonic in {lo}-{hi} cycle/m; "
-                           "make it longer")
+        raise BodyvibError(
+            f"a {length:g} m road holds no harmonic in {lo}-{hi} cycle/m; make it longer"
+        )
     n = i * dn
     amp = np.sqrt(2 * displacement_psd(n, road_class, waviness) * dn)
     phase = np.random.default_rng(seed).uniform(0, 2 * np.pi, n.size)
     cls = ISO8608_CLASSES[idx]
-    return RandomRoad(n=n, amplitude=amp, phase=phase, length=float(length),
-                      name=f"ISO 8608 class {cls}",
-                      info={"iso8608_class": cls, "Gd_n0_m3": class_psd_n0(cls), "seed": seed,
-                            "band_cycles_per_m": [lo, hi], "waviness": waviness})
+    return RandomRoad(
+        n=n,
+        amplitude=amp,
+        phase=phase,
+        length=float(length),
+        name=f"ISO 8608 class {cls}",
+        info={
+            "iso8608_class": cls,
+            "Gd_n0_m3": class_psd_n0(cls),
+            "seed": seed,
+            "band_cycles_per_m": [lo, hi],
+            "waviness": waviness,
+        },
+    )
 
 
 @dataclass
@@ -304,8 +323,11 @@ class BumpRoad(Road):
     def displacement(self, x) -> np.ndarray:
         """Profile height at distances ``x`` (m), in m."""
         x, on = self._phase(x)
-        return np.where(on, 0.5 * self.height
-                        * (1 - np.cos(2 * np.pi * (x - self.start) / self.bump_length)), 0.0)
+        return np.where(
+            on,
+            0.5 * self.height * (1 - np.cos(2 * np.pi * (x - self.start) / self.bump_length)),
+            0.0,
+        )
 
     def slope(self, x) -> np.ndarray:
         """Exact slope ``dz/dx``."""
@@ -314,8 +336,12 @@ class BumpRoad(Road):
         return np.where(on, 0.5 * self.height * w * np.sin(w * (x - self.start)), 0.0)
 
     def describe(self) -> dict:
-        return {"name": self.name, "height_m": self.height, "length_m": self.bump_length,
-                "start_m": self.start}
+        return {
+            "name": self.name,
+            "height_m": self.height,
+            "length_m": self.bump_length,
+            "start_m": self.start,
+        }
 
 
 @dataclass
@@ -356,13 +382,18 @@ class SweepRoad(Road):
         """Exact slope ``dz/dx``."""
         x = np.asarray(x, dtype=float)
         phi, n = self._phi(x)
-        return np.where((x >= 0) & (x <= self.length),
-                        self.amplitude * 2 * np.pi * n * np.cos(phi), 0.0)
+        return np.where(
+            (x >= 0) & (x <= self.length), self.amplitude * 2 * np.pi * n * np.cos(phi), 0.0
+        )
 
     def describe(self) -> dict:
-        return {"name": self.name, "amplitude_m": self.amplitude,
-                "n_start_cycles_per_m": self.n_start, "n_stop_cycles_per_m": self.n_stop,
-                "length_m": self.length}
+        return {
+            "name": self.name,
+            "amplitude_m": self.amplitude,
+            "n_start_cycles_per_m": self.n_start,
+            "n_stop_cycles_per_m": self.n_stop,
+            "length_m": self.length,
+        }
 
 
 def make_road(spec: str, speed: float, duration: float, seed: int = 0) -> Road:
@@ -458,7 +489,7 @@ class TaperedRoad(Road):
     period ``L`` stays smooth. ``d = 0`` keeps the road as it is (a car starting
     on a random road then meets the road's first height as a step).
 
-    Every road a run drives is one of these (:func:`vehicle.road.driven.driven_road`),
+    Every road a run drives is one of these (:func:`bodyvib.vehicle.road.driven.driven_road`),
     and ``Road.fmu`` tabulates the same one, so both start the same way.
 
     Parameters
@@ -479,24 +510,34 @@ class TaperedRoad(Road):
     periodic: bool = None
 
     def __post_init__(self):
-        if not (isinstance(self.taper, (int, float)) and math.isfinite(self.taper)
-                and self.taper >= 0):
+        if not (
+            isinstance(self.taper, (int, float)) and math.isfinite(self.taper) and self.taper >= 0
+        ):
             raise BodyvibError(f"road taper must be a non-negative number of m, got {self.taper!r}")
         if not self.length > 0:
             raise BodyvibError(f"road length must be positive, got {self.length!r} m")
         if 2 * self.taper > self.length:
-            raise BodyvibError(f"a {self.length:g} m road cannot fade in and out over "
-                               f"{self.taper:g} m at each end; shorten the taper (--road-taper) "
-                               "or lengthen the road (a longer run or profile)")
+            raise BodyvibError(
+                f"a {self.length:g} m road cannot fade in and out over "
+                f"{self.taper:g} m at each end; shorten the taper (--road-taper) "
+                "or lengthen the road (a longer run or profile)"
+            )
         if self.periodic is None:
-            self.periodic = isinstance(self.road, RandomRoad) and \
-                abs(self.road.length - self.length) <= 1e-12 * self.length
+            self.periodic = (
+                isinstance(self.road, RandomRoad)
+                and abs(self.road.length - self.length) <= 1e-12 * self.length
+            )
         self.periodic = bool(self.periodic) and math.isfinite(self.length)
         ends = "at each end" if math.isfinite(self.length) else "at its start"
-        self.name = (f"{self.road.name}, faded in over {self.taper:g} m" if not
-                     math.isfinite(self.length) else
-                     f"{self.road.name}, tapered over {self.taper:g} m {ends}") \
-            if self.taper > 0 else self.road.name
+        self.name = (
+            (
+                f"{self.road.name}, faded in over {self.taper:g} m"
+                if not math.isfinite(self.length)
+                else f"{self.road.name}, tapered over {self.taper:g} m {ends}"
+            )
+            if self.taper > 0
+            else self.road.name
+        )
 
     def _where(self, x):
         """Distances for the window and for the road: a random road repeats by itself, so it
@@ -530,9 +571,12 @@ class TaperedRoad(Road):
         return dw * self.road.displacement(x) + w * self.road.slope(x)
 
     def describe(self) -> dict:
-        return dict(self.road.describe(), taper_m=self.taper,
-                    tapered_length_m=self.length if math.isfinite(self.length) else None,
-                    repeats=self.periodic)
+        return dict(
+            self.road.describe(),
+            taper_m=self.taper,
+            tapered_length_m=self.length if math.isfinite(self.length) else None,
+            repeats=self.periodic,
+        )
 
 
 #: Row spacing of a road table, m (:func:`road_table`): cubic Hermite between rows
@@ -576,30 +620,30 @@ def road_table(road: Road, length: float, spacing: float = None):
 
     Returns
     -------
-    bodyvib.runtime.source.HermiteTable
+    bodyvib.runtime.tabulated.HermiteTable
 
     Raises
     ------
     BodyvibError
         A length or spacing that is not a positive number.
     """
-    from bodyvib.runtime.source import HermiteTable
+    from bodyvib.runtime.tabulated import HermiteTable
 
     _check_positive(length, "road table length", "m")
     spacing = table_spacing(road) if spacing is None else spacing
     _check_positive(spacing, "road table spacing", "m")
     rows = max(2, int(math.ceil(length / spacing - 1e-9))) + 1
     x = np.linspace(0.0, float(length), rows)
-    periodic = (isinstance(road, RandomRoad) or bool(getattr(road, "periodic", False))) and \
-        abs(road.length - length) <= 1e-12 * length
+    periodic = (isinstance(road, RandomRoad) or bool(getattr(road, "periodic", False))) and abs(
+        road.length - length
+    ) <= 1e-12 * length
     z, s = road.displacement(x), road.slope(x)
     if periodic:  # the sum is periodic: make the end row the start row, bit for bit
         z[-1], s[-1] = z[0], s[0]
     return HermiteTable(x, z, s, periodic=periodic)
 
 
-def road_source(road: Road, length: float, speed: float = 20.0,
-                spacing: float = None):
+def road_source(road: Road, length: float, speed: float = 20.0, spacing: float = None):
     """The source description and table of a road FMU (``Road.fmu``).
 
     Parameters
@@ -616,27 +660,38 @@ def road_source(road: Road, length: float, speed: float = 20.0,
     -------
     meta : dict
         For :func:`bodyvib.fmu.pythonfmu.build_source_fmu`.
-    table : bodyvib.runtime.source.HermiteTable
+    table : bodyvib.runtime.tabulated.HermiteTable
     """
     _check_positive(speed, "speed", "m/s")
     table = road_table(road, length, spacing)
-    beyond = ("repeats (the harmonic sum's period)" if table.periodic
-              else "holds its end value")
+    beyond = "repeats (the harmonic sum's period)" if table.periodic else "holds its end value"
     meta = {
         "name": road.name,
-        "description": (f"{road.name}, {table.length:g} m tabulated every "
-                        f"{table.length / (table.position.size - 1):g} m (heights and exact slopes, "
-                        f"cubic Hermite between rows); beyond the table the profile {beyond}"),
+        "description": (
+            f"{road.name}, {table.length:g} m tabulated every "
+            f"{table.length / (table.position.size - 1):g} m (heights and exact slopes, "
+            f"cubic Hermite between rows); beyond the table the profile {beyond}"
+        ),
         "coordinate": {"name": "distance", "unit": "m"},
-        "speed": {"name": "speed", "unit": "m/s", "start": float(speed),
-                  "description": "Vehicle speed: the wheel is at distance speed * time"},
-        "signals": [{
-            "name": "road_displacement", "unit": "m",
-            "description": "Road profile height under the wheel (z up)",
-            "rate": {"name": "road_velocity", "unit": "m/s",
-                     "description": "Time derivative of road_displacement (speed * profile "
-                                    "slope of the same interpolant)"},
-        }],
-        "provenance": dict(road.describe(), generator="vehicle.road.synthetic"),
+        "speed": {
+            "name": "speed",
+            "unit": "m/s",
+            "start": float(speed),
+            "description": "Vehicle speed: the wheel is at distance speed * time",
+        },
+        "signals": [
+            {
+                "name": "road_displacement",
+                "unit": "m",
+                "description": "Road profile height under the wheel (z up)",
+                "rate": {
+                    "name": "road_velocity",
+                    "unit": "m/s",
+                    "description": "Time derivative of road_displacement (speed * profile "
+                    "slope of the same interpolant)",
+                },
+            }
+        ],
+        "provenance": dict(road.describe(), generator="bodyvib.vehicle.road.synthetic"),
     }
     return meta, table

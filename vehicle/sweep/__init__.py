@@ -1,11 +1,11 @@
 """Sweeps: a study's cases (roads x seeds x speeds x bodies x cars) run on Dask.
 
-:mod:`~vehicle.sweep.spec` expands a specification into cases,
-:mod:`~vehicle.sweep.engines` computes a block of cases (batched exact steps
-compiled in :mod:`~vehicle.sweep.kernel`, the spectral expectation, or real
-co-simulations), :mod:`~vehicle.sweep.run` cuts the cases into tasks and runs
-them (on Dask through :mod:`~vehicle.sweep.cluster`), :mod:`~vehicle.sweep.table`
-writes the parts and the final table with units and provenance, :mod:`~vehicle.sweep.plot`
+:mod:`~bodyvib.vehicle.sweep.spec` expands a specification into cases,
+:mod:`~bodyvib.vehicle.sweep.engines` computes a block of cases (batched exact steps
+compiled in :mod:`~bodyvib.vehicle.sweep.kernel`, the spectral expectation, or real
+co-simulations), :mod:`~bodyvib.vehicle.sweep.run` cuts the cases into tasks and runs
+them (on Dask through :mod:`~bodyvib.vehicle.sweep.cluster`), :mod:`~bodyvib.vehicle.sweep.table`
+writes the parts and the final table with units and provenance, :mod:`~bodyvib.vehicle.sweep.plot`
 draws comfort maps. Names are imported from their module on first use (Dask is
 loaded only by a sweep).
 """
@@ -13,10 +13,17 @@ loaded only by a sweep).
 import importlib
 
 _HOME = {
-    "Case": "spec", "load_spec": "spec", "grid_spec": "spec", "expand": "spec",
-    "iter_cases": "spec", "count_cases": "spec", "ClusterLost": "cluster",
-    "ENGINES": "engines", "run_engine": "engines",
-    "run_sweep": "run", "read_results": "run",
+    "Case": "spec",
+    "load_spec": "spec",
+    "grid_spec": "spec",
+    "expand": "spec",
+    "iter_cases": "spec",
+    "count_cases": "spec",
+    "ClusterLost": "cluster",
+    "ENGINES": "engines",
+    "run_engine": "engines",
+    "run_sweep": "run",
+    "read_results": "run",
     "plot_comfort_maps": "plot",
 }
 

@@ -66,8 +66,10 @@ def check_address(address: str) -> str:
     'tcp://127.0.0.1:8786'
     """
     if "://" not in address:
-        raise BodyvibError(f"--scheduler '{address}' has no protocol: write it as "
-                           f"tcp://{address} (or 'serial', or leave it out for a LocalCluster)")
+        raise BodyvibError(
+            f"--scheduler '{address}' has no protocol: write it as "
+            f"tcp://{address} (or 'serial', or leave it out for a LocalCluster)"
+        )
     return address
 
 
@@ -75,7 +77,7 @@ class _Silence(logging.Filter):
     """Drops every record of distributed (and the libraries under it) while a sweep runs."""
 
     def filter(self, record):
-        return not record.name.split(".")[0] in _QUIET
+        return record.name.split(".")[0] not in _QUIET
 
 
 @contextlib.contextmanager
@@ -190,8 +192,7 @@ class Cluster:
                 _call(lambda: self.client.close(timeout=5), 10, "close the client", False)
             if self.local is not None:
                 with contextlib.suppress(BaseException):
-                    _call(lambda: self.local.close(timeout=10), 15, "close the LocalCluster",
-                          False)
+                    _call(lambda: self.local.close(timeout=10), 15, "close the LocalCluster", False)
             if self.spawn is not None:
                 self.spawn.close()
             if self.scratch is not None:
@@ -199,9 +200,13 @@ class Cluster:
 
 
 @contextlib.contextmanager
-def open_cluster(scheduler: Optional[str] = None, scheduler_file: Optional[str] = None,
-                 workers: int = 1, connect_timeout: float = 10.0,
-                 worker_timeout: float = 60.0) -> Iterator[Cluster]:
+def open_cluster(
+    scheduler: Optional[str] = None,
+    scheduler_file: Optional[str] = None,
+    workers: int = 1,
+    connect_timeout: float = 10.0,
+    worker_timeout: float = 60.0,
+) -> Iterator[Cluster]:
     """A Dask client for a sweep, with at least one worker; closed when the block ends.
 
     Parameters
@@ -241,12 +246,16 @@ def open_cluster(scheduler: Optional[str] = None, scheduler_file: Optional[str] 
                 except (KeyboardInterrupt, BodyvibError):
                     raise
                 except Exception as exc:
-                    raise ClusterLost(f"the Dask scheduler {cluster.where} stopped answering "
-                                      f"({type(exc).__name__})") from None
+                    raise ClusterLost(
+                        f"the Dask scheduler {cluster.where} stopped answering "
+                        f"({type(exc).__name__})"
+                    ) from None
                 if time.monotonic() > t_end:
-                    raise BodyvibError(f"the Dask scheduler {cluster.where} has no worker after "
-                                       f"{worker_timeout:g} s (--worker-timeout); start "
-                                       f"workers with 'dask worker {cluster.where}'")
+                    raise BodyvibError(
+                        f"the Dask scheduler {cluster.where} has no worker after "
+                        f"{worker_timeout:g} s (--worker-timeout); start "
+                        f"workers with 'dask worker {cluster.where}'"
+                    )
                 for _ in range(5):
                     interrupts.check()
                     time.sleep(0.05)
@@ -260,8 +269,10 @@ def _start(scheduler, scheduler_file, workers, connect_timeout) -> Cluster:
 
     if scheduler_file is not None:
         if not os.path.isfile(scheduler_file):
-            raise BodyvibError(f"--scheduler-file '{scheduler_file}' does not exist (the file "
-                               "'dask scheduler --scheduler-file' writes)")
+            raise BodyvibError(
+                f"--scheduler-file '{scheduler_file}' does not exist (the file "
+                "'dask scheduler --scheduler-file' writes)"
+            )
         where = f"of '{scheduler_file}'"
         kw = {"scheduler_file": scheduler_file}
     elif scheduler not in (None, "local"):
@@ -270,15 +281,17 @@ def _start(scheduler, scheduler_file, workers, connect_timeout) -> Cluster:
     else:
         return _local(workers, connect_timeout)
     try:
-        client = _call(lambda: Client(timeout=f"{connect_timeout}s", **kw),
-                       connect_timeout + 5, "connect")
+        client = _call(
+            lambda: Client(timeout=f"{connect_timeout}s", **kw), connect_timeout + 5, "connect"
+        )
     except (KeyboardInterrupt, BodyvibError):
         raise
     except Exception as exc:
-        raise BodyvibError(f"cannot connect to the Dask scheduler {where} within "
-                           f"{connect_timeout:g} s (--connect-timeout): "
-                           f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
-                           ) from None
+        raise BodyvibError(
+            f"cannot connect to the Dask scheduler {where} within "
+            f"{connect_timeout:g} s (--connect-timeout): "
+            f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
+        ) from None
     return Cluster(client, where)
 
 
@@ -296,16 +309,23 @@ def _local(workers, connect_timeout) -> Cluster:
         # is dynamic, up to 32 MB, only while neither is set), so every block buffer
         # of the Wk filter was mapped and faulted in afresh: 160k page faults per
         # 256-case task against 59k in-process, 1.45x its CPU (measured). Both set.
-        config = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": 128 * 1024 * 1024,
-                  "distributed.nanny.pre-spawn-environ.MALLOC_MMAP_THRESHOLD_": 32 * 1024 * 1024,
-                  "temporary-directory": scratch}
+        config = {
+            "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": 128 * 1024 * 1024,
+            "distributed.nanny.pre-spawn-environ.MALLOC_MMAP_THRESHOLD_": 32 * 1024 * 1024,
+            "temporary-directory": scratch,
+        }
         spawn = contextlib.ExitStack()  # until the cluster is closed (a worker may restart)
         spawn.enter_context(_workers_ignore_sigint(scratch))
         # a second Ctrl-C waits too: a cluster half started would leave its workers behind
         with dask.config.set(config), interrupts.critical():
-            local = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                 dashboard_address=None, silence_logs=logging.CRITICAL + 1,
-                                 local_directory=scratch)
+            local = LocalCluster(
+                n_workers=workers,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=None,
+                silence_logs=logging.CRITICAL + 1,
+                local_directory=scratch,
+            )
             try:
                 client = Client(local, timeout=f"{max(connect_timeout, 10)}s")
             except BaseException:
@@ -317,8 +337,9 @@ def _local(workers, connect_timeout) -> Cluster:
         shutil.rmtree(scratch, ignore_errors=True)
         if isinstance(exc, (KeyboardInterrupt, BodyvibError)):
             raise
-        raise BodyvibError(f"cannot start a LocalCluster of {workers} workers: "
-                           f"{type(exc).__name__}: {exc}") from None
+        raise BodyvibError(
+            f"cannot start a LocalCluster of {workers} workers: {type(exc).__name__}: {exc}"
+        ) from None
     return Cluster(client, f"LocalCluster of {workers} workers", local, scratch, spawn)
 
 
@@ -333,14 +354,22 @@ def _lost_reason(fut) -> Optional[str]:
         if isinstance(exc, KilledWorker):
             return "its workers died (KilledWorker)"
         if type(exc).__module__.split(".")[0] in ("distributed", "tornado") or isinstance(
-                exc, (OSError, TimeoutError)):
+            exc, (OSError, TimeoutError)
+        ):
             return f"{type(exc).__name__}"
     return None
 
 
-def run_tasks(cluster: Cluster, fn, tasks: Iterator, window: int, on_result: Callable,
-              worker_timeout: float = 60.0, connect_timeout: float = 10.0,
-              shared=None) -> int:
+def run_tasks(
+    cluster: Cluster,
+    fn,
+    tasks: Iterator,
+    window: int,
+    on_result: Callable,
+    worker_timeout: float = 60.0,
+    connect_timeout: float = 10.0,
+    shared=None,
+) -> int:
     """Run ``fn(shared, task)`` for every task with at most ``window`` in flight.
 
     ``on_result(task_no, task, value)`` gets each task that ran (``value`` the
@@ -381,13 +410,17 @@ def run_tasks(cluster: Cluster, fn, tasks: Iterator, window: int, on_result: Cal
     meta = {}
     state = {"task_no": 0, "exhausted": False}
     try:
-        ref = _call(lambda: client.scatter(shared, broadcast=True, hash=False),
-                    connect_timeout + 60, "send the spec to the workers")
+        ref = _call(
+            lambda: client.scatter(shared, broadcast=True, hash=False),
+            connect_timeout + 60,
+            "send the spec to the workers",
+        )
     except (KeyboardInterrupt, BodyvibError):
         raise
     except Exception as exc:
-        raise ClusterLost(f"the spec could not be sent to the workers ({type(exc).__name__})"
-                          ) from None
+        raise ClusterLost(
+            f"the spec could not be sent to the workers ({type(exc).__name__})"
+        ) from None
 
     def submit():
         while not state["exhausted"] and ac.count() < window:
@@ -402,17 +435,19 @@ def run_tasks(cluster: Cluster, fn, tasks: Iterator, window: int, on_result: Cal
             state["task_no"] += 1
 
     try:
-        return _run(client, cluster, ac, meta, submit, on_result, worker_timeout,
-                    connect_timeout, state)
+        return _run(
+            client, cluster, ac, meta, submit, on_result, worker_timeout, connect_timeout, state
+        )
     except _ResultError as exc:  # writing a result failed: that error, as it is
-        raise exc.__cause__
+        raise exc.__cause__ from None
     except (KeyboardInterrupt, BodyvibError):
         raise
     except Exception as exc:  # the client library failed: the tasks in flight are lost
         _cancel(client, ac)
-        raise ClusterLost(f"{ac.count() or 'some'} task(s) lost: the Dask client failed "
-                          f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})"
-                          ) from None
+        raise ClusterLost(
+            f"{ac.count() or 'some'} task(s) lost: the Dask client failed "
+            f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})"
+        ) from None
 
 
 def _cancel(client, ac):
@@ -467,8 +502,11 @@ def _run(client, cluster, ac, meta, submit, on_result, worker_timeout, connect_t
             if threads > 0:
                 last_worker = now
             elif threads < 0 or now - last_worker > worker_timeout:
-                reason = ("the scheduler stopped answering" if threads < 0 else
-                          f"no Dask worker for {worker_timeout:g} s (--worker-timeout)")
+                reason = (
+                    "the scheduler stopped answering"
+                    if threads < 0
+                    else f"no Dask worker for {worker_timeout:g} s (--worker-timeout)"
+                )
                 lost += ac.count()
                 break
         time.sleep(0.02)

@@ -1,8 +1,8 @@
 """The sweep engines: how the figures of a block of cases are computed.
 
 * ``batched`` -- the monolithic car-plus-occupant network of
-  :func:`vehicle.quarter_car.seated_system` (the co-simulation's reference,
-  :mod:`vehicle.reference`), discretized exactly per case
+  :func:`bodyvib.vehicle.quarter_car.seated_system` (the co-simulation's reference,
+  :mod:`bodyvib.vehicle.reference`), discretized exactly per case
   (:class:`bodyvib.runtime.discretize.Discretization`) and advanced for all cases of a
   block together: one batched matrix product per time step over the block,
   ``[x_{k+1}; y_k] = [Phi; C] x_k + [Gamma; D] (z_k, v_k)``, with the road's
@@ -14,19 +14,19 @@
   ``H`` the road-to-head (or seat) acceleration response
   (:func:`bodyvib.frequency.response.frequency_response`), ``Wk``
   (:func:`bodyvib.comfort.figures.wk_response`) and the road's time-domain PSD at the
-  speed ``S(f) = Gd(f / V) / V`` (:func:`vehicle.road.synthetic.displacement_psd`)
+  speed ``S(f) = Gd(f / V) / V`` (:func:`bodyvib.vehicle.road.synthetic.displacement_psd`)
   over the band the road is synthesized in. It gives the weighted r.m.s. only:
   VDV, peak and crest factor depend on the particular record (NaN). It is the
   stationary road's expectation: the fade-in every road starts with (5 m of a run's
   hundreds) is a transient outside it, and a road file, not stationary, is refused.
-* ``cosim`` -- real FMU co-simulations (:func:`vehicle.cosim.cosimulate`,
+* ``cosim`` -- real FMU co-simulations (:func:`bodyvib.vehicle.cosim.cosimulate`,
   extrapolating master): the FMUs are built once per task (into a temporary
   folder deleted with the task) and body and car parameters are set for each
   case through the FMUs' parameter variables before initialization.
 
 Every case sees the road of ``bodyvib cosim`` with the same road, seed, speed,
-duration and road options, faded in from level: :func:`vehicle.road.driven.driven_road` and
-:func:`vehicle.road.synthetic.road_input` on ``t_k = k * step``, ``k = 0 ...
+duration and road options, faded in from level: :func:`bodyvib.vehicle.road.driven.driven_road` and
+:func:`bodyvib.vehicle.road.synthetic.road_input` on ``t_k = k * step``, ``k = 0 ...
 round(duration / step)``. Each engine returns one figures dict per case; a
 case that fails carries its error instead of figures.
 """
@@ -52,14 +52,30 @@ from ..road.synthetic import ISO8608_CLASSES, N_BAND, displacement_psd, road_inp
 from .kernel import advance
 from .spec import Case
 
-__all__ = ["ENGINES", "ENGINE_SETTINGS", "FIGURES", "run_engine", "run_batched", "run_spectral", "run_cosim",
-           "case_road_input", "check_engine"]
+__all__ = [
+    "ENGINES",
+    "ENGINE_SETTINGS",
+    "FIGURES",
+    "run_engine",
+    "run_batched",
+    "run_spectral",
+    "run_cosim",
+    "case_road_input",
+    "check_engine",
+]
 
 #: Engine names.
 ENGINES = ("batched", "spectral", "cosim")
 #: Figure columns every engine returns (NaN where it has none).
-FIGURES = ("head_weighted_rms", "head_vdv", "head_peak", "head_crest_factor", "head_comfort",
-           "seat_weighted_rms", "head_mtvv")
+FIGURES = (
+    "head_weighted_rms",
+    "head_vdv",
+    "head_peak",
+    "head_crest_factor",
+    "head_comfort",
+    "seat_weighted_rms",
+    "head_mtvv",
+)
 #: Settings of each engine as stored in the table's ``engine_settings`` column (JSON).
 ENGINE_SETTINGS = {
     "batched": '{"method": "exact zero-order-hold-plus-slope step", "block_steps": 256}',
@@ -87,7 +103,7 @@ def check_engine(engine: str, cases: Sequence[Case]) -> None:
 
     Examples
     --------
-    >>> from vehicle.sweep.spec import expand
+    >>> from bodyvib.vehicle.sweep.spec import expand
     >>> check_engine("spectral", expand({"road": "bump", "speed": 10, "body": "reduced-paper"}))
     Traceback (most recent call last):
     ...
@@ -98,8 +114,10 @@ def check_engine(engine: str, cases: Sequence[Case]) -> None:
     if engine == "spectral":
         bad = sorted({c.road for c in cases if c.road not in ISO8608_CLASSES})
         if bad:
-            raise BodyvibError(f"the spectral engine needs stationary ISO 8608 roads (A-H); "
-                               f"not {', '.join(bad)}: use the batched engine")
+            raise BodyvibError(
+                f"the spectral engine needs stationary ISO 8608 roads (A-H); "
+                f"not {', '.join(bad)}: use the batched engine"
+            )
 
 
 def case_road_input(case: Case):
@@ -116,14 +134,20 @@ def case_road_input(case: Case):
 
     Examples
     --------
-    >>> from vehicle.sweep.spec import expand
+    >>> from bodyvib.vehicle.sweep.spec import expand
     >>> z, v = case_road_input(expand({"road": "C", "speed": 20, "duration": 2,
     ...                                "body": "reduced-paper"})[0])
     >>> z.shape
     (2001,)
     """
-    road = driven_road(case.road, case.speed, case.duration, seed=case.seed, step=case.step,
-                       options=case.road_settings())
+    road = driven_road(
+        case.road,
+        case.speed,
+        case.duration,
+        seed=case.seed,
+        step=case.step,
+        options=case.road_settings(),
+    )
     t = np.arange(case.steps) * case.step
     return road_input(road, case.speed, t)
 
@@ -186,7 +210,7 @@ def _batched_group(cases, models, cars, roads, block_steps, record):
     M = np.empty((c, n + 2, n))
     gz = np.empty((c, n + 2))
     gv = np.empty((c, n + 2))
-    road = np.empty(c, dtype=np.int64)   # cases share roads: one row per (road, seed, speed)
+    road = np.empty(c, dtype=np.int64)  # cases share roads: one row per (road, seed, speed)
     rows_of: Dict[tuple, int] = {}
     zs, vs = [], []
     for i, (cs, s) in enumerate(zip(cases, sys)):
@@ -194,8 +218,9 @@ def _batched_group(cases, models, cars, roads, block_steps, record):
         with np.errstate(over="ignore", invalid="ignore"):
             Phi, G0, G1 = Discretization(lm).matrices(step)
         if not (np.all(np.isfinite(Phi)) and np.all(np.isfinite(G0)) and np.all(np.isfinite(G1))):
-            raise BodyvibError("the exact step matrices are not finite (parameters out of "
-                               "numerical range?)")
+            raise BodyvibError(
+                "the exact step matrices are not finite (parameters out of numerical range?)"
+            )
         iz, iv = lm.input_index("road_displacement"), lm.input_index("road_velocity")
         M[i, :n] = Phi
         M[i, n:] = lm.C[s.outputs]
@@ -219,21 +244,27 @@ def _batched_group(cases, models, cars, roads, block_steps, record):
     for k0 in range(0, N, block_steps):
         k1 = min(N, k0 + block_steps)
         ys = ys_buf if k1 - k0 == block_steps else np.empty((2, c, k1 - k0))
-        advance(M, gz, gv, z, v, road, x, k0, ys)   # compiled: one case at a time
+        advance(M, gz, gv, z, v, road, x, k0, ys)  # compiled: one case at a time
         if not np.all(np.isfinite(ys)):
             raise BodyvibError("the response is not finite (parameters out of numerical range?)")
-        stream.update(ys.reshape(2 * c, k1 - k0))   # rows: head of each case, then seat
+        stream.update(ys.reshape(2 * c, k1 - k0))  # rows: head of each case, then seat
         if record:
             hist[:, :, k0:k1] = ys
     fig = stream.figures()
     rows = []
     for i in range(c):
-        rows.append({
-            "head_weighted_rms": float(fig["weighted_rms"][i]), "head_vdv": float(fig["vdv"][i]),
-            "head_peak": float(fig["peak"][i]), "head_crest_factor": float(fig["crest_factor"][i]),
-            "head_comfort": fig["comfort"][i], "seat_weighted_rms": float(fig["weighted_rms"][c + i]),
-            "head_mtvv": float(fig["mtvv"][i]), "error": None,
-        })
+        rows.append(
+            {
+                "head_weighted_rms": float(fig["weighted_rms"][i]),
+                "head_vdv": float(fig["vdv"][i]),
+                "head_peak": float(fig["peak"][i]),
+                "head_crest_factor": float(fig["crest_factor"][i]),
+                "head_comfort": fig["comfort"][i],
+                "seat_weighted_rms": float(fig["weighted_rms"][c + i]),
+                "head_mtvv": float(fig["mtvv"][i]),
+                "error": None,
+            }
+        )
     return rows, hist
 
 
@@ -259,7 +290,7 @@ def run_batched(cases: Sequence[Case], block_steps: int = 256, record: bool = Fa
 
     Examples
     --------
-    >>> from vehicle.sweep.spec import expand
+    >>> from bodyvib.vehicle.sweep.spec import expand
     >>> cases = expand({"road": "C", "speed": [10, 20], "duration": 1, "body": "reduced-paper"})
     >>> rows, _ = run_batched(cases)
     >>> [r["head_weighted_rms"] > 0 for r in rows]
@@ -333,7 +364,7 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
 
     Examples
     --------
-    >>> from vehicle.sweep.spec import expand
+    >>> from bodyvib.vehicle.sweep.spec import expand
     >>> rows = run_spectral(expand({"road": ["A", "C"], "speed": 20, "body": "reduced-paper"}))
     >>> round(rows[1]["head_weighted_rms"] / rows[0]["head_weighted_rms"], 9)
     4.0
@@ -344,24 +375,30 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
     rows: List[Optional[dict]] = [None] * len(cases)
     for i, cs in enumerate(cases):
         groups.setdefault((cs.body_model, cs.body_values, cs.car), []).append(i)
-    density = (points - 1) / math.log(N_BAND[1] / N_BAND[0])   # points per unit of ln f
+    density = (points - 1) / math.log(N_BAND[1] / N_BAND[0])  # points per unit of ln f
     for idx in groups.values():
         try:
             s = _seated(cases[idx[0]], models, cars)
             speeds = sorted({cases[i].speed for i in idx})
             lo, hi = N_BAND[0] * speeds[0], N_BAND[1] * speeds[-1]
-            lnf = np.linspace(math.log(lo), math.log(hi), int(math.ceil(density * math.log(hi / lo))) + 1)
+            lnf = np.linspace(
+                math.log(lo), math.log(hi), int(math.ceil(density * math.log(hi / lo))) + 1
+            )
             f = np.exp(lnf)
             H = frequency_response(s.lm, f, ["body.head.a", f"{s.seat}.a"])
-            W2f = np.abs(wk_response(f)) ** 2 * f      # |Wk|^2 f: the df = f dln f of the integral
+            W2f = np.abs(wk_response(f)) ** 2 * f  # |Wk|^2 f: the df = f dln f of the integral
             per_speed = {}
             for v in speeds:
                 # road PSD in time at speed v: S(f) = Gd(f / v) / v (class A here; scaled below)
                 S = displacement_psd(f / v, "A") / v
-                per_speed[v] = [_band_mean_square(np.abs(h) ** 2 * W2f * S, lnf, N_BAND[0] * v,
-                                                  N_BAND[1] * v) for h in H]
+                per_speed[v] = [
+                    _band_mean_square(np.abs(h) ** 2 * W2f * S, lnf, N_BAND[0] * v, N_BAND[1] * v)
+                    for h in H
+                ]
             if not np.all(np.isfinite(list(per_speed.values()))):
-                raise BodyvibError("the response is not finite (parameters out of numerical range?)")
+                raise BodyvibError(
+                    "the response is not finite (parameters out of numerical range?)"
+                )
         except Exception as exc:
             for i in idx:
                 rows[i] = _failed(exc)
@@ -371,16 +408,23 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
             if cs.road not in ISO8608_CLASSES:
                 rows[i] = _failed(BodyvibError(f"road '{cs.road}' is not an ISO 8608 class"))
                 continue
-            scale = 4.0 ** ISO8608_CLASSES.index(cs.road)   # Gd(n0) of the class over class A's
+            scale = 4.0 ** ISO8608_CLASSES.index(cs.road)  # Gd(n0) of the class over class A's
             head, seat = (math.sqrt(m * scale) for m in per_speed[cs.speed])
-            rows[i] = {"head_weighted_rms": head, "head_vdv": float("nan"),
-                       "head_peak": float("nan"), "head_crest_factor": float("nan"),
-                       "head_comfort": comfort_category(head), "seat_weighted_rms": seat,
-                       "head_mtvv": float("nan"), "error": None}
+            rows[i] = {
+                "head_weighted_rms": head,
+                "head_vdv": float("nan"),
+                "head_peak": float("nan"),
+                "head_crest_factor": float("nan"),
+                "head_comfort": comfort_category(head),
+                "seat_weighted_rms": seat,
+                "head_mtvv": float("nan"),
+                "error": None,
+            }
     return rows
 
 
 # -- cosim -------------------------------------------------------------------
+
 
 def _fmu(kind: str, source: str, folder: str, built: Dict[tuple, str]) -> str:
     """Path of an FMU for a body or car source, built once into ``folder``."""
@@ -395,8 +439,9 @@ def _fmu(kind: str, source: str, folder: str, built: Dict[tuple, str]) -> str:
             name = "HumanBodyISO7962"
         else:
             name = "HumanBody3DOF"
-        path = built[key] = str(build_project_fmu(name, os.path.join(folder, str(len(built))),
-                                                  source))
+        path = built[key] = str(
+            build_project_fmu(name, os.path.join(folder, str(len(built))), source)
+        )
     return path
 
 
@@ -439,20 +484,32 @@ def _cosim_case(cs, folder, built, record, cosimulate, open_fmu):
         body_fmu = _fmu("body", cs.body_model, folder, built)
         car_fmu = _fmu("car", cs.car, folder, built)
         z, v = _roads(cs, {})
-        with open_fmu(car_fmu, "car", "car", start_values=_parameters(car)) as c, \
-                open_fmu(body_fmu, "body", "body", start_values=_parameters(body)) as b:
+        with (
+            open_fmu(car_fmu, "car", "car", start_values=_parameters(car)) as c,
+            open_fmu(body_fmu, "body", "body", start_values=_parameters(body)) as b,
+        ):
             run = cosimulate(c, b, z, v, cs.step, extrapolate=True)
         stream = ComfortStream(1.0 / cs.step, 2)
         stream.update(np.stack([run["head_acceleration"], run["seat_acceleration"]]))
         fig = stream.figures()
-        row = {"head_weighted_rms": float(fig["weighted_rms"][0]),
-               "head_vdv": float(fig["vdv"][0]), "head_peak": float(fig["peak"][0]),
-               "head_crest_factor": float(fig["crest_factor"][0]),
-               "head_comfort": fig["comfort"][0],
-               "seat_weighted_rms": float(fig["weighted_rms"][1]),
-               "head_mtvv": float(fig["mtvv"][0]), "error": None}
-        return row, ({"head_acceleration": run["head_acceleration"],
-                      "seat_acceleration": run["seat_acceleration"]} if record else None)
+        row = {
+            "head_weighted_rms": float(fig["weighted_rms"][0]),
+            "head_vdv": float(fig["vdv"][0]),
+            "head_peak": float(fig["peak"][0]),
+            "head_crest_factor": float(fig["crest_factor"][0]),
+            "head_comfort": fig["comfort"][0],
+            "seat_weighted_rms": float(fig["weighted_rms"][1]),
+            "head_mtvv": float(fig["mtvv"][0]),
+            "error": None,
+        }
+        return row, (
+            {
+                "head_acceleration": run["head_acceleration"],
+                "seat_acceleration": run["seat_acceleration"],
+            }
+            if record
+            else None
+        )
     except Exception as exc:
         return _failed(exc), None
 

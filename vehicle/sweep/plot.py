@@ -24,7 +24,7 @@ def plot_comfort_maps(df, path, figure: str = "head_weighted_rms", title: Option
     Parameters
     ----------
     df : pandas.DataFrame
-        A sweep table (:func:`vehicle.sweep.run.run_sweep`).
+        A sweep table (:func:`bodyvib.vehicle.sweep.run.run_sweep`).
     path : str
         Plot file (.png, .pdf or .svg).
     figure : str
@@ -49,20 +49,27 @@ def plot_comfort_maps(df, path, figure: str = "head_weighted_rms", title: Option
     fig, axes = new_figure(nrow, ncol, figsize=(5.2 * ncol, 4.2 * nrow), squeeze=False)
     top = max(2.5, float(ok[figure].max()) * 1.3)
     bottom = min(0.1, float(ok[figure].min()) / 1.3)
-    for ax in axes.flat[len(panels):]:
+    for ax in axes.flat[len(panels) :]:
         ax.set_visible(False)
     for ax, (body, car) in zip(axes.flat, panels):
         for (lo, hi, words), colour in zip(COMFORT_SCALE, _BAND_COLOURS):
             ax.axhspan(max(lo, bottom), min(hi, top), color=colour, alpha=0.13, lw=0)
-            ax.text(1.01, np.sqrt(max(lo, bottom) * min(hi, top)), words, fontsize=6,
-                    transform=ax.get_yaxis_transform(), va="center")
+            ax.text(
+                1.01,
+                np.sqrt(max(lo, bottom) * min(hi, top)),
+                words,
+                fontsize=6,
+                transform=ax.get_yaxis_transform(),
+                va="center",
+            )
         sel = ok[(ok["body"] == body) & (ok["car"] == car)]
         for road, g in sel.groupby("road", sort=True):
             stats = g.groupby("speed_m_s")[figure].quantile([0.05, 0.5, 0.95]).unstack()
-            line, = ax.plot(stats.index, stats[0.5], "o-", ms=3, label=f"road {road}")
+            (line,) = ax.plot(stats.index, stats[0.5], "o-", ms=3, label=f"road {road}")
             if (g.groupby("speed_m_s").size() > 1).any():
-                ax.fill_between(stats.index, stats[0.05], stats[0.95], color=line.get_color(),
-                                alpha=0.25, lw=0)
+                ax.fill_between(
+                    stats.index, stats[0.05], stats[0.95], color=line.get_color(), alpha=0.25, lw=0
+                )
         ax.set_yscale("log")
         ax.set_ylim(bottom, top)
         ax.set_xlabel("speed [m/s]")

@@ -1,17 +1,17 @@
 """Running a sweep: cases cut into tasks, executed here or on Dask, written as they arrive.
 
-:func:`run_sweep` validates a spec (:mod:`vehicle.sweep.spec`) and checks the
+:func:`run_sweep` validates a spec (:mod:`bodyvib.vehicle.sweep.spec`) and checks the
 outputs before any work, skips the cases already stored when resuming, cuts
 the pending case numbers into tasks of consecutive cases (:func:`plan_tasks`,
 sized by :func:`task_size` from the cluster's threads) and runs them in this
-process or on Dask (:mod:`vehicle.sweep.cluster`: a LocalCluster of
+process or on Dask (:mod:`bodyvib.vehicle.sweep.cluster`: a LocalCluster of
 single-threaded worker processes by default, any scheduler address or
 scheduler file). A task is an array of case numbers; it returns its rows as
 Parquet bytes.
 
 Output: each finished task is written at once, atomically, as one Parquet part
 in ``OUT.parts/``; at the end the parts are streamed into ``OUT`` (and the
-CSV) by ``case_id``, all outputs or none (:mod:`vehicle.sweep.table`), and
+CSV) by ``case_id``, all outputs or none (:mod:`bodyvib.vehicle.sweep.table`), and
 deleted. A sweep that is interrupted, killed or loses its cluster keeps every
 finished task; ``resume=True`` refuses an output written by another spec and
 runs only the cases not stored (``retry_failed=True``: also those stored
@@ -19,7 +19,7 @@ with an error).
 
 The table, one row per case (:data:`BASE_COLUMNS`, with one ``body_<name>``
 and ``car_<name>`` column per parameter of every model after ``car``; units
-in the schema, see :mod:`vehicle.sweep.table`):
+in the schema, see :mod:`bodyvib.vehicle.sweep.table`):
 
 ================== ===========================================================
 case_id, case_key  position in the spec; hash identifying the case
@@ -68,11 +68,22 @@ from bodyvib.runtime.errors import BodyvibError
 from .cluster import ClusterLost, open_cluster, run_tasks
 from .engines import ENGINE_SETTINGS, FIGURES, check_engine, run_engine
 from .spec import Case, _Prepared, load_spec, spec_hash
-from .table import (CASE_COLUMNS, REPLACES_OUT, TRAILING_COLUMNS, assemble, part_bytes,
-                    part_name, parts_dir, provenance, scan, table_schema, units, write_part)
+from .table import (
+    CASE_COLUMNS,
+    REPLACES_OUT,
+    TRAILING_COLUMNS,
+    assemble,
+    part_bytes,
+    part_name,
+    parts_dir,
+    provenance,
+    scan,
+    table_schema,
+    units,
+    write_part,
+)
 
-__all__ = ["BASE_COLUMNS", "run_sweep", "plan_tasks", "read_results", "parts_dir",
-           "task_size"]
+__all__ = ["BASE_COLUMNS", "run_sweep", "plan_tasks", "read_results", "parts_dir", "task_size"]
 
 #: Columns of every sweep table, in order (``body_<parameter>`` and ``car_<parameter>``
 #: columns, every parameter of every model of the sweep, follow ``car``).
@@ -127,7 +138,7 @@ def plan_tasks(cases, block: int) -> Iterator[List[Case]]:
 
     Examples
     --------
-    >>> from vehicle.sweep.spec import expand
+    >>> from bodyvib.vehicle.sweep.spec import expand
     >>> cases = expand({"road": ["C", "D"], "speed": [10, 20], "body": ["reduced-paper", "iso7962"]})
     >>> [len(t) for t in plan_tasks(cases, 3)]
     [3, 3, 2]
@@ -176,7 +187,7 @@ class _Rows:
     """Turns a task's figures into table columns: the case, every model parameter, provenance."""
 
     def __init__(self, prep: _Prepared, engine: str, sh: str, run_id: str):
-        from vehicle.quarter_car import load_car
+        from bodyvib.vehicle.quarter_car import load_car
 
         from bodyvib.models import load_model
 
@@ -211,11 +222,19 @@ class _Rows:
             raise BodyvibError(f"an engine returned {len(figures)} rows for {len(cases)} cases")
         cols: Dict[str, list] = {n: [] for n in self.schema.names}
         for c, f in zip(cases, figures):
-            for name, value in (("case_id", c.case_id), ("case_key", c.case_key),
-                                ("road", c.road), ("seed", c.seed), ("speed_m_s", c.speed),
-                                ("duration_s", c.duration), ("step_s", c.step),
-                                ("body", c.body), ("body_model", c.body_model),
-                                ("body_sample", c.body_sample), ("car", c.car)):
+            for name, value in (
+                ("case_id", c.case_id),
+                ("case_key", c.case_key),
+                ("road", c.road),
+                ("seed", c.seed),
+                ("speed_m_s", c.speed),
+                ("duration_s", c.duration),
+                ("step_s", c.step),
+                ("body", c.body),
+                ("body_model", c.body_model),
+                ("body_sample", c.body_sample),
+                ("car", c.car),
+            ):
                 cols[name].append(value)
             for p, x in self._body(c).items():
                 cols[f"body_{p}"].append(x)
@@ -282,19 +301,30 @@ def _spec_inputs(spec: dict, spec_path: Optional[str]):
     return inputs
 
 
-def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "batched",
-              scheduler: Optional[str] = None, resume: bool = False, overwrite: bool = False,
-              csv: Optional[str] = None, progress: bool = False, block: Optional[int] = None,
-              workers: Optional[int] = None, echo: Optional[Callable[[str], None]] = None,
-              retry_failed: bool = False, scheduler_file: Optional[str] = None,
-              connect_timeout: float = 10.0, worker_timeout: float = 60.0,
-              table: bool = True):
+def run_sweep(
+    spec: Union[dict, str],
+    out: Optional[str] = None,
+    engine: str = "batched",
+    scheduler: Optional[str] = None,
+    resume: bool = False,
+    overwrite: bool = False,
+    csv: Optional[str] = None,
+    progress: bool = False,
+    block: Optional[int] = None,
+    workers: Optional[int] = None,
+    echo: Optional[Callable[[str], None]] = None,
+    retry_failed: bool = False,
+    scheduler_file: Optional[str] = None,
+    connect_timeout: float = 10.0,
+    worker_timeout: float = 60.0,
+    table: bool = True,
+):
     """Run a sweep and return its table.
 
     Parameters
     ----------
     spec : dict or str
-        A spec (:mod:`vehicle.sweep.spec`) or the path of a JSON spec.
+        A spec (:mod:`bodyvib.vehicle.sweep.spec`) or the path of a JSON spec.
     out : str, optional
         Parquet file for the table (also the key of ``--resume``); None keeps
         the table in memory (and in ``csv``) only.
@@ -346,7 +376,7 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
         ``overwrite``), cannot be written, or is one of the sweep's inputs; an
         output of another spec on resume; an unreachable scheduler or no worker
         in time.
-    vehicle.sweep.cluster.ClusterLost
+    bodyvib.vehicle.sweep.cluster.ClusterLost
         The cluster lost tasks (scheduler gone, workers dead, no worker): the
         finished cases are kept in ``OUT.parts/``, the lost ones are not
         written, and ``resume`` runs them.
@@ -368,8 +398,9 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
         spec = load_spec(spec_path)
     prep = _Prepared(spec)
     check_engine(engine, [_RoadOnly(r) for r in prep.roads])
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
-                                or workers < 1):
+    if workers is not None and (
+        isinstance(workers, bool) or not isinstance(workers, int) or workers < 1
+    ):
         raise BodyvibError(f"workers must be a positive integer, got {workers!r}")
     for value, name in ((connect_timeout, "connect_timeout"), (worker_timeout, "worker_timeout")):
         if not (isinstance(value, (int, float)) and 0 < value < math.inf):
@@ -383,29 +414,37 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
     workers = workers or os.cpu_count() or 1
     check_outputs([("--out", out, None), ("--csv", csv, None)], _spec_inputs(spec, spec_path))
     sh = spec_hash(spec)
-    done = np.zeros(prep.count, dtype=bool)   # per case: kept from an earlier run
+    done = np.zeros(prep.count, dtype=bool)  # per case: kept from an earlier run
     if out is not None:
         if resume:
             found = scan(out)
             if found.rows:
                 other = sorted(found.spec_hashes - {sh})
                 if other:
-                    raise BodyvibError(f"'{out}' holds rows of another spec (hash {other[0]}, "
-                                       f"this spec {sh}); use another output file")
+                    raise BodyvibError(
+                        f"'{out}' holds rows of another spec (hash {other[0]}, "
+                        f"this spec {sh}); use another output file"
+                    )
                 done = found.done(prep.count, retry_failed)
         elif (os.path.exists(out) or os.path.isdir(parts_dir(out))) and not overwrite:
-            raise BodyvibError(f"output '{out}' exists; pass --resume to continue that sweep or "
-                               "--overwrite to replace it")
+            raise BodyvibError(
+                f"output '{out}' exists; pass --resume to continue that sweep or "
+                "--overwrite to replace it"
+            )
     total = prep.count
     todo = total - int(done.sum())
     local = scheduler in (None, "local") and scheduler_file is None
-    serial = scheduler == "serial" or (scheduler is None and scheduler_file is None
-                                       and todo <= task_size(engine, todo, workers, block))
+    serial = scheduler == "serial" or (
+        scheduler is None
+        and scheduler_file is None
+        and todo <= task_size(engine, todo, workers, block)
+    )
     run_id = uuid.uuid4().hex[:12]
     start_ns = time.time_ns()
     rows = _Rows(prep, engine, sh, run_id)
-    schema = rows.schema.with_metadata({**provenance(spec, engine),
-                                        "bodyvib.units": json.dumps(units(rows.schema))})
+    schema = rows.schema.with_metadata(
+        {**provenance(spec, engine), "bodyvib.units": json.dumps(units(rows.schema))}
+    )
     replaces = out is not None and overwrite and not resume
     if replaces:
         shutil.rmtree(parts_dir(out), ignore_errors=True)
@@ -415,8 +454,15 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
         if progress:
             from tqdm import tqdm
 
-            bar = tqdm(total=total, initial=total - todo, unit="case", file=sys.stderr,
-                       desc="sweep", mininterval=0.5, disable=None)
+            bar = tqdm(
+                total=total,
+                initial=total - todo,
+                unit="case",
+                file=sys.stderr,
+                desc="sweep",
+                mininterval=0.5,
+                disable=None,
+            )
 
         def pending():
             """Case numbers to run, lazily: consecutive cases of one road (batched) or of one
@@ -440,28 +486,49 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
 
         if todo and serial:
             size = task_size(engine, todo, 1, block)
-            say(f"sweep: {total} cases, {total - todo} already done, {todo} to run in "
-                f"{math.ceil(todo / size)} tasks, engine {engine}, in this process")
+            say(
+                f"sweep: {total} cases, {total - todo} already done, {todo} to run in "
+                f"{math.ceil(todo / size)} tasks, engine {engine}, in this process"
+            )
             for i, ids in enumerate(tasks(size)):
                 arrived(i, ids, work(ids))
                 interrupts.check()  # Ctrl-C: stop between tasks, keep what arrived
         elif todo:
-            with open_cluster(None if local else scheduler, scheduler_file, workers,
-                              connect_timeout, worker_timeout) as cluster:
+            with open_cluster(
+                None if local else scheduler,
+                scheduler_file,
+                workers,
+                connect_timeout,
+                worker_timeout,
+            ) as cluster:
                 threads = cluster.threads(connect_timeout)
                 size = task_size(engine, todo, threads, block)
-                window = max(2, 2 * threads)   # one running and one waiting per thread
-                say(f"sweep: {total} cases, {total - todo} already done, {todo} to run in "
+                window = max(2, 2 * threads)  # one running and one waiting per thread
+                say(
+                    f"sweep: {total} cases, {total - todo} already done, {todo} to run in "
                     f"{math.ceil(todo / size)} tasks, engine {engine}, {cluster.where} "
-                    f"({threads} threads)")
+                    f"({threads} threads)"
+                )
                 try:
-                    run_tasks(cluster, _run_work, tasks(size), window, arrived, worker_timeout,
-                              connect_timeout, shared=work)
+                    run_tasks(
+                        cluster,
+                        _run_work,
+                        tasks(size),
+                        window,
+                        arrived,
+                        worker_timeout,
+                        connect_timeout,
+                        shared=work,
+                    )
                 except ClusterLost as exc:
-                    where = (f"kept in {folder}/: run again with --resume" if out is not None
-                             else "lost (no --out)")
-                    raise ClusterLost(f"{exc}; the sweep is incomplete, the cases finished are "
-                                      f"{where}") from None
+                    where = (
+                        f"kept in {folder}/: run again with --resume"
+                        if out is not None
+                        else "lost (no --out)"
+                    )
+                    raise ClusterLost(
+                        f"{exc}; the sweep is incomplete, the cases finished are {where}"
+                    ) from None
         else:
             say(f"sweep: {total} cases, {total} already done, 0 to run")
         if bar is not None:
@@ -470,17 +537,25 @@ def run_sweep(spec: Union[dict, str], out: Optional[str] = None, engine: str = "
         found = scan(out, folder)
         result = None
         try:
-            with staged_writes(guard=interrupts.critical),                     _open(out) as fout, _open(csv) as fcsv:
+            with staged_writes(guard=interrupts.critical), _open(out) as fout, _open(csv) as fcsv:
                 n = assemble(found, schema, fout, fcsv, interrupts.check)
         except OSError as exc:
             kept = f"; the finished cases are kept in {folder}/ (--resume)" if out else ""
-            raise BodyvibError(f"cannot write '{exc.filename}': {exc.strerror or exc}{kept}") from None
+            raise BodyvibError(
+                f"cannot write '{exc.filename}': {exc.strerror or exc}{kept}"
+            ) from None
         if out is not None:
             shutil.rmtree(folder, ignore_errors=True)
         failed = found.failed()
-        say(f"sweep: {n} cases" + (f", {failed} failed (see the error column; --resume "
-                                  "--retry-failed runs them again)" if failed else "")
-            + (f"; wrote {out}" if out else ""))
+        say(
+            f"sweep: {n} cases"
+            + (
+                f", {failed} failed (see the error column; --resume --retry-failed runs them again)"
+                if failed
+                else ""
+            )
+            + (f"; wrote {out}" if out else "")
+        )
         if table:
             import pandas as pd
 

@@ -48,24 +48,48 @@ from typing import Dict, Iterator, List, Optional, Sequence, Tuple
 import numpy as np
 
 from bodyvib.models import load_model
-from bodyvib.runtime.errors import BodyvibError
 from bodyvib.process.limits import require_memory
+from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.jsonfile import read_json
 from bodyvib.runtime.modelfile import network_to_dict
 
+from ..quarter_car import load_car
 from ..road.driven import RoadOptions, is_road_file, road_label
 from ..study import check_settings
-from ..quarter_car import load_car
 
-__all__ = ["Case", "ROAD_OPTION_KEYS", "SPEC_KEYS", "load_spec", "grid_spec", "expand", "iter_cases", "count_cases",
-           "spec_hash", "varied_parameters", "seed_range"]
+__all__ = [
+    "Case",
+    "ROAD_OPTION_KEYS",
+    "SPEC_KEYS",
+    "load_spec",
+    "grid_spec",
+    "expand",
+    "iter_cases",
+    "count_cases",
+    "spec_hash",
+    "varied_parameters",
+    "seed_range",
+]
 
 #: Keys of a spec and their defaults (None: required).
-SPEC_KEYS = {"road": None, "seed": 0, "speed": None, "duration": 30.0, "step": 1e-3,
-             "body": None, "car": "quarter-car", "road_options": {}}
-#: Keys of ``road_options`` -> fields of :class:`vehicle.road.driven.RoadOptions`.
-ROAD_OPTION_KEYS = {"taper": "taper_m", "track": "track_m", "units": "units",
-                    "envelope": "envelope", "repeat": "repeat"}
+SPEC_KEYS = {
+    "road": None,
+    "seed": 0,
+    "speed": None,
+    "duration": 30.0,
+    "step": 1e-3,
+    "body": None,
+    "car": "quarter-car",
+    "road_options": {},
+}
+#: Keys of ``road_options`` -> fields of :class:`bodyvib.vehicle.road.driven.RoadOptions`.
+ROAD_OPTION_KEYS = {
+    "taper": "taper_m",
+    "track": "track_m",
+    "units": "units",
+    "envelope": "envelope",
+    "repeat": "repeat",
+}
 _BODY_KEYS = {"model", "vary", "samples", "seed", "method", "name"}
 
 
@@ -98,7 +122,7 @@ class Case:
     case_key : str
         Hash of everything that determines the result.
     road_options : tuple of (str, object)
-        Fields of :class:`vehicle.road.driven.RoadOptions` that differ from the defaults.
+        Fields of :class:`bodyvib.vehicle.road.driven.RoadOptions` that differ from the defaults.
     """
 
     case_id: int
@@ -121,7 +145,7 @@ class Case:
         return int(round(self.duration / self.step)) + 1
 
     def road_settings(self):
-        """The :class:`vehicle.road.driven.RoadOptions` of this case."""
+        """The :class:`bodyvib.vehicle.road.driven.RoadOptions` of this case."""
         from ..road.driven import RoadOptions
 
         return RoadOptions(**dict(self.road_options))
@@ -170,8 +194,10 @@ def seed_range(text: str) -> List[int]:
     except ValueError:
         a = b = -1
     if not sep or a < 0 or b < a:
-        raise BodyvibError(f"spec: seed range '{text}' must look like FIRST..LAST with "
-                           "0 <= FIRST <= LAST, e.g. 0..24")
+        raise BodyvibError(
+            f"spec: seed range '{text}' must look like FIRST..LAST with "
+            "0 <= FIRST <= LAST, e.g. 0..24"
+        )
     return list(range(a, b + 1))
 
 
@@ -218,8 +244,12 @@ def load_spec(path) -> dict:
     return spec
 
 
-def grid_spec(items: Sequence[str], duration: float = 30.0, step: float = 1e-3,
-              road_options: Optional[dict] = None) -> dict:
+def grid_spec(
+    items: Sequence[str],
+    duration: float = 30.0,
+    step: float = 1e-3,
+    road_options: Optional[dict] = None,
+) -> dict:
     """A spec from command-line ``key=v1,v2`` items (``bodyvib sweep --grid``).
 
     Parameters
@@ -260,8 +290,10 @@ def grid_spec(items: Sequence[str], duration: float = 30.0, step: float = 1e-3,
         if not sep or not values.strip():
             raise BodyvibError(f"--grid item '{item}' must look like key=v1,v2")
         if key not in SPEC_KEYS or key == "road_options":
-            raise BodyvibError(f"--grid key '{key}' is unknown; keys are "
-                               + ", ".join(k for k in SPEC_KEYS if k != "road_options"))
+            raise BodyvibError(
+                f"--grid key '{key}' is unknown; keys are "
+                + ", ".join(k for k in SPEC_KEYS if k != "road_options")
+            )
         if key in seen:
             raise BodyvibError(f"--grid key '{key}' is given twice")
         seen.add(key)
@@ -273,7 +305,11 @@ def grid_spec(items: Sequence[str], duration: float = 30.0, step: float = 1e-3,
                 nums = [float(v) for v in parts]
             except ValueError:
                 raise BodyvibError(f"--grid {key}: '{values}' is not a list of numbers") from None
-            parts = [int(v) for v in nums] if key == "seed" and all(v.is_integer() for v in nums) else nums
+            parts = (
+                [int(v) for v in nums]
+                if key == "seed" and all(v.is_integer() for v in nums)
+                else nums
+            )
         spec[key] = parts
     return spec
 
@@ -314,8 +350,9 @@ def spec_hash(spec: dict) -> str:
     12
     """
     files = {}
-    for entry in (_list(spec.get("body", [])) + _list(spec.get("car", []))
-                  + _list(spec.get("road", []))):
+    for entry in (
+        _list(spec.get("body", [])) + _list(spec.get("car", [])) + _list(spec.get("road", []))
+    ):
         src = entry.get("model") if isinstance(entry, dict) else entry
         if isinstance(src, str) and _file_digest(src):
             files[src] = _file_digest(src)
@@ -327,8 +364,10 @@ def _samples(entry: dict, where: str) -> Tuple[str, List[Tuple[Tuple[str, float]
     """Parameter sets of a ``vary`` entry: (model, [((name, value), ...), ...])."""
     unknown = sorted(set(entry) - _BODY_KEYS)
     if unknown:
-        raise BodyvibError(f"spec: {where} has unknown key(s) {', '.join(unknown)}; "
-                           f"keys are {', '.join(sorted(_BODY_KEYS))}")
+        raise BodyvibError(
+            f"spec: {where} has unknown key(s) {', '.join(unknown)}; "
+            f"keys are {', '.join(sorted(_BODY_KEYS))}"
+        )
     if "model" not in entry:
         raise BodyvibError(f"spec: {where} needs a 'model'")
     net = load_model(entry["model"])
@@ -339,14 +378,21 @@ def _samples(entry: dict, where: str) -> Tuple[str, List[Tuple[Tuple[str, float]
     lo, hi = [], []
     for name in names:
         if name not in net.parameters:
-            raise BodyvibError(f"spec: {where}: model '{net.name}' has no parameter '{name}'; "
-                               f"its parameters are {', '.join(net.parameters)}")
+            raise BodyvibError(
+                f"spec: {where}: model '{net.name}' has no parameter '{name}'; "
+                f"its parameters are {', '.join(net.parameters)}"
+            )
         r = vary[name]
-        if (not isinstance(r, (list, tuple)) or len(r) != 2
-                or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in r)
-                or not (0 < r[0] <= r[1] and math.isfinite(r[1]))):
-            raise BodyvibError(f"spec: {where}: vary['{name}'] must be [low, high] with "
-                               f"0 < low <= high (factors on the model's value), got {r!r}")
+        if (
+            not isinstance(r, (list, tuple))
+            or len(r) != 2
+            or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in r)
+            or not (0 < r[0] <= r[1] and math.isfinite(r[1]))
+        ):
+            raise BodyvibError(
+                f"spec: {where}: vary['{name}'] must be [low, high] with "
+                f"0 < low <= high (factors on the model's value), got {r!r}"
+            )
         lo.append(float(r[0]))
         hi.append(float(r[1]))
     count = entry.get("samples", 1)
@@ -363,8 +409,10 @@ def _samples(entry: dict, where: str) -> Tuple[str, List[Tuple[Tuple[str, float]
     else:
         raise BodyvibError(f"spec: {where}: method must be 'lhs' or 'uniform', got {method!r}")
     factors = np.asarray(lo) + unit * (np.asarray(hi) - np.asarray(lo))
-    sets = [tuple((n, float(net.parameters[n]) * float(f)) for n, f in zip(names, row))
-            for row in factors]
+    sets = [
+        tuple((n, float(net.parameters[n]) * float(f)) for n, f in zip(names, row))
+        for row in factors
+    ]
     return entry["model"], sets
 
 
@@ -379,12 +427,14 @@ def _bodies(spec) -> List[Tuple[str, str, int, tuple]]:
             rows = [(name, entry, -1, ())]
         elif isinstance(entry, dict):
             model, sets = _samples(entry, where)
-            name = entry.get("name") or (os.path.splitext(os.path.basename(model))[0]
-                                         if os.path.isfile(model) else model)
+            name = entry.get("name") or (
+                os.path.splitext(os.path.basename(model))[0] if os.path.isfile(model) else model
+            )
             rows = [(name, model, j, values) for j, values in enumerate(sets)]
         else:
-            raise BodyvibError(f"spec: {where} must be a model name, a file or an object with "
-                               "'model' and 'vary'")
+            raise BodyvibError(
+                f"spec: {where} must be a model name, a file or an object with 'model' and 'vary'"
+            )
         if name in names:
             raise BodyvibError(f"spec: two body entries are named '{name}'; give one a 'name'")
         names.add(name)
@@ -404,8 +454,15 @@ def _count(spec, roads, seeds, speeds, durations, steps) -> int:
     for entry in _list(spec["body"]):
         n = entry.get("samples", 1) if isinstance(entry, dict) else 1
         bodies += n if isinstance(n, int) and not isinstance(n, bool) and n > 0 else 1
-    return (len(roads) * len(seeds) * len(speeds) * len(durations) * len(steps) * bodies
-            * len(_list(spec["car"])))
+    return (
+        len(roads)
+        * len(seeds)
+        * len(speeds)
+        * len(durations)
+        * len(steps)
+        * bodies
+        * len(_list(spec["car"]))
+    )
 
 
 def _digest(net) -> str:
@@ -422,8 +479,9 @@ class _Prepared:
             raise BodyvibError("sweep spec must be a JSON object")
         unknown = sorted(set(spec) - set(SPEC_KEYS))
         if unknown:
-            raise BodyvibError(f"spec: unknown key(s) {', '.join(unknown)}; keys are "
-                               + ", ".join(SPEC_KEYS))
+            raise BodyvibError(
+                f"spec: unknown key(s) {', '.join(unknown)}; keys are " + ", ".join(SPEC_KEYS)
+            )
         for k, default in SPEC_KEYS.items():
             if default is None and k not in spec:
                 raise BodyvibError(f"spec: '{k}' is required")
@@ -434,17 +492,26 @@ class _Prepared:
         speeds = [_number(v, "speed", "m/s") for v in _list(spec["speed"])]
         durations = [_number(v, "duration", "s") for v in _list(spec["duration"])]
         steps = [_number(v, "step", "s") for v in _list(spec["step"])]
-        for name, values in (("road", roads), ("seed", seeds), ("speed", speeds),
-                             ("duration", durations), ("step", steps),
-                             ("body", _list(spec["body"])), ("car", _list(spec["car"]))):
+        for name, values in (
+            ("road", roads),
+            ("seed", seeds),
+            ("speed", speeds),
+            ("duration", durations),
+            ("step", steps),
+            ("body", _list(spec["body"])),
+            ("car", _list(spec["car"])),
+        ):
             if not values:
                 raise BodyvibError(f"spec: '{name}' is an empty list")
         for r, sd, v, d, h in product(roads, seeds[:1], speeds, durations, steps):
             # refuses unknown roads and files that cannot be driven, steps longer than half a run
             check_settings(r, v, d, h, sd, road_options=RoadOptions(**dict(road_opts)))
         count = _count(spec, roads, seeds, speeds, durations, steps)  # before sampling anything
-        require_memory(count * CASE_BYTES, f"a sweep of {count:.3g} cases",
-                       "fewer cases (samples, seeds, speeds, roads), or several sweeps")
+        require_memory(
+            count * CASE_BYTES,
+            f"a sweep of {count:.3g} cases",
+            "fewer cases (samples, seeds, speeds, roads), or several sweeps",
+        )
         self.roads, self.road_options = roads, road_opts
         self.road_digests = {r: _file_digest(r) for r in roads if is_road_file(r)}
         self.seeds, self.speeds, self.durations, self.steps = seeds, speeds, durations, steps
@@ -452,21 +519,37 @@ class _Prepared:
         self.cars = [str(c) for c in _list(spec["car"])]
         self.car_digests = {c: _digest(load_car(c)) for c in self.cars}
         base = {m: load_model(m) for m in dict.fromkeys(b[1] for b in self.bodies)}
-        self.body_digests = [_digest(base[m].with_parameters(**dict(v)) if v else base[m])
-                             for _, m, _, v in self.bodies]
+        self.body_digests = [
+            _digest(base[m].with_parameters(**dict(v)) if v else base[m])
+            for _, m, _, v in self.bodies
+        ]
         # the same case twice: a repeated value in a list, or two bodies (cars) with one content
-        for name, values in (("road", self.roads), ("seed", seeds), ("speed", speeds),
-                             ("duration", durations), ("step", steps),
-                             ("body", self.body_digests),
-                             ("car", [self.car_digests[c] for c in self.cars])):
+        for name, values in (
+            ("road", self.roads),
+            ("seed", seeds),
+            ("speed", speeds),
+            ("duration", durations),
+            ("step", steps),
+            ("body", self.body_digests),
+            ("car", [self.car_digests[c] for c in self.cars]),
+        ):
             seen: Dict[object, int] = {}
             for i, x in enumerate(values):
                 if x in seen:
-                    raise BodyvibError(f"spec: '{name}' entries {seen[x]} and {i} give the same "
-                                       "cases (listed twice?)")
+                    raise BodyvibError(
+                        f"spec: '{name}' entries {seen[x]} and {i} give the same "
+                        "cases (listed twice?)"
+                    )
                 seen[x] = i
-        self.count = (len(roads) * len(seeds) * len(speeds) * len(durations) * len(steps)
-                      * len(self.bodies) * len(self.cars))
+        self.count = (
+            len(roads)
+            * len(seeds)
+            * len(speeds)
+            * len(durations)
+            * len(steps)
+            * len(self.bodies)
+            * len(self.cars)
+        )
 
     def _axes(self):
         return (self.roads, self.seeds, self.speeds, self.durations, self.steps)
@@ -496,9 +579,21 @@ class _Prepared:
         bname, model, sample, values = self.bodies[b]
         car = self.cars[c]
         key = hashlib.sha256((head + self.body_digests[b] + self.car_digests[car]).encode())
-        return Case(case_id=int(case_id), road=r, seed=sd, speed=v, duration=d, step=h,
-                    body=bname, body_model=model, body_sample=sample, body_values=values,
-                    car=car, case_key=key.hexdigest()[:20], road_options=self.road_options)
+        return Case(
+            case_id=int(case_id),
+            road=r,
+            seed=sd,
+            speed=v,
+            duration=d,
+            step=h,
+            body=bname,
+            body_model=model,
+            body_sample=sample,
+            body_values=values,
+            car=car,
+            case_key=key.hexdigest()[:20],
+            road_options=self.road_options,
+        )
 
     def order(self, body_major: bool = False) -> Iterator[int]:
         """The case ids, one at a time, in the order cases are run.
@@ -606,12 +701,15 @@ def _road_options(value) -> Tuple[Tuple[str, object], ...]:
     from ..road.driven import RoadOptions
 
     if not isinstance(value, dict):
-        raise BodyvibError("spec: 'road_options' must be an object like {\"taper\": 5, "
-                           "\"track\": 0.8}")
+        raise BodyvibError(
+            'spec: \'road_options\' must be an object like {"taper": 5, "track": 0.8}'
+        )
     unknown = sorted(set(value) - set(ROAD_OPTION_KEYS))
     if unknown:
-        raise BodyvibError(f"spec: unknown road option(s) {', '.join(unknown)}; options are "
-                           + ", ".join(ROAD_OPTION_KEYS))
+        raise BodyvibError(
+            f"spec: unknown road option(s) {', '.join(unknown)}; options are "
+            + ", ".join(ROAD_OPTION_KEYS)
+        )
     default = RoadOptions()
     out = []
     for k, field in ROAD_OPTION_KEYS.items():
@@ -621,9 +719,11 @@ def _road_options(value) -> Tuple[Tuple[str, object], ...]:
         if k in ("taper", "track"):
             ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
             if not ok or (k == "taper" and v < 0):
-                raise BodyvibError(f"spec: road option '{k}' must be a "
-                                   f"{'non-negative ' if k == 'taper' else ''}number of m, "
-                                   f"got {v!r}")
+                raise BodyvibError(
+                    f"spec: road option '{k}' must be a "
+                    f"{'non-negative ' if k == 'taper' else ''}number of m, "
+                    f"got {v!r}"
+                )
             v = float(v)
         elif k in ("envelope", "repeat") and not isinstance(v, bool):
             raise BodyvibError(f"spec: road option '{k}' must be true or false, got {v!r}")

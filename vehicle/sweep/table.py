@@ -26,21 +26,50 @@ from typing import Dict, List, Optional, Sequence
 from bodyvib import __version__
 from bodyvib.runtime.errors import BodyvibError
 
-__all__ = ["CASE_COLUMNS", "TRAILING_COLUMNS", "FIGURE_UNITS", "REPLACES_OUT", "table_schema",
-           "units", "csv_header", "provenance", "parts_dir", "part_name", "part_bytes",
-           "write_part", "Scan", "scan", "assemble"]
+__all__ = [
+    "CASE_COLUMNS",
+    "TRAILING_COLUMNS",
+    "FIGURE_UNITS",
+    "REPLACES_OUT",
+    "table_schema",
+    "units",
+    "csv_header",
+    "provenance",
+    "parts_dir",
+    "part_name",
+    "part_bytes",
+    "write_part",
+    "Scan",
+    "scan",
+    "assemble",
+]
 
 #: Case columns before the model parameters, with units.
-CASE_COLUMNS = (("case_id", ""), ("case_key", ""), ("road", ""), ("seed", ""),
-                ("speed_m_s", "m/s"), ("duration_s", "s"), ("step_s", "s"), ("body", ""),
-                ("body_model", ""), ("body_sample", ""), ("car", ""))
+CASE_COLUMNS = (
+    ("case_id", ""),
+    ("case_key", ""),
+    ("road", ""),
+    ("seed", ""),
+    ("speed_m_s", "m/s"),
+    ("duration_s", "s"),
+    ("step_s", "s"),
+    ("body", ""),
+    ("body_model", ""),
+    ("body_sample", ""),
+    ("car", ""),
+)
 #: Units of the figure columns (a figure not listed here has none).
-FIGURE_UNITS = {"head_weighted_rms": "m/s2", "head_vdv": "m/s^1.75", "head_peak": "m/s2",
-                "head_crest_factor": "", "head_comfort": "", "seat_weighted_rms": "m/s2",
-                "head_mtvv": "m/s2"}
+FIGURE_UNITS = {
+    "head_weighted_rms": "m/s2",
+    "head_vdv": "m/s^1.75",
+    "head_peak": "m/s2",
+    "head_crest_factor": "",
+    "head_comfort": "",
+    "seat_weighted_rms": "m/s2",
+    "head_mtvv": "m/s2",
+}
 #: Columns after the figures.
-TRAILING_COLUMNS = ("engine", "engine_settings", "error", "bodyvib_version", "spec_hash",
-                    "run_id")
+TRAILING_COLUMNS = ("engine", "engine_settings", "error", "bodyvib_version", "spec_hash", "run_id")
 _INTS = {"case_id", "seed", "body_sample"}
 _STRINGS = {"case_key", "road", "body", "body_model", "car", "head_comfort"} | set(TRAILING_COLUMNS)
 WINDOW = 16384  # rows assembled at a time
@@ -112,13 +141,18 @@ def csv_header(schema) -> List[str]:
 def _git_commit() -> Optional[str]:
     here = os.path.dirname(os.path.abspath(__file__))
     try:
-        r = subprocess.run(["git", "-C", here, "rev-parse", "HEAD"], capture_output=True,
-                           text=True, timeout=5)
+        r = subprocess.run(
+            ["git", "-C", here, "rev-parse", "HEAD"], capture_output=True, text=True, timeout=5
+        )
         commit = r.stdout.strip()
         if r.returncode or len(commit) != 40:
             return None
-        dirty = subprocess.run(["git", "-C", here, "status", "--porcelain", "--untracked-files=no"],
-                               capture_output=True, text=True, timeout=5).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "-C", here, "status", "--porcelain", "--untracked-files=no"],
+            capture_output=True,
+            text=True,
+            timeout=5,
+        ).stdout.strip()
         return commit + ("-dirty" if dirty else "")
     except (OSError, subprocess.SubprocessError):
         return None
@@ -149,11 +183,14 @@ def provenance(spec: dict, engine: str) -> Dict[str, str]:
             versions[pkg] = metadata.version(pkg)
         except metadata.PackageNotFoundError:
             versions[pkg] = ""
-    return {"bodyvib.spec": json.dumps(spec, sort_keys=True, default=str),
-            "bodyvib.engine": engine, "bodyvib.version": __version__,
-            "bodyvib.commit": _git_commit() or "",
-            "bodyvib.versions": json.dumps(versions, sort_keys=True),
-            "bodyvib.created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
+    return {
+        "bodyvib.spec": json.dumps(spec, sort_keys=True, default=str),
+        "bodyvib.engine": engine,
+        "bodyvib.version": __version__,
+        "bodyvib.commit": _git_commit() or "",
+        "bodyvib.versions": json.dumps(versions, sort_keys=True),
+        "bodyvib.created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+    }
 
 
 def parts_dir(out: str) -> str:
@@ -230,8 +267,11 @@ def _sources(out: Optional[str], folder: Optional[str] = None) -> List[str]:
     replaced = os.path.exists(os.path.join(folder, REPLACES_OUT))
     files = [out] if out is not None and os.path.isfile(out) and not replaced else []
     if os.path.isdir(folder):
-        files += [os.path.join(folder, f) for f in sorted(os.listdir(folder))
-                  if f.endswith(".parquet") and not f.startswith(".")]
+        files += [
+            os.path.join(folder, f)
+            for f in sorted(os.listdir(folder))
+            if f.endswith(".parquet") and not f.startswith(".")
+        ]
     return files
 
 
@@ -311,13 +351,17 @@ def scan(out: Optional[str], folder: Optional[str] = None) -> Scan:
         try:
             t = pq.read_table(f, columns=["case_id", "error", "spec_hash"])
         except Exception as exc:
-            raise BodyvibError(f"'{f}' is not a readable sweep table ({exc}); move it away or "
-                               "pass --overwrite") from None
+            raise BodyvibError(
+                f"'{f}' is not a readable sweep table ({exc}); move it away or pass --overwrite"
+            ) from None
         ids.append(t["case_id"].to_numpy())
         oks.append(t["error"].is_null().to_numpy(zero_copy_only=False))
         srcs.append(np.full(t.num_rows, i, dtype=np.int32))
         hashes.update(pc.unique(t["spec_hash"]).to_pylist())
-    cat = (lambda xs, dt: np.concatenate(xs) if xs else np.empty(0, dt))
+
+    def cat(xs, dt):
+        return np.concatenate(xs) if xs else np.empty(0, dt)
+
     return Scan(sources, cat(srcs, np.int32), cat(ids, np.int64), cat(oks, bool), hashes)
 
 
@@ -388,7 +432,7 @@ def assemble(found: Scan, schema, out_file=None, csv_file=None, check=None) -> i
         for a in range(0, len(ids), WINDOW):
             if check is not None:
                 check()
-            w_ids, w_src = ids[a:a + WINDOW], srcs[a:a + WINDOW]
+            w_ids, w_src = ids[a : a + WINDOW], srcs[a : a + WINDOW]
             lo, hi = int(w_ids[0]), int(w_ids[-1])
             pieces = []
             for src in np.flatnonzero((lo_src <= hi) & (hi_src >= lo)):
@@ -398,8 +442,9 @@ def assemble(found: Scan, schema, out_file=None, csv_file=None, check=None) -> i
                 t = _read_range(found.sources[src], int(want[0]), int(want[-1]))
                 t = t.filter(pc.is_in(t["case_id"], value_set=pa.array(want)))
                 pieces.append(t.select(schema.names).cast(schema))
-            table = pa.concat_tables(pieces).sort_by("case_id").replace_schema_metadata(
-                schema.metadata)
+            table = (
+                pa.concat_tables(pieces).sort_by("case_id").replace_schema_metadata(schema.metadata)
+            )
             if writer is not None:
                 writer.write_table(table)
             if csv_writer is not None:

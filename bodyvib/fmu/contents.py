@@ -34,10 +34,12 @@ def fmu_src_dir() -> Path:
     BodyvibError
         ``fmu_src`` is not importable (a broken installation).
     """
-    spec = importlib.util.find_spec("fmu_src")
+    spec = importlib.util.find_spec("bodyvib.fmu_src")
     if spec is None or not spec.submodule_search_locations:
-        raise BodyvibError("the fmu_src package (the FMU sources) is not installed; "
-                           "reinstall bodyvib (pip install bodyvib)")
+        raise BodyvibError(
+            "the fmu_src package (the FMU sources) is not installed; "
+            "reinstall bodyvib (pip install bodyvib)"
+        )
     return Path(list(spec.submodule_search_locations)[0])
 
 
@@ -81,9 +83,9 @@ def source_resources(meta: dict, table) -> Dict[str, bytes]:
     Returns
     -------
     dict of str to bytes
-        File name -> contents (:func:`bodyvib.runtime.source.write_source`).
+        File name -> contents (:func:`bodyvib.runtime.tabulated.write_source`).
     """
-    from ..runtime.source import write_source
+    from ..runtime.tabulated import write_source
 
     with tempfile.TemporaryDirectory(prefix="bodyvib_source_") as tmp:
         return {Path(p).name: Path(p).read_bytes() for p in write_source(tmp, meta, table)}

@@ -2,7 +2,7 @@
  * bodyvib native source FMUs (Road.fmu): a tabulated profile driven through at a speed.
  *
  * The same API as the linear core (bodyvib_core.h: bv_new .. bv_directional), implemented
- * by bodyvib_source.c instead of bodyvib_core.c, with the same state machine
+ * by bodyvib_table.c instead of bodyvib_core.c, with the same state machine
  * (bodyvib_fsm.c), so the FMI 2.0 and 3.0 function files wrap either unchanged. The generated model file (bodyvib_model.c) defines, besides
  * bv_model_data (names, value references, the speed parameter), the table:
  *
@@ -12,7 +12,7 @@
  * Outputs 2c and 2c + 1 (value references in bv_model_data) are z_c(p) and
  * speed * dz_c/dp at p = speed * time, from one piecewise cubic Hermite interpolant
  * (the rate output is the exact derivative of the value output); periodic tables repeat,
- * others hold their end values with zero slope: bodyvib.runtime.source.HermiteTable,
+ * others hold their end values with zero slope: bodyvib.runtime.tabulated.HermiteTable,
  * operation for operation, so the native and the pythonfmu Road.fmu agree to rounding.
  */
 #ifndef BODYVIB_SOURCE_H

@@ -11,9 +11,13 @@ from .outputs import check_files, write_result
 
 __all__ = ["add_command", "format_response", "plot_response"]
 
-_ROWS = (("weighted_rms", "Wk r.m.s. [m/s2]", "{:.4f}"), ("vdv", "VDV [m/s^1.75]", "{:.4f}"),
-         ("mtvv", "MTVV, 1 s running [m/s2]", "{:.4f}"), ("peak", "weighted peak [m/s2]", "{:.4f}"),
-         ("crest_factor", "crest factor [-]", "{:.2f}"))
+_ROWS = (
+    ("weighted_rms", "Wk r.m.s. [m/s2]", "{:.4f}"),
+    ("vdv", "VDV [m/s^1.75]", "{:.4f}"),
+    ("mtvv", "MTVV, 1 s running [m/s2]", "{:.4f}"),
+    ("peak", "weighted peak [m/s2]", "{:.4f}"),
+    ("crest_factor", "crest factor [-]", "{:.2f}"),
+)
 
 
 def format_response(result) -> str:
@@ -29,24 +33,36 @@ def format_response(result) -> str:
     """
     s = result.signal
     cols = [("seat", result.seat_figures, result.seat_checks)] + [
-        (f"head, {k}", b.figures, b.checks) for k, b in result.bodies.items()]
+        (f"head, {k}", b.figures, b.checks) for k, b in result.bodies.items()
+    ]
     w = max(16, *(len(c[0]) + 2 for c in cols), *(len(c[1].comfort) + 2 for c in cols))
-    lines = [f"signal {s.name}: {s.acceleration.size} samples at {s.fs:.6g} Hz "
-             f"({s.duration:.6g} s)",
-             "", f"{'':<28}" + "".join(f"{c[0]:>{w}}" for c in cols)]
+    lines = [
+        f"signal {s.name}: {s.acceleration.size} samples at {s.fs:.6g} Hz ({s.duration:.6g} s)",
+        "",
+        f"{'':<28}" + "".join(f"{c[0]:>{w}}" for c in cols),
+    ]
     for key, words, fmt in _ROWS:
-        lines.append(f"{words:<28}" + "".join(f"{fmt.format(getattr(c[1], key)):>{w}}"
-                                              for c in cols))
+        lines.append(
+            f"{words:<28}" + "".join(f"{fmt.format(getattr(c[1], key)):>{w}}" for c in cols)
+        )
     lines.append(f"{'comfort (ISO 2631-1 C)':<28}" + "".join(f"{c[1].comfort:>{w}}" for c in cols))
     lines.append("")
-    lines.append("ISO 2631-1 6.3, basic method enough if crest factor <= 9, MTVV / a_w <= 1.5, "
-                 "VDV / (a_w T^1/4) <= 1.75:")
+    lines.append(
+        "ISO 2631-1 6.3, basic method enough if crest factor <= 9, MTVV / a_w <= 1.5, "
+        "VDV / (a_w T^1/4) <= 1.75:"
+    )
     for name, _, checks in cols:
-        over = [f"{c['what']} = {c['value']:.2f} > {c['limit']:g}" for c in checks.values()
-                if c["exceeded"]]
+        over = [
+            f"{c['what']} = {c['value']:.2f} > {c['limit']:g}"
+            for c in checks.values()
+            if c["exceeded"]
+        ]
         values = ", ".join(f"{c['value']:.2f}" for c in checks.values())
-        verdict = ("basic method enough" if not over
-                   else "use MTVV and VDV as well (" + "; ".join(over) + ")")
+        verdict = (
+            "basic method enough"
+            if not over
+            else "use MTVV and VDV as well (" + "; ".join(over) + ")"
+        )
         lines.append(f"  {name}: {values} -> {verdict}")
     return "\n".join(lines)
 
@@ -67,11 +83,16 @@ def plot_response(result, path) -> None:
     t = s.time - s.time[0]
     fig, (ax1, ax2) = new_figure(2, 1, figsize=(9, 8), sharex=True)
     series = [("seat", s.acceleration, result.seat_figures)] + [
-        (f"head, {k}", b.head_acceleration, b.figures) for k, b in result.bodies.items()]
+        (f"head, {k}", b.head_acceleration, b.figures) for k, b in result.bodies.items()
+    ]
     for name, a, f in series:
         ax1.plot(t, a, lw=0.5, label=name)
-        ax2.plot(t, running_rms(weighted_acceleration(a, s.fs), s.fs), lw=0.9,
-                 label=f"{name}: a_w = {f.weighted_rms:.3f}, MTVV = {f.mtvv:.3f} m/s2")
+        ax2.plot(
+            t,
+            running_rms(weighted_acceleration(a, s.fs), s.fs),
+            lw=0.9,
+            label=f"{name}: a_w = {f.weighted_rms:.3f}, MTVV = {f.mtvv:.3f} m/s2",
+        )
     ax1.set_ylabel("acceleration [m/s2]")
     ax1.set_title(s.name)
     ax1.legend(fontsize=8)
@@ -88,8 +109,13 @@ def _csv_text(result) -> str:
     names = list(result.bodies)
     cols = [s.time, s.acceleration] + [result.bodies[k].head_acceleration for k in names]
     buf = io.StringIO()
-    buf.write(",".join(["time [s]", "seat_acceleration [m/s2]"]
-                       + [f"head_acceleration_{k} [m/s2]" for k in names]) + "\n")
+    buf.write(
+        ",".join(
+            ["time [s]", "seat_acceleration [m/s2]"]
+            + [f"head_acceleration_{k} [m/s2]" for k in names]
+        )
+        + "\n"
+    )
     np.savetxt(buf, np.column_stack(cols), delimiter=",", fmt="%.10g")
     return buf.getvalue()
 
@@ -99,9 +125,10 @@ def _run(args):
     from bodyvib.seat.response import respond
     from bodyvib.seat.signal import read_signal
 
-    check_files(args, ("json", "plot", "csv"),
-                inputs=[("SIGNAL", args.signal)] + model_inputs(args.models))
-    for m in args.models:      # an unknown model is refused before the signal is read
+    check_files(
+        args, ("json", "plot", "csv"), inputs=[("SIGNAL", args.signal)] + model_inputs(args.models)
+    )
+    for m in args.models:  # an unknown model is refused before the signal is read
         load_model(m)
     signal = read_signal(args.signal, args.channel)
     interrupts.check()
@@ -124,15 +151,24 @@ def add_command(subparsers):
         "figures (Wk r.m.s., VDV, MTVV, peak, crest factor) of the seat and of each head, with "
         "the standard's checks of when the basic method is not enough.",
     )
-    p.add_argument("signal", metavar="SIGNAL",
-                   help="CSV file (header with a 'time' column in s; acceleration in m/s2) or "
-                   "MDF4 file (.mf4)")
-    p.add_argument("--channel", metavar="NAME",
-                   help="the acceleration's column (CSV) or channel (MDF4); needed when there "
-                   "is more than one")
+    p.add_argument(
+        "signal",
+        metavar="SIGNAL",
+        help="CSV file (header with a 'time' column in s; acceleration in m/s2) or "
+        "MDF4 file (.mf4)",
+    )
+    p.add_argument(
+        "--channel",
+        metavar="NAME",
+        help="the acceleration's column (CSV) or channel (MDF4); needed when there "
+        "is more than one",
+    )
     add_models_option(p, DEFAULT_MODELS)
-    add_output_options(p, plot="write accelerations and running r.m.s.",
-                       csv="write time, seat and head accelerations",
-                       json="write the figures and checks as JSON")
+    add_output_options(
+        p,
+        plot="write accelerations and running r.m.s.",
+        csv="write time, seat and head accelerations",
+        json="write the figures and checks as JSON",
+    )
     p.set_defaults(func=_run)
     return p

@@ -4,9 +4,10 @@ from typing import Optional
 
 import numpy as np
 
+from bodyvib.plotting import stacked_panels
+
 from .check import Comparison
 from .cosim import model_from_fmu
-from .figure import stacked_panels
 from .signals import UNITS, axis_label
 from .study import Study
 
@@ -19,14 +20,14 @@ def plot_study(study: Study, path, comparison: Optional[Comparison] = None, wind
     Parameters
     ----------
     study : Study
-        From :func:`vehicle.study.run_study`.
+        From :func:`bodyvib.vehicle.study.run_study`.
     path : str or os.PathLike
         Plot file (.png, .pdf or .svg).
     comparison : Comparison, optional
-        From :func:`vehicle.check.compare` (its verdict goes into the title).
+        From :func:`bodyvib.vehicle.check.compare` (its verdict goes into the title).
     window_s : float
         Length of the time window shown, s, if the study kept none
-        (it shows the window :func:`vehicle.study.run_study` kept).
+        (it shows the window :func:`bodyvib.vehicle.study.run_study` kept).
 
     Raises
     ------
@@ -41,23 +42,38 @@ def plot_study(study: Study, path, comparison: Optional[Comparison] = None, wind
     unit = UNITS["head_acceleration"]
     with stacked_panels(path) as (ax1, ax2):
         for label, b in study.bodies.items():
-            ax1.plot(t, b.head_window, lw=0.9,
-                     label=f"{label}: a_w = {b.figures.weighted_rms:.3f} {unit}")
+            ax1.plot(
+                t,
+                b.head_window,
+                lw=0.9,
+                label=f"{label}: a_w = {b.figures.weighted_rms:.3f} {unit}",
+            )
         ax1.set_xlabel(axis_label("time"))
         ax1.set_ylabel(axis_label("head_acceleration"))
-        ax1.set_title(f"{study.road['name']}, {study.settings.speed_m_s:g} m/s: head acceleration "
-                      f"({window_s:g} s window)")
+        ax1.set_title(
+            f"{study.road['name']}, {study.settings.speed_m_s:g} m/s: head acceleration "
+            f"({window_s:g} s window)"
+        )
         ax1.grid(True, alpha=0.3)
         ax1.legend(fontsize=8, loc="upper right")
         for label, b in study.bodies.items():
             T = b.transmissibility
-            line, = ax2.plot(T.frequency_hz, T.modulus, label=f"{label} (estimated from run)")
+            (line,) = ax2.plot(T.frequency_hz, T.modulus, label=f"{label} (estimated from run)")
             if b.model is not None:
                 net = model_from_fmu(b.fmu)
                 f = np.asarray(T.frequency_hz)
-                ax2.plot(f, np.abs(transmissibility(net, f)), "--", color=line.get_color(), lw=0.8,
-                         label=f"{label} (model)")
-        title = (None if comparison is None
-                 else f"seat-to-head transmissibility; check verdict: {comparison.verdict}")
+                ax2.plot(
+                    f,
+                    np.abs(transmissibility(net, f)),
+                    "--",
+                    color=line.get_color(),
+                    lw=0.8,
+                    label=f"{label} (model)",
+                )
+        title = (
+            None
+            if comparison is None
+            else f"seat-to-head transmissibility; check verdict: {comparison.verdict}"
+        )
         transmissibility_axes(ax2, ylabel="|T| head / seat [-]", title=title)
         ax2.legend(fontsize=8)

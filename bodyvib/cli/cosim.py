@@ -13,15 +13,15 @@ import shutil
 import sys
 
 from bodyvib.models import load_model
-from bodyvib.runtime.errors import BodyvibError
 from bodyvib.process.outputs import write_json
-from vehicle.check import compare
-from vehicle.cosim import check_fmu
-from vehicle.fmus import build_fmus, temporary_fmu_dir
-from vehicle.plots import plot_study
-from vehicle.quarter_car import load_car
-from vehicle.report import format_report, study_json
-from vehicle.study import StudyCsv, check_settings, run_study
+from bodyvib.runtime.errors import BodyvibError
+from bodyvib.vehicle.check import compare
+from bodyvib.vehicle.cosim import check_fmu
+from bodyvib.vehicle.fmus import build_fmus, temporary_fmu_dir
+from bodyvib.vehicle.quarter_car import load_car
+from bodyvib.vehicle.report import format_report, study_json
+from bodyvib.vehicle.study import StudyCsv, check_settings, run_study
+from bodyvib.vehicle.study_plot import plot_study
 
 from .options import add_output_options, add_road_options, road_options_from_args
 from .outputs import check_files, write_outputs
@@ -32,16 +32,28 @@ __all__ = ["add_command"]
 def _check_options(args):
     """Refuse options that would be silently ignored, and outputs that cannot be written."""
     if args.body is not None and args.params is not None:
-        raise BodyvibError("--params bakes a parameter file into the HumanBody3DOF.fmu built for "
-                           "the run; with --body FMU it would be ignored: give one of them")
+        raise BodyvibError(
+            "--params bakes a parameter file into the HumanBody3DOF.fmu built for "
+            "the run; with --body FMU it would be ignored: give one of them"
+        )
     if args.car_fmu is not None and args.car is not None:
-        raise BodyvibError("--car chooses the model of the QuarterCar.fmu built for the run; with "
-                           "--car-fmu FMU it would be ignored: give one of them")
-    inputs = [("--body", args.body), ("--car-fmu", args.car_fmu),
-              ("--iso-body", getattr(args, "iso_body", None)), ("--params", args.params),
-              ("--car", args.car), ("--road", args.road)]
-    check_files(args, ("json", "plot", "csv"),
-                inputs=[(o, p) for o, p in inputs if p is not None and os.path.isfile(p)])
+        raise BodyvibError(
+            "--car chooses the model of the QuarterCar.fmu built for the run; with "
+            "--car-fmu FMU it would be ignored: give one of them"
+        )
+    inputs = [
+        ("--body", args.body),
+        ("--car-fmu", args.car_fmu),
+        ("--iso-body", getattr(args, "iso_body", None)),
+        ("--params", args.params),
+        ("--car", args.car),
+        ("--road", args.road),
+    ]
+    check_files(
+        args,
+        ("json", "plot", "csv"),
+        inputs=[(o, p) for o, p in inputs if p is not None and os.path.isfile(p)],
+    )
 
 
 #: CSV bytes per communication point and body: 9 to 13 columns of up to 17 characters.
@@ -57,9 +69,11 @@ def _check_disk(path, rows):
         folder = os.path.dirname(folder)
     need, free = rows * CSV_BYTES_PER_ROW, shutil.disk_usage(folder).free
     if need > free:
-        raise BodyvibError(f"--csv '{path}': {rows:.3g} rows need about {format_bytes(need)} of "
-                           f"disk, {format_bytes(free)} free there: shorten the run or write "
-                           "the CSV elsewhere")
+        raise BodyvibError(
+            f"--csv '{path}': {rows:.3g} rows need about {format_bytes(need)} of "
+            f"disk, {format_bytes(free)} free there: shorten the run or write "
+            "the CSV elsewhere"
+        )
 
 
 def _fmus(args, want_iso: bool):
@@ -88,9 +102,12 @@ def _fmus(args, want_iso: bool):
         if not args.quiet:
             print(f"building {', '.join(need)} into {tmp}", file=sys.stderr, flush=True)
         try:
-            built = {n: str(p) for n, p in build_fmus(
-                tmp, args.params, args.car or "quarter-car", need, native=args.native,
-                fmi=(2,)).items()}
+            built = {
+                n: str(p)
+                for n, p in build_fmus(
+                    tmp, args.params, args.car or "quarter-car", need, native=args.native, fmi=(2,)
+                ).items()
+            }
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
             raise
@@ -108,8 +125,15 @@ def _label(path, default):
 def _run(args, want_iso):
     _check_options(args)
     road_options = road_options_from_args(args)
-    check_settings(args.road, args.speed, args.duration, args.step, args.seed,  # before building
-                   bodies=2 if want_iso else 1, road_options=road_options)
+    check_settings(
+        args.road,
+        args.speed,
+        args.duration,
+        args.step,
+        args.seed,  # before building
+        bodies=2 if want_iso else 1,
+        road_options=road_options,
+    )
     if args.csv:
         _check_disk(args.csv, (args.duration / args.step + 1) * (2 if want_iso else 1))
     body, iso, car, tmp = _fmus(args, want_iso)
@@ -122,17 +146,30 @@ def _run(args, want_iso):
             bodies[iso_label] = iso
         csv = StudyCsv(args.csv, list(bodies)) if args.csv else None
         try:
-            study = run_study(bodies, car, road=args.road, speed=args.speed,
-                              duration=args.duration, step=args.step, seed=args.seed,
-                              extrapolate=not args.hold, progress=not args.quiet,
-                              quiet=args.quiet, csv=csv, road_options=road_options)
+            study = run_study(
+                bodies,
+                car,
+                road=args.road,
+                speed=args.speed,
+                duration=args.duration,
+                step=args.step,
+                seed=args.seed,
+                extrapolate=not args.hold,
+                progress=not args.quiet,
+                quiet=args.quiet,
+                csv=csv,
+                road_options=road_options,
+            )
             comparison = compare(study, *bodies) if want_iso else None
             print(format_report(study, comparison))
-            write_outputs([
-                (args.json, lambda path: write_json(path, study_json(study, comparison))),
-                (args.plot, lambda path: plot_study(study, path, comparison)),
-                # streamed during the run, staged with the others
-                (args.csv, lambda path: csv.place())])
+            write_outputs(
+                [
+                    (args.json, lambda path: write_json(path, study_json(study, comparison))),
+                    (args.plot, lambda path: plot_study(study, path, comparison)),
+                    # streamed during the run, staged with the others
+                    (args.csv, lambda path: csv.place()),
+                ]
+            )
         finally:
             if csv is not None:
                 csv.discard()  # no-op once placed
@@ -145,53 +182,81 @@ def _run(args, want_iso):
 
 
 def _common(p):
-    p.add_argument("--road", default="C",
-                   help="ISO 8608 class A-H, 'bump', 'sweep' or a road file: OpenCRG .crg, CSV "
-                   ".csv (distance_m,elevation_mm) or ERD .erd (default C)")
+    p.add_argument(
+        "--road",
+        default="C",
+        help="ISO 8608 class A-H, 'bump', 'sweep' or a road file: OpenCRG .crg, CSV "
+        ".csv (distance_m,elevation_mm) or ERD .erd (default C)",
+    )
     add_road_options(p)
     p.add_argument("--speed", type=float, default=20.0, help="vehicle speed, m/s (default 20)")
     p.add_argument("--duration", type=float, default=30.0, help="simulated time, s (default 30)")
-    p.add_argument("--step", type=float, default=1e-3,
-                   help="communication step, s (default 0.001)")
+    p.add_argument("--step", type=float, default=1e-3, help="communication step, s (default 0.001)")
     p.add_argument("--seed", type=int, default=0, help="random-road seed (default 0)")
-    p.add_argument("--body", metavar="FMU",
-                   help="body FMU with the body interface of the README's FMUs section (default: HumanBody3DOF "
-                   "built from --params)")
-    p.add_argument("--params", metavar="FILE",
-                   help="body parameter file baked into the default HumanBody3DOF.fmu "
-                   "(default: the paper's Table 2)")
-    p.add_argument("--car", metavar="MODEL",
-                   help="vehicle model for the default QuarterCar.fmu: 'quarter-car', "
-                   "'quarter-car-cushion' or a parameter file (default quarter-car)")
+    p.add_argument(
+        "--body",
+        metavar="FMU",
+        help="body FMU with the body interface of the README's FMUs section (default: HumanBody3DOF "
+        "built from --params)",
+    )
+    p.add_argument(
+        "--params",
+        metavar="FILE",
+        help="body parameter file baked into the default HumanBody3DOF.fmu "
+        "(default: the paper's Table 2)",
+    )
+    p.add_argument(
+        "--car",
+        metavar="MODEL",
+        help="vehicle model for the default QuarterCar.fmu: 'quarter-car', "
+        "'quarter-car-cushion' or a parameter file (default quarter-car)",
+    )
     p.add_argument("--car-fmu", metavar="FMU", help="a car FMU instead of building QuarterCar.fmu")
-    p.add_argument("--native", action="store_true",
-                   help="build the native C FMUs for the run instead of the pythonfmu ones "
-                   "(FMUs given with --body/--car-fmu/--iso-body are used as they are)")
-    p.add_argument("--hold", action="store_true",
-                   help="plain master: hold the seat force over each step (first order)")
-    add_output_options(p, plot="write the plot", csv="write the time histories as CSV",
-                       json="write the figures as JSON")
+    p.add_argument(
+        "--native",
+        action="store_true",
+        help="build the native C FMUs for the run instead of the pythonfmu ones "
+        "(FMUs given with --body/--car-fmu/--iso-body are used as they are)",
+    )
+    p.add_argument(
+        "--hold",
+        action="store_true",
+        help="plain master: hold the seat force over each step (first order)",
+    )
+    add_output_options(
+        p,
+        plot="write the plot",
+        csv="write the time histories as CSV",
+        json="write the figures as JSON",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
 
 def add_command(subparsers):
     """Register ``bodyvib cosim`` and ``bodyvib check``."""
     p = subparsers.add_parser(
-        "cosim", help="quarter-car co-simulation with a body FMU (ISO 2631-1 figures)",
+        "cosim",
+        help="quarter-car co-simulation with a body FMU (ISO 2631-1 figures)",
         description="Drive the quarter-car FMU over a road with a body FMU (fmpy, two-way "
         "coupled), report the head acceleration's ISO 2631-1 figures and the coupling error "
-        "against the monolithic reference.")
+        "against the monolithic reference.",
+    )
     _common(p)
     p.set_defaults(func=lambda a: _run(a, want_iso=False), iso_body=None, strict=False)
 
     c = subparsers.add_parser(
-        "check", help="head acceleration of the reduced body against the ISO 7962 body",
+        "check",
+        help="head acceleration of the reduced body against the ISO 7962 body",
         description="Co-simulate the same road and car with the reduced body and the ISO 7962 "
         "body; compare head-acceleration figures, time histories and transmissibility against "
-        "the README's tolerances and print the verdict.")
+        "the README's tolerances and print the verdict.",
+    )
     _common(c)
-    c.add_argument("--iso-body", metavar="FMU",
-                   help="ISO body FMU (default: HumanBodyISO7962 built from iso7962)")
+    c.add_argument(
+        "--iso-body",
+        metavar="FMU",
+        help="ISO body FMU (default: HumanBodyISO7962 built from iso7962)",
+    )
     c.add_argument("--strict", action="store_true", help="exit with status 1 on a FAIL verdict")
     c.set_defaults(func=lambda a: _run(a, want_iso=True))
     return p

@@ -1,6 +1,6 @@
 /*
- * bodyvib native source core (see bodyvib_source.h): the bv_* API of bodyvib_core.h for a
- * tabulated profile, the C twin of bodyvib.runtime.source.SourceCore.
+ * bodyvib native source core (see bodyvib_table.h): the bv_* API of bodyvib_core.h for a
+ * tabulated profile, the C twin of bodyvib.runtime.tabulated.SourceCore.
  *
  * Per instance: the shared state machine (bv_common of bodyvib_fsm.h: state, time, start
  * time, initialization flags) and the speed parameter. Outputs are computed on read at
@@ -9,7 +9,7 @@
  * does. No inputs, no continuous states: model exchange sets the time and reads the outputs
  * there; input derivatives and directional derivatives are refused.
  */
-#include "bodyvib_source.h"
+#include "bodyvib_table.h"
 #include "bodyvib_fsm.h"
 
 #include <math.h>

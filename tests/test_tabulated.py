@@ -1,4 +1,4 @@
-"""The tabulated signal source (bodyvib.runtime.source) and the road table of Road.fmu.
+"""The tabulated signal source (bodyvib.runtime.tabulated) and the road table of Road.fmu.
 
 Cubic Hermite interpolation with exact slopes reproduces any cubic exactly (the
 tolerance is rounding); its error for a harmonic of wavenumber k on rows dx apart
@@ -10,19 +10,19 @@ import json
 
 import numpy as np
 import pytest
+from bodyvib.vehicle.reference import nrmse
+from bodyvib.vehicle.road.synthetic import BumpRoad, make_road, road_input, road_source, road_table
 
 from bodyvib.models import load_model
 from bodyvib.runtime.engine import FmuCore
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib.runtime.source import HermiteTable, SourceCore, read_source, write_source
-from vehicle.reference import nrmse
-from vehicle.road.synthetic import BumpRoad, make_road, road_input, road_source, road_table
+from bodyvib.runtime.tabulated import HermiteTable, SourceCore, read_source, write_source
 
 
 def test_hermite_reproduces_cubics_and_its_slope_is_the_derivative():
     x = np.linspace(-1.0, 2.0, 13)
-    f = lambda s: 0.3 * s ** 3 - s ** 2 + 2 * s - 1  # noqa: E731
-    df = lambda s: 0.9 * s ** 2 - 2 * s + 2  # noqa: E731
+    f = lambda s: 0.3 * s**3 - s**2 + 2 * s - 1  # noqa: E731
+    df = lambda s: 0.9 * s**2 - 2 * s + 2  # noqa: E731
     tab = HermiteTable(x, f(x), df(x))
     p = np.linspace(-1.0, 2.0, 1001)
     z, dz = tab.evaluate(p)
@@ -68,7 +68,7 @@ def test_road_table_against_the_library_road():
         z, v = road_input(road, speed, t)
         zt, dzt = tab.evaluate(speed * t)
         k_dx = 2 * np.pi * 2.83 * 0.02
-        assert nrmse(zt[:, 0], z) < k_dx ** 4 / 384 * 0.1
+        assert nrmse(zt[:, 0], z) < k_dx**4 / 384 * 0.1
         assert nrmse(speed * dzt[:, 0], v) < 5e-4
         if speed == 20.0:
             assert nrmse(zt[:, 0], z) < 1e-12 and nrmse(speed * dzt[:, 0], v) < 1e-12
@@ -79,7 +79,10 @@ def test_bump_table_holds_zero_beyond_and_source_files_round_trip(tmp_path):
     assert not tab.periodic
     paths = write_source(tmp_path, meta, tab)
     meta2, tab2 = read_source(paths[0])
-    assert meta2["signals"] == meta["signals"] and json.loads(open(paths[0]).read())["periodic"] is False
+    assert (
+        meta2["signals"] == meta["signals"]
+        and json.loads(open(paths[0]).read())["periodic"] is False
+    )
     np.testing.assert_array_equal(tab2.value, tab.value)
     np.testing.assert_array_equal(tab2.slope, tab.slope)
     core = SourceCore(meta2, tab2, "Road")
@@ -119,19 +122,26 @@ def test_road_slave_in_plain_python(tmp_path):
     pytest.importorskip("pythonfmu")
     import types
 
+    from bodyvib.vehicle.fmus import FMUS
+
     from bodyvib.fmu.pythonfmu import render_slave_script
-    from vehicle.fmus import FMUS
 
     mod = types.ModuleType("slave_Road")
-    exec(compile(render_slave_script("Road", "source", FMUS["Road"][2], "bodyvib.runtime"),
-                 "<Road slave>", "exec"), mod.__dict__)
+    exec(
+        compile(
+            render_slave_script("Road", "source", FMUS["Road"][2], "bodyvib.runtime"),
+            "<Road slave>",
+            "exec",
+        ),
+        mod.__dict__,
+    )
     meta, tab = road_source(BumpRoad(), 30.0, speed=10.0)
     write_source(tmp_path, meta, tab)
     slave = mod.Road(instance_name="unit", resources=str(tmp_path))
     assert [v.name for v in slave.vars.values()] == ["road_displacement", "road_velocity", "speed"]
     slave.setup_experiment(1.0)
     slave.exit_initialization_mode()
-    assert slave.do_step(1.0, 0.05) is True          # 10.5 m: inside the bump
+    assert slave.do_step(1.0, 0.05) is True  # 10.5 m: inside the bump
     z, v = slave.get_real([0, 1])
     zr, vr = road_input(BumpRoad(), 10.0, [1.05])
     assert z == pytest.approx(zr[0], rel=1e-6) and v == pytest.approx(vr[0], rel=1e-4)
@@ -154,8 +164,11 @@ def test_both_cores_refuse_a_step_in_the_same_words(make):
     """One life cycle (bodyvib.runtime.lifecycle) for the network and the source core: the
     same refusals, word for word, and a refused step leaves the instance as it was."""
     core, vr, good, fix = make()
-    with pytest.raises(BodyvibError, match=r"^Core: do_step before initialization; "
-                                           r"call fmi2ExitInitializationMode first$"):
+    with pytest.raises(
+        BodyvibError,
+        match=r"^Core: do_step before initialization; "
+        r"call fmi2ExitInitializationMode first$",
+    ):
         core.do_step(0.0, 1e-3)
     core.set_real([vr], [-1.0])
     with pytest.raises(BodyvibError) as failed:
@@ -168,7 +181,10 @@ def test_both_cores_refuse_a_step_in_the_same_words(make):
     for h in (0.0, -1e-3, float("nan"), float("inf")):
         with pytest.raises(BodyvibError) as bad:
             core.do_step(0.0, h)
-        assert str(bad.value) == f"Core: communication step size must be positive and finite, got {h!r} s"
+        assert (
+            str(bad.value)
+            == f"Core: communication step size must be positive and finite, got {h!r} s"
+        )
     assert core.time == 0.0
     core.do_step(0.0, 1e-3)
     assert core.time == pytest.approx(1e-3, abs=1e-15)

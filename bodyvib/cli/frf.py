@@ -1,6 +1,11 @@
 """``bodyvib frf``: seat-to-head transmissibility of models side by side."""
 
-from bodyvib.frequency.compare import DEFAULT_MODELS, compare_transmissibility, format_table, plot_transmissibility
+from bodyvib.frequency.compare import (
+    DEFAULT_MODELS,
+    compare_transmissibility,
+    format_table,
+    plot_transmissibility,
+)
 
 from .options import add_models_option, add_output_options, model_inputs
 from .outputs import check_files, write_result
@@ -28,8 +33,8 @@ def add_command(subparsers):
     p.add_argument("--fmin", type=float, default=0.5, help="lowest frequency, Hz (default 0.5)")
     p.add_argument("--fmax", type=float, default=31.5, help="highest frequency, Hz (default 31.5)")
     p.add_argument("--points", type=int, default=1200, help="grid points (default 1200)")
-    add_output_options(p, plot="write the comparison plot",
-                       json="write the curves and peaks as JSON")
+    add_output_options(
+        p, plot="write the comparison plot", json="write the curves and peaks as JSON"
+    )
     p.set_defaults(func=_run)
     return p
-

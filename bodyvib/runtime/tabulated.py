@@ -19,7 +19,7 @@ The source file (:data:`SOURCE_FILE` in the FMU's resources) is JSON::
      "speed": {"name": "speed", "unit": "m/s", "start": 20.0, "description": ...},
      "signals": [{"name": "road_displacement", "unit": "m", "description": ...,
                   "rate": {"name": "road_velocity", "unit": "m/s", "description": ...}}],
-     "periodic": true, "table": "bodyvib_source.csv", "provenance": {...}}
+     "periodic": true, "table": "bodyvib_table.csv", "provenance": {...}}
 
 and the table a CSV file beside it: a header line, then rows ``p, z_1, dz_1/dp,
 z_2, ...`` on a uniform, increasing grid of ``p``.
@@ -82,17 +82,23 @@ class HermiteTable:
         if z.ndim == 1:
             z, m = z[:, None], m.reshape(-1, 1)
         if p.ndim != 1 or p.size < 2 or z.shape != (p.size, z.shape[1]) or m.shape != z.shape:
-            raise BodyvibError(f"a source table needs >= 2 rows of position, values and slopes of "
-                               f"matching shapes; got {p.shape}, {z.shape}, {m.shape}")
+            raise BodyvibError(
+                f"a source table needs >= 2 rows of position, values and slopes of "
+                f"matching shapes; got {p.shape}, {z.shape}, {m.shape}"
+            )
         if not (np.all(np.isfinite(p)) and np.all(np.isfinite(z)) and np.all(np.isfinite(m))):
             raise BodyvibError("source table holds a value that is not finite")
         d = np.diff(p)
         dp = (p[-1] - p[0]) / (p.size - 1)
         if not (dp > 0 and np.max(np.abs(d - dp)) <= 1e-9 * dp):
             raise BodyvibError("source table positions must be uniformly spaced and increasing")
-        if periodic and not (np.allclose(z[-1], z[0], rtol=0, atol=1e-12 * (1 + np.abs(z).max()))
-                             and np.allclose(m[-1], m[0], rtol=0, atol=1e-12 * (1 + np.abs(m).max()))):
-            raise BodyvibError("a periodic source table must end where it starts (last row = first)")
+        if periodic and not (
+            np.allclose(z[-1], z[0], rtol=0, atol=1e-12 * (1 + np.abs(z).max()))
+            and np.allclose(m[-1], m[0], rtol=0, atol=1e-12 * (1 + np.abs(m).max()))
+        ):
+            raise BodyvibError(
+                "a periodic source table must end where it starts (last row = first)"
+            )
         self.position, self.value, self.slope, self.periodic = p, z, m, bool(periodic)
         self._p0, self._dp, self._k = float(p[0]), float(dp), p.size - 1
 
@@ -124,8 +130,15 @@ class HermiteTable:
         z0, z1 = self.value[i], self.value[i + 1]
         m0, m1 = self.slope[i] * self._dp, self.slope[i + 1] * self._dp
         s2, s3 = s * s, s * s * s
-        z = (2 * s3 - 3 * s2 + 1) * z0 + (s3 - 2 * s2 + s) * m0 + (3 * s2 - 2 * s3) * z1 + (s3 - s2) * m1
-        dz = ((6 * s2 - 6 * s) * (z0 - z1) + (3 * s2 - 4 * s + 1) * m0 + (3 * s2 - 2 * s) * m1) / self._dp
+        z = (
+            (2 * s3 - 3 * s2 + 1) * z0
+            + (s3 - 2 * s2 + s) * m0
+            + (3 * s2 - 2 * s3) * z1
+            + (s3 - s2) * m1
+        )
+        dz = (
+            (6 * s2 - 6 * s) * (z0 - z1) + (3 * s2 - 4 * s + 1) * m0 + (3 * s2 - 2 * s) * m1
+        ) / self._dp
         if not self.periodic:  # beyond the ends: the end value, held
             dz = np.where(inside[..., None], dz, 0.0)
         return z, dz
@@ -187,8 +200,9 @@ def read_source(path):
     try:
         with open(path, encoding="utf-8") as f:
             meta = json.load(f)
-        data = np.loadtxt(os.path.join(os.path.dirname(path), meta["table"]), delimiter=",",
-                          skiprows=1, ndmin=2)
+        data = np.loadtxt(
+            os.path.join(os.path.dirname(path), meta["table"]), delimiter=",", skiprows=1, ndmin=2
+        )
     except (OSError, ValueError, KeyError, TypeError) as exc:
         raise BodyvibError(f"source file {path}: {exc}") from None
     return meta, HermiteTable(data[:, 0], data[:, 1::2], data[:, 2::2], bool(meta.get("periodic")))
@@ -222,24 +236,48 @@ class SourceCore(Lifecycle):
 
     kind = "source"
 
-    def __init__(self, meta: dict, table: HermiteTable, name: str = "FMU",
-                 log: Optional[Callable[[str, str], None]] = None):
+    def __init__(
+        self,
+        meta: dict,
+        table: HermiteTable,
+        name: str = "FMU",
+        log: Optional[Callable[[str, str], None]] = None,
+    ):
         self.name, self.meta, self.table, self._log = name, meta, table, log
         outputs = []
         for sig in meta["signals"]:
             rate = sig["rate"]
-            outputs.append(Variable(sig["name"], "output", "continuous", sig["unit"], sig["description"]))
-            outputs.append(Variable(rate["name"], "output", "continuous", rate["unit"],
-                                    rate["description"]))
+            outputs.append(
+                Variable(sig["name"], "output", "continuous", sig["unit"], sig["description"])
+            )
+            outputs.append(
+                Variable(rate["name"], "output", "continuous", rate["unit"], rate["description"])
+            )
         if len(outputs) != 2 * table.value.shape[1]:
-            raise BodyvibError(f"{name}: the source declares {len(outputs) // 2} signals, its table "
-                               f"holds {table.value.shape[1]}")
+            raise BodyvibError(
+                f"{name}: the source declares {len(outputs) // 2} signals, its table "
+                f"holds {table.value.shape[1]}"
+            )
         sp = meta["speed"]
-        self.parameters = (Variable(sp["name"], "parameter", "fixed", sp["unit"], sp["description"],
-                                    start=float(sp["start"]), min=PARAMETER_LIMITS[0]),)
-        self.interface = Interface(kind="source", inputs=(), outputs=tuple(outputs),
-                                   input_map=np.zeros((0, 0)), rate_pairs=(),
-                                   output_signals=tuple(v.name for v in outputs))
+        self.parameters = (
+            Variable(
+                sp["name"],
+                "parameter",
+                "fixed",
+                sp["unit"],
+                sp["description"],
+                start=float(sp["start"]),
+                min=PARAMETER_LIMITS[0],
+            ),
+        )
+        self.interface = Interface(
+            kind="source",
+            inputs=(),
+            outputs=tuple(outputs),
+            input_map=np.zeros((0, 0)),
+            rate_pairs=(),
+            output_signals=tuple(v.name for v in outputs),
+        )
         self.variables = self.interface.outputs + self.parameters
         self._no = len(outputs)
         self._speed = float(sp["start"])
@@ -262,9 +300,11 @@ class SourceCore(Lifecycle):
         v = self._speed if params is None else float(params[0])
         var = self.parameters[0]
         if not (math.isfinite(v) and v > 0):
-            raise BodyvibError(f"{self.name}: parameter {var.name} = {v!r} {var.unit} is invalid: "
-                               f"it must be a positive finite number (the FMU's default is "
-                               f"{var.start:g} {var.unit})")
+            raise BodyvibError(
+                f"{self.name}: parameter {var.name} = {v!r} {var.unit} is invalid: "
+                f"it must be a positive finite number (the FMU's default is "
+                f"{var.start:g} {var.unit})"
+            )
 
     def initialize(self) -> None:
         """Validate the parameters (``fmi2ExitInitializationMode``).
@@ -300,11 +340,15 @@ class SourceCore(Lifecycle):
                 self._speed = float(v)
                 self._cache = None
             elif vr == self._no:
-                self._message(f"{self.name}: parameter {self.parameters[0].name} is fixed after "
-                              "initialization; set it before fmi2ExitInitializationMode (ignored)")
+                self._message(
+                    f"{self.name}: parameter {self.parameters[0].name} is fixed after "
+                    "initialization; set it before fmi2ExitInitializationMode (ignored)"
+                )
             else:
-                self._message(f"{self.name}: {self.variables[vr].name} is an output and cannot be "
-                              "set (ignored)")
+                self._message(
+                    f"{self.name}: {self.variables[vr].name} is an output and cannot be "
+                    "set (ignored)"
+                )
 
     def do_step(self, current_time: float, step_size: float) -> None:
         """Advance to ``current_time + step_size``; outputs are then those of that time.

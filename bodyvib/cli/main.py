@@ -1,6 +1,6 @@
 """The ``bodyvib`` command line: the parser and the one place where errors become exit codes.
 
-Each sub-command is a module of :mod:`bodyvib_cli` that registers itself through
+Each sub-command is a module of :mod:`bodyvib.cli` that registers itself through
 an ``add_command(subparsers)`` function listed in :data:`COMMAND_MODULES`. Errors a user can cause (:class:`bodyvib.runtime.errors.BodyvibError`,
 unreadable files, bad options) print one line and exit with status 2, without a
 traceback. Ctrl-C ends any command with the single line ``interrupted`` and status 130,
@@ -17,8 +17,9 @@ import threading
 
 # signals that arrive while the modules load (before bodyvib.process.interrupts takes over)
 _early = []
-_EARLY_SIGNALS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP")
-                       if hasattr(signal, n))
+_EARLY_SIGNALS = tuple(
+    getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n)
+)
 
 
 def _early_handler(signum, frame):
@@ -44,13 +45,13 @@ __all__ = ["COMMAND_MODULES", "main", "build_parser"]
 
 #: Modules that contribute sub-commands, in help order.
 COMMAND_MODULES = (
-    "bodyvib_cli.frf",
-    "bodyvib_cli.build",
-    "bodyvib_cli.cosim",
-    "bodyvib_cli.fit",
-    "bodyvib_cli.sweep",
-    "bodyvib_cli.road",
-    "bodyvib_cli.respond",
+    "bodyvib.cli.frf",
+    "bodyvib.cli.build",
+    "bodyvib.cli.cosim",
+    "bodyvib.cli.fit",
+    "bodyvib.cli.sweep",
+    "bodyvib.cli.road",
+    "bodyvib.cli.respond",
 )
 
 
@@ -94,8 +95,7 @@ def main(argv=None) -> int:
         129 on SIGHUP.
     """
     main_thread = threading.current_thread() is threading.main_thread()
-    previous = ({s: signal.signal(s, _early_handler) for s in _EARLY_SIGNALS}
-                if main_thread else {})
+    previous = {s: signal.signal(s, _early_handler) for s in _EARLY_SIGNALS} if main_thread else {}
     try:
         from bodyvib.process import interrupts
         from bodyvib.process.scratch import private_tempdir

@@ -12,14 +12,14 @@ __all__ = ["add_command"]
 
 
 def _run(args):
-    from vehicle.sweep.spec import ROAD_OPTION_KEYS, grid_spec
+    from bodyvib.vehicle.sweep.spec import ROAD_OPTION_KEYS, grid_spec
 
     if args.spec and args.grid:
         raise BodyvibError("give a SPEC file or --grid, not both")
     if not args.spec and not args.grid:
         if args.plot and args.out:  # plot an existing table
-            from vehicle.sweep.plot import plot_comfort_maps
-            from vehicle.sweep.run import read_results
+            from bodyvib.vehicle.sweep.plot import plot_comfort_maps
+            from bodyvib.vehicle.sweep.run import read_results
 
             check_files(args, ("plot",))  # before the table is read
             df = read_results(args.out)
@@ -28,39 +28,63 @@ def _run(args):
             plot_comfort_maps(df, args.plot)
             print(f"wrote {args.plot}")
             return 0
-        raise BodyvibError("give a SPEC file or --grid key=v1,v2 ... (or --out TABLE --plot FILE "
-                           "to plot a finished sweep)")
+        raise BodyvibError(
+            "give a SPEC file or --grid key=v1,v2 ... (or --out TABLE --plot FILE "
+            "to plot a finished sweep)"
+        )
     if not args.out and not args.csv:
         raise BodyvibError("give --out FILE.parquet (and/or --csv FILE) for the results")
     if args.scheduler and args.scheduler_file:
         raise BodyvibError("give --scheduler or --scheduler-file, not both")
     # every output checked before any work, against each other and the inputs
-    check_outputs([("--out", args.out, None), ("--csv", args.csv, None),
-                   ("--plot", args.plot, PLOT_EXTENSIONS)],
-                  [("SPEC", args.spec)] if args.spec else [])
-    from vehicle.road.driven import RoadOptions
+    check_outputs(
+        [
+            ("--out", args.out, None),
+            ("--csv", args.csv, None),
+            ("--plot", args.plot, PLOT_EXTENSIONS),
+        ],
+        [("SPEC", args.spec)] if args.spec else [],
+    )
+    from bodyvib.vehicle.road.driven import RoadOptions
 
     opts = road_options_from_args(args)
     if args.spec and opts != RoadOptions():
-        raise BodyvibError("--road-* options go with --grid; a SPEC file gives them as "
-                           "\"road_options\": {\"taper\": 5, \"track\": 0.8, ...}")
-    given = {k: getattr(opts, f) for k, f in ROAD_OPTION_KEYS.items()
-             if getattr(opts, f) != getattr(RoadOptions(), f)}
+        raise BodyvibError(
+            "--road-* options go with --grid; a SPEC file gives them as "
+            '"road_options": {"taper": 5, "track": 0.8, ...}'
+        )
+    given = {
+        k: getattr(opts, f)
+        for k, f in ROAD_OPTION_KEYS.items()
+        if getattr(opts, f) != getattr(RoadOptions(), f)
+    }
     spec = args.spec if args.spec else grid_spec(args.grid, args.duration, args.step, given)
-    from vehicle.sweep.run import run_sweep
+    from bodyvib.vehicle.sweep.run import run_sweep
 
     say = None if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
-    df = run_sweep(spec, out=args.out, engine=args.engine, scheduler=args.scheduler,
-                   resume=args.resume, overwrite=args.overwrite, csv=args.csv,
-                   progress=not args.quiet, block=args.block, workers=args.workers, echo=say,
-                   retry_failed=args.retry_failed, scheduler_file=args.scheduler_file,
-                   connect_timeout=args.connect_timeout, worker_timeout=args.worker_timeout,
-                   table=bool(args.plot))
+    df = run_sweep(
+        spec,
+        out=args.out,
+        engine=args.engine,
+        scheduler=args.scheduler,
+        resume=args.resume,
+        overwrite=args.overwrite,
+        csv=args.csv,
+        progress=not args.quiet,
+        block=args.block,
+        workers=args.workers,
+        echo=say,
+        retry_failed=args.retry_failed,
+        scheduler_file=args.scheduler_file,
+        connect_timeout=args.connect_timeout,
+        worker_timeout=args.worker_timeout,
+        table=bool(args.plot),
+    )
     for f in (args.out, args.csv):
         if f:
             print(f"wrote {f}")
     if args.plot:
-        from vehicle.sweep.plot import plot_comfort_maps
+        from bodyvib.vehicle.sweep.plot import plot_comfort_maps
 
         plot_comfort_maps(df, args.plot)
         print(f"wrote {args.plot}")
@@ -95,39 +119,70 @@ def _positive_int(text):
 def add_command(subparsers):
     """Register ``bodyvib sweep``."""
     p = subparsers.add_parser(
-        "sweep", help="comfort over roads, speeds, bodies and cars (one table per sweep)",
+        "sweep",
+        help="comfort over roads, speeds, bodies and cars (one table per sweep)",
         description="Run every case of a sweep spec (or a --grid) and write one row per case: "
         "inputs, the head's ISO 2631-1 figures, the seat's Wk r.m.s., engine and provenance. "
         "Cases run on Dask (a LocalCluster by default); finished blocks are written at once, "
-        "so a killed sweep continues with --resume.")
+        "so a killed sweep continues with --resume.",
+    )
     p.add_argument("spec", nargs="?", metavar="SPEC.json", help="sweep spec (JSON)")
-    p.add_argument("--grid", nargs="+", metavar="KEY=V1,V2",
-                   help="a grid instead of a spec: road=C,D,profile.crg speed=10,20 seed=0,1 "
-                   "body=reduced-paper,iso7962 car=quarter-car")
+    p.add_argument(
+        "--grid",
+        nargs="+",
+        metavar="KEY=V1,V2",
+        help="a grid instead of a spec: road=C,D,profile.crg speed=10,20 seed=0,1 "
+        "body=reduced-paper,iso7962 car=quarter-car",
+    )
     p.add_argument("--duration", type=float, default=30.0, help="with --grid: run length, s (30)")
     p.add_argument("--step", type=float, default=1e-3, help="with --grid: time step, s (0.001)")
     add_road_options(p)
     p.add_argument("--out", metavar="FILE.parquet", help="results table (Parquet)")
     p.add_argument("--csv", metavar="FILE", help="the table as CSV too")
-    p.add_argument("--engine", choices=("batched", "spectral", "cosim"), default="batched",
-                   help="batched exact simulation (default), spectral expectation from the road "
-                   "PSD (r.m.s. only), or FMU co-simulation")
-    p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="Dask scheduler address (tcp://host:8786); default: a LocalCluster, one "
-                   "worker per core; 'serial' runs in this process")
-    p.add_argument("--scheduler-file", metavar="FILE",
-                   help="connect to the scheduler of this file (dask scheduler --scheduler-file, "
-                   "dask-jobqueue)")
-    p.add_argument("--connect-timeout", type=_seconds, default=10.0, metavar="S",
-                   help="seconds to wait for the scheduler to answer (10)")
-    p.add_argument("--worker-timeout", type=_seconds, default=60.0, metavar="S",
-                   help="seconds to wait for a first worker; a running sweep with no worker for "
-                   "this long stops, resumable (60)")
+    p.add_argument(
+        "--engine",
+        choices=("batched", "spectral", "cosim"),
+        default="batched",
+        help="batched exact simulation (default), spectral expectation from the road "
+        "PSD (r.m.s. only), or FMU co-simulation",
+    )
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="Dask scheduler address (tcp://host:8786); default: a LocalCluster, one "
+        "worker per core; 'serial' runs in this process",
+    )
+    p.add_argument(
+        "--scheduler-file",
+        metavar="FILE",
+        help="connect to the scheduler of this file (dask scheduler --scheduler-file, "
+        "dask-jobqueue)",
+    )
+    p.add_argument(
+        "--connect-timeout",
+        type=_seconds,
+        default=10.0,
+        metavar="S",
+        help="seconds to wait for the scheduler to answer (10)",
+    )
+    p.add_argument(
+        "--worker-timeout",
+        type=_seconds,
+        default=60.0,
+        metavar="S",
+        help="seconds to wait for a first worker; a running sweep with no worker for "
+        "this long stops, resumable (60)",
+    )
     p.add_argument("--workers", type=_positive_int, help="LocalCluster workers (default: cores)")
     p.add_argument("--block", type=_positive_int, help="cases per task (default: by engine)")
-    p.add_argument("--resume", action="store_true", help="keep the cases already in --out, run the rest")
-    p.add_argument("--retry-failed", action="store_true",
-                   help="with --resume: run again the cases stored with an error")
+    p.add_argument(
+        "--resume", action="store_true", help="keep the cases already in --out, run the rest"
+    )
+    p.add_argument(
+        "--retry-failed",
+        action="store_true",
+        help="with --resume: run again the cases stored with an error",
+    )
     p.add_argument("--overwrite", action="store_true", help="replace an existing --out")
     add_output_options(p, plot="comfort maps with the ISO 2631-1 bands")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")

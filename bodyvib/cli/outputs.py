@@ -4,8 +4,15 @@ how they are written (all together or none, each named once written)."""
 from bodyvib.process import interrupts
 from bodyvib.process.outputs import atomic_write_text, check_outputs, staged_writes, write_json
 
-__all__ = ["PLOT_EXTENSIONS", "JSON_EXTENSIONS", "CSV_EXTENSIONS", "OUTPUT_OPTIONS",
-           "check_files", "write_outputs", "write_result"]
+__all__ = [
+    "PLOT_EXTENSIONS",
+    "JSON_EXTENSIONS",
+    "CSV_EXTENSIONS",
+    "OUTPUT_OPTIONS",
+    "check_files",
+    "write_outputs",
+    "write_result",
+]
 
 #: Plot files: the formats :func:`bodyvib.plotting.save_figure` writes.
 PLOT_EXTENSIONS = (".png", ".pdf", ".svg")
@@ -42,9 +49,14 @@ def check_files(args, outputs, inputs=()) -> None:
         An output with the wrong extension, in a folder that cannot be written, naming an
         input or another output (:func:`bodyvib.process.outputs.check_outputs`).
     """
-    check_outputs([(f"--{name}", getattr(args, name), exts)
-                   for name, (_, exts) in OUTPUT_OPTIONS.items() if name in outputs],
-                  inputs=list(inputs))
+    check_outputs(
+        [
+            (f"--{name}", getattr(args, name), exts)
+            for name, (_, exts) in OUTPUT_OPTIONS.items()
+            if name in outputs
+        ],
+        inputs=list(inputs),
+    )
 
 
 def write_outputs(writes) -> list:
@@ -100,8 +112,13 @@ def write_result(args, result, plot, csv_text=None) -> list:
     list of str
         The files written (:func:`write_outputs`: all of them or none).
     """
-    return write_outputs([
-        (args.json, lambda path: write_json(path, result.to_dict())),
-        (args.csv if csv_text else None, lambda path: atomic_write_text(path, csv_text(result))),
-        (args.plot, lambda path: plot(result, path)),
-    ])
+    return write_outputs(
+        [
+            (args.json, lambda path: write_json(path, result.to_dict())),
+            (
+                args.csv if csv_text else None,
+                lambda path: atomic_write_text(path, csv_text(result)),
+            ),
+            (args.plot, lambda path: plot(result, path)),
+        ]
+    )

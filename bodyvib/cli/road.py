@@ -11,14 +11,20 @@ from .outputs import check_files, write_result
 __all__ = ["add_command", "load_road"]
 
 
-def load_road(source: str, length: float = 1000.0, spacing: float = 0.05, seed: int = 0,
-              track=None, units=None):
+def load_road(
+    source: str,
+    length: float = 1000.0,
+    spacing: float = 0.05,
+    seed: int = 0,
+    track=None,
+    units=None,
+):
     """``(distance, elevation, name)`` of a profile file or of a synthetic ISO 8608 class.
 
     Parameters
     ----------
     source : str
-        A file (read by :func:`vehicle.road.measured.load_profile`) or a class
+        A file (read by :func:`bodyvib.vehicle.road.measured.load_profile`) or a class
         ``A`` ... ``H`` (when no such file exists).
     length, spacing : float
         Extent and sample spacing of a synthetic road, m.
@@ -40,7 +46,7 @@ def load_road(source: str, length: float = 1000.0, spacing: float = 0.05, seed: 
     """
     import numpy as np
 
-    from vehicle.road.synthetic import ISO8608_CLASSES, random_road
+    from bodyvib.vehicle.road.synthetic import ISO8608_CLASSES, random_road
 
     s = str(source).strip()
     if not os.path.exists(s) and len(s) == 1 and s.upper() in ISO8608_CLASSES:
@@ -53,23 +59,28 @@ def load_road(source: str, length: float = 1000.0, spacing: float = 0.05, seed: 
     if not os.path.exists(s):
         raise BodyvibError(f"'{s}' is neither a profile file nor an ISO 8608 class A-H")
     try:
-        from vehicle.road.measured import load_profile
+        from bodyvib.vehicle.road.measured import load_profile
     except ImportError:
-        raise BodyvibError("reading profile files needs vehicle.road.measured, which this "
-                           "installation lacks; give an ISO 8608 class instead") from None
+        raise BodyvibError(
+            "reading profile files needs bodyvib.vehicle.road.measured, which this "
+            "installation lacks; give an ISO 8608 class instead"
+        ) from None
     kwargs = {k: v for k, v in (("track_m", track), ("units", units)) if v is not None}
     profile = load_profile(s, **kwargs)
-    return (np.asarray(profile.distance, float), np.asarray(profile.elevation, float),
-            getattr(profile, "name", os.path.basename(s)))
+    return (
+        np.asarray(profile.distance, float),
+        np.asarray(profile.elevation, float),
+        getattr(profile, "name", os.path.basename(s)),
+    )
 
 
 def _run(args):
-    from vehicle.road.summary import format_summary, plot_summary, summarize_profile
+    from bodyvib.vehicle.road.summary import format_summary, plot_summary, summarize_profile
 
-    check_files(args, ("json", "plot"),
-                inputs=[("ROAD", args.road)] if os.path.isfile(args.road) else [])
-    x, z, name = load_road(args.road, args.length, args.spacing, args.seed, args.track,
-                           args.units)
+    check_files(
+        args, ("json", "plot"), inputs=[("ROAD", args.road)] if os.path.isfile(args.road) else []
+    )
+    x, z, name = load_road(args.road, args.length, args.spacing, args.seed, args.track, args.units)
     interrupts.check()
     summary = summarize_profile(x, z, name)
     print(format_summary(summary))
@@ -86,18 +97,34 @@ def add_command(subparsers):
         "statistics, the displacement PSD fitted with ISO 8608's line (Gd(n0), waviness) "
         "and its class, and the International Roughness Index (Golden Car at 80 km/h).",
     )
-    p.add_argument("road", metavar="FILE|CLASS",
-                   help="a profile file (CRG, CSV, ERD) or an ISO 8608 class A-H (synthetic)")
-    p.add_argument("--length", type=float, default=1000.0,
-                   help="length of a synthetic road, m (default 1000)")
-    p.add_argument("--spacing", type=float, default=0.05,
-                   help="sample spacing of a synthetic road, m (default 0.05)")
+    p.add_argument(
+        "road",
+        metavar="FILE|CLASS",
+        help="a profile file (CRG, CSV, ERD) or an ISO 8608 class A-H (synthetic)",
+    )
+    p.add_argument(
+        "--length", type=float, default=1000.0, help="length of a synthetic road, m (default 1000)"
+    )
+    p.add_argument(
+        "--spacing",
+        type=float,
+        default=0.05,
+        help="sample spacing of a synthetic road, m (default 0.05)",
+    )
     p.add_argument("--seed", type=int, default=0, help="seed of a synthetic road (default 0)")
-    p.add_argument("--track", type=float, default=None,
-                   help="lateral offset of the wheel track in a CRG file, m")
-    p.add_argument("--units", default=None,
-                   help="height units of a profile file without them in its header (m, mm)")
-    add_output_options(p, plot="write the profile and PSD plot",
-                       json="write the summary (and the PSD) as JSON")
+    p.add_argument(
+        "--track",
+        type=float,
+        default=None,
+        help="lateral offset of the wheel track in a CRG file, m",
+    )
+    p.add_argument(
+        "--units",
+        default=None,
+        help="height units of a profile file without them in its header (m, mm)",
+    )
+    add_output_options(
+        p, plot="write the profile and PSD plot", json="write the summary (and the PSD) as JSON"
+    )
     p.set_defaults(func=_run)
     return p

@@ -3,13 +3,19 @@ models and the ``--road-*`` options of a driven road."""
 
 import os
 
-from vehicle.road.driven import DEFAULT_TAPER_M, RoadOptions
-from vehicle.sweep.spec import ROAD_OPTION_KEYS
+from bodyvib.vehicle.road.driven import DEFAULT_TAPER_M, RoadOptions
+from bodyvib.vehicle.sweep.spec import ROAD_OPTION_KEYS
 
 from .outputs import OUTPUT_OPTIONS
 
-__all__ = ["add_output_options", "add_models_option", "model_inputs", "ROAD_ARGUMENTS",
-           "add_road_options", "road_options_from_args"]
+__all__ = [
+    "add_output_options",
+    "add_models_option",
+    "model_inputs",
+    "ROAD_ARGUMENTS",
+    "add_road_options",
+    "road_options_from_args",
+]
 
 
 def add_output_options(p, **helps) -> None:
@@ -20,7 +26,7 @@ def add_output_options(p, **helps) -> None:
     p : argparse.ArgumentParser
         The command's parser.
     **helps : str
-        Option name (a key of :data:`bodyvib_cli.outputs.OUTPUT_OPTIONS`) to its help text,
+        Option name (a key of :data:`bodyvib.cli.outputs.OUTPUT_OPTIONS`) to its help text,
         in the order the options are listed in the help.
 
     Examples
@@ -45,8 +51,13 @@ def add_models_option(p, default) -> None:
     default : sequence of str
         Model names used when the option is not given.
     """
-    p.add_argument("--models", nargs="+", default=list(default), metavar="MODEL",
-                   help="shipped model names or parameter-file paths (default: %(default)s)")
+    p.add_argument(
+        "--models",
+        nargs="+",
+        default=list(default),
+        metavar="MODEL",
+        help="shipped model names or parameter-file paths (default: %(default)s)",
+    )
 
 
 def model_inputs(models) -> list:
@@ -61,30 +72,43 @@ def model_inputs(models) -> list:
     -------
     list of (str, str)
         ``("--models", path)`` of every existing file, for
-        :func:`bodyvib_cli.outputs.check_files` (no output may overwrite one).
+        :func:`bodyvib.cli.outputs.check_files` (no output may overwrite one).
     """
     return [("--models", m) for m in models if os.path.isfile(m)]
 
 
 #: The ``--road-KEY`` options' argparse settings, by KEY: a key of a sweep spec's
-#: ``road_options`` and of Road.fmu's road options (:data:`vehicle.sweep.spec.ROAD_OPTION_KEYS`
-#: names the :class:`~vehicle.road.driven.RoadOptions` field each one sets).
+#: ``road_options`` and of Road.fmu's road options (:data:`bodyvib.vehicle.sweep.spec.ROAD_OPTION_KEYS`
+#: names the :class:`~bodyvib.vehicle.road.driven.RoadOptions` field each one sets).
 ROAD_ARGUMENTS = {
-    "taper": dict(type=float, default=DEFAULT_TAPER_M, metavar="M",
-                  help="the road fades in from level over its first M metres (and out over its "
-                  "last), so the car starts at rest on it (default: 5; 0: none)"),
-    "track": dict(type=float, default=0.0, metavar="M",
-                  help="OpenCRG road: lateral offset of the wheel from the reference line, m, "
-                  "positive to the left (default: 0)"),
-    "units": dict(metavar="DIST,ELEV",
-                  help="CSV/ERD road: units of distance and elevation when the file does not "
-                  "name them, e.g. m,mm"),
-    "envelope": dict(action="store_true",
-                     help="road file: tire enveloping, the 250 mm moving average of the IRI "
-                     "standard"),
-    "repeat": dict(action="store_true",
-                   help="road file: repeat the profile when the run is longer than it (default: "
-                   "refuse such a run)"),
+    "taper": dict(
+        type=float,
+        default=DEFAULT_TAPER_M,
+        metavar="M",
+        help="the road fades in from level over its first M metres (and out over its "
+        "last), so the car starts at rest on it (default: 5; 0: none)",
+    ),
+    "track": dict(
+        type=float,
+        default=0.0,
+        metavar="M",
+        help="OpenCRG road: lateral offset of the wheel from the reference line, m, "
+        "positive to the left (default: 0)",
+    ),
+    "units": dict(
+        metavar="DIST,ELEV",
+        help="CSV/ERD road: units of distance and elevation when the file does not "
+        "name them, e.g. m,mm",
+    ),
+    "envelope": dict(
+        action="store_true",
+        help="road file: tire enveloping, the 250 mm moving average of the IRI standard",
+    ),
+    "repeat": dict(
+        action="store_true",
+        help="road file: repeat the profile when the run is longer than it (default: "
+        "refuse such a run)",
+    ),
 }
 
 
@@ -115,7 +139,7 @@ def road_options_from_args(args) -> RoadOptions:
 
     Returns
     -------
-    vehicle.road.driven.RoadOptions
+    bodyvib.vehicle.road.driven.RoadOptions
 
     Examples
     --------
@@ -129,5 +153,6 @@ def road_options_from_args(args) -> RoadOptions:
     >>> road_options_from_args(p.parse_args(["--road-taper", "3", "--road-repeat"]))
     RoadOptions(taper_m=3.0, track_m=0.0, units=None, envelope=False, repeat=True)
     """
-    return RoadOptions(**{field: getattr(args, f"road_{key}")
-                          for key, field in ROAD_OPTION_KEYS.items()})
+    return RoadOptions(
+        **{field: getattr(args, f"road_{key}") for key, field in ROAD_OPTION_KEYS.items()}
+    )

@@ -1,0 +1,7 @@
+"""``python -m bodyvib.cli``: the same as the ``bodyvib`` command."""
+
+import sys
+
+from .main import main
+
+sys.exit(main())

@@ -1,0 +1,172 @@
+"""``bodyvib build`` (and ``python build_fmu.py``): build the project's FMUs into dist/."""
+
+import os
+import sys
+from pathlib import Path
+
+from bodyvib.process import interrupts
+from bodyvib.process.outputs import check_outputs, staged_writes
+from bodyvib.runtime.errors import BodyvibError
+from bodyvib.vehicle.fmus import FMUS, ROAD_DEFAULTS, build_fmus
+from bodyvib.vehicle.road.driven import is_road_file
+from bodyvib.vehicle.ssp import COMPONENTS, SSP_NAME, write_ssp
+from bodyvib.vehicle.sweep.spec import ROAD_OPTION_KEYS
+
+from .options import add_road_options, road_options_from_args
+
+__all__ = ["add_command", "main"]
+
+
+def _run(args) -> int:
+    """Every FMU asked for (pythonfmu, or with ``--native`` C for FMI 2.0 and 3.0) and, with
+    all three components, the SSP of each FMI version: checked first, committed together."""
+    inputs = [("--params", args.params)] if args.params and os.path.isfile(args.params) else []
+    names = list(args.fmus or FMUS)
+    platforms = None
+    if args.native:
+        from bodyvib.fmu.native import choose_platforms
+
+        choice = choose_platforms(args.platforms)  # refuses an unusable --platforms first
+        platforms = choice.platforms
+    dest = Path(args.dest) / "native" if args.native else Path(args.dest)
+    label = "native/" if args.native else ""
+    versions = ((2, ""), (3, "fmi3/")) if args.native else ((2, ""),)
+    ssp = all(name in names for name in COMPONENTS.values())
+    outs = [("--dest", args.dest, None, True)]
+    for _, sub in versions:
+        outs += [(f"--dest {label}{sub}{n}.fmu", str(dest / sub / f"{n}.fmu"), None) for n in names]
+        if ssp:
+            outs.append(
+                (f"--dest {label}{sub}{SSP_NAME}.ssp", str(dest / sub / f"{SSP_NAME}.ssp"), None)
+            )
+    check_outputs(outs, inputs)
+    if args.native:
+        for line in choice.skipped:
+            print(line, file=sys.stderr, flush=True)
+    lines = []
+    # the FMUs and the SSPs made of them are committed together or not at all: a full
+    # disk at the SSP left new FMUs beside the old SSP
+    with staged_writes(guard=interrupts.critical):
+        built = build_fmus(
+            dest,
+            args.params,
+            names=names,
+            echo=lines.append,
+            road=_road(args),
+            native=args.native,
+            platforms=platforms,
+        )
+        if ssp:
+            for version, sub in versions:
+                path = write_ssp(
+                    dest / sub / f"{SSP_NAME}.ssp",
+                    {comp: str(built[sub + name]) for comp, name in COMPONENTS.items()},
+                )
+                kind = f"native, FMI {version}.0: " if args.native else ""
+                lines.append(
+                    f"wrote {path} ({kind}Road -> QuarterCar <-> HumanBody3DOF, "
+                    "parameter set, 1 ms step)"
+                )
+        interrupts.check()
+    for line in lines:
+        print(line)
+    return 0
+
+
+def _road(args) -> dict:
+    """The road options of Road.fmu (pythonfmu or native), checked."""
+    if args.road_length is not None and is_road_file(args.road):
+        raise BodyvibError(
+            "--road-length sets a synthetic road's length; Road.fmu tabulates a "
+            "road file over its own length: drop --road-length"
+        )
+    opts = road_options_from_args(args)
+    return {
+        "road": args.road,
+        "seed": args.road_seed,
+        "length": ROAD_DEFAULTS["length"] if args.road_length is None else args.road_length,
+        "speed": args.road_speed,
+        **{key: getattr(opts, field) for key, field in ROAD_OPTION_KEYS.items()},
+    }
+
+
+def add_command(subparsers):
+    """Register ``bodyvib build``."""
+    p = subparsers.add_parser(
+        "build",
+        help="build the FMUs (HumanBody3DOF, HumanBodyISO7962, QuarterCar, Road) into dist/",
+        description="Build HumanBody3DOF.fmu, HumanBodyISO7962.fmu, QuarterCar.fmu and Road.fmu "
+        "with pythonfmu and check them with fmpy validate, and the coupled system of Road, "
+        "QuarterCar and HumanBody3DOF as QuarterCarWithOccupant.ssp (SSP 1.0). --params bakes a parameter file into "
+        "HumanBody3DOF.fmu (default: the paper's Table 2); --road, --road-seed and --road-length "
+        "choose the road Road.fmu tabulates.",
+    )
+    p.add_argument(
+        "--params",
+        metavar="FILE",
+        help="parameter file for HumanBody3DOF.fmu (default: reduced-paper, the paper's Table 2)",
+    )
+    p.add_argument("--dest", default="dist", help="output folder (default: dist)")
+    p.add_argument(
+        "--fmus",
+        nargs="+",
+        choices=list(FMUS),
+        metavar="NAME",
+        help=f"build only these ({', '.join(FMUS)})",
+    )
+    p.add_argument(
+        "--native",
+        action="store_true",
+        help="build the native C FMUs instead (FMI 2.0 into DEST/native, FMI 3.0 "
+        "into DEST/native/fmi3, each with its QuarterCarWithOccupant.ssp; binaries "
+        "and sources; the host needs no Python)",
+    )
+    p.add_argument(
+        "--platforms",
+        metavar="LIST",
+        help="with --native: binaries to compile, comma-separated among linux64, "
+        "win64 (default: every platform whose compiler is on PATH; the others are "
+        "reported as skipped)",
+    )
+    p.add_argument(
+        "--road",
+        default=ROAD_DEFAULTS["road"],
+        help="Road.fmu: ISO 8608 class A-H, bump, sweep or a road file (.crg, .csv, "
+        ".erd) (default: C)",
+    )
+    p.add_argument(
+        "--road-seed",
+        type=int,
+        default=ROAD_DEFAULTS["seed"],
+        metavar="N",
+        help="Road.fmu: seed of a random road (default: 0)",
+    )
+    p.add_argument(
+        "--road-length",
+        type=float,
+        default=None,
+        metavar="M",
+        help="Road.fmu: tabulated length in m (default: 601, 30 s at 20 m/s; a random "
+        "road repeats after it)",
+    )
+    p.add_argument(
+        "--road-speed",
+        type=float,
+        default=ROAD_DEFAULTS["speed"],
+        metavar="V",
+        help="Road.fmu: default of its speed parameter, m/s (default: 20)",
+    )
+    add_road_options(
+        p,
+        taper_help="Road.fmu: the road fades in from level over its first M "
+        "metres and out over its last, as every run's road (default: 5; 0: none)",
+    )
+    p.set_defaults(func=_run)
+    return p
+
+
+def main(argv=None) -> int:
+    """``python build_fmu.py [options]``: the same as ``bodyvib build [options]``."""
+    from .main import main as cli_main
+
+    return cli_main(["build"] + list(sys.argv[1:] if argv is None else argv))
