@@ -12,7 +12,7 @@ library; a test keeps it so. The modules:
 * :mod:`.discretize` - exact discretization;
 * :mod:`.contract` - the FMU variables, units and value references;
 * :mod:`.engine` - the stepping engine of one FMU instance;
-* :mod:`.tabulated` - the tabulated source kind (Road.fmu: a baked table , Hermite-interpolated);
+* :mod:`.tabulated` - the tabulated source kind (Road.fmu: a baked table, Hermite-interpolated);
 * :mod:`.cores` - every FMU kind in one table (`CORES`) behind one protocol (`Core`);
 * :mod:`.teardown` - the pythonfmu 0.7.0 exit-time workaround.
 """
