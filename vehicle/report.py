@@ -128,7 +128,7 @@ def study_json(study: Study, comparison: Optional[Comparison] = None) -> dict:
     Returns
     -------
     dict
-        :meth:`Study.to_dict`, with ``check`` (:meth:`Comparison.to_dict`) and
+        :meth:`bodyvib.vehicle.study.Study.to_dict`, with ``check`` (:meth:`bodyvib.vehicle.check.Comparison.to_dict`) and
         ``verdict`` when a comparison is given.
     """
     doc = study.to_dict()
