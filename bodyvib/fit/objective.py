@@ -15,8 +15,8 @@ both, weight 1 each: the paper's "positions of the masses". The head alone
 (``pairs={"head": 1}``) does not identify the head mass: the objective keeps
 falling as it grows, so the head mass runs to a bound of the search, and with
 a narrower bound the best fit flips to a 3 kg head on a 72 kg torso with a
-15-19 Hz seat mode, whose seat force is far from the reference's (README,
-"Refitting the reduced model"). This time-domain form
+15-19 Hz seat mode, whose seat force is far from the reference's (docs/tutorials/refit.md,
+"Refitting the reduced model (GA)"). This time-domain form
 is the *definition* (:func:`objective_time_domain`: exact samples
 ``C e^{A t_k} b`` of both state spaces, trapezoid rule). By Parseval the same
 number is::
