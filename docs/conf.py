@@ -47,6 +47,8 @@ exclude_patterns = [
     "Thumbs.db",
     ".DS_Store",
 ]
+# Options are written as typed ("--params", not an en dash).
+smartquotes = False
 html_theme = "alabaster"
 html_title = f"bodyvib {release}"
 html_theme_options = {
