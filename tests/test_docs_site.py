@@ -1,7 +1,8 @@
 """The documentation site builds and works in a browser.
 
-The site is built with warnings as errors (or the build CI just made is reused when it is
-newer than every source), then headless Chromium loads the landing page, an API page and
+The site is built with warnings as errors (or the build CI just made is reused: its stamp
+``docs/_build/html/.build-passed``, touched after a build that passed, is newer than every
+source), then headless Chromium loads the landing page, an API page and
 the search page, and the test reads the DOM after the page's JavaScript ran: the title, a
 gallery plot that is in the page and on disk, the API page's entries, search results.
 """
@@ -28,8 +29,11 @@ CHROMIUM = shutil.which("chromium") or (
 
 
 def newest_source():
-    """The latest modification time among the site's sources (pages, code, changelog)."""
-    newest = os.path.getmtime(os.path.join(ROOT, "CHANGELOG.md"))
+    """The latest modification time among the site's sources (pages, code, changelog, the
+    package list)."""
+    newest = max(
+        os.path.getmtime(os.path.join(ROOT, f)) for f in ("CHANGELOG.md", "pyproject.toml")
+    )
     for top in ("docs", "bodyvib", "vehicle"):
         for folder, dirs, files in os.walk(os.path.join(ROOT, top)):
             if top == "docs" and folder == DOCS:
@@ -44,8 +48,8 @@ def newest_source():
 @pytest.fixture(scope="module")
 def site(tmp_path_factory):
     """The built site's folder: the existing build when it is up to date, else a new one."""
-    index = os.path.join(BUILT, "index.html")
-    if os.path.exists(index) and os.path.getmtime(index) > newest_source():
+    stamp = os.path.join(BUILT, ".build-passed")
+    if os.path.exists(stamp) and os.path.getmtime(stamp) > newest_source():
         return BUILT
     out = tmp_path_factory.mktemp("site")
     run = subprocess.run(
