@@ -9,7 +9,7 @@ The physics library. The reduced 3-DOF human-body model of Balci & Gundogdu
 the GA refit (``bodyvib.fit_*``) and FMUs (:mod:`bodyvib.fmu.pythonfmu`).
 
 :mod:`bodyvib.runtime` is the numpy-only sub-package that travels inside every
-pythonfmu FMU. This package never imports :mod:`vehicle` (the application) or
+pythonfmu FMU. This package never imports :mod:`bodyvib.vehicle` (the application) or
 :mod:`bodyvib.cli` (the command line): the layers run upward
 (docs/architecture.md).
 """

@@ -4,7 +4,7 @@ Build the FMU first (``python build_fmu.py``), then::
 
     python examples/fmu_from_fmpy.py dist/HumanBody3DOF.fmu
 
-The README's fmpy snippet is this function; tests/test_fmu_integration.py runs it.
+The fmpy snippet of docs/tutorials/fmu_hosts.md, "FMUs" is this function; tests/test_fmu_integration.py runs it.
 """
 
 import sys

@@ -12,7 +12,7 @@ which writes ``seat_bump.csv`` and runs exactly::
 ``--output-interval`` is the communication step for a co-simulation FMU and a user
 must give it: without it fmpy takes the FMU's 1 ms and doubles it until the run has
 at most 1000 points (16 ms over the default 10 s), and the seat bump's peak head
-acceleration comes out 29 % high (README, FMUs). fmpy interpolates the input file
+acceleration comes out 29 % high (docs/tutorials/fmu_hosts.md, "FMUs"). fmpy interpolates the input file
 linearly at each communication point and sets ``seat_velocity`` from its column.
 
 The SSP's command line (``python -m fmpy.ssp.simulate``) is no alternative for the

@@ -6,8 +6,8 @@ Build the FMU first (``python build_fmu.py``), then::
 
 libcosim counts time in integer nanoseconds and reads outputs right after each
 doStep, before it sets new inputs: the FMU's outputs are then those of the
-step's end (seat displacement extrapolated at the seat velocity). The README's
-libcosimpy snippet is this function; tests/test_fmu_integration.py runs it.
+step's end (seat displacement extrapolated at the seat velocity). The libcosimpy
+snippet of docs/tutorials/fmu_hosts.md, "FMUs" is this function; tests/test_fmu_integration.py runs it.
 """
 
 import sys

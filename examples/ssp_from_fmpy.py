@@ -17,7 +17,8 @@ what a user must therefore give it:
   ``time``; this script shifts them to the step's end;
 * the start: every connection starts at 0 and outputs are first exchanged after
   the first step (the car drives its first step on a flat road), which the
-  road's own value at t = 0 makes a small, measured error (README).
+  road's own value at t = 0 makes a small, measured error (docs/tutorials/fmu_hosts.md,
+  "Co-simulation in any host (SSP)").
 
 tests/test_ssp.py runs this function.
 """

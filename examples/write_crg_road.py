@@ -8,7 +8,8 @@ so each wheel track sees its own profile. Written with ``pycrg`` (double precisi
     python examples/write_crg_road.py road.crg
     bodyvib cosim --road road.crg --road-track 0.875 --duration 10
 
-tests/test_measured_roads.py runs :func:`write` and the README's worked example.
+tests/test_measured_roads.py runs :func:`write` and the worked example of
+docs/tutorials/measured_road.md, "Measured roads".
 """
 
 import sys

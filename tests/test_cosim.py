@@ -75,7 +75,8 @@ def test_coupling_error_is_second_order_in_the_step(fmus):
 def test_cushion_car_co_simulates_against_its_reference(fmus):
     """The cushion puts a 3 kg pan between car and body: the pan on the body's seat
     spring is an ~80 Hz mode that the coupling has to resolve, so at 1 ms the error
-    is about 0.06 % (README); the 0.05 % target holds at 0.5 ms (second order: 4x less)."""
+    is about 0.06 %
+    (docs/getting_started.md, "The master and its coupling error"); the 0.05 % target holds at 0.5 ms (second order: 4x less)."""
     study = run_study({"b": fmus["body"]}, fmus["cushion"], "C", 20.0, 5.0, 5e-4)
     assert study.bodies["b"].coupling_nrmse <= 5e-4
     # the cushion's 3-4 Hz seat resonance changes the ride: not the rigid seat's figures

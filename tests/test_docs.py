@@ -1,8 +1,9 @@
-"""The design lives in the project: references point at sections and files that exist.
+"""The documentation lives in the project: references point at sections and files that exist.
 
-Code, tests and docs cite the design file followed by a section title in double quotes;
-each such section must be a heading of that file. Paths the README and the design name must exist in the tree, and the
-README's layout section must list every top-level entry of the repository.
+Code, tests and docs cite a documentation page followed by a section title in quotes
+(``docs/getting_started.md, "The check"``); each such section must be a heading of that
+page. Paths the README and the documentation pages name must exist in the tree, and the
+layout page must list every top-level entry of the repository.
 """
 
 import glob
@@ -53,8 +54,81 @@ def test_no_reference_to_a_design_file_the_repository_lacks():
     assert not bad, bad
 
 
-@pytest.mark.parametrize("doc", ["README.md", "docs/architecture.md"])
+def pages():
+    """The documentation's hand-written pages (the generated ones are not in git)."""
+    return sorted(
+        f for f in tracked() if f.startswith("docs/") and f.endswith(".md") and "/changes/" not in f
+    )
+
+
+def headings(path):
+    """The titles of a Markdown file's headings."""
+    return {m.group(1).strip() for m in re.finditer(r"^#+ (.+)$", text(path), re.M)}
+
+
+CITATION = re.compile(r"""(docs/[\w./-]+\.md),?\s+["']([^"'\n]+)["']""")
+
+
+def citations():
+    """Every (file, page, section) a tracked code, test or docs file cites."""
+    out = []
+    for f in tracked():
+        if f.endswith((".py", ".md", ".c", ".h", ".toml", ".txt")) or f.startswith(".ci/"):
+            if f == "tests/test_docs.py":
+                continue
+            out += [(f, m.group(1), m.group(2)) for m in CITATION.finditer(text(f))]
+    return out
+
+
+def unresolved(refs):
+    """The citations among ``refs`` whose page is missing or lacks the section."""
+    return [
+        (f, page, section)
+        for f, page, section in refs
+        if not os.path.isfile(os.path.join(ROOT, page)) or section not in headings(page)
+    ]
+
+
+def test_every_cited_docs_section_is_a_heading_of_its_page():
+    refs = citations()
+    assert len(refs) >= 15, refs  # the code cites the pages (the citations were found)
+    assert not unresolved(refs)
+
+
+@pytest.mark.parametrize(
+    "citation",
+    [
+        'see docs/models.md, "No such section"',  # a heading the page lacks
+        "see docs/no_such_page.md, 'Layout'",  # a page that does not exist
+        'see docs/getting_started.md "The Check"',  # headings are matched exactly
+    ],
+)
+def test_a_stale_citation_is_caught(citation):
+    (m,) = CITATION.finditer(citation)
+    assert unresolved([("x.py", m.group(1), m.group(2))])
+
+
+def test_no_code_cites_the_readme():
+    """The README is a short page; sections cited from code live in docs/ pages."""
+    readers = {"tests/test_readme.py", "tests/test_docs.py", "pyproject.toml"}
+    bad = [
+        f
+        for f in tracked()
+        if f.endswith((".py", ".c", ".h", ".toml"))
+        and f not in readers
+        and "README" in text(f)
+        and not f.startswith("docs/")
+    ]
+    assert not bad, bad
+
+
+@pytest.mark.parametrize("doc", ["README.md", "CHANGELOG.md", "docs/*.md"])
 def test_paths_the_docs_name_exist(doc):
+    for path in pages() if doc == "docs/*.md" else [doc]:
+        _check_paths(path)
+
+
+def _check_paths(doc):
     files = set(tracked())
     dirs = {os.path.dirname(f) for f in files}
     dirs |= {d for f in list(dirs) for d in [os.path.dirname(f)] if d}
@@ -65,24 +139,29 @@ def test_paths_the_docs_name_exist(doc):
         top = token.split("/")[0]
         if "/" not in token or not os.path.exists(os.path.join(ROOT, top)) or "<" in token:
             continue  # not a path of this tree (a unit like m/s2, a URL, a placeholder)
-        if token.rstrip("/") in dirs or token in files or token in outputs:
+        if (
+            token.rstrip("/") in dirs
+            or token in files
+            or token in outputs
+            or token.startswith("docs/_build/")
+        ):
             continue
         if not glob.glob(os.path.join(ROOT, token)):
             missing.append(token)
     assert not missing, f"{doc} names paths the tree lacks: {missing}"
 
 
-def test_readme_layout_lists_the_top_level_of_the_tree():
-    readme = text("README.md")
-    block = re.search(r"^## Layout\n+```\n(.*?)```", readme, re.M | re.S)
-    assert block, "README has a Layout section with a code block"
+def test_layout_page_lists_the_top_level_of_the_tree():
+    layout = text("docs/layout.md")
+    block = re.search(r"^## Layout\n+```\n(.*?)```", layout, re.M | re.S)
+    assert block, "docs/layout.md has a Layout section with a code block"
     listed = {
         ln.split()[0].rstrip("/").split("/")[0]
         for ln in block.group(1).splitlines()
         if ln and not ln.startswith(" ")
     }
     top = {f.split("/")[0] for f in tracked()} - {".gitignore"}
-    assert top <= listed, f"not in the README layout: {sorted(top - listed)}"
+    assert top <= listed, f"not in the layout: {sorted(top - listed)}"
     assert listed <= top, f"listed but not in the tree: {sorted(listed - top)}"
     for ln in block.group(1).splitlines():  # the modules named under bodyvib/ exist
         if ln.startswith("  ") and ln.split()[0].endswith(".py"):
@@ -195,3 +274,43 @@ def test_every_cross_reference_resolves_to_a_real_object():
 )
 def test_a_stale_reference_is_caught(ref, context):
     assert not resolves(ref, context)
+
+
+# -- the site's generated pages ------------------------------------------------------
+
+
+def sitegen():
+    """docs/_ext/sitegen.py, what the documentation build generates."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "sitegen", os.path.join(ROOT, "docs", "_ext", "sitegen.py")
+    )
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_api_reference_lists_every_name_of_every_public_package():
+    """A package page names exactly its package's ``__all__``; every package of the wheel
+    with a non-empty ``__all__`` has one (data, C sources and the CLI aside)."""
+    import importlib
+
+    gen = sitegen()
+    packages = gen.public_packages()
+    assert {"bodyvib", "bodyvib.comfort", "bodyvib.frequency", "bodyvib.vehicle.road"} <= set(
+        packages
+    )
+    for package in packages:
+        page = gen._package_page(package)
+        entries = re.findall(r"^   (\w+)$", page, re.M)
+        assert sorted(entries) == sorted(importlib.import_module(package).__all__), package
+
+
+def test_the_changelog_fragments_merge_by_section():
+    import doctest
+
+    gen = sitegen()
+    assert doctest.testmod(gen).failed == 0
+    merged = gen.merge_fragments(sorted(glob.glob(os.path.join(ROOT, "docs", "changes", "*.md"))))
+    assert merged.startswith("### ") and merged.count("### Added") <= 1

@@ -532,7 +532,7 @@ def test_cli_default_fit_with_report(tmp_path, iso, paper):
     assert o["table2"]["time_domain_per_s"] == pytest.approx(
         objective_time_domain(iso, paper), rel=1e-9
     )
-    # peaks against the ISO model: the paper's 1.446 at 4.43 Hz (the README, "The models")
+    # peaks against the ISO model: the paper's 1.446 at 4.43 Hz (docs/models.md, "The body models")
     assert cmp["transmissibility_peaks"]["table2"][0]["modulus"] == pytest.approx(1.446, abs=5e-4)
     assert cmp["transmissibility_peaks"]["target"][0]["frequency_hz"] == pytest.approx(
         4.45, abs=0.01

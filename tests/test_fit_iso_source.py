@@ -4,7 +4,8 @@ The Biomedical Engineering and Design Handbook, Vol. 1, ch. 1, Fig. 1.7 draws th
 four-mass model the refit is fitted to; it prints two values that differ from the
 paper's Table 1 (which bodyvib/data/iso7962.json keeps): m1 8.25 kg (8.24) and
 k2* 65e9 N/m (66e9). These tests hold the file to the figure's topology and compute the
-effect of the two values on the transmissibility that the README and the file state.
+effect of the two values on the transmissibility that the file and docs/models.md,
+"The ISO 7962 model: provenance and limits" state.
 """
 
 import numpy as np
@@ -47,7 +48,7 @@ def test_the_file_has_the_figures_topology():
 
 
 def test_the_handbook_values_move_the_peak_as_stated():
-    """README and provenance: with m1 8.25 kg and k2* 65e9 N/m the first peak rises by
+    """The docs and the provenance: with m1 8.25 kg and k2* 65e9 N/m the first peak rises by
     1.3e-4 (to 1.66467) and moves by -0.12 mHz; the second by +8e-6 and -1.2 mHz."""
     iso = load_model("iso7962")
     hb = iso.with_parameters(**HANDBOOK)

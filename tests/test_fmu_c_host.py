@@ -258,7 +258,7 @@ def test_nan_input_is_discarded_and_the_host_carries_on(host, fmus, tmp_path):
 
 
 def test_without_libpython_preloaded_the_fmu_binary_does_not_load(host, fmus, tmp_path):
-    """The README's claim that a non-Python host must preload libpython: pythonfmu's binary
+    """The claim of docs/tutorials/fmu_hosts.md, "FMUs" that a non-Python host must preload libpython: pythonfmu's binary
     does not link libpython, so dlopen (RTLD_NOW) fails on an undefined Python symbol."""
     env = host_env(preload=False)
     run = run_host(host, extracted(fmus["HumanBody3DOF"], tmp_path), env=env)
@@ -282,7 +282,7 @@ def fake_prefix(folder):
 
 @pytest.mark.parametrize("where", ["working directory", "PATH"])
 def test_without_pythonhome_a_foreign_prefix_takes_over(host, fmus, tmp_path, where):
-    """Why the README sets PYTHONHOME. Without it, the interpreter the FMU starts looks for
+    """Why docs/tutorials/fmu_hosts.md, "FMUs" sets PYTHONHOME. Without it, the interpreter the FMU starts looks for
     its standard library next to the "python3" it finds on PATH, or in the host's working
     directory. A fake prefix there (lib/pythonX.Y/os.py, no real standard library; on this
     machine /usr/bin/python3, Debian's, or a host started in / or /usr do the same) makes
@@ -297,13 +297,13 @@ def test_without_pythonhome_a_foreign_prefix_takes_over(host, fmus, tmp_path, wh
     check_run(run_host(host, args, env={**host_env(), **extra}, cwd=cwd), "HumanBody3DOF")
 
 
-def test_readme_command_runs_the_c_host(host, fmus, tmp_path):
-    """The README's non-Python-host command, verbatim, with PY and 'host ...' filled in, run
-    with a fake Python prefix first on PATH and as the working directory (the cases
-    PYTHONHOME is for)."""
-    with open(os.path.join(ROOT, "README.md"), encoding="utf-8") as f:
-        readme = f.read()
-    section = readme[readme.index("## FMUs") :]
+def test_documented_command_runs_the_c_host(host, fmus, tmp_path):
+    """The non-Python-host command of docs/tutorials/fmu_hosts.md, "FMUs", verbatim, with PY
+    and 'host ...' filled in, run with a fake Python prefix first on PATH and as the working
+    directory (the cases PYTHONHOME is for)."""
+    with open(os.path.join(ROOT, "docs", "tutorials", "fmu_hosts.md"), encoding="utf-8") as f:
+        page = f.read()
+    section = page[page.index("## FMUs") :]
     section = section[: section.index("\n## ", 5)]
     (block,) = [b for b in re.findall(r"```bash\n(.*?)```", section, re.S) if "LD_PRELOAD" in b]
     args = extracted(fmus["HumanBody3DOF"], tmp_path / "fmu")
@@ -334,7 +334,7 @@ def test_null_arrays_to_get_real_crash_inside_pythonfmus_wrapper(host, fmus, tmp
     fmi2Error; a pythonfmu FMU cannot. pythonfmu 0.7.0's ``PySlaveInstance::GetReal`` reads
     ``vr[0..2]`` to build the Python list before the slave's code runs, so the host dies of
     SIGSEGV in the wrapper: nothing a slave can change. This test pins that limit (the
-    README states it); it fails, and should be turned around, once pythonfmu checks its
+    documentation states it); it fails, and should be turned around, once pythonfmu checks its
     arguments."""
     import signal
 

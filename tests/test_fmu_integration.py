@@ -435,13 +435,14 @@ def test_libcosimpy_runs_both_body_fmus(fmus):
         assert np.all(rel_err(y, ref) < 1e-6), (model, rel_err(y, ref))
 
 
-def test_readme_fmu_snippets_run(fmus):
-    """The README's fmpy and libcosimpy snippets, as written (paths pointed at this build)."""
+def test_documented_fmu_snippets_run(fmus):
+    """The fmpy and libcosimpy snippets of docs/tutorials/fmu_hosts.md, "FMUs", as written
+    (paths pointed at this build)."""
     import re
 
-    with open(os.path.join(ROOT, "README.md"), encoding="utf-8") as f:
-        readme = f.read()
-    section = readme[readme.index("## FMUs") :]
+    with open(os.path.join(ROOT, "docs", "tutorials", "fmu_hosts.md"), encoding="utf-8") as f:
+        page = f.read()
+    section = page[page.index("## FMUs") :]
     section = section[: section.index("\n## ", 5)]
     code = "\n".join(re.findall(r"```python\n(.*?)```", section, re.S))
     code = code.replace("dist/HumanBody3DOF.fmu", fmus["HumanBody3DOF"].replace("\\", "/"))

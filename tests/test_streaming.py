@@ -62,7 +62,7 @@ def test_reference_stream_equals_the_whole_reference(model, tol):
 
 
 def test_streamed_figures_against_the_fft_weighting():
-    """The measured and predicted gap between the two weightings (README, Reliability)."""
+    """The measured and predicted gap between the two weightings (docs/getting_started.md, "The check")."""
     t, (z, v) = _road(30.0)
     a = reference_run(load_car(), load_model("reduced-paper"), z, v, 1e-3)["head_acceleration"]
     fft, rec = comfort_figures(a, 1000.0), stream_comfort_figures(a, 1000.0, block=4096)

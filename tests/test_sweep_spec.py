@@ -172,10 +172,11 @@ def test_refusals_name_the_problem(spec, msg):
         expand(spec)
 
 
-def test_the_readme_spec_example_expands():
+def test_the_documented_spec_example_expands():
     from helpers import ROOT
 
-    text = open(os.path.join(ROOT, "README.md"), encoding="utf-8").read()
+    path = os.path.join(ROOT, "docs", "tutorials", "sweep.md")
+    text = open(path, encoding="utf-8").read()
     section = text.split("## Sweeps", 1)[1].split("\n## ", 1)[0]
     spec = json.loads(section.split("```json\n", 1)[1].split("```", 1)[0])
     cases = expand(spec)

@@ -58,7 +58,7 @@ def test_periodic_wraps_and_non_periodic_holds():
 def test_road_table_against_the_library_road():
     """ISO 8608 class C at 20 m/s and, off the rows, at 17.3 m/s: the value within the
     bound above for the band's shortest wavelength (0.35 m), times the r.m.s.; measured
-    NRMSE 6e-7 (height) and 1e-4 (velocity, README); at 20 m/s and 1 ms every sample
+    NRMSE 6e-7 (height) and 1e-4 (velocity, docs/tutorials/fmu_hosts.md, "FMUs"); at 20 m/s and 1 ms every sample
     falls on a row, where the table holds the library's values."""
     road = make_road("C", 20.0, 30.0, seed=0)
     tab = road_table(road, road.length)

@@ -2,7 +2,7 @@
 
 :func:`compare` takes a study of both bodies on the same road and car
 (:func:`bodyvib.vehicle.study.run_study`) and judges the reduced body criterion by
-criterion against :data:`TOLERANCES` (the README explains each), giving one
+criterion against :data:`TOLERANCES` (docs/getting_started.md, "The check" explains each), giving one
 PASS/FAIL line per criterion and a verdict, as a :class:`Comparison` of
 :class:`Criterion`.
 """
@@ -15,7 +15,7 @@ from .records import Record
 __all__ = ["TOLERANCES", "Criterion", "Comparison", "compare"]
 
 #: Check tolerances: relative difference of the reduced body's figure from the
-#: ISO body's (a fraction), except the peak frequency (Hz). See README, "The check".
+#: ISO body's (a fraction), except the peak frequency (Hz). See docs/getting_started.md, "The check".
 TOLERANCES = {
     "weighted_rms": 0.10,
     "vdv": 0.10,

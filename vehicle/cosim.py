@@ -30,7 +30,8 @@ A plain master that holds ``F_k`` over the step (``extrapolate=False``) is
 first order in ``h``; the extrapolation makes the coupling second order. On a
 class C road at 20 m/s the head-acceleration NRMSE against the monolithic
 reference (:mod:`bodyvib.vehicle.reference`) at h = 1 ms is about 0.43 % held and
-0.03 % extrapolated (README, "Coupling error").
+0.03 % extrapolated (docs/getting_started.md,
+"The master and its coupling error").
 """
 
 import contextlib
@@ -131,7 +132,7 @@ def _check_interface(md, path, kind):
         )
         raise BodyvibError(
             f"FMU '{path}' lacks the {kind} interface: {what}; a {kind} FMU "
-            f"needs inputs {', '.join(inputs)} and outputs {', '.join(outputs)} (the FMU contract: README, FMUs)"
+            f"needs inputs {', '.join(inputs)} and outputs {', '.join(outputs)} (the FMU contract: docs/tutorials/fmu_hosts.md)"
         )
 
 

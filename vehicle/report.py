@@ -1,6 +1,6 @@
 """A study as text and as JSON: per-body figures, coupling error, the check's lines.
 
-The JSON document's keys are listed in the README ("JSON output").
+The JSON document's keys are listed in docs/getting_started.md, "JSON output".
 """
 
 from typing import Optional
@@ -107,7 +107,7 @@ def format_report(study: Study, comparison: Optional[Comparison] = None) -> str:
 #: The line under a failed transmissibility-peak criterion: where the trade-off is drawn.
 PEAK_HINT = (
     "  the 3-DOF chain trades Eq. 3's J for the peak: 'bodyvib fit --pareto --report DIR' "
-    "draws it (README, 'The trade-off')"
+    "draws it (docs/tutorials/refit.md, 'The trade-off')"
 )
 
 
@@ -116,7 +116,8 @@ def _pct(x):
 
 
 def study_json(study: Study, comparison: Optional[Comparison] = None) -> dict:
-    """The JSON document of a study (figures, no time histories); keys in the README.
+    """The JSON document of a study (figures, no time histories); keys in
+    docs/getting_started.md, "JSON output".
 
     Parameters
     ----------
@@ -128,7 +129,7 @@ def study_json(study: Study, comparison: Optional[Comparison] = None) -> dict:
     Returns
     -------
     dict
-        :meth:`Study.to_dict`, with ``check`` (:meth:`Comparison.to_dict`) and
+        :meth:`bodyvib.vehicle.study.Study.to_dict`, with ``check`` (:meth:`bodyvib.vehicle.check.Comparison.to_dict`) and
         ``verdict`` when a comparison is given.
     """
     doc = study.to_dict()

@@ -20,7 +20,8 @@ FMUs in parallel and holds every input over a step (libcosim, Ecos, fmpy.ssp):
 * ``Body.seat_force``, ``Body.seat_force_rate`` -> ``Car``: the seat force rises
   at its exact rate over the step (without the rate it is held, first order).
 
-Measured head-acceleration errors per host: README, "Co-simulation in any host (SSP)".
+Measured head-acceleration errors per host: docs/tutorials/fmu_hosts.md,
+"Co-simulation in any host (SSP)".
 """
 
 import io

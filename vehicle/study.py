@@ -107,7 +107,7 @@ class BodyRun:
     head_window: np.ndarray = field(default_factory=lambda: np.empty(0))
 
     def to_dict(self) -> dict:
-        """The body's entry of the JSON document (figures, no histories; README "JSON output")."""
+        """The body's entry of the JSON document (figures, no histories; docs/getting_started.md, "JSON output")."""
         return {
             "fmu": self.fmu,
             "model": self.model,

@@ -196,7 +196,7 @@ def _common(p):
     p.add_argument(
         "--body",
         metavar="FMU",
-        help="body FMU with the body interface of the README's FMUs section (default: HumanBody3DOF "
+        help="body FMU with the body interface of the FMU contract (default: HumanBody3DOF "
         "built from --params)",
     )
     p.add_argument(
@@ -249,7 +249,7 @@ def add_command(subparsers):
         help="head acceleration of the reduced body against the ISO 7962 body",
         description="Co-simulate the same road and car with the reduced body and the ISO 7962 "
         "body; compare head-acceleration figures, time histories and transmissibility against "
-        "the README's tolerances and print the verdict.",
+        "the documented tolerances and print the verdict.",
     )
     _common(c)
     c.add_argument(

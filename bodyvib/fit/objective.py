@@ -15,11 +15,11 @@ both, weight 1 each: the paper's "positions of the masses". The head alone
 (``pairs={"head": 1}``) does not identify the head mass: the objective keeps
 falling as it grows, so the head mass runs to a bound of the search, and with
 a narrower bound the best fit flips to a 3 kg head on a 72 kg torso with a
-15-19 Hz seat mode, whose seat force is far from the reference's (README,
-"Refitting the reduced model"). This time-domain form
+15-19 Hz seat mode, whose seat force is far from the reference's (docs/tutorials/refit.md,
+"Refitting the reduced model (GA)"). This time-domain form
 is the *definition* (:func:`objective_time_domain`: exact samples
 ``C e^{A t_k} b`` of both state spaces, trapezoid rule). By Parseval the same
-number is
+number is::
 
     J = sum_p w_p (1/pi) int_0^inf |H_ref,p(jw) - H_red,p(jw)|^2 dw
       = sum_p w_p 2 int_0^inf |H_ref,p(j 2 pi f) - H_red,p(j 2 pi f)|^2 df,
@@ -287,7 +287,7 @@ def objective_time_domain(
         Horizon in s; by default 40 time constants of the slowest pole of
         either model (:func:`default_horizon`).
     config : FitConfig, optional
-        As :func:`load_config`.
+        As :func:`~bodyvib.fit.config.load_config`.
 
     Returns
     -------
@@ -330,7 +330,7 @@ def objective_time_domain(
 
 
 def parameter_array(net: Network) -> np.ndarray:
-    """The reduced model's parameters as an array in :data:`REDUCED_PARAMETERS` order."""
+    """The reduced model's parameters as an array in :data:`~bodyvib.fit.space.REDUCED_PARAMETERS` order."""
     missing = [k for k in REDUCED_PARAMETERS if k not in net.parameters]
     if missing:
         raise BodyvibError(
@@ -394,7 +394,7 @@ class FitTarget:
         Parameters
         ----------
         params : array_like, shape (..., 7)
-            Reduced-model parameters in :data:`REDUCED_PARAMETERS` order (SI);
+            Reduced-model parameters in :data:`~bodyvib.fit.space.REDUCED_PARAMETERS` order (SI);
             leading axes are a population.
 
         Returns
@@ -439,7 +439,7 @@ def model_target(
         Role -> weight (the configuration's ``pairs`` by default: head and
         torso, weight 1 each); each role must be a role of the reference model.
     config : FitConfig, optional
-        As :func:`load_config` (its ``quadrature`` section is used).
+        As :func:`~bodyvib.fit.config.load_config` (its ``quadrature`` section is used).
 
     Returns
     -------

@@ -159,7 +159,7 @@ class ParetoFront:
     seed : int
     settings : dict
         The configuration's ``pareto`` section as JSON
-        (:meth:`bodyvib.fit.config.ParetoSettings.to_dict`).
+        (``ParetoSettings.to_dict()`` of :class:`bodyvib.fit.config.ParetoSettings`).
     evaluations : int
     elapsed_s : float
     """

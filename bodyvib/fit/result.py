@@ -25,7 +25,7 @@ __all__ = [
 
 @dataclass
 class FitResult:
-    """Outcome of :func:`fit`.
+    """Outcome of :func:`~bodyvib.fit.search.fit`.
 
     Attributes
     ----------

@@ -47,9 +47,9 @@ def fit(
     Parameters
     ----------
     target : FitTarget
-        From :func:`model_target` or :func:`measured_target`.
+        From :func:`~bodyvib.fit.objective.model_target` or :func:`~bodyvib.fit.objective.measured_target`.
     config : FitConfig, optional
-        From :func:`load_config` (bounds, method and its settings, restarts, polish).
+        From :func:`~bodyvib.fit.config.load_config` (bounds, method and its settings, restarts, polish).
     seed : int
         Seeds the search: ``restarts`` independent searches (per target kind:
         one for a reference model, eight for measured data), each seeded from

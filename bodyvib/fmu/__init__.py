@@ -19,9 +19,9 @@ _HOME = {
     "build_native_fmu": "native",
     "native_model": "native",
     "PLATFORMS": "native",
-    "fmu_src_dir": "sources",
-    "native_dir": "sources",
-    "RUNTIME_DIR": "sources",
+    "fmu_src_dir": "contents",
+    "native_dir": "contents",
+    "RUNTIME_DIR": "contents",
 }
 
 __all__ = sorted(_HOME)

@@ -4,12 +4,12 @@
 refuses a combination that does not exist (pythonfmu FMUs are FMI 2.0 only) before any
 work:
 
-============  =========================================  ===========================================
-kind          backend ``"pythonfmu"`` (FMI 2.0)          backend ``"native"`` (FMI 2.0 or 3.0)
-============  =========================================  ===========================================
-body, car     :func:`~bodyvib.fmu.pythonfmu.build_fmu`    :func:`~bodyvib.fmu.native.build_native_fmu`
-source        :func:`~bodyvib.fmu.pythonfmu.build_source_fmu`  :func:`~bodyvib.fmu.native_table.build_native_source_fmu`
-============  =========================================  ===========================================
+=========  ================================================  ==========================================================
+kind       backend ``"pythonfmu"`` (FMI 2.0)                 backend ``"native"`` (FMI 2.0 or 3.0)
+=========  ================================================  ==========================================================
+body, car  :func:`~bodyvib.fmu.pythonfmu.build_fmu`          :func:`~bodyvib.fmu.native.build_native_fmu`
+source     :func:`~bodyvib.fmu.pythonfmu.build_source_fmu`   :func:`~bodyvib.fmu.native_table.build_native_source_fmu`
+=========  ================================================  ==========================================================
 
 Every builder writes its model description through :mod:`bodyvib.fmu.description`.
 """

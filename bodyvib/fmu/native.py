@@ -577,7 +577,7 @@ def native_description(nm: NativeModel, token: str, fmi: int) -> ModelDescriptio
     nm : NativeModel
         The FMU's interface.
     token : str
-        GUID (FMI 2.0) or instantiation token (FMI 3.0): the hash :func:`_token` computes.
+        GUID (FMI 2.0) or instantiation token (FMI 3.0): the hash ``_token`` computes.
     fmi : {2, 3}
         FMI version.
 

@@ -26,7 +26,7 @@ __all__ = ["build_native_source_fmu", "native_source_model", "source_model_sourc
 
 
 def native_source_model(meta: dict, table, name: str, description: str = "") -> NativeModel:
-    """The FMU view of a source (its contract, :class:`SourceCore`) for the native writers.
+    """The FMU view of a source (its contract, :class:`~bodyvib.runtime.tabulated.SourceCore`) for the native writers.
 
     Parameters
     ----------

@@ -187,7 +187,7 @@ def _labels(nets):
 
 
 def format_table(result, frequencies_hz=THIRD_OCTAVE_HZ) -> str:
-    """A text table: |T| and phase per model at the given frequencies, then the peaks.
+    """A text table: ``|T|`` and phase per model at the given frequencies, then the peaks.
 
     Parameters
     ----------

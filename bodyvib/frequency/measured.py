@@ -44,7 +44,7 @@ __all__ = [
 #: Fewest data rows accepted: the reduced model has six free ratios.
 MIN_ROWS = 8
 
-#: Largest modulus accepted. A seated body's seat-to-head |T| stays below about 3; a value
+#: Largest modulus accepted. A seated body's seat-to-head ``|T|`` stays below about 3; a value
 #: above this is not a transmissibility ratio (a percentage, a force, a wrong column).
 MAX_MODULUS = 100.0
 

@@ -7,7 +7,7 @@ or native): the value reference of a variable is its position in
 master and the tests import these definitions; nobody restates them
 (docs/architecture.md, "The FMU contract").
 
-Interfaces (SI units; ``vr`` = value reference = position in :attr:`bodyvib.runtime.engine.FmuCore.variables`):
+Interfaces (SI units; ``vr`` = value reference = position in the ``variables`` of :class:`bodyvib.runtime.engine.FmuCore`):
 
 * body (``kind="body"``): inputs ``seat_displacement`` [m], ``seat_velocity``
   [m/s], ``seat_acceleration`` [m/s2] (optional, start 0: the seat velocity
@@ -62,8 +62,9 @@ __all__ = [
     "UNITS",
 ]
 
-#: Names of the body interface's inputs and outputs, in value-reference order.
+#: Names of the body interface's inputs, in value-reference order.
 BODY_INPUTS = ("seat_displacement", "seat_velocity", "seat_acceleration")
+#: Names of the body interface's outputs, in value-reference order.
 BODY_OUTPUTS = (
     "head_acceleration",
     "head_displacement",
@@ -71,9 +72,10 @@ BODY_OUTPUTS = (
     "seat_force",
     "seat_force_rate",
 )
-#: Names of the car interface's inputs and of its fixed outputs (the parameter
-#: file's ``fmu_outputs`` follow them), in value-reference order.
+#: Names of the car interface's inputs, in value-reference order.
 CAR_INPUTS = ("road_displacement", "road_velocity", "seat_force", "seat_force_rate")
+#: Names of the car interface's fixed outputs (the parameter file's ``fmu_outputs``
+#: follow them), in value-reference order.
 CAR_OUTPUTS = ("seat_displacement", "seat_velocity")
 
 #: Where the build puts the parameter file, inside the FMU's resources.
@@ -152,7 +154,7 @@ class Interface:
         other input is held.
     output_signals : tuple of str
         Model output (or role) name of each FMU output, for
-        :meth:`bodyvib.runtime.network.LinearModel.output_index`; ``RATE_PREFIX + name``
+        :meth:`bodyvib.runtime.network.SignalNames.output_index`; ``RATE_PREFIX + name``
         (:func:`rate_signal`) is the exact time derivative of that output.
     slope_fallback : tuple of (int, int)
         The rate pairs of a displacement and its velocity input: if the

@@ -20,7 +20,7 @@ class Lifecycle:
     """Mixin of a core: its initialization state and the checks every step makes.
 
     A core sets ``name`` (the FMU's name, in messages) and ``_log`` (``log(message,
-    level)`` or None), and calls :meth:`_not_initialized` in its constructor.
+    level)`` or None), and calls ``_not_initialized`` in its constructor.
 
     Examples
     --------

@@ -69,7 +69,7 @@ PARAMETER_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 
 #: Parameter values accepted (SI: kg, N/m, N s/m). Far outside any body or vehicle
 #: (the stiffest element shipped is 2.2e9 N/m), the state space and the frequency responses
-#: lose every digit: 1e300 gave |T| of 1e280 or 3e-279 where the true value is about 1.
+#: lose every digit: 1e300 gave ``|T|`` of 1e280 or 3e-279 where the true value is about 1.
 PARAMETER_RANGE = PARAMETER_LIMITS
 
 

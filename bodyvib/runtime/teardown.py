@@ -24,7 +24,7 @@ The handler acts only in a Python host (fmpy, libcosimpy, the ``bodyvib`` comman
 it runs on the process's main thread. In a non-Python host, Python is finalized by
 pythonfmu itself on a thread of its own, inside the very teardown this fixes, so there the
 handler does nothing: such a host calls ``finalizePythonInterpreter`` itself after
-``fmi2FreeInstance`` (see ``tests/c_host/fmi2_host.c`` and the README).
+``fmi2FreeInstance`` (see ``tests/c_host/fmi2_host.c`` and docs/tutorials/fmu_hosts.md, "FMUs").
 
 Run-time module of the FMUs: standard library only (ctypes), no numpy, no scipy.
 """

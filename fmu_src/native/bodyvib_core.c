@@ -929,7 +929,7 @@ bv_status bv_set_input_derivatives(bv_instance *c, const unsigned int vr[], size
         }
         if (chain(md, md->vr_index[vr[i]], order[i], &coef) < 0 && value[i] != 0.0) {
             say(c, BV_ERROR, "%s: %s has no in-step derivative of order %d (its rate chain is "
-                             "shorter; orders it has: see canInterpolateInputs in the README); "
+                             "shorter; orders it has: see canInterpolateInputs in the documentation); "
                              "call refused",
                 c->bc.name, md->vr_name[vr[i]], order[i]);
             return BV_ERROR;

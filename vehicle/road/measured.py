@@ -81,7 +81,7 @@ def load_profile(
     envelope: bool = False,
     channel: int = 1,
 ) -> ProfileRoad:
-    """Read a measured road profile (OpenCRG, CSV or ERD) as a :class:`ProfileRoad`.
+    """Read a measured road profile (OpenCRG, CSV or ERD) as a :class:`~bodyvib.vehicle.road.profile.ProfileRoad`.
 
     Parameters
     ----------

@@ -70,7 +70,7 @@ def envelope(elevation, spacing: float, base: float = ENVELOPE_M) -> np.ndarray:
 
 
 class ProfileRoad(Road):
-    """A measured longitudinal profile, uniformly sampled, as a :class:`Road`.
+    """A measured longitudinal profile, uniformly sampled, as a :class:`~bodyvib.vehicle.road.synthetic.Road`.
 
     Parameters
     ----------

@@ -581,7 +581,7 @@ class TaperedRoad(Road):
 
 #: Row spacing of a road table, m (:func:`road_table`): cubic Hermite between rows
 #: with exact slopes; at ISO 8608's shortest wavelength (0.35 m) the interpolation
-#: error is ~(2 pi dx / lambda)^4 / 384 of that harmonic's amplitude (README, "Road.fmu").
+#: error is ~(2 pi dx / lambda)^4 / 384 of that harmonic's amplitude (docs/tutorials/fmu_hosts.md, "FMUs").
 TABLE_SPACING = 0.02
 
 
