@@ -19,8 +19,9 @@ from typing import Optional
 from bodyvib.runtime.errors import BodyvibError
 
 from ..records import Record
+from .base import Road
 from .measured import PROFILE_EXTENSIONS
-from .synthetic import ISO8608_CLASSES, Road, TaperedRoad, make_road
+from .synthetic import ISO8608_CLASSES, TaperedRoad, make_road
 
 __all__ = ["DEFAULT_TAPER_M", "RoadOptions", "is_road_file", "driven_road", "road_label"]
 

@@ -27,7 +27,7 @@ import numpy as np
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.tabulated import HermiteTable
 
-from .synthetic import Road
+from .base import Road
 
 __all__ = ["ProfileRoad", "ENVELOPE_M", "COMFORT_TOP_HZ", "envelope"]
 
