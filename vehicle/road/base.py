@@ -12,7 +12,13 @@ import math
 
 import numpy as np
 
-__all__ = ["Road"]
+__all__ = ["Road", "RoadWarning"]
+
+
+class RoadWarning(UserWarning):
+    """A fact about a road a run should know but that does not stop it (a band the profile
+    does not carry at the run's speed, a step a point contact passes on as it is); the
+    command line prints it as one line."""
 
 
 class Road:

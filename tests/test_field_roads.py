@@ -1,0 +1,162 @@
+"""Roads as they come from the field: a scanned cobblestone OpenCRG surface, a profilometer's
+text export, damaged OpenCRG files, and the unit check that tells a wrong unit from a joint.
+
+The files are synthetic stand-ins made here (tests/field_roads.py), shaped as real ones are.
+"""
+
+import math
+
+import numpy as np
+import pytest
+from bodyvib.vehicle.road.measured import MAX_MEDIAN_SLOPE, load_profile, median_slope
+from bodyvib.vehicle.road.synthetic import N0, N_BAND, class_psd_n0, random_road
+from field_roads import (
+    PROFILER_DATUM,
+    PROFILER_GRADE,
+    write_cobblestone_crg,
+    write_profilometer_txt,
+)
+
+from bodyvib.runtime.errors import BodyvibError
+
+pycrg = pytest.importorskip("pycrg")
+
+
+@pytest.fixture(scope="module")
+def cobbles(tmp_path_factory):
+    path = tmp_path_factory.mktemp("field") / "cobbles.crg"
+    u, v, z = write_cobblestone_crg(path)
+    return str(path), u, v, z
+
+
+# -- the unit check ---------------------------------------------------------------------
+
+
+def test_median_slope_of_a_random_road_is_its_structure_function():
+    """For an ISO 8608 road the height change over a step b is Gaussian with variance
+    ``D(b) = 2 int Gd(n) (1 - cos 2 pi n b) dn`` over the synthesized band; its median modulus
+    is 0.6745 sqrt(D). 2000 m hold ~2000 independent 1 m steps: the sample median is within
+    ~3 % (1.25 / sqrt(2000)); 8 % is 2.5 of its standard errors."""
+    from scipy.integrate import quad
+
+    gd0 = class_psd_n0("A")
+    var, _ = quad(
+        lambda n: 2 * gd0 * (n / N0) ** -2 * (1 - math.cos(2 * math.pi * n)),
+        *N_BAND,
+        limit=400,
+    )
+    x = np.arange(0, 2000.0, 0.05)
+    z = random_road("A", 2000.05, seed=5).displacement(x)
+    assert median_slope(z, 0.05) == pytest.approx(0.6745 * math.sqrt(var), rel=0.08)
+    # the smoothest class in mm read as m: a thousand times steeper, far above the limit
+    assert median_slope(1e3 * z, 0.05) > 2 * MAX_MEDIAN_SLOPE
+
+
+def test_scanned_cobblestones_are_read_and_their_joints_kept(cobbles):
+    """The scan's joints are 10-20 mm steps within 1 cm: slopes of 1-2 at every joint,
+    which no unit check may take for a unit error; the grid comes back as written
+    (single precision: 1e-7 relative of 20 mm)."""
+    path, u, v, z = cobbles
+    for track in (0.0, -0.3, 0.25):
+        road = load_profile(path, track_m=track)
+        j = int(np.argmin(np.abs(v - track)))
+        centre = int(np.argmin(np.abs(v)))
+        expect = z[:, j] - z[0, centre]  # OpenCRG puts the reference line's start at z = 0
+        np.testing.assert_allclose(road.elevation, expect, atol=1e-8)
+        assert road.spacing == pytest.approx(0.01, rel=1e-12)
+        assert np.max(np.abs(np.diff(road.elevation))) / road.spacing > 1.0
+        assert median_slope(road.elevation, road.spacing) < 0.1 * MAX_MEDIAN_SLOPE
+
+
+def test_a_profile_in_mm_read_as_metres_is_still_refused(tmp_path):
+    x = np.arange(0, 100.0, 0.05)
+    z_mm = 1e3 * random_road("B", 100.05, seed=2).displacement(x)
+    path = tmp_path / "mm.csv"
+    path.write_text(
+        "distance_m,elevation_m\n" + "".join(f"{a:.2f},{b:.4f}\n" for a, b in zip(x, z_mm))
+    )
+    with pytest.raises(
+        BodyvibError,
+        match=r"median \d\.\d+ m per m over 1 m steps \(grade removed\), where roads stay "
+        r"below 0.5: the units look wrong \(mm read as m\?\)",
+    ):
+        load_profile(path)
+    path.write_text("distance_m,elevation_mm\n" + path.read_text().split("\n", 1)[1])
+    assert load_profile(path).length == pytest.approx(99.95)
+
+
+# -- files as the field writes them ----------------------------------------------------
+
+
+def test_profilometer_text_export_with_bom_crlf_and_upper_case_units(tmp_path):
+    path = tmp_path / "profiler.txt"
+    x, z = write_profilometer_txt(path)
+    road = load_profile(path)
+    assert road.spacing == 0.25 and road.length == pytest.approx(400.0)
+    np.testing.assert_allclose(road.elevation, z, atol=5e-6)  # printed to 10 um
+    assert road.grade == pytest.approx(PROFILER_GRADE, abs=1e-4)
+    assert road.info["format"] == "text" and road.elevation[0] > PROFILER_DATUM - 0.1
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "distance;elevation\n0,00;1,5\n0,25;2,0\n0,50;1,0\n0,75;0,5\n1,00;0,0\n",
+        "\ufeffDistance (M)\tElevation (MM)\r\n0\t1.5\r\n0.25\t2\r\n0.5\t1\r\n0.75\t0.5\r\n1\t0\r\n",
+        "DISTANCE_M, ELEVATION_MM\n0,1.5\n0.25,2\n0.5,1\n0.75,0.5\n1,0\n",
+        "0 1.5\n0.25 2\n0.5 1\n0.75 0.5\n1 0\n",
+    ],
+    ids=["semicolon-decimal-comma", "bom-tab-crlf", "upper-case", "no-header"],
+)
+def test_column_files_in_every_separator(tmp_path, text):
+    path = tmp_path / "p.txt"
+    path.write_text(text, encoding="utf-8", newline="")
+    road = load_profile(path, units="m,mm" if text.startswith(("0", "distance;")) else None)
+    np.testing.assert_allclose(road.elevation, [1.5e-3, 2e-3, 1e-3, 0.5e-3, 0.0])
+    assert road.spacing == 0.25
+
+
+def test_erd_with_upper_case_units_crlf_and_bom(tmp_path):
+    path = tmp_path / "p.erd"
+    z = 1e3 * random_road("C", 60.0, seed=4).displacement(np.arange(200) * 0.25)
+    head = "ERDFILEV2.00\r\n1, 200, 1, -1, 1, 0.25, 0.0\r\nXUNITS, M\r\nYUNITS, MM\r\nEND\r\n"
+    body = "".join(f"{v:.6f}\r\n" for v in z)
+    path.write_bytes(b"\xef\xbb\xbf" + (head + body).encode())
+    np.testing.assert_allclose(load_profile(path).elevation, z / 1e3, atol=1e-9)
+
+
+# -- damaged OpenCRG files -------------------------------------------------------------
+
+
+def test_truncated_and_corrupt_crg_are_named_with_the_offset(cobbles, tmp_path):
+    path = cobbles[0]
+    data = open(path, "rb").read()
+    start = data.index(b"$$$$")
+    start = data.index(b"\n", start) + 1
+    cut = tmp_path / "cut.crg"
+    cut.write_bytes(data[: start + 5000] + data[start + 5005 :])  # five bytes gone
+    # 977 x 101 single-precision heights, 394708 bytes, filled to whole 80-byte records
+    assert len(data) - start == 394720
+    with pytest.raises(
+        BodyvibError,
+        match=rf"truncated: its header declares 977 samples of 101 channel\(s\), 394720 bytes "
+        rf"of data from byte offset {start}; the file ends at byte offset {start + 394715}, "
+        "5 bytes short",
+    ):
+        load_profile(cut)
+    bad = bytearray(data)
+    bad[start + 4000 : start + 4004] = b"\x7f\x00\x00\x00"  # a float of 1.7e38
+    (tmp_path / "bad.crg").write_bytes(bytes(bad))
+    with pytest.raises(
+        BodyvibError, match=rf"corrupt: a value of 1.7e\+38 m at byte offset {start + 4000}"
+    ):
+        load_profile(tmp_path / "bad.crg")
+
+
+def test_crg_without_its_road_block_is_refused(cobbles, tmp_path):
+    data = open(cobbles[0], "rb").read()
+    i = data.index(b"$ROAD_CRG")
+    j = data.index(b"\n$", i + 1)
+    (tmp_path / "noroad.crg").write_bytes(data[:i] + data[j + 1 :])
+    with pytest.raises(BodyvibError, match=r"has no \$ROAD_CRG block"):
+        load_profile(tmp_path / "noroad.crg")
