@@ -200,7 +200,8 @@ def median_slope(elevation, spacing: float, base: float = UNIT_BASE_M) -> float:
     Returns
     -------
     float
-        m per m; ``g`` is the mean slope over the steps (the profile's grade).
+        m per m; ``g`` is the median slope over the steps (the profile's grade, which a
+        step or a pothole does not move).
 
     Examples
     --------
@@ -213,7 +214,7 @@ def median_slope(elevation, spacing: float, base: float = UNIT_BASE_M) -> float:
     z = np.asarray(elevation, dtype=float)
     k = int(min(z.size - 1, max(1, round(base / spacing))))
     d = z[k:] - z[:-k]
-    return float(np.median(np.abs(d - d.mean())) / (k * spacing))
+    return float(np.median(np.abs(d - np.median(d))) / (k * spacing))
 
 
 def _check_units(elevation, spacing, base, crg):
