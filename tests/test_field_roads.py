@@ -160,3 +160,133 @@ def test_crg_without_its_road_block_is_refused(cobbles, tmp_path):
     (tmp_path / "noroad.crg").write_bytes(data[:i] + data[j + 1 :])
     with pytest.raises(BodyvibError, match=r"has no \$ROAD_CRG block"):
         load_profile(tmp_path / "noroad.crg")
+
+
+# -- the tire contact ------------------------------------------------------------------
+
+
+def _contour(d, a, b, c):
+    """A super-ellipse's lower contour above its lowest point, written out again here."""
+    d = np.abs(np.asarray(d, dtype=float))
+    return b - b * np.power(1 - np.power(np.minimum(d / a, 1.0), c), 1 / c)
+
+
+def test_one_cam_over_a_step_is_the_closed_form_envelope():
+    """A cam resting on a step of height H at s = 0 touches its corner until it is on top:
+    its lowest point lies at max(0, H - y(-x)) ahead of the step and at H beyond it. With
+    c_e = 2 and a_e = b_e = r0 the cam is a rigid wheel: H - r0 + sqrt(r0^2 - x^2)."""
+    from bodyvib.vehicle.road.contact import TandemCam, basic_function
+
+    dx, step = 0.001, 0.02
+    x = np.arange(-600, 400) * dx
+    z = np.where(x >= 0, step, 0.0)
+    for order in (1.8, 2.0):
+        tire = TandemCam(radius_m=0.313, footprint_m=0.111, order=order)
+        w = basic_function(z, dx, tire)
+        expect = np.where(x >= 0, step, np.maximum(0.0, step - _contour(x, 0.313, 0.313, order)))
+        np.testing.assert_allclose(w, expect, atol=1e-15)
+    wheel = step - 0.313 + np.sqrt(np.clip(0.313**2 - x**2, 0.0, None))
+    ahead = (x < 0) & (wheel > 0)
+    np.testing.assert_allclose(w[ahead], wheel[ahead], atol=1e-15)  # the rigid wheel
+    # it leaves the ground where the wheel's circle meets the corner: x = -sqrt(2 r0 H - H^2)
+    first = x[np.argmax(w > 0)]
+    assert first == pytest.approx(-math.sqrt(2 * 0.313 * step - step**2), abs=dx)
+
+
+def test_tandem_is_the_mean_of_two_cams_a_base_apart():
+    """Footprint 0.1 m: base 0.8 x 0.05 = 0.04 m, two samples either side at 1 cm, so the
+    tandem is the exact mean of the closed form at x -+ 0.02 m; it reaches the step's height
+    H at x = +l_s/2, when the rear cam is on top."""
+    from bodyvib.vehicle.road.contact import TandemCam, effective_road
+
+    dx, step = 0.01, 0.018
+    tire = TandemCam(radius_m=0.3, footprint_m=0.1)
+    assert tire.base == pytest.approx(0.04)
+    x = np.arange(-100, 100) * dx
+    z = np.where(x >= -1e-12, step, 0.0)
+
+    def one(s):
+        return np.where(s >= -1e-12, step, np.maximum(0.0, step - _contour(s, 0.3, 0.3, 1.8)))
+
+    w = effective_road(z, dx, tire)
+    inside = (x > x[0] + 0.35) & (x < x[-1] - 0.35)
+    expect = 0.5 * (one(x - 0.02) + one(x + 0.02))
+    np.testing.assert_allclose(w[inside], expect[inside], atol=1e-15)
+    assert np.all(w[x >= 0.02 - 1e-9] == step) and np.all(w[x < 0.02 - 1e-9] < step)
+
+
+def test_tandem_cam_bridges_the_cobble_joints_and_keeps_long_waves(cobbles):
+    """On the scan, the 1-2 cm joints vanish under a cam 0.63 m long: the effective road's
+    steepest slope falls below 0.5 (point contact: above 1). A class C road at 5 cm, whose
+    content lies at wavelengths far above the footprint, passes within 3 % of its r.m.s."""
+    from bodyvib.vehicle.road.contact import default_tire, effective_road
+
+    path = cobbles[0]
+    point = load_profile(path)
+    cam = load_profile(path, contact="tandem-cam")
+    assert point.steepest()[0] > 1.0 and cam.steepest()[0] < 0.5
+    x = np.arange(0, 200, 0.05)
+    z = random_road("C", 210.0, seed=1).displacement(x)
+    e = effective_road(z, 0.05, default_tire())
+    assert np.std((e - z)[200:-200]) < 0.03 * np.std(z)
+
+
+def test_contact_auto_follows_the_footprint(cobbles, tmp_path):
+    x, _ = write_profilometer_txt(tmp_path / "p.txt", length=100.0)
+    assert load_profile(tmp_path / "p.txt", contact="auto").contact is None  # 0.25 m
+    assert load_profile(cobbles[0], contact="auto").contact is not None  # 0.01 m
+    with pytest.raises(BodyvibError, match="unknown road contact 'soft'"):
+        load_profile(cobbles[0], contact="soft")
+
+
+# -- short roads and what a run states ---------------------------------------------------
+
+
+def test_short_road_repeats_faded_in_once_and_joined_smoothly(cobbles):
+    """The 9.76 m scan repeated: faded in over the first 5 m only, then the profile again and
+    again; at each join height and slope are continuous (the slope's jump across the join is
+    no larger than between two samples anywhere)."""
+    from bodyvib.vehicle.road.driven import RoadOptions, driven_road
+
+    road = driven_road(cobbles[0], 10.0, 5.0, step=1e-3, options=RoadOptions(repeat=True))
+    profile = road.road
+    L = profile.length
+    xs = np.linspace(0.0, L, 3001)
+    for k in (1, 2, 5):
+        np.testing.assert_allclose(
+            road.displacement(xs + k * L), profile.displacement(xs), atol=1e-15
+        )
+    eps = 1e-9
+    for k in (1, 3):
+        j = k * L
+        assert abs(road.displacement(j - eps) - road.displacement(j + eps)) < 1e-9
+        assert abs(road.slope(j - eps) - road.slope(j + eps)) < 1e-6
+    d = road.describe()
+    assert d["repeats"] and d["tapered_length_m"] is None and d["contact"]["model"] == "tandem-cam"
+
+
+def test_default_fade_on_a_short_road_is_shortened_with_a_warning(cobbles):
+    from bodyvib.vehicle.road.base import RoadWarning
+    from bodyvib.vehicle.road.driven import driven_road, road_handling
+
+    with pytest.warns(RoadWarning, match=r"is 9.76 m long: faded in and out over 2.44 m"):
+        road = driven_road(cobbles[0], 5.0, 1.9, step=1e-3)
+    assert road.taper == pytest.approx(2.44)
+    assert road_handling(road.describe()) == (
+        "faded in and out over 2.44 m, tandem-cam contact (r0 0.313 m, footprint 0.111 m)"
+    )
+
+
+def test_point_contact_on_a_joint_warns_where(tmp_path):
+    from bodyvib.vehicle.road.base import RoadWarning
+    from bodyvib.vehicle.road.driven import RoadOptions, driven_road
+
+    path = tmp_path / "joint.csv"
+    x = np.arange(0, 30.0, 0.01)
+    z = np.where((x > 12.0) & (x < 12.015), -15.0, 0.0)  # a 15 mm deep joint at 12 m
+    with open(path, "w") as f:
+        f.write("distance_m,elevation_mm\n" + "".join(f"{a:.2f},{b}\n" for a, b in zip(x, z)))
+    with pytest.warns(
+        RoadWarning, match=r"its slope reaches 1.5 m per m at 12 m \(a step, a joint or an edge\)"
+    ):
+        driven_road(path, 10.0, 2.0, step=1e-3, options=RoadOptions(contact="point"))

@@ -112,6 +112,8 @@ def load_profile(
     units: Optional[str] = None,
     envelope: bool = False,
     channel: int = 1,
+    contact: str = "point",
+    periodic: bool = False,
 ) -> ProfileRoad:
     """Read a measured road profile (OpenCRG, CSV or ERD) as a :class:`ProfileRoad`.
 
@@ -125,9 +127,15 @@ def load_profile(
         CSV, text and ERD: ``"DIST,ELEV"`` units, e.g. ``"m,mm"``, when the file does not
         name them (a file that names other units is refused).
     envelope : bool
-        Apply the 250 mm tire-enveloping moving average.
+        Apply the IRI standard's 250 mm moving average.
     channel : int
         ERD: the channel (profile) to read, from 1.
+    contact : {"point", "tandem-cam", "auto"}
+        The tire contact (:mod:`bodyvib.vehicle.road.contact`): the profile as it is, the
+        effective road of the shipped tire, or the effective road when the spacing is
+        finer than the tire's footprint (point contact otherwise).
+    periodic : bool
+        The profile repeats with its length (:class:`ProfileRoad`).
 
     Returns
     -------
@@ -173,16 +181,29 @@ def load_profile(
             "'bump' or 'sweep')"
         )
     spacing = _uniform(x, z, base)
+    _check_units(z, spacing, base, crg=ext == ".crg")
     name = base + (f" at {track_m:g} m" if ext == ".crg" else "")
-    road = ProfileRoad(
+    return ProfileRoad(
         z,
         spacing,
         name=name,
         enveloped=envelope,
+        contact=_tire(contact, spacing),
+        periodic=periodic,
         info=dict(info, file=os.path.abspath(path), start_m=float(x[0])),
     )
-    _check_units(road.elevation, spacing, base, crg=ext == ".crg")
-    return road
+
+
+def _tire(contact, spacing):
+    """The tandem cam to drive with, or None (point contact)."""
+    from .contact import CONTACTS, default_tire
+
+    if contact not in CONTACTS:
+        raise BodyvibError(f"unknown road contact '{contact}'; use one of {', '.join(CONTACTS)}")
+    if contact == "point":
+        return None
+    tire = default_tire()
+    return tire if contact == "tandem-cam" or spacing < tire.footprint_m else None
 
 
 def median_slope(elevation, spacing: float, base: float = UNIT_BASE_M) -> float:
@@ -268,6 +289,10 @@ def _uniform(x, z, base) -> float:
             f"{x[i + 1]:g} (spacing {dx:g}); fill the gap or cut the profile there"
         )
     spacing = float((x[-1] - x[0]) / (x.size - 1))
+    for digits in range(1, 10):  # as printed: 0.01, not 0.0100000002 from a float32 grid
+        if abs(round(spacing, digits) - spacing) <= 1e-6 * spacing:
+            spacing = round(spacing, digits)
+            break
     dev = np.max(np.abs(x - (x[0] + spacing * np.arange(x.size))))
     if dev > UNIFORM_TOLERANCE * spacing:
         raise BodyvibError(

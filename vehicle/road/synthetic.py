@@ -557,7 +557,7 @@ class TaperedRoad(Road):
             self.road.describe(),
             taper_m=self.taper,
             tapered_length_m=self.length if math.isfinite(self.length) else None,
-            repeats=self.periodic,
+            repeats=self.periodic or bool(getattr(self.road, "periodic", False)),
         )
 
 

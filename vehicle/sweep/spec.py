@@ -89,6 +89,7 @@ ROAD_OPTION_KEYS = {
     "units": "units",
     "envelope": "envelope",
     "repeat": "repeat",
+    "contact": "contact",
 }
 _BODY_KEYS = {"model", "vary", "samples", "seed", "method", "name"}
 
@@ -698,6 +699,7 @@ def expand(spec: dict) -> List[Case]:
 
 def _road_options(value) -> Tuple[Tuple[str, object], ...]:
     """``road_options`` of a spec as RoadOptions fields that differ from the defaults."""
+    from ..road.contact import CONTACTS
     from ..road.driven import RoadOptions
 
     if not isinstance(value, dict):
@@ -727,6 +729,10 @@ def _road_options(value) -> Tuple[Tuple[str, object], ...]:
             v = float(v)
         elif k in ("envelope", "repeat") and not isinstance(v, bool):
             raise BodyvibError(f"spec: road option '{k}' must be true or false, got {v!r}")
+        elif k == "contact" and v not in CONTACTS:
+            raise BodyvibError(
+                f"spec: road option 'contact' must be one of {', '.join(CONTACTS)}, got {v!r}"
+            )
         elif k == "units" and v is not None and not isinstance(v, str):
             raise BodyvibError(f"spec: road option 'units' must be text like \"m,mm\", got {v!r}")
         if v != getattr(default, field):
