@@ -5,6 +5,7 @@ The files are synthetic stand-ins made here (tests/field_roads.py), shaped as re
 """
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -290,3 +291,77 @@ def test_point_contact_on_a_joint_warns_where(tmp_path):
         RoadWarning, match=r"its slope reaches 1.5 m per m at 12 m \(a step, a joint or an edge\)"
     ):
         driven_road(path, 10.0, 2.0, step=1e-3, options=RoadOptions(contact="point"))
+
+
+# -- bodyvib road on field files --------------------------------------------------------
+
+
+def golden_car_iri(x, z):
+    """ASTM E1926's IRI written out again: the 250 mm moving average, the Golden Car stepped
+    from sample to sample by the matrix exponential of the car augmented with the profile
+    (linear between samples), started on the mean slope of the first 11 m, and the plain
+    mean of the rectified slope at the n - 1 step ends."""
+    from scipy.linalg import expm
+
+    dx, speed = x[1] - x[0], 80 / 3.6
+    k = max(1, int(round(0.25 / dx)))
+    zr = np.convolve(z, np.ones(k) / k, mode="valid")
+    m = np.zeros((6, 6))  # states: z_s, z_s', z_u, z_u', z_r, dz_r/dt
+    m[0, 1] = m[2, 3] = m[4, 5] = 1.0
+    m[1, :4] = [-63.3, -6.0, 63.3, 6.0]
+    m[3, :5] = [63.3 / 0.15, 6.0 / 0.15, -(63.3 + 653.0) / 0.15, -6.0 / 0.15, 653.0 / 0.15]
+    h = dx / speed
+    step = expm(m * h)
+    j = min(zr.size - 1, int(round(11.0 / dx)))
+    v0 = (zr[j] - zr[0]) / (j * dx) * speed
+    s = np.array([zr[0], v0, zr[0], v0])
+    total = 0.0
+    for i in range(zr.size - 1):
+        s = (step @ np.r_[s, zr[i], (zr[i + 1] - zr[i]) / h])[:4]
+        total += abs(s[1] - s[3]) / speed
+    return 1000 * total / (zr.size - 1)
+
+
+def test_iri_of_field_files_is_the_independent_golden_cars(cobbles, tmp_path):
+    """Both implementations are exact for a profile linear between samples, so they agree to
+    rounding (1e-9; the old half weights at the ends differ by 5e-4 on the 9.76 m scan)."""
+    from bodyvib.vehicle.road.iri import international_roughness_index
+
+    txt = tmp_path / "p.txt"
+    write_profilometer_txt(txt)
+    for path in (txt, cobbles[0]):
+        road = load_profile(path)
+        x = road.distance
+        got = international_roughness_index(x, road.elevation).iri_m_per_km
+        assert got == pytest.approx(golden_car_iri(x, road.elevation), rel=1e-9)
+
+
+def test_road_command_on_field_files(cobbles, tmp_path, capsys):
+    from bodyvib.cli.main import main
+
+    txt = tmp_path / "p.txt"
+    write_profilometer_txt(txt)
+    assert main(["road", str(txt)]) == 0
+    out = capsys.readouterr().out
+    assert "spacing 0.25 m (1601 samples)" in out
+    assert "grade +2.000 %" in out and "no moving average at a 0.25 m spacing" in out
+    assert "moving average at a" in out and "250 mm" not in out
+    assert main(["road", cobbles[0]]) == 0
+    out = capsys.readouterr().out
+    assert "spacing 0.01 m (977 samples)" in out
+    assert "held: the band 0.409-2.83 cycle/m does not reach n0" in out
+    assert "25-sample 250 mm moving average" in out and "warning" not in out
+
+
+def test_road_command_warns_when_the_line_does_not_fit(tmp_path, capsys):
+    from bodyvib.cli.main import main
+
+    x = np.arange(0, 200, 0.05)
+    path = tmp_path / "sine.csv"
+    path.write_text("".join(f"{a:.2f},{5 * np.sin(2 * np.pi * a / 5):.6f}\n" for a in x))
+    assert main(["road", str(path), "--units", "mm"]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"warning: the ISO 8608 line fits this profile badly \(misfit \d+", out)
+    assert main(["road", str(path), "--units", "m,m"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "or give --units" in err and "--road-units" not in err

@@ -30,8 +30,11 @@ def load_road(
         Extent and sample spacing of a synthetic road, m.
     seed : int
         Seed of a synthetic road.
-    track, units
-        Passed to the file reader (lateral offset in m; height units) when given.
+    track : float, optional
+        OpenCRG: lateral offset of the track from the reference line, m.
+    units : str, optional
+        Units of a file that does not name them: ``"DIST,ELEV"`` (``"m,mm"``), or the
+        elevation's alone with the distance in m (``"mm"``).
 
     Returns
     -------
@@ -65,8 +68,10 @@ def load_road(
             "reading profile files needs bodyvib.vehicle.road.measured, which this "
             "installation lacks; give an ISO 8608 class instead"
         ) from None
+    if units is not None and "," not in str(units):
+        units = f"m,{units}"
     kwargs = {k: v for k, v in (("track_m", track), ("units", units)) if v is not None}
-    profile = load_profile(s, **kwargs)
+    profile = load_profile(s, option="--units", **kwargs)
     return (
         np.asarray(profile.distance, float),
         np.asarray(profile.elevation, float),
@@ -121,7 +126,9 @@ def add_command(subparsers):
     p.add_argument(
         "--units",
         default=None,
-        help="height units of a profile file without them in its header (m, mm)",
+        metavar="[DIST,]ELEV",
+        help="units of a profile file that does not name them: distance and elevation "
+        "(m,mm), or the elevation alone with distances in m (mm)",
     )
     add_output_options(
         p, plot="write the profile and PSD plot", json="write the summary (and the PSD) as JSON"

@@ -114,6 +114,7 @@ def load_profile(
     channel: int = 1,
     contact: str = "point",
     periodic: bool = False,
+    option: str = "--road-units",
 ) -> ProfileRoad:
     """Read a measured road profile (OpenCRG, CSV or ERD) as a :class:`ProfileRoad`.
 
@@ -136,6 +137,8 @@ def load_profile(
         finer than the tire's footprint (point contact otherwise).
     periodic : bool
         The profile repeats with its length (:class:`ProfileRoad`).
+    option : str
+        The command-line option that gives ``units``, as the messages name it.
 
     Returns
     -------
@@ -165,7 +168,7 @@ def load_profile(
     base = os.path.basename(path)
     if ext == ".crg":
         if units is not None:
-            raise BodyvibError(f"road '{base}': an OpenCRG file is in metres; drop --road-units")
+            raise BodyvibError(f"road '{base}': an OpenCRG file is in metres; drop {option}")
         x, z, info = _read_crg(path, float(track_m))
     elif ext in (".csv", ".txt", ".erd"):
         if track_m:
@@ -173,7 +176,8 @@ def load_profile(
                 f"road '{base}': a {ext} file holds one profile; --road-track "
                 "applies to OpenCRG files only"
             )
-        x, z, info = (_read_erd if ext == ".erd" else _read_columns)(path, units, channel)
+        read = _read_erd if ext == ".erd" else _read_columns
+        x, z, info = read(path, units, channel, option)
     else:
         raise BodyvibError(
             f"road '{path}': unknown kind of file '{ext}'; give an OpenCRG "
@@ -181,7 +185,7 @@ def load_profile(
             "'bump' or 'sweep')"
         )
     spacing = _uniform(x, z, base)
-    _check_units(z, spacing, base, crg=ext == ".crg")
+    _check_units(z, spacing, base, ext == ".crg", option)
     name = base + (f" at {track_m:g} m" if ext == ".crg" else "")
     return ProfileRoad(
         z,
@@ -238,7 +242,7 @@ def median_slope(elevation, spacing: float, base: float = UNIT_BASE_M) -> float:
     return float(np.median(np.abs(d - np.median(d))) / (k * spacing))
 
 
-def _check_units(elevation, spacing, base, crg):
+def _check_units(elevation, spacing, base, crg, option):
     """Refuse heights whose typical slope no road has (:data:`MAX_MEDIAN_SLOPE`)."""
     typical = median_slope(elevation, spacing)
     if typical <= MAX_MEDIAN_SLOPE:
@@ -247,7 +251,7 @@ def _check_units(elevation, spacing, base, crg):
         "an OpenCRG file holds metres: the file is corrupt or was written in other units"
         if crg
         else "the units look wrong (mm read as m?); name them in the header "
-        "(distance_m,elevation_mm) or give --road-units"
+        f"(distance_m,elevation_mm) or give {option}"
     )
     raise BodyvibError(
         f"road '{base}': the height changes by a median {typical:.3g} m per m over "
@@ -314,18 +318,18 @@ def _unit(text, what, base) -> float:
     return LENGTH_UNITS[u]
 
 
-def _given_units(units, base) -> Optional[Tuple[float, float]]:
+def _given_units(units, base, option) -> Optional[Tuple[float, float]]:
     if units is None:
         return None
     parts = [p.strip() for p in str(units).split(",")]
     if len(parts) != 2:
         raise BodyvibError(
-            f"--road-units '{units}' must name two units, distance and elevation, e.g. m,mm"
+            f"{option} '{units}' must name two units, distance and elevation, e.g. m,mm"
         )
     return _unit(parts[0], "distance", base), _unit(parts[1], "elevation", base)
 
 
-def _scales(base, units, given, header, header_text, no_units) -> Tuple[float, float]:
+def _scales(base, units, given, header, header_text, no_units, option) -> Tuple[float, float]:
     """The factors from a file's distance and elevation units to metres.
 
     Parameters
@@ -342,7 +346,9 @@ def _scales(base, units, given, header, header_text, no_units) -> Tuple[float, f
         The header as a message quotes it.
     no_units : str
         What a message says when neither the header nor ``--road-units`` names the
-        units (the fix ``or give --road-units m,mm`` is appended).
+        units (the fix ``or give OPTION m,mm`` is appended).
+    option : str
+        The option that gives the units, as the messages name it (``--road-units``).
 
     Returns
     -------
@@ -359,12 +365,12 @@ def _scales(base, units, given, header, header_text, no_units) -> Tuple[float, f
         scales = (_unit(header[0], "distance", base), _unit(header[1], "elevation", base))
         if given is not None and given != scales:
             raise BodyvibError(
-                f"road '{base}': --road-units {units} disagrees with the header "
+                f"road '{base}': {option} {units} disagrees with the header "
                 f"{header_text}; drop one of them"
             )
         return scales
     if given is None:
-        raise BodyvibError(f"road '{base}': {no_units} or give --road-units m,mm")
+        raise BodyvibError(f"road '{base}': {no_units} or give {option} m,mm")
     return given
 
 
@@ -383,7 +389,7 @@ def _splitter(line):
     return lambda ln: re.sub(r"\s+(?=[\[(])", "", ln).split()
 
 
-def _read_columns(path, units, channel):
+def _read_columns(path, units, channel, option):
     base = os.path.basename(path)
     lines = _text_lines(path)
     rows = [
@@ -397,12 +403,12 @@ def _read_columns(path, units, channel):
         )
     split = _splitter(rows[0][1])
     head = split(rows[0][1])
-    given = _given_units(units, base)
+    given = _given_units(units, base, option)
     if _is_number(head[0]):
         if given is None:
             raise BodyvibError(
                 f"road '{base}' has no header; start it with the columns and their "
-                "units, e.g. distance_m,elevation_mm (or give --road-units m,mm)"
+                f"units, e.g. distance_m,elevation_mm (or give {option} m,mm)"
             )
         head, data = None, rows
     else:
@@ -421,6 +427,7 @@ def _read_columns(path, units, channel):
         (named[0].group(2), named[1].group(2)) if all(named) else None,
         text,
         f"the header {text} names no units; name them (distance_m,elevation_mm)",
+        option,
     )
     x, z = [], []
     for k, (lineno, ln) in enumerate(data):
@@ -467,7 +474,7 @@ def _text_lines(path) -> List[str]:
 # -- ERD ------------------------------------------------------------------------------
 
 
-def _read_erd(path, units, channel):
+def _read_erd(path, units, channel, option):
     base = os.path.basename(path)
     lines = _text_lines(path)
     if not lines or not lines[0].strip().upper().startswith("ERDFILEV"):
@@ -522,7 +529,7 @@ def _read_erd(path, units, channel):
         )
     xu = keys.get("XUNITS") or keys.get("GENUNITS")
     yu = keys.get("YUNITS") or keys.get("UNITSNAM") or keys.get("UNITS")
-    given = _given_units(units, base)
+    given = _given_units(units, base, option)
     yname = (yu[channel - 1] if len(yu) >= channel else yu[0]) if yu else None
     scales = _scales(
         base,
@@ -531,6 +538,7 @@ def _read_erd(path, units, channel):
         (xu[0], yname) if xu and yu else None,
         f"(XUNITS {xu[0] if xu else ''}, YUNITS {yname})",
         "the ERD header names no units (XUNITS and YUNITS); add them",
+        option,
     )
     text = " ".join(lines[end + 1 :]).replace(",", " ")
     try:
