@@ -365,3 +365,17 @@ def test_road_command_warns_when_the_line_does_not_fit(tmp_path, capsys):
     assert main(["road", str(path), "--units", "m,m"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "or give --units" in err and "--road-units" not in err
+
+
+def test_sweep_grid_on_a_road_file_takes_cosims_body_and_car(cobbles):
+    """``sweep --grid road=FILE speed=10,20``: no body, no car, as ``cosim`` needs none.
+    (The 9.76 m scan is faded over 2.44 m at each end, with a warning.)"""
+    from bodyvib.vehicle.fmus import FMUS
+    from bodyvib.vehicle.road.base import RoadWarning
+    from bodyvib.vehicle.sweep.spec import expand, grid_spec
+
+    with pytest.warns(RoadWarning, match="faded in and out over 2.44 m"):
+        cases = expand(grid_spec([f"road={cobbles[0]}", "speed=10,20"], duration=0.4))
+    assert [c.speed for c in cases] == [10.0, 20.0]
+    assert {c.body_model for c in cases} == {FMUS["HumanBody3DOF"][1]} == {"reduced-paper"}
+    assert {c.car for c in cases} == {"quarter-car"}

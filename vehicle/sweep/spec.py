@@ -20,7 +20,8 @@ the order road, seed, speed, duration, step, body, car)::
     }
 
 Defaults: ``seed`` 0, ``duration`` 30, ``step`` 0.001, ``car`` ``quarter-car``;
-``road``, ``speed`` and ``body`` are required.
+``road`` and ``speed`` are required; ``body`` defaults to cosim's body (the paper's reduced
+model, ``reduced-paper``) and ``car`` to its car (``quarter-car``).
 
 **Parameter ranges around one model.** ``vary`` maps parameter names of
 ``model`` to ``[low, high]`` *factors* on the model's own value. ``samples``
@@ -53,6 +54,7 @@ from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.jsonfile import read_json
 from bodyvib.runtime.modelfile import network_to_dict
 
+from ..fmus import FMUS
 from ..quarter_car import load_car
 from ..road.driven import RoadOptions, is_road_file, road_label
 from ..study import check_settings
@@ -78,7 +80,7 @@ SPEC_KEYS = {
     "speed": None,
     "duration": 30.0,
     "step": 1e-3,
-    "body": None,
+    "body": FMUS["HumanBody3DOF"][1],  # cosim's default body, the paper's reduced model
     "car": "quarter-car",
     "road_options": {},
 }
