@@ -379,3 +379,63 @@ def test_sweep_grid_on_a_road_file_takes_cosims_body_and_car(cobbles):
     assert [c.speed for c in cases] == [10.0, 20.0]
     assert {c.body_model for c in cases} == {FMUS["HumanBody3DOF"][1]} == {"reduced-paper"}
     assert {c.car for c in cases} == {"quarter-car"}
+
+
+# -- the stand-ins through the commands ----------------------------------------------------
+
+
+@pytest.mark.integration
+def test_field_files_run_through_cosim_check_and_sweep(cobbles, tmp_path, capsys):
+    """No --road-* option: the scan drives through the tandem cam (its fade shortened to fit
+    it), the 0.25 m profile point by point with the 40 Hz band stated; the header and the JSON
+    say so. (Short runs: the figures themselves are checked elsewhere.)"""
+    import json
+
+    from bodyvib.cli.main import main
+
+    txt = tmp_path / "p.txt"
+    write_profilometer_txt(txt, length=120.0)
+    js = tmp_path / "cob.json"
+    assert (
+        main(
+            [
+                "cosim",
+                "--road",
+                cobbles[0],
+                "--speed",
+                "10",
+                "--duration",
+                "0.9",
+                "--quiet",
+                "--json",
+                str(js),
+            ]
+        )
+        == 0
+    )
+    out, err = capsys.readouterr()
+    assert "faded in and out over 2.44 m, tandem-cam contact (r0 0.313 m" in out
+    assert "warning: road 'cobbles.crg at 0 m' is 9.76 m long" in err
+    road = json.load(open(js))["road"]
+    assert road["contact"]["model"] == "tandem-cam" and road["taper_m"] == pytest.approx(2.44)
+    assert main(["check", "--road", str(txt), "--duration", "2", "--quiet"]) == 0
+    out, err = capsys.readouterr()
+    assert "point contact" in out and "carries nothing above 40 Hz" in err
+    csv = tmp_path / "sweep.csv"
+    assert (
+        main(
+            [
+                "sweep",
+                "--grid",
+                f"road={txt}",
+                "speed=10,20",
+                "--duration",
+                "2",
+                "--csv",
+                str(csv),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
+    assert len(open(csv).read().strip().splitlines()) == 3

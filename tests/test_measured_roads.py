@@ -649,9 +649,10 @@ def test_build_refuses_a_length_for_a_road_file(files, folder, capsys):
 
 
 @pytest.mark.integration
-def test_readme_worked_example(folder):
-    """README, Measured roads: examples/write_crg_road.py, then bodyvib cosim on it at a
-    0.875 m track for 10 s prints the figures the README shows (to their printed digits)."""
+def test_guide_worked_example(folder):
+    """docs/guide/roads.md, Worked example: examples/write_crg_road.py, then bodyvib cosim on
+    it at a 0.875 m track for 10 s prints the figures the guide shows (to their printed
+    digits)."""
     import json
     import sys
 
@@ -682,8 +683,8 @@ def test_readme_worked_example(folder):
         == 0
     )
     (body,) = json.load(open(out))["bodies"].values()
-    readme = open(os.path.join(os.path.dirname(DATA), "..", "..", "README.md")).read()
-    example = readme.split("**Worked example**", 1)[1].split("### The car", 1)[0]
+    guide = open(os.path.join(os.path.dirname(DATA), "..", "..", "docs", "guide", "roads.md"))
+    example = guide.read().split("## Worked example", 1)[1]
     printed = {
         k: float(re.search(pat, example).group(1))
         for k, pat in (
