@@ -232,6 +232,25 @@ def test_tandem_cam_bridges_the_cobble_joints_and_keeps_long_waves(cobbles):
     assert np.std((e - z)[200:-200]) < 0.03 * np.std(z)
 
 
+def test_a_repeated_profile_is_enveloped_across_its_join():
+    """A repeated profile: the cams at its ends rest on the next repetition, exactly as on the
+    profile laid end to end (for a period longer and one shorter than the cam)."""
+    from bodyvib.vehicle.road.contact import default_tire, effective_road
+
+    tire, rng = default_tire(), np.random.default_rng(0)
+    for n in (300, 20):
+        z = rng.normal(0.0, 0.003, n)
+        z[-1] = z[0]
+        k = 40 // n + 3
+        laid = np.concatenate([np.tile(z[:-1], k), z])
+        i = (k // 2) * (n - 1)
+        np.testing.assert_allclose(
+            effective_road(z, 0.01, tire, periodic=True),
+            effective_road(laid, 0.01, tire)[i : i + n],
+            atol=1e-15,
+        )
+
+
 def test_contact_auto_follows_the_footprint(cobbles, tmp_path):
     x, _ = write_profilometer_txt(tmp_path / "p.txt", length=100.0)
     assert load_profile(tmp_path / "p.txt", contact="auto").contact is None  # 0.25 m

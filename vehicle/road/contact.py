@@ -140,7 +140,9 @@ def cam_contour(d, half_length: float, half_height: float, order: float) -> np.n
     return half_height * (1.0 - (1.0 - r**order) ** (1.0 / order))
 
 
-def basic_function(elevation, spacing: float, tire: TandemCam) -> np.ndarray:
+def basic_function(
+    elevation, spacing: float, tire: TandemCam, periodic: bool = False
+) -> np.ndarray:
     """Height of one cam's lowest point resting on a profile, at each of its samples, m.
 
     Parameters
@@ -150,6 +152,9 @@ def basic_function(elevation, spacing: float, tire: TandemCam) -> np.ndarray:
     spacing : float
         m.
     tire : TandemCam
+    periodic : bool
+        The profile repeats: its last sample is its first, and beyond either end the cam
+        rests on the next repetition instead of the end value.
 
     Returns
     -------
@@ -170,14 +175,22 @@ def basic_function(elevation, spacing: float, tire: TandemCam) -> np.ndarray:
     lift = cam_contour(
         np.arange(-m, m + 1) * spacing, tire.half_length, tire.half_height, tire.order
     )
-    padded = np.pad(z, m, mode="edge")
+    if periodic:  # the neighbouring repetitions: the period is z[:-1]
+        period = z[:-1]
+        reps = m // period.size + 1
+        around = np.tile(period, reps)
+        padded = np.concatenate([around[around.size - m :], z, np.tile(period, reps)[1 : m + 1]])
+    else:
+        padded = np.pad(z, m, mode="edge")
     w = np.full(z.size, -np.inf)
     for k, y in enumerate(lift):
         np.maximum(w, padded[k : k + z.size] - y, out=w)
     return w
 
 
-def effective_road(elevation, spacing: float, tire: TandemCam) -> np.ndarray:
+def effective_road(
+    elevation, spacing: float, tire: TandemCam, periodic: bool = False
+) -> np.ndarray:
     """The tandem's effective height at each sample of a profile, m.
 
     Parameters
@@ -187,6 +200,8 @@ def effective_road(elevation, spacing: float, tire: TandemCam) -> np.ndarray:
     spacing : float
         m.
     tire : TandemCam
+    periodic : bool
+        The profile repeats (:func:`basic_function`).
 
     Returns
     -------
@@ -205,6 +220,12 @@ def effective_road(elevation, spacing: float, tire: TandemCam) -> np.ndarray:
     """
     z = np.asarray(elevation, dtype=float)
     x = np.arange(z.size) * spacing
-    w = basic_function(z, spacing, tire)
+    w = basic_function(z, spacing, tire, periodic)
     half = tire.base / 2
+    if periodic:  # one period of samples (the last is the first again)
+        x, w, period = x[:-1], w[:-1], x[-1]
+        ahead = np.interp(x + half, x, w, period=period)
+        behind = np.interp(x - half, x, w, period=period)
+        mean = 0.5 * (ahead + behind)
+        return np.append(mean, mean[0])
     return 0.5 * (np.interp(x - half, x, w) + np.interp(x + half, x, w))

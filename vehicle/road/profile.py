@@ -151,7 +151,7 @@ class ProfileRoad(Road):
             raise BodyvibError(f"profile '{name}' has {z.size} samples; a road needs at least 4")
         if contact is not None:  # the cams ride the profile without its grade
             line = z[0] + (z[-1] - z[0]) * np.linspace(0.0, 1.0, z.size)
-            z = effective_road(z - line, spacing, contact) + line
+            z = effective_road(z - line, spacing, contact, periodic) + line
         self.contact = contact
         self.periodic = bool(periodic)
         self.name = name
