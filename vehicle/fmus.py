@@ -96,7 +96,7 @@ def fmu_road(
     spec : str
         ISO 8608 class ``A``-``H`` (a random road whose period is ``length``),
         ``bump``, ``sweep`` (0.5-20 Hz at ``speed`` over ``length``) or a road file
-        (``.crg``, ``.csv``, ``.erd``: tabulated over its own length).
+        (``.crg``, ``.csv``, ``.txt``, ``.erd``: tabulated over its own length).
     length : float
         m (a synthetic road's).
     seed : int

@@ -105,7 +105,7 @@ def add_command(subparsers):
     p.add_argument(
         "road",
         metavar="FILE|CLASS",
-        help="a profile file (CRG, CSV, ERD) or an ISO 8608 class A-H (synthetic)",
+        help="a profile file (CRG, CSV, TXT, ERD) or an ISO 8608 class A-H (synthetic)",
     )
     p.add_argument(
         "--length", type=float, default=1000.0, help="length of a synthetic road, m (default 1000)"

@@ -5,7 +5,7 @@
 roads of classes A-H, a bump, a sine sweep; it also holds the fade-in
 :class:`~bodyvib.vehicle.road.synthetic.TaperedRoad`, the road input at a speed, and the
 table that ``Road.fmu`` carries. :mod:`~bodyvib.vehicle.road.measured` reads measured
-profiles (OpenCRG, CSV, ERD) into a :class:`~bodyvib.vehicle.road.profile.ProfileRoad`.
+profiles (OpenCRG, CSV and text columns, ERD) into a :class:`~bodyvib.vehicle.road.profile.ProfileRoad`.
 :mod:`~bodyvib.vehicle.road.driven` gives the road every run and ``Road.fmu`` drive: any of
 them, faded in from level, so the car starts at rest on it.
 :mod:`~bodyvib.vehicle.road.iri` computes a profile's

@@ -85,7 +85,7 @@ def is_road_file(spec) -> bool:
     Returns
     -------
     bool
-        True for a name with a road file's extension (``.crg``, ``.csv``, ``.erd``), a
+        True for a name with a road file's extension (``.crg``, ``.csv``, ``.txt``, ``.erd``), a
         path or an existing file; False for an ISO 8608 class letter, ``bump``,
         ``sweep`` or any other name (refused as an unknown road).
 
@@ -128,7 +128,7 @@ def driven_road(
     ----------
     spec : str
         ISO 8608 class ``A``-``H``, ``bump``, ``sweep`` (:func:`bodyvib.vehicle.road.synthetic.make_road`)
-        or a road file (``.crg``, ``.csv``, ``.erd``: :func:`bodyvib.vehicle.road.measured.load_profile`).
+        or a road file (``.crg``, ``.csv``, ``.txt``, ``.erd``: :func:`bodyvib.vehicle.road.measured.load_profile`).
     speed : float
         m/s.
     duration : float

@@ -416,7 +416,7 @@ def make_road(spec: str, speed: float, duration: float, seed: int = 0) -> Road:
         return random_road(s.upper(), length=length + 1.0, seed=seed)
     raise BodyvibError(
         f"unknown road '{spec}'; use an ISO 8608 class A-H, 'bump', 'sweep' or a road file "
-        "(.crg, .csv, .erd)"
+        "(.crg, .csv, .txt, .erd)"
     )
 
 

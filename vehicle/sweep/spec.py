@@ -6,9 +6,9 @@ the order road, seed, speed, duration, step, body, car)::
 
     {
       "road": ["A", "B", "C", "D", "E"],   ISO 8608 class A-H, "bump", "sweep" or a road file
-                                           (.crg, .csv, .erd; relative to the working folder)
+                                           (.crg, .csv, .txt, .erd; relative to the working folder)
       "road_options": {"taper": 5},        how roads are driven: taper (m), track (m), units,
-                                           envelope, repeat (as the --road-* options)
+                                           envelope, repeat, contact (as the --road-* options)
       "seed": [0],                         random-road seed(s), or a range "0..24" (no effect on bump/sweep)
       "speed": [10, 15, 20, 25, 30],       m/s
       "duration": 30,                      s
