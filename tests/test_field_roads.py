@@ -458,3 +458,29 @@ def test_field_files_run_through_cosim_check_and_sweep(cobbles, tmp_path, capsys
         == 0
     )
     assert len(open(csv).read().strip().splitlines()) == 3
+
+
+def test_road_command_describes_both_wheel_paths(cobbles, tmp_path, capsys):
+    """``--track 0.3 -0.3``: one summary per wheel path, each that of the grid's column
+    at that offset (as the scan was written), in the text, the JSON and one plot."""
+    import json
+
+    from scipy.signal import detrend
+
+    from bodyvib.cli.main import main
+
+    path, u, v, z = cobbles
+    js, png = tmp_path / "t.json", tmp_path / "t.png"
+    assert (
+        main(["road", path, "--track", "0.3", "-0.3", "--json", str(js), "--plot", str(png)]) == 0
+    )
+    out = capsys.readouterr().out
+    assert out.count("road cobbles.crg at ") == 2 and "\n\nroad cobbles.crg at -0.3 m" in out
+    tracks = json.load(open(js))["tracks"]
+    for doc, offset in zip(tracks, (0.3, -0.3)):
+        column = z[:, int(np.argmin(np.abs(v - offset)))]
+        assert doc["name"] == f"cobbles.crg at {offset:g} m"
+        assert doc["elevation_m"]["rms"] == pytest.approx(np.std(detrend(column)), rel=1e-5)
+    assert png.stat().st_size > 10000
+    assert main(["road", "C", "--track", "0.3"]) == 2
+    assert "--track applies to OpenCRG (.crg) surfaces" in capsys.readouterr().err

@@ -80,16 +80,34 @@ def load_road(
 
 
 def _run(args):
-    from bodyvib.vehicle.road.summary import format_summary, plot_summary, summarize_profile
+    from bodyvib.vehicle.road.summary import (
+        TrackSummaries,
+        format_summary,
+        plot_summary,
+        summarize_profile,
+    )
 
     check_files(
         args, ("json", "plot"), inputs=[("ROAD", args.road)] if os.path.isfile(args.road) else []
     )
-    x, z, name = load_road(args.road, args.length, args.spacing, args.seed, args.track, args.units)
-    interrupts.check()
-    summary = summarize_profile(x, z, name)
-    print(format_summary(summary))
-    write_result(args, summary, plot_summary)
+    if args.track and not str(args.road).strip().lower().endswith(".crg"):
+        raise BodyvibError(
+            f"--track applies to OpenCRG (.crg) surfaces; '{args.road}' holds one profile: "
+            "drop --track"
+        )
+    tracks = args.track or [None]
+    summaries = []
+    for track in tracks:
+        x, z, name = load_road(args.road, args.length, args.spacing, args.seed, track, args.units)
+        interrupts.check()
+        summaries.append(summarize_profile(x, z, name))
+    if len(summaries) == 1:
+        print(format_summary(summaries[0]))
+        write_result(args, summaries[0], plot_summary)
+    else:
+        both = TrackSummaries(tuple(summaries))
+        print(both.format())
+        write_result(args, both, TrackSummaries.plot)
     return 0
 
 
@@ -120,8 +138,11 @@ def add_command(subparsers):
     p.add_argument(
         "--track",
         type=float,
+        nargs="+",
         default=None,
-        help="lateral offset of the wheel track in a CRG file, m",
+        metavar="M",
+        help="lateral offset of the wheel track in a CRG file, m, positive to the left; "
+        "several (--track 0.8 -0.8: both wheel paths) describe each",
     )
     p.add_argument(
         "--units",

@@ -24,7 +24,13 @@ from .classify import (
 from .iri import IriResult, _check_profile, international_roughness_index
 from .synthetic import ISO8608_CLASSES, N0, class_psd_n0
 
-__all__ = ["RoadSummary", "summarize_profile", "format_summary", "plot_summary"]
+__all__ = [
+    "RoadSummary",
+    "TrackSummaries",
+    "summarize_profile",
+    "format_summary",
+    "plot_summary",
+]
 
 
 @dataclass(frozen=True)
@@ -84,6 +90,48 @@ class RoadSummary:
         if psd:
             d["psd"] = {"n_cycles_per_m": self.psd_n.tolist(), "gd_m3": self.psd_gd.tolist()}
         return d
+
+
+@dataclass(frozen=True)
+class TrackSummaries:
+    """Summaries of several tracks of one road (an OpenCRG surface's wheel paths).
+
+    Attributes
+    ----------
+    summaries : tuple of RoadSummary
+        One per track, in the order asked.
+    """
+
+    summaries: tuple
+
+    def to_dict(self, psd: bool = True) -> dict:
+        """JSON-ready dict: ``{"tracks": [summary, ...]}``."""
+        return {"tracks": [s.to_dict(psd) for s in self.summaries]}
+
+    def format(self) -> str:
+        """The tracks' texts (:func:`format_summary`), a blank line between them."""
+        return "\n\n".join(format_summary(s) for s in self.summaries)
+
+    def plot(self, path) -> None:
+        """The tracks' profiles over distance and their PSDs, in one figure."""
+        with stacked_panels(path) as (ax1, ax2):
+            for s in self.summaries:
+                ax1.plot(s.distance, 1000 * s.elevation, lw=0.6, label=s.name)
+                ax2.loglog(
+                    s.psd_n,
+                    s.psd_gd,
+                    lw=0.6,
+                    label=f"{s.name}: class "
+                    f"{s.iso8608.iso8608_class}, IRI {s.iri.iri_m_per_km:.2f} m/km",
+                )
+            ax1.set_xlabel("distance [m]")
+            ax1.set_ylabel("elevation [mm]")
+            ax1.grid(True, alpha=0.3)
+            ax1.legend(fontsize=8)
+            ax2.set_xlabel("spatial frequency n [cycle/m]")
+            ax2.set_ylabel("Gd(n) [m^3]")
+            ax2.grid(True, which="both", alpha=0.3)
+            ax2.legend(fontsize=8, loc="lower left")
 
 
 def summarize_profile(distance, elevation, name: str = "profile") -> RoadSummary:
