@@ -2,8 +2,8 @@
 
 A road is a vertical profile ``z(x)`` [m] over the distance ``x`` [m] travelled by a
 wheel. Synthetic roads (:mod:`~bodyvib.vehicle.road.synthetic`), measured profiles
-(:mod:`~bodyvib.vehicle.road.profile`), the tire's effective road
-(:mod:`~bodyvib.vehicle.road.contact`) and the faded-in road a run drives all derive
+(:mod:`~bodyvib.vehicle.road.profile`, through their tire contact,
+:mod:`~bodyvib.vehicle.road.contact`) and the faded-in road a run drives all derive
 from :class:`Road`; a car at speed ``V`` sees ``z(V t)`` and the road velocity
 ``V dz/dx(V t)``.
 """

@@ -5,16 +5,16 @@ take their road from here, so they all start the same way: the car starts at res
 on level road, and the road fades in over its first ``taper_m`` metres (5 m by
 default, ``--road-taper``) and out over its last
 (:class:`~bodyvib.vehicle.road.synthetic.TaperedRoad`): no initial height, no initial slope,
-whatever the road, and the car's own state untouched.
+whatever the road, and the car's own state untouched. The alternative, starting the
+car in static equilibrium at the road's first height, would need every car FMU to
+take an initial road height and every host to set it, which ``Road.fmu`` in an SSP
+cannot do.
 
 A road file is driven through a tire contact (``--road-contact``, by default the
 tandem-cam effective road when the profile is sampled finer than the tire's footprint,
 :mod:`~bodyvib.vehicle.road.contact`). A repeated file (``--road-repeat``) fades in once
-and then repeats without a step in height or slope; a file shorter than twice the fade
-is faded over a quarter of its length at each end, with a warning saying so. The alternative, starting the
-car in static equilibrium at the road's first height, would need every car FMU to
-take an initial road height and every host to set it, which ``Road.fmu`` in an SSP
-cannot do.
+and then repeats without a step in height or slope; a file shorter than four fades is
+faded over a quarter of its length at each end, with a warning saying so.
 """
 
 import math
