@@ -263,7 +263,8 @@ def road_handling(road: dict) -> str:
     str
         The fade, the contact, the moving average and the repetition, e.g.
         ``"faded in over 5 m, tandem-cam contact (r0 0.313 m, footprint 0.111 m), repeated
-        every 9.76 m"``; the fade alone for a synthetic road.
+        every 9.76 m"``; the fade alone for a synthetic road (a random road, periodic
+        over more than the run, never repeats within it).
 
     Examples
     --------
@@ -286,6 +287,6 @@ def road_handling(road: dict) -> str:
         )
     if road.get("moving_average_m"):
         parts.append(f"{1000 * road['moving_average_m']:g} mm moving average")
-    if road.get("repeats") and road.get("length_m"):
+    if road.get("repeats") and contact and road.get("length_m"):  # a file, driven again
         parts.append(f"repeated every {road['length_m']:.6g} m")
     return ", ".join(parts)
