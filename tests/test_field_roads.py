@@ -458,6 +458,8 @@ def test_field_files_run_through_cosim_check_and_sweep(cobbles, tmp_path, capsys
         == 0
     )
     assert len(open(csv).read().strip().splitlines()) == 3
+    err = capsys.readouterr().err  # checked, then run: each warning printed once
+    assert err.count("nothing above 20 Hz") == 1 == err.count("nothing above 40 Hz")
 
 
 def test_road_command_describes_both_wheel_paths(cobbles, tmp_path, capsys):

@@ -80,12 +80,16 @@ def build_parser():
 
 
 def _one_line(command):
-    """A ``warnings.showwarning`` that prints bodyvib's own warnings as one line on stderr."""
+    """A ``warnings.showwarning`` that prints bodyvib's own warnings as one line on stderr,
+    each once (a sweep checks its roads before it runs them)."""
     default = warnings.showwarning
+    seen = set()
 
     def show(message, category, filename, lineno, file=None, line=None):
         if category.__module__.startswith("bodyvib"):
-            print(f"{command}: warning: {message}", file=sys.stderr)
+            if str(message) not in seen:
+                seen.add(str(message))
+                print(f"{command}: warning: {message}", file=sys.stderr)
         else:
             default(message, category, filename, lineno, file, line)
 
