@@ -486,3 +486,15 @@ def test_road_command_describes_both_wheel_paths(cobbles, tmp_path, capsys):
     assert png.stat().st_size > 10000
     assert main(["road", "C", "--track", "0.3"]) == 2
     assert "--track applies to OpenCRG (.crg) surfaces" in capsys.readouterr().err
+
+
+def test_contact_is_a_road_option_of_specs_and_commands(cobbles):
+    from bodyvib.vehicle.road.driven import RoadOptions, driven_road
+    from bodyvib.vehicle.sweep.spec import expand, grid_spec
+
+    (case,) = expand(grid_spec([f"road={cobbles[0]}", "speed=10"], 0.4, 1e-3, {"contact": "point"}))
+    assert dict(case.road_options) == {"contact": "point"}
+    with pytest.raises(BodyvibError, match="road option 'contact' must be one of auto, tandem-cam"):
+        expand(grid_spec([f"road={cobbles[0]}", "speed=10"], 0.4, 1e-3, {"contact": "soft"}))
+    with pytest.raises(BodyvibError, match="--road-contact apply to road files; road 'C'"):
+        driven_road("C", 10.0, 1.0, options=RoadOptions(contact="point"))
