@@ -195,7 +195,7 @@ def file_road(spec, options: RoadOptions, speed: float, duration=None, step=None
     TaperedRoad
         Repeated: faded in once over ``taper_m`` and then the profile again and again.
         Otherwise faded in and out over ``taper_m``, or over a quarter of the profile at
-        each end when it is shorter than ``4 taper_m`` (with a :class:`RoadWarning`).
+        each end when it is shorter than ``4 taper_m`` (with a :class:`~bodyvib.vehicle.road.base.RoadWarning`).
 
     Raises
     ------
@@ -206,7 +206,7 @@ def file_road(spec, options: RoadOptions, speed: float, duration=None, step=None
 
     Warns
     -----
-    RoadWarning
+    bodyvib.vehicle.road.base.RoadWarning
         A slope steeper than 45 degrees under a point contact (named with where it is),
         a band the profile does not carry, a shortened fade.
     """
@@ -251,7 +251,7 @@ def file_road(spec, options: RoadOptions, speed: float, duration=None, step=None
 
 
 def road_handling(road: dict) -> str:
-    """How a road is driven, in words, from its description (:meth:`Road.describe`).
+    """How a road is driven, in words, from its description (:meth:`~bodyvib.vehicle.road.base.Road.describe`).
 
     Parameters
     ----------

@@ -116,7 +116,8 @@ def load_profile(
     periodic: bool = False,
     option: str = "--road-units",
 ) -> ProfileRoad:
-    """Read a measured road profile (OpenCRG, CSV or ERD) as a :class:`ProfileRoad`.
+    """Read a measured road profile (OpenCRG, CSV, text or ERD) as a
+    :class:`~bodyvib.vehicle.road.profile.ProfileRoad`.
 
     Parameters
     ----------
@@ -136,7 +137,8 @@ def load_profile(
         effective road of the shipped tire, or the effective road when the spacing is
         finer than the tire's footprint (point contact otherwise).
     periodic : bool
-        The profile repeats with its length (:class:`ProfileRoad`).
+        The profile repeats with its length
+        (:class:`~bodyvib.vehicle.road.profile.ProfileRoad`).
     option : str
         The command-line option that gives ``units``, as the messages name it.
 
@@ -607,7 +609,7 @@ def _check_crg_structure(path, base):
     checks here: the header ends (a ``$$$$`` line), ``$ROAD_CRG`` gives the road's start,
     end and increment, ``$KD_DEFINITION`` names the format and the channels, and the data
     hold ``samples x channels`` values (4 or 8 bytes each when binary), none of them a
-    height above :data:`_CRG_MAX_HEIGHT`.
+    height above ``_CRG_MAX_HEIGHT`` (1 km).
     """
     with open(path, "rb") as f:
         data = f.read()

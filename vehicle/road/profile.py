@@ -82,7 +82,7 @@ def envelope(elevation, spacing: float, base: float = ENVELOPE_M) -> np.ndarray:
 
 
 class ProfileRoad(Road):
-    """A measured longitudinal profile, uniformly sampled, as a :class:`Road`.
+    """A measured longitudinal profile, uniformly sampled, as a :class:`~bodyvib.vehicle.road.base.Road`.
 
     Parameters
     ----------
@@ -224,7 +224,7 @@ class ProfileRoad(Road):
         The profile resolves wavelengths down to ``2 dx``; at the speed ``V`` they pass
         at ``V / (2 dx)`` Hz. Below the highest frequency the comfort figures weight
         (:data:`COMFORT_TOP_HZ`) or the step resolves (``1 / (2 h)``), whichever is lower,
-        the figures miss the road's content above it: a :class:`RoadWarning` names that
+        the figures miss the road's content above it: a :class:`~bodyvib.vehicle.road.base.RoadWarning` names that
         frequency (a profiler's 0.25 m spacing carries 40 Hz at 20 m/s). A run longer
         than the profile is refused unless it repeats.
 
@@ -246,7 +246,7 @@ class ProfileRoad(Road):
 
         Warns
         -----
-        RoadWarning
+        bodyvib.vehicle.road.base.RoadWarning
             The profile carries nothing above a frequency the figures weight.
         """
         need = COMFORT_TOP_HZ if not step else min(COMFORT_TOP_HZ, 0.5 / step)
