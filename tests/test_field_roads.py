@@ -489,11 +489,17 @@ def test_road_command_describes_both_wheel_paths(cobbles, tmp_path, capsys):
 
 
 def test_contact_is_a_road_option_of_specs_and_commands(cobbles):
+    from bodyvib.vehicle.road.base import RoadWarning
     from bodyvib.vehicle.road.driven import RoadOptions, driven_road
     from bodyvib.vehicle.sweep.spec import expand, grid_spec
 
-    (case,) = expand(grid_spec([f"road={cobbles[0]}", "speed=10"], 0.4, 1e-3, {"contact": "point"}))
-    assert dict(case.road_options) == {"contact": "point"}
+    with pytest.warns(RoadWarning, match="its slope reaches 2.08 m per m at 3.26 m"):
+        (case,) = expand(
+            grid_spec(
+                [f"road={cobbles[0]}", "speed=10"], 0.4, 1e-3, {"contact": "point", "taper": 2}
+            )
+        )
+    assert dict(case.road_options) == {"contact": "point", "taper_m": 2.0}
     with pytest.raises(BodyvibError, match="road option 'contact' must be one of auto, tandem-cam"):
         expand(grid_spec([f"road={cobbles[0]}", "speed=10"], 0.4, 1e-3, {"contact": "soft"}))
     with pytest.raises(BodyvibError, match="--road-contact apply to road files; road 'C'"):
