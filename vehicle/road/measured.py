@@ -31,7 +31,8 @@ Before pycrg reads an OpenCRG file, its structure is checked against what it
 declares: the ``$ROAD_CRG`` block (the road's extent and increment), the
 ``$KD_DEFINITION`` block and the end of the header present, and the data as long as
 the declared samples and channels need (a shorter payload is *truncated*, a height of
-more than a kilometre *corrupt*, both with the byte offset).
+more than 10 km (higher than any road on Earth, even in absolute elevations) *corrupt*,
+both with the byte offset).
 
 The units are judged by a robust statistic, not by the steepest sample: the median
 slope over 1 m steps with the mean grade removed (:data:`MAX_MEDIAN_SLOPE`). Every
@@ -583,7 +584,7 @@ _CRG_END = b"$$$$"
 _NUMBER = re.compile(rb"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
 
 #: Largest height an OpenCRG payload may hold, m: more is damaged data, not a road.
-_CRG_MAX_HEIGHT = 1e3
+_CRG_MAX_HEIGHT = 1e4
 
 
 def _crg_value(block, key):
@@ -609,7 +610,7 @@ def _check_crg_structure(path, base):
     checks here: the header ends (a ``$$$$`` line), ``$ROAD_CRG`` gives the road's start,
     end and increment, ``$KD_DEFINITION`` names the format and the channels, and the data
     hold ``samples x channels`` values (4 or 8 bytes each when binary), none of them a
-    height above ``_CRG_MAX_HEIGHT`` (1 km).
+    height above ``_CRG_MAX_HEIGHT`` (10 km).
     """
     with open(path, "rb") as f:
         data = f.read()
@@ -642,8 +643,9 @@ def _check_crg_structure(path, base):
     fmt = re.search(rb"^#:\s*([A-Z]{4})", kd, re.M)
     channels = len(re.findall(rb"^\s*D:", kd, re.M))
     u_line = re.search(rb"^\s*U:([^\n]*)", kd, re.M)
-    if u_line and u_line.group(1).count(b",") < 3:
-        channels += 1  # u is stored as a channel of its own
+    u_stored = bool(u_line) and u_line.group(1).count(b",") < 3
+    if u_stored:
+        channels += 1  # u is stored as a channel of its own (distances, not heights)
     u0 = _crg_value(road, "reference_line_start_u") or 0.0
     u1 = _crg_value(road, "reference_line_end_u")
     du = _crg_value(road, "reference_line_increment")
@@ -676,8 +678,8 @@ def _check_crg_structure(path, base):
         values = np.frombuffer(
             data, dtype=">f8" if width == 8 else ">f4", count=need // width, offset=start
         )
-        bad = np.flatnonzero(np.abs(values) > _CRG_MAX_HEIGHT)
-        if bad.size:
+        bad = np.flatnonzero(np.abs(values) > _CRG_MAX_HEIGHT) if not u_stored else []
+        if len(bad):
             i = int(bad[0])
             raise BodyvibError(
                 f"road '{base}' is corrupt: a value of {values[i]:.3g} m at byte offset "
