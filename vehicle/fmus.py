@@ -17,7 +17,7 @@ from bodyvib.process.outputs import staged_writes
 from bodyvib.runtime.errors import BodyvibError
 
 from .quarter_car import load_car
-from .road.driven import is_road_file
+from .road.driven import RoadOptions, file_road, is_road_file
 from .road.synthetic import ISO8608_CLASSES, TaperedRoad, make_road, random_road, road_source
 
 __all__ = [
@@ -45,6 +45,7 @@ ROAD_DEFAULTS = {
     "units": None,
     "envelope": False,
     "repeat": False,
+    "contact": "auto",
 }
 
 #: FMU name -> (kind, default model, description).
@@ -86,6 +87,7 @@ def fmu_road(
     units: Optional[str] = None,
     envelope: bool = False,
     repeat: bool = False,
+    contact: str = "auto",
 ):
     """The road a ``Road.fmu`` tabulates: the road a run drives (faded in from level).
 
@@ -94,7 +96,7 @@ def fmu_road(
     spec : str
         ISO 8608 class ``A``-``H`` (a random road whose period is ``length``),
         ``bump``, ``sweep`` (0.5-20 Hz at ``speed`` over ``length``) or a road file
-        (``.crg``, ``.csv``, ``.erd``: tabulated over its own length).
+        (``.crg``, ``.csv``, ``.txt``, ``.erd``: tabulated over its own length).
     length : float
         m (a synthetic road's).
     seed : int
@@ -106,9 +108,10 @@ def fmu_road(
         over its last (:class:`bodyvib.vehicle.road.synthetic.TaperedRoad`; 0: none), as
         every run's road does (:func:`bodyvib.vehicle.road.driven.driven_road`): the car
         starts at rest on a level road.
-    track, units, envelope, repeat
-        A road file's track (OpenCRG), units (CSV/ERD), tire enveloping and
-        repetition (:class:`bodyvib.vehicle.road.driven.RoadOptions`).
+    track, units, envelope, repeat, contact
+        A road file's track (OpenCRG), units (CSV/ERD), moving average, repetition
+        and tire contact (:class:`bodyvib.vehicle.road.driven.RoadOptions`). A repeated
+        file is tabulated over one period, faded in and out (a table repeats whole).
 
     Returns
     -------
@@ -123,13 +126,18 @@ def fmu_road(
     if is_road_file(s):
         from .road.measured import load_profile
 
-        road = load_profile(s, track_m=track, units=units, envelope=envelope)
-        road.check_run(speed, road.length / speed, None, repeat=True)  # its spacing
-        return TaperedRoad(road, road.length, taper, periodic=repeat)
-    if track or units or envelope or repeat:
+        if repeat:  # one period, faded at both ends: the table repeats it whole
+            road = load_profile(
+                s, track_m=track, units=units, envelope=envelope, contact=contact, periodic=True
+            )
+            road.check_run(speed, road.length / speed, None, repeat=True)  # its spacing
+            return TaperedRoad(road, road.length, taper, periodic=True)
+        options = RoadOptions(taper, track, units, envelope, False, contact)
+        return file_road(s, options, speed)
+    if track or units or envelope or repeat or contact != "auto":
         raise BodyvibError(
-            "--road-track, --road-units, --road-envelope and --road-repeat apply "
-            f"to road files; road '{spec}' is synthetic"
+            "--road-track, --road-units, --road-envelope, --road-repeat and --road-contact "
+            f"apply to road files; road '{spec}' is synthetic"
         )
     if len(s) == 1 and s.upper() in ISO8608_CLASSES:
         return TaperedRoad(random_road(s.upper(), length=length, seed=seed), length, taper)
@@ -168,6 +176,7 @@ def fmu_road_of(options: dict):
         r["units"],
         r["envelope"],
         r["repeat"],
+        r["contact"],
     )
     return rd, fmu_road_length(rd, r["length"])
 

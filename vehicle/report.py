@@ -6,6 +6,7 @@ The JSON document's keys are listed in docs/getting_started.md, "JSON output".
 from typing import Optional
 
 from .check import Comparison
+from .road.driven import road_handling
 from .study import Study
 
 __all__ = ["PEAK_HINT", "format_report", "study_json"]
@@ -41,10 +42,10 @@ def format_report(study: Study, comparison: Optional[Comparison] = None) -> str:
         (no trailing newline); figures in m/s2, m/s^1.75 (VDV), Hz and percent.
     """
     s = study.settings
-    taper = study.road.get("taper_m")
-    faded = f" faded in over {taper:g} m" if taper else ""
+    handling = road_handling(study.road)
     lines = [
-        f"road {study.road['name']}{faded}, {s.speed_m_s:g} m/s, {s.duration_s:g} s, "
+        f"road {study.road['name']}{', ' + handling if handling else ''}, "
+        f"{s.speed_m_s:g} m/s, {s.duration_s:g} s, "
         f"step {s.step_s:g} s ({s.master})",
         "",
     ]

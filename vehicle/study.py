@@ -128,7 +128,7 @@ class Study:
     settings : StudySettings
         Road, speed, duration, step, seed and master, as given.
     road : dict
-        The road's description (:meth:`bodyvib.vehicle.road.synthetic.Road.describe`).
+        The road's description (:meth:`bodyvib.vehicle.road.base.Road.describe`).
     time, road_displacement, road_velocity : ndarray or None
         Communication points (s) and the road input under the tire (m, m/s), kept only
         with ``run_study(..., histories=True)``.

@@ -186,7 +186,7 @@ def _common(p):
         "--road",
         default="C",
         help="ISO 8608 class A-H, 'bump', 'sweep' or a road file: OpenCRG .crg, CSV "
-        ".csv (distance_m,elevation_mm) or ERD .erd (default C)",
+        ".csv or text .txt columns (distance_m,elevation_mm) or ERD .erd (default C)",
     )
     add_road_options(p)
     p.add_argument("--speed", type=float, default=20.0, help="vehicle speed, m/s (default 20)")

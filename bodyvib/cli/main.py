@@ -14,6 +14,7 @@ import argparse
 import signal
 import sys
 import threading
+import warnings
 
 # signals that arrive while the modules load (before bodyvib.process.interrupts takes over)
 _early = []
@@ -78,6 +79,23 @@ def build_parser():
     return parser
 
 
+def _one_line(command):
+    """A ``warnings.showwarning`` that prints bodyvib's own warnings as one line on stderr,
+    each once (a sweep checks its roads before it runs them)."""
+    default = warnings.showwarning
+    seen = set()
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if category.__module__.startswith("bodyvib"):
+            if str(message) not in seen:
+                seen.add(str(message))
+                print(f"{command}: warning: {message}", file=sys.stderr)
+        else:
+            default(message, category, filename, lineno, file, line)
+
+    return show
+
+
 def main(argv=None) -> int:
     """Run the command line; returns the exit status.
 
@@ -120,7 +138,8 @@ def main(argv=None) -> int:
                 parser.print_help()
                 return 2
             command = f"bodyvib {args.command}"
-            with private_tempdir():  # every temporary file of the command, removed at its end
+            with private_tempdir(), warnings.catch_warnings():  # temporary files removed at
+                warnings.showwarning = _one_line(command)  # the end; warnings in one line
                 status = int(args.func(args) or 0)
                 interrupts.check()  # pressed during the last step: the outputs are all written
             return status

@@ -3,6 +3,7 @@ models and the ``--road-*`` options of a driven road."""
 
 import os
 
+from bodyvib.vehicle.road.contact import CONTACTS
 from bodyvib.vehicle.road.driven import DEFAULT_TAPER_M, RoadOptions
 from bodyvib.vehicle.sweep.spec import ROAD_OPTION_KEYS
 
@@ -102,12 +103,20 @@ ROAD_ARGUMENTS = {
     ),
     "envelope": dict(
         action="store_true",
-        help="road file: tire enveloping, the 250 mm moving average of the IRI standard",
+        help="road file: the 250 mm moving average of the IRI standard (a profile filter; "
+        "the tire is --road-contact)",
     ),
     "repeat": dict(
         action="store_true",
-        help="road file: repeat the profile when the run is longer than it (default: "
-        "refuse such a run)",
+        help="road file: repeat the profile when the run is longer than it (it fades in "
+        "once; default: refuse such a run)",
+    ),
+    "contact": dict(
+        choices=CONTACTS,
+        default="auto",
+        help="road file: the tire contact: the tandem-cam effective road of a 205/60R15 "
+        "tire, the profile point by point, or auto: tandem-cam on a profile sampled finer "
+        "than the tire's footprint (0.111 m), point otherwise (default: auto)",
     ),
 }
 
@@ -143,7 +152,7 @@ def road_options_from_args(args) -> RoadOptions:
 
     Examples
     --------
-    Every option sets one field (the spec's keys and the options are the same five):
+    Every option sets one field (the spec's keys and the options are the same six):
 
     >>> list(ROAD_ARGUMENTS) == list(ROAD_OPTION_KEYS)
     True
@@ -151,7 +160,7 @@ def road_options_from_args(args) -> RoadOptions:
     >>> p = argparse.ArgumentParser()
     >>> add_road_options(p)
     >>> road_options_from_args(p.parse_args(["--road-taper", "3", "--road-repeat"]))
-    RoadOptions(taper_m=3.0, track_m=0.0, units=None, envelope=False, repeat=True)
+    RoadOptions(taper_m=3.0, track_m=0.0, units=None, envelope=False, repeat=True, contact='auto')
     """
     return RoadOptions(
         **{field: getattr(args, f"road_{key}") for key, field in ROAD_OPTION_KEYS.items()}

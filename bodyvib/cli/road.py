@@ -30,8 +30,11 @@ def load_road(
         Extent and sample spacing of a synthetic road, m.
     seed : int
         Seed of a synthetic road.
-    track, units
-        Passed to the file reader (lateral offset in m; height units) when given.
+    track : float, optional
+        OpenCRG: lateral offset of the track from the reference line, m.
+    units : str, optional
+        Units of a file that does not name them: ``"DIST,ELEV"`` (``"m,mm"``), or the
+        elevation's alone with the distance in m (``"mm"``).
 
     Returns
     -------
@@ -65,8 +68,10 @@ def load_road(
             "reading profile files needs bodyvib.vehicle.road.measured, which this "
             "installation lacks; give an ISO 8608 class instead"
         ) from None
+    if units is not None and "," not in str(units):
+        units = f"m,{units}"
     kwargs = {k: v for k, v in (("track_m", track), ("units", units)) if v is not None}
-    profile = load_profile(s, **kwargs)
+    profile = load_profile(s, option="--units", **kwargs)
     return (
         np.asarray(profile.distance, float),
         np.asarray(profile.elevation, float),
@@ -75,16 +80,34 @@ def load_road(
 
 
 def _run(args):
-    from bodyvib.vehicle.road.summary import format_summary, plot_summary, summarize_profile
+    from bodyvib.vehicle.road.summary import (
+        TrackSummaries,
+        format_summary,
+        plot_summary,
+        summarize_profile,
+    )
 
     check_files(
         args, ("json", "plot"), inputs=[("ROAD", args.road)] if os.path.isfile(args.road) else []
     )
-    x, z, name = load_road(args.road, args.length, args.spacing, args.seed, args.track, args.units)
-    interrupts.check()
-    summary = summarize_profile(x, z, name)
-    print(format_summary(summary))
-    write_result(args, summary, plot_summary)
+    if args.track and not str(args.road).strip().lower().endswith(".crg"):
+        raise BodyvibError(
+            f"--track applies to OpenCRG (.crg) surfaces; '{args.road}' holds one profile: "
+            "drop --track"
+        )
+    tracks = args.track or [None]
+    summaries = []
+    for track in tracks:
+        x, z, name = load_road(args.road, args.length, args.spacing, args.seed, track, args.units)
+        interrupts.check()
+        summaries.append(summarize_profile(x, z, name))
+    if len(summaries) == 1:
+        print(format_summary(summaries[0]))
+        write_result(args, summaries[0], plot_summary)
+    else:
+        both = TrackSummaries(tuple(summaries))
+        print(both.format())
+        write_result(args, both, TrackSummaries.plot)
     return 0
 
 
@@ -100,7 +123,7 @@ def add_command(subparsers):
     p.add_argument(
         "road",
         metavar="FILE|CLASS",
-        help="a profile file (CRG, CSV, ERD) or an ISO 8608 class A-H (synthetic)",
+        help="a profile file (CRG, CSV, TXT, ERD) or an ISO 8608 class A-H (synthetic)",
     )
     p.add_argument(
         "--length", type=float, default=1000.0, help="length of a synthetic road, m (default 1000)"
@@ -115,13 +138,18 @@ def add_command(subparsers):
     p.add_argument(
         "--track",
         type=float,
+        nargs="+",
         default=None,
-        help="lateral offset of the wheel track in a CRG file, m",
+        metavar="M",
+        help="lateral offset of the wheel track in a CRG file, m, positive to the left; "
+        "several (--track 0.8 -0.8: both wheel paths) describe each",
     )
     p.add_argument(
         "--units",
         default=None,
-        help="height units of a profile file without them in its header (m, mm)",
+        metavar="[DIST,]ELEV",
+        help="units of a profile file that does not name them: distance and elevation "
+        "(m,mm), or the elevation alone with distances in m (mm)",
     )
     add_output_options(
         p, plot="write the profile and PSD plot", json="write the summary (and the PSD) as JSON"

@@ -1,11 +1,11 @@
 """Roads: profiles over distance, and the input a car sees at a speed.
 
+:class:`~bodyvib.vehicle.road.base.Road` is the interface every road implements.
 :mod:`~bodyvib.vehicle.road.synthetic` makes roads from a short name: ISO 8608 random
-roads of classes A-H, a bump, a sine sweep; it also holds what every road shares
-(the :class:`~bodyvib.vehicle.road.synthetic.Road` interface, the fade-in
+roads of classes A-H, a bump, a sine sweep; it also holds the fade-in
 :class:`~bodyvib.vehicle.road.synthetic.TaperedRoad`, the road input at a speed, and the
-table that ``Road.fmu`` carries). :mod:`~bodyvib.vehicle.road.measured` reads measured
-profiles (OpenCRG, CSV, ERD) into a :class:`~bodyvib.vehicle.road.profile.ProfileRoad`.
+table that ``Road.fmu`` carries. :mod:`~bodyvib.vehicle.road.measured` reads measured
+profiles (OpenCRG, CSV and text columns, ERD) into a :class:`~bodyvib.vehicle.road.profile.ProfileRoad`.
 :mod:`~bodyvib.vehicle.road.driven` gives the road every run and ``Road.fmu`` drive: any of
 them, faded in from level, so the car starts at rest on it.
 :mod:`~bodyvib.vehicle.road.iri` computes a profile's
@@ -14,6 +14,7 @@ International Roughness Index (the Golden Car, exactly discretized) and
 both take plain ``(distance, elevation)`` arrays.
 """
 
+from .base import Road
 from .classify import RoadClass, class_limits, class_of, classify_profile, profile_psd
 from .driven import DEFAULT_TAPER_M, RoadOptions, driven_road, is_road_file
 from .iri import (
@@ -32,7 +33,6 @@ from .synthetic import (
     N_BAND,
     BumpRoad,
     RandomRoad,
-    Road,
     SweepRoad,
     TaperedRoad,
     class_psd_n0,

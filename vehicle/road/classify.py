@@ -8,10 +8,18 @@ line ``Gd(n) = Gd(n0) (n / n0)^-w`` in log-log axes, ``n0 = 0.1 cycle/m``.
 The estimate is averaged into one-third-octave bands (geometric centres) over
 the classification band -- ISO 8608's 0.011-2.83 cycle/m, narrowed to what
 the profile resolves: from four Welch bins (``4 / segment length``) up to
-half the Nyquist frequency ``1 / (4 dx)``, and reaching ``n0`` (so a segment of
-at least 40 m) so that ``Gd(n0)`` is read inside the fit -- and the line is fitted to the
+half the Nyquist frequency ``1 / (4 dx)`` -- and the line is fitted to the
 band averages by least squares in ``log Gd`` against ``log n``, which gives
-``Gd(n0)`` and the waviness ``w``.
+``Gd(n0)`` and the waviness ``w``. A profile shorter than 40 m does not reach
+``n0``: its class comes from the band it has, with the waviness held at ISO 8608's 2
+and ``Gd(n0)`` read off that line (the band is stated with it).
+
+How well the line fits is stated twice: the factor by which the band averages scatter
+about it, ``exp(rms(log Gd_band - log line))``, and the *misfit*, that r.m.s. in units
+of the averages' own statistical scatter (a mean of ``K`` periodogram values scatters
+by about ``1.28 / sqrt(K)`` in log). A random road following the line has a misfit
+near 1; a profile the line does not describe (a single sine puts all its power in one
+band) has far more, and above :data:`POOR_FIT_MISFIT` the class says little about it.
 
 The class is where the fitted ``Gd(n0)`` falls among the class limits: class
 ``i`` (A = 0 ... H = 7) has the geometric mean ``16 4^i 1e-6 m^3`` and spans a
@@ -31,7 +39,18 @@ from ..records import Record
 from .iri import _check_profile
 from .synthetic import ISO8608_CLASSES, N0, N_BAND, class_psd_n0
 
-__all__ = ["class_limits", "class_of", "profile_psd", "RoadClass", "classify_profile"]
+__all__ = [
+    "class_limits",
+    "class_of",
+    "profile_psd",
+    "RoadClass",
+    "classify_profile",
+    "POOR_FIT_MISFIT",
+]
+
+#: Misfit (band averages' distance from the line in units of their own statistical
+#: scatter) above which the ISO 8608 line does not describe the profile.
+POOR_FIT_MISFIT = 3.0
 
 
 def class_limits(road_class: str) -> Tuple[float, float]:
@@ -163,6 +182,13 @@ class RoadClass(Record):
         Welch segment length, m.
     band_centres, band_gd : list of float
         The one-third-octave averages the line was fitted to (cycle/m, m^3).
+    scatter : float
+        Factor by which the band averages scatter about the line (1: on it).
+    misfit : float
+        The band averages' r.m.s. distance from the line in units of their own
+        statistical scatter: about 1 where the line describes the profile.
+    waviness_fitted : bool
+        False when the band does not reach n0 and ``w`` was held at 2.
     """
 
     gd_n0_m3: float
@@ -173,6 +199,14 @@ class RoadClass(Record):
     segment_m: float
     band_centres: List[float] = field(default_factory=list)
     band_gd: List[float] = field(default_factory=list)
+    scatter: float = 1.0
+    misfit: float = 0.0
+    waviness_fitted: bool = True
+
+    @property
+    def fits(self) -> bool:
+        """Whether the ISO 8608 line describes the profile (:data:`POOR_FIT_MISFIT`)."""
+        return self.misfit <= POOR_FIT_MISFIT
 
     def to_dict(self) -> dict:
         """JSON-ready dict (an infinite limit as None)."""
@@ -203,7 +237,7 @@ def classify_profile(
     ------
     BodyvibError
         A bad profile, or one too short or too coarse to hold two one-third
-        octaves of the band or to reach n0 (it names what it resolves).
+        octaves of the band (it names what it resolves).
 
     Examples
     --------
@@ -212,31 +246,54 @@ def classify_profile(
     >>> classify_profile(x, random_road("C", 1000.0, seed=3).displacement(x)).iso8608_class
     'C'
     """
-    return _fit_band(*profile_psd(distance, elevation, segment_m), band)
+    n, gd, segment = profile_psd(distance, elevation, segment_m)
+    return _fit_band(n, gd, segment, band, _segments(distance, segment))
 
 
-def _fit_band(n, gd, segment: float, band: Tuple[float, float] = N_BAND) -> RoadClass:
+def _segments(distance, segment: float) -> int:
+    """Welch segments (half overlapping) of ``segment`` metres in a profile."""
+    x = np.asarray(distance, dtype=float)
+    span = x[-1] - x[0] + (x[1] - x[0])
+    return max(1, int(round(2 * span / segment - 1)))
+
+
+def _fit_band(
+    n, gd, segment: float, band: Tuple[float, float] = N_BAND, segments: int = 1
+) -> RoadClass:
     """:func:`classify_profile` on a PSD already made: ``n``, ``gd`` and ``segment`` as
-    :func:`profile_psd` returns them (cycle/m, m^3, m); ``band`` as there."""
+    :func:`profile_psd` returns them (cycle/m, m^3, m), ``band`` as there, and the number
+    of Welch segments averaged (for the estimate's own scatter)."""
     dx = 1.0 / (2 * n[-1]) if n.size else float("nan")
     lo = max(band[0], 4.0 / segment)
     hi = min(band[1], 1.0 / (4 * dx))
     centres, lower, upper = _third_octaves(lo, hi)
-    keep_c, keep_g = [], []
+    keep_c, keep_g, keep_k = [], [], []
     for c, a, b in zip(centres, lower, upper):
         sel = (n >= a) & (n < b)
         if c >= lo and c <= hi and np.any(sel):
             keep_c.append(float(c))
             keep_g.append(float(np.mean(gd[sel])))
+            keep_k.append(int(np.count_nonzero(sel)) * segments)
     keep_c, keep_g = np.array(keep_c), np.array(keep_g)
-    if keep_c.size < 2 or np.any(keep_g <= 0) or lo > N0:
+    if keep_c.size < 2 or np.any(keep_g <= 0):
         raise BodyvibError(
             f"the profile resolves {lo:.3g}-{hi:.3g} cycle/m (segments of {segment:g} m, spacing "
             f"{dx:g} m), too little of ISO 8608's {band[0]}-{band[1]} cycle/m to fit a class "
-            f"(the fit must reach n0 = {N0:g} cycle/m: segments of {4 / N0:g} m or more); "
-            "use a longer or finer profile"
+            "(two one-third octaves at least); use a longer or finer profile"
         )
-    slope, intercept = np.polyfit(np.log(keep_c / N0), np.log(keep_g), 1)
+    u, g = np.log(keep_c / N0), np.log(keep_g)
+    fitted = lo <= N0
+    if fitted:
+        slope, intercept = np.polyfit(u, g, 1)
+    else:  # the band does not reach n0: ISO 8608's waviness, Gd(n0) read off its line
+        slope, intercept = -2.0, float(np.mean(g + 2.0 * u))
+    residual = g - intercept - slope * u
+    scatter = float(np.exp(np.sqrt(np.mean(residual**2))))
+    # a band mean of K periodogram values scatters by ~1.28 / sqrt(K) in log (one value:
+    # the log of an exponential variate, pi / sqrt(6)); the misfit is the residual in those
+    # units: ~1 where the line holds, far more where it does not
+    noise = 1.28 / np.sqrt(np.array(keep_k, dtype=float))
+    misfit = float(np.sqrt(np.mean((residual / noise) ** 2)))
     gd_n0 = float(math.exp(intercept))
     cls = class_of(gd_n0)
     return RoadClass(
@@ -248,4 +305,7 @@ def _fit_band(n, gd, segment: float, band: Tuple[float, float] = N_BAND) -> Road
         segment_m=float(segment),
         band_centres=keep_c.tolist(),
         band_gd=keep_g.tolist(),
+        scatter=scatter,
+        misfit=misfit,
+        waviness_fitted=bool(fitted),
     )

@@ -9,20 +9,36 @@ whatever the road, and the car's own state untouched. The alternative, starting 
 car in static equilibrium at the road's first height, would need every car FMU to
 take an initial road height and every host to set it, which ``Road.fmu`` in an SSP
 cannot do.
+
+A road file is driven through a tire contact (``--road-contact``, by default the
+tandem-cam effective road when the profile is sampled finer than the tire's footprint,
+:mod:`~bodyvib.vehicle.road.contact`). A repeated file (``--road-repeat``) fades in once
+and then repeats without a step in height or slope; a file shorter than four fades is
+faded over a quarter of its length at each end, with a warning saying so.
 """
 
 import math
 import os
+import warnings
 from dataclasses import dataclass
 from typing import Optional
 
 from bodyvib.runtime.errors import BodyvibError
 
 from ..records import Record
+from .base import Road, RoadWarning
 from .measured import PROFILE_EXTENSIONS
-from .synthetic import ISO8608_CLASSES, Road, TaperedRoad, make_road
+from .synthetic import ISO8608_CLASSES, TaperedRoad, make_road
 
-__all__ = ["DEFAULT_TAPER_M", "RoadOptions", "is_road_file", "driven_road", "road_label"]
+__all__ = [
+    "DEFAULT_TAPER_M",
+    "RoadOptions",
+    "is_road_file",
+    "driven_road",
+    "file_road",
+    "road_label",
+    "road_handling",
+]
 
 #: Default fade-in (and fade-out) length of every road, m.
 DEFAULT_TAPER_M = 5.0
@@ -41,9 +57,12 @@ class RoadOptions(Record):
     units : str or None
         CSV/ERD: ``"DIST,ELEV"`` units when the file does not name them.
     envelope : bool
-        Measured roads: 250 mm tire-enveloping moving average.
+        Measured roads: the IRI standard's 250 mm moving average.
     repeat : bool
         Measured roads: repeat the profile when the run is longer than it.
+    contact : str
+        Measured roads: the tire contact, ``auto``, ``tandem-cam`` or ``point``
+        (:data:`bodyvib.vehicle.road.contact.CONTACTS`).
     """
 
     taper_m: float = DEFAULT_TAPER_M
@@ -51,6 +70,7 @@ class RoadOptions(Record):
     units: Optional[str] = None
     envelope: bool = False
     repeat: bool = False
+    contact: str = "auto"
 
 
 def is_road_file(spec) -> bool:
@@ -65,7 +85,7 @@ def is_road_file(spec) -> bool:
     Returns
     -------
     bool
-        True for a name with a road file's extension (``.crg``, ``.csv``, ``.erd``), a
+        True for a name with a road file's extension (``.crg``, ``.csv``, ``.txt``, ``.erd``), a
         path or an existing file; False for an ISO 8608 class letter, ``bump``,
         ``sweep`` or any other name (refused as an unknown road).
 
@@ -108,7 +128,7 @@ def driven_road(
     ----------
     spec : str
         ISO 8608 class ``A``-``H``, ``bump``, ``sweep`` (:func:`bodyvib.vehicle.road.synthetic.make_road`)
-        or a road file (``.crg``, ``.csv``, ``.erd``: :func:`bodyvib.vehicle.road.measured.load_profile`).
+        or a road file (``.crg``, ``.csv``, ``.txt``, ``.erd``: :func:`bodyvib.vehicle.road.measured.load_profile`).
     speed : float
         m/s.
     duration : float
@@ -142,19 +162,131 @@ def driven_road(
     """
     opt = options or RoadOptions()
     if is_road_file(spec):
-        from .measured import load_profile
-
         if not (isinstance(speed, (int, float)) and math.isfinite(speed) and speed > 0):
             raise BodyvibError(f"speed must be a positive number of m/s, got {speed!r}")
-        road = load_profile(
-            str(spec).strip(), track_m=opt.track_m, units=opt.units, envelope=opt.envelope
-        )
-        road.check_run(speed, duration, step, repeat=opt.repeat)
-        return TaperedRoad(road, road.length, opt.taper_m, periodic=opt.repeat)
-    if opt.track_m or opt.units or opt.envelope or opt.repeat:
+        return file_road(spec, opt, speed, duration, step)
+    if opt.track_m or opt.units or opt.envelope or opt.repeat or opt.contact != "auto":
         raise BodyvibError(
-            "--road-track, --road-units, --road-envelope and --road-repeat apply "
-            f"to road files; road '{spec}' is synthetic"
+            "--road-track, --road-units, --road-envelope, --road-repeat and --road-contact "
+            f"apply to road files; road '{spec}' is synthetic"
         )
     road = make_road(spec, speed, duration, seed=seed)
     return TaperedRoad(road, road.length, opt.taper_m)
+
+
+def file_road(spec, options: RoadOptions, speed: float, duration=None, step=None) -> Road:
+    """A road file as a run drives it: read, through its tire contact, faded in.
+
+    Parameters
+    ----------
+    spec : str or os.PathLike
+        The file (``.crg``, ``.csv``, ``.txt``, ``.erd``).
+    options : RoadOptions
+        Track, units, moving average, contact, repetition and fade.
+    speed : float
+        m/s (the profile's spacing is judged at it).
+    duration : float, optional
+        s; None: the profile's own length at ``speed`` (a table of it, ``Road.fmu``).
+    step : float, optional
+        Communication step, s.
+
+    Returns
+    -------
+    TaperedRoad
+        Repeated: faded in once over ``taper_m`` and then the profile again and again.
+        Otherwise faded in and out over ``taper_m``, or over a quarter of the profile at
+        each end when it is shorter than ``4 taper_m`` (with a :class:`~bodyvib.vehicle.road.base.RoadWarning`).
+
+    Raises
+    ------
+    BodyvibError
+        A file that cannot be read or driven (see
+        :func:`bodyvib.vehicle.road.measured.load_profile`,
+        :meth:`bodyvib.vehicle.road.profile.ProfileRoad.check_run`).
+
+    Warns
+    -----
+    bodyvib.vehicle.road.base.RoadWarning
+        A slope steeper than 45 degrees under a point contact (named with where it is),
+        a band the profile does not carry, a shortened fade.
+    """
+    from .measured import load_profile
+    from .profile import STEEP_SLOPE
+
+    road = load_profile(
+        str(spec).strip(),
+        track_m=options.track_m,
+        units=options.units,
+        envelope=options.envelope,
+        contact=options.contact,
+        periodic=options.repeat,
+    )
+    road.check_run(
+        speed, road.length / speed if duration is None else duration, step, repeat=options.repeat
+    )
+    if road.contact is None:
+        steep, where = road.steepest()
+        if steep > STEEP_SLOPE:
+            warnings.warn(
+                f"road '{road.name}': its slope reaches {steep:.3g} m per m at {where:.4g} m "
+                "(a step, a joint or an edge), steeper than a tire follows; point contact "
+                "passes it to the wheel as it is (--road-contact tandem-cam envelops it)",
+                RoadWarning,
+                stacklevel=2,
+            )
+    taper = options.taper_m
+    if options.repeat:
+        return TaperedRoad(road, math.inf, taper)
+    if isinstance(taper, (int, float)) and 4 * taper > road.length:
+        short = road.length / 4
+        warnings.warn(
+            f"road '{road.name}' is {road.length:.4g} m long: faded in and out over "
+            f"{short:.4g} m at each end instead of {taper:g} m (choose with --road-taper, or "
+            "drive it repeated with --road-repeat: it then fades in once)",
+            RoadWarning,
+            stacklevel=2,
+        )
+        taper = short
+    return TaperedRoad(road, road.length, taper)
+
+
+def road_handling(road: dict) -> str:
+    """How a road is driven, in words, from its description (:meth:`~bodyvib.vehicle.road.base.Road.describe`).
+
+    Parameters
+    ----------
+    road : dict
+        A driven road's description.
+
+    Returns
+    -------
+    str
+        The fade, the contact, the moving average and the repetition, e.g.
+        ``"faded in over 5 m, tandem-cam contact (r0 0.313 m, footprint 0.111 m), repeated
+        every 9.76 m"``; the fade alone for a synthetic road (a random road, periodic
+        over more than the run, never repeats within it).
+
+    Examples
+    --------
+    >>> d = {"taper_m": 5.0, "tapered_length_m": 30.0, "contact": {"model": "point"}}
+    >>> road_handling(d)
+    'faded in and out over 5 m, point contact'
+    """
+    parts = []
+    taper = road.get("taper_m")
+    if taper:
+        once = road.get("tapered_length_m") is None
+        parts.append(f"faded in over {taper:g} m" if once else f"faded in and out over {taper:g} m")
+    contact = road.get("contact")
+    if contact:
+        parts.append(
+            "point contact"
+            if contact.get("model") == "point"
+            else f"{contact['model']} contact (r0 {contact['radius_m']:g} m, footprint "
+            f"{contact['footprint_m']:g} m)"
+        )
+    if road.get("moving_average_m"):
+        parts.append(f"{1000 * road['moving_average_m']:g} mm moving average")
+    if road.get("repeats") and contact and road.get("length_m"):  # a file, driven again
+        parts.append(f"repeated every {road['length_m']:.6g} m")
+    return ", ".join(parts)

@@ -9,24 +9,43 @@
   lateral offset ``track_m`` (positive to the left), at the file's own increment
   (without a modifiers section, OpenCRG's default modifiers put the reference line's
   start at z = 0; the grid is single precision).
-* **CSV**: two columns, distance and elevation, with their units in the header
-  (``distance_m,elevation_mm``; also ``distance [m]`` or ``distance (m)``) or given
-  as ``units="m,mm"``. Lines starting with ``#`` are comments.
+* **CSV** (``.csv``) and **text columns** (``.txt``, the plainest profilometer export):
+  two columns, distance and elevation, separated by commas, semicolons (then a decimal
+  comma is read as a point) or white space, with their units in the header
+  (``distance_m,elevation_mm``; also ``distance [m]`` or ``Distance (M)``, any case) or
+  given as ``units="m,mm"`` (a file without a header then starts with its numbers).
+  Lines starting with ``#`` or ``%`` are comments; a UTF-8 byte-order mark and CRLF
+  line ends are read as a text editor reads them.
 * **ERD** (UMTRI's text format for profiles, as RoadRuf and ProVAL write it): a
   header that starts with ``ERDFILEV2.00`` and ends with a line ``END``, then the
   samples, ``NCHAN`` numbers per row, ``NSAMP`` rows. The header gives the layout on
   its second line (comma-separated: ``NCHAN, NSAMP``, three more fields, then the
   spacing ``DELTA``) or as keyword lines (``NCHAN``, ``NSAMP``, ``DELTA``, ``START``),
-  and the units as keyword lines: distance ``XUNITS`` (or ``GENUNITS``), elevation
+  and the units (any case) as keyword lines: distance ``XUNITS`` (or ``GENUNITS``), elevation
   ``YUNITS``, ``UNITSNAM`` or ``UNITS`` (one per channel). Keyword lines are
   ``KEY, v1, v2`` or the fixed-column form, an 8-character key then the values
   (``XUNITS  m``, ``UNITSNAMmm      mm``). The first channel is read (``channel``
   chooses another).
 
+Before pycrg reads an OpenCRG file, its structure is checked against what it
+declares: the ``$ROAD_CRG`` block (the road's extent and increment), the
+``$KD_DEFINITION`` block and the end of the header present, and the data as long as
+the declared samples and channels need (a shorter payload is *truncated*, a height of
+more than 10 km (higher than any road on Earth, even in absolute elevations) *corrupt*,
+both with the byte offset).
+
+The units are judged by a robust statistic, not by the steepest sample: the median
+slope over 1 m steps with the mean grade removed (:data:`MAX_MEDIAN_SLOPE`). Every
+road, a cobbled street with 2 cm joints or a mountain road alike, stays far below it;
+heights in mm read as m (a thousand times steeper) exceed it even on a very good road.
+A single steep sample (a joint, an expansion gap, a pothole's edge) is a fact the
+run reports (:func:`bodyvib.vehicle.road.driven.driven_road`), not a reason to refuse
+the file.
+
 A file that cannot be driven is refused with one line naming the problem and the
 fix: repeated or decreasing distances, a height that is not a number, a gap, a
 spacing that is not uniform, missing or unknown units, heights implausible for their
-units, a truncated file.
+units, a truncated or corrupt file.
 """
 
 import math
@@ -40,10 +59,17 @@ from bodyvib.runtime.errors import BodyvibError
 
 from .profile import ProfileRoad
 
-__all__ = ["load_profile", "PROFILE_EXTENSIONS", "LENGTH_UNITS", "MAX_SLOPE"]
+__all__ = [
+    "load_profile",
+    "PROFILE_EXTENSIONS",
+    "LENGTH_UNITS",
+    "MAX_MEDIAN_SLOPE",
+    "UNIT_BASE_M",
+    "median_slope",
+]
 
 #: File extensions read as road profiles.
-PROFILE_EXTENSIONS = (".crg", ".csv", ".erd")
+PROFILE_EXTENSIONS = (".crg", ".csv", ".txt", ".erd")
 
 #: Length units of CSV and ERD files, in m.
 LENGTH_UNITS = {
@@ -64,9 +90,16 @@ LENGTH_UNITS = {
     "mile": 1609.344,
 }
 
-#: Steepest slope of a driven profile with its grade removed: steeper than 1 (45 degrees)
-#: means a unit is wrong (heights in mm read as m make a 5 mm bump a 5 m wall).
-MAX_SLOPE = 1.0
+#: Largest median slope over :data:`UNIT_BASE_M` steps, grade removed, of a road whose
+#: units are right. The steepest public roads climb 0.35 m per m, and the median change of
+#: grade over a metre is far smaller (a few mm on a cobbled street, 0.05 on a hill road);
+#: an ISO 8608 class A road (the smoothest, Gd(n0) = 16e-6 m^3) has differences of 1.8 mm
+#: r.m.s. over 1 m, so its heights in mm read as m give a median slope of 1.2.
+MAX_MEDIAN_SLOPE = 0.5
+
+#: Step of the units' slope statistic, m: long enough that a joint or an edge is one
+#: sample among many, short enough that a hill's change of grade stays small.
+UNIT_BASE_M = 1.0
 
 #: Deviation of a sample's distance from the uniform grid still taken as uniform, in
 #: spacings (a printed distance rounded to a few digits).
@@ -80,22 +113,35 @@ def load_profile(
     units: Optional[str] = None,
     envelope: bool = False,
     channel: int = 1,
+    contact: str = "point",
+    periodic: bool = False,
+    option: str = "--road-units",
 ) -> ProfileRoad:
-    """Read a measured road profile (OpenCRG, CSV or ERD) as a :class:`~bodyvib.vehicle.road.profile.ProfileRoad`.
+    """Read a measured road profile (OpenCRG, CSV, text or ERD) as a
+    :class:`~bodyvib.vehicle.road.profile.ProfileRoad`.
 
     Parameters
     ----------
     path : str or path
-        ``.crg``, ``.csv`` or ``.erd`` file.
+        ``.crg``, ``.csv``, ``.txt`` or ``.erd`` file.
     track_m : float
         OpenCRG: lateral offset from the reference line, m (positive to the left).
     units : str, optional
-        CSV and ERD: ``"DIST,ELEV"`` units, e.g. ``"m,mm"``, when the file does not
+        CSV, text and ERD: ``"DIST,ELEV"`` units, e.g. ``"m,mm"``, when the file does not
         name them (a file that names other units is refused).
     envelope : bool
-        Apply the 250 mm tire-enveloping moving average.
+        Apply the IRI standard's 250 mm moving average.
     channel : int
         ERD: the channel (profile) to read, from 1.
+    contact : {"point", "tandem-cam", "auto"}
+        The tire contact (:mod:`bodyvib.vehicle.road.contact`): the profile as it is, the
+        effective road of the shipped tire, or the effective road when the spacing is
+        finer than the tire's footprint (point contact otherwise).
+    periodic : bool
+        The profile repeats with its length
+        (:class:`~bodyvib.vehicle.road.profile.ProfileRoad`).
+    option : str
+        The command-line option that gives ``units``, as the messages name it.
 
     Returns
     -------
@@ -125,38 +171,96 @@ def load_profile(
     base = os.path.basename(path)
     if ext == ".crg":
         if units is not None:
-            raise BodyvibError(f"road '{base}': an OpenCRG file is in metres; drop --road-units")
+            raise BodyvibError(f"road '{base}': an OpenCRG file is in metres; drop {option}")
         x, z, info = _read_crg(path, float(track_m))
-    elif ext in (".csv", ".erd"):
+    elif ext in (".csv", ".txt", ".erd"):
         if track_m:
             raise BodyvibError(
                 f"road '{base}': a {ext} file holds one profile; --road-track "
                 "applies to OpenCRG files only"
             )
-        x, z, info = (_read_csv if ext == ".csv" else _read_erd)(path, units, channel)
+        read = _read_erd if ext == ".erd" else _read_columns
+        x, z, info = read(path, units, channel, option)
     else:
         raise BodyvibError(
             f"road '{path}': unknown kind of file '{ext}'; give an OpenCRG "
-            ".crg, a .csv profile or an .erd file (or an ISO 8608 class A-H, "
+            ".crg, a .csv or .txt profile or an .erd file (or an ISO 8608 class A-H, "
             "'bump' or 'sweep')"
         )
     spacing = _uniform(x, z, base)
+    _check_units(z, spacing, base, ext == ".crg", option)
     name = base + (f" at {track_m:g} m" if ext == ".crg" else "")
-    road = ProfileRoad(
+    return ProfileRoad(
         z,
         spacing,
         name=name,
         enveloped=envelope,
+        contact=_tire(contact, spacing),
+        periodic=periodic,
         info=dict(info, file=os.path.abspath(path), start_m=float(x[0])),
     )
-    steep = float(np.max(np.abs(np.diff(road.table.value[:, 0])))) / spacing
-    if steep > MAX_SLOPE:
-        raise BodyvibError(
-            f"road '{base}': the height changes by {steep:.3g} m per m of distance "
-            "(steeper than 45 degrees): the units look wrong; name them in the "
-            "header (distance_m,elevation_mm) or give --road-units"
-        )
-    return road
+
+
+def _tire(contact, spacing):
+    """The tandem cam to drive with, or None (point contact)."""
+    from .contact import CONTACTS, default_tire
+
+    if contact not in CONTACTS:
+        raise BodyvibError(f"unknown road contact '{contact}'; use one of {', '.join(CONTACTS)}")
+    if contact == "point":
+        return None
+    tire = default_tire()
+    return tire if contact == "tandem-cam" or spacing < tire.footprint_m else None
+
+
+def median_slope(elevation, spacing: float, base: float = UNIT_BASE_M) -> float:
+    """Median of ``|z(x + b) - z(x) - g b| / b`` over the profile: its typical slope, grade removed.
+
+    Parameters
+    ----------
+    elevation : (n,) array_like
+        Heights at a uniform spacing, m.
+    spacing : float
+        m.
+    base : float
+        The step b, m (rounded to whole samples; the whole profile if it is shorter).
+
+    Returns
+    -------
+    float
+        m per m; ``g`` is the median slope over the steps (the profile's grade, which a
+        step or a pothole does not move).
+
+    Examples
+    --------
+    A 1 % grade with a 20 mm step: the median ignores both.
+
+    >>> x = np.arange(0, 20, 0.01)
+    >>> round(median_slope(0.01 * x + 0.02 * (x > 10), 0.01), 6)
+    0.0
+    """
+    z = np.asarray(elevation, dtype=float)
+    k = int(min(z.size - 1, max(1, round(base / spacing))))
+    d = z[k:] - z[:-k]
+    return float(np.median(np.abs(d - np.median(d))) / (k * spacing))
+
+
+def _check_units(elevation, spacing, base, crg, option):
+    """Refuse heights whose typical slope no road has (:data:`MAX_MEDIAN_SLOPE`)."""
+    typical = median_slope(elevation, spacing)
+    if typical <= MAX_MEDIAN_SLOPE:
+        return
+    fix = (
+        "an OpenCRG file holds metres: the file is corrupt or was written in other units"
+        if crg
+        else "the units look wrong (mm read as m?); name them in the header "
+        f"(distance_m,elevation_mm) or give {option}"
+    )
+    raise BodyvibError(
+        f"road '{base}': the height changes by a median {typical:.3g} m per m over "
+        f"{UNIT_BASE_M:g} m steps (grade removed), where roads stay below "
+        f"{MAX_MEDIAN_SLOPE:g}: {fix}"
+    )
 
 
 # -- checks shared by the readers ----------------------------------------------------
@@ -192,6 +296,10 @@ def _uniform(x, z, base) -> float:
             f"{x[i + 1]:g} (spacing {dx:g}); fill the gap or cut the profile there"
         )
     spacing = float((x[-1] - x[0]) / (x.size - 1))
+    for digits in range(1, 10):  # as printed: 0.01, not 0.0100000002 from a float32 grid
+        if abs(round(spacing, digits) - spacing) <= 1e-6 * spacing:
+            spacing = round(spacing, digits)
+            break
     dev = np.max(np.abs(x - (x[0] + spacing * np.arange(x.size))))
     if dev > UNIFORM_TOLERANCE * spacing:
         raise BodyvibError(
@@ -204,6 +312,7 @@ def _uniform(x, z, base) -> float:
 
 def _unit(text, what, base) -> float:
     u = str(text).strip().strip("[]()").strip()
+    u = u if u in LENGTH_UNITS else u.lower()
     if u not in LENGTH_UNITS:
         raise BodyvibError(
             f"road '{base}': unknown {what} unit '{u}'; use one of "
@@ -212,18 +321,18 @@ def _unit(text, what, base) -> float:
     return LENGTH_UNITS[u]
 
 
-def _given_units(units, base) -> Optional[Tuple[float, float]]:
+def _given_units(units, base, option) -> Optional[Tuple[float, float]]:
     if units is None:
         return None
     parts = [p.strip() for p in str(units).split(",")]
     if len(parts) != 2:
         raise BodyvibError(
-            f"--road-units '{units}' must name two units, distance and elevation, e.g. m,mm"
+            f"{option} '{units}' must name two units, distance and elevation, e.g. m,mm"
         )
     return _unit(parts[0], "distance", base), _unit(parts[1], "elevation", base)
 
 
-def _scales(base, units, given, header, header_text, no_units) -> Tuple[float, float]:
+def _scales(base, units, given, header, header_text, no_units, option) -> Tuple[float, float]:
     """The factors from a file's distance and elevation units to metres.
 
     Parameters
@@ -240,7 +349,9 @@ def _scales(base, units, given, header, header_text, no_units) -> Tuple[float, f
         The header as a message quotes it.
     no_units : str
         What a message says when neither the header nor ``--road-units`` names the
-        units (the fix ``or give --road-units m,mm`` is appended).
+        units (the fix ``or give OPTION m,mm`` is appended).
+    option : str
+        The option that gives the units, as the messages name it (``--road-units``).
 
     Returns
     -------
@@ -257,71 +368,91 @@ def _scales(base, units, given, header, header_text, no_units) -> Tuple[float, f
         scales = (_unit(header[0], "distance", base), _unit(header[1], "elevation", base))
         if given is not None and given != scales:
             raise BodyvibError(
-                f"road '{base}': --road-units {units} disagrees with the header "
+                f"road '{base}': {option} {units} disagrees with the header "
                 f"{header_text}; drop one of them"
             )
         return scales
     if given is None:
-        raise BodyvibError(f"road '{base}': {no_units} or give --road-units m,mm")
+        raise BodyvibError(f"road '{base}': {no_units} or give {option} m,mm")
     return given
 
 
-# -- CSV ------------------------------------------------------------------------------
+# -- CSV and text columns -------------------------------------------------------------
 
 _HEADER_UNIT = re.compile(r"^\s*([A-Za-z][A-Za-z0-9 ]*?)\s*(?:_|\[|\()\s*([A-Za-zµ]+)\s*[\])]?\s*$")
 
 
-def _read_csv(path, units, channel):
+def _splitter(line):
+    """How a file's lines split into fields: by semicolons, commas or white space."""
+    if ";" in line:
+        return lambda ln: [f.strip().replace(",", ".") for f in ln.split(";")]
+    if "," in line:
+        return lambda ln: [f.strip() for f in ln.split(",")]
+    # white space; a unit in brackets stays with its column's name ("distance [m]")
+    return lambda ln: re.sub(r"\s+(?=[\[(])", "", ln).split()
+
+
+def _read_columns(path, units, channel, option):
     base = os.path.basename(path)
     lines = _text_lines(path)
     rows = [
-        (i + 1, ln) for i, ln in enumerate(lines) if ln.strip() and not ln.lstrip().startswith("#")
+        (i + 1, ln)
+        for i, ln in enumerate(lines)
+        if ln.strip() and not ln.lstrip().startswith(("#", "%"))
     ]
     if not rows:
         raise BodyvibError(
-            f"road '{base}' is empty; a CSV profile needs a header and rows of distance,elevation"
+            f"road '{base}' is empty; a profile needs a header and rows of distance,elevation"
         )
-    head = [h.strip() for h in rows[0][1].split(",")]
-    given = _given_units(units, base)
+    split = _splitter(rows[0][1])
+    head = split(rows[0][1])
+    given = _given_units(units, base, option)
     if _is_number(head[0]):
-        raise BodyvibError(
-            f"road '{base}' has no header; start it with the columns and their "
-            "units, e.g. distance_m,elevation_mm"
-        )
-    if len(head) < 2:
-        raise BodyvibError(
-            f"road '{base}': the header '{rows[0][1].strip()}' needs two columns, "
-            "distance and elevation"
-        )
-    named = [_HEADER_UNIT.match(h) for h in head[:2]]
+        if given is None:
+            raise BodyvibError(
+                f"road '{base}' has no header; start it with the columns and their "
+                f"units, e.g. distance_m,elevation_mm (or give {option} m,mm)"
+            )
+        head, data = None, rows
+    else:
+        data = rows[1:]
+        if len(head) < 2:
+            raise BodyvibError(
+                f"road '{base}': the header '{rows[0][1].strip()}' needs two columns, "
+                "distance and elevation"
+            )
+    named = [_HEADER_UNIT.match(h) for h in head[:2]] if head else [None, None]
+    text = f"'{','.join(head[:2])}'" if head else "(none)"
     scales = _scales(
         base,
         units,
         given,
         (named[0].group(2), named[1].group(2)) if all(named) else None,
-        f"'{','.join(head[:2])}'",
-        f"the header '{','.join(head[:2])}' names no units; name them (distance_m,elevation_mm)",
+        text,
+        f"the header {text} names no units; name them (distance_m,elevation_mm)",
+        option,
     )
     x, z = [], []
-    for k, (lineno, ln) in enumerate(rows[1:]):
-        f = ln.split(",")
+    for k, (lineno, ln) in enumerate(data):
+        f = split(ln)
         if len(f) < 2:
-            last = k == len(rows) - 2
+            last = k == len(data) - 1
             raise BodyvibError(
                 f"road '{base}': line {lineno} has {len(f)} field(s), not 2"
                 + ("; the file looks truncated: write it again" if last else "; fix the line")
             )
         try:
-            x.append(float(f[0]) if f[0].strip() else math.nan)
-            z.append(float(f[1]) if f[1].strip() else math.nan)
+            x.append(float(f[0]) if f[0] else math.nan)
+            z.append(float(f[1]) if f[1] else math.nan)
         except ValueError:
             raise BodyvibError(
                 f"road '{base}': line {lineno} '{ln.strip()}' is not two numbers; fix the line"
             ) from None
+    kind = "csv" if path.lower().endswith(".csv") else "text"
     return (
         np.array(x) * scales[0],
         np.array(z) * scales[1],
-        {"format": "csv", "units": f"{head[0]},{head[1]}" if all(named) else units},
+        {"format": kind, "units": f"{head[0]},{head[1]}" if all(named) else units},
     )
 
 
@@ -335,18 +466,18 @@ def _is_number(text) -> bool:
 
 def _text_lines(path) -> List[str]:
     try:
-        with open(path, encoding="utf-8", errors="strict") as f:
+        with open(path, encoding="utf-8-sig", errors="strict") as f:  # -sig: drop a BOM
             return f.read().splitlines()
     except UnicodeDecodeError:
         raise BodyvibError(
-            f"road '{os.path.basename(path)}' is not a text file; give a CSV or ERD text file"
+            f"road '{os.path.basename(path)}' is not a text file; give a CSV, text or ERD file"
         ) from None
 
 
 # -- ERD ------------------------------------------------------------------------------
 
 
-def _read_erd(path, units, channel):
+def _read_erd(path, units, channel, option):
     base = os.path.basename(path)
     lines = _text_lines(path)
     if not lines or not lines[0].strip().upper().startswith("ERDFILEV"):
@@ -401,7 +532,7 @@ def _read_erd(path, units, channel):
         )
     xu = keys.get("XUNITS") or keys.get("GENUNITS")
     yu = keys.get("YUNITS") or keys.get("UNITSNAM") or keys.get("UNITS")
-    given = _given_units(units, base)
+    given = _given_units(units, base, option)
     yname = (yu[channel - 1] if len(yu) >= channel else yu[0]) if yu else None
     scales = _scales(
         base,
@@ -410,6 +541,7 @@ def _read_erd(path, units, channel):
         (xu[0], yname) if xu and yu else None,
         f"(XUNITS {xu[0] if xu else ''}, YUNITS {yname})",
         "the ERD header names no units (XUNITS and YUNITS); add them",
+        option,
     )
     text = " ".join(lines[end + 1 :]).replace(",", " ")
     try:
@@ -446,8 +578,127 @@ def _read_erd(path, units, channel):
 # -- OpenCRG --------------------------------------------------------------------------
 
 
+#: The line that ends an OpenCRG header: the data follow it.
+_CRG_END = b"$$$$"
+
+_NUMBER = re.compile(rb"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+
+#: Largest height an OpenCRG payload may hold, m: more is damaged data, not a road.
+_CRG_MAX_HEIGHT = 1e4
+
+
+def _crg_value(block, key):
+    """A ``key = value`` number of a header block, or None."""
+    m = re.search(rb"^\s*" + key.encode() + rb"\s*=\s*([^\s!*]+)", block, re.M | re.I)
+    try:
+        return float(m.group(1)) if m else None
+    except ValueError:
+        return None
+
+
+def _crg_block(header, name):
+    """The text of a header block ``$NAME`` (to the next ``$`` line), or None."""
+    m = re.search(rb"^\$" + name.encode() + rb"\b[^\n]*\n(.*?)^\$", header, re.M | re.S | re.I)
+    return m.group(1) if m else None
+
+
+def _check_crg_structure(path, base):
+    """Refuse an OpenCRG file whose blocks or data do not match what its header declares.
+
+    pycrg reads what it finds; a file missing its ``$ROAD_CRG`` block is read with the
+    format's defaults, and a binary payload short by a few bytes is read shifted. The
+    checks here: the header ends (a ``$$$$`` line), ``$ROAD_CRG`` gives the road's start,
+    end and increment, ``$KD_DEFINITION`` names the format and the channels, and the data
+    hold ``samples x channels`` values (4 or 8 bytes each when binary), none of them a
+    height above ``_CRG_MAX_HEIGHT`` (10 km).
+    """
+    with open(path, "rb") as f:
+        data = f.read()
+    stop = data.find(_CRG_END)
+    if stop < 0 and not re.search(rb"^\$(ROAD_CRG|KD_DEFINITION)", data, re.M | re.I):
+        raise BodyvibError(
+            f"road '{base}' is not a readable OpenCRG file (it has no $ROAD_CRG or "
+            "$KD_DEFINITION block and no '$$$$' line before its data); give an OpenCRG file"
+        )
+    if stop < 0:
+        raise BodyvibError(
+            f"road '{base}' is truncated in its header (no '$$$$' line ends it, "
+            f"{len(data)} bytes); write it again"
+        )
+    start = data.find(b"\n", stop)
+    start = len(data) if start < 0 else start + 1
+    header = data[:stop]
+    road = _crg_block(header, "ROAD_CRG")
+    if road is None:
+        raise BodyvibError(
+            f"road '{base}' has no $ROAD_CRG block (the road's start, end and increment); "
+            "without it the file's extent is a guess: write the file again with it"
+        )
+    kd = _crg_block(header, "KD_DEFINITION")
+    if kd is None:
+        raise BodyvibError(
+            f"road '{base}' has no $KD_DEFINITION block (the data format and channels); "
+            "write the file again"
+        )
+    fmt = re.search(rb"^#:\s*([A-Z]{4})", kd, re.M)
+    channels = len(re.findall(rb"^\s*D:", kd, re.M))
+    u_line = re.search(rb"^\s*U:([^\n]*)", kd, re.M)
+    u_stored = bool(u_line) and u_line.group(1).count(b",") < 3
+    if u_stored:
+        channels += 1  # u is stored as a channel of its own (distances, not heights)
+    u0 = _crg_value(road, "reference_line_start_u") or 0.0
+    u1 = _crg_value(road, "reference_line_end_u")
+    du = _crg_value(road, "reference_line_increment")
+    if u_line and u_line.group(1).count(b",") >= 3 and du is None:
+        try:
+            du = float(u_line.group(1).split(b",")[3])
+        except ValueError:
+            du = None
+    if fmt is None or channels == 0 or u1 is None or not du or du <= 0 or u1 <= u0:
+        raise BodyvibError(
+            f"road '{base}' is corrupt: its header does not declare the data "
+            "(format '#:....', 'D:' channels, reference_line_end_u and a positive "
+            "reference_line_increment); write it again"
+        )
+    samples = int(round((u1 - u0) / du)) + 1
+    code = fmt.group(1).decode()
+    if code[2] == "B":  # binary: 4-byte (R) or 8-byte (D) IEEE numbers, big-endian
+        width = 8 if code[1] == "D" else 4
+        need = samples * channels * width
+        have = len(data) - start
+        padded = -(-need // 80) * 80  # writers fill the last 80-byte record
+        if have < need or need < have < padded:
+            need = padded if have > need else need
+            raise BodyvibError(
+                f"road '{base}' is truncated: its header declares {samples} samples of "
+                f"{channels} channel(s), {need} bytes of data from byte offset {start}; the "
+                f"file ends at byte offset {len(data)}, {need - have} bytes short; write it "
+                "again"
+            )
+        values = np.frombuffer(
+            data, dtype=">f8" if width == 8 else ">f4", count=need // width, offset=start
+        )
+        bad = np.flatnonzero(np.abs(values) > _CRG_MAX_HEIGHT) if not u_stored else []
+        if len(bad):
+            i = int(bad[0])
+            raise BodyvibError(
+                f"road '{base}' is corrupt: a value of {values[i]:.3g} m at byte offset "
+                f"{start + i * width} (sample {i // channels + 1}); write it again"
+            )
+    else:  # text: count the numbers (fixed-width fields may touch: "-1.2e-03-2.5e-03")
+        # (a slope or heading channel, defined between samples, may lack its last value)
+        count = len(_NUMBER.findall(data[start:]))
+        if count < (samples - 1) * channels + 1:
+            raise BodyvibError(
+                f"road '{base}' is truncated: its header declares {samples} samples of "
+                f"{channels} channel(s), its data from byte offset {start} hold "
+                f"{count} numbers of {samples * channels}; write it again"
+            )
+
+
 def _read_crg(path, track):
     base = os.path.basename(path)
+    _check_crg_structure(path, base)
     try:
         import pycrg
     except ImportError:  # pragma: no cover - a dependency

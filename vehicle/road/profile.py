@@ -14,12 +14,19 @@ follows without vibrating) removed: the driven height starts and ends at 0, so t
 fade-in and fade-out of :class:`bodyvib.vehicle.road.synthetic.TaperedRoad` join level road,
 and a repeated profile (``--road-repeat``) joins itself without a step.
 
-Optional tire enveloping is the 250 mm moving average of the IRI standard (ASTM
-E1926): each height becomes the mean of the ``round(0.25 m / dx)`` samples centred
-on it (the profile loses the half windows at its ends).
+A profile driven with a tire contact (:mod:`bodyvib.vehicle.road.contact`) is
+replaced by the tandem-cam effective road at its samples before it is interpolated.
+The 250 mm moving average of the IRI standard (ASTM E1926; each height the mean of
+the ``round(0.25 m / dx)`` samples centred on it, the profile losing the half windows
+at its ends) is a profile filter for the IRI, kept as an option.
+
+A *periodic* profile (a short road driven again and again) joins its end to its
+start: its driven height is 0 at both, and its slope there is the central difference
+across the join, so the repeated road has no step in height or slope.
 """
 
 import math
+import warnings
 from typing import Optional
 
 import numpy as np
@@ -27,12 +34,17 @@ import numpy as np
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.tabulated import HermiteTable
 
-from .synthetic import Road
+from .base import Road, RoadWarning
+from .contact import TandemCam, effective_road
 
-__all__ = ["ProfileRoad", "ENVELOPE_M", "COMFORT_TOP_HZ", "envelope"]
+__all__ = ["ProfileRoad", "ENVELOPE_M", "COMFORT_TOP_HZ", "STEEP_SLOPE", "envelope"]
 
 #: Base length of the tire-enveloping moving average (IRI standard, ASTM E1926), m.
 ENVELOPE_M = 0.25
+
+#: Slope of a driven profile beyond which a point contact reports it (a step a tire
+#: rolls onto over its footprint, not one it follows): 1, 45 degrees.
+STEEP_SLOPE = 1.0
 
 #: Highest frequency the comfort figures weight, Hz: the 80 Hz one-third-octave band,
 #: the top of ISO 2631-1's range for health and comfort.
@@ -70,7 +82,7 @@ def envelope(elevation, spacing: float, base: float = ENVELOPE_M) -> np.ndarray:
 
 
 class ProfileRoad(Road):
-    """A measured longitudinal profile, uniformly sampled, as a :class:`~bodyvib.vehicle.road.synthetic.Road`.
+    """A measured longitudinal profile, uniformly sampled, as a :class:`~bodyvib.vehicle.road.base.Road`.
 
     Parameters
     ----------
@@ -83,14 +95,18 @@ class ProfileRoad(Road):
     info : dict, optional
         Provenance for :meth:`describe` (format, file, track, units).
     enveloped : bool
-        Apply the 250 mm tire-enveloping moving average (:func:`envelope`).
+        Apply the IRI standard's 250 mm moving average (:func:`envelope`).
+    contact : TandemCam, optional
+        Drive the tandem-cam effective road of this tire (None: point contact).
+    periodic : bool
+        The profile repeats with its length (the wheel at ``x`` sees ``x mod length``).
 
     Attributes
     ----------
     distance : ndarray
         Distance of each sample from the profile's first, m.
     elevation : ndarray
-        Heights as read (after enveloping if asked), m.
+        Heights as read (the moving average and the effective road applied if asked), m.
     spacing : float
         m.
     length : float
@@ -119,6 +135,8 @@ class ProfileRoad(Road):
         name: str = "measured profile",
         info: Optional[dict] = None,
         enveloped: bool = False,
+        contact: Optional[TandemCam] = None,
+        periodic: bool = False,
     ):
         z = np.asarray(elevation, dtype=float).ravel()
         if not (isinstance(spacing, (int, float)) and math.isfinite(spacing) and spacing > 0):
@@ -131,6 +149,11 @@ class ProfileRoad(Road):
             z = envelope(z, spacing)
         if z.size < 4:
             raise BodyvibError(f"profile '{name}' has {z.size} samples; a road needs at least 4")
+        if contact is not None:  # the cams ride the profile without its grade
+            line = z[0] + (z[-1] - z[0]) * np.linspace(0.0, 1.0, z.size)
+            z = effective_road(z - line, spacing, contact, periodic) + line
+        self.contact = contact
+        self.periodic = bool(periodic)
         self.name = name
         self.spacing = float(spacing)
         self.elevation = z
@@ -141,20 +164,40 @@ class ProfileRoad(Road):
         self.grade = float((z[-1] - z[0]) / self.length)
         h = z - z[0] - self.grade * self.distance
         h[-1] = 0.0
-        self._table = HermiteTable(self.distance, h, np.gradient(h, self.spacing, edge_order=2))
+        dh = np.gradient(h, self.spacing, edge_order=2)
+        if self.periodic:  # the join's slope from its neighbours on either side
+            dh[0] = dh[-1] = (h[1] - h[-2]) / (2 * self.spacing)
+        self._table = HermiteTable(self.distance, h, dh)
 
     @property
     def table(self) -> HermiteTable:
         """The interpolant of the driven height (grade removed): heights and slopes at the samples."""
         return self._table
 
+    def _at(self, x):
+        x = np.asarray(x, dtype=float)
+        return np.mod(x, self.length) if self.periodic else x
+
     def displacement(self, x) -> np.ndarray:
-        """Driven height at distances ``x`` (m) from the first sample, m (the end held beyond)."""
-        return self._table.evaluate(x)[0][..., 0]
+        """Driven height at distances ``x`` (m) from the first sample, m (the end held beyond,
+        or the profile repeated when periodic)."""
+        return self._table.evaluate(self._at(x))[0][..., 0]
 
     def slope(self, x) -> np.ndarray:
-        """Exact slope ``dz/dx`` of the same interpolant (0 beyond the ends)."""
-        return self._table.evaluate(x)[1][..., 0]
+        """Exact slope ``dz/dx`` of the same interpolant (0 beyond the ends unless periodic)."""
+        return self._table.evaluate(self._at(x))[1][..., 0]
+
+    def steepest(self):
+        """The steepest chord between neighbouring samples of the driven height, and where.
+
+        Returns
+        -------
+        (float, float)
+            ``|z_{i+1} - z_i| / dx`` and the distance of the chord's first sample, m.
+        """
+        s = np.abs(np.diff(self._table.value[:, 0])) / self.spacing
+        i = int(np.argmax(s))
+        return float(s[i]), float(self.distance[i])
 
     def describe(self) -> dict:
         return {
@@ -163,19 +206,27 @@ class ProfileRoad(Road):
             "spacing_m": self.spacing,
             "samples": int(self.elevation.size),
             "grade_removed": self.grade,
-            "tire_envelope_m": ENVELOPE_M if self.enveloped else None,
+            "moving_average_m": ENVELOPE_M if self.enveloped else None,
+            "contact": (
+                dict(model="tandem-cam", **self.contact.to_dict())
+                if self.contact is not None
+                else {"model": "point"}
+            ),
+            "repeats": self.periodic,
             **self.info,
         }
 
     def check_run(
         self, speed: float, duration: float, step: Optional[float] = None, repeat: bool = False
     ) -> None:
-        """Refuse a run this profile cannot drive.
+        """Refuse a run this profile cannot drive; warn of a band it does not carry.
 
         The profile resolves wavelengths down to ``2 dx``; at the speed ``V`` they pass
-        at ``V / (2 dx)`` Hz, which must reach the highest frequency the comfort figures
-        weight (:data:`COMFORT_TOP_HZ`) or the step resolves (``1 / (2 h)``), whichever
-        is lower. A run longer than the profile is refused unless it repeats.
+        at ``V / (2 dx)`` Hz. Below the highest frequency the comfort figures weight
+        (:data:`COMFORT_TOP_HZ`) or the step resolves (``1 / (2 h)``), whichever is lower,
+        the figures miss the road's content above it: a :class:`~bodyvib.vehicle.road.base.RoadWarning` names that
+        frequency (a profiler's 0.25 m spacing carries 40 Hz at 20 m/s). A run longer
+        than the profile is refused unless it repeats.
 
         Parameters
         ----------
@@ -191,18 +242,23 @@ class ProfileRoad(Road):
         Raises
         ------
         BodyvibError
-            Spacing too coarse for the speed and step, or a run longer than the profile.
+            A run longer than the profile that does not repeat.
+
+        Warns
+        -----
+        bodyvib.vehicle.road.base.RoadWarning
+            The profile carries nothing above a frequency the figures weight.
         """
         need = COMFORT_TOP_HZ if not step else min(COMFORT_TOP_HZ, 0.5 / step)
         top = speed / (2 * self.spacing)
         if top < need * (1 - 1e-9):
-            raise BodyvibError(
-                f"road '{self.name}': its spacing {self.spacing:g} m is too coarse for "
-                f"{speed:g} m/s and a {step or 0:g} s step: its shortest wavelength passes at "
-                f"{top:.3g} Hz, below the {need:.3g} Hz the figures need; use a profile sampled "
-                f"every {speed / (2 * need):.3g} m or finer, drive at "
-                f"{2 * self.spacing * need:.3g} m/s or faster, or step at {0.5 / top:.3g} s or "
-                "longer (which resolves less)"
+            warnings.warn(
+                f"road '{self.name}': at {speed:g} m/s its {self.spacing:g} m spacing carries "
+                f"nothing above {top:.3g} Hz (wavelengths below {2 * self.spacing:g} m); the "
+                f"figures, which weight up to {need:.3g} Hz, miss the road's content above "
+                f"{top:.3g} Hz (a profile every {speed / (2 * need):.3g} m would carry it)",
+                RoadWarning,
+                stacklevel=2,
             )
         run = speed * duration
         if run > self.length * (1 + 1e-12) and not repeat:

@@ -13,11 +13,24 @@ import numpy as np
 
 from bodyvib.plotting import stacked_panels
 
-from .classify import RoadClass, _fit_band, class_limits, profile_psd
+from .classify import (
+    POOR_FIT_MISFIT,
+    RoadClass,
+    _fit_band,
+    _segments,
+    class_limits,
+    profile_psd,
+)
 from .iri import IriResult, _check_profile, international_roughness_index
 from .synthetic import ISO8608_CLASSES, N0, class_psd_n0
 
-__all__ = ["RoadSummary", "summarize_profile", "format_summary", "plot_summary"]
+__all__ = [
+    "RoadSummary",
+    "TrackSummaries",
+    "summarize_profile",
+    "format_summary",
+    "plot_summary",
+]
 
 
 @dataclass(frozen=True)
@@ -33,7 +46,10 @@ class RoadSummary:
     samples : int
         Number of profile points.
     elevation_m : dict
-        ``mean``, ``rms`` (about the mean), ``min``, ``max``, ``range``, m.
+        ``mean``; ``rms``, ``min``, ``max`` about the profile's grade line (least squares),
+        and ``range`` of those, m.
+    grade : float
+        Slope of the least-squares line through the profile (the grade), m/m.
     psd_n : ndarray
         Spatial frequencies of the PSD, cycle/m.
     psd_gd : ndarray
@@ -51,6 +67,7 @@ class RoadSummary:
     spacing_m: float
     samples: int
     elevation_m: dict
+    grade: float
     psd_n: np.ndarray
     psd_gd: np.ndarray
     iso8608: RoadClass
@@ -66,12 +83,55 @@ class RoadSummary:
             "spacing_m": self.spacing_m,
             "samples": self.samples,
             "elevation_m": dict(self.elevation_m),
+            "grade": self.grade,
             "iso8608": self.iso8608.to_dict(),
             "iri": self.iri.to_dict(),
         }
         if psd:
             d["psd"] = {"n_cycles_per_m": self.psd_n.tolist(), "gd_m3": self.psd_gd.tolist()}
         return d
+
+
+@dataclass(frozen=True)
+class TrackSummaries:
+    """Summaries of several tracks of one road (an OpenCRG surface's wheel paths).
+
+    Attributes
+    ----------
+    summaries : tuple of RoadSummary
+        One per track, in the order asked.
+    """
+
+    summaries: tuple
+
+    def to_dict(self, psd: bool = True) -> dict:
+        """JSON-ready dict: ``{"tracks": [summary, ...]}``."""
+        return {"tracks": [s.to_dict(psd) for s in self.summaries]}
+
+    def format(self) -> str:
+        """The tracks' texts (:func:`format_summary`), a blank line between them."""
+        return "\n\n".join(format_summary(s) for s in self.summaries)
+
+    def plot(self, path) -> None:
+        """The tracks' profiles over distance and their PSDs, in one figure."""
+        with stacked_panels(path) as (ax1, ax2):
+            for s in self.summaries:
+                ax1.plot(s.distance, 1000 * s.elevation, lw=0.6, label=s.name)
+                ax2.loglog(
+                    s.psd_n,
+                    s.psd_gd,
+                    lw=0.6,
+                    label=f"{s.name}: class "
+                    f"{s.iso8608.iso8608_class}, IRI {s.iri.iri_m_per_km:.2f} m/km",
+                )
+            ax1.set_xlabel("distance [m]")
+            ax1.set_ylabel("elevation [mm]")
+            ax1.grid(True, alpha=0.3)
+            ax1.legend(fontsize=8)
+            ax2.set_xlabel("spatial frequency n [cycle/m]")
+            ax2.set_ylabel("Gd(n) [m^3]")
+            ax2.grid(True, which="both", alpha=0.3)
+            ax2.legend(fontsize=8, loc="lower left")
 
 
 def summarize_profile(distance, elevation, name: str = "profile") -> RoadSummary:
@@ -105,12 +165,14 @@ def summarize_profile(distance, elevation, name: str = "profile") -> RoadSummary
     ('B', 6000)
     """
     x, z, dx = _check_profile(distance, elevation)
+    grade, offset = np.polyfit(x - x[0], z, 1)
+    r = z - offset - grade * (x - x[0])  # about the grade line: the roughness
     stats = {
         "mean": float(z.mean()),
-        "rms": float(z.std()),
-        "min": float(z.min()),
-        "max": float(z.max()),
-        "range": float(z.max() - z.min()),
+        "rms": float(np.sqrt(np.mean(r**2))),
+        "min": float(r.min()),
+        "max": float(r.max()),
+        "range": float(r.max() - r.min()),
     }
     n, gd, segment = profile_psd(x, z)  # one Welch PSD, shown and fitted
     return RoadSummary(
@@ -119,9 +181,10 @@ def summarize_profile(distance, elevation, name: str = "profile") -> RoadSummary
         spacing_m=dx,
         samples=int(x.size),
         elevation_m=stats,
+        grade=float(grade),
         psd_n=n,
         psd_gd=gd,
-        iso8608=_fit_band(n, gd, segment),
+        iso8608=_fit_band(n, gd, segment, segments=_segments(x, segment)),
         iri=international_roughness_index(x, z),
         distance=x,
         elevation=z,
@@ -139,26 +202,49 @@ def format_summary(s: RoadSummary) -> str:
     Returns
     -------
     str
-        Five lines (no trailing newline): the name; length, spacing and samples;
-        elevation statistics in mm; the ISO 8608 fit and class; the IRI in m/km.
+        The lines (no trailing newline): the name; length, spacing and samples; the
+        grade; elevation statistics about the grade line in mm; the ISO 8608 fit, its
+        band, class and fit quality (and a warning line when the line does not fit);
+        the IRI in m/km with the moving average it applied.
     """
     e = {k: 1000 * v for k, v in s.elevation_m.items()}
     c = s.iso8608
     lo, hi = c.class_limits_m3
     limits = f"{lo:.3g}-{hi:.3g}" if np.isfinite(hi) else f">= {lo:.3g}"
-    return "\n".join(
-        [
-            f"road {s.name}",
-            f"length {s.length_m:.6g} m, spacing {s.spacing_m:.4g} m ({s.samples} samples)",
-            f"elevation: mean {e['mean']:.2f} mm, r.m.s. about the mean {e['rms']:.2f} mm, "
-            f"min {e['min']:.2f} mm, max {e['max']:.2f} mm",
-            f"ISO 8608: Gd(n0 = 0.1 cycle/m) = {c.gd_n0_m3:.3g} m^3, waviness w = {c.waviness:.2f} "
-            f"(fitted over {c.band_cycles_per_m[0]:.3g}-{c.band_cycles_per_m[1]:.3g} cycle/m) "
-            f"-> class {c.iso8608_class} ({limits} m^3)",
-            f"IRI {s.iri.iri_m_per_km:.3f} m/km (Golden Car at 80 km/h over {s.iri.length_m:.6g} m, "
-            f"250 mm moving average)",
-        ]
+    band = f"{c.band_cycles_per_m[0]:.3g}-{c.band_cycles_per_m[1]:.3g} cycle/m"
+    wave = (
+        f"waviness w = {c.waviness:.2f} (fitted over {band})"
+        if c.waviness_fitted
+        else f"waviness w = 2 (ISO 8608's, held: the band {band} does not reach n0)"
     )
+    k = s.iri.smoothing_samples
+    smoothing = (
+        f"{k}-sample {1000 * k * s.spacing_m:.4g} mm moving average"
+        if k > 1
+        else f"no moving average at a {s.spacing_m:.6g} m spacing"
+    )
+    lines = [
+        f"road {s.name}",
+        f"length {s.length_m:.6g} m, spacing {s.spacing_m:.6g} m ({s.samples} samples)",
+        f"grade {round(100 * s.grade, 3) + 0.0:+.3f} % (least-squares line; removed for the "
+        "statistics)",
+        f"elevation about the grade line: r.m.s. {e['rms']:.2f} mm, min {e['min']:.2f} mm, "
+        f"max {e['max']:.2f} mm (mean elevation {s.elevation_m['mean']:.6g} m)",
+        f"ISO 8608: Gd(n0 = 0.1 cycle/m) = {c.gd_n0_m3:.3g} m^3, {wave} -> class "
+        f"{c.iso8608_class} ({limits} m^3); band means within a factor {c.scatter:.2f} of the "
+        f"line (misfit {c.misfit:.2f} of their own scatter)",
+    ]
+    if not c.fits:
+        lines.append(
+            f"warning: the ISO 8608 line fits this profile badly (misfit {c.misfit:.3g} > "
+            f"{POOR_FIT_MISFIT:g}): its PSD is not a straight line in log-log axes (a "
+            "periodic profile?), and the class describes it poorly"
+        )
+    lines.append(
+        f"IRI {s.iri.iri_m_per_km:.3f} m/km (Golden Car at 80 km/h over {s.iri.length_m:.6g} "
+        f"m, {smoothing})"
+    )
+    return "\n".join(lines)
 
 
 def plot_summary(s: RoadSummary, path) -> None:

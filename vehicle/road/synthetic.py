@@ -1,4 +1,4 @@
-"""Synthetic roads (ISO 8608 classes, bump, sweep) and what every road shares.
+"""Synthetic roads (ISO 8608 classes, bump, sweep), the fade-in, and a road as a table.
 
 A road is a vertical profile ``z(x)`` [m] over the distance ``x`` [m]; a car
 driving at a constant speed ``V`` [m/s] sees ``z(V t)`` and the road velocity
@@ -35,13 +35,14 @@ import numpy as np
 from bodyvib.process.limits import require_memory
 from bodyvib.runtime.errors import BodyvibError
 
+from .base import Road
+
 __all__ = [
     "ISO8608_CLASSES",
     "N0",
     "N_BAND",
     "class_psd_n0",
     "displacement_psd",
-    "Road",
     "RandomRoad",
     "BumpRoad",
     "SweepRoad",
@@ -115,25 +116,6 @@ def displacement_psd(n, road_class: str, waviness: float = 2.0) -> np.ndarray:
     """
     n = np.asarray(n, dtype=float)
     return class_psd_n0(road_class) * (n / N0) ** (-waviness)
-
-
-class Road:
-    """A road profile: ``displacement(x)`` [m] and ``slope(x)`` [-] over distance x [m]."""
-
-    length: float = math.inf
-    name: str = "road"
-
-    def displacement(self, x) -> np.ndarray:  # pragma: no cover - interface
-        """Profile height at distances ``x`` (m), in m."""
-        raise NotImplementedError
-
-    def slope(self, x) -> np.ndarray:  # pragma: no cover - interface
-        """Profile slope ``dz/dx`` at distances ``x`` (m), dimensionless."""
-        raise NotImplementedError
-
-    def describe(self) -> dict:
-        """Parameters of the road for reports (JSON-serializable)."""
-        return {"name": self.name}
 
 
 @dataclass
@@ -434,7 +416,7 @@ def make_road(spec: str, speed: float, duration: float, seed: int = 0) -> Road:
         return random_road(s.upper(), length=length + 1.0, seed=seed)
     raise BodyvibError(
         f"unknown road '{spec}'; use an ISO 8608 class A-H, 'bump', 'sweep' or a road file "
-        "(.crg, .csv, .erd)"
+        "(.crg, .csv, .txt, .erd)"
     )
 
 
@@ -575,7 +557,7 @@ class TaperedRoad(Road):
             self.road.describe(),
             taper_m=self.taper,
             tapered_length_m=self.length if math.isfinite(self.length) else None,
-            repeats=self.periodic,
+            repeats=self.periodic or bool(getattr(self.road, "periodic", False)),
         )
 
 

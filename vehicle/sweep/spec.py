@@ -6,9 +6,9 @@ the order road, seed, speed, duration, step, body, car)::
 
     {
       "road": ["A", "B", "C", "D", "E"],   ISO 8608 class A-H, "bump", "sweep" or a road file
-                                           (.crg, .csv, .erd; relative to the working folder)
+                                           (.crg, .csv, .txt, .erd; relative to the working folder)
       "road_options": {"taper": 5},        how roads are driven: taper (m), track (m), units,
-                                           envelope, repeat (as the --road-* options)
+                                           envelope, repeat, contact (as the --road-* options)
       "seed": [0],                         random-road seed(s), or a range "0..24" (no effect on bump/sweep)
       "speed": [10, 15, 20, 25, 30],       m/s
       "duration": 30,                      s
@@ -20,7 +20,8 @@ the order road, seed, speed, duration, step, body, car)::
     }
 
 Defaults: ``seed`` 0, ``duration`` 30, ``step`` 0.001, ``car`` ``quarter-car``;
-``road``, ``speed`` and ``body`` are required.
+``road`` and ``speed`` are required; ``body`` defaults to cosim's body (the paper's reduced
+model, ``reduced-paper``) and ``car`` to its car (``quarter-car``).
 
 **Parameter ranges around one model.** ``vary`` maps parameter names of
 ``model`` to ``[low, high]`` *factors* on the model's own value. ``samples``
@@ -53,6 +54,7 @@ from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.jsonfile import read_json
 from bodyvib.runtime.modelfile import network_to_dict
 
+from ..fmus import FMUS
 from ..quarter_car import load_car
 from ..road.driven import RoadOptions, is_road_file, road_label
 from ..study import check_settings
@@ -78,7 +80,7 @@ SPEC_KEYS = {
     "speed": None,
     "duration": 30.0,
     "step": 1e-3,
-    "body": None,
+    "body": FMUS["HumanBody3DOF"][1],  # cosim's default body, the paper's reduced model
     "car": "quarter-car",
     "road_options": {},
 }
@@ -89,6 +91,7 @@ ROAD_OPTION_KEYS = {
     "units": "units",
     "envelope": "envelope",
     "repeat": "repeat",
+    "contact": "contact",
 }
 _BODY_KEYS = {"model", "vary", "samples", "seed", "method", "name"}
 
@@ -698,6 +701,7 @@ def expand(spec: dict) -> List[Case]:
 
 def _road_options(value) -> Tuple[Tuple[str, object], ...]:
     """``road_options`` of a spec as RoadOptions fields that differ from the defaults."""
+    from ..road.contact import CONTACTS
     from ..road.driven import RoadOptions
 
     if not isinstance(value, dict):
@@ -727,6 +731,10 @@ def _road_options(value) -> Tuple[Tuple[str, object], ...]:
             v = float(v)
         elif k in ("envelope", "repeat") and not isinstance(v, bool):
             raise BodyvibError(f"spec: road option '{k}' must be true or false, got {v!r}")
+        elif k == "contact" and v not in CONTACTS:
+            raise BodyvibError(
+                f"spec: road option 'contact' must be one of {', '.join(CONTACTS)}, got {v!r}"
+            )
         elif k == "units" and v is not None and not isinstance(v, str):
             raise BodyvibError(f"spec: road option 'units' must be text like \"m,mm\", got {v!r}")
         if v != getattr(default, field):
