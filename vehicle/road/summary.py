@@ -229,7 +229,7 @@ def format_summary(s: RoadSummary) -> str:
         f"grade {round(100 * s.grade, 3) + 0.0:+.3f} % (least-squares line; removed for the "
         "statistics)",
         f"elevation about the grade line: r.m.s. {e['rms']:.2f} mm, min {e['min']:.2f} mm, "
-        f"max {e['max']:.2f} mm (mean elevation {s.elevation_m['mean']:.6g} m)",
+        f"max {e['max']:.2f} mm (mean elevation {s.elevation_m['mean']:.3f} m)",
         f"ISO 8608: Gd(n0 = 0.1 cycle/m) = {c.gd_n0_m3:.3g} m^3, {wave} -> class "
         f"{c.iso8608_class} ({limits} m^3); band means within a factor {c.scatter:.2f} of the "
         f"line (misfit {c.misfit:.2f} of their own scatter)",
