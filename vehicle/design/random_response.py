@@ -162,6 +162,17 @@ def _relative(lm):
     return lm.B[:, iv] - e, K, Dv
 
 
+_WK = []
+
+
+def _wk():
+    """Wk's ``(A, B, C)``, built once (its ``D`` is zero: the low pass is strictly proper)."""
+    if not _WK:
+        A, B, C, _ = wk_statespace()
+        _WK.extend((A, B, C))
+    return _WK
+
+
 def unit_rms(lm: LinearModel, rows: Sequence[int], weighted_rows: Sequence[int] = ()):
     """R.m.s. of outputs for a unit road-velocity intensity (``W = 1``).
 
@@ -189,7 +200,7 @@ def unit_rms(lm: LinearModel, rows: Sequence[int], weighted_rows: Sequence[int] 
     n = lm.A.shape[0]
     if not np.all(np.linalg.eigvals(lm.A).real < 0):
         return np.full(len(rows), np.inf), np.full(len(wrows), np.inf)
-    Aw, Bwk, Cw, _ = wk_statespace()
+    Aw, Bwk, Cw = _wk()
     nw = Aw.shape[0]
     N = n + nw * len(wrows)
     A = np.zeros((N, N))
