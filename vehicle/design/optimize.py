@@ -106,25 +106,29 @@ class DesignProblem:
     def _unit_figures(self, lm) -> np.ndarray:
         """Each figure per unit road intensity (before the operating points' scaling)."""
         rows, wrows, plan = [], [], []
+
+        def slot(lst, i):  # an output computed once however many figures use it
+            if i not in lst:
+                lst.append(i)
+            return lst.index(i)
+
         for f in self._figures:
+            i = lm.output_index(f.output)
             if f.kind in ("wk_rms", "seat"):
-                plan.append(("w", len(wrows)))
-                wrows.append(lm.output_index(f.output))
-                if f.kind == "seat":
-                    wrows.append(lm.output_index("sprung.a"))
+                floor = slot(wrows, lm.output_index("sprung.a")) if f.kind == "seat" else None
+                plan.append(("w", slot(wrows, i), floor))
             else:
-                plan.append(("r", len(rows)))
-                rows.append(lm.output_index(f.output))
+                plan.append(("r", slot(rows, i), None))
         r, w = unit_rms(lm, rows, wrows)
         out = np.empty(len(self._figures))
-        for i, (f, (where, j)) in enumerate(zip(self._figures, plan)):
+        for i, (f, (where, j, floor)) in enumerate(zip(self._figures, plan)):
             x = r[j] if where == "r" else w[j]
             if f.kind == "load_ratio":
                 x = x / static_wheel_load(lm)
             elif f.kind == "rattle_ratio":
                 x = 3.0 * x / self.spec.rattle_space
             elif f.kind == "seat":
-                x = 100.0 * w[j] / w[j + 1]
+                x = 100.0 * w[j] / w[floor]
             out[i] = x
         return out
 
