@@ -148,3 +148,23 @@ def test_absorbed_power_is_the_runs_mean_seat_force_times_velocity(python_fmus):
     assert expected > 0  # a passive body takes power from the seat
     assert b.seat_measures.msdv > 0 and b.seat_measures.lee_pradko_power_w > 0
     assert "absorbed_power_w" in b.to_dict()
+
+
+def test_respond_reports_the_seat_records_msdv_and_power(capsys, tmp_path):
+    """``bodyvib respond``: the seat's MSDV and Lee & Pradko power, as the functions give."""
+    import json
+
+    from bodyvib.cli.main import main
+
+    fs = 200.0
+    t = np.arange(0, 120, 1 / fs)
+    a = 0.5 * np.sin(2 * np.pi * 0.2 * t) + 0.8 * np.sin(2 * np.pi * 4.0 * t)
+    rec = tmp_path / "seat.csv"
+    np.savetxt(rec, np.column_stack([t, a]), delimiter=",", header="time,acceleration", comments="")
+    out = tmp_path / "r.json"
+    assert main(["respond", str(rec), "--json", str(out), "--models", "reduced-paper"]) == 0
+    printed = capsys.readouterr().out
+    assert "seat MSDV (Wf)" in printed and "Lee & Pradko" in printed
+    seat = json.loads(out.read_text())["seat"]
+    assert seat["msdv"] == pytest.approx(msdv(a, fs), rel=1e-12)
+    assert seat["lee_pradko_power_w"] == pytest.approx(lee_pradko_power(a, fs), rel=1e-12)

@@ -46,6 +46,9 @@ def format_response(result) -> str:
             f"{words:<28}" + "".join(f"{fmt.format(getattr(c[1], key)):>{w}}" for c in cols)
         )
     lines.append(f"{'comfort (ISO 2631-1 C)':<28}" + "".join(f"{c[1].comfort:>{w}}" for c in cols))
+    if result.seat_msdv is not None:
+        lines.append(f"{'seat MSDV (Wf) [m/s^1.5]':<28}{result.seat_msdv:>{w}.4f}")
+        lines.append(f"{'seat Lee & Pradko power [W]':<28}{result.lee_pradko_power_w:>{w}.4f}")
     lines.append("")
     lines.append(
         "ISO 2631-1 6.3, basic method enough if crest factor <= 9, MTVV / a_w <= 1.5, "
