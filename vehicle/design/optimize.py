@@ -20,7 +20,7 @@ the Wk weighting by :class:`bodyvib.comfort.ComfortStream`.
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Dict, List, Tuple
+from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
@@ -210,6 +210,9 @@ class DesignResult:
         Search time (without verification).
     verify_s : float
         Time of the verification runs.
+    baseline : DesignPoint or None
+        The car as its file gives it (label ``"baseline"``), evaluated the same way:
+        what the chosen designs improve on.
     """
 
     spec: DesignSpec
@@ -220,6 +223,7 @@ class DesignResult:
     evaluations: int
     elapsed_s: float
     verify_s: float = 0.0
+    baseline: Optional[DesignPoint] = None
 
     @property
     def parameter_names(self) -> Tuple[str, ...]:
@@ -512,7 +516,14 @@ def design(spec: DesignSpec, verify: bool = True) -> DesignResult:
                 verified=verify_design(spec, vals) if verify else {},
             )
         )
+    start = dict(zip(problem.names, (problem._car.parameters[n] for n in problem.names)))
+    baseline = DesignPoint(
+        label="baseline",
+        values=start,
+        predicted=_predicted(problem, np.array([list(start.values())])),
+    )
     return DesignResult(
+        baseline=baseline,
         spec=spec,
         values=X,
         objectives=F,

@@ -14,6 +14,7 @@
 import csv
 import datetime
 import io
+import math
 import os
 from dataclasses import replace
 from itertools import combinations
@@ -89,6 +90,11 @@ def plot_front(result: DesignResult, path) -> None:
             if c.verified:
                 vx, vy = c.verified[s.objectives[a].name], c.verified[s.objectives[b].name]
                 ax.plot(vx, vy, "x", ms=7, color=f"C{index[lab]}")
+        if result.baseline is not None:
+            bp = result.baseline.predicted
+            ax.plot(
+                bp[s.objectives[a].name], bp[s.objectives[b].name], "ks", ms=7, label="baseline"
+            )
         ax.set_xlabel(f"{s.objectives[a].name} [{s.objectives[a].unit}]")
         ax.set_ylabel(f"{s.objectives[b].name} [{s.objectives[b].unit}]")
         ax.grid(True, alpha=0.3)
@@ -175,6 +181,12 @@ def write_design(folder, result: DesignResult, command: str = "") -> List[str]:
     return paths
 
 
+def _at_bound(b, v) -> str:
+    """`` (at min)`` or `` (at max)`` for a value within 0.5 % of the bound's range of it."""
+    u = (math.log(v / b.lo) / math.log(b.hi / b.lo)) if b.log else (v - b.lo) / (b.hi - b.lo)
+    return " (at min)" if u < 0.005 else " (at max)" if u > 0.995 else ""
+
+
 def format_summary(result: DesignResult) -> str:
     """Lines a user reads: the search, then each chosen design, evaluator and run side by side.
 
@@ -192,11 +204,17 @@ def format_summary(result: DesignResult) -> str:
         f"{result.evaluations} evaluations in {result.elapsed_s:.1f} s; verification runs "
         f"{result.verify_s:.1f} s ({s.verify.duration:g} s per operating point)"
     ]
+    bounds = {b.name: b for b in s.parameters}
     for c in result.chosen:
-        vals = ", ".join(f"{k} {v:.5g}" for k, v in c.values.items())
+        vals = ", ".join(f"{k} {v:.5g}{_at_bound(bounds[k], v)}" for k, v in c.values.items())
         lines.append(f"{c.label}: {vals}")
         for name, pred in c.predicted.items():
             ver = c.verified.get(name)
             run = f", run {ver:.4g} ({ver / pred - 1:+.1%})" if ver is not None else ""
             lines.append(f"  {name:<22} evaluator {pred:.4g}{run}")
+    if result.baseline is not None:
+        b = result.baseline
+        vals = ", ".join(f"{k} {v:.5g}" for k, v in b.values.items())
+        figs = ", ".join(f"{k} {v:.4g}" for k, v in b.predicted.items())
+        lines.append(f"baseline (the car file's values): {vals}: {figs}")
     return "\n".join(lines)
