@@ -30,9 +30,15 @@ from bodyvib.runtime.discretize import Discretization
 from bodyvib.runtime.errors import BodyvibError
 
 from ..quarter_car import load_car
+from ..reference import seat_force_weights
 from ..road.driven import driven_road
 from ..road.synthetic import road_input
-from .random_response import road_velocity_intensity, static_wheel_load, unit_rms
+from .random_response import (
+    road_velocity_intensity,
+    static_wheel_load,
+    unit_mean_product,
+    unit_rms,
+)
 from .spec import DesignSpec, Objective, seated_model
 
 __all__ = [
@@ -46,6 +52,9 @@ __all__ = [
 
 #: Penalty factor of the single-objective search per unit relative constraint excess.
 PENALTY = 1000.0
+
+#: How a figure scales with ``sqrt(W)`` of an operating point, by kind (1 if not listed).
+_POWER_OF_SCALE = {"seat": 0.0, "power": 2.0}
 
 
 class DesignProblem:
@@ -120,6 +129,8 @@ class DesignProblem:
             else:
                 plan.append(("r", slot(rows, i), None))
         r, w = unit_rms(lm, rows, wrows)
+        if any(f.kind == "power" for f in self._figures):
+            power = self._unit_power(lm)
         out = np.empty(len(self._figures))
         for i, (f, (where, j, floor)) in enumerate(zip(self._figures, plan)):
             x = r[j] if where == "r" else w[j]
@@ -129,19 +140,29 @@ class DesignProblem:
                 x = 3.0 * x / self.spec.rattle_space
             elif f.kind == "seat":
                 x = 100.0 * w[j] / w[floor]
+            elif f.kind == "power":
+                x = power
             out[i] = x
         return out
+
+    def _unit_power(self, lm) -> float:
+        """Absorbed power for ``W = 1``: the mean of seat force times seat velocity."""
+        seat = self._car.roles["seat"]
+        force = seat_force_weights(lm, self._body, seat)
+        velocity = np.zeros(len(lm.outputs))
+        velocity[lm.output_index(f"{seat}.v")] = 1.0
+        return unit_mean_product(lm, force, velocity)
 
     def figures_at_points(self, values) -> np.ndarray:
         """Every figure of one design at every operating point, ``(figures, points)``.
 
-        SEAT is a ratio and does not scale with the road; every other figure scales
-        with ``sqrt(W)`` of the operating point.
+        SEAT is a ratio and does not scale with the road, the absorbed power scales
+        with ``W`` of the operating point, every other figure with ``sqrt(W)``.
         """
         lm = seated_model(self._car, self._body, dict(zip(self.names, values)))
         u = self._unit_figures(lm)
         self.evaluations += 1
-        scale = np.array([0.0 if f.kind == "seat" else 1.0 for f in self._figures])
+        scale = np.array([_POWER_OF_SCALE.get(f.kind, 1.0) for f in self._figures])
         s = self._scale[None, :] ** scale[:, None]
         return u[:, None] * s
 
@@ -411,8 +432,11 @@ def verify_design(spec: DesignSpec, values: Dict[str, float]) -> Dict[str, float
     dict of str to float
         Objective and constraint names to their time-domain figures.
     """
-    lm = seated_model(spec.car, spec.body, values)
+    car = load_car(spec.car)
+    body = None if spec.body is None else load_model(spec.body)
+    lm = seated_model(car, body, values)
     figs = list(spec.objectives) + [c for c, _ in spec.constraints]
+    seat = car.roles["seat"]
     outs = sorted(
         {f.output for f in figs} | ({"sprung.a"} if any(f.kind == "seat" for f in figs) else set())
     )
@@ -425,7 +449,11 @@ def verify_design(spec: DesignSpec, values: Dict[str, float]) -> Dict[str, float
         road = driven_road(p.road, p.speed, spec.verify.duration, seed=spec.verify.seed, step=st)
         t = np.arange(int(round(spec.verify.duration / st)) + 1) * st
         z, v = road_input(road, p.speed, t)
-        Y = _simulate(lm, rows, z, v, st)
+        Y_all = _simulate(lm, range(len(lm.outputs)), z, v, st)
+        Y = Y_all[:, rows]
+        if any(f.kind == "power" for f in figs):  # seat force times seat velocity
+            force = Y_all @ seat_force_weights(lm, body, seat)
+            power = float(np.mean(force * Y_all[:, lm.output_index(f"{seat}.v")]))
         stream = ComfortStream(1.0 / st, len(outs))
         stream.update(np.ascontiguousarray(Y.T))
         wk = dict(zip(outs, stream.figures()["weighted_rms"]))
@@ -440,6 +468,8 @@ def verify_design(spec: DesignSpec, values: Dict[str, float]) -> Dict[str, float
                 vals[f.name] = float(rms[f.output] / static_wheel_load(lm))
             elif f.kind == "rattle_ratio":
                 vals[f.name] = float(3.0 * rms[f.output] / spec.rattle_space)
+            elif f.kind == "power":
+                vals[f.name] = power
             else:
                 vals[f.name] = float(rms[f.output])
         per_point.append(vals)

@@ -57,6 +57,7 @@ __all__ = [
     "static_wheel_load",
     "random_response",
     "unit_rms",
+    "unit_mean_product",
     "stationary_outputs",
 ]
 
@@ -224,6 +225,47 @@ def unit_rms(lm: LinearModel, rows: Sequence[int], weighted_rows: Sequence[int] 
         np.where(finite[:nr], rms[:nr], np.inf),
         np.where(finite[nr:], rms[nr:], np.inf),
     )
+
+
+def unit_mean_product(lm: LinearModel, wa, wb) -> float:
+    """Stationary mean of the product of two output combinations for ``W = 1``.
+
+    ``E[(wa . y)(wb . y)]`` for weight vectors over ``lm.outputs``, e.g. the seat force
+    and the seat velocity (their mean product is the absorbed power; multiply by
+    ``W``, :func:`road_velocity_intensity`, for a road and speed). A combination may
+    hold absolute displacements as long as it does not follow the road statically.
+
+    Parameters
+    ----------
+    lm : LinearModel
+    wa, wb : (outputs,) array_like
+        Weights on ``lm.outputs``.
+
+    Returns
+    -------
+    float
+        ``inf`` if a combination is not stationary or the model not stable.
+
+    Examples
+    --------
+    >>> from bodyvib.vehicle.quarter_car import load_car
+    >>> from bodyvib.runtime.network import linear_model
+    >>> lm = linear_model(load_car())
+    >>> w = np.zeros(len(lm.outputs)); w[lm.output_index("sprung.a")] = 1.0
+    >>> r, _ = unit_rms(lm, [lm.output_index("sprung.a")])
+    >>> bool(abs(unit_mean_product(lm, w, w) / r[0] ** 2 - 1) < 1e-12)
+    True
+    """
+    Bw, K, Dv = _relative(lm)
+    wa, wb = np.asarray(wa, dtype=float), np.asarray(wb, dtype=float)
+    if not np.all(np.linalg.eigvals(lm.A).real < 0):
+        return math.inf
+    for w in (wa, wb):
+        scale = np.abs(w) @ (np.abs(lm.C).sum(axis=1) + 1.0)
+        if abs(w @ K) > 1e-9 * scale or w @ Dv != 0:
+            return math.inf
+    P = scipy.linalg.solve_continuous_lyapunov(lm.A, -np.outer(Bw, Bw))
+    return float((wa @ lm.C) @ P @ (lm.C.T @ wb))
 
 
 @dataclass(frozen=True)

@@ -62,8 +62,9 @@ __all__ = [
 
 #: Named objectives: kind, output, unit, meaning. Kinds: ``wk_rms`` (Wk-weighted
 #: r.m.s.), ``rms``, ``load_ratio`` (r.m.s. over the static wheel load), ``rattle_ratio``
-#: (3 r.m.s. over the rattle space), ``seat`` (ISO 10326-1 SEAT: 100 Wk r.m.s. of the
-#: seat pan over that of the floor under the seat, %).
+#: (3 r.m.s. over the rattle space), ``power`` (the occupant's absorbed power, W),
+#: ``seat`` (ISO 10326-1 SEAT: 100 Wk r.m.s. of the seat pan over that of the floor
+#: under the seat, %).
 OBJECTIVES = {
     "head_wk_rms": ("wk_rms", "body.head.a", "m/s2", "Wk-weighted r.m.s. head acceleration"),
     "seat_wk_rms": ("wk_rms", "seat.a", "m/s2", "Wk-weighted r.m.s. seat acceleration"),
@@ -79,6 +80,12 @@ OBJECTIVES = {
         "suspension.deflection",
         "-",
         "3-sigma suspension travel over the rattle space",
+    ),
+    "absorbed_power": (
+        "power",
+        "seat.v",
+        "W",
+        "mean power the seat puts into the occupant, E[seat force x seat velocity]",
     ),
     "seat_seat": (
         "seat",
@@ -335,7 +342,7 @@ def _operating_points(points) -> Tuple[OperatingPoint, ...]:
 
 def _check_computable(obj: Objective, lm, rattle, body) -> None:
     """Refuse an objective the model cannot compute (before any search)."""
-    if obj.output.startswith("body.") and body is None:
+    if (obj.output.startswith("body.") or obj.kind == "power") and body is None:
         raise BodyvibError(f"objective '{obj.name}' needs a body model; the spec has none")
     if obj.kind == "rattle_ratio" and rattle is None:
         raise BodyvibError(f"objective '{obj.name}' needs 'rattle_space' (m) in the spec")
