@@ -202,3 +202,38 @@ def test_expected_absorbed_power_matches_runs():
     ]
     assert np.mean(runs) == pytest.approx(F[0, 0], rel=0.02)
     assert np.all(np.abs(np.array(runs) / F[0, 0] - 1) < 0.04)
+
+
+@pytest.mark.integration
+def test_ctrl_c_during_the_search_stops_it_and_keeps_the_old_files(tmp_path):
+    """SIGINT a few seconds into a long search: status 130, one line, outputs all old."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from helpers import check_stopped_run, write_old_outputs
+
+    spec = tmp_path / "spec.json"
+    spec.write_text(
+        json.dumps(
+            {
+                **BASE,
+                "objectives": ["rms:sprung.a", "tire_load_ratio"],
+                "search": {"population": 200, "generations": 500},
+            }
+        )
+    )
+    out = tmp_path / "out"
+    outputs = [out / "design_front.csv", out / "design.json"]
+    write_old_outputs(outputs)
+    p = subprocess.Popen(
+        [sys.executable, "-m", "bodyvib.cli", "design", str(spec), "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    time.sleep(6)
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=60)
+    assert check_stopped_run(p.returncode, err, outputs, 130, "interrupted", "design")

@@ -26,6 +26,7 @@ import numpy as np
 
 from bodyvib.comfort import ComfortStream
 from bodyvib.models import load_model
+from bodyvib.process import interrupts
 from bodyvib.runtime.discretize import Discretization
 from bodyvib.runtime.errors import BodyvibError
 
@@ -182,6 +183,7 @@ class DesignProblem:
         F = np.empty((len(X), nobj))
         G = np.empty((len(X), len(self._limits)))
         for i, x in enumerate(X):
+            interrupts.check()  # Ctrl-C: every candidate is a safe point
             with np.errstate(all="ignore"):
                 fig = self.figures_at_points(x)
             F[i] = fig[:nobj] @ self._weights
@@ -445,6 +447,7 @@ def verify_design(spec: DesignSpec, values: Dict[str, float]) -> Dict[str, float
     w = w / w.sum()
     per_point = []
     for p in spec.operating_points:
+        interrupts.check()
         st = spec.verify.step
         road = driven_road(p.road, p.speed, spec.verify.duration, seed=spec.verify.seed, step=st)
         t = np.arange(int(round(spec.verify.duration / st)) + 1) * st
