@@ -135,3 +135,13 @@ def test_weighted_rms_matches_30_s_runs():
         ratio = np.array([row[key] for row in rows]) / expected
         assert abs(ratio.mean() - 1) < 0.01  # 3 standard deviations of the mean, + fade-in
         assert np.all(np.abs(ratio - 1) < 0.025)  # each run within about 7 standard deviations
+
+
+def test_vehicle_ratios_follow_the_closed_forms():
+    """Tire load over (ms + mu) g and 3-sigma travel over the rattle space, bare car."""
+    car = load_car()
+    p = car.parameters
+    r = random_response(linear_model(car), "D", 25.0, ["tire.force", "suspension.deflection"])
+    _, travel, tire = closed_form(p["ms"], p["mu"], p["ks"], p["cs"], p["kt"], r.intensity)
+    assert r.tire_load_ratio == pytest.approx(tire / ((p["ms"] + p["mu"]) * 9.80665), rel=1e-6)
+    assert r.travel_ratio(0.07) == pytest.approx(3 * travel / 0.07, rel=1e-6)

@@ -300,6 +300,24 @@ class RandomResponse:
     weighted_rms: Tuple[float, ...]
     static_wheel_load: float
 
+    @property
+    def tire_load_ratio(self) -> float:
+        """R.m.s. dynamic tire force over the static wheel load (needs ``tire.force``)."""
+        return self.of("tire.force") / self.static_wheel_load
+
+    def travel_ratio(self, rattle_space: float, output: str = "suspension.deflection") -> float:
+        """3-sigma suspension travel over the rattle space (m); above 1 it hits the stops.
+
+        Examples
+        --------
+        >>> from bodyvib.runtime.network import linear_model
+        >>> from bodyvib.vehicle.quarter_car import load_car
+        >>> r = random_response(linear_model(load_car()), "C", 20.0)
+        >>> round(r.travel_ratio(0.07), 3), round(r.tire_load_ratio, 3)
+        (0.569, 0.301)
+        """
+        return 3.0 * self.of(output) / float(rattle_space)
+
     def of(self, output: str, weighted: bool = False) -> float:
         """The r.m.s. (or Wk-weighted r.m.s.) of one output by name."""
         names, values = (self.weighted, self.weighted_rms) if weighted else (self.outputs, self.rms)
