@@ -7,7 +7,8 @@ recursive Wk filter, so a run of any length needs no history. One record's figur
 are a :class:`~bodyvib.comfort.figures.ComfortFigures`, a batch's a
 :class:`~bodyvib.comfort.stream.BatchComfortFigures` (arrays, one entry per case). :mod:`~bodyvib.comfort.measures` adds absorbed power
 (physical and Lee & Pradko's estimate), the motion sickness dose value (Wf) and the
-ISO 10326-1 SEAT value.
+ISO 10326-1 SEAT value; :mod:`~bodyvib.comfort.spine` the ISO 2631-5:2018 spinal
+response, acceleration dose and injury risk of repeated shocks.
 """
 
 from .figures import (
@@ -38,6 +39,7 @@ from .measures import (
     seat_value,
     wf_response,
 )
+from .spine import SpinalDose, acceleration_dose, injury_probability, injury_risk, spinal_dose
 from .stream import (
     BatchComfortFigures,
     ComfortStream,
@@ -78,4 +80,9 @@ __all__ = [
     "seat_value",
     "SeatMeasures",
     "SeatMeasureStream",
+    "acceleration_dose",
+    "spinal_dose",
+    "SpinalDose",
+    "injury_risk",
+    "injury_probability",
 ]
