@@ -148,6 +148,10 @@ def test_absorbed_power_is_the_runs_mean_seat_force_times_velocity(python_fmus):
     assert expected > 0  # a passive body takes power from the seat
     assert b.seat_measures.msdv > 0 and b.seat_measures.lee_pradko_power_w > 0
     assert "absorbed_power_w" in b.to_dict()
+    from bodyvib.comfort.spine import acceleration_dose
+
+    dz = acceleration_dose(run["seat_acceleration"], 1000.0)
+    assert b.seat_measures.spinal_dose == pytest.approx(dz, rel=1e-3)
 
 
 def test_respond_reports_the_seat_records_msdv_and_power(capsys, tmp_path):

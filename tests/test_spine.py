@@ -105,3 +105,16 @@ def test_respond_reports_the_spinal_dose(tmp_path, capsys):
     expected = spinal_dose(a - a.mean(), 1000.0)
     assert seat["spinal_dose_dz"] == pytest.approx(expected.dose, rel=1e-12)
     assert seat["spinal_daily_dose_dzd"] == pytest.approx(expected.daily_dose, rel=1e-12)
+
+
+def test_streamed_dose_equals_the_whole_record_dose():
+    """Block by block (exact step, linear input) against the FFT of the whole record."""
+    from bodyvib.comfort.measures import SeatMeasureStream
+
+    fs = 1000.0
+    _, a = _shocks(fs)
+    s = SeatMeasureStream(fs)
+    zeros = np.zeros(a.size)
+    for k in range(0, a.size, 50):  # 50 ms blocks: they cut through every response run
+        s.update(a[k : k + 50], zeros[k : k + 50], zeros[k : k + 50])
+    assert s.figures().spinal_dose == pytest.approx(acceleration_dose(a, fs), rel=1e-3)

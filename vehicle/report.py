@@ -87,6 +87,9 @@ def format_report(study: Study, comparison: Optional[Comparison] = None) -> str:
             )
         )
         lines.append(row("seat MSDV (Wf) [m/s^1.5]", lambda b: f"{b.seat_measures.msdv:.4f}"))
+        lines.append(
+            row("seat ISO 2631-5 Dz [m/s2]", lambda b: f"{b.seat_measures.spinal_dose:.4f}")
+        )
     if comparison:
         lines += ["", f"check: {comparison.reduced} against {comparison.iso}"]
         for c in comparison.criteria:

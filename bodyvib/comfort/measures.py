@@ -249,11 +249,15 @@ class SeatMeasures:
         Frequency-weighted estimate from the seat acceleration, W (:func:`lee_pradko_power`).
     msdv : float
         Seat MSDV, m/s^1.5 (:func:`msdv`).
+    spinal_dose : float
+        ISO 2631-5:2018 acceleration dose ``Dz`` of the seat acceleration, m/s2
+        (:func:`bodyvib.comfort.spine.acceleration_dose`).
     """
 
     absorbed_power_w: float
     lee_pradko_power_w: float
     msdv: float
+    spinal_dose: float = float("nan")
 
     def to_dict(self) -> dict:
         """The fields as a dict (JSON)."""
@@ -261,6 +265,7 @@ class SeatMeasures:
             "absorbed_power_w": self.absorbed_power_w,
             "lee_pradko_power_w": self.lee_pradko_power_w,
             "seat_msdv": self.msdv,
+            "seat_spinal_dose_dz": self.spinal_dose,
         }
 
 
@@ -285,11 +290,16 @@ class SeatMeasureStream:
     """
 
     def __init__(self, fs: float):
+        from .spine import spine_statespace
+
         self.fs = check_rate(fs)
         self._wf = WkFilter(self.fs, 1, statespace=wf_statespace())
         self._lp = WkFilter(self.fs, 1, statespace=lee_pradko_statespace())
+        self._spine = WkFilter(self.fs, 1, statespace=spine_statespace())
         self._n = 0
         self._power = self._wf2 = self._lp2 = 0.0
+        self._peaks6 = 0.0  # sum of the closed positive runs' maxima^6
+        self._run = 0.0  # the open run's maximum (0: none open)
 
     def update(self, seat_acceleration, seat_force, seat_velocity) -> None:
         """Add the next samples of the seat acceleration (m/s2), force (N) and velocity (m/s)."""
@@ -300,14 +310,27 @@ class SeatMeasureStream:
         self._n += a.size
         self._wf2 += float(np.sum(self._wf.update(a[None, :]) ** 2))
         self._lp2 += float(np.sum(self._lp.update(a[None, :] * FEET_PER_METRE) ** 2))
+        self._add_peaks(self._spine.update(a[None, :])[0])
+
+    def _add_peaks(self, r) -> None:
+        """Positive runs of the spinal response, continued across blocks."""
+        for x in r:
+            if x > 0.0:
+                self._run = max(self._run, x)
+            elif self._run:
+                self._peaks6 += self._run**6
+                self._run = 0.0
 
     def figures(self) -> SeatMeasures:
         """The measures so far (NaN before any sample)."""
         if self._n == 0:
             nan = float("nan")
-            return SeatMeasures(nan, nan, nan)
+            return SeatMeasures(nan, nan, nan, nan)
+        from .spine import DOSE_FACTOR
+
         return SeatMeasures(
             absorbed_power_w=self._power / self._n,
             lee_pradko_power_w=self._lp2 / self._n,
             msdv=math.sqrt(self._wf2 / self.fs),
+            spinal_dose=DOSE_FACTOR * (self._peaks6 + self._run**6) ** (1 / 6),
         )

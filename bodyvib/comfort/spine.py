@@ -48,6 +48,7 @@ __all__ = [
     "STRENGTH_AGE_SLOPE",
     "WEIBULL",
     "spine_response",
+    "spine_statespace",
     "spinal_response",
     "response_peaks",
     "acceleration_dose",
@@ -97,6 +98,18 @@ def spine_response(frequencies_hz) -> np.ndarray:
     for w, z in SPINE_POLES:
         h = h / (1 + 2 * z * s / w + (s / w) ** 2)
     return h
+
+
+def spine_statespace():
+    """Formula 1 as a state space ``(A, B, C, D)`` (12 states, unity DC gain)."""
+    from scipy.signal import tf2ss
+
+    w, z = SPINE_ZERO
+    num = np.array([1 / w**2, 2 * z / w, 1.0])
+    den = np.array([1.0])
+    for w, z in SPINE_POLES:
+        den = np.polymul(den, [1 / w**2, 2 * z / w, 1.0])
+    return tf2ss(num / den[0], den / den[0])
 
 
 def spinal_response(acceleration, fs: float) -> np.ndarray:
