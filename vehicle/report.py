@@ -80,6 +80,17 @@ def format_report(study: Study, comparison: Optional[Comparison] = None) -> str:
     lines.append(row("real-time factor", lambda b: f"{b.real_time_factor:.1f}"))
     seat = bodies[labels[0]].seat_figures.weighted_rms
     lines.append(f"seat Wk-weighted r.m.s. ({labels[0]} run): {seat:.4f} m/s2")
+    if all(getattr(bodies[b], "seat_measures", None) is not None for b in labels):
+        lines.append(row("absorbed power [W]", lambda b: f"{b.seat_measures.absorbed_power_w:.4f}"))
+        lines.append(
+            row(
+                "  Lee & Pradko estimate [W]", lambda b: f"{b.seat_measures.lee_pradko_power_w:.4f}"
+            )
+        )
+        lines.append(row("seat MSDV (Wf) [m/s^1.5]", lambda b: f"{b.seat_measures.msdv:.4f}"))
+        lines.append(
+            row("seat ISO 2631-5 Dz [m/s2]", lambda b: f"{b.seat_measures.spinal_dose:.4f}")
+        )
     if comparison:
         lines += ["", f"check: {comparison.reduced} against {comparison.iso}"]
         for c in comparison.criteria:

@@ -19,6 +19,7 @@ from typing import Dict, List, Optional
 import numpy as np
 
 from bodyvib.comfort.figures import ComfortFigures
+from bodyvib.comfort.measures import SeatMeasures, SeatMeasureStream
 from bodyvib.comfort.stream import ComfortStream
 from bodyvib.frequency.estimate import TransmissibilityEstimate, TransmissibilityStream
 from bodyvib.process import interrupts
@@ -93,6 +94,10 @@ class BodyRun:
         Seat-to-head transmissibility estimated from the run.
     real_time_factor : float
         Simulated time / wall time of the co-simulation.
+    seat_measures : SeatMeasures or None
+        Absorbed power (the run's ``mean(seat_force * seat_velocity)`` and the Lee &
+        Pradko estimate from the seat acceleration) and the seat's MSDV
+        (:mod:`bodyvib.comfort.measures`).
     """
 
     fmu: str
@@ -105,6 +110,7 @@ class BodyRun:
     transmissibility: TransmissibilityEstimate
     real_time_factor: float
     head_window: np.ndarray = field(default_factory=lambda: np.empty(0))
+    seat_measures: Optional[SeatMeasures] = None
 
     def to_dict(self) -> dict:
         """The body's entry of the JSON document (figures, no histories; docs/getting_started.md, "JSON output")."""
@@ -116,6 +122,7 @@ class BodyRun:
             "seat_weighted_rms": self.seat_figures.weighted_rms,
             "transmissibility_peak": self.transmissibility.peak.to_dict(),
             "real_time_factor": self.real_time_factor,
+            **(self.seat_measures.to_dict() if self.seat_measures is not None else {}),
         }
 
 
@@ -357,6 +364,7 @@ def run_study(
         if net is not None and car_net is not None
     }
     comfort = {label: ComfortStream(fs, 2) for label in labels}  # head, seat
+    seat_measures = {label: SeatMeasureStream(fs) for label in labels}
     trans = {label: TransmissibilityStream(fs, n) for label in labels}
     err = {label: [0.0, 0.0] for label in refs}  # sum (a - r)^2, sum r^2
     pairs = {(a, b): [0.0, 0.0] for a in labels for b in labels if a != b}
@@ -390,6 +398,7 @@ def run_study(
                     head, seat = sig["head_acceleration"], sig["seat_acceleration"]
                     heads[label] = head
                     comfort[label].update(np.vstack([head, seat]))
+                    seat_measures[label].update(seat, sig["seat_force"], sig["seat_velocity"])
                     trans[label].update(seat, head)
                     ref = None
                     if label in refs:
@@ -472,6 +481,7 @@ def run_study(
             transmissibility=trans[label].result(),
             real_time_factor=duration / max(masters[label].wall_s, 1e-12),
             head_window=np.concatenate(windows[label]) if windows[label] else np.empty(0),
+            seat_measures=seat_measures[label].figures(),
         )
     return out
 

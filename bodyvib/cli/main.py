@@ -51,6 +51,7 @@ COMMAND_MODULES = (
     "bodyvib.cli.cosim",
     "bodyvib.cli.fit",
     "bodyvib.cli.sweep",
+    "bodyvib.cli.design",
     "bodyvib.cli.road",
     "bodyvib.cli.respond",
 )

@@ -46,6 +46,15 @@ def format_response(result) -> str:
             f"{words:<28}" + "".join(f"{fmt.format(getattr(c[1], key)):>{w}}" for c in cols)
         )
     lines.append(f"{'comfort (ISO 2631-1 C)':<28}" + "".join(f"{c[1].comfort:>{w}}" for c in cols))
+    if result.seat_msdv is not None:
+        lines.append(f"{'seat MSDV (Wf) [m/s^1.5]':<28}{result.seat_msdv:>{w}.4f}")
+        lines.append(f"{'seat Lee & Pradko power [W]':<28}{result.lee_pradko_power_w:>{w}.4f}")
+    if result.spinal is not None:
+        sp = result.spinal
+        lines.append(f"{'ISO 2631-5 Dz [m/s2]':<28}{sp.dose:>{w}.4f}")
+        lines.append(
+            f"{'  daily Dzd (8 h), Sd':<28}{sp.daily_dose:>{w}.4f} m/s2, {sp.compression:.4f} MPa"
+        )
     lines.append("")
     lines.append(
         "ISO 2631-1 6.3, basic method enough if crest factor <= 9, MTVV / a_w <= 1.5, "

@@ -5,7 +5,10 @@ weighted r.m.s., VDV, MTVV, peak, the comfort scale); :mod:`~bodyvib.comfort.str
 computes the same figures sample by sample for a batch of signals, with a
 recursive Wk filter, so a run of any length needs no history. One record's figures
 are a :class:`~bodyvib.comfort.figures.ComfortFigures`, a batch's a
-:class:`~bodyvib.comfort.stream.BatchComfortFigures` (arrays, one entry per case).
+:class:`~bodyvib.comfort.stream.BatchComfortFigures` (arrays, one entry per case). :mod:`~bodyvib.comfort.measures` adds absorbed power
+(physical and Lee & Pradko's estimate), the motion sickness dose value (Wf) and the
+ISO 10326-1 SEAT value; :mod:`~bodyvib.comfort.spine` the ISO 2631-5:2018 spinal
+response, acceleration dose and injury risk of repeated shocks.
 """
 
 from .figures import (
@@ -26,6 +29,17 @@ from .figures import (
     weighted_rms,
     wk_response,
 )
+from .measures import (
+    WF_PARAMETERS,
+    SeatMeasures,
+    SeatMeasureStream,
+    absorbed_power,
+    lee_pradko_power,
+    msdv,
+    seat_value,
+    wf_response,
+)
+from .spine import SpinalDose, acceleration_dose, injury_probability, injury_risk, spinal_dose
 from .stream import (
     BatchComfortFigures,
     ComfortStream,
@@ -58,4 +72,17 @@ __all__ = [
     "BatchComfortFigures",
     "stream_comfort_figures",
     "stream_batch_figures",
+    "WF_PARAMETERS",
+    "wf_response",
+    "msdv",
+    "absorbed_power",
+    "lee_pradko_power",
+    "seat_value",
+    "SeatMeasures",
+    "SeatMeasureStream",
+    "acceleration_dose",
+    "spinal_dose",
+    "SpinalDose",
+    "injury_risk",
+    "injury_probability",
 ]

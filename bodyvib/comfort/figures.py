@@ -53,6 +53,7 @@ __all__ = [
     "WK_PARAMETERS",
     "COMFORT_SCALE",
     "wk_response",
+    "weighting_response",
     "weighted_acceleration",
     "weighted_rms",
     "vdv",
@@ -117,7 +118,25 @@ def wk_response(frequencies_hz) -> np.ndarray:
     >>> round(float(abs(wk_response(1.0)[0])), 3)
     0.482
     """
-    P = WK_PARAMETERS
+    return weighting_response(WK_PARAMETERS, frequencies_hz)
+
+
+def weighting_response(parameters, frequencies_hz) -> np.ndarray:
+    """Complex response of an ISO 2631-1 Annex A weighting (band limits, transition, step).
+
+    Parameters
+    ----------
+    parameters : dict
+        ``f1 ... f6`` (Hz), ``Q1, Q4, Q5, Q6`` as in :data:`WK_PARAMETERS`; ``f3``
+        may be ``inf`` (no numerator term in the a-v transition, as in Wf).
+    frequencies_hz : array_like
+        Frequencies in Hz (0 allowed).
+
+    Returns
+    -------
+    ndarray of complex
+    """
+    P = parameters
     p = 2j * np.pi * np.atleast_1d(np.asarray(frequencies_hz, dtype=float))
     w1, w2, w3, w4, w5, w6 = (2 * np.pi * P[k] for k in ("f1", "f2", "f3", "f4", "f5", "f6"))
     q1 = P["Q1"]

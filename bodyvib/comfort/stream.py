@@ -119,14 +119,14 @@ class BatchComfortFigures:
         }
 
 
-def _sections():
-    """The four second-order sections of Wk as ``(b2, b1, b0), (a1, a0)`` in ``p``.
+def _sections(P=WK_PARAMETERS):
+    """The four second-order sections of a weighting as ``(b2, b1, b0), (a1, a0)`` in ``p``.
 
     Each is ``(b2 p^2 + b1 p + b0) / (p^2 + a1 p + a0)``: the Annex A factors of
     :mod:`bodyvib.comfort.figures` with numerator and denominator scaled to a monic
-    denominator.
+    denominator; ``P`` holds the Annex A parameters (Wk by default; ``f3`` may be
+    infinite, as for Wf).
     """
-    P = WK_PARAMETERS
     w1, w2, w3, w4, w5, w6 = (2 * np.pi * P[k] for k in ("f1", "f2", "f3", "f4", "f5", "f6"))
     q1 = P["Q1"]
     return (
@@ -139,6 +139,8 @@ def _sections():
 
 def wk_statespace():
     """The analog ISO 2631-1 Wk weighting as a state space ``(A, B, C, D)``.
+
+    :func:`weighting_statespace` of :data:`bodyvib.comfort.figures.WK_PARAMETERS`.
 
     Returns
     -------
@@ -159,11 +161,29 @@ def wk_statespace():
     >>> bool(abs(H - wk_response(6.3)[0]) < 1e-12)
     True
     """
+    return weighting_statespace(WK_PARAMETERS)
+
+
+def weighting_statespace(parameters):
+    """An ISO 2631-1 Annex A weighting as a state space ``(A, B, C, D)`` (8 states).
+
+    Parameters
+    ----------
+    parameters : dict
+        ``f1 ... f6`` (Hz), ``Q1, Q4, Q5, Q6`` as in
+        :data:`bodyvib.comfort.figures.WK_PARAMETERS`; ``f3`` may be ``inf``.
+
+    Returns
+    -------
+    A, B, C, D : ndarray
+        Four second-order sections in series (high pass, low pass, transition,
+        step), each in controllable canonical form.
+    """
     A = np.zeros((0, 0))
     B = np.zeros((0, 1))
     C = np.zeros((1, 0))
     D = np.ones((1, 1))
-    for (b2, b1, b0), (a1, a0) in _sections():
+    for (b2, b1, b0), (a1, a0) in _sections(parameters):
         As = np.array([[0.0, 1.0], [-a0, -a1]])
         Bs = np.array([[0.0], [1.0]])
         Cs = np.array([[b0 - b2 * a0, b1 - b2 * a1]])
@@ -192,6 +212,9 @@ class WkFilter:
         Sampling rate in Hz.
     cases : int
         Number of signals filtered side by side.
+    statespace : tuple of ndarray, optional
+        ``(A, B, C, D)`` of another single-input analog weighting to apply the
+        same way (Wf, :func:`bodyvib.comfort.measures.wf_statespace`); Wk if None.
 
     Raises
     ------
@@ -216,12 +239,12 @@ class WkFilter:
     #: Samples advanced by one matrix product.
     LIFT = 64
 
-    def __init__(self, fs: float, cases: int):
+    def __init__(self, fs: float, cases: int, statespace=None):
         self.fs = check_rate(fs)
         if int(cases) < 1:
             raise BodyvibError(f"need at least one case, got {cases!r}")
         self.cases = int(cases)
-        A, B, C, D = wk_statespace()
+        A, B, C, D = wk_statespace() if statespace is None else statespace
         h = 1.0 / self.fs
         Phi, G0, G1 = discretize(A, B, h)
         self._PhiT = np.ascontiguousarray(Phi.T)

@@ -95,7 +95,7 @@ class SearchSpace:
         self.hi = np.asarray(hi, dtype=float)
         self.aligned = bool(aligned)
         # z = T x: subtract log(m1/M) from log(k1/M) and log(c1/M)
-        self._T = np.eye(6)
+        self._T = np.eye(len(self.lo))
         if not self.aligned:
             self._Tinv, self.zlo, self.zhi = self._T, self.lo, self.hi
             return
@@ -253,13 +253,13 @@ def ga_search(
         C = np.array(children[:n])
         spread = np.array(pop).std(axis=0)
         mutate = rng.random(len(C)) < p_mut
-        C[mutate] += scale * spread * rng.standard_normal((int(mutate.sum()), 6))
+        C[mutate] += scale * spread * rng.standard_normal((int(mutate.sum()), len(low)))
         return np.clip(C, space.zlo, space.zhi)
 
     saved = random.getstate()
     random.seed(seed)
     try:
-        X = space.zlo + rng.random((n, 6)) * (space.zhi - space.zlo)
+        X = space.zlo + rng.random((n, len(low))) * (space.zhi - space.zlo)
         pop = _individuals(X, f(X))
         history, stopped, gen = [], f"{settings.generations} generations", 0
         for gen in range(1, int(settings.generations) + 1):  # noqa: B007 (read after the loop)
@@ -332,7 +332,7 @@ def cmaes_search(
     f = _Counted(objective, space)
     span = space.zhi - space.zlo
     rng = np.random.default_rng(seed)
-    x0 = 0.5 + 0.1 * (rng.random(6) - 0.5)
+    x0 = 0.5 + 0.1 * (rng.random(len(span)) - 0.5)
     opts = {
         "bounds": [0.0, 1.0],
         "seed": int(seed) + 1,

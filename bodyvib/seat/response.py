@@ -20,15 +20,20 @@ start near zero; a nonzero first sample is a step at t = 0).
 
 :func:`respond` adds the ISO 2631-1 figures (:func:`bodyvib.comfort.figures.comfort_figures`)
 of seat and head and the standard's checks of the basic method
-(:func:`bodyvib.comfort.figures.basic_method_checks`) for each model.
+(:func:`bodyvib.comfort.figures.basic_method_checks`) for each model, and the seat
+record's motion sickness dose value and Lee & Pradko absorbed-power estimate
+(:mod:`bodyvib.comfort.measures`) and its ISO 2631-5:2018 spinal dose
+(:mod:`bodyvib.comfort.spine`).
 """
 
 from dataclasses import dataclass, field
-from typing import Dict, Sequence
+from typing import Dict, Optional, Sequence
 
 import numpy as np
 
 from ..comfort.figures import ComfortFigures, basic_method_checks, check_rate, comfort_figures
+from ..comfort.measures import lee_pradko_power, msdv
+from ..comfort.spine import SpinalDose, spinal_dose
 from ..models import DEFAULT_MODELS, load_model
 from ..runtime.discretize import Discretization
 from ..runtime.errors import BodyvibError
@@ -123,12 +128,24 @@ class Response:
         :func:`bodyvib.comfort.figures.basic_method_checks` of the seat record.
     bodies : dict of str to BodyResponse
         By model label, in the order given.
+    seat_msdv : float or None
+        Motion sickness dose value of the seat record (Wf), m/s^1.5
+        (:func:`bodyvib.comfort.measures.msdv`).
+    lee_pradko_power_w : float or None
+        Absorbed power estimated from the seat record (Lee & Pradko), W
+        (:func:`bodyvib.comfort.measures.lee_pradko_power`).
+    spinal : SpinalDose or None
+        ISO 2631-5:2018 acceleration dose of the seat record (mean removed), its daily
+        value for 8 h and the compressive stress (:func:`bodyvib.comfort.spine.spinal_dose`).
     """
 
     signal: SeatSignal
     seat_figures: ComfortFigures
     seat_checks: Dict[str, dict]
     bodies: Dict[str, BodyResponse] = field(default_factory=dict)
+    seat_msdv: Optional[float] = None
+    lee_pradko_power_w: Optional[float] = None
+    spinal: Optional[SpinalDose] = None
 
     def to_dict(self) -> dict:
         """The JSON document of ``bodyvib respond --json`` (undefined ratios as None)."""
@@ -141,7 +158,13 @@ class Response:
                     "sampling_rate_hz": s.fs,
                     "duration_s": s.duration,
                 },
-                "seat": {**self.seat_figures.to_dict(), "checks": self.seat_checks},
+                "seat": {
+                    **self.seat_figures.to_dict(),
+                    "checks": self.seat_checks,
+                    "msdv": self.seat_msdv,
+                    "lee_pradko_power_w": self.lee_pradko_power_w,
+                    **(self.spinal.to_dict() if self.spinal is not None else {}),
+                },
                 "bodies": {k: b.to_dict() for k, b in self.bodies.items()},
             }
         )
@@ -187,7 +210,12 @@ def respond(signal: SeatSignal, models: Sequence[str] = DEFAULT_MODELS) -> Respo
     nets = [(m, load_model(m)) for m in models]  # every model checked before any work
     seat = comfort_figures(signal.acceleration, signal.fs)
     out = Response(
-        signal=signal, seat_figures=seat, seat_checks=basic_method_checks(seat, signal.duration)
+        signal=signal,
+        seat_figures=seat,
+        seat_checks=basic_method_checks(seat, signal.duration),
+        seat_msdv=msdv(signal.acceleration, signal.fs),
+        lee_pradko_power_w=lee_pradko_power(signal.acceleration, signal.fs),
+        spinal=spinal_dose(signal.acceleration - signal.acceleration.mean(), signal.fs),
     )
     for name, net in nets:
         head = head_acceleration(net, signal.acceleration, signal.fs)

@@ -1,0 +1,568 @@
+"""Design search: car (and seat) parameters that minimize occupant and vehicle objectives.
+
+Every candidate is evaluated exactly and without simulation by
+:func:`bodyvib.vehicle.design.random_response.unit_rms` (one Lyapunov solve per
+candidate, 0.5 ms for the quarter car with the reduced body): the r.m.s. per unit road
+intensity, scaled to each operating point by ``sqrt(W)``. The search works on the unit
+box of the tuned parameters (each bound mapped linearly or logarithmically):
+
+* one objective: the fit's genetic algorithm or CMA-ES
+  (:func:`bodyvib.fit.methods.search`), constraints as a penalty
+  ``J (1 + 1000 v)`` with ``v`` the summed relative excess over the limits;
+* two or more: NSGA-II (``pymoo``), constraints as pymoo's inequality constraints.
+
+Chosen designs are verified in the time domain by :func:`verify_design`: the seated
+model discretized exactly (:class:`bodyvib.runtime.discretize.Discretization`, the
+sweep's ``batched`` engine's step) on the road ``bodyvib cosim`` drives (faded in),
+the Wk weighting by :class:`bodyvib.comfort.ComfortStream`.
+"""
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional, Tuple
+
+import numpy as np
+
+from bodyvib.comfort import ComfortStream
+from bodyvib.models import load_model
+from bodyvib.process import interrupts
+from bodyvib.runtime.discretize import Discretization
+from bodyvib.runtime.errors import BodyvibError
+
+from ..quarter_car import load_car
+from ..reference import seat_force_weights
+from ..road.driven import driven_road
+from ..road.synthetic import road_input
+from .random_response import (
+    road_velocity_intensity,
+    static_wheel_load,
+    unit_mean_product,
+    unit_rms,
+)
+from .spec import DesignSpec, Objective, seated_model
+
+__all__ = [
+    "DesignProblem",
+    "DesignPoint",
+    "DesignResult",
+    "design",
+    "chosen_points",
+    "verify_design",
+]
+
+#: Penalty factor of the single-objective search per unit relative constraint excess.
+PENALTY = 1000.0
+
+#: How a figure scales with ``sqrt(W)`` of an operating point, by kind (1 if not listed).
+_POWER_OF_SCALE = {"seat": 0.0, "power": 2.0}
+
+
+class DesignProblem:
+    """A specification's objectives and constraints as functions of the tuned parameters.
+
+    Parameters
+    ----------
+    spec : DesignSpec
+
+    Attributes
+    ----------
+    names : tuple of str
+        The tuned parameters.
+    evaluations : int
+        Candidates evaluated so far.
+
+    Examples
+    --------
+    >>> from bodyvib.vehicle.design.spec import parse_spec
+    >>> p = DesignProblem(parse_spec({"car": "quarter-car", "body": None,
+    ...     "parameters": {"cs": {"min": 200, "max": 5000}},
+    ...     "operating_points": [{"road": "C", "speed": 20}],
+    ...     "objectives": ["travel_rms"]}))
+    >>> F, G = p.evaluate(np.array([[1000.0]]))
+    >>> round(float(F[0, 0]), 5)  # sqrt(W (ms + mu) / (2 c)), m
+    0.01328
+    """
+
+    def __init__(self, spec: DesignSpec):
+        self.spec = spec
+        self.names = tuple(b.name for b in spec.parameters)
+        pts = spec.operating_points
+        self._scale = np.array([math.sqrt(road_velocity_intensity(p.road, p.speed)) for p in pts])
+        w = np.array([p.weight for p in pts])
+        self._weights = w / w.sum()
+        self._figures: List[Objective] = list(spec.objectives) + [c for c, _ in spec.constraints]
+        self._limits = np.array([lim for _, lim in spec.constraints])
+        self._car = load_car(spec.car)  # the files read once, not once per candidate
+        self._body = None if spec.body is None else load_model(spec.body)
+        self.evaluations = 0
+
+    def values(self, u) -> np.ndarray:
+        """Parameter values (rows) of unit-box coordinates ``u`` (rows in [0, 1])."""
+        u = np.clip(np.atleast_2d(np.asarray(u, dtype=float)), 0.0, 1.0)
+        return np.column_stack([b.value(u[:, j]) for j, b in enumerate(self.spec.parameters)])
+
+    def unit(self, values) -> np.ndarray:
+        """Unit-box coordinates of parameter values (rows)."""
+        x = np.atleast_2d(np.asarray(values, dtype=float))
+        cols = []
+        for j, b in enumerate(self.spec.parameters):
+            if b.log:
+                cols.append(np.log(x[:, j] / b.lo) / math.log(b.hi / b.lo))
+            else:
+                cols.append((x[:, j] - b.lo) / (b.hi - b.lo))
+        return np.column_stack(cols)
+
+    def _unit_figures(self, lm) -> np.ndarray:
+        """Each figure per unit road intensity (before the operating points' scaling)."""
+        rows, wrows, plan = [], [], []
+
+        def slot(lst, i):  # an output computed once however many figures use it
+            if i not in lst:
+                lst.append(i)
+            return lst.index(i)
+
+        for f in self._figures:
+            i = lm.output_index(f.output)
+            if f.kind in ("wk_rms", "seat"):
+                floor = slot(wrows, lm.output_index("sprung.a")) if f.kind == "seat" else None
+                plan.append(("w", slot(wrows, i), floor))
+            else:
+                plan.append(("r", slot(rows, i), None))
+        r, w = unit_rms(lm, rows, wrows)
+        if any(f.kind == "power" for f in self._figures):
+            power = self._unit_power(lm)
+        out = np.empty(len(self._figures))
+        for i, (f, (where, j, floor)) in enumerate(zip(self._figures, plan)):
+            x = r[j] if where == "r" else w[j]
+            if f.kind == "load_ratio":
+                x = x / static_wheel_load(lm)
+            elif f.kind == "rattle_ratio":
+                x = 3.0 * x / self.spec.rattle_space
+            elif f.kind == "seat":
+                x = 100.0 * w[j] / w[floor]
+            elif f.kind == "power":
+                x = power
+            out[i] = x
+        return out
+
+    def _unit_power(self, lm) -> float:
+        """Absorbed power for ``W = 1``: the mean of seat force times seat velocity."""
+        seat = self._car.roles["seat"]
+        force = seat_force_weights(lm, self._body, seat)
+        velocity = np.zeros(len(lm.outputs))
+        velocity[lm.output_index(f"{seat}.v")] = 1.0
+        return unit_mean_product(lm, force, velocity)
+
+    def figures_at_points(self, values) -> np.ndarray:
+        """Every figure of one design at every operating point, ``(figures, points)``.
+
+        SEAT is a ratio and does not scale with the road, the absorbed power scales
+        with ``W`` of the operating point, every other figure with ``sqrt(W)``.
+        """
+        lm = seated_model(self._car, self._body, dict(zip(self.names, values)))
+        u = self._unit_figures(lm)
+        self.evaluations += 1
+        scale = np.array([_POWER_OF_SCALE.get(f.kind, 1.0) for f in self._figures])
+        s = self._scale[None, :] ** scale[:, None]
+        return u[:, None] * s
+
+    def evaluate(self, values) -> Tuple[np.ndarray, np.ndarray]:
+        """Objectives and constraint excesses of designs (rows of parameter values).
+
+        Returns
+        -------
+        F : (n, objectives) ndarray
+            Weighted mean over the operating points (``inf`` for a model that is
+            not stable).
+        G : (n, constraints) ndarray
+            ``max over points / limit - 1``: feasible where every entry is <= 0.
+        """
+        X = np.atleast_2d(np.asarray(values, dtype=float))
+        nobj = len(self.spec.objectives)
+        F = np.empty((len(X), nobj))
+        G = np.empty((len(X), len(self._limits)))
+        for i, x in enumerate(X):
+            interrupts.check()  # Ctrl-C: every candidate is a safe point
+            with np.errstate(all="ignore"):
+                fig = self.figures_at_points(x)
+            F[i] = fig[:nobj] @ self._weights
+            G[i] = fig[nobj:].max(axis=1) / self._limits - 1.0 if len(self._limits) else []
+        return np.nan_to_num(F, nan=np.inf), np.nan_to_num(G, nan=np.inf)
+
+
+@dataclass(frozen=True)
+class DesignPoint:
+    """A chosen design with its predicted and verified figures.
+
+    Attributes
+    ----------
+    label : str
+        ``"best"``, ``"compromise"`` or ``"min-<objective>"``.
+    values : dict of str to float
+        Tuned parameter values (SI).
+    predicted : dict of str to float
+        Objectives and constraints by the random-response evaluator (operating
+        points aggregated as in the search).
+    verified : dict of str to float
+        The same figures from time-domain runs (:func:`verify_design`).
+    """
+
+    label: str
+    values: Dict[str, float]
+    predicted: Dict[str, float]
+    verified: Dict[str, float] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class DesignResult:
+    """The outcome of :func:`design`.
+
+    Attributes
+    ----------
+    spec : DesignSpec
+    values : (n, parameters) ndarray
+        The front's designs (one row for a single objective), sorted by the first
+        objective.
+    objectives : (n, objectives) ndarray
+    constraints : (n, constraints) ndarray
+        Relative excess over each limit (<= 0: met).
+    chosen : tuple of DesignPoint
+    evaluations : int
+    elapsed_s : float
+        Search time (without verification).
+    verify_s : float
+        Time of the verification runs.
+    baseline : DesignPoint or None
+        The car as its file gives it (label ``"baseline"``), evaluated the same way:
+        what the chosen designs improve on.
+    """
+
+    spec: DesignSpec
+    values: np.ndarray
+    objectives: np.ndarray
+    constraints: np.ndarray
+    chosen: Tuple[DesignPoint, ...]
+    evaluations: int
+    elapsed_s: float
+    verify_s: float = 0.0
+    baseline: Optional[DesignPoint] = None
+
+    @property
+    def parameter_names(self) -> Tuple[str, ...]:
+        """Names of the tuned parameters (the columns of ``values``)."""
+        return tuple(b.name for b in self.spec.parameters)
+
+    def to_dict(self) -> dict:
+        """JSON summary: spec essentials, chosen points, timings."""
+        s = self.spec
+        return {
+            "car": s.car,
+            "body": s.body,
+            "method": s.search.method,
+            "objectives": [o.name for o in s.objectives],
+            "constraints": {c.name: lim for c, lim in s.constraints},
+            "operating_points": [
+                {"road": p.road, "speed_m_s": p.speed, "weight": p.weight}
+                for p in s.operating_points
+            ],
+            "front_size": int(len(self.values)),
+            "evaluations": self.evaluations,
+            "elapsed_s": self.elapsed_s,
+            "verify_s": self.verify_s,
+            "chosen": [
+                {
+                    "label": c.label,
+                    "values": c.values,
+                    "predicted": c.predicted,
+                    "verified": c.verified,
+                }
+                for c in self.chosen
+            ],
+        }
+
+
+def _nsga2(problem: DesignProblem, spec: DesignSpec):
+    from pymoo.algorithms.moo.nsga2 import NSGA2
+    from pymoo.core.problem import Problem
+    from pymoo.operators.crossover.sbx import SBX
+    from pymoo.operators.mutation.pm import PM
+    from pymoo.optimize import minimize
+
+    d, ncon = len(problem.names), len(spec.constraints)
+
+    class Trade(Problem):
+        def __init__(self):
+            super().__init__(n_var=d, n_obj=len(spec.objectives), n_ieq_constr=ncon, xl=0.0, xu=1.0)
+
+        def _evaluate(self, u, out, *args, **kwargs):
+            F, G = problem.evaluate(problem.values(u))
+            out["F"] = np.minimum(F, 1e300)
+            if ncon:
+                out["G"] = np.minimum(G, 1e300)
+
+    algorithm = NSGA2(
+        pop_size=spec.search.population,
+        crossover=SBX(prob=0.9, eta=10.0),
+        mutation=PM(eta=20.0),
+        eliminate_duplicates=True,
+    )
+    res = minimize(Trade(), algorithm, ("n_gen", spec.search.generations), seed=spec.search.seed)
+    if res.X is None:
+        raise BodyvibError(
+            "no design meets the constraints within the bounds; widen the bounds or relax "
+            "the limits"
+        )
+    U = np.atleast_2d(res.X)
+    return problem.values(U)
+
+
+def _single(problem: DesignProblem, spec: DesignSpec):
+    from bodyvib.fit.config import CmaesSettings, GaSettings
+    from bodyvib.fit.methods import search
+
+    def penalized(u):
+        F, G = problem.evaluate(problem.values(u))
+        J = F[:, 0]
+        if G.shape[1]:
+            J = J * (1.0 + PENALTY * np.maximum(G, 0.0).sum(axis=1))
+        return J
+
+    s = spec.search
+    if s.method == "ga":
+        settings = GaSettings(
+            population=s.population,
+            generations=s.generations,
+            tournament_size=3,
+            elitism=2,
+            crossover_eta=2.0,
+            mutation_probability=0.6,
+            mutation_scale=1.0,
+            ftol=1e-10,
+            stall_generations=15,
+            coordinates="genes",
+        )
+    else:
+        settings = CmaesSettings(
+            sigma0=0.3,
+            population=s.population,
+            max_evaluations=s.population * s.generations,
+            ftol=1e-12,
+            stall_generations=30,
+            coordinates="genes",
+        )
+    d = len(problem.names)
+    r = search(s.method, penalized, np.zeros(d), np.ones(d), settings, s.seed)
+    return problem.values(_polish(penalized, r.genes))
+
+
+def _polish(f, u0):
+    """Refine a single-objective optimum by bounded Nelder-Mead (the GA ends near it)."""
+    from scipy.optimize import minimize
+
+    res = minimize(
+        lambda u: float(f(np.atleast_2d(u))[0]),
+        u0,
+        method="Nelder-Mead",
+        bounds=[(0.0, 1.0)] * len(u0),
+        options={"xatol": 1e-10, "fatol": 1e-14, "maxiter": 2000},
+    )
+    return res.x if res.fun <= float(f(np.atleast_2d(u0))[0]) else u0
+
+
+def chosen_points(objectives: np.ndarray, names) -> Dict[str, int]:
+    """Indices of the chosen designs of a front.
+
+    Parameters
+    ----------
+    objectives : (n, k) ndarray
+    names : sequence of str
+        The objectives' names.
+
+    Returns
+    -------
+    dict of str to int
+        One objective: ``{"best": 0}``. More: ``min-<name>`` for each objective and
+        ``compromise``, the design nearest the ideal point with every objective
+        scaled to [0, 1] over the front.
+
+    Examples
+    --------
+    >>> chosen_points(np.array([[0.0, 1.0], [0.3, 0.3], [1.0, 0.0]]), ["a", "b"])
+    {'min-a': 0, 'min-b': 2, 'compromise': 1}
+    """
+    F = np.asarray(objectives, dtype=float)
+    if F.shape[1] == 1:
+        return {"best": int(np.argmin(F[:, 0]))}
+    out = {f"min-{n}": int(np.argmin(F[:, j])) for j, n in enumerate(names)}
+    span = np.where(np.ptp(F, axis=0) > 0, np.ptp(F, axis=0), 1.0)
+    out["compromise"] = int(np.argmin(np.linalg.norm((F - F.min(axis=0)) / span, axis=1)))
+    return out
+
+
+def _simulate(lm, rows, z, v, step):
+    """Outputs ``rows`` of a model on road samples, by the exact step of the batched engine."""
+    Phi, G0, G1 = Discretization(lm).matrices(step)
+    iz, iv = lm.input_index("road_displacement"), lm.input_index("road_velocity")
+    gz, gv = G0[:, iz], G0[:, iv] + G1[:, iz]  # in-step road z_k + v_k tau
+    n = lm.A.shape[0]
+    X = np.empty((len(z), n))
+    x = np.zeros(n)
+    for k in range(len(z)):
+        X[k] = x
+        x = Phi @ x + gz * z[k] + gv * v[k]
+    C, D = lm.C[rows], lm.D[rows]
+    return X @ C.T + np.outer(z, D[:, iz]) + np.outer(v, D[:, iv])
+
+
+def verify_design(spec: DesignSpec, values: Dict[str, float]) -> Dict[str, float]:
+    """The objectives and constraints of one design from time-domain runs.
+
+    Each operating point is driven for ``spec.verify.duration`` s on the road
+    ``bodyvib cosim`` and the sweeps drive (seed ``spec.verify.seed``, faded in from
+    level); the seated model is stepped exactly. The figures of the runs are
+    aggregated over the operating points as the search aggregates them.
+
+    Parameters
+    ----------
+    spec : DesignSpec
+    values : dict of str to float
+        Tuned parameter values.
+
+    Returns
+    -------
+    dict of str to float
+        Objective and constraint names to their time-domain figures.
+    """
+    car = load_car(spec.car)
+    body = None if spec.body is None else load_model(spec.body)
+    lm = seated_model(car, body, values)
+    figs = list(spec.objectives) + [c for c, _ in spec.constraints]
+    seat = car.roles["seat"]
+    outs = sorted(
+        {f.output for f in figs} | ({"sprung.a"} if any(f.kind == "seat" for f in figs) else set())
+    )
+    rows = [lm.output_index(o) for o in outs]
+    w = np.array([p.weight for p in spec.operating_points])
+    w = w / w.sum()
+    per_point = []
+    for p in spec.operating_points:
+        interrupts.check()
+        st = spec.verify.step
+        road = driven_road(p.road, p.speed, spec.verify.duration, seed=spec.verify.seed, step=st)
+        t = np.arange(int(round(spec.verify.duration / st)) + 1) * st
+        z, v = road_input(road, p.speed, t)
+        Y_all = _simulate(lm, range(len(lm.outputs)), z, v, st)
+        Y = Y_all[:, rows]
+        if any(f.kind == "power" for f in figs):  # seat force times seat velocity
+            force = Y_all @ seat_force_weights(lm, body, seat)
+            power = float(np.mean(force * Y_all[:, lm.output_index(f"{seat}.v")]))
+        stream = ComfortStream(1.0 / st, len(outs))
+        stream.update(np.ascontiguousarray(Y.T))
+        wk = dict(zip(outs, stream.figures()["weighted_rms"]))
+        rms = dict(zip(outs, np.sqrt(np.mean(Y**2, axis=0))))
+        vals = {}
+        for f in figs:
+            if f.kind == "wk_rms":
+                vals[f.name] = float(wk[f.output])
+            elif f.kind == "seat":
+                vals[f.name] = float(100.0 * wk[f.output] / wk["sprung.a"])
+            elif f.kind == "load_ratio":
+                vals[f.name] = float(rms[f.output] / static_wheel_load(lm))
+            elif f.kind == "rattle_ratio":
+                vals[f.name] = float(3.0 * rms[f.output] / spec.rattle_space)
+            elif f.kind == "power":
+                vals[f.name] = power
+            else:
+                vals[f.name] = float(rms[f.output])
+        per_point.append(vals)
+    out = {}
+    for f in spec.objectives:
+        out[f.name] = float(sum(wi * pp[f.name] for wi, pp in zip(w, per_point)))
+    for c, _ in spec.constraints:
+        out[c.name] = float(max(pp[c.name] for pp in per_point))
+    return out
+
+
+def _predicted(problem: DesignProblem, x) -> Dict[str, float]:
+    spec = problem.spec
+    F, G = problem.evaluate(x)
+    out = {o.name: float(F[0, j]) for j, o in enumerate(spec.objectives)}
+    for j, (c, lim) in enumerate(spec.constraints):
+        out[c.name] = float((G[0, j] + 1.0) * lim)
+    return out
+
+
+def design(spec: DesignSpec, verify: bool = True) -> DesignResult:
+    """Search a specification's design space; verify the chosen designs in the time domain.
+
+    Parameters
+    ----------
+    spec : DesignSpec
+        From :func:`bodyvib.vehicle.design.spec.parse_spec` or ``load_spec``.
+    verify : bool
+        Run :func:`verify_design` for each chosen design (30 s runs by default).
+
+    Returns
+    -------
+    DesignResult
+
+    Raises
+    ------
+    BodyvibError
+        No design within the bounds meets the constraints.
+
+    Examples
+    --------
+    >>> from bodyvib.vehicle.design.spec import parse_spec
+    >>> spec = parse_spec({"car": "quarter-car", "body": None,
+    ...     "parameters": {"cs": {"min": 200, "max": 5000, "scale": "log"}},
+    ...     "operating_points": [{"road": "C", "speed": 20}],
+    ...     "objectives": ["rms:sprung.a"], "search": {"population": 12, "generations": 5}})
+    >>> r = design(spec, verify=False)
+    >>> round(r.chosen[0].values["cs"])  # 16812 sqrt((290 + 59) / 190000), N s/m
+    721
+    """
+    from threadpoolctl import threadpool_limits
+
+    problem = DesignProblem(spec)
+    t0 = time.perf_counter()
+    with threadpool_limits(1, user_api="blas"):
+        if spec.search.method == "nsga2":
+            X = _nsga2(problem, spec)
+        else:
+            X = _single(problem, spec)
+        F, G = problem.evaluate(X)
+    order = np.argsort(F[:, 0], kind="stable")
+    X, F, G = X[order], F[order], G[order]
+    elapsed = time.perf_counter() - t0
+    names = [o.name for o in spec.objectives]
+    points = []
+    t1 = time.perf_counter()
+    for label, i in chosen_points(F, names).items():
+        vals = dict(zip(problem.names, map(float, X[i])))
+        points.append(
+            DesignPoint(
+                label=label,
+                values=vals,
+                predicted=_predicted(problem, X[i]),
+                verified=verify_design(spec, vals) if verify else {},
+            )
+        )
+    start = dict(zip(problem.names, (problem._car.parameters[n] for n in problem.names)))
+    baseline = DesignPoint(
+        label="baseline",
+        values=start,
+        predicted=_predicted(problem, np.array([list(start.values())])),
+    )
+    return DesignResult(
+        baseline=baseline,
+        spec=spec,
+        values=X,
+        objectives=F,
+        constraints=G,
+        chosen=tuple(points),
+        evaluations=problem.evaluations,
+        elapsed_s=elapsed,
+        verify_s=time.perf_counter() - t1,
+    )
