@@ -22,6 +22,7 @@ import tempfile
 import threading
 
 from ..runtime.errors import BodyvibError
+from ..runtime.inputfile import file_kind
 
 __all__ = [
     "atomic_write_text",
@@ -36,22 +37,7 @@ __all__ = [
     "staged_source",
 ]
 
-_KINDS = (
-    (stat.S_ISDIR, "a folder"),
-    (stat.S_ISFIFO, "a FIFO (named pipe)"),
-    (stat.S_ISCHR, "a character device"),
-    (stat.S_ISBLK, "a block device"),
-    (stat.S_ISSOCK, "a socket"),
-)
-
 _local = threading.local()  # the active StagedWrites of this thread, if any
-
-
-def _kind(mode: int) -> str:
-    for test, words in _KINDS:
-        if test(mode):
-            return words
-    return "not a regular file"
 
 
 def _destination(path: str):
@@ -67,7 +53,7 @@ def _destination(path: str):
         return real, None
     if not stat.S_ISREG(st.st_mode):
         raise BodyvibError(
-            f"'{path}' is {_kind(st.st_mode)}, not a file; give a file path to write"
+            f"'{path}' is {file_kind(st.st_mode)}, not a file; give a file path to write"
         )
     if not os.access(real, os.W_OK):
         raise BodyvibError(f"'{path}' is read-only; make it writable or write elsewhere")
@@ -481,14 +467,14 @@ def check_output_path(path, option: str, extensions=None, inputs=(), folder: boo
         if folder:
             if not stat.S_ISDIR(mode):
                 raise BodyvibError(
-                    f"{where} is {_kind(mode) if not stat.S_ISREG(mode) else 'a file'}"
+                    f"{where} is {file_kind(mode) if not stat.S_ISREG(mode) else 'a file'}"
                     ", not a folder"
                 )
             if not os.access(real, os.W_OK | os.X_OK):
                 raise BodyvibError(f"{where}: folder is not writable")
             return real
         if not stat.S_ISREG(mode):
-            raise BodyvibError(f"{where} is {_kind(mode)}, not a file; give a file path")
+            raise BodyvibError(f"{where} is {file_kind(mode)}, not a file; give a file path")
         if not os.access(real, os.W_OK):
             raise BodyvibError(f"{where} is read-only; make it writable or write elsewhere")
     # the nearest existing folder must be a writable folder (missing ones are created)
