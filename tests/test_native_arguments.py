@@ -135,6 +135,15 @@ def _me_calls(fmi, n):
             None,
         )
         + ((c_size_t(1), None, c_size_t(1)) if fmi == 3 else ()),
+        "directional seed nan": (
+            "GetDirectionalDerivative",
+            (c_uint * 1)(0),
+            c_size_t(1),
+            (c_uint * 1)(0),
+            c_size_t(1),
+            (c_double * 1)(NAN),
+        )
+        + ((c_size_t(1), out, c_size_t(1)) if fmi == 3 else (out,)),
         "log category": ("SetDebugLogging", c_int(1), c_size_t(1), (c_char_p * 1)(b"logNothing")),
         "log category NULL": ("SetDebugLogging", c_int(1), c_size_t(1), None),
     }

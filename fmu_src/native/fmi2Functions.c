@@ -236,6 +236,8 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReferenc
     NEED(dvUnknown, nUnknown);
     NEED(vKnown_ref, nKnown);
     NEED(dvKnown, nKnown);
+    if (!bv_fmu_finite(f, __func__, "dvKnown", dvKnown, nKnown))
+        return fmi2Error;
     return st(bv_fmu_directional(f, vUnknown_ref, nUnknown, vKnown_ref, nKnown, dvKnown,
                                  dvUnknown));
 }

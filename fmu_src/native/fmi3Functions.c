@@ -360,6 +360,8 @@ fmi3Status fmi3GetDirectionalDerivative(fmi3Instance instance, const fmi3ValueRe
     NEED(sensitivity, nUnknowns);
     NEED(knowns, nKnowns);
     NEED(seed, nKnowns);
+    if (!bv_fmu_finite(f, __func__, "seed", seed, nKnowns))
+        return fmi3Error;
     if (nSeed != nKnowns || nSensitivity != nUnknowns) {
         fmu_log(f, BV_ERROR, "fmi3GetDirectionalDerivative: nSeed must equal nKnowns and "
                              "nSensitivity nUnknowns (scalar variables)");
