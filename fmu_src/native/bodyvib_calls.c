@@ -84,7 +84,8 @@ bv_status bv_fmu_set_logging(bv_fmu *f, const char *function, int on, size_t n,
 
 int bv_fmu_logs(const bv_fmu *f, int status)
 {
-    return (f->categories & (status == BV_WARNING ? BV_LOG_WARNING : BV_LOG_ERROR)) != 0;
+    /* the category the wrappers label the message with: errors, else warnings */
+    return (f->categories & (status == BV_ERROR ? BV_LOG_ERROR : BV_LOG_WARNING)) != 0;
 }
 
 int bv_fmu_arg(bv_fmu *f, const char *function, const char *name, const void *p, size_t n)

@@ -77,7 +77,8 @@ void bv_fmu_say(bv_fmu *f, int status, const char *fmt, ...)
 bv_status bv_fmu_set_logging(bv_fmu *f, const char *function, int on, size_t n,
                              const char *const categories[]);
 
-/* Whether a message of this status (BV_WARNING, BV_ERROR) is in a category switched on. */
+/* Whether a message of this status is in a category switched on: logStatusError for
+ * BV_ERROR, logStatusWarning for the others (the labels the wrappers give them). */
 int bv_fmu_logs(const bv_fmu *f, int status);
 
 /* A pointer argument of `function` that must not be NULL when the call reads or writes n > 0
