@@ -82,9 +82,7 @@ def check_input_file(path, what: str = "input file") -> str:
     path = os.fspath(path)
     try:
         mode = os.stat(path).st_mode
-    except FileNotFoundError:
-        raise BodyvibError(f"{what} '{path}' does not exist") from None
-    except OSError as exc:
+    except OSError as exc:  # a missing file too: "No such file or directory"
         raise BodyvibError(f"cannot read {what} '{path}': {exc.strerror}") from None
     if not stat.S_ISREG(mode):
         raise BodyvibError(f"{what} '{path}' is {file_kind(mode)}, not a file; give a regular file")
