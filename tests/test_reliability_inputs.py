@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from helpers import run_cli
 
+from bodyvib.frequency.measured import read_transmissibility_csv
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.inputfile import check_input_file
 from bodyvib.runtime.jsonfile import read_json
@@ -56,6 +57,8 @@ def test_the_input_check_names_every_special_file(tmp_path, kind):
         check_input_file(path, "signal file")
     with pytest.raises(BodyvibError, match=re.escape(f"is {KINDS[kind]}")):
         read_json(path, "model file")  # a FIFO here waited for a writer forever
+    with pytest.raises(BodyvibError, match=re.escape(f"is {KINDS[kind]}")):
+        read_transmissibility_csv(path)  # fit --measured: the same wait
 
 
 @pytest.mark.integration
