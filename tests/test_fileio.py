@@ -9,6 +9,7 @@ import stat
 import pytest
 
 from bodyvib.process.outputs import (
+    PendingFile,
     atomic_write_bytes,
     atomic_write_text,
     check_outputs,
@@ -99,6 +100,45 @@ def test_staged_writes_commit_all_or_none(tmp_path):
             f.write("new b")
     assert a.read_text() == "new a" and b.read_text() == "new b" and st.paths == [str(a), str(b)]
     assert _no_temporaries(tmp_path)
+
+
+def test_staged_outputs_whose_folder_vanished_are_all_refused(tmp_path):
+    """The output folder removed while the command runs: the CSV streamed there is gone, so
+    the JSON written after it (into the folder made again) must not be placed either."""
+    import shutil
+
+    gone = tmp_path / "gone"
+    with pytest.raises(BodyvibError, match="vanished"):
+        with staged_writes():
+            csv = PendingFile(gone / "r.csv")
+            csv.file.write("t,x\n")
+            shutil.rmtree(gone)  # the user removes the folder mid-run
+            csv.place()
+            atomic_write_text(gone / "r.json", "{}")
+    assert not gone.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_a_failed_rename_undoes_the_renames_before_it(tmp_path, monkeypatch):
+    """All or none when the second of two renames fails: the first destination gets its old
+    content back, a new one is removed."""
+    a, b, c = tmp_path / "a.json", tmp_path / "b.json", tmp_path / "c.json"
+    a.write_text("old a")
+    real_replace = os.replace
+
+    def replace(src, dst):
+        if os.fspath(dst).endswith("c.json"):
+            raise OSError(28, "No space left on device")
+        return real_replace(src, dst)
+
+    monkeypatch.setattr(os, "replace", replace)
+    with pytest.raises(OSError, match="No space"):
+        with staged_writes():
+            atomic_write_text(a, "new a")
+            atomic_write_text(b, "new b")
+            atomic_write_text(c, "new c")
+    monkeypatch.undo()
+    assert a.read_text() == "old a" and not b.exists() and not c.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.json"]
 
 
 def test_output_that_is_an_input_is_refused(tmp_path):

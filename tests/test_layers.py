@@ -111,12 +111,13 @@ def outside_runtime(imports):
 
 
 def into_physics(imports):
-    """The imports of a process module other than the run-time's errors, the stdlib and tqdm."""
+    """The imports of a process module other than the run-time's errors and file check, the
+    stdlib and tqdm."""
     return sorted(
         m
         for m in imports
         if not (
-            m == "bodyvib.runtime.errors"
+            m in ("bodyvib.runtime.errors", "bodyvib.runtime.inputfile")
             or m.startswith("bodyvib.process")
             or top(m) in sys.stdlib_module_names
             or m == "tqdm"

@@ -273,14 +273,16 @@ def test_outputs_are_checked_before_the_work(tmp_path, capsys):
     for args in (
         ["--out", str(spec), "--overwrite"],
         ["--csv", str(spec)],
-        ["--out", str(tmp_path / "x"), "--csv", str(tmp_path / "x")],
+        ["--out", str(tmp_path / "x.parquet"), "--csv", str(tmp_path / "x.parquet")],
     ):
         assert main(["sweep", str(spec), "--scheduler", "serial", "--quiet", *args]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and ("input" in err[0] or "same file" in err[0]), err
         assert spec.read_text() == text
-        assert not os.path.exists(tmp_path / "x")
-    # a device is refused before the sweep runs (no OUT.parts left)
+        assert not os.path.exists(tmp_path / "x.parquet")
+    # a device is refused before the sweep runs (no OUT.parts left); --out must end in
+    # .parquet, so the device is reached through a link that does
+    os.symlink("/dev/full", tmp_path / "full.parquet")
     t0 = time.time()
     assert (
         main(
@@ -291,7 +293,7 @@ def test_outputs_are_checked_before_the_work(tmp_path, capsys):
                 "serial",
                 "--quiet",
                 "--out",
-                "/dev/full",
+                str(tmp_path / "full.parquet"),
                 "--overwrite",
             ]
         )

@@ -47,6 +47,7 @@ import numpy as np
 from bodyvib.process import interrupts
 from bodyvib.process.outputs import PendingFile
 from bodyvib.process.progress import progress_bar
+from bodyvib.process.scratch import uri_unsafe_characters
 from bodyvib.runtime import contract
 from bodyvib.runtime.discretize import check_step
 from bodyvib.runtime.errors import BodyvibError
@@ -187,7 +188,9 @@ def _check_tree(unzipdir, md, path):
 
     pythonfmu's binary reads ``resources/slavemodule.txt`` and imports the module it
     names from ``resources/``; without them it crashed the host (a segfault) instead
-    of failing ``fmi2Instantiate``.
+    of failing ``fmi2Instantiate``. It finds them from the resource URI, decoding only
+    ``%20``: the extracted folder's path must be URI-safe
+    (:func:`bodyvib.process.scratch.uri_unsafe_characters`).
     """
     import platform
 
@@ -222,6 +225,13 @@ def _check_tree(unzipdir, md, path):
         raise BodyvibError(
             f"FMU '{path}' is incomplete: resources/{module or '?'}.py (its "
             "slave script) is missing; rebuild it"
+        )
+    bad = uri_unsafe_characters(unzipdir)
+    if bad:  # its binary would miss its resources and crash the host
+        raise BodyvibError(
+            f"FMU '{path}' was extracted to '{unzipdir}', whose "
+            f"{' '.join(repr(c) for c in bad)} a pythonfmu FMU cannot read back from its "
+            "resource URI; set TMPDIR to a folder without them"
         )
 
 

@@ -21,6 +21,8 @@ def _run(args) -> int:
     """Every FMU asked for (pythonfmu, or with ``--native`` C for FMI 2.0 and 3.0) and, with
     all three components, the SSP of each FMI version: checked first, committed together."""
     inputs = [("--params", args.params)] if args.params and os.path.isfile(args.params) else []
+    if args.cross_check:
+        return _cross_check(args, inputs)
     names = list(args.fmus or FMUS)
     platforms = None
     if args.native:
@@ -70,6 +72,29 @@ def _run(args) -> int:
         interrupts.check()
     for line in lines:
         print(line)
+    return 0
+
+
+def _cross_check(args, inputs) -> int:
+    """``--cross-check DIR``: the native body FMU in the FMI cross-check layout."""
+    from bodyvib.fmu.crosscheck import write_cross_check
+    from bodyvib.models import load_model
+
+    if args.fmus or args.native or args.platforms:
+        raise BodyvibError(
+            "--cross-check builds the native FMI 2.0 HumanBody3DOF.fmu for linux64 (its "
+            "model from --params); drop --fmus, --native and --platforms"
+        )
+    check_outputs([("--cross-check", args.cross_check, None, True)], inputs)
+    model = args.params or "reduced-paper"
+    network = load_model(model)
+    with staged_writes(guard=interrupts.critical):
+        made = write_cross_check(args.cross_check, network, model)
+        interrupts.check()
+    print(
+        f"wrote {made.folder}: {made.fmu.name}, {made.inputs.name}, {made.reference.name} "
+        f"(exact), {made.options.name}, _cc.sh/_cc.bat, {made.readme.name}"
+    )
     return 0
 
 
@@ -155,6 +180,13 @@ def add_command(subparsers):
         default=ROAD_DEFAULTS["speed"],
         metavar="V",
         help="Road.fmu: default of its speed parameter, m/s (default: 20)",
+    )
+    p.add_argument(
+        "--cross-check",
+        metavar="DIR",
+        help="instead: write the native FMI 2.0 HumanBody3DOF.fmu into DIR in the FMI "
+        "cross-check layout (fmus/2.0/cs/linux64/bodyvib/VERSION/HumanBody3DOF/: the FMU, "
+        "its _in.csv seat sine, the exact _ref.csv, _ref.opt, _cc.sh/.bat and ReadMe.md)",
     )
     add_road_options(
         p,

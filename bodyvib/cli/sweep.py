@@ -12,6 +12,7 @@ __all__ = ["add_command"]
 
 
 def _run(args):
+    from bodyvib.vehicle.sweep.run import PARQUET_EXTENSIONS
     from bodyvib.vehicle.sweep.spec import ROAD_OPTION_KEYS, grid_spec
 
     if args.spec and args.grid:
@@ -39,7 +40,7 @@ def _run(args):
     # every output checked before any work, against each other and the inputs
     check_outputs(
         [
-            ("--out", args.out, None),
+            ("--out", args.out, PARQUET_EXTENSIONS),
             ("--csv", args.csv, None),
             ("--plot", args.plot, PLOT_EXTENSIONS),
         ],

@@ -24,13 +24,13 @@ it is not.
 
 import csv
 import math
-import os
 from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
 
 from ..runtime.errors import BodyvibError
+from ..runtime.inputfile import check_input_file
 
 __all__ = [
     "MIN_ROWS",
@@ -125,7 +125,7 @@ def read_transmissibility_csv(path) -> MeasuredTransmissibility:
     Raises
     ------
     BodyvibError
-        Unreadable file, no header, a missing required column, a column named
+        Unreadable file or not a regular one, no header, a missing required column, a column named
         twice, a non-numeric or non-finite value, a non-positive or
         non-increasing frequency, a negative modulus or one above
         :data:`MAX_MODULUS`, every modulus zero, or fewer than
@@ -142,7 +142,7 @@ def read_transmissibility_csv(path) -> MeasuredTransmissibility:
     >>> m.frequency_hz[:3], m.has_phase
     (array([1., 2., 3.]), False)
     """
-    src = os.fspath(path)
+    src = check_input_file(path, "measured data")  # a FIFO would wait for a writer
     try:
         with open(src, newline="", encoding="utf-8-sig") as f:
             lines = [

@@ -22,6 +22,7 @@ import tempfile
 import threading
 
 from ..runtime.errors import BodyvibError
+from ..runtime.inputfile import file_kind
 
 __all__ = [
     "atomic_write_text",
@@ -36,22 +37,7 @@ __all__ = [
     "staged_source",
 ]
 
-_KINDS = (
-    (stat.S_ISDIR, "a folder"),
-    (stat.S_ISFIFO, "a FIFO (named pipe)"),
-    (stat.S_ISCHR, "a character device"),
-    (stat.S_ISBLK, "a block device"),
-    (stat.S_ISSOCK, "a socket"),
-)
-
 _local = threading.local()  # the active StagedWrites of this thread, if any
-
-
-def _kind(mode: int) -> str:
-    for test, words in _KINDS:
-        if test(mode):
-            return words
-    return "not a regular file"
 
 
 def _destination(path: str):
@@ -67,7 +53,7 @@ def _destination(path: str):
         return real, None
     if not stat.S_ISREG(st.st_mode):
         raise BodyvibError(
-            f"'{path}' is {_kind(st.st_mode)}, not a file; give a file path to write"
+            f"'{path}' is {file_kind(st.st_mode)}, not a file; give a file path to write"
         )
     if not os.access(real, os.W_OK):
         raise BodyvibError(f"'{path}' is read-only; make it writable or write elsewhere")
@@ -77,7 +63,15 @@ def _destination(path: str):
 def _temporary(real: str, mode):
     """A new temporary file beside ``real`` with the mode the result should have: ``(fd, path)``."""
     folder = os.path.dirname(real)
+    missing = []  # the folders this write creates, deepest first
+    f = folder
+    while f and not os.path.isdir(f) and f != os.path.dirname(f):
+        missing.append(f)
+        f = os.path.dirname(f)
     os.makedirs(folder, exist_ok=True)
+    stage = getattr(_local, "stage", None)
+    if stage is not None:  # removed again if the block writes nothing
+        stage._made.extend(missing)
     fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=os.path.basename(real))
     try:
         if mode is None:  # mkstemp makes the file private (0600); give it a plain open()'s mode
@@ -134,6 +128,18 @@ def _place(tmp: str, real: str, path: str) -> None:
         if isinstance(exc, OSError):
             raise _oserror(exc, path) from exc
         raise
+
+
+def _backup(real: str):
+    """A hard link to the file at ``real`` (to restore it), or None if there is none."""
+    if not os.path.isfile(real):
+        return None
+    backup = f"{real}.bak-{os.getpid()}-{threading.get_ident()}"
+    try:
+        os.link(real, backup)
+    except OSError:  # no hard links here (some file systems): no undo for this file
+        return None
+    return backup
 
 
 def _unlink(tmp: str) -> None:
@@ -257,6 +263,7 @@ class StagedWrites:
 
     def __init__(self):
         self._entries = []
+        self._made = []  # folders created for the staged files
         self.paths = []
 
     def _add(self, tmp, real, path):
@@ -269,21 +276,68 @@ class StagedWrites:
         self.paths.append(path)
 
     def commit(self) -> None:
-        """Rename every staged file onto its destination."""
+        """Rename every staged file onto its destination: all of them or none.
+
+        Every staged file is checked to be still there (its folder may have been
+        removed while the command ran) before the first rename; a rename that fails
+        after others succeeded undoes them (a replaced file gets its old content back
+        from a hard link kept until the end, a new file is removed).
+
+        Raises
+        ------
+        BodyvibError
+            A staged file vanished before the commit; nothing was written.
+        OSError
+            A rename failed; every destination is as it was.
+        """
         entries, self._entries = self._entries, []
-        for i, (tmp, real, path) in enumerate(entries):
-            try:
-                os.replace(tmp, real)
-            except OSError as exc:
-                for t, _, _ in entries[i:]:
+        for tmp, _, path in entries:
+            if not os.path.isfile(tmp):
+                for t, _, _ in entries:
                     _unlink(t)
-                raise _oserror(exc, path) from exc
+                self._remove_folders()
+                raise BodyvibError(
+                    f"'{path}' vanished before it was written (was its folder removed while "
+                    "the command ran?); no output written"
+                )
+        done = []  # (real, backup or None) of the renames made
+        try:
+            for i, (tmp, real, path) in enumerate(entries):
+                backup = _backup(real)
+                try:
+                    os.replace(tmp, real)
+                except OSError as exc:
+                    if backup is not None:
+                        _unlink(backup)
+                    for t, _, _ in entries[i:]:
+                        _unlink(t)
+                    raise _oserror(exc, path) from exc
+                done.append((real, backup))
+        except BaseException:
+            for real, backup in reversed(done):
+                with contextlib.suppress(OSError):
+                    if backup is None:
+                        os.unlink(real)
+                    else:
+                        os.replace(backup, real)
+            raise
+        for _, backup in done:
+            if backup is not None:
+                _unlink(backup)
 
     def discard(self) -> None:
         """Delete every staged file; the destinations stay as they were."""
         entries, self._entries = self._entries, []
         for tmp, _, _ in entries:
             _unlink(tmp)
+        self._remove_folders()
+
+    def _remove_folders(self) -> None:
+        """Remove the folders made for the staged files, where they are empty."""
+        made, self._made = self._made, []
+        for folder in made:
+            with contextlib.suppress(OSError):
+                os.rmdir(folder)
 
 
 @contextlib.contextmanager
@@ -321,7 +375,8 @@ def staged_writes(guard=None):
     if outer is not None:  # nested: the outer block commits these with its own, or none
         for entry in stage._entries:
             outer._add(*entry)
-        stage._entries = []
+        outer._made.extend(stage._made)
+        stage._entries, stage._made = [], []
         return
     try:
         with guard() if guard is not None else contextlib.nullcontext():
@@ -412,14 +467,14 @@ def check_output_path(path, option: str, extensions=None, inputs=(), folder: boo
         if folder:
             if not stat.S_ISDIR(mode):
                 raise BodyvibError(
-                    f"{where} is {_kind(mode) if not stat.S_ISREG(mode) else 'a file'}"
+                    f"{where} is {file_kind(mode) if not stat.S_ISREG(mode) else 'a file'}"
                     ", not a folder"
                 )
             if not os.access(real, os.W_OK | os.X_OK):
                 raise BodyvibError(f"{where}: folder is not writable")
             return real
         if not stat.S_ISREG(mode):
-            raise BodyvibError(f"{where} is {_kind(mode)}, not a file; give a file path")
+            raise BodyvibError(f"{where} is {file_kind(mode)}, not a file; give a file path")
         if not os.access(real, os.W_OK):
             raise BodyvibError(f"{where} is read-only; make it writable or write elsewhere")
     # the nearest existing folder must be a writable folder (missing ones are created)

@@ -6,6 +6,7 @@ everything here imports only itself (relatively), numpy and the standard
 library; a test keeps it so. The modules:
 
 * :mod:`.errors` - the one exception type of bodyvib;
+* :mod:`.inputfile` - the one check of an input file (a readable regular file);
 * :mod:`.jsonfile` - reading JSON files (the FMU writes nothing);
 * :mod:`.network` - lumped networks and their state space;
 * :mod:`.modelfile` - the parameter-file format;

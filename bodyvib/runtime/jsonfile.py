@@ -5,9 +5,9 @@ writing outputs is the commands' business (:mod:`bodyvib.process.outputs`).
 """
 
 import json
-import os
 
 from .errors import BodyvibError
+from .inputfile import check_input_file
 
 __all__ = ["read_json", "MAX_DEPTH"]
 
@@ -48,10 +48,11 @@ def read_json(path, what: str = "file"):
     Raises
     ------
     BodyvibError
-        The file cannot be opened, is not UTF-8 text, is not valid JSON
+        The file is not a readable regular file (:func:`.inputfile.check_input_file`:
+        a FIFO would wait forever), cannot be opened, is not UTF-8 text, is not valid JSON
         (with the line and column), or nests deeper than :data:`MAX_DEPTH`.
     """
-    path = os.fspath(path)
+    path = check_input_file(path, what)
     deep = BodyvibError(
         f"{path}: arrays or objects nested more than {MAX_DEPTH} levels "
         f"deep; a {what} nests a few levels: is this the right file?"

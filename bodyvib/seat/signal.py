@@ -22,19 +22,25 @@ a-v transition), and a record shorter than :data:`MIN_DURATION_S` (the MTVV's
 1 s window).
 """
 
+import contextlib
 import csv
+import gc
+import logging
 import os
+import sys
 from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
 
 from ..runtime.errors import BodyvibError
+from ..runtime.inputfile import check_input_file
 
 __all__ = [
     "MIN_RATE_HZ",
     "MIN_DURATION_S",
     "UNIFORM_TOLERANCE",
+    "MAX_ACCELERATION",
     "SeatSignal",
     "check_signal",
     "read_csv_signal",
@@ -48,6 +54,10 @@ MIN_RATE_HZ = 80.0
 MIN_DURATION_S = 1.0
 #: Largest relative deviation of a time step from the mean step.
 UNIFORM_TOLERANCE = 1e-3
+#: Largest seat acceleration accepted, m/s2 (chosen: about 100,000 g, a thousand times a
+#: crash pulse; a larger value is a unit or file error, and at 1e76 m/s2 the fourth powers of
+#: the VDV would overflow).
+MAX_ACCELERATION = 1e6
 #: File extensions read as ASAM MDF.
 MDF_EXTENSIONS = (".mf4", ".mdf")
 
@@ -99,8 +109,9 @@ def check_signal(time, acceleration, name: str = "seat acceleration") -> SeatSig
     Raises
     ------
     BodyvibError
-        Mismatched lengths, NaN or infinite values, time that does not increase
-        or is not uniform, a sampling rate below 80 Hz, a record shorter than 1 s.
+        Mismatched lengths, NaN or infinite values, an acceleration beyond
+        :data:`MAX_ACCELERATION`, time that does not increase or is not uniform, a
+        sampling rate below 80 Hz, a record shorter than 1 s.
 
     Examples
     --------
@@ -123,6 +134,13 @@ def check_signal(time, acceleration, name: str = "seat acceleration") -> SeatSig
                 f"{name}: {what} is NaN or infinite at {at} (sample {k}); "
                 "cut the record or fill the gap"
             )
+    big = np.abs(a) > MAX_ACCELERATION
+    if big.any():
+        k = int(np.argmax(big))
+        raise BodyvibError(
+            f"{name}: acceleration {a[k]:g} m/s2 at t = {t[k]:g} s (sample {k}) is beyond "
+            f"{MAX_ACCELERATION:g} m/s2; the values must be in m/s2: check the units"
+        )
     dt = np.diff(t)
     if np.any(dt <= 0):
         k = int(np.argmax(dt <= 0))
@@ -189,7 +207,7 @@ def read_csv_signal(path, channel: Optional[str] = None) -> SeatSignal:
         No header or time column, a missing or ambiguous column, a cell that
         is not a number, and everything :func:`check_signal` refuses.
     """
-    path = os.fspath(path)
+    path = check_input_file(path, "signal file")
     with open(path, newline="", encoding="utf-8") as f:
         rows = [
             r
@@ -232,6 +250,34 @@ def read_csv_signal(path, channel: Optional[str] = None) -> SeatSignal:
     return check_signal(data[:, 0], data[:, 1], f"{path}:{_column_name(header[ci])}")
 
 
+@contextlib.contextmanager
+def _quiet_reader(logger: str):
+    """Silence a reader library's logger and the errors of its half-built objects' ``__del__``
+    (which Python would print as "Exception ignored in ...") inside the block."""
+    log = logging.getLogger(logger)
+    level, hook = log.level, sys.unraisablehook
+    log.setLevel(logging.CRITICAL + 1)
+    sys.unraisablehook = lambda unraisable: None
+    try:
+        yield
+    finally:
+        gc.collect()  # a reader left in reference cycles is finalized here, still silent
+        sys.unraisablehook = hook
+        log.setLevel(level)
+
+
+def _open_mdf(MDF, path: str):
+    """``asammdf.MDF(path)``, or one BodyvibError: a truncated or corrupt file makes asammdf
+    log an error and leave a half-built reader whose ``__del__`` fails, both silenced here."""
+    with _quiet_reader("asammdf"):
+        try:
+            return MDF(path)
+        except Exception as exc:  # asammdf raises many kinds on a bad file
+            reason = str(exc)
+    # raised outside the except block: the failed reader, held by the traceback, is gone
+    raise BodyvibError(f"{path}: not a readable MDF file ({reason})")
+
+
 def read_mdf_signal(path, channel: Optional[str]) -> SeatSignal:
     """A seat acceleration from an ASAM MDF file (``asammdf``), one channel with its time stamps.
 
@@ -257,13 +303,8 @@ def read_mdf_signal(path, channel: Optional[str]) -> SeatSignal:
         from asammdf import MDF
     except ImportError:  # pragma: no cover - a dependency
         raise BodyvibError("reading MDF files needs asammdf: pip install asammdf") from None
-    path = os.fspath(path)
-    if not os.path.isfile(path):
-        raise FileNotFoundError(2, "No such file or directory", path)
-    try:
-        mdf = MDF(path)
-    except Exception as exc:  # asammdf raises many kinds on a bad file
-        raise BodyvibError(f"{path}: not a readable MDF file ({exc})") from None
+    path = check_input_file(path, "signal file")
+    mdf = _open_mdf(MDF, path)
     try:
         names = sorted(n for n in mdf.channels_db if not n.lower().startswith("time") and n != "t")
         if channel is None:

@@ -4,6 +4,7 @@
  */
 #include "bodyvib_calls.h"
 
+#include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -14,7 +15,7 @@ bv_fmu *bv_fmu_new(const char *name, int me, bv_host_fn logger, void *env, bv_lo
     bv_fmu *f = malloc(sizeof *f);
     if (f == NULL)
         return NULL;
-    *f = (bv_fmu){.logger = logger, .env = env, .me = me, .log = log};
+    *f = (bv_fmu){.logger = logger, .env = env, .me = me, .categories = BV_LOG_ALL, .log = log};
     if (name != NULL && (f->name = malloc(strlen(name) + 1)) != NULL)
         strcpy(f->name, name);
     if (name == NULL || f->name != NULL)
@@ -45,6 +46,78 @@ void bv_fmu_say(bv_fmu *f, int status, const char *fmt, ...)
     vsnprintf(text, sizeof text, fmt, ap);
     va_end(ap);
     f->log(f, status, text);
+}
+
+/* The category names, indexed by bit (BV_LOG_WARNING, BV_LOG_ERROR). */
+static const char *const CATEGORY[] = {"logStatusWarning", "logStatusError"};
+
+static int category_bit(const char *name)
+{
+    size_t k;
+    for (k = 0; name != NULL && k < sizeof CATEGORY / sizeof CATEGORY[0]; k++)
+        if (strcmp(name, CATEGORY[k]) == 0)
+            return 1 << k;
+    return 0;
+}
+
+bv_status bv_fmu_set_logging(bv_fmu *f, const char *function, int on, size_t n,
+                             const char *const categories[])
+{
+    int bits = n == 0 ? BV_LOG_ALL : 0;
+    size_t i;
+    if (!bv_fmu_arg(f, function, "categories", categories, n))
+        return BV_ERROR;
+    for (i = 0; i < n; i++) {
+        int bit = category_bit(categories[i]);
+        if (bit == 0) {
+            bv_fmu_say(f, BV_ERROR, "%s: unknown log category %s%s%s (this FMU has %s and %s); "
+                                    "call refused, nothing changed", function,
+                       categories[i] ? "'" : "", categories[i] ? categories[i] : "NULL",
+                       categories[i] ? "'" : "", CATEGORY[0], CATEGORY[1]);
+            return BV_ERROR;
+        }
+        bits |= bit;
+    }
+    f->categories = on ? f->categories | bits : f->categories & ~bits;
+    return BV_OK;
+}
+
+int bv_fmu_logs(const bv_fmu *f, int status)
+{
+    /* the category the wrappers label the message with: errors, else warnings */
+    return (f->categories & (status == BV_ERROR ? BV_LOG_ERROR : BV_LOG_WARNING)) != 0;
+}
+
+int bv_fmu_arg(bv_fmu *f, const char *function, const char *name, const void *p, size_t n)
+{
+    if (p != NULL || n == 0)
+        return 1;
+    bv_fmu_say(f, BV_ERROR, "%s: %s is NULL; call refused, nothing changed", function, name);
+    return 0;
+}
+
+int bv_fmu_finite(bv_fmu *f, const char *function, const char *name, const double v[],
+                  size_t n)
+{
+    size_t i;
+    for (i = 0; i < n; i++)
+        if (!isfinite(v[i])) { /* %g of a non-finite value: nan, inf or -inf */
+            if (n == 1)
+                bv_fmu_say(f, BV_ERROR, "%s: %s must be finite, got %g; call refused, nothing "
+                                        "changed", function, name, v[i]);
+            else
+                bv_fmu_say(f, BV_ERROR, "%s: %s[%lu] must be finite, got %g; call refused, "
+                                        "nothing changed", function, name, (unsigned long)i,
+                           v[i]);
+            return 0;
+        }
+    return 1;
+}
+
+bv_status bv_fmu_unsupported(bv_fmu *f, const char *function, const char *why)
+{
+    bv_fmu_say(f, BV_ERROR, "%s: %s; call refused, nothing changed", function, why);
+    return BV_ERROR;
 }
 
 int bv_fmu_wrong_interface(bv_fmu *f, const char *function)
@@ -105,30 +178,31 @@ static bv_snapshot *snapshot_new(size_t size)
     return s;
 }
 
-bv_status bv_fmu_get_state(bv_fmu *f, void **state)
+bv_status bv_fmu_get_state(bv_fmu *f, const char *function, void **state)
 {
     size_t size;
     bv_snapshot *s;
-    if (state == NULL)
+    if (!bv_fmu_arg(f, function, "FMUstate", state, 1))
         return BV_ERROR;
     size = bv_state_size(f->core);
     s = *state;
     if (s == NULL || s->size != size) {
-        free(s);
-        *state = NULL;
         s = snapshot_new(size);
         if (s == NULL)
-            return BV_ERROR;
+            return bv_fmu_unsupported(f, function, "out of memory");
+        free(*state);
     }
     bv_state_write(f->core, s->bytes);
     *state = s;
     return BV_OK;
 }
 
-bv_status bv_fmu_set_state(bv_fmu *f, void *state)
+bv_status bv_fmu_set_state(bv_fmu *f, const char *function, void *state)
 {
     bv_snapshot *s = state;
-    return s == NULL ? BV_ERROR : bv_state_read(f->core, s->bytes, s->size);
+    if (!bv_fmu_arg(f, function, "FMUstate", state, 1))
+        return BV_ERROR;
+    return bv_state_read(f->core, s->bytes, s->size);
 }
 
 bv_status bv_fmu_free_state(void **state)
@@ -140,33 +214,43 @@ bv_status bv_fmu_free_state(void **state)
     return BV_OK;
 }
 
-bv_status bv_fmu_state_size(void *state, size_t *size)
+bv_status bv_fmu_state_size(bv_fmu *f, const char *function, void *state, size_t *size)
 {
     bv_snapshot *s = state;
-    if (s == NULL || size == NULL)
+    if (!bv_fmu_arg(f, function, "FMUstate", state, 1) || !bv_fmu_arg(f, function, "size", size, 1))
         return BV_ERROR;
     *size = s->size;
     return BV_OK;
 }
 
-bv_status bv_fmu_serialize(void *state, unsigned char serialized[], size_t size)
+bv_status bv_fmu_serialize(bv_fmu *f, const char *function, void *state,
+                           unsigned char serialized[], size_t size)
 {
     bv_snapshot *s = state;
-    if (s == NULL || serialized == NULL || size < s->size)
+    if (!bv_fmu_arg(f, function, "FMUstate", state, 1) ||
+        !bv_fmu_arg(f, function, "serializedState", serialized, 1))
         return BV_ERROR;
+    if (size < s->size) {
+        bv_fmu_say(f, BV_ERROR, "%s: the buffer holds %lu bytes, the state needs %lu (its "
+                                "SerializedFMUstateSize); call refused", function,
+                   (unsigned long)size, (unsigned long)s->size);
+        return BV_ERROR;
+    }
     memcpy(serialized, s->bytes, s->size);
     return BV_OK;
 }
 
-bv_status bv_fmu_deserialize(bv_fmu *f, const unsigned char serialized[], size_t size,
-                             void **state)
+bv_status bv_fmu_deserialize(bv_fmu *f, const char *function, const unsigned char serialized[],
+                             size_t size, void **state)
 {
     bv_snapshot *s;
-    if (state == NULL || bv_state_check(f->core, serialized, size) != BV_OK)
+    if (!bv_fmu_arg(f, function, "FMUstate", state, 1) ||
+        !bv_fmu_arg(f, function, "serializedState", serialized, 1) ||
+        bv_state_check(f->core, serialized, size) != BV_OK)
         return BV_ERROR;
     s = snapshot_new(size);
     if (s == NULL)
-        return BV_ERROR;
+        return bv_fmu_unsupported(f, function, "out of memory");
     memcpy(s->bytes, serialized, size);
     *state = s; /* a new state: the host frees it (and any earlier one) with FreeFMUstate */
     return BV_OK;
@@ -185,22 +269,21 @@ bv_status bv_fmu_directional(bv_fmu *f, const unsigned int unknowns[], size_t nu
 
 /* ---------------------------------------------------------------- model exchange */
 
-static const char *const VECTOR_NAME[] = {"SetContinuousStates", "GetContinuousStates",
-                                          "GetDerivatives", "GetNominalsOfContinuousStates"};
-
-bv_status bv_fmu_vector(bv_fmu *f, bv_vector which, const double in[], double out[],
-                        size_t nx)
+bv_status bv_fmu_vector(bv_fmu *f, const char *function, bv_vector which, const double in[],
+                        double out[], size_t nx)
 {
     int n = bv_me_nstates(f->core), i;
-    if (!arrays(nx, which == BV_SET_STATES ? (const void *)in : (const void *)out, f, f))
+    if (!bv_fmu_arg(f, function, "x", which == BV_SET_STATES ? (const void *)in : out, nx))
         return BV_ERROR;
     if (nx != (size_t)n) {
         bv_fmu_say(f, BV_ERROR, "%s: %s: %lu continuous states passed, the model has %d",
-                   bv_name(f->core), VECTOR_NAME[which], (unsigned long)nx, n);
+                   bv_name(f->core), function, (unsigned long)nx, n);
         return BV_ERROR;
     }
     switch (which) {
     case BV_SET_STATES:
+        if (!bv_fmu_finite(f, function, "x", in, nx))
+            return BV_ERROR;
         bv_me_set_states(f->core, in);
         break;
     case BV_GET_STATES:

@@ -28,8 +28,15 @@ typedef struct {
     void *env;          /* its componentEnvironment / instanceEnvironment */
     char *name;         /* the instance name the host gave ("" if none; NULL for FMI 3.0's NULL) */
     int me;             /* instantiated for model exchange */
+    int categories;     /* the log categories switched on (BV_LOG_* bits) */
     bv_log_fn log;      /* the wrapper's message function: env is this bv_fmu */
 } bv_fmu;
+
+/* The log categories of the model description (bodyvib.fmu.native.LOG_CATEGORIES): one per
+ * message status. Both are on from instantiation, whatever loggingOn says: the FMU has no
+ * debug messages, only these status reports, and hosts that instantiate with loggingOn false
+ * still show warnings and errors. SetDebugLogging switches them (bv_fmu_set_logging). */
+enum { BV_LOG_WARNING = 1, BV_LOG_ERROR = 2, BV_LOG_ALL = 3 };
 
 /* Flags of a function's mask besides its states (BV_INSTANTIATED .. BV_EVENT): the
  * interface the function belongs to when it is not both. */
@@ -64,6 +71,28 @@ void bv_fmu_say(bv_fmu *f, int status, const char *fmt, ...)
 #endif
     ;
 
+/* SetDebugLogging: loggingOn true switches on the named categories (all when n is 0), false
+ * switches them off (all when n is 0). An unknown or NULL category refuses the call (logged,
+ * nothing changed). */
+bv_status bv_fmu_set_logging(bv_fmu *f, const char *function, int on, size_t n,
+                             const char *const categories[]);
+
+/* Whether a message of this status is in a category switched on: logStatusError for
+ * BV_ERROR, logStatusWarning for the others (the labels the wrappers give them). */
+int bv_fmu_logs(const bv_fmu *f, int status);
+
+/* A pointer argument of `function` that must not be NULL when the call reads or writes n > 0
+ * entries through it (n = 1 for a single output): 1, or 0 with the refusal logged. */
+int bv_fmu_arg(bv_fmu *f, const char *function, const char *name, const void *p, size_t n);
+
+/* Values that must be finite (a time, continuous states): 1, or 0 with the refusal logged
+ * naming the first that is not. */
+int bv_fmu_finite(bv_fmu *f, const char *function, const char *name, const double v[],
+                  size_t n);
+
+/* A function this FMU does not provide (`why`): logged, BV_ERROR. */
+bv_status bv_fmu_unsupported(bv_fmu *f, const char *function, const char *why);
+
 /* A function called on an instance of the other interface: logged, 0. */
 int bv_fmu_wrong_interface(bv_fmu *f, const char *function);
 
@@ -90,24 +119,25 @@ bv_status bv_fmu_get_output_derivatives(bv_fmu *f, const unsigned int vr[], size
 
 /* FMU states: a snapshot of the core (bv_state_write) in a buffer the host holds. Get
  * reuses *state when it has the size, Deserialize makes a new one the host frees. */
-bv_status bv_fmu_get_state(bv_fmu *f, void **state);
-bv_status bv_fmu_set_state(bv_fmu *f, void *state);
+bv_status bv_fmu_get_state(bv_fmu *f, const char *function, void **state);
+bv_status bv_fmu_set_state(bv_fmu *f, const char *function, void *state);
 bv_status bv_fmu_free_state(void **state);
-bv_status bv_fmu_state_size(void *state, size_t *size);
-bv_status bv_fmu_serialize(void *state, unsigned char serialized[], size_t size);
-bv_status bv_fmu_deserialize(bv_fmu *f, const unsigned char serialized[], size_t size,
-                             void **state);
+bv_status bv_fmu_state_size(bv_fmu *f, const char *function, void *state, size_t *size);
+bv_status bv_fmu_serialize(bv_fmu *f, const char *function, void *state,
+                           unsigned char serialized[], size_t size);
+bv_status bv_fmu_deserialize(bv_fmu *f, const char *function, const unsigned char serialized[],
+                             size_t size, void **state);
 
 /* Exact directional derivatives (bv_directional), the arrays checked. */
 bv_status bv_fmu_directional(bv_fmu *f, const unsigned int unknowns[], size_t nu,
                              const unsigned int knowns[], size_t nk, const double seed[],
                              double sensitivity[]);
 
-/* Model exchange: the vectors of the continuous states, in (set) or out (the others),
- * nx checked against the model's count. */
+/* Model exchange: the vectors of the continuous states, in (set: finite) or out (the
+ * others), nx checked against the model's count, refusals logged as `function`'s. */
 typedef enum { BV_SET_STATES, BV_GET_STATES, BV_DERIVATIVES, BV_NOMINALS } bv_vector;
-bv_status bv_fmu_vector(bv_fmu *f, bv_vector which, const double in[], double out[],
-                        size_t nx);
+bv_status bv_fmu_vector(bv_fmu *f, const char *function, bv_vector which, const double in[],
+                        double out[], size_t nx);
 /* The wrapper of bv_fmu_vector in a version: fn(instance, x, nx) of the version's Status and
  * Instance types, x of type T (const for BV_SET_STATES, passed as `in`; else as `out`),
  * entered through the version's CHECKED (the instance, its state in mask). */
@@ -115,7 +145,7 @@ bv_status bv_fmu_vector(bv_fmu *f, bv_vector which, const double in[], double ou
     Status fn(Instance instance, T x[], size_t nx)                                          \
     {                                                                                       \
         CHECKED(instance, fn, mask);                                                        \
-        return (Status)bv_fmu_vector(f, which, in, out, nx);                                \
+        return (Status)bv_fmu_vector(f, #fn, which, in, out, nx);                           \
     }
 /* The four of a version (named set, get, der, nom there), Real its floating-point type. */
 #define BV_VECTOR_FUNCTIONS(Status, Instance, Real, set, get, der, nom)                     \

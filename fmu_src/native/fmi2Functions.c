@@ -10,8 +10,13 @@
  * not be finite fmi2Discard (state unchanged either way, the instance may step again); an
  * invalid parameter makes fmi2ExitInitializationMode return fmi2Error (the instance is then
  * in the error state until Reset); a foreign or corrupt FMU state is refused with
- * fmi2Error. Errors and warnings are always passed to the logger (they are not debug
- * messages), whatever loggingOn says.
+ * fmi2Error. Every argument is checked before anything changes: a NULL pointer the call
+ * needs, a non-finite time or continuous state, a co-simulation function called on a
+ * model-exchange instance (and the reverse) are refused with fmi2Error, the reason logged.
+ *
+ * Logging: every refusal is logged under the category of its status (logStatusError,
+ * logStatusWarning). Both categories are on from fmi2Instantiate whatever loggingOn says (the
+ * FMU has no debug messages; these are status reports); fmi2SetDebugLogging switches them.
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -27,7 +32,7 @@ static void fmu_log(void *env, int status, const char *message)
     bv_fmu *f = env;
     char text[1300];
     size_t i = 0;
-    if (f->logger == NULL)
+    if (f->logger == NULL || !bv_fmu_logs(f, status))
         return;
     for (; *message && i + 2 < sizeof text; message++) {
         if (*message == '%')
@@ -43,8 +48,10 @@ static void fmu_log(void *env, int status, const char *message)
 static fmi2Status st(bv_status s) { return (fmi2Status)s; }
 
 /* The states of the FMI 2.0 functions not in bodyvib_calls.h's shared table. */
-#define S_OUTPUT_DERIVATIVES (BV_STEPPING | BV_TERMINATED | BV_FAILED)
-#define S_STATUS (BV_STEPPING | BV_TERMINATED)
+#define S_OUTPUT_DERIVATIVES (BV_STEPPING | BV_TERMINATED | BV_FAILED | BV_CS_ONLY)
+#define S_STATUS (BV_STEPPING | BV_TERMINATED | BV_CS_ONLY)
+#define S_INPUT_DERIVATIVES (BV_ON_SET | BV_CS_ONLY)
+#define S_CANCEL (BV_ANY_STATE | BV_CS_ONLY)
 /* FMI 2.0 allows fmi2EnterEventMode in Event Mode too (FMI 3.0 only in Continuous-Time Mode). */
 #define S_ENTER_EVENT_MODE (BV_EVENT | BV_STEPPING | BV_ME_ONLY)
 
@@ -58,6 +65,10 @@ static fmi2Status st(bv_status s) { return (fmi2Status)s; }
     INSTANCE(c);                                                                             \
     if (!bv_fmu_enter(f, #function, mask))                                                   \
         return fmi2Error
+/* A pointer argument of the current function through which it reads or writes n entries. */
+#define NEED(p, n)                                                                           \
+    if (!bv_fmu_arg(f, __func__, #p, p, n))                                                  \
+        return fmi2Error
 
 const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
 const char *fmi2GetVersion(void) { return fmi2Version; }
@@ -66,10 +77,7 @@ fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nC
                                const fmi2String categories[])
 {
     INSTANCE(c);
-    (void)nCategories;
-    (void)categories;
-    (void)f, (void)loggingOn;
-    return fmi2OK;
+    return st(bv_fmu_set_logging(f, __func__, loggingOn, nCategories, categories));
 }
 
 fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
@@ -144,6 +152,8 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
                        fmi2Real value[])
 {
     CHECKED(c, fmi2GetReal, BV_ON_GET);
+    NEED(vr, nvr);
+    NEED(value, nvr);
     return st(bv_fmu_get(f, vr, nvr, value));
 }
 
@@ -151,16 +161,21 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
                        const fmi2Real value[])
 {
     CHECKED(c, fmi2SetReal, BV_ON_SET);
+    NEED(vr, nvr);
+    NEED(value, nvr);
     return st(bv_fmu_set(f, vr, nvr, value));
 }
 
-/* No Integer, Boolean or String variables. */
+/* No Integer, Boolean or String variables: an empty request only. */
 #define NO_VARIABLES(fn, T, CONST, MASK)                                                       \
     fmi2Status fn(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, CONST T value[]) \
     {                                                                                          \
         CHECKED(c, fn, MASK);                                                                  \
-        (void)vr, (void)value;                                                                 \
-        return nvr == 0 ? fmi2OK : fmi2Error;                                                  \
+        NEED(vr, nvr);                                                                         \
+        NEED(value, nvr);                                                                      \
+        if (nvr == 0)                                                                          \
+            return fmi2OK;                                                                     \
+        return st(bv_fmu_unsupported(f, #fn, "the FMU has Real variables only"));              \
     }
 NO_VARIABLES(fmi2GetInteger, fmi2Integer, , BV_ON_GET)
 NO_VARIABLES(fmi2GetBoolean, fmi2Boolean, , BV_ON_GET)
@@ -174,13 +189,13 @@ NO_VARIABLES(fmi2SetString, fmi2String, const, BV_ON_SET)
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate)
 {
     INSTANCE(c);
-    return st(bv_fmu_get_state(f, FMUstate));
+    return st(bv_fmu_get_state(f, __func__, FMUstate));
 }
 
 fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate)
 {
     INSTANCE(c);
-    return st(bv_fmu_set_state(f, FMUstate));
+    return st(bv_fmu_set_state(f, __func__, FMUstate));
 }
 
 fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate)
@@ -192,21 +207,21 @@ fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate)
 fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate FMUstate, size_t *size)
 {
     INSTANCE(c);
-    return st(bv_fmu_state_size(FMUstate, size));
+    return st(bv_fmu_state_size(f, __func__, FMUstate, size));
 }
 
 fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byte serializedState[],
                                  size_t size)
 {
     INSTANCE(c);
-    return st(bv_fmu_serialize(FMUstate, (unsigned char *)serializedState, size));
+    return st(bv_fmu_serialize(f, __func__, FMUstate, (unsigned char *)serializedState, size));
 }
 
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[], size_t size,
                                    fmi2FMUstate *FMUstate)
 {
     INSTANCE(c);
-    return st(bv_fmu_deserialize(f, (const unsigned char *)serializedState, size, FMUstate));
+    return st(bv_fmu_deserialize(f, __func__, (const unsigned char *)serializedState, size, FMUstate));
 }
 
 /* Exact: the rows of A, B U (state derivatives) and of the output matrices on the columns
@@ -217,6 +232,12 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReferenc
                                         fmi2Real dvUnknown[])
 {
     INSTANCE(c);
+    NEED(vUnknown_ref, nUnknown);
+    NEED(dvUnknown, nUnknown);
+    NEED(vKnown_ref, nKnown);
+    NEED(dvKnown, nKnown);
+    if (!bv_fmu_finite(f, __func__, "dvKnown", dvKnown, nKnown))
+        return fmi2Error;
     return st(bv_fmu_directional(f, vUnknown_ref, nUnknown, vKnown_ref, nKnown, dvKnown,
                                  dvUnknown));
 }
@@ -228,7 +249,10 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReferenc
 fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                        const fmi2Integer order[], const fmi2Real value[])
 {
-    CHECKED(c, fmi2SetRealInputDerivatives, BV_ON_SET);
+    CHECKED(c, fmi2SetRealInputDerivatives, S_INPUT_DERIVATIVES);
+    NEED(vr, nvr);
+    NEED(order, nvr);
+    NEED(value, nvr);
     return st(bv_fmu_set_input_derivatives(f, vr, nvr, (const int *)order, value));
 }
 
@@ -237,6 +261,9 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReferenc
                                         size_t nvr, const fmi2Integer order[], fmi2Real value[])
 {
     CHECKED(c, fmi2GetRealOutputDerivatives, S_OUTPUT_DERIVATIVES);
+    NEED(vr, nvr);
+    NEED(order, nvr);
+    NEED(value, nvr);
     return st(bv_fmu_get_output_derivatives(f, vr, nvr, (const int *)order, value));
 }
 
@@ -252,18 +279,27 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
 
 fmi2Status fmi2CancelStep(fmi2Component c)
 {
-    INSTANCE(c);
-    return fmi2Error; /* doStep never returns fmi2Pending */
+    CHECKED(c, fmi2CancelStep, S_CANCEL);
+    return st(bv_fmu_unsupported(f, __func__, "fmi2DoStep never returns fmi2Pending"));
+}
+
+/* A status this FMU does not report (the standard's answer: fmi2Discard), logged. */
+static fmi2Status no_status(bv_fmu *f, const char *function, int kind)
+{
+    bv_fmu_say(f, BV_WARNING, "%s: status kind %d is not available (this FMU reports only "
+                              "fmi2LastSuccessfulTime, by fmi2GetRealStatus)", function, kind);
+    return fmi2Discard;
 }
 
 fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value)
 {
     CHECKED(c, fmi2GetRealStatus, S_STATUS);
-    if (s == fmi2LastSuccessfulTime && value != NULL) {
+    NEED(value, 1);
+    if (s == fmi2LastSuccessfulTime) {
         *value = bv_time(f->core);
         return fmi2OK;
     }
-    return fmi2Discard;
+    return no_status(f, __func__, (int)s);
 }
 
 /* Nothing to report but fmi2LastSuccessfulTime. */
@@ -271,8 +307,8 @@ fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *
     fmi2Status fn(fmi2Component c, const fmi2StatusKind s, T *value)                         \
     {                                                                                        \
         CHECKED(c, fn, S_STATUS);                                                            \
-        (void)s, (void)value;                                                                \
-        return fmi2Discard;                                                                  \
+        NEED(value, 1);                                                                      \
+        return no_status(f, #fn, (int)s);                                                    \
     }
 NO_STATUS(fmi2GetStatus, fmi2Status)
 NO_STATUS(fmi2GetIntegerStatus, fmi2Integer)
@@ -300,8 +336,7 @@ fmi2Status fmi2EnterEventMode(fmi2Component c)
 fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *eventInfo)
 {
     CHECKED(c, fmi2NewDiscreteStates, BV_ON_EVENT_MODE);
-    if (eventInfo == NULL)
-        return fmi2Error;
+    NEED(eventInfo, 1);
     eventInfo->newDiscreteStatesNeeded = fmi2False;
     eventInfo->terminateSimulation = fmi2False;
     eventInfo->nominalsOfContinuousStatesChanged = fmi2False;
@@ -324,17 +359,19 @@ fmi2Status fmi2CompletedIntegratorStep(fmi2Component c,
                                        fmi2Boolean *terminateSimulation)
 {
     CHECKED(c, fmi2CompletedIntegratorStep, BV_ON_CT_MODE);
+    NEED(enterEventMode, 1);
+    NEED(terminateSimulation, 1);
     (void)noSetFMUStatePriorToCurrentPoint;
-    if (enterEventMode != NULL)
-        *enterEventMode = fmi2False;
-    if (terminateSimulation != NULL)
-        *terminateSimulation = fmi2False;
+    *enterEventMode = fmi2False;
+    *terminateSimulation = fmi2False;
     return fmi2OK;
 }
 
 fmi2Status fmi2SetTime(fmi2Component c, fmi2Real time)
 {
     CHECKED(c, fmi2SetTime, BV_ON_TIME);
+    if (!bv_fmu_finite(f, __func__, "time", &time, 1))
+        return fmi2Error;
     bv_me_set_time(f->core, time);
     return fmi2OK;
 }
@@ -342,7 +379,7 @@ fmi2Status fmi2SetTime(fmi2Component c, fmi2Real time)
 fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], size_t ni)
 {
     CHECKED(c, fmi2GetEventIndicators, BV_ON_ME_GET);
-    (void)eventIndicators;
+    NEED(eventIndicators, ni);
     return st(bv_fmu_event_indicators(f, "fmi2GetEventIndicators", ni));
 }
 

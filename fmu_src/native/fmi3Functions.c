@@ -9,7 +9,10 @@
  * Status as in FMI 2.0 (fmi2Functions.c): calls out of order, non-finite inputs, bad steps
  * return fmi3Error, a step whose state would not be finite fmi3Discard, nothing changed;
  * an invalid parameter makes fmi3ExitInitializationMode return fmi3Error; a foreign or
- * corrupt FMU state is refused.
+ * corrupt FMU state is refused. Arguments are checked before anything changes (NULL
+ * pointers the call needs, a non-finite time or continuous state, a function of the other
+ * interface); a function this FMU does not provide returns fmi3Error; every refusal is
+ * logged, under the categories fmi3SetDebugLogging switches (both on from instantiation).
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -21,7 +24,7 @@
 static void fmu_log(void *env, int status, const char *message)
 {
     bv_fmu *f = env;
-    if (f->logger != NULL)
+    if (f->logger != NULL && bv_fmu_logs(f, status))
         ((fmi3LogMessageCallback)f->logger)(
             f->env, (fmi3Status)status, status == BV_ERROR ? "logStatusError" : "logStatusWarning",
             message);
@@ -31,8 +34,8 @@ static fmi3Status st(bv_status s) { return (fmi3Status)s; }
 
 /* The states of the FMI 3.0 functions not in bodyvib_calls.h's shared table (co-simulation
  * has no event mode: Step Mode follows fmi3ExitInitializationMode). */
-#define S_OUTPUT_DERIVATIVES (BV_STEPPING | BV_TERMINATED)
-#define S_STEP_MODE 0 /* Step Mode is entered from Event Mode, which it has not */
+#define S_OUTPUT_DERIVATIVES (BV_STEPPING | BV_TERMINATED | BV_CS_ONLY)
+#define S_STEP_MODE BV_CS_ONLY /* Step Mode is entered from Event Mode, which it has not */
 
 /* The instance f of a function allowed in every state. */
 #define INSTANCE(c)                                                                          \
@@ -44,6 +47,16 @@ static fmi3Status st(bv_status s) { return (fmi3Status)s; }
     INSTANCE(c);                                                                             \
     if (!bv_fmu_enter(f, #function, mask))                                                   \
         return fmi3Error
+/* A pointer argument of the current function through which it reads or writes n entries. */
+#define NEED(p, n)                                                                           \
+    if (!bv_fmu_arg(f, __func__, #p, p, n))                                                  \
+        return fmi3Error
+/* A function this FMU does not provide, and why (logged). */
+#define UNSUPPORTED(why) return st(bv_fmu_unsupported(f, __func__, why))
+/* nValues must equal nvr: every variable is a scalar. */
+#define SCALARS(nValues, nvr)                                                                \
+    if ((nValues) != (nvr))                                                                  \
+    UNSUPPORTED("nValues must equal nValueReferences (every variable is a scalar)")
 
 const char *fmi3GetVersion(void) { return fmi3Version; }
 
@@ -51,9 +64,7 @@ fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean loggingOn, siz
                                const fmi3String categories[])
 {
     INSTANCE(instance);
-    (void)nCategories, (void)categories;
-    (void)f, (void)loggingOn;
-    return fmi3OK;
+    return st(bv_fmu_set_logging(f, __func__, loggingOn, nCategories, categories));
 }
 
 /* The instantiation token is this FMU's (else logged, 0). */
@@ -155,8 +166,9 @@ fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], 
 {
     size_t i;
     CHECKED(instance, fmi3GetFloat64, BV_ON_GET);
-    if (nValues != nvr || (nvr > 0 && (vr == NULL || values == NULL)))
-        return fmi3Error;
+    NEED(vr, nvr);
+    NEED(values, nvr);
+    SCALARS(nValues, nvr);
     for (i = 0; i < nvr; i++)
         if (vr[i] == TIME_VR)
             break;
@@ -176,8 +188,9 @@ fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], 
 {
     size_t i;
     CHECKED(instance, fmi3SetFloat64, BV_ON_SET);
-    if (nValues != nvr || (nvr > 0 && (vr == NULL || values == NULL)))
-        return fmi3Error;
+    NEED(vr, nvr);
+    NEED(values, nvr);
+    SCALARS(nValues, nvr);
     for (i = 0; i < nvr; i++)
         if (vr[i] == TIME_VR) {
             fmu_log(f, BV_ERROR, "time is the independent variable and cannot be set");
@@ -192,16 +205,24 @@ fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], 
                   T values[], size_t nValues)                                                \
     {                                                                                        \
         CHECKED(instance, fn, BV_ON_GET);                                                    \
-        (void)vr, (void)values, (void)nValues;                                               \
-        return nvr == 0 ? fmi3OK : fmi3Error;                                                \
+        NEED(vr, nvr);                                                                       \
+        NEED(values, nvr);                                                                   \
+        (void)nValues;                                                                       \
+        if (nvr > 0)                                                                         \
+            UNSUPPORTED("the FMU has Float64 variables only");                               \
+        return fmi3OK;                                                                       \
     }
 #define NO_SET(fn, T)                                                                        \
     fmi3Status fn(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,          \
                   const T values[], size_t nValues)                                          \
     {                                                                                        \
         CHECKED(instance, fn, BV_ON_SET);                                                    \
-        (void)vr, (void)values, (void)nValues;                                               \
-        return nvr == 0 ? fmi3OK : fmi3Error;                                                \
+        NEED(vr, nvr);                                                                       \
+        NEED(values, nvr);                                                                   \
+        (void)nValues;                                                                       \
+        if (nvr > 0)                                                                         \
+            UNSUPPORTED("the FMU has Float64 variables only");                               \
+        return fmi3OK;                                                                       \
     }
 NO_GET(fmi3GetFloat32, fmi3Float32)
 NO_GET(fmi3GetInt8, fmi3Int8)
@@ -231,7 +252,9 @@ fmi3Status fmi3GetBinary(fmi3Instance instance, const fmi3ValueReference vr[], s
 {
     INSTANCE(instance);
     (void)vr, (void)valueSizes, (void)values, (void)nValues;
-    return nvr == 0 ? fmi3OK : fmi3Error;
+    if (nvr > 0)
+        UNSUPPORTED("the FMU has no Binary variables");
+    return fmi3OK;
 }
 
 fmi3Status fmi3SetBinary(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
@@ -239,7 +262,9 @@ fmi3Status fmi3SetBinary(fmi3Instance instance, const fmi3ValueReference vr[], s
 {
     INSTANCE(instance);
     (void)vr, (void)valueSizes, (void)values, (void)nValues;
-    return nvr == 0 ? fmi3OK : fmi3Error;
+    if (nvr > 0)
+        UNSUPPORTED("the FMU has no Binary variables");
+    return fmi3OK;
 }
 
 fmi3Status fmi3GetClock(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
@@ -247,7 +272,9 @@ fmi3Status fmi3GetClock(fmi3Instance instance, const fmi3ValueReference vr[], si
 {
     INSTANCE(instance);
     (void)vr, (void)values;
-    return nvr == 0 ? fmi3OK : fmi3Error;
+    if (nvr > 0)
+        UNSUPPORTED("the FMU has no clocks");
+    return fmi3OK;
 }
 
 fmi3Status fmi3SetClock(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
@@ -255,7 +282,9 @@ fmi3Status fmi3SetClock(fmi3Instance instance, const fmi3ValueReference vr[], si
 {
     INSTANCE(instance);
     (void)vr, (void)values;
-    return nvr == 0 ? fmi3OK : fmi3Error;
+    if (nvr > 0)
+        UNSUPPORTED("the FMU has no clocks");
+    return fmi3OK;
 }
 
 fmi3Status fmi3GetNumberOfVariableDependencies(fmi3Instance instance,
@@ -264,7 +293,7 @@ fmi3Status fmi3GetNumberOfVariableDependencies(fmi3Instance instance,
 {
     INSTANCE(instance);
     (void)valueReference, (void)nDependencies;
-    return fmi3Error;
+    UNSUPPORTED("the dependencies are in the model description's ModelStructure only");
 }
 
 fmi3Status fmi3GetVariableDependencies(fmi3Instance instance, fmi3ValueReference dependent,
@@ -276,7 +305,7 @@ fmi3Status fmi3GetVariableDependencies(fmi3Instance instance, fmi3ValueReference
     INSTANCE(instance);
     (void)dependent, (void)elementIndicesOfDependent, (void)independents,
         (void)elementIndicesOfIndependents, (void)dependencyKinds, (void)nDependencies;
-    return fmi3Error;
+    UNSUPPORTED("the dependencies are in the model description's ModelStructure only");
 }
 
 /* ------------------------------------------------------------------ FMU state */
@@ -284,13 +313,13 @@ fmi3Status fmi3GetVariableDependencies(fmi3Instance instance, fmi3ValueReference
 fmi3Status fmi3GetFMUState(fmi3Instance instance, fmi3FMUState *FMUState)
 {
     INSTANCE(instance);
-    return st(bv_fmu_get_state(f, FMUState));
+    return st(bv_fmu_get_state(f, __func__, FMUState));
 }
 
 fmi3Status fmi3SetFMUState(fmi3Instance instance, fmi3FMUState FMUState)
 {
     INSTANCE(instance);
-    return st(bv_fmu_set_state(f, FMUState));
+    return st(bv_fmu_set_state(f, __func__, FMUState));
 }
 
 fmi3Status fmi3FreeFMUState(fmi3Instance instance, fmi3FMUState *FMUState)
@@ -302,21 +331,21 @@ fmi3Status fmi3FreeFMUState(fmi3Instance instance, fmi3FMUState *FMUState)
 fmi3Status fmi3SerializedFMUStateSize(fmi3Instance instance, fmi3FMUState FMUState, size_t *size)
 {
     INSTANCE(instance);
-    return st(bv_fmu_state_size(FMUState, size));
+    return st(bv_fmu_state_size(f, __func__, FMUState, size));
 }
 
 fmi3Status fmi3SerializeFMUState(fmi3Instance instance, fmi3FMUState FMUState,
                                  fmi3Byte serializedState[], size_t size)
 {
     INSTANCE(instance);
-    return st(bv_fmu_serialize(FMUState, serializedState, size));
+    return st(bv_fmu_serialize(f, __func__, FMUState, serializedState, size));
 }
 
 fmi3Status fmi3DeserializeFMUState(fmi3Instance instance, const fmi3Byte serializedState[],
                                    size_t size, fmi3FMUState *FMUState)
 {
     INSTANCE(instance);
-    return st(bv_fmu_deserialize(f, serializedState, size, FMUState));
+    return st(bv_fmu_deserialize(f, __func__, serializedState, size, FMUState));
 }
 
 /* Exact: the rows of A, B U (state derivatives) and of the output matrices on the columns
@@ -327,9 +356,13 @@ fmi3Status fmi3GetDirectionalDerivative(fmi3Instance instance, const fmi3ValueRe
                                         fmi3Float64 sensitivity[], size_t nSensitivity)
 {
     INSTANCE(instance);
-    if (nSeed != nKnowns || nSensitivity != nUnknowns ||
-        (nUnknowns > 0 && (unknowns == NULL || sensitivity == NULL)) ||
-        (nKnowns > 0 && (knowns == NULL || seed == NULL))) {
+    NEED(unknowns, nUnknowns);
+    NEED(sensitivity, nUnknowns);
+    NEED(knowns, nKnowns);
+    NEED(seed, nKnowns);
+    if (!bv_fmu_finite(f, __func__, "seed", seed, nKnowns))
+        return fmi3Error;
+    if (nSeed != nKnowns || nSensitivity != nUnknowns) {
         fmu_log(f, BV_ERROR, "fmi3GetDirectionalDerivative: nSeed must equal nKnowns and "
                              "nSensitivity nUnknowns (scalar variables)");
         return fmi3Error;
@@ -345,19 +378,19 @@ fmi3Status fmi3GetAdjointDerivative(fmi3Instance instance, const fmi3ValueRefere
     INSTANCE(instance);
     (void)unknowns, (void)nUnknowns, (void)knowns, (void)nKnowns, (void)seed, (void)nSeed,
         (void)sensitivity, (void)nSensitivity;
-    return fmi3Error;
+    UNSUPPORTED("no adjoint derivatives (providesAdjointDerivatives is false)");
 }
 
 fmi3Status fmi3EnterConfigurationMode(fmi3Instance instance)
 {
     INSTANCE(instance);
-    return fmi3Error;
+    UNSUPPORTED("the FMU has no structural parameters");
 }
 
 fmi3Status fmi3ExitConfigurationMode(fmi3Instance instance)
 {
     INSTANCE(instance);
-    return fmi3Error;
+    UNSUPPORTED("the FMU has no structural parameters");
 }
 
 /* No clocks. */
@@ -366,7 +399,7 @@ fmi3Status fmi3GetIntervalDecimal(fmi3Instance instance, const fmi3ValueReferenc
 {
     INSTANCE(instance);
     (void)vr, (void)nvr, (void)intervals, (void)qualifiers;
-    return fmi3Error;
+    UNSUPPORTED("the FMU has no clocks");
 }
 
 fmi3Status fmi3GetIntervalFraction(fmi3Instance instance, const fmi3ValueReference vr[],
@@ -375,7 +408,7 @@ fmi3Status fmi3GetIntervalFraction(fmi3Instance instance, const fmi3ValueReferen
 {
     INSTANCE(instance);
     (void)vr, (void)nvr, (void)counters, (void)resolutions, (void)qualifiers;
-    return fmi3Error;
+    UNSUPPORTED("the FMU has no clocks");
 }
 
 fmi3Status fmi3GetShiftDecimal(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
@@ -383,7 +416,7 @@ fmi3Status fmi3GetShiftDecimal(fmi3Instance instance, const fmi3ValueReference v
 {
     INSTANCE(instance);
     (void)vr, (void)nvr, (void)shifts;
-    return fmi3Error;
+    UNSUPPORTED("the FMU has no clocks");
 }
 
 fmi3Status fmi3GetShiftFraction(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
@@ -391,7 +424,7 @@ fmi3Status fmi3GetShiftFraction(fmi3Instance instance, const fmi3ValueReference 
 {
     INSTANCE(instance);
     (void)vr, (void)nvr, (void)counters, (void)resolutions;
-    return fmi3Error;
+    UNSUPPORTED("the FMU has no clocks");
 }
 
 fmi3Status fmi3SetIntervalDecimal(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
@@ -399,7 +432,7 @@ fmi3Status fmi3SetIntervalDecimal(fmi3Instance instance, const fmi3ValueReferenc
 {
     INSTANCE(instance);
     (void)vr, (void)nvr, (void)intervals;
-    return fmi3Error;
+    UNSUPPORTED("the FMU has no clocks");
 }
 
 fmi3Status fmi3SetIntervalFraction(fmi3Instance instance, const fmi3ValueReference vr[],
@@ -408,7 +441,7 @@ fmi3Status fmi3SetIntervalFraction(fmi3Instance instance, const fmi3ValueReferen
 {
     INSTANCE(instance);
     (void)vr, (void)nvr, (void)counters, (void)resolutions;
-    return fmi3Error;
+    UNSUPPORTED("the FMU has no clocks");
 }
 
 fmi3Status fmi3SetShiftDecimal(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
@@ -416,7 +449,7 @@ fmi3Status fmi3SetShiftDecimal(fmi3Instance instance, const fmi3ValueReference v
 {
     INSTANCE(instance);
     (void)vr, (void)nvr, (void)shifts;
-    return fmi3Error;
+    UNSUPPORTED("the FMU has no clocks");
 }
 
 fmi3Status fmi3SetShiftFraction(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
@@ -424,13 +457,13 @@ fmi3Status fmi3SetShiftFraction(fmi3Instance instance, const fmi3ValueReference 
 {
     INSTANCE(instance);
     (void)vr, (void)nvr, (void)counters, (void)resolutions;
-    return fmi3Error;
+    UNSUPPORTED("the FMU has no clocks");
 }
 
 fmi3Status fmi3EvaluateDiscreteStates(fmi3Instance instance)
 {
     INSTANCE(instance);
-    return fmi3Error;
+    UNSUPPORTED("the FMU has no discrete states (providesEvaluateDiscreteStates is false)");
 }
 
 /* ------------------------------------------------------------------ co-simulation */
@@ -438,7 +471,7 @@ fmi3Status fmi3EvaluateDiscreteStates(fmi3Instance instance)
 fmi3Status fmi3EnterStepMode(fmi3Instance instance)
 {
     CHECKED(instance, fmi3EnterStepMode, S_STEP_MODE);
-    return fmi3Error;
+    UNSUPPORTED("co-simulation without event mode is in Step Mode after initialization");
 }
 
 /* Output derivatives (maxOutputDerivativeOrder 2): exact, from the state equations. */
@@ -447,8 +480,10 @@ fmi3Status fmi3GetOutputDerivatives(fmi3Instance instance, const fmi3ValueRefere
                                     size_t nValues)
 {
     CHECKED(instance, fmi3GetOutputDerivatives, S_OUTPUT_DERIVATIVES);
-    if (nValues != nvr)
-        return fmi3Error;
+    NEED(vr, nvr);
+    NEED(orders, nvr);
+    NEED(values, nvr);
+    SCALARS(nValues, nvr);
     return st(bv_fmu_get_output_derivatives(f, vr, nvr, (const int *)orders, values));
 }
 
@@ -460,16 +495,16 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
 {
     bv_status s;
     CHECKED(instance, fmi3DoStep, BV_ON_STEP);
+    NEED(eventHandlingNeeded, 1);
+    NEED(terminateSimulation, 1);
+    NEED(earlyReturn, 1);
+    NEED(lastSuccessfulTime, 1);
     (void)noSetFMUStatePriorToCurrentPoint;
     s = bv_step(f->core, currentCommunicationPoint, communicationStepSize);
-    if (eventHandlingNeeded)
-        *eventHandlingNeeded = fmi3False;
-    if (terminateSimulation)
-        *terminateSimulation = fmi3False;
-    if (earlyReturn)
-        *earlyReturn = fmi3False;
-    if (lastSuccessfulTime)
-        *lastSuccessfulTime = bv_time(f->core);
+    *eventHandlingNeeded = fmi3False;
+    *terminateSimulation = fmi3False;
+    *earlyReturn = fmi3False;
+    *lastSuccessfulTime = bv_time(f->core);
     return st(s);
 }
 
@@ -478,7 +513,7 @@ fmi3Status fmi3ActivateModelPartition(fmi3Instance instance, fmi3ValueReference 
 {
     INSTANCE(instance);
     (void)clockReference, (void)activationTime;
-    return fmi3Error;
+    UNSUPPORTED("scheduled execution is not provided");
 }
 
 /* ------------------------------------------------------------------ model exchange
@@ -501,18 +536,18 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *discrete
                                     fmi3Boolean *nextEventTimeDefined, fmi3Float64 *nextEventTime)
 {
     CHECKED(instance, fmi3UpdateDiscreteStates, BV_ON_EVENT_MODE);
-    if (discreteStatesNeedUpdate)
-        *discreteStatesNeedUpdate = fmi3False;
-    if (terminateSimulation)
-        *terminateSimulation = fmi3False;
-    if (nominalsOfContinuousStatesChanged)
-        *nominalsOfContinuousStatesChanged = fmi3False;
-    if (valuesOfContinuousStatesChanged)
-        *valuesOfContinuousStatesChanged = fmi3False;
-    if (nextEventTimeDefined)
-        *nextEventTimeDefined = fmi3False;
-    if (nextEventTime)
-        *nextEventTime = 0.0;
+    NEED(discreteStatesNeedUpdate, 1);
+    NEED(terminateSimulation, 1);
+    NEED(nominalsOfContinuousStatesChanged, 1);
+    NEED(valuesOfContinuousStatesChanged, 1);
+    NEED(nextEventTimeDefined, 1);
+    NEED(nextEventTime, 1);
+    *discreteStatesNeedUpdate = fmi3False;
+    *terminateSimulation = fmi3False;
+    *nominalsOfContinuousStatesChanged = fmi3False;
+    *valuesOfContinuousStatesChanged = fmi3False;
+    *nextEventTimeDefined = fmi3False;
+    *nextEventTime = 0.0;
     return fmi3OK;
 }
 
@@ -529,17 +564,19 @@ fmi3Status fmi3CompletedIntegratorStep(fmi3Instance instance,
                                        fmi3Boolean *terminateSimulation)
 {
     CHECKED(instance, fmi3CompletedIntegratorStep, BV_ON_CT_MODE);
+    NEED(enterEventMode, 1);
+    NEED(terminateSimulation, 1);
     (void)noSetFMUStatePriorToCurrentPoint;
-    if (enterEventMode)
-        *enterEventMode = fmi3False;
-    if (terminateSimulation)
-        *terminateSimulation = fmi3False;
+    *enterEventMode = fmi3False;
+    *terminateSimulation = fmi3False;
     return fmi3OK;
 }
 
 fmi3Status fmi3SetTime(fmi3Instance instance, fmi3Float64 time)
 {
     CHECKED(instance, fmi3SetTime, BV_ON_TIME);
+    if (!bv_fmu_finite(f, __func__, "time", &time, 1))
+        return fmi3Error;
     bv_me_set_time(f->core, time);
     return fmi3OK;
 }
@@ -548,7 +585,7 @@ fmi3Status fmi3GetEventIndicators(fmi3Instance instance, fmi3Float64 eventIndica
                                   size_t nEventIndicators)
 {
     CHECKED(instance, fmi3GetEventIndicators, BV_ON_ME_GET);
-    (void)eventIndicators;
+    NEED(eventIndicators, nEventIndicators);
     return st(bv_fmu_event_indicators(f, "fmi3GetEventIndicators", nEventIndicators));
 }
 
@@ -560,15 +597,15 @@ BV_VECTOR_FUNCTIONS(fmi3Status, fmi3Instance, fmi3Float64, fmi3SetContinuousStat
 fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance instance, size_t *nEventIndicators)
 {
     INSTANCE(instance);
-    if (nEventIndicators)
-        *nEventIndicators = 0;
+    NEED(nEventIndicators, 1);
+    *nEventIndicators = 0;
     return fmi3OK;
 }
 
 fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance instance, size_t *nContinuousStates)
 {
     INSTANCE(instance);
-    if (nContinuousStates)
-        *nContinuousStates = (size_t)bv_me_nstates(f->core);
+    NEED(nContinuousStates, 1);
+    *nContinuousStates = (size_t)bv_me_nstates(f->core);
     return fmi3OK;
 }

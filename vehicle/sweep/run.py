@@ -83,11 +83,22 @@ from .table import (
     write_part,
 )
 
-__all__ = ["BASE_COLUMNS", "run_sweep", "plan_tasks", "read_results", "parts_dir", "task_size"]
+__all__ = [
+    "BASE_COLUMNS",
+    "PARQUET_EXTENSIONS",
+    "run_sweep",
+    "plan_tasks",
+    "read_results",
+    "parts_dir",
+    "task_size",
+]
 
 #: Columns of every sweep table, in order (``body_<parameter>`` and ``car_<parameter>``
 #: columns, every parameter of every model of the sweep, follow ``car``).
 BASE_COLUMNS = tuple(n for n, _ in CASE_COLUMNS) + FIGURES + TRAILING_COLUMNS
+
+#: The extension of a sweep table (``out``): the file is Parquet.
+PARQUET_EXTENSIONS = (".parquet",)
 
 #: Cases per task: (smallest, largest) by engine; between them, four tasks per worker thread.
 TASK_SIZES = {"batched": (16, 512), "spectral": (200, 20000), "cosim": (1, 16)}
@@ -372,8 +383,8 @@ def run_sweep(
     Raises
     ------
     BodyvibError
-        A bad spec or engine; an output that exists (without ``resume`` or
-        ``overwrite``), cannot be written, or is one of the sweep's inputs; an
+        A bad spec or engine; ``resume`` with ``overwrite``; an ``out`` not ending in
+        ``.parquet``; an output that exists (without ``resume`` or ``overwrite``), cannot be written, or is one of the sweep's inputs; an
         output of another spec on resume; an unreachable scheduler or no worker
         in time.
     bodyvib.vehicle.sweep.cluster.ClusterLost
@@ -392,6 +403,10 @@ def run_sweep(
     ([10.0, 20.0], True)
     """
     say = echo or (lambda msg: None)
+    if resume and overwrite:
+        raise BodyvibError(
+            "--resume keeps the cases in --out and --overwrite replaces it: give one of them"
+        )
     spec_path = None
     if isinstance(spec, (str, os.PathLike)):
         spec_path = os.fspath(spec)
@@ -412,7 +427,9 @@ def run_sweep(
     if out is None and csv is None and not table:
         raise BodyvibError("give an output file (--out and/or --csv)")
     workers = workers or os.cpu_count() or 1
-    check_outputs([("--out", out, None), ("--csv", csv, None)], _spec_inputs(spec, spec_path))
+    check_outputs(
+        [("--out", out, PARQUET_EXTENSIONS), ("--csv", csv, None)], _spec_inputs(spec, spec_path)
+    )
     sh = spec_hash(spec)
     done = np.zeros(prep.count, dtype=bool)  # per case: kept from an earlier run
     if out is not None:

@@ -191,6 +191,12 @@ def seed_range(text: str) -> List[int]:
     >>> seed_range("0..3")
     [0, 1, 2, 3]
     """
+    a, b = _seed_bounds(text)
+    return list(range(a, b + 1))
+
+
+def _seed_bounds(text: str) -> Tuple[int, int]:
+    """FIRST and LAST of a ``"FIRST..LAST"`` range, checked (nothing expanded)."""
     first, sep, last = str(text).partition("..")
     try:
         a, b = int(first), int(last)
@@ -201,7 +207,19 @@ def seed_range(text: str) -> List[int]:
             f"spec: seed range '{text}' must look like FIRST..LAST with "
             "0 <= FIRST <= LAST, e.g. 0..24"
         )
-    return list(range(a, b + 1))
+    return a, b
+
+
+def _seed_count(value) -> int:
+    """Number of seeds of a spec's ``seed`` entry, its ranges counted without expanding them."""
+    n = 0
+    for v in _list(value):
+        if isinstance(v, str):
+            a, b = _seed_bounds(v)
+            n += b - a + 1
+        else:
+            n += 1
+    return n
 
 
 def _seed_list(value) -> list:
@@ -451,15 +469,16 @@ def _bodies(spec) -> List[Tuple[str, str, int, tuple]]:
 CASE_BYTES = 2048
 
 
-def _count(spec, roads, seeds, speeds, durations, steps) -> int:
-    """Number of cases of a spec, from the lengths of its lists (nothing is sampled)."""
+def _count(spec, roads, n_seeds, speeds, durations, steps) -> int:
+    """Number of cases of a spec, from the lengths of its lists and the number of its seeds
+    (nothing is sampled or expanded)."""
     bodies = 0
     for entry in _list(spec["body"]):
         n = entry.get("samples", 1) if isinstance(entry, dict) else 1
         bodies += n if isinstance(n, int) and not isinstance(n, bool) and n > 0 else 1
     return (
         len(roads)
-        * len(seeds)
+        * n_seeds
         * len(speeds)
         * len(durations)
         * len(steps)
@@ -491,10 +510,18 @@ class _Prepared:
         spec = {**SPEC_KEYS, **spec}
         roads = [road_label(r) for r in _list(spec["road"])]
         road_opts = _road_options(spec["road_options"])
-        seeds = [_number(s, "seed", "", integer=True) for s in _seed_list(spec["seed"])]
         speeds = [_number(v, "speed", "m/s") for v in _list(spec["speed"])]
         durations = [_number(v, "duration", "s") for v in _list(spec["duration"])]
         steps = [_number(v, "step", "s") for v in _list(spec["step"])]
+        # counted before anything is expanded or sampled: a seed range of a billion is
+        # refused here, in a moment, not after minutes of making a list
+        count = _count(spec, roads, _seed_count(spec["seed"]), speeds, durations, steps)
+        require_memory(
+            count * CASE_BYTES,
+            f"a sweep of {count:.3g} cases",
+            "fewer cases (samples, seeds, speeds, roads), or several sweeps",
+        )
+        seeds = [_number(s, "seed", "", integer=True) for s in _seed_list(spec["seed"])]
         for name, values in (
             ("road", roads),
             ("seed", seeds),
@@ -509,12 +536,6 @@ class _Prepared:
         for r, sd, v, d, h in product(roads, seeds[:1], speeds, durations, steps):
             # refuses unknown roads and files that cannot be driven, steps longer than half a run
             check_settings(r, v, d, h, sd, road_options=RoadOptions(**dict(road_opts)))
-        count = _count(spec, roads, seeds, speeds, durations, steps)  # before sampling anything
-        require_memory(
-            count * CASE_BYTES,
-            f"a sweep of {count:.3g} cases",
-            "fewer cases (samples, seeds, speeds, roads), or several sweeps",
-        )
         self.roads, self.road_options = roads, road_opts
         self.road_digests = {r: _file_digest(r) for r in roads if is_road_file(r)}
         self.seeds, self.speeds, self.durations, self.steps = seeds, speeds, durations, steps

@@ -1,0 +1,225 @@
+"""A native body FMU in the FMI cross-check layout, with its exact reference result.
+
+The FMI cross-check (the modelica-tools ``fmi-cross-check`` repository) publishes every
+exported FMU in ``fmus/<FMI version>/<cs|me>/<platform>/<tool>/<tool version>/<model>/``
+beside the files an importing tool needs to run it and judge its result:
+
+* ``<model>.fmu`` -- the FMU (here the native FMI 2.0 body FMU, linux64 binary and sources);
+* ``<model>_in.csv`` -- the inputs over time (a seat sine: displacement, velocity and
+  acceleration, one row per communication step);
+* ``<model>_ref.csv`` -- the reference outputs: here the *exact* response of the model's
+  state space to that sine from rest (harmonic part plus the matrix-exponential free
+  response), not a run of the FMU;
+* ``<model>_ref.opt`` -- start time, stop time, step size and relative tolerance;
+* ``<model>_cc.sh`` / ``<model>_cc.bat`` -- the command that made the folder;
+* ``ReadMe.md`` -- what the FMU is and how the reference was computed.
+
+``fmpy.cross_check.validate_vendor_repo.validate_repo`` checks such a tree.
+"""
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Tuple
+
+import numpy as np
+import scipy.linalg
+
+from .. import __version__
+from ..process.outputs import atomic_write_text
+from ..runtime.contract import KINDS
+from ..runtime.errors import BodyvibError
+from ..runtime.network import Network, linear_model
+
+__all__ = ["CrossCheckSettings", "CrossCheck", "exact_sine_outputs", "write_cross_check"]
+
+#: The exporting tool's name in the layout.
+TOOL = "bodyvib"
+
+
+@dataclass(frozen=True)
+class CrossCheckSettings:
+    """What the cross-check folder runs: a seat sine from rest.
+
+    Parameters
+    ----------
+    name : str
+        The FMU's model name.
+    stop_time : float
+        Run length, s.
+    step : float
+        Communication step (and the input table's row spacing), s.
+    output_step : float
+        Row spacing of the reference, s.
+    amplitude : float
+        Seat displacement amplitude, m (chosen: 5 mm, a rough road's seat motion).
+    frequency : float
+        Seat sine frequency, Hz (chosen: 4 Hz, near the body's main resonance).
+    rel_tol : float
+        Relative tolerance written to the options file.
+    """
+
+    name: str = "HumanBody3DOF"
+    stop_time: float = 4.0
+    step: float = 1e-3
+    output_step: float = 1e-2
+    amplitude: float = 5e-3
+    frequency: float = 4.0
+    rel_tol: float = 1e-6
+
+
+@dataclass(frozen=True)
+class CrossCheck:
+    """The files of one cross-check folder.
+
+    Attributes
+    ----------
+    folder : Path
+        ``<dest>/fmus/2.0/cs/linux64/bodyvib/<version>/<name>``.
+    fmu, inputs, reference, options, readme : Path
+        Its FMU, ``_in.csv``, ``_ref.csv``, ``_ref.opt`` and ``ReadMe.md``.
+    outputs : tuple of str
+        The output variables of the reference.
+    """
+
+    folder: Path
+    fmu: Path
+    inputs: Path
+    reference: Path
+    options: Path
+    readme: Path
+    outputs: Tuple[str, ...]
+
+
+def _seat(settings: CrossCheckSettings, t: np.ndarray) -> np.ndarray:
+    """Seat displacement, velocity and acceleration of the sine at times t: (n, 3)."""
+    a, w = settings.amplitude, 2 * math.pi * settings.frequency
+    return np.column_stack([a * np.sin(w * t), a * w * np.cos(w * t), -a * w * w * np.sin(w * t)])
+
+
+def exact_sine_outputs(network: Network, settings: CrossCheckSettings, t) -> dict:
+    """The body interface's outputs under the settings' seat sine from rest, exactly.
+
+    The state space ``x' = A x + B u`` is driven by ``u = U s`` with ``s`` the seat sine:
+    ``x(t) = Re(X e^{iwt}) + e^{At} (x(0) - Re X)`` with ``X = (iw I - A)^-1 B U S`` and
+    ``x(0) = 0``; each output is ``C x + D u`` of its row.
+
+    Parameters
+    ----------
+    network : Network
+        A body model.
+    settings : CrossCheckSettings
+    t : (n,) array_like
+        Times, s.
+
+    Returns
+    -------
+    dict of str to ndarray
+        Output name -> values at t, for every output that is not a rate (``*_rate``).
+
+    Examples
+    --------
+    >>> from bodyvib.models import load_model
+    >>> y = exact_sine_outputs(load_model("reduced-paper"), CrossCheckSettings(), [0.0])
+    >>> float(y["head_displacement"][0])
+    0.0
+    """
+    t = np.asarray(t, dtype=float)
+    lm = linear_model(network)
+    iface = KINDS["body"](network)
+    a, w = settings.amplitude, 2 * math.pi * settings.frequency
+    S = np.array([-1j * a, a * w, 1j * a * w * w])  # s(t) = Re(S e^{iwt})
+    X = np.linalg.solve(1j * w * np.eye(len(lm.A)) - lm.A, lm.B @ iface.input_map @ S)
+    x = np.array(
+        [(X * np.exp(1j * w * tk)).real - scipy.linalg.expm(lm.A * tk) @ X.real for tk in t]
+    )
+    u = _seat(settings, t) @ iface.input_map.T
+    out = {}
+    for var, signal in zip(iface.outputs, iface.output_signals, strict=True):
+        if not var.name.endswith("_rate"):
+            r = lm.output_index(signal)
+            out[var.name] = x @ lm.C[r] + u @ lm.D[r]
+    return out
+
+
+def _csv(t, columns: dict) -> str:
+    names = ["time", *columns]
+    rows = [",".join(names)]
+    values = np.column_stack([t, *columns.values()])
+    rows += [",".join(repr(float(v)) for v in row) for row in values]
+    return "\n".join(rows) + "\n"
+
+
+def _readme(settings: CrossCheckSettings, model: str, outputs) -> str:
+    return f"""# {settings.name} (bodyvib {__version__})
+
+The native C FMI 2.0 co-simulation FMU of the seated human body model `{model}` (bodyvib),
+linux64 binary and C sources. Inputs: seat displacement [m], velocity [m/s] and
+acceleration [m/s2]; outputs: {", ".join(outputs)} and the seat force's rate.
+
+Inputs (`{settings.name}_in.csv`): the seat sine d = {settings.amplitude:g} sin(2 pi
+{settings.frequency:g} t) m with its exact velocity and acceleration, one row per
+communication step ({settings.step:g} s), from rest at t = 0 to {settings.stop_time:g} s.
+
+Reference (`{settings.name}_ref.csv`): the exact response of the model's linear state space to
+that sine from rest (the harmonic solution plus the matrix-exponential free response that
+cancels it at t = 0), every {settings.output_step:g} s; not a run of the FMU.
+"""
+
+
+def write_cross_check(dest, network: Network, model: str, settings=CrossCheckSettings()):
+    """Build the native body FMU and write its cross-check folder under ``dest``.
+
+    Parameters
+    ----------
+    dest : str or os.PathLike
+        The root of the cross-check tree (``fmus/...`` is made in it).
+    network : Network
+        The body model baked into the FMU.
+    model : str
+        Its name for the ReadMe (a model name or parameter file).
+    settings : CrossCheckSettings
+
+    Returns
+    -------
+    CrossCheck
+
+    Raises
+    ------
+    BodyvibError
+        A step that does not divide the run or the output step; and everything
+        :func:`bodyvib.fmu.native.build_native_fmu` refuses (a missing compiler).
+    """
+    from .native import build_native_fmu
+
+    s = settings
+    n_steps, n_out = s.stop_time / s.step, s.output_step / s.step
+    if not (abs(n_steps - round(n_steps)) < 1e-9 * n_steps and abs(n_out - round(n_out)) < 1e-9):
+        raise BodyvibError(
+            f"cross-check: the step {s.step:g} s must divide the run ({s.stop_time:g} s) and "
+            f"the output step ({s.output_step:g} s)"
+        )
+    folder = Path(dest) / "fmus" / "2.0" / "cs" / "linux64" / TOOL / __version__ / s.name
+    fmu = build_native_fmu(
+        network, "body", s.name, f"{model} (cross-check)", folder, fmi=2, platforms=("linux64",)
+    )
+    t_in = np.arange(round(n_steps) + 1) * s.step
+    seat = _seat(s, t_in)
+    inputs = folder / f"{s.name}_in.csv"
+    names = [v.name for v in KINDS["body"](network).inputs]
+    atomic_write_text(inputs, _csv(t_in, dict(zip(names, seat.T, strict=True))))
+    t_ref = np.arange(round(s.stop_time / s.output_step) + 1) * s.output_step
+    ref = exact_sine_outputs(network, s, t_ref)
+    reference = folder / f"{s.name}_ref.csv"
+    atomic_write_text(reference, _csv(t_ref, ref))
+    options = folder / f"{s.name}_ref.opt"
+    atomic_write_text(
+        options,
+        f"StartTime, 0.0\nStopTime, {s.stop_time!r}\nStepSize, {s.step!r}\nRelTol, {s.rel_tol!r}\n",
+    )
+    command = f"bodyvib build --cross-check DEST --params {model}"
+    atomic_write_text(folder / f"{s.name}_cc.sh", f"#!/bin/sh\n{command}\n")
+    atomic_write_text(folder / f"{s.name}_cc.bat", f"{command}\r\n")
+    readme = folder / "ReadMe.md"
+    atomic_write_text(readme, _readme(s, model, list(ref)))
+    return CrossCheck(folder, fmu, inputs, reference, options, readme, tuple(ref))
