@@ -23,15 +23,19 @@ ROOT = os.path.dirname(HERE)
 NOT_API = {"bodyvib.data", "bodyvib.data.fit", "bodyvib.fmu_src", "bodyvib.cli"}
 
 
-def public_packages():
-    """The packages of ``pyproject.toml`` whose ``__all__`` names something, in order."""
+def _listed_packages():
+    """The [tool.setuptools] packages list of ``pyproject.toml``, in order."""
     with open(os.path.join(ROOT, "pyproject.toml"), "rb") as f:
         text = f.read().decode("utf-8")
-    # the [tool.setuptools] packages list (tomllib is Python 3.11+; the list is plain strings)
+    # tomllib is Python 3.11+; the list is plain strings
     block = re.search(r"^packages = \[(.*?)\]", text, re.M | re.S).group(1)
-    names = re.findall(r'"([\w.]+)"', block)
+    return re.findall(r'"([\w.]+)"', block)
+
+
+def public_packages():
+    """The packages of ``pyproject.toml`` whose ``__all__`` names something, in order."""
     out = []
-    for name in names:
+    for name in _listed_packages():
         if name in NOT_API:
             continue
         if getattr(importlib.import_module(name), "__all__", None):
@@ -120,21 +124,11 @@ def _internals_page(packages):
     return "\n".join(lines)
 
 
-#: Packages whose modules are documented as internals (every module, not only the API's).
-INTERNAL_ROOTS = (
-    "bodyvib",
-    "bodyvib.comfort",
-    "bodyvib.fit",
-    "bodyvib.fmu",
-    "bodyvib.frequency",
-    "bodyvib.process",
-    "bodyvib.runtime",
-    "bodyvib.seat",
-    "bodyvib.vehicle",
-    "bodyvib.vehicle.road",
-    "bodyvib.vehicle.sweep",
-    "bodyvib.cli",
-)
+def internal_roots():
+    """Packages whose modules are documented as internals: every package of ``pyproject.toml``
+    that holds Python modules (the CLI's too), so a new subpackage needs no edit here."""
+    data_only = {"bodyvib.data", "bodyvib.data.fit", "bodyvib.fmu_src", "bodyvib.vehicle.data"}
+    return [name for name in _listed_packages() if name not in data_only]
 
 
 API_DIR = os.path.join(HERE, "api")
@@ -154,7 +148,7 @@ def write_api_pages(dest=API_DIR):
     pages = {}
     for package in packages:
         pages[f"{package}.rst"] = _package_page(package)
-    pages["internals.rst"] = _internals_page(INTERNAL_ROOTS)
+    pages["internals.rst"] = _internals_page(internal_roots())
     toc = "\n".join(f"   {p}" for p in packages)
     pages["index.rst"] = (
         _title("API reference", "=")
