@@ -19,6 +19,7 @@ from typing import Optional
 from bodyvib.runtime.errors import BodyvibError
 
 from ..records import Record
+from .bumps import ShapedBump, is_bump_spec, parse_bump
 from .measured import PROFILE_EXTENSIONS
 from .synthetic import ISO8608_CLASSES, Road, TaperedRoad, make_road
 
@@ -77,20 +78,25 @@ def is_road_file(spec) -> bool:
     s = str(spec).strip()
     if (len(s) == 1 and s.upper() in ISO8608_CLASSES) or s.lower() in ("bump", "sweep"):
         return False
+    if is_bump_spec(s):
+        return False
     return os.path.splitext(s)[1].lower() in PROFILE_EXTENSIONS or os.sep in s or os.path.isfile(s)
 
 
 def road_label(spec) -> str:
-    """The road as a table shows it: a class letter, ``bump``, ``sweep`` or the file's absolute path.
+    """The road as a table shows it: a class letter, ``bump``, ``sweep``, a bump shape with all
+    its dimensions, or the file's absolute path.
 
     Examples
     --------
-    >>> road_label("c"), road_label("Bump")
-    ('C', 'bump')
+    >>> road_label("c"), road_label("Bump"), road_label("hump:l=3.7")
+    ('C', 'bump', 'hump:h=0.075,l=3.7,at=10')
     """
     s = str(spec).strip()
     if is_road_file(s):
         return os.path.abspath(s)
+    if is_bump_spec(s):
+        return parse_bump(s).name
     return s.upper() if len(s) == 1 else s.lower()
 
 
@@ -157,4 +163,9 @@ def driven_road(
             f"to road files; road '{spec}' is synthetic"
         )
     road = make_road(spec, speed, duration, seed=seed)
+    if isinstance(road, ShapedBump) and road.start < opt.taper_m:
+        raise BodyvibError(
+            f"bump '{road.name}' begins at {road.start:g} m, inside the road's "
+            f"{opt.taper_m:g} m fade-in; move it (at=) or shorten --road-taper"
+        )
     return TaperedRoad(road, road.length, opt.taper_m)
