@@ -19,6 +19,7 @@ from typing import Dict, List, Optional
 import numpy as np
 
 from bodyvib.comfort.figures import ComfortFigures
+from bodyvib.comfort.forces import ForceFigures, ForceStream
 from bodyvib.comfort.stream import ComfortStream
 from bodyvib.frequency.estimate import TransmissibilityEstimate, TransmissibilityStream
 from bodyvib.process import interrupts
@@ -31,7 +32,7 @@ from .records import Record
 from .reference import ReferenceStream
 from .road.driven import RoadOptions, driven_road
 from .road.synthetic import road_input
-from .signals import BODY_SIGNALS, MASTER_SIGNALS
+from .signals import BODY_SIGNALS, MASTER_SIGNALS, OPTIONAL_SIGNALS
 
 __all__ = [
     "StudySettings",
@@ -93,6 +94,9 @@ class BodyRun:
         Seat-to-head transmissibility estimated from the run.
     real_time_factor : float
         Simulated time / wall time of the co-simulation.
+    forces : dict of str to ForceFigures
+        Figures of the body's internal forces over the run (``"neck_force"``,
+        ``"lumbar_force"``; only those the body FMU outputs), N and s.
     """
 
     fmu: str
@@ -105,6 +109,7 @@ class BodyRun:
     transmissibility: TransmissibilityEstimate
     real_time_factor: float
     head_window: np.ndarray = field(default_factory=lambda: np.empty(0))
+    forces: Dict[str, ForceFigures] = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """The body's entry of the JSON document (figures, no histories; README "JSON output")."""
@@ -116,6 +121,7 @@ class BodyRun:
             "seat_weighted_rms": self.seat_figures.weighted_rms,
             "transmissibility_peak": self.transmissibility.peak.to_dict(),
             "real_time_factor": self.real_time_factor,
+            **{name: f.to_dict() for name, f in self.forces.items()},
         }
 
 
@@ -358,6 +364,7 @@ def run_study(
     }
     comfort = {label: ComfortStream(fs, 2) for label in labels}  # head, seat
     trans = {label: TransmissibilityStream(fs, n) for label in labels}
+    forces = {label: {name: ForceStream(step) for name in OPTIONAL_SIGNALS} for label in labels}
     err = {label: [0.0, 0.0] for label in refs}  # sum (a - r)^2, sum r^2
     pairs = {(a, b): [0.0, 0.0] for a in labels for b in labels if a != b}
     w0 = max(0.0, (n - 1) * step / 2 - window_s / 2)  # the plot's window
@@ -391,6 +398,8 @@ def run_study(
                     heads[label] = head
                     comfort[label].update(np.vstack([head, seat]))
                     trans[label].update(seat, head)
+                    for name, stream in forces[label].items():
+                        stream.update(sig[name])
                     ref = None
                     if label in refs:
                         interrupts.check()
@@ -472,6 +481,11 @@ def run_study(
             transmissibility=trans[label].result(),
             real_time_factor=duration / max(masters[label].wall_s, 1e-12),
             head_window=np.concatenate(windows[label]) if windows[label] else np.empty(0),
+            forces={
+                name: f
+                for name, f in ((k, s.figures()) for k, s in forces[label].items())
+                if math.isfinite(f.rms)
+            },
         )
     return out
 

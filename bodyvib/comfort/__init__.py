@@ -6,6 +6,8 @@ computes the same figures sample by sample for a batch of signals, with a
 recursive Wk filter, so a run of any length needs no history. One record's figures
 are a :class:`~bodyvib.comfort.figures.ComfortFigures`, a batch's a
 :class:`~bodyvib.comfort.stream.BatchComfortFigures` (arrays, one entry per case).
+:mod:`~bodyvib.comfort.forces` gives the figures of the body's internal forces (neck,
+lumbar): r.m.s., peak and the peak's time.
 """
 
 from .figures import (
@@ -26,6 +28,7 @@ from .figures import (
     weighted_rms,
     wk_response,
 )
+from .forces import ForceFigures, ForceStream, force_figures
 from .stream import (
     BatchComfortFigures,
     ComfortStream,
@@ -58,4 +61,7 @@ __all__ = [
     "BatchComfortFigures",
     "stream_comfort_figures",
     "stream_batch_figures",
+    "ForceFigures",
+    "ForceStream",
+    "force_figures",
 ]
