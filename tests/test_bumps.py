@@ -11,10 +11,13 @@ import math
 import numpy as np
 import pytest
 from bodyvib.vehicle.quarter_car import load_car, seated_system
+from bodyvib.vehicle.reference import reference_run
 from bodyvib.vehicle.road.bumps import SHAPES, bump_library, parse_bump
 from bodyvib.vehicle.road.driven import driven_road, road_label
 from bodyvib.vehicle.road.synthetic import road_input
-from bodyvib.vehicle.sweep.spec import grid_spec
+from bodyvib.vehicle.sweep.engines import case_road_input, run_batched
+from bodyvib.vehicle.sweep.spec import expand, grid_spec
+from bodyvib.vehicle.sweep.table import FIGURE_UNITS
 from helpers import run_cli
 
 from bodyvib.models import load_model
@@ -141,3 +144,76 @@ def test_cli_refuses_a_bump_longer_than_the_road_in_one_line():
     r = run_cli("cosim", "--road", "hump:h=0.075,l=3.7", "--speed", "2", "--duration", "5")
     assert r.returncode == 2
     assert r.stderr.strip().count("\n") == 0 and "ends 13.7 m down the road" in r.stderr
+
+
+def _bump_rows():
+    spec = grid_spec(
+        ["road=sine:h=0.05,l=3.7,sine:h=0.1,l=3.7", "speed=3,6", "body=reduced-paper"],
+        duration=8.0,
+    )
+    cases = expand(spec)
+    rows, _ = run_batched(cases)
+    return cases, rows
+
+
+def test_bump_sweep_rows_carry_force_peaks_that_scale_with_the_height():
+    """A small bump study (2 heights x 2 speeds): the models are linear and a sine hump's
+    profile is proportional to its height (a round top's is not: its radius changes), so
+    every figure of the 10 cm hump is twice the 5 cm one's (to 1e-9: rounding only; VDV
+    and peaks are homogeneous of degree 1); the neck-force peak
+    is the largest |F| of the monolithic reference's neck force history (to 1e-9, another
+    code path over the same exact step) and, the head hanging on the neck alone, m1 times
+    the largest |a_head| of that history."""
+    cases, rows = _bump_rows()
+    assert all(r["error"] is None for r in rows)
+    by = {(c.road, c.speed): r for c, r in zip(cases, rows)}
+    for v in (3.0, 6.0):
+        lo, hi = by[("sine:h=0.05,l=3.7,at=10", v)], by[("sine:h=0.1,l=3.7,at=10", v)]
+        for key in ("head_peak", "head_vdv", "neck_force_peak", "lumbar_force_peak"):
+            assert hi[key] == pytest.approx(2 * lo[key], rel=1e-9), key
+    body = load_model("reduced-paper")
+    m1 = body.mass_values()["m1"]
+    for c, r in zip(cases, rows):
+        z, zv = case_road_input(c)
+        ref = reference_run(load_car(), body, z, zv, c.step)
+        neck = np.max(np.abs(ref["neck_force"]))
+        assert r["neck_force_peak"] == pytest.approx(neck, rel=1e-9)
+        assert r["neck_force_peak"] == pytest.approx(
+            m1 * np.max(np.abs(ref["head_acceleration"])), rel=1e-9
+        )
+        assert r["lumbar_force_peak"] == pytest.approx(
+            np.max(np.abs(ref["lumbar_force"])), rel=1e-9
+        )
+    # faster over the same hump: harder on the neck (3 -> 6 m/s)
+    assert (
+        by[("sine:h=0.1,l=3.7,at=10", 6.0)]["neck_force_peak"]
+        > by[("sine:h=0.1,l=3.7,at=10", 3.0)]["neck_force_peak"]
+    )
+    assert FIGURE_UNITS["neck_force_peak"] == FIGURE_UNITS["lumbar_force_peak"] == "N"
+
+
+@pytest.mark.integration
+def test_bump_sweep_from_the_command_line_with_its_plot(tmp_path):
+    r = run_cli(
+        "sweep",
+        "--grid",
+        "road=hump:h=0.075,l=3.7,table",
+        "speed=3,6",
+        "body=reduced-paper",
+        "--duration",
+        "8",
+        "--out",
+        "t.parquet",
+        "--plot",
+        "p.png",
+        cwd=tmp_path,
+    )
+    assert r.returncode == 0, r.stderr
+    import pyarrow.parquet as pq
+
+    t = pq.read_table(tmp_path / "t.parquet")
+    assert t.schema.field("neck_force_peak").metadata[b"unit"] == b"N"
+    df = t.to_pandas()
+    assert set(df["road"]) == {"hump:h=0.075,l=3.7,at=10", "table:h=0.075,l=6,ramp=0.975,at=10"}
+    assert (df["neck_force_peak"] > 0).all() and (df["lumbar_force_peak"] > 0).all()
+    assert (tmp_path / "p.png").stat().st_size > 10000

@@ -207,7 +207,7 @@ def parse_bump(spec) -> ShapedBump:
     --------
     >>> b = parse_bump("hump:h=0.075,l=3.7")
     >>> round(float(b.displacement(10.0 + 3.7 / 2)), 6), round(float(b.slope(10.0)), 4)
-    (0.075, 0.0811)
+    (0.075, 0.0812)
     """
     s = str(spec).strip()
     head, _, text = s.partition(":")
