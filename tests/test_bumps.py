@@ -122,7 +122,7 @@ def test_slow_traverse_is_quasi_static():
         ("hump:h", "bump 'hump' has no key 'h'"),
         ("table:ramp=4", "two ramps of 4 m do not fit in l=6 m"),
         ("hump:h=3,l=4", "more than a half circle"),
-        ("hump:at=100", "ends 103.7 m down the road, but the run drives 20 m"),
+        ("hump:at=100", "ends 103.7 m down the road, but the road is 20 m long"),
         ("hump:at=2", "inside the road's 5 m fade-in"),
         ("humps:h=0.1", "unknown road 'humps:h=0.1'"),
     ],

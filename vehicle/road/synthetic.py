@@ -435,9 +435,9 @@ def make_road(spec: str, speed: float, duration: float, seed: int = 0) -> Road:
         bump = parse_bump(s)
         if bump.end > length:
             raise BodyvibError(
-                f"bump '{bump.name}' ends {bump.end:g} m down the road, but the run drives "
-                f"{length:g} m ({speed:g} m/s for {duration:g} s); lengthen --duration or "
-                "move the bump (at=)"
+                f"bump '{bump.name}' ends {bump.end:g} m down the road, but the road is "
+                f"{length:g} m long ({speed:g} m/s for {duration:g} s); lengthen the run "
+                "(--duration; --road-length for Road.fmu) or move the bump (at=)"
             )
         return bump
     if s.lower() == "sweep":
