@@ -35,8 +35,6 @@ import numpy as np
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.jsonfile import read_json
 
-from .synthetic import Road
-
 __all__ = ["BUMP_FILE", "SHAPES", "ShapedBump", "bump_library", "is_bump_spec", "parse_bump"]
 
 #: The bump library: shapes, their default dimensions and where each comes from.
@@ -69,8 +67,13 @@ def bump_library() -> dict:
 
 
 @dataclass
-class ShapedBump(Road):
+class ShapedBump:
     """One bump (or pothole) of a named shape on a level road.
+
+    A road of the :class:`bodyvib.vehicle.road.synthetic.Road` interface (``length``,
+    ``name``, ``displacement``, ``slope``, ``describe``), endless like the cosine bump;
+    :func:`bodyvib.vehicle.road.synthetic.make_road` makes it from a spec (it does not
+    derive from ``Road``, whose module imports this one).
 
     Parameters
     ----------
@@ -94,6 +97,9 @@ class ShapedBump(Road):
     ramp: float = 0.0
     start: float = 10.0
     name: str = "hump"
+
+    #: Length over which the road is defined, m: endless (level beyond the bump).
+    length = math.inf
 
     @property
     def end(self) -> float:
@@ -134,6 +140,7 @@ class ShapedBump(Road):
         return self._profile(x)[1]
 
     def describe(self) -> dict:
+        """Shape and dimensions for reports (JSON-serializable)."""
         d = {
             "name": self.name,
             "shape": self.shape,
