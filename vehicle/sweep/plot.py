@@ -127,9 +127,9 @@ def plot_sweep(df, path, title: Optional[str] = None) -> None:
 def plot_bump_study(df, path, title: Optional[str] = None) -> None:
     """A bump study: head peak, VDV and the neck and lumbar force peaks against speed.
 
-    One panel per figure of :data:`BUMP_PANELS`, one curve per bump (and body and car,
-    when the table has several); where a curve holds several cases per speed (parameter
-    sets), it is their median.
+    One panel per figure of :data:`BUMP_PANELS`, one curve per bump (a colour each) and,
+    when the table has several, per body and car (a line style each); where a curve holds
+    several cases per speed (parameter sets), it is their median.
 
     Parameters
     ----------
@@ -149,15 +149,27 @@ def plot_bump_study(df, path, title: Optional[str] = None) -> None:
     ok = _successful(df)
     if ok.empty:
         raise BodyvibError("no successful case to plot")
-    keys = ["road"] + [k for k in ("body", "car") if ok[k].nunique() > 1]
+    others = [k for k in ("body", "car") if ok[k].nunique() > 1]
+    roads = sorted(set(ok["road"]))
+    kinds = sorted(set(map(tuple, ok[others].to_numpy()))) if others else [()]
+    colours = {r: f"C{i % 10}" for i, r in enumerate(roads)}  # a colour per bump
+    styles = {k: ("-", "--", ":", "-.")[i % 4] for i, k in enumerate(kinds)}  # a line per body
     fig, axes = new_figure(2, 2, figsize=(10.4, 7.6), squeeze=False)
     for ax, (column, label) in zip(axes.flat, BUMP_PANELS):
-        for group, g in ok.groupby(keys, sort=True):
+        for group, g in ok.groupby(["road"] + others, sort=True):
             group = group if isinstance(group, tuple) else (group,)
             y = g.groupby("speed_m_s")[column].median()
             if np.all(np.isnan(y.to_numpy(dtype=float))):
                 continue
-            ax.plot(y.index, y.to_numpy(dtype=float), "o-", ms=3, label=", ".join(group))
+            ax.plot(
+                y.index,
+                y.to_numpy(dtype=float),
+                marker="o",
+                ms=3,
+                color=colours[group[0]],
+                ls=styles[tuple(group[1:])],
+                label=", ".join(group),
+            )
         ax.set_xlabel("speed [m/s]")
         ax.set_ylabel(label)
         ax.set_ylim(bottom=0)
