@@ -46,8 +46,10 @@ BODY_OUT = [
     "torso_displacement",
     "seat_force",
     "seat_force_rate",
+    "neck_force",
+    "lumbar_force",
 ]
-BODY_SIG = ["head.a", "head.x", "torso.x", "seat_force"]
+BODY_SIG = ["head.a", "head.x", "torso.x", "seat_force", "neck_force", "lumbar_force"]
 CAR_OUT = [
     "seat_displacement",
     "seat_velocity",
@@ -184,7 +186,7 @@ def body_reference(model, t, x, v, expm=None):
     sig = [lm.output_index(s) for s in BODY_SIG]
     du = input_rates(lm, u)
     rate = (X @ lm.A.T + u @ lm.B.T) @ lm.C[sig[3]] + du @ lm.D[sig[3]]
-    return np.column_stack([y[:, sig], rate])
+    return np.column_stack([y[:, sig[:4]], rate, y[:, sig[4:]]])  # in BODY_OUT's order
 
 
 def stepped(lm, t, u, expm):
