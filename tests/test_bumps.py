@@ -96,7 +96,7 @@ def test_defaults_name_their_sources():
 def test_slow_traverse_is_quasi_static():
     """A 20 m long sine hump at 1 m/s (0.05 Hz, 1/25 of the car's 1.2 Hz bounce mode):
     the seat (sprung mass) and the head follow the road within the quasi-static error
-    ~ (f/f_n)^2 = 1.7e-3 of the height; asserted to 1 %."""
+    ~ (f/f_n)^2 = 1.7e-3 of the height (measured 1.8e-3 and 1.9e-3); asserted to 0.5 %."""
     v, h = 1.0, 0.075
     road = driven_road(f"sine:h={h},l=20,at=10", v, 35.0)
     lm = linear_model(seated_system(load_car(), load_model("reduced-paper")))
@@ -109,7 +109,7 @@ def test_slow_traverse_is_quasi_static():
     y = x @ lm.C.T + u @ lm.D.T
     for out in ("sprung.x", "body.head.x"):
         err = np.max(np.abs(y[:, lm.output_index(out)] - z))
-        assert err < 0.01 * h, out
+        assert err < 0.005 * h, out
 
 
 @pytest.mark.parametrize(
