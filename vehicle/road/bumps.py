@@ -35,7 +35,15 @@ import numpy as np
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.jsonfile import read_json
 
-__all__ = ["BUMP_FILE", "SHAPES", "ShapedBump", "bump_library", "is_bump_spec", "parse_bump"]
+__all__ = [
+    "BUMP_FILE",
+    "SHAPES",
+    "ShapedBump",
+    "bump_library",
+    "check_bump_start",
+    "is_bump_spec",
+    "parse_bump",
+]
 
 #: The bump library: shapes, their default dimensions and where each comes from.
 BUMP_FILE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "data",
@@ -243,3 +251,32 @@ def parse_bump(spec) -> ShapedBump:
         start=v["at"],
         name=name,
     )
+
+
+def check_bump_start(road, taper: float) -> None:
+    """Refuse a bump that begins inside the fade-in every run's road starts with.
+
+    Parameters
+    ----------
+    road : Road
+        Any road; only a :class:`ShapedBump` is checked.
+    taper : float
+        The fade-in length, m (``--road-taper``).
+
+    Raises
+    ------
+    BodyvibError
+        The bump begins before ``taper`` (the fade-in would scale its front).
+
+    Examples
+    --------
+    >>> check_bump_start(parse_bump("hump:at=2"), 5.0)
+    Traceback (most recent call last):
+    ...
+    bodyvib.runtime.errors.BodyvibError: bump 'hump:h=0.075,l=3.7,at=2' begins at 2 m, inside the road's 5 m fade-in; move it (at=) or shorten --road-taper
+    """
+    if isinstance(road, ShapedBump) and road.start < taper:
+        raise BodyvibError(
+            f"bump '{road.name}' begins at {road.start:g} m, inside the road's "
+            f"{taper:g} m fade-in; move it (at=) or shorten --road-taper"
+        )

@@ -19,7 +19,7 @@ from typing import Optional
 from bodyvib.runtime.errors import BodyvibError
 
 from ..records import Record
-from .bumps import ShapedBump, is_bump_spec, parse_bump
+from .bumps import check_bump_start, is_bump_spec, parse_bump
 from .measured import PROFILE_EXTENSIONS
 from .synthetic import ISO8608_CLASSES, Road, TaperedRoad, make_road
 
@@ -163,9 +163,5 @@ def driven_road(
             f"to road files; road '{spec}' is synthetic"
         )
     road = make_road(spec, speed, duration, seed=seed)
-    if isinstance(road, ShapedBump) and road.start < opt.taper_m:
-        raise BodyvibError(
-            f"bump '{road.name}' begins at {road.start:g} m, inside the road's "
-            f"{opt.taper_m:g} m fade-in; move it (at=) or shorten --road-taper"
-        )
+    check_bump_start(road, opt.taper_m)
     return TaperedRoad(road, road.length, opt.taper_m)
