@@ -217,3 +217,17 @@ def test_bump_sweep_from_the_command_line_with_its_plot(tmp_path):
     assert set(df["road"]) == {"hump:h=0.075,l=3.7,at=10", "table:h=0.075,l=6,ramp=0.975,at=10"}
     assert (df["neck_force_peak"] > 0).all() and (df["lumbar_force_peak"] > 0).all()
     assert (tmp_path / "p.png").stat().st_size > 10000
+
+
+def test_road_fmu_tabulates_the_bump_and_refuses_one_in_its_fade_in():
+    """Road.fmu's road is the run's: the same bump heights, and the same refusals."""
+    from bodyvib.vehicle.fmus import fmu_road
+
+    tab = fmu_road("hump:h=0.075,l=3.7", length=40.0)
+    run = driven_road("hump:h=0.075,l=3.7", 20.0, 2.0)
+    x = np.linspace(0, 40, 4001)
+    np.testing.assert_array_equal(tab.displacement(x), run.displacement(x))
+    with pytest.raises(BodyvibError, match="inside the road's 5 m fade-in"):
+        fmu_road("hump:at=2", length=40.0)
+    with pytest.raises(BodyvibError, match="ends 53.7 m down the road, but the road is 40 m"):
+        fmu_road("hump:at=50", length=40.0)
