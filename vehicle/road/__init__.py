@@ -1,7 +1,8 @@
 """Roads: profiles over distance, and the input a car sees at a speed.
 
 :mod:`~bodyvib.vehicle.road.synthetic` makes roads from a short name: ISO 8608 random
-roads of classes A-H, a bump, a sine sweep; it also holds what every road shares
+roads of classes A-H, a bump, a sine sweep, and the speed humps, tables and potholes of
+:mod:`~bodyvib.vehicle.road.bumps` (``hump:h=0.075,l=3.7``); it also holds what every road shares
 (the :class:`~bodyvib.vehicle.road.synthetic.Road` interface, the fade-in
 :class:`~bodyvib.vehicle.road.synthetic.TaperedRoad`, the road input at a speed, and the
 table that ``Road.fmu`` carries). :mod:`~bodyvib.vehicle.road.measured` reads measured
@@ -14,6 +15,7 @@ International Roughness Index (the Golden Car, exactly discretized) and
 both take plain ``(distance, elevation)`` arrays.
 """
 
+from .bumps import SHAPES, ShapedBump, parse_bump
 from .classify import RoadClass, class_limits, class_of, classify_profile, profile_psd
 from .driven import DEFAULT_TAPER_M, RoadOptions, driven_road, is_road_file
 from .iri import (
@@ -55,6 +57,9 @@ __all__ = [
     "BumpRoad",
     "SweepRoad",
     "TaperedRoad",
+    "SHAPES",
+    "ShapedBump",
+    "parse_bump",
     "random_road",
     "road_source",
     "road_table",
