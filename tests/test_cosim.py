@@ -212,7 +212,12 @@ def test_check_cli_end_to_end(fmus, tmp_path):
         rows = list(csv.reader(f))
     col = rows[0].index("HumanBody3DOF.head_acceleration [m/s2]")
     a = np.array([float(r[col]) for r in rows[1:]])
-    assert len(rows) == 1 + 6001 and len(rows[0]) == 18  # every point, every column, streamed
+    # every point, every column (with each body's neck and lumbar force), streamed
+    assert len(rows) == 1 + 6001 and len(rows[0]) == 22
+    for label, b in doc["bodies"].items():
+        neck = np.array([float(r[rows[0].index(f"{label}.neck_force [N]")]) for r in rows[1:]])
+        assert b["neck_force"]["peak"] == pytest.approx(neck[np.argmax(np.abs(neck))], rel=1e-6)
+        assert b["neck_force"]["rms"] == pytest.approx(np.sqrt(np.mean(neck**2)), rel=1e-6)
     got = doc["bodies"]["HumanBody3DOF"]["weighted_rms"]
     # the run's figures come from the recursive Wk filter as the run goes (10-digit CSV)
     assert stream_comfort_figures(a, 1000.0).weighted_rms == pytest.approx(got, rel=1e-8)

@@ -151,6 +151,7 @@ def test_check_report_points_to_the_front_when_the_peak_fails():
         coupling_nrmse=3e-4,
         real_time_factor=30.0,
         seat_figures=NS(weighted_rms=0.9),
+        forces={},
     )
     study = NS(
         settings=NS(speed_m_s=20, duration_s=30, step_s=1e-3, master="m"),

@@ -216,7 +216,7 @@ def test_non_finite_input_refuses_the_step_and_keeps_the_state(bad):
                 core.do_step(t[k], t[k + 1] - t[k])
             assert core.get_state()["buf"][:5] == before["buf"][:5]
         core.set_real([0, 1], [x[k], v[k]])
-        y[k] = core.get_real([3, 4, 5, 6, 7])
+        y[k] = core.get_real(range(3, 3 + len(core.interface.outputs)))
         if k + 1 < t.size:
             core.do_step(t[k], t[k + 1] - t[k])
     np.testing.assert_array_equal(y, yref)
@@ -333,6 +333,8 @@ def test_interfaces_follow_the_design_table():
         ("seat_force", "output", "N"),
         ("seat_force_rate", "output", "N/s"),
     ]
+    # the model file's named internal forces follow, in its order
+    assert table[8:10] == [("neck_force", "output", "N"), ("lumbar_force", "output", "N")]
     assert [v.name for v in body.parameters] == ["m1", "m2", "k1", "k2", "ks", "c1", "c2"]
     assert [v.unit for v in body.parameters] == ["kg", "kg", "N/m", "N/m", "N/m", "N.s/m", "N.s/m"]
     iso = FmuCore("body", load_model("iso7962"))
@@ -357,8 +359,9 @@ def test_interfaces_follow_the_design_table():
     ]
     # feedthrough: seat force on seat displacement, its rate on both inputs (C B and
     # D through the displacement's rate); car acceleration on seat force, tire force
-    # on road displacement
-    assert body.output_dependencies() == [[], [], [], [0], [0, 1]]
+    # on road displacement; the neck force on none, the lumbar force (in series with
+    # the seat spring, it is the seat force) on the seat displacement
+    assert body.output_dependencies() == [[], [], [], [0], [0, 1], [], [0]]
     assert car.output_dependencies() == [[], [], [2], [], [0]]
 
 

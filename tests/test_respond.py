@@ -128,7 +128,14 @@ def test_command_writes_figures_csv_and_plot(tmp_path, capsys):
     assert list(doc["bodies"]) == list(MODELS)
     assert set(doc["seat"]["checks"]) == {"crest_factor", "mtvv_ratio", "vdv_ratio"}
     rows = np.loadtxt(out["csv"], delimiter=",", skiprows=1)
-    assert rows.shape == (t.size, 4)
+    # time, seat, the two heads, then each body's neck and lumbar force
+    assert rows.shape == (t.size, 8)
+    assert "neck force peak [N]" in text and "lumbar force r.m.s. [N]" in text
+    neck = rows[:, 4]  # the reduced body's: its head mass times its head acceleration
+    assert np.max(np.abs(neck - 4.88 * rows[:, 2])) < 1e-6 * np.max(np.abs(neck))
+    assert doc["bodies"]["reduced-paper"]["neck_force"]["peak"] == pytest.approx(
+        neck[np.argmax(np.abs(neck))], rel=1e-8
+    )
     assert _nrmse(rows[:, 2], head) < 5e-4  # the reduced body's head, as above
     assert doc["bodies"]["reduced-paper"]["mtvv"] == pytest.approx(
         comfort_figures(rows[:, 2], 1000.0).mtvv, rel=1e-8

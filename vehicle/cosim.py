@@ -35,6 +35,7 @@ reference (:mod:`bodyvib.vehicle.reference`) at h = 1 ms is about 0.43 % held an
 """
 
 import contextlib
+import math
 import os
 import shutil
 import tempfile
@@ -53,7 +54,14 @@ from bodyvib.runtime.discretize import check_step
 from bodyvib.runtime.errors import BodyvibError
 
 from .quarter_car import CAR_FMU_OUTPUTS
-from .signals import BODY_SIGNALS, CAR_SIGNALS, MASTER_SIGNALS, SIGNALS, header
+from .signals import (
+    BODY_SIGNALS,
+    CAR_SIGNALS,
+    MASTER_SIGNALS,
+    OPTIONAL_SIGNALS,
+    SIGNALS,
+    header,
+)
 
 __all__ = [
     "check_fmu",
@@ -452,10 +460,15 @@ class Master:
         # what is recorded, in the signal table's order (seat motion first: read after a step)
         self._car_out = [car.vr[s.variable] for s in CAR_SIGNALS]
         self._body_in = [body.vr[k] for k in BODY_INPUTS]
-        self._body_out = [body.vr[s.variable] for s in BODY_SIGNALS]  # F, a1, x1, x2
+        # F, a1, x1, x2, then the named forces the FMU has (the others are recorded as NaN)
+        self._body_out = [body.vr[s.variable] for s in BODY_SIGNALS if s.variable in body.vr]
+        missing = [s.name for s in BODY_SIGNALS if s.variable not in body.vr]
+        if set(missing) - set(OPTIONAL_SIGNALS):
+            raise BodyvibError(f"body FMU has no output(s) {', '.join(missing)}")
+        self._pad = [math.nan] * len(missing)
         body.fmu.setReal(self._body_in, [0.0, 0.0])  # the body at rest at t = 0
-        self._F, self._a1, self._x1, self._x2 = body.fmu.getReal(self._body_out)
-        self._F_prev = self._F
+        self._B = list(body.fmu.getReal(self._body_out)) + self._pad
+        self._F_prev = self._B[0]
 
     def advance(self, road_displacement, road_velocity) -> np.ndarray:
         """Co-simulate the next communication points.
@@ -467,7 +480,7 @@ class Master:
 
         Returns
         -------
-        (m, 9) ndarray
+        (m, len(MASTER_SIGNALS)) ndarray
             The :data:`bodyvib.vehicle.signals.MASTER_SIGNALS` at those points (the car's, then
             the body's).
 
@@ -501,14 +514,15 @@ class Master:
         car_motion = car_out[:2]
         c_set, c_get, c_step = cf.setReal, cf.getReal, cf.doStep
         b_set, b_get, b_step = bf.setReal, bf.getReal, bf.doStep
-        F, F_prev, a1, x1, x2 = self._F, self._F_prev, self._a1, self._x1, self._x2
+        B, F_prev, pad = self._B, self._F_prev, self._pad
+        F = B[0]
         k = self.k
         try:
             for j, (zk, vk) in enumerate(zip(z.tolist(), v.tolist())):
                 k = self.k + j
                 if k == last:  # the last point: the car's outputs, no step
                     c_set(car_in, [zk, vk, F] + ([0.0] if has_rate else []))
-                    rows[j] = list(c_get(car_out)) + [F, a1, x1, x2]
+                    rows[j] = list(c_get(car_out)) + B
                     break
                 t = k * h
                 dF = (F - F_prev) if extrapolate else 0.0
@@ -519,14 +533,15 @@ class Master:
                 # car outputs at t_k with the inputs of t_k (tire force and seat
                 # acceleration are feedthrough of road and seat force)
                 xs, vs, a_s, sd, tf = c_get(car_out)
-                rows[j] = [xs, vs, a_s, sd, tf, F, a1, x1, x2]
+                rows[j] = [xs, vs, a_s, sd, tf] + B
                 c_step(t, h)
                 xn, vn = c_get(car_motion)  # states only: exact right after the step
                 b_set(body_in, [xs, (xn - xs) / h])
                 b_step(t, h)
                 b_set(body_in, [xn, vn])
                 F_prev = F
-                F, a1, x1, x2 = b_get(body_out)
+                B = list(b_get(body_out)) + pad
+                F = B[0]
                 if not j & 255 and interrupts.requested():  # a safe point: no FMU call runs
                     interrupts.check()  # raises: the signal is taken here
         except BodyvibError:
@@ -535,7 +550,7 @@ class Master:
             raise BodyvibError(f"co-simulation stopped at t = {k * h:g} s: {exc}") from None
         finally:
             self.wall_s += time.perf_counter() - t0
-        self._F, self._F_prev, self._a1, self._x1, self._x2 = F, F_prev, a1, x1, x2
+        self._B, self._F_prev = B, F_prev
         self.k += z.size
         return np.array(rows, dtype=float).reshape(z.size, len(MASTER_SIGNALS))
 

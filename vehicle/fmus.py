@@ -17,6 +17,7 @@ from bodyvib.process.outputs import staged_writes
 from bodyvib.runtime.errors import BodyvibError
 
 from .quarter_car import load_car
+from .road.bumps import check_bump_start
 from .road.driven import RoadOptions, file_road, is_road_file
 from .road.synthetic import ISO8608_CLASSES, TaperedRoad, make_road, random_road, road_source
 
@@ -142,6 +143,7 @@ def fmu_road(
     if len(s) == 1 and s.upper() in ISO8608_CLASSES:
         return TaperedRoad(random_road(s.upper(), length=length, seed=seed), length, taper)
     road = make_road(s, speed, length / speed if length > 0 else length, seed=seed)
+    check_bump_start(road, taper)
     return TaperedRoad(road, road.length, taper)
 
 

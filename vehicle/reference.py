@@ -24,7 +24,7 @@ from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import Network, linear_model
 
 from .quarter_car import seated_system
-from .signals import BODY_SIGNALS, CAR_SIGNALS
+from .signals import BODY_SIGNALS, CAR_SIGNALS, OPTIONAL_SIGNALS
 from .signals import SIGNALS as _SIGNALS
 
 __all__ = ["SIGNALS", "reference_run", "ReferenceStream", "seat_force_weights", "nrmse"]
@@ -161,7 +161,9 @@ class ReferenceStream:
         # force) a combination of outputs
         self._rows = {}
         for s in CAR_SIGNALS + BODY_SIGNALS:
-            if s.seated is not None:
+            if s.name in OPTIONAL_SIGNALS and s.seated_output(seat) not in lm.outputs:
+                self._rows[s.name] = None  # a body without this named force: NaN
+            elif s.seated is not None:
                 self._rows[s.name] = lm.output_index(s.seated_output(seat))
             else:
                 self._rows[s.name] = seat_force_weights(lm, body, seat)
@@ -201,9 +203,14 @@ class ReferenceStream:
             xk = d.step(xk, u[k], du[k], h)
         self._x = xk
         y = x @ lm.C.T + u @ lm.D.T
-        return {
-            name: y @ i if isinstance(i, np.ndarray) else y[:, i] for name, i in self._rows.items()
-        }
+        return {name: _row(y, i) for name, i in self._rows.items()}
+
+
+def _row(y, i):
+    """A signal from the outputs ``y``: a weighted sum, one column, or NaN (``i`` None)."""
+    if i is None:
+        return np.full(y.shape[0], np.nan)
+    return y @ i if isinstance(i, np.ndarray) else y[:, i]
 
 
 def nrmse(estimate, reference) -> float:

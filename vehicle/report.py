@@ -24,7 +24,7 @@ _WORDS = {
 
 
 def format_report(study: Study, comparison: Optional[Comparison] = None) -> str:
-    """Text report: per-body head figures, coupling error, and the check's lines.
+    """Text report: per-body head and internal-force figures, coupling error, the check's lines.
 
     Parameters
     ----------
@@ -39,7 +39,8 @@ def format_report(study: Study, comparison: Optional[Comparison] = None) -> str:
     -------
     str
         The lines ``bodyvib cosim`` and ``bodyvib check`` print, joined by newlines
-        (no trailing newline); figures in m/s2, m/s^1.75 (VDV), Hz and percent.
+        (no trailing newline); figures in m/s2, m/s^1.75 (VDV), Hz and percent; the neck
+        and lumbar forces' r.m.s. and peak (+ compression) in N, the peak's time in s.
     """
     s = study.settings
     handling = road_handling(study.road)
@@ -76,6 +77,11 @@ def format_report(study: Study, comparison: Optional[Comparison] = None) -> str:
             ),
         )
     )
+    for name in ("neck_force", "lumbar_force"):
+        if any(name in b.forces for b in bodies.values()):
+            words = name.replace("_", " ")
+            lines.append(row(f"{words} r.m.s. [N]", lambda b, n=name: _force(b, n, "rms")))
+            lines.append(row(f"{words} peak [N]", lambda b, n=name: _force(b, n, "peak")))
     lines.append(row("coupling NRMSE vs reference", lambda b: _pct(b.coupling_nrmse)))
     lines.append(row("real-time factor", lambda b: f"{b.real_time_factor:.1f}"))
     seat = bodies[labels[0]].seat_figures.weighted_rms
@@ -121,6 +127,16 @@ PEAK_HINT = (
     "  the 3-DOF chain trades Eq. 3's J for the peak: 'bodyvib fit --pareto --report DIR' "
     "draws it (docs/tutorials/refit.md, 'The trade-off')"
 )
+
+
+def _force(body, name, what):
+    """A force figure of one body as the report shows it; ``n/a`` if the body has no such force."""
+    f = body.forces.get(name)
+    if f is None:
+        return "n/a"
+    if what == "rms":
+        return f"{f.rms:.1f}"
+    return f"{f.peak:.1f} at {f.peak_time_s:.3f} s"
 
 
 def _pct(x):

@@ -29,6 +29,7 @@ __all__ = [
     "MASTER_SIGNALS",
     "CAR_SIGNALS",
     "BODY_SIGNALS",
+    "OPTIONAL_SIGNALS",
     "header",
     "axis_label",
 ]
@@ -119,7 +120,27 @@ SIGNALS: Tuple[Signal, ...] = (
         "torso_displacement",
         "body.torso.x",
     ),
+    Signal(
+        "neck_force",
+        "N",
+        "force in the occupant's neck element, + in compression (NaN: the model names none)",
+        "body",
+        "neck_force",
+        "body.neck_force",
+    ),
+    Signal(
+        "lumbar_force",
+        "N",
+        "force in the occupant's lumbar element, + in compression (NaN: the model names none)",
+        "body",
+        "lumbar_force",
+        "body.lumbar_force",
+    ),
 )
+
+#: Body signals a body model may lack (a model file without named ``forces``, a foreign
+#: FMU): a run records them as NaN.
+OPTIONAL_SIGNALS: Tuple[str, ...] = ("neck_force", "lumbar_force")
 
 #: Unit of each signal by name.
 UNITS: Dict[str, str] = {s.name: s.unit for s in SIGNALS}

@@ -19,6 +19,7 @@ from typing import Dict, List, Optional
 import numpy as np
 
 from bodyvib.comfort.figures import ComfortFigures
+from bodyvib.comfort.forces import ForceFigures, ForceStream
 from bodyvib.comfort.measures import SeatMeasures, SeatMeasureStream
 from bodyvib.comfort.stream import ComfortStream
 from bodyvib.frequency.estimate import TransmissibilityEstimate, TransmissibilityStream
@@ -32,7 +33,7 @@ from .records import Record
 from .reference import ReferenceStream
 from .road.driven import RoadOptions, driven_road
 from .road.synthetic import road_input
-from .signals import BODY_SIGNALS, MASTER_SIGNALS
+from .signals import BODY_SIGNALS, MASTER_SIGNALS, OPTIONAL_SIGNALS
 
 __all__ = [
     "StudySettings",
@@ -98,6 +99,9 @@ class BodyRun:
         Absorbed power (the run's ``mean(seat_force * seat_velocity)`` and the Lee &
         Pradko estimate from the seat acceleration) and the seat's MSDV
         (:mod:`bodyvib.comfort.measures`).
+    forces : dict of str to ForceFigures
+        Figures of the body's internal forces over the run (``"neck_force"``,
+        ``"lumbar_force"``; only those the body FMU outputs), N and s.
     """
 
     fmu: str
@@ -111,6 +115,7 @@ class BodyRun:
     real_time_factor: float
     head_window: np.ndarray = field(default_factory=lambda: np.empty(0))
     seat_measures: Optional[SeatMeasures] = None
+    forces: Dict[str, ForceFigures] = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """The body's entry of the JSON document (figures, no histories; docs/getting_started.md, "JSON output")."""
@@ -123,6 +128,7 @@ class BodyRun:
             "transmissibility_peak": self.transmissibility.peak.to_dict(),
             "real_time_factor": self.real_time_factor,
             **(self.seat_measures.to_dict() if self.seat_measures is not None else {}),
+            **{name: f.to_dict() for name, f in self.forces.items()},
         }
 
 
@@ -366,6 +372,7 @@ def run_study(
     comfort = {label: ComfortStream(fs, 2) for label in labels}  # head, seat
     seat_measures = {label: SeatMeasureStream(fs) for label in labels}
     trans = {label: TransmissibilityStream(fs, n) for label in labels}
+    forces = {label: {name: ForceStream(step) for name in OPTIONAL_SIGNALS} for label in labels}
     err = {label: [0.0, 0.0] for label in refs}  # sum (a - r)^2, sum r^2
     pairs = {(a, b): [0.0, 0.0] for a in labels for b in labels if a != b}
     w0 = max(0.0, (n - 1) * step / 2 - window_s / 2)  # the plot's window
@@ -400,6 +407,8 @@ def run_study(
                     comfort[label].update(np.vstack([head, seat]))
                     seat_measures[label].update(seat, sig["seat_force"], sig["seat_velocity"])
                     trans[label].update(seat, head)
+                    for name, stream in forces[label].items():
+                        stream.update(sig[name])
                     ref = None
                     if label in refs:
                         interrupts.check()
@@ -482,6 +491,11 @@ def run_study(
             real_time_factor=duration / max(masters[label].wall_s, 1e-12),
             head_window=np.concatenate(windows[label]) if windows[label] else np.empty(0),
             seat_measures=seat_measures[label].figures(),
+            forces={
+                name: f
+                for name, f in ((k, s.figures()) for k, s in forces[label].items())
+                if math.isfinite(f.rms)
+            },
         )
     return out
 

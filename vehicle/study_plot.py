@@ -17,6 +17,9 @@ __all__ = ["plot_study"]
 def plot_study(study: Study, path, comparison: Optional[Comparison] = None, window_s: float = 5.0):
     """Head acceleration side by side (a window mid-run) and transmissibility estimates.
 
+    The legend gives each body's weighted r.m.s. and the peaks of its neck and lumbar
+    forces with their times (over the whole run).
+
     Parameters
     ----------
     study : Study
@@ -46,7 +49,7 @@ def plot_study(study: Study, path, comparison: Optional[Comparison] = None, wind
                 t,
                 b.head_window,
                 lw=0.9,
-                label=f"{label}: a_w = {b.figures.weighted_rms:.3f} {unit}",
+                label=f"{label}: a_w = {b.figures.weighted_rms:.3f} {unit}" + _force_words(b),
             )
         ax1.set_xlabel(axis_label("time"))
         ax1.set_ylabel(axis_label("head_acceleration"))
@@ -77,3 +80,11 @@ def plot_study(study: Study, path, comparison: Optional[Comparison] = None, wind
         )
         transmissibility_axes(ax2, ylabel="|T| head / seat [-]", title=title)
         ax2.legend(fontsize=8)
+
+
+def _force_words(body) -> str:
+    """``; neck peak 14.7 N at 3.03 s, ...`` for the forces a body run has (legend text)."""
+    return "".join(
+        f"; {name.split('_')[0]} peak {f.peak:.1f} N at {f.peak_time_s:.2f} s"
+        for name, f in body.forces.items()
+    )

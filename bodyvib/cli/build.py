@@ -156,8 +156,8 @@ def add_command(subparsers):
     p.add_argument(
         "--road",
         default=ROAD_DEFAULTS["road"],
-        help="Road.fmu: ISO 8608 class A-H, bump, sweep or a road file (.crg, .csv, "
-        ".erd) (default: C)",
+        help="Road.fmu: ISO 8608 class A-H, bump, sweep, a bump shape (hump:h=0.075,l=3.7; "
+        "table, sine, halfsine, pothole) or a road file (.crg, .csv, .erd) (default: C)",
     )
     p.add_argument(
         "--road-seed",

@@ -185,8 +185,10 @@ def _common(p):
     p.add_argument(
         "--road",
         default="C",
-        help="ISO 8608 class A-H, 'bump', 'sweep' or a road file: OpenCRG .crg, CSV "
-        ".csv or text .txt columns (distance_m,elevation_mm) or ERD .erd (default C)",
+        help="ISO 8608 class A-H, 'bump', 'sweep', a bump shape with its dimensions in m "
+        "(hump, table, sine, halfsine, pothole, e.g. hump:h=0.075,l=3.7,at=10) or a road "
+        "file: OpenCRG .crg, CSV .csv or text .txt columns (distance_m,elevation_mm) or ERD "
+        ".erd (default C)",
     )
     add_road_options(p)
     p.add_argument("--speed", type=float, default=20.0, help="vehicle speed, m/s (default 20)")

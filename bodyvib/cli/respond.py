@@ -21,7 +21,8 @@ _ROWS = (
 
 
 def format_response(result) -> str:
-    """The table ``bodyvib respond`` prints: figures of seat and heads, and the standard's checks.
+    """The table ``bodyvib respond`` prints: figures of seat and heads, the bodies' neck and
+    lumbar forces (r.m.s., peak and its time, N and s), and the standard's checks.
 
     Parameters
     ----------
@@ -55,6 +56,21 @@ def format_response(result) -> str:
         lines.append(
             f"{'  daily Dzd (8 h), Sd':<28}{sp.daily_dose:>{w}.4f} m/s2, {sp.compression:.4f} MPa"
         )
+    bodies = list(result.bodies.values())
+    for name in dict.fromkeys(k for b in bodies for k in b.force_figures):
+        words = name.replace("_", " ")
+        for title, cell in (
+            (f"{words} r.m.s. [N]", lambda f: f"{f.rms:.1f}"),
+            (f"{words} peak [N]", lambda f: f"{f.peak:.1f} at {f.peak_time_s:.3f} s"),
+        ):
+            lines.append(
+                f"{title:<28}"
+                + f"{'':>{w}}"  # the seat column
+                + "".join(
+                    f"{(cell(b.force_figures[name]) if name in b.force_figures else 'n/a'):>{w}}"
+                    for b in bodies
+                )
+            )
     lines.append("")
     lines.append(
         "ISO 2631-1 6.3, basic method enough if crest factor <= 9, MTVV / a_w <= 1.5, "
@@ -77,7 +93,8 @@ def format_response(result) -> str:
 
 
 def plot_response(result, path) -> None:
-    """Seat and head accelerations over time, and their 1 s running r.m.s. (the MTVV's).
+    """Seat and head accelerations over time, their 1 s running r.m.s. (the MTVV's), and the
+    bodies' neck and lumbar forces.
 
     Parameters
     ----------
@@ -90,7 +107,9 @@ def plot_response(result, path) -> None:
 
     s = result.signal
     t = s.time - s.time[0]
-    fig, (ax1, ax2) = new_figure(2, 1, figsize=(9, 8), sharex=True)
+    forces = any(b.forces for b in result.bodies.values())
+    fig, axes = new_figure(3 if forces else 2, 1, figsize=(9, 11 if forces else 8), sharex=True)
+    ax1, ax2 = axes[0], axes[1]
     series = [("seat", s.acceleration, result.seat_figures)] + [
         (f"head, {k}", b.head_acceleration, b.figures) for k, b in result.bodies.items()
     ]
@@ -107,9 +126,24 @@ def plot_response(result, path) -> None:
     ax1.legend(fontsize=8)
     ax1.grid(True, alpha=0.3)
     ax2.set_ylabel("1 s running r.m.s. of a_w [m/s2]")
-    ax2.set_xlabel("time from the record's start [s]")
     ax2.legend(fontsize=8)
     ax2.grid(True, alpha=0.3)
+    if forces:
+        ax3 = axes[2]
+        for k, b in result.bodies.items():
+            for name, f in b.forces.items():
+                peak = b.force_figures[name]
+                ax3.plot(
+                    t,
+                    f,
+                    lw=0.6,
+                    label=f"{name.replace('_', ' ')}, {k}: peak {peak.peak:.1f} N "
+                    f"at {peak.peak_time_s:.2f} s",
+                )
+        ax3.set_ylabel("internal force, + compression [N]")
+        ax3.legend(fontsize=8)
+        ax3.grid(True, alpha=0.3)
+    axes[-1].set_xlabel("time from the record's start [s]")
     save_figure(fig, path)
 
 
@@ -117,11 +151,14 @@ def _csv_text(result) -> str:
     s = result.signal
     names = list(result.bodies)
     cols = [s.time, s.acceleration] + [result.bodies[k].head_acceleration for k in names]
+    forces = [(k, f) for k in names for f in result.bodies[k].forces]
+    cols += [result.bodies[k].forces[f] for k, f in forces]
     buf = io.StringIO()
     buf.write(
         ",".join(
             ["time [s]", "seat_acceleration [m/s2]"]
             + [f"head_acceleration_{k} [m/s2]" for k in names]
+            + [f"{f}_{k} [N]" for k, f in forces]
         )
         + "\n"
     )
@@ -176,7 +213,7 @@ def add_command(subparsers):
     add_output_options(
         p,
         plot="write accelerations and running r.m.s.",
-        csv="write time, seat and head accelerations",
+        csv="write time, seat and head accelerations, and the bodies' neck and lumbar forces",
         json="write the figures and checks as JSON",
     )
     p.set_defaults(func=_run)

@@ -19,14 +19,14 @@ def _run(args):
         raise BodyvibError("give a SPEC file or --grid, not both")
     if not args.spec and not args.grid:
         if args.plot and args.out:  # plot an existing table
-            from bodyvib.vehicle.sweep.plot import plot_comfort_maps
+            from bodyvib.vehicle.sweep.plot import plot_sweep
             from bodyvib.vehicle.sweep.run import read_results
 
             check_files(args, ("plot",))  # before the table is read
             df = read_results(args.out)
             if df is None:
                 raise BodyvibError(f"no sweep table at '{args.out}'")
-            plot_comfort_maps(df, args.plot)
+            plot_sweep(df, args.plot)
             print(f"wrote {args.plot}")
             return 0
         raise BodyvibError(
@@ -85,9 +85,9 @@ def _run(args):
         if f:
             print(f"wrote {f}")
     if args.plot:
-        from bodyvib.vehicle.sweep.plot import plot_comfort_maps
+        from bodyvib.vehicle.sweep.plot import plot_sweep
 
-        plot_comfort_maps(df, args.plot)
+        plot_sweep(df, args.plot)
         print(f"wrote {args.plot}")
     return 0
 
@@ -185,7 +185,11 @@ def add_command(subparsers):
         help="with --resume: run again the cases stored with an error",
     )
     p.add_argument("--overwrite", action="store_true", help="replace an existing --out")
-    add_output_options(p, plot="comfort maps with the ISO 2631-1 bands")
+    add_output_options(
+        p,
+        plot="comfort maps with the ISO 2631-1 bands (for bump roads: head peak, VDV and "
+        "neck and lumbar force peaks against speed, one curve per bump)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=_run)
     return p

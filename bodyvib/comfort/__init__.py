@@ -9,6 +9,8 @@ are a :class:`~bodyvib.comfort.figures.ComfortFigures`, a batch's a
 (physical and Lee & Pradko's estimate), the motion sickness dose value (Wf) and the
 ISO 10326-1 SEAT value; :mod:`~bodyvib.comfort.spine` the ISO 2631-5:2018 spinal
 response, acceleration dose and injury risk of repeated shocks.
+:mod:`~bodyvib.comfort.forces` gives the figures of the body's internal forces (neck,
+lumbar): r.m.s., peak and the peak's time.
 """
 
 from .figures import (
@@ -29,6 +31,7 @@ from .figures import (
     weighted_rms,
     wk_response,
 )
+from .forces import ForceFigures, ForceStream, force_figures
 from .measures import (
     WF_PARAMETERS,
     SeatMeasures,
@@ -85,4 +88,7 @@ __all__ = [
     "SpinalDose",
     "injury_risk",
     "injury_probability",
+    "ForceFigures",
+    "ForceStream",
+    "force_figures",
 ]

@@ -27,7 +27,9 @@ Either kind then declares the extra outputs its parameter file lists in
 ``fmu_outputs`` (name, model signal, unit, description), in that order: the
 shipped cars list ``sprung_acceleration`` (``seat.a``), ``suspension_deflection``
 (``suspension.deflection``) and ``tire_force`` (``tire.force``), so the contract
-itself names no car part.
+itself names no car part. Last come one output ``<name>_force`` [N] per named
+internal force of the file's ``forces``, in its order (the body models'
+``neck_force`` and ``lumbar_force``, positive in compression).
 
 Numpy only, relative imports only: the FMUs ship this module under a private
 package name (``build_fmu.py``).
@@ -217,8 +219,17 @@ def _outputs(names, specs):
 
 
 def _with_extra_outputs(network: Network, outputs, signals):
-    """Append the parameter file's ``fmu_outputs`` to an interface's outputs and signals."""
-    extra = network.fmu_outputs
+    """Append the parameter file's ``fmu_outputs``, then its named ``forces``, to an interface."""
+    extra = list(network.fmu_outputs) + [
+        {
+            "name": f"{name}_force",
+            "signal": f"{name}_force",
+            "unit": "N",
+            "description": f"{name.capitalize()} force: the force of element '{element}', "
+            "positive in compression",
+        }
+        for name, element in network.forces.items()
+    ]
     outputs = outputs + _outputs(
         [o["name"] for o in extra], [(o["unit"], o["description"]) for o in extra]
     )

@@ -25,7 +25,10 @@ literal number). Optional fields: ``description``, ``provenance``, ``base``
 ``fmu_outputs`` (extra outputs of an FMU built from the model: a list of
 ``{"name", "signal", "unit", "description"}``, ``signal`` an output of the
 state space such as ``"seat.a"``, ``"tire.force"``; see
-:mod:`bodyvib.runtime.contract`).
+:mod:`bodyvib.runtime.contract`) and ``forces`` (named internal forces:
+``{"neck": "upper_body"}`` maps a name to an element; the model then has the
+output ``neck_force`` [N], that element's force, positive in compression, and
+an FMU built from it the output of the same name).
 
 The shipped models and loading by name are :mod:`bodyvib.models`. Numpy-free
 apart from what :mod:`bodyvib.runtime.network` needs; relative imports only:
@@ -58,6 +61,7 @@ _OPTIONAL = (
     "roles",
     "units",
     "fmu_outputs",
+    "forces",
 )
 _ELEMENT_FIELDS = ("name", "kind", "from", "to")
 _FMU_OUTPUT_FIELDS = ("name", "signal", "unit", "description")
@@ -309,6 +313,7 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
         roles,
         base,
     )
+    forces = _forces(data.get("forces", {}), where, {el.name for el in elements}, base)
     provenance = data.get("provenance", {})
     if not isinstance(provenance, dict):
         raise BodyvibError(f"{where}: 'provenance' must be an object")
@@ -326,7 +331,29 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
         provenance=dict(provenance),
         units=dict(units),
         fmu_outputs=fmu_outputs,
+        forces=forces,
     )
+
+
+def _forces(items, where, element_names, base):
+    """Validate ``forces``: an object of force name -> element name."""
+    if not isinstance(items, dict):
+        raise BodyvibError(
+            f"{where}: 'forces' must be an object of force name: element name, "
+            'e.g. {"neck": "upper_body"}'
+        )
+    for name, element in items.items():
+        if not PARAMETER_NAME.match(name) or name == base:
+            raise BodyvibError(
+                f"{where}: forces name '{name}' must be a plain name (letters, digits, _) "
+                f"other than the base '{base}'"
+            )
+        if element not in element_names:
+            raise BodyvibError(
+                f"{where}: forces.{name} names unknown element '{element}'; "
+                f"elements are {', '.join(sorted(element_names))}"
+            )
+    return dict(items)
 
 
 def _fmu_outputs(items, where, masses, points, element_names, roles, base):
@@ -406,4 +433,6 @@ def network_to_dict(net: Network) -> dict:
         out["force_inputs"] = list(net.force_inputs)
     if net.fmu_outputs:
         out["fmu_outputs"] = [dict(o) for o in net.fmu_outputs]
+    if net.forces:
+        out["forces"] = dict(net.forces)
     return out

@@ -33,7 +33,10 @@ acceleration, every node's displacement, every element's deflection
 (``x_to - x_from``, positive when it lengthens) and force (the force it
 exerts on its ``to`` point, positive in compression, i.e. pushing ``to``
 up), and the *base force*: the force the network exerts on the base,
-positive in compression (pushing the base down).
+positive in compression (pushing the base down). Then, in the order the
+network lists them, its *named forces* ``"<name>_force"`` (``"neck_force"``):
+the force of the element each names, the same compression-positive force as
+``"<element>.force"``, under the name users ask for.
 
 This module is numpy-only and uses relative imports only, so that FMUs can
 ship it under a private name (see ``build_fmu.py``).
@@ -142,6 +145,9 @@ class Network:
         Extra outputs of an FMU built from this model, in order: ``{"name",
         "signal", "unit", "description"}`` with ``signal`` an output of
         :func:`linear_model` (a role may stand for its mass, ``"seat.a"``).
+    forces : dict of str to str
+        Named internal forces: name (``"neck"``) -> element name. Each becomes the
+        output ``"<name>_force"`` [N], the element's force, positive in compression.
     """
 
     name: str
@@ -156,6 +162,7 @@ class Network:
     provenance: Mapping[str, object] = field(default_factory=dict)
     units: Mapping[str, str] = field(default_factory=dict)
     fmu_outputs: Tuple[Mapping[str, str], ...] = ()
+    forces: Mapping[str, str] = field(default_factory=dict)
 
     # -- derived views -----------------------------------------------------
     @property
@@ -259,7 +266,7 @@ class SignalNames:
         ``"<base>_displacement"``, ``"<base>_velocity"``, ``"<mass>.force"``;
         outputs ``"<mass>.x"``, ``"<mass>.v"``, ``"<mass>.a"``,
         ``"<node>.y"``, ``"<element>.deflection"``, ``"<element>.force"``,
-        ``"<base>_force"``.
+        ``"<base>_force"``, ``"<name>_force"`` (the network's named forces).
     network : Network
         The network it was built from.
     """
@@ -452,6 +459,9 @@ def descriptor_model(network: Network) -> DescriptorModel:
         out_names += [f"{el.name}.deflection", f"{el.name}.force"]
     out_rows.append(-force_on[base])
     out_names.append(f"{base}_force")
+    for name, el_name in network.forces.items():
+        out_rows.append(element_force[el_name])
+        out_names.append(f"{name}_force")
     out = np.array(out_rows).reshape(len(out_names), nw)
     states = (
         tuple(f"{m}.x" for m in masses)
@@ -571,6 +581,8 @@ def mount(carrier: Network, occupant: Network, at: str, prefix: str = "body.") -
     roles.update({prefix + r: prefix + p for r, p in occupant.roles.items()})
     units = dict(carrier.units)
     units.update({prefix + k: u for k, u in occupant.units.items()})
+    forces = dict(carrier.forces)
+    forces.update({prefix + f: prefix + el for f, el in occupant.forces.items()})
     return Network(
         name=f"{carrier.name}+{occupant.name}",
         parameters=params,
@@ -582,4 +594,5 @@ def mount(carrier: Network, occupant: Network, at: str, prefix: str = "body.") -
         roles=roles,
         description=f"{occupant.name} seated on {carrier.name} at '{at}'",
         units=units,
+        forces=forces,
     )

@@ -18,20 +18,29 @@ changes (measured 17-19 us per sample and model instead of 44 on a loaded
 2-core machine: a 10-minute record at 1 kHz in about 11 s per model). The body starts at rest (a record is expected to
 start near zero; a nonzero first sample is a step at t = 0).
 
+:func:`internal_forces` gives the forces a body model names (neck, lumbar). A force is not
+a ratio to the seat motion that the acceleration can stand in for, so it is computed in
+the seat's frame instead: relative to the seat, each mass ``m`` feels the inertia force
+``-m a_seat`` (d'Alembert) and the seat stands still, so the body's own network with
+those forces as inputs and the seat held gives every element's deflection and force
+exactly, with no integration of the record (a bias in it is a constant inertia load, not
+a drift).
+
 :func:`respond` adds the ISO 2631-1 figures (:func:`bodyvib.comfort.figures.comfort_figures`)
-of seat and head and the standard's checks of the basic method
-(:func:`bodyvib.comfort.figures.basic_method_checks`) for each model, and the seat
-record's motion sickness dose value and Lee & Pradko absorbed-power estimate
-(:mod:`bodyvib.comfort.measures`) and its ISO 2631-5:2018 spinal dose
-(:mod:`bodyvib.comfort.spine`).
+of seat and head, the standard's checks of the basic method
+(:func:`bodyvib.comfort.figures.basic_method_checks`) and the figures of the named forces
+(:class:`bodyvib.comfort.forces.ForceFigures`) for each model, and the seat record's motion
+sickness dose value and Lee & Pradko absorbed-power estimate (:mod:`bodyvib.comfort.measures`)
+and its ISO 2631-5:2018 spinal dose (:mod:`bodyvib.comfort.spine`).
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Dict, Optional, Sequence
 
 import numpy as np
 
 from ..comfort.figures import ComfortFigures, basic_method_checks, check_rate, comfort_figures
+from ..comfort.forces import ForceFigures, force_figures
 from ..comfort.measures import lee_pradko_power, msdv
 from ..comfort.spine import SpinalDose, spinal_dose
 from ..models import DEFAULT_MODELS, load_model
@@ -40,7 +49,14 @@ from ..runtime.errors import BodyvibError
 from ..runtime.network import Network, linear_model
 from .signal import SeatSignal
 
-__all__ = ["DEFAULT_MODELS", "head_acceleration", "BodyResponse", "Response", "respond"]
+__all__ = [
+    "DEFAULT_MODELS",
+    "head_acceleration",
+    "internal_forces",
+    "BodyResponse",
+    "Response",
+    "respond",
+]
 
 
 def head_acceleration(body: Network, acceleration, fs: float) -> np.ndarray:
@@ -88,6 +104,60 @@ def head_acceleration(body: Network, acceleration, fs: float) -> np.ndarray:
     return x @ lm.C[out] + u @ lm.D[out]
 
 
+def internal_forces(body: Network, acceleration, fs: float) -> Dict[str, np.ndarray]:
+    """The named internal forces of a body whose seat moves with the given acceleration.
+
+    Parameters
+    ----------
+    body : Network
+        A body model; its ``forces`` (``neck``, ``lumbar``) are computed.
+    acceleration : (n,) array_like
+        Seat acceleration, m/s2, uniformly sampled, linear between samples.
+    fs : float
+        Sampling rate, Hz.
+
+    Returns
+    -------
+    dict of str to (n,) ndarray
+        ``"<name>_force"`` -> the force at the sample times, N, positive in compression,
+        from rest; empty for a body that names no force.
+
+    Raises
+    ------
+    BodyvibError
+        Non-finite samples, a bad rate.
+
+    Examples
+    --------
+    >>> body = load_model("reduced-paper")
+    >>> f = internal_forces(body, np.full(3000, 1.0), 1000.0)  # 1 m/s2, held
+    >>> round(float(f["lumbar_force"][-1]), 3)  # the whole body's inertia: 69.88 kg x 1 m/s2
+    69.88
+    """
+    if not body.forces:
+        return {}
+    a = np.asarray(acceleration, dtype=float)
+    h = 1.0 / check_rate(fs)
+    if not np.all(np.isfinite(a)):
+        raise BodyvibError("the seat acceleration has non-finite samples")
+    # the seat's frame: the seat held, an inertia force -m a_seat on every mass
+    frame = replace(body, force_inputs=tuple(body.mass_names))
+    lm = linear_model(frame)
+    rate = np.zeros_like(a)
+    rate[:-1] = np.diff(a) / h  # linear between samples
+    u = np.zeros((a.size, len(lm.inputs)))
+    du = np.zeros_like(u)
+    for m, mass in frame.mass_values().items():
+        j = lm.input_index(f"{m}.force")
+        u[:, j], du[:, j] = -mass * a, -mass * rate
+    x = Discretization(lm).run(u, du, h)
+    out = {}
+    for name in body.forces:
+        i = lm.output_index(f"{name}_force")
+        out[f"{name}_force"] = x @ lm.C[i] + u @ lm.D[i]
+    return out
+
+
 @dataclass(frozen=True)
 class BodyResponse:
     """One body's head acceleration and its figures (:func:`respond`).
@@ -102,16 +172,27 @@ class BodyResponse:
         ISO 2631-1 figures of the head acceleration.
     checks : dict
         :func:`bodyvib.comfort.figures.basic_method_checks` of the head.
+    forces : dict of str to ndarray
+        The named internal forces (:func:`internal_forces`), N, + in compression.
+    force_figures : dict of str to ForceFigures
+        Their r.m.s., peak and the peak's time (from the record's start).
     """
 
     model: str
     head_acceleration: np.ndarray
     figures: ComfortFigures
     checks: Dict[str, dict]
+    forces: Dict[str, np.ndarray] = field(default_factory=dict)
+    force_figures: Dict[str, ForceFigures] = field(default_factory=dict)
 
     def to_dict(self) -> dict:
-        """JSON-ready figures and checks (no history)."""
-        return {"model": self.model, **self.figures.to_dict(), "checks": self.checks}
+        """JSON-ready figures, checks and force figures (no history)."""
+        return {
+            "model": self.model,
+            **self.figures.to_dict(),
+            "checks": self.checks,
+            **{name: f.to_dict() for name, f in self.force_figures.items()},
+        }
 
 
 @dataclass(frozen=True)
@@ -220,6 +301,7 @@ def respond(signal: SeatSignal, models: Sequence[str] = DEFAULT_MODELS) -> Respo
     for name, net in nets:
         head = head_acceleration(net, signal.acceleration, signal.fs)
         fig = comfort_figures(head, signal.fs)
+        forces = internal_forces(net, signal.acceleration, signal.fs)
         label = _label(name)
         if label in out.bodies:
             label = name
@@ -228,5 +310,7 @@ def respond(signal: SeatSignal, models: Sequence[str] = DEFAULT_MODELS) -> Respo
             head_acceleration=head,
             figures=fig,
             checks=basic_method_checks(fig, signal.duration),
+            forces=forces,
+            force_figures={k: force_figures(f, 1.0 / signal.fs) for k, f in forces.items()},
         )
     return out

@@ -2,7 +2,8 @@
 
 :class:`~bodyvib.vehicle.road.base.Road` is the interface every road implements.
 :mod:`~bodyvib.vehicle.road.synthetic` makes roads from a short name: ISO 8608 random
-roads of classes A-H, a bump, a sine sweep; it also holds the fade-in
+roads of classes A-H, a bump, a sine sweep, and the speed humps, tables and potholes of
+:mod:`~bodyvib.vehicle.road.bumps` (``hump:h=0.075,l=3.7``); it also holds the fade-in
 :class:`~bodyvib.vehicle.road.synthetic.TaperedRoad`, the road input at a speed, and the
 table that ``Road.fmu`` carries. :mod:`~bodyvib.vehicle.road.measured` reads measured
 profiles (OpenCRG, CSV and text columns, ERD) into a :class:`~bodyvib.vehicle.road.profile.ProfileRoad`.
@@ -15,6 +16,7 @@ both take plain ``(distance, elevation)`` arrays.
 """
 
 from .base import Road
+from .bumps import SHAPES, ShapedBump, parse_bump
 from .classify import RoadClass, class_limits, class_of, classify_profile, profile_psd
 from .driven import DEFAULT_TAPER_M, RoadOptions, driven_road, is_road_file
 from .iri import (
@@ -55,6 +57,9 @@ __all__ = [
     "BumpRoad",
     "SweepRoad",
     "TaperedRoad",
+    "SHAPES",
+    "ShapedBump",
+    "parse_bump",
     "random_road",
     "road_source",
     "road_table",

@@ -27,6 +27,7 @@ from bodyvib.runtime.errors import BodyvibError
 
 from ..records import Record
 from .base import Road, RoadWarning
+from .bumps import check_bump_start, is_bump_spec, parse_bump
 from .measured import PROFILE_EXTENSIONS
 from .synthetic import ISO8608_CLASSES, TaperedRoad, make_road
 
@@ -97,20 +98,25 @@ def is_road_file(spec) -> bool:
     s = str(spec).strip()
     if (len(s) == 1 and s.upper() in ISO8608_CLASSES) or s.lower() in ("bump", "sweep"):
         return False
+    if is_bump_spec(s):
+        return False
     return os.path.splitext(s)[1].lower() in PROFILE_EXTENSIONS or os.sep in s or os.path.isfile(s)
 
 
 def road_label(spec) -> str:
-    """The road as a table shows it: a class letter, ``bump``, ``sweep`` or the file's absolute path.
+    """The road as a table shows it: a class letter, ``bump``, ``sweep``, a bump shape with all
+    its dimensions, or the file's absolute path.
 
     Examples
     --------
-    >>> road_label("c"), road_label("Bump")
-    ('C', 'bump')
+    >>> road_label("c"), road_label("Bump"), road_label("hump:l=3.7")
+    ('C', 'bump', 'hump:h=0.075,l=3.7,at=10')
     """
     s = str(spec).strip()
     if is_road_file(s):
         return os.path.abspath(s)
+    if is_bump_spec(s):
+        return parse_bump(s).name
     return s.upper() if len(s) == 1 else s.lower()
 
 
@@ -171,6 +177,7 @@ def driven_road(
             f"apply to road files; road '{spec}' is synthetic"
         )
     road = make_road(spec, speed, duration, seed=seed)
+    check_bump_start(road, opt.taper_m)
     return TaperedRoad(road, road.length, opt.taper_m)
 
 

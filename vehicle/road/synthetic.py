@@ -385,8 +385,9 @@ def make_road(spec: str, speed: float, duration: float, seed: int = 0) -> Road:
     ----------
     spec : str
         ``"A"`` ... ``"H"`` (ISO 8608 class), ``"bump"`` (3 cm, 1 m long cosine
-        bump 10 m ahead) or ``"sweep"`` (5 mm sine sweeping 0.5-20 Hz at that
-        speed over the duration).
+        bump 10 m ahead), ``"sweep"`` (5 mm sine sweeping 0.5-20 Hz at that
+        speed over the duration) or a shape of the bump library with its
+        dimensions, ``"hump:h=0.075,l=3.7"`` (:mod:`bodyvib.vehicle.road.bumps`).
     speed : float
         Vehicle speed, m/s (positive).
     duration : float
@@ -401,7 +402,8 @@ def make_road(spec: str, speed: float, duration: float, seed: int = 0) -> Road:
     Raises
     ------
     BodyvibError
-        Unknown road, non-positive speed or duration, or a negative seed.
+        Unknown road, non-positive speed or duration, a negative seed, a bad bump
+        spec or a bump that ends beyond the run's ``speed * duration``.
     """
     _check_positive(speed, "speed", "m/s")
     _check_positive(duration, "duration", "s")
@@ -409,13 +411,25 @@ def make_road(spec: str, speed: float, duration: float, seed: int = 0) -> Road:
     length = speed * duration
     if s.lower() == "bump":
         return BumpRoad()
+    from .bumps import is_bump_spec, parse_bump
+
+    if is_bump_spec(s):
+        bump = parse_bump(s)
+        if bump.end > length:
+            raise BodyvibError(
+                f"bump '{bump.name}' ends {bump.end:g} m down the road, but the road is "
+                f"{length:g} m long ({speed:g} m/s for {duration:g} s); lengthen the run "
+                "(--duration; --road-length for Road.fmu) or move the bump (at=)"
+            )
+        return bump
     if s.lower() == "sweep":
         return SweepRoad(n_start=0.5 / speed, n_stop=20.0 / speed, length=length)
     if len(s) == 1 and s.upper() in ISO8608_CLASSES:
         # one extra metre so the last sample never wraps onto the start
         return random_road(s.upper(), length=length + 1.0, seed=seed)
     raise BodyvibError(
-        f"unknown road '{spec}'; use an ISO 8608 class A-H, 'bump', 'sweep' or a road file "
+        f"unknown road '{spec}'; use an ISO 8608 class A-H, 'bump', 'sweep', a bump shape "
+        "(hump, table, sine, halfsine, pothole, e.g. 'hump:h=0.075,l=3.7') or a road file "
         "(.crg, .csv, .txt, .erd)"
     )
 

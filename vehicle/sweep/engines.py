@@ -56,6 +56,7 @@ __all__ = [
     "ENGINES",
     "ENGINE_SETTINGS",
     "FIGURES",
+    "FORCES",
     "run_engine",
     "run_batched",
     "run_spectral",
@@ -75,7 +76,11 @@ FIGURES = (
     "head_comfort",
     "seat_weighted_rms",
     "head_mtvv",
+    "neck_force_peak",
+    "lumbar_force_peak",
 )
+#: The body's named forces a sweep reports, as outputs of the seated system.
+FORCES = ("neck_force", "lumbar_force")
 #: Settings of each engine as stored in the table's ``engine_settings`` column (JSON).
 ENGINE_SETTINGS = {
     "batched": '{"method": "exact zero-order-hold-plus-slope step", "block_steps": 256}',
@@ -173,6 +178,20 @@ class _Seated:
         self.lm = linear_model(seated_system(car, body))
         self.seat = car.roles["seat"]
         self.outputs = [self.lm.output_index("body.head.a"), self.lm.output_index(f"{self.seat}.a")]
+        # the named forces, None where the body names none (a zero row, reported as NaN)
+        self.forces = [
+            self.lm.output_index(f"body.{f}") if f"body.{f}" in self.lm.outputs else None
+            for f in FORCES
+        ]
+
+    def rows(self, matrix):
+        """The output rows of ``matrix`` (C or D): head, seat, then each force (0 if none)."""
+        out = np.zeros((2 + len(FORCES),) + matrix.shape[1:])
+        out[:2] = matrix[self.outputs]
+        for r, i in enumerate(self.forces):
+            if i is not None:
+                out[2 + r] = matrix[i]
+        return out
 
 
 def _seated(case, models, cars):
@@ -207,9 +226,10 @@ def _batched_group(cases, models, cars, roads, block_steps, record):
     n = sys[0].lm.A.shape[0]
     N = cases[0].steps
     step = cases[0].step
-    M = np.empty((c, n + 2, n))
-    gz = np.empty((c, n + 2))
-    gv = np.empty((c, n + 2))
+    p = 2 + len(FORCES)  # outputs: head and seat acceleration, the forces
+    M = np.empty((c, n + p, n))
+    gz = np.empty((c, n + p))
+    gv = np.empty((c, n + p))
     road = np.empty(c, dtype=np.int64)  # cases share roads: one row per (road, seed, speed)
     rows_of: Dict[tuple, int] = {}
     zs, vs = [], []
@@ -223,12 +243,13 @@ def _batched_group(cases, models, cars, roads, block_steps, record):
             )
         iz, iv = lm.input_index("road_displacement"), lm.input_index("road_velocity")
         M[i, :n] = Phi
-        M[i, n:] = lm.C[s.outputs]
+        M[i, n:] = s.rows(lm.C)
         # in-step road z_k + v_k tau: Gamma0 on (z, v), Gamma1 on the displacement's rate v
         gz[i, :n] = G0[:, iz]
         gv[i, :n] = G0[:, iv] + G1[:, iz]
-        gz[i, n:] = lm.D[s.outputs, iz]
-        gv[i, n:] = lm.D[s.outputs, iv]
+        D = s.rows(lm.D)
+        gz[i, n:] = D[:, iz]
+        gv[i, n:] = D[:, iv]
         rkey = _road_key(cs)
         if rkey not in rows_of:
             rows_of[rkey] = len(zs)
@@ -240,19 +261,25 @@ def _batched_group(cases, models, cars, roads, block_steps, record):
     stream = ComfortStream(1.0 / step, 2 * c)
     hist = np.empty((2, c, N)) if record else None
     x = np.zeros((c, n))
-    ys_buf = np.empty((2, c, block_steps))
+    ys_buf = np.empty((p, c, block_steps))
+    force_peak = np.zeros((len(FORCES), c))  # largest magnitude so far, N
     for k0 in range(0, N, block_steps):
         k1 = min(N, k0 + block_steps)
-        ys = ys_buf if k1 - k0 == block_steps else np.empty((2, c, k1 - k0))
+        ys = ys_buf if k1 - k0 == block_steps else np.empty((p, c, k1 - k0))
         advance(M, gz, gv, z, v, road, x, k0, ys)  # compiled: one case at a time
         if not np.all(np.isfinite(ys)):
             raise BodyvibError("the response is not finite (parameters out of numerical range?)")
-        stream.update(ys.reshape(2 * c, k1 - k0))  # rows: head of each case, then seat
+        stream.update(ys[:2].reshape(2 * c, k1 - k0))  # rows: head of each case, then seat
+        np.maximum(force_peak, np.max(np.abs(ys[2:]), axis=2), out=force_peak)
         if record:
-            hist[:, :, k0:k1] = ys
+            hist[:, :, k0:k1] = ys[:2]
     fig = stream.figures()
     rows = []
     for i in range(c):
+        peaks = {
+            f"{f}_peak": float(force_peak[r, i]) if sys[i].forces[r] is not None else math.nan
+            for r, f in enumerate(FORCES)
+        }
         rows.append(
             {
                 "head_weighted_rms": float(fig["weighted_rms"][i]),
@@ -262,6 +289,7 @@ def _batched_group(cases, models, cars, roads, block_steps, record):
                 "head_comfort": fig["comfort"][i],
                 "seat_weighted_rms": float(fig["weighted_rms"][c + i]),
                 "head_mtvv": float(fig["mtvv"][i]),
+                **peaks,
                 "error": None,
             }
         )
@@ -418,6 +446,8 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
                 "head_comfort": comfort_category(head),
                 "seat_weighted_rms": seat,
                 "head_mtvv": float("nan"),
+                "neck_force_peak": float("nan"),  # a peak needs a record
+                "lumbar_force_peak": float("nan"),
                 "error": None,
             }
     return rows
@@ -500,6 +530,7 @@ def _cosim_case(cs, folder, built, record, cosimulate, open_fmu):
             "head_comfort": fig["comfort"][0],
             "seat_weighted_rms": float(fig["weighted_rms"][1]),
             "head_mtvv": float(fig["mtvv"][0]),
+            **{f"{f}_peak": float(np.max(np.abs(run[f]))) for f in FORCES},
             "error": None,
         }
         return row, (

@@ -1,8 +1,8 @@
 """The batched engine's time loop, compiled: the exact step of many cases, case by case.
 
 ``[x_{k+1}; y_k] = M x_k + g_z z_k + g_v v_k`` for each case ``i`` of a block,
-``M = [Phi; C_out]`` (``(n + 2) x n``), over ``steps`` samples, keeping the two
-outputs (head and seat acceleration). Compiled by numba (no fast-math: each
+``M = [Phi; C_out]`` (``(n + p) x n``), over ``steps`` samples, keeping the ``p``
+outputs (head and seat acceleration, the neck and lumbar forces). Compiled by numba (no fast-math: each
 sum in a fixed order, no contraction), one case at a time with its state in
 registers: a case's history is the same bits whatever other cases share its
 task. The Python loop it replaces (one batched ``matmul`` per step) took 64 %
@@ -38,8 +38,8 @@ def _kernel():
                         out[r] = acc + (gz[i, r] * zk + gv[i, r] * vk)
                     for q in range(n):
                         x[i, q] = out[q]
-                    ys[0, i, j] = out[n]
-                    ys[1, i, j] = out[n + 1]
+                    for r in range(m - n):
+                        ys[r, i, j] = out[n + r]
 
         _compiled = kernel
     return _compiled
@@ -50,9 +50,9 @@ def advance(M, gz, gv, z, v, road, x, k0: int, ys) -> None:
 
     Parameters
     ----------
-    M : (cases, n + 2, n) ndarray
+    M : (cases, n + p, n) ndarray
         ``[Phi; C_out]`` of each case.
-    gz, gv : (cases, n + 2) ndarray
+    gz, gv : (cases, n + p) ndarray
         Input columns of the road displacement and velocity (with the in-step slope).
     z, v : (roads, samples) ndarray
         Road displacement (m) and velocity (m/s) at every sample.
@@ -61,8 +61,8 @@ def advance(M, gz, gv, z, v, road, x, k0: int, ys) -> None:
     x : (cases, n) ndarray
         States at sample ``k0``; updated in place.
     k0 : int
-    ys : (2, cases, steps) ndarray
-        Filled with the two outputs at samples ``k0 ... k0 + steps - 1``.
+    ys : (p, cases, steps) ndarray
+        Filled with the ``p`` outputs at samples ``k0 ... k0 + steps - 1``.
 
     Examples
     --------

@@ -1,4 +1,8 @@
-"""Comfort maps of a sweep: head Wk r.m.s. over speed and road class, on the ISO 2631-1 bands."""
+"""Plots of a sweep: comfort maps over speed and road, and bump studies over speed.
+
+:func:`plot_sweep` picks the plot a table asks for: :func:`plot_bump_study` when every
+road is a bump shape (``hump:h=0.075,l=3.7``), :func:`plot_comfort_maps` otherwise.
+"""
 
 from typing import Optional
 
@@ -7,7 +11,15 @@ import numpy as np
 from bodyvib.comfort.figures import COMFORT_SCALE
 from bodyvib.runtime.errors import BodyvibError
 
-__all__ = ["plot_comfort_maps"]
+__all__ = ["plot_comfort_maps", "plot_bump_study", "plot_sweep", "BUMP_PANELS"]
+
+#: The bump study's panels: column and axis label.
+BUMP_PANELS = (
+    ("head_peak", "head peak weighted acceleration [m/s2]"),
+    ("head_vdv", "head VDV [m/s^1.75]"),
+    ("neck_force_peak", "neck force peak |F| [N]"),
+    ("lumbar_force_peak", "lumbar force peak |F| [N]"),
+)
 
 _BAND_COLOURS = ("#2ca02c", "#9acd32", "#ffd700", "#ff8c00", "#e34a33", "#b30000")
 
@@ -79,5 +91,92 @@ def plot_comfort_maps(df, path, figure: str = "head_weighted_rms", title: Option
         ax.legend(fontsize=7, loc="lower right")
     engines = ", ".join(sorted(set(ok["engine"])))
     fig.suptitle(title or f"ISO 2631-1 comfort map ({engines} engine)", fontsize=10)
+    fig.tight_layout()
+    save_figure(fig, path)
+
+
+def _successful(df):
+    return df[df["error"].isna()]
+
+
+def plot_sweep(df, path, title: Optional[str] = None) -> None:
+    """The plot of a sweep table: a bump study if every road is a bump shape, else comfort maps.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        A sweep table (:func:`bodyvib.vehicle.sweep.run.run_sweep`).
+    path : str
+        Plot file (.png, .pdf or .svg).
+    title : str, optional
+
+    Raises
+    ------
+    BodyvibError
+        What the chosen plot refuses.
+    """
+    from ..road.bumps import is_bump_spec
+
+    roads = set(_successful(df)["road"])
+    if roads and all(is_bump_spec(r) for r in roads):
+        plot_bump_study(df, path, title=title)
+    else:
+        plot_comfort_maps(df, path, title=title)
+
+
+def plot_bump_study(df, path, title: Optional[str] = None) -> None:
+    """A bump study: head peak, VDV and the neck and lumbar force peaks against speed.
+
+    One panel per figure of :data:`BUMP_PANELS`, one curve per bump (a colour each) and,
+    when the table has several, per body and car (a line style each); where a curve holds
+    several cases per speed (parameter sets), it is their median.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        A sweep table whose roads are bump shapes.
+    path : str
+        Plot file (.png, .pdf or .svg).
+    title : str, optional
+
+    Raises
+    ------
+    BodyvibError
+        No successful case, or a bad file extension.
+    """
+    from bodyvib.plotting import new_figure, save_figure
+
+    ok = _successful(df)
+    if ok.empty:
+        raise BodyvibError("no successful case to plot")
+    others = [k for k in ("body", "car") if ok[k].nunique() > 1]
+    roads = sorted(set(ok["road"]))
+    kinds = sorted(set(map(tuple, ok[others].to_numpy()))) if others else [()]
+    colours = {r: f"C{i % 10}" for i, r in enumerate(roads)}  # a colour per bump
+    styles = {k: ("-", "--", ":", "-.")[i % 4] for i, k in enumerate(kinds)}  # a line per body
+    fig, axes = new_figure(2, 2, figsize=(10.4, 7.6), squeeze=False)
+    for ax, (column, label) in zip(axes.flat, BUMP_PANELS):
+        for group, g in ok.groupby(["road"] + others, sort=True):
+            group = group if isinstance(group, tuple) else (group,)
+            y = g.groupby("speed_m_s")[column].median()
+            if np.all(np.isnan(y.to_numpy(dtype=float))):
+                continue
+            ax.plot(
+                y.index,
+                y.to_numpy(dtype=float),
+                marker="o",
+                ms=3,
+                color=colours[group[0]],
+                ls=styles[tuple(group[1:])],
+                label=", ".join(group),
+            )
+        ax.set_xlabel("speed [m/s]")
+        ax.set_ylabel(label)
+        ax.set_ylim(bottom=0)
+        ax.grid(True, alpha=0.3)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7)
+    engines = ", ".join(sorted(set(ok["engine"])))
+    fig.suptitle(title or f"bump study ({engines} engine)", fontsize=10)
     fig.tight_layout()
     save_figure(fig, path)

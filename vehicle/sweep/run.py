@@ -23,7 +23,8 @@ in the schema, see :mod:`bodyvib.vehicle.sweep.table`):
 
 ================== ===========================================================
 case_id, case_key  position in the spec; hash identifying the case
-road, seed         ISO 8608 class, ``bump`` or ``sweep``; random-road seed
+road, seed         ISO 8608 class, ``bump``, ``sweep``, a bump shape with its
+                   dimensions or a road file; random-road seed
 speed_m_s          vehicle speed, m/s
 duration_s, step_s run length and time step, s
 body, body_model   body entry name; shipped model name or parameter file
@@ -37,6 +38,9 @@ head_comfort       ISO 2631-1 Annex C words for the head's weighted r.m.s.
 seat_weighted_rms  seat (the car's seat point) Wk-weighted r.m.s., m/s2
 head_mtvv          head maximum transient vibration value (largest 1 s running
                    r.m.s.), m/s2 (NaN for ``spectral``)
+neck_force_peak    largest magnitude of the body's neck force, N (NaN for
+                   ``spectral`` and for a body that names no neck force)
+lumbar_force_peak  the same for the lumbar force, N
 engine             ``batched``, ``spectral`` or ``cosim``
 engine_settings    the engine's settings (JSON)
 error              why the case failed (empty when it did not)

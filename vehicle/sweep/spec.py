@@ -5,7 +5,8 @@ value or a list; the cases are all combinations (the Cartesian product, in
 the order road, seed, speed, duration, step, body, car)::
 
     {
-      "road": ["A", "B", "C", "D", "E"],   ISO 8608 class A-H, "bump", "sweep" or a road file
+      "road": ["A", "B", "C", "D", "E"],   ISO 8608 class A-H, "bump", "sweep", a bump shape
+                                           ("hump:h=0.075,l=3.7", bodyvib.vehicle.road.bumps) or a road file
                                            (.crg, .csv, .txt, .erd; relative to the working folder)
       "road_options": {"taper": 5},        how roads are driven: taper (m), track (m), units,
                                            envelope, repeat, contact (as the --road-* options)
@@ -300,6 +301,8 @@ def grid_spec(
     --------
     >>> grid_spec(["road=C,D", "speed=10,20"])["speed"]
     [10.0, 20.0]
+    >>> grid_spec(["road=hump:h=0.075,l=3.7,hump:h=0.1", "speed=5"])["road"]
+    ['hump:h=0.075,l=3.7', 'hump:h=0.1']
     """
     spec = {"duration": duration, "step": step}
     if road_options:
@@ -319,6 +322,8 @@ def grid_spec(
             raise BodyvibError(f"--grid key '{key}' is given twice")
         seen.add(key)
         parts = [v.strip() for v in values.split(",") if v.strip()]
+        if key == "road":
+            parts = _join_bump_keys(parts)
         if key == "seed" and any(".." in v for v in parts):
             parts = [v if ".." in v else _grid_number(v, key, values) for v in parts]
         elif key in ("speed", "duration", "step", "seed"):
@@ -333,6 +338,20 @@ def grid_spec(
             )
         spec[key] = parts
     return spec
+
+
+def _join_bump_keys(parts: List[str]) -> List[str]:
+    """Roads of a ``--grid`` item: a ``key=value`` part belongs to the bump before it.
+
+    ``hump:h=0.075,l=3.7,table`` is two roads, ``hump:h=0.075,l=3.7`` and ``table``.
+    """
+    roads: List[str] = []
+    for p in parts:
+        if roads and "=" in p and ":" not in p and ":" in roads[-1]:
+            roads[-1] += "," + p
+        else:
+            roads.append(p)
+    return roads
 
 
 def _grid_number(v, key, values):

@@ -67,6 +67,8 @@ FIGURE_UNITS = {
     "head_comfort": "",
     "seat_weighted_rms": "m/s2",
     "head_mtvv": "m/s2",
+    "neck_force_peak": "N",
+    "lumbar_force_peak": "N",
 }
 #: Columns after the figures.
 TRAILING_COLUMNS = ("engine", "engine_settings", "error", "bodyvib_version", "spec_hash", "run_id")
