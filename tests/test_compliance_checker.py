@@ -36,7 +36,7 @@ pytestmark = [
 
 def _libpython():
     """The shared libpython of this interpreter: pythonfmu's binary does not link it, so a C
-    host preloads it (as pythonfmu's README says)."""
+    host preloads it (as pythonfmu's own documentation says)."""
     return os.path.join(sysconfig.get_config_var("LIBDIR"), sysconfig.get_config_var("LDLIBRARY"))
 
 
