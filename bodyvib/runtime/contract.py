@@ -443,9 +443,13 @@ def road_inputs(network: Network) -> Tuple[str, ...]:
 
     Examples
     --------
-    >>> from bodyvib.vehicle.quarter_car import load_car
-    >>> road_inputs(load_car("half-car"))
-    ('road_displacement_front', 'road_velocity_front', 'road_displacement_rear', 'road_velocity_rear')
+    >>> from bodyvib.runtime.modelfile import network_from_dict
+    >>> car = network_from_dict({"name": "two-wheel", "base": ["road_front", "road_rear"],
+    ...     "parameters": {"m": 40.0, "k": 2e5}, "masses": {"wf": "m", "wr": "m"},
+    ...     "elements": [{"name": "tf", "kind": "spring", "from": "road_front", "to": "wf", "k": "k"},
+    ...                  {"name": "tr", "kind": "spring", "from": "road_rear", "to": "wr", "k": "k"}]})
+    >>> road_inputs(car)[:2], road_inputs(car)[2:]
+    (('road_displacement_front', 'road_velocity_front'), ('road_displacement_rear', 'road_velocity_rear'))
     """
     names = []
     for base in network.bases:
