@@ -1,4 +1,4 @@
-"""The project's FMUs: HumanBody3DOF, HumanBodyISO7962, QuarterCar and Road.
+"""The project's FMUs: HumanBody3DOF, HumanBodyISO7962, QuarterCar, HalfCar and Road.
 
 ``python build_fmu.py`` and ``bodyvib build`` build these with
 :func:`bodyvib.fmu.build.build`, pythonfmu or native (``Road``: a road of
@@ -25,6 +25,7 @@ __all__ = [
     "ROAD_DEFAULTS",
     "build_fmus",
     "build_project_fmu",
+    "car_fmu_name",
     "fmu_road",
     "fmu_road_length",
     "fmu_road_of",
@@ -66,6 +67,13 @@ FMUS = {
         "quarter-car",
         "Quarter car (sprung mass, suspension, unsprung mass, tire): road and seat force "
         "in, seat motion, suspension deflection and tire force out; exact discretization",
+    ),
+    "HalfCar": (
+        "car",
+        "half-car",
+        "Half car (body bounce and pitch on front and rear suspensions, unsprung masses and "
+        "tires): front and rear road and seat force in, seat motion, bounce, pitch, "
+        "suspension deflections and tire forces out; exact discretization",
     ),
     "Road": (
         "source",
@@ -297,7 +305,8 @@ def build_fmus(
         Parameter file (or shipped model name) baked into ``HumanBody3DOF.fmu``;
         the paper's Table 2 (``reduced-paper``) by default.
     car : str
-        Vehicle parameter file or shipped name for ``QuarterCar.fmu``.
+        Vehicle parameter file or shipped name for ``QuarterCar.fmu`` (a car driven at
+        one road point) or ``HalfCar.fmu`` (at a front and a rear one).
     names : iterable of str, optional
         Which FMUs (all of :data:`FMUS` by default).
     echo : callable, optional
@@ -333,7 +342,7 @@ def build_fmus(
     ['HumanBody3DOF', 'HumanBodyISO7962', 'QuarterCar']
     """
     names = list(names or FMUS)
-    chosen = {"HumanBody3DOF": params, "QuarterCar": car}
+    chosen = {"HumanBody3DOF": params, car_fmu_name(car): car}
     road = dict(ROAD_DEFAULTS, **(road or {}))
     source = None
     for n in names:  # refuse a bad model (or road) before building anything
@@ -384,6 +393,32 @@ def build_fmus(
         for key in out:
             echo(f"wrote {out[key]} ({what[key]}; fmpy validate: no problems)")
     return out
+
+
+def car_fmu_name(car: str = "quarter-car") -> str:
+    """The FMU a vehicle model is built as: ``HalfCar`` for a car with axles, else ``QuarterCar``.
+
+    Parameters
+    ----------
+    car : str
+        Shipped vehicle name or parameter file.
+
+    Returns
+    -------
+    str
+        A key of :data:`FMUS`.
+
+    Raises
+    ------
+    BodyvibError
+        What :func:`bodyvib.vehicle.quarter_car.load_car` refuses.
+
+    Examples
+    --------
+    >>> car_fmu_name("quarter-car"), car_fmu_name("half-car")
+    ('QuarterCar', 'HalfCar')
+    """
+    return "HalfCar" if load_car(car).extra_bases else "QuarterCar"
 
 
 def temporary_fmu_dir() -> str:
