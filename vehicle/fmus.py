@@ -1,4 +1,4 @@
-"""The project's FMUs: HumanBody3DOF, HumanBodyISO7962, QuarterCar, HalfCar and Road.
+"""The project's FMUs: HumanBody3DOF, HumanBodyISO7962, QuarterCar, HalfCar, Road, RoadFrontRear.
 
 ``python build_fmu.py`` and ``bodyvib build`` build these with
 :func:`bodyvib.fmu.build.build`, pythonfmu or native (``Road``: a road of
@@ -18,9 +18,17 @@ from bodyvib.runtime.errors import BodyvibError
 
 from .quarter_car import load_car
 from .road.driven import is_road_file
-from .road.synthetic import ISO8608_CLASSES, TaperedRoad, make_road, random_road, road_source
+from .road.synthetic import (
+    ISO8608_CLASSES,
+    TaperedRoad,
+    axle_road_source,
+    make_road,
+    random_road,
+    road_source,
+)
 
 __all__ = [
+    "AXLE_ROAD_CAR",
     "FMUS",
     "ROAD_DEFAULTS",
     "build_fmus",
@@ -81,7 +89,17 @@ FMUS = {
         "Road profile under a wheel driving at a speed (a parameter): road_displacement and "
         "its exact time derivative road_velocity, from a table built by bodyvib.vehicle.road",
     ),
+    "RoadFrontRear": (
+        "source",
+        "C",
+        "Road profile under the front and the rear wheel of a half car (the rear a wheelbase "
+        "behind) driving at a speed: road_displacement_front/_rear and their exact time "
+        "derivatives road_velocity_front/_rear, from a table built by bodyvib.vehicle.road",
+    ),
 }
+
+#: The car whose wheelbase RoadFrontRear.fmu is built for, unless a half car is chosen.
+AXLE_ROAD_CAR = "half-car"
 
 
 def fmu_road(
@@ -186,6 +204,24 @@ def _road_source(**options):
     return road_source(*fmu_road_of(r), r["speed"])
 
 
+def _source(name: str, car: Optional[str] = None, **options):
+    """The source of a road FMU of :data:`FMUS`: Road.fmu's, or RoadFrontRear.fmu's for the
+    wheelbase of ``car`` (a car with axles; :data:`AXLE_ROAD_CAR` by default)."""
+    if name != "RoadFrontRear":
+        return _road_source(**options)
+    from .quarter_car import wheel_offsets
+
+    offsets = wheel_offsets(load_car(car or AXLE_ROAD_CAR))
+    if len(offsets) != 2:
+        raise BodyvibError(
+            f"RoadFrontRear.fmu serves a car with a front and a rear road point; "
+            f"'{car}' has {len(offsets)}"
+        )
+    r = dict(ROAD_DEFAULTS, **options)
+    road, length = fmu_road_of(r)
+    return axle_road_source(road, length, offsets[1], r["speed"])
+
+
 def load_fmu_model(name: str, model: Optional[str] = None):
     """The model an FMU of :data:`FMUS` bakes in.
 
@@ -269,7 +305,7 @@ def build_project_fmu(
         raise BodyvibError(f"unknown FMU '{name}'; FMUs are {', '.join(FMUS)}")
     kind, _, description = FMUS[name]
     if kind == "source":
-        model = _road_source(**dict(road or {}, **({"road": model} if model else {})))
+        model = _source(name, **dict(road or {}, **({"road": model} if model else {})))
     else:
         model = load_fmu_model(name, model)
     return build(
@@ -344,10 +380,11 @@ def build_fmus(
     names = list(names or FMUS)
     chosen = {"HumanBody3DOF": params, car_fmu_name(car): car}
     road = dict(ROAD_DEFAULTS, **(road or {}))
-    source = None
+    half_car = car if car_fmu_name(car) == "HalfCar" else None
+    sources = {}
     for n in names:  # refuse a bad model (or road) before building anything
         if n in FMUS and FMUS[n][0] == "source":
-            source = _road_source(**road)  # tabulated once for every FMI version
+            sources[n] = _source(n, half_car, **road)  # tabulated once for every FMI version
         else:
             load_fmu_model(n, chosen.get(n))
     if native:
@@ -364,7 +401,7 @@ def build_fmus(
                 is_source = FMUS[n][0] == "source"
                 if is_source:
                     out[key] = build(
-                        source,
+                        sources[n],
                         "source",
                         n,
                         FMUS[n][2],

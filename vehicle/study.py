@@ -494,7 +494,7 @@ def _wheels(car_fmu, car_net):
         raise BodyvibError(
             f"car FMU '{car_fmu}' has {len(pairs)} road inputs but carries no bodyvib "
             "model, so the distance between its wheels is unknown; use a car FMU built "
-            "by bodyvib (bodyvib build HalfCar)"
+            "by bodyvib (bodyvib build --fmus HalfCar)"
         )
     return (0.0,)
 
