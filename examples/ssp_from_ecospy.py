@@ -21,7 +21,9 @@ __all__ = ["PARAMETER_SET", "SIGNALS", "run"]
 PARAMETER_SET = "QuarterCarWithOccupant"
 
 
-def run(ssp_path=DEFAULT_SSP, duration=30.0, step=1e-3, signals=SIGNALS):
+def run(
+    ssp_path=DEFAULT_SSP, duration=30.0, step=1e-3, signals=SIGNALS, parameter_set=PARAMETER_SET
+):
     """Simulate the SSP in Ecos.
 
     Parameters
@@ -34,6 +36,8 @@ def run(ssp_path=DEFAULT_SSP, duration=30.0, step=1e-3, signals=SIGNALS):
         Communication step, s: Ecos takes it from here, not from the SSP.
     signals : sequence of (str, str)
         Component and variable names to record.
+    parameter_set : str
+        Name of the SSP's parameter set (``"HalfCarWithOccupant"`` for the half car's).
 
     Returns
     -------
@@ -45,7 +49,7 @@ def run(ssp_path=DEFAULT_SSP, duration=30.0, step=1e-3, signals=SIGNALS):
     names = [f"{c}::{v}" for c, v in signals]
     sim = EcosSimulation(step_size=step, ssp_path=str(ssp_path))
     try:
-        if not sim.init(parameter_set=PARAMETER_SET):
+        if not sim.init(parameter_set=parameter_set):
             raise RuntimeError("Ecos could not initialize the SSP")
         n = int(round(duration / step))
         rows = np.empty((n + 1, len(names)))

@@ -72,6 +72,17 @@ FMUS = {
             "suspension_deflection": "suspension.deflection",
         },
     ),
+    "HalfCar": (
+        lambda: load_car("half-car"),
+        "car",
+        "road_displacement_front",
+        "road_velocity_front",
+        {
+            "seat_displacement": "seat.x",
+            "pitch": "body.theta",
+            "tire_force_rear": "tire_rear.force",
+        },
+    ),
 }
 CASES = [(name, fmi) for name in FMUS for fmi in (2, 3)]
 T_END, DT, HOLD, F_HZ, AMP = 0.5, 1e-3, 5, 3.0, 0.01

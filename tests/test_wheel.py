@@ -190,11 +190,14 @@ def test_installed_wheel_builds_fmus_and_runs_the_check(wheel, tmp_path):
     )
     assert build.returncode == 0, build.stdout + build.stderr
     assert sorted(p.name for p in (work / "fmus").iterdir()) == [
+        "HalfCar.fmu",
+        "HalfCarWithOccupant.ssp",
         "HumanBody3DOF.fmu",
         "HumanBodyISO7962.fmu",
         "QuarterCar.fmu",
         "QuarterCarWithOccupant.ssp",
         "Road.fmu",
+        "RoadFrontRear.fmu",
     ]
     check = subprocess.run(
         [exe, "check", "--duration", "2", "--quiet"],

@@ -60,6 +60,7 @@ from .signals import (
     MASTER_SIGNALS,
     OPTIONAL_SIGNALS,
     SIGNALS,
+    car_variable,
     header,
 )
 
@@ -73,6 +74,7 @@ __all__ = [
     "Master",
     "Slave",
     "open_fmu",
+    "road_pairs",
     "model_from_fmu",
     "cosimulate",
     "write_csv",
@@ -124,8 +126,39 @@ _OPTIONS = {"body": "--body", "car": "--car-fmu"}
 def _missing(md, kind):
     inputs, outputs = _INTERFACES[kind]
     have = {v.name: v.causality for v in md.modelVariables}
+    if kind == "car" and road_pairs(have):  # a car driven at several road points
+        inputs = [n for pair in road_pairs(have) for n in pair] + list(inputs[2:])
+        outputs = [n if n in have or f"{n}_front" not in have else f"{n}_front" for n in outputs]
     return [n for n in inputs if have.get(n) != "input"] + [
         n for n in outputs if have.get(n) != "output"
+    ]
+
+
+def road_pairs(variables):
+    """The road inputs of a car FMU, as (displacement, velocity) pairs in declaration order.
+
+    Parameters
+    ----------
+    variables : iterable of str
+        The FMU's variable names, in value-reference order.
+
+    Returns
+    -------
+    list of (str, str)
+        ``[("road_displacement", "road_velocity")]`` for a quarter car; a pair per
+        axle (``road_displacement_front``, ``road_velocity_front``, then the rear) for
+        a half car (:func:`bodyvib.runtime.contract.road_inputs`).
+
+    Examples
+    --------
+    >>> road_pairs(["road_displacement_front", "road_velocity_front", "seat_force"])
+    [('road_displacement_front', 'road_velocity_front')]
+    """
+    names = list(variables)
+    return [
+        (n, "road_velocity" + n[len("road_displacement") :])
+        for n in names
+        if n == "road_displacement" or n.startswith("road_displacement_")
     ]
 
 
@@ -454,11 +487,15 @@ class Master:
         self.wall_s = 0.0
         self._car, self._body = car, body
         self._has_rate = "seat_force_rate" in car.vr
-        self._car_in = [car.vr[k] for k in CAR_INPUTS] + (
-            [car.vr["seat_force_rate"]] if self._has_rate else []
+        roads = road_pairs(car.vr)
+        self.roads = len(roads)
+        self._car_in = (
+            [car.vr[n] for pair in roads for n in pair]
+            + [car.vr["seat_force"]]
+            + ([car.vr["seat_force_rate"]] if self._has_rate else [])
         )
         # what is recorded, in the signal table's order (seat motion first: read after a step)
-        self._car_out = [car.vr[s.variable] for s in CAR_SIGNALS]
+        self._car_out = [car.vr[car_variable(s, car.vr)] for s in CAR_SIGNALS]
         self._body_in = [body.vr[k] for k in BODY_INPUTS]
         # F, a1, x1, x2, then the named forces the FMU has (the others are recorded as NaN)
         self._body_out = [body.vr[s.variable] for s in BODY_SIGNALS if s.variable in body.vr]
@@ -475,8 +512,10 @@ class Master:
 
         Parameters
         ----------
-        road_displacement, road_velocity : (m,) array_like
-            Road input at the next ``m`` communication points (m, m/s).
+        road_displacement, road_velocity : (m,) or (m, wheels) array_like
+            Road input at the next ``m`` communication points (m, m/s); a car with
+            several road points (a half car) takes a column per point, in the order of
+            its road inputs (:func:`road_pairs`).
 
         Returns
         -------
@@ -493,16 +532,24 @@ class Master:
         """
         z = np.asarray(road_displacement, dtype=float)
         v = np.asarray(road_velocity, dtype=float)
-        if z.shape != v.shape or z.ndim != 1:
-            raise BodyvibError("road displacement and velocity must be 1-D arrays of equal length")
-        if self.k + z.size > self.n:
+        nr = self.roads
+        if z.ndim == 1 and nr == 1:
+            z, v = z[:, None], v[:, None]
+        if z.shape != v.shape or z.ndim != 2 or z.shape[1] != nr:
             raise BodyvibError(
-                f"the run has {self.n} communication points; {self.k + z.size} given"
+                "road displacement and velocity must be arrays of equal shape, "
+                f"(samples,) or (samples, {nr}): a column per road input pair of the car"
             )
+        m = z.shape[0]
+        if self.k + m > self.n:
+            raise BodyvibError(f"the run has {self.n} communication points; {self.k + m} given")
         if not (np.all(np.isfinite(z)) and np.all(np.isfinite(v))):
             raise BodyvibError("road input is not finite; check the road profile")
         t0 = time.perf_counter()
-        rows = [None] * z.size
+        rows = [None] * m
+        # the car's road inputs at each point: displacement and velocity of each pair
+        road = np.empty((m, 2 * nr))
+        road[:, 0::2], road[:, 1::2] = z, v
         h, last, extrapolate, has_rate = self.h, self.n - 1, self.extrapolate, self._has_rate
         cf, bf = self._car.fmu, self._body.fmu
         car_in, car_out, body_in, body_out = (
@@ -518,18 +565,18 @@ class Master:
         F = B[0]
         k = self.k
         try:
-            for j, (zk, vk) in enumerate(zip(z.tolist(), v.tolist())):
+            for j, rk in enumerate(road.tolist()):
                 k = self.k + j
                 if k == last:  # the last point: the car's outputs, no step
-                    c_set(car_in, [zk, vk, F] + ([0.0] if has_rate else []))
+                    c_set(car_in, rk + [F] + ([0.0] if has_rate else []))
                     rows[j] = list(c_get(car_out)) + B
                     break
                 t = k * h
                 dF = (F - F_prev) if extrapolate else 0.0
                 if has_rate:
-                    c_set(car_in, [zk, vk, F, dF / h])
+                    c_set(car_in, rk + [F, dF / h])
                 else:
-                    c_set(car_in, [zk, vk, F + 0.5 * dF])
+                    c_set(car_in, rk + [F + 0.5 * dF])
                 # car outputs at t_k with the inputs of t_k (tire force and seat
                 # acceleration are feedthrough of road and seat force)
                 xs, vs, a_s, sd, tf = c_get(car_out)
@@ -551,8 +598,8 @@ class Master:
         finally:
             self.wall_s += time.perf_counter() - t0
         self._B, self._F_prev = B, F_prev
-        self.k += z.size
-        return np.array(rows, dtype=float).reshape(z.size, len(MASTER_SIGNALS))
+        self.k += m
+        return np.array(rows, dtype=float).reshape(m, len(MASTER_SIGNALS))
 
 
 def cosimulate(
@@ -574,8 +621,9 @@ def cosimulate(
     ----------
     car, body : Slave
         Initialized FMUs (:func:`open_fmu`), at rest.
-    road_displacement, road_velocity : (n,) array_like
-        Road input at ``t_k = k * step``, m and m/s.
+    road_displacement, road_velocity : (n,) or (n, wheels) array_like
+        Road input at ``t_k = k * step``, m and m/s (a column per road input pair of
+        the car; the result's road columns are the first pair's).
     step : float
         Communication step h, s.
     extrapolate : bool
@@ -601,10 +649,12 @@ def cosimulate(
     z = np.asarray(road_displacement, dtype=float)
     v = np.asarray(road_velocity, dtype=float)
     check_step(step, "communication step")
-    if z.shape != v.shape or z.ndim != 1 or z.size < 2:
-        raise BodyvibError("road displacement and velocity must be 1-D arrays of equal length >= 2")
-    master = Master(car, body, step, z.size, extrapolate)
-    n = z.size
+    if z.shape != v.shape or z.ndim not in (1, 2) or z.shape[0] < 2:
+        raise BodyvibError(
+            "road displacement and velocity must be arrays of equal length (and shape), >= 2 samples"
+        )
+    n = z.shape[0]
+    master = Master(car, body, step, n, extrapolate)
     bar = progress_bar(n - 1, progress, "co-simulation")
     parts = []
     try:
@@ -616,7 +666,9 @@ def cosimulate(
         if bar is not None:
             bar.close()
     out = np.concatenate(parts)
-    signals = {"time": np.arange(n) * master.h, "road_displacement": z, "road_velocity": v}
+    front = (z, v) if z.ndim == 1 else (z[:, 0], v[:, 0])
+    signals = {"time": np.arange(n) * master.h, "road_displacement": front[0]}
+    signals["road_velocity"] = front[1]
     signals.update(zip(MASTER_SIGNALS, out.T))
     return {s.name: signals[s.name] for s in SIGNALS}
 

@@ -1,4 +1,4 @@
-"""The project's FMUs: HumanBody3DOF, HumanBodyISO7962, QuarterCar and Road.
+"""The project's FMUs: HumanBody3DOF, HumanBodyISO7962, QuarterCar, HalfCar, Road, RoadFrontRear.
 
 ``python build_fmu.py`` and ``bodyvib build`` build these with
 :func:`bodyvib.fmu.build.build`, pythonfmu or native (``Road``: a road of
@@ -19,13 +19,22 @@ from bodyvib.runtime.errors import BodyvibError
 from .quarter_car import load_car
 from .road.bumps import check_bump_start
 from .road.driven import RoadOptions, file_road, is_road_file
-from .road.synthetic import ISO8608_CLASSES, TaperedRoad, make_road, random_road, road_source
+from .road.synthetic import (
+    ISO8608_CLASSES,
+    TaperedRoad,
+    axle_road_source,
+    make_road,
+    random_road,
+    road_source,
+)
 
 __all__ = [
+    "AXLE_ROAD_CAR",
     "FMUS",
     "ROAD_DEFAULTS",
     "build_fmus",
     "build_project_fmu",
+    "car_fmu_name",
     "fmu_road",
     "fmu_road_length",
     "fmu_road_of",
@@ -69,13 +78,30 @@ FMUS = {
         "Quarter car (sprung mass, suspension, unsprung mass, tire): road and seat force "
         "in, seat motion, suspension deflection and tire force out; exact discretization",
     ),
+    "HalfCar": (
+        "car",
+        "half-car",
+        "Half car (body bounce and pitch on front and rear suspensions, unsprung masses and "
+        "tires): front and rear road and seat force in, seat motion, bounce, pitch, "
+        "suspension deflections and tire forces out; exact discretization",
+    ),
     "Road": (
         "source",
         "C",
         "Road profile under a wheel driving at a speed (a parameter): road_displacement and "
         "its exact time derivative road_velocity, from a table built by bodyvib.vehicle.road",
     ),
+    "RoadFrontRear": (
+        "source",
+        "C",
+        "Road profile under the front and the rear wheel of a half car (the rear a wheelbase "
+        "behind) driving at a speed: road_displacement_front/_rear and their exact time "
+        "derivatives road_velocity_front/_rear, from a table built by bodyvib.vehicle.road",
+    ),
 }
+
+#: The car whose wheelbase RoadFrontRear.fmu is built for, unless a half car is chosen.
+AXLE_ROAD_CAR = "half-car"
 
 
 def fmu_road(
@@ -189,6 +215,24 @@ def _road_source(**options):
     return road_source(*fmu_road_of(r), r["speed"])
 
 
+def _source(name: str, car: Optional[str] = None, **options):
+    """The source of a road FMU of :data:`FMUS`: Road.fmu's, or RoadFrontRear.fmu's for the
+    wheelbase of ``car`` (a car with axles; :data:`AXLE_ROAD_CAR` by default)."""
+    if name != "RoadFrontRear":
+        return _road_source(**options)
+    from .quarter_car import wheel_offsets
+
+    offsets = wheel_offsets(load_car(car or AXLE_ROAD_CAR))
+    if len(offsets) != 2:
+        raise BodyvibError(
+            f"RoadFrontRear.fmu serves a car with a front and a rear road point; "
+            f"'{car}' has {len(offsets)}"
+        )
+    r = dict(ROAD_DEFAULTS, **options)
+    road, length = fmu_road_of(r)
+    return axle_road_source(road, length, offsets[1], r["speed"])
+
+
 def load_fmu_model(name: str, model: Optional[str] = None):
     """The model an FMU of :data:`FMUS` bakes in.
 
@@ -272,7 +316,7 @@ def build_project_fmu(
         raise BodyvibError(f"unknown FMU '{name}'; FMUs are {', '.join(FMUS)}")
     kind, _, description = FMUS[name]
     if kind == "source":
-        model = _road_source(**dict(road or {}, **({"road": model} if model else {})))
+        model = _source(name, **dict(road or {}, **({"road": model} if model else {})))
     else:
         model = load_fmu_model(name, model)
     return build(
@@ -308,7 +352,8 @@ def build_fmus(
         Parameter file (or shipped model name) baked into ``HumanBody3DOF.fmu``;
         the paper's Table 2 (``reduced-paper``) by default.
     car : str
-        Vehicle parameter file or shipped name for ``QuarterCar.fmu``.
+        Vehicle parameter file or shipped name for ``QuarterCar.fmu`` (a car driven at
+        one road point) or ``HalfCar.fmu`` (at a front and a rear one).
     names : iterable of str, optional
         Which FMUs (all of :data:`FMUS` by default).
     echo : callable, optional
@@ -344,12 +389,13 @@ def build_fmus(
     ['HumanBody3DOF', 'HumanBodyISO7962', 'QuarterCar']
     """
     names = list(names or FMUS)
-    chosen = {"HumanBody3DOF": params, "QuarterCar": car}
+    chosen = {"HumanBody3DOF": params, car_fmu_name(car): car}
     road = dict(ROAD_DEFAULTS, **(road or {}))
-    source = None
+    half_car = car if car_fmu_name(car) == "HalfCar" else None
+    sources = {}
     for n in names:  # refuse a bad model (or road) before building anything
         if n in FMUS and FMUS[n][0] == "source":
-            source = _road_source(**road)  # tabulated once for every FMI version
+            sources[n] = _source(n, half_car, **road)  # tabulated once for every FMI version
         else:
             load_fmu_model(n, chosen.get(n))
     if native:
@@ -366,7 +412,7 @@ def build_fmus(
                 is_source = FMUS[n][0] == "source"
                 if is_source:
                     out[key] = build(
-                        source,
+                        sources[n],
                         "source",
                         n,
                         FMUS[n][2],
@@ -395,6 +441,32 @@ def build_fmus(
         for key in out:
             echo(f"wrote {out[key]} ({what[key]}; fmpy validate: no problems)")
     return out
+
+
+def car_fmu_name(car: str = "quarter-car") -> str:
+    """The FMU a vehicle model is built as: ``HalfCar`` for a car with axles, else ``QuarterCar``.
+
+    Parameters
+    ----------
+    car : str
+        Shipped vehicle name or parameter file.
+
+    Returns
+    -------
+    str
+        A key of :data:`FMUS`.
+
+    Raises
+    ------
+    BodyvibError
+        What :func:`bodyvib.vehicle.quarter_car.load_car` refuses.
+
+    Examples
+    --------
+    >>> car_fmu_name("quarter-car"), car_fmu_name("half-car")
+    ('QuarterCar', 'HalfCar')
+    """
+    return "HalfCar" if load_car(car).extra_bases else "QuarterCar"
 
 
 def temporary_fmu_dir() -> str:

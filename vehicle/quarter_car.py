@@ -1,20 +1,25 @@
-"""The quarter-car model: a network driven by the road, loaded by the occupant.
+"""The car models: networks driven by the road, loaded by the occupant.
 
-The car is a :class:`bodyvib.runtime.network.Network` read from a parameter file
+A car is a :class:`bodyvib.runtime.network.Network` read from a parameter file
 (``vehicle/data/quarter-car.json`` by default): sprung mass on the suspension
-on the unsprung mass on the tire, base ``road``. Its inputs are
+on the unsprung mass on the tire, base ``road``. The half car
+(``vehicle/data/half-car.json``) is a rigid body that bounces and pitches on a
+front and a rear axle, driven at ``road_front`` and ``road_rear``; the rear
+wheel meets the road :func:`wheel_offsets` metres after the front. Its inputs are
 ``road_displacement`` [m], ``road_velocity`` [m/s] and ``sprung.force`` [N,
 positive up] -- the negative of the occupant's seat force, which is positive
 in compression. The occupant sits on the point with role ``seat``.
 """
 
 import os
+from typing import Tuple
 
 from bodyvib.models import load_network
 from bodyvib.runtime.contract import seat_point
+from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import Network, mount
 
-__all__ = ["CAR_DIR", "CAR_FMU_OUTPUTS", "load_car", "seated_system"]
+__all__ = ["CAR_DIR", "CAR_FMU_OUTPUTS", "load_car", "seated_system", "wheel_offsets"]
 
 #: Folder of the shipped vehicle parameter files.
 CAR_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
@@ -31,7 +36,8 @@ def load_car(name_or_path: str = "quarter-car") -> Network:
     Parameters
     ----------
     name_or_path : str
-        ``"quarter-car"`` (default) or a JSON parameter file.
+        ``"quarter-car"`` (default), ``"half-car"``, another shipped name or a JSON
+        parameter file.
 
     Returns
     -------
@@ -64,3 +70,71 @@ def seated_system(car: Network, body: Network) -> Network:
         Driven by the road; the body's points are prefixed ``body.``.
     """
     return mount(car, body, at=car.roles["seat"], prefix="body.")
+
+
+def wheel_offsets(car: Network) -> Tuple[float, ...]:
+    """Distance of each road point (base) of a car behind the first, m.
+
+    A base's longitudinal position is that of the rigid-body point its tire and
+    suspension lead to (the chain of elements from the base through masses and nodes
+    to a body point); a car without rigid bodies has one base at 0.
+
+    Parameters
+    ----------
+    car : Network
+        A vehicle model (:func:`load_car`).
+
+    Returns
+    -------
+    tuple of float
+        ``0`` for the first base, then the distance of every other base behind it
+        (the half car's rear road: the wheelbase ``lf + lr``).
+
+    Raises
+    ------
+    BodyvibError
+        A car with several bases whose base does not lead to exactly one body point,
+        or a base ahead of the first.
+
+    Examples
+    --------
+    >>> wheel_offsets(load_car())
+    (0.0,)
+    >>> wheel_offsets(load_car("half-car"))
+    (0.0, 2.8)
+    """
+    if not car.extra_bases:
+        return (0.0,)
+    points = car.body_points
+    links = {}
+    for el in car.elements:
+        chain = [el.a, el.b] if el.internal_node is None else [el.a, el.internal_node, el.b]
+        for p, q in zip(chain, chain[1:]):
+            links.setdefault(p, set()).add(q)
+            links.setdefault(q, set()).add(p)
+    where = []
+    for base in car.bases:
+        seen, todo, found = {base}, [base], set()
+        while todo:
+            for q in links.get(todo.pop(), ()):
+                if q in seen or q in car.bases:
+                    continue
+                seen.add(q)
+                if q in points:
+                    found.add(q)
+                else:
+                    todo.append(q)
+        if len(found) != 1:
+            raise BodyvibError(
+                f"vehicle model '{car.name}': road point '{base}' leads to "
+                f"{len(found)} body points ({', '.join(sorted(found)) or 'none'}); each road "
+                "point must carry one axle, its tire and suspension ending at one body point"
+            )
+        where.append(points[found.pop()][1])
+    offsets = tuple(where[0] - x for x in where)
+    if min(offsets) < 0:
+        raise BodyvibError(
+            f"vehicle model '{car.name}': its first road point '{car.base}' must be the "
+            "front axle's (list the bases front to rear)"
+        )
+    return offsets

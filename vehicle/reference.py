@@ -24,7 +24,7 @@ from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import Network, linear_model
 
 from .quarter_car import seated_system
-from .signals import BODY_SIGNALS, CAR_SIGNALS, OPTIONAL_SIGNALS
+from .signals import BODY_SIGNALS, CAR_SIGNALS, OPTIONAL_SIGNALS, car_variable
 from .signals import SIGNALS as _SIGNALS
 
 __all__ = ["SIGNALS", "reference_run", "ReferenceStream", "seat_force_weights", "nrmse"]
@@ -93,9 +93,11 @@ def reference_run(
         From :func:`bodyvib.vehicle.quarter_car.load_car`.
     body : Network
         A body model (base ``seat``, roles ``head`` and ``torso``).
-    road_displacement, road_velocity : (n,) array_like
+    road_displacement, road_velocity : (n,) or (n, wheels) array_like
         Road input at ``t_k = k * step`` (m, m/s); over each step the road is
-        ``z_k + v_k tau``, as in the co-simulation.
+        ``z_k + v_k tau``, as in the co-simulation. A car with several road points
+        (a half car) takes a column per point; the result's road columns are the
+        first point's.
     step : float
         Time step in s.
 
@@ -121,10 +123,15 @@ def reference_run(
     """
     z = np.asarray(road_displacement, dtype=float)
     v = np.asarray(road_velocity, dtype=float)
-    if z.shape != v.shape or z.ndim != 1 or z.size < 2:
-        raise BodyvibError("road displacement and velocity must be 1-D arrays of equal length >= 2")
+    if z.shape != v.shape or z.ndim not in (1, 2) or z.shape[0] < 2:
+        raise BodyvibError(
+            "road displacement and velocity must be arrays of equal length (and shape), >= 2 samples"
+        )
     signals = ReferenceStream(car, body, step).advance(z, v)
-    signals.update(time=np.arange(z.size) * float(step), road_displacement=z, road_velocity=v)
+    n = z.shape[0]
+    front = (z, v) if z.ndim == 1 else (z[:, 0], v[:, 0])
+    signals.update(time=np.arange(n) * float(step), road_displacement=front[0])
+    signals.update(road_velocity=front[1])
     return {name: signals[name] for name in SIGNALS}
 
 
@@ -157,12 +164,18 @@ class ReferenceStream:
         self._h = float(step)
         self._x = self._disc.zero_state()
         seat = car.roles["seat"]
+        self._bases = len(car.bases)
+        # the car signals the car FMU gives as its parameter file's fmu_outputs
+        fmu_outputs = {o["name"]: o["signal"] for o in car.fmu_outputs}
         # the signal table's car and body signals: an output row each, or (the seat
         # force) a combination of outputs
         self._rows = {}
         for s in CAR_SIGNALS + BODY_SIGNALS:
+            variable = car_variable(s, fmu_outputs)
             if s.name in OPTIONAL_SIGNALS and s.seated_output(seat) not in lm.outputs:
                 self._rows[s.name] = None  # a body without this named force: NaN
+            elif variable in fmu_outputs:
+                self._rows[s.name] = lm.output_index(fmu_outputs[variable])
             elif s.seated is not None:
                 self._rows[s.name] = lm.output_index(s.seated_output(seat))
             else:
@@ -173,8 +186,10 @@ class ReferenceStream:
 
         Parameters
         ----------
-        road_displacement, road_velocity : (m,) array_like
-            m, m/s; over each step the road is ``z_k + v_k tau``.
+        road_displacement, road_velocity : (m,) or (m, wheels) array_like
+            m, m/s; over each step the road is ``z_k + v_k tau``. A car driven at
+            several road points (a half car) takes a column per point, in the order of
+            its bases (:func:`bodyvib.vehicle.road.driven.wheel_inputs`).
 
         Returns
         -------
@@ -188,17 +203,23 @@ class ReferenceStream:
         """
         z = np.asarray(road_displacement, dtype=float)
         v = np.asarray(road_velocity, dtype=float)
-        if z.shape != v.shape or z.ndim != 1:
-            raise BodyvibError("road displacement and velocity must be 1-D arrays of equal length")
+        nb = self._bases
+        if z.ndim == 1 and nb == 1:
+            z, v = z[:, None], v[:, None]
+        if z.shape != v.shape or z.ndim != 2 or z.shape[1] != nb:
+            raise BodyvibError(
+                "road displacement and velocity must be arrays of equal shape, "
+                f"(samples,) or (samples, {nb}): a column per road point of the car"
+            )
         if not (np.all(np.isfinite(z)) and np.all(np.isfinite(v))):
             raise BodyvibError("road input is not finite; check the road profile")
         lm, d, h = self._lm, self._disc, self._h
-        u = np.zeros((z.size, len(lm.inputs)))
-        u[:, 0], u[:, 1] = z, v
+        u = np.zeros((z.shape[0], len(lm.inputs)))
+        u[:, 0 : 2 * nb : 2], u[:, 1 : 2 * nb : 2] = z, v
         du = input_rates(lm, u)
-        x = np.empty((z.size, lm.A.shape[0]))
+        x = np.empty((z.shape[0], lm.A.shape[0]))
         xk = self._x
-        for k in range(z.size):
+        for k in range(z.shape[0]):
             x[k] = xk
             xk = d.step(xk, u[k], du[k], h)
         self._x = xk

@@ -32,6 +32,7 @@ __all__ = [
     "OPTIONAL_SIGNALS",
     "header",
     "axis_label",
+    "car_variable",
 ]
 
 
@@ -71,7 +72,7 @@ class Signal:
 #: Every signal of a run, in column order.
 SIGNALS: Tuple[Signal, ...] = (
     Signal("time", "s", "communication point t_k = k h", "grid"),
-    Signal("road_displacement", "m", "road profile under the tire", "road"),
+    Signal("road_displacement", "m", "road profile under the (front) tire", "road"),
     Signal("road_velocity", "m/s", "slope of the road profile in time", "road"),
     Signal(
         "seat_displacement", "m", "the car's seat point", "car", "seat_displacement", "{seat}.x"
@@ -88,12 +89,19 @@ SIGNALS: Tuple[Signal, ...] = (
     Signal(
         "suspension_deflection",
         "m",
-        "+ in extension",
+        "+ in extension (a half car's: the front axle's)",
         "car",
         "suspension_deflection",
         "suspension.deflection",
     ),
-    Signal("tire_force", "N", "+ in compression", "car", "tire_force", "tire.force"),
+    Signal(
+        "tire_force",
+        "N",
+        "+ in compression (a half car's: the front axle's)",
+        "car",
+        "tire_force",
+        "tire.force",
+    ),
     Signal(
         "seat_force",
         "N",
@@ -154,6 +162,38 @@ BODY_SIGNALS: Tuple[Signal, ...] = tuple(s for s in SIGNALS if s.source == "body
 #: Names of the signals the master records (car, then body): the columns of
 #: :meth:`bodyvib.vehicle.cosim.Master.advance`.
 MASTER_SIGNALS: Tuple[str, ...] = tuple(s.name for s in CAR_SIGNALS + BODY_SIGNALS)
+
+
+def car_variable(signal: Signal, variables) -> str:
+    """The car FMU variable a car signal reads: its own, or on a car with axles the front one's.
+
+    A half car has no ``suspension_deflection``; it has ``suspension_deflection_front``
+    and ``suspension_deflection_rear``. The signal table's per-car columns are the
+    front axle's there.
+
+    Parameters
+    ----------
+    signal : Signal
+        A signal of the table.
+    variables : collection of str
+        The car FMU's variable names (or its parameter file's ``fmu_outputs`` names).
+
+    Returns
+    -------
+    str
+        ``signal.variable`` if the car has it, else ``signal.variable + "_front"`` if it
+        has that, else ``signal.variable``.
+
+    Examples
+    --------
+    >>> tire = SIGNALS[7]
+    >>> car_variable(tire, {"tire_force"}), car_variable(tire, {"tire_force_front"})
+    ('tire_force', 'tire_force_front')
+    """
+    name = signal.variable
+    if name is not None and name not in variables and f"{name}_front" in variables:
+        return f"{name}_front"
+    return name
 
 
 def header(column: str) -> str:

@@ -1,4 +1,4 @@
-"""The coupled system as an SSP 1.0 package: road, quarter car and occupant, wired.
+"""The coupled system as an SSP 1.0 package: road, car and occupant, wired.
 
 ``python build_fmu.py`` writes ``dist/QuarterCarWithOccupant.ssp`` with
 :func:`write_ssp`: ``SystemStructure.ssd``, the three FMUs under ``resources/``,
@@ -20,6 +20,10 @@ FMUs in parallel and holds every input over a step (libcosim, Ecos, fmpy.ssp):
 * ``Body.seat_force``, ``Body.seat_force_rate`` -> ``Car``: the seat force rises
   at its exact rate over the step (without the rate it is held, first order).
 
+The half car's package, ``HalfCarWithOccupant.ssp`` (:data:`HALF_CAR_COMPONENTS`), wires
+``RoadFrontRear``'s two road pairs to the ``HalfCar``'s front and rear road inputs and the
+occupant the same way.
+
 Measured head-acceleration errors per host: docs/tutorials/fmu_hosts.md,
 "Co-simulation in any host (SSP)".
 """
@@ -39,6 +43,10 @@ __all__ = [
     "SSP_NAME",
     "CONNECTIONS",
     "COMPONENTS",
+    "HALF_CAR_SSP_NAME",
+    "HALF_CAR_COMPONENTS",
+    "HALF_CAR_CONNECTIONS",
+    "PACKAGES",
     "parameter_values",
     "ssp_parameters",
     "ssp_reference",
@@ -52,6 +60,12 @@ SSP_NAME = "QuarterCarWithOccupant"
 #: Component name -> FMU name of :data:`bodyvib.vehicle.fmus.FMUS` (the body may be any body FMU).
 COMPONENTS = {"Road": "Road", "Car": "QuarterCar", "Body": "HumanBody3DOF"}
 
+#: The half car's package: road under both axles, half car, occupant.
+HALF_CAR_SSP_NAME = "HalfCarWithOccupant"
+
+#: Component name -> FMU name of the half car's package.
+HALF_CAR_COMPONENTS = {"Road": "RoadFrontRear", "Car": "HalfCar", "Body": "HumanBody3DOF"}
+
 #: (start element, start connector, end element, end connector).
 CONNECTIONS = (
     ("Road", "road_displacement", "Car", "road_displacement"),
@@ -62,6 +76,29 @@ CONNECTIONS = (
     ("Body", "seat_force", "Car", "seat_force"),
     ("Body", "seat_force_rate", "Car", "seat_force_rate"),
 )
+
+#: The half car's connections: a road pair per axle, then the occupant as on the quarter car.
+HALF_CAR_CONNECTIONS = tuple(
+    ("Road", f"road_{q}_{axle}", "Car", f"road_{q}_{axle}")
+    for axle in ("front", "rear")
+    for q in ("displacement", "velocity")
+) + tuple(c for c in CONNECTIONS if c[0] != "Road")
+
+#: Package name -> (components, connections, description of the system).
+PACKAGES = {
+    SSP_NAME: (
+        COMPONENTS,
+        CONNECTIONS,
+        "Quarter car on a road with a seated occupant, two-way coupled through seat motion "
+        "and seat force (and their rates)",
+    ),
+    HALF_CAR_SSP_NAME: (
+        HALF_CAR_COMPONENTS,
+        HALF_CAR_CONNECTIONS,
+        "Half car (bounce and pitch) on a road under both axles with a seated occupant, "
+        "two-way coupled through seat motion and seat force (and their rates)",
+    ),
+}
 
 _NS = {
     "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
@@ -121,7 +158,11 @@ def _units(root_parent, tag_prefix, used):
 
 
 def system_structure(
-    fmus: Dict[str, str], stop_time: float = 30.0, step: float = 1e-3, connections=CONNECTIONS
+    fmus: Dict[str, str],
+    stop_time: float = 30.0,
+    step: float = 1e-3,
+    connections=CONNECTIONS,
+    name: str = SSP_NAME,
 ) -> bytes:
     """``SystemStructure.ssd`` of the coupled system.
 
@@ -135,7 +176,10 @@ def system_structure(
         Communication step suggested to hosts that read it (libcosim's OSP
         annotation), s.
     connections : sequence of (str, str, str, str)
-        :data:`CONNECTIONS` (a subset only to show what a missing one costs).
+        :data:`CONNECTIONS` (a subset only to show what a missing one costs), or
+        :data:`HALF_CAR_CONNECTIONS`.
+    name : str
+        A key of :data:`PACKAGES`: the system's name and description.
 
     Returns
     -------
@@ -145,15 +189,14 @@ def system_structure(
     root = ET.Element(
         _q("ssd", "SystemStructureDescription"),
         version="1.0",
-        name=SSP_NAME,
+        name=name,
         generationTool="bodyvib (bodyvib.vehicle.ssp)",
     )
     system = ET.SubElement(
         root,
         _q("ssd", "System"),
-        name=SSP_NAME,
-        description="Quarter car on a road with a seated occupant, two-way "
-        "coupled through seat motion and seat force (and their rates)",
+        name=name,
+        description=PACKAGES[name][2],
     )
     elements = ET.SubElement(system, _q("ssd", "Elements"))
     used = []
@@ -196,21 +239,23 @@ def system_structure(
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
 
 
-def parameter_values(fmu_path) -> bytes:
+def parameter_values(fmu_path, name: str = SSP_NAME) -> bytes:
     """The ``.ssv`` parameter set of one component (:func:`ssp_parameters`).
 
     Parameters
     ----------
     fmu_path : str
         ``.fmu`` file, as for :func:`ssp_parameters`.
+    name : str
+        The package's name (a key of :data:`PACKAGES`).
 
     Returns
     -------
     bytes
-        UTF-8 XML: a ``ParameterSet`` named :data:`SSP_NAME` with one ``Real`` per
+        UTF-8 XML: a ``ParameterSet`` named ``name`` with one ``Real`` per
         parameter (value and unit) and the units' SI base units.
     """
-    root = ET.Element(_q("ssv", "ParameterSet"), version="1.0", name=SSP_NAME)
+    root = ET.Element(_q("ssv", "ParameterSet"), version="1.0", name=name)
     params = ET.SubElement(root, _q("ssv", "Parameters"))
     used = []
     for name, value, unit in ssp_parameters(fmu_path):
@@ -224,28 +269,40 @@ def parameter_values(fmu_path) -> bytes:
 
 
 def write_ssp(
-    path, fmus: Dict[str, str], stop_time: float = 30.0, step: float = 1e-3, connections=CONNECTIONS
+    path,
+    fmus: Dict[str, str],
+    stop_time: float = 30.0,
+    step: float = 1e-3,
+    connections=None,
+    name: str = SSP_NAME,
 ) -> Path:
     """Write the SSP of the coupled system.
 
     Parameters
     ----------
     path : str or path
-        ``.../QuarterCarWithOccupant.ssp``.
+        ``.../QuarterCarWithOccupant.ssp`` (or ``HalfCarWithOccupant.ssp``).
     fmus : dict of str to str
         Component name (``Road``, ``Car``, ``Body``) -> FMU path.
-    stop_time, step, connections
+    stop_time, step : float
         See :func:`system_structure`.
+    connections : sequence of (str, str, str, str), optional
+        The package's own (:data:`PACKAGES`) by default.
+    name : str
+        A key of :data:`PACKAGES`.
 
     Returns
     -------
     Path
     """
+    connections = PACKAGES[name][1] if connections is None else connections
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
-        zf.writestr("SystemStructure.ssd", system_structure(fmus, stop_time, step, connections))
+        zf.writestr(
+            "SystemStructure.ssd", system_structure(fmus, stop_time, step, connections, name)
+        )
         for comp, fmu in fmus.items():
-            zf.writestr(f"resources/{comp}.ssv", parameter_values(fmu))
+            zf.writestr(f"resources/{comp}.ssv", parameter_values(fmu, name))
             zf.write(staged_source(fmu), f"resources/{Path(fmu).name}")
     atomic_write_bytes(path, buf.getvalue())
     return Path(path)
@@ -267,7 +324,8 @@ def ssp_reference(
     body : str
         Body model baked into the SSP's body FMU.
     car : str
-        Vehicle model of its ``QuarterCar.fmu``.
+        Vehicle model of its car FMU (``QuarterCar.fmu``, or ``HalfCar.fmu`` with
+        ``RoadFrontRear.fmu``: the half car's package).
     road : dict, optional
         The keyword arguments its ``Road.fmu`` was built with
         (:data:`bodyvib.vehicle.fmus.ROAD_DEFAULTS` by default); ``speed`` is the run's.
@@ -280,13 +338,18 @@ def ssp_reference(
     """
     from bodyvib.models import load_model
 
-    from .fmus import ROAD_DEFAULTS, fmu_road_of
+    from .fmus import ROAD_DEFAULTS, _source, car_fmu_name, fmu_road_of
     from .quarter_car import load_car
     from .reference import reference_run
     from .road.synthetic import road_table
 
     r = dict(ROAD_DEFAULTS, **(road or {}))
-    table = road_table(*fmu_road_of(r))
+    if car_fmu_name(car) == "HalfCar":  # RoadFrontRear.fmu's table: a column per axle
+        _, table = _source("RoadFrontRear", car, **r)
+    else:
+        table = road_table(*fmu_road_of(r))
     t = np.arange(int(round(duration / step)) + 1) * step
     z, dz = table.evaluate(r["speed"] * t)
-    return reference_run(load_car(car), load_model(body), z[:, 0], r["speed"] * dz[:, 0], step)
+    if z.shape[1] == 1:
+        z, dz = z[:, 0], dz[:, 0]
+    return reference_run(load_car(car), load_model(body), z, r["speed"] * dz, step)

@@ -29,9 +29,10 @@ from bodyvib.process.progress import progress_bar
 from bodyvib.runtime.errors import BodyvibError
 
 from .cosim import CsvStream, Master, check_fmu, model_from_fmu, open_fmu
+from .quarter_car import wheel_offsets
 from .records import Record
 from .reference import ReferenceStream
-from .road.driven import RoadOptions, driven_road
+from .road.driven import RoadOptions, driven_road, wheel_inputs
 from .road.synthetic import road_input
 from .signals import BODY_SIGNALS, MASTER_SIGNALS, OPTIONAL_SIGNALS
 
@@ -363,6 +364,7 @@ def run_study(
     for path in body_fmus.values():
         check_fmu(path, "body")
     car_net = model_from_fmu(car_fmu) if reference else None
+    behind = _wheels(car_fmu, car_net)
     nets = {label: model_from_fmu(path) if reference else None for label, path in body_fmus.items()}
     refs = {
         label: ReferenceStream(car_net, net, step)
@@ -397,10 +399,12 @@ def run_study(
         try:
             for a in range(0, n, block):
                 t = np.arange(a, min(n, a + block)) * step
-                z, v = road_input(rd, speed, t)
+                zw, vw = wheel_inputs(rd, speed, t, behind)
+                z, v = zw[:, 0], vw[:, 0]  # the (front) wheel's: the study's road columns
+                wheels = (z, v) if len(behind) == 1 else (zw, vw)
                 heads = {}
                 for label in labels:
-                    rows = masters[label].advance(z, v)
+                    rows = masters[label].advance(*wheels)
                     sig = dict(zip(MASTER_SIGNALS, rows.T))
                     head, seat = sig["head_acceleration"], sig["seat_acceleration"]
                     heads[label] = head
@@ -412,7 +416,7 @@ def run_study(
                     ref = None
                     if label in refs:
                         interrupts.check()
-                        ref = refs[label].advance(z, v)
+                        ref = refs[label].advance(*wheels)
                         r = ref["head_acceleration"]
                         err[label][0] += float(np.dot(head - r, head - r))
                         err[label][1] += float(np.dot(r, r))
@@ -498,6 +502,25 @@ def run_study(
             },
         )
     return out
+
+
+def _wheels(car_fmu, car_net):
+    """Distance of each road input pair of the car FMU behind the first, m."""
+    net = car_net if car_net is not None else model_from_fmu(car_fmu)
+    if net is not None:
+        return wheel_offsets(net)
+    from fmpy import read_model_description
+
+    from .cosim import road_pairs
+
+    pairs = road_pairs(v.name for v in read_model_description(car_fmu).modelVariables)
+    if len(pairs) > 1:
+        raise BodyvibError(
+            f"car FMU '{car_fmu}' has {len(pairs)} road inputs but carries no bodyvib "
+            "model, so the distance between its wheels is unknown; use a car FMU built "
+            "by bodyvib (bodyvib build --fmus HalfCar)"
+        )
+    return (0.0,)
 
 
 class StudyCsv:

@@ -9,7 +9,7 @@ from bodyvib.process.outputs import check_outputs, staged_writes
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.vehicle.fmus import FMUS, ROAD_DEFAULTS, build_fmus
 from bodyvib.vehicle.road.driven import is_road_file
-from bodyvib.vehicle.ssp import COMPONENTS, SSP_NAME, write_ssp
+from bodyvib.vehicle.ssp import PACKAGES, write_ssp
 from bodyvib.vehicle.sweep.spec import ROAD_OPTION_KEYS
 
 from .options import add_road_options, road_options_from_args
@@ -33,13 +33,17 @@ def _run(args) -> int:
     dest = Path(args.dest) / "native" if args.native else Path(args.dest)
     label = "native/" if args.native else ""
     versions = ((2, ""), (3, "fmi3/")) if args.native else ((2, ""),)
-    ssp = all(name in names for name in COMPONENTS.values())
+    packages = [
+        ssp_name
+        for ssp_name, (components, _, _) in PACKAGES.items()
+        if all(name in names for name in components.values())
+    ]
     outs = [("--dest", args.dest, None, True)]
     for _, sub in versions:
         outs += [(f"--dest {label}{sub}{n}.fmu", str(dest / sub / f"{n}.fmu"), None) for n in names]
-        if ssp:
+        for ssp_name in packages:
             outs.append(
-                (f"--dest {label}{sub}{SSP_NAME}.ssp", str(dest / sub / f"{SSP_NAME}.ssp"), None)
+                (f"--dest {label}{sub}{ssp_name}.ssp", str(dest / sub / f"{ssp_name}.ssp"), None)
             )
     check_outputs(outs, inputs)
     if args.native:
@@ -58,16 +62,18 @@ def _run(args) -> int:
             native=args.native,
             platforms=platforms,
         )
-        if ssp:
+        for ssp_name in packages:
+            components = PACKAGES[ssp_name][0]
             for version, sub in versions:
                 path = write_ssp(
-                    dest / sub / f"{SSP_NAME}.ssp",
-                    {comp: str(built[sub + name]) for comp, name in COMPONENTS.items()},
+                    dest / sub / f"{ssp_name}.ssp",
+                    {comp: str(built[sub + name]) for comp, name in components.items()},
+                    name=ssp_name,
                 )
                 kind = f"native, FMI {version}.0: " if args.native else ""
                 lines.append(
-                    f"wrote {path} ({kind}Road -> QuarterCar <-> HumanBody3DOF, "
-                    "parameter set, 1 ms step)"
+                    f"wrote {path} ({kind}{components['Road']} -> {components['Car']} <-> "
+                    f"{components['Body']}, parameter set, 1 ms step)"
                 )
         interrupts.check()
     for line in lines:
@@ -119,10 +125,13 @@ def add_command(subparsers):
     """Register ``bodyvib build``."""
     p = subparsers.add_parser(
         "build",
-        help="build the FMUs (HumanBody3DOF, HumanBodyISO7962, QuarterCar, Road) into dist/",
-        description="Build HumanBody3DOF.fmu, HumanBodyISO7962.fmu, QuarterCar.fmu and Road.fmu "
-        "with pythonfmu and check them with fmpy validate, and the coupled system of Road, "
-        "QuarterCar and HumanBody3DOF as QuarterCarWithOccupant.ssp (SSP 1.0). --params bakes a parameter file into "
+        help="build the FMUs (HumanBody3DOF, HumanBodyISO7962, QuarterCar, HalfCar, Road, "
+        "RoadFrontRear) into dist/",
+        description="Build HumanBody3DOF.fmu, HumanBodyISO7962.fmu, QuarterCar.fmu, HalfCar.fmu, "
+        "Road.fmu and RoadFrontRear.fmu with pythonfmu and check them with fmpy validate, and the "
+        "coupled systems of Road, QuarterCar and HumanBody3DOF as QuarterCarWithOccupant.ssp and "
+        "of RoadFrontRear, HalfCar and HumanBody3DOF as HalfCarWithOccupant.ssp (SSP 1.0). "
+        "--params bakes a parameter file into "
         "HumanBody3DOF.fmu (default: the paper's Table 2); --road, --road-seed and --road-length "
         "choose the road Road.fmu tabulates.",
     )

@@ -17,8 +17,7 @@ from bodyvib.process.outputs import write_json
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.vehicle.check import compare
 from bodyvib.vehicle.cosim import check_fmu
-from bodyvib.vehicle.fmus import build_fmus, temporary_fmu_dir
-from bodyvib.vehicle.quarter_car import load_car
+from bodyvib.vehicle.fmus import build_fmus, car_fmu_name, temporary_fmu_dir
 from bodyvib.vehicle.report import format_report, study_json
 from bodyvib.vehicle.study import StudyCsv, check_settings, run_study
 from bodyvib.vehicle.study_plot import plot_study
@@ -89,13 +88,14 @@ def _fmus(args, want_iso: bool):
         need.append("HumanBody3DOF")
     if want_iso and args.iso_body is None:
         need.append("HumanBodyISO7962")
+    car_name = None
     if args.car_fmu is None:
-        need.append("QuarterCar")
-    # refuse a bad --params/--car now, not after building the FMUs before it
+        # refuses a bad --car now, not after building the FMUs before it
+        car_name = car_fmu_name(args.car or "quarter-car")
+        need.append(car_name)
+    # refuse a bad --params now, not after building the FMUs before it
     if "HumanBody3DOF" in need and args.params:
         load_model(args.params)
-    if "QuarterCar" in need:
-        load_car(args.car or "quarter-car")
     tmp, built = None, {}
     if need:
         tmp = temporary_fmu_dir()
@@ -113,7 +113,7 @@ def _fmus(args, want_iso: bool):
             raise
     body = args.body or built["HumanBody3DOF"]
     iso = (args.iso_body or built["HumanBodyISO7962"]) if want_iso else None
-    car = args.car_fmu or built["QuarterCar"]
+    car = args.car_fmu or built[car_name]
     return body, iso, car, tmp
 
 
@@ -210,8 +210,9 @@ def _common(p):
     p.add_argument(
         "--car",
         metavar="MODEL",
-        help="vehicle model for the default QuarterCar.fmu: 'quarter-car', "
-        "'quarter-car-cushion' or a parameter file (default quarter-car)",
+        help="vehicle model for the car FMU built for the run: 'quarter-car', "
+        "'quarter-car-cushion', 'half-car' (built as HalfCar.fmu) or a parameter file "
+        "(default quarter-car)",
     )
     p.add_argument("--car-fmu", metavar="FMU", help="a car FMU instead of building QuarterCar.fmu")
     p.add_argument(

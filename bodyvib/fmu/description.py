@@ -201,8 +201,20 @@ def number(x: float) -> str:
 
 
 #: Per state quantity (the last part of a state name): its unit and its derivative's.
-_STATE_UNITS = {"x": ("m", "m/s"), "y": ("m", "m/s"), "v": ("m/s", "m/s2")}
-_STATE_WORDS = {"x": "displacement", "y": "displacement", "v": "velocity"}
+_STATE_UNITS = {
+    "x": ("m", "m/s"),
+    "y": ("m", "m/s"),
+    "v": ("m/s", "m/s2"),
+    "theta": ("rad", "rad/s"),
+    "omega": ("rad/s", "rad/s2"),
+}
+_STATE_WORDS = {
+    "x": "displacement",
+    "y": "displacement",
+    "v": "velocity",
+    "theta": "pitch angle",
+    "omega": "pitch rate",
+}
 
 #: The order FMI's schemas want the interface elements in.
 _INTERFACE_ORDER = ("ModelExchange", "CoSimulation")

@@ -9,7 +9,8 @@ libc and libm. No C is written per model:
   snapshots) and thin FMI 2.0 / 3.0 function files;
 * this module emits the model as data (``bodyvib_model.c``): the descriptor form
   of :func:`bodyvib.runtime.network.descriptor_model`, whose matrices are affine in the
-  parameters, as sparse per-parameter stencils (the builder evaluated with one
+  parameters (quadratic in a rigid body's point positions), as sparse stencils of
+  monomials (the builder evaluated with one
   parameter at 1 and the others at 0), plus the FMU contract of
   :class:`bodyvib.runtime.engine.FmuCore` (variable names, value references, units,
   input map, rate pairs, output rows).
@@ -169,8 +170,9 @@ class NativeModel:
         Per FMU output: it is the time derivative of that row.
     rows : tuple of int
         Model output indices (of the network's outputs) carried into C.
-    stencils : list of (int, int, int, int, float)
-        ``(parameter or -1, matrix, row, col, coefficient)``.
+    stencils : list of (int, int, int, int, int, int, float)
+        ``(parameter, parameter, parameter, matrix, row, col, coefficient)``: the entry
+        adds the coefficient times the product of the parameters (-1: none).
     n, m : int
         States, model inputs.
     dependencies : tuple of tuple of int
@@ -202,7 +204,7 @@ class NativeModel:
     out_row: Tuple[int, ...]
     out_derivative: Tuple[bool, ...]
     rows: Tuple[int, ...]
-    stencils: List[Tuple[int, int, int, int, float]]
+    stencils: List[Tuple[int, int, int, int, int, int, float]]
     n: int
     m: int
     dependencies: Tuple[Tuple[int, ...], ...]
@@ -296,36 +298,84 @@ def choose_platforms(requested=None) -> PlatformChoice:
 
 
 def _stencils(network, params: Sequence[str], rows: Sequence[int]):
-    """Per-parameter stencils of the descriptor form; checked to reproduce it exactly."""
+    """Stencils of the descriptor form, monomials in the parameters; checked to reproduce it.
+
+    Every entry is ``c_0(G) + sum_a a c_a(G)``: affine in the masses, inertias,
+    stiffnesses and dampings ``a``, and a polynomial of degree at most two in the
+    rigid-body point positions ``G`` (a spring between two points pulls with ``k`` times
+    their positions). Each ``c(G)`` is read off by evaluating the builder at ``G`` in
+    ``{0, e_i, -e_i, e_i + e_j}`` (exact differences of numbers formed from 0 and 1).
+    A network without rigid bodies has no ``G``: one evaluation per parameter, as an
+    affine model needs.
+    """
+    positions = {
+        ref.lstrip("-")
+        for body in network.bodies.values()
+        for ref in body.points.values()
+        if isinstance(ref, str)
+    }
+    geometry = [j for j, p in enumerate(params) if p in positions]
+    linear = [j for j, p in enumerate(params) if p not in positions]
 
     def mats(values):
         dm = descriptor_model(network.with_parameters(**dict(zip(params, values))))
         return [dm.E, dm.A, dm.B, dm.C[list(rows)], dm.Cd[list(rows)], dm.D[list(rows)]]
 
-    zero = mats([0.0] * len(params))
+    def at(a, g):  # parameter a (or none) at 1, the geometry at g, every other parameter 0
+        values = [0.0] * len(params)
+        if a is not None:
+            values[a] = 1.0
+        for j, x in g.items():
+            values[j] = x
+        return mats(values)
+
+    def diff(x, y):
+        return [p - q for p, q in zip(x, y)]
+
+    def coefficients(a):
+        """Monomial (tuple of parameter indices) -> matrices, of c_a(G) (with c_0 removed)."""
+        q = {(): at(a, {})}
+        for i in geometry:
+            q[(i,)], q[(-i - 1,)] = at(a, {i: 1.0}), at(a, {i: -1.0})
+        for i, j in ((i, j) for i in geometry for j in geometry if i < j):
+            q[(i, j, 0)] = at(a, {i: 1.0, j: 1.0})
+        out = {(): q[()]}
+        for i in geometry:
+            out[(i,)] = [0.5 * (p - m) for p, m in zip(q[(i,)], q[(-i - 1,)])]
+            out[(i, i)] = [0.5 * (p + m) - c for p, m, c in zip(q[(i,)], q[(-i - 1,)], q[()])]
+        for i, j in ((i, j) for i in geometry for j in geometry if i < j):
+            out[(i, j)] = [
+                s - p - r + c for s, p, r, c in zip(q[(i, j, 0)], q[(i,)], q[(j,)], q[()])
+            ]
+        return out
+
+    constant = coefficients(None)
+    parts = [((), constant)]
+    for a in linear:
+        with_a = coefficients(a)
+        parts.append(((a,), {mono: diff(with_a[mono], constant[mono]) for mono in with_a}))
     out = []
-    parts = [(-1, zero)]
-    for j in range(len(params)):
-        unit = [0.0] * len(params)
-        unit[j] = 1.0
-        parts.append((j, [a - b for a, b in zip(mats(unit), zero)]))
-    for j, ms in parts:
-        for code, M in enumerate(ms):
-            for r, c in zip(*np.nonzero(M)):
-                out.append((j, code, int(r), int(c), float(M[r, c])))
+    for factor, monomials in parts:
+        for mono, ms in monomials.items():
+            powers = list(factor + mono) + [-1, -1, -1]
+            j1, j2, j3 = powers[:3]
+            for code, M in enumerate(ms):
+                for r, c in zip(*np.nonzero(M)):
+                    out.append((j1, j2, j3, code, int(r), int(c), float(M[r, c])))
     # the stencils must give back the descriptor form at the actual parameter values
-    actual = mats([float(network.parameters[p]) for p in params])
     values = [float(network.parameters[p]) for p in params]
+    actual = mats(values)
     for code, M in enumerate(actual):
         S = np.zeros_like(M)
-        for j, k, r, c, v in out:
+        for j1, j2, j3, k, r, c, v in out:
             if k == code:
-                S[r, c] += v * (1.0 if j < 0 else values[j])
+                S[r, c] += v * np.prod([values[j] for j in (j1, j2, j3) if j >= 0])
         scale = max(np.max(np.abs(M)), 1.0) if M.size else 1.0
         if M.size and np.max(np.abs(S - M)) > 1e-14 * scale:
             raise BodyvibError(
-                f"model '{network.name}': its {_MATRICES[code]} matrix is not "
-                "affine in the parameters; the native FMU cannot assemble it"
+                f"model '{network.name}': its {_MATRICES[code]} matrix is not a polynomial "
+                "of the form the native FMU assembles (affine in masses, stiffnesses and "
+                "dampings, quadratic in point positions)"
             )
     return out
 
@@ -468,7 +518,9 @@ def model_source(nm: NativeModel, token: str) -> str:
         f"static const int out_derivative[] = {{{_c_ints(nm.out_derivative)}}};",
         "static const bv_stencil stencils[] = {",
     ]
-    lines += [f"    {{{j}, {k}, {r}, {c}, {v!r}}}," for j, k, r, c, v in nm.stencils]
+    lines += [
+        f"    {{{j1}, {j2}, {j3}, {k}, {r}, {c}, {v!r}}}," for j1, j2, j3, k, r, c, v in nm.stencils
+    ]
     lines += [
         "};",
         "",

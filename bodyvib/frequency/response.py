@@ -88,7 +88,7 @@ def to_statespace(model):
     )
 
 
-def frequency_response(model, frequencies_hz, output) -> np.ndarray:
+def frequency_response(model, frequencies_hz, output, delays=None) -> np.ndarray:
     """Complex response of one output (or several) per unit base displacement.
 
     Parameters
@@ -100,6 +100,16 @@ def frequency_response(model, frequencies_hz, output) -> np.ndarray:
     output : str or sequence of str
         Output name, e.g. ``"head.x"`` (a role may replace the mass name),
         ``"m2.a"`` or ``"seat_force"``; a list of names shares one solve.
+    delays : sequence of float, optional
+        A model driven at several base points (a half car): the delay of each
+        base's motion behind the first's, s, one per base (the rear wheel of a
+        car at speed ``v``: wheelbase / ``v``). By default every base moves
+        together.
+
+    Raises
+    ------
+    BodyvibError
+        ``delays`` not one number per base.
 
     Returns
     -------
@@ -118,17 +128,33 @@ def frequency_response(model, frequencies_hz, output) -> np.ndarray:
     f = np.atleast_1d(np.asarray(frequencies_hz, dtype=float))
     one = isinstance(output, str)
     idx = [lm.output_index(o) for o in ([output] if one else output)]
+    nb = len(lm.network.bases)
+    tau = np.zeros(nb) if delays is None else np.asarray(delays, dtype=float)
+    if tau.shape != (nb,):
+        raise BodyvibError(
+            f"delays: give one delay (s) per base point of '{lm.network.name}' "
+            f"({', '.join(lm.network.bases)}), got {tau.size}"
+        )
     s = 2j * np.pi * f
     n = lm.A.shape[0]
     out = np.empty((len(idx), s.size), dtype=complex)
     for a in range(0, s.size, _CHUNK):  # (chunk, n, n) at a time: memory independent of nf
         interrupts.check()
         sc = s[a : a + _CHUNK]
-        rhs = lm.B[:, 0][None, :] + sc[:, None] * lm.B[:, 1][None, :]  # (nf, n)
+        # base j moves as the first, delayed by tau[j]: its inputs weighted by exp(-s tau[j])
+        lags = [np.exp(-sc * t)[:, None] if t else 1.0 for t in tau]
+        rhs = sum(
+            lag * (lm.B[:, 2 * j][None, :] + sc[:, None] * lm.B[:, 2 * j + 1][None, :])
+            for j, lag in enumerate(lags)
+        )  # (nf, n)
         lhs = sc[:, None, None] * np.eye(n)[None] - lm.A[None]
         x = np.linalg.solve(lhs, rhs[..., None])[..., 0]
         for r, i in enumerate(idx):
-            out[r, a : a + _CHUNK] = x @ lm.C[i] + lm.D[i, 0] + sc * lm.D[i, 1]
+            y = x @ lm.C[i]
+            for j, lag in enumerate(lags):
+                lag = lag if np.isscalar(lag) else lag[:, 0]
+                y = y + lag * lm.D[i, 2 * j] + lag * sc * lm.D[i, 2 * j + 1]
+            out[r, a : a + _CHUNK] = y
     return out[0] if one else out
 
 

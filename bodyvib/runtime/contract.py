@@ -17,7 +17,9 @@ Interfaces (SI units; ``vr`` = value reference = position in the ``variables`` o
   derivative, for a master that feeds the car's ``seat_force_rate``);
   parameters: the model's named parameters.
 * car (``kind="car"``): inputs ``road_displacement`` [m], ``road_velocity``
-  [m/s], ``seat_force`` [N] (the occupant's, positive in compression: it enters
+  [m/s] (a car driven at several points, a half car, takes a pair per point:
+  ``road_displacement_front``, ``road_velocity_front``, ``..._rear``; see
+  :func:`road_inputs`), ``seat_force`` [N] (the occupant's, positive in compression: it enters
   the car's ``<seat>.force`` input as ``-seat_force``), ``seat_force_rate``
   [N/s] (optional, start 0: slope of ``seat_force`` over the coming step; 0 =
   hold); outputs ``seat_displacement`` [m] and ``seat_velocity`` [m/s] (the
@@ -56,6 +58,7 @@ __all__ = [
     "CAR_OUTPUTS",
     "fmu_variables",
     "rate_signal",
+    "road_inputs",
     "KINDS",
     "MODEL_FILE",
     "PARAMETER_LIMITS",
@@ -89,7 +92,14 @@ MODEL_FILE = "bodyvib_model.json"
 RATE_PREFIX = "d/dt "
 
 #: Unit of a network parameter by the element field (or mass) that uses it.
-PARAMETER_UNITS = {"mass": "kg", "k": "N/m", "k_series": "N/m", "c": "N.s/m"}
+PARAMETER_UNITS = {
+    "mass": "kg",
+    "inertia": "kg.m2",
+    "position": "m",
+    "k": "N/m",
+    "k_series": "N/m",
+    "c": "N.s/m",
+}
 
 #: Parameter values a model accepts (SI: kg, N/m, N s/m), the loader's range
 #: (:data:`bodyvib.runtime.modelfile.PARAMETER_RANGE`) and the ``min``/``max`` the FMUs
@@ -104,6 +114,10 @@ UNITS = {
     "N": {"kg": 1, "m": 1, "s": -2},
     "N/s": {"kg": 1, "m": 1, "s": -3},
     "kg": {"kg": 1},
+    "kg.m2": {"kg": 1, "m": 2},
+    "rad": {"rad": 1},
+    "rad/s": {"rad": 1, "s": -1},
+    "rad/s2": {"rad": 1, "s": -2},
     "N/m": {"kg": 1, "s": -2},
     "N.s/m": {"kg": 1, "s": -1},
 }
@@ -362,15 +376,23 @@ def car_interface(network: Network) -> Interface:
         What :func:`seat_point` refuses.
     """
     seat = seat_point(network)
-    inputs = _inputs(
-        CAR_INPUTS,
-        (
-            ("m", "Road profile height under the tire"),
+    roads = road_inputs(network)
+    road_specs = []
+    for j in range(0, len(roads), 2):
+        axle = roads[j][len("road_displacement_") :]
+        under = f"the {axle} tire" if axle else "the tire"
+        road_specs += [
+            ("m", f"Road profile height under {under}"),
             (
                 "m/s",
-                "Road profile vertical velocity; also the slope of road_displacement over the "
-                "coming step",
+                f"Road profile vertical velocity{f' under {under}' if axle else ''}; also the "
+                f"slope of {roads[j]} over the coming step",
             ),
+        ]
+    inputs = _inputs(
+        roads + CAR_INPUTS[2:],
+        (
+            *road_specs,
             (
                 "N",
                 "Force the occupant exerts on the seat, positive in compression (pushes the car "
@@ -391,20 +413,67 @@ def car_interface(network: Network) -> Interface:
         ),
     )
     outputs, signals = _with_extra_outputs(network, outputs, ("seat.x", "seat.v"))
-    m = 2 + len(network.force_inputs)
-    input_map = np.zeros((m, 4))
-    input_map[0, 0] = 1.0
-    input_map[1, 1] = 1.0
-    input_map[2 + list(network.force_inputs).index(seat), 2] = -1.0  # sprung.force = -seat_force
+    nb = len(network.bases)
+    m = 2 * nb + len(network.force_inputs)
+    input_map = np.zeros((m, 2 * nb + 2))
+    input_map[: 2 * nb, : 2 * nb] = np.eye(2 * nb)  # each base's displacement and velocity
+    # <seat>.force = -seat_force
+    input_map[2 * nb + list(network.force_inputs).index(seat), 2 * nb] = -1.0
+    road_pairs = tuple((2 * j, 2 * j + 1) for j in range(nb))
     return Interface(
         kind="car",
         inputs=inputs,
         outputs=outputs,
         input_map=input_map,
-        rate_pairs=((0, 1), (2, 3)),
-        slope_fallback=((0, 1),),  # not the seat force: seat_force_rate 0 means hold
+        rate_pairs=road_pairs + ((2 * nb, 2 * nb + 1),),
+        slope_fallback=road_pairs,  # not the seat force: seat_force_rate 0 means hold
         output_signals=signals,
     )
+
+
+def road_inputs(network: Network) -> Tuple[str, ...]:
+    """Names of a car FMU's road inputs: a displacement and a velocity per driven point.
+
+    A car driven at one point ``road`` takes ``road_displacement`` and
+    ``road_velocity``; one driven at ``road_front`` and ``road_rear`` (a half car)
+    takes ``road_displacement_front``, ``road_velocity_front``,
+    ``road_displacement_rear`` and ``road_velocity_rear``.
+
+    Parameters
+    ----------
+    network : Network
+        A vehicle model; its base points are ``road`` or ``road_<axle>``.
+
+    Returns
+    -------
+    tuple of str
+        Displacement and velocity input of each base, in the model's input order.
+
+    Raises
+    ------
+    BodyvibError
+        A base point not named ``road`` or ``road_<axle>``.
+
+    Examples
+    --------
+    >>> from bodyvib.runtime.modelfile import network_from_dict
+    >>> car = network_from_dict({"name": "two-wheel", "base": ["road_front", "road_rear"],
+    ...     "parameters": {"m": 40.0, "k": 2e5}, "masses": {"wf": "m", "wr": "m"},
+    ...     "elements": [{"name": "tf", "kind": "spring", "from": "road_front", "to": "wf", "k": "k"},
+    ...                  {"name": "tr", "kind": "spring", "from": "road_rear", "to": "wr", "k": "k"}]})
+    >>> road_inputs(car)[:2], road_inputs(car)[2:]
+    (('road_displacement_front', 'road_velocity_front'), ('road_displacement_rear', 'road_velocity_rear'))
+    """
+    names = []
+    for base in network.bases:
+        if base != "road" and not base.startswith("road_"):
+            raise BodyvibError(
+                f"vehicle model '{network.name}': base '{base}' must be named 'road' or "
+                "'road_<axle>' (road_front, road_rear), the names of the car FMU's road inputs"
+            )
+        suffix = base[len("road") :]
+        names += [f"road_displacement{suffix}", f"road_velocity{suffix}"]
+    return tuple(names)
 
 
 #: Interface builders by FMU kind.
@@ -421,6 +490,24 @@ def parameter_variables(network: Network) -> Tuple[Variable, ...]:
         if isinstance(ref, str):
             label = f"{mass} ({', '.join(roles_of[mass])})" if mass in roles_of else mass
             use.setdefault(ref, ("mass", f"Mass of {label}"))
+    for body_name, body in network.bodies.items():
+        if isinstance(body.mass, str):
+            use.setdefault(body.mass, ("mass", f"Mass of rigid body {body_name}"))
+        if isinstance(body.inertia, str):
+            use.setdefault(
+                body.inertia,
+                ("inertia", f"Pitch moment of inertia of rigid body {body_name}"),
+            )
+        for point, ref in body.points.items():
+            if isinstance(ref, str):
+                side = "behind" if ref.startswith("-") else "ahead of"
+                use.setdefault(
+                    ref.lstrip("-"),
+                    (
+                        "position",
+                        f"Distance of point {point} {side} the centre of mass of {body_name}",
+                    ),
+                )
     field_words = {"k": "stiffness", "k_series": "series stiffness", "c": "damping"}
     for el in network.elements:
         for fieldname, ref in el.values.items():

@@ -312,7 +312,7 @@ class Discretization:
 
 
 def input_rates(model: LinearModel, u: np.ndarray) -> np.ndarray:
-    """Default in-step input rates: base displacement rises at the base velocity.
+    """Default in-step input rates: each base displacement rises at its base velocity.
 
     Parameters
     ----------
@@ -327,9 +327,11 @@ def input_rates(model: LinearModel, u: np.ndarray) -> np.ndarray:
         Rate of each input over the step that starts at each sample: the base
         velocity for the base displacement, zero for the others.
     """
-    base = model.network.base
     du = np.zeros_like(u)
-    du[:, model.input_index(f"{base}_displacement")] = u[:, model.input_index(f"{base}_velocity")]
+    for base in model.network.bases:
+        du[:, model.input_index(f"{base}_displacement")] = u[
+            :, model.input_index(f"{base}_velocity")
+        ]
     return du
 
 

@@ -25,10 +25,27 @@ literal number). Optional fields: ``description``, ``provenance``, ``base``
 ``fmu_outputs`` (extra outputs of an FMU built from the model: a list of
 ``{"name", "signal", "unit", "description"}``, ``signal`` an output of the
 state space such as ``"seat.a"``, ``"tire.force"``; see
-:mod:`bodyvib.runtime.contract`) and ``forces`` (named internal forces:
+:mod:`bodyvib.runtime.contract`), ``forces`` (named internal forces:
 ``{"neck": "upper_body"}`` maps a name to an element; the model then has the
 output ``neck_force`` [N], that element's force, positive in compression, and
-an FMU built from it the output of the same name).
+an FMU built from it the output of the same name) and ``bodies``.
+
+``bodies`` declares rigid bodies that bounce and pitch (a car body):
+
+.. code-block:: json
+
+    "bodies": {"body": {"mass": "ms", "inertia": "Iy", "extent": [-2.6, 2.2],
+                        "points": {"front": "lf", "rear": "-lr", "seat": "seat_x"}}}
+
+``mass`` (kg) and ``inertia`` (pitch moment of inertia about the centre of
+mass, kg m2) are parameter references. Sign convention: a point's position
+``x`` is measured from the centre of mass, positive ahead (towards the front);
+pitch ``theta`` is positive nose up; for small angles a point moves
+``z + x theta``. A position is a number (any sign), a parameter name, or a
+parameter name after ``-`` (a point behind the centre of mass). The optional
+``extent`` [rear end, front end] (m) bounds the points. The points are used
+in elements, ``force_inputs`` and ``roles`` as masses are. ``base`` may also
+be a list of points, all driven (the front and rear road of a half car).
 
 The shipped models and loading by name are :mod:`bodyvib.models`. Numpy-free
 apart from what :mod:`bodyvib.runtime.network` needs; relative imports only:
@@ -43,7 +60,7 @@ from typing import Dict, Union
 from .contract import PARAMETER_LIMITS, UNITS
 from .errors import BodyvibError
 from .jsonfile import read_json
-from .network import ELEMENT_KINDS, Element, Network
+from .network import ELEMENT_KINDS, Element, Network, RigidBody
 
 __all__ = [
     "network_from_dict",
@@ -62,7 +79,9 @@ _OPTIONAL = (
     "units",
     "fmu_outputs",
     "forces",
+    "bodies",
 )
+_BODY_FIELDS = ("mass", "inertia", "points")
 _ELEMENT_FIELDS = ("name", "kind", "from", "to")
 _FMU_OUTPUT_FIELDS = ("name", "signal", "unit", "description")
 
@@ -112,6 +131,11 @@ def _number(value, where: str) -> float:
 def network_from_dict(data: dict, source: str = "<model>") -> Network:
     """Validate a parameter-file dictionary and build its network.
 
+    The checks run as named steps, each on one part of the file: the top level
+    (:func:`_check_fields`), the parameters, the base points, the masses, nodes
+    and rigid bodies, the elements, the connections to the base, and the
+    optional fields.
+
     Parameters
     ----------
     data : dict
@@ -122,17 +146,104 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
     Returns
     -------
     Network
-        Its elements, masses, roles and parameter values (SI), as the file says.
+        Its elements, masses, bodies, roles and parameter values (SI), as the file says.
 
     Raises
     ------
     BodyvibError
-        The one list of a parameter file's content checks: missing or extra field, a parameter name that is not a valid FMU
-        variable name, non-numeric or non-finite value, non-positive
-        parameter or mass, a parameter outside :data:`PARAMETER_RANGE`, unknown element kind, unknown point or parameter,
-        a mass not connected to the base, or an unused parameter.
+        The one list of a parameter file's content checks: missing or extra field, a
+        parameter name that is not a valid FMU variable name, non-numeric or non-finite
+        value, non-positive parameter or mass, a parameter outside
+        :data:`PARAMETER_RANGE`, unknown element kind, unknown point or parameter, a
+        rigid body without mass or inertia or with a point outside its extent, a mass
+        or body not connected to a base, or an unused parameter.
+
+    Examples
+    --------
+    >>> net = network_from_dict({"name": "one", "parameters": {"m": 1.0, "k": 100.0},
+    ...     "masses": {"m": "m"},
+    ...     "elements": [{"name": "s", "kind": "spring", "from": "seat", "to": "m", "k": "k"}]})
+    >>> net.mass_names, net.base
+    (('m',), 'seat')
     """
     where = source
+    _check_fields(data, where)
+    refs = _References(_parameters(data["parameters"], where), where)
+    base, extra_bases = _bases(data.get("base", "seat"), where)
+    masses = _masses(data["masses"], refs, where)
+    nodes = _nodes(data.get("nodes", []), where)
+    bodies = _bodies(data.get("bodies", {}), refs, where)
+    if not masses and not bodies:
+        raise BodyvibError(f"{where}: 'masses' must be an object of point: parameter")
+    body_points = [p for body in bodies.values() for p in body.points]
+    named = list(masses) + nodes + list(bodies) + body_points + [base, *extra_bases]
+    if len(set(named)) != len(named):
+        raise BodyvibError(f"{where}: mass, node, body, body point and base names must all differ")
+    points = set(named) - set(bodies)
+    elements = _elements(data["elements"], refs, points, where)
+    _check_connected(elements, bodies, masses, nodes, (base, *extra_bases), where)
+
+    force_inputs = data.get("force_inputs", [])
+    if not isinstance(force_inputs, list) or any(
+        not isinstance(f, str) or f not in set(masses) | set(body_points) for f in force_inputs
+    ):
+        raise BodyvibError(
+            f"{where}: 'force_inputs' must list mass names (or rigid-body point names)"
+        )
+    roles = data.get("roles", {})
+    if not isinstance(roles, dict):
+        raise BodyvibError(f"{where}: 'roles' must be an object of role: point")
+    for r, p in roles.items():
+        if not isinstance(p, str) or (p not in points and p not in bodies):
+            raise BodyvibError(f"{where}: roles.{r} names unknown point '{p}'")
+    unused = [p for p in refs.params if p not in refs.used]
+    if unused:
+        raise BodyvibError(
+            f"{where}: parameter(s) {', '.join(unused)} not used by any mass, body or element"
+        )
+    units = data.get("units", {})
+    if (
+        not isinstance(units, dict)
+        or any(u not in refs.params for u in units)
+        or not all(isinstance(u, str) for u in units.values())
+    ):
+        raise BodyvibError(f"{where}: 'units' must map parameter names to unit strings")
+    fmu_outputs = _fmu_outputs(
+        data.get("fmu_outputs", []),
+        where,
+        set(masses) | set(body_points),
+        points,
+        {el.name for el in elements},
+        roles,
+        (base, *extra_bases),
+        set(bodies),
+    )
+    forces = _forces(data.get("forces", {}), where, {el.name for el in elements}, base)
+    provenance = data.get("provenance", {})
+    if not isinstance(provenance, dict):
+        raise BodyvibError(f"{where}: 'provenance' must be an object")
+
+    return Network(
+        name=data["name"],
+        parameters=refs.params,
+        masses=masses,
+        elements=tuple(elements),
+        nodes=tuple(nodes),
+        base=base,
+        force_inputs=tuple(force_inputs),
+        roles=dict(roles),
+        description=str(data.get("description", "")),
+        provenance=dict(provenance),
+        units=dict(units),
+        fmu_outputs=fmu_outputs,
+        bodies=bodies,
+        extra_bases=extra_bases,
+        forces=forces,
+    )
+
+
+def _check_fields(data, where: str) -> None:
+    """The top level: an object with the required fields, no unknown ones, and a name."""
     if not isinstance(data, dict):
         raise BodyvibError(f"{where}: expected a JSON object at the top level")
     missing = [k for k in _REQUIRED if k not in data]
@@ -147,11 +258,14 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
     if not isinstance(data["name"], str) or not data["name"]:
         raise BodyvibError(f"{where}: 'name' must be a non-empty string")
 
-    raw_params = data["parameters"]
-    if not isinstance(raw_params, dict) or not raw_params:
+
+def _parameters(raw, where: str) -> Dict[str, float]:
+    """The named parameter values: valid names, finite, positive, within range."""
+    if not isinstance(raw, dict) or not raw:
         raise BodyvibError(f"{where}: 'parameters' must be an object of name: value")
     params: Dict[str, float] = {}
-    for k, v in raw_params.items():
+    lo, hi = PARAMETER_RANGE
+    for k, v in raw.items():
         if not PARAMETER_NAME.match(k):
             raise BodyvibError(
                 f"{where}: parameter name {k!r} is not a valid FMU variable name; use letters, "
@@ -161,95 +275,150 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
         if val <= 0:
             raise BodyvibError(
                 f"{where}: parameters.{k} = {val:g} must be positive "
-                "(masses in kg, stiffnesses in N/m, damping in N s/m)"
+                "(masses in kg, stiffnesses in N/m, damping in N s/m, lengths in m)"
             )
-        lo, hi = PARAMETER_RANGE
         if not lo <= val <= hi:
             raise BodyvibError(
                 f"{where}: parameters.{k} = {val:g} is outside {lo:g} to {hi:g}, the range in "
                 "which the model's computations keep their accuracy (SI units: kg, N/m, N s/m)"
             )
         params[k] = val
-    used = set()
+    return params
 
-    def ref(value, field_where: str):
+
+class _References:
+    """Resolves parameter references (a name or a literal) and records the names used."""
+
+    def __init__(self, params: Dict[str, float], where: str):
+        self.params = params
+        self.where = where
+        self.used = set()
+
+    def value(self, value, field_where: str):
+        """A positive quantity: a parameter name or a positive literal."""
         if isinstance(value, str):
-            if value not in params:
+            if value not in self.params:
                 raise BodyvibError(
                     f"{field_where}: unknown parameter '{value}'; parameters are "
-                    + ", ".join(params)
+                    + ", ".join(self.params)
                 )
-            used.add(value)
+            self.used.add(value)
             return value
         val = _number(value, field_where)
         if val <= 0:
             raise BodyvibError(f"{field_where} = {val:g} must be positive")
         return val
 
-    base = data.get("base", "seat")
-    if not isinstance(base, str) or not base:
-        raise BodyvibError(f"{where}: 'base' must be a point name")
+    def position(self, value, field_where: str):
+        """A signed position: a literal, a parameter name, or ``-`` and a parameter name."""
+        if isinstance(value, str):
+            if value.startswith("-"):
+                return "-" + self.value(value[1:], field_where)
+            return self.value(value, field_where)
+        return _number(value, field_where)
 
-    masses_raw = data["masses"]
-    if not isinstance(masses_raw, dict) or not masses_raw:
+    def resolve(self, ref) -> float:
+        """The number a checked reference stands for."""
+        if isinstance(ref, str):
+            return -self.params[ref[1:]] if ref.startswith("-") else self.params[ref]
+        return float(ref)
+
+
+def _bases(raw, where: str):
+    """The driven point (a name) or points (a list of names): the first and the others."""
+    names = raw if isinstance(raw, list) else [raw]
+    if not names or not all(isinstance(b, str) and b for b in names):
+        raise BodyvibError(f"{where}: 'base' must be a point name or a list of point names")
+    return names[0], tuple(names[1:])
+
+
+def _masses(raw, refs: _References, where: str) -> dict:
+    """Mass point -> parameter name (or literal), each positive."""
+    if not isinstance(raw, dict):
         raise BodyvibError(f"{where}: 'masses' must be an object of point: parameter")
-    masses = {}
-    for m, r in masses_raw.items():
-        masses[m] = ref(r, f"{where}: masses.{m}")  # positive: ref() and the parameters checked
-    nodes = data.get("nodes", [])
-    if not isinstance(nodes, list) or not all(isinstance(n, str) for n in nodes):
-        raise BodyvibError(f"{where}: 'nodes' must be a list of node names")
-    points = set(masses) | set(nodes) | {base}
-    if len(points) != len(masses) + len(nodes) + 1:
-        raise BodyvibError(f"{where}: mass, node and base names must all differ")
+    return {m: refs.value(r, f"{where}: masses.{m}") for m, r in raw.items()}
 
-    elements_raw = data["elements"]
-    if not isinstance(elements_raw, list) or not elements_raw:
-        raise BodyvibError(f"{where}: 'elements' must be a non-empty list")
-    elements = []
-    names = set()
-    for i, e in enumerate(elements_raw):
-        ew = f"{where}: elements[{i}]"
-        if not isinstance(e, dict):
-            raise BodyvibError(f"{ew}: expected an object")
-        miss = [k for k in _ELEMENT_FIELDS if k not in e]
-        if miss:
-            raise BodyvibError(f"{ew}: missing field(s) {', '.join(miss)}")
-        for k in _ELEMENT_FIELDS + (("node",) if "node" in e else ()):
-            if not isinstance(e[k], str) or not e[k]:
-                raise BodyvibError(f"{ew}.{k}: expected a non-empty string, got {e[k]!r}")
-        ew = f"{where}: element '{e['name']}'"
-        if e["name"] in names:
-            raise BodyvibError(f"{ew}: duplicate element name")
-        names.add(e["name"])
-        kind = e["kind"]
-        if kind not in ELEMENT_KINDS:
-            raise BodyvibError(f"{ew}: unknown kind '{kind}'; kinds are {', '.join(ELEMENT_KINDS)}")
-        need = ELEMENT_KINDS[kind]
-        allowed = set(_ELEMENT_FIELDS) | set(need)
-        if kind in ("series_kelvin", "zener"):
-            allowed.add("node")
-        miss = [k for k in need if k not in e]
-        if miss:
-            raise BodyvibError(f"{ew}: a {kind} needs field(s) {', '.join(miss)}")
-        extra = sorted(set(e) - allowed)
+
+def _nodes(raw, where: str) -> list:
+    """Declared massless node names."""
+    if not isinstance(raw, list) or not all(isinstance(n, str) for n in raw):
+        raise BodyvibError(f"{where}: 'nodes' must be a list of node names")
+    return list(raw)
+
+
+def _bodies(raw, refs: _References, where: str) -> Dict[str, RigidBody]:
+    """Rigid bodies: mass, pitch inertia, points at positions within the optional extent."""
+    if not isinstance(raw, dict):
+        raise BodyvibError(f"{where}: 'bodies' must be an object of body name: body")
+    bodies = {}
+    for name, b in raw.items():
+        bw = f"{where}: body '{name}'"
+        if not isinstance(b, dict):
+            raise BodyvibError(f"{bw}: expected an object with {', '.join(_BODY_FIELDS)}")
+        missing = [k for k in _BODY_FIELDS if k not in b]
+        if missing:
+            raise BodyvibError(
+                f"{bw}: missing field(s) {', '.join(missing)} (mass in kg, inertia: the pitch "
+                "moment of inertia in kg m2, points: name -> position in m ahead of the "
+                "centre of mass)"
+            )
+        extra = sorted(set(b) - set(_BODY_FIELDS) - {"extent"})
         if extra:
             raise BodyvibError(
-                f"{ew}: unknown field(s) {', '.join(extra)} for a {kind}; "
-                f"its fields are {', '.join(sorted(allowed))}"
+                f"{bw}: unknown field(s) {', '.join(extra)}; its fields are "
+                f"{', '.join(_BODY_FIELDS)}, extent"
             )
-        node = e.get("node")
-        el = Element(
-            name=e["name"],
-            kind=kind,
-            a=e["from"],
-            b=e["to"],
-            values={p: ref(e[p], f"{ew}.{p}") for p in need},
-            node=node,
+        points = b["points"]
+        if not isinstance(points, dict) or len(points) < 2:
+            raise BodyvibError(
+                f"{bw}: 'points' must name at least two points (name -> position in m), "
+                "or its pitch is not held"
+            )
+        positions = {p: refs.position(x, f"{bw}: points.{p}") for p, x in points.items()}
+        extent = b.get("extent")
+        if extent is not None:
+            extent = _extent(extent, bw)
+            for p, ref in positions.items():
+                x = refs.resolve(ref)
+                if not extent[0] <= x <= extent[1]:
+                    raise BodyvibError(
+                        f"{bw}: point '{p}' at x = {x:g} m is outside the body's extent "
+                        f"{extent[0]:g} to {extent[1]:g} m; move the point or widen the extent"
+                    )
+        bodies[name] = RigidBody(
+            mass=refs.value(b["mass"], f"{bw}.mass"),
+            inertia=refs.value(b["inertia"], f"{bw}.inertia"),
+            points=positions,
+            extent=extent,
         )
+    return bodies
+
+
+def _extent(raw, where: str):
+    """A body's [rear end, front end], m from the centre of mass."""
+    if not (isinstance(raw, list) and len(raw) == 2):
+        raise BodyvibError(f"{where}.extent must be [rear end, front end] in m")
+    lo, hi = (_number(x, f"{where}.extent") for x in raw)
+    if not lo < hi:
+        raise BodyvibError(f"{where}.extent must be [rear end, front end] with rear < front")
+    return (lo, hi)
+
+
+def _elements(raw, refs: _References, points: set, where: str) -> list:
+    """The elements: fields by kind, unique names, known points; adds internal nodes to points."""
+    if not isinstance(raw, list) or not raw:
+        raise BodyvibError(f"{where}: 'elements' must be a non-empty list")
+    elements, names = [], set()
+    for i, e in enumerate(raw):
+        el = _element(e, refs, f"{where}: elements[{i}]", where)
+        if el.name in names:
+            raise BodyvibError(f"{where}: element '{el.name}': duplicate element name")
+        names.add(el.name)
         if el.internal_node is not None:
             if el.internal_node in points:
-                raise BodyvibError(f"{ew}: node name '{el.internal_node}' is already used")
+                raise BodyvibError(
+                    f"{where}: element '{el.name}': node name '{el.internal_node}' is already used"
+                )
             points.add(el.internal_node)
         elements.append(el)
     for el in elements:
@@ -261,78 +430,72 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
                 )
         if el.a == el.b:
             raise BodyvibError(f"{where}: element '{el.name}' connects '{el.a}' to itself")
+    return elements
 
-    # every mass and node must be connected to the base
-    adj = {p: set() for p in points}
+
+def _element(e, refs: _References, ew: str, where: str) -> Element:
+    """One element: its fields for its kind, its parameter references."""
+    if not isinstance(e, dict):
+        raise BodyvibError(f"{ew}: expected an object")
+    miss = [k for k in _ELEMENT_FIELDS if k not in e]
+    if miss:
+        raise BodyvibError(f"{ew}: missing field(s) {', '.join(miss)}")
+    for k in _ELEMENT_FIELDS + (("node",) if "node" in e else ()):
+        if not isinstance(e[k], str) or not e[k]:
+            raise BodyvibError(f"{ew}.{k}: expected a non-empty string, got {e[k]!r}")
+    ew = f"{where}: element '{e['name']}'"
+    kind = e["kind"]
+    if kind not in ELEMENT_KINDS:
+        raise BodyvibError(f"{ew}: unknown kind '{kind}'; kinds are {', '.join(ELEMENT_KINDS)}")
+    need = ELEMENT_KINDS[kind]
+    allowed = set(_ELEMENT_FIELDS) | set(need)
+    if kind in ("series_kelvin", "zener"):
+        allowed.add("node")
+    miss = [k for k in need if k not in e]
+    if miss:
+        raise BodyvibError(f"{ew}: a {kind} needs field(s) {', '.join(miss)}")
+    extra = sorted(set(e) - allowed)
+    if extra:
+        raise BodyvibError(
+            f"{ew}: unknown field(s) {', '.join(extra)} for a {kind}; "
+            f"its fields are {', '.join(sorted(allowed))}"
+        )
+    return Element(
+        name=e["name"],
+        kind=kind,
+        a=e["from"],
+        b=e["to"],
+        values={p: refs.value(e[p], f"{ew}.{p}") for p in need},
+        node=e.get("node"),
+    )
+
+
+def _check_connected(elements, bodies, masses, nodes, bases, where: str) -> None:
+    """Every mass, node and rigid body is connected to a base by elements (or its body)."""
+    adj = {}
+
+    def link(p, q):
+        adj.setdefault(p, set()).add(q)
+        adj.setdefault(q, set()).add(p)
+
     for el in elements:
         chain = [el.a, el.b] if el.internal_node is None else [el.a, el.internal_node, el.b]
-        for p, q in zip(chain, chain[1:] + [chain[0]]):
-            adj[p].add(q)
-            adj[q].add(p)
-    seen, todo = {base}, [base]
+        for p, q in zip(chain, chain[1:]):
+            link(p, q)
+    for b, body in bodies.items():
+        for p in body.points:
+            link(b, p)
+    seen, todo = set(bases), list(bases)
     while todo:
-        for q in adj[todo.pop()]:
+        for q in adj.get(todo.pop(), ()):
             if q not in seen:
                 seen.add(q)
                 todo.append(q)
-    loose = [p for p in list(masses) + nodes if p not in seen]
+    loose = [p for p in list(masses) + nodes + list(bodies) if p not in seen]
     if loose:
         raise BodyvibError(
-            f"{where}: {', '.join(loose)} not connected to the {base} by any element"
+            f"{where}: {', '.join(loose)} not connected to the {' or '.join(bases)} by any element"
         )
-
-    force_inputs = data.get("force_inputs", [])
-    if not isinstance(force_inputs, list) or any(
-        not isinstance(f, str) or f not in masses for f in force_inputs
-    ):
-        raise BodyvibError(f"{where}: 'force_inputs' must list mass names")
-    roles = data.get("roles", {})
-    if not isinstance(roles, dict):
-        raise BodyvibError(f"{where}: 'roles' must be an object of role: point")
-    for r, p in roles.items():
-        if not isinstance(p, str) or p not in points:
-            raise BodyvibError(f"{where}: roles.{r} names unknown point '{p}'")
-    unused = [p for p in params if p not in used]
-    if unused:
-        raise BodyvibError(
-            f"{where}: parameter(s) {', '.join(unused)} not used by any mass or element"
-        )
-    units = data.get("units", {})
-    if (
-        not isinstance(units, dict)
-        or any(u not in params for u in units)
-        or not all(isinstance(u, str) for u in units.values())
-    ):
-        raise BodyvibError(f"{where}: 'units' must map parameter names to unit strings")
-    fmu_outputs = _fmu_outputs(
-        data.get("fmu_outputs", []),
-        where,
-        masses,
-        points,
-        {el.name for el in elements},
-        roles,
-        base,
-    )
-    forces = _forces(data.get("forces", {}), where, {el.name for el in elements}, base)
-    provenance = data.get("provenance", {})
-    if not isinstance(provenance, dict):
-        raise BodyvibError(f"{where}: 'provenance' must be an object")
-
-    return Network(
-        name=data["name"],
-        parameters=params,
-        masses=masses,
-        elements=tuple(elements),
-        nodes=tuple(nodes),
-        base=base,
-        force_inputs=tuple(force_inputs),
-        roles=dict(roles),
-        description=str(data.get("description", "")),
-        provenance=dict(provenance),
-        units=dict(units),
-        fmu_outputs=fmu_outputs,
-        forces=forces,
-    )
 
 
 def _forces(items, where, element_names, base):
@@ -356,7 +519,7 @@ def _forces(items, where, element_names, base):
     return dict(items)
 
 
-def _fmu_outputs(items, where, masses, points, element_names, roles, base):
+def _fmu_outputs(items, where, masses, points, element_names, roles, bases, bodies=()):
     """Validate ``fmu_outputs``: each an object of name, signal, unit, description."""
     if not isinstance(items, list):
         raise BodyvibError(
@@ -382,15 +545,17 @@ def _fmu_outputs(items, where, masses, points, element_names, roles, base):
         point, _, quantity = signal.rpartition(".")
         point = roles.get(point, point)
         ok = (
-            signal == f"{base}_force"
+            signal in {f"{b}_force" for b in bases}
             or (point in masses and quantity in ("x", "v", "a"))
-            or (point in points and point not in masses and point != base and quantity == "y")
+            or (point in bodies and quantity in ("x", "v", "a", "theta", "omega", "alpha"))
+            or (point in points and point not in masses and point not in bases and quantity == "y")
             or (point in element_names and quantity in ("deflection", "force"))
         )
         if not ok:
             raise BodyvibError(
-                f"{w}.signal '{signal}' is not an output of the model: use <mass or role>.x/.v/.a, "
-                f"<node>.y, <element>.deflection/.force or {base}_force"
+                f"{w}.signal '{signal}' is not an output of the model: use <mass, body point "
+                "or role>.x/.v/.a, <body>.theta/.omega/.alpha, <node>.y, "
+                f"<element>.deflection/.force or {bases[0]}_force"
             )
         out.append({k: item[k] for k in _FMU_OUTPUT_FIELDS})
     return tuple(out)
@@ -420,7 +585,7 @@ def network_to_dict(net: Network) -> dict:
         "name": net.name,
         "description": net.description,
         "provenance": dict(net.provenance),
-        "base": net.base,
+        "base": list(net.bases) if net.extra_bases else net.base,
         "parameters": dict(net.parameters),
         "masses": dict(net.masses),
         "nodes": list(net.nodes),
@@ -435,4 +600,14 @@ def network_to_dict(net: Network) -> dict:
         out["fmu_outputs"] = [dict(o) for o in net.fmu_outputs]
     if net.forces:
         out["forces"] = dict(net.forces)
+    if net.bodies:
+        out["bodies"] = {
+            name: {
+                "mass": b.mass,
+                "inertia": b.inertia,
+                "points": dict(b.points),
+                **({"extent": list(b.extent)} if b.extent is not None else {}),
+            }
+            for name, b in net.bodies.items()
+        }
     return out

@@ -21,18 +21,32 @@ zener          k, c, k_series                 k parallel (c in series with k_ser
 ``series_kelvin`` and ``zener`` create a massless internal node, named by the
 element's ``node`` field (``<element>.node`` by default).
 
+A *rigid body* (:class:`RigidBody`) is a mass with a pitch inertia and named
+points at longitudinal positions ``x`` along it, measured from its centre of
+mass, positive ahead (towards the front). It has two degrees of freedom, bounce
+``z`` (up) and pitch ``theta`` (rad, positive nose up), and for small angles a
+point at ``x`` moves ``w = z + x theta``. Elements connect a body's points as
+they connect masses; a force ``F`` (up) at ``x`` enters the bounce equation as
+``F`` and the pitch equation as ``x F``. A network may be driven at several
+base points (the front and rear road of a half car): each has its own
+displacement and velocity inputs.
+
 Equations (SI units, z up, perturbations about static equilibrium): a mass
-obeys ``m a = sum of element forces (+ external force)``; a massless node
+obeys ``m a = sum of element forces (+ external force)``, a rigid body
+``m z'' = sum of F`` and ``Iy theta'' = sum of x F`` over its points; a massless node
 obeys ``0 = sum of element forces``, which, since every node touches at
 least one damper, is a first-order equation for its displacement. The state
-vector is ``[x of each mass, v of each mass, y of each node]``; the input
-vector is ``[base displacement, base velocity, external forces...]`` (the base
+vector is ``[x of each mass, z and theta of each body, v of each mass,
+z' and theta' of each body, y of each node]``; the input vector is ``[base
+displacement, base velocity (for each base), external forces...]`` (the base
 velocity is an input of its own so that dampers attached to the base are
 exact). Outputs are every mass's displacement, velocity and absolute
-acceleration, every node's displacement, every element's deflection
+acceleration (``.x``, ``.v``, ``.a``), every body's bounce (the same three)
+and pitch (``.theta``, ``.omega``, ``.alpha``), the same three of every body
+point, every node's displacement, every element's deflection
 (``x_to - x_from``, positive when it lengthens) and force (the force it
 exerts on its ``to`` point, positive in compression, i.e. pushing ``to``
-up), and the *base force*: the force the network exerts on the base,
+up), and the *base force* of each base: the force the network exerts on it,
 positive in compression (pushing the base down). Then, in the order the
 network lists them, its *named forces* ``"<name>_force"`` (``"neck_force"``):
 the force of the element each names, the same compression-positive force as
@@ -52,6 +66,7 @@ from .errors import BodyvibError
 __all__ = [
     "ELEMENT_KINDS",
     "Element",
+    "RigidBody",
     "Network",
     "SignalNames",
     "LinearModel",
@@ -110,6 +125,37 @@ class Element:
 
 
 @dataclass(frozen=True)
+class RigidBody:
+    """A rigid body that bounces and pitches, with named points along it.
+
+    Parameters
+    ----------
+    mass : str or float
+        Parameter name (or literal) of its mass, kg.
+    inertia : str or float
+        Parameter name (or literal) of its pitch moment of inertia about the
+        centre of mass, kg m^2.
+    points : dict of str to str or float
+        Point name -> longitudinal position from the centre of mass, m,
+        positive ahead: a literal number (any sign), a parameter name, or a
+        parameter name with a leading ``-`` (behind the centre of mass).
+    extent : (float, float), optional
+        Rear and front end of the body, m from the centre of mass; the points
+        must lie within it.
+
+    Examples
+    --------
+    >>> RigidBody("ms", "Iy", {"front": "lf", "rear": "-lr"}).points["rear"]
+    '-lr'
+    """
+
+    mass: Value
+    inertia: Value
+    points: Mapping[str, Value]
+    extent: Optional[Tuple[float, float]] = None
+
+
+@dataclass(frozen=True)
 class Network:
     """A lumped vibration model as data: topology plus named parameter values.
 
@@ -130,7 +176,8 @@ class Network:
     base : str
         The driven point (``"seat"`` for a body model).
     force_inputs : sequence of str
-        Masses on which an external force input acts (N, positive up).
+        Masses (or rigid-body points) on which an external force input acts (N,
+        positive up).
     roles : dict of str to str
         Field names for points, e.g. ``{"head": "m1", "torso": "m2"}``.
     description : str
@@ -148,6 +195,12 @@ class Network:
     forces : dict of str to str
         Named internal forces: name (``"neck"``) -> element name. Each becomes the
         output ``"<name>_force"`` [N], the element's force, positive in compression.
+    bodies : dict of str to RigidBody
+        Rigid bodies by name (bounce and pitch), their points usable wherever a
+        mass is.
+    extra_bases : sequence of str
+        Further driven points after ``base`` (the rear road of a half car), each
+        with its own displacement and velocity inputs.
     """
 
     name: str
@@ -163,6 +216,8 @@ class Network:
     units: Mapping[str, str] = field(default_factory=dict)
     fmu_outputs: Tuple[Mapping[str, str], ...] = ()
     forces: Mapping[str, str] = field(default_factory=dict)
+    bodies: Mapping[str, RigidBody] = field(default_factory=dict)
+    extra_bases: Tuple[str, ...] = ()
 
     # -- derived views -----------------------------------------------------
     @property
@@ -179,19 +234,40 @@ class Network:
                 names.append(el.internal_node)
         return tuple(names)
 
+    @property
+    def bases(self) -> Tuple[str, ...]:
+        """All driven points: ``base``, then ``extra_bases``."""
+        return (self.base,) + tuple(self.extra_bases)
+
+    @property
+    def body_points(self) -> Dict[str, Tuple[str, float]]:
+        """Rigid-body point name -> (body name, position in m ahead of its centre of mass)."""
+        return {
+            p: (b, self.position(x))
+            for b, body in self.bodies.items()
+            for p, x in body.points.items()
+        }
+
     def value(self, ref: Value) -> float:
         """Resolve a parameter reference (name or literal) to a float."""
         if isinstance(ref, str):
             return float(self.parameters[ref])
         return float(ref)
 
+    def position(self, ref: Value) -> float:
+        """Resolve a point position: a literal, a parameter name, or ``-`` and a name (m)."""
+        if isinstance(ref, str) and ref.startswith("-"):
+            return -self.value(ref[1:])
+        return self.value(ref)
+
     def mass_values(self) -> Dict[str, float]:
         """Mass point name -> mass in kg."""
         return {m: self.value(ref) for m, ref in self.masses.items()}
 
     def total_mass(self) -> float:
-        """Sum of all masses in kg (the static apparent mass on the base)."""
-        return float(sum(self.mass_values().values()))
+        """Sum of all masses and rigid-body masses in kg (the static apparent mass on the base)."""
+        bodies = sum(self.value(b.mass) for b in self.bodies.values())
+        return float(sum(self.mass_values().values()) + bodies)
 
     def with_parameters(self, **values: float) -> "Network":
         """Return a copy with some parameter values replaced.
@@ -396,10 +472,17 @@ def descriptor_model(network: Network) -> DescriptorModel:
     """
     masses = network.mass_names
     nodes = network.node_names
-    nm, nn = len(masses), len(nodes)
-    ns = 2 * nm + nn
-    base = network.base
-    inputs = (f"{base}_displacement", f"{base}_velocity") + tuple(
+    mvals = network.mass_values()
+    # degrees of freedom: a mass's displacement; a rigid body's bounce and pitch
+    dofs = [(f"{m}.x", f"{m}.v", f"{m}.a") for m in masses]
+    inertia = [mvals[m] for m in masses]
+    for b, body in network.bodies.items():
+        dofs += [(f"{b}.x", f"{b}.v", f"{b}.a"), (f"{b}.theta", f"{b}.omega", f"{b}.alpha")]
+        inertia += [network.value(body.mass), network.value(body.inertia)]
+    nd, nn = len(dofs), len(nodes)
+    ns = 2 * nd + nn
+    bases = network.bases
+    inputs = tuple(n for b in bases for n in (f"{b}_displacement", f"{b}_velocity")) + tuple(
         f"{m}.force" for m in network.force_inputs
     )
     ni = len(inputs)
@@ -411,15 +494,31 @@ def descriptor_model(network: Network) -> DescriptorModel:
         e[i] = 1.0
         return e
 
-    pos = {m: unit(i) for i, m in enumerate(masses)}
-    pos.update({n: unit(2 * nm + j) for j, n in enumerate(nodes)})
-    pos[base] = unit(ns)
-    vel = {m: unit(nm + i) for i, m in enumerate(masses)}
-    vel.update({n: unit(ns + ni + 2 * nm + j) for j, n in enumerate(nodes)})  # y' of each node
-    vel[base] = unit(ns + 1)
-    acc = {m: unit(ns + ni + nm + i) for i, m in enumerate(masses)}  # v' of each mass
+    # each mass-like point as a combination of degrees of freedom: {dof index: weight}
+    point_dofs = {m: {i: 1.0} for i, m in enumerate(masses)}
+    i_body = len(masses)
+    body_points = network.body_points
+    for b in network.bodies:
+        for p, (owner, x) in body_points.items():
+            if owner == b:
+                point_dofs[p] = {i_body: 1.0, i_body + 1: x}  # w = z + x theta
+        i_body += 2
 
-    force_on = {p: np.zeros(nw) for p in list(masses) + list(nodes) + [base]}
+    def combine(vectors, weights):
+        return sum(c * vectors[i] for i, c in weights.items())
+
+    dof_pos = [unit(i) for i in range(nd)]
+    dof_vel = [unit(nd + i) for i in range(nd)]
+    dof_acc = [unit(ns + ni + nd + i) for i in range(nd)]  # v' of each degree of freedom
+    pos = {p: combine(dof_pos, c) for p, c in point_dofs.items()}
+    vel = {p: combine(dof_vel, c) for p, c in point_dofs.items()}
+    acc = {p: combine(dof_acc, c) for p, c in point_dofs.items()}
+    pos.update({n: unit(2 * nd + j) for j, n in enumerate(nodes)})
+    vel.update({n: unit(ns + ni + 2 * nd + j) for j, n in enumerate(nodes)})  # y' of each node
+    for j, b in enumerate(bases):
+        pos[b], vel[b] = unit(ns + 2 * j), unit(ns + 2 * j + 1)
+
+    force_on = {p: np.zeros(nw) for p in list(point_dofs) + list(nodes) + list(bases)}
     element_force = {}  # compression-positive force each element exerts on its 'to' point
     for el in network.elements:
         el_springs, el_dampers = network.element_primitives(el)
@@ -435,39 +534,41 @@ def descriptor_model(network: Network) -> DescriptorModel:
             elif a == el.b:
                 f_el += f
         element_force[el.name] = f_el
+    for m in network.force_inputs:
+        force_on[m] = force_on[m] + unit(ns + inputs.index(f"{m}.force"))
 
-    # Equations, each "0 = row @ w": x' = v for a mass; m v' = sum of forces (+ external
-    # force) for a mass; 0 = sum of forces for a massless node (first order in y').
-    mvals = network.mass_values()
-    rows = [vel[m] - unit(ns + ni + i) for i, m in enumerate(masses)]
-    for m in masses:
-        total = force_on[m] - mvals[m] * acc[m]
-        if m in network.force_inputs:
-            total = total + unit(ns + inputs.index(f"{m}.force"))
-        rows.append(total)
+    # Equations, each "0 = row @ w": x' = v for a degree of freedom; inertia times v' =
+    # the generalized force (the forces on its points, weighted by the point map); 0 = sum
+    # of forces for a massless node (first order in y').
+    generalized = [np.zeros(nw) for _ in range(nd)]
+    for p, weights in point_dofs.items():
+        for i, c in weights.items():
+            generalized[i] = generalized[i] + c * force_on[p]
+    rows = [dof_vel[i] - unit(ns + ni + i) for i in range(nd)]
+    rows += [generalized[i] - inertia[i] * dof_acc[i] for i in range(nd)]
     rows += [force_on[n] for n in nodes]
     eq = np.array(rows).reshape(ns, nw)
     out_rows, out_names = [], []
-    for m in masses:
-        out_rows += [pos[m], vel[m], acc[m]]
-        out_names += [f"{m}.x", f"{m}.v", f"{m}.a"]
+    for i, names in enumerate(dofs):
+        out_rows += [dof_pos[i], dof_vel[i], dof_acc[i]]
+        out_names += list(names)
+    for p in body_points:
+        out_rows += [pos[p], vel[p], acc[p]]
+        out_names += [f"{p}.x", f"{p}.v", f"{p}.a"]
     for n in nodes:
         out_rows.append(pos[n])
         out_names.append(f"{n}.y")
     for el in network.elements:
         out_rows += [pos[el.b] - pos[el.a], element_force[el.name]]
         out_names += [f"{el.name}.deflection", f"{el.name}.force"]
-    out_rows.append(-force_on[base])
-    out_names.append(f"{base}_force")
+    for b in bases:
+        out_rows.append(-force_on[b])
+        out_names.append(f"{b}_force")
     for name, el_name in network.forces.items():
         out_rows.append(element_force[el_name])
         out_names.append(f"{name}_force")
     out = np.array(out_rows).reshape(len(out_names), nw)
-    states = (
-        tuple(f"{m}.x" for m in masses)
-        + tuple(f"{m}.v" for m in masses)
-        + tuple(f"{n}.y" for n in nodes)
-    )
+    states = tuple(d[0] for d in dofs) + tuple(d[1] for d in dofs) + tuple(f"{n}.y" for n in nodes)
     return DescriptorModel(
         E=-eq[:, ns + ni :] + 0.0,
         A=eq[:, :ns],
@@ -544,7 +645,7 @@ def mount(carrier: Network, occupant: Network, at: str, prefix: str = "body.") -
     occupant : Network
         The body model (its base is the seat).
     at : str
-        Carrier mass (or role) the occupant sits on.
+        Carrier mass, rigid-body point (or their role) the occupant sits on.
     prefix : str
         Prefix for the occupant's point, element and parameter names.
 
@@ -553,7 +654,7 @@ def mount(carrier: Network, occupant: Network, at: str, prefix: str = "body.") -
     Network
     """
     at = carrier.point(at)
-    if at not in carrier.masses and at not in carrier.node_names:
+    if at not in carrier.masses and at not in carrier.node_names and at not in carrier.body_points:
         raise BodyvibError(f"carrier '{carrier.name}' has no point '{at}' to mount on")
 
     def rename(p):
@@ -561,6 +662,11 @@ def mount(carrier: Network, occupant: Network, at: str, prefix: str = "body.") -
 
     def ref(r):
         return prefix + r if isinstance(r, str) else r
+
+    def position(r):
+        if isinstance(r, str) and r.startswith("-"):
+            return "-" + prefix + r[1:]
+        return ref(r)
 
     elements = tuple(
         Element(
@@ -583,6 +689,18 @@ def mount(carrier: Network, occupant: Network, at: str, prefix: str = "body.") -
     units.update({prefix + k: u for k, u in occupant.units.items()})
     forces = dict(carrier.forces)
     forces.update({prefix + f: prefix + el for f, el in occupant.forces.items()})
+    bodies = dict(carrier.bodies)
+    bodies.update(
+        {
+            prefix + b: RigidBody(
+                ref(body.mass),
+                ref(body.inertia),
+                {prefix + p: position(x) for p, x in body.points.items()},
+                body.extent,
+            )
+            for b, body in occupant.bodies.items()
+        }
+    )
     return Network(
         name=f"{carrier.name}+{occupant.name}",
         parameters=params,
@@ -595,4 +713,6 @@ def mount(carrier: Network, occupant: Network, at: str, prefix: str = "body.") -
         description=f"{occupant.name} seated on {carrier.name} at '{at}'",
         units=units,
         forces=forces,
+        bodies=bodies,
+        extra_bases=carrier.extra_bases,
     )

@@ -345,6 +345,10 @@ static int build(bv_instance *c, const double *p)
     for (k = 0; k < md->nstencils; k++) {
         const bv_stencil *st = &md->stencils[k];
         double v = st->coef * (st->param < 0 ? 1.0 : p[st->param]);
+        if (st->param2 >= 0)
+            v *= p[st->param2];
+        if (st->param3 >= 0)
+            v *= p[st->param3];
         switch (st->mat) {
         case BV_E: E[st->row * n + st->col] += v; break;
         case BV_A: AB[st->row * (n + m) + st->col] += v; break;

@@ -21,7 +21,9 @@ import math
 import os
 import warnings
 from dataclasses import dataclass
-from typing import Optional
+from typing import Optional, Sequence, Tuple
+
+import numpy as np
 
 from bodyvib.runtime.errors import BodyvibError
 
@@ -29,7 +31,7 @@ from ..records import Record
 from .base import Road, RoadWarning
 from .bumps import check_bump_start, is_bump_spec, parse_bump
 from .measured import PROFILE_EXTENSIONS
-from .synthetic import ISO8608_CLASSES, TaperedRoad, make_road
+from .synthetic import ISO8608_CLASSES, TaperedRoad, make_road, road_input
 
 __all__ = [
     "DEFAULT_TAPER_M",
@@ -39,6 +41,7 @@ __all__ = [
     "file_road",
     "road_label",
     "road_handling",
+    "wheel_inputs",
 ]
 
 #: Default fade-in (and fade-out) length of every road, m.
@@ -297,3 +300,63 @@ def road_handling(road: dict) -> str:
     if road.get("repeats") and contact and road.get("length_m"):  # a file, driven again
         parts.append(f"repeated every {road['length_m']:.6g} m")
     return ", ".join(parts)
+
+
+def wheel_inputs(
+    road: Road, speed: float, t, behind: Sequence[float] = (0.0,)
+) -> Tuple[np.ndarray, np.ndarray]:
+    """Road displacement and velocity under each wheel of a car driving at constant speed.
+
+    The first wheel is at ``x = speed * t``; a wheel ``behind[j]`` metres behind it
+    (the rear axle of a half car: the wheelbase) sees the same road later,
+    ``r(speed * t - behind[j])``, evaluated on the road's own profile (its velocity is
+    the exact derivative ``speed * dr/dx`` there, not a resampled copy), and the level
+    road before the start (``x < 0``) where the road has not begun under it.
+
+    Parameters
+    ----------
+    road : Road
+        A road as driven (:func:`driven_road`).
+    speed : float
+        m/s, positive.
+    t : array_like
+        Times in s.
+    behind : sequence of float
+        Distance of each wheel behind the first, m (``0`` for the first).
+
+    Returns
+    -------
+    displacement, velocity : (n, wheels) ndarray
+        m and m/s, a column per wheel.
+
+    Raises
+    ------
+    BodyvibError
+        A speed that is not a positive number, or a negative distance.
+
+    Examples
+    --------
+    The rear wheel, 2 m behind, is where the front wheel was 0.25 s earlier at 8 m/s:
+
+    >>> r = driven_road("sweep", 8.0, 4.0)
+    >>> z, v = wheel_inputs(r, 8.0, [0.125, 0.375, 0.625], behind=(0.0, 2.0))
+    >>> z.shape, float(z[0, 1]), bool(z[1, 1] == z[0, 0]), bool(v[2, 1] == v[1, 0])
+    ((3, 2), 0.0, True, True)
+    """
+    t = np.asarray(t, dtype=float)
+    z = np.empty((t.size, len(behind)))
+    v = np.empty((t.size, len(behind)))
+    for j, d in enumerate(behind):
+        if not (math.isfinite(d) and d >= 0):
+            raise BodyvibError(
+                f"a wheel must be a non-negative distance behind the first, got {d!r}"
+            )
+        if d == 0:
+            z[:, j], v[:, j] = road_input(road, speed, t)
+            continue
+        x = speed * t - d
+        ahead = x >= 0  # the wheel has reached the road's start
+        x = np.where(ahead, x, 0.0)
+        z[:, j] = np.where(ahead, road.displacement(x), 0.0)
+        v[:, j] = np.where(ahead, speed * road.slope(x), 0.0)
+    return z, v

@@ -49,6 +49,7 @@ __all__ = [
     "TaperedRoad",
     "random_road",
     "road_source",
+    "axle_road_source",
     "road_table",
     "make_road",
     "road_input",
@@ -690,4 +691,89 @@ def road_source(road: Road, length: float, speed: float = 20.0, spacing: float =
         ],
         "provenance": dict(road.describe(), generator="bodyvib.vehicle.road.synthetic"),
     }
+    return meta, table
+
+
+def axle_road_source(
+    road: Road, length: float, wheelbase: float, speed: float = 20.0, spacing: float = None
+):
+    """The source description and table of a two-axle road FMU (``RoadFrontRear.fmu``).
+
+    Two profiles over the front wheel's distance: the road under the front wheel and the
+    road under the rear wheel, ``wheelbase`` behind it (level before the road begins
+    under it). The rows are spaced so that the wheelbase is a whole number of rows and
+    the rear column is the front column moved down by that many rows: the rear signal is
+    the front signal's own interpolant, delayed, exactly.
+
+    Parameters
+    ----------
+    road : Road
+    length : float
+        Table extent, m (extended to a whole number of rows).
+    wheelbase : float
+        Distance of the rear wheel behind the front, m, positive.
+    speed : float
+        Default of the FMU's ``speed`` parameter, m/s.
+    spacing : float, optional
+        Largest row spacing, m (default :func:`table_spacing`).
+
+    Returns
+    -------
+    meta : dict
+        For :func:`bodyvib.fmu.pythonfmu.build_source_fmu`.
+    table : bodyvib.runtime.tabulated.HermiteTable
+        Columns: front, rear; not periodic (beyond the table both hold their end values).
+
+    Raises
+    ------
+    BodyvibError
+        A length, wheelbase or spacing that is not a positive number.
+
+    Examples
+    --------
+    >>> meta, table = axle_road_source(make_road("bump", 10.0, 4.0), 40.0, 2.8)
+    >>> [s["name"] for s in meta["signals"]]
+    ['road_displacement_front', 'road_displacement_rear']
+    >>> k = int(round(2.8 / (table.position[1] - table.position[0])))
+    >>> bool((table.value[k:, 1] == table.value[:-k, 0]).all())
+    True
+    """
+    from bodyvib.runtime.tabulated import HermiteTable
+
+    _check_positive(wheelbase, "wheelbase", "m")
+    _check_positive(length, "road table length", "m")
+    largest = table_spacing(road) if spacing is None else spacing
+    _check_positive(largest, "road table spacing", "m")
+    per_wheelbase = int(math.ceil(wheelbase / largest - 1e-9))
+    dx = wheelbase / per_wheelbase  # a whole number of rows per wheelbase
+    rows = int(math.ceil(length / dx - 1e-9)) + 1
+    x = np.arange(rows) * dx
+    front, slope = road.displacement(x), road.slope(x)
+    rear, rear_slope = np.zeros(rows), np.zeros(rows)
+    rear[per_wheelbase:], rear_slope[per_wheelbase:] = (
+        front[:-per_wheelbase],
+        slope[:-per_wheelbase],
+    )
+    table = HermiteTable(x, np.column_stack([front, rear]), np.column_stack([slope, rear_slope]))
+    meta, _ = road_source(road, length, speed, spacing)
+    meta["description"] = (
+        f"{road.name} under a front and a rear wheel {wheelbase:g} m behind it, "
+        f"{table.length:g} m tabulated every {dx:g} m (heights and exact slopes, cubic "
+        "Hermite between rows); beyond the table the profiles hold their end values"
+    )
+    meta["signals"] = [
+        {
+            "name": f"road_displacement_{axle}",
+            "unit": "m",
+            "description": f"Road profile height under the {axle} wheel (z up)",
+            "rate": {
+                "name": f"road_velocity_{axle}",
+                "unit": "m/s",
+                "description": f"Time derivative of road_displacement_{axle} (speed * "
+                "profile slope of the same interpolant)",
+            },
+        }
+        for axle in ("front", "rear")
+    ]
+    meta["provenance"] = dict(meta["provenance"], wheelbase_m=float(wheelbase))
     return meta, table

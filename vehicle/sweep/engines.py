@@ -46,8 +46,8 @@ from bodyvib.runtime.discretize import Discretization
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import linear_model
 
-from ..quarter_car import seated_system
-from ..road.driven import driven_road
+from ..quarter_car import seated_system, wheel_offsets
+from ..road.driven import driven_road, wheel_inputs
 from ..road.synthetic import ISO8608_CLASSES, N_BAND, displacement_psd, road_input
 from .kernel import advance
 from .spec import Case
@@ -62,6 +62,7 @@ __all__ = [
     "run_spectral",
     "run_cosim",
     "case_road_input",
+    "case_wheel_inputs",
     "check_engine",
 ]
 
@@ -157,6 +158,32 @@ def case_road_input(case: Case):
     return road_input(road, case.speed, t)
 
 
+def case_wheel_inputs(case: Case, behind=(0.0,)):
+    """Road displacement and velocity under each wheel of a case's car (columns).
+
+    Parameters
+    ----------
+    case : Case
+    behind : sequence of float
+        Each wheel's distance behind the first, m
+        (:func:`bodyvib.vehicle.quarter_car.wheel_offsets`).
+
+    Returns
+    -------
+    z, v : (steps, wheels) ndarray
+        m, m/s at ``t_k = k * step`` (:func:`bodyvib.vehicle.road.driven.wheel_inputs`).
+    """
+    road = driven_road(
+        case.road,
+        case.speed,
+        case.duration,
+        seed=case.seed,
+        step=case.step,
+        options=case.road_settings(),
+    )
+    return wheel_inputs(road, case.speed, np.arange(case.steps) * case.step, behind)
+
+
 def _failed(exc) -> Dict[str, object]:
     row = {k: float("nan") for k in FIGURES}
     row["head_comfort"] = None
@@ -177,6 +204,8 @@ class _Seated:
         body = base.with_parameters(**dict(case.body_values)) if case.body_values else base
         self.lm = linear_model(seated_system(car, body))
         self.seat = car.roles["seat"]
+        self.bases = car.bases
+        self.behind = wheel_offsets(car)  # each road point's distance behind the first, m
         self.outputs = [self.lm.output_index("body.head.a"), self.lm.output_index(f"{self.seat}.a")]
         # the named forces, None where the body names none (a zero row, reported as NaN)
         self.forces = [
@@ -209,13 +238,15 @@ def _road_key(case) -> tuple:
     return (case.road, case.seed, case.speed, case.duration, case.step, case.road_options)
 
 
-def _roads(case, roads):
-    key = _road_key(case)
+def _roads(case, roads, behind=(0.0,)):
+    key = _road_key(case) + (tuple(behind),)
     r = roads.get(key)
     if r is None:
         if len(roads) > 64:
             roads.clear()
-        r = roads[key] = case_road_input(case)
+        r = roads[key] = (
+            case_road_input(case) if len(behind) == 1 else case_wheel_inputs(case, behind)
+        )
     return r
 
 
@@ -227,46 +258,60 @@ def _batched_group(cases, models, cars, roads, block_steps, record):
     N = cases[0].steps
     step = cases[0].step
     p = 2 + len(FORCES)  # outputs: head and seat acceleration, the forces
-    M = np.empty((c, n + p, n))
-    gz = np.empty((c, n + p))
-    gv = np.empty((c, n + p))
-    road = np.empty(c, dtype=np.int64)  # cases share roads: one row per (road, seed, speed)
+    # one kernel row per case and road point: a car driven at several points (a half
+    # car) is linear, so its response is the sum of the responses to each point's road
+    kernel_rows = [(i, j) for i, s in enumerate(sys) for j in range(len(s.bases))]
+    R = len(kernel_rows)
+    M = np.empty((R, n + p, n))
+    gz = np.empty((R, n + p))
+    gv = np.empty((R, n + p))
+    road = np.empty(R, dtype=np.int64)  # cases share roads: one row per (road, seed, speed)
     rows_of: Dict[tuple, int] = {}
     zs, vs = [], []
-    for i, (cs, s) in enumerate(zip(cases, sys)):
+    step_matrices = {}
+    for r, (i, j) in enumerate(kernel_rows):
+        cs, s = cases[i], sys[i]
         lm = s.lm
-        with np.errstate(over="ignore", invalid="ignore"):
-            Phi, G0, G1 = Discretization(lm).matrices(step)
+        if i not in step_matrices:
+            with np.errstate(over="ignore", invalid="ignore"):
+                step_matrices[i] = Discretization(lm).matrices(step)
+        Phi, G0, G1 = step_matrices[i]
         if not (np.all(np.isfinite(Phi)) and np.all(np.isfinite(G0)) and np.all(np.isfinite(G1))):
             raise BodyvibError(
                 "the exact step matrices are not finite (parameters out of numerical range?)"
             )
-        iz, iv = lm.input_index("road_displacement"), lm.input_index("road_velocity")
-        M[i, :n] = Phi
-        M[i, n:] = s.rows(lm.C)
+        base = s.bases[j]
+        iz, iv = lm.input_index(f"{base}_displacement"), lm.input_index(f"{base}_velocity")
+        M[r, :n] = Phi
+        M[r, n:] = s.rows(lm.C)
         # in-step road z_k + v_k tau: Gamma0 on (z, v), Gamma1 on the displacement's rate v
-        gz[i, :n] = G0[:, iz]
-        gv[i, :n] = G0[:, iv] + G1[:, iz]
+        gz[r, :n] = G0[:, iz]
+        gv[r, :n] = G0[:, iv] + G1[:, iz]
         D = s.rows(lm.D)
-        gz[i, n:] = D[:, iz]
-        gv[i, n:] = D[:, iv]
-        rkey = _road_key(cs)
+        gz[r, n:] = D[:, iz]
+        gv[r, n:] = D[:, iv]
+        rkey = _road_key(cs) + (s.behind[j],)
         if rkey not in rows_of:
             rows_of[rkey] = len(zs)
-            zr, vr = _roads(cs, roads)
-            zs.append(zr)
-            vs.append(vr)
-        road[i] = rows_of[rkey]
+            zr, vr = _roads(cs, roads, s.behind)
+            zs.append(zr if zr.ndim == 1 else zr[:, j])
+            vs.append(vr if vr.ndim == 1 else vr[:, j])
+        road[r] = rows_of[rkey]
     z, v = np.array(zs), np.array(vs)
     stream = ComfortStream(1.0 / step, 2 * c)
     hist = np.empty((2, c, N)) if record else None
-    x = np.zeros((c, n))
-    ys_buf = np.empty((p, c, block_steps))
+    x = np.zeros((R, n))
+    ys_buf = np.empty((p, R, block_steps))
+    owner = np.array([i for i, _ in kernel_rows])
     force_peak = np.zeros((len(FORCES), c))  # largest magnitude so far, N
     for k0 in range(0, N, block_steps):
         k1 = min(N, k0 + block_steps)
-        ys = ys_buf if k1 - k0 == block_steps else np.empty((p, c, k1 - k0))
-        advance(M, gz, gv, z, v, road, x, k0, ys)  # compiled: one case at a time
+        ys = ys_buf if k1 - k0 == block_steps else np.empty((p, R, k1 - k0))
+        advance(M, gz, gv, z, v, road, x, k0, ys)  # compiled: one kernel row at a time
+        if R != c:  # sum each case's road points
+            summed = np.zeros((p, c, k1 - k0))
+            np.add.at(summed, (slice(None), owner), ys)
+            ys = summed
         if not np.all(np.isfinite(ys)):
             raise BodyvibError("the response is not finite (parameters out of numerical range?)")
         stream.update(ys[:2].reshape(2 * c, k1 - k0))  # rows: head of each case, then seat
@@ -413,12 +458,15 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
                 math.log(lo), math.log(hi), int(math.ceil(density * math.log(hi / lo))) + 1
             )
             f = np.exp(lnf)
-            H = frequency_response(s.lm, f, ["body.head.a", f"{s.seat}.a"])
+            outputs = ["body.head.a", f"{s.seat}.a"]
+            H = frequency_response(s.lm, f, outputs)
             W2f = np.abs(wk_response(f)) ** 2 * f  # |Wk|^2 f: the df = f dln f of the integral
             per_speed = {}
             for v in speeds:
                 # road PSD in time at speed v: S(f) = Gd(f / v) / v (class A here; scaled below)
                 S = displacement_psd(f / v, "A") / v
+                if len(s.behind) > 1:  # every wheel on the same road, later by its distance / v
+                    H = frequency_response(s.lm, f, outputs, delays=[d / v for d in s.behind])
                 per_speed[v] = [
                     _band_mean_square(np.abs(h) ** 2 * W2f * S, lnf, N_BAND[0] * v, N_BAND[1] * v)
                     for h in H
@@ -458,13 +506,13 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
 
 def _fmu(kind: str, source: str, folder: str, built: Dict[tuple, str]) -> str:
     """Path of an FMU for a body or car source, built once into ``folder``."""
-    from ..fmus import build_project_fmu
+    from ..fmus import build_project_fmu, car_fmu_name
 
     key = (kind, os.path.abspath(source) if os.path.isfile(source) else source)
     path = built.get(key)
     if path is None:
         if kind == "car":
-            name = "QuarterCar"
+            name = car_fmu_name(source)
         elif source == "iso7962":
             name = "HumanBodyISO7962"
         else:
@@ -513,7 +561,7 @@ def _cosim_case(cs, folder, built, record, cosimulate, open_fmu):
         car = cs.car_network()
         body_fmu = _fmu("body", cs.body_model, folder, built)
         car_fmu = _fmu("car", cs.car, folder, built)
-        z, v = _roads(cs, {})
+        z, v = _roads(cs, {}, wheel_offsets(car))
         with (
             open_fmu(car_fmu, "car", "car", start_values=_parameters(car)) as c,
             open_fmu(body_fmu, "body", "body", start_values=_parameters(body)) as b,
