@@ -7,7 +7,7 @@ suspension ``ks, cs`` and cushion ``kc, cc`` tuned (log-scaled bounds) for the h
 Wk-weighted r.m.s. against the dynamic tire load ratio, the 3-sigma suspension travel
 within a 70 mm rattle space, over three operating points (class B at 30 m/s, C at
 20 m/s, D at 10 m/s). NSGA-II evaluates every candidate by one Lyapunov solve
-(:mod:`bodyvib.vehicle.design.random_response`); the three chosen designs are then
+(:mod:`bodyvib.vehicle.design.stationary`); the three chosen designs are then
 verified by 30 s time-domain runs at each operating point. Prints the wall times,
 evaluations per second and the load average (the machine may be shared); the target
 is under 60 s in all on 2 cores.

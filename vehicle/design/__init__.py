@@ -1,6 +1,6 @@
 """Design with the occupant in the loop: random-road r.m.s. without simulation, optimization.
 
-:mod:`~bodyvib.vehicle.design.random_response` computes the stationary r.m.s. of every
+:mod:`~bodyvib.vehicle.design.stationary` computes the stationary r.m.s. of every
 output of a linear car-plus-occupant model on an ISO 8608 road from a Lyapunov equation
 (the Wk weighting appended as states), fast enough to evaluate thousands of designs;
 :mod:`~bodyvib.vehicle.design.spec` reads and checks a design specification;
@@ -11,7 +11,7 @@ designs' car files.
 """
 
 from .optimize import DesignPoint, DesignProblem, DesignResult, design, verify_design
-from .random_response import (
+from .stationary import (
     GRAVITY,
     RandomResponse,
     random_response,

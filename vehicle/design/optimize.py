@@ -1,7 +1,7 @@
 """Design search: car (and seat) parameters that minimize occupant and vehicle objectives.
 
 Every candidate is evaluated exactly and without simulation by
-:func:`bodyvib.vehicle.design.random_response.unit_rms` (one Lyapunov solve per
+:func:`bodyvib.vehicle.design.stationary.unit_rms` (one Lyapunov solve per
 candidate, 0.5 ms for the quarter car with the reduced body): the r.m.s. per unit road
 intensity, scaled to each operating point by ``sqrt(W)``. The search works on the unit
 box of the tuned parameters (each bound mapped linearly or logarithmically):
@@ -34,7 +34,7 @@ from ..quarter_car import load_car
 from ..reference import seat_force_weights
 from ..road.driven import driven_road
 from ..road.synthetic import road_input
-from .random_response import (
+from .stationary import (
     road_velocity_intensity,
     static_wheel_load,
     unit_mean_product,

@@ -43,7 +43,7 @@ from bodyvib.runtime.network import linear_model
 
 from ..quarter_car import load_car, seated_system
 from ..road.synthetic import ISO8608_CLASSES
-from .random_response import stationary_outputs
+from .stationary import stationary_outputs
 
 __all__ = [
     "OBJECTIVES",

@@ -78,7 +78,7 @@ def bump_library() -> dict:
 class ShapedBump:
     """One bump (or pothole) of a named shape on a level road.
 
-    A road of the :class:`bodyvib.vehicle.road.synthetic.Road` interface (``length``,
+    A road of the :class:`bodyvib.vehicle.road.base.Road` interface (``length``,
     ``name``, ``displacement``, ``slope``, ``describe``), endless like the cosine bump;
     :func:`bodyvib.vehicle.road.synthetic.make_road` makes it from a spec (it does not
     derive from ``Road``, whose module imports this one).
