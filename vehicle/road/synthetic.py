@@ -26,6 +26,7 @@ exact discretization uses as the in-step slope).
 ``"sweep"``) for a speed and a duration.
 """
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Tuple
@@ -188,8 +189,6 @@ class RandomRoad(Road):
         sum_m c_m e^{2 pi i m j dx / L}]``: a chirp-z transform of the complex
         amplitudes ``c_m`` along the unit circle.
         """
-        from scipy.signal import czt
-
         step = dx / self.length
         j = np.arange(count)
         out = np.zeros(count)
@@ -203,7 +202,7 @@ class RandomRoad(Road):
             if derivative:
                 c = 1j * c
             i0 = round(n[0] * self.length)
-            sums = czt(c, m=count, w=np.exp(2j * np.pi * step), a=1.0)
+            sums = _chirp_z(c.size, count, step)(c)
             out += np.real(np.exp(2j * np.pi * ((i0 * step * j) % 1.0)) * sums)
         return out
 
@@ -217,6 +216,19 @@ class RandomRoad(Road):
 
     def describe(self) -> dict:
         return {"name": self.name, "length_m": self.length, **self.info}
+
+
+@functools.lru_cache(maxsize=8)
+def _chirp_z(points: int, count: int, step: float):
+    """The chirp-z transform of ``points`` amplitudes to ``count`` points ``e^{2 pi i step j}``.
+
+    Its set-up (the chirp ``w^(k^2/2)`` and its FFT) costs twice the transform itself
+    and depends only on the sizes and the step, which the roads of a sweep share
+    (every class and seed at one speed and length): kept for the next road.
+    """
+    from scipy.signal import CZT
+
+    return CZT(points, m=count, w=np.exp(2j * np.pi * step), a=1.0)
 
 
 def random_road(
