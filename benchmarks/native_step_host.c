@@ -229,14 +229,18 @@ static inline void mv(double *restrict out, const double *restrict M, const doub
 }
 
 #ifdef BV_ROAD_TABLE
-/* The table's cubic Hermite interpolant at p (periodic or held), values and rates. */
+/* The table's cubic Hermite interpolant at p (periodic or held), values and rates: the
+ * arithmetic of the FMU's own evaluation, without its state machine and calls. */
 static inline void road_at(double p, double speed, double *out)
 {
     const bv_source *t = &bv_source_data;
     int k = t->rows - 1, i;
     double u = (p - t->p0) / t->dp, s, s2, s3, z0, z1, m0, m1;
-    if (t->periodic)
-        u = u - k * floor(u / k);
+    if (t->periodic) { /* the FMU's reduction: a remainder with the divisor's sign */
+        u = fmod(u, (double)k);
+        if (u < 0.0)
+            u += k;
+    }
     u = u < 0.0 ? 0.0 : (u > k ? k : u);
     i = (int)u;
     if (i > k - 1)
