@@ -28,6 +28,8 @@ exact discretization uses as the in-step slope).
 
 import functools
 import math
+import os
+import sys
 from dataclasses import dataclass, field
 from typing import Tuple
 
@@ -226,9 +228,36 @@ def _chirp_z(points: int, count: int, step: float):
     and depends only on the sizes and the step, which the roads of a sweep share
     (every class and seed at one speed and length): kept for the next road.
     """
+    return _czt_class()(points, m=count, w=np.exp(2j * np.pi * step), a=1.0)
+
+
+@functools.lru_cache(maxsize=1)
+def _czt_class():
+    """scipy's :class:`scipy.signal.CZT`, loaded without the rest of :mod:`scipy.signal`.
+
+    Importing :mod:`scipy.signal` costs about 0.9 s of CPU, most of a sweep
+    worker's start, for one class whose module needs only numpy and
+    :mod:`scipy.fft` (0.3 s). That module file is loaded by itself when it is
+    there as such; otherwise (another scipy layout, or :mod:`scipy.signal`
+    already imported) the class comes from :mod:`scipy.signal`. The same code
+    either way: the same transforms, bit for bit.
+    """
+    if "scipy.signal" not in sys.modules:
+        try:
+            import importlib.util
+
+            import scipy
+
+            path = os.path.join(os.path.dirname(scipy.__file__), "signal", "_czt.py")
+            spec = importlib.util.spec_from_file_location("bodyvib_scipy_czt", path)
+            module = importlib.util.module_from_spec(spec)
+            spec.loader.exec_module(module)
+            return module.CZT
+        except Exception:  # any failure: the public import below
+            pass
     from scipy.signal import CZT
 
-    return CZT(points, m=count, w=np.exp(2j * np.pi * step), a=1.0)
+    return CZT
 
 
 def random_road(
