@@ -192,7 +192,6 @@ class RandomRoad(Road):
         amplitudes ``c_m`` along the unit circle.
         """
         step = dx / self.length
-        j = np.arange(count)
         out = np.zeros(count)
         # harmonics a chunk at a time: the transform's buffers stay (chunk + count) long
         # however long the road (a run's length sets the number of harmonics)
@@ -205,7 +204,7 @@ class RandomRoad(Road):
                 c = 1j * c
             i0 = round(n[0] * self.length)
             sums = _chirp_z(c.size, count, step)(c)
-            out += np.real(np.exp(2j * np.pi * ((i0 * step * j) % 1.0)) * sums)
+            out += np.real(_shift(count, step, i0) * sums)
         return out
 
     def displacement(self, x) -> np.ndarray:
@@ -229,6 +228,18 @@ def _chirp_z(points: int, count: int, step: float):
     (every class and seed at one speed and length): kept for the next road.
     """
     return _czt_class()(points, m=count, w=np.exp(2j * np.pi * step), a=1.0)
+
+
+@functools.lru_cache(maxsize=8)
+def _shift(count: int, step: float, i0: int) -> np.ndarray:
+    """``e^{2 pi i (i0 step j mod 1)}``, ``j < count``: the first harmonic's phase at each point.
+
+    Read-only; kept, like :func:`_chirp_z`, for the next road of the same grid.
+    """
+    j = np.arange(count)
+    shift = np.exp(2j * np.pi * ((i0 * step * j) % 1.0))
+    shift.flags.writeable = False
+    return shift
 
 
 @functools.lru_cache(maxsize=1)
