@@ -24,6 +24,10 @@ Road) unless ``--fmus`` names a folder of them (``bodyvib build --native``), com
 * counts instructions per step with ``valgrind --tool=callgrind`` (FMU and plain loop,
   each over its own loop only): independent of the machine's load, the steadiest ratio.
 
+``--realtime`` runs the host at real-time priority (SCHED_FIFO) pinned to the last core,
+so that other processes do not take its time slices; what remains in the worst case is the
+machine's (interrupts, a virtual machine's host).
+
 Targets: FMU / plain at most 1.3; 99.99th percentile at most 3x the median on a quiet core.
 """
 
@@ -130,9 +134,9 @@ def run(cmd, **kw) -> str:
     return out.stdout + out.stderr
 
 
-def measure(exe, fmi, binary, token, sv, gv, data, steps, repeats) -> dict:
+def measure(exe, fmi, binary, token, sv, gv, data, steps, repeats, prefix=()) -> dict:
     args = [str(fmi), str(binary), token, sv, gv, repr(H)]
-    text = run([str(exe), "time", *args, str(steps), str(repeats), data])
+    text = run([*prefix, str(exe), "time", *args, str(steps), str(repeats), data])
     rounds = np.array(
         [list(map(float, ln.split()[1:])) for ln in text.splitlines() if ln.startswith("round")]
     )
@@ -205,6 +209,12 @@ def main(argv=None):
     p.add_argument("--repeats", type=int, default=7, help="interleaved rounds (default 7)")
     p.add_argument("--fmus", type=Path, help="folder of built native FMUs (default: build them)")
     p.add_argument("--no-callgrind", action="store_true", help="skip the instruction counts")
+    p.add_argument(
+        "--realtime",
+        action="store_true",
+        help="run the host at real-time priority on the last core (chrt -f 50, taskset; needs "
+        "root): other processes no longer take its time slices",
+    )
     args = p.parse_args(argv)
     if shutil.which("gcc") is None:
         raise SystemExit("gcc not found")
@@ -213,6 +223,9 @@ def main(argv=None):
         tmp = Path(tmp)
         fmus = find(args.fmus) if args.fmus else build(tmp / "fmus")
         exe = compile_host(tmp / "host")
+        prefix = ()
+        if args.realtime:
+            prefix = ("chrt", "-f", "50", "taskset", "-c", str((os.cpu_count() or 1) - 1))
         print(
             f"load: {os.getloadavg()[0]:.2f} (1 min) on {os.cpu_count()} cores; {args.steps} steps "
             f"a loop, medians of {args.repeats} interleaved rounds; one step = set 2 inputs + "
@@ -241,7 +254,9 @@ def main(argv=None):
                     host = exe
                     data = str(folder / "plain.txt")
                     plain_matrices(name, [vr[s] for s in sets], [vr[g] for g in gets], data)
-                r = measure(host, fmi, binary, token, sv, gv, data, args.steps, args.repeats)
+                r = measure(
+                    host, fmi, binary, token, sv, gv, data, args.steps, args.repeats, prefix
+                )
                 clock = r["latency_clock"]
                 ir = ir_plain = float("nan")
                 if callgrind:
