@@ -583,7 +583,9 @@ def _in_process(cfg: SweepSettings, todo: int) -> bool:
     )
 
 
-def _compute(cfg: SweepSettings, prep: _Prepared, done: np.ndarray, parts: _Parts, say) -> None:
+def _compute(
+    cfg: SweepSettings, prep: _Prepared, done: np.ndarray, parts: _Parts, say: Callable[[str], None]
+) -> None:
     """Run the pending cases, here or on Dask, each task written as it arrives."""
     total = prep.count
     todo = total - int(done.sum())
@@ -606,7 +608,16 @@ def _compute(cfg: SweepSettings, prep: _Prepared, done: np.ndarray, parts: _Part
     parts.close()
 
 
-def _on_cluster(cfg, prep, done, parts: _Parts, say, total: int, todo: int) -> None:
+def _on_cluster(
+    cfg: SweepSettings,
+    prep: _Prepared,
+    done: np.ndarray,
+    parts: _Parts,
+    say: Callable[[str], None],
+    total: int,
+    todo: int,
+) -> None:
+    """Run the pending cases on Dask (a LocalCluster or a running scheduler)."""
     local = cfg.scheduler in (None, "local") and cfg.scheduler_file is None
     with open_cluster(
         None if local else cfg.scheduler,
@@ -645,7 +656,7 @@ def _on_cluster(cfg, prep, done, parts: _Parts, say, total: int, todo: int) -> N
             ) from None
 
 
-def _finish(cfg: SweepSettings, folder: str, schema, say):
+def _finish(cfg: SweepSettings, folder: str, schema, say: Callable[[str], None]):
     """Stream the parts into ``out`` and ``csv`` (all or none), drop them, return the table."""
     out = cfg.out
     found = scan(out, folder)
