@@ -12,6 +12,7 @@ import pandas as pd
 from bodyvib.vehicle.quarter_car import load_car
 from bodyvib.vehicle.sweep.run import (
     BASE_COLUMNS,
+    SweepSettings,
     parts_dir,
     plan_tasks,
     read_results,
@@ -139,6 +140,31 @@ def test_figures_do_not_depend_on_how_cases_are_grouped_into_tasks():
         other = run_sweep(SMALL, scheduler="serial", block=block)
         for f in figures:
             np.testing.assert_allclose(other[f], whole[f], rtol=GROUPING_RTOL, atol=0)
+
+
+def test_settings_object_and_keywords_run_the_same_sweep(tmp_path):
+    """One SweepSettings, keywords, or the object with keywords replacing some fields: the
+    same table (run_id aside) and the same files; a keyword that is no setting and a
+    contradiction between settings are refused by name."""
+    import pytest
+
+    from bodyvib.runtime.errors import BodyvibError
+
+    spec = {**SMALL, "body": "reduced-paper", "car": "quarter-car"}
+    by_keywords = run_sweep(spec, scheduler="serial", block=3, out=str(tmp_path / "a.parquet"))
+    settings = SweepSettings(scheduler="serial", block=3, out=str(tmp_path / "b.parquet"))
+    by_object = run_sweep(spec, settings)
+    replaced = run_sweep(
+        spec, settings, out=str(tmp_path / "c.parquet"), csv=str(tmp_path / "c.csv")
+    )
+    for df in (by_object, replaced):
+        pd.testing.assert_frame_equal(_figures(df), _figures(by_keywords))
+    assert (tmp_path / "c.parquet").is_file() and (tmp_path / "c.csv").is_file()
+    assert settings.out == str(tmp_path / "b.parquet")  # frozen: a call replaces a copy
+    with pytest.raises(BodyvibError, match="worker_count"):
+        run_sweep(spec, settings, worker_count=2)
+    with pytest.raises(BodyvibError, match="--retry-failed goes with --resume"):
+        run_sweep(spec, settings, retry_failed=True)
 
 
 def test_local_cluster_equals_serial_exactly():

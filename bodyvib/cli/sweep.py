@@ -60,27 +60,26 @@ def _run(args):
         if getattr(opts, f) != getattr(RoadOptions(), f)
     }
     spec = args.spec if args.spec else grid_spec(args.grid, args.duration, args.step, given)
-    from bodyvib.vehicle.sweep.run import run_sweep
+    from bodyvib.vehicle.sweep.run import SweepSettings, run_sweep
 
     say = None if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
-    df = run_sweep(
-        spec,
+    settings = SweepSettings(
         out=args.out,
         engine=args.engine,
         scheduler=args.scheduler,
+        scheduler_file=args.scheduler_file,
+        workers=args.workers,
+        block=args.block,
         resume=args.resume,
+        retry_failed=args.retry_failed,
         overwrite=args.overwrite,
         csv=args.csv,
         progress=not args.quiet,
-        block=args.block,
-        workers=args.workers,
-        echo=say,
-        retry_failed=args.retry_failed,
-        scheduler_file=args.scheduler_file,
         connect_timeout=args.connect_timeout,
         worker_timeout=args.worker_timeout,
         table=bool(args.plot),
     )
+    df = run_sweep(spec, settings, echo=say)
     for f in (args.out, args.csv):
         if f:
             print(f"wrote {f}")

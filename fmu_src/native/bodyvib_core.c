@@ -45,17 +45,18 @@ struct bv_instance {
     double *UR, *UR2;   /* U R, U R^2 (m x ni) */
     double *Yc;         /* [Yx | Ys] row-major: y = Yc z, z = [x | s] */
     double *A2, *B2, *Yc2; /* candidates: build() fills these, checks them, then swaps */
-    double *y;          /* outputs for the current z, valid unless dirty */
-    int dirty;
     /* step cache */
     double h_key;       /* rounded step the matrices are for; 0: none */
     double h_raw;       /* the last step size seen with that key (skips the rounding) */
     double *Sc;         /* [Phi | Gamma0 U + Gamma1 U R + Gamma2 U R^2] row-major: x <- Sc z */
     double *Ms;         /* I + h R + h^2/2 R^2 (ni x ni): s <- Ms s */
-    /* what evolves */
+    int *ms_start, *ms_col; /* Ms's non-zero entries by row (CSR): ms_start[ni + 1] */
+    double *ms_val;
+    /* what evolves: z = [x | s] contiguous; a step writes the next z into zn and swaps */
     double *x, *s;
     double *x_prev, *h_prev; /* per fallback pair: displacement and step at the last DoStep */
     unsigned char *has_prev, *vel_set, *slope_on, *warned;
+    unsigned char *is_rate; /* [ni] 1: the input is the velocity of a fallback pair */
     /* a refused step restores these: the fallback bookkeeping and the inputs */
     double *save_x_prev, *save_h_prev, *save_s;
     unsigned char *save_flags;
@@ -168,21 +169,41 @@ static double norm1(const double *M, int n)
     return best;
 }
 
-/* out = M z, M row-major (rows x cols); two accumulators per row, rows independent. */
+/* r . z over cols entries, two accumulators (even and odd columns) added at the end. */
+static inline double dot(const double *restrict r, const double *restrict z, int cols)
+{
+    double a = 0.0, b = 0.0;
+    int j;
+    for (j = 0; j + 1 < cols; j += 2) {
+        a += r[j] * z[j];
+        b += r[j + 1] * z[j + 1];
+    }
+    if (j < cols)
+        a += r[j] * z[j];
+    return a + b;
+}
+
+/* out = M z, M row-major (rows x cols); rows independent, each a dot(). */
 static void matvec(double *restrict out, const double *restrict M, const double *restrict z,
                    int rows, int cols)
 {
-    int i, j;
+    int i;
+    for (i = 0; i < rows; i++)
+        out[i] = dot(M + (size_t)i * cols, z, cols);
+}
+
+/* out = M z for M in CSR form (row i: entries start[i] .. start[i + 1] - 1), with the
+ * accumulators of dot() by column parity: the same sums as the dense product less its zero
+ * terms (which add nothing to a finite sum). */
+static void csr_matvec(double *restrict out, const int *start, const int *col,
+                       const double *val, const double *restrict z, int rows)
+{
+    int i, e;
     for (i = 0; i < rows; i++) {
-        const double *r = M + (size_t)i * cols;
-        double a = 0.0, b = 0.0;
-        for (j = 0; j + 1 < cols; j += 2) {
-            a += r[j] * z[j];
-            b += r[j + 1] * z[j + 1];
-        }
-        if (j < cols)
-            a += r[j] * z[j];
-        out[i] = a + b;
+        double acc[2] = {0.0, 0.0};
+        for (e = start[i]; e < start[i + 1]; e++)
+            acc[col[e] & 1] += val[e] * z[col[e]];
+        out[i] = acc[0] + acc[1];
     }
 }
 
@@ -411,7 +432,6 @@ static int build(bv_instance *c, const double *p)
     swap = c->B, c->B = B, c->B2 = swap;
     swap = c->Yc, c->Yc = Yc, c->Yc2 = swap;
     memcpy(c->p_built, p, (size_t)c->np * sizeof(double));
-    c->dirty = 1;
     c->h_key = 0.0;
     return 1;
 }
@@ -524,6 +544,15 @@ static int discretize(bv_instance *c, double h)
             if (c->curved)
                 c->Ms[i * ni + j] += 0.5 * h * h * r2;
         }
+    for (i = 0, k = 0; i < ni; i++) { /* its non-zero entries, for the step */
+        c->ms_start[i] = k;
+        for (j = 0; j < ni; j++)
+            if (c->Ms[i * ni + j] != 0.0) {
+                c->ms_col[k] = j;
+                c->ms_val[k++] = c->Ms[i * ni + j];
+            }
+    }
+    c->ms_start[ni] = k;
     c->h_key = key;
     c->h_raw = h;
     return 1;
@@ -541,7 +570,6 @@ static void clear_state(bv_instance *c)
     memset(c->x_prev, 0, (size_t)np1 * sizeof(double));
     memset(c->h_prev, 0, (size_t)np1 * sizeof(double));
     memset(c->has_prev, 0, 4 * (size_t)np1);
-    c->dirty = 1;
     bv_common_clear(&c->bc);
 }
 
@@ -564,13 +592,13 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
     if (assembly > nw)
         nw = assembly;
     nd = 2 * (size_t)np + (size_t)n * n + (size_t)n * m + 2 * (size_t)m * ni +
-         (size_t)no * (n + ni) + no + (size_t)n * (n + ni) + (size_t)ni * ni + n + ni +
+         (size_t)no * (n + ni) + (size_t)n * (n + ni) + 2 * (size_t)ni * ni + n + ni +
          2 * (size_t)np1 + n + ni + nw;
     nd += (size_t)n * n + (size_t)n * m + (size_t)no * (n + ni); /* candidates A2, B2, Yc2 */
     nd += 3 * (size_t)np1 + 3 * ((size_t)n + ni);                /* saved bookkeeping, zd */
     d = calloc(nd, sizeof *d);
-    c->piv = calloc((size_t)N + 1, sizeof *c->piv);
-    c->has_prev = calloc(8 * (size_t)np1, 1);
+    c->piv = calloc((size_t)N + 1 + (size_t)ni * ni + ni + 1, sizeof *c->piv);
+    c->has_prev = calloc(8 * (size_t)np1 + ni, 1);
     if (d == NULL || c->piv == NULL || c->has_prev == NULL) {
         free(d);
         free(c->piv);
@@ -582,6 +610,11 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
     c->slope_on = c->vel_set + np1;
     c->warned = c->slope_on + np1;
     c->save_flags = c->warned + np1; /* 4 np1: has_prev, vel_set, slope_on, warned */
+    c->is_rate = c->save_flags + 4 * (size_t)np1;
+    for (k = 0; k < md->npairs; k++)
+        c->is_rate[md->pairs[k].rate] = 1;
+    c->ms_col = c->piv + N + 1;
+    c->ms_start = c->ms_col + (size_t)ni * ni;
     c->p = d; d += np;
     c->p_built = d; d += np;
     c->A = d; d += (size_t)n * n;
@@ -589,9 +622,9 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
     c->UR = d; d += (size_t)m * ni;
     c->UR2 = d; d += (size_t)m * ni;
     c->Yc = d; d += (size_t)no * (n + ni);
-    c->y = d; d += no;
     c->Sc = d; d += (size_t)n * (n + ni);
     c->Ms = d; d += (size_t)ni * ni;
+    c->ms_val = d; d += (size_t)ni * ni;
     c->x = d; d += n; /* x, s contiguous: z */
     c->s = d; d += ni;
     c->x_prev = d; d += np1;
@@ -687,31 +720,35 @@ static int is_me_var(const bv_instance *c, unsigned int vr)
 bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const double value[])
 {
     const bv_model *md = c->bc.md;
+    const unsigned int nvars = (unsigned int)md->nvars;
     bv_status status = BV_OK;
     size_t i;
     int k;
-    /* an unknown value reference refuses the call: nothing set */
+    /* an unknown value reference refuses the call: nothing set (the contract's variables
+     * are below nvars, the model-exchange ones above) */
     for (i = 0; i < nvr; i++)
-        if (!is_me_var(c, vr[i]) && !check_vr(c, vr[i]))
+        if (vr[i] >= nvars && !is_me_var(c, vr[i])) {
+            check_vr(c, vr[i]); /* logs the refusal */
             return BV_ERROR;
+        }
     for (i = 0; i < nvr; i++) {
-        if (is_me_var(c, vr[i])) { /* a model-exchange state or its derivative */
+        int idx;
+        if (vr[i] >= nvars) { /* a model-exchange state or its derivative */
             if (me_var_set(c, vr[i], value[i]) != BV_OK)
                 status = BV_ERROR;
             continue;
         }
-        int idx = md->vr_index[vr[i]];
-        if (!bv_common_settable(&c->bc, vr[i])) {
-            status = BV_ERROR;
-        } else if (md->vr_kind[vr[i]] == BV_INPUT) {
+        idx = md->vr_index[vr[i]];
+        if (md->vr_kind[vr[i]] == BV_INPUT) { /* always settable */
             c->s[idx] = value[i];
-            c->dirty = 1;
-            if (value[i] != 0.0)
+            if (value[i] != 0.0 && c->is_rate[idx])
                 for (k = 0; k < md->npairs; k++)
                     if (md->pairs[k].rate == idx) {
                         c->vel_set[k] = 1;
                         c->slope_on[k] = 0;
                     }
+        } else if (!bv_common_settable(&c->bc, vr[i])) {
+            status = BV_ERROR;
         } else {
             c->p[idx] = value[i]; /* a parameter */
         }
@@ -722,40 +759,39 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
 bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double value[])
 {
     const bv_model *md = c->bc.md;
+    const unsigned int nvars = (unsigned int)md->nvars;
     bv_status status = BV_OK;
     size_t i;
     int k;
     follow_parameters(c);
     for (i = 0; i < nvr; i++) {
-        int kind, idx, me = me_var_get(c, vr[i], &value[i]);
-        if (me >= 0) {
+        int kind, idx;
+        if (vr[i] >= nvars) { /* a model-exchange variable, or none */
+            int me = me_var_get(c, vr[i], &value[i]);
+            if (me < 0)
+                check_vr(c, vr[i]); /* logs the refusal */
             if (me != BV_OK)
                 return BV_ERROR;
             continue;
         }
-        if (!check_vr(c, vr[i]))
-            return BV_ERROR;
         kind = md->vr_kind[vr[i]];
         idx = md->vr_index[vr[i]];
-        if (kind == BV_INPUT) {
-            value[i] = c->s[idx];
-            for (k = 0; k < md->npairs; k++) /* the slope stands in: the input reads as set */
-                if (c->slope_on[k] && md->pairs[k].rate == idx)
-                    value[i] = 0.0;
-        } else if (kind == BV_PARAMETER) {
-            value[i] = c->p[idx];
-        } else {
-            if (c->dirty) {
-                matvec(c->y, c->Yc, c->x, c->no, c->n + c->ni);
-                c->dirty = 0;
-            }
-            value[i] = c->y[idx];
+        if (kind == BV_OUTPUT) { /* computed on read: y_idx = Yc_idx . [x | s] */
+            value[i] = dot(c->Yc + (size_t)idx * (c->n + c->ni), c->x, c->n + c->ni);
             if (!isfinite(value[i]) && status == BV_OK) {
                 say(c, BV_ERROR, "%s: output %s is not finite: an input is not finite or too "
                                  "large (set finite inputs of physical size)",
                     c->bc.name, md->vr_name[vr[i]]);
                 status = BV_ERROR;
             }
+        } else if (kind == BV_INPUT) {
+            value[i] = c->s[idx];
+            if (c->is_rate[idx])
+                for (k = 0; k < md->npairs; k++) /* the slope stands in: reads as set */
+                    if (c->slope_on[k] && md->pairs[k].rate == idx)
+                        value[i] = 0.0;
+        } else {
+            value[i] = c->p[idx];
         }
     }
     return status;
@@ -805,8 +841,9 @@ static void slope_fallback(bv_instance *c, double t, double h)
 }
 
 /* The fallback bookkeeping (and the velocity inputs it writes), saved before a step and
- * restored if the step is refused: a refused step changes nothing. Per pair, plain loops:
- * the hot path makes no library calls. */
+ * restored if the step is refused: a refused step changes nothing. A pair whose velocity
+ * was set is left alone by slope_fallback (and stays set through the step): nothing to save.
+ * Per pair, plain loops: the hot path makes no library calls. */
 static inline void save_bookkeeping(bv_instance *c, int restore)
 {
     const bv_model *md = c->bc.md;
@@ -814,19 +851,20 @@ static inline void save_bookkeeping(bv_instance *c, int restore)
     unsigned char *f = c->save_flags;
     for (k = 0; k < md->npairs; k++) {
         int r = md->pairs[k].rate;
+        if (c->vel_set[k])
+            continue;
         if (!restore) {
             c->save_x_prev[k] = c->x_prev[k];
             c->save_h_prev[k] = c->h_prev[k];
             c->save_s[k] = c->s[r];
-            f[k] = c->has_prev[k], f[np1 + k] = c->vel_set[k];
+            f[k] = c->has_prev[k];
             f[2 * np1 + k] = c->slope_on[k], f[3 * np1 + k] = c->warned[k];
         } else {
             c->x_prev[k] = c->save_x_prev[k];
             c->h_prev[k] = c->save_h_prev[k];
             c->s[r] = c->save_s[k];
-            c->has_prev[k] = f[k], c->vel_set[k] = f[np1 + k];
+            c->has_prev[k] = f[k];
             c->slope_on[k] = f[2 * np1 + k], c->warned[k] = f[3 * np1 + k];
-            c->dirty = 1;
         }
     }
 }
@@ -849,7 +887,7 @@ bv_status bv_step(bv_instance *c, double t, double h)
         return BV_DISCARD;
     }
     matvec(zn, c->Sc, c->x, n, n + ni);
-    matvec(zn + n, c->Ms, c->s, ni, ni);
+    csr_matvec(zn + n, c->ms_start, c->ms_col, c->ms_val, c->s, ni);
     /* z.z is finite iff no component exceeds about 1e154 (as the pythonfmu FMU checks):
      * no overflow, and room for the outputs, whose coefficients are far below 1e150 */
     for (j = 0; j + 1 < n + ni; j += 2) {
@@ -873,10 +911,10 @@ bv_status bv_step(bv_instance *c, double t, double h)
             c->bc.name, t);
         return BV_DISCARD;
     }
-    for (j = 0; j < n + ni; j++) /* small: plain loops, no library calls on the hot path */
-        c->x[j] = zn[j];
+    c->zn = c->x; /* zn is the new z: swap the buffers */
+    c->x = zn;
+    c->s = zn + n;
     c->bc.time = t + h;
-    c->dirty = 1;
     return BV_OK;
 }
 
@@ -950,7 +988,6 @@ bv_status bv_set_input_derivatives(bv_instance *c, const unsigned int vr[], size
         if (r < 0)
             continue; /* a zero derivative the input has no rate for: it is held anyway */
         c->s[r] = value[i] / coef;
-        c->dirty = 1;
         /* a velocity given as a derivative is connected, whatever its value */
         for (k = 0; k < md->npairs; k++)
             if (md->pairs[k].rate == r) {
@@ -1145,7 +1182,6 @@ bv_status bv_state_read(bv_instance *c, const unsigned char *buf, size_t size)
         c->slope_on[k] = (unsigned char)(pair[4] != 0.0);
         c->warned[k] = (unsigned char)(pair[5] != 0.0);
     }
-    c->dirty = 1;
     /* the state machine follows the snapshot */
     bv_common_restored(&c->bc, head[0], head[1] != 0.0, head[2] != 0.0, "valid parameters");
     if (memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0 && params_valid(c, c->p, 1))
@@ -1204,7 +1240,6 @@ void bv_me_set_states(bv_instance *c, const double x[])
     int i;
     for (i = 0; i < c->n; i++)
         c->x[i] = x[i];
-    c->dirty = 1;
 }
 
 void bv_me_get_states(const bv_instance *c, double x[])
@@ -1278,7 +1313,6 @@ static int me_var_set(bv_instance *c, unsigned int vr, double value)
         return BV_ERROR;
     }
     c->x[vr - first] = value;
-    c->dirty = 1;
     return BV_OK;
 }
 

@@ -11,6 +11,7 @@ designs' car files.
 """
 
 from .optimize import DesignPoint, DesignProblem, DesignResult, design, verify_design
+from .spec import OBJECTIVES, DesignSpec, load_spec, parse_spec
 from .stationary import (
     GRAVITY,
     RandomResponse,
@@ -20,7 +21,6 @@ from .stationary import (
     stationary_outputs,
     unit_rms,
 )
-from .spec import OBJECTIVES, DesignSpec, load_spec, parse_spec
 
 __all__ = [
     "GRAVITY",

@@ -34,13 +34,13 @@ from ..quarter_car import load_car
 from ..reference import seat_force_weights
 from ..road.driven import driven_road
 from ..road.synthetic import road_input
+from .spec import DesignSpec, Objective, seated_model
 from .stationary import (
     road_velocity_intensity,
     static_wheel_load,
     unit_mean_product,
     unit_rms,
 )
-from .spec import DesignSpec, Objective, seated_model
 
 __all__ = [
     "DesignProblem",

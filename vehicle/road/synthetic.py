@@ -26,7 +26,10 @@ exact discretization uses as the in-step slope).
 ``"sweep"``) for a speed and a duration.
 """
 
+import functools
 import math
+import os
+import sys
 from dataclasses import dataclass, field
 from typing import Tuple
 
@@ -171,10 +174,7 @@ class RandomRoad(Road):
         sum_m c_m e^{2 pi i m j dx / L}]``: a chirp-z transform of the complex
         amplitudes ``c_m`` along the unit circle.
         """
-        from scipy.signal import czt
-
         step = dx / self.length
-        j = np.arange(count)
         out = np.zeros(count)
         # harmonics a chunk at a time: the transform's buffers stay (chunk + count) long
         # however long the road (a run's length sets the number of harmonics)
@@ -186,8 +186,8 @@ class RandomRoad(Road):
             if derivative:
                 c = 1j * c
             i0 = round(n[0] * self.length)
-            sums = czt(c, m=count, w=np.exp(2j * np.pi * step), a=1.0)
-            out += np.real(np.exp(2j * np.pi * ((i0 * step * j) % 1.0)) * sums)
+            sums = _chirp_z(c.size, count, step)(c)
+            out += np.real(_shift(count, step, i0) * sums)
         return out
 
     def displacement(self, x) -> np.ndarray:
@@ -200,6 +200,58 @@ class RandomRoad(Road):
 
     def describe(self) -> dict:
         return {"name": self.name, "length_m": self.length, **self.info}
+
+
+@functools.lru_cache(maxsize=8)
+def _chirp_z(points: int, count: int, step: float):
+    """The chirp-z transform of ``points`` amplitudes to ``count`` points ``e^{2 pi i step j}``.
+
+    Its set-up (the chirp ``w^(k^2/2)`` and its FFT) costs twice the transform itself
+    and depends only on the sizes and the step, which the roads of a sweep share
+    (every class and seed at one speed and length): kept for the next road.
+    """
+    return _czt_class()(points, m=count, w=np.exp(2j * np.pi * step), a=1.0)
+
+
+@functools.lru_cache(maxsize=8)
+def _shift(count: int, step: float, i0: int) -> np.ndarray:
+    """``e^{2 pi i (i0 step j mod 1)}``, ``j < count``: the first harmonic's phase at each point.
+
+    Read-only; kept, like :func:`_chirp_z`, for the next road of the same grid.
+    """
+    j = np.arange(count)
+    shift = np.exp(2j * np.pi * ((i0 * step * j) % 1.0))
+    shift.flags.writeable = False
+    return shift
+
+
+@functools.lru_cache(maxsize=1)
+def _czt_class():
+    """scipy's :class:`scipy.signal.CZT`, loaded without the rest of :mod:`scipy.signal`.
+
+    Importing :mod:`scipy.signal` costs about 0.9 s of CPU, most of a sweep
+    worker's start, for one class whose module needs only numpy and
+    :mod:`scipy.fft` (0.3 s). That module file is loaded by itself when it is
+    there as such; otherwise (another scipy layout, or :mod:`scipy.signal`
+    already imported) the class comes from :mod:`scipy.signal`. The same code
+    either way: the same transforms, bit for bit.
+    """
+    if "scipy.signal" not in sys.modules:
+        try:
+            import importlib.util
+
+            import scipy
+
+            path = os.path.join(os.path.dirname(scipy.__file__), "signal", "_czt.py")
+            spec = importlib.util.spec_from_file_location("bodyvib_scipy_czt", path)
+            module = importlib.util.module_from_spec(spec)
+            spec.loader.exec_module(module)
+            return module.CZT
+        except Exception:  # any failure: the public import below
+            pass
+    from scipy.signal import CZT
+
+    return CZT
 
 
 def random_road(

@@ -23,6 +23,7 @@ _HOME = {
     "ENGINES": "engines",
     "run_engine": "engines",
     "run_sweep": "run",
+    "SweepSettings": "run",
     "read_results": "run",
     "plot_comfort_maps": "plot",
 }

@@ -309,9 +309,12 @@ def _local(workers, connect_timeout) -> Cluster:
         # is dynamic, up to 32 MB, only while neither is set), so every block buffer
         # of the Wk filter was mapped and faulted in afresh: 160k page faults per
         # 256-case task against 59k in-process, 1.45x its CPU (measured). Both set.
+        # Each worker's statistical profiler samples the running task's stack every
+        # 10 ms for a dashboard that a sweep's LocalCluster does not have: off.
         config = {
             "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": 128 * 1024 * 1024,
             "distributed.nanny.pre-spawn-environ.MALLOC_MMAP_THRESHOLD_": 32 * 1024 * 1024,
+            "distributed.worker.profile.enabled": False,
             "temporary-directory": scratch,
         }
         spawn = contextlib.ExitStack()  # until the cluster is closed (a worker may restart)

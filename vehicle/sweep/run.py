@@ -58,6 +58,7 @@ import sys
 import tempfile
 import time
 import uuid
+from dataclasses import dataclass, replace
 from itertools import islice
 from typing import Callable, Dict, Iterator, List, Optional, Sequence, Union
 
@@ -90,6 +91,7 @@ from .table import (
 __all__ = [
     "BASE_COLUMNS",
     "PARQUET_EXTENSIONS",
+    "SweepSettings",
     "run_sweep",
     "plan_tasks",
     "read_results",
@@ -316,32 +318,14 @@ def _spec_inputs(spec: dict, spec_path: Optional[str]):
     return inputs
 
 
-def run_sweep(
-    spec: Union[dict, str],
-    out: Optional[str] = None,
-    engine: str = "batched",
-    scheduler: Optional[str] = None,
-    resume: bool = False,
-    overwrite: bool = False,
-    csv: Optional[str] = None,
-    progress: bool = False,
-    block: Optional[int] = None,
-    workers: Optional[int] = None,
-    echo: Optional[Callable[[str], None]] = None,
-    retry_failed: bool = False,
-    scheduler_file: Optional[str] = None,
-    connect_timeout: float = 10.0,
-    worker_timeout: float = 60.0,
-    table: bool = True,
-):
-    """Run a sweep and return its table.
+@dataclass(frozen=True)
+class SweepSettings:
+    """How a sweep runs and where it writes: every option of :func:`run_sweep` but the spec.
 
     Parameters
     ----------
-    spec : dict or str
-        A spec (:mod:`bodyvib.vehicle.sweep.spec`) or the path of a JSON spec.
     out : str, optional
-        Parquet file for the table (also the key of ``--resume``); None keeps
+        Parquet file for the table (also the key of ``resume``); None keeps
         the table in memory (and in ``csv``) only.
     engine : str
         ``"batched"`` (default), ``"spectral"`` or ``"cosim"``.
@@ -351,25 +335,23 @@ def run_sweep(
         ``"serial"``: in this process, no Dask; otherwise the address of a
         running Dask scheduler (``tcp://host:8786``), whose workers must have
         bodyvib installed.
+    scheduler_file : str, optional
+        Connect to the scheduler of this file instead (``dask scheduler
+        --scheduler-file``, dask-jobqueue).
+    workers : int, optional
+        LocalCluster size (default: the number of cores).
+    block : int, optional
+        Cases per task (default: :func:`task_size`).
     resume : bool
         Keep the cases already in ``out`` (and its parts) and run the rest.
+    retry_failed : bool
+        With ``resume``: run again the cases stored with an error.
     overwrite : bool
         Replace an existing ``out`` instead of refusing.
     csv : str, optional
         Also write the table as CSV (header ``name [unit]``).
     progress : bool
         Progress bar on stderr.
-    block : int, optional
-        Cases per task (default: :func:`task_size`).
-    workers : int, optional
-        LocalCluster size (default: the number of cores).
-    echo : callable, optional
-        Called with one-line status messages.
-    retry_failed : bool
-        With ``resume``: run again the cases stored with an error.
-    scheduler_file : str, optional
-        Connect to the scheduler of this file instead (``dask scheduler
-        --scheduler-file``, dask-jobqueue).
     connect_timeout : float
         Seconds to wait for a scheduler to answer.
     worker_timeout : float
@@ -379,18 +361,96 @@ def run_sweep(
         Return the table (False: return None; the table is only on disk,
         which a million-case sweep needs).
 
+    Examples
+    --------
+    >>> SweepSettings(engine="spectral", workers=2).check()
+    >>> SweepSettings(retry_failed=True).check()
+    Traceback (most recent call last):
+    ...
+    bodyvib.runtime.errors.BodyvibError: --retry-failed goes with --resume
+    """
+
+    out: Optional[str] = None
+    engine: str = "batched"
+    scheduler: Optional[str] = None
+    scheduler_file: Optional[str] = None
+    workers: Optional[int] = None
+    block: Optional[int] = None
+    resume: bool = False
+    retry_failed: bool = False
+    overwrite: bool = False
+    csv: Optional[str] = None
+    progress: bool = False
+    connect_timeout: float = 10.0
+    worker_timeout: float = 60.0
+    table: bool = True
+
+    def check(self) -> None:
+        """Refuse settings that contradict each other or are out of range.
+
+        Raises
+        ------
+        BodyvibError
+            Naming the setting and what it takes.
+        """
+        if self.resume and self.overwrite:
+            raise BodyvibError(
+                "--resume keeps the cases in --out and --overwrite replaces it: give one of them"
+            )
+        w = self.workers
+        if w is not None and (isinstance(w, bool) or not isinstance(w, int) or w < 1):
+            raise BodyvibError(f"workers must be a positive integer, got {w!r}")
+        for name in ("connect_timeout", "worker_timeout"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and 0 < value < math.inf):
+                raise BodyvibError(f"{name} must be a positive number of seconds, got {value!r}")
+        if self.retry_failed and not self.resume:
+            raise BodyvibError("--retry-failed goes with --resume")
+        if self.resume and self.out is None:
+            raise BodyvibError("resume needs an output file (--out)")
+        if self.out is None and self.csv is None and not self.table:
+            raise BodyvibError("give an output file (--out and/or --csv)")
+
+    @property
+    def threads(self) -> int:
+        """LocalCluster size: ``workers``, else the number of cores."""
+        return self.workers or os.cpu_count() or 1
+
+
+def run_sweep(
+    spec: Union[dict, str],
+    settings: Optional[SweepSettings] = None,
+    echo: Optional[Callable[[str], None]] = None,
+    **options,
+):
+    """Run a sweep and return its table.
+
+    Parameters
+    ----------
+    spec : dict or str
+        A spec (:mod:`bodyvib.vehicle.sweep.spec`) or the path of a JSON spec.
+    settings : SweepSettings, optional
+        How to run it and where to write (defaults: batched engine, in memory,
+        on a LocalCluster when the cases make more than one task).
+    echo : callable, optional
+        Called with one-line status messages.
+    **options
+        Fields of :class:`SweepSettings` that replace those of ``settings``
+        (``out="r.parquet", scheduler="serial"``).
+
     Returns
     -------
     pandas.DataFrame or None
-        One row per case, sorted by ``case_id`` (columns in the module docstring).
+        One row per case, sorted by ``case_id`` (columns in the module
+        docstring); None with ``table=False``.
 
     Raises
     ------
     BodyvibError
-        A bad spec or engine; ``resume`` with ``overwrite``; an ``out`` not ending in
-        ``.parquet``; an output that exists (without ``resume`` or ``overwrite``), cannot be written, or is one of the sweep's inputs; an
-        output of another spec on resume; an unreachable scheduler or no worker
-        in time.
+        A bad spec, engine or setting (``resume`` with ``overwrite`` among them); an
+        ``out`` not ending in ``.parquet``; an output that exists (without ``resume`` or
+        ``overwrite``), cannot be written, or is one of the sweep's inputs; an output of
+        another spec on resume; an unreachable scheduler or no worker in time.
     bodyvib.vehicle.sweep.cluster.ClusterLost
         The cluster lost tasks (scheduler gone, workers dead, no worker): the
         finished cases are kept in ``OUT.parts/``, the lost ones are not
@@ -406,187 +466,236 @@ def run_sweep(
     >>> list(df["speed_m_s"]), bool(df["head_weighted_rms"].gt(0).all())
     ([10.0, 20.0], True)
     """
+    try:
+        cfg = replace(settings or SweepSettings(), **options)
+    except TypeError as exc:
+        raise BodyvibError(f"run_sweep: {exc} (the options are SweepSettings' fields)") from None
     say = echo or (lambda msg: None)
-    if resume and overwrite:
-        raise BodyvibError(
-            "--resume keeps the cases in --out and --overwrite replaces it: give one of them"
-        )
-    spec_path = None
-    if isinstance(spec, (str, os.PathLike)):
-        spec_path = os.fspath(spec)
-        spec = load_spec(spec_path)
+    spec, spec_path = _load(spec)
     prep = _Prepared(spec)
-    check_engine(engine, [_RoadOnly(r) for r in prep.roads])
-    if workers is not None and (
-        isinstance(workers, bool) or not isinstance(workers, int) or workers < 1
-    ):
-        raise BodyvibError(f"workers must be a positive integer, got {workers!r}")
-    for value, name in ((connect_timeout, "connect_timeout"), (worker_timeout, "worker_timeout")):
-        if not (isinstance(value, (int, float)) and 0 < value < math.inf):
-            raise BodyvibError(f"{name} must be a positive number of seconds, got {value!r}")
-    if retry_failed and not resume:
-        raise BodyvibError("--retry-failed goes with --resume")
-    if resume and out is None:
-        raise BodyvibError("resume needs an output file (--out)")
-    if out is None and csv is None and not table:
-        raise BodyvibError("give an output file (--out and/or --csv)")
-    workers = workers or os.cpu_count() or 1
+    check_engine(cfg.engine, [_RoadOnly(r) for r in prep.roads])
+    cfg.check()
     check_outputs(
-        [("--out", out, PARQUET_EXTENSIONS), ("--csv", csv, None)], _spec_inputs(spec, spec_path)
+        [("--out", cfg.out, PARQUET_EXTENSIONS), ("--csv", cfg.csv, None)],
+        _spec_inputs(spec, spec_path),
     )
     sh = spec_hash(spec)
-    done = np.zeros(prep.count, dtype=bool)  # per case: kept from an earlier run
-    if out is not None:
-        if resume:
-            found = scan(out)
-            if found.rows:
-                other = sorted(found.spec_hashes - {sh})
-                if other:
-                    raise BodyvibError(
-                        f"'{out}' holds rows of another spec (hash {other[0]}, "
-                        f"this spec {sh}); use another output file"
-                    )
-                done = found.done(prep.count, retry_failed)
-        elif (os.path.exists(out) or os.path.isdir(parts_dir(out))) and not overwrite:
-            raise BodyvibError(
-                f"output '{out}' exists; pass --resume to continue that sweep or "
-                "--overwrite to replace it"
-            )
+    done = _done_cases(cfg, prep.count, sh)
+    run_id = uuid.uuid4().hex[:12]
+    rows = _Rows(prep, cfg.engine, sh, run_id)
+    schema = rows.schema.with_metadata(
+        {**provenance(spec, cfg.engine), "bodyvib.units": json.dumps(units(rows.schema))}
+    )
+    replaces = cfg.out is not None and cfg.overwrite and not cfg.resume
+    if replaces:
+        shutil.rmtree(parts_dir(cfg.out), ignore_errors=True)
+    folder = (
+        parts_dir(cfg.out)
+        if cfg.out is not None
+        else tempfile.mkdtemp(prefix="bodyvib-sweep-parts-")
+    )
+    parts = _Parts(folder, replaces, _Work(rows, cfg.engine), run_id)
+    try:
+        _compute(cfg, prep, done, parts, say)
+        return _finish(cfg, folder, schema, say)
+    finally:
+        parts.close()
+        if cfg.out is None:
+            shutil.rmtree(folder, ignore_errors=True)
+
+
+def _load(spec) -> tuple:
+    """(spec dict, its file or None)."""
+    if isinstance(spec, (str, os.PathLike)):
+        path = os.fspath(spec)
+        return load_spec(path), path
+    return spec, None
+
+
+def _done_cases(cfg: SweepSettings, count: int, sh: str) -> np.ndarray:
+    """Per case, True if kept from an earlier run (``resume``); refuse an output in the way."""
+    done = np.zeros(count, dtype=bool)
+    out = cfg.out
+    if out is None:
+        return done
+    if cfg.resume:
+        found = scan(out)
+        if found.rows:
+            other = sorted(found.spec_hashes - {sh})
+            if other:
+                raise BodyvibError(
+                    f"'{out}' holds rows of another spec (hash {other[0]}, "
+                    f"this spec {sh}); use another output file"
+                )
+            done = found.done(count, cfg.retry_failed)
+    elif (os.path.exists(out) or os.path.isdir(parts_dir(out))) and not cfg.overwrite:
+        raise BodyvibError(
+            f"output '{out}' exists; pass --resume to continue that sweep or "
+            "--overwrite to replace it"
+        )
+    return done
+
+
+class _Parts:
+    """Where finished tasks go: one Parquet part each in ``folder``, a progress bar."""
+
+    def __init__(self, folder: str, replaces: bool, work: _Work, run_id: str):
+        self.folder, self.replaces, self.work, self.run_id = folder, replaces, work, run_id
+        self.start_ns = time.time_ns()
+        self.bar = None
+
+    def open_bar(self, total: int, todo: int) -> None:
+        from tqdm import tqdm
+
+        self.bar = tqdm(
+            total=total,
+            initial=total - todo,
+            unit="case",
+            file=sys.stderr,
+            desc="sweep",
+            mininterval=0.5,
+            disable=None,
+        )
+
+    def arrived(self, task_no: int, ids, data) -> None:
+        """Write a task's rows (or, for a task that raised, failed rows for its cases)."""
+        marker = os.path.join(self.folder, REPLACES_OUT)
+        if self.replaces and not os.path.exists(marker):
+            # until the table is written, the parts are the sweep and OUT is not
+            atomic_write_bytes(marker, b"")
+        if isinstance(data, BaseException):  # the task raised by itself
+            data = self.work.failed(ids, data)
+        write_part(self.folder, part_name(self.start_ns, self.run_id, task_no), data)
+        if self.bar is not None:
+            self.bar.update(len(ids))
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None
+
+
+def _pending(prep: _Prepared, done: np.ndarray, engine: str) -> Iterator[int]:
+    """Case numbers to run, lazily: consecutive cases of one road (batched) or of one model
+    (spectral and cosim: one frequency response, one FMU build per task)."""
+    return (k for k in prep.order(body_major=engine != "batched") if not done[k])
+
+
+def _tasks(prep: _Prepared, done: np.ndarray, engine: str, size: int) -> Iterator[np.ndarray]:
+    return (np.array(ids, dtype=np.int64) for ids in plan_tasks(_pending(prep, done, engine), size))
+
+
+def _in_process(cfg: SweepSettings, todo: int) -> bool:
+    """Run here without Dask: asked for, or (default scheduler) all cases make one task."""
+    if cfg.scheduler == "serial":
+        return True
+    return (
+        cfg.scheduler is None
+        and cfg.scheduler_file is None
+        and todo <= task_size(cfg.engine, todo, cfg.threads, cfg.block)
+    )
+
+
+def _compute(
+    cfg: SweepSettings, prep: _Prepared, done: np.ndarray, parts: _Parts, say: Callable[[str], None]
+) -> None:
+    """Run the pending cases, here or on Dask, each task written as it arrives."""
     total = prep.count
     todo = total - int(done.sum())
-    local = scheduler in (None, "local") and scheduler_file is None
-    serial = scheduler == "serial" or (
-        scheduler is None
-        and scheduler_file is None
-        and todo <= task_size(engine, todo, workers, block)
-    )
-    run_id = uuid.uuid4().hex[:12]
-    start_ns = time.time_ns()
-    rows = _Rows(prep, engine, sh, run_id)
-    schema = rows.schema.with_metadata(
-        {**provenance(spec, engine), "bodyvib.units": json.dumps(units(rows.schema))}
-    )
-    replaces = out is not None and overwrite and not resume
-    if replaces:
-        shutil.rmtree(parts_dir(out), ignore_errors=True)
-    folder = parts_dir(out) if out is not None else tempfile.mkdtemp(prefix="bodyvib-sweep-parts-")
-    bar = None
-    try:
-        if progress:
-            from tqdm import tqdm
-
-            bar = tqdm(
-                total=total,
-                initial=total - todo,
-                unit="case",
-                file=sys.stderr,
-                desc="sweep",
-                mininterval=0.5,
-                disable=None,
-            )
-
-        def pending():
-            """Case numbers to run, lazily: consecutive cases of one road (batched) or of one
-            model (spectral and cosim: one frequency response, one FMU build per task)."""
-            return (k for k in prep.order(body_major=engine != "batched") if not done[k])
-
-        def tasks(size):
-            return (np.array(ids, dtype=np.int64) for ids in plan_tasks(pending(), size))
-
-        work = _Work(rows, engine)
-
-        def arrived(task_no, ids, data):
-            if replaces and not os.path.exists(os.path.join(folder, REPLACES_OUT)):
-                # until the table is written, the parts are the sweep and OUT is not
-                atomic_write_bytes(os.path.join(folder, REPLACES_OUT), b"")
-            if isinstance(data, BaseException):  # the task raised by itself
-                data = work.failed(ids, data)
-            write_part(folder, part_name(start_ns, run_id, task_no), data)
-            if bar is not None:
-                bar.update(len(ids))
-
-        if todo and serial:
-            size = task_size(engine, todo, 1, block)
-            say(
-                f"sweep: {total} cases, {total - todo} already done, {todo} to run in "
-                f"{math.ceil(todo / size)} tasks, engine {engine}, in this process"
-            )
-            for i, ids in enumerate(tasks(size)):
-                arrived(i, ids, work(ids))
-                interrupts.check()  # Ctrl-C: stop between tasks, keep what arrived
-        elif todo:
-            with open_cluster(
-                None if local else scheduler,
-                scheduler_file,
-                workers,
-                connect_timeout,
-                worker_timeout,
-            ) as cluster:
-                threads = cluster.threads(connect_timeout)
-                size = task_size(engine, todo, threads, block)
-                window = max(2, 2 * threads)  # one running and one waiting per thread
-                say(
-                    f"sweep: {total} cases, {total - todo} already done, {todo} to run in "
-                    f"{math.ceil(todo / size)} tasks, engine {engine}, {cluster.where} "
-                    f"({threads} threads)"
-                )
-                try:
-                    run_tasks(
-                        cluster,
-                        _run_work,
-                        tasks(size),
-                        window,
-                        arrived,
-                        worker_timeout,
-                        connect_timeout,
-                        shared=work,
-                    )
-                except ClusterLost as exc:
-                    where = (
-                        f"kept in {folder}/: run again with --resume"
-                        if out is not None
-                        else "lost (no --out)"
-                    )
-                    raise ClusterLost(
-                        f"{exc}; the sweep is incomplete, the cases finished are {where}"
-                    ) from None
-        else:
-            say(f"sweep: {total} cases, {total} already done, 0 to run")
-        if bar is not None:
-            bar.close()
-            bar = None
-        found = scan(out, folder)
-        result = None
-        try:
-            with staged_writes(guard=interrupts.critical), _open(out) as fout, _open(csv) as fcsv:
-                n = assemble(found, schema, fout, fcsv, interrupts.check)
-        except OSError as exc:
-            kept = f"; the finished cases are kept in {folder}/ (--resume)" if out else ""
-            raise BodyvibError(
-                f"cannot write '{exc.filename}': {exc.strerror or exc}{kept}"
-            ) from None
-        if out is not None:
-            shutil.rmtree(folder, ignore_errors=True)
-        failed = found.failed()
+    if not todo:
+        say(f"sweep: {total} cases, {total} already done, 0 to run")
+        return
+    if cfg.progress:
+        parts.open_bar(total, todo)
+    if _in_process(cfg, todo):
+        size = task_size(cfg.engine, todo, 1, cfg.block)
         say(
-            f"sweep: {n} cases"
-            + (
-                f", {failed} failed (see the error column; --resume --retry-failed runs them again)"
-                if failed
-                else ""
-            )
-            + (f"; wrote {out}" if out else "")
+            f"sweep: {total} cases, {total - todo} already done, {todo} to run in "
+            f"{math.ceil(todo / size)} tasks, engine {cfg.engine}, in this process"
         )
-        if table:
-            import pandas as pd
+        for i, ids in enumerate(_tasks(prep, done, cfg.engine, size)):
+            parts.arrived(i, ids, parts.work(ids))
+            interrupts.check()  # Ctrl-C: stop between tasks, keep what arrived
+    else:
+        _on_cluster(cfg, prep, done, parts, say, total, todo)
+    parts.close()
 
-            result = pd.read_parquet(out) if out is not None else _read_folder(found, schema)
-        return result
-    finally:
-        if bar is not None:
-            bar.close()
-        if out is None:
-            shutil.rmtree(folder, ignore_errors=True)
+
+def _on_cluster(
+    cfg: SweepSettings,
+    prep: _Prepared,
+    done: np.ndarray,
+    parts: _Parts,
+    say: Callable[[str], None],
+    total: int,
+    todo: int,
+) -> None:
+    """Run the pending cases on Dask (a LocalCluster or a running scheduler)."""
+    local = cfg.scheduler in (None, "local") and cfg.scheduler_file is None
+    with open_cluster(
+        None if local else cfg.scheduler,
+        cfg.scheduler_file,
+        cfg.threads,
+        cfg.connect_timeout,
+        cfg.worker_timeout,
+    ) as cluster:
+        threads = cluster.threads(cfg.connect_timeout)
+        size = task_size(cfg.engine, todo, threads, cfg.block)
+        window = max(2, 2 * threads)  # one running and one waiting per thread
+        say(
+            f"sweep: {total} cases, {total - todo} already done, {todo} to run in "
+            f"{math.ceil(todo / size)} tasks, engine {cfg.engine}, {cluster.where} "
+            f"({threads} threads)"
+        )
+        try:
+            run_tasks(
+                cluster,
+                _run_work,
+                _tasks(prep, done, cfg.engine, size),
+                window,
+                parts.arrived,
+                cfg.worker_timeout,
+                cfg.connect_timeout,
+                shared=parts.work,
+            )
+        except ClusterLost as exc:
+            where = (
+                f"kept in {parts.folder}/: run again with --resume"
+                if cfg.out is not None
+                else "lost (no --out)"
+            )
+            raise ClusterLost(
+                f"{exc}; the sweep is incomplete, the cases finished are {where}"
+            ) from None
+
+
+def _finish(cfg: SweepSettings, folder: str, schema, say: Callable[[str], None]):
+    """Stream the parts into ``out`` and ``csv`` (all or none), drop them, return the table."""
+    out = cfg.out
+    found = scan(out, folder)
+    try:
+        with staged_writes(guard=interrupts.critical), _open(out) as fout, _open(cfg.csv) as fcsv:
+            n = assemble(found, schema, fout, fcsv, interrupts.check)
+    except OSError as exc:
+        kept = f"; the finished cases are kept in {folder}/ (--resume)" if out else ""
+        raise BodyvibError(f"cannot write '{exc.filename}': {exc.strerror or exc}{kept}") from None
+    if out is not None:
+        shutil.rmtree(folder, ignore_errors=True)
+    failed = found.failed()
+    say(
+        f"sweep: {n} cases"
+        + (
+            f", {failed} failed (see the error column; --resume --retry-failed runs them again)"
+            if failed
+            else ""
+        )
+        + (f"; wrote {out}" if out else "")
+    )
+    if not cfg.table:
+        return None
+    import pandas as pd
+
+    return pd.read_parquet(out) if out is not None else _read_folder(found, schema)
 
 
 class _RoadOnly:

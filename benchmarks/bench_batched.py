@@ -1,0 +1,204 @@
+"""The batched sweep engine's cost per case-step against a minimal batched exact step.
+
+    python benchmarks/bench_batched.py [--cases 64] [--duration 30] [--repeats 3]
+
+For the reduced and the ISO 7962 body on the quarter car (ISO 8608 class C, speeds
+10-30 m/s, ``--cases`` cases sharing 5 roads, 1 ms steps), measured side by side in one
+process, interleaved over ``--repeats`` rounds (medians):
+
+* the engine: :func:`bodyvib.vehicle.sweep.engines.run_engine` ("batched") on all the
+  cases, everything a task does: road synthesis, model assembly and exact discretization,
+  the compiled time loop, the streaming Wk weighting and the ISO 2631-1 figures. Each
+  stage's share is measured by timing the engine's own functions while it runs;
+* the minimal step: a numba loop of ``x <- Phi x + g_z z + g_v v`` and the two outputs
+  ``C x + d_z z + d_v v`` per case and sample, on the very matrices and road samples the
+  engine built (captured from its call of the time loop), nothing else.
+
+The ratio engine / minimal is the engine's cost over its arithmetic floor (target <= 2).
+The load average and the process CPU time are printed beside the wall times: on a
+shared machine CPU time is the steadier guide. The first round compiles (numba cache)
+and is not counted.
+"""
+
+import argparse
+import os
+import statistics
+import sys
+import time
+from contextlib import contextmanager
+
+import numpy as np
+from bodyvib.vehicle.sweep import engines
+from bodyvib.vehicle.sweep.spec import expand
+
+BODIES = ("reduced-paper", "iso7962")
+
+
+def spec(body: str, cases: int, duration: float) -> dict:
+    """``cases`` cases on 5 roads (speeds 10-30 m/s), the body's parameters varied."""
+    per = max(1, cases // 5)
+    return {
+        "road": "C",
+        "speed": [10, 15, 20, 25, 30],
+        "seed": 0,
+        "duration": duration,
+        "step": 1e-3,
+        "body": [
+            {
+                "model": body,
+                "samples": per,
+                "seed": 0,
+                "vary": _vary(body),
+            }
+        ],
+    }
+
+
+def _vary(body: str) -> dict:
+    """Three of the body's parameters within +-10 % (Latin hypercube of the spec)."""
+    from bodyvib.models import load_model
+
+    names = list(load_model(body).parameters)[:3]
+    return {p: [0.9, 1.1] for p in names}
+
+
+class Stages:
+    """Wall time spent in the engine's stages while it runs (patched in, then restored)."""
+
+    def __init__(self):
+        self.seconds = {"road": 0.0, "matrices": 0.0, "time loop": 0.0, "Wk + figures": 0.0}
+        self.captured = None
+
+    def _timed(self, stage, fn, capture=False):
+        def wrapper(*a, **k):
+            t0 = time.perf_counter()
+            try:
+                return fn(*a, **k)
+            finally:
+                self.seconds[stage] += time.perf_counter() - t0
+                if capture and a[7] == 0:  # the first block: the whole group's arrays
+                    self.captured = a[:7]
+
+        return wrapper
+
+    @contextmanager
+    def patched(self):
+        saved = (
+            engines.advance,
+            engines.case_road_input,
+            engines.Discretization.matrices,
+            engines.ComfortStream.update,
+            engines.ComfortStream.figures,
+        )
+        engines.advance = self._timed("time loop", saved[0], capture=True)
+        engines.case_road_input = self._timed("road", saved[1])
+        engines.Discretization.matrices = self._timed("matrices", saved[2])
+        engines.ComfortStream.update = self._timed("Wk + figures", saved[3])
+        engines.ComfortStream.figures = self._timed("Wk + figures", saved[4])
+        try:
+            yield self
+        finally:
+            (
+                engines.advance,
+                engines.case_road_input,
+                engines.Discretization.matrices,
+                engines.ComfortStream.update,
+                engines.ComfortStream.figures,
+            ) = saved
+
+
+_minimal = None
+
+
+def minimal_kernel():
+    """The floor: the exact step and two outputs per case and sample, state in registers."""
+    global _minimal
+    if _minimal is None:
+        from numba import njit
+
+        @njit(cache=True, nogil=True, boundscheck=False)
+        def run(M, gz, gv, z, v, road, steps):  # pragma: no cover (compiled)
+            c, m, n = M.shape
+            out = np.empty(m)
+            y = np.zeros((2, c))
+            for i in range(c):
+                x = np.zeros(n)
+                ri = road[i]
+                for k in range(steps):
+                    zk = z[ri, k]
+                    vk = v[ri, k]
+                    for r in range(m):
+                        acc = gz[i, r] * zk + gv[i, r] * vk
+                        for q in range(n):
+                            acc += M[i, r, q] * x[q]
+                        out[r] = acc
+                    for q in range(n):
+                        x[q] = out[q]
+                    y[0, i] += out[n] * out[n]
+                    y[1, i] += out[n + 1] * out[n + 1]
+            return y
+
+        _minimal = run
+    return _minimal
+
+
+def one_round(cases, stages: Stages):
+    t0, c0 = time.perf_counter(), time.process_time()
+    with stages.patched():
+        rows = engines.run_engine("batched", cases)
+    eng = (time.perf_counter() - t0, time.process_time() - c0)
+    if any(r.get("error") for r in rows):
+        raise SystemExit(f"a case failed: {[r['error'] for r in rows if r.get('error')][:1]}")
+    M, gz, gv, z, v, road, _ = stages.captured
+    run = minimal_kernel()
+    t0, c0 = time.perf_counter(), time.process_time()
+    run(M, gz, gv, z, v, road, cases[0].steps)
+    low = (time.perf_counter() - t0, time.process_time() - c0)
+    return eng, low, M.shape
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--cases", type=int, default=64, help="cases per body (default 64)")
+    p.add_argument("--duration", type=float, default=30.0, help="seconds per case (default 30)")
+    p.add_argument("--repeats", type=int, default=3, help="rounds after a warm-up (default 3)")
+    args = p.parse_args(argv)
+    print(f"load: {os.getloadavg()[0]:.2f} (1 min) on {os.cpu_count()} cores")
+    for body in BODIES:
+        cases = expand(spec(body, args.cases, args.duration))
+        steps = len(cases) * cases[0].steps
+        one_round(cases[:2], Stages())  # compile (or load the numba cache)
+        eng, low, shares = [], [], []
+        for _ in range(args.repeats):
+            st = Stages()
+            e, m, shape = one_round(cases, st)
+            eng.append(e)
+            low.append(m)
+            shares.append({k: s / e[0] for k, s in st.seconds.items()})
+        ew, ec = (statistics.median(x[i] for x in eng) for i in (0, 1))
+        mw, mc = (statistics.median(x[i] for x in low) for i in (0, 1))
+        print(
+            f"{body}: {len(cases)} cases x {cases[0].steps} steps, {shape[2]} states "
+            f"(body on the quarter car), medians of {args.repeats}"
+        )
+        print(
+            f"  engine  {ew * 1e9 / steps:7.1f} ns per case-step wall, {ec * 1e9 / steps:7.1f} CPU"
+            f"  ({ew:.2f} s)"
+        )
+        print(
+            f"  minimal {mw * 1e9 / steps:7.1f} ns per case-step wall, {mc * 1e9 / steps:7.1f} CPU"
+            f"  ({mw:.2f} s)"
+        )
+        print(f"  ratio engine / minimal: {ew / mw:.2f} wall, {ec / mc:.2f} CPU (target <= 2)")
+        rest = 1.0
+        for k in shares[0]:
+            share = statistics.median(s[k] for s in shares)
+            rest -= share
+            print(f"    {k:14s} {100 * share:5.1f} %")
+        print(f"    {'other':14s} {100 * rest:5.1f} %  (cases, grouping, rows)")
+    print(f"load after: {os.getloadavg()[0]:.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,296 @@
+"""A native FMU's step against a plain C loop of the same arithmetic, in one C host.
+
+    python benchmarks/bench_native_step.py [--steps 1000000] [--repeats 7] [--no-callgrind]
+                                           [--fmus DIR]
+
+Builds the native FMUs (FMI 2.0 and 3.0: HumanBody3DOF, HumanBodyISO7962, QuarterCar,
+Road) unless ``--fmus`` names a folder of them (``bodyvib build --native``), compiles
+``benchmarks/native_step_host.c`` (``-O2``, the FMUs' own flag) and, per FMU:
+
+* times, in one process and interleaved over ``--repeats`` rounds, ``--steps`` FMU steps
+  (set two inputs, doStep, get two outputs; inputs precomputed) and the same number of
+  steps of a plain C loop on the same matrices: ``x <- Sc [x | s]``, ``s <- Ms s``, the two
+  outputs ``Y [x | s]``, dense, with the matrices of :class:`bodyvib.runtime.engine.FmuCore`
+  (the same exact discretization the FMU computes at initialization). For Road the plain
+  loop evaluates the FMU's own table (its ``sources/bodyvib_model.c``, compiled into the
+  host) at ``speed * t``. Printed: medians of wall-clock and thread-CPU ns per step, their
+  ratio FMU / plain, and the largest relative difference of the outputs (the same step);
+* times 1e6 FMU steps one by one: median, 99th and 99.99th percentile and the worst step
+  (clock reads included, about 20 ns);
+* counts what a step does besides arithmetic: malloc/calloc/realloc/free calls while
+  stepping (the host interposes them), system calls (``strace -c`` of 1e3 against 1e5
+  steps: equal totals mean none per step), and the lock functions the binary imports
+  (``nm -D``: none means it cannot lock);
+* counts instructions per step with ``valgrind --tool=callgrind`` (FMU and plain loop,
+  each over its own loop only): independent of the machine's load, the steadiest ratio.
+
+``--realtime`` runs the host at real-time priority (SCHED_FIFO) pinned to the last core,
+so that other processes do not take its time slices; what remains in the worst case is the
+machine's (interrupts, a virtual machine's host).
+
+Targets: FMU / plain at most 1.3; 99.99th percentile at most 3x the median on a quiet core.
+"""
+
+import argparse
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+HOST = Path(__file__).resolve().parent / "native_step_host.c"
+FMUS = ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar", "Road")
+#: (inputs set, outputs read) per FMU: what a co-simulation exchanges at every step
+SIGNALS = {
+    "HumanBody3DOF": (["seat_displacement", "seat_velocity"], ["head_acceleration", "seat_force"]),
+    "HumanBodyISO7962": (
+        ["seat_displacement", "seat_velocity"],
+        ["head_acceleration", "seat_force"],
+    ),
+    "QuarterCar": (["road_displacement", "road_velocity"], ["seat_displacement", "seat_velocity"]),
+    "Road": ([], ["road_displacement", "road_velocity"]),
+}
+MODELS = {"HumanBody3DOF": "reduced-paper", "HumanBodyISO7962": "iso7962", "QuarterCar": "car"}
+H = 1e-3
+LOCKS = re.compile(r"pthread|mtx_|futex|sem_|lock", re.I)
+
+
+def build(dest: Path) -> dict:
+    from bodyvib.vehicle.fmus import build_fmus
+
+    print("building the native FMUs ...", file=sys.stderr, flush=True)
+    return build_fmus(dest, names=list(FMUS), native=True, fmi=(2, 3), platforms=["linux64"])
+
+
+def find(folder: Path) -> dict:
+    found = {}
+    for name in FMUS:
+        for key, path in (
+            (name, folder / f"{name}.fmu"),
+            (f"fmi3/{name}", folder / "fmi3" / f"{name}.fmu"),
+        ):
+            if not path.is_file():
+                raise SystemExit(f"{path} not found: build it with bodyvib build --native")
+            found[key] = path
+    return found
+
+
+def compile_host(exe: Path, road_sources: Path = None) -> Path:
+    cmd = ["gcc", "-std=c99", "-O2", str(HOST), "-o", str(exe), "-ldl", "-lm"]
+    if road_sources is not None:
+        cmd[3:3] = [
+            "-DBV_ROAD_TABLE",
+            "-I",
+            str(road_sources),
+            str(road_sources / "bodyvib_model.c"),
+        ]
+    subprocess.run(cmd, check=True)
+    return exe
+
+
+def plain_matrices(name: str, set_idx, get_idx, path: Path) -> None:
+    """Write what the plain loop multiplies: the FMU's step matrices from the model."""
+    from bodyvib.vehicle.quarter_car import load_car
+
+    from bodyvib.models import load_model
+    from bodyvib.runtime.engine import FmuCore
+
+    kind = "car" if name == "QuarterCar" else "body"
+    net = load_car("quarter-car") if kind == "car" else load_model(MODELS[name])
+    core = FmuCore(kind, net, name)
+    n, ni = core._n, core._ni
+    M = core._step_matrix(H)
+    Y = core._Y[[i - ni for i in get_idx]]
+    with open(path, "w") as f:
+        f.write(f"{n} {ni} {len(set_idx)} {len(get_idx)}\n")
+        f.write(" ".join(str(i) for i in set_idx) + "\n")
+        for block in (M[:n], M[n:, n:], Y):
+            f.write(" ".join(repr(float(v)) for v in block.ravel()) + "\n")
+
+
+def unpack(fmu: Path, folder: Path):
+    """(binary, token, value references by name, start values by name) of an FMU."""
+    from fmpy import read_model_description
+
+    md = read_model_description(str(fmu))
+    with zipfile.ZipFile(fmu) as z:
+        z.extractall(folder)
+    ident = md.coSimulation.modelIdentifier
+    plat = "linux64" if md.fmiVersion.startswith("2") else "x86_64-linux"
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    start = {v.name: v.start for v in md.modelVariables}
+    return folder / "binaries" / plat / f"{ident}.so", md.guid, vr, start
+
+
+def run(cmd, **kw) -> str:
+    out = subprocess.run(cmd, capture_output=True, text=True, timeout=1800, **kw)
+    if out.returncode != 0:
+        raise SystemExit(f"{cmd[0]} failed: {out.stderr[-800:]}")
+    return out.stdout + out.stderr
+
+
+def measure(exe, fmi, binary, token, sv, gv, data, steps, repeats, prefix=()) -> dict:
+    args = [str(fmi), str(binary), token, sv, gv, repr(H)]
+    text = run([*prefix, str(exe), "time", *args, str(steps), str(repeats), data])
+    rounds = np.array(
+        [list(map(float, ln.split()[1:])) for ln in text.splitlines() if ln.startswith("round")]
+    )
+    res = dict(zip(("fmu", "plain", "fmu_cpu", "plain_cpu"), np.median(rounds, axis=0)))
+    res["ratio"] = float(np.median(rounds[:, 0] / rounds[:, 1]))
+    res["ratio_cpu"] = float(np.median(rounds[:, 2] / rounds[:, 3]))
+    for ln in text.splitlines():
+        key, *vals = ln.split()
+        if key == "latency":
+            res["p50"], res["p99"], res["p9999"], res["max"] = map(float, vals)
+        elif key in ("allocations", "check", "latency_plain", "latency_clock"):
+            res[key] = float(vals[0])
+    return res
+
+
+def instructions(exe, mode, fmi, binary, token, sv, gv, data, steps=100_000) -> float:
+    """Instructions per step inside the loop of ``mode`` (callgrind)."""
+    loop = "fmu_loop" if mode == "fmu" else "plain_loop"
+    text = run(
+        [
+            "valgrind",
+            "--tool=callgrind",
+            f"--toggle-collect={loop}*",
+            "--callgrind-out-file=/dev/null",
+            str(exe),
+            mode,
+            str(fmi),
+            str(binary),
+            token,
+            sv,
+            gv,
+            repr(H),
+            str(steps),
+            "1",
+            data,
+        ]
+    )
+    m = re.search(r"Collected : (\d+)", text)
+    return int(m.group(1)) / steps
+
+
+def syscalls(exe, args, folder: Path) -> tuple:
+    """Total system calls of a run of 1e3 and of 1e5 FMU steps (strace -c)."""
+    totals = []
+    for steps in (1000, 100_000):
+        log = folder / f"strace-{steps}.txt"
+        run(
+            [
+                "strace",
+                "-f",
+                "-c",
+                "-o",
+                str(log),
+                str(exe),
+                "fmu",
+                *args[:6],
+                str(steps),
+                "1",
+                args[6],
+            ]
+        )
+        last = log.read_text().strip().splitlines()[-1].split()  # % s us/call calls [errors] total
+        totals.append(int(last[3]) if last[-1] == "total" else -1)
+    return tuple(totals)
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--steps", type=int, default=1_000_000, help="steps per loop (default 1e6)")
+    p.add_argument("--repeats", type=int, default=7, help="interleaved rounds (default 7)")
+    p.add_argument("--fmus", type=Path, help="folder of built native FMUs (default: build them)")
+    p.add_argument("--no-callgrind", action="store_true", help="skip the instruction counts")
+    p.add_argument(
+        "--realtime",
+        action="store_true",
+        help="run the host at real-time priority on the last core (chrt -f 50, taskset; needs "
+        "root): other processes no longer take its time slices",
+    )
+    args = p.parse_args(argv)
+    if shutil.which("gcc") is None:
+        raise SystemExit("gcc not found")
+    callgrind = not args.no_callgrind and shutil.which("valgrind") is not None
+    with tempfile.TemporaryDirectory(prefix="bodyvib-bench-step-") as tmp:
+        tmp = Path(tmp)
+        fmus = find(args.fmus) if args.fmus else build(tmp / "fmus")
+        exe = compile_host(tmp / "host")
+        prefix = ()
+        if args.realtime:
+            prefix = ("chrt", "-f", "50", "taskset", "-c", str((os.cpu_count() or 1) - 1))
+        print(
+            f"load: {os.getloadavg()[0]:.2f} (1 min) on {os.cpu_count()} cores; {args.steps} steps "
+            f"a loop, medians of {args.repeats} interleaved rounds; one step = set 2 inputs + "
+            "doStep + get 2 outputs, ns"
+        )
+        print(
+            f"  {'FMU':17s} {'FMI':>3s} | {'loop: FMU':>9s} {'plain':>6s} {'ratio':>5s} {'CPU':>5s} | "
+            f"{'instr: FMU':>10s} {'plain':>5s} {'ratio':>5s} | {'1 step: p50':>11s} {'p99.99':>6s} "
+            f"{'max':>9s} {'p99.99/p50':>10s} | {'allocs':>6s} {'rel diff':>8s}"
+        )
+        notes = []
+        for name in FMUS:
+            sets, gets = SIGNALS[name]
+            for fmi in (2, 3):
+                key = name if fmi == 2 else f"fmi3/{name}"
+                folder = tmp / key.replace("/", "-")
+                binary, token, vr, start = unpack(fmus[key], folder)
+                sv = ",".join(str(vr[s]) for s in sets) or "-"
+                gv = ",".join(str(vr[g]) for g in gets)
+                if name == "Road":
+                    host = tmp / "road-host"
+                    if not host.exists():
+                        compile_host(host, folder / "sources")
+                    data = f"road:{float(start['speed'])!r}"
+                else:
+                    host = exe
+                    data = str(folder / "plain.txt")
+                    plain_matrices(name, [vr[s] for s in sets], [vr[g] for g in gets], data)
+                r = measure(
+                    host, fmi, binary, token, sv, gv, data, args.steps, args.repeats, prefix
+                )
+                clock = r["latency_clock"]
+                ir = ir_plain = float("nan")
+                if callgrind:
+                    ir = instructions(host, "fmu", fmi, binary, token, sv, gv, data)
+                    ir_plain = instructions(host, "plain", fmi, binary, token, sv, gv, data)
+                print(
+                    f"  {name:17s} {fmi:3d} | {r['fmu']:9.1f} {r['plain']:6.1f} {r['ratio']:5.2f} "
+                    f"{r['ratio_cpu']:5.2f} | {ir:10.0f} {ir_plain:5.0f} {ir / ir_plain:5.2f} | "
+                    f"{r['p50']:11.0f} {r['p9999']:6.0f} {r['max']:9.0f} "
+                    f"{r['p9999'] / r['p50']:10.1f} | {r['allocations']:6.0f} {r['check']:8.1e}"
+                )
+                if fmi == 2 and shutil.which("strace"):
+                    few, many = syscalls(
+                        host, [str(fmi), str(binary), token, sv, gv, repr(H), data], folder
+                    )
+                    notes.append(
+                        f"{name}: system calls, 1e3 steps {few}, 1e5 steps {many}"
+                        + (" (none per step)" if few == many else " (STEPS MAKE SYSTEM CALLS)")
+                    )
+                if fmi == 2:
+                    syms = run(["nm", "-D", "--undefined-only", str(binary)]).split()
+                    locks = sorted({s for s in syms if LOCKS.search(s)})
+                    notes.append(f"{name}: lock functions imported: {', '.join(locks) or 'none'}")
+        print(
+            "  loop: medians of whole loops, wall and thread CPU (ratio FMU / plain); instr: "
+            "callgrind, per step; 1 step: single FMU steps timed one by one, the clock read "
+            f"({clock:.0f} ns, about 10 ns resolution) included; rel diff: FMU against plain "
+            "outputs, over their largest"
+        )
+        for note in notes:
+            print("  " + note)
+        print(f"load after: {os.getloadavg()[0]:.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,441 @@
+/*
+ * The C host of benchmarks/bench_native_step.py: one native FMU's step (set the inputs,
+ * doStep, get two outputs) against a plain C loop of the same step on the same matrices.
+ *
+ *     native_step_host MODE FMI BINARY TOKEN SET_VRS GET_VRS H STEPS REPEATS DATA
+ *
+ * MODE     time      REPEATS rounds, each one loop of STEPS FMU steps and one of STEPS
+ *                    plain steps (interleaved, so both see the same load); then one loop of
+ *                    STEPS FMU steps timed step by step (percentiles), and the number of
+ *                    malloc/calloc/realloc/free calls made while stepping.
+ *          fmu       STEPS FMU steps only, untimed (fmu_loop)    } for instruction counts
+ *          plain     STEPS plain steps only, untimed (plain_loop) } (valgrind --tool=callgrind)
+ * FMI      2 or 3
+ * SET_VRS  comma-separated value references of the inputs set at every step ("-": none)
+ * GET_VRS  comma-separated value references of the outputs read at every step
+ * DATA     what the plain loop multiplies (written by bench_native_step.py from the model):
+ *              n ni nset nget
+ *              set positions (nset ints: index of each set input among the ni inputs)
+ *              Sc  n x (n + ni)   state at the step's end from [x | s]
+ *              Ms  ni x ni        inputs at the step's end from s
+ *              Y   nget x (n + ni) the outputs read, from [x | s]
+ *          or "road:SPEED" for a source FMU, whose plain loop evaluates the table compiled
+ *          into this host (-DBV_ROAD_TABLE with the FMU's own sources/bodyvib_model.c).
+ *
+ * Output lines: "round fmu_ns plain_ns fmu_cpu_ns plain_cpu_ns" per round (ns per step),
+ * "latency p50 p99 p9999 max" (ns, FMU steps timed one by one, clock overhead included),
+ * "latency_plain p50" (plain steps so timed), "latency_clock p50" (two clock reads),
+ * "allocations N" (calls while stepping), "check D" (a pass of STEPS steps of both side by
+ * side after the rounds: the largest difference of an output over its largest magnitude). The inputs are precomputed (a 1.7 Hz sine and its
+ * derivatives), so a step costs only the FMU.
+ */
+#define _GNU_SOURCE
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include <dlfcn.h>
+
+#ifdef BV_ROAD_TABLE
+#include "bodyvib_table.h"
+#endif
+
+/* ------------------------------------------------------------------ counting allocations */
+
+/* The host defines malloc & co. (the FMU binary's calls bind to these: symbols of the
+ * executable come first) and forwards them to glibc's own entry points. */
+extern void *__libc_malloc(size_t);
+extern void *__libc_calloc(size_t, size_t);
+extern void *__libc_realloc(void *, size_t);
+extern void __libc_free(void *);
+static int counting;
+static long allocations;
+
+void *malloc(size_t n)
+{
+    allocations += counting;
+    return __libc_malloc(n);
+}
+void *calloc(size_t k, size_t n)
+{
+    allocations += counting;
+    return __libc_calloc(k, n);
+}
+void *realloc(void *p, size_t n)
+{
+    allocations += counting;
+    return __libc_realloc(p, n);
+}
+void free(void *p)
+{
+    allocations += counting && p != NULL;
+    __libc_free(p);
+}
+
+/* ------------------------------------------------------------------ FMI, both versions */
+
+typedef void *(*inst2_fn)(const char *, int, const char *, const char *, const void *, int, int);
+typedef int (*setup2_fn)(void *, int, double, double, int, double);
+typedef int (*mode_fn)(void *);
+typedef int (*real2_fn)(void *, const unsigned int *, size_t, double *);
+typedef int (*step2_fn)(void *, double, double, int);
+typedef void *(*inst3_fn)(const char *, const char *, const char *, int, int, int, int,
+                          const unsigned int *, size_t, void *, void *, void *);
+typedef int (*enter3_fn)(void *, int, double, double, int, double);
+typedef int (*real3_fn)(void *, const unsigned int *, size_t, double *, size_t);
+typedef int (*step3_fn)(void *, double, double, int, int *, int *, int *, double *);
+
+typedef struct {
+    int fmi;
+    void *c;
+    real2_fn set2, get2;
+    step2_fn step2;
+    real3_fn set3, get3;
+    step3_fn step3;
+} Fmu;
+
+static void die(const char *what)
+{
+    fprintf(stderr, "native_step_host: %s\n", what);
+    exit(2);
+}
+
+static void *sym(void *lib, const char *name)
+{
+    void *f = dlsym(lib, name);
+    if (f == NULL)
+        die(name);
+    return f;
+}
+
+static void fmi2_log(void *env, const char *name, int status, const char *cat, const char *msg,
+                     ...)
+{
+    (void)env, (void)cat;
+    fprintf(stderr, "[%s %d] %s\n", name, status, msg);
+}
+
+static void fmi3_log(void *env, int status, const char *cat, const char *msg)
+{
+    (void)env, (void)cat;
+    fprintf(stderr, "[%d] %s\n", status, msg);
+}
+
+static void open_fmu(Fmu *f, int fmi, const char *path, const char *token)
+{
+    void *lib = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+    if (lib == NULL)
+        die(dlerror());
+    f->fmi = fmi;
+    if (fmi == 2) {
+        /* fmi2CallbackFunctions: logger, allocate, free, stepFinished, environment */
+        static void *callbacks[5];
+        callbacks[0] = (void *)fmi2_log;
+        callbacks[1] = (void *)calloc;
+        callbacks[2] = (void *)free;
+        f->c = ((inst2_fn)sym(lib, "fmi2Instantiate"))("bench", 1, token, "", callbacks, 0, 0);
+        if (f->c == NULL)
+            die("fmi2Instantiate failed");
+        if (((setup2_fn)sym(lib, "fmi2SetupExperiment"))(f->c, 0, 0.0, 0.0, 0, 0.0) ||
+            ((mode_fn)sym(lib, "fmi2EnterInitializationMode"))(f->c) ||
+            ((mode_fn)sym(lib, "fmi2ExitInitializationMode"))(f->c))
+            die("FMI 2.0 initialization failed");
+        f->set2 = (real2_fn)sym(lib, "fmi2SetReal");
+        f->get2 = (real2_fn)sym(lib, "fmi2GetReal");
+        f->step2 = (step2_fn)sym(lib, "fmi2DoStep");
+    } else {
+        f->c = ((inst3_fn)sym(lib, "fmi3InstantiateCoSimulation"))(
+            "bench", token, NULL, 0, 0, 0, 0, NULL, 0, NULL, (void *)fmi3_log, NULL);
+        if (f->c == NULL)
+            die("fmi3InstantiateCoSimulation failed");
+        if (((enter3_fn)sym(lib, "fmi3EnterInitializationMode"))(f->c, 0, 0.0, 0.0, 0, 0.0) ||
+            ((mode_fn)sym(lib, "fmi3ExitInitializationMode"))(f->c))
+            die("FMI 3.0 initialization failed");
+        f->set3 = (real3_fn)sym(lib, "fmi3SetFloat64");
+        f->get3 = (real3_fn)sym(lib, "fmi3GetFloat64");
+        f->step3 = (step3_fn)sym(lib, "fmi3DoStep");
+    }
+}
+
+/* One FMU step: set, doStep, get; a refused call ends the run. */
+static inline void fmu_step(const Fmu *f, const unsigned *sv, int ns, const double *in,
+                            double t, double h, const unsigned *gv, int ng, double *out)
+{
+    int bad;
+    if (f->fmi == 2) {
+        bad = (ns && f->set2(f->c, sv, (size_t)ns, (double *)in)) || f->step2(f->c, t, h, 1) ||
+              f->get2(f->c, gv, (size_t)ng, out);
+    } else {
+        int event, terminate, early;
+        double last;
+        bad = (ns && f->set3(f->c, sv, (size_t)ns, (double *)in, (size_t)ns)) ||
+              f->step3(f->c, t, h, 1, &event, &terminate, &early, &last) ||
+              f->get3(f->c, gv, (size_t)ng, out, (size_t)ng);
+    }
+    if (bad)
+        die("the FMU refused a step");
+}
+
+/* ------------------------------------------------------------------ the plain loop */
+
+typedef struct {
+    int n, ni, nset, nget, road;
+    int *setpos;
+    double *Sc, *Ms, *Y, *z, *zn, speed, t;
+} Plain;
+
+static void read_plain(Plain *p, const char *path)
+{
+    int i, k;
+    FILE *fp;
+    memset(p, 0, sizeof *p);
+    if (strncmp(path, "road:", 5) == 0) {
+        p->road = 1;
+        p->speed = atof(path + 5);
+        return;
+    }
+    fp = fopen(path, "r");
+    if (fp == NULL || fscanf(fp, "%d %d %d %d", &p->n, &p->ni, &p->nset, &p->nget) != 4)
+        die("cannot read the plain loop's matrices");
+    k = p->n + p->ni;
+    p->setpos = __libc_calloc((size_t)p->nset + 1, sizeof(int));
+    p->Sc = __libc_calloc((size_t)(p->n + p->ni + p->nget) * k + 1, sizeof(double));
+    p->Ms = p->Sc + (size_t)p->n * k;
+    p->Y = p->Ms + (size_t)p->ni * p->ni;
+    p->z = __libc_calloc(2 * (size_t)k + 1, sizeof(double));
+    p->zn = p->z + k;
+    for (i = 0; i < p->nset; i++)
+        if (fscanf(fp, "%d", &p->setpos[i]) != 1)
+            die("bad set positions");
+    for (i = 0; i < p->n * k + p->ni * p->ni + p->nget * k; i++)
+        if (fscanf(fp, "%lf", &p->Sc[i]) != 1)
+            die("bad matrices");
+    fclose(fp);
+}
+
+/* out = M v (rows x cols, row-major). */
+static inline void mv(double *restrict out, const double *restrict M, const double *restrict v,
+                      int rows, int cols)
+{
+    int i, j;
+    for (i = 0; i < rows; i++) {
+        double a = 0.0;
+        for (j = 0; j < cols; j++)
+            a += M[i * cols + j] * v[j];
+        out[i] = a;
+    }
+}
+
+#ifdef BV_ROAD_TABLE
+/* The table's cubic Hermite interpolant at p (periodic or held), values and rates: the
+ * arithmetic of the FMU's own evaluation, without its state machine and calls. */
+static inline void road_at(double p, double speed, double *out)
+{
+    const bv_source *t = &bv_source_data;
+    int k = t->rows - 1, i;
+    double u = (p - t->p0) / t->dp, s, s2, s3, z0, z1, m0, m1;
+    if (t->periodic) { /* the FMU's reduction: a remainder with the divisor's sign */
+        u = fmod(u, (double)k);
+        if (u < 0.0)
+            u += k;
+    }
+    u = u < 0.0 ? 0.0 : (u > k ? k : u);
+    i = (int)u;
+    if (i > k - 1)
+        i = k - 1;
+    s = u - i, s2 = s * s, s3 = s2 * s;
+    z0 = t->value[i * t->signals], z1 = t->value[(i + 1) * t->signals];
+    m0 = t->slope[i * t->signals] * t->dp, m1 = t->slope[(i + 1) * t->signals] * t->dp;
+    out[0] = (2 * s3 - 3 * s2 + 1) * z0 + (s3 - 2 * s2 + s) * m0 + (3 * s2 - 2 * s3) * z1 +
+             (s3 - s2) * m1;
+    out[1] = speed * ((6 * s2 - 6 * s) * (z0 - z1) + (3 * s2 - 4 * s + 1) * m0 +
+                      (3 * s2 - 2 * s) * m1) / t->dp;
+}
+#endif
+
+static inline void plain_step(Plain *p, const double *in, double h, double *out)
+{
+    int i, n = p->n, k = p->n + p->ni;
+    if (p->road) {
+#ifdef BV_ROAD_TABLE
+        p->t += h;
+        road_at(p->speed * p->t, p->speed, out);
+#else
+        (void)h, (void)out;
+        die("a road's plain loop needs the table: compile with -DBV_ROAD_TABLE");
+#endif
+        return;
+    }
+    for (i = 0; i < p->nset; i++)
+        p->z[n + p->setpos[i]] = in[i];
+    mv(p->zn, p->Sc, p->z, n, k);
+    mv(p->zn + n, p->Ms, p->z + n, p->ni, p->ni);
+    for (i = 0; i < k; i++)
+        p->z[i] = p->zn[i];
+    mv(out, p->Y, p->z, p->nget, k);
+}
+
+/* ------------------------------------------------------------------ untimed loops */
+
+/* STEPS steps of each kind, apart (callgrind counts the instructions inside with
+ * --toggle-collect=fmu_loop or =plain_loop). */
+__attribute__((noinline)) static double fmu_loop(const Fmu *f, const unsigned *sv, int ns,
+                                                 const double *in, double h, const unsigned *gv,
+                                                 int ng, long steps)
+{
+    double out[16], t = 0.0, sink = 0.0;
+    long k;
+    for (k = 0; k < steps; k++) {
+        fmu_step(f, sv, ns, in + k * ns, t, h, gv, ng, out);
+        t += h;
+        sink += out[0];
+    }
+    return sink;
+}
+
+__attribute__((noinline)) static double plain_loop(Plain *p, int ns, const double *in, double h,
+                                                   long steps)
+{
+    double out[16], sink = 0.0;
+    long k;
+    for (k = 0; k < steps; k++) {
+        plain_step(p, in + k * ns, h, out);
+        sink += out[0];
+    }
+    return sink;
+}
+
+/* ------------------------------------------------------------------ timing */
+
+static double now(clockid_t id)
+{
+    struct timespec ts;
+    clock_gettime(id, &ts);
+    return ts.tv_sec * 1e9 + ts.tv_nsec;
+}
+
+static int cmp(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static int parse_vrs(const char *text, unsigned *vr)
+{
+    int k = 0;
+    if (strcmp(text, "-") == 0)
+        return 0;
+    while (*text && k < 16) {
+        vr[k++] = (unsigned)strtoul(text, (char **)&text, 10);
+        if (*text == ',')
+            text++;
+    }
+    return k;
+}
+
+int main(int argc, char **argv)
+{
+    Fmu f;
+    Plain p;
+    unsigned sv[16], gv[16];
+    int ns, ng, r, fmi;
+    long steps, repeats, cap, k;
+    double h, *in, *lat, sink = 0.0, diff = 0.0;
+    const char *mode;
+    if (argc != 11)
+        die("usage: MODE FMI BINARY TOKEN SET_VRS GET_VRS H STEPS REPEATS DATA");
+    mode = argv[1];
+    fmi = atoi(argv[2]);
+    ns = parse_vrs(argv[5], sv);
+    ng = parse_vrs(argv[6], gv);
+    h = atof(argv[7]);
+    steps = atol(argv[8]);
+    repeats = atol(argv[9]);
+    read_plain(&p, argv[10]);
+    open_fmu(&f, fmi, argv[3], argv[4]);
+    /* inputs: a 1.7 Hz, 10 mm sine (displacement, velocity, acceleration, ...) */
+    /* buffers of one size for any STEPS up to 1e6: runs of different lengths make the same
+     * system calls but for the steps' own (strace -c compares them) */
+    cap = steps > 1000000 ? steps : 1000000;
+    in = __libc_calloc((size_t)cap * (ns ? ns : 1), sizeof(double));
+    lat = __libc_calloc((size_t)cap, sizeof(double));
+    for (k = 0; k < steps; k++) {
+        double w = 2 * M_PI * 1.7, t = k * h;
+        for (r = 0; r < ns; r++)
+            in[k * ns + r] = 0.01 * pow(w, r) * sin(w * t + r * M_PI / 2);
+    }
+    if (strcmp(mode, "fmu") == 0)
+        sink = fmu_loop(&f, sv, ns, in, h, gv, ng, steps);
+    else if (strcmp(mode, "plain") == 0)
+        sink = plain_loop(&p, ns, in, h, steps);
+    else if (strcmp(mode, "time") == 0) {
+        double t_fmu = 0.0;
+        for (r = 0; r < repeats; r++) {
+            double out[16], ref[16], w0, w1, w2, c0, c1, c2;
+            w0 = now(CLOCK_MONOTONIC), c0 = now(CLOCK_THREAD_CPUTIME_ID);
+            for (k = 0; k < steps; k++) {
+                fmu_step(&f, sv, ns, in + k * ns, t_fmu, h, gv, ng, out);
+                t_fmu += h;
+                sink += out[0];
+            }
+            w1 = now(CLOCK_MONOTONIC), c1 = now(CLOCK_THREAD_CPUTIME_ID);
+            for (k = 0; k < steps; k++) {
+                plain_step(&p, in + k * ns, h, ref);
+                sink += ref[0];
+            }
+            w2 = now(CLOCK_MONOTONIC), c2 = now(CLOCK_THREAD_CPUTIME_ID);
+            printf("round %.2f %.2f %.2f %.2f\n", (w1 - w0) / steps, (w2 - w1) / steps,
+                   (c1 - c0) / steps, (c2 - c1) / steps);
+        }
+        { /* both have run the same steps: one more pass side by side, the largest
+           * difference of each output over its largest magnitude */
+            double out[16], ref[16], big[16] = {0}, off[16] = {0};
+            int j;
+            for (k = 0; k < steps; k++) {
+                fmu_step(&f, sv, ns, in + k * ns, t_fmu, h, gv, ng, out);
+                t_fmu += h;
+                plain_step(&p, in + k * ns, h, ref);
+                for (j = 0; j < ng; j++) {
+                    big[j] = fmax(big[j], fabs(ref[j]));
+                    off[j] = fmax(off[j], fabs(out[j] - ref[j]));
+                }
+            }
+            for (j = 0; j < ng; j++)
+                diff = fmax(diff, off[j] / fmax(big[j], 1e-300));
+        }
+        counting = 1;
+        for (k = 0; k < steps; k++) {
+            double out[16], a = now(CLOCK_MONOTONIC);
+            fmu_step(&f, sv, ns, in + k * ns, t_fmu, h, gv, ng, out);
+            t_fmu += h;
+            lat[k] = now(CLOCK_MONOTONIC) - a;
+            sink += out[0];
+        }
+        counting = 0;
+        qsort(lat, (size_t)steps, sizeof *lat, cmp);
+        printf("latency %.0f %.0f %.0f %.0f\n", lat[steps / 2], lat[(long)(steps * 0.99)],
+               lat[(long)(steps * 0.9999)], lat[steps - 1]);
+        /* the same for the plain loop and for nothing (two clock reads): medians of single
+         * steps are what a loaded machine disturbs least */
+        for (k = 0; k < steps; k++) {
+            double out[16], a = now(CLOCK_MONOTONIC);
+            plain_step(&p, in + k * ns, h, out);
+            lat[k] = now(CLOCK_MONOTONIC) - a;
+            sink += out[0];
+        }
+        qsort(lat, (size_t)steps, sizeof *lat, cmp);
+        printf("latency_plain %.1f\n", lat[steps / 2]);
+        for (k = 0; k < steps; k++) {
+            double a = now(CLOCK_MONOTONIC);
+            lat[k] = now(CLOCK_MONOTONIC) - a;
+        }
+        qsort(lat, (size_t)steps, sizeof *lat, cmp);
+        printf("latency_clock %.1f\n", lat[steps / 2]);
+        printf("allocations %ld\n", allocations);
+        printf("check %.3g\n", diff);
+    }
+    fprintf(stderr, "sink %g\n", sink);
+    return 0;
+}
