@@ -132,7 +132,7 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
     """Validate a parameter-file dictionary and build its network.
 
     The checks run as named steps, each on one part of the file: the top level
-    (:func:`_check_fields`), the parameters, the base points, the masses, nodes
+    (``_check_fields``), the parameters, the base points, the masses, nodes
     and rigid bodies, the elements, the connections to the base, and the
     optional fields.
 
