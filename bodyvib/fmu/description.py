@@ -341,8 +341,9 @@ class ModelDescription:
 def _typed(v: Variable) -> dict:
     """The unit, display unit, start and limits of a contract variable."""
     typed = {"unit": v.unit}
-    if display_unit(v):
-        typed["displayUnit"] = display_unit(v)
+    shown = display_unit(v)
+    if shown:
+        typed["displayUnit"] = shown
     if v.start is not None and v.causality != "output":
         typed["start"] = number(v.start)
     if v.min is not None:
@@ -444,7 +445,7 @@ def _structure(root, md: ModelDescription) -> None:
         md.parameters,
         md.source,
     )
-    initial = [
+    initial_rows = [
         (vr, text(i, sd))
         for vr, i, sd in zip(
             list(md.outputs) + ders,
@@ -456,7 +457,7 @@ def _structure(root, md: ModelDescription) -> None:
         for group, rows in (
             ("Outputs", outputs),
             ("Derivatives", derivatives),
-            ("InitialUnknowns", sorted(initial)),
+            ("InitialUnknowns", sorted(initial_rows)),
         ):
             if rows or group != "Derivatives":
                 element = ET.SubElement(ms, group)
@@ -466,7 +467,7 @@ def _structure(root, md: ModelDescription) -> None:
         for tag, rows in (
             ("Output", outputs),
             ("ContinuousStateDerivative", derivatives),
-            ("InitialUnknown", initial),
+            ("InitialUnknown", initial_rows),
         ):
             for vr, deps in rows:
                 ET.SubElement(ms, tag, valueReference=str(vr), dependencies=deps)

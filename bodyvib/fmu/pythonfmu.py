@@ -302,6 +302,23 @@ def _build(
     return target
 
 
+def _declared(element: ET.Element, name: str) -> str:
+    """An attribute that pythonfmu 0.7 always writes into its modelDescription.xml.
+
+    Raises
+    ------
+    BodyvibError
+        The attribute is missing: a pythonfmu this module was not written for.
+    """
+    value = element.get(name)
+    if value is None:
+        raise BodyvibError(
+            f"pythonfmu's modelDescription.xml has no attribute {name!r} where pythonfmu 0.7 "
+            "writes one; use pythonfmu 0.7.x (pip install 'pythonfmu>=0.7,<0.8')"
+        )
+    return value
+
+
 def pythonfmu_description(generated: bytes, core, description: str) -> ModelDescription:
     """What a pythonfmu FMU's modelDescription.xml declares: the core's interface, and from
     the XML pythonfmu generated only what pythonfmu decides.
@@ -333,7 +350,15 @@ def pythonfmu_description(generated: bytes, core, description: str) -> ModelDesc
     """
     root = ET.fromstring(generated)
     cs = root.find("CoSimulation")
-    assigned = {sv.get("name"): int(sv.get("valueReference")) for sv in root.iter("ScalarVariable")}
+    if cs is None:
+        raise BodyvibError(
+            "pythonfmu's modelDescription.xml has no CoSimulation element where pythonfmu 0.7 "
+            "writes one; use pythonfmu 0.7.x (pip install 'pythonfmu>=0.7,<0.8')"
+        )
+    assigned = {
+        _declared(sv, "name"): int(_declared(sv, "valueReference"))
+        for sv in root.iter("ScalarVariable")
+    }
     wanted = {v.name: vr for vr, v in enumerate(core.variables)}
     if assigned != wanted:
         moved = sorted(set(assigned.items()) ^ set(wanted.items()))
@@ -346,9 +371,9 @@ def pythonfmu_description(generated: bytes, core, description: str) -> ModelDesc
     per_output = dict(zip((v.name for v in core.interface.outputs), core.output_dependencies()))
     return ModelDescription(
         fmi=2,
-        model_name=root.get("modelName"),
-        model_identifier=cs.get("modelIdentifier"),
-        token=root.get("guid"),
+        model_name=_declared(root, "modelName"),
+        model_identifier=_declared(cs, "modelIdentifier"),
+        token=_declared(root, "guid"),
         description=description,
         generation_tool=f"bodyvib {__version__} with {root.get('generationTool')}",
         variables=tuple(core.variables),
@@ -362,7 +387,8 @@ def pythonfmu_description(generated: bytes, core, description: str) -> ModelDesc
             ),
         ),
         log_categories=tuple(
-            (c.get("name"), c.get("description")) for c in root.iterfind("LogCategories/Category")
+            (_declared(c, "name"), _declared(c, "description"))
+            for c in root.iterfind("LogCategories/Category")
         ),
         stop_time=default_stop_time(core),
         source=core.kind == "source",

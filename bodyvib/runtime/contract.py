@@ -400,10 +400,10 @@ KINDS = {"body": body_interface, "car": car_interface}
 
 def parameter_variables(network: Network) -> Tuple[Variable, ...]:
     """Parameters as FMU variables, with unit and description read off the topology."""
-    roles_of = {}
+    roles_of: dict[str, list[str]] = {}
     for role, point in network.roles.items():
         roles_of.setdefault(point, []).append(role)
-    use = {}
+    use: dict[str, tuple[str, str]] = {}
     for mass, ref in network.masses.items():
         if isinstance(ref, str):
             label = f"{mass} ({', '.join(roles_of[mass])})" if mass in roles_of else mass

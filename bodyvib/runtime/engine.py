@@ -119,8 +119,8 @@ class FmuCore(Lifecycle):
         self._vel_seen = [False] * nf  # a non-zero velocity was set
         self._slope_on = [False] * nf  # the slope replaces the velocity
         self._warned = [False] * nf
-        self._x_prev = [None] * nf  # displacement at the previous do_step
-        self._h_prev = [None] * nf
+        self._x_prev: List[Optional[float]] = [None] * nf  # displacement at the previous do_step
+        self._h_prev: List[Optional[float]] = [None] * nf
 
     # -- set-up ------------------------------------------------------------
     def _views(self):
@@ -156,8 +156,8 @@ class FmuCore(Lifecycle):
                 rows.append(np.concatenate([lm.C[i], lm.D[i] @ U]))
         self._Y = np.array(rows)
         self._steps = StepCache(self._step_matrix)
-        self._h = None
-        self._M = None
+        self._h: Optional[float] = None
+        self._M: Optional[np.ndarray] = None
         self._built_params = params.copy()
 
     def _step_matrix(self, h: float) -> np.ndarray:
@@ -328,7 +328,8 @@ class FmuCore(Lifecycle):
 
     def _advance(self, current_time: float, h: float) -> None:
         """The exact step itself: refused (BodyvibError) with the state unchanged if not finite."""
-        if h != self._h:
+        M = self._M
+        if h != self._h or M is None:
             with np.errstate(all="ignore"):  # an overflow is refused below, not warned about
                 M = self._steps.get(h)
             if not np.all(np.isfinite(M)):
@@ -340,7 +341,7 @@ class FmuCore(Lifecycle):
                 )
             self._M = M
             self._h = h
-        np.dot(self._M, self._z, out=self._znew)  # state and inputs at the step's end
+        np.dot(M, self._z, out=self._znew)  # state and inputs at the step's end
         if not math.isfinite(self._zdot(self._znew)):  # NaN or overflow: keep the old state
             raise BodyvibError(
                 f"{self.name}: the state after the step from t = "
@@ -370,8 +371,9 @@ class FmuCore(Lifecycle):
                         "for the exact coupling",
                         "warning",
                     )
-            if self._slope_on[p]:
-                s[j] = (x - x_prev) / self._h_prev[p]
+            h_prev = self._h_prev[p]
+            if self._slope_on[p] and x_prev is not None and h_prev is not None:
+                s[j] = (x - x_prev) / h_prev
             self._x_prev[p], self._h_prev[p] = x, float(h)
 
     # -- snapshots -------------------------------------------------------------

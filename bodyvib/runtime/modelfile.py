@@ -259,7 +259,7 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
             raise BodyvibError(f"{where}: element '{el.name}' connects '{el.a}' to itself")
 
     # every mass and node must be connected to the base
-    adj = {p: set() for p in points}
+    adj: Dict[str, set[str]] = {p: set() for p in points}
     for el in elements:
         chain = [el.a, el.b] if el.internal_node is None else [el.a, el.internal_node, el.b]
         for p, q in zip(chain, chain[1:] + [chain[0]]):
@@ -384,7 +384,12 @@ def network_to_dict(net: Network) -> dict:
     """
     elements = []
     for el in net.elements:
-        d = {"name": el.name, "kind": el.kind, "from": el.a, "to": el.b}
+        d: Dict[str, Union[str, float]] = {
+            "name": el.name,
+            "kind": el.kind,
+            "from": el.a,
+            "to": el.b,
+        }
         d.update(el.values)
         if el.node is not None:
             d["node"] = el.node

@@ -283,7 +283,7 @@ class SourceCore(Lifecycle):
         self._speed = float(sp["start"])
         self._not_initialized()
         self.time = 0.0
-        self._cache = None
+        self._cache: Optional[List[float]] = None
 
     def setup_experiment(self, start_time: float) -> None:
         """Start time of the run (``fmi2SetupExperiment``)."""

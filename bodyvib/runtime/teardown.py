@@ -48,7 +48,7 @@ __all__ = [
 FINALIZE_SYMBOL = "finalizePythonInterpreter"
 
 _lock = threading.Lock()
-_binaries = []  # absolute paths of the registered FMU binaries, in registration order
+_binaries: list[str] = []  # absolute paths of the registered FMU binaries, in registration order
 
 
 def binary_path(resources, model_identifier):
