@@ -6,6 +6,9 @@ computes the same figures sample by sample for a batch of signals, with a
 recursive Wk filter, so a run of any length needs no history. One record's figures
 are a :class:`~bodyvib.comfort.figures.ComfortFigures`, a batch's a
 :class:`~bodyvib.comfort.stream.BatchComfortFigures` (arrays, one entry per case).
+
+Import from the package (``from bodyvib.comfort import comfort_figures``): the names in ``__all__``
+are its public interface, and the modules that hold them are internal and may move.
 """
 
 from .figures import (
