@@ -1,4 +1,4 @@
-"""User errors that used to end in a traceback: one line on stderr and status 2 (issue 20).
+"""User errors end in one line on stderr and status 2, never in a traceback.
 
 Each case is run through the command line's own ``main`` (in process): the status must
 be 2, stderr a single line naming the problem, and nothing may have been written.

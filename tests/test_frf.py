@@ -77,7 +77,7 @@ def test_table_lists_third_octaves():
 
 
 def test_table_rows_stay_inside_the_computed_range():
-    """Rows outside [fmin, fmax] used to show the edge value (np.interp clamps)."""
+    """No row lies outside [fmin, fmax], where np.interp would repeat the edge value."""
     result = compare_transmissibility(["reduced-paper"], f_min=2.0, f_max=10.0, points=400)
     rows = [ln.split("|") for ln in format_table(result).splitlines()[3:] if "|" in ln]
     f_rows = [float(r[0]) for r in rows]
@@ -87,8 +87,8 @@ def test_table_rows_stay_inside_the_computed_range():
 
 
 def test_models_with_one_name_keep_both_curves(tmp_path):
-    """Every refit is named reduced-refit-<target>: two of them used to share one key, one
-    curve, one table column."""
+    """Every refit is named reduced-refit-<target>: two of them keep two keys, two curves,
+    two table columns."""
     from dataclasses import replace
 
     from bodyvib.models import save_model

@@ -1,4 +1,4 @@
-"""Reliability of the commands against a hostile but realistic user (issue 11): outputs
+"""Reliability of the commands against a hostile but realistic user: outputs
 checked before work, ignored options refused, incomplete FMUs refused, failed builds that
 keep the previous FMUs. Interrupts are in tests/test_interrupts.py."""
 
@@ -20,7 +20,7 @@ def _one_line_error(p, words):
 @pytest.mark.parametrize(
     "args, words",
     [
-        # silently ignored before: the body FMU given was run, the parameter file unused
+        # a given body FMU runs as built: a parameter file beside it would go unused
         (["--body", "X.fmu", "--params", "p.json"], "--params bakes a parameter file"),
         (["--car-fmu", "X.fmu", "--car", "quarter-car-cushion"], "--car chooses the model"),
         # the output destroyed the input with exit status 0
@@ -57,8 +57,8 @@ def test_build_refuses_an_fmu_path_that_is_a_folder(tmp_path):
 @pytest.mark.integration
 def test_failed_build_keeps_the_folders_previous_fmus(tmp_path):
     """A build that fails half-way (here the car model names a parameter like an interface
-    variable: it loads, and the FMU build refuses it) used to have replaced the FMUs built
-    before it; all FMUs are now committed together at the end."""
+    variable: it loads, and the FMU build refuses it) leaves the FMUs of the previous build
+    in place: all FMUs are committed together at the end."""
     import json
 
     from bodyvib.vehicle.quarter_car import load_car
