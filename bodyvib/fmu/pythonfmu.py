@@ -27,12 +27,13 @@ numpy (the slave imports pythonfmu, which the FMU carries in its resources).
 
 import hashlib
 import io
+import os
 import re
 import sys
 import tempfile
 import zipfile
 from pathlib import Path
-from typing import Dict, Iterable
+from typing import TYPE_CHECKING, Dict, Iterable, Union
 from xml.etree import ElementTree as ET
 
 from .. import __version__
@@ -40,6 +41,10 @@ from ..process import interrupts
 from ..process.outputs import atomic_write_bytes
 from ..runtime.errors import BodyvibError
 from ..runtime.network import Network
+
+if TYPE_CHECKING:  # for annotations only: the cores are imported where a build needs them
+    from ..runtime.engine import FmuCore
+    from ..runtime.tabulated import HermiteTable, SourceCore
 from .contents import RUNTIME_DIR, fmu_src_dir, model_resources, source_resources
 from .description import (
     InterfaceElement,
@@ -85,7 +90,9 @@ def _content_hash(parts: Iterable[bytes]) -> str:
     return h.hexdigest()[:10]
 
 
-def write_runtime_package(folder, package: str, owner: str = "an FMU") -> Path:
+def write_runtime_package(
+    folder: Union[str, os.PathLike], package: str, owner: str = "an FMU"
+) -> Path:
     """Copy the run-time package :mod:`bodyvib.runtime` into ``folder/package/``.
 
     Parameters
@@ -158,7 +165,13 @@ def render_slave_script(name: str, kind: str, description: str, runtime_package:
     return text
 
 
-def build_fmu(network: Network, kind: str, name: str, description: str, dest="dist") -> Path:
+def build_fmu(
+    network: Network,
+    kind: str,
+    name: str,
+    description: str,
+    dest: Union[str, os.PathLike] = "dist",
+) -> Path:
     """Build one pythonfmu FMU of a model.
 
     Parameters
@@ -208,7 +221,13 @@ def build_fmu(network: Network, kind: str, name: str, description: str, dest="di
     )
 
 
-def build_source_fmu(meta: dict, table, name: str, description: str, dest="dist") -> Path:
+def build_source_fmu(
+    meta: dict,
+    table: "HermiteTable",
+    name: str,
+    description: str,
+    dest: Union[str, os.PathLike] = "dist",
+) -> Path:
     """Build one pythonfmu FMU of the ``source`` kind: a tabulated signal and its rate.
 
     Parameters
@@ -248,7 +267,13 @@ def build_source_fmu(meta: dict, table, name: str, description: str, dest="dist"
 
 
 def _build(
-    core, kind: str, name: str, description: str, resources: Dict[str, bytes], described: str, dest
+    core: Union["FmuCore", "SourceCore"],
+    kind: str,
+    name: str,
+    description: str,
+    resources: Dict[str, bytes],
+    described: str,
+    dest: Union[str, os.PathLike],
 ) -> Path:
     """Package a slave over ``core`` with pythonfmu, write and validate its model description
     (``described``: its description attribute, :func:`describe_fmu`)."""
@@ -319,7 +344,9 @@ def _declared(element: ET.Element, name: str) -> str:
     return value
 
 
-def pythonfmu_description(generated: bytes, core, description: str) -> ModelDescription:
+def pythonfmu_description(
+    generated: bytes, core: Union["FmuCore", "SourceCore"], description: str
+) -> ModelDescription:
     """What a pythonfmu FMU's modelDescription.xml declares: the core's interface, and from
     the XML pythonfmu generated only what pythonfmu decides.
 
@@ -395,7 +422,7 @@ def pythonfmu_description(generated: bytes, core, description: str) -> ModelDesc
     )
 
 
-def _finish(fmu: Path, core, description: str) -> bytes:
+def _finish(fmu: Path, core: Union["FmuCore", "SourceCore"], description: str) -> bytes:
     """The FMU's bytes with its modelDescription.xml written by the one writer."""
     with zipfile.ZipFile(fmu) as zf:
         entries = [(info, zf.read(info)) for info in zf.infolist()]

@@ -34,7 +34,7 @@ package name (``build_fmu.py``).
 """
 
 from dataclasses import dataclass
-from typing import Optional, Tuple
+from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -199,7 +199,7 @@ def rate_signal(signal: str) -> str:
     return RATE_PREFIX + signal
 
 
-def _inputs(names, specs):
+def _inputs(names: Sequence[str], specs: Sequence[Tuple[str, str]]) -> Tuple[Variable, ...]:
     """Input variables named ``names``, ``specs`` = ((unit, description), ...)."""
     return tuple(
         Variable(n, "input", "continuous", u, d, start=0.0)
@@ -207,14 +207,16 @@ def _inputs(names, specs):
     )
 
 
-def _outputs(names, specs):
+def _outputs(names: Sequence[str], specs: Sequence[Tuple[str, str]]) -> Tuple[Variable, ...]:
     """Output variables named ``names``, ``specs`` = ((unit, description), ...)."""
     return tuple(
         Variable(n, "output", "continuous", u, d) for n, (u, d) in zip(names, specs, strict=True)
     )
 
 
-def _with_extra_outputs(network: Network, outputs, signals):
+def _with_extra_outputs(
+    network: Network, outputs: Tuple[Variable, ...], signals: Sequence[str]
+) -> Tuple[Tuple[Variable, ...], Tuple[str, ...]]:
     """Append the parameter file's ``fmu_outputs`` to an interface's outputs and signals."""
     extra = network.fmu_outputs
     outputs = outputs + _outputs(
@@ -438,7 +440,9 @@ def parameter_variables(network: Network) -> Tuple[Variable, ...]:
     return tuple(out)
 
 
-def fmu_variables(kind: str, network: Network):
+def fmu_variables(
+    kind: str, network: Network
+) -> Tuple[Interface, Tuple[Variable, ...], Tuple[Variable, ...]]:
     """Interface, parameters and all variables of an FMU, in value-reference order.
 
     Parameters

@@ -123,7 +123,7 @@ class FmuCore(Lifecycle):
         self._h_prev: List[Optional[float]] = [None] * nf
 
     # -- set-up ------------------------------------------------------------
-    def _views(self):
+    def _views(self) -> None:
         n, ni = self._n, self._ni
         self._z = self._buf[: n + ni]  # [x | s], what the step and outputs multiply
         self._x = self._buf[:n]
@@ -134,7 +134,7 @@ class FmuCore(Lifecycle):
         # value reference -> index into _buf (parameters are kept apart)
         self._pos = [n + i for i in range(self._ni + self._no)]
 
-    def _build(self, params: np.ndarray):
+    def _build(self, params: np.ndarray) -> None:
         """Model, output matrix and step cache for a parameter vector."""
         net = self.network.with_parameters(**dict(zip(self._pnames, params.tolist())))
         lm = linear_model(net)
@@ -180,7 +180,7 @@ class FmuCore(Lifecycle):
         self.time = float(start_time)
 
     # -- parameters ----------------------------------------------------------
-    def check_parameters(self, params=None) -> None:
+    def check_parameters(self, params: Optional[np.ndarray] = None) -> None:
         """Refuse non-finite or non-positive parameters.
 
         Raises
@@ -223,7 +223,7 @@ class FmuCore(Lifecycle):
         values = self._values
         return [values[vr] for vr in vrs]
 
-    def _outputs(self):
+    def _outputs(self) -> None:
         if self._stale:  # parameters changed before initialization: follow them if valid
             try:
                 self.check_parameters()
@@ -396,7 +396,7 @@ class FmuCore(Lifecycle):
             },
         }
 
-    def check_state(self, state) -> None:
+    def check_state(self, state: dict) -> None:
         """Refuse a snapshot that is not one of this FMU's, or holds invalid values.
 
         Raises

@@ -35,7 +35,7 @@ the FMUs read their baked parameter file with this module.
 import math
 import os
 import re
-from typing import Dict, Union
+from typing import Collection, Dict, Mapping, Tuple, Union
 
 from .contract import PARAMETER_LIMITS, UNITS
 from .errors import BodyvibError
@@ -96,7 +96,7 @@ def network_from_file(path: Union[str, os.PathLike]) -> Network:
     return network_from_dict(read_json(path, "model file"), source=path)
 
 
-def _number(value, where: str) -> float:
+def _number(value: object, where: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise BodyvibError(f"{where}: expected a number, got {value!r}")
     value = float(value)
@@ -168,7 +168,7 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
         params[k] = val
     used = set()
 
-    def ref(value, field_where: str):
+    def ref(value: object, field_where: str) -> Union[str, float]:
         if isinstance(value, str):
             if value not in params:
                 raise BodyvibError(
@@ -329,7 +329,15 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
     )
 
 
-def _fmu_outputs(items, where, masses, points, element_names, roles, base):
+def _fmu_outputs(
+    items: object,
+    where: str,
+    masses: Collection[str],
+    points: Collection[str],
+    element_names: Collection[str],
+    roles: Mapping[str, str],
+    base: str,
+) -> Tuple[Dict[str, str], ...]:
     """Validate ``fmu_outputs``: each an object of name, signal, unit, description."""
     if not isinstance(items, list):
         raise BodyvibError(

@@ -22,7 +22,7 @@ MAGIC = b"bodyvib-state-1\n"
 _DIGEST = 32  # SHA-256, bytes
 
 
-def pack_state(state) -> bytes:
+def pack_state(state: dict) -> bytes:
     """Bytes of a state: :data:`MAGIC`, the SHA-256 digest of the JSON, the JSON.
 
     Parameters
@@ -44,7 +44,7 @@ def pack_state(state) -> bytes:
     return MAGIC + hashlib.sha256(payload).digest() + payload
 
 
-def unpack_state(data: bytes):
+def unpack_state(data: bytes) -> dict:
     """The state packed by :func:`pack_state`, checked.
 
     Parameters

@@ -35,6 +35,7 @@ import os
 import signal
 import sys
 import threading
+from typing import List, Optional
 
 __all__ = [
     "FINALIZE_SYMBOL",
@@ -51,7 +52,7 @@ _lock = threading.Lock()
 _binaries: list[str] = []  # absolute paths of the registered FMU binaries, in registration order
 
 
-def binary_path(resources, model_identifier):
+def binary_path(resources: str, model_identifier: str) -> Optional[str]:
     """The binary of the FMU whose resources folder is ``resources``.
 
     Parameters
@@ -79,7 +80,7 @@ def binary_path(resources, model_identifier):
     return os.path.join(root, "binaries", "linux64", model_identifier + ".so")
 
 
-def release_at_exit(resources, model_identifier):
+def release_at_exit(resources: str, model_identifier: str) -> bool:
     """Have the FMU binary's interpreter state released when the host's Python exits.
 
     Idempotent: each binary is registered once, however many instances it has.
@@ -108,7 +109,7 @@ def release_at_exit(resources, model_identifier):
     return True
 
 
-def registered_binaries():
+def registered_binaries() -> List[str]:
     """The binaries :func:`release_python_states` will release, in registration order.
 
     Returns
@@ -119,7 +120,7 @@ def registered_binaries():
         return list(_binaries)
 
 
-def release_python_states():
+def release_python_states() -> int:
     """Call ``finalizePythonInterpreter`` of every registered binary loaded in this process.
 
     The ``atexit`` handler :func:`release_at_exit` installs. Binaries this process has
