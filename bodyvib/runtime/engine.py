@@ -341,8 +341,10 @@ class FmuCore(Lifecycle):
                 )
             self._M = M
             self._h = h
-        np.dot(M, self._z, out=self._znew)  # state and inputs at the step's end
-        if not math.isfinite(self._zdot(self._znew)):  # NaN or overflow: keep the old state
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflow is refused below
+            np.dot(M, self._z, out=self._znew)  # state and inputs at the step's end
+            finite = math.isfinite(self._zdot(self._znew))
+        if not finite:  # NaN or overflow: keep the old state
             raise BodyvibError(
                 f"{self.name}: the state after the step from t = "
                 f"{current_time:g} s is not finite (inputs or state too large); "
