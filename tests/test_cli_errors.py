@@ -55,6 +55,7 @@ def test_deeply_nested_json_is_refused_in_one_line(capsys, tmp_path, text):
     assert not out.exists()
 
 
+@pytest.mark.integration
 def test_body_fmu_given_as_the_car_is_named(capsys, python_fmus, tmp_path):
     """``cosim --car-fmu HumanBody3DOF.fmu`` ended in KeyError: 'seat'."""
     line = _one_line(

@@ -11,6 +11,7 @@ from bodyvib.frequency.response import find_peaks, transmissibility
 from bodyvib.models import load_model
 
 
+@pytest.mark.integration
 def test_frf_writes_plot_and_json(tmp_path):
     png, js = tmp_path / "frf.png", tmp_path / "frf.json"
     r = run_cli("frf", "--plot", str(png), "--json", str(js))
@@ -31,6 +32,7 @@ def test_frf_writes_plot_and_json(tmp_path):
     assert "peaks of iso7962: 1.665 at 4.45 Hz" in r.stdout
 
 
+@pytest.mark.integration
 def test_frf_accepts_a_parameter_file(tmp_path):
     from bodyvib.models import save_model
 
@@ -43,6 +45,7 @@ def test_frf_accepts_a_parameter_file(tmp_path):
     assert "peaks of heavier-head" in r.stdout
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize(
     "args, message",
     [
@@ -106,6 +109,7 @@ def test_models_with_one_name_keep_both_curves(tmp_path):
     assert list(r2.models) == ["reduced-paper", "reduced-paper #2"]
 
 
+@pytest.mark.integration
 def test_absurd_parameters_are_refused_not_printed(tmp_path):
     """Parameters of 1e300 printed |T| of 1e277 and wrote bare NaN into the JSON; every digit
     of such a result is lost (scaling all parameters leaves |T| unchanged, yet it came out
@@ -124,6 +128,7 @@ def test_absurd_parameters_are_refused_not_printed(tmp_path):
     assert r.stderr.count("\n") == 1 and not js.exists()
 
 
+@pytest.mark.integration
 def test_frf_outputs_checked_before_work_and_all_or_none(tmp_path):
     """--json keep.json --plot result.txt replaced keep.json, then failed on the plot."""
     keep = tmp_path / "keep.json"

@@ -17,6 +17,7 @@ def _one_line_error(p, words):
     assert len(p.stderr.strip().splitlines()) == 1 and "Traceback" not in p.stderr, p.stderr
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize(
     "args, words",
     [
@@ -48,6 +49,7 @@ def test_cosim_and_check_refuse_before_any_work(tmp_path, command, args, words):
     assert (tmp_path / "keep.json").read_text() == "keep"
 
 
+@pytest.mark.integration
 def test_build_refuses_an_fmu_path_that_is_a_folder(tmp_path):
     (tmp_path / "dist" / "QuarterCar.fmu").mkdir(parents=True)
     p = run_cli("build", "--dest", "dist", cwd=tmp_path)
@@ -120,6 +122,7 @@ def test_fmu_without_its_resources_is_refused_not_a_segfault(python_fmu_dir, tmp
     assert not [f for f in os.listdir(tmp_path) if f.startswith("core")]
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize(
     "command, args, words",
     [
@@ -136,6 +139,7 @@ def test_sizes_beyond_memory_are_refused_up_front_naming_the_limit(tmp_path, com
     assert "the limit is" in p.stderr and "half the memory available" in p.stderr
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize(
     "args, words",
     [
