@@ -17,13 +17,15 @@ Numpy only (no scipy): this module runs inside the FMUs.
 """
 
 import math
-from typing import Any, Callable, List, Optional, Tuple, Union
+from typing import TYPE_CHECKING, Any, Callable, List, Optional, Tuple, Union
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from .errors import BodyvibError
 from .network import LinearModel, Network, as_linear_model
+
+if TYPE_CHECKING:  # for annotations only: the FMU run-time does not import it
+    from numpy.typing import ArrayLike
 
 __all__ = [
     "check_step",
@@ -284,7 +286,7 @@ class Discretization:
         check_step(h)
         return self._cache.get(float(f"{h:.{self._digits}g}"))
 
-    def step(self, x: ArrayLike, u: ArrayLike, du: ArrayLike, h: float) -> np.ndarray:
+    def step(self, x: "ArrayLike", u: "ArrayLike", du: "ArrayLike", h: float) -> np.ndarray:
         """State after one step of length ``h`` from ``x`` with input ``u + du tau``."""
         Phi, G0, G1 = self.matrices(h)
         return Phi @ x + G0 @ np.asarray(u, float) + G1 @ np.asarray(du, float)
@@ -338,10 +340,10 @@ def input_rates(model: LinearModel, u: np.ndarray) -> np.ndarray:
 
 def simulate(
     model: Union[Network, LinearModel, "Discretization"],
-    t: ArrayLike,
-    u: ArrayLike,
-    du: Optional[ArrayLike] = None,
-    x0: Optional[ArrayLike] = None,
+    t: "ArrayLike",
+    u: "ArrayLike",
+    du: Optional["ArrayLike"] = None,
+    x0: Optional["ArrayLike"] = None,
 ) -> Tuple[np.ndarray, np.ndarray]:
     """Exact discrete simulation on a time grid (uniform or not).
 

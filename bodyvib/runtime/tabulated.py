@@ -31,14 +31,16 @@ package name.
 import json
 import math
 import os
-from typing import Callable, List, Optional, Sequence, Tuple, Union
+from typing import TYPE_CHECKING, Callable, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from .contract import PARAMETER_LIMITS, Interface, Variable
 from .errors import BodyvibError
 from .lifecycle import Lifecycle
+
+if TYPE_CHECKING:  # for annotations only: the FMU run-time does not import it
+    from numpy.typing import ArrayLike
 
 __all__ = ["SOURCE_FILE", "HermiteTable", "SourceCore", "read_source", "write_source"]
 
@@ -77,7 +79,7 @@ class HermiteTable:
     """
 
     def __init__(
-        self, position: ArrayLike, value: ArrayLike, slope: ArrayLike, periodic: bool = False
+        self, position: "ArrayLike", value: "ArrayLike", slope: "ArrayLike", periodic: bool = False
     ) -> None:
         p = np.asarray(position, dtype=float)
         z = np.asarray(value, dtype=float)
@@ -110,7 +112,7 @@ class HermiteTable:
         """Extent of the table along the coordinate."""
         return self._dp * self._k
 
-    def evaluate(self, p: ArrayLike) -> Tuple[np.ndarray, np.ndarray]:
+    def evaluate(self, p: "ArrayLike") -> Tuple[np.ndarray, np.ndarray]:
         """Values and slopes at coordinate ``p`` (scalar or array).
 
         Parameters
