@@ -1,5 +1,5 @@
-"""Peak memory of `bodyvib cosim` against the simulated duration (issue 11: memory must not
-grow with the run's length).
+"""Peak memory of `bodyvib cosim` against the simulated duration (memory must not grow with
+the run's length).
 
 Runs ``bodyvib cosim --quiet`` (class C road, 20 m/s, 1 ms step, the monolithic reference
 included) in a child process for each duration, with FMUs built once beforehand, and reads

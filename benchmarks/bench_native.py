@@ -19,7 +19,7 @@ tests/c_host/native_host.c and measures, side by side in one run:
   macro-step of the body on the quarter car over an ISO 8608 class C road, native body +
   native car against pythonfmu body + pythonfmu car; median of the repeats.
 
-Targets (issue 9): at most 100 ns per 5-state step in a C host, at least 300 times faster
+Targets: at most 100 ns per 5-state step in a C host, at least 300 times faster
 than the pythonfmu FMU in the same host.
 """
 

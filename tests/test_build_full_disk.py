@@ -1,4 +1,4 @@
-"""``bodyvib build`` on a full disk: the FMUs and the SSP are committed together or none (issue 20).
+"""``bodyvib build`` on a full disk: the FMUs and the SSP are committed together or none.
 
 The destination is a tmpfs just large enough for the four new FMUs but not for the SSP
 packed from them as well: before, the four FMUs replaced the old ones and the SSP's write

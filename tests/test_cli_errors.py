@@ -1,4 +1,4 @@
-"""User errors that used to end in a traceback: one line on stderr and status 2 (issue 20).
+"""User errors end in one line on stderr and status 2, never in a traceback.
 
 Each case is run through the command line's own ``main`` (in process): the status must
 be 2, stderr a single line naming the problem, and nothing may have been written.
@@ -55,6 +55,7 @@ def test_deeply_nested_json_is_refused_in_one_line(capsys, tmp_path, text):
     assert not out.exists()
 
 
+@pytest.mark.integration
 def test_body_fmu_given_as_the_car_is_named(capsys, python_fmus, tmp_path):
     """``cosim --car-fmu HumanBody3DOF.fmu`` ended in KeyError: 'seat'."""
     line = _one_line(

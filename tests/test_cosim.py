@@ -272,7 +272,7 @@ def test_cli_errors_are_one_line(tmp_path, args, words):
 
 
 def test_bad_car_model_is_refused_before_any_fmu_is_built(tmp_path):
-    """A mistyped --car used to cost a HumanBody3DOF build before it was noticed."""
+    """A mistyped --car is refused before any FMU is built, not after a HumanBody3DOF build."""
     p = run_cli("cosim", "--car", "nope", cwd=tmp_path)
     assert p.returncode == 2 and "unknown vehicle model" in p.stderr
     assert "building" not in p.stderr

@@ -48,6 +48,7 @@ def triangle_bump(t, height=0.02, width=0.1):
     return x, v
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("name, h", [("reduced-paper", 2e-3), ("iso7962", 1e-3)])
 def test_linear_input_step_is_exact_against_radau(name, h):
     """A triangular seat bump is linear between its kinks, so the update with
@@ -89,6 +90,7 @@ def test_linear_input_step_is_exact_against_radau(name, h):
     assert err <= 3e-7, err
 
 
+@pytest.mark.integration
 def test_linear_extrapolation_beats_zero_order_hold():
     """docs/architecture.md, "Exact stepping": ~100x less error than ZOH at 1 ms on a 1-5 Hz chirp."""
     lm = linear_model(load_model("reduced-paper"))

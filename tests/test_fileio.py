@@ -45,7 +45,7 @@ def test_existing_file_keeps_its_mode(tmp_path):
 
 def test_read_only_file_is_refused_or_keeps_its_mode(tmp_path):
     """A user cannot overwrite a read-only file (as open() would refuse); root can, and the
-    file stays read-only (the mode used to become 0644)."""
+    file stays read-only (the replacement file keeps the mode, not 0644)."""
     p = tmp_path / "a.txt"
     p.write_text("old")
     p.chmod(0o444)

@@ -139,6 +139,7 @@ def test_objective_of_a_model_against_itself_is_zero(paper):
     assert J < 1e-24 * target.energy()
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("role", ["head", "torso"])
 def test_time_domain_objective_equals_parseval_by_nodal_analysis(paper, role):
     """Eq. 3 by its definition against an independent number: 2 int |H_a - H_b|^2 df with
@@ -372,6 +373,7 @@ def test_measured_csv_reads_comments_extra_columns_and_optional_phase(tmp_path):
     assert not read_transmissibility_csv(p2).has_phase
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize(
     "rows",
     [
@@ -386,6 +388,7 @@ def test_cli_refuses_zero_or_huge_moduli_and_writes_nothing(tmp_path, rows):
     assert not (tmp_path / "x.json").exists()
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("option", ["--reference", "--config"])
 def test_fit_output_equal_to_an_input_is_refused_before_work(tmp_path, option):
     """fit --reference r.json --out r.json (or --config c.json --out c.json) destroyed the input
@@ -404,6 +407,7 @@ def test_fit_output_equal_to_an_input_is_refused_before_work(tmp_path, option):
     assert r.stderr.count("\n") == 1 and inp.read_bytes() == before
 
 
+@pytest.mark.integration
 def test_cli_reports_a_bad_csv_in_one_line(tmp_path):
     p = write_csv(
         tmp_path / "bad.csv",
@@ -439,6 +443,7 @@ def noise_bound(target):
     return 3 * NOISE * np.sqrt(len(GENES) / (w.sum() ** 2 / (w**2).sum()))
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("phase", [True, False])
 def test_fit_to_noisy_reduced_model_data_recovers_its_transmissibility(phase):
     """Data made by the reduced model itself: the refit must be as good as the truth on
@@ -453,6 +458,7 @@ def test_fit_to_noisy_reduced_model_data_recovers_its_transmissibility(phase):
     assert weighted_rms(d / np.abs(T), target.weights) < noise_bound(target)
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("phase", [True, False])
 def test_fit_to_noisy_iso_data_is_as_close_to_iso_as_the_noise_allows(iso, phase):
     """Data made by the ISO model plus noise: the refit's |T| is no further from the
@@ -481,6 +487,7 @@ def test_fit_to_noisy_iso_data_is_as_close_to_iso_as_the_noise_allows(iso, phase
     assert reduced_network(r_noisy.parameters).total_mass() == pytest.approx(75.0)
 
 
+@pytest.mark.integration
 def test_measured_fit_through_the_cli_with_report(tmp_path, iso):
     csv = tmp_path / "subject.csv"
     T = transmissibility(iso, F_DATA)
@@ -514,6 +521,7 @@ def test_measured_fit_through_the_cli_with_report(tmp_path, iso):
         assert (rep / name).stat().st_size > 0
 
 
+@pytest.mark.integration
 def test_cli_default_fit_with_report(tmp_path, iso, paper):
     """The command a user runs: parameter file, provenance, and the comparison report."""
     out, rep = tmp_path / "params" / "refit.json", tmp_path / "rep"
@@ -545,6 +553,7 @@ def test_cli_default_fit_with_report(tmp_path, iso, paper):
     assert r.returncode == 0 and "reduced-refit-iso7962" in r.stdout
 
 
+@pytest.mark.integration
 def test_cli_refuses_conflicting_options(tmp_path):
     r = run_cli(
         "fit",

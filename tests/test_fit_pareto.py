@@ -121,6 +121,7 @@ def test_front_files_parse_and_carry_provenance(front, tmp_path):
         )
 
 
+@pytest.mark.integration
 def test_cli_pareto_errors_are_one_line(tmp_path):
     out = str(tmp_path / "r.json")
     for args, match in (

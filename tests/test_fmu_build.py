@@ -1,4 +1,4 @@
-"""The one build entry, bodyvib.fmu.build.build: refusals before any work.
+"""The one build entry, bodyvib.fmu.builder.build: refusals before any work.
 
 The builds themselves (every kind with both backends) run through it in the FMU fixtures
 and in test_fmu_integration, test_native_fmu and test_native_system.
@@ -6,7 +6,7 @@ and in test_fmu_integration, test_native_fmu and test_native_system.
 
 import pytest
 
-from bodyvib.fmu.build import build
+from bodyvib.fmu.builder import build
 from bodyvib.models import load_model
 from bodyvib.runtime.errors import BodyvibError
 

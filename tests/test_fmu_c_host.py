@@ -332,7 +332,7 @@ def test_documented_command_runs_the_c_host(host, fmus, tmp_path):
 
 
 def test_null_arrays_to_get_real_crash_inside_pythonfmus_wrapper(host, fmus, tmp_path):
-    """``fmi2GetReal(c, NULL, 3, NULL)`` (issue 20, item 9): the native FMU returns
+    """``fmi2GetReal(c, NULL, 3, NULL)``: the native FMU returns
     fmi2Error; a pythonfmu FMU cannot. pythonfmu 0.7.0's ``PySlaveInstance::GetReal`` reads
     ``vr[0..2]`` to build the Python list before the slave's code runs, so the host dies of
     SIGSEGV in the wrapper: nothing a slave can change. This test pins that limit (the

@@ -520,6 +520,7 @@ BLOCKER = textwrap.dedent("""
 """)
 
 
+@pytest.mark.integration
 def test_runtime_package_needs_numpy_only(tmp_path):
     """The vendored package imports and steps with scipy, control, matplotlib and
     bodyvib itself blocked (it must not import bodyvib by name)."""

@@ -625,8 +625,8 @@ def test_many_instances_in_one_process(fmus):
 
 
 def test_python_host_exit_does_not_touch_freed_memory(fmus):
-    """pythonfmu 0.7.0's exit-time teardown writes into a freed block (the likely cause of
-    the abort test_many_instances_in_one_process used to show in a few runs out of ten);
+    """pythonfmu 0.7.0's exit-time teardown writes into a freed block (which can abort a
+    process that ran many instances, as test_many_instances_in_one_process does);
     each instance registers its binary with bodyvib.runtime.teardown, whose atexit handler
     releases the state before that. Under valgrind an fmpy host exits with no invalid
     access in finalizePythonInterpreter; with the handler unregistered the same script has

@@ -1,12 +1,12 @@
-"""pythonfmu FMUs under calls a careful host never makes (issue 20, items 8 and 9).
+"""pythonfmu FMUs under calls a careful host never makes.
 
 - A refused step (``DoStep(h=1e300)`` with the seat velocity never set) must not move
   the unconnected-velocity bookkeeping: the continuation equals an undisturbed run,
-  bit for bit (before: it differed by up to 3.3e3 through the slope of a 1e300 s step).
+  bit for bit (the slope of a 1e300 s step must not reach the next step's rate).
 - An unknown value reference is not fmi2Fatal (pythonfmu 0.7.0 cannot return fmi2Error
   from a slave: the values read NaN, the set is ignored, an error is logged).
 - A serialized state carries a checksum: 60 of 60 single-bit flips are refused, the
-  instance's state unchanged (before: 6 of 60 were accepted with changed values).
+  instance's state unchanged (JSON alone would accept some flips as changed values).
 """
 
 import math

@@ -11,6 +11,7 @@ from bodyvib.frequency.response import find_peaks, transmissibility
 from bodyvib.models import load_model
 
 
+@pytest.mark.integration
 def test_frf_writes_plot_and_json(tmp_path):
     png, js = tmp_path / "frf.png", tmp_path / "frf.json"
     r = run_cli("frf", "--plot", str(png), "--json", str(js))
@@ -31,6 +32,7 @@ def test_frf_writes_plot_and_json(tmp_path):
     assert "peaks of iso7962: 1.665 at 4.45 Hz" in r.stdout
 
 
+@pytest.mark.integration
 def test_frf_accepts_a_parameter_file(tmp_path):
     from bodyvib.models import save_model
 
@@ -43,6 +45,7 @@ def test_frf_accepts_a_parameter_file(tmp_path):
     assert "peaks of heavier-head" in r.stdout
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize(
     "args, message",
     [
@@ -77,7 +80,7 @@ def test_table_lists_third_octaves():
 
 
 def test_table_rows_stay_inside_the_computed_range():
-    """Rows outside [fmin, fmax] used to show the edge value (np.interp clamps)."""
+    """No row lies outside [fmin, fmax], where np.interp would repeat the edge value."""
     result = compare_transmissibility(["reduced-paper"], f_min=2.0, f_max=10.0, points=400)
     rows = [ln.split("|") for ln in format_table(result).splitlines()[3:] if "|" in ln]
     f_rows = [float(r[0]) for r in rows]
@@ -87,8 +90,8 @@ def test_table_rows_stay_inside_the_computed_range():
 
 
 def test_models_with_one_name_keep_both_curves(tmp_path):
-    """Every refit is named reduced-refit-<target>: two of them used to share one key, one
-    curve, one table column."""
+    """Every refit is named reduced-refit-<target>: two of them keep two keys, two curves,
+    two table columns."""
     from dataclasses import replace
 
     from bodyvib.models import save_model
@@ -106,6 +109,7 @@ def test_models_with_one_name_keep_both_curves(tmp_path):
     assert list(r2.models) == ["reduced-paper", "reduced-paper #2"]
 
 
+@pytest.mark.integration
 def test_absurd_parameters_are_refused_not_printed(tmp_path):
     """Parameters of 1e300 printed |T| of 1e277 and wrote bare NaN into the JSON; every digit
     of such a result is lost (scaling all parameters leaves |T| unchanged, yet it came out
@@ -124,6 +128,7 @@ def test_absurd_parameters_are_refused_not_printed(tmp_path):
     assert r.stderr.count("\n") == 1 and not js.exists()
 
 
+@pytest.mark.integration
 def test_frf_outputs_checked_before_work_and_all_or_none(tmp_path):
     """--json keep.json --plot result.txt replaced keep.json, then failed on the plot."""
     keep = tmp_path / "keep.json"

@@ -1,4 +1,4 @@
-"""Ctrl-C at random moments of real runs of real FMUs (issue 11).
+"""Ctrl-C at random moments of real runs of real FMUs.
 
 Every command is started as a user's shell starts it (its own process group) and sent
 SIGINT to the whole group, as a terminal's Ctrl-C does (pythonfmu's build process gets it

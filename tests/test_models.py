@@ -42,7 +42,7 @@ def test_round_trip_through_file(tmp_path):
 
 
 def test_units_are_kept_through_files_and_mounting(tmp_path):
-    """The units field was validated and then dropped; it now travels with the model."""
+    """The units field is validated and travels with the model (it is not dropped)."""
     from bodyvib.vehicle.quarter_car import load_car
 
     from bodyvib.runtime.network import mount
@@ -155,7 +155,7 @@ def test_atomic_write_gives_ordinary_file_mode(tmp_path):
 
 
 def test_atomic_write_error_names_the_destination(tmp_path):
-    """A failed write used to report the hidden temporary file ('.tmp-...') as the culprit."""
+    """A failed write names the destination, not the hidden temporary file ('.tmp-...')."""
     from bodyvib.process.outputs import atomic_write_text
 
     folder = tmp_path / "ro"
@@ -203,8 +203,8 @@ def _fmpy_accepts(name):
 
 @pytest.mark.parametrize("name", _NAMES)
 def test_parameter_names_are_valid_fmu_variable_names(name):
-    """A parameter name becomes an FMU variable name: one fmpy validate refuses used to pass
-    the file check and fail only in the built FMU. Every accepted name passes fmpy's check,
+    """A parameter name becomes an FMU variable name, so the file check refuses what fmpy's
+    validation would refuse only in the built FMU. Every accepted name passes fmpy's check,
     every name fmpy refuses is refused at load."""
     data = json.loads(json.dumps(reduced_dict()))
     data["parameters"][name] = data["parameters"].pop("m1")

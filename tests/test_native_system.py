@@ -9,9 +9,9 @@
   performs the same operations on the same doubles, so they agree to rounding (1e-12 of
   the peak; measured: bit for bit);
 * the monolithic reference (:func:`bodyvib.vehicle.ssp.ssp_reference`) for the SSPs: the
-  issue's 0.02 % head-acceleration NRMSE at 1 ms (measured 0.0124 % in every host);
+  required 0.02 % head-acceleration NRMSE at 1 ms (measured 0.0124 % in every host);
 * the pythonfmu SSP in the same host: the native FMUs compute the same numbers as the
-  pythonfmu ones (1e-12 of the body's; issue 9 measured 3e-14), so the two systems agree
+  pythonfmu ones (1e-12 of the body's; measured 3e-14), so the two systems agree
   to 2e-12 of the head acceleration's peak (measured 3.7e-13 to 5.1e-13).
 """
 

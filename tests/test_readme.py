@@ -24,9 +24,15 @@ def test_quick_start_has_two_commands():
 
 
 def test_ci_runs_the_readme_test_command():
+    """CI installs what the README's test command installs (and the dev extra's checkers),
+    then runs the same pytest in its two tiers: the fast one first, the integration one last."""
     ci = open(os.path.join(ROOT, ".ci", "run"), encoding="utf-8").read()
-    test_cmd = quick_start_commands()[1]
-    assert test_cmd.replace("pip install -e", "pip install -q -e") in ci
+    install, run = quick_start_commands()[1].split(" && ")
+    assert install == 'pip install -e ".[test]"'
+    assert 'pip install -q -e ".[test,dev]"' in ci
+    fast, rest = f'{run} -m "not integration"', f"{run} -m integration"
+    assert fast in ci and rest in ci and ci.index(fast) < ci.index(rest)
+    assert ci.rstrip().endswith(rest)  # its summary closes the log
 
 
 def test_readme_is_short():

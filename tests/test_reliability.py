@@ -1,4 +1,4 @@
-"""Reliability of the commands against a hostile but realistic user (issue 11): outputs
+"""Reliability of the commands against a hostile but realistic user: outputs
 checked before work, ignored options refused, incomplete FMUs refused, failed builds that
 keep the previous FMUs. Interrupts are in tests/test_interrupts.py."""
 
@@ -17,10 +17,11 @@ def _one_line_error(p, words):
     assert len(p.stderr.strip().splitlines()) == 1 and "Traceback" not in p.stderr, p.stderr
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize(
     "args, words",
     [
-        # silently ignored before: the body FMU given was run, the parameter file unused
+        # a given body FMU runs as built: a parameter file beside it would go unused
         (["--body", "X.fmu", "--params", "p.json"], "--params bakes a parameter file"),
         (["--car-fmu", "X.fmu", "--car", "quarter-car-cushion"], "--car chooses the model"),
         # the output destroyed the input with exit status 0
@@ -48,6 +49,7 @@ def test_cosim_and_check_refuse_before_any_work(tmp_path, command, args, words):
     assert (tmp_path / "keep.json").read_text() == "keep"
 
 
+@pytest.mark.integration
 def test_build_refuses_an_fmu_path_that_is_a_folder(tmp_path):
     (tmp_path / "dist" / "QuarterCar.fmu").mkdir(parents=True)
     p = run_cli("build", "--dest", "dist", cwd=tmp_path)
@@ -57,8 +59,8 @@ def test_build_refuses_an_fmu_path_that_is_a_folder(tmp_path):
 @pytest.mark.integration
 def test_failed_build_keeps_the_folders_previous_fmus(tmp_path):
     """A build that fails half-way (here the car model names a parameter like an interface
-    variable: it loads, and the FMU build refuses it) used to have replaced the FMUs built
-    before it; all FMUs are now committed together at the end."""
+    variable: it loads, and the FMU build refuses it) leaves the FMUs of the previous build
+    in place: all FMUs are committed together at the end."""
     import json
 
     from bodyvib.vehicle.quarter_car import load_car
@@ -120,6 +122,7 @@ def test_fmu_without_its_resources_is_refused_not_a_segfault(python_fmu_dir, tmp
     assert not [f for f in os.listdir(tmp_path) if f.startswith("core")]
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize(
     "command, args, words",
     [
@@ -136,6 +139,7 @@ def test_sizes_beyond_memory_are_refused_up_front_naming_the_limit(tmp_path, com
     assert "the limit is" in p.stderr and "half the memory available" in p.stderr
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize(
     "args, words",
     [

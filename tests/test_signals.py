@@ -1,4 +1,4 @@
-"""SIGTERM, SIGHUP and a terminal's Ctrl-C at random moments of real commands (issue 20).
+"""SIGTERM, SIGHUP and a terminal's Ctrl-C at random moments of real commands.
 
 Each command runs as a user's shell starts it (its own process group), with its own
 empty temporary folder (``TMPDIR``). It is sent, after a random delay counted from the

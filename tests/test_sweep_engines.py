@@ -22,6 +22,7 @@ def _reference(case):
     return reference_run(case.car_network(), case.body_network(), z, v, case.step)
 
 
+@pytest.mark.integration
 def test_batched_equals_per_case_reference_reduced_bodies():
     cases = expand(
         {
@@ -111,6 +112,7 @@ def _spectral_density(case, f):
     return np.abs(H) ** 2 * np.abs(wk_response(f)) ** 2 * S
 
 
+@pytest.mark.integration
 def test_spectral_matches_long_time_domain_runs_within_estimator_statistics():
     # The mean square of T seconds of a stationary Gaussian process with
     # one-sided PSD G has variance ~ (1/T) int G^2 df about its expectation
@@ -145,6 +147,7 @@ def test_spectral_matches_long_time_domain_runs_within_estimator_statistics():
             assert r["seat_weighted_rms"] > 0
 
 
+@pytest.mark.integration
 def test_spectral_quadrature_is_converged_and_scales_with_the_class():
     cases = expand(
         {

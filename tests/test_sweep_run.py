@@ -9,6 +9,7 @@ import time
 
 import numpy as np
 import pandas as pd
+import pytest
 from bodyvib.vehicle.quarter_car import load_car
 from bodyvib.vehicle.sweep.run import (
     BASE_COLUMNS,
@@ -24,6 +25,9 @@ from bodyvib.vehicle.sweep.spec import expand, spec_hash
 from bodyvib import __version__
 from bodyvib.cli.main import main
 from bodyvib.models import load_model
+
+# Dask clusters, killed and resumed runs and the command line: processes and seconds each
+pytestmark = pytest.mark.integration
 
 SMALL = {
     "road": ["C", "E"],

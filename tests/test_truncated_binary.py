@@ -1,4 +1,4 @@
-"""A native FMU whose binary was cut short is refused in one line before dlopen (issue 20, item 10).
+"""A native FMU whose binary was cut short is refused in one line before dlopen.
 
 ``dlopen`` maps a shared library's segments as its headers describe them; of a
 truncated file it maps pages past the end, and the first touch of one kills the

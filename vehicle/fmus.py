@@ -1,7 +1,7 @@
 """The project's FMUs: HumanBody3DOF, HumanBodyISO7962, QuarterCar, HalfCar, Road, RoadFrontRear.
 
 ``python build_fmu.py`` and ``bodyvib build`` build these with
-:func:`bodyvib.fmu.build.build`, pythonfmu or native (``Road``: a road of
+:func:`bodyvib.fmu.builder.build`, pythonfmu or native (``Road``: a road of
 :mod:`bodyvib.vehicle.road.synthetic` or a road file, tabulated at build time); the co-simulation commands build the ones they are
 not given into a temporary folder (:func:`temporary_fmu_dir`).
 """
@@ -10,7 +10,7 @@ import tempfile
 from pathlib import Path
 from typing import Dict, Iterable, Optional
 
-from bodyvib.fmu.build import build
+from bodyvib.fmu.builder import build
 from bodyvib.models import load_model
 from bodyvib.process import interrupts
 from bodyvib.process.outputs import staged_writes
@@ -303,7 +303,7 @@ def build_project_fmu(
     ------
     BodyvibError
         An unknown FMU; see :func:`load_fmu_model`, :func:`fmu_road` and
-        :func:`bodyvib.fmu.build.build`.
+        :func:`bodyvib.fmu.builder.build`.
 
     Examples
     --------

@@ -11,6 +11,9 @@ ISO 10326-1 SEAT value; :mod:`~bodyvib.comfort.spine` the ISO 2631-5:2018 spinal
 response, acceleration dose and injury risk of repeated shocks.
 :mod:`~bodyvib.comfort.forces` gives the figures of the body's internal forces (neck,
 lumbar): r.m.s., peak and the peak's time.
+
+Import from the package (``from bodyvib.comfort import comfort_figures``): the names in ``__all__``
+are its public interface, and the modules that hold them are internal and may move.
 """
 
 from .figures import (

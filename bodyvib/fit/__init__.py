@@ -9,6 +9,9 @@ the searches (genetic algorithm, CMA-ES, differential evolution),
 :mod:`~bodyvib.fit.report` and :mod:`~bodyvib.fit.pareto` compare and trade off.
 Names are imported from their module on first use (the searches pull in DEAP,
 CMA-ES and pymoo, which a plain ``import bodyvib`` should not pay for).
+
+Import from the package (``from bodyvib.fit import fit``): the names in ``__all__``
+are its public interface, and the modules that hold them are internal and may move.
 """
 
 import importlib
@@ -40,7 +43,11 @@ _HOME = {
 __all__ = sorted(_HOME)
 
 
-def __getattr__(name):
+def __getattr__(name: str) -> object:
     if name in _HOME:
         return getattr(importlib.import_module(f"{__name__}.{_HOME[name]}"), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list:
+    return sorted(set(globals()) | set(__all__))

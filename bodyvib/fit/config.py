@@ -258,8 +258,8 @@ def _read_json(path: str) -> dict:
 
 
 # Read once per process: the shipped file does not change while bodyvib runs, and every
-# objective built without a configuration used to read and check it again. Callers get
-# a deep copy (the merge below edits its own).
+# objective built without a configuration would otherwise read and check it again.
+# Callers get a deep copy (the merge below edits its own).
 @functools.lru_cache(maxsize=1)
 def _default_document() -> dict:
     return _read_json(DEFAULT_CONFIG_PATH)

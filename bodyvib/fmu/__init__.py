@@ -1,24 +1,31 @@
 """Building FMUs from models: pythonfmu (Python) and native (C), FMI 2.0 and 3.0.
 
-:func:`~bodyvib.fmu.build.build` is the one entry: any kind, either backend.
+:func:`~bodyvib.fmu.builder.build` is the one entry: any kind, either backend.
 :mod:`~bodyvib.fmu.pythonfmu` builds a pythonfmu FMU whose slave runs the copied
 run-time package :mod:`bodyvib.runtime`; :mod:`~bodyvib.fmu.native` compiles the
 one C code base in ``fmu_src/native`` for the model baked in as data;
 :mod:`~bodyvib.fmu.contents` locates the sources both start from. Names are
 imported from their module on first use (pythonfmu and the compilers are only
 needed when building).
+
+Import from the package (``from bodyvib.fmu import build``): the names below are its
+public interface, and the modules that hold them are internal and may move.
 """
 
 import importlib
 
 _HOME = {
-    "build": "build",
-    "BACKENDS": "build",
+    "build": "builder",
+    "BACKENDS": "builder",
     "build_fmu": "pythonfmu",
     "build_source_fmu": "pythonfmu",
     "build_native_fmu": "native",
     "native_model": "native",
+    "NativeModel": "native",
     "PLATFORMS": "native",
+    "build_native_source_fmu": "native_table",
+    "ModelDescription": "description",
+    "validate_fmu_file": "description",
     "fmu_src_dir": "contents",
     "native_dir": "contents",
     "RUNTIME_DIR": "contents",
@@ -27,7 +34,11 @@ _HOME = {
 __all__ = sorted(_HOME)
 
 
-def __getattr__(name):
+def __getattr__(name: str) -> object:
     if name in _HOME:
         return getattr(importlib.import_module(f"{__name__}.{_HOME[name]}"), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list:
+    return sorted(set(globals()) | set(__all__))

@@ -12,9 +12,13 @@ import importlib.util
 import json
 import tempfile
 from pathlib import Path
-from typing import Dict
+from typing import TYPE_CHECKING, Dict
 
 from ..runtime.errors import BodyvibError
+
+if TYPE_CHECKING:  # for annotations only
+    from ..runtime.network import Network
+    from ..runtime.tabulated import HermiteTable
 
 __all__ = ["RUNTIME_DIR", "fmu_src_dir", "model_resources", "native_dir", "source_resources"]
 
@@ -53,7 +57,7 @@ def native_dir() -> Path:
     return fmu_src_dir() / "native"
 
 
-def model_resources(network) -> Dict[str, bytes]:
+def model_resources(network: "Network") -> Dict[str, bytes]:
     """The ``resources/`` of a model FMU: the parameter file of the model baked in.
 
     Parameters
@@ -72,7 +76,7 @@ def model_resources(network) -> Dict[str, bytes]:
     return {MODEL_FILE: (json.dumps(network_to_dict(network), indent=2) + "\n").encode()}
 
 
-def source_resources(meta: dict, table) -> Dict[str, bytes]:
+def source_resources(meta: dict, table: "HermiteTable") -> Dict[str, bytes]:
     """The ``resources/`` of a source FMU: its description and table files.
 
     Parameters

@@ -22,14 +22,20 @@ share live here too:
   ``fmpy validate``).
 """
 
+import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import List, Optional, Sequence, Tuple
+from typing import TYPE_CHECKING, List, Optional, Sequence, Tuple, Union
 from xml.etree import ElementTree as ET
 
 from .. import __version__
 from ..runtime.contract import UNITS, Variable
 from ..runtime.errors import BodyvibError
+
+if TYPE_CHECKING:  # for annotations only: importing the cores costs a build nothing
+    from ..runtime.engine import FmuCore
+    from ..runtime.network import Network
+    from ..runtime.tabulated import SourceCore
 
 __all__ = [
     "DISPLAY_UNITS",
@@ -59,7 +65,7 @@ DISPLAY_UNITS = {
 MODEL_STOP_TIME = 10.0
 
 
-def display_unit(variable) -> Optional[str]:
+def display_unit(variable: Variable) -> Optional[str]:
     """The display unit of a variable: mm, mm/s, km/h (a parameter in m/s: a speed) or None.
 
     Parameters
@@ -132,7 +138,9 @@ def initial_dependencies(
     ]
 
 
-def describe_fmu(line: str, network=None, source: Optional[dict] = None) -> str:
+def describe_fmu(
+    line: str, network: Optional["Network"] = None, source: Optional[dict] = None
+) -> str:
     """The ``description`` attribute of an FMU: its one-line description and its content's.
 
     Parameters
@@ -160,7 +168,7 @@ def describe_fmu(line: str, network=None, source: Optional[dict] = None) -> str:
     return line
 
 
-def default_stop_time(core) -> float:
+def default_stop_time(core: Union["FmuCore", "SourceCore"]) -> float:
     """DefaultExperiment stop time: a source's table duration at its speed, else 10 s.
 
     Parameters
@@ -175,9 +183,10 @@ def default_stop_time(core) -> float:
         s.
     """
     table = getattr(core, "table", None)
-    if table is None:
+    speed = core.parameters[0].start if table is not None else None
+    if table is None or speed is None:
         return MODEL_STOP_TIME
-    return float(table.length) / float(core.parameters[0].start)
+    return float(table.length) / float(speed)
 
 
 def number(x: float) -> str:
@@ -353,8 +362,9 @@ class ModelDescription:
 def _typed(v: Variable) -> dict:
     """The unit, display unit, start and limits of a contract variable."""
     typed = {"unit": v.unit}
-    if display_unit(v):
-        typed["displayUnit"] = display_unit(v)
+    shown = display_unit(v)
+    if shown:
+        typed["displayUnit"] = shown
     if v.start is not None and v.causality != "output":
         typed["start"] = number(v.start)
     if v.min is not None:
@@ -364,7 +374,7 @@ def _typed(v: Variable) -> dict:
     return typed
 
 
-def _real(parent, fmi: int, attrs: dict, typed: dict) -> None:
+def _real(parent: ET.Element, fmi: int, attrs: dict, typed: dict) -> None:
     """One real variable: a ``ScalarVariable`` with its ``Real`` (2.0), a ``Float64`` (3.0)."""
     if fmi == 2:
         ET.SubElement(ET.SubElement(parent, "ScalarVariable", attrs), "Real", typed)
@@ -372,7 +382,7 @@ def _real(parent, fmi: int, attrs: dict, typed: dict) -> None:
         ET.SubElement(parent, "Float64", dict(attrs, **typed))
 
 
-def _variables(root, md: ModelDescription) -> None:
+def _variables(root: ET.Element, md: ModelDescription) -> None:
     """``ModelVariables``: the contract's, FMI 3.0's time, the states and their derivatives."""
     mv = ET.SubElement(root, "ModelVariables")
     for vr, v in enumerate(md.variables):
@@ -430,7 +440,7 @@ def _variables(root, md: ModelDescription) -> None:
         )
 
 
-def _structure(root, md: ModelDescription) -> None:
+def _structure(root: ET.Element, md: ModelDescription) -> None:
     """``ModelStructure``: outputs, state derivatives and initial unknowns with dependencies.
 
     FMI 2.0 refers to variables by index, FMI 3.0 by value reference; the states follow the
@@ -440,7 +450,7 @@ def _structure(root, md: ModelDescription) -> None:
     ders = [md.derivative_vr(i) for i in range(len(md.states))]
     state_deps = md.output_state_dependencies or tuple(() for _ in md.outputs)
 
-    def text(inputs, states):
+    def text(inputs: Sequence[int], states: Sequence[int]) -> str:
         return " ".join(
             [md.reference(d) for d in inputs] + [md.reference(md.state_vr(j)) for j in states]
         )
@@ -456,7 +466,7 @@ def _structure(root, md: ModelDescription) -> None:
         md.parameters,
         md.source,
     )
-    initial = [
+    initial_rows = [
         (vr, text(i, sd))
         for vr, i, sd in zip(
             list(md.outputs) + ders,
@@ -468,7 +478,7 @@ def _structure(root, md: ModelDescription) -> None:
         for group, rows in (
             ("Outputs", outputs),
             ("Derivatives", derivatives),
-            ("InitialUnknowns", sorted(initial)),
+            ("InitialUnknowns", sorted(initial_rows)),
         ):
             if rows or group != "Derivatives":
                 element = ET.SubElement(ms, group)
@@ -478,7 +488,7 @@ def _structure(root, md: ModelDescription) -> None:
         for tag, rows in (
             ("Output", outputs),
             ("ContinuousStateDerivative", derivatives),
-            ("InitialUnknown", initial),
+            ("InitialUnknown", initial_rows),
         ):
             for vr, deps in rows:
                 ET.SubElement(ms, tag, valueReference=str(vr), dependencies=deps)
@@ -555,7 +565,7 @@ def write_model_description(md: ModelDescription) -> bytes:
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
 
 
-def validate_fmu_file(path, label: str) -> None:
+def validate_fmu_file(path: Union[str, os.PathLike], label: str) -> None:
     """Check a built FMU with ``fmpy validate`` before it may replace a previous file.
 
     Parameters

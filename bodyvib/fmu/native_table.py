@@ -11,21 +11,31 @@ implements the same ``bv_*`` API (``bodyvib_core.h``).
 Build-time needs: as :mod:`bodyvib.fmu.native`.
 """
 
+import os
 from pathlib import Path
-from typing import Iterable
+from typing import Iterable, Union
 
 import numpy as np
 
 from .. import __version__
-from ..runtime.tabulated import SourceCore
+from ..runtime.tabulated import HermiteTable, SourceCore
 from .contents import source_resources
 from .description import default_stop_time, describe_fmu
-from .native import NativeModel, _c_doubles, _c_ints, _c_string, package_native_fmu
+from .native import (
+    NativeModel,
+    _c_doubles,
+    _c_ints,
+    _c_string,
+    _parameter_start,
+    package_native_fmu,
+)
 
 __all__ = ["build_native_source_fmu", "native_source_model", "source_model_source"]
 
 
-def native_source_model(meta: dict, table, name: str, description: str = "") -> NativeModel:
+def native_source_model(
+    meta: dict, table: HermiteTable, name: str, description: str = ""
+) -> NativeModel:
     """The FMU view of a source (its contract, :class:`~bodyvib.runtime.tabulated.SourceCore`) for the native writers.
 
     Parameters
@@ -77,7 +87,7 @@ def native_source_model(meta: dict, table, name: str, description: str = "") -> 
     )
 
 
-def source_model_source(nm: NativeModel, table, token: str) -> str:
+def source_model_source(nm: NativeModel, table: HermiteTable, token: str) -> str:
     """The generated ``bodyvib_model.c`` of a source FMU: names, the speed, the table.
 
     Parameters
@@ -106,7 +116,7 @@ def source_model_source(nm: NativeModel, table, token: str) -> str:
         + ", ".join(_c_string(v.name) for v in nm.variables)
         + "};",
         f"static const char *const param_unit[] = {{{_c_string(par.unit)}}};",
-        f"static const double param_start[] = {{{_c_doubles([par.start])}}};",
+        f"static const double param_start[] = {{{_c_doubles([_parameter_start(par)])}}};",
         "",
         "const bv_model bv_model_data = {",
         f"    .model_name = {_c_string(nm.name)}, .token = {_c_string(token)},",
@@ -134,10 +144,10 @@ def source_model_source(nm: NativeModel, table, token: str) -> str:
 
 def build_native_source_fmu(
     meta: dict,
-    table,
+    table: HermiteTable,
     name: str,
     description: str,
-    dest="dist/native",
+    dest: Union[str, os.PathLike] = "dist/native",
     fmi: int = 2,
     platforms: Iterable[str] = ("linux64", "win64"),
 ) -> Path:

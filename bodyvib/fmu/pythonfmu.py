@@ -27,12 +27,13 @@ numpy (the slave imports pythonfmu, which the FMU carries in its resources).
 
 import hashlib
 import io
+import os
 import re
 import sys
 import tempfile
 import zipfile
 from pathlib import Path
-from typing import Dict, Iterable
+from typing import TYPE_CHECKING, Dict, Iterable, Union
 from xml.etree import ElementTree as ET
 
 from .. import __version__
@@ -40,6 +41,10 @@ from ..process import interrupts
 from ..process.outputs import atomic_write_bytes
 from ..runtime.errors import BodyvibError
 from ..runtime.network import Network
+
+if TYPE_CHECKING:  # for annotations only: the cores are imported where a build needs them
+    from ..runtime.engine import FmuCore
+    from ..runtime.tabulated import HermiteTable, SourceCore
 from .contents import RUNTIME_DIR, fmu_src_dir, model_resources, source_resources
 from .description import (
     InterfaceElement,
@@ -85,7 +90,9 @@ def _content_hash(parts: Iterable[bytes]) -> str:
     return h.hexdigest()[:10]
 
 
-def write_runtime_package(folder, package: str, owner: str = "an FMU") -> Path:
+def write_runtime_package(
+    folder: Union[str, os.PathLike], package: str, owner: str = "an FMU"
+) -> Path:
     """Copy the run-time package :mod:`bodyvib.runtime` into ``folder/package/``.
 
     Parameters
@@ -158,7 +165,13 @@ def render_slave_script(name: str, kind: str, description: str, runtime_package:
     return text
 
 
-def build_fmu(network: Network, kind: str, name: str, description: str, dest="dist") -> Path:
+def build_fmu(
+    network: Network,
+    kind: str,
+    name: str,
+    description: str,
+    dest: Union[str, os.PathLike] = "dist",
+) -> Path:
     """Build one pythonfmu FMU of a model.
 
     Parameters
@@ -208,7 +221,13 @@ def build_fmu(network: Network, kind: str, name: str, description: str, dest="di
     )
 
 
-def build_source_fmu(meta: dict, table, name: str, description: str, dest="dist") -> Path:
+def build_source_fmu(
+    meta: dict,
+    table: "HermiteTable",
+    name: str,
+    description: str,
+    dest: Union[str, os.PathLike] = "dist",
+) -> Path:
     """Build one pythonfmu FMU of the ``source`` kind: a tabulated signal and its rate.
 
     Parameters
@@ -248,7 +267,13 @@ def build_source_fmu(meta: dict, table, name: str, description: str, dest="dist"
 
 
 def _build(
-    core, kind: str, name: str, description: str, resources: Dict[str, bytes], described: str, dest
+    core: Union["FmuCore", "SourceCore"],
+    kind: str,
+    name: str,
+    description: str,
+    resources: Dict[str, bytes],
+    described: str,
+    dest: Union[str, os.PathLike],
 ) -> Path:
     """Package a slave over ``core`` with pythonfmu, write and validate its model description
     (``described``: its description attribute, :func:`describe_fmu`)."""
@@ -302,7 +327,26 @@ def _build(
     return target
 
 
-def pythonfmu_description(generated: bytes, core, description: str) -> ModelDescription:
+def _declared(element: ET.Element, name: str) -> str:
+    """An attribute that pythonfmu 0.7 always writes into its modelDescription.xml.
+
+    Raises
+    ------
+    BodyvibError
+        The attribute is missing: a pythonfmu this module was not written for.
+    """
+    value = element.get(name)
+    if value is None:
+        raise BodyvibError(
+            f"pythonfmu's modelDescription.xml has no attribute {name!r} where pythonfmu 0.7 "
+            "writes one; use pythonfmu 0.7.x (pip install 'pythonfmu>=0.7,<0.8')"
+        )
+    return value
+
+
+def pythonfmu_description(
+    generated: bytes, core: Union["FmuCore", "SourceCore"], description: str
+) -> ModelDescription:
     """What a pythonfmu FMU's modelDescription.xml declares: the core's interface, and from
     the XML pythonfmu generated only what pythonfmu decides.
 
@@ -333,7 +377,15 @@ def pythonfmu_description(generated: bytes, core, description: str) -> ModelDesc
     """
     root = ET.fromstring(generated)
     cs = root.find("CoSimulation")
-    assigned = {sv.get("name"): int(sv.get("valueReference")) for sv in root.iter("ScalarVariable")}
+    if cs is None:
+        raise BodyvibError(
+            "pythonfmu's modelDescription.xml has no CoSimulation element where pythonfmu 0.7 "
+            "writes one; use pythonfmu 0.7.x (pip install 'pythonfmu>=0.7,<0.8')"
+        )
+    assigned = {
+        _declared(sv, "name"): int(_declared(sv, "valueReference"))
+        for sv in root.iter("ScalarVariable")
+    }
     wanted = {v.name: vr for vr, v in enumerate(core.variables)}
     if assigned != wanted:
         moved = sorted(set(assigned.items()) ^ set(wanted.items()))
@@ -346,9 +398,9 @@ def pythonfmu_description(generated: bytes, core, description: str) -> ModelDesc
     per_output = dict(zip((v.name for v in core.interface.outputs), core.output_dependencies()))
     return ModelDescription(
         fmi=2,
-        model_name=root.get("modelName"),
-        model_identifier=cs.get("modelIdentifier"),
-        token=root.get("guid"),
+        model_name=_declared(root, "modelName"),
+        model_identifier=_declared(cs, "modelIdentifier"),
+        token=_declared(root, "guid"),
         description=description,
         generation_tool=f"bodyvib {__version__} with {root.get('generationTool')}",
         variables=tuple(core.variables),
@@ -362,14 +414,15 @@ def pythonfmu_description(generated: bytes, core, description: str) -> ModelDesc
             ),
         ),
         log_categories=tuple(
-            (c.get("name"), c.get("description")) for c in root.iterfind("LogCategories/Category")
+            (_declared(c, "name"), _declared(c, "description"))
+            for c in root.iterfind("LogCategories/Category")
         ),
         stop_time=default_stop_time(core),
         source=core.kind == "source",
     )
 
 
-def _finish(fmu: Path, core, description: str) -> bytes:
+def _finish(fmu: Path, core: Union["FmuCore", "SourceCore"], description: str) -> bytes:
     """The FMU's bytes with its modelDescription.xml written by the one writer."""
     with zipfile.ZipFile(fmu) as zf:
         entries = [(info, zf.read(info)) for info in zf.infolist()]

@@ -5,6 +5,9 @@
 sets several models side by side (``bodyvib frf``); :mod:`~bodyvib.frequency.estimate`
 estimates a transmissibility from a run's time records (Welch H1);
 :mod:`~bodyvib.frequency.measured` reads a user's measured transmissibility.
+
+Import from the package (``from bodyvib.frequency import transmissibility``): the names in ``__all__``
+are its public interface, and the modules that hold them are internal and may move.
 """
 
 from .response import (

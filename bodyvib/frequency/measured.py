@@ -133,10 +133,10 @@ def read_transmissibility_csv(path) -> MeasuredTransmissibility:
 
     Examples
     --------
-    >>> import os, tempfile
+    >>> import os, pathlib, tempfile
     >>> with tempfile.TemporaryDirectory() as d:
     ...     p = os.path.join(d, "t.csv")
-    ...     _ = open(p, "w").write("frequency_hz,modulus\\n" + "".join(
+    ...     _ = pathlib.Path(p).write_text("frequency_hz,modulus\\n" + "".join(
     ...         f"{f},{1 + f / 100}\\n" for f in range(1, 11)))
     ...     m = read_transmissibility_csv(p)
     >>> m.frequency_hz[:3], m.has_phase

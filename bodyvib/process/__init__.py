@@ -6,6 +6,10 @@ none; :mod:`~bodyvib.process.interrupts` defers Ctrl-C, SIGTERM and SIGHUP to sa
 points; :mod:`~bodyvib.process.scratch` gives each command a private temporary folder,
 removed however the command ends; :mod:`~bodyvib.process.limits` refuses sizes the
 memory cannot hold, up front; :mod:`~bodyvib.process.progress` draws the progress bars.
+
+Here the modules are the public interface (``from bodyvib.process import outputs``, then
+``outputs.atomic_write_text``): each is a small namespace of one concern, and their
+names (``check``, ``message``) read well only under the module's name.
 """
 
 from . import interrupts, limits, outputs, progress, scratch

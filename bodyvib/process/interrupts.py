@@ -3,9 +3,8 @@
 pythonfmu 0.7.0 runs an FMU's Python code in the host's interpreter, on its main thread.
 Python raises ``KeyboardInterrupt`` wherever the main thread happens to be when SIGINT
 arrives; inside the FMU's code pythonfmu turns it into fmi2Fatal and later frees the
-instance's Python objects twice (measured: about one segfault in six interrupts of
-``bodyvib cosim``, false "status 4 (fatal)" errors, mixed output sets). So the fix is in
-the host: while :func:`deferred` is active (every ``bodyvib`` command runs inside it),
+instance's Python objects twice (a segfault, a false "status 4 (fatal)" error, a mixed
+set of outputs). So the host decides where an interrupt lands: while :func:`deferred` is active (every ``bodyvib`` command runs inside it),
 SIGINT only sets a flag, and the code raises ``KeyboardInterrupt`` itself where that is
 safe, at :func:`check`: the co-simulation master between macro-steps, the long loops
 (frequency blocks, GA generations and objective calls, FMU builds), and before the
@@ -13,11 +12,10 @@ outputs are committed.
 
 A second signal changes nothing: the command is already on its way to its next safe
 point (never more than a fraction of a second away: macro-steps, blocks, generations,
-a child process's poll). An earlier version raised at once on a second Ctrl-C; measured
-on ``fit`` (24 runs, two signals 20 ms apart), a ``KeyboardInterrupt`` raised inside an
-import or a garbage-collector callback then printed "Exception ignored" tracebacks, left
-half-initialized modules, or made Python exit by SIGINT after the command had printed its
-line (3 of 24).
+a child process's poll). Raising at once on a second Ctrl-C would land the
+``KeyboardInterrupt`` anywhere again: inside an import or a garbage-collector callback it
+prints "Exception ignored" tracebacks, leaves half-initialized modules, or makes Python
+exit by SIGINT after the command has printed its line.
 
 SIGTERM (what ``kill``, ``timeout`` and job schedulers send) and SIGHUP (the terminal
 closed) are taken the same way: the command stops at the same safe points, removes its

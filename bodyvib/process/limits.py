@@ -1,8 +1,8 @@
 """Sizes the memory at hand can hold: refuse a computation up front, naming the limit.
 
 A size typed by a user (``frf --points 1e8``, ``cosim --duration 1e9``, ``--speed 1e300``,
-a fit configuration's quadrature) used to reach numpy's allocator: a traceback after
-minutes, or the kernel's OOM killer. :func:`require_memory` compares an estimate of a
+a fit configuration's quadrature) that reached numpy's allocator would end in a traceback
+after minutes, or in the kernel's OOM killer. :func:`require_memory` compares an estimate of a
 computation's working memory with :func:`available_memory` and refuses with both numbers.
 """
 

@@ -38,7 +38,7 @@ package name (``build_fmu.py``).
 """
 
 from dataclasses import dataclass
-from typing import Optional, Tuple
+from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -217,7 +217,7 @@ def rate_signal(signal: str) -> str:
     return RATE_PREFIX + signal
 
 
-def _inputs(names, specs):
+def _inputs(names: Sequence[str], specs: Sequence[Tuple[str, str]]) -> Tuple[Variable, ...]:
     """Input variables named ``names``, ``specs`` = ((unit, description), ...)."""
     return tuple(
         Variable(n, "input", "continuous", u, d, start=0.0)
@@ -225,14 +225,16 @@ def _inputs(names, specs):
     )
 
 
-def _outputs(names, specs):
+def _outputs(names: Sequence[str], specs: Sequence[Tuple[str, str]]) -> Tuple[Variable, ...]:
     """Output variables named ``names``, ``specs`` = ((unit, description), ...)."""
     return tuple(
         Variable(n, "output", "continuous", u, d) for n, (u, d) in zip(names, specs, strict=True)
     )
 
 
-def _with_extra_outputs(network: Network, outputs, signals):
+def _with_extra_outputs(
+    network: Network, outputs: Tuple[Variable, ...], signals: Sequence[str]
+) -> Tuple[Tuple[Variable, ...], Tuple[str, ...]]:
     """Append the parameter file's ``fmu_outputs``, then its named ``forces``, to an interface."""
     extra = list(network.fmu_outputs) + [
         {
@@ -482,10 +484,10 @@ KINDS = {"body": body_interface, "car": car_interface}
 
 def parameter_variables(network: Network) -> Tuple[Variable, ...]:
     """Parameters as FMU variables, with unit and description read off the topology."""
-    roles_of = {}
+    roles_of: dict[str, list[str]] = {}
     for role, point in network.roles.items():
         roles_of.setdefault(point, []).append(role)
-    use = {}
+    use: dict[str, tuple[str, str]] = {}
     for mass, ref in network.masses.items():
         if isinstance(ref, str):
             label = f"{mass} ({', '.join(roles_of[mass])})" if mass in roles_of else mass
@@ -538,7 +540,9 @@ def parameter_variables(network: Network) -> Tuple[Variable, ...]:
     return tuple(out)
 
 
-def fmu_variables(kind: str, network: Network):
+def fmu_variables(
+    kind: str, network: Network
+) -> Tuple[Interface, Tuple[Variable, ...], Tuple[Variable, ...]]:
     """Interface, parameters and all variables of an FMU, in value-reference order.
 
     Parameters

@@ -13,12 +13,17 @@ kind, Road.fmu). :data:`CORES` says, per kind, how a core is made from the FMU's
 import os
 from typing import Callable, Dict, List, Optional, Protocol, Sequence
 
+import numpy as np
+
 from .contract import MODEL_FILE
 from .engine import FmuCore
 from .modelfile import network_from_file
 from .tabulated import SOURCE_FILE, SourceCore, read_source
 
 __all__ = ["Core", "CORES", "load_core"]
+
+#: ``log(message, level)``, level ``"warning"`` or ``"error"`` (the FMU's logger).
+_Log = Callable[[str, str], None]
 
 
 class Core(Protocol):
@@ -34,7 +39,7 @@ class Core(Protocol):
     variables: tuple
 
     def setup_experiment(self, start_time: float) -> None: ...
-    def check_parameters(self, params=None) -> None: ...
+    def check_parameters(self, params: Optional[np.ndarray] = None) -> None: ...
     def initialize(self) -> None: ...
     def get_real(self, vrs: Sequence[int]) -> List[float]: ...
     def set_real(self, vrs: Sequence[int], values: Sequence[float]) -> None: ...
@@ -44,14 +49,14 @@ class Core(Protocol):
     def output_dependencies(self) -> List[List[int]]: ...
 
 
-def _network_core(kind: str):
-    def make(resources: str, name: str, log=None) -> Core:
+def _network_core(kind: str) -> Callable[..., Core]:
+    def make(resources: str, name: str, log: Optional[_Log] = None) -> Core:
         return FmuCore(kind, network_from_file(os.path.join(resources, MODEL_FILE)), name, log=log)
 
     return make
 
 
-def _source_core(resources: str, name: str, log=None) -> Core:
+def _source_core(resources: str, name: str, log: Optional[_Log] = None) -> Core:
     meta, table = read_source(os.path.join(resources, SOURCE_FILE))
     return SourceCore(meta, table, name, log=log)
 

@@ -17,12 +17,15 @@ Numpy only (no scipy): this module runs inside the FMUs.
 """
 
 import math
-from typing import Optional, Tuple
+from typing import TYPE_CHECKING, Any, Callable, List, Optional, Tuple, Union
 
 import numpy as np
 
 from .errors import BodyvibError
-from .network import LinearModel, as_linear_model
+from .network import LinearModel, Network, as_linear_model
+
+if TYPE_CHECKING:  # for annotations only: the FMU run-time does not import it
+    from numpy.typing import ArrayLike
 
 __all__ = [
     "check_step",
@@ -55,7 +58,7 @@ _B13 = (
 _THETA13 = 5.371920351148152
 
 
-def check_step(h, what: str = "step size") -> None:
+def check_step(h: float, what: str = "step size") -> None:
     """Refuse a step that is not a positive finite number of seconds.
 
     Raises
@@ -153,7 +156,9 @@ def discretize(A: np.ndarray, B: np.ndarray, h: float) -> Tuple[np.ndarray, np.n
     return Phi, Gamma0, Gamma1
 
 
-def _input_blocks(A: np.ndarray, B: np.ndarray, h: float, blocks: int):
+def _input_blocks(
+    A: np.ndarray, B: np.ndarray, h: float, blocks: int
+) -> Tuple[np.ndarray, List[np.ndarray]]:
     """``Phi`` and ``[Gamma_0, .., Gamma_{blocks-1}]`` from one exponential of :func:`_augmented`."""
     check_step(h)
     n, m = B.shape
@@ -224,7 +229,7 @@ class StepCache:
     (0.002, 1)
     """
 
-    def __init__(self, compute, limit: int = 64):
+    def __init__(self, compute: Callable[[float], Any], limit: int = 64):
         self._compute = compute
         self._limit = int(limit)
         self._values: dict = {}
@@ -232,7 +237,7 @@ class StepCache:
     def __len__(self) -> int:
         return len(self._values)
 
-    def get(self, h: float):
+    def get(self, h: float) -> Any:
         """The value for step ``h``, computed on first use."""
         value = self._values.get(h)
         if value is None:
@@ -267,7 +272,7 @@ class Discretization:
     (5,)
     """
 
-    def __init__(self, model, cache_digits: int = 12):
+    def __init__(self, model: Union[Network, LinearModel], cache_digits: int = 12):
         self.model: LinearModel = as_linear_model(model)
         self._digits = cache_digits
         self._cache = StepCache(lambda key: discretize(self.model.A, self.model.B, key))
@@ -276,12 +281,12 @@ class Discretization:
         """The equilibrium state (all zeros)."""
         return np.zeros(self.model.A.shape[0])
 
-    def matrices(self, h: float):
+    def matrices(self, h: float) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(Phi, Gamma0, Gamma1)`` for step ``h`` (computed once per rounded h)."""
         check_step(h)
         return self._cache.get(float(f"{h:.{self._digits}g}"))
 
-    def step(self, x, u, du, h: float) -> np.ndarray:
+    def step(self, x: "ArrayLike", u: "ArrayLike", du: "ArrayLike", h: float) -> np.ndarray:
         """State after one step of length ``h`` from ``x`` with input ``u + du tau``."""
         Phi, G0, G1 = self.matrices(h)
         return Phi @ x + G0 @ np.asarray(u, float) + G1 @ np.asarray(du, float)
@@ -335,7 +340,13 @@ def input_rates(model: LinearModel, u: np.ndarray) -> np.ndarray:
     return du
 
 
-def simulate(model, t, u, du: Optional[np.ndarray] = None, x0=None):
+def simulate(
+    model: Union[Network, LinearModel, "Discretization"],
+    t: "ArrayLike",
+    u: "ArrayLike",
+    du: Optional["ArrayLike"] = None,
+    x0: Optional["ArrayLike"] = None,
+) -> Tuple[np.ndarray, np.ndarray]:
     """Exact discrete simulation on a time grid (uniform or not).
 
     Parameters

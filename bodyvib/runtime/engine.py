@@ -119,11 +119,11 @@ class FmuCore(Lifecycle):
         self._vel_seen = [False] * nf  # a non-zero velocity was set
         self._slope_on = [False] * nf  # the slope replaces the velocity
         self._warned = [False] * nf
-        self._x_prev = [None] * nf  # displacement at the previous do_step
-        self._h_prev = [None] * nf
+        self._x_prev: List[Optional[float]] = [None] * nf  # displacement at the previous do_step
+        self._h_prev: List[Optional[float]] = [None] * nf
 
     # -- set-up ------------------------------------------------------------
-    def _views(self):
+    def _views(self) -> None:
         n, ni = self._n, self._ni
         self._z = self._buf[: n + ni]  # [x | s], what the step and outputs multiply
         self._x = self._buf[:n]
@@ -134,7 +134,7 @@ class FmuCore(Lifecycle):
         # value reference -> index into _buf (parameters are kept apart)
         self._pos = [n + i for i in range(self._ni + self._no)]
 
-    def _build(self, params: np.ndarray):
+    def _build(self, params: np.ndarray) -> None:
         """Model, output matrix and step cache for a parameter vector."""
         net = self.network.with_parameters(**dict(zip(self._pnames, params.tolist())))
         lm = linear_model(net)
@@ -156,8 +156,8 @@ class FmuCore(Lifecycle):
                 rows.append(np.concatenate([lm.C[i], lm.D[i] @ U]))
         self._Y = np.array(rows)
         self._steps = StepCache(self._step_matrix)
-        self._h = None
-        self._M = None
+        self._h: Optional[float] = None
+        self._M: Optional[np.ndarray] = None
         self._built_params = params.copy()
 
     def _step_matrix(self, h: float) -> np.ndarray:
@@ -180,7 +180,7 @@ class FmuCore(Lifecycle):
         self.time = float(start_time)
 
     # -- parameters ----------------------------------------------------------
-    def check_parameters(self, params=None) -> None:
+    def check_parameters(self, params: Optional[np.ndarray] = None) -> None:
         """Refuse non-finite or non-positive parameters.
 
         Raises
@@ -223,7 +223,7 @@ class FmuCore(Lifecycle):
         values = self._values
         return [values[vr] for vr in vrs]
 
-    def _outputs(self):
+    def _outputs(self) -> None:
         if self._stale:  # parameters changed before initialization: follow them if valid
             try:
                 self.check_parameters()
@@ -328,7 +328,8 @@ class FmuCore(Lifecycle):
 
     def _advance(self, current_time: float, h: float) -> None:
         """The exact step itself: refused (BodyvibError) with the state unchanged if not finite."""
-        if h != self._h:
+        M = self._M
+        if h != self._h or M is None:
             with np.errstate(all="ignore"):  # an overflow is refused below, not warned about
                 M = self._steps.get(h)
             if not np.all(np.isfinite(M)):
@@ -340,8 +341,10 @@ class FmuCore(Lifecycle):
                 )
             self._M = M
             self._h = h
-        np.dot(self._M, self._z, out=self._znew)  # state and inputs at the step's end
-        if not math.isfinite(self._zdot(self._znew)):  # NaN or overflow: keep the old state
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflow is refused below
+            np.dot(M, self._z, out=self._znew)  # state and inputs at the step's end
+            finite = math.isfinite(self._zdot(self._znew))
+        if not finite:  # NaN or overflow: keep the old state
             raise BodyvibError(
                 f"{self.name}: the state after the step from t = "
                 f"{current_time:g} s is not finite (inputs or state too large); "
@@ -370,8 +373,9 @@ class FmuCore(Lifecycle):
                         "for the exact coupling",
                         "warning",
                     )
-            if self._slope_on[p]:
-                s[j] = (x - x_prev) / self._h_prev[p]
+            h_prev = self._h_prev[p]
+            if self._slope_on[p] and x_prev is not None and h_prev is not None:
+                s[j] = (x - x_prev) / h_prev
             self._x_prev[p], self._h_prev[p] = x, float(h)
 
     # -- snapshots -------------------------------------------------------------
@@ -394,7 +398,7 @@ class FmuCore(Lifecycle):
             },
         }
 
-    def check_state(self, state) -> None:
+    def check_state(self, state: dict) -> None:
         """Refuse a snapshot that is not one of this FMU's, or holds invalid values.
 
         Raises

@@ -5,6 +5,8 @@ writing outputs is the commands' business (:mod:`bodyvib.process.outputs`).
 """
 
 import json
+import os
+from typing import Any, Union
 
 from .errors import BodyvibError
 from .inputfile import check_input_file
@@ -17,7 +19,7 @@ __all__ = ["read_json", "MAX_DEPTH"]
 MAX_DEPTH = 32
 
 
-def _depth(value) -> int:
+def _depth(value: object) -> int:
     """Nesting depth of a parsed JSON value, without recursion."""
     deepest, stack = 0, [(value, 1)]
     while stack:
@@ -30,7 +32,7 @@ def _depth(value) -> int:
     return deepest
 
 
-def read_json(path, what: str = "file"):
+def read_json(path: Union[str, os.PathLike], what: str = "file") -> Any:
     """Read a JSON file, turning every way it can be unreadable into one clear error.
 
     Parameters

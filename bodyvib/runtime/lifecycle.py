@@ -44,7 +44,7 @@ class Lifecycle:
     def _not_initialized(self) -> None:
         """The state of a new instance: not initialized, no failure to report."""
         self._initialized = False
-        self._init_error = None
+        self._init_error: Optional[str] = None
 
     def _initialize(self, prepare: Callable[[], None], fix: str) -> None:
         """Run ``prepare`` (check parameters, build); on its error the instance refuses to step.

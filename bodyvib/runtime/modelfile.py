@@ -119,7 +119,7 @@ def network_from_file(path: Union[str, os.PathLike]) -> Network:
     return network_from_dict(read_json(path, "model file"), source=path)
 
 
-def _number(value, where: str) -> float:
+def _number(value: object, where: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise BodyvibError(f"{where}: expected a number, got {value!r}")
     value = float(value)
@@ -576,7 +576,12 @@ def network_to_dict(net: Network) -> dict:
     """
     elements = []
     for el in net.elements:
-        d = {"name": el.name, "kind": el.kind, "from": el.a, "to": el.b}
+        d: Dict[str, Union[str, float]] = {
+            "name": el.name,
+            "kind": el.kind,
+            "from": el.a,
+            "to": el.b,
+        }
         d.update(el.values)
         if el.node is not None:
             d["node"] = el.node

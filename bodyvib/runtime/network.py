@@ -57,7 +57,7 @@ ship it under a private name (see ``build_fmu.py``).
 """
 
 from dataclasses import dataclass, field, replace
-from typing import Dict, Mapping, Optional, Tuple, Union
+from typing import Dict, List, Mapping, Optional, Tuple, Union
 
 import numpy as np
 
@@ -87,6 +87,8 @@ ELEMENT_KINDS: Dict[str, Tuple[str, ...]] = {
 }
 
 Value = Union[str, float]
+#: A primitive spring or damper: its two points and its stiffness (N/m) or damping (N s/m).
+Primitive = Tuple[str, str, float]
 
 
 @dataclass(frozen=True)
@@ -291,7 +293,7 @@ class Network:
         """Resolve a role (``"head"``) or a point name to a point name."""
         return self.roles.get(role_or_name, role_or_name)
 
-    def element_primitives(self, el: Element):
+    def element_primitives(self, el: Element) -> Tuple[List[Primitive], List[Primitive]]:
         """Expand one element into primitive springs and dampers.
 
         Returns
@@ -300,27 +302,28 @@ class Network:
             Point pairs with stiffness in N/m or damping in N s/m.
         """
         v = {p: self.value(r) for p, r in el.values.items()}
-        n = el.internal_node
         if el.kind == "spring":
             return [(el.a, el.b, v["k"])], []
         if el.kind == "damper":
             return [], [(el.a, el.b, v["c"])]
         if el.kind == "kelvin":
             return [(el.a, el.b, v["k"])], [(el.a, el.b, v["c"])]
-        if el.kind == "series_kelvin":
+        n = el.internal_node
+        if el.kind == "series_kelvin" and n is not None:  # the kind always has one
             return [(el.a, n, v["k_series"]), (n, el.b, v["k"])], [(n, el.b, v["c"])]
-        if el.kind == "zener":
+        if el.kind == "zener" and n is not None:
             return [(el.a, el.b, v["k"]), (el.a, n, v["k_series"])], [(n, el.b, v["c"])]
         raise BodyvibError(f"element '{el.name}': unknown kind '{el.kind}'")
 
-    def primitives(self):
+    def primitives(self) -> Tuple[List[Primitive], List[Primitive]]:
         """All elements expanded into primitive springs and dampers.
 
         Returns
         -------
         springs, dampers : list of (a, b, value)
         """
-        springs, dampers = [], []
+        springs: List[Primitive] = []
+        dampers: List[Primitive] = []
         for el in self.elements:
             s, d = self.element_primitives(el)
             springs += s
@@ -489,7 +492,7 @@ def descriptor_model(network: Network) -> DescriptorModel:
     # every signal is a linear map of w = [z (states), u (inputs), z' (state derivatives)]
     nw = 2 * ns + ni
 
-    def unit(i):
+    def unit(i: int) -> np.ndarray:
         e = np.zeros(nw)
         e[i] = 1.0
         return e
@@ -614,7 +617,7 @@ def linear_model(network: Network) -> LinearModel:
     return descriptor_model(network).solve()
 
 
-def as_linear_model(model) -> LinearModel:
+def as_linear_model(model: Union[Network, LinearModel]) -> LinearModel:
     """A model as its state space: a :class:`Network` is assembled, a :class:`LinearModel` kept.
 
     Parameters
@@ -657,10 +660,10 @@ def mount(carrier: Network, occupant: Network, at: str, prefix: str = "body.") -
     if at not in carrier.masses and at not in carrier.node_names and at not in carrier.body_points:
         raise BodyvibError(f"carrier '{carrier.name}' has no point '{at}' to mount on")
 
-    def rename(p):
+    def rename(p: str) -> str:
         return at if p == occupant.base else prefix + p
 
-    def ref(r):
+    def ref(r: Value) -> Value:
         return prefix + r if isinstance(r, str) else r
 
     def position(r):

@@ -1,9 +1,8 @@
 """Serialized FMU states with a checksum: a flipped bit is refused, never restored.
 
 ``fmi2SerializeFMUstate`` of a pythonfmu FMU writes its state as JSON; a host may store
-the bytes on disk or send them over a network. Without a check, a single flipped bit in
-a digit gave a valid state with a changed value (6 of 60 single-bit flips were accepted).
-:func:`pack_state` prefixes the JSON with a magic tag and its SHA-256 digest;
+the bytes on disk or send them over a network. JSON alone would take a flipped bit in a
+digit for a valid state with a changed value, so :func:`pack_state` prefixes the JSON with a magic tag and its SHA-256 digest;
 :func:`unpack_state` refuses bytes whose tag or digest does not match, so every change of
 a bit anywhere (tag, digest or JSON) is refused.
 
@@ -23,7 +22,7 @@ MAGIC = b"bodyvib-state-1\n"
 _DIGEST = 32  # SHA-256, bytes
 
 
-def pack_state(state) -> bytes:
+def pack_state(state: dict) -> bytes:
     """Bytes of a state: :data:`MAGIC`, the SHA-256 digest of the JSON, the JSON.
 
     Parameters
@@ -45,7 +44,7 @@ def pack_state(state) -> bytes:
     return MAGIC + hashlib.sha256(payload).digest() + payload
 
 
-def unpack_state(data: bytes):
+def unpack_state(data: bytes) -> dict:
     """The state packed by :func:`pack_state`, checked.
 
     Parameters

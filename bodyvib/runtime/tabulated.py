@@ -31,13 +31,16 @@ package name.
 import json
 import math
 import os
-from typing import Callable, List, Optional, Sequence
+from typing import TYPE_CHECKING, Callable, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from .contract import PARAMETER_LIMITS, Interface, Variable
 from .errors import BodyvibError
 from .lifecycle import Lifecycle
+
+if TYPE_CHECKING:  # for annotations only: the FMU run-time does not import it
+    from numpy.typing import ArrayLike
 
 __all__ = ["SOURCE_FILE", "HermiteTable", "SourceCore", "read_source", "write_source"]
 
@@ -75,7 +78,9 @@ class HermiteTable:
     (2.25, 3.0)
     """
 
-    def __init__(self, position, value, slope, periodic: bool = False):
+    def __init__(
+        self, position: "ArrayLike", value: "ArrayLike", slope: "ArrayLike", periodic: bool = False
+    ) -> None:
         p = np.asarray(position, dtype=float)
         z = np.asarray(value, dtype=float)
         m = np.asarray(slope, dtype=float)
@@ -107,7 +112,7 @@ class HermiteTable:
         """Extent of the table along the coordinate."""
         return self._dp * self._k
 
-    def evaluate(self, p):
+    def evaluate(self, p: "ArrayLike") -> Tuple[np.ndarray, np.ndarray]:
         """Values and slopes at coordinate ``p`` (scalar or array).
 
         Parameters
@@ -144,7 +149,7 @@ class HermiteTable:
         return z, dz
 
 
-def write_source(folder, meta: dict, table: HermiteTable) -> List[str]:
+def write_source(folder: Union[str, os.PathLike], meta: dict, table: HermiteTable) -> List[str]:
     """Write a source description and its table (what a source FMU carries).
 
     Parameters
@@ -179,7 +184,7 @@ def write_source(folder, meta: dict, table: HermiteTable) -> List[str]:
     return paths
 
 
-def read_source(path):
+def read_source(path: str) -> Tuple[dict, HermiteTable]:
     """Read a source description and its table.
 
     Parameters
@@ -283,14 +288,14 @@ class SourceCore(Lifecycle):
         self._speed = float(sp["start"])
         self._not_initialized()
         self.time = 0.0
-        self._cache = None
+        self._cache: Optional[List[float]] = None
 
     def setup_experiment(self, start_time: float) -> None:
         """Start time of the run (``fmi2SetupExperiment``)."""
         self.time = float(start_time)
         self._cache = None
 
-    def check_parameters(self, params=None) -> None:
+    def check_parameters(self, params: Optional[np.ndarray] = None) -> None:
         """Refuse a speed that is not a positive finite number.
 
         Raises

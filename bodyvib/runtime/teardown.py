@@ -43,6 +43,7 @@ import os
 import signal
 import sys
 import threading
+from typing import List, Optional
 
 __all__ = [
     "FINALIZE_SYMBOL",
@@ -56,10 +57,10 @@ __all__ = [
 FINALIZE_SYMBOL = "finalizePythonInterpreter"
 
 _lock = threading.Lock()
-_binaries = []  # absolute paths of the registered FMU binaries, in registration order
+_binaries: list[str] = []  # absolute paths of the registered FMU binaries, in registration order
 
 
-def binary_path(resources, model_identifier):
+def binary_path(resources: str, model_identifier: str) -> Optional[str]:
     """The binary of the FMU whose resources folder is ``resources``.
 
     Parameters
@@ -87,7 +88,7 @@ def binary_path(resources, model_identifier):
     return os.path.join(root, "binaries", "linux64", model_identifier + ".so")
 
 
-def release_at_exit(resources, model_identifier):
+def release_at_exit(resources: str, model_identifier: str) -> bool:
     """Have the FMU binary's interpreter state released when the host's Python exits.
 
     Idempotent: each binary is registered once, however many instances it has.
@@ -126,7 +127,7 @@ def _python_host() -> bool:
     return threading.main_thread().native_id == os.getpid()
 
 
-def _release_at_c_exit(path) -> bool:
+def _release_at_c_exit(path: str) -> bool:
     """Register the loaded binary's ``finalizePythonInterpreter`` with the C library's exit
     handlers (``__cxa_atexit``, no DSO handle: the binary is never unloaded). False when the
     binary or the function is not there."""
@@ -142,7 +143,7 @@ def _release_at_c_exit(path) -> bool:
     return register(finalize, None, None) == 0
 
 
-def registered_binaries():
+def registered_binaries() -> List[str]:
     """The binaries :func:`release_python_states` will release, in registration order.
 
     Returns
@@ -153,7 +154,7 @@ def registered_binaries():
         return list(_binaries)
 
 
-def release_python_states():
+def release_python_states() -> int:
     """Call ``finalizePythonInterpreter`` of every registered binary loaded in this process.
 
     The ``atexit`` handler :func:`release_at_exit` installs. Binaries this process has

@@ -6,6 +6,9 @@ figures cannot take (non-uniform or decreasing time, NaN, a missing channel, a
 rate below 80 Hz, a record under 1 s); :mod:`~bodyvib.seat.response` runs it
 through body models exactly (the transmissibility acts on acceleration as on
 displacement) and gives the ISO 2631-1 figures of seat and head.
+
+Import from the package (``from bodyvib.seat import respond``): the names in ``__all__``
+are its public interface, and the modules that hold them are internal and may move.
 """
 
 from .response import DEFAULT_MODELS, BodyResponse, Response, head_acceleration, respond

@@ -13,6 +13,9 @@ them, faded in from level, so the car starts at rest on it.
 International Roughness Index (the Golden Car, exactly discretized) and
 :mod:`~bodyvib.vehicle.road.classify` its displacement PSD, fitted ISO 8608 line and class;
 both take plain ``(distance, elevation)`` arrays.
+
+Import from the package (``from bodyvib.vehicle.road import driven_road``): the names in ``__all__``
+are its public interface, and the modules that hold them are internal and may move.
 """
 
 from .base import Road

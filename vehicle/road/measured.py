@@ -155,10 +155,10 @@ def load_profile(
 
     Examples
     --------
-    >>> import os, tempfile
+    >>> import os, pathlib, tempfile
     >>> d = tempfile.mkdtemp()
     >>> f = os.path.join(d, "p.csv")
-    >>> _ = open(f, "w").write("distance_m,elevation_mm\\n0,0\\n0.1,1\\n0.2,2\\n0.3,1\\n0.4,0\\n")
+    >>> _ = pathlib.Path(f).write_text("distance_m,elevation_mm\\n0,0\\n0.1,1\\n0.2,2\\n0.3,1\\n0.4,0\\n")
     >>> p = load_profile(f)
     >>> p.spacing, p.length, float(p.elevation[2])
     (0.1, 0.4, 0.002)

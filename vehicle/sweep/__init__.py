@@ -8,6 +8,9 @@ them (on Dask through :mod:`~bodyvib.vehicle.sweep.cluster`), :mod:`~bodyvib.veh
 writes the parts and the final table with units and provenance, :mod:`~bodyvib.vehicle.sweep.plot`
 draws comfort maps. Names are imported from their module on first use (Dask is
 loaded only by a sweep).
+
+Import from the package (``from bodyvib.vehicle.sweep import run_sweep``): the names in ``__all__``
+are its public interface, and the modules that hold them are internal and may move.
 """
 
 import importlib
@@ -31,7 +34,11 @@ _HOME = {
 __all__ = sorted(_HOME)
 
 
-def __getattr__(name):
+def __getattr__(name: str) -> object:
     if name in _HOME:
         return getattr(importlib.import_module(f"{__name__}.{_HOME[name]}"), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list:
+    return sorted(set(globals()) | set(__all__))

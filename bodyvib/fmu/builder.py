@@ -14,12 +14,16 @@ source     :func:`~bodyvib.fmu.pythonfmu.build_source_fmu`   :func:`~bodyvib.fmu
 Every builder writes its model description through :mod:`bodyvib.fmu.description`.
 """
 
+import os
 from pathlib import Path
-from typing import Iterable, Tuple, Union
+from typing import TYPE_CHECKING, Iterable, Tuple, Union
 
 from ..runtime.cores import CORES
 from ..runtime.errors import BodyvibError
 from ..runtime.network import Network
+
+if TYPE_CHECKING:  # for annotations only
+    from ..runtime.tabulated import HermiteTable
 
 __all__ = ["BACKENDS", "build"]
 
@@ -28,11 +32,11 @@ BACKENDS = ("pythonfmu", "native")
 
 
 def build(
-    model: Union[Network, Tuple[dict, object]],
+    model: Union[Network, Tuple[dict, "HermiteTable"]],
     kind: str,
     name: str,
     description: str = "",
-    dest="dist",
+    dest: Union[str, os.PathLike] = "dist",
     *,
     backend: str = "pythonfmu",
     fmi: int = 2,
