@@ -8,6 +8,7 @@ where an output should go (:mod:`bodyvib.process.outputs`).
 
 import os
 import stat
+from typing import Union
 
 from .errors import BodyvibError
 
@@ -50,7 +51,7 @@ def file_kind(mode: int) -> str:
     return "not a regular file"
 
 
-def check_input_file(path, what: str = "input file") -> str:
+def check_input_file(path: Union[str, os.PathLike], what: str = "input file") -> str:
     """Refuse an input that is not a readable regular file, before opening it.
 
     Parameters

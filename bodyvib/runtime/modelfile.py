@@ -55,12 +55,23 @@ the FMUs read their baked parameter file with this module.
 import math
 import os
 import re
-from typing import Dict, Union
+from typing import (
+    Any,
+    Collection,
+    Dict,
+    List,
+    Mapping,
+    Sequence,
+    Set,
+    Tuple,
+    Union,
+    overload,
+)
 
 from .contract import PARAMETER_LIMITS, UNITS
 from .errors import BodyvibError
 from .jsonfile import read_json
-from .network import ELEMENT_KINDS, Element, Network, RigidBody
+from .network import ELEMENT_KINDS, Element, Network, RigidBody, Value
 
 __all__ = [
     "network_from_dict",
@@ -242,7 +253,7 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
     )
 
 
-def _check_fields(data, where: str) -> None:
+def _check_fields(data: object, where: str) -> None:
     """The top level: an object with the required fields, no unknown ones, and a name."""
     if not isinstance(data, dict):
         raise BodyvibError(f"{where}: expected a JSON object at the top level")
@@ -259,7 +270,7 @@ def _check_fields(data, where: str) -> None:
         raise BodyvibError(f"{where}: 'name' must be a non-empty string")
 
 
-def _parameters(raw, where: str) -> Dict[str, float]:
+def _parameters(raw: object, where: str) -> Dict[str, float]:
     """The named parameter values: valid names, finite, positive, within range."""
     if not isinstance(raw, dict) or not raw:
         raise BodyvibError(f"{where}: 'parameters' must be an object of name: value")
@@ -292,9 +303,15 @@ class _References:
     def __init__(self, params: Dict[str, float], where: str):
         self.params = params
         self.where = where
-        self.used = set()
+        self.used: Set[str] = set()
 
-    def value(self, value, field_where: str):
+    @overload
+    def value(self, value: str, field_where: str) -> str: ...
+
+    @overload
+    def value(self, value: object, field_where: str) -> Value: ...
+
+    def value(self, value: object, field_where: str) -> Value:
         """A positive quantity: a parameter name or a positive literal."""
         if isinstance(value, str):
             if value not in self.params:
@@ -309,7 +326,7 @@ class _References:
             raise BodyvibError(f"{field_where} = {val:g} must be positive")
         return val
 
-    def position(self, value, field_where: str):
+    def position(self, value: object, field_where: str) -> Value:
         """A signed position: a literal, a parameter name, or ``-`` and a parameter name."""
         if isinstance(value, str):
             if value.startswith("-"):
@@ -317,14 +334,14 @@ class _References:
             return self.value(value, field_where)
         return _number(value, field_where)
 
-    def resolve(self, ref) -> float:
+    def resolve(self, ref: Value) -> float:
         """The number a checked reference stands for."""
         if isinstance(ref, str):
             return -self.params[ref[1:]] if ref.startswith("-") else self.params[ref]
         return float(ref)
 
 
-def _bases(raw, where: str):
+def _bases(raw: Any, where: str) -> Tuple[str, Tuple[str, ...]]:
     """The driven point (a name) or points (a list of names): the first and the others."""
     names = raw if isinstance(raw, list) else [raw]
     if not names or not all(isinstance(b, str) and b for b in names):
@@ -332,21 +349,21 @@ def _bases(raw, where: str):
     return names[0], tuple(names[1:])
 
 
-def _masses(raw, refs: _References, where: str) -> dict:
+def _masses(raw: object, refs: _References, where: str) -> Dict[str, Value]:
     """Mass point -> parameter name (or literal), each positive."""
     if not isinstance(raw, dict):
         raise BodyvibError(f"{where}: 'masses' must be an object of point: parameter")
     return {m: refs.value(r, f"{where}: masses.{m}") for m, r in raw.items()}
 
 
-def _nodes(raw, where: str) -> list:
+def _nodes(raw: object, where: str) -> List[str]:
     """Declared massless node names."""
     if not isinstance(raw, list) or not all(isinstance(n, str) for n in raw):
         raise BodyvibError(f"{where}: 'nodes' must be a list of node names")
     return list(raw)
 
 
-def _bodies(raw, refs: _References, where: str) -> Dict[str, RigidBody]:
+def _bodies(raw: object, refs: _References, where: str) -> Dict[str, RigidBody]:
     """Rigid bodies: mass, pitch inertia, points at positions within the optional extent."""
     if not isinstance(raw, dict):
         raise BodyvibError(f"{where}: 'bodies' must be an object of body name: body")
@@ -394,7 +411,7 @@ def _bodies(raw, refs: _References, where: str) -> Dict[str, RigidBody]:
     return bodies
 
 
-def _extent(raw, where: str):
+def _extent(raw: object, where: str) -> Tuple[float, float]:
     """A body's [rear end, front end], m from the centre of mass."""
     if not (isinstance(raw, list) and len(raw) == 2):
         raise BodyvibError(f"{where}.extent must be [rear end, front end] in m")
@@ -404,7 +421,7 @@ def _extent(raw, where: str):
     return (lo, hi)
 
 
-def _elements(raw, refs: _References, points: set, where: str) -> list:
+def _elements(raw: object, refs: _References, points: Set[str], where: str) -> List[Element]:
     """The elements: fields by kind, unique names, known points; adds internal nodes to points."""
     if not isinstance(raw, list) or not raw:
         raise BodyvibError(f"{where}: 'elements' must be a non-empty list")
@@ -433,7 +450,7 @@ def _elements(raw, refs: _References, points: set, where: str) -> list:
     return elements
 
 
-def _element(e, refs: _References, ew: str, where: str) -> Element:
+def _element(e: object, refs: _References, ew: str, where: str) -> Element:
     """One element: its fields for its kind, its parameter references."""
     if not isinstance(e, dict):
         raise BodyvibError(f"{ew}: expected an object")
@@ -470,11 +487,18 @@ def _element(e, refs: _References, ew: str, where: str) -> Element:
     )
 
 
-def _check_connected(elements, bodies, masses, nodes, bases, where: str) -> None:
+def _check_connected(
+    elements: Sequence[Element],
+    bodies: Mapping[str, RigidBody],
+    masses: Mapping[str, Value],
+    nodes: List[str],
+    bases: Sequence[str],
+    where: str,
+) -> None:
     """Every mass, node and rigid body is connected to a base by elements (or its body)."""
-    adj = {}
+    adj: Dict[str, Set[str]] = {}
 
-    def link(p, q):
+    def link(p: str, q: str) -> None:
         adj.setdefault(p, set()).add(q)
         adj.setdefault(q, set()).add(p)
 
@@ -498,7 +522,7 @@ def _check_connected(elements, bodies, masses, nodes, bases, where: str) -> None
         )
 
 
-def _forces(items, where, element_names, base):
+def _forces(items: object, where: str, element_names: Collection[str], base: str) -> Dict[str, str]:
     """Validate ``forces``: an object of force name -> element name."""
     if not isinstance(items, dict):
         raise BodyvibError(
@@ -519,7 +543,16 @@ def _forces(items, where, element_names, base):
     return dict(items)
 
 
-def _fmu_outputs(items, where, masses, points, element_names, roles, bases, bodies=()):
+def _fmu_outputs(
+    items: object,
+    where: str,
+    masses: Collection[str],
+    points: Collection[str],
+    element_names: Collection[str],
+    roles: Mapping[str, str],
+    bases: Sequence[str],
+    bodies: Collection[str] = (),
+) -> Tuple[Dict[str, str], ...]:
     """Validate ``fmu_outputs``: each an object of name, signal, unit, description."""
     if not isinstance(items, list):
         raise BodyvibError(

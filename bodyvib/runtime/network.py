@@ -57,7 +57,7 @@ ship it under a private name (see ``build_fmu.py``).
 """
 
 from dataclasses import dataclass, field, replace
-from typing import Dict, List, Mapping, Optional, Tuple, Union
+from typing import Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -507,8 +507,8 @@ def descriptor_model(network: Network) -> DescriptorModel:
                 point_dofs[p] = {i_body: 1.0, i_body + 1: x}  # w = z + x theta
         i_body += 2
 
-    def combine(vectors, weights):
-        return sum(c * vectors[i] for i, c in weights.items())
+    def combine(vectors: Sequence[np.ndarray], weights: Mapping[int, float]) -> np.ndarray:
+        return sum((c * vectors[i] for i, c in weights.items()), np.zeros(nw))
 
     dof_pos = [unit(i) for i in range(nd)]
     dof_vel = [unit(nd + i) for i in range(nd)]
@@ -666,7 +666,7 @@ def mount(carrier: Network, occupant: Network, at: str, prefix: str = "body.") -
     def ref(r: Value) -> Value:
         return prefix + r if isinstance(r, str) else r
 
-    def position(r):
+    def position(r: Value) -> Value:
         if isinstance(r, str) and r.startswith("-"):
             return "-" + prefix + r[1:]
         return ref(r)
