@@ -18,9 +18,10 @@ beside the files an importing tool needs to run it and judge its result:
 """
 
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Tuple
+from typing import TYPE_CHECKING, Dict, Mapping, Sequence, Tuple, Union
 
 import numpy as np
 import scipy.linalg
@@ -30,6 +31,9 @@ from ..process.outputs import atomic_write_text
 from ..runtime.contract import KINDS
 from ..runtime.errors import BodyvibError
 from ..runtime.network import Network, linear_model
+
+if TYPE_CHECKING:  # for annotations only
+    from numpy.typing import ArrayLike
 
 __all__ = ["CrossCheckSettings", "CrossCheck", "exact_sine_outputs", "write_cross_check"]
 
@@ -97,7 +101,9 @@ def _seat(settings: CrossCheckSettings, t: np.ndarray) -> np.ndarray:
     return np.column_stack([a * np.sin(w * t), a * w * np.cos(w * t), -a * w * w * np.sin(w * t)])
 
 
-def exact_sine_outputs(network: Network, settings: CrossCheckSettings, t) -> dict:
+def exact_sine_outputs(
+    network: Network, settings: CrossCheckSettings, t: "ArrayLike"
+) -> Dict[str, np.ndarray]:
     """The body interface's outputs under the settings' seat sine from rest, exactly.
 
     The state space ``x' = A x + B u`` is driven by ``u = U s`` with ``s`` the seat sine:
@@ -134,7 +140,7 @@ def exact_sine_outputs(network: Network, settings: CrossCheckSettings, t) -> dic
         [(X * np.exp(1j * w * tk)).real - scipy.linalg.expm(lm.A * tk) @ X.real for tk in t]
     )
     u = _seat(settings, t) @ iface.input_map.T
-    out = {}
+    out: Dict[str, np.ndarray] = {}
     for var, signal in zip(iface.outputs, iface.output_signals, strict=True):
         if not var.name.endswith("_rate"):
             r = lm.output_index(signal)
@@ -142,7 +148,7 @@ def exact_sine_outputs(network: Network, settings: CrossCheckSettings, t) -> dic
     return out
 
 
-def _csv(t, columns: dict) -> str:
+def _csv(t: np.ndarray, columns: Mapping[str, np.ndarray]) -> str:
     names = ["time", *columns]
     rows = [",".join(names)]
     values = np.column_stack([t, *columns.values()])
@@ -150,7 +156,7 @@ def _csv(t, columns: dict) -> str:
     return "\n".join(rows) + "\n"
 
 
-def _readme(settings: CrossCheckSettings, model: str, outputs) -> str:
+def _readme(settings: CrossCheckSettings, model: str, outputs: Sequence[str]) -> str:
     return f"""# {settings.name} (bodyvib {__version__})
 
 The native C FMI 2.0 co-simulation FMU of the seated human body model `{model}` (bodyvib),
@@ -167,7 +173,12 @@ cancels it at t = 0), every {settings.output_step:g} s; not a run of the FMU.
 """
 
 
-def write_cross_check(dest, network: Network, model: str, settings=CrossCheckSettings()):
+def write_cross_check(
+    dest: Union[str, os.PathLike],
+    network: Network,
+    model: str,
+    settings: CrossCheckSettings = CrossCheckSettings(),
+) -> CrossCheck:
     """Build the native body FMU and write its cross-check folder under ``dest``.
 
     Parameters

@@ -137,6 +137,12 @@ COMPILER_PACKAGES = {"linux64": "gcc", "win64": "gcc-mingw-w64-x86-64"}
 #: Matrix codes of the stencils (bodyvib_core.h: BV_E .. BV_D).
 _MATRICES = ("E", "A", "B", "C", "Cd", "D")
 
+#: A monomial in the parameters: the indices of its factors (``()``: the constant term).
+Monomial = Tuple[int, ...]
+#: One stencil entry: the monomial's parameter indices j1, j2, j3 (-1: none), the matrix
+#: code, row, column and coefficient.
+Stencil = Tuple[int, int, int, int, int, int, float]
+
 
 @dataclass(frozen=True)
 class NativeModel:
@@ -298,7 +304,7 @@ def choose_platforms(requested: Optional[Iterable[str]] = None) -> PlatformChoic
     return PlatformChoice(have, skipped)
 
 
-def _stencils(network: Network, params: Sequence[str], rows: Sequence[int]) -> list:
+def _stencils(network: Network, params: Sequence[str], rows: Sequence[int]) -> List[Stencil]:
     """Stencils of the descriptor form, monomials in the parameters; checked to reproduce it.
 
     Every entry is ``c_0(G) + sum_a a c_a(G)``: affine in the masses, inertias,
@@ -322,7 +328,8 @@ def _stencils(network: Network, params: Sequence[str], rows: Sequence[int]) -> l
         dm = descriptor_model(network.with_parameters(**dict(zip(params, values))))
         return [dm.E, dm.A, dm.B, dm.C[list(rows)], dm.Cd[list(rows)], dm.D[list(rows)]]
 
-    def at(a, g):  # parameter a (or none) at 1, the geometry at g, every other parameter 0
+    def at(a: Optional[int], g: Dict[int, float]) -> List[np.ndarray]:
+        # parameter a (or none) at 1, the geometry at g, every other parameter 0
         values = [0.0] * len(params)
         if a is not None:
             values[a] = 1.0
@@ -330,17 +337,17 @@ def _stencils(network: Network, params: Sequence[str], rows: Sequence[int]) -> l
             values[j] = x
         return mats(values)
 
-    def diff(x, y):
+    def diff(x: Sequence[np.ndarray], y: Sequence[np.ndarray]) -> List[np.ndarray]:
         return [p - q for p, q in zip(x, y)]
 
-    def coefficients(a):
+    def coefficients(a: Optional[int]) -> Dict[Monomial, List[np.ndarray]]:
         """Monomial (tuple of parameter indices) -> matrices, of c_a(G) (with c_0 removed)."""
-        q = {(): at(a, {})}
+        q: Dict[Monomial, List[np.ndarray]] = {(): at(a, {})}
         for i in geometry:
             q[(i,)], q[(-i - 1,)] = at(a, {i: 1.0}), at(a, {i: -1.0})
         for i, j in ((i, j) for i in geometry for j in geometry if i < j):
             q[(i, j, 0)] = at(a, {i: 1.0, j: 1.0})
-        out = {(): q[()]}
+        out: Dict[Monomial, List[np.ndarray]] = {(): q[()]}
         for i in geometry:
             out[(i,)] = [0.5 * (p - m) for p, m in zip(q[(i,)], q[(-i - 1,)])]
             out[(i, i)] = [0.5 * (p + m) - c for p, m, c in zip(q[(i,)], q[(-i - 1,)], q[()])]
@@ -351,11 +358,11 @@ def _stencils(network: Network, params: Sequence[str], rows: Sequence[int]) -> l
         return out
 
     constant = coefficients(None)
-    parts = [((), constant)]
+    parts: List[Tuple[Monomial, Dict[Monomial, List[np.ndarray]]]] = [((), constant)]
     for a in linear:
         with_a = coefficients(a)
         parts.append(((a,), {mono: diff(with_a[mono], constant[mono]) for mono in with_a}))
-    out = []
+    out: List[Stencil] = []
     for factor, monomials in parts:
         for mono, ms in monomials.items():
             powers = list(factor + mono) + [-1, -1, -1]
