@@ -30,6 +30,7 @@ PACKAGES = (
     "bodyvib.seat",
     "bodyvib.vehicle",
     "bodyvib.vehicle.road",
+    "bodyvib.vehicle.design",
     "bodyvib.vehicle.sweep",
 )
 
