@@ -57,3 +57,14 @@ def test_quick_start_output_is_what_check_prints():
     quoted = re.search(r"## Quick start.*?```\n(head acceleration.*?)```", readme(), re.S).group(1)
     lines = [ln for ln in quoted.splitlines() if ln.strip() and ln.strip() != "..."]
     assert lines and all(ln in shown.splitlines() for ln in lines), lines
+
+
+def test_measured_road_figures_are_the_road_guides():
+    """The figures the README quotes for its measured-road example are those of the road
+    guide's worked example, whose figures a test (test_measured_roads.py) reruns."""
+    section = readme().split("**Drive a measured road**", 1)[1].split("**Drop the FMU", 1)[0]
+    guide = open(os.path.join(ROOT, "docs", "guide", "roads.md"), encoding="utf-8").read()
+    example = guide.split("## Worked example", 1)[1]
+    quoted = re.findall(r"(\d+\.\d{4}) m/s", section)
+    assert quoted, section
+    assert all(q in example for q in quoted), (quoted, "not in the guide's worked example")
