@@ -88,6 +88,31 @@ def test_respond_to_a_1e300_signal_prints_one_line_without_numpy_warnings(tmp_pa
     assert "RuntimeWarning" not in p.stderr
 
 
+def test_a_profile_beyond_any_road_height_is_refused_by_name():
+    """A 1e300 m height is a unit or file error: refused where every profile is made, with
+    the sample, instead of overflowing into NaN statistics."""
+    from bodyvib.vehicle.road.profile import MAX_ELEVATION_M, ProfileRoad
+
+    z = np.zeros(100)
+    z[7] = 1e300
+    with pytest.raises(BodyvibError, match=r"'p': sample 8 \(at 0.35 m\) has the height 1e\+300 m"):
+        ProfileRoad(z, 0.05, name="p")
+    z[7] = MAX_ELEVATION_M  # the bound itself is a height
+    assert ProfileRoad(z, 0.05, name="p").elevation[7] == MAX_ELEVATION_M
+
+
+@pytest.mark.integration
+@pytest.mark.parametrize("command", [("road",), ("cosim", "--duration", "1", "--quiet", "--road")])
+def test_a_1e300_road_prints_one_line_without_numpy_warnings(tmp_path, command):
+    x = np.arange(0, 100, 0.05)
+    z = np.where(np.arange(x.size) % 2, 1e300, -1e300)
+    rows = "".join(f"{a!r},{b!r}\n" for a, b in zip(x.tolist(), z.tolist()))
+    (tmp_path / "huge.csv").write_text("distance_m,elevation_m\n" + rows)
+    p = run_cli(*command, "huge.csv", cwd=tmp_path, timeout=120)
+    _one_line_error(p, "huge.csv': sample 1 (at 0 m) has the height -1e+300 m")
+    assert "RuntimeWarning" not in p.stderr
+
+
 def _mdf4(path):
     from asammdf import MDF, Signal
 

@@ -37,7 +37,14 @@ from bodyvib.runtime.tabulated import HermiteTable
 from .base import Road, RoadWarning
 from .contact import TandemCam, effective_road
 
-__all__ = ["ProfileRoad", "ENVELOPE_M", "COMFORT_TOP_HZ", "STEEP_SLOPE", "envelope"]
+__all__ = [
+    "ProfileRoad",
+    "ENVELOPE_M",
+    "COMFORT_TOP_HZ",
+    "MAX_ELEVATION_M",
+    "STEEP_SLOPE",
+    "envelope",
+]
 
 #: Base length of the tire-enveloping moving average (IRI standard, ASTM E1926), m.
 ENVELOPE_M = 0.25
@@ -79,6 +86,12 @@ def envelope(elevation, spacing: float, base: float = ENVELOPE_M) -> np.ndarray:
         return z.copy()
     c = np.concatenate([[0.0], np.cumsum(z)])
     return (c[k:] - c[:-k]) / k
+
+
+#: Largest |height| a profile may hold, m. Chosen: 10 km is above every road on Earth
+#: (the highest reach about 5.8 km) and any datum a profiler writes, while a number beyond
+#: it is a unit or file error whose squares overflow in the statistics (1e300 m did).
+MAX_ELEVATION_M = 1.0e4
 
 
 class ProfileRoad(Road):
@@ -144,6 +157,14 @@ class ProfileRoad(Road):
         if not np.all(np.isfinite(z)):
             raise BodyvibError(
                 f"profile '{name}' holds a height that is not a number; fill or cut the gap"
+            )
+        far = np.flatnonzero(np.abs(z) > MAX_ELEVATION_M)
+        if far.size:
+            i = int(far[0])
+            raise BodyvibError(
+                f"profile '{name}': sample {i + 1} (at {i * spacing:g} m) has the height "
+                f"{z[i]:.3g} m, beyond the {MAX_ELEVATION_M:g} m a road surface can have; "
+                "check the file's units or its data"
             )
         if enveloped:
             z = envelope(z, spacing)
