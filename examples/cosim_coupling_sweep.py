@@ -12,6 +12,7 @@ import sys
 import tempfile
 
 from bodyvib.vehicle.fmus import build_fmus
+from bodyvib.vehicle.road.driven import RunSettings
 from bodyvib.vehicle.study import coupling_error_sweep
 
 STEPS = (1e-4, 2e-4, 5e-4, 1e-3, 2e-3, 5e-3, 1e-2)
@@ -28,10 +29,11 @@ def run(steps=STEPS, duration=30.0, body="HumanBody3DOF", car="quarter-car"):
     with tempfile.TemporaryDirectory() as d:
         fmus = {n: str(p) for n, p in build_fmus(d, car=car, names=(body, "QuarterCar")).items()}
         rows = []
+        settings = RunSettings(duration_s=duration)
         held = coupling_error_sweep(
-            steps, fmus[body], fmus["QuarterCar"], duration=duration, extrapolate=False
+            steps, fmus[body], fmus["QuarterCar"], settings, extrapolate=False
         )
-        extr = coupling_error_sweep(steps, fmus[body], fmus["QuarterCar"], duration=duration)
+        extr = coupling_error_sweep(steps, fmus[body], fmus["QuarterCar"], settings)
         for a, b in zip(held, extr):
             rows.append(
                 {

@@ -13,7 +13,7 @@ import pytest
 from bodyvib.vehicle.quarter_car import load_car, seated_system
 from bodyvib.vehicle.reference import reference_run
 from bodyvib.vehicle.road.bumps import SHAPES, bump_library, parse_bump
-from bodyvib.vehicle.road.driven import driven_road, road_label
+from bodyvib.vehicle.road.driven import RunSettings, driven_road, road_label
 from bodyvib.vehicle.road.synthetic import road_input
 from bodyvib.vehicle.sweep.engines import case_road_input, run_batched
 from bodyvib.vehicle.sweep.spec import expand, grid_spec
@@ -98,7 +98,7 @@ def test_slow_traverse_is_quasi_static():
     the seat (sprung mass) and the head follow the road within the quasi-static error
     ~ (f/f_n)^2 = 1.7e-3 of the height (measured 1.8e-3 and 1.9e-3); asserted to 0.5 %."""
     v, h = 1.0, 0.075
-    road = driven_road(f"sine:h={h},l=20,at=10", v, 35.0)
+    road = driven_road(RunSettings(f"sine:h={h},l=20,at=10", v, 35.0))
     lm = linear_model(seated_system(load_car(), load_model("reduced-paper")))
     step = 1e-2
     t = np.arange(0, 35.0, step)
@@ -129,7 +129,7 @@ def test_slow_traverse_is_quasi_static():
 )
 def test_bad_bumps_are_refused_in_one_line(spec, match):
     with pytest.raises(BodyvibError, match=match) as e:
-        driven_road(spec, 5.0, 4.0)
+        driven_road(RunSettings(spec, 5.0, 4.0))
     assert "\n" not in str(e.value)
 
 
@@ -224,7 +224,7 @@ def test_road_fmu_tabulates_the_bump_and_refuses_one_in_its_fade_in():
     from bodyvib.vehicle.fmus import fmu_road
 
     tab = fmu_road("hump:h=0.075,l=3.7", length=40.0)
-    run = driven_road("hump:h=0.075,l=3.7", 20.0, 2.0)
+    run = driven_road(RunSettings("hump:h=0.075,l=3.7", 20.0, 2.0))
     x = np.linspace(0, 40, 4001)
     np.testing.assert_array_equal(tab.displacement(x), run.displacement(x))
     with pytest.raises(BodyvibError, match="inside the road's 5 m fade-in"):

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from bodyvib.vehicle.cosim import cosimulate, model_from_fmu, open_fmu, write_csv
 from bodyvib.vehicle.reference import nrmse, reference_run
+from bodyvib.vehicle.road.driven import RunSettings
 from bodyvib.vehicle.road.synthetic import make_road, road_input
 from bodyvib.vehicle.study import coupling_error_sweep, run_study
 from helpers import ROOT, run_cli
@@ -54,10 +55,12 @@ def test_coupling_error_meets_target_at_1ms(fmus, which):
     20 m/s. 10 s holds about 8 body-bounce periods and 45 periods of the 4.5 Hz body
     resonance, enough for a stable r.m.s. The plain master (seat force held) is far
     above the target, so the extrapolation is what meets it."""
-    study = run_study({"b": fmus[which]}, fmus["car"], "C", 20.0, 10.0, 1e-3)
+    study = run_study({"b": fmus[which]}, fmus["car"], RunSettings("C", 20.0, 10.0, 1e-3))
     err = study.bodies["b"].coupling_nrmse
     assert err <= 5e-4
-    held = run_study({"b": fmus[which]}, fmus["car"], "C", 20.0, 10.0, 1e-3, extrapolate=False)
+    held = run_study(
+        {"b": fmus[which]}, fmus["car"], RunSettings("C", 20.0, 10.0, 1e-3), extrapolate=False
+    )
     assert held.bodies["b"].coupling_nrmse > 5 * err
     doc = json.loads(json.dumps(held.to_dict()))  # the typed study's JSON form
     assert doc["bodies"]["b"]["coupling_nrmse"] == held.bodies["b"].coupling_nrmse
@@ -67,7 +70,9 @@ def test_coupling_error_meets_target_at_1ms(fmus, which):
 def test_coupling_error_is_second_order_in_the_step(fmus):
     """Linear extrapolation makes the coupling error O(h^2): halving the step
     divides it by about 4 (3 to 5 allows for the higher-order terms)."""
-    rows = coupling_error_sweep([2e-3, 1e-3], fmus["body"], fmus["car"], duration=5.0)
+    rows = coupling_error_sweep(
+        [2e-3, 1e-3], fmus["body"], fmus["car"], RunSettings(duration_s=5.0)
+    )
     ratio = rows[0]["coupling_nrmse"] / rows[1]["coupling_nrmse"]
     assert 3.0 < ratio < 5.0
 
@@ -77,10 +82,10 @@ def test_cushion_car_co_simulates_against_its_reference(fmus):
     spring is an ~80 Hz mode that the coupling has to resolve, so at 1 ms the error
     is about 0.06 %
     (docs/getting_started.md, "The master and its coupling error"); the 0.05 % target holds at 0.5 ms (second order: 4x less)."""
-    study = run_study({"b": fmus["body"]}, fmus["cushion"], "C", 20.0, 5.0, 5e-4)
+    study = run_study({"b": fmus["body"]}, fmus["cushion"], RunSettings("C", 20.0, 5.0, 5e-4))
     assert study.bodies["b"].coupling_nrmse <= 5e-4
     # the cushion's 3-4 Hz seat resonance changes the ride: not the rigid seat's figures
-    rigid = run_study({"b": fmus["body"]}, fmus["car"], "C", 20.0, 5.0, 5e-4)
+    rigid = run_study({"b": fmus["body"]}, fmus["car"], RunSettings("C", 20.0, 5.0, 5e-4))
     assert study.bodies["b"].figures.weighted_rms != pytest.approx(
         rigid.bodies["b"].figures.weighted_rms, rel=0.02
     )

@@ -266,9 +266,11 @@ def test_short_road_repeats_faded_in_once_and_joined_smoothly(cobbles):
     """The 9.76 m scan repeated: faded in over the first 5 m only, then the profile again and
     again; at each join height and slope are continuous (the slope's jump across the join is
     no larger than between two samples anywhere)."""
-    from bodyvib.vehicle.road.driven import RoadOptions, driven_road
+    from bodyvib.vehicle.road.driven import RoadOptions, RunSettings, driven_road
 
-    road = driven_road(cobbles[0], 10.0, 5.0, step=1e-3, options=RoadOptions(repeat=True))
+    road = driven_road(
+        RunSettings(cobbles[0], 10.0, 5.0, 1e-3, road_options=RoadOptions(repeat=True))
+    )
     profile = road.road
     L = profile.length
     xs = np.linspace(0.0, L, 3001)
@@ -287,10 +289,10 @@ def test_short_road_repeats_faded_in_once_and_joined_smoothly(cobbles):
 
 def test_default_fade_on_a_short_road_is_shortened_with_a_warning(cobbles):
     from bodyvib.vehicle.road.base import RoadWarning
-    from bodyvib.vehicle.road.driven import driven_road, road_handling
+    from bodyvib.vehicle.road.driven import RunSettings, driven_road, road_handling
 
     with pytest.warns(RoadWarning, match=r"is 9.76 m long: faded in and out over 2.44 m"):
-        road = driven_road(cobbles[0], 5.0, 1.9, step=1e-3)
+        road = driven_road(RunSettings(cobbles[0], 5.0, 1.9, 1e-3))
     assert road.taper == pytest.approx(2.44)
     assert road_handling(road.describe()) == (
         "faded in and out over 2.44 m, tandem-cam contact (r0 0.313 m, footprint 0.111 m)"
@@ -299,7 +301,7 @@ def test_default_fade_on_a_short_road_is_shortened_with_a_warning(cobbles):
 
 def test_point_contact_on_a_joint_warns_where(tmp_path):
     from bodyvib.vehicle.road.base import RoadWarning
-    from bodyvib.vehicle.road.driven import RoadOptions, driven_road
+    from bodyvib.vehicle.road.driven import RoadOptions, RunSettings, driven_road
 
     path = tmp_path / "joint.csv"
     x = np.arange(0, 30.0, 0.01)
@@ -309,7 +311,7 @@ def test_point_contact_on_a_joint_warns_where(tmp_path):
     with pytest.warns(
         RoadWarning, match=r"its slope reaches 1.5 m per m at 12 m \(a step, a joint or an edge\)"
     ):
-        driven_road(path, 10.0, 2.0, step=1e-3, options=RoadOptions(contact="point"))
+        driven_road(RunSettings(path, 10.0, 2.0, 1e-3, road_options=RoadOptions(contact="point")))
 
 
 # -- bodyvib road on field files --------------------------------------------------------
@@ -490,7 +492,7 @@ def test_road_command_describes_both_wheel_paths(cobbles, tmp_path, capsys):
 
 def test_contact_is_a_road_option_of_specs_and_commands(cobbles):
     from bodyvib.vehicle.road.base import RoadWarning
-    from bodyvib.vehicle.road.driven import RoadOptions, driven_road
+    from bodyvib.vehicle.road.driven import RoadOptions, RunSettings, driven_road
     from bodyvib.vehicle.sweep.spec import expand, grid_spec
 
     with pytest.warns(RoadWarning, match="its slope reaches 2.08 m per m at 3.26 m"):
@@ -503,4 +505,4 @@ def test_contact_is_a_road_option_of_specs_and_commands(cobbles):
     with pytest.raises(BodyvibError, match="road option 'contact' must be one of auto, tandem-cam"):
         expand(grid_spec([f"road={cobbles[0]}", "speed=10"], 0.4, 1e-3, {"contact": "soft"}))
     with pytest.raises(BodyvibError, match="--road-contact apply to road files; road 'C'"):
-        driven_road("C", 10.0, 1.0, options=RoadOptions(contact="point"))
+        driven_road(RunSettings("C", 10.0, 1.0, road_options=RoadOptions(contact="point")))

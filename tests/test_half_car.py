@@ -177,13 +177,13 @@ def test_point_positions_take_a_sign():
 def test_a_road_pulse_reaches_the_rear_axle_a_wheelbase_later(speed, step):
     """The rear wheel's road: the front's, wheelbase / speed later, to one step."""
     from bodyvib.vehicle.quarter_car import wheel_offsets
-    from bodyvib.vehicle.road.driven import driven_road, wheel_inputs
+    from bodyvib.vehicle.road.driven import RunSettings, driven_road, wheel_inputs
 
     car = load_car("half-car")
     behind = wheel_offsets(car)
     wheelbase = car.parameters["lf"] + car.parameters["lr"]
     assert behind == (0.0, wheelbase)
-    road = driven_road("bump", speed, 4.0)
+    road = driven_road(RunSettings("bump", speed, 4.0))
     t = np.arange(0.0, 4.0, step)
     z, v = wheel_inputs(road, speed, t, behind)
     first = [int(np.argmax(np.abs(z[:, j]) > 1e-9)) for j in range(2)]
@@ -325,7 +325,7 @@ def test_native_half_car_with_moved_axles_matches_the_reference(tmp_path):
     from bodyvib.vehicle.fmus import build_project_fmu
     from bodyvib.vehicle.quarter_car import wheel_offsets
     from bodyvib.vehicle.reference import nrmse, reference_run
-    from bodyvib.vehicle.road.driven import driven_road, wheel_inputs
+    from bodyvib.vehicle.road.driven import RunSettings, driven_road, wheel_inputs
 
     from bodyvib.models import load_model
 
@@ -336,7 +336,7 @@ def test_native_half_car_with_moved_axles_matches_the_reference(tmp_path):
     pyfmu = build_project_fmu("HumanBody3DOF", tmp_path / "body")
     step, speed = 1e-3, 15.0
     t = np.arange(0.0, 3.0, step)
-    z, v = wheel_inputs(driven_road("C", speed, 3.0), speed, t, wheel_offsets(car))
+    z, v = wheel_inputs(driven_road(RunSettings("C", speed, 3.0)), speed, t, wheel_offsets(car))
     assert wheel_offsets(car) == (0.0, 2.8)
     with (
         open_fmu(native, "car", "car", start_values=changed) as c,

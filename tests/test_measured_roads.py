@@ -8,7 +8,7 @@ import tempfile
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.road.driven import RoadOptions, driven_road
+from bodyvib.vehicle.road.driven import RoadOptions, RunSettings, driven_road
 from bodyvib.vehicle.road.measured import load_profile
 from bodyvib.vehicle.road.profile import ProfileRoad, envelope
 from bodyvib.vehicle.road.synthetic import random_road, road_input
@@ -184,15 +184,17 @@ def test_tire_envelope_is_the_250mm_moving_average():
 
 
 def test_measured_road_starts_level_and_repeats_on_request(files):
-    road = driven_road(files["csv"], 20.0, 10.0, step=1e-3)
+    road = driven_road(RunSettings(files["csv"], 20.0, 10.0, 1e-3))
     assert float(road.displacement(0.0)) == 0.0 and float(road.slope(0.0)) == 0.0
     with pytest.raises(
         BodyvibError,
         match=r"250 m long; a 30 s run at 20 m/s needs 600 m: "
         r"shorten the run to 12\.5 s .*--road-repeat",
     ):
-        driven_road(files["csv"], 20.0, 30.0, step=1e-3)
-    rep = driven_road(files["csv"], 20.0, 30.0, step=1e-3, options=RoadOptions(repeat=True))
+        driven_road(RunSettings(files["csv"], 20.0, 30.0, 1e-3))
+    rep = driven_road(
+        RunSettings(files["csv"], 20.0, 30.0, 1e-3, road_options=RoadOptions(repeat=True))
+    )
     xs = np.linspace(0, LENGTH, 5001)
     # faded in once: every later pass is the profile itself
     profile = rep.road
@@ -390,22 +392,22 @@ def test_spacing_too_coarse_for_the_speed_and_step_is_stated(files):
         match=r"at 20 m/s its 1 m spacing carries nothing above 10 Hz .* up to 80 Hz.*"
         r"\(a profile every 0.125 m would carry it\)",
     ):
-        driven_road(os.path.join(DATA, "handmade_straight.crg"), 20.0, 1.0, step=1e-3)
+        driven_road(RunSettings(os.path.join(DATA, "handmade_straight.crg"), 20.0, 1.0, 1e-3))
     with pytest.warns(
         RoadWarning, match=r"at 5 m/s its 0.05 m spacing carries nothing above 50 Hz"
     ):
-        driven_road(files["crg"], 5.0, 1.0, step=1e-3)
+        driven_road(RunSettings(files["crg"], 5.0, 1.0, 1e-3))
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        driven_road(files["crg"], 20.0, 1.0, step=1e-3)
-        driven_road(files["crg"], 5.0, 1.0, step=1e-2)  # 50 Hz: what a 10 ms step resolves
+        driven_road(RunSettings(files["crg"], 20.0, 1.0, 1e-3))
+        driven_road(RunSettings(files["crg"], 5.0, 1.0, 1e-2))  # 50 Hz: what a 10 ms step resolves
 
 
 def test_missing_file_and_options_on_a_synthetic_road(folder):
     with pytest.raises(BodyvibError, match="road file .*nothere.crg' does not exist"):
-        driven_road(os.path.join(folder, "nothere.crg"), 20.0, 1.0)
+        driven_road(RunSettings(os.path.join(folder, "nothere.crg"), 20.0, 1.0))
     with pytest.raises(BodyvibError, match="apply to road files; road 'C' is synthetic"):
-        driven_road("C", 20.0, 1.0, options=RoadOptions(repeat=True))
+        driven_road(RunSettings("C", 20.0, 1.0, road_options=RoadOptions(repeat=True)))
 
 
 def test_cli_refuses_a_bad_road_in_one_line(folder, capsys):
@@ -440,9 +442,7 @@ def test_same_head_figures_from_crg_csv_and_erd(files, fmus):
         st = run_study(
             {"body": fmus["HumanBody3DOF"]},
             fmus["QuarterCar"],
-            road=path,
-            speed=20.0,
-            duration=10.0,
+            RunSettings(road=path, speed_m_s=20.0, duration_s=10.0),
         )
         b = st.bodies["body"]
         figs[kind] = b.figures
@@ -543,7 +543,7 @@ def test_road_fmu_of_a_file_is_the_driven_road(files, folder):
     res = simulate_fmu(
         str(fmu), stop_time=10.0, output_interval=1e-3, start_values={"speed": speed}
     )
-    road = driven_road(files["csv"], speed, 10.0, step=1e-3)
+    road = driven_road(RunSettings(files["csv"], speed, 10.0, 1e-3))
     z, v = road_input(road, speed, res["time"])
     assert res["road_displacement"][0] == 0.0 and res["road_velocity"][0] == 0.0
     h = table_spacing(road)

@@ -135,11 +135,15 @@ def test_cushion_seat_value_matches_the_frequency_integral():
 
 @pytest.mark.integration
 def test_absorbed_power_is_the_runs_mean_seat_force_times_velocity(python_fmus):
+    from bodyvib.vehicle.road.driven import RunSettings
     from bodyvib.vehicle.study import run_study
 
     fmus = python_fmus
     study = run_study(
-        {"b": fmus["HumanBody3DOF"]}, fmus["QuarterCar"], "C", 20.0, 5.0, 1e-3, histories=True
+        {"b": fmus["HumanBody3DOF"]},
+        fmus["QuarterCar"],
+        RunSettings("C", 20.0, 5.0, 1e-3),
+        histories=True,
     )
     b = study.bodies["b"]
     run = b.run

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from bodyvib.vehicle.road.driven import RunSettings
 from bodyvib.vehicle.road.synthetic import (
     BumpRoad,
     SweepRoad,
@@ -139,7 +140,7 @@ def test_every_driven_road_starts_level_and_joins_the_road_smoothly(spec):
     scale: the product rule w' z + w z' is the derivative)."""
     from bodyvib.vehicle.road.driven import RoadOptions, driven_road
 
-    road = driven_road(spec, 20.0, 10.0)
+    road = driven_road(RunSettings(spec, 20.0, 10.0))
     assert float(road.displacement(0.0)) == 0.0 and float(road.slope(0.0)) == 0.0
     inner = road.road
     x = np.linspace(5.0, road.length - 5.0 if np.isfinite(road.length) else 150.0, 3001)
@@ -149,7 +150,7 @@ def test_every_driven_road_starts_level_and_joins_the_road_smoothly(spec):
     fd = (road.displacement(xs + h) - road.displacement(xs - h)) / (2 * h)
     scale = max(np.max(np.abs(road.slope(xs))), 1e-12)
     assert np.max(np.abs(fd - road.slope(xs))) <= 1e-5 * scale + 1e-12
-    untapered = driven_road(spec, 20.0, 10.0, options=RoadOptions(taper_m=0.0))
+    untapered = driven_road(RunSettings(spec, 20.0, 10.0, road_options=RoadOptions(taper_m=0.0)))
     np.testing.assert_array_equal(untapered.displacement(xs), inner.displacement(xs))
 
 
@@ -157,9 +158,9 @@ def test_taper_longer_than_half_the_road_is_refused():
     from bodyvib.vehicle.road.driven import RoadOptions, driven_road
 
     with pytest.raises(BodyvibError, match=r"cannot fade in and out over 6 m .*--road-taper"):
-        driven_road("C", 10.0, 1.0, options=RoadOptions(taper_m=6.0))
+        driven_road(RunSettings("C", 10.0, 1.0, road_options=RoadOptions(taper_m=6.0)))
     with pytest.raises(BodyvibError, match="non-negative"):
-        driven_road("C", 10.0, 1.0, options=RoadOptions(taper_m=-1.0))
+        driven_road(RunSettings("C", 10.0, 1.0, road_options=RoadOptions(taper_m=-1.0)))
 
 
 def test_cosim_and_road_fmu_take_the_same_road():
@@ -169,7 +170,7 @@ def test_cosim_and_road_fmu_take_the_same_road():
     from bodyvib.vehicle.road.driven import driven_road
 
     x = np.linspace(0.0, 601.0, 60101)
-    a, b = driven_road("C", 20.0, 30.0), fmu_road()
+    a, b = driven_road(RunSettings("C", 20.0, 30.0)), fmu_road()
     np.testing.assert_array_equal(a.displacement(x), b.displacement(x))
     np.testing.assert_array_equal(a.slope(x), b.slope(x))
 

@@ -25,6 +25,7 @@ import numpy as np
 import pytest
 from bodyvib.vehicle.quarter_car import load_car
 from bodyvib.vehicle.reference import nrmse
+from bodyvib.vehicle.road.driven import RunSettings
 from bodyvib.vehicle.ssp import (
     COMPONENTS,
     CONNECTIONS,
@@ -182,7 +183,7 @@ def test_road_fmu_is_its_table_and_the_library_road(dist):
     z, dz = road_table(fmu_road(), 601.0).evaluate(speed * t)
     np.testing.assert_allclose(res["road_displacement"], z[:, 0], rtol=0, atol=1e-15)
     np.testing.assert_allclose(res["road_velocity"], speed * dz[:, 0], rtol=0, atol=1e-14)
-    road = driven_road("C", 20.0, 30.0)  # the road of bodyvib cosim's defaults
+    road = driven_road(RunSettings())  # the road of bodyvib cosim's defaults
     zl, vl = road_input(road, speed, t)
     bz, bs = hermite_bounds(road, TABLE_SPACING)
     assert res["road_displacement"][0] == zl[0] == 0.0 and res["road_velocity"][0] == vl[0] == 0.0
@@ -231,9 +232,7 @@ def test_ssp_in_libcosim_is_bodyvib_cosim_from_t0(dist):
     study = run_study(
         {"body": str(dist / "HumanBody3DOF.fmu")},
         str(dist / "QuarterCar.fmu"),
-        road="C",
-        speed=20.0,
-        duration=30.0,
+        RunSettings(road="C", speed_m_s=20.0, duration_s=30.0),
         histories=True,
     )
     run = study.bodies["body"]

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from bodyvib.vehicle.quarter_car import load_car
 from bodyvib.vehicle.reference import ReferenceStream, nrmse, reference_run
+from bodyvib.vehicle.road.driven import RunSettings
 from bodyvib.vehicle.road.synthetic import make_road, road_input
 
 from bodyvib.comfort.figures import comfort_figures
@@ -117,10 +118,7 @@ def test_study_figures_equal_those_of_its_own_histories(fmus):
     st = run_study(
         {"r": fmus["body"], "i": fmus["iso"]},
         fmus["car"],
-        "C",
-        20.0,
-        12.0,
-        1e-3,
+        RunSettings("C", 20.0, 12.0, 1e-3),
         histories=True,
         block=1000,
     )

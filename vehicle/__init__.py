@@ -52,7 +52,7 @@ _HOME = {
     "Comparison": "check",
     "compare": "check",
     # studies
-    "StudySettings": "study",
+    "RunSettings": "road.driven",
     "BodyRun": "study",
     "Study": "study",
     "StudyCsv": "study",

@@ -1,7 +1,7 @@
 """JSON-ready records: the ``to_dict`` that the application's plain result dataclasses share.
 
 A result whose JSON form is its fields as they are (a check's :class:`~bodyvib.vehicle.check.Criterion`,
-a study's :class:`~bodyvib.vehicle.study.StudySettings`, :class:`~bodyvib.vehicle.road.driven.RoadOptions`,
+a run's :class:`~bodyvib.vehicle.road.driven.RunSettings`, :class:`~bodyvib.vehicle.road.driven.RoadOptions`,
 :class:`~bodyvib.vehicle.road.iri.IriResult`) inherits :class:`Record`; one that changes a field on the
 way out (:class:`~bodyvib.vehicle.road.classify.RoadClass`: an infinite limit as None) starts from
 ``super().to_dict()``.

@@ -47,7 +47,7 @@ def format_report(study: Study, comparison: Optional[Comparison] = None) -> str:
     lines = [
         f"road {study.road['name']}{', ' + handling if handling else ''}, "
         f"{s.speed_m_s:g} m/s, {s.duration_s:g} s, "
-        f"step {s.step_s:g} s ({s.master})",
+        f"step {s.step_s:g} s ({study.master})",
         "",
     ]
     bodies = study.bodies

@@ -13,7 +13,7 @@ import contextlib
 import math
 import os
 import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Dict, List, Optional
 
 import numpy as np
@@ -30,14 +30,12 @@ from bodyvib.runtime.errors import BodyvibError
 
 from .cosim import CsvStream, Master, check_fmu, model_from_fmu, open_fmu
 from .quarter_car import wheel_offsets
-from .records import Record
 from .reference import ReferenceStream
-from .road.driven import RoadOptions, driven_road, wheel_inputs
-from .road.synthetic import road_input
+from .road.driven import RunSettings, driven_road, wheel_inputs
+from .road.synthetic import Road, road_input
 from .signals import BODY_SIGNALS, MASTER_SIGNALS, OPTIONAL_SIGNALS
 
 __all__ = [
-    "StudySettings",
     "BodyRun",
     "Study",
     "StudyCsv",
@@ -45,30 +43,6 @@ __all__ = [
     "run_study",
     "coupling_error_sweep",
 ]
-
-
-@dataclass(frozen=True)
-class StudySettings(Record):
-    """The settings of a study, as given to :func:`run_study`.
-
-    Attributes
-    ----------
-    road : str
-        Road name as given (``"C"``, ``"bump"``, ...).
-    speed_m_s, duration_s, step_s : float
-        Vehicle speed (m/s), simulated time (s), communication step (s).
-    seed : int
-        Random-road seed.
-    master : str
-        The co-simulation master in words.
-    """
-
-    road: str
-    speed_m_s: float
-    duration_s: float
-    step_s: float
-    seed: int
-    master: str
 
 
 @dataclass
@@ -139,8 +113,10 @@ class Study:
 
     Attributes
     ----------
-    settings : StudySettings
-        Road, speed, duration, step, seed and master, as given.
+    settings : bodyvib.vehicle.road.driven.RunSettings
+        Road, speed, duration, step, seed and road options, as given.
+    master : str
+        The co-simulation master in words.
     road : dict
         The road's description (:meth:`bodyvib.vehicle.road.base.Road.describe`).
     time, road_displacement, road_velocity : ndarray or None
@@ -155,7 +131,8 @@ class Study:
         ``sum(b_head^2)`` over the run, for :meth:`history_nrmse`.
     """
 
-    settings: StudySettings
+    settings: RunSettings
+    master: str
     road: dict
     time: Optional[np.ndarray] = None
     road_displacement: Optional[np.ndarray] = None
@@ -191,9 +168,14 @@ class Study:
         return math.sqrt(num / den)
 
     def to_dict(self) -> dict:
-        """The study as JSON: ``settings``, ``road`` and ``bodies`` (figures, no histories)."""
+        """The study as JSON: ``settings``, ``road`` and ``bodies`` (figures, no histories).
+
+        ``settings`` holds the run's road, speed, duration, step and seed, and the master.
+        """
+        settings = self.settings.to_dict()
+        del settings["road_options"]  # described with the road
         return {
-            "settings": self.settings.to_dict(),
+            "settings": {**settings, "master": self.master},
             "road": dict(self.road),
             "bodies": {label: b.to_dict() for label, b in self.bodies.items()},
         }
@@ -213,29 +195,24 @@ BYTES_PER_STEP = 800
 #: of wall time per body at the master's 30 us per macro-step.
 MAX_STEPS = 1e9
 
+#: The run :func:`run_study` makes by default: ``bodyvib cosim``'s defaults.
+COSIM_DEFAULTS = RunSettings()
 
-def check_settings(
-    road: str,
-    speed: float,
-    duration: float,
-    step: float,
-    seed: int = 0,
-    bodies: int = 1,
-    histories: bool = False,
-    road_options: Optional[RoadOptions] = None,
-):
+#: The run :func:`coupling_error_sweep` repeats at each step by default: 10 s.
+SWEEP_DEFAULTS = RunSettings(duration_s=10.0)
+
+
+def check_settings(settings: RunSettings, bodies: int = 1, histories: bool = False) -> Road:
     """Validate run settings before any work is done; returns the road.
 
     Parameters
     ----------
-    road, speed, duration, step, seed
-        As :func:`run_study`.
+    settings : bodyvib.vehicle.road.driven.RunSettings
+        The road, speed, duration, step, seed and road options of the run.
     bodies : int
         Number of bodies the study will run (for its memory estimate).
     histories : bool
         The study keeps its histories (memory grows with the run).
-    road_options : bodyvib.vehicle.road.driven.RoadOptions, optional
-        Taper, track, units, enveloping and repetition of the road.
 
     Returns
     -------
@@ -249,6 +226,7 @@ def check_settings(
         than half the duration, an unknown road or a road file that cannot be
         driven, a negative seed, or a run (or a road) too long for the memory at hand.
     """
+    speed, duration, step = settings.speed_m_s, settings.duration_s, settings.step_s
     for value, what, unit in (
         (speed, "speed", "m/s"),
         (duration, "duration", "s"),
@@ -275,17 +253,13 @@ def check_settings(
             f"{max(1, bodies)} body/bodies) with its histories",
             "shorten the run or do not keep the histories",
         )
-    return driven_road(road, speed, duration, seed=seed, step=step, options=road_options)
+    return driven_road(settings)
 
 
 def run_study(
     body_fmus: Dict[str, str],
     car_fmu: str,
-    road: str = "C",
-    speed: float = 20.0,
-    duration: float = 30.0,
-    step: float = 1e-3,
-    seed: int = 0,
+    settings: RunSettings = COSIM_DEFAULTS,
     extrapolate: bool = True,
     reference: bool = True,
     progress: bool = False,
@@ -294,7 +268,6 @@ def run_study(
     csv: "StudyCsv" = None,
     block: int = 4096,
     window_s: float = 5.0,
-    road_options: Optional[RoadOptions] = None,
 ) -> Study:
     """Co-simulate the car with each body FMU on one road; figures, references, transmissibility.
 
@@ -304,17 +277,11 @@ def run_study(
         Label -> body FMU path.
     car_fmu : str
         Car FMU path.
-    road : str
-        ISO 8608 class ``A``-``H``, ``bump``, ``sweep`` or a road file (``.crg``, ``.csv``,
-        ``.erd``), faded in from level (:func:`bodyvib.vehicle.road.driven.driven_road`).
-    speed : float
-        m/s.
-    duration : float
-        s.
-    step : float
-        Communication step, s.
-    seed : int
-        Random-road seed.
+    settings : bodyvib.vehicle.road.driven.RunSettings
+        The road (ISO 8608 class ``A``-``H``, ``bump``, ``sweep`` or a road file, faded in
+        from level: :func:`bodyvib.vehicle.road.driven.driven_road`), speed (m/s), duration
+        (s), communication step (s), random-road seed and road options; by default those of
+        ``bodyvib cosim``.
     extrapolate : bool
         Seat-force extrapolation in the master (see :mod:`bodyvib.vehicle.cosim`).
     reference : bool
@@ -333,8 +300,6 @@ def run_study(
         Communication points per block.
     window_s : float
         Length of the plot window kept mid-run, s.
-    road_options : bodyvib.vehicle.road.driven.RoadOptions, optional
-        Taper (default 5 m), track, units, enveloping and repetition of the road.
 
     Returns
     -------
@@ -347,16 +312,8 @@ def run_study(
     BodyvibError
         Bad settings, missing or unsuitable FMUs.
     """
-    rd = check_settings(
-        road,
-        speed,
-        duration,
-        step,
-        seed,
-        bodies=len(body_fmus),
-        histories=histories,
-        road_options=road_options,
-    )
+    rd = check_settings(settings, bodies=len(body_fmus), histories=histories)
+    speed, duration, step = settings.speed_m_s, settings.duration_s, settings.step_s
     n = int(round(duration / step)) + 1
     fs = 1.0 / step
     labels = list(body_fmus)
@@ -441,15 +398,8 @@ def run_study(
             if bar is not None:
                 bar.close()
     out = Study(
-        settings=StudySettings(
-            road=str(road),
-            speed_m_s=speed,
-            duration_s=duration,
-            step_s=step,
-            seed=seed,
-            master="gauss-seidel, seat force "
-            + ("extrapolated linearly" if extrapolate else "held"),
-        ),
+        settings=replace(settings, road=str(settings.road)),
+        master="gauss-seidel, seat force " + ("extrapolated linearly" if extrapolate else "held"),
         road=rd.describe(),
         window_time=np.arange(k0, k1 + 1) * step,
         history_sums={k: tuple(v) for k, v in pairs.items()},
@@ -599,10 +549,7 @@ def coupling_error_sweep(
     steps,
     body_fmu: str,
     car_fmu: str,
-    road: str = "C",
-    speed: float = 20.0,
-    duration: float = 10.0,
-    seed: int = 0,
+    settings: RunSettings = SWEEP_DEFAULTS,
     extrapolate: bool = True,
 ) -> List[dict]:
     """Head-acceleration coupling NRMSE against the monolithic reference, per step.
@@ -613,8 +560,9 @@ def coupling_error_sweep(
         Communication steps, s.
     body_fmu, car_fmu : str
         FMU paths (bodyvib FMUs: the reference comes from their parameter files).
-    road, speed, duration, seed : str, float, float, int
-        As :func:`run_study` takes them (road name or file, m/s, s, random-road seed).
+    settings : bodyvib.vehicle.road.driven.RunSettings
+        As :func:`run_study` takes them (a 10 s run by default); each step replaces its
+        ``step_s``.
     extrapolate : bool
         Master with (True) or without seat-force extrapolation.
 
@@ -628,11 +576,7 @@ def coupling_error_sweep(
         st = run_study(
             {"body": body_fmu},
             car_fmu,
-            road,
-            speed,
-            duration,
-            float(h),
-            seed,
+            replace(settings, step_s=float(h)),
             extrapolate=extrapolate,
         )
         b = st.bodies["body"]

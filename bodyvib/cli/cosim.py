@@ -19,6 +19,7 @@ from bodyvib.vehicle.check import compare
 from bodyvib.vehicle.cosim import check_fmu
 from bodyvib.vehicle.fmus import build_fmus, car_fmu_name, temporary_fmu_dir
 from bodyvib.vehicle.report import format_report, study_json
+from bodyvib.vehicle.road.driven import RunSettings
 from bodyvib.vehicle.study import StudyCsv, check_settings, run_study
 from bodyvib.vehicle.study_plot import plot_study
 
@@ -125,15 +126,15 @@ def _label(path, default):
 def _run(args, want_iso):
     _check_options(args)
     road_options = road_options_from_args(args)
-    check_settings(
-        args.road,
-        args.speed,
-        args.duration,
-        args.step,
-        args.seed,  # before building
-        bodies=2 if want_iso else 1,
+    settings = RunSettings(
+        road=args.road,
+        speed_m_s=args.speed,
+        duration_s=args.duration,
+        step_s=args.step,
+        seed=args.seed,
         road_options=road_options,
     )
+    check_settings(settings, bodies=2 if want_iso else 1)  # before building
     if args.csv:
         _check_disk(args.csv, (args.duration / args.step + 1) * (2 if want_iso else 1))
     body, iso, car, tmp = _fmus(args, want_iso)
@@ -149,16 +150,11 @@ def _run(args, want_iso):
             study = run_study(
                 bodies,
                 car,
-                road=args.road,
-                speed=args.speed,
-                duration=args.duration,
-                step=args.step,
-                seed=args.seed,
+                settings,
                 extrapolate=not args.hold,
                 progress=not args.quiet,
                 quiet=args.quiet,
                 csv=csv,
-                road_options=road_options,
             )
             comparison = compare(study, *bodies) if want_iso else None
             print(format_report(study, comparison))

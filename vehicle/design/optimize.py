@@ -32,7 +32,7 @@ from bodyvib.runtime.errors import BodyvibError
 
 from ..quarter_car import load_car
 from ..reference import seat_force_weights
-from ..road.driven import driven_road
+from ..road.driven import RunSettings, driven_road
 from ..road.synthetic import road_input
 from .spec import DesignSpec, Objective, seated_model
 from .stationary import (
@@ -449,7 +449,9 @@ def verify_design(spec: DesignSpec, values: Dict[str, float]) -> Dict[str, float
     for p in spec.operating_points:
         interrupts.check()
         st = spec.verify.step
-        road = driven_road(p.road, p.speed, spec.verify.duration, seed=spec.verify.seed, step=st)
+        road = driven_road(
+            RunSettings(p.road, p.speed, spec.verify.duration, st, seed=spec.verify.seed)
+        )
         t = np.arange(int(round(spec.verify.duration / st)) + 1) * st
         z, v = road_input(road, p.speed, t)
         Y_all = _simulate(lm, range(len(lm.outputs)), z, v, st)

@@ -21,7 +21,7 @@ are its public interface, and the modules that hold them are internal and may mo
 from .base import Road
 from .bumps import SHAPES, ShapedBump, parse_bump
 from .classify import RoadClass, class_limits, class_of, classify_profile, profile_psd
-from .driven import DEFAULT_TAPER_M, RoadOptions, driven_road, is_road_file
+from .driven import DEFAULT_TAPER_M, RoadOptions, RunSettings, driven_road, is_road_file
 from .iri import (
     GOLDEN_CAR,
     IRI_SPEED_M_S,
@@ -70,6 +70,7 @@ __all__ = [
     "road_input",
     "DEFAULT_TAPER_M",
     "RoadOptions",
+    "RunSettings",
     "driven_road",
     "is_road_file",
     "ProfileRoad",

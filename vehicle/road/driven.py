@@ -36,6 +36,7 @@ from .synthetic import ISO8608_CLASSES, TaperedRoad, make_road, road_input
 __all__ = [
     "DEFAULT_TAPER_M",
     "RoadOptions",
+    "RunSettings",
     "is_road_file",
     "driven_road",
     "file_road",
@@ -75,6 +76,41 @@ class RoadOptions(Record):
     envelope: bool = False
     repeat: bool = False
     contact: str = "auto"
+
+
+@dataclass(frozen=True)
+class RunSettings(Record):
+    """What a run drives: the road, at which speed, for how long, at which step.
+
+    One object for the settings every run shares (``bodyvib cosim`` and ``check``, a
+    study, a sweep's case): :func:`driven_road` makes its road,
+    :func:`bodyvib.vehicle.study.check_settings` checks it before any work,
+    :func:`bodyvib.vehicle.study.run_study` runs it and keeps it as the study's settings.
+    The defaults are those of ``bodyvib cosim``.
+
+    Attributes
+    ----------
+    road : str
+        ISO 8608 class ``A``-``H``, ``bump``, ``sweep`` or a road file, as given.
+    speed_m_s, duration_s, step_s : float
+        Vehicle speed (m/s), simulated time (s), communication step (s).
+    seed : int
+        Random-road seed.
+    road_options : RoadOptions
+        How the road is driven (the ``--road-*`` options).
+
+    Examples
+    --------
+    >>> RunSettings(road="bump", speed_m_s=10.0).duration_s
+    30.0
+    """
+
+    road: str = "C"
+    speed_m_s: float = 20.0
+    duration_s: float = 30.0
+    step_s: float = 1e-3
+    seed: int = 0
+    road_options: RoadOptions = RoadOptions()
 
 
 def is_road_file(spec) -> bool:
@@ -123,31 +159,17 @@ def road_label(spec) -> str:
     return s.upper() if len(s) == 1 else s.lower()
 
 
-def driven_road(
-    spec,
-    speed: float,
-    duration: float,
-    seed: int = 0,
-    step: Optional[float] = None,
-    options: Optional[RoadOptions] = None,
-) -> Road:
+def driven_road(settings: RunSettings) -> Road:
     """The road a run drives, faded in from level.
 
     Parameters
     ----------
-    spec : str
-        ISO 8608 class ``A``-``H``, ``bump``, ``sweep`` (:func:`bodyvib.vehicle.road.synthetic.make_road`)
-        or a road file (``.crg``, ``.csv``, ``.txt``, ``.erd``: :func:`bodyvib.vehicle.road.measured.load_profile`).
-    speed : float
-        m/s.
-    duration : float
-        s.
-    seed : int
-        Random-road seed.
-    step : float, optional
-        Communication step, s (a measured profile's spacing is checked against it).
-    options : RoadOptions, optional
-        How the road is driven (the ``--road-*`` options); the defaults if None.
+    settings : RunSettings
+        The road (ISO 8608 class ``A``-``H``, ``bump``, ``sweep``, a bump shape:
+        :func:`bodyvib.vehicle.road.synthetic.make_road`; or a road file, ``.crg``, ``.csv``,
+        ``.txt``, ``.erd``: :func:`bodyvib.vehicle.road.measured.load_profile`), the speed and
+        duration it is driven at and for, the random-road seed, the communication step (a
+        measured profile's spacing is checked against it) and the road options.
 
     Returns
     -------
@@ -165,21 +187,22 @@ def driven_road(
 
     Examples
     --------
-    >>> r = driven_road("C", 20.0, 10.0)
+    >>> r = driven_road(RunSettings(road="C", speed_m_s=20.0, duration_s=10.0))
     >>> float(r.displacement(0.0)), float(r.slope(0.0))
     (0.0, 0.0)
     """
-    opt = options or RoadOptions()
+    spec, speed, duration = settings.road, settings.speed_m_s, settings.duration_s
+    opt = settings.road_options
     if is_road_file(spec):
         if not (isinstance(speed, (int, float)) and math.isfinite(speed) and speed > 0):
             raise BodyvibError(f"speed must be a positive number of m/s, got {speed!r}")
-        return file_road(spec, opt, speed, duration, step)
+        return file_road(spec, opt, speed, duration, settings.step_s)
     if opt.track_m or opt.units or opt.envelope or opt.repeat or opt.contact != "auto":
         raise BodyvibError(
             "--road-track, --road-units, --road-envelope, --road-repeat and --road-contact "
             f"apply to road files; road '{spec}' is synthetic"
         )
-    road = make_road(spec, speed, duration, seed=seed)
+    road = make_road(spec, speed, duration, seed=settings.seed)
     check_bump_start(road, opt.taper_m)
     return TaperedRoad(road, road.length, opt.taper_m)
 
@@ -338,7 +361,7 @@ def wheel_inputs(
     --------
     The rear wheel, 2 m behind, is where the front wheel was 0.25 s earlier at 8 m/s:
 
-    >>> r = driven_road("sweep", 8.0, 4.0)
+    >>> r = driven_road(RunSettings("sweep", 8.0, 4.0))
     >>> z, v = wheel_inputs(r, 8.0, [0.125, 0.375, 0.625], behind=(0.0, 2.0))
     >>> z.shape, float(z[0, 1]), bool(z[1, 1] == z[0, 0]), bool(v[2, 1] == v[1, 0])
     ((3, 2), 0.0, True, True)

@@ -47,7 +47,7 @@ from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import linear_model
 
 from ..quarter_car import seated_system, wheel_offsets
-from ..road.driven import driven_road, wheel_inputs
+from ..road.driven import RunSettings, driven_road, wheel_inputs
 from ..road.synthetic import ISO8608_CLASSES, N_BAND, displacement_psd, road_input
 from .kernel import advance
 from .spec import Case
@@ -147,12 +147,14 @@ def case_road_input(case: Case):
     (2001,)
     """
     road = driven_road(
-        case.road,
-        case.speed,
-        case.duration,
-        seed=case.seed,
-        step=case.step,
-        options=case.road_settings(),
+        RunSettings(
+            road=case.road,
+            speed_m_s=case.speed,
+            duration_s=case.duration,
+            step_s=case.step,
+            seed=case.seed,
+            road_options=case.road_settings(),
+        )
     )
     t = np.arange(case.steps) * case.step
     return road_input(road, case.speed, t)
@@ -174,12 +176,14 @@ def case_wheel_inputs(case: Case, behind=(0.0,)):
         m, m/s at ``t_k = k * step`` (:func:`bodyvib.vehicle.road.driven.wheel_inputs`).
     """
     road = driven_road(
-        case.road,
-        case.speed,
-        case.duration,
-        seed=case.seed,
-        step=case.step,
-        options=case.road_settings(),
+        RunSettings(
+            road=case.road,
+            speed_m_s=case.speed,
+            duration_s=case.duration,
+            step_s=case.step,
+            seed=case.seed,
+            road_options=case.road_settings(),
+        )
     )
     return wheel_inputs(road, case.speed, np.arange(case.steps) * case.step, behind)
 

@@ -57,7 +57,7 @@ from bodyvib.runtime.modelfile import network_to_dict
 
 from ..fmus import FMUS
 from ..quarter_car import load_car
-from ..road.driven import RoadOptions, is_road_file, road_label
+from ..road.driven import RoadOptions, RunSettings, is_road_file, road_label
 from ..study import check_settings
 
 __all__ = [
@@ -554,7 +554,8 @@ class _Prepared:
                 raise BodyvibError(f"spec: '{name}' is an empty list")
         for r, sd, v, d, h in product(roads, seeds[:1], speeds, durations, steps):
             # refuses unknown roads and files that cannot be driven, steps longer than half a run
-            check_settings(r, v, d, h, sd, road_options=RoadOptions(**dict(road_opts)))
+            options = RoadOptions(**dict(road_opts))
+            check_settings(RunSettings(r, v, d, h, sd, road_options=options))
         self.roads, self.road_options = roads, road_opts
         self.road_digests = {r: _file_digest(r) for r in roads if is_road_file(r)}
         self.seeds, self.speeds, self.durations, self.steps = seeds, speeds, durations, steps
