@@ -52,7 +52,6 @@ _HOME = {
     "Comparison": "check",
     "compare": "check",
     # studies
-    "RunSettings": "road.driven",
     "BodyRun": "study",
     "Study": "study",
     "StudyCsv": "study",

@@ -2,7 +2,7 @@
 
 It builds on :mod:`bodyvib.vehicle` (the application) and :mod:`bodyvib` (the physics
 library); neither imports it. :func:`main` is the entry point (the ``bodyvib`` console
-script) and :func:`build_parser` the argument parser of every command.
+script) and :func:`~bodyvib.cli.main.build_parser` the argument parser of every command.
 
 The command line is the public interface of this package; its modules (one per command)
 are internal and may move.

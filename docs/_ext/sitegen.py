@@ -82,6 +82,13 @@ def _package_page(package):
             groups["Functions"].append(name)
         else:
             groups["Data"].append(name)
+    # a subpackage with a page of its own is linked, not documented a second time
+    public = set(public_packages())
+    subpackages = [n for n in groups["Modules"] if f"{package}.{n}" in public]
+    groups["Modules"] = [n for n in groups["Modules"] if n not in subpackages]
+    if subpackages:
+        lines += [_title("Subpackages", "-")]
+        lines += [f"* :doc:`{package}.{n}`" for n in subpackages] + [""]
     for group, names in groups.items():
         if not names:
             continue

@@ -88,7 +88,7 @@ def envelope(elevation, spacing: float, base: float = ENVELOPE_M) -> np.ndarray:
     return (c[k:] - c[:-k]) / k
 
 
-#: Largest |height| a profile may hold, m. Chosen: 10 km is above every road on Earth
+#: Largest absolute height a profile may hold, m. Chosen: 10 km is above every road on Earth
 #: (the highest reach about 5.8 km) and any datum a profiler writes, while a number beyond
 #: it is a unit or file error whose squares overflow in the statistics (1e300 m did).
 MAX_ELEVATION_M = 1.0e4
