@@ -1,4 +1,7 @@
-"""``bodyvib frf``: seat-to-head transmissibility of models side by side."""
+"""``bodyvib frf``: seat-to-head transmissibility of models side by side, or with ``--seat``
+the floor-to-pan and floor-to-head transmissibility of a seat with each model on it."""
+
+import os
 
 from bodyvib.frequency.compare import (
     DEFAULT_MODELS,
@@ -14,10 +17,24 @@ __all__ = ["add_command"]
 
 
 def _run(args):
-    check_files(args, ("json", "plot"), inputs=model_inputs(args.models))
-    result = compare_transmissibility(args.models, args.fmin, args.fmax, args.points)
+    inputs = model_inputs(args.models)
+    if args.seat and os.path.isfile(args.seat):
+        inputs.append(("--seat", args.seat))
+    check_files(args, ("json", "plot"), inputs=inputs)
+    if args.seat:
+        from bodyvib.vehicle.seats import load_seat, seat_transmissibility
+
+        seat = load_seat(args.seat)
+        result = seat_transmissibility(seat, args.models, args.fmin, args.fmax, args.points)
+        title = f"Seat transmissibility: {seat.name} seat, floor to pan and to head"
+        ylabel = "|X_pan / X_floor|, |X_head / X_floor| [-]"
+    else:
+        result = compare_transmissibility(args.models, args.fmin, args.fmax, args.points)
+        title, ylabel = "Seat-to-head transmissibility", None
     print(format_table(result))
-    write_result(args, result, plot_transmissibility)
+    write_result(
+        args, result, lambda r, path: plot_transmissibility(r, path, title=title, ylabel=ylabel)
+    )
     return 0
 
 
@@ -25,11 +42,19 @@ def add_command(subparsers):
     """Register ``bodyvib frf``."""
     p = subparsers.add_parser(
         "frf",
-        help="seat-to-head transmissibility of models (table, JSON, plot)",
+        help="seat-to-head transmissibility of models, or a seat's (table, JSON, plot)",
         description="Seat-to-head transmissibility (modulus and phase) of body models "
-        "over 0.5-31.5 Hz, with each model's peaks.",
+        "over 0.5-31.5 Hz, with each model's peaks; with --seat, the floor-to-pan and "
+        "floor-to-head transmissibility of that seat with each model sitting on it (the "
+        "pan curve's peak is the seat's resonance).",
     )
     add_models_option(p, DEFAULT_MODELS)
+    p.add_argument(
+        "--seat",
+        metavar="SEAT",
+        help="a seat ('cushion', 'suspension' or a seat file): its transmissibility from "
+        "the floor, with each --models body on it",
+    )
     p.add_argument("--fmin", type=float, default=0.5, help="lowest frequency, Hz (default 0.5)")
     p.add_argument("--fmax", type=float, default=31.5, help="highest frequency, Hz (default 31.5)")
     p.add_argument("--points", type=int, default=1200, help="grid points (default 1200)")
