@@ -353,3 +353,16 @@ def test_car_fmu_with_a_seat_passes_fmpy_validate(tmp_path, native):
     names = {v.name for v in md.modelVariables}
     assert {"seat_ks", "seat_cs", "floor_acceleration", "seat_suspension_travel"} <= names
     assert {"seat_displacement", "seat_force", "ms", "Iy"} <= names
+
+
+@pytest.mark.integration
+def test_build_puts_the_seat_into_every_car_fmu(tmp_path, capsys):
+    from fmpy import read_model_description
+
+    argv = ["build", "--seat", "cushion", "--fmus", "QuarterCar", "HalfCar"]
+    assert main(argv + ["--dest", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    for car in ("QuarterCar", "HalfCar"):
+        md = read_model_description(str(tmp_path / f"{car}.fmu"))
+        assert {"seat_kc", "seat_cc", "seat_mp"} <= {v.name for v in md.modelVariables}
+    assert "model quarter-car+cushion" in out and "model half-car+cushion" in out
