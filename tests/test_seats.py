@@ -18,6 +18,7 @@ from bodyvib.vehicle.seats import (
     load_seat,
     mount_seat,
     seat_transmissibility,
+    seat_value,
 )
 
 from bodyvib.cli.main import main
@@ -144,6 +145,28 @@ def test_the_seat_passes_its_transmissibility_inside_the_car():
         system, r.frequency_hz, "floor.x"
     )
     np.testing.assert_allclose(got, want, rtol=1e-9)
+
+
+def test_seat_value_equals_the_weighted_spectra_integrated():
+    """SEAT = a_w,pan / a_w,floor on a white road velocity: the ratio of the integrals of
+    |Wk H / (j w)|^2 over frequency, H the response to road displacement, by quadrature."""
+    from bodyvib.comfort.figures import wk_response
+
+    car, body = load_car("quarter-car+suspension"), load_model("reduced-paper")
+    system = seated_system(car, body)
+    f = np.geomspace(1e-2, 1e3, 2001)  # Wk cuts both ends: the tails add below 1e-10
+    wk = np.abs(wk_response(f)) ** 2 / f**2
+    power = {}
+    for signal in ("seat.a", "floor.a"):
+        g = wk * np.abs(frequency_response(system, f, signal)) ** 2
+        power[signal] = np.trapezoid(g * f, np.log(f))
+    want = 100 * np.sqrt(power["seat.a"] / power["floor.a"])
+    assert seat_value(car, body) == pytest.approx(want, rel=1e-8)
+    assert seat_value("quarter-car+cushion", body) > seat_value(car, body)
+    with pytest.raises(BodyvibError, match="no seat"):
+        seat_value("quarter-car", body)
+    with pytest.raises(BodyvibError, match="one road point"):
+        seat_value("half-car+suspension", body)
 
 
 def test_sweep_seat_axis_combines_every_car_with_every_seat():

@@ -25,6 +25,7 @@ _HOME = {
     "mount_seat": "seats",
     "car_with_seat": "seats",
     "seat_transmissibility": "seats",
+    "seat_value": "seats",
     # the FMUs of a run
     "FMUS": "fmus",
     "build_fmus": "fmus",

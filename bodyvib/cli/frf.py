@@ -9,6 +9,7 @@ from bodyvib.frequency.compare import (
     format_table,
     plot_transmissibility,
 )
+from bodyvib.runtime.errors import BodyvibError
 
 from .options import add_models_option, add_output_options, model_inputs
 from .outputs import check_files, write_result
@@ -17,21 +18,27 @@ __all__ = ["add_command"]
 
 
 def _run(args):
+    if args.car and not args.seat:
+        raise BodyvibError("--car is the car of a seat's SEAT value: give it with --seat")
     inputs = model_inputs(args.models)
-    if args.seat and os.path.isfile(args.seat):
-        inputs.append(("--seat", args.seat))
+    inputs += [(o, p) for o, p in (("--seat", args.seat), ("--car", args.car)) if p]
+    inputs = [(o, p) for o, p in inputs if os.path.isfile(p)]
     check_files(args, ("json", "plot"), inputs=inputs)
     if args.seat:
         from bodyvib.vehicle.seats import load_seat, seat_transmissibility
 
         seat = load_seat(args.seat)
-        result = seat_transmissibility(seat, args.models, args.fmin, args.fmax, args.points)
+        result = seat_transmissibility(
+            seat, args.models, args.fmin, args.fmax, args.points, car=args.car or "quarter-car"
+        )
         title = f"Seat transmissibility: {seat.name} seat, floor to pan and to head"
         ylabel = "|X_pan / X_floor|, |X_head / X_floor| [-]"
     else:
         result = compare_transmissibility(args.models, args.fmin, args.fmax, args.points)
         title, ylabel = "Seat-to-head transmissibility", None
     print(format_table(result))
+    if args.seat:
+        print(result.summary())
     write_result(
         args, result, lambda r, path: plot_transmissibility(r, path, title=title, ylabel=ylabel)
     )
@@ -54,6 +61,12 @@ def add_command(subparsers):
         metavar="SEAT",
         help="a seat ('cushion', 'suspension' or a seat file): its transmissibility from "
         "the floor, with each --models body on it",
+    )
+    p.add_argument(
+        "--car",
+        metavar="MODEL",
+        help="with --seat: the car (driven at one road point) of the SEAT value, the seat "
+        "on its seat point (default quarter-car)",
     )
     p.add_argument("--fmin", type=float, default=0.5, help="lowest frequency, Hz (default 0.5)")
     p.add_argument("--fmax", type=float, default=31.5, help="highest frequency, Hz (default 31.5)")
