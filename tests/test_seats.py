@@ -241,6 +241,12 @@ def test_car_with_seat_refuses_a_second_seat():
         (["check", "--car", "quarter-car-cushion", "--seat", "cushion"], ["already has a seat"]),
         (["cosim", "--car-fmu", "car.fmu", "--seat", "cushion"], ["--seat", "--car-fmu"]),
         (["frf", "--seat", "sofa"], ["unknown seat model 'sofa'"]),
+        (["frf", "--car", "half-car"], ["--car", "--seat"]),
+        (["frf", "--seat", "cushion", "--car", "half-car"], ["one road point"]),
+        (
+            ["sweep", "--grid", "road=C", "speed=20", "seat=sofa", "--out", "never.parquet"],
+            ["unknown seat model 'sofa'"],
+        ),
     ],
 )
 def test_command_line_refusals_are_one_line_and_status_2(capsys, argv, words):
