@@ -12,13 +12,12 @@ import json
 import numpy as np
 import pytest
 from bodyvib.vehicle.quarter_car import CAR_DIR, load_car, seated_system
+from bodyvib.vehicle.seat_response import seat_transmissibility, seat_value
 from bodyvib.vehicle.seats import (
     SEAT_DIR,
     car_with_seat,
     load_seat,
     mount_seat,
-    seat_transmissibility,
-    seat_value,
 )
 
 from bodyvib.cli.main import main

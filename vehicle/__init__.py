@@ -24,8 +24,8 @@ _HOME = {
     "load_seat": "seats",
     "mount_seat": "seats",
     "car_with_seat": "seats",
-    "seat_transmissibility": "seats",
-    "seat_value": "seats",
+    "seat_transmissibility": "seat_response",
+    "seat_value": "seat_response",
     # the FMUs of a run
     "FMUS": "fmus",
     "build_fmus": "fmus",

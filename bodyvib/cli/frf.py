@@ -25,7 +25,8 @@ def _run(args):
     inputs = [(o, p) for o, p in inputs if os.path.isfile(p)]
     check_files(args, ("json", "plot"), inputs=inputs)
     if args.seat:
-        from bodyvib.vehicle.seats import load_seat, seat_transmissibility
+        from bodyvib.vehicle.seat_response import seat_transmissibility
+        from bodyvib.vehicle.seats import load_seat
 
         seat = load_seat(args.seat)
         result = seat_transmissibility(
