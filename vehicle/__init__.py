@@ -20,6 +20,12 @@ _HOME = {
     "CAR_DIR": "quarter_car",
     "load_car": "quarter_car",
     "seated_system": "quarter_car",
+    # the seat as a part
+    "load_seat": "seats",
+    "mount_seat": "seats",
+    "car_with_seat": "seats",
+    "seat_transmissibility": "seat_response",
+    "seat_value": "seat_response",
     # the FMUs of a run
     "FMUS": "fmus",
     "build_fmus": "fmus",

@@ -341,6 +341,7 @@ def build_fmus(
     native: bool = False,
     fmi: Iterable[int] = (2, 3),
     platforms: Optional[Iterable[str]] = None,
+    seat: Optional[str] = None,
 ) -> Dict[str, Path]:
     """Build the project's FMUs.
 
@@ -371,6 +372,9 @@ def build_fmus(
         With ``native``, the binaries to compile (:data:`bodyvib.fmu.native.PLATFORMS`);
         by default every platform whose compiler is on PATH
         (:func:`bodyvib.fmu.native.choose_platforms`).
+    seat : str, optional
+        A seat (shipped name or seat file, :mod:`bodyvib.vehicle.seats`) put into every car
+        FMU built (``QuarterCar``, ``HalfCar``) on its seat point.
 
     Returns
     -------
@@ -390,6 +394,13 @@ def build_fmus(
     """
     names = list(names or FMUS)
     chosen = {"HumanBody3DOF": params, car_fmu_name(car): car}
+    if seat:
+        from .seats import car_with_seat
+
+        for n, (kind, default, _) in FMUS.items():
+            if kind == "car":
+                chosen[n] = car_with_seat(chosen.get(n) or default, seat)
+        car = chosen[car_fmu_name(car)]
     road = dict(ROAD_DEFAULTS, **(road or {}))
     half_car = car if car_fmu_name(car) == "HalfCar" else None
     sources = {}

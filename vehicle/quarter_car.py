@@ -19,6 +19,8 @@ from bodyvib.runtime.contract import seat_point
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import Network, mount
 
+from .seats import load_seat, mount_seat, split_car_name
+
 __all__ = ["CAR_DIR", "CAR_FMU_OUTPUTS", "load_car", "seated_system", "wheel_offsets"]
 
 #: Folder of the shipped vehicle parameter files.
@@ -31,13 +33,14 @@ CAR_FMU_OUTPUTS = ("sprung_acceleration", "suspension_deflection", "tire_force")
 
 
 def load_car(name_or_path: str = "quarter-car") -> Network:
-    """Load a vehicle model by shipped name or parameter-file path.
+    """Load a vehicle model by shipped name or parameter-file path, with a seat or without.
 
     Parameters
     ----------
     name_or_path : str
         ``"quarter-car"`` (default), ``"half-car"``, another shipped name or a JSON
-        parameter file.
+        parameter file; followed by ``+`` and a seat (a shipped seat name or a seat
+        file, :mod:`bodyvib.vehicle.seats`), that car with the seat on its seat point.
 
     Returns
     -------
@@ -47,8 +50,17 @@ def load_car(name_or_path: str = "quarter-car") -> Network:
     Raises
     ------
     BodyvibError
-        Unknown name, invalid file, or a model without a ``seat`` role.
+        Unknown name, invalid file, a model without a ``seat`` role, or what
+        :func:`~bodyvib.vehicle.seats.mount_seat` refuses.
+
+    Examples
+    --------
+    >>> load_car("quarter-car+cushion").roles["seat"]
+    'seat_pan'
     """
+    car_name, seat_name = split_car_name(os.fspath(name_or_path))
+    if seat_name:
+        return mount_seat(load_car(car_name), load_seat(seat_name))
     car = load_network(name_or_path, CAR_DIR, "vehicle model")
     seat_point(car)  # refuses a car without a seat for the occupant
     return car

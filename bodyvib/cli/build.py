@@ -12,7 +12,7 @@ from bodyvib.vehicle.road.driven import is_road_file
 from bodyvib.vehicle.ssp import PACKAGES, write_ssp
 from bodyvib.vehicle.sweep.spec import ROAD_OPTION_KEYS
 
-from .options import add_road_options, road_options_from_args
+from .options import add_road_options, add_seat_option, road_options_from_args
 
 __all__ = ["add_command", "main"]
 
@@ -20,7 +20,11 @@ __all__ = ["add_command", "main"]
 def _run(args) -> int:
     """Every FMU asked for (pythonfmu, or with ``--native`` C for FMI 2.0 and 3.0) and, with
     all three components, the SSP of each FMI version: checked first, committed together."""
-    inputs = [("--params", args.params)] if args.params and os.path.isfile(args.params) else []
+    inputs = [
+        (option, path)
+        for option, path in (("--params", args.params), ("--seat", args.seat))
+        if path and os.path.isfile(path)
+    ]
     if args.cross_check:
         return _cross_check(args, inputs)
     names = list(args.fmus or FMUS)
@@ -61,6 +65,7 @@ def _run(args) -> int:
             road=_road(args),
             native=args.native,
             platforms=platforms,
+            seat=args.seat,
         )
         for ssp_name in packages:
             components = PACKAGES[ssp_name][0]
@@ -86,10 +91,10 @@ def _cross_check(args, inputs) -> int:
     from bodyvib.fmu.crosscheck import write_cross_check
     from bodyvib.models import load_model
 
-    if args.fmus or args.native or args.platforms:
+    if args.fmus or args.native or args.platforms or args.seat:
         raise BodyvibError(
             "--cross-check builds the native FMI 2.0 HumanBody3DOF.fmu for linux64 (its "
-            "model from --params); drop --fmus, --native and --platforms"
+            "model from --params); drop --fmus, --native, --platforms and --seat"
         )
     check_outputs([("--cross-check", args.cross_check, None, True)], inputs)
     model = args.params or "reduced-paper"
@@ -140,6 +145,7 @@ def add_command(subparsers):
         metavar="FILE",
         help="parameter file for HumanBody3DOF.fmu (default: reduced-paper, the paper's Table 2)",
     )
+    add_seat_option(p, "QuarterCar.fmu and HalfCar.fmu")
     p.add_argument("--dest", default="dist", help="output folder (default: dist)")
     p.add_argument(
         "--fmus",

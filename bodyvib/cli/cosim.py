@@ -23,7 +23,13 @@ from bodyvib.vehicle.road.driven import RunSettings
 from bodyvib.vehicle.study import StudyCsv, check_settings, run_study
 from bodyvib.vehicle.study_plot import plot_study
 
-from .options import add_output_options, add_road_options, road_options_from_args
+from .options import (
+    add_output_options,
+    add_road_options,
+    add_seat_option,
+    car_and_seat,
+    road_options_from_args,
+)
 from .outputs import check_files, write_outputs
 
 __all__ = ["add_command"]
@@ -41,12 +47,18 @@ def _check_options(args):
             "--car chooses the model of the QuarterCar.fmu built for the run; with "
             "--car-fmu FMU it would be ignored: give one of them"
         )
+    if args.car_fmu is not None and args.seat is not None:
+        raise BodyvibError(
+            "--seat goes into the car FMU built for the run; with --car-fmu FMU it would "
+            "be ignored: build that FMU with the seat, or leave out --car-fmu"
+        )
     inputs = [
         ("--body", args.body),
         ("--car-fmu", args.car_fmu),
         ("--iso-body", getattr(args, "iso_body", None)),
         ("--params", args.params),
         ("--car", args.car),
+        ("--seat", args.seat),
         ("--road", args.road),
     ]
     check_files(
@@ -92,7 +104,7 @@ def _fmus(args, want_iso: bool):
     car_name = None
     if args.car_fmu is None:
         # refuses a bad --car now, not after building the FMUs before it
-        car_name = car_fmu_name(args.car or "quarter-car")
+        car_name = car_fmu_name(car_and_seat(args.car, args.seat))
         need.append(car_name)
     # refuse a bad --params now, not after building the FMUs before it
     if "HumanBody3DOF" in need and args.params:
@@ -106,7 +118,12 @@ def _fmus(args, want_iso: bool):
             built = {
                 n: str(p)
                 for n, p in build_fmus(
-                    tmp, args.params, args.car or "quarter-car", need, native=args.native, fmi=(2,)
+                    tmp,
+                    args.params,
+                    car_and_seat(args.car, args.seat),
+                    need,
+                    native=args.native,
+                    fmi=(2,),
                 ).items()
             }
         except BaseException:
@@ -210,6 +227,7 @@ def _common(p):
         "'quarter-car-cushion', 'half-car' (built as HalfCar.fmu) or a parameter file "
         "(default quarter-car)",
     )
+    add_seat_option(p, "the car FMU built for the run")
     p.add_argument("--car-fmu", metavar="FMU", help="a car FMU instead of building QuarterCar.fmu")
     p.add_argument(
         "--native",

@@ -13,6 +13,8 @@ __all__ = [
     "add_output_options",
     "add_models_option",
     "model_inputs",
+    "add_seat_option",
+    "car_and_seat",
     "ROAD_ARGUMENTS",
     "add_road_options",
     "road_options_from_args",
@@ -76,6 +78,55 @@ def model_inputs(models) -> list:
         :func:`bodyvib.cli.outputs.check_files` (no output may overwrite one).
     """
     return [("--models", m) for m in models if os.path.isfile(m)]
+
+
+def add_seat_option(p, what="the car") -> None:
+    """Add ``--seat SEAT``: a seat between a car's seat point and the occupant.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The command's parser.
+    what : str
+        What the seat stands in, for the help text.
+    """
+    p.add_argument(
+        "--seat",
+        metavar="SEAT",
+        help=f"a seat in {what}, between its seat point and the occupant: 'cushion', "
+        "'suspension' or a seat file (default: none, the occupant sits on the seat point)",
+    )
+
+
+def car_and_seat(car, seat, default="quarter-car"):
+    """The vehicle model of ``--car`` and ``--seat``: the car name, with ``+SEAT`` when a
+    seat is given.
+
+    Parameters
+    ----------
+    car : str or None
+        ``--car`` (None: ``default``).
+    seat : str or None
+        ``--seat``.
+    default : str
+        The car when ``--car`` is not given.
+
+    Returns
+    -------
+    str
+        A name :func:`bodyvib.vehicle.quarter_car.load_car` loads.
+
+    Examples
+    --------
+    >>> car_and_seat(None, "suspension")
+    'quarter-car+suspension'
+    >>> car_and_seat("half-car", None)
+    'half-car'
+    """
+    from bodyvib.vehicle.seats import car_with_seat
+
+    car = car or default
+    return car_with_seat(car, seat) if seat else car
 
 
 #: The ``--road-KEY`` options' argparse settings, by KEY: a key of a sweep spec's

@@ -132,7 +132,7 @@ def add_command(subparsers):
         nargs="+",
         metavar="KEY=V1,V2",
         help="a grid instead of a spec: road=C,D,profile.crg speed=10,20 seed=0,1 "
-        "body=reduced-paper,iso7962 car=quarter-car",
+        "body=reduced-paper,iso7962 car=quarter-car seat=none,suspension",
     )
     p.add_argument("--duration", type=float, default=30.0, help="with --grid: run length, s (30)")
     p.add_argument("--step", type=float, default=1e-3, help="with --grid: time step, s (0.001)")

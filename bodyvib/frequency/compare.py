@@ -224,7 +224,7 @@ def format_table(result, frequencies_hz=THIRD_OCTAVE_HZ) -> str:
     return "\n".join(lines)
 
 
-def plot_transmissibility(result, path, title="Seat-to-head transmissibility"):
+def plot_transmissibility(result, path, title="Seat-to-head transmissibility", ylabel=None):
     """Modulus and phase of every model in ``result``, peaks marked; saved to ``path``.
 
     Parameters
@@ -234,13 +234,15 @@ def plot_transmissibility(result, path, title="Seat-to-head transmissibility"):
     path : str or os.PathLike
         Plot file (.png, .pdf or .svg).
     title : str
+    ylabel : str, optional
+        Label of the modulus axis (default: the seat-to-head ``|T|``).
 
     Raises
     ------
     BodyvibError
         An unsupported plot file extension.
     """
-    from ..plotting import new_figure, save_figure, transmissibility_axes
+    from ..plotting import MODULUS_LABEL, new_figure, save_figure, transmissibility_axes
 
     fig, (ax1, ax2) = new_figure(2, 1, sharex=True, figsize=(7, 6))
     f = result.frequency_hz
@@ -249,6 +251,6 @@ def plot_transmissibility(result, path, title="Seat-to-head transmissibility"):
         for p in r.peaks:
             ax1.plot(p.frequency_hz, p.modulus, "o", color=line.get_color(), ms=4)
         ax2.plot(f, r.phase_deg, color=line.get_color(), label=name)
-    transmissibility_axes(ax1, ax2, title=title)
+    transmissibility_axes(ax1, ax2, title=title, ylabel=ylabel or MODULUS_LABEL)
     ax1.legend()
     save_figure(fig, path)

@@ -17,10 +17,14 @@ the order road, seed, speed, duration, step, body, car)::
       "body": ["reduced-paper",            shipped name, a parameter file, or a range:
                {"model": "reduced-paper", "vary": {"k1": [0.8, 1.2], "c1": [0.5, 2]},
                 "samples": 400, "seed": 0, "method": "lhs", "name": "reduced-varied"}],
-      "car": ["quarter-car", "quarter-car-cushion"]   shipped name or a parameter file
+      "car": ["quarter-car", "quarter-car-cushion"],  shipped name or a parameter file
+      "seat": ["none", "cushion", "suspension"]      a seat on every car: "none", a shipped
+                                                     seat or a seat file (bodyvib.vehicle.seats)
     }
 
-Defaults: ``seed`` 0, ``duration`` 30, ``step`` 0.001, ``car`` ``quarter-car``;
+Defaults: ``seed`` 0, ``duration`` 30, ``step`` 0.001, ``car`` ``quarter-car``, ``seat``
+``none`` (the car as its file gives it); every car is combined with every seat, and a case's
+``car`` is then ``CAR+SEAT`` (:func:`bodyvib.vehicle.seats.car_with_seat`);
 ``road`` and ``speed`` are required; ``body`` defaults to cosim's body (the paper's reduced
 model, ``reduced-paper``) and ``car`` to its car (``quarter-car``).
 
@@ -58,6 +62,7 @@ from bodyvib.runtime.modelfile import network_to_dict
 from ..fmus import FMUS
 from ..quarter_car import load_car
 from ..road.driven import RoadOptions, RunSettings, is_road_file, road_label
+from ..seats import car_with_seat
 from ..study import check_settings
 
 __all__ = [
@@ -74,6 +79,9 @@ __all__ = [
     "seed_range",
 ]
 
+#: The ``seat`` value of a car without an added seat.
+NO_SEAT = "none"
+
 #: Keys of a spec and their defaults (None: required).
 SPEC_KEYS = {
     "road": None,
@@ -83,6 +91,7 @@ SPEC_KEYS = {
     "step": 1e-3,
     "body": FMUS["HumanBody3DOF"][1],  # cosim's default body, the paper's reduced model
     "car": "quarter-car",
+    "seat": NO_SEAT,
     "road_options": {},
 }
 #: Keys of ``road_options`` -> fields of :class:`bodyvib.vehicle.road.driven.RoadOptions`.
@@ -278,7 +287,7 @@ def grid_spec(
     ----------
     items : sequence of str
         e.g. ``["road=C,D", "speed=10,20", "seed=0,1", "body=reduced-paper,iso7962"]``;
-        keys road, seed, speed, body, car (and duration, step).
+        keys road, seed, speed, body, car, seat (and duration, step).
     duration, step : float
         Used unless given as items.
     road_options : dict, optional
@@ -391,7 +400,10 @@ def spec_hash(spec: dict) -> str:
     """
     files = {}
     for entry in (
-        _list(spec.get("body", [])) + _list(spec.get("car", [])) + _list(spec.get("road", []))
+        _list(spec.get("body", []))
+        + _list(spec.get("car", []))
+        + _list(spec.get("seat", []))
+        + _list(spec.get("road", []))
     ):
         src = entry.get("model") if isinstance(entry, dict) else entry
         if isinstance(src, str) and _file_digest(src):
@@ -503,6 +515,7 @@ def _count(spec, roads, n_seeds, speeds, durations, steps) -> int:
         * len(steps)
         * bodies
         * len(_list(spec["car"]))
+        * len(_list(spec["seat"]))
     )
 
 
@@ -549,6 +562,7 @@ class _Prepared:
             ("step", steps),
             ("body", _list(spec["body"])),
             ("car", _list(spec["car"])),
+            ("seat", _list(spec["seat"])),
         ):
             if not values:
                 raise BodyvibError(f"spec: '{name}' is an empty list")
@@ -560,7 +574,11 @@ class _Prepared:
         self.road_digests = {r: _file_digest(r) for r in roads if is_road_file(r)}
         self.seeds, self.speeds, self.durations, self.steps = seeds, speeds, durations, steps
         self.bodies = _bodies(spec)
-        self.cars = [str(c) for c in _list(spec["car"])]
+        self.cars = [
+            str(c) if str(s) == NO_SEAT else car_with_seat(str(c), str(s))
+            for c in _list(spec["car"])
+            for s in _list(spec["seat"])
+        ]
         self.car_digests = {c: _digest(load_car(c)) for c in self.cars}
         base = {m: load_model(m) for m in dict.fromkeys(b[1] for b in self.bodies)}
         self.body_digests = [
