@@ -64,7 +64,8 @@ class RoadOptions(Record):
     envelope : bool
         Measured roads: the IRI standard's 250 mm moving average.
     repeat : bool
-        Measured roads: repeat the profile when the run is longer than it.
+        Measured roads: drive the profile periodically. A run longer than the profile
+        repeats it in any case (with a warning).
     contact : str
         Measured roads: the tire contact, ``auto``, ``tandem-cam`` or ``point``
         (:data:`bodyvib.vehicle.road.contact.CONTACTS`).
@@ -246,16 +247,32 @@ def file_road(spec, options: RoadOptions, speed: float, duration=None, step=None
     from .measured import load_profile
     from .profile import STEEP_SLOPE
 
-    road = load_profile(
-        str(spec).strip(),
-        track_m=options.track_m,
-        units=options.units,
-        envelope=options.envelope,
-        contact=options.contact,
-        periodic=options.repeat,
-    )
+    def load(periodic):
+        return load_profile(
+            str(spec).strip(),
+            track_m=options.track_m,
+            units=options.units,
+            envelope=options.envelope,
+            contact=options.contact,
+            periodic=periodic,
+        )
+
+    road = load(options.repeat)
+    repeat = options.repeat
+    if not repeat and duration is not None and speed * duration > road.length * (1 + 1e-12):
+        # a scan shorter than the run is driven again and again (as a test track is), and
+        # said so; the contact then envelops the profile across its join too
+        warnings.warn(
+            f"road '{road.name}' is {road.length:.6g} m long and the {duration:g} s run at "
+            f"{speed:g} m/s drives {speed * duration:.6g} m: it is driven repeated (faded in "
+            f"once; --duration {road.length / speed:.4g} drives it once)",
+            RoadWarning,
+            stacklevel=2,
+        )
+        repeat = True
+        road = load(True)
     road.check_run(
-        speed, road.length / speed if duration is None else duration, step, repeat=options.repeat
+        speed, road.length / speed if duration is None else duration, step, repeat=repeat
     )
     if road.contact is None:
         steep, where = road.steepest()
@@ -268,7 +285,7 @@ def file_road(spec, options: RoadOptions, speed: float, duration=None, step=None
                 stacklevel=2,
             )
     taper = options.taper_m
-    if options.repeat:
+    if repeat:
         return TaperedRoad(road, math.inf, taper)
     if isinstance(taper, (int, float)) and 4 * taper > road.length:
         short = road.length / 4
