@@ -125,3 +125,51 @@ def test_real_roads_run_through_cosim_check_and_sweep(tmp_path, capsys):
     csv = tmp_path / "sweep.csv"
     assert main(["sweep", "--grid", f"road={scan},{PROFILE}", "--csv", str(csv)]) == 0
     assert len(open(csv).read().strip().splitlines()) == 3
+
+
+# -- Road.fmu of a road file driven repeated ---------------------------------------------
+
+
+def test_road_table_of_a_repeated_file_fades_in_once():
+    """The table Road.fmu carries for ``--road-repeat``: the fade-in, then one period that
+    repeats; over five periods it is the road a run drives, not the fade again at every
+    period: beyond the fade to rounding (rows on the scan's samples reproduce its cubics),
+    within it to the Hermite table's error on the faded cubics (measured 2.0e-7 m)."""
+    from bodyvib.vehicle.fmus import fmu_road, fmu_road_length
+    from bodyvib.vehicle.road.driven import RoadOptions, RunSettings, driven_road
+    from bodyvib.vehicle.road.synthetic import road_table
+
+    road = fmu_road(SCAN, repeat=True)
+    length = fmu_road_length(road, 601.0)
+    assert length == pytest.approx(20.0)  # the 5 m fade within the first 10 m period, then one
+    table = road_table(road, length)
+    assert table.periodic and table.position[table.loop] == pytest.approx(10.0)
+    run = driven_road(RunSettings(SCAN, 20.0, 2.5, 1e-3, road_options=RoadOptions(repeat=True)))
+    x = np.linspace(0.0, 50.0, 20001)
+    z, _ = table.evaluate(x)
+    err = np.abs(z[:, 0] - run.displacement(x))
+    assert err[x <= 5.0].max() < 1e-6 and err[x > 5.0].max() < 1e-12
+    later = x > 10.0  # every later pass is the profile itself, at full height
+    assert np.abs(z[later, 0]).max() > 0.04
+    np.testing.assert_array_equal(z[(x > 10.0) & (x < 12.0), 0] != 0.0, True)
+
+
+@pytest.mark.integration
+@pytest.mark.parametrize("native", [False, True], ids=["pythonfmu", "native"])
+def test_road_fmu_of_a_repeated_scan_fades_in_once(native, tmp_path):
+    """Road.fmu built with ``--road-repeat`` from the 10 m scan, run in fmpy for 2.5 s at
+    20 m/s (five passes): its height is the road the library drives on every pass, to the
+    table's interpolation in the fade (1e-6 m) and to rounding after it."""
+    from bodyvib.vehicle.fmus import build_project_fmu
+    from bodyvib.vehicle.road.driven import RoadOptions, RunSettings, driven_road
+    from fmpy import simulate_fmu
+
+    fmu = build_project_fmu(
+        "Road", tmp_path, SCAN, road={"repeat": True}, native=native, platforms=("linux64",)
+    )
+    res = simulate_fmu(str(fmu), stop_time=2.5, output_interval=1e-3)
+    run = driven_road(RunSettings(SCAN, 20.0, 2.5, 1e-3, road_options=RoadOptions(repeat=True)))
+    x = 20.0 * res["time"]
+    err = np.abs(res["road_displacement"] - run.displacement(x))
+    assert err[x <= 5.0].max() < 1e-6 and err[x > 5.0].max() < 1e-12
+    assert np.abs(res["road_displacement"][res["time"] > 1.0]).max() > 0.04
