@@ -700,3 +700,16 @@ def test_guide_worked_example(folder):
     for k, v in printed.items():
         assert body[k] == pytest.approx(v, abs=5e-5), (k, body[k], v)
     assert body["coupling_nrmse"] < 5e-4
+
+
+def test_build_help_names_every_road_file_format(capsys):
+    """``bodyvib build --road`` lists the extensions the reader takes, all of them."""
+    from bodyvib.vehicle.road.measured import PROFILE_EXTENSIONS
+
+    from bodyvib.cli.main import main
+
+    with pytest.raises(SystemExit):
+        main(["build", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "a road file (" + ", ".join(PROFILE_EXTENSIONS) + ")" in text
+    assert ".txt" in PROFILE_EXTENSIONS
