@@ -7,6 +7,7 @@ integrated as an ODE.
 """
 
 import os
+import re
 import shutil
 
 import numpy as np
@@ -90,6 +91,19 @@ def test_road_command_on_real_roads(capsys):
     assert "no moving average at a 0.25 m spacing" in out
 
 
+def test_road_guide_prints_what_the_command_prints(capsys):
+    """docs/guide/roads.md, Two real roads: the ``bodyvib road`` output it shows, line for line."""
+    from bodyvib.cli.main import main
+
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    with open(os.path.join(root, "docs", "guide", "roads.md"), encoding="utf-8") as f:
+        guide = f.read().split("## Two real roads", 1)[1].split("\n## ", 1)[0]
+    for path in (SCAN, PROFILE):
+        assert main(["road", path]) == 0
+        lines = capsys.readouterr().out.strip().splitlines()
+        assert len(lines) == 6 and all(line in guide.splitlines() for line in lines), lines
+
+
 def test_the_real_scan_cut_short_is_refused_with_the_offset(tmp_path, capsys):
     """The scan with five bytes of its binary payload missing (as the file is in the OpenCRG
     repository's current tree) is refused in one line that names the offset."""
@@ -118,6 +132,8 @@ def test_real_roads_run_through_cosim_check_and_sweep(tmp_path, capsys):
     out, err = capsys.readouterr()
     assert "tandem-cam contact (r0 0.313 m, footprint 0.111 m), repeated every 10 m" in out
     assert "is driven repeated" in err
+    # the figure docs/guide/roads.md quotes (Two real roads, 20 m/s, tandem cam)
+    assert re.search(r"Wk-weighted r\.m\.s\. \[m/s2\] +9\.9109\n", out), out
     assert main(["check", "--road", PROFILE]) in (0, 1)  # the verdict is the model's
     out, err = capsys.readouterr()
     assert "road profile_1.txt, faded in over 5 m, point contact, repeated every 544 m" in out
