@@ -1,9 +1,9 @@
-"""Real measured roads that no one here made (tests/data/real/README.md names their sources):
-a photogrammetric scan of a Belgian-block track as an OpenCRG file (1 cm grid, 10 m by
-3.4 m) and a 544 m longitudinal profile every 0.25 m in a bare two-column text file with
-absolute elevations. Both go through ``bodyvib road``, ``cosim``, ``check`` and ``sweep``
-with no option beyond the road, and their IRI is computed again here by a Golden Car
-integrated as an ODE.
+"""Real measured roads that no one here made, with their sources and licences beside them
+in tests/data/real/: a photogrammetric scan of a Belgian-block track as an OpenCRG file
+(1 cm grid, 10 m by 3.4 m) and a 544 m longitudinal profile every 0.25 m in a bare
+two-column text file with absolute elevations. Both go through ``bodyvib road``, ``cosim``,
+``check`` and ``sweep`` with no option beyond the road, and their IRI is computed again here
+by a Golden Car integrated as an ODE.
 """
 
 import os
