@@ -12,9 +12,10 @@ cannot do.
 
 A road file is driven through a tire contact (``--road-contact``, by default the
 tandem-cam effective road when the profile is sampled finer than the tire's footprint,
-:mod:`~bodyvib.vehicle.road.contact`). A repeated file (``--road-repeat``) fades in once
-and then repeats without a step in height or slope; a file shorter than four fades is
-faded over a quarter of its length at each end, with a warning saying so.
+:mod:`~bodyvib.vehicle.road.contact`). A repeated file (``--road-repeat``, or any file
+shorter than the run, with a warning) fades in once and then repeats without a step in
+height or slope; a file shorter than four fades is faded over a quarter of its length at
+each end, with a warning saying so.
 """
 
 import math
@@ -241,8 +242,9 @@ def file_road(spec, options: RoadOptions, speed: float, duration=None, step=None
     Warns
     -----
     bodyvib.vehicle.road.base.RoadWarning
-        A slope steeper than 45 degrees under a point contact (named with where it is),
-        a band the profile does not carry, a shortened fade.
+        A run longer than the profile (driven repeated), a slope steeper than 45 degrees
+        under a point contact (named with where it is), a band the profile does not
+        carry, a shortened fade.
     """
     from .measured import load_profile
     from .profile import STEEP_SLOPE
