@@ -8,6 +8,7 @@ import tempfile
 
 import numpy as np
 import pytest
+from bodyvib.vehicle.road.base import RoadWarning
 from bodyvib.vehicle.road.driven import RoadOptions, RunSettings, driven_road
 from bodyvib.vehicle.road.measured import load_profile
 from bodyvib.vehicle.road.profile import ProfileRoad, envelope
@@ -186,16 +187,18 @@ def test_tire_envelope_is_the_250mm_moving_average():
 def test_measured_road_starts_level_and_repeats_on_request(files):
     road = driven_road(RunSettings(files["csv"], 20.0, 10.0, 1e-3))
     assert float(road.displacement(0.0)) == 0.0 and float(road.slope(0.0)) == 0.0
-    with pytest.raises(
-        BodyvibError,
-        match=r"250 m long; a 30 s run at 20 m/s needs 600 m: "
-        r"shorten the run to 12\.5 s .*--road-repeat",
+    with pytest.warns(
+        RoadWarning,
+        match=r"250 m long and the 30 s run at 20 m/s drives 600 m: it is driven repeated "
+        r"\(faded in once; --duration 12\.5 drives it once\)",
     ):
-        driven_road(RunSettings(files["csv"], 20.0, 30.0, 1e-3))
+        auto = driven_road(RunSettings(files["csv"], 20.0, 30.0, 1e-3))
     rep = driven_road(
         RunSettings(files["csv"], 20.0, 30.0, 1e-3, road_options=RoadOptions(repeat=True))
     )
     xs = np.linspace(0, LENGTH, 5001)
+    for x in (xs, xs + LENGTH, xs + 2 * LENGTH):  # repeated unasked as when asked
+        np.testing.assert_array_equal(auto.displacement(x), rep.displacement(x))
     # faded in once: every later pass is the profile itself
     profile = rep.road
     np.testing.assert_allclose(rep.displacement(xs + LENGTH), profile.displacement(xs), atol=1e-15)
@@ -260,7 +263,6 @@ ROWS = "".join(f"{i * 0.05:.2f},{np.sin(i / 7.0):.4f}\n" for i in range(200))
             None,
             r"names no units; name them \(distance_m,elevation_mm\) or give --road-units",
         ),
-        ("noheader.csv", ROWS, None, r"has no header"),
         (
             "badunit.csv",
             "distance_m,elevation_furlong\n" + ROWS,
@@ -268,6 +270,8 @@ ROWS = "".join(f"{i * 0.05:.2f},{np.sin(i / 7.0):.4f}\n" for i in range(200))
             r"unknown elevation unit 'furlong'",
         ),
         ("wrongunit.csv", "distance_m,elevation_m\n" + ROWS, None, r"units look wrong"),
+        # a headerless file is read in metres: mm columns are caught by the unit check
+        ("noheader.csv", ROWS, None, r"units look wrong \(mm read as m\?\)"),
         ("clash.csv", "distance_m,elevation_mm\n" + ROWS, "m,m", r"disagrees with the header"),
         (
             "truncated.csv",
@@ -696,3 +700,16 @@ def test_guide_worked_example(folder):
     for k, v in printed.items():
         assert body[k] == pytest.approx(v, abs=5e-5), (k, body[k], v)
     assert body["coupling_nrmse"] < 5e-4
+
+
+def test_build_help_names_every_road_file_format(capsys):
+    """``bodyvib build --road`` lists the extensions the reader takes, all of them."""
+    from bodyvib.vehicle.road.measured import PROFILE_EXTENSIONS
+
+    from bodyvib.cli.main import main
+
+    with pytest.raises(SystemExit):
+        main(["build", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "a road file (" + ", ".join(PROFILE_EXTENSIONS) + ")" in text
+    assert ".txt" in PROFILE_EXTENSIONS

@@ -188,3 +188,30 @@ def test_both_cores_refuse_a_step_in_the_same_words(make):
     assert core.time == 0.0
     core.do_step(0.0, 1e-3)
     assert core.time == pytest.approx(1e-3, abs=1e-15)
+
+
+def test_a_lead_in_is_driven_once_then_the_loop_repeats(tmp_path):
+    """Rows 0-1 a lead-in, rows 1-3 the repeating part: past the end the position wraps by the
+    loop's length (2), not the table's (3); before the start the first row is held; the loop
+    row survives a write and a read of the source files."""
+    x = np.arange(4.0)
+    t = HermiteTable(x, [0.0, 1.0, 2.0, 1.0], [0.0, 1.0, 0.0, 1.0], periodic=True, loop=1)
+    p = np.array([0.5, 1.5, 2.5, 3.5, 5.5, 7.5, 2.25 + 20.0])
+    z, dz = t.evaluate(p)
+    z0, dz0 = t.evaluate(np.array([0.5, 1.5, 2.5, 1.5, 1.5, 1.5, 2.25]))
+    np.testing.assert_array_equal(z, z0)
+    np.testing.assert_array_equal(dz, dz0)
+    z, dz = t.evaluate(-1.0)
+    assert z.tolist() == [0.0] and dz.tolist() == [0.0]
+    meta = {"coordinate": {"name": "distance"}, "signals": [{"name": "z"}]}
+    paths = write_source(tmp_path, meta, t)
+    meta2, t2 = read_source(paths[0])
+    assert meta2["loop_row"] == 1 and t2.loop == 1 and t2.periodic
+    with pytest.raises(
+        BodyvibError, match=r"end where its repeating part starts \(last row = row 2"
+    ):
+        HermiteTable(x, [0.0, 1.0, 2.0, 1.0], [0.0, 1.0, 0.0, 1.0], periodic=True, loop=2)
+    with pytest.raises(BodyvibError, match="does not repeat has no loop row"):
+        HermiteTable(x, x, x, loop=1)
+    with pytest.raises(BodyvibError, match=r"loop row 3 is off the table \(0 to 2\)"):
+        HermiteTable(x, x, x, periodic=True, loop=3)

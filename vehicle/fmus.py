@@ -6,6 +6,7 @@
 not given into a temporary folder (:func:`temporary_fmu_dir`).
 """
 
+import math
 import tempfile
 from pathlib import Path
 from typing import Dict, Iterable, Optional
@@ -23,6 +24,7 @@ from .road.synthetic import (
     ISO8608_CLASSES,
     TaperedRoad,
     axle_road_source,
+    lead_in_period,
     make_road,
     random_road,
     road_source,
@@ -153,12 +155,12 @@ def fmu_road(
     if is_road_file(s):
         from .road.measured import load_profile
 
-        if repeat:  # one period, faded at both ends: the table repeats it whole
+        if repeat:  # faded in once, then the profile again and again, as a run drives it
             road = load_profile(
                 s, track_m=track, units=units, envelope=envelope, contact=contact, periodic=True
             )
             road.check_run(speed, road.length / speed, None, repeat=True)  # its spacing
-            return TaperedRoad(road, road.length, taper, periodic=True)
+            return TaperedRoad(road, math.inf, taper)
         options = RoadOptions(taper, track, units, envelope, False, contact)
         return file_road(s, options, speed)
     if track or units or envelope or repeat or contact != "auto":
@@ -174,8 +176,15 @@ def fmu_road(
 
 
 def fmu_road_length(road, length: float) -> float:
-    """Extent of ``Road.fmu``'s table: a road file's own length, else ``length`` (m)."""
+    """Extent of ``Road.fmu``'s table: a road file's own length, else ``length`` (m).
+
+    A file driven repeated is tabulated over its fade-in and one period beyond it: the
+    whole periods that hold the fade, then the one that repeats.
+    """
     inner = getattr(road, "road", road)
+    period = lead_in_period(road)
+    if period:
+        return period * (math.ceil(road.taper / period - 1e-9) + 1)
     return float(inner.length) if hasattr(inner, "spacing") else float(length)
 
 

@@ -9,6 +9,7 @@ from bodyvib.process.outputs import check_outputs, staged_writes
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.vehicle.fmus import FMUS, ROAD_DEFAULTS, build_fmus
 from bodyvib.vehicle.road.driven import is_road_file
+from bodyvib.vehicle.road.measured import PROFILE_EXTENSIONS
 from bodyvib.vehicle.ssp import PACKAGES, write_ssp
 from bodyvib.vehicle.sweep.spec import ROAD_OPTION_KEYS
 
@@ -172,7 +173,9 @@ def add_command(subparsers):
         "--road",
         default=ROAD_DEFAULTS["road"],
         help="Road.fmu: ISO 8608 class A-H, bump, sweep, a bump shape (hump:h=0.075,l=3.7; "
-        "table, sine, halfsine, pothole) or a road file (.crg, .csv, .erd) (default: C)",
+        "table, sine, halfsine, pothole) or a road file ("
+        + ", ".join(PROFILE_EXTENSIONS)
+        + ") (default: C)",
     )
     p.add_argument(
         "--road-seed",

@@ -149,8 +149,8 @@ ROAD_ARGUMENTS = {
     ),
     "units": dict(
         metavar="DIST,ELEV",
-        help="CSV/ERD road: units of distance and elevation when the file does not "
-        "name them, e.g. m,mm",
+        help="CSV/text/ERD road: units of distance and elevation when the file does not "
+        "name them, e.g. m,mm (default for bare columns: m,m)",
     ),
     "envelope": dict(
         action="store_true",
@@ -159,8 +159,8 @@ ROAD_ARGUMENTS = {
     ),
     "repeat": dict(
         action="store_true",
-        help="road file: repeat the profile when the run is longer than it (it fades in "
-        "once; default: refuse such a run)",
+        help="road file: drive the profile again and again (it fades in once); a run "
+        "longer than the profile repeats it anyway, with a warning",
     ),
     "contact": dict(
         choices=CONTACTS,

@@ -136,6 +136,7 @@ def source_model_source(nm: NativeModel, table: HermiteTable, token: str) -> str
         "const bv_source bv_source_data = {",
         f"    .signals = {S}, .rows = {k}, .p0 = {table._p0!r}, .dp = {table._dp!r},",
         f"    .periodic = {int(table.periodic)}, .value = value, .slope = slope,",
+        f"    .loop = {int(getattr(table, 'loop', 0))},",
         "};",
         "",
     ]

@@ -10,7 +10,9 @@ is the exact derivative of the value output everywhere, not a second,
 independently interpolated signal; at the rows both equal the tabulated ones.
 
 Outside the table the profile repeats (``periodic``, e.g. a sum of harmonics
-whose period is the table's length) or holds its end value with zero slope.
+whose period is the table's length) or holds its end value with zero slope. A
+periodic table may open with a lead-in driven once (``loop_row``: the row where
+the repeating part starts), as a measured road faded in once and then repeated.
 
 The source file (:data:`SOURCE_FILE` in the FMU's resources) is JSON::
 
@@ -20,6 +22,8 @@ The source file (:data:`SOURCE_FILE` in the FMU's resources) is JSON::
      "signals": [{"name": "road_displacement", "unit": "m", "description": ...,
                   "rate": {"name": "road_velocity", "unit": "m/s", "description": ...}}],
      "periodic": true, "table": "bodyvib_table.csv", "provenance": {...}}
+
+(plus ``"loop_row": n`` when the repeating part starts at row ``n``, not 0)
 
 and the table a CSV file beside it: a header line, then rows ``p, z_1, dz_1/dp,
 z_2, ...`` on a uniform, increasing grid of ``p``.
@@ -60,15 +64,20 @@ class HermiteTable:
     slope : (k, m) array_like
         Their derivatives with respect to the coordinate.
     periodic : bool
-        The profiles repeat with period ``position[-1] - position[0]`` (the last
-        row must then equal the first); otherwise they hold their end values.
+        The profiles repeat with period ``position[-1] - position[loop]`` (the last
+        row must then equal row ``loop``); otherwise they hold their end values.
+    loop : int
+        Periodic tables: the row where the repeating part starts. The rows before it
+        are a lead-in, driven once (before it the first row is held); 0: the whole
+        table repeats, in both directions.
 
     Raises
     ------
     BodyvibError
         Shapes that do not match, fewer than two rows, a grid that is not
-        uniform and increasing, non-finite values, or a periodic table whose
-        last row differs from its first.
+        uniform and increasing, non-finite values, a loop row off the table or on a
+        table that does not repeat, or a periodic table whose last row differs from
+        its row ``loop``.
 
     Examples
     --------
@@ -76,10 +85,21 @@ class HermiteTable:
     >>> z, dz = t.evaluate(1.5)
     >>> float(z[0]), float(dz[0])
     (2.25, 3.0)
+
+    A lead-in (row 0 to 1) and then rows 1 to 3 again and again:
+
+    >>> t = HermiteTable([0, 1, 2, 3], [0, 1, 2, 1], [0, 1, 0, 1], periodic=True, loop=1)
+    >>> [float(t.evaluate(p)[0][0]) for p in (0.0, 1.0, 3.0, 5.0, 7.0)]
+    [0.0, 1.0, 1.0, 1.0, 1.0]
     """
 
     def __init__(
-        self, position: "ArrayLike", value: "ArrayLike", slope: "ArrayLike", periodic: bool = False
+        self,
+        position: "ArrayLike",
+        value: "ArrayLike",
+        slope: "ArrayLike",
+        periodic: bool = False,
+        loop: int = 0,
     ) -> None:
         p = np.asarray(position, dtype=float)
         z = np.asarray(value, dtype=float)
@@ -97,14 +117,24 @@ class HermiteTable:
         dp = (p[-1] - p[0]) / (p.size - 1)
         if not (dp > 0 and np.max(np.abs(d - dp)) <= 1e-9 * dp):
             raise BodyvibError("source table positions must be uniformly spaced and increasing")
+        if not (isinstance(loop, (int, np.integer)) and 0 <= loop < p.size - 1):
+            raise BodyvibError(
+                f"source table loop row {loop!r} is off the table (0 to {p.size - 2})"
+            )
+        if loop and not periodic:
+            raise BodyvibError("a source table that does not repeat has no loop row")
         if periodic and not (
-            np.allclose(z[-1], z[0], rtol=0, atol=1e-12 * (1 + np.abs(z).max()))
-            and np.allclose(m[-1], m[0], rtol=0, atol=1e-12 * (1 + np.abs(m).max()))
+            np.allclose(z[-1], z[loop], rtol=0, atol=1e-12 * (1 + np.abs(z).max()))
+            and np.allclose(m[-1], m[loop], rtol=0, atol=1e-12 * (1 + np.abs(m).max()))
         ):
             raise BodyvibError(
                 "a periodic source table must end where it starts (last row = first)"
+                if not loop
+                else "a periodic source table must end where its repeating part starts "
+                f"(last row = row {loop})"
             )
         self.position, self.value, self.slope, self.periodic = p, z, m, bool(periodic)
+        self.loop = int(loop)
         self._p0, self._dp, self._k = float(p[0]), float(dp), p.size - 1
 
     @property
@@ -126,8 +156,10 @@ class HermiteTable:
         """
         p = np.asarray(p, dtype=float)
         u = (p - self._p0) / self._dp
-        if self.periodic:
+        if self.periodic and not self.loop:
             u = np.mod(u, self._k)
+        elif self.periodic:  # past the end: back into the repeating part
+            u = np.where(u > self._k, self.loop + np.mod(u - self.loop, self._k - self.loop), u)
         inside = (u >= 0) & (u <= self._k)
         uc = np.clip(u, 0, self._k)
         i = np.minimum(np.floor(uc).astype(int), self._k - 1)
@@ -144,7 +176,7 @@ class HermiteTable:
         dz = (
             (6 * s2 - 6 * s) * (z0 - z1) + (3 * s2 - 4 * s + 1) * m0 + (3 * s2 - 2 * s) * m1
         ) / self._dp
-        if not self.periodic:  # beyond the ends: the end value, held
+        if not self.periodic or self.loop:  # beyond the ends: the end value, held
             dz = np.where(inside[..., None], dz, 0.0)
         return z, dz
 
@@ -166,6 +198,8 @@ def write_source(folder: Union[str, os.PathLike], meta: dict, table: HermiteTabl
         The two file paths written (description, table).
     """
     meta = dict(meta, periodic=table.periodic, table=SOURCE_FILE.replace(".json", ".csv"))
+    if table.loop:
+        meta["loop_row"] = table.loop
     head = [meta["coordinate"]["name"]]
     for sig in meta["signals"]:
         head += [sig["name"], f"d{sig['name']}/d{meta['coordinate']['name']}"]
@@ -210,7 +244,13 @@ def read_source(path: str) -> Tuple[dict, HermiteTable]:
         )
     except (OSError, ValueError, KeyError, TypeError) as exc:
         raise BodyvibError(f"source file {path}: {exc}") from None
-    return meta, HermiteTable(data[:, 0], data[:, 1::2], data[:, 2::2], bool(meta.get("periodic")))
+    try:
+        loop = int(meta.get("loop_row", 0))
+    except (TypeError, ValueError):
+        raise BodyvibError(f"source file {path}: loop_row must be a row number") from None
+    return meta, HermiteTable(
+        data[:, 0], data[:, 1::2], data[:, 2::2], bool(meta.get("periodic")), loop
+    )
 
 
 class SourceCore(Lifecycle):

@@ -47,8 +47,10 @@ static int locate(const bv_source *t, double p, int *seg, double *local)
     int k = t->rows - 1, i;
     double u = (p - t->p0) / t->dp, uc;
     int inside;
-    if (t->periodic)
+    if (t->periodic && t->loop == 0)
         u = py_mod(u, (double)k);
+    else if (t->periodic && u > (double)k) /* past the end: back into the repeating part */
+        u = t->loop + py_mod(u - t->loop, (double)(k - t->loop));
     inside = u >= 0.0 && u <= (double)k;
     uc = u < 0.0 ? 0.0 : (u > (double)k ? (double)k : u);
     if (isnan(u))
@@ -58,7 +60,7 @@ static int locate(const bv_source *t, double p, int *seg, double *local)
         i = k - 1;
     *seg = i;
     *local = uc - i;
-    return t->periodic || inside;
+    return (t->periodic && t->loop == 0) || inside;
 }
 
 void bv_source_evaluate(const bv_source *t, double p, double *z, double *dz)

@@ -27,6 +27,8 @@ typedef struct {
     int periodic;         /* 1: period (rows - 1) dp; 0: hold the end values */
     const double *value;  /* [rows * signals] row-major */
     const double *slope;  /* [rows * signals] row-major, d value / d position */
+    int loop;             /* periodic: the repeating part's first row (the rows before it
+                             are a lead-in, driven once); 0: the whole table repeats */
 } bv_source;
 
 /* The generated table (bodyvib_model.c of a source FMU). */

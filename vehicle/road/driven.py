@@ -12,9 +12,10 @@ cannot do.
 
 A road file is driven through a tire contact (``--road-contact``, by default the
 tandem-cam effective road when the profile is sampled finer than the tire's footprint,
-:mod:`~bodyvib.vehicle.road.contact`). A repeated file (``--road-repeat``) fades in once
-and then repeats without a step in height or slope; a file shorter than four fades is
-faded over a quarter of its length at each end, with a warning saying so.
+:mod:`~bodyvib.vehicle.road.contact`). A repeated file (``--road-repeat``, or any file
+shorter than the run, with a warning) fades in once and then repeats without a step in
+height or slope; a file shorter than four fades is faded over a quarter of its length at
+each end, with a warning saying so.
 """
 
 import math
@@ -64,7 +65,8 @@ class RoadOptions(Record):
     envelope : bool
         Measured roads: the IRI standard's 250 mm moving average.
     repeat : bool
-        Measured roads: repeat the profile when the run is longer than it.
+        Measured roads: drive the profile periodically. A run longer than the profile
+        repeats it in any case (with a warning).
     contact : str
         Measured roads: the tire contact, ``auto``, ``tandem-cam`` or ``point``
         (:data:`bodyvib.vehicle.road.contact.CONTACTS`).
@@ -240,22 +242,39 @@ def file_road(spec, options: RoadOptions, speed: float, duration=None, step=None
     Warns
     -----
     bodyvib.vehicle.road.base.RoadWarning
-        A slope steeper than 45 degrees under a point contact (named with where it is),
-        a band the profile does not carry, a shortened fade.
+        A run longer than the profile (driven repeated), a slope steeper than 45 degrees
+        under a point contact (named with where it is), a band the profile does not
+        carry, a shortened fade.
     """
     from .measured import load_profile
     from .profile import STEEP_SLOPE
 
-    road = load_profile(
-        str(spec).strip(),
-        track_m=options.track_m,
-        units=options.units,
-        envelope=options.envelope,
-        contact=options.contact,
-        periodic=options.repeat,
-    )
+    def load(periodic):
+        return load_profile(
+            str(spec).strip(),
+            track_m=options.track_m,
+            units=options.units,
+            envelope=options.envelope,
+            contact=options.contact,
+            periodic=periodic,
+        )
+
+    road = load(options.repeat)
+    repeat = options.repeat
+    if not repeat and duration is not None and speed * duration > road.length * (1 + 1e-12):
+        # a scan shorter than the run is driven again and again (as a test track is), and
+        # said so; the contact then envelops the profile across its join too
+        warnings.warn(
+            f"road '{road.name}' is {road.length:.6g} m long and the {duration:g} s run at "
+            f"{speed:g} m/s drives {speed * duration:.6g} m: it is driven repeated (faded in "
+            f"once; --duration {road.length / speed:.4g} drives it once)",
+            RoadWarning,
+            stacklevel=2,
+        )
+        repeat = True
+        road = load(True)
     road.check_run(
-        speed, road.length / speed if duration is None else duration, step, repeat=options.repeat
+        speed, road.length / speed if duration is None else duration, step, repeat=repeat
     )
     if road.contact is None:
         steep, where = road.steepest()
@@ -268,7 +287,7 @@ def file_road(spec, options: RoadOptions, speed: float, duration=None, step=None
                 stacklevel=2,
             )
     taper = options.taper_m
-    if options.repeat:
+    if repeat:
         return TaperedRoad(road, math.inf, taper)
     if isinstance(taper, (int, float)) and 4 * taper > road.length:
         short = road.length / 4

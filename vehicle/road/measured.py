@@ -13,7 +13,8 @@
   two columns, distance and elevation, separated by commas, semicolons (then a decimal
   comma is read as a point) or white space, with their units in the header
   (``distance_m,elevation_mm``; also ``distance [m]`` or ``Distance (M)``, any case) or
-  given as ``units="m,mm"`` (a file without a header then starts with its numbers).
+  given as ``units="m,mm"``. A file without a header starts with its numbers and is
+  read in metres (distance and elevation) unless ``units`` says otherwise.
   Lines starting with ``#`` or ``%`` are comments; a UTF-8 byte-order mark and CRLF
   line ends are read as a text editor reads them.
 * **ERD** (UMTRI's text format for profiles, as RoadRuf and ProVAL write it): a
@@ -408,11 +409,9 @@ def _read_columns(path, units, channel, option):
     head = split(rows[0][1])
     given = _given_units(units, base, option)
     if _is_number(head[0]):
-        if given is None:
-            raise BodyvibError(
-                f"road '{base}' has no header; start it with the columns and their "
-                f"units, e.g. distance_m,elevation_mm (or give {option} m,mm)"
-            )
+        # bare columns, as profilers and IRI tools export them: SI metres unless told
+        # otherwise; the unit check below still catches millimetres read as metres
+        given, units = (1.0, 1.0) if given is None else given, units or "m,m"
         head, data = None, rows
     else:
         data = rows[1:]

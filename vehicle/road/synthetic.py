@@ -54,6 +54,7 @@ __all__ = [
     "road_source",
     "axle_road_source",
     "road_table",
+    "lead_in_period",
     "make_road",
     "road_input",
     "table_spacing",
@@ -683,6 +684,12 @@ def road_table(road: Road, length: float, spacing: float = None):
     _check_positive(spacing, "road table spacing", "m")
     rows = max(2, int(math.ceil(length / spacing - 1e-9))) + 1
     x = np.linspace(0.0, float(length), rows)
+    period = lead_in_period(road)
+    if period:  # faded in once, then the profile's own period again and again
+        loop = int(round((length - period) / (x[1] - x[0])))
+        z, s = road.displacement(x), road.slope(x)
+        z[-1], s[-1] = z[loop], s[loop]
+        return HermiteTable(x, z, s, periodic=True, loop=loop)
     periodic = (isinstance(road, RandomRoad) or bool(getattr(road, "periodic", False))) and abs(
         road.length - length
     ) <= 1e-12 * length
@@ -690,6 +697,39 @@ def road_table(road: Road, length: float, spacing: float = None):
     if periodic:  # the sum is periodic: make the end row the start row, bit for bit
         z[-1], s[-1] = z[0], s[0]
     return HermiteTable(x, z, s, periodic=periodic)
+
+
+def lead_in_period(road: Road) -> float:
+    """The period of a road faded in once and then repeated, else 0.
+
+    A :class:`TaperedRoad` of infinite length over a periodic profile (a road file driven
+    repeated) fades in over its first ``taper`` metres and is the profile itself from
+    there on; its table (:func:`road_table`) is that lead-in and then one period that
+    repeats.
+
+    Parameters
+    ----------
+    road : Road
+
+    Returns
+    -------
+    float
+        The profile's period, m; 0 for any other road.
+
+    Examples
+    --------
+    >>> lead_in_period(TaperedRoad(BumpRoad(), 50.0, 5.0))
+    0.0
+    """
+    inner = getattr(road, "road", None)
+    if (
+        isinstance(road, TaperedRoad)
+        and not math.isfinite(road.length)
+        and getattr(inner, "periodic", False)
+        and math.isfinite(getattr(inner, "length", math.inf))
+    ):
+        return float(inner.length)
+    return 0.0
 
 
 def road_source(road: Road, length: float, speed: float = 20.0, spacing: float = None):
@@ -713,7 +753,13 @@ def road_source(road: Road, length: float, speed: float = 20.0, spacing: float =
     """
     _check_positive(speed, "speed", "m/s")
     table = road_table(road, length, spacing)
-    beyond = "repeats (the harmonic sum's period)" if table.periodic else "holds its end value"
+    beyond = (
+        f"repeats its last {table.length - table.position[table.loop]:g} m (faded in once)"
+        if table.loop
+        else "repeats (the harmonic sum's period)"
+        if table.periodic
+        else "holds its end value"
+    )
     meta = {
         "name": road.name,
         "description": (

@@ -25,8 +25,8 @@ the order road, seed, speed, duration, step, body, car)::
 Defaults: ``seed`` 0, ``duration`` 30, ``step`` 0.001, ``car`` ``quarter-car``, ``seat``
 ``none`` (the car as its file gives it); every car is combined with every seat, and a case's
 ``car`` is then ``CAR+SEAT`` (:func:`bodyvib.vehicle.seats.car_with_seat`);
-``road`` and ``speed`` are required; ``body`` defaults to cosim's body (the paper's reduced
-model, ``reduced-paper``) and ``car`` to its car (``quarter-car``).
+``road`` is required; ``speed`` defaults to cosim's speed (20 m/s), ``body`` to cosim's body
+(the paper's reduced model, ``reduced-paper``) and ``car`` to its car (``quarter-car``).
 
 **Parameter ranges around one model.** ``vary`` maps parameter names of
 ``model`` to ``[low, high]`` *factors* on the model's own value. ``samples``
@@ -86,7 +86,7 @@ NO_SEAT = "none"
 SPEC_KEYS = {
     "road": None,
     "seed": 0,
-    "speed": None,
+    "speed": 20.0,  # cosim's default speed
     "duration": 30.0,
     "step": 1e-3,
     "body": FMUS["HumanBody3DOF"][1],  # cosim's default body, the paper's reduced model
