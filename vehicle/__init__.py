@@ -26,6 +26,10 @@ _HOME = {
     "build_project_fmu": "fmus",
     "load_fmu_model": "fmus",
     "temporary_fmu_dir": "fmus",
+    # active suspension control
+    "SkyhookController": "control",
+    "skyhook": "control",
+    "closed_loop_model": "control",
     # the co-simulation
     "Master": "cosim",
     "Slave": "cosim",

@@ -75,6 +75,7 @@ __all__ = [
     "Slave",
     "open_fmu",
     "road_pairs",
+    "actuator_pairs",
     "model_from_fmu",
     "cosimulate",
     "write_csv",
@@ -160,6 +161,56 @@ def road_pairs(variables):
         for n in names
         if n == "road_displacement" or n.startswith("road_displacement_")
     ]
+
+
+def actuator_pairs(variables, path="car FMU"):
+    """The actuator variables of a car FMU, by name: force, rate, upper and lower velocity.
+
+    Parameters
+    ----------
+    variables : collection of str
+        The car FMU's variable names.
+    path : str
+        The FMU, for the message.
+
+    Returns
+    -------
+    list of (str, str, str, str)
+        ``actuator_force<sfx>``, ``actuator_force_rate<sfx>``,
+        ``actuator_upper_velocity<sfx>``, ``actuator_lower_velocity<sfx>`` per actuator
+        (see :mod:`bodyvib.runtime.contract`).
+
+    Raises
+    ------
+    BodyvibError
+        No actuator, or an actuator force without its rate input or velocity outputs.
+
+    Examples
+    --------
+    >>> actuator_pairs(["actuator_force", "actuator_force_rate", "actuator_upper_velocity",
+    ...                 "actuator_lower_velocity"])
+    [('actuator_force', 'actuator_force_rate', 'actuator_upper_velocity', 'actuator_lower_velocity')]
+    """
+    out = []
+    for name in variables:
+        if not name.startswith("actuator_force") or name.startswith("actuator_force_rate"):
+            continue
+        sfx = name[len("actuator_force") :]
+        names = (name, f"actuator_force_rate{sfx}")
+        names += (f"actuator_upper_velocity{sfx}", f"actuator_lower_velocity{sfx}")
+        missing = [n for n in names if n not in variables]
+        if missing:
+            raise BodyvibError(
+                f"{path}: actuator input {name} comes without {', '.join(missing)}; "
+                "a controller needs them (build the car from a file with 'actuators')"
+            )
+        out.append(names)
+    if not out:
+        raise BodyvibError(
+            f"{path} has no actuator inputs (actuator_force): a controller needs a car "
+            "built from a file with 'actuators' (--car quarter-car-active or half-car-active)"
+        )
+    return out
 
 
 def _check_interface(md, path, kind):
@@ -460,6 +511,11 @@ class Master:
         outputs without a step.
     extrapolate : bool
         Extrapolate the seat force linearly over each step (default); False holds it.
+    controller : bodyvib.vehicle.control.SkyhookController, optional
+        Drive the car's actuators (inputs ``actuator_force*``): before each step the
+        law's force from the actuator velocities at ``t_k`` (states, exact after the
+        previous step), with the rate ``(F_k - F_{k-1}) / h`` as its in-step slope, the
+        seat force's first-order hold.
 
     Attributes
     ----------
@@ -471,11 +527,18 @@ class Master:
     Raises
     ------
     BodyvibError
-        A step that is not a positive number, or fewer than two samples.
+        A step that is not a positive number, fewer than two samples, or a controller
+        for a car FMU without actuators.
     """
 
     def __init__(
-        self, car: Slave, body: Slave, step: float, samples: int, extrapolate: bool = True
+        self,
+        car: Slave,
+        body: Slave,
+        step: float,
+        samples: int,
+        extrapolate: bool = True,
+        controller=None,
     ):
         check_step(step, "communication step")
         if int(samples) < 2:
@@ -496,6 +559,14 @@ class Master:
         )
         # what is recorded, in the signal table's order (seat motion first: read after a step)
         self._car_out = [car.vr[car_variable(s, car.vr)] for s in CAR_SIGNALS]
+        self._control = controller
+        self._act_vel, self._act_F = [], ([], [])
+        if controller is not None:
+            acts = actuator_pairs(car.vr, car.path)
+            self._car_in += [car.vr[n] for force, rate, _, _ in acts for n in (force, rate)]
+            self._act_vel = [car.vr[n] for _, _, up, low in acts for n in (up, low)]
+            self._act_F = ([0.0] * len(acts),) * 2  # the car at rest: no force
+            self._act_v = [0.0] * (2 * len(acts))
         self._body_in = [body.vr[k] for k in BODY_INPUTS]
         # F, a1, x1, x2, then the named forces the FMU has (the others are recorded as NaN)
         self._body_out = [body.vr[s.variable] for s in BODY_SIGNALS if s.variable in body.vr]
@@ -506,6 +577,11 @@ class Master:
         body.fmu.setReal(self._body_in, [0.0, 0.0])  # the body at rest at t = 0
         self._B = list(body.fmu.getReal(self._body_out)) + self._pad
         self._F_prev = self._B[0]
+
+    def _actuator_forces(self):
+        """The controller's force per actuator from the velocities read last."""
+        v = self._act_v
+        return [float(self._control.force(v[i], v[i + 1])) for i in range(0, len(v), 2)]
 
     def advance(self, road_displacement, road_velocity) -> np.ndarray:
         """Co-simulate the next communication points.
@@ -562,19 +638,28 @@ class Master:
         c_set, c_get, c_step = cf.setReal, cf.getReal, cf.doStep
         b_set, b_get, b_step = bf.setReal, bf.getReal, bf.doStep
         B, F_prev, pad = self._B, self._F_prev, self._pad
+        law, act_vel, (Fa, Fa_prev) = self._control, self._act_vel, self._act_F
+        act = []  # the actuators' inputs: force and rate of each
         F = B[0]
         k = self.k
         try:
             for j, rk in enumerate(road.tolist()):
                 k = self.k + j
+                if law is not None:
+                    Fa, Fa_prev, Fa_prev2 = self._actuator_forces(), Fa, Fa_prev
+                    act = [
+                        x
+                        for f, f1, f2 in zip(Fa, Fa_prev, Fa_prev2)
+                        for x in (f, (2.0 * f - 3.0 * f1 + f2) / h)
+                    ]
                 if k == last:  # the last point: the car's outputs, no step
-                    c_set(car_in, rk + [F] + ([0.0] if has_rate else []))
+                    c_set(car_in, rk + [F] + ([0.0] if has_rate else []) + act)
                     rows[j] = list(c_get(car_out)) + B
                     break
                 t = k * h
                 dF = (F - F_prev) if extrapolate else 0.0
                 if has_rate:
-                    c_set(car_in, rk + [F, dF / h])
+                    c_set(car_in, rk + [F, dF / h] + act)
                 else:
                     c_set(car_in, rk + [F + 0.5 * dF])
                 # car outputs at t_k with the inputs of t_k (tire force and seat
@@ -583,6 +668,8 @@ class Master:
                 rows[j] = [xs, vs, a_s, sd, tf] + B
                 c_step(t, h)
                 xn, vn = c_get(car_motion)  # states only: exact right after the step
+                if law is not None:
+                    self._act_v = c_get(act_vel)  # states too: the velocities at t_k+1
                 b_set(body_in, [xs, (xn - xs) / h])
                 b_step(t, h)
                 b_set(body_in, [xn, vn])
@@ -597,7 +684,7 @@ class Master:
             raise BodyvibError(f"co-simulation stopped at t = {k * h:g} s: {exc}") from None
         finally:
             self.wall_s += time.perf_counter() - t0
-        self._B, self._F_prev = B, F_prev
+        self._B, self._F_prev, self._act_F = B, F_prev, (Fa, Fa_prev)
         self.k += m
         return np.array(rows, dtype=float).reshape(m, len(MASTER_SIGNALS))
 
@@ -611,6 +698,7 @@ def cosimulate(
     extrapolate: bool = True,
     progress: bool = False,
     block: int = 4096,
+    controller=None,
 ) -> Dict[str, np.ndarray]:
     """Run the two-way coupled co-simulation over a sampled road, keeping every signal.
 
@@ -633,6 +721,8 @@ def cosimulate(
         Show a tqdm progress bar on stderr (hidden when stderr is not a terminal).
     block : int
         Communication points per :meth:`Master.advance` call.
+    controller : bodyvib.vehicle.control.SkyhookController, optional
+        Drive the car's actuators (:class:`Master`).
 
     Returns
     -------
@@ -654,7 +744,7 @@ def cosimulate(
             "road displacement and velocity must be arrays of equal length (and shape), >= 2 samples"
         )
     n = z.shape[0]
-    master = Master(car, body, step, n, extrapolate)
+    master = Master(car, body, step, n, extrapolate, controller)
     bar = progress_bar(n - 1, progress, "co-simulation")
     parts = []
     try:

@@ -1,0 +1,182 @@
+"""Actuators in car files, the skyhook/groundhook law and the controlled co-simulation.
+
+Independent references: the textbook mass, damping and stiffness matrices of the
+two-mass quarter car written out here by hand (a skyhook gain is a damper from the
+body to the sky, a groundhook gain one from the wheel to the ground whose reaction
+acts on the body); the static closed form of a constant actuator force (the
+suspension extends by F / ks, the tire force is unchanged); the monolithic closed
+loop (exact discretization of the closed-loop matrices) for the co-simulation.
+"""
+
+import copy
+import json
+
+import numpy as np
+import pytest
+from bodyvib.vehicle.control import (
+    SkyhookController,
+    closed_loop_model,
+    default_gains,
+    parse_control,
+    skyhook,
+)
+from bodyvib.vehicle.quarter_car import CAR_DIR, load_car
+
+from bodyvib.runtime.contract import fmu_variables
+from bodyvib.runtime.errors import BodyvibError
+from bodyvib.runtime.modelfile import network_from_dict, network_to_dict
+from bodyvib.runtime.network import linear_model
+
+
+def active_dict():
+    with open(f"{CAR_DIR}/quarter-car-active.json", encoding="utf-8") as f:
+        return json.load(f)
+
+
+def textbook(p, c_sky=0.0, c_ground=0.0):
+    """State matrix of [xs, xu, vs, vu] with a skyhook and groundhook force F = -c_sky vs +
+    c_ground vu pushing sprung up and unsprung down."""
+    M = np.diag([p["ms"], p["mu"]])
+    K = np.array([[p["ks"], -p["ks"]], [-p["ks"], p["ks"] + p["kt"]]])
+    C = np.array([[p["cs"], -p["cs"]], [-p["cs"], p["cs"]]])
+    C = C + np.array([[c_sky, -c_ground], [-c_sky, c_ground]])
+    Mi = np.linalg.inv(M)
+    return np.block([[np.zeros((2, 2)), np.eye(2)], [-Mi @ K, -Mi @ C]])
+
+
+def in_textbook_order(lm):
+    order = [lm.states.index(s) for s in ("sprung.x", "unsprung.x", "sprung.v", "unsprung.v")]
+    return lm.A[np.ix_(order, order)]
+
+
+def test_actuator_is_the_fmu_input_with_the_stated_sign():
+    """A constant actuator force F extends the suspension by F / ks and leaves the tire
+    force unchanged (static equilibrium of the two masses, by hand)."""
+    car = load_car("quarter-car-active")
+    iface, _, _ = fmu_variables("car", car)
+    names = [v.name for v in iface.inputs]
+    assert names[-2:] == ["actuator_force", "actuator_force_rate"]
+    lm = linear_model(car)
+    col = names.index("actuator_force")
+    static = (
+        -lm.C @ np.linalg.solve(lm.A, lm.B @ iface.input_map[:, col])
+        + lm.D @ (iface.input_map[:, col])
+    )
+    F, ks = 1.0, car.parameters["ks"]
+    assert static[lm.output_index("suspension.deflection")] == pytest.approx(F / ks, rel=1e-12)
+    assert static[lm.output_index("sprung.x")] == pytest.approx(F / ks, rel=1e-12)
+    assert abs(static[lm.output_index("tire.force")]) < 1e-12
+
+
+def test_active_file_is_the_passive_car_with_the_actuator_idle():
+    """Same states, same road and seat columns: with no actuator force, the passive car."""
+    passive, active = load_car("quarter-car"), load_car("quarter-car-active")
+    assert active.parameters == passive.parameters
+    lp, la = linear_model(passive), linear_model(active)
+    assert lp.states == la.states and lp.outputs == la.outputs
+    np.testing.assert_array_equal(lp.A, la.A)
+    ip, ia = fmu_variables("car", passive)[0], fmu_variables("car", active)[0]
+    n = len(ip.inputs)
+    np.testing.assert_array_equal(lp.B @ ip.input_map, (la.B @ ia.input_map)[:, :n])
+    assert [v.name for v in ia.outputs][: len(ip.outputs)] == [v.name for v in ip.outputs]
+
+
+@pytest.mark.parametrize("c_sky, c_ground", [(4000.0, 0.0), (0.0, 6000.0), (3000.0, 2000.0)])
+def test_closed_loop_equals_the_textbook_dampers(c_sky, c_ground):
+    car = load_car("quarter-car-active")
+    law = SkyhookController(c_sky=c_sky, c_ground=c_ground)
+    closed, forces = closed_loop_model(linear_model(car), car, law)
+    np.testing.assert_allclose(
+        in_textbook_order(closed), textbook(car.parameters, c_sky, c_ground), rtol=1e-12, atol=1e-9
+    )
+    vs, vu = closed.states.index("sprung.v"), closed.states.index("unsprung.v")
+    assert forces[0, vs] == -c_sky and forces[0, vu] == c_ground
+
+
+def test_half_car_actuators_act_at_their_axles():
+    """A front actuator force F adds F at the front point: F to the bounce equation, lf F
+    to the pitch equation, -F to the front wheel (the half car's small-angle rule)."""
+    car = load_car("half-car-active")
+    iface, _, _ = fmu_variables("car", car)
+    names = [v.name for v in iface.inputs]
+    lm = linear_model(car)
+    p = car.parameters
+    for axle, x, wheel in (("front", p["lf"], "front_wheel"), ("rear", -p["lr"], "rear_wheel")):
+        b = lm.B @ iface.input_map[:, names.index(f"actuator_force_{axle}")]
+        assert b[lm.states.index("body.v")] == pytest.approx(1 / p["ms"], rel=1e-12)
+        assert b[lm.states.index("body.omega")] == pytest.approx(x / p["Iy"], rel=1e-12)
+        mu = p["muf"] if axle == "front" else p["mur"]
+        assert b[lm.states.index(f"{wheel}.v")] == pytest.approx(-1 / mu, rel=1e-12)
+    outs = [v.name for v in iface.outputs]
+    assert outs[-4:] == [
+        "actuator_upper_velocity_front",
+        "actuator_lower_velocity_front",
+        "actuator_upper_velocity_rear",
+        "actuator_lower_velocity_rear",
+    ]
+
+
+def test_actuators_round_trip_through_the_file_format():
+    net = network_from_dict(active_dict())
+    assert network_from_dict(network_to_dict(net)) == net
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (lambda d: d.update(force_inputs=["sprung"]), "'unsprung' takes no force"),
+        (lambda d: d["actuators"][0].update({"from": "sprung"}), "are the same point"),
+        (lambda d: d["actuators"].append(dict(d["actuators"][0])), "used twice"),
+        (lambda d: d["actuators"][0].update(name="front axle"), "plain name"),
+        (lambda d: d["actuators"][0].pop("to"), "exactly the fields"),
+        (lambda d: d.update(actuators={}), "must be a list"),
+    ],
+)
+def test_bad_actuators_are_refused(change, message):
+    data = copy.deepcopy(active_dict())
+    change(data)
+    with pytest.raises(BodyvibError, match=message):
+        network_from_dict(data)
+
+
+def test_skyhook_law_and_its_semi_active_clipping():
+    vu, vl = np.array([0.1, 0.1, -0.2]), np.array([0.0, 0.3, 0.1])
+    np.testing.assert_array_equal(skyhook(vu, vl, 1000.0, 500.0), -1000.0 * vu + 500.0 * vl)
+    # a damper's force opposes the relative velocity: F (vu - vl) <= 0, else 0
+    semi = skyhook(vu, vl, 1000.0, semi_active=True)
+    np.testing.assert_array_equal(semi, [-100.0, 0.0, 200.0])
+
+
+def test_default_gains_are_the_critical_dampings():
+    p = load_car("quarter-car-active").parameters
+    c_sky, c_ground = default_gains(load_car("quarter-car-active"))
+    assert c_sky == pytest.approx(2 * np.sqrt(p["ks"] * p["ms"]), rel=1e-12)
+    assert c_ground == pytest.approx(2 * np.sqrt(p["kt"] * p["mu"]), rel=1e-12)
+    h = load_car("half-car-active").parameters
+    c_sky, _ = default_gains(load_car("half-car-active"))
+    assert c_sky == pytest.approx(np.sqrt((h["ksf"] + h["ksr"]) * h["ms"]), rel=1e-12)
+
+
+@pytest.mark.parametrize(
+    "text, car, message",
+    [
+        ("fuzzy", "quarter-car-active", "unknown controller 'fuzzy'"),
+        ("skyhook:c=-5", "quarter-car-active", "must be a finite number >= 0"),
+        ("skyhook:c=abc", "quarter-car-active", "is not a number"),
+        ("skyhook:k=5", "quarter-car-active", "not understood"),
+        ("skyhook", "quarter-car", "has no actuators"),
+    ],
+)
+def test_bad_controllers_are_refused(text, car, message):
+    with pytest.raises(BodyvibError, match=message):
+        parse_control(text, load_car(car))
+
+
+def test_parse_control_defaults_and_options():
+    car = load_car("quarter-car-active")
+    c_sky, c_ground = default_gains(car)
+    assert parse_control("skyhook", car) == SkyhookController(c_sky=c_sky)
+    assert parse_control("groundhook:semi", car) == SkyhookController(
+        c_ground=c_ground, semi_active=True
+    )
+    assert parse_control("hybrid:c=1,g=2", car) == SkyhookController(1.0, 2.0)
