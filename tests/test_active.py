@@ -180,3 +180,125 @@ def test_parse_control_defaults_and_options():
         c_ground=c_ground, semi_active=True
     )
     assert parse_control("hybrid:c=1,g=2", car) == SkyhookController(1.0, 2.0)
+
+
+@pytest.mark.parametrize(
+    "argv, words",
+    [
+        (["--control", "skyhook"], ["car 'quarter-car' has no actuators", "quarter-car-active"]),
+        (["--car", "quarter-car-active", "--control", "pid"], ["unknown controller 'pid'"]),
+        (["--car", "quarter-car-active", "--control", "skyhook:c=-1"], ["c_sky", ">= 0"]),
+        (["--car", "half-car", "--control", "groundhook"], ["car 'half-car' has no actuators"]),
+    ],
+)
+def test_cli_refuses_a_bad_controller_in_one_line(capsys, argv, words):
+    """Refused before any FMU is built: status 2, one line, no traceback."""
+    from bodyvib.cli.main import main
+
+    status = main(["cosim", "--quiet", *argv])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert status == 2 and len(err) == 1, err
+    assert err[0].startswith("bodyvib cosim: error:")
+    for w in words:
+        assert w in err[0]
+
+
+# -- the FMUs and the controlled co-simulation ------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def active_fmus(tmp_path_factory):
+    """Native FMI 2.0 FMUs: the active and the passive quarter car, the reduced body."""
+    from bodyvib.vehicle.fmus import build_project_fmu
+
+    out = {}
+    for key, name, model in (
+        ("active", "QuarterCar", "quarter-car-active"),
+        ("passive", "QuarterCar", "quarter-car"),
+        ("body", "HumanBody3DOF", None),
+    ):
+        dest = tmp_path_factory.mktemp(key)
+        out[key] = str(build_project_fmu(name, dest, model, native=True, platforms=("linux64",)))
+    return out
+
+
+def class_c_road(car, seconds, h=1e-3):
+    from bodyvib.vehicle.quarter_car import wheel_offsets
+    from bodyvib.vehicle.road.driven import RunSettings, driven_road, wheel_inputs
+
+    t = np.arange(int(round(seconds / h)) + 1) * h
+    road = driven_road(RunSettings("C", 20.0, seconds, h))
+    z, v = wheel_inputs(road, 20.0, t, wheel_offsets(car))
+    return t, z[:, 0], v[:, 0]
+
+
+@pytest.mark.integration
+def test_active_fmu_validates_and_holds_a_constant_force(active_fmus):
+    """fmpy validate finds nothing; a constant actuator force of 1 kN on the level road
+    settles (body mode damping ratio 0.23 at 1.2 Hz: e^-17 after 10 s) at the static
+    closed form, suspension extended by F / ks, tire force 0."""
+    from fmpy import simulate_fmu
+    from fmpy.validation import validate_fmu
+
+    assert validate_fmu(active_fmus["active"]) == []
+    r = simulate_fmu(
+        active_fmus["active"],
+        stop_time=10.0,
+        output_interval=1e-3,
+        start_values={"actuator_force": 1000.0},
+        output=["suspension_deflection", "tire_force", "seat_displacement"],
+    )
+    ks = load_car("quarter-car-active").parameters["ks"]
+    assert r["suspension_deflection"][-1] == pytest.approx(1000.0 / ks, rel=1e-6)
+    assert r["seat_displacement"][-1] == pytest.approx(1000.0 / ks, rel=1e-6)
+    assert abs(r["tire_force"][-1]) < 1e-6 * 1000.0
+
+
+@pytest.mark.integration
+def test_idle_actuator_gives_the_passive_car(active_fmus):
+    """The same road through both native FMUs, actuator force left at 0: the outputs the
+    two share are the same numbers, bit for bit."""
+    from bodyvib.vehicle.cosim import cosimulate, open_fmu
+
+    car = load_car("quarter-car")
+    _, z, v = class_c_road(car, 3.0)
+    runs = {}
+    for key in ("passive", "active"):
+        with open_fmu(active_fmus[key], "car") as c, open_fmu(active_fmus["body"], "body") as b:
+            runs[key] = cosimulate(c, b, z, v, 1e-3)
+    for name in ("head_acceleration", "tire_force", "suspension_deflection"):
+        np.testing.assert_array_equal(runs["active"][name], runs["passive"][name], err_msg=name)
+
+
+@pytest.mark.integration
+@pytest.mark.parametrize("law", ["skyhook", "hybrid"])
+def test_controlled_cosimulation_meets_the_coupling_target(active_fmus, law):
+    """Skyhook car co-simulated (native FMUs, 1 ms) against the exact discretization of
+    the same closed loop: head-acceleration NRMSE <= 0.05 % after the first 2 s (the
+    road fades in over 5 m, 0.25 s). Measured: 0.025 % skyhook, 0.028 % hybrid."""
+    from bodyvib.models import load_model
+    from bodyvib.vehicle.cosim import cosimulate, open_fmu
+    from bodyvib.vehicle.reference import nrmse, reference_run
+
+    car = load_car("quarter-car-active")
+    controller = parse_control(law, car)
+    t, z, v = class_c_road(car, 10.0)
+    with open_fmu(active_fmus["active"], "car") as c, open_fmu(active_fmus["body"], "body") as b:
+        run = cosimulate(c, b, z, v, 1e-3, controller=controller)
+    ref = reference_run(car, load_model("reduced-paper"), z, v, 1e-3, controller=controller)
+    late = t > 2.0
+    err = nrmse(run["head_acceleration"][late], ref["head_acceleration"][late])
+    assert err <= 5e-4
+    # the controller acts: the skyhook lowers the head acceleration against the passive car
+    passive = reference_run(load_car("quarter-car"), load_model("reduced-paper"), z, v, 1e-3)
+    if law == "skyhook":
+        assert np.std(ref["head_acceleration"][late]) < np.std(passive["head_acceleration"][late])
+
+
+@pytest.mark.integration
+def test_controller_on_a_passive_car_fmu_is_refused(active_fmus):
+    from bodyvib.vehicle.cosim import Master, open_fmu
+
+    with open_fmu(active_fmus["passive"], "car") as c, open_fmu(active_fmus["body"], "body") as b:
+        with pytest.raises(BodyvibError, match="has no actuator inputs"):
+            Master(c, b, 1e-3, 10, controller=SkyhookController(c_sky=1000.0))

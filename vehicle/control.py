@@ -37,6 +37,7 @@ __all__ = [
     "SkyhookController",
     "skyhook",
     "parse_control",
+    "describe",
     "default_gains",
     "actuator_gain_matrix",
     "closed_loop_model",
@@ -239,6 +240,23 @@ def parse_control(text: str, car: Network) -> SkyhookController:
         except ValueError:
             raise BodyvibError(f"controller option {key}={value!r} is not a number") from None
     return SkyhookController(c_sky=gains["c"], c_ground=gains["g"], semi_active=semi)
+
+
+def describe(controller: SkyhookController) -> str:
+    """The controller in words, for reports.
+
+    Examples
+    --------
+    >>> describe(SkyhookController(c_sky=4416.1))
+    'skyhook c_sky = 4416 N s/m'
+    """
+    parts = []
+    if controller.c_sky:
+        parts.append(f"skyhook c_sky = {controller.c_sky:.0f} N s/m")
+    if controller.c_ground:
+        parts.append(f"groundhook c_ground = {controller.c_ground:.0f} N s/m")
+    text = " + ".join(parts) or "no gain (passive)"
+    return text + (", semi-active (on-off)" if controller.semi_active else "")
 
 
 def actuator_gain_matrix(

@@ -28,6 +28,7 @@ from bodyvib.process.limits import require_memory
 from bodyvib.process.progress import progress_bar
 from bodyvib.runtime.errors import BodyvibError
 
+from .control import describe
 from .cosim import CsvStream, Master, check_fmu, model_from_fmu, open_fmu
 from .quarter_car import wheel_offsets
 from .reference import ReferenceStream
@@ -268,6 +269,7 @@ def run_study(
     csv: "StudyCsv" = None,
     block: int = 4096,
     window_s: float = 5.0,
+    controller=None,
 ) -> Study:
     """Co-simulate the car with each body FMU on one road; figures, references, transmissibility.
 
@@ -300,6 +302,9 @@ def run_study(
         Communication points per block.
     window_s : float
         Length of the plot window kept mid-run, s.
+    controller : bodyvib.vehicle.control.SkyhookController, optional
+        Drive the car FMU's actuators (:class:`bodyvib.vehicle.cosim.Master`); the
+        reference is then the closed loop, and a semi-active (nonlinear) law has none.
 
     Returns
     -------
@@ -320,11 +325,12 @@ def run_study(
     check_fmu(car_fmu, "car")  # a body FMU given as the car: named, before any work
     for path in body_fmus.values():
         check_fmu(path, "body")
+    reference = reference and (controller is None or controller.linear)
     car_net = model_from_fmu(car_fmu) if reference else None
     behind = _wheels(car_fmu, car_net)
     nets = {label: model_from_fmu(path) if reference else None for label, path in body_fmus.items()}
     refs = {
-        label: ReferenceStream(car_net, net, step)
+        label: ReferenceStream(car_net, net, step, controller)
         for label, net in nets.items()
         if net is not None and car_net is not None
     }
@@ -352,7 +358,9 @@ def run_study(
         for label, path in body_fmus.items():
             car = stack.enter_context(open_fmu(car_fmu, "car", "car"))
             body = stack.enter_context(open_fmu(path, "body", label))
-            masters[label] = Master(car, body, step, n, extrapolate=extrapolate)
+            masters[label] = Master(
+                car, body, step, n, extrapolate=extrapolate, controller=controller
+            )
         try:
             for a in range(0, n, block):
                 t = np.arange(a, min(n, a + block)) * step
@@ -399,7 +407,9 @@ def run_study(
                 bar.close()
     out = Study(
         settings=replace(settings, road=str(settings.road)),
-        master="gauss-seidel, seat force " + ("extrapolated linearly" if extrapolate else "held"),
+        master="gauss-seidel, seat force "
+        + ("extrapolated linearly" if extrapolate else "held")
+        + (f", actuators: {describe(controller)}" if controller is not None else ""),
         road=rd.describe(),
         window_time=np.arange(k0, k1 + 1) * step,
         history_sums={k: tuple(v) for k, v in pairs.items()},

@@ -118,6 +118,18 @@ def _fmus(args, want_iso: bool):
     return body, iso, car, tmp
 
 
+def _controller(args):
+    """The ``--control`` controller for the car of the run, or None."""
+    if args.control is None:
+        return None
+    from bodyvib.vehicle.control import parse_control
+    from bodyvib.vehicle.cosim import model_from_fmu
+    from bodyvib.vehicle.quarter_car import load_car
+
+    car = model_from_fmu(args.car_fmu) if args.car_fmu else load_car(args.car or "quarter-car")
+    return parse_control(args.control, car)
+
+
 def _label(path, default):
     base = os.path.splitext(os.path.basename(path))[0]
     return base or default
@@ -137,6 +149,7 @@ def _run(args, want_iso):
     check_settings(settings, bodies=2 if want_iso else 1)  # before building
     if args.csv:
         _check_disk(args.csv, (args.duration / args.step + 1) * (2 if want_iso else 1))
+    controller = _controller(args)  # refused before building
     body, iso, car, tmp = _fmus(args, want_iso)
     try:
         bodies = {_label(body, "body"): body}
@@ -155,6 +168,7 @@ def _run(args, want_iso):
                 progress=not args.quiet,
                 quiet=args.quiet,
                 csv=csv,
+                controller=controller,
             )
             comparison = compare(study, *bodies) if want_iso else None
             print(format_report(study, comparison))
@@ -216,6 +230,15 @@ def _common(p):
         action="store_true",
         help="build the native C FMUs for the run instead of the pythonfmu ones "
         "(FMUs given with --body/--car-fmu/--iso-body are used as they are)",
+    )
+    p.add_argument(
+        "--control",
+        metavar="LAW",
+        help="drive the car's actuators (a car with actuators: quarter-car-active, "
+        "half-car-active): skyhook, groundhook or hybrid, with options after ':' "
+        "c=<N s/m> (skyhook gain; default the body's critical damping on the suspension "
+        "springs), g=<N s/m> (groundhook gain; default the wheels' critical damping on the "
+        "tires), semi (on-off semi-active clipping); e.g. skyhook:c=3000",
     )
     p.add_argument(
         "--hold",
