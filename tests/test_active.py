@@ -276,9 +276,10 @@ def test_controlled_cosimulation_meets_the_coupling_target(active_fmus, law):
     """Skyhook car co-simulated (native FMUs, 1 ms) against the exact discretization of
     the same closed loop: head-acceleration NRMSE <= 0.05 % after the first 2 s (the
     road fades in over 5 m, 0.25 s). Measured: 0.025 % skyhook, 0.028 % hybrid."""
-    from bodyvib.models import load_model
     from bodyvib.vehicle.cosim import cosimulate, open_fmu
     from bodyvib.vehicle.reference import nrmse, reference_run
+
+    from bodyvib.models import load_model
 
     car = load_car("quarter-car-active")
     controller = parse_control(law, car)
@@ -302,3 +303,34 @@ def test_controller_on_a_passive_car_fmu_is_refused(active_fmus):
     with open_fmu(active_fmus["passive"], "car") as c, open_fmu(active_fmus["body"], "body") as b:
         with pytest.raises(BodyvibError, match="has no actuator inputs"):
             Master(c, b, 1e-3, 10, controller=SkyhookController(c_sky=1000.0))
+
+
+def test_law_comparison_matches_the_reference_runs():
+    """The comparison's passive row against the monolithic reference of the passive car
+    (another path: the car file's FMU outputs), and the skyhook row's actuator force
+    against c_sky times the body velocity of the closed-loop reference."""
+    from bodyvib.vehicle.active import compare_laws, format_comparison
+    from bodyvib.vehicle.reference import ReferenceStream, reference_run
+    from bodyvib.vehicle.road.driven import RunSettings
+
+    from bodyvib.comfort.figures import weighted_rms
+    from bodyvib.models import load_model
+
+    car, body = load_car("quarter-car-active"), load_model("reduced-paper")
+    settings = RunSettings("C", 20.0, 4.0)
+    c = compare_laws(car, body, settings, ["passive", "skyhook:c=3000"])
+    t, z, v = class_c_road(car, 4.0)
+    ref = reference_run(load_car("quarter-car"), body, z, v, 1e-3)
+    passive, sky = c.laws
+    assert passive.head_wk_rms == pytest.approx(
+        weighted_rms(ref["head_acceleration"], 1e3), rel=1e-9
+    )
+    assert passive.tire_force_rms == pytest.approx(np.sqrt(np.mean(ref["tire_force"] ** 2)), 1e-9)
+    travel = np.sqrt(np.mean(ref["suspension_deflection"] ** 2))
+    assert passive.suspension_travel_rms == pytest.approx(travel, rel=1e-9)
+    assert passive.actuator_force_rms == 0.0
+    stream = ReferenceStream(car, body, 1e-3, sky.controller).advance(z, v)
+    force = -3000.0 * stream["seat_velocity"]  # the quarter car's seat is its sprung mass
+    np.testing.assert_allclose(stream["actuator_force"], force, rtol=1e-12, atol=1e-9)
+    assert sky.actuator_force_rms == pytest.approx(np.sqrt(np.mean(force**2)), rel=1e-9)
+    assert "skyhook:c=3000" in format_comparison(c)
