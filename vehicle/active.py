@@ -1,8 +1,8 @@
 """Passive against controlled: the same car, occupant and road under several laws.
 
-Each case is the seated car's exact closed loop (:func:`bodyvib.vehicle.control.
-closed_loop_model`, discretized exactly), so the comparison needs no FMU and carries
-no coupling error; ``bodyvib cosim --control`` co-simulates the same loop with FMUs.
+Each case is the seated car's exact closed loop
+(:func:`bodyvib.vehicle.control.closed_loop_model`, discretized exactly), so the
+comparison needs no FMU and carries no coupling error; ``bodyvib cosim --control`` co-simulates the same loop with FMUs.
 The figures are the classic trade-off of suspension control: ride comfort (the
 occupant's head acceleration, ISO 2631-1 Wk-weighted r.m.s.), road holding (the
 dynamic tire force r.m.s.), the rattle space used (suspension travel r.m.s.) and the
