@@ -38,6 +38,7 @@ __all__ = [
     "skyhook",
     "parse_control",
     "describe",
+    "controller_from_fmu",
     "default_gains",
     "actuator_gain_matrix",
     "closed_loop_model",
@@ -86,6 +87,11 @@ class SkyhookController:
     def force(self, upper_velocity, lower_velocity):
         """Actuator force for the given point velocities (:func:`skyhook`)."""
         return skyhook(upper_velocity, lower_velocity, self.c_sky, self.c_ground, self.semi_active)
+
+    def forces(self, velocities):
+        """Force per actuator from ``[upper_0, lower_0, upper_1, lower_1, ...]``, N."""
+        v = list(velocities)
+        return [float(self.force(v[i], v[i + 1])) for i in range(0, len(v), 2)]
 
     @property
     def linear(self) -> bool:
@@ -240,6 +246,39 @@ def parse_control(text: str, car: Network) -> SkyhookController:
         except ValueError:
             raise BodyvibError(f"controller option {key}={value!r} is not a number") from None
     return SkyhookController(c_sky=gains["c"], c_ground=gains["g"], semi_active=semi)
+
+
+def controller_from_fmu(path) -> SkyhookController:
+    """The law a ``SkyhookController.fmu`` declares: its gains' and switch's start values.
+
+    Parameters
+    ----------
+    path : str
+        A controller FMU (:func:`bodyvib.fmu.controller.build_controller_fmu`).
+
+    Returns
+    -------
+    SkyhookController
+
+    Raises
+    ------
+    BodyvibError
+        An FMU without the parameters ``c_sky``, ``c_ground`` and ``semi_active``.
+    """
+    from fmpy import read_model_description
+
+    try:
+        md = read_model_description(str(path))
+    except Exception as exc:
+        raise BodyvibError(f"'{path}' is not a readable FMU: {exc}") from None
+    start = {v.name: v.start for v in md.modelVariables if v.causality == "parameter"}
+    if not {"c_sky", "c_ground", "semi_active"} <= set(start):
+        raise BodyvibError(
+            f"controller FMU '{path}' has no parameters c_sky, c_ground and semi_active "
+            "(build it with bodyvib build --control)"
+        )
+    semi = str(start["semi_active"]).lower() in ("true", "1")
+    return SkyhookController(float(start["c_sky"]), float(start["c_ground"]), semi)
 
 
 def describe(controller: SkyhookController) -> str:

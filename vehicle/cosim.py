@@ -76,6 +76,9 @@ __all__ = [
     "open_fmu",
     "road_pairs",
     "actuator_pairs",
+    "controller_suffixes",
+    "FmuController",
+    "open_controller",
     "model_from_fmu",
     "cosimulate",
     "write_csv",
@@ -90,7 +93,14 @@ BODY_OUTPUTS = contract.BODY_OUTPUTS[:4]  # seat_force_rate: not read by this ma
 CAR_INPUTS = contract.CAR_INPUTS[:3]
 _SEAT_FORCE_RATE = contract.CAR_INPUTS[3]
 CAR_OUTPUTS = contract.CAR_OUTPUTS + CAR_FMU_OUTPUTS
-_INTERFACES = {"body": (BODY_INPUTS, BODY_OUTPUTS), "car": (CAR_INPUTS, CAR_OUTPUTS)}
+#: A controller FMU's variables per actuator (suffix ``_<name>`` as the car's).
+CONTROLLER_INPUTS = ("upper_velocity", "lower_velocity")
+CONTROLLER_OUTPUTS = ("actuator_force",)
+_INTERFACES = {
+    "body": (BODY_INPUTS, BODY_OUTPUTS),
+    "car": (CAR_INPUTS, CAR_OUTPUTS),
+    "controller": (CONTROLLER_INPUTS, CONTROLLER_OUTPUTS),
+}
 
 
 class Slave:
@@ -121,12 +131,16 @@ class Slave:
             shutil.rmtree(self._unzipdir, ignore_errors=True)
 
 
-_OPTIONS = {"body": "--body", "car": "--car-fmu"}
+_OPTIONS = {"body": "--body", "car": "--car-fmu", "controller": "--control-fmu"}
 
 
 def _missing(md, kind):
     inputs, outputs = _INTERFACES[kind]
     have = {v.name: v.causality for v in md.modelVariables}
+    if kind == "controller":  # per actuator force output, its two velocity inputs
+        suffixes = controller_suffixes(have) or [""]
+        inputs = [f"{n}{s}" for s in suffixes for n in inputs]
+        outputs = [f"{n}{s}" for s in suffixes for n in outputs]
     if kind == "car" and road_pairs(have):  # a car driven at several road points
         inputs = [n for pair in road_pairs(have) for n in pair] + list(inputs[2:])
         outputs = [n if n in have or f"{n}_front" not in have else f"{n}_front" for n in outputs]
@@ -213,6 +227,98 @@ def actuator_pairs(variables, path="car FMU"):
     return out
 
 
+def controller_suffixes(variables):
+    """The actuator suffixes a controller FMU drives: those of its ``actuator_force`` outputs.
+
+    Parameters
+    ----------
+    variables : dict of str to str
+        Variable name -> causality.
+
+    Returns
+    -------
+    list of str
+        ``[""]`` for ``actuator_force``, ``["_front", "_rear"]`` for a half car's.
+
+    Examples
+    --------
+    >>> controller_suffixes({"actuator_force_front": "output", "upper_velocity_front": "input"})
+    ['_front']
+    """
+    return [
+        n[len("actuator_force") :]
+        for n, causality in variables.items()
+        if n.startswith("actuator_force") and causality == "output"
+    ]
+
+
+class FmuController:
+    """A controller FMU in the master's loop: actuator forces from the car's velocities.
+
+    Use :func:`open_controller`, which checks it against the car.
+
+    Parameters
+    ----------
+    slave : Slave
+        The initialized controller FMU.
+    suffixes : sequence of str
+        The car's actuator suffixes, in the car's order.
+    """
+
+    linear = False  # what the FMU computes is its own: no closed-loop reference from it
+
+    def __init__(self, slave: Slave, suffixes):
+        self.slave = slave
+        self._in = [slave.vr[f"{n}{s}"] for s in suffixes for n in CONTROLLER_INPUTS]
+        self._out = [slave.vr[f"actuator_force{s}"] for s in suffixes]
+
+    def forces(self, velocities):
+        """Set the velocities (upper, lower per actuator), read the forces (feedthrough)."""
+        self.slave.fmu.setReal(self._in, list(velocities))
+        return list(self.slave.fmu.getReal(self._out))
+
+    def advance(self, t: float, h: float) -> None:
+        """Step the FMU with the master (a stateless law ignores it)."""
+        self.slave.fmu.doStep(t, h)
+
+
+@contextlib.contextmanager
+def open_controller(path, car: "Slave"):
+    """Instantiate a controller FMU for a car FMU: refused in one line if it does not fit.
+
+    Parameters
+    ----------
+    path : str
+        ``.fmu`` file: FMI 2.0 co-simulation with, per actuator of the car,
+        inputs ``upper_velocity<sfx>``, ``lower_velocity<sfx>`` and the output
+        ``actuator_force<sfx>`` (``SkyhookController.fmu``).
+    car : Slave
+        The car FMU it drives.
+
+    Yields
+    ------
+    FmuController
+
+    Raises
+    ------
+    BodyvibError
+        Not FMI 2.0 co-simulation (a Model Exchange only FMU), missing variables, or
+        actuators other than the car's.
+    """
+    wanted = [a[0][len("actuator_force") :] for a in actuator_pairs(car.vr, car.path)]
+    with open_fmu(path, "controller", "controller") as slave:
+        have = controller_suffixes(
+            {n: ("output" if n.startswith("actuator_force") else "input") for n in slave.vr}
+        )
+        if sorted(have) != sorted(wanted):
+            raise BodyvibError(
+                f"controller FMU '{path}' drives the actuator force(s) "
+                f"{', '.join('actuator_force' + s for s in have)}; the car has "
+                f"{', '.join('actuator_force' + s for s in wanted)}: build it for this car"
+            )
+        yield FmuController(slave, wanted)
+
+
 def _check_interface(md, path, kind):
     inputs, outputs = _INTERFACES[kind]
     missing = _missing(md, kind)
@@ -246,7 +352,10 @@ def _model_description(path, kind):
         raise BodyvibError(f"FMU '{path}' is FMI {md.fmiVersion}; FMI 2.0 is needed")
     _check_interface(md, path, kind)
     if md.coSimulation is None:
-        raise BodyvibError(f"FMU '{path}' is not a co-simulation FMU (FMI 2.0 CS needed)")
+        raise BodyvibError(
+            f"FMU '{path}' is not a co-simulation FMU (Model Exchange only); FMI 2.0 "
+            "co-simulation is needed"
+        )
     return md
 
 
@@ -580,8 +689,7 @@ class Master:
 
     def _actuator_forces(self):
         """The controller's force per actuator from the velocities read last."""
-        v = self._act_v
-        return [float(self._control.force(v[i], v[i + 1])) for i in range(0, len(v), 2)]
+        return self._control.forces(self._act_v)
 
     def advance(self, road_displacement, road_velocity) -> np.ndarray:
         """Co-simulate the next communication points.
@@ -640,6 +748,7 @@ class Master:
         B, F_prev, pad = self._B, self._F_prev, self._pad
         law, act_vel, (Fa, Fa_prev) = self._control, self._act_vel, self._act_F
         act = []  # the actuators' inputs: force and rate of each
+        law_step = getattr(law, "advance", None)  # a controller FMU steps with the car
         F = B[0]
         k = self.k
         try:
@@ -670,6 +779,8 @@ class Master:
                 xn, vn = c_get(car_motion)  # states only: exact right after the step
                 if law is not None:
                     self._act_v = c_get(act_vel)  # states too: the velocities at t_k+1
+                    if law_step is not None:
+                        law_step(t, h)
                 b_set(body_in, [xs, (xn - xs) / h])
                 b_step(t, h)
                 b_set(body_in, [xn, vn])

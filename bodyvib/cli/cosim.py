@@ -119,7 +119,14 @@ def _fmus(args, want_iso: bool):
 
 
 def _controller(args):
-    """The ``--control`` controller for the car of the run, or None."""
+    """The ``--control`` law or ``--control-fmu`` path for the car of the run, or None."""
+    if args.control is not None and args.control_fmu is not None:
+        raise BodyvibError("--control and --control-fmu both choose the controller: give one")
+    if args.control_fmu is not None:
+        if not os.path.isfile(args.control_fmu):
+            raise BodyvibError(f"FMU file '{args.control_fmu}' does not exist (--control-fmu)")
+        check_fmu(args.control_fmu, "controller")  # a car or ME-only FMU: named now
+        return args.control_fmu
     if args.control is None:
         return None
     from bodyvib.vehicle.control import parse_control
@@ -239,6 +246,13 @@ def _common(p):
         "c=<N s/m> (skyhook gain; default the body's critical damping on the suspension "
         "springs), g=<N s/m> (groundhook gain; default the wheels' critical damping on the "
         "tires), semi (on-off semi-active clipping); e.g. skyhook:c=3000",
+    )
+    p.add_argument(
+        "--control-fmu",
+        metavar="FMU",
+        help="drive the car's actuators by a controller FMU (FMI 2.0 co-simulation with "
+        "inputs upper_velocity, lower_velocity and output actuator_force per actuator: "
+        "SkyhookController.fmu from bodyvib build --control)",
     )
     p.add_argument(
         "--hold",
