@@ -334,3 +334,112 @@ def test_law_comparison_matches_the_reference_runs():
     np.testing.assert_allclose(stream["actuator_force"], force, rtol=1e-12, atol=1e-9)
     assert sky.actuator_force_rms == pytest.approx(np.sqrt(np.mean(force**2)), rel=1e-9)
     assert "skyhook:c=3000" in format_comparison(c)
+
+
+# -- the controller FMU --------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def controller_fmu(tmp_path_factory):
+    from bodyvib.fmu.controller import build_controller_fmu
+
+    dest = tmp_path_factory.mktemp("controller")
+    return str(build_controller_fmu(dest, ("",), 4000.0, 1500.0, platforms=("linux64",)))
+
+
+@pytest.mark.integration
+def test_controller_fmu_validates_and_runs_in_a_c_host(controller_fmu, tmp_path):
+    """fmpy validate finds nothing; tests/c_host/native_host.c (no Python in its process)
+    feeds its chirp x, v as upper and lower velocity: the force is -c_sky x + c_ground v,
+    the same double operations, so exactly."""
+    import subprocess
+    import zipfile
+
+    import fmpy
+    from fmpy import read_model_description
+    from fmpy.validation import validate_fmu
+    from helpers import ROOT
+
+    assert validate_fmu(controller_fmu) == []
+    exe = str(tmp_path / "native_host")
+    headers = f"{fmpy.__path__[0]}/c-code"
+    source = f"{ROOT}/tests/c_host/native_host.c"
+    build = ["gcc", "-std=c99", "-O2", "-I", headers, source, "-o", exe, "-ldl", "-lm"]
+    subprocess.run(build + ["-lpthread"], check=True, capture_output=True, timeout=120)
+    with zipfile.ZipFile(controller_fmu) as z:
+        z.extractall(tmp_path / "fmu")
+    md = read_model_description(controller_fmu)
+    binary = str(tmp_path / "fmu" / "binaries" / "linux64" / "SkyhookController.so")
+    run = subprocess.run(
+        [exe, "run", binary, md.guid, "0,1", "2", "0.001", "500"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={},
+    )
+    assert run.returncode == 0, run.stderr
+    lines = run.stdout.splitlines()
+    assert lines[0] == "libpython absent" and lines[-1] == "ok"
+    rows = np.array([[float(f) for f in line.split()] for line in lines[1:-1]])
+    x, v, force = rows[:, 2], rows[:, 3], rows[:, 4]
+    assert np.any(force != 0.0)
+    np.testing.assert_array_equal(force, -4000.0 * x + 1500.0 * v)
+
+
+@pytest.mark.integration
+def test_controller_fmu_in_the_master_equals_the_library_law(active_fmus, controller_fmu):
+    """The same hybrid law as an FMU (C) and as SkyhookController (numpy): the same run,
+    bit for bit."""
+    from bodyvib.vehicle.cosim import cosimulate, open_controller, open_fmu
+
+    car = load_car("quarter-car-active")
+    _, z, v = class_c_road(car, 2.0)
+    runs = []
+    with open_fmu(active_fmus["active"], "car") as c, open_fmu(active_fmus["body"], "body") as b:
+        with open_controller(controller_fmu, c) as law:
+            runs.append(cosimulate(c, b, z, v, 1e-3, controller=law))
+    with open_fmu(active_fmus["active"], "car") as c, open_fmu(active_fmus["body"], "body") as b:
+        runs.append(cosimulate(c, b, z, v, 1e-3, controller=SkyhookController(4000.0, 1500.0)))
+    for name in ("head_acceleration", "tire_force", "suspension_deflection"):
+        np.testing.assert_array_equal(runs[0][name], runs[1][name], err_msg=name)
+
+
+def model_exchange_only(fmu, dest):
+    """A copy of ``fmu`` whose description offers Model Exchange instead of co-simulation."""
+    import re
+    import zipfile
+
+    with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(dest, "w") as out:
+        for item in src.infolist():
+            data = src.read(item.filename)
+            if item.filename == "modelDescription.xml":
+                text = re.sub(
+                    r"<CoSimulation[^>]*>",
+                    '<ModelExchange modelIdentifier="SkyhookController">',
+                    data.decode(),
+                )
+                data = text.replace("</CoSimulation>", "</ModelExchange>").encode()
+            out.writestr(item, data)
+    return str(dest)
+
+
+@pytest.mark.integration
+def test_controller_fmu_of_the_wrong_kind_is_refused_in_one_line(
+    active_fmus, controller_fmu, tmp_path, capsys
+):
+    from bodyvib.cli.main import main
+    from bodyvib.fmu.controller import build_controller_fmu
+
+    half = str(build_controller_fmu(tmp_path / "half", ("_front", "_rear"), platforms=("linux64",)))
+    me_only = model_exchange_only(controller_fmu, tmp_path / "me.fmu")
+    cases = [
+        (me_only, "Model Exchange only"),
+        (active_fmus["active"], "it is a car FMU (give it to --car-fmu)"),
+        (half, "the car has actuator_force: build it for this car"),
+    ]
+    for path, words in cases:
+        argv = ["cosim", "--quiet", "--duration", "1", "--car-fmu", active_fmus["active"]]
+        status = main(argv + ["--body", active_fmus["body"], "--control-fmu", path])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert status == 2 and len(err) == 1, err
+        assert words in err[0], err[0]
