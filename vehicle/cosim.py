@@ -248,7 +248,9 @@ def controller_suffixes(variables):
     return [
         n[len("actuator_force") :]
         for n, causality in variables.items()
-        if n.startswith("actuator_force") and causality == "output"
+        if n.startswith("actuator_force")
+        and not n.startswith("actuator_force_rate")
+        and causality == "output"
     ]
 
 

@@ -96,11 +96,17 @@ ACTIVE_SSP_NAME = "ActiveQuarterCarWithOccupant"
 ACTIVE_COMPONENTS = dict(COMPONENTS, Controller="SkyhookController")
 
 #: The quarter car's connections, and the controller between the car's actuator velocities
-#: and its actuator force (held over a step: a Jacobi host has no rate for it).
+#: and accelerations and its actuator force and force rate. A Jacobi host hands the
+#: controller the car's motion of the previous communication point: the controller
+#: extrapolates the velocities over the step with the accelerations, and the rate gives
+#: the force its slope over the next step.
 ACTIVE_CONNECTIONS = CONNECTIONS + (
     ("Car", "actuator_upper_velocity", "Controller", "upper_velocity"),
     ("Car", "actuator_lower_velocity", "Controller", "lower_velocity"),
+    ("Car", "actuator_upper_acceleration", "Controller", "upper_acceleration"),
+    ("Car", "actuator_lower_acceleration", "Controller", "lower_acceleration"),
     ("Controller", "actuator_force", "Car", "actuator_force"),
+    ("Controller", "actuator_force_rate", "Car", "actuator_force_rate"),
 )
 
 #: Package name -> (components, connections, description of the system).

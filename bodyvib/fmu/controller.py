@@ -1,17 +1,24 @@
 """Build ``SkyhookController.fmu``: the skyhook/groundhook law as a native FMI 2.0 FMU.
 
 A stateless co-simulation FMU in C (``fmu_src/native/bodyvib_skyhook.c``, no Python on
-the host): per actuator it reads the absolute vertical velocities of the actuator's upper
-and lower points and gives the force
+the host): per actuator it reads the absolute vertical velocities (and accelerations) of
+the actuator's upper and lower points and gives the force
 
-    actuator_force = -c_sky * upper_velocity + c_ground * lower_velocity      [N]
+    actuator_force = -c_sky * vu + c_ground * vl                               [N]
 
-(positive pushing the points apart), set to 0 by the ``semi_active`` parameter where a
-passive damper could not give it. The force is feedthrough, computed on read. Variable
-names follow the car FMU's actuators: for the actuator suffix ``_front`` the inputs are
-``upper_velocity_front`` and ``lower_velocity_front`` (connected from the car's
-``actuator_upper_velocity_front`` and ``actuator_lower_velocity_front``) and the output
-``actuator_force_front`` (connected to the car input of the same name).
+(positive pushing the points apart) and its rate ``actuator_force_rate`` (the same law
+on the accelerations), set to 0 by the ``semi_active`` parameter where a passive damper
+could not give it. ``vu`` and ``vl`` are the velocity inputs extrapolated with the
+acceleration inputs over the last communication step ``h``: a Jacobi host (libcosim, fmpy's
+SSP runner) hands the controller the car's velocities of the previous communication
+point, and the extrapolation turns the force it reads into the one of the current point
+(to second order in ``h``); a host that sets the current velocities leaves the
+accelerations at 0. The outputs are feedthrough, computed on read. Variable names
+follow the car FMU's actuators: for the suffix ``_front`` the inputs are
+``upper_velocity_front``, ``lower_velocity_front``, ``upper_acceleration_front``,
+``lower_acceleration_front`` (from the car's ``actuator_upper_velocity_front`` ...) and
+the outputs ``actuator_force_front`` and ``actuator_force_rate_front`` (to the car's
+inputs of the same names).
 
 The FMU ships ``sources/`` (the C file and its generated configuration header) and
 ``binaries/linux64`` (and ``win64`` when mingw-w64 is installed), and is checked with
@@ -60,13 +67,16 @@ def controller_variables(suffixes: Sequence[str]):
 
     Examples
     --------
-    >>> [v[0] for v in controller_variables([""])]
-    ['upper_velocity', 'lower_velocity', 'actuator_force', 'c_sky', 'c_ground']
+    >>> [v[0] for v in controller_variables([""])][:6]
+    ['upper_velocity', 'lower_velocity', 'upper_acceleration', 'lower_acceleration', 'actuator_force', 'actuator_force_rate']
     """
     out = []
     for s in suffixes:
         out += [(f"upper_velocity{s}", "input", "m/s"), (f"lower_velocity{s}", "input", "m/s")]
+        out += [(f"upper_acceleration{s}", "input", "m/s2")]
+        out += [(f"lower_acceleration{s}", "input", "m/s2")]
     out += [(f"actuator_force{s}", "output", "N") for s in suffixes]
+    out += [(f"actuator_force_rate{s}", "output", "N/s") for s in suffixes]
     return out + [("c_sky", "parameter", "N.s/m"), ("c_ground", "parameter", "N.s/m")]
 
 
@@ -99,7 +109,9 @@ def _description(suffixes, c_sky, c_ground, semi, token) -> bytes:
     units = ET.SubElement(root, "UnitDefinitions")
     for unit, exps in (
         ("m/s", {"m": "1", "s": "-1"}),
+        ("m/s2", {"m": "1", "s": "-2"}),
         ("N", {"kg": "1", "m": "1", "s": "-2"}),
+        ("N/s", {"kg": "1", "m": "1", "s": "-3"}),
         ("N.s/m", {"kg": "1", "s": "-1"}),
     ):
         ET.SubElement(ET.SubElement(units, "Unit", name=unit), "BaseUnit", **exps)
@@ -108,8 +120,9 @@ def _description(suffixes, c_sky, c_ground, semi, token) -> bytes:
     starts = {"c_sky": c_sky, "c_ground": c_ground}
     variables = controller_variables(suffixes)
     text = {
-        "input": "Absolute vertical velocity of the actuator's {} point",
+        "input": "Absolute vertical {} of the actuator's {} point",
         "output": "Actuator force, positive pushing the two points apart",
+        "rate": "Time derivative of the actuator force (the law on the accelerations)",
     }
     for vr, (name, causality, unit) in enumerate(variables):
         attrs = {"name": name, "valueReference": str(vr), "causality": causality}
@@ -120,11 +133,12 @@ def _description(suffixes, c_sky, c_ground, semi, token) -> bytes:
             real.update(start=repr(float(starts[name])), min="0")
         elif causality == "input":
             attrs.update(variability="continuous")
-            attrs["description"] = text["input"].format(name.split("_")[0])
+            which, quantity = name.split("_")[:2]
+            attrs["description"] = text["input"].format(quantity, which)
             real["start"] = "0.0"
         else:
             attrs.update(variability="continuous", initial="calculated")
-            attrs["description"] = text["output"]
+            attrs["description"] = text["rate" if "_rate" in name else "output"]
         ET.SubElement(ET.SubElement(mv, "ScalarVariable", **attrs), "Real", **real)
     sv = ET.SubElement(
         mv,
@@ -140,18 +154,21 @@ def _description(suffixes, c_sky, c_ground, semi, token) -> bytes:
     structure = ET.SubElement(root, "ModelStructure")
     outputs = ET.SubElement(structure, "Outputs")
     n = len(suffixes)
-    for i in range(n):
-        # output index (1-based over ModelVariables); it depends on its actuator's inputs
+    # (1-based index over ModelVariables, the inputs it depends on): the force on its
+    # actuator's four inputs, the rate on its two accelerations
+    unknowns = [(4 * n + i + 1, range(4 * i + 1, 4 * i + 5)) for i in range(n)]
+    unknowns += [(5 * n + i + 1, range(4 * i + 3, 4 * i + 5)) for i in range(n)]
+    for index, deps in unknowns:
         ET.SubElement(
             outputs,
             "Unknown",
-            index=str(2 * n + i + 1),
-            dependencies=f"{2 * i + 1} {2 * i + 2}",
-            dependenciesKind="constant constant",
+            index=str(index),
+            dependencies=" ".join(str(d) for d in deps),
+            dependenciesKind=" ".join("constant" for _ in deps),
         )
     init = ET.SubElement(structure, "InitialUnknowns")
-    for i in range(n):
-        ET.SubElement(init, "Unknown", index=str(2 * n + i + 1), dependencies="")
+    for index, _ in unknowns:
+        ET.SubElement(init, "Unknown", index=str(index), dependencies="")
     ET.indent(root)
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
 

@@ -40,8 +40,10 @@ A car whose parameter file declares ``actuators`` takes, per actuator named
 (optional, start 0: its slope over the coming step), after ``seat_force_rate``;
 and, after all other outputs, ``actuator_upper_velocity_<a>`` and
 ``actuator_lower_velocity_<a>`` [m/s], the absolute vertical velocities of the
-``to`` and ``from`` points, what a skyhook or groundhook controller reads. Start
-value 0 leaves the actuator passive.
+``to`` and ``from`` points, what a skyhook or groundhook controller reads, and
+``actuator_upper_acceleration_<a>``, ``actuator_lower_acceleration_<a>`` [m/s2], their
+accelerations (for a controller's force rate). Start value 0 leaves the actuator
+passive.
 
 Numpy only, relative imports only: the FMUs ship this module under a private
 package name (``build_fmu.py``).
@@ -351,9 +353,9 @@ def actuator_variables(network: Network) -> Tuple[Tuple[str, str, str, str], ...
 
     Returns
     -------
-    tuple of (str, str, str, str)
-        Per actuator: its force input, force-rate input, upper-point velocity output
-        and lower-point velocity output.
+    tuple of (str, str, str, str, str, str)
+        Per actuator: its force input, force-rate input, upper-point and lower-point
+        velocity outputs, upper-point and lower-point acceleration outputs.
 
     Examples
     --------
@@ -364,8 +366,8 @@ def actuator_variables(network: Network) -> Tuple[Tuple[str, str, str, str], ...
     ...                  {"name": "s", "kind": "spring", "from": "w", "to": "b", "k": "k"}],
     ...     "force_inputs": ["w", "b"],
     ...     "actuators": [{"name": "", "from": "w", "to": "b"}]})
-    >>> actuator_variables(car)
-    (('actuator_force', 'actuator_force_rate', 'actuator_upper_velocity', 'actuator_lower_velocity'),)
+    >>> actuator_variables(car)[0][:4]
+    ('actuator_force', 'actuator_force_rate', 'actuator_upper_velocity', 'actuator_lower_velocity')
     """
     out = []
     for act in network.actuators:
@@ -376,6 +378,8 @@ def actuator_variables(network: Network) -> Tuple[Tuple[str, str, str, str], ...
                 f"actuator_force_rate{sfx}",
                 f"actuator_upper_velocity{sfx}",
                 f"actuator_lower_velocity{sfx}",
+                f"actuator_upper_acceleration{sfx}",
+                f"actuator_lower_acceleration{sfx}",
             )
         )
     return tuple(out)
@@ -468,7 +472,8 @@ def car_interface(network: Network) -> Interface:
     outputs, signals = _with_extra_outputs(network, outputs, ("seat.x", "seat.v"))
     actuators = actuator_variables(network)
     act_inputs, act_outputs = [], []
-    for act, (force, rate, upper, lower) in zip(network.actuators, actuators, strict=True):
+    for act, names in zip(network.actuators, actuators, strict=True):
+        force, rate = names[:2]
         pair = f"from {act['from']} to {act['to']}"
         act_inputs += [
             (
@@ -481,21 +486,18 @@ def car_interface(network: Network) -> Interface:
             ),
             (rate, ("N/s", f"Optional slope of {force} over the coming step (0 holds it)")),
         ]
-        act_outputs += [
-            (
-                upper,
-                ("m/s", f"Absolute vertical velocity of {act['to']} (the actuator's upper point)"),
-                f"{act['to']}.v",
-            ),
-            (
-                lower,
-                (
-                    "m/s",
-                    f"Absolute vertical velocity of {act['from']} (the actuator's lower point)",
-                ),
-                f"{act['from']}.v",
-            ),
-        ]
+        points = ((act["to"], "upper"), (act["from"], "lower"))
+        for name, ((point, which), (unit, quantity, q)) in zip(
+            names[2:],
+            [
+                (p, m)
+                for m in (("m/s", "velocity", "v"), ("m/s2", "acceleration", "a"))
+                for p in points
+            ],
+            strict=True,
+        ):
+            text = f"Absolute vertical {quantity} of {point} (the actuator's {which} point)"
+            act_outputs.append((name, (unit, text), f"{point}.{q}"))
     inputs += _inputs([n for n, _ in act_inputs], [spec for _, spec in act_inputs])
     outputs += _outputs([n for n, _, _ in act_outputs], [spec for _, spec, _ in act_outputs])
     signals += tuple(sig for _, _, sig in act_outputs)

@@ -1,15 +1,21 @@
 /*
  * SkyhookController: a stateless FMI 2.0 co-simulation FMU, the skyhook/groundhook law.
  *
- * For each of BV_ACTUATORS actuators i (a compile-time constant, default 1):
- *     force_i = -c_sky * upper_velocity_i + c_ground * lower_velocity_i      [N]
- * positive pushing the actuator's points apart (the car files' sign convention). With
- * semi_active true a force a passive damper cannot give, one with the sign of the relative
- * velocity upper - lower, is set to 0 (on-off law). The output is feedthrough: computed on
- * read from the inputs set last; doStep only advances the time.
+ * For each of BV_ACTUATORS actuators i (a compile-time constant):
+ *     force_i = -c_sky * vu_i + c_ground * vl_i                                 [N]
+ *     force_rate_i = -c_sky * upper_acceleration_i + c_ground * lower_acceleration_i
+ * positive pushing the actuator's points apart (the car files' sign convention), with
+ *     vu_i = upper_velocity_i + upper_acceleration_i * h,  vl_i likewise,
+ * h the last communication step (0 before the first): a host that sets the velocities of
+ * the previous communication point (a Jacobi host) gets the force at the current one to
+ * second order; a host that sets the current velocities leaves the accelerations at 0.
+ * With semi_active true a force a passive damper cannot give, one with the sign of the
+ * relative velocity vu - vl, is set to 0 (on-off law), and its rate too. The outputs are
+ * feedthrough: computed on read from the inputs set last; doStep records h.
  *
- * Value references (Real): inputs 2i (upper_velocity), 2i+1 (lower_velocity); outputs
- * 2N + i (actuator_force); parameters 3N (c_sky), 3N+1 (c_ground), N = BV_ACTUATORS.
+ * Value references (Real), N = BV_ACTUATORS: inputs 4i upper_velocity, 4i+1
+ * lower_velocity, 4i+2 upper_acceleration, 4i+3 lower_acceleration; outputs 4N + i
+ * actuator_force, 5N + i actuator_force_rate; parameters 6N c_sky, 6N+1 c_ground.
  * Boolean: 0 (semi_active). modelDescription.xml and the config header are written by
  * bodyvib.fmu.controller.
  */
@@ -23,11 +29,12 @@
    BV_C_GROUND, BV_SEMI_ACTIVE: written by the build next to this file. */
 #include "bodyvib_skyhook_config.h"
 
-#define N_IN (2 * BV_ACTUATORS)
+#define N_IN (4 * BV_ACTUATORS)
 #define VR_FORCE N_IN
-#define VR_CSKY (3 * BV_ACTUATORS)
-#define VR_CGND (3 * BV_ACTUATORS + 1)
-#define N_REAL (3 * BV_ACTUATORS + 2)
+#define VR_RATE (5 * BV_ACTUATORS)
+#define VR_CSKY (6 * BV_ACTUATORS)
+#define VR_CGND (6 * BV_ACTUATORS + 1)
+#define N_REAL (6 * BV_ACTUATORS + 2)
 
 typedef struct {
     fmi2CallbackFunctions cb;
@@ -35,6 +42,7 @@ typedef struct {
     double real[N_REAL];
     fmi2Boolean semi;
     double time;
+    double h; /* the last communication step */
     int initialized;
 } Instance;
 
@@ -42,11 +50,13 @@ static void logf_(Instance *c, fmi2Status s, const char *msg) {
     if (c && c->cb.logger) c->cb.logger(c->cb.componentEnvironment, c->name, s, "error", msg);
 }
 
-static double force(const Instance *c, int i) {
-    double vu = c->real[2 * i], vl = c->real[2 * i + 1];
+/* The force (rate = 0) or its rate (rate = 1) of actuator i. */
+static double law(const Instance *c, int i, int rate) {
+    const double *u = c->real + 4 * i; /* upper, lower velocity; upper, lower acceleration */
+    double vu = u[0] + u[2] * c->h, vl = u[1] + u[3] * c->h;
     double f = -c->real[VR_CSKY] * vu + c->real[VR_CGND] * vl;
-    if (c->semi && f * (vu - vl) > 0.0) f = 0.0;
-    return f;
+    if (c->semi && f * (vu - vl) > 0.0) return 0.0;
+    return rate ? -c->real[VR_CSKY] * u[2] + c->real[VR_CGND] * u[3] : f;
 }
 
 FMI2_Export const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
@@ -125,6 +135,7 @@ FMI2_Export fmi2Status fmi2Reset(fmi2Component c) {
     s->real[VR_CGND] = BV_C_GROUND;
     s->semi = BV_SEMI_ACTIVE;
     s->time = 0.0;
+    s->h = 0.0;
     s->initialized = 0;
     return fmi2OK;
 }
@@ -135,8 +146,10 @@ FMI2_Export fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[
     if (!s || (n && (!vr || !value))) return fmi2Error;
     for (size_t k = 0; k < n; k++) {
         if (vr[k] >= N_REAL) return fmi2Error;
-        value[k] = (vr[k] >= VR_FORCE && vr[k] < VR_CSKY) ? force(s, (int)(vr[k] - VR_FORCE))
-                                                          : s->real[vr[k]];
+        if (vr[k] >= VR_FORCE && vr[k] < VR_CSKY)
+            value[k] = law(s, (int)((vr[k] - VR_FORCE) % BV_ACTUATORS), vr[k] >= VR_RATE);
+        else
+            value[k] = s->real[vr[k]];
     }
     return fmi2OK;
 }
@@ -260,6 +273,7 @@ FMI2_Export fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2B
     (void)noset;
     if (!s || !s->initialized || !(h >= 0.0)) return fmi2Error;
     s->time = t + h;
+    s->h = h;
     return fmi2OK;
 }
 
