@@ -30,6 +30,7 @@ _HOME = {
     "SkyhookController": "control",
     "skyhook": "control",
     "closed_loop_model": "control",
+    "compare_laws": "active",
     # the co-simulation
     "Master": "cosim",
     "Slave": "cosim",

@@ -622,11 +622,12 @@ class Master:
         outputs without a step.
     extrapolate : bool
         Extrapolate the seat force linearly over each step (default); False holds it.
-    controller : bodyvib.vehicle.control.SkyhookController, optional
+    controller : SkyhookController or FmuController, optional
         Drive the car's actuators (inputs ``actuator_force*``): before each step the
-        law's force from the actuator velocities at ``t_k`` (states, exact after the
-        previous step), with the rate ``(F_k - F_{k-1}) / h`` as its in-step slope, the
-        seat force's first-order hold.
+        law's force ``F_k`` from the actuator velocities at ``t_k`` (states, exact after
+        the previous step), with the in-step slope ``(2 F_k - 3 F_{k-1} + F_{k-2}) / h``:
+        the chord to the quadratic extrapolation of the last three forces (a backward
+        difference, the seat force's slope, nearly doubles the skyhook run's coupling error).
 
     Attributes
     ----------
