@@ -32,6 +32,11 @@ _HOME = {
     "build_project_fmu": "fmus",
     "load_fmu_model": "fmus",
     "temporary_fmu_dir": "fmus",
+    # active suspension control
+    "SkyhookController": "control",
+    "skyhook": "control",
+    "closed_loop_model": "control",
+    "compare_laws": "active",
     # the co-simulation
     "Master": "cosim",
     "Slave": "cosim",

@@ -75,6 +75,10 @@ __all__ = [
     "Slave",
     "open_fmu",
     "road_pairs",
+    "actuator_pairs",
+    "controller_suffixes",
+    "FmuController",
+    "open_controller",
     "model_from_fmu",
     "cosimulate",
     "write_csv",
@@ -89,7 +93,14 @@ BODY_OUTPUTS = contract.BODY_OUTPUTS[:4]  # seat_force_rate: not read by this ma
 CAR_INPUTS = contract.CAR_INPUTS[:3]
 _SEAT_FORCE_RATE = contract.CAR_INPUTS[3]
 CAR_OUTPUTS = contract.CAR_OUTPUTS + CAR_FMU_OUTPUTS
-_INTERFACES = {"body": (BODY_INPUTS, BODY_OUTPUTS), "car": (CAR_INPUTS, CAR_OUTPUTS)}
+#: A controller FMU's variables per actuator (suffix ``_<name>`` as the car's).
+CONTROLLER_INPUTS = ("upper_velocity", "lower_velocity")
+CONTROLLER_OUTPUTS = ("actuator_force",)
+_INTERFACES = {
+    "body": (BODY_INPUTS, BODY_OUTPUTS),
+    "car": (CAR_INPUTS, CAR_OUTPUTS),
+    "controller": (CONTROLLER_INPUTS, CONTROLLER_OUTPUTS),
+}
 
 
 class Slave:
@@ -120,12 +131,16 @@ class Slave:
             shutil.rmtree(self._unzipdir, ignore_errors=True)
 
 
-_OPTIONS = {"body": "--body", "car": "--car-fmu"}
+_OPTIONS = {"body": "--body", "car": "--car-fmu", "controller": "--control-fmu"}
 
 
 def _missing(md, kind):
     inputs, outputs = _INTERFACES[kind]
     have = {v.name: v.causality for v in md.modelVariables}
+    if kind == "controller":  # per actuator force output, its two velocity inputs
+        suffixes = controller_suffixes(have) or [""]
+        inputs = [f"{n}{s}" for s in suffixes for n in inputs]
+        outputs = [f"{n}{s}" for s in suffixes for n in outputs]
     if kind == "car" and road_pairs(have):  # a car driven at several road points
         inputs = [n for pair in road_pairs(have) for n in pair] + list(inputs[2:])
         outputs = [n if n in have or f"{n}_front" not in have else f"{n}_front" for n in outputs]
@@ -162,6 +177,150 @@ def road_pairs(variables):
     ]
 
 
+def actuator_pairs(variables, path="car FMU"):
+    """The actuator variables of a car FMU, by name: force, rate, upper and lower velocity.
+
+    Parameters
+    ----------
+    variables : collection of str
+        The car FMU's variable names.
+    path : str
+        The FMU, for the message.
+
+    Returns
+    -------
+    list of (str, str, str, str)
+        ``actuator_force<sfx>``, ``actuator_force_rate<sfx>``,
+        ``actuator_upper_velocity<sfx>``, ``actuator_lower_velocity<sfx>`` per actuator
+        (see :mod:`bodyvib.runtime.contract`).
+
+    Raises
+    ------
+    BodyvibError
+        No actuator, or an actuator force without its rate input or velocity outputs.
+
+    Examples
+    --------
+    >>> actuator_pairs(["actuator_force", "actuator_force_rate", "actuator_upper_velocity",
+    ...                 "actuator_lower_velocity"])
+    [('actuator_force', 'actuator_force_rate', 'actuator_upper_velocity', 'actuator_lower_velocity')]
+    """
+    out = []
+    for name in variables:
+        if not name.startswith("actuator_force") or name.startswith("actuator_force_rate"):
+            continue
+        sfx = name[len("actuator_force") :]
+        names = (name, f"actuator_force_rate{sfx}")
+        names += (f"actuator_upper_velocity{sfx}", f"actuator_lower_velocity{sfx}")
+        missing = [n for n in names if n not in variables]
+        if missing:
+            raise BodyvibError(
+                f"{path}: actuator input {name} comes without {', '.join(missing)}; "
+                "a controller needs them (build the car from a file with 'actuators')"
+            )
+        out.append(names)
+    if not out:
+        raise BodyvibError(
+            f"{path} has no actuator inputs (actuator_force): a controller needs a car "
+            "built from a file with 'actuators' (--car quarter-car-active or half-car-active)"
+        )
+    return out
+
+
+def controller_suffixes(variables):
+    """The actuator suffixes a controller FMU drives: those of its ``actuator_force`` outputs.
+
+    Parameters
+    ----------
+    variables : dict of str to str
+        Variable name -> causality.
+
+    Returns
+    -------
+    list of str
+        ``[""]`` for ``actuator_force``, ``["_front", "_rear"]`` for a half car's.
+
+    Examples
+    --------
+    >>> controller_suffixes({"actuator_force_front": "output", "upper_velocity_front": "input"})
+    ['_front']
+    """
+    return [
+        n[len("actuator_force") :]
+        for n, causality in variables.items()
+        if n.startswith("actuator_force")
+        and not n.startswith("actuator_force_rate")
+        and causality == "output"
+    ]
+
+
+class FmuController:
+    """A controller FMU in the master's loop: actuator forces from the car's velocities.
+
+    Use :func:`open_controller`, which checks it against the car.
+
+    Parameters
+    ----------
+    slave : Slave
+        The initialized controller FMU.
+    suffixes : sequence of str
+        The car's actuator suffixes, in the car's order.
+    """
+
+    linear = False  # what the FMU computes is its own: no closed-loop reference from it
+
+    def __init__(self, slave: Slave, suffixes):
+        self.slave = slave
+        self._in = [slave.vr[f"{n}{s}"] for s in suffixes for n in CONTROLLER_INPUTS]
+        self._out = [slave.vr[f"actuator_force{s}"] for s in suffixes]
+
+    def forces(self, velocities):
+        """Set the velocities (upper, lower per actuator), read the forces (feedthrough)."""
+        self.slave.fmu.setReal(self._in, list(velocities))
+        return list(self.slave.fmu.getReal(self._out))
+
+    def advance(self, t: float, h: float) -> None:
+        """Step the FMU with the master (a stateless law ignores it)."""
+        self.slave.fmu.doStep(t, h)
+
+
+@contextlib.contextmanager
+def open_controller(path, car: "Slave"):
+    """Instantiate a controller FMU for a car FMU: refused in one line if it does not fit.
+
+    Parameters
+    ----------
+    path : str
+        ``.fmu`` file: FMI 2.0 co-simulation with, per actuator of the car,
+        inputs ``upper_velocity<sfx>``, ``lower_velocity<sfx>`` and the output
+        ``actuator_force<sfx>`` (``SkyhookController.fmu``).
+    car : Slave
+        The car FMU it drives.
+
+    Yields
+    ------
+    FmuController
+
+    Raises
+    ------
+    BodyvibError
+        Not FMI 2.0 co-simulation (a Model Exchange only FMU), missing variables, or
+        actuators other than the car's.
+    """
+    wanted = [a[0][len("actuator_force") :] for a in actuator_pairs(car.vr, car.path)]
+    with open_fmu(path, "controller", "controller") as slave:
+        have = controller_suffixes(
+            {n: ("output" if n.startswith("actuator_force") else "input") for n in slave.vr}
+        )
+        if sorted(have) != sorted(wanted):
+            raise BodyvibError(
+                f"controller FMU '{path}' drives the actuator force(s) "
+                f"{', '.join('actuator_force' + s for s in have)}; the car has "
+                f"{', '.join('actuator_force' + s for s in wanted)}: build it for this car"
+            )
+        yield FmuController(slave, wanted)
+
+
 def _check_interface(md, path, kind):
     inputs, outputs = _INTERFACES[kind]
     missing = _missing(md, kind)
@@ -195,7 +354,10 @@ def _model_description(path, kind):
         raise BodyvibError(f"FMU '{path}' is FMI {md.fmiVersion}; FMI 2.0 is needed")
     _check_interface(md, path, kind)
     if md.coSimulation is None:
-        raise BodyvibError(f"FMU '{path}' is not a co-simulation FMU (FMI 2.0 CS needed)")
+        raise BodyvibError(
+            f"FMU '{path}' is not a co-simulation FMU (Model Exchange only); FMI 2.0 "
+            "co-simulation is needed"
+        )
     return md
 
 
@@ -460,6 +622,12 @@ class Master:
         outputs without a step.
     extrapolate : bool
         Extrapolate the seat force linearly over each step (default); False holds it.
+    controller : SkyhookController or FmuController, optional
+        Drive the car's actuators (inputs ``actuator_force*``): before each step the
+        law's force ``F_k`` from the actuator velocities at ``t_k`` (states, exact after
+        the previous step), with the in-step slope ``(2 F_k - 3 F_{k-1} + F_{k-2}) / h``:
+        the chord to the quadratic extrapolation of the last three forces (a backward
+        difference, the seat force's slope, nearly doubles the skyhook run's coupling error).
 
     Attributes
     ----------
@@ -471,11 +639,18 @@ class Master:
     Raises
     ------
     BodyvibError
-        A step that is not a positive number, or fewer than two samples.
+        A step that is not a positive number, fewer than two samples, or a controller
+        for a car FMU without actuators.
     """
 
     def __init__(
-        self, car: Slave, body: Slave, step: float, samples: int, extrapolate: bool = True
+        self,
+        car: Slave,
+        body: Slave,
+        step: float,
+        samples: int,
+        extrapolate: bool = True,
+        controller=None,
     ):
         check_step(step, "communication step")
         if int(samples) < 2:
@@ -496,6 +671,14 @@ class Master:
         )
         # what is recorded, in the signal table's order (seat motion first: read after a step)
         self._car_out = [car.vr[car_variable(s, car.vr)] for s in CAR_SIGNALS]
+        self._control = controller
+        self._act_vel, self._act_F = [], ([], [])
+        if controller is not None:
+            acts = actuator_pairs(car.vr, car.path)
+            self._car_in += [car.vr[n] for force, rate, _, _ in acts for n in (force, rate)]
+            self._act_vel = [car.vr[n] for _, _, up, low in acts for n in (up, low)]
+            self._act_F = ([0.0] * len(acts),) * 2  # the car at rest: no force
+            self._act_v = [0.0] * (2 * len(acts))
         self._body_in = [body.vr[k] for k in BODY_INPUTS]
         # F, a1, x1, x2, then the named forces the FMU has (the others are recorded as NaN)
         self._body_out = [body.vr[s.variable] for s in BODY_SIGNALS if s.variable in body.vr]
@@ -506,6 +689,10 @@ class Master:
         body.fmu.setReal(self._body_in, [0.0, 0.0])  # the body at rest at t = 0
         self._B = list(body.fmu.getReal(self._body_out)) + self._pad
         self._F_prev = self._B[0]
+
+    def _actuator_forces(self):
+        """The controller's force per actuator from the velocities read last."""
+        return self._control.forces(self._act_v)
 
     def advance(self, road_displacement, road_velocity) -> np.ndarray:
         """Co-simulate the next communication points.
@@ -562,19 +749,29 @@ class Master:
         c_set, c_get, c_step = cf.setReal, cf.getReal, cf.doStep
         b_set, b_get, b_step = bf.setReal, bf.getReal, bf.doStep
         B, F_prev, pad = self._B, self._F_prev, self._pad
+        law, act_vel, (Fa, Fa_prev) = self._control, self._act_vel, self._act_F
+        act = []  # the actuators' inputs: force and rate of each
+        law_step = getattr(law, "advance", None)  # a controller FMU steps with the car
         F = B[0]
         k = self.k
         try:
             for j, rk in enumerate(road.tolist()):
                 k = self.k + j
+                if law is not None:
+                    Fa, Fa_prev, Fa_prev2 = self._actuator_forces(), Fa, Fa_prev
+                    act = [
+                        x
+                        for f, f1, f2 in zip(Fa, Fa_prev, Fa_prev2)
+                        for x in (f, (2.0 * f - 3.0 * f1 + f2) / h)
+                    ]
                 if k == last:  # the last point: the car's outputs, no step
-                    c_set(car_in, rk + [F] + ([0.0] if has_rate else []))
+                    c_set(car_in, rk + [F] + ([0.0] if has_rate else []) + act)
                     rows[j] = list(c_get(car_out)) + B
                     break
                 t = k * h
                 dF = (F - F_prev) if extrapolate else 0.0
                 if has_rate:
-                    c_set(car_in, rk + [F, dF / h])
+                    c_set(car_in, rk + [F, dF / h] + act)
                 else:
                     c_set(car_in, rk + [F + 0.5 * dF])
                 # car outputs at t_k with the inputs of t_k (tire force and seat
@@ -583,6 +780,10 @@ class Master:
                 rows[j] = [xs, vs, a_s, sd, tf] + B
                 c_step(t, h)
                 xn, vn = c_get(car_motion)  # states only: exact right after the step
+                if law is not None:
+                    self._act_v = c_get(act_vel)  # states too: the velocities at t_k+1
+                    if law_step is not None:
+                        law_step(t, h)
                 b_set(body_in, [xs, (xn - xs) / h])
                 b_step(t, h)
                 b_set(body_in, [xn, vn])
@@ -597,7 +798,7 @@ class Master:
             raise BodyvibError(f"co-simulation stopped at t = {k * h:g} s: {exc}") from None
         finally:
             self.wall_s += time.perf_counter() - t0
-        self._B, self._F_prev = B, F_prev
+        self._B, self._F_prev, self._act_F = B, F_prev, (Fa, Fa_prev)
         self.k += m
         return np.array(rows, dtype=float).reshape(m, len(MASTER_SIGNALS))
 
@@ -611,6 +812,7 @@ def cosimulate(
     extrapolate: bool = True,
     progress: bool = False,
     block: int = 4096,
+    controller=None,
 ) -> Dict[str, np.ndarray]:
     """Run the two-way coupled co-simulation over a sampled road, keeping every signal.
 
@@ -633,6 +835,8 @@ def cosimulate(
         Show a tqdm progress bar on stderr (hidden when stderr is not a terminal).
     block : int
         Communication points per :meth:`Master.advance` call.
+    controller : bodyvib.vehicle.control.SkyhookController, optional
+        Drive the car's actuators (:class:`Master`).
 
     Returns
     -------
@@ -654,7 +858,7 @@ def cosimulate(
             "road displacement and velocity must be arrays of equal length (and shape), >= 2 samples"
         )
     n = z.shape[0]
-    master = Master(car, body, step, n, extrapolate)
+    master = Master(car, body, step, n, extrapolate, controller)
     bar = progress_bar(n - 1, progress, "co-simulation")
     parts = []
     try:

@@ -19,10 +19,12 @@ from typing import Dict
 
 import numpy as np
 
+from bodyvib.runtime.contract import actuator_variables
 from bodyvib.runtime.discretize import Discretization, check_step, input_rates
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import Network, linear_model
 
+from .control import closed_loop_model
 from .quarter_car import seated_system
 from .signals import BODY_SIGNALS, CAR_SIGNALS, OPTIONAL_SIGNALS, car_variable
 from .signals import SIGNALS as _SIGNALS
@@ -83,7 +85,7 @@ def seat_force_weights(lm, body: Network, seat: str, prefix: str = "body.") -> n
 
 
 def reference_run(
-    car: Network, body: Network, road_displacement, road_velocity, step: float
+    car: Network, body: Network, road_displacement, road_velocity, step: float, controller=None
 ) -> Dict[str, np.ndarray]:
     """Simulate the seated car monolithically on a uniform time grid.
 
@@ -100,6 +102,8 @@ def reference_run(
         first point's.
     step : float
         Time step in s.
+    controller : bodyvib.vehicle.control.SkyhookController, optional
+        Drive the car's actuators by this linear law (the closed loop).
 
     Returns
     -------
@@ -127,7 +131,7 @@ def reference_run(
         raise BodyvibError(
             "road displacement and velocity must be arrays of equal length (and shape), >= 2 samples"
         )
-    signals = ReferenceStream(car, body, step).advance(z, v)
+    signals = ReferenceStream(car, body, step, controller).advance(z, v)
     n = z.shape[0]
     front = (z, v) if z.ndim == 1 else (z[:, 0], v[:, 0])
     signals.update(time=np.arange(n) * float(step), road_displacement=front[0])
@@ -147,6 +151,10 @@ class ReferenceStream:
         The quarter car and the body model, as :func:`reference_run` takes them.
     step : float
         Time step, s.
+    controller : bodyvib.vehicle.control.SkyhookController, optional
+        Drive the car's actuators by this (linear) law: the closed loop
+        (:func:`bodyvib.vehicle.control.closed_loop_model`); :meth:`advance` then also
+        returns each actuator's force under its FMU input name (``actuator_force``).
 
     Raises
     ------
@@ -154,12 +162,18 @@ class ReferenceStream:
         A body without head/torso roles, or a step that is not a positive number.
     """
 
-    def __init__(self, car: Network, body: Network, step: float):
+    def __init__(self, car: Network, body: Network, step: float, controller=None):
         for role in ("head", "torso"):
             if role not in body.roles:
                 raise BodyvibError(f"body model '{body.name}' has no '{role}' role")
         check_step(step)
-        self._lm = lm = linear_model(seated_system(car, body))
+        lm = linear_model(seated_system(car, body))
+        self._forces = {}
+        if controller is not None:
+            lm, forces = closed_loop_model(lm, car, controller)
+            names = [v[0] for v in actuator_variables(car)]
+            self._forces = dict(zip(names, forces, strict=True))
+        self._lm = lm
         self._disc = Discretization(lm)
         self._h = float(step)
         self._x = self._disc.zero_state()
@@ -224,7 +238,9 @@ class ReferenceStream:
             xk = d.step(xk, u[k], du[k], h)
         self._x = xk
         y = x @ lm.C.T + u @ lm.D.T
-        return {name: _row(y, i) for name, i in self._rows.items()}
+        out = {name: _row(y, i) for name, i in self._rows.items()}
+        out.update({name: x @ row for name, row in self._forces.items()})
+        return out
 
 
 def _row(y, i):

@@ -46,6 +46,10 @@ __all__ = [
     "HALF_CAR_SSP_NAME",
     "HALF_CAR_COMPONENTS",
     "HALF_CAR_CONNECTIONS",
+    "ACTIVE_SSP_NAME",
+    "ACTIVE_COMPONENTS",
+    "ACTIVE_CONNECTIONS",
+    "build_active_ssp",
     "PACKAGES",
     "parameter_values",
     "ssp_parameters",
@@ -84,6 +88,27 @@ HALF_CAR_CONNECTIONS = tuple(
     for q in ("displacement", "velocity")
 ) + tuple(c for c in CONNECTIONS if c[0] != "Road")
 
+#: The active package: the quarter car with an actuator, driven by a skyhook controller.
+ACTIVE_SSP_NAME = "ActiveQuarterCarWithOccupant"
+
+#: Component name -> FMU name of the active package (the car built from
+#: ``quarter-car-active``, the controller from :mod:`bodyvib.fmu.controller`).
+ACTIVE_COMPONENTS = dict(COMPONENTS, Controller="SkyhookController")
+
+#: The quarter car's connections, and the controller between the car's actuator velocities
+#: and accelerations and its actuator force and force rate. A Jacobi host hands the
+#: controller the car's motion of the previous communication point: the controller
+#: extrapolates the velocities over the step with the accelerations, and the rate gives
+#: the force its slope over the next step.
+ACTIVE_CONNECTIONS = CONNECTIONS + (
+    ("Car", "actuator_upper_velocity", "Controller", "upper_velocity"),
+    ("Car", "actuator_lower_velocity", "Controller", "lower_velocity"),
+    ("Car", "actuator_upper_acceleration", "Controller", "upper_acceleration"),
+    ("Car", "actuator_lower_acceleration", "Controller", "lower_acceleration"),
+    ("Controller", "actuator_force", "Car", "actuator_force"),
+    ("Controller", "actuator_force_rate", "Car", "actuator_force_rate"),
+)
+
 #: Package name -> (components, connections, description of the system).
 PACKAGES = {
     SSP_NAME: (
@@ -97,6 +122,12 @@ PACKAGES = {
         HALF_CAR_CONNECTIONS,
         "Half car (bounce and pitch) on a road under both axles with a seated occupant, "
         "two-way coupled through seat motion and seat force (and their rates)",
+    ),
+    ACTIVE_SSP_NAME: (
+        ACTIVE_COMPONENTS,
+        ACTIVE_CONNECTIONS,
+        "Quarter car with an actuator on a road with a seated occupant; a skyhook/groundhook "
+        "controller sets the actuator force from the car's body and wheel velocities",
     ),
 }
 
@@ -314,6 +345,7 @@ def ssp_reference(
     body: str = "reduced-paper",
     car: str = "quarter-car",
     road: Optional[dict] = None,
+    controller=None,
 ) -> Dict[str, np.ndarray]:
     """The monolithic reference of the SSP's system on the road its ``Road.fmu`` carries.
 
@@ -329,6 +361,8 @@ def ssp_reference(
     road : dict, optional
         The keyword arguments its ``Road.fmu`` was built with
         (:data:`bodyvib.vehicle.fmus.ROAD_DEFAULTS` by default); ``speed`` is the run's.
+    controller : bodyvib.vehicle.control.SkyhookController, optional
+        The law of the active package's controller: the reference is the closed loop.
 
     Returns
     -------
@@ -352,4 +386,89 @@ def ssp_reference(
     z, dz = table.evaluate(r["speed"] * t)
     if z.shape[1] == 1:
         z, dz = z[:, 0], dz[:, 0]
-    return reference_run(load_car(car), load_model(body), z, r["speed"] * dz, step)
+    return reference_run(
+        load_car(car), load_model(body), z, r["speed"] * dz, step, controller=controller
+    )
+
+
+def build_active_ssp(
+    dest,
+    controller,
+    road: Optional[dict] = None,
+    native: bool = False,
+    platforms=None,
+    echo=None,
+) -> Path:
+    """Build the active package: its four FMUs and ``ActiveQuarterCarWithOccupant.ssp``.
+
+    ``Road.fmu``, ``QuarterCar.fmu`` (built from ``quarter-car-active``: the inputs
+    ``actuator_force`` and ``actuator_force_rate``, the outputs
+    ``actuator_upper_velocity`` and ``actuator_lower_velocity``), ``HumanBody3DOF.fmu``
+    (pythonfmu, or native with ``native``) and ``SkyhookController.fmu`` (always native C,
+    FMI 2.0), wired by :data:`ACTIVE_CONNECTIONS`.
+
+    Parameters
+    ----------
+    dest : str or path
+        Output folder.
+    controller : bodyvib.vehicle.control.SkyhookController
+        The law baked into the controller's parameters.
+    road : dict, optional
+        Options of Road.fmu (:data:`bodyvib.vehicle.fmus.ROAD_DEFAULTS` by default).
+    native : bool
+        Native C FMUs for road, car and body (FMI 2.0).
+    platforms : iterable of str, optional
+        Native binaries to compile (:data:`bodyvib.fmu.native.PLATFORMS`).
+    echo : callable, optional
+        Called with one line per file written.
+
+    Returns
+    -------
+    Path
+        The ``.ssp`` file.
+
+    Raises
+    ------
+    BodyvibError
+        What the FMU builders refuse.
+    """
+    from bodyvib.fmu.controller import build_controller_fmu
+    from bodyvib.process import interrupts
+    from bodyvib.process.outputs import staged_writes
+
+    from .fmus import build_fmus
+
+    dest = Path(dest)
+    lines = []
+    with staged_writes(guard=interrupts.critical):  # the FMUs and the package, or nothing
+        built = build_fmus(
+            dest,
+            None,
+            "quarter-car-active",
+            names=["Road", "QuarterCar", "HumanBody3DOF"],
+            echo=lines.append,
+            road=road,
+            native=native,
+            fmi=(2,),
+            platforms=platforms,
+        )
+        built["SkyhookController"] = build_controller_fmu(
+            dest,
+            ("",),
+            controller.c_sky,
+            controller.c_ground,
+            controller.semi_active,
+            platforms=platforms,
+        )
+        lines.append(f"wrote {built['SkyhookController']} (native C, FMI 2.0, the law's gains)")
+        path = write_ssp(
+            dest / f"{ACTIVE_SSP_NAME}.ssp",
+            {comp: str(built[name]) for comp, name in ACTIVE_COMPONENTS.items()},
+            name=ACTIVE_SSP_NAME,
+        )
+        lines.append(f"wrote {path} (Road -> Car <-> Body, Car <-> Controller, 1 ms step)")
+        interrupts.check()
+    for line in lines:
+        if echo is not None:
+            echo(line)
+    return path

@@ -28,6 +28,8 @@ def _run(args) -> int:
     ]
     if args.cross_check:
         return _cross_check(args, inputs)
+    if args.control:
+        return _active(args, inputs)
     names = list(args.fmus or FMUS)
     platforms = None
     if args.native:
@@ -84,6 +86,35 @@ def _run(args) -> int:
         interrupts.check()
     for line in lines:
         print(line)
+    return 0
+
+
+def _active(args, inputs) -> int:
+    """``--control LAW``: the active package (road, active car, body, controller) in DEST/active."""
+    from bodyvib.vehicle.control import parse_control
+    from bodyvib.vehicle.quarter_car import load_car
+    from bodyvib.vehicle.ssp import ACTIVE_COMPONENTS, ACTIVE_SSP_NAME, build_active_ssp
+
+    if args.fmus or args.params:
+        raise BodyvibError(
+            "--control builds the active package's own FMUs (the reduced body, the active "
+            "quarter car, Road and the controller): drop --fmus and --params"
+        )
+    controller = parse_control(args.control, load_car("quarter-car-active"))
+    road = _road(args)
+    platforms = None
+    if args.native or args.platforms:
+        from bodyvib.fmu.native import choose_platforms
+
+        platforms = choose_platforms(args.platforms).platforms
+    dest = Path(args.dest) / ("native/active" if args.native else "active")
+    outs = [("--dest", args.dest, None, True)]
+    outs += [(f"--dest {n}.fmu", str(dest / f"{n}.fmu"), None) for n in ACTIVE_COMPONENTS.values()]
+    outs.append((f"--dest {ACTIVE_SSP_NAME}.ssp", str(dest / f"{ACTIVE_SSP_NAME}.ssp"), None))
+    check_outputs(outs, inputs)
+    build_active_ssp(
+        dest, controller, road=road, native=args.native, platforms=platforms, echo=print
+    )
     return 0
 
 
@@ -198,6 +229,15 @@ def add_command(subparsers):
         default=ROAD_DEFAULTS["speed"],
         metavar="V",
         help="Road.fmu: default of its speed parameter, m/s (default: 20)",
+    )
+    p.add_argument(
+        "--control",
+        metavar="LAW",
+        help="instead: the active package in DEST/active (DEST/native/active with --native): "
+        "Road, QuarterCar from quarter-car-active, HumanBody3DOF, SkyhookController (native "
+        "C) and ActiveQuarterCarWithOccupant.ssp wiring the controller between the car's "
+        "actuator velocities and its actuator force; LAW as for cosim --control "
+        "(skyhook, groundhook, hybrid; c=, g=, semi)",
     )
     p.add_argument(
         "--cross-check",

@@ -135,6 +135,25 @@ def _fmus(args, want_iso: bool):
     return body, iso, car, tmp
 
 
+def _controller(args):
+    """The ``--control`` law or ``--control-fmu`` path for the car of the run, or None."""
+    if args.control is not None and args.control_fmu is not None:
+        raise BodyvibError("--control and --control-fmu both choose the controller: give one")
+    if args.control_fmu is not None:
+        if not os.path.isfile(args.control_fmu):
+            raise BodyvibError(f"FMU file '{args.control_fmu}' does not exist (--control-fmu)")
+        check_fmu(args.control_fmu, "controller")  # a car or ME-only FMU: named now
+        return args.control_fmu
+    if args.control is None:
+        return None
+    from bodyvib.vehicle.control import parse_control
+    from bodyvib.vehicle.cosim import model_from_fmu
+    from bodyvib.vehicle.quarter_car import load_car
+
+    car = model_from_fmu(args.car_fmu) if args.car_fmu else load_car(args.car or "quarter-car")
+    return parse_control(args.control, car)
+
+
 def _label(path, default):
     base = os.path.splitext(os.path.basename(path))[0]
     return base or default
@@ -154,6 +173,7 @@ def _run(args, want_iso):
     check_settings(settings, bodies=2 if want_iso else 1)  # before building
     if args.csv:
         _check_disk(args.csv, (args.duration / args.step + 1) * (2 if want_iso else 1))
+    controller = _controller(args)  # refused before building
     body, iso, car, tmp = _fmus(args, want_iso)
     try:
         bodies = {_label(body, "body"): body}
@@ -172,6 +192,7 @@ def _run(args, want_iso):
                 progress=not args.quiet,
                 quiet=args.quiet,
                 csv=csv,
+                controller=controller,
             )
             comparison = compare(study, *bodies) if want_iso else None
             print(format_report(study, comparison))
@@ -234,6 +255,22 @@ def _common(p):
         action="store_true",
         help="build the native C FMUs for the run instead of the pythonfmu ones "
         "(FMUs given with --body/--car-fmu/--iso-body are used as they are)",
+    )
+    p.add_argument(
+        "--control",
+        metavar="LAW",
+        help="drive the car's actuators (a car with actuators: quarter-car-active, "
+        "half-car-active): skyhook, groundhook or hybrid, with options after ':' "
+        "c=<N s/m> (skyhook gain; default the body's critical damping on the suspension "
+        "springs), g=<N s/m> (groundhook gain; default the wheels' critical damping on the "
+        "tires), semi (on-off semi-active clipping); e.g. skyhook:c=3000",
+    )
+    p.add_argument(
+        "--control-fmu",
+        metavar="FMU",
+        help="drive the car's actuators by a controller FMU (FMI 2.0 co-simulation with "
+        "inputs upper_velocity, lower_velocity and output actuator_force per actuator: "
+        "SkyhookController.fmu from bodyvib build --control)",
     )
     p.add_argument(
         "--hold",

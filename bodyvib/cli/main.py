@@ -49,6 +49,7 @@ COMMAND_MODULES = (
     "bodyvib.cli.frf",
     "bodyvib.cli.build",
     "bodyvib.cli.cosim",
+    "bodyvib.cli.control",
     "bodyvib.cli.fit",
     "bodyvib.cli.sweep",
     "bodyvib.cli.design",

@@ -4,7 +4,8 @@
 :mod:`~bodyvib.fmu.pythonfmu` builds a pythonfmu FMU whose slave runs the copied
 run-time package :mod:`bodyvib.runtime`; :mod:`~bodyvib.fmu.native` compiles the
 one C code base in ``fmu_src/native`` for the model baked in as data;
-:mod:`~bodyvib.fmu.contents` locates the sources both start from. Names are
+:mod:`~bodyvib.fmu.contents` locates the sources both start from;
+:mod:`~bodyvib.fmu.controller` builds the skyhook controller, a small C model of its own. Names are
 imported from their module on first use (pythonfmu and the compilers are only
 needed when building).
 
@@ -24,6 +25,7 @@ _HOME = {
     "NativeModel": "native",
     "PLATFORMS": "native",
     "build_native_source_fmu": "native_table",
+    "build_controller_fmu": "controller",
     "ModelDescription": "description",
     "validate_fmu_file": "description",
     "fmu_src_dir": "contents",

@@ -33,6 +33,18 @@ itself names no car part. Last come one output ``<name>_force`` [N] per named
 internal force of the file's ``forces``, in its order (the body models'
 ``neck_force`` and ``lumbar_force``, positive in compression).
 
+A car whose parameter file declares ``actuators`` takes, per actuator named
+``<a>`` (suffix ``_<a>``, none for an unnamed one), the inputs
+``actuator_force_<a>`` [N] (positive pushes the actuator's ``to`` point up and its
+``from`` point down: the two apart) and ``actuator_force_rate_<a>`` [N/s]
+(optional, start 0: its slope over the coming step), after ``seat_force_rate``;
+and, after all other outputs, ``actuator_upper_velocity_<a>`` and
+``actuator_lower_velocity_<a>`` [m/s], the absolute vertical velocities of the
+``to`` and ``from`` points, what a skyhook or groundhook controller reads, and
+``actuator_upper_acceleration_<a>``, ``actuator_lower_acceleration_<a>`` [m/s2], their
+accelerations (for a controller's force rate). Start value 0 leaves the actuator
+passive.
+
 Numpy only, relative imports only: the FMUs ship this module under a private
 package name (``build_fmu.py``).
 """
@@ -57,6 +69,7 @@ __all__ = [
     "CAR_INPUTS",
     "CAR_OUTPUTS",
     "fmu_variables",
+    "actuator_variables",
     "rate_signal",
     "road_inputs",
     "KINDS",
@@ -330,6 +343,48 @@ def body_interface(network: Network) -> Interface:
     )
 
 
+def actuator_variables(network: Network) -> Tuple[Tuple[str, str, str, str], ...]:
+    """FMU variable names of each actuator of a car model, in the file's order.
+
+    Parameters
+    ----------
+    network : Network
+        A vehicle model (its ``actuators``, none for a passive car).
+
+    Returns
+    -------
+    tuple of (str, str, str, str, str, str)
+        Per actuator: its force input, force-rate input, upper-point and lower-point
+        velocity outputs, upper-point and lower-point acceleration outputs.
+
+    Examples
+    --------
+    >>> from bodyvib.runtime.modelfile import network_from_dict
+    >>> car = network_from_dict({"name": "two-mass", "base": "road",
+    ...     "parameters": {"m": 40.0, "k": 2e5}, "masses": {"w": "m", "b": "m"},
+    ...     "elements": [{"name": "t", "kind": "spring", "from": "road", "to": "w", "k": "k"},
+    ...                  {"name": "s", "kind": "spring", "from": "w", "to": "b", "k": "k"}],
+    ...     "force_inputs": ["w", "b"],
+    ...     "actuators": [{"name": "", "from": "w", "to": "b"}]})
+    >>> actuator_variables(car)[0][:4]
+    ('actuator_force', 'actuator_force_rate', 'actuator_upper_velocity', 'actuator_lower_velocity')
+    """
+    out = []
+    for act in network.actuators:
+        sfx = f"_{act['name']}" if act["name"] else ""
+        out.append(
+            (
+                f"actuator_force{sfx}",
+                f"actuator_force_rate{sfx}",
+                f"actuator_upper_velocity{sfx}",
+                f"actuator_lower_velocity{sfx}",
+                f"actuator_upper_acceleration{sfx}",
+                f"actuator_lower_acceleration{sfx}",
+            )
+        )
+    return tuple(out)
+
+
 def seat_point(network: Network) -> str:
     """The mass a vehicle model seats the occupant on: its ``seat`` role.
 
@@ -415,19 +470,58 @@ def car_interface(network: Network) -> Interface:
         ),
     )
     outputs, signals = _with_extra_outputs(network, outputs, ("seat.x", "seat.v"))
+    actuators = actuator_variables(network)
+    act_inputs, act_outputs = [], []
+    for act, names in zip(network.actuators, actuators, strict=True):
+        force, rate = names[:2]
+        pair = f"from {act['from']} to {act['to']}"
+        act_inputs += [
+            (
+                force,
+                (
+                    "N",
+                    f"Actuator force {pair}; positive pushes {act['to']} up and "
+                    f"{act['from']} down (0, the default, leaves the car passive)",
+                ),
+            ),
+            (rate, ("N/s", f"Optional slope of {force} over the coming step (0 holds it)")),
+        ]
+        points = ((act["to"], "upper"), (act["from"], "lower"))
+        for name, ((point, which), (unit, quantity, q)) in zip(
+            names[2:],
+            [
+                (p, m)
+                for m in (("m/s", "velocity", "v"), ("m/s2", "acceleration", "a"))
+                for p in points
+            ],
+            strict=True,
+        ):
+            text = f"Absolute vertical {quantity} of {point} (the actuator's {which} point)"
+            act_outputs.append((name, (unit, text), f"{point}.{q}"))
+    inputs += _inputs([n for n, _ in act_inputs], [spec for _, spec in act_inputs])
+    outputs += _outputs([n for n, _, _ in act_outputs], [spec for _, spec, _ in act_outputs])
+    signals += tuple(sig for _, _, sig in act_outputs)
     nb = len(network.bases)
     m = 2 * nb + len(network.force_inputs)
-    input_map = np.zeros((m, 2 * nb + 2))
+    input_map = np.zeros((m, 2 * nb + 2 + 2 * len(actuators)))
     input_map[: 2 * nb, : 2 * nb] = np.eye(2 * nb)  # each base's displacement and velocity
+    forces = list(network.force_inputs)
     # <seat>.force = -seat_force
-    input_map[2 * nb + list(network.force_inputs).index(seat), 2 * nb] = -1.0
+    input_map[2 * nb + forces.index(seat), 2 * nb] = -1.0
+    act_pairs = []
+    for j, act in enumerate(network.actuators):
+        col = 2 * nb + 2 + 2 * j
+        # <to>.force += F, <from>.force -= F: the pair pushes the two points apart
+        input_map[2 * nb + forces.index(act["to"]), col] += 1.0
+        input_map[2 * nb + forces.index(act["from"]), col] -= 1.0
+        act_pairs.append((col, col + 1))
     road_pairs = tuple((2 * j, 2 * j + 1) for j in range(nb))
     return Interface(
         kind="car",
         inputs=inputs,
         outputs=outputs,
         input_map=input_map,
-        rate_pairs=road_pairs + ((2 * nb, 2 * nb + 1),),
+        rate_pairs=road_pairs + ((2 * nb, 2 * nb + 1),) + tuple(act_pairs),
         slope_fallback=road_pairs,  # not the seat force: seat_force_rate 0 means hold
         output_signals=signals,
     )

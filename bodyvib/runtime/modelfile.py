@@ -28,7 +28,19 @@ state space such as ``"seat.a"``, ``"tire.force"``; see
 :mod:`bodyvib.runtime.contract`), ``forces`` (named internal forces:
 ``{"neck": "upper_body"}`` maps a name to an element; the model then has the
 output ``neck_force`` [N], that element's force, positive in compression, and
-an FMU built from it the output of the same name) and ``bodies``.
+an FMU built from it the output of the same name), ``actuators`` and ``bodies``.
+
+``actuators`` declares force pairs a controller drives (an active suspension):
+
+.. code-block:: json
+
+    "actuators": [{"name": "front", "from": "front_wheel", "to": "front"}]
+
+Sign convention: a positive actuator force pushes ``to`` up and ``from`` down
+(it pushes the two points apart when ``to`` is the upper one). Both points must
+be listed in ``force_inputs``. ``name`` is a plain name or empty; a car FMU takes
+the force as the input ``actuator_force_<name>`` (``actuator_force`` when the name
+is empty).
 
 ``bodies`` declares rigid bodies that bounce and pitch (a car body):
 
@@ -91,7 +103,9 @@ _OPTIONAL = (
     "fmu_outputs",
     "forces",
     "bodies",
+    "actuators",
 )
+_ACTUATOR_FIELDS = ("name", "from", "to")
 _BODY_FIELDS = ("mass", "inertia", "points")
 _ELEMENT_FIELDS = ("name", "kind", "from", "to")
 _FMU_OUTPUT_FIELDS = ("name", "signal", "unit", "description")
@@ -230,6 +244,7 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
         set(bodies),
     )
     forces = _forces(data.get("forces", {}), where, {el.name for el in elements}, base)
+    actuators = _actuators(data.get("actuators", []), where, force_inputs)
     provenance = data.get("provenance", {})
     if not isinstance(provenance, dict):
         raise BodyvibError(f"{where}: 'provenance' must be an object")
@@ -250,6 +265,7 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
         bodies=bodies,
         extra_bases=extra_bases,
         forces=forces,
+        actuators=actuators,
     )
 
 
@@ -543,6 +559,40 @@ def _forces(items: object, where: str, element_names: Collection[str], base: str
     return dict(items)
 
 
+def _actuators(
+    items: object, where: str, force_inputs: Collection[str]
+) -> Tuple[Dict[str, str], ...]:
+    """Validate ``actuators``: a list of ``{"name", "from", "to"}`` between force inputs."""
+    if not isinstance(items, list):
+        raise BodyvibError(
+            f"{where}: 'actuators' must be a list of objects with fields "
+            f"{', '.join(_ACTUATOR_FIELDS)}"
+        )
+    out, names = [], set()
+    for i, item in enumerate(items):
+        w = f"{where}: actuators[{i}]"
+        if not isinstance(item, dict) or set(item) != set(_ACTUATOR_FIELDS):
+            raise BodyvibError(
+                f"{w} must be an object with exactly the fields {', '.join(_ACTUATOR_FIELDS)}"
+            )
+        name, lower, upper = item["name"], item["from"], item["to"]
+        if not isinstance(name, str) or (name and not PARAMETER_NAME.match(name)):
+            raise BodyvibError(f"{w}.name must be empty or a plain name (letters, digits, _)")
+        if name in names:
+            raise BodyvibError(f"{w}.name '{name}' is used twice; actuator names must differ")
+        names.add(name)
+        for key, point in (("from", lower), ("to", upper)):
+            if point not in force_inputs:
+                raise BodyvibError(
+                    f"{w}.{key} '{point}' takes no force: list it in 'force_inputs' "
+                    "(an actuator acts between two points that take force inputs)"
+                )
+        if lower == upper:
+            raise BodyvibError(f"{w}: 'from' and 'to' are the same point '{lower}'")
+        out.append({"name": name, "from": lower, "to": upper})
+    return tuple(out)
+
+
 def _fmu_outputs(
     items: object,
     where: str,
@@ -638,6 +688,8 @@ def network_to_dict(net: Network) -> dict:
         out["fmu_outputs"] = [dict(o) for o in net.fmu_outputs]
     if net.forces:
         out["forces"] = dict(net.forces)
+    if net.actuators:
+        out["actuators"] = [dict(a) for a in net.actuators]
     if net.bodies:
         out["bodies"] = {
             name: {

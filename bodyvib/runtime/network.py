@@ -203,6 +203,13 @@ class Network:
     extra_bases : sequence of str
         Further driven points after ``base`` (the rear road of a half car), each
         with its own displacement and velocity inputs.
+    actuators : tuple of dict
+        Force pairs between two points, each ``{"name", "from", "to"}`` (``name``
+        may be empty): a positive actuator force pushes ``to`` up and ``from`` down
+        with equal magnitude, so it pushes the two apart when ``to`` is the upper
+        point (the sprung side of a suspension). Both points are in
+        ``force_inputs``; a car FMU takes each as the input
+        ``actuator_force[_<name>]``.
     """
 
     name: str
@@ -220,6 +227,7 @@ class Network:
     forces: Mapping[str, str] = field(default_factory=dict)
     bodies: Mapping[str, RigidBody] = field(default_factory=dict)
     extra_bases: Tuple[str, ...] = ()
+    actuators: Tuple[Mapping[str, str], ...] = ()
 
     # -- derived views -----------------------------------------------------
     @property
@@ -682,6 +690,7 @@ def mount(carrier: Network, occupant: Network, at: str, prefix: str = "body.") -
         )
         for el in occupant.elements
     )
+    actuated = {p for act in carrier.actuators for p in (act["from"], act["to"])}
     params = dict(carrier.parameters)
     params.update({prefix + k: v for k, v in occupant.parameters.items()})
     masses = dict(carrier.masses)
@@ -711,11 +720,13 @@ def mount(carrier: Network, occupant: Network, at: str, prefix: str = "body.") -
         elements=carrier.elements + elements,
         nodes=carrier.nodes + tuple(prefix + n for n in occupant.nodes),
         base=carrier.base,
-        force_inputs=tuple(m for m in carrier.force_inputs if m != at),
+        # the seat force becomes internal; an actuator at the seat point still drives it
+        force_inputs=tuple(m for m in carrier.force_inputs if m != at or m in actuated),
         roles=roles,
         description=f"{occupant.name} seated on {carrier.name} at '{at}'",
         units=units,
         forces=forces,
         bodies=bodies,
         extra_bases=carrier.extra_bases,
+        actuators=carrier.actuators,
     )

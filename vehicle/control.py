@@ -1,0 +1,387 @@
+"""Skyhook and groundhook control of a car's actuators, and the closed loop it makes.
+
+A car parameter file may declare ``actuators``: force pairs between a wheel and the
+body point above it (:mod:`bodyvib.runtime.modelfile`; a positive force pushes the
+two apart). A controller reads the absolute vertical velocities of each actuator's
+upper point ``v_u`` (the body) and lower point ``v_l`` (the wheel) and sets its force
+
+.. math::
+
+    F = -c_{sky} v_u + c_{gnd} v_l ,
+
+the ideal (active) skyhook law (a damper ``c_sky`` from the body to a fixed point in
+the sky) plus the groundhook law (a damper ``c_gnd`` from the wheel to the ground),
+after D. Karnopp, M. J. Crosby and R. A. Harwood, "Vibration control using
+semi-active force generators", ASME J. Eng. Ind. 96(2), 619-626, 1974. The
+*semi-active* (on-off) variant clips the force a damper cannot give: a passive
+damper's force opposes the relative velocity ``v_u - v_l``, so a demand with
+``F (v_u - v_l) > 0`` is set to 0.
+
+The ideal law is linear in the car's states, so the closed loop is again a linear
+model: substituting ``u_act = G C_v x`` into ``x' = A x + B u`` gives
+``A + B G C_v`` (:func:`closed_loop_model`), discretized exactly like any other
+model; that is the monolithic reference of a controlled co-simulation.
+"""
+
+import math
+from dataclasses import dataclass, replace
+from typing import Tuple
+
+import numpy as np
+
+from bodyvib.runtime.errors import BodyvibError
+from bodyvib.runtime.network import LinearModel, Network
+
+__all__ = [
+    "LAWS",
+    "SkyhookController",
+    "skyhook",
+    "parse_control",
+    "describe",
+    "controller_from_fmu",
+    "default_gains",
+    "actuator_gain_matrix",
+    "closed_loop_model",
+]
+
+#: Control laws by name: which of the two gains a law uses by default.
+LAWS = ("skyhook", "groundhook", "hybrid")
+
+
+@dataclass(frozen=True)
+class SkyhookController:
+    """Settings of a skyhook/groundhook controller, the same for every actuator.
+
+    Parameters
+    ----------
+    c_sky : float
+        Skyhook gain, N s/m: the force per unit absolute velocity of the upper point.
+    c_ground : float
+        Groundhook gain, N s/m: the force per unit absolute velocity of the lower point.
+    semi_active : bool
+        Clip the force to what a passive damper can give (on-off law).
+
+    Raises
+    ------
+    BodyvibError
+        A negative or non-finite gain.
+
+    Examples
+    --------
+    >>> SkyhookController(c_sky=4000.0).force(0.1, 0.0)
+    -400.0
+    """
+
+    c_sky: float = 0.0
+    c_ground: float = 0.0
+    semi_active: bool = False
+
+    def __post_init__(self):
+        for name in ("c_sky", "c_ground"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
+                raise BodyvibError(
+                    f"controller gain {name} = {value!r} must be a finite number >= 0 (N s/m)"
+                )
+
+    def force(self, upper_velocity, lower_velocity):
+        """Actuator force for the given point velocities (:func:`skyhook`)."""
+        return skyhook(upper_velocity, lower_velocity, self.c_sky, self.c_ground, self.semi_active)
+
+    def forces(self, velocities):
+        """Force per actuator from ``[upper_0, lower_0, upper_1, lower_1, ...]``, N."""
+        v = list(velocities)
+        return [float(self.force(v[i], v[i + 1])) for i in range(0, len(v), 2)]
+
+    @property
+    def linear(self) -> bool:
+        """True for the ideal (active) law, linear in the velocities."""
+        return not self.semi_active
+
+
+def skyhook(upper_velocity, lower_velocity, c_sky, c_ground=0.0, semi_active=False):
+    """Skyhook (and groundhook) actuator force, positive pushing the two points apart.
+
+    Parameters
+    ----------
+    upper_velocity, lower_velocity : float or array_like
+        Absolute vertical velocities of the actuator's upper (body) and lower (wheel)
+        points, m/s, positive up.
+    c_sky, c_ground : float
+        Gains, N s/m.
+    semi_active : bool
+        Set to 0 a force a passive damper cannot give (same sign as the relative
+        velocity ``upper - lower``).
+
+    Returns
+    -------
+    float or ndarray
+        ``-c_sky * upper + c_ground * lower`` (N), clipped if ``semi_active``.
+
+    Examples
+    --------
+    >>> skyhook(0.1, 0.0, 4000.0)
+    -400.0
+    >>> skyhook(0.1, 0.2, 4000.0, semi_active=True)  # body and wheel close in: a damper pushes
+    0.0
+    """
+    vu = np.asarray(upper_velocity, dtype=float)
+    vl = np.asarray(lower_velocity, dtype=float)
+    force = -c_sky * vu + c_ground * vl
+    if semi_active:
+        force = np.where(force * (vu - vl) > 0.0, 0.0, force)
+    return float(force) if force.ndim == 0 else force
+
+
+def default_gains(car: Network) -> Tuple[float, float]:
+    """Default gains per actuator: critical damping of the body and of the wheels.
+
+    ``c_sky = 2 sqrt(K_s M_s) / n``: the critical damping of the body (all its mass
+    ``M_s`` bouncing on the ``n`` suspension springs, stiffness sum ``K_s``, tires
+    rigid), shared equally by the ``n`` actuators; ``c_ground = 2 sqrt(K_t M_u) / n``
+    likewise for the wheels on their tires. For the quarter car: 4416 and 6696 N s/m.
+
+    Parameters
+    ----------
+    car : Network
+        A car with ``actuators`` between its wheels and body points.
+
+    Returns
+    -------
+    (float, float)
+        ``c_sky``, ``c_ground`` in N s/m.
+
+    Raises
+    ------
+    BodyvibError
+        A car without actuators, or one whose actuators span no spring.
+
+    Examples
+    --------
+    >>> from bodyvib.vehicle.quarter_car import load_car
+    >>> [round(c) for c in default_gains(load_car("quarter-car-active"))]
+    [4416, 6696]
+    """
+    check_actuated(car)
+    pairs = {frozenset((a["from"], a["to"])) for a in car.actuators}
+    wheels = {a["from"] for a in car.actuators}
+    k_s = k_t = 0.0
+    for el in car.elements:
+        k = car.value(el.values["k"]) if "k" in el.values else 0.0
+        if frozenset((el.a, el.b)) in pairs:
+            k_s += k
+        elif {el.a, el.b} & wheels and {el.a, el.b} & set(car.bases):
+            k_t += k
+    if k_s <= 0.0 or k_t <= 0.0:
+        raise BodyvibError(
+            f"car '{car.name}': no suspension spring parallel to its actuators or no tire "
+            "spring under them; give the gains explicitly (c=..., g=...)"
+        )
+    m_s = car.total_mass() - sum(car.value(car.masses[w]) for w in wheels)
+    m_u = sum(car.value(car.masses[w]) for w in wheels)
+    n = len(car.actuators)
+    return 2.0 * math.sqrt(k_s * m_s) / n, 2.0 * math.sqrt(k_t * m_u) / n
+
+
+def check_actuated(car: Network) -> None:
+    """Refuse a car without actuators (nothing for a controller to drive)."""
+    if not car.actuators:
+        raise BodyvibError(
+            f"car '{car.name}' has no actuators for the controller to drive; use a car "
+            "with 'actuators' in its parameter file (quarter-car-active, half-car-active)"
+        )
+
+
+def parse_control(text: str, car: Network) -> SkyhookController:
+    """A controller from its command-line form ``LAW[:c=...,g=...,semi]``.
+
+    ``skyhook`` uses ``c`` (default: the body's critical damping, :func:`default_gains`),
+    ``groundhook`` uses ``g`` (default: the wheels' critical damping), ``hybrid`` both;
+    ``semi`` clips to what a damper can give.
+
+    Parameters
+    ----------
+    text : str
+        E.g. ``"skyhook"``, ``"skyhook:c=3000"``, ``"groundhook:g=5000,semi"``.
+    car : Network
+        The car the controller drives (for the default gains).
+
+    Returns
+    -------
+    SkyhookController
+
+    Raises
+    ------
+    BodyvibError
+        An unknown law or option, a gain that is not a number >= 0, or a car without
+        actuators.
+
+    Examples
+    --------
+    >>> from bodyvib.vehicle.quarter_car import load_car
+    >>> parse_control("skyhook:c=3000", load_car("quarter-car-active"))
+    SkyhookController(c_sky=3000.0, c_ground=0.0, semi_active=False)
+    """
+    law, _, rest = text.partition(":")
+    if law not in LAWS:
+        raise BodyvibError(f"unknown controller '{law}'; controllers are {', '.join(LAWS)}")
+    check_actuated(car)
+    c_sky, c_ground = default_gains(car)
+    gains = {
+        "c": c_sky if law in ("skyhook", "hybrid") else 0.0,
+        "g": c_ground if law in ("groundhook", "hybrid") else 0.0,
+    }
+    semi = False
+    for item in filter(None, (s.strip() for s in rest.split(","))):
+        key, eq, value = item.partition("=")
+        if item == "semi":
+            semi = True
+            continue
+        if key not in gains or not eq:
+            raise BodyvibError(
+                f"controller option '{item}' not understood; use c=<N s/m>, g=<N s/m> or semi"
+            )
+        try:
+            gains[key] = float(value)
+        except ValueError:
+            raise BodyvibError(f"controller option {key}={value!r} is not a number") from None
+    return SkyhookController(c_sky=gains["c"], c_ground=gains["g"], semi_active=semi)
+
+
+def controller_from_fmu(path) -> SkyhookController:
+    """The law a ``SkyhookController.fmu`` declares: its gains' and switch's start values.
+
+    Parameters
+    ----------
+    path : str
+        A controller FMU (:func:`bodyvib.fmu.controller.build_controller_fmu`).
+
+    Returns
+    -------
+    SkyhookController
+
+    Raises
+    ------
+    BodyvibError
+        An FMU without the parameters ``c_sky``, ``c_ground`` and ``semi_active``.
+    """
+    from fmpy import read_model_description
+
+    try:
+        md = read_model_description(str(path))
+    except Exception as exc:
+        raise BodyvibError(f"'{path}' is not a readable FMU: {exc}") from None
+    start = {v.name: v.start for v in md.modelVariables if v.causality == "parameter"}
+    if not {"c_sky", "c_ground", "semi_active"} <= set(start):
+        raise BodyvibError(
+            f"controller FMU '{path}' has no parameters c_sky, c_ground and semi_active "
+            "(build it with bodyvib build --control)"
+        )
+    semi = str(start["semi_active"]).lower() in ("true", "1")
+    return SkyhookController(float(start["c_sky"]), float(start["c_ground"]), semi)
+
+
+def describe(controller: SkyhookController) -> str:
+    """The controller in words, for reports.
+
+    Examples
+    --------
+    >>> describe(SkyhookController(c_sky=4416.1))
+    'skyhook c_sky = 4416 N s/m'
+    """
+    parts = []
+    if controller.c_sky:
+        parts.append(f"skyhook c_sky = {controller.c_sky:.0f} N s/m")
+    if controller.c_ground:
+        parts.append(f"groundhook c_ground = {controller.c_ground:.0f} N s/m")
+    text = " + ".join(parts) or "no gain (passive)"
+    return text + (", semi-active (on-off)" if controller.semi_active else "")
+
+
+def actuator_gain_matrix(
+    model: LinearModel, car: Network, controller: SkyhookController
+) -> Tuple[np.ndarray, np.ndarray]:
+    """The ideal law as matrices: model force inputs ``u_f = G y_v`` from velocity outputs.
+
+    Parameters
+    ----------
+    model : LinearModel
+        The car's (or the seated car's) state space: it has the force inputs
+        ``<point>.force`` and velocity outputs ``<point>.v`` of each actuator point.
+    car : Network
+        The car (its ``actuators``).
+    controller : SkyhookController
+        A linear (not semi-active) controller.
+
+    Returns
+    -------
+    G : (n_inputs, n_outputs) ndarray
+        Model inputs from model outputs.
+    F : (n_actuators, n_outputs) ndarray
+        Each actuator's force from the model outputs.
+
+    Raises
+    ------
+    BodyvibError
+        A semi-active controller (not linear), or a car without actuators.
+    """
+    check_actuated(car)
+    if not controller.linear:
+        raise BodyvibError("the semi-active law is not linear: it has no closed-loop matrices")
+    F = np.zeros((len(car.actuators), len(model.outputs)))
+    G = np.zeros((len(model.inputs), len(model.outputs)))
+    for i, act in enumerate(car.actuators):
+        F[i, model.output_index(f"{act['to']}.v")] -= controller.c_sky
+        F[i, model.output_index(f"{act['from']}.v")] += controller.c_ground
+        G[model.input_index(f"{act['to']}.force")] += F[i]
+        G[model.input_index(f"{act['from']}.force")] -= F[i]
+    return G, F
+
+
+def closed_loop_model(
+    model: LinearModel, car: Network, controller: SkyhookController
+) -> Tuple[LinearModel, np.ndarray]:
+    """The state space with the ideal law substituted: ``A + B G C``, ``C + D G C``.
+
+    The law reads velocities, which are states (their rows of ``D`` are zero), so
+    the substitution has no algebraic loop.
+
+    Parameters
+    ----------
+    model : LinearModel
+        State space with the car's actuator inputs and point velocities.
+    car : Network
+        The car.
+    controller : SkyhookController
+        A linear controller.
+
+    Returns
+    -------
+    LinearModel
+        Same states, inputs and outputs; the actuator inputs now add to the law.
+    (n_actuators, n_states) ndarray
+        Each actuator force from the states.
+
+    Raises
+    ------
+    BodyvibError
+        What :func:`actuator_gain_matrix` refuses.
+
+    Examples
+    --------
+    >>> from bodyvib.runtime.network import linear_model
+    >>> from bodyvib.vehicle.quarter_car import load_car
+    >>> car = load_car("quarter-car-active")
+    >>> lm = linear_model(car)
+    >>> closed, _ = closed_loop_model(lm, car, SkyhookController(c_sky=1000.0))
+    >>> i = lm.states.index("sprung.v")
+    >>> round(float(closed.A[i, i] - lm.A[i, i]) * car.parameters["ms"], 6)  # a damper to the sky
+    -1000.0
+    """
+    G, F = actuator_gain_matrix(model, car, controller)
+    used = np.any(G != 0.0, axis=0)
+    if np.any(model.D[used] != 0.0):  # pragma: no cover - velocities are states
+        raise BodyvibError("the controller reads an output with direct feedthrough")
+    Cv = model.C
+    closed = replace(model, A=model.A + model.B @ G @ Cv, C=model.C + model.D @ G @ Cv)
+    return closed, F @ Cv
