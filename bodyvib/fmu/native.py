@@ -119,7 +119,7 @@ PLATFORMS = {
     ),
     "win64": ("x86_64-w64-mingw32-gcc", ["-static-libgcc"], ".dll", "win64", "x86_64-windows"),
 }
-COMMON_FLAGS = ["-std=c99", "-O2", "-shared", "-Wall", "-Wextra", "-Wno-unused-parameter"]
+COMMON_FLAGS = ["-std=c99", "-O2", "-flto", "-shared", "-Wall", "-Wextra", "-Wno-unused-parameter"]
 
 #: Output derivative orders fmi2GetRealOutputDerivatives / fmi3GetOutputDerivatives give
 #: (bodyvib_core.h, BV_MAX_OUTPUT_ORDER).

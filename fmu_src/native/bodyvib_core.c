@@ -66,6 +66,12 @@ struct bv_instance {
     int *piv;
 };
 
+/* The model on the hot path (bv_set, bv_step, bv_get): this binary's, bv_model_data, read
+ * directly rather than through the instance. Where the build sees its definition (the FMUs
+ * are linked with link-time optimization) its sizes and index tables are constants, and the
+ * loops of a step are compiled for the model's sizes. bv_new accepts this model only. */
+#define HOT (&bv_model_data)
+
 /* ---------------------------------------------------------------- messages */
 
 #define say(c, ...) bv_say(&(c)->bc, __VA_ARGS__)
@@ -169,11 +175,20 @@ static double norm1(const double *M, int n)
     return best;
 }
 
+/* Loops over the model's sizes on the hot path: unrolled where the sizes are constants (HOT
+ * below, with link-time optimization), so that a step is straight-line code. */
+#if defined(__GNUC__) && !defined(__clang__) && __GNUC__ >= 8
+#define BV_UNROLL _Pragma("GCC unroll 16")
+#else
+#define BV_UNROLL
+#endif
+
 /* r . z over cols entries, two accumulators (even and odd columns) added at the end. */
 static inline double dot(const double *restrict r, const double *restrict z, int cols)
 {
     double a = 0.0, b = 0.0;
     int j;
+    BV_UNROLL
     for (j = 0; j + 1 < cols; j += 2) {
         a += r[j] * z[j];
         b += r[j + 1] * z[j + 1];
@@ -188,6 +203,7 @@ static void matvec(double *restrict out, const double *restrict M, const double 
                    int rows, int cols)
 {
     int i;
+    BV_UNROLL
     for (i = 0; i < rows; i++)
         out[i] = dot(M + (size_t)i * cols, z, cols);
 }
@@ -575,11 +591,14 @@ static void clear_state(bv_instance *c)
 
 bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *env)
 {
-    bv_instance *c = calloc(1, sizeof *c);
+    bv_instance *c;
     int n = md->n, m = md->m, ni = md->ni, no = md->no, np = md->np, R = md->rows;
     int N = n + 3 * m, np1 = md->npairs + 1, i, j, k; /* N: the largest augmented matrix */
     size_t nd, nw, assembly;
     double *d;
+    if (md != HOT) /* the hot path reads this binary's model (HOT) */
+        return NULL;
+    c = calloc(1, sizeof *c);
     if (c == NULL)
         return NULL;
     bv_common_init(&c->bc, md, name, log, env);
@@ -711,15 +730,16 @@ static int me_var_set(bv_instance *c, unsigned int vr, double value);
 /* A value reference of the model-exchange states or their derivatives. */
 static int is_me_var(const bv_instance *c, unsigned int vr)
 {
-    unsigned int first = (unsigned int)BV_STATE_VR(c->bc.md, 0);
-    return vr >= first && vr < first + 2u * (unsigned int)c->n;
+    unsigned int first = (unsigned int)BV_STATE_VR(HOT, 0);
+    (void)c;
+    return vr >= first && vr < first + 2u * (unsigned int)HOT->n;
 }
 
 #define check_vr(c, vr) bv_common_check_vr(&(c)->bc, (vr))
 
 bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const double value[])
 {
-    const bv_model *md = c->bc.md;
+    const bv_model *md = HOT;
     const unsigned int nvars = (unsigned int)md->nvars;
     bv_status status = BV_OK;
     size_t i;
@@ -758,7 +778,7 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
 
 bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double value[])
 {
-    const bv_model *md = c->bc.md;
+    const bv_model *md = HOT;
     const unsigned int nvars = (unsigned int)md->nvars;
     bv_status status = BV_OK;
     size_t i;
@@ -777,7 +797,7 @@ bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double val
         kind = md->vr_kind[vr[i]];
         idx = md->vr_index[vr[i]];
         if (kind == BV_OUTPUT) { /* computed on read: y_idx = Yc_idx . [x | s] */
-            value[i] = dot(c->Yc + (size_t)idx * (c->n + c->ni), c->x, c->n + c->ni);
+            value[i] = dot(c->Yc + (size_t)idx * (md->n + md->ni), c->x, md->n + md->ni);
             if (!isfinite(value[i]) && status == BV_OK) {
                 say(c, BV_ERROR, "%s: output %s is not finite: an input is not finite or too "
                                  "large (set finite inputs of physical size)",
@@ -820,7 +840,7 @@ static void warn_unconnected(bv_instance *c, int k, double t, int me)
 /* The unconnected-velocity rule, before a step (bodyvib.runtime.engine's _slope_fallback). */
 static void slope_fallback(bv_instance *c, double t, double h)
 {
-    const bv_model *md = c->bc.md;
+    const bv_model *md = HOT;
     int k;
     for (k = 0; k < md->npairs; k++) {
         const bv_pair *pr = &md->pairs[k];
@@ -846,7 +866,7 @@ static void slope_fallback(bv_instance *c, double t, double h)
  * Per pair, plain loops: the hot path makes no library calls. */
 static inline void save_bookkeeping(bv_instance *c, int restore)
 {
-    const bv_model *md = c->bc.md;
+    const bv_model *md = HOT;
     int k, np1 = md->npairs + 1;
     unsigned char *f = c->save_flags;
     for (k = 0; k < md->npairs; k++) {
@@ -871,13 +891,13 @@ static inline void save_bookkeeping(bv_instance *c, int restore)
 
 bv_status bv_step(bv_instance *c, double t, double h)
 {
-    int n = c->n, ni = c->ni, j;
+    int n = HOT->n, ni = HOT->ni, j;
     double *zn = c->zn, zz = 0.0, zz2 = 0.0;
     char text[32];
     if (bv_common_step_check(&c->bc, t, h) != BV_OK)
         return BV_ERROR;
     save_bookkeeping(c, 0);
-    if (c->bc.md->npairs)
+    if (HOT->npairs)
         slope_fallback(c, t, h);
     if (!discretize(c, h)) {
         save_bookkeeping(c, 1);
