@@ -80,10 +80,21 @@ def find(folder: Path) -> dict:
     return found
 
 
-def compile_host(exe: Path, road_sources: Path = None) -> Path:
-    cmd = ["gcc", "-std=c99", "-O2", str(HOST), "-o", str(exe), "-ldl", "-lm"]
+def host_flags() -> list:
+    """The FMUs' own code-generation flags (language, optimization, link-time optimization)."""
+    from bodyvib.fmu.native import COMMON_FLAGS
+
+    return [f for f in COMMON_FLAGS if f.startswith(("-std", "-O", "-f"))]
+
+
+def compile_host(exe: Path, road_sources: Path = None, sizes: tuple = None) -> Path:
+    """Compile the host with the FMUs' flags; ``sizes`` (n, ni, nset, nget) makes the plain
+    loop's sizes constants, as the FMU's are; ``road_sources`` compiles a road's table in."""
+    cmd = ["gcc", *host_flags(), str(HOST), "-o", str(exe), "-ldl", "-lm"]
+    if sizes is not None:
+        cmd[1:1] = [f"-DPLAIN_{k}={v}" for k, v in zip(("N", "NI", "NSET", "NGET"), sizes)]
     if road_sources is not None:
-        cmd[3:3] = [
+        cmd[1:1] = [
             "-DBV_ROAD_TABLE",
             "-I",
             str(road_sources),
@@ -93,8 +104,9 @@ def compile_host(exe: Path, road_sources: Path = None) -> Path:
     return exe
 
 
-def plain_matrices(name: str, set_idx, get_idx, path: Path) -> None:
-    """Write what the plain loop multiplies: the FMU's step matrices from the model."""
+def plain_matrices(name: str, set_idx, get_idx, path: Path) -> tuple:
+    """Write what the plain loop multiplies: the FMU's step matrices from the model; returns
+    the sizes (n, ni, nset, nget)."""
     from bodyvib.vehicle.quarter_car import load_car
 
     from bodyvib.models import load_model
@@ -111,6 +123,7 @@ def plain_matrices(name: str, set_idx, get_idx, path: Path) -> None:
         f.write(" ".join(str(i) for i in set_idx) + "\n")
         for block in (M[:n], M[n:, n:], Y):
             f.write(" ".join(repr(float(v)) for v in block.ravel()) + "\n")
+    return n, ni, len(set_idx), len(get_idx)
 
 
 def unpack(fmu: Path, folder: Path):
@@ -146,8 +159,10 @@ def measure(exe, fmi, binary, token, sv, gv, data, steps, repeats, prefix=()) ->
     for ln in text.splitlines():
         key, *vals = ln.split()
         if key == "latency":
-            res["p50"], res["p99"], res["p9999"], res["max"] = map(float, vals)
-        elif key in ("allocations", "check", "latency_plain", "latency_clock"):
+            res["p50"], res["p99"], res["p999"], res["p9999"], res["max"] = map(float, vals)
+        elif key in ("interrupts", "switches"):
+            res[key] = tuple(map(int, vals))
+        elif key in ("allocations", "check", "latency_clock", "outliers", "locked"):
             res[key] = float(vals[0])
     return res
 
@@ -203,6 +218,32 @@ def syscalls(exe, args, folder: Path) -> tuple:
     return tuple(totals)
 
 
+def print_worst(rows, steps: int) -> None:
+    """The distribution of single steps, and what the slow ones coincided with."""
+    r0 = rows[0][2]
+    print(
+        f"single FMU steps ({steps} after a warm-up, time-stamp counter, its own "
+        f"{r0['latency_clock']:.1f} ns subtracted; memory locked: {r0['locked'] == 1}), ns:"
+    )
+    print(
+        f"  {'FMU':17s} {'FMI':>3s} | {'p50':>5s} {'p99':>5s} {'p99.9':>6s} {'p99.99':>7s} "
+        f"{'max':>9s} {'p99.99/p50':>10s} | {'>3x p50':>7s} {'interrupts':>10s} {'(timer)':>7s} "
+        f"{'preempted':>9s}"
+    )
+    for name, fmi, r in rows:
+        irq, timer = r["interrupts"]
+        print(
+            f"  {name:17s} {fmi:3d} | {r['p50']:5.1f} {r['p99']:5.1f} {r['p999']:6.1f} "
+            f"{r['p9999']:7.1f} {r['max']:9.0f} {r['p9999'] / r['p50']:10.1f} | "
+            f"{r['outliers']:7.0f} {irq:10d} {timer:7d} {r['switches'][1]:9d}"
+        )
+    print(
+        "  >3x p50: steps slower than 3 times the median; interrupts: taken by the host's core "
+        "during those steps (/proc/interrupts; timer: the local timer's); preempted: "
+        "involuntary context switches of the host's thread"
+    )
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--steps", type=int, default=1_000_000, help="steps per loop (default 1e6)")
@@ -222,7 +263,6 @@ def main(argv=None):
     with tempfile.TemporaryDirectory(prefix="bodyvib-bench-step-") as tmp:
         tmp = Path(tmp)
         fmus = find(args.fmus) if args.fmus else build(tmp / "fmus")
-        exe = compile_host(tmp / "host")
         prefix = ()
         if args.realtime:
             prefix = ("chrt", "-f", "50", "taskset", "-c", str((os.cpu_count() or 1) - 1))
@@ -233,10 +273,9 @@ def main(argv=None):
         )
         print(
             f"  {'FMU':17s} {'FMI':>3s} | {'loop: FMU':>9s} {'plain':>6s} {'ratio':>5s} {'CPU':>5s} | "
-            f"{'instr: FMU':>10s} {'plain':>5s} {'ratio':>5s} | {'1 step: p50':>11s} {'p99.99':>6s} "
-            f"{'max':>9s} {'p99.99/p50':>10s} | {'allocs':>6s} {'rel diff':>8s}"
+            f"{'instr: FMU':>10s} {'plain':>5s} {'ratio':>5s} | {'allocs':>6s} {'rel diff':>8s}"
         )
-        notes = []
+        notes, worst = [], []
         for name in FMUS:
             sets, gets = SIGNALS[name]
             for fmi in (2, 3):
@@ -251,13 +290,14 @@ def main(argv=None):
                         compile_host(host, folder / "sources")
                     data = f"road:{float(start['speed'])!r}"
                 else:
-                    host = exe
                     data = str(folder / "plain.txt")
-                    plain_matrices(name, [vr[s] for s in sets], [vr[g] for g in gets], data)
+                    sizes = plain_matrices(name, [vr[s] for s in sets], [vr[g] for g in gets], data)
+                    host = tmp / ("host-" + "-".join(map(str, sizes)))
+                    if not host.exists():
+                        compile_host(host, sizes=sizes)
                 r = measure(
                     host, fmi, binary, token, sv, gv, data, args.steps, args.repeats, prefix
                 )
-                clock = r["latency_clock"]
                 ir = ir_plain = float("nan")
                 if callgrind:
                     ir = instructions(host, "fmu", fmi, binary, token, sv, gv, data)
@@ -265,9 +305,9 @@ def main(argv=None):
                 print(
                     f"  {name:17s} {fmi:3d} | {r['fmu']:9.1f} {r['plain']:6.1f} {r['ratio']:5.2f} "
                     f"{r['ratio_cpu']:5.2f} | {ir:10.0f} {ir_plain:5.0f} {ir / ir_plain:5.2f} | "
-                    f"{r['p50']:11.0f} {r['p9999']:6.0f} {r['max']:9.0f} "
-                    f"{r['p9999'] / r['p50']:10.1f} | {r['allocations']:6.0f} {r['check']:8.1e}"
+                    f"{r['allocations']:6.0f} {r['check']:8.1e}"
                 )
+                worst.append((name, fmi, r))
                 if fmi == 2 and shutil.which("strace"):
                     few, many = syscalls(
                         host, [str(fmi), str(binary), token, sv, gv, repr(H), data], folder
@@ -282,10 +322,9 @@ def main(argv=None):
                     notes.append(f"{name}: lock functions imported: {', '.join(locks) or 'none'}")
         print(
             "  loop: medians of whole loops, wall and thread CPU (ratio FMU / plain); instr: "
-            "callgrind, per step; 1 step: single FMU steps timed one by one, the clock read "
-            f"({clock:.0f} ns, about 10 ns resolution) included; rel diff: FMU against plain "
-            "outputs, over their largest"
+            "callgrind, per step; rel diff: FMU against plain outputs, over their largest"
         )
+        print_worst(worst, args.steps)
         for note in notes:
             print("  " + note)
         print(f"load after: {os.getloadavg()[0]:.2f}")
