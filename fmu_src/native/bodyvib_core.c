@@ -50,8 +50,6 @@ struct bv_instance {
     double h_raw;       /* the last step size seen with that key (skips the rounding) */
     double *Sc;         /* [Phi | Gamma0 U + Gamma1 U R + Gamma2 U R^2] row-major: x <- Sc z */
     double *Ms;         /* I + h R + h^2/2 R^2 (ni x ni): s <- Ms s */
-    int *ms_start, *ms_col; /* Ms's non-zero entries by row (CSR): ms_start[ni + 1] */
-    double *ms_val;
     /* what evolves: z = [x | s] contiguous; a step writes the next z into zn and swaps */
     double *x, *s;
     double *x_prev, *h_prev; /* per fallback pair: displacement and step at the last DoStep */
@@ -208,18 +206,27 @@ static void matvec(double *restrict out, const double *restrict M, const double 
         out[i] = dot(M + (size_t)i * cols, z, cols);
 }
 
-/* out = M z for M in CSR form (row i: entries start[i] .. start[i + 1] - 1), with the
- * accumulators of dot() by column parity: the same sums as the dense product less its zero
- * terms (which add nothing to a finite sum). */
-static void csr_matvec(double *restrict out, const int *start, const int *col,
-                       const double *val, const double *restrict z, int rows)
+/* out = M z (n x n) over M's non-zero entries, with the accumulators of dot() by column
+ * parity: the same sums as the dense product less its zero terms (which add nothing to a
+ * finite sum). With n a constant the loops unroll and the parity is known per entry. */
+static inline void sparse_matvec(double *restrict out, const double *restrict M,
+                                 const double *restrict z, int n)
 {
-    int i, e;
-    for (i = 0; i < rows; i++) {
-        double acc[2] = {0.0, 0.0};
-        for (e = start[i]; e < start[i + 1]; e++)
-            acc[col[e] & 1] += val[e] * z[col[e]];
-        out[i] = acc[0] + acc[1];
+    int i, j;
+    BV_UNROLL
+    for (i = 0; i < n; i++) {
+        double a = 0.0, b = 0.0;
+        BV_UNROLL
+        for (j = 0; j < n; j++) {
+            double v = M[(size_t)i * n + j];
+            if (v == 0.0)
+                continue;
+            if (j & 1)
+                b += v * z[j];
+            else
+                a += v * z[j];
+        }
+        out[i] = a + b;
     }
 }
 
@@ -560,15 +567,6 @@ static int discretize(bv_instance *c, double h)
             if (c->curved)
                 c->Ms[i * ni + j] += 0.5 * h * h * r2;
         }
-    for (i = 0, k = 0; i < ni; i++) { /* its non-zero entries, for the step */
-        c->ms_start[i] = k;
-        for (j = 0; j < ni; j++)
-            if (c->Ms[i * ni + j] != 0.0) {
-                c->ms_col[k] = j;
-                c->ms_val[k++] = c->Ms[i * ni + j];
-            }
-    }
-    c->ms_start[ni] = k;
     c->h_key = key;
     c->h_raw = h;
     return 1;
@@ -611,12 +609,12 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
     if (assembly > nw)
         nw = assembly;
     nd = 2 * (size_t)np + (size_t)n * n + (size_t)n * m + 2 * (size_t)m * ni +
-         (size_t)no * (n + ni) + (size_t)n * (n + ni) + 2 * (size_t)ni * ni + n + ni +
+         (size_t)no * (n + ni) + (size_t)n * (n + ni) + (size_t)ni * ni + n + ni +
          2 * (size_t)np1 + n + ni + nw;
     nd += (size_t)n * n + (size_t)n * m + (size_t)no * (n + ni); /* candidates A2, B2, Yc2 */
     nd += 3 * (size_t)np1 + 3 * ((size_t)n + ni);                /* saved bookkeeping, zd */
     d = calloc(nd, sizeof *d);
-    c->piv = calloc((size_t)N + 1 + (size_t)ni * ni + ni + 1, sizeof *c->piv);
+    c->piv = calloc((size_t)N + 1, sizeof *c->piv);
     c->has_prev = calloc(8 * (size_t)np1 + ni, 1);
     if (d == NULL || c->piv == NULL || c->has_prev == NULL) {
         free(d);
@@ -632,8 +630,6 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
     c->is_rate = c->save_flags + 4 * (size_t)np1;
     for (k = 0; k < md->npairs; k++)
         c->is_rate[md->pairs[k].rate] = 1;
-    c->ms_col = c->piv + N + 1;
-    c->ms_start = c->ms_col + (size_t)ni * ni;
     c->p = d; d += np;
     c->p_built = d; d += np;
     c->A = d; d += (size_t)n * n;
@@ -643,7 +639,6 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
     c->Yc = d; d += (size_t)no * (n + ni);
     c->Sc = d; d += (size_t)n * (n + ni);
     c->Ms = d; d += (size_t)ni * ni;
-    c->ms_val = d; d += (size_t)ni * ni;
     c->x = d; d += n; /* x, s contiguous: z */
     c->s = d; d += ni;
     c->x_prev = d; d += np1;
@@ -737,13 +732,36 @@ static int is_me_var(const bv_instance *c, unsigned int vr)
 
 #define check_vr(c, vr) bv_common_check_vr(&(c)->bc, (vr))
 
+/* FMU input idx set to v: a velocity of a fallback pair set to a non-zero value is connected
+ * (its slope fallback ends). */
+static inline void set_input(bv_instance *c, int idx, double v)
+{
+    const bv_model *md = HOT;
+    int k;
+    c->s[idx] = v;
+    if (v != 0.0 && c->is_rate[idx])
+        for (k = 0; k < md->npairs; k++)
+            if (md->pairs[k].rate == idx) {
+                c->vel_set[k] = 1;
+                c->slope_on[k] = 0;
+            }
+}
+
 bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const double value[])
 {
     const bv_model *md = HOT;
     const unsigned int nvars = (unsigned int)md->nvars;
     bv_status status = BV_OK;
     size_t i;
-    int k;
+    /* the call of every step: inputs only (always settable), checked before any is set */
+    for (i = 0; i < nvr; i++)
+        if (vr[i] >= nvars || md->vr_kind[vr[i]] != BV_INPUT)
+            break;
+    if (__builtin_expect(i == nvr, 1)) {
+        for (i = 0; i < nvr; i++)
+            set_input(c, md->vr_index[vr[i]], value[i]);
+        return BV_OK;
+    }
     /* an unknown value reference refuses the call: nothing set (the contract's variables
      * are below nvars, the model-exchange ones above) */
     for (i = 0; i < nvr; i++)
@@ -760,13 +778,7 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
         }
         idx = md->vr_index[vr[i]];
         if (md->vr_kind[vr[i]] == BV_INPUT) { /* always settable */
-            c->s[idx] = value[i];
-            if (value[i] != 0.0 && c->is_rate[idx])
-                for (k = 0; k < md->npairs; k++)
-                    if (md->pairs[k].rate == idx) {
-                        c->vel_set[k] = 1;
-                        c->slope_on[k] = 0;
-                    }
+            set_input(c, idx, value[i]);
         } else if (!bv_common_settable(&c->bc, vr[i])) {
             status = BV_ERROR;
         } else {
@@ -907,7 +919,7 @@ bv_status bv_step(bv_instance *c, double t, double h)
         return BV_DISCARD;
     }
     matvec(zn, c->Sc, c->x, n, n + ni);
-    csr_matvec(zn + n, c->ms_start, c->ms_col, c->ms_val, c->s, ni);
+    sparse_matvec(zn + n, c->Ms, c->s, ni);
     /* z.z is finite iff no component exceeds about 1e154 (as the pythonfmu FMU checks):
      * no overflow, and room for the outputs, whose coefficients are far below 1e150 */
     for (j = 0; j + 1 < n + ni; j += 2) {
