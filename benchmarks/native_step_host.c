@@ -215,13 +215,13 @@ static inline void fmu_step(const Fmu *f, const unsigned *sv, int ns, const doub
 
 typedef struct {
     int n, ni, nset, nget, road;
-    int *setpos, *ms_start, *ms_col;
-    double *Sc, *Ms, *Y, *z, *zn, *ms_val, speed, t, periods;
+    int *setpos;
+    double *Sc, *Ms, *Y, *z, *zn, speed, t, periods;
 } Plain;
 
 static void read_plain(Plain *p, const char *path)
 {
-    int i, j, k;
+    int i, k;
     FILE *fp;
     memset(p, 0, sizeof *p);
     if (strncmp(path, "road:", 5) == 0) {
@@ -250,19 +250,6 @@ static void read_plain(Plain *p, const char *path)
         if (fscanf(fp, "%lf", &p->Sc[i]) != 1)
             die("bad matrices");
     fclose(fp);
-    /* Ms's non-zero entries by row, as the FMU keeps them */
-    p->ms_start = __libc_calloc((size_t)p->ni * p->ni + p->ni + 2, sizeof(int));
-    p->ms_col = p->ms_start + p->ni + 1;
-    p->ms_val = __libc_calloc((size_t)p->ni * p->ni + 1, sizeof(double));
-    for (i = 0, k = 0; i < p->ni; i++) {
-        p->ms_start[i] = k;
-        for (j = 0; j < p->ni; j++)
-            if (p->Ms[i * p->ni + j] != 0.0) {
-                p->ms_col[k] = j;
-                p->ms_val[k++] = p->Ms[i * p->ni + j];
-            }
-    }
-    p->ms_start[p->ni] = k;
 }
 
 /* out = M v (rows x cols, row-major), each row with two accumulators (even and odd
@@ -322,13 +309,13 @@ static inline void road_at(Plain *p, double pos, double *out)
 
 static inline void plain_step(Plain *p, const double *in, double h, double *out)
 {
-    int i, e, n = P_N, k = P_N + P_NI;
+    int i, j, n = P_N, k = P_N + P_NI;
     if (p->road) {
 #ifdef BV_ROAD_TABLE
         p->t += h;
         road_at(p, p->speed * p->t, out);
 #else
-        (void)h, (void)out, (void)e;
+        (void)h, (void)out, (void)j;
         die("a road's plain loop needs the table: compile with -DBV_ROAD_TABLE");
 #endif
         return;
@@ -338,11 +325,19 @@ static inline void plain_step(Plain *p, const double *in, double h, double *out)
         p->z[n + p->setpos[i]] = in[i];
     mv(p->zn, p->Sc, p->z, n, k);
     UNROLL
-    for (i = 0; i < P_NI; i++) { /* s <- Ms s, over Ms's non-zero entries */
-        double acc[2] = {0.0, 0.0};
-        for (e = p->ms_start[i]; e < p->ms_start[i + 1]; e++)
-            acc[p->ms_col[e] & 1] += p->ms_val[e] * p->z[n + p->ms_col[e]];
-        p->zn[n + i] = acc[0] + acc[1];
+    for (i = 0; i < P_NI; i++) { /* s <- Ms s, over Ms's non-zero entries (as the FMU) */
+        double a = 0.0, b = 0.0;
+        UNROLL
+        for (j = 0; j < P_NI; j++) {
+            double v = p->Ms[i * P_NI + j];
+            if (v == 0.0)
+                continue;
+            if (j & 1)
+                b += v * p->z[n + j];
+            else
+                a += v * p->z[n + j];
+        }
+        p->zn[n + i] = a + b;
     }
     UNROLL
     for (i = 0; i < k; i++)
