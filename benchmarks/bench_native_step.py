@@ -5,18 +5,25 @@
 
 Builds the native FMUs (FMI 2.0 and 3.0: HumanBody3DOF, HumanBodyISO7962, QuarterCar,
 Road) unless ``--fmus`` names a folder of them (``bodyvib build --native``), compiles
-``benchmarks/native_step_host.c`` (``-O2``, the FMUs' own flag) and, per FMU:
+``benchmarks/native_step_host.c`` with the FMUs' own flags (``-O2 -flto``), once per model
+with the model's sizes as constants (the FMU is compiled for its model's sizes too), and,
+per FMU:
 
 * times, in one process and interleaved over ``--repeats`` rounds, ``--steps`` FMU steps
   (set two inputs, doStep, get two outputs; inputs precomputed) and the same number of
   steps of a plain C loop on the same matrices: ``x <- Sc [x | s]``, ``s <- Ms s``, the two
-  outputs ``Y [x | s]``, dense, with the matrices of :class:`bodyvib.runtime.engine.FmuCore`
-  (the same exact discretization the FMU computes at initialization). For Road the plain
-  loop evaluates the FMU's own table (its ``sources/bodyvib_model.c``, compiled into the
-  host) at ``speed * t``. Printed: medians of wall-clock and thread-CPU ns per step, their
-  ratio FMU / plain, and the largest relative difference of the outputs (the same step);
-* times 1e6 FMU steps one by one: median, 99th and 99.99th percentile and the worst step
-  (clock reads included, about 20 ns);
+  outputs ``Y [x | s]``, summed as the FMU sums (two accumulators a row, Ms over its
+  non-zero entries), with the matrices of :class:`bodyvib.runtime.engine.FmuCore` (the same
+  exact discretization the FMU computes at initialization). For Road the plain loop
+  evaluates the FMU's own table (its ``sources/bodyvib_model.c``, compiled into the host) at
+  ``speed * t``, the position reduced as the FMU reduces it. Printed: medians of wall-clock
+  and thread-CPU ns per step, their ratio FMU / plain, and the largest relative difference
+  of the outputs (the same step);
+* times ``--steps`` FMU steps one by one with the time-stamp counter, after a warm-up, the
+  counter's own cost subtracted, memory locked (``mlockall``): median, 99th, 99.9th and
+  99.99th percentile and the worst step, the steps slower than 3x the median, and what the
+  host's core and thread went through meanwhile (interrupts from ``/proc/interrupts``,
+  involuntary context switches);
 * counts what a step does besides arithmetic: malloc/calloc/realloc/free calls while
   stepping (the host interposes them), system calls (``strace -c`` of 1e3 against 1e5
   steps: equal totals mean none per step), and the lock functions the binary imports
@@ -162,7 +169,9 @@ def measure(exe, fmi, binary, token, sv, gv, data, steps, repeats, prefix=()) ->
             res["p50"], res["p99"], res["p999"], res["p9999"], res["max"] = map(float, vals)
         elif key in ("interrupts", "switches"):
             res[key] = tuple(map(int, vals))
-        elif key in ("allocations", "check", "latency_clock", "outliers", "locked"):
+        elif key == "latency_clock":
+            res[key], res["resolution"] = map(float, vals)
+        elif key in ("allocations", "check", "outliers", "locked"):
             res[key] = float(vals[0])
     return res
 
@@ -222,8 +231,9 @@ def print_worst(rows, steps: int) -> None:
     """The distribution of single steps, and what the slow ones coincided with."""
     r0 = rows[0][2]
     print(
-        f"single FMU steps ({steps} after a warm-up, time-stamp counter, its own "
-        f"{r0['latency_clock']:.1f} ns subtracted; memory locked: {r0['locked'] == 1}), ns:"
+        f"single FMU steps ({steps} after a warm-up, time-stamp counter in steps of "
+        f"{r0['resolution']:.1f} ns, its own {r0['latency_clock']:.1f} ns subtracted; memory "
+        f"locked: {r0['locked'] == 1}), ns:"
     )
     print(
         f"  {'FMU':17s} {'FMI':>3s} | {'p50':>5s} {'p99':>5s} {'p99.9':>6s} {'p99.99':>7s} "

@@ -24,8 +24,8 @@
  *
  * Output lines: "round fmu_ns plain_ns fmu_cpu_ns plain_cpu_ns" per round (ns per step);
  * "latency p50 p99 p99.9 p99.99 max" (ns, FMU steps timed one by one with the time-stamp
- * counter after a warm-up, the counter's own cost subtracted), "latency_clock" (that
- * cost, ns), "outliers N" (steps above 3x the median), "interrupts ALL TIMER" (taken by
+ * counter after a warm-up, the counter's own cost subtracted), "latency_clock COST
+ * RESOLUTION" (ns: two reads, the smallest step the counter makes), "outliers N" (steps above 3x the median), "interrupts ALL TIMER" (taken by
  * this core during those steps), "switches VOLUNTARY INVOLUNTARY" (of this thread, then),
  * "latency_plain_ticks" (median plain step, counter ticks), "locked 0|1" (mlockall),
  * "allocations N" (calls while stepping), "check D" (a pass of STEPS steps of both side by
@@ -533,11 +533,13 @@ int main(int argc, char **argv)
             long irq0, irq1, loc0, loc1, outliers = 0;
             int cpu = sched_getcpu();
             struct rusage r0, r1;
-            double w0, w1, tick_ns, clock_ticks;
+            double w0, w1, tick_ns, clock_ticks, step = 1e300;
             uint64_t k0, k1;
             for (k = 0; k < steps; k++) {
                 uint64_t a = ticks();
                 lat[k] = (double)(ticks() - a);
+                if (lat[k] > 0 && lat[k] < step) /* the counter's resolution */
+                    step = lat[k];
             }
             qsort(lat, (size_t)steps, sizeof *lat, cmp);
             clock_ticks = lat[steps / 2];
@@ -571,7 +573,7 @@ int main(int argc, char **argv)
             printf("latency %.1f %.1f %.1f %.1f %.0f\n", lat[steps / 2],
                    lat[(long)(steps * 0.99)], lat[(long)(steps * 0.999)],
                    lat[(long)(steps * 0.9999)], lat[steps - 1]);
-            printf("latency_clock %.1f\n", clock_ticks * tick_ns);
+            printf("latency_clock %.1f %.1f\n", clock_ticks * tick_ns, step * tick_ns);
             printf("outliers %ld\n", outliers);
             printf("interrupts %ld %ld\n", irq0 < 0 ? -1 : irq1 - irq0, loc0 < 0 ? -1 : loc1 - loc0);
             printf("switches %ld %ld\n", r1.ru_nvcsw - r0.ru_nvcsw, r1.ru_nivcsw - r0.ru_nivcsw);
