@@ -538,11 +538,16 @@ int main(int argc, char **argv)
             for (k = 0; k < steps; k++) {
                 uint64_t a = ticks();
                 lat[k] = (double)(ticks() - a);
-                if (lat[k] > 0 && lat[k] < step) /* the counter's resolution */
-                    step = lat[k];
             }
             qsort(lat, (size_t)steps, sizeof *lat, cmp);
             clock_ticks = lat[steps / 2];
+            /* the counter's resolution: the smallest difference between two of these
+             * durations (or the smallest non-zero one) */
+            for (k = 0; k < steps; k++) {
+                double d = k ? lat[k] - lat[k - 1] : lat[k];
+                if (d > 0 && d < step)
+                    step = d;
+            }
             for (k = 0; k < 10000; k++) {
                 double out[16];
                 fmu_step(&f, sv, ns, in + (k % steps) * ns, t_fmu, h, gv, ng, out);
