@@ -171,7 +171,7 @@ def measure(exe, fmi, binary, token, sv, gv, data, steps, repeats, prefix=()) ->
             res[key] = tuple(map(int, vals))
         elif key == "latency_clock":
             res[key], res["resolution"] = map(float, vals)
-        elif key in ("allocations", "check", "outliers", "locked"):
+        elif key in ("allocations", "check", "outliers", "locked", "stolen"):
             res[key] = float(vals[0])
     return res
 
@@ -238,19 +238,20 @@ def print_worst(rows, steps: int) -> None:
     print(
         f"  {'FMU':17s} {'FMI':>3s} | {'p50':>5s} {'p99':>5s} {'p99.9':>6s} {'p99.99':>7s} "
         f"{'max':>9s} {'p99.99/p50':>10s} | {'>3x p50':>7s} {'interrupts':>10s} {'(timer)':>7s} "
-        f"{'preempted':>9s}"
+        f"{'preempted':>9s} {'stolen ms':>9s}"
     )
     for name, fmi, r in rows:
         irq, timer = r["interrupts"]
         print(
             f"  {name:17s} {fmi:3d} | {r['p50']:5.1f} {r['p99']:5.1f} {r['p999']:6.1f} "
             f"{r['p9999']:7.1f} {r['max']:9.0f} {r['p9999'] / r['p50']:10.1f} | "
-            f"{r['outliers']:7.0f} {irq:10d} {timer:7d} {r['switches'][1]:9d}"
+            f"{r['outliers']:7.0f} {irq:10d} {timer:7d} {r['switches'][1]:9d} {r['stolen']:9.0f}"
         )
     print(
         "  >3x p50: steps slower than 3 times the median; interrupts: taken by the host's core "
         "during those steps (/proc/interrupts; timer: the local timer's); preempted: "
-        "involuntary context switches of the host's thread"
+        "involuntary context switches of the host's thread; stolen: the core's time the "
+        "virtual machine's host took meanwhile (/proc/stat, 10 ms ticks)"
     )
 
 

@@ -27,6 +27,7 @@
  * counter after a warm-up, the counter's own cost subtracted), "latency_clock COST
  * RESOLUTION" (ns: two reads, the smallest step the counter makes), "outliers N" (steps above 3x the median), "interrupts ALL TIMER" (taken by
  * this core during those steps), "switches VOLUNTARY INVOLUNTARY" (of this thread, then),
+ * "stolen MS" (this core's time the virtual machine's host took then, ms; -1 unknown),
  * "latency_plain_ticks" (median plain step, counter ticks), "locked 0|1" (mlockall),
  * "allocations N" (calls while stepping), "check D" (a pass of STEPS steps of both side by
  * side after the rounds: the largest difference of an output over its largest
@@ -45,6 +46,7 @@
 #include <stdint.h>
 #include <sys/mman.h>
 #include <sys/resource.h>
+#include <unistd.h>
 #if defined(__x86_64__) || defined(__i386__)
 #include <x86intrin.h>
 #endif
@@ -435,6 +437,27 @@ static void interrupts(int cpu, long *all, long *timer)
     fclose(fp);
 }
 
+/* Time stolen from `cpu` so far by the virtual machine's host (/proc/stat, the eighth
+ * figure of its line, in clock ticks of sysconf(_SC_CLK_TCK)); -1 where not known. */
+static long stolen(int cpu)
+{
+    char line[512], name[16];
+    long v[8], found = -1;
+    FILE *fp = fopen("/proc/stat", "r");
+    if (fp == NULL)
+        return -1;
+    snprintf(name, sizeof name, "cpu%d ", cpu);
+    while (fgets(line, sizeof line, fp) != NULL)
+        if (strncmp(line, name, strlen(name)) == 0 &&
+            sscanf(line + strlen(name), "%ld %ld %ld %ld %ld %ld %ld %ld", &v[0], &v[1], &v[2],
+                   &v[3], &v[4], &v[5], &v[6], &v[7]) == 8) {
+            found = v[7];
+            break;
+        }
+    fclose(fp);
+    return found;
+}
+
 static int cmp(const void *a, const void *b)
 {
     double x = *(const double *)a, y = *(const double *)b;
@@ -530,7 +553,7 @@ int main(int argc, char **argv)
            * predictors), the counter's own cost (two reads with nothing between, median)
            * subtracted; the interrupts this core took and the thread's context switches
            * during the loop, to name what the slowest steps waited for */
-            long irq0, irq1, loc0, loc1, outliers = 0;
+            long irq0, irq1, loc0, loc1, st0, st1, outliers = 0;
             int cpu = sched_getcpu();
             struct rusage r0, r1;
             double w0, w1, tick_ns, clock_ticks, step = 1e300;
@@ -554,6 +577,7 @@ int main(int argc, char **argv)
                 t_fmu += h;
             }
             interrupts(cpu, &irq0, &loc0);
+            st0 = stolen(cpu);
             getrusage(RUSAGE_THREAD, &r0);
             w0 = now(CLOCK_MONOTONIC), k0 = ticks();
             counting = 1;
@@ -568,6 +592,7 @@ int main(int argc, char **argv)
             counting = 0;
             k1 = ticks(), w1 = now(CLOCK_MONOTONIC);
             getrusage(RUSAGE_THREAD, &r1);
+            st1 = stolen(cpu);
             interrupts(cpu, &irq1, &loc1);
             tick_ns = (w1 - w0) / (double)(k1 - k0);
             for (k = 0; k < steps; k++)
@@ -582,6 +607,7 @@ int main(int argc, char **argv)
             printf("outliers %ld\n", outliers);
             printf("interrupts %ld %ld\n", irq0 < 0 ? -1 : irq1 - irq0, loc0 < 0 ? -1 : loc1 - loc0);
             printf("switches %ld %ld\n", r1.ru_nvcsw - r0.ru_nvcsw, r1.ru_nivcsw - r0.ru_nivcsw);
+            printf("stolen %.0f\n", st0 < 0 || st1 < 0 ? -1.0 : (st1 - st0) * 1e3 / sysconf(_SC_CLK_TCK));
         }
         /* the same for the plain loop: medians of single steps are what a loaded machine
          * disturbs least */
