@@ -757,7 +757,7 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
     for (i = 0; i < nvr; i++)
         if (vr[i] >= nvars || md->vr_kind[vr[i]] != BV_INPUT)
             break;
-    if (__builtin_expect(i == nvr, 1)) {
+    if (BV_LIKELY(i == nvr)) {
         for (i = 0; i < nvr; i++)
             set_input(c, md->vr_index[vr[i]], value[i]);
         return BV_OK;

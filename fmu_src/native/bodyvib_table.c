@@ -54,16 +54,18 @@ static double py_mod(double a, double b)
  * q < 0 rounded once, as fmod's exact remainder plus k is in py_mod: the same bits. A guess
  * that does not put the remainder in [0, k) is not the floor: py_mod then, and a new guess.
  * A run moves through the table in order, so the guess of the last read holds: no fmod. */
+#define TWO52 4503599627370496.0 /* 2^52 */
+
 static inline double periodic_mod(double u, double k, double *periods)
 {
     double r;
-    if (__builtin_expect(fabs(u) < 0x1p52, 1)) {
+    if (BV_LIKELY(fabs(u) < TWO52)) {
         r = u - *periods * k;
-        if (__builtin_expect(r >= 0.0 && r < k, 1))
+        if (BV_LIKELY(r >= 0.0 && r < k))
             return r;
     }
     r = py_mod(u, k); /* also NaN and infinities */
-    *periods = fabs(u) < 0x1p52 ? floor(u / k) : 0.0;
+    *periods = fabs(u) < TWO52 ? floor(u / k) : 0.0;
     return r;
 }
 
