@@ -174,7 +174,7 @@ static double norm1(const double *M, int n)
 }
 
 /* Loops over the model's sizes on the hot path: unrolled where the sizes are constants (HOT
- * below, with link-time optimization), so that a step is straight-line code. */
+ * above, with link-time optimization), so that a step is straight-line code. */
 #if defined(__GNUC__) && !defined(__clang__) && __GNUC__ >= 8
 #define BV_UNROLL _Pragma("GCC unroll 16")
 #else
