@@ -5,18 +5,25 @@
 
 Builds the native FMUs (FMI 2.0 and 3.0: HumanBody3DOF, HumanBodyISO7962, QuarterCar,
 Road) unless ``--fmus`` names a folder of them (``bodyvib build --native``), compiles
-``benchmarks/native_step_host.c`` (``-O2``, the FMUs' own flag) and, per FMU:
+``benchmarks/native_step_host.c`` with the FMUs' own flags (``-O2 -flto``), once per model
+with the model's sizes as constants (the FMU is compiled for its model's sizes too), and,
+per FMU:
 
 * times, in one process and interleaved over ``--repeats`` rounds, ``--steps`` FMU steps
   (set two inputs, doStep, get two outputs; inputs precomputed) and the same number of
   steps of a plain C loop on the same matrices: ``x <- Sc [x | s]``, ``s <- Ms s``, the two
-  outputs ``Y [x | s]``, dense, with the matrices of :class:`bodyvib.runtime.engine.FmuCore`
-  (the same exact discretization the FMU computes at initialization). For Road the plain
-  loop evaluates the FMU's own table (its ``sources/bodyvib_model.c``, compiled into the
-  host) at ``speed * t``. Printed: medians of wall-clock and thread-CPU ns per step, their
-  ratio FMU / plain, and the largest relative difference of the outputs (the same step);
-* times 1e6 FMU steps one by one: median, 99th and 99.99th percentile and the worst step
-  (clock reads included, about 20 ns);
+  outputs ``Y [x | s]``, summed as the FMU sums (two accumulators a row, Ms over its
+  non-zero entries), with the matrices of :class:`bodyvib.runtime.engine.FmuCore` (the same
+  exact discretization the FMU computes at initialization). For Road the plain loop
+  evaluates the FMU's own table (its ``sources/bodyvib_model.c``, compiled into the host) at
+  ``speed * t``, the position reduced as the FMU reduces it. Printed: medians of wall-clock
+  and thread-CPU ns per step, their ratio FMU / plain, and the largest relative difference
+  of the outputs (the same step);
+* times ``--steps`` FMU steps one by one with the time-stamp counter, after a warm-up, the
+  counter's own cost subtracted, memory locked (``mlockall``): median, 99th, 99.9th and
+  99.99th percentile and the worst step, the steps slower than 3x the median, and what the
+  host's core and thread went through meanwhile (interrupts from ``/proc/interrupts``,
+  involuntary context switches);
 * counts what a step does besides arithmetic: malloc/calloc/realloc/free calls while
   stepping (the host interposes them), system calls (``strace -c`` of 1e3 against 1e5
   steps: equal totals mean none per step), and the lock functions the binary imports
@@ -80,10 +87,21 @@ def find(folder: Path) -> dict:
     return found
 
 
-def compile_host(exe: Path, road_sources: Path = None) -> Path:
-    cmd = ["gcc", "-std=c99", "-O2", str(HOST), "-o", str(exe), "-ldl", "-lm"]
+def host_flags() -> list:
+    """The FMUs' own code-generation flags (language, optimization, link-time optimization)."""
+    from bodyvib.fmu.native import COMMON_FLAGS
+
+    return [f for f in COMMON_FLAGS if f.startswith(("-std", "-O", "-f"))]
+
+
+def compile_host(exe: Path, road_sources: Path = None, sizes: tuple = None) -> Path:
+    """Compile the host with the FMUs' flags; ``sizes`` (n, ni, nset, nget) makes the plain
+    loop's sizes constants, as the FMU's are; ``road_sources`` compiles a road's table in."""
+    cmd = ["gcc", *host_flags(), str(HOST), "-o", str(exe), "-ldl", "-lm"]
+    if sizes is not None:
+        cmd[1:1] = [f"-DPLAIN_{k}={v}" for k, v in zip(("N", "NI", "NSET", "NGET"), sizes)]
     if road_sources is not None:
-        cmd[3:3] = [
+        cmd[1:1] = [
             "-DBV_ROAD_TABLE",
             "-I",
             str(road_sources),
@@ -93,8 +111,9 @@ def compile_host(exe: Path, road_sources: Path = None) -> Path:
     return exe
 
 
-def plain_matrices(name: str, set_idx, get_idx, path: Path) -> None:
-    """Write what the plain loop multiplies: the FMU's step matrices from the model."""
+def plain_matrices(name: str, set_idx, get_idx, path: Path) -> tuple:
+    """Write what the plain loop multiplies: the FMU's step matrices from the model; returns
+    the sizes (n, ni, nset, nget)."""
     from bodyvib.vehicle.quarter_car import load_car
 
     from bodyvib.models import load_model
@@ -111,6 +130,7 @@ def plain_matrices(name: str, set_idx, get_idx, path: Path) -> None:
         f.write(" ".join(str(i) for i in set_idx) + "\n")
         for block in (M[:n], M[n:, n:], Y):
             f.write(" ".join(repr(float(v)) for v in block.ravel()) + "\n")
+    return n, ni, len(set_idx), len(get_idx)
 
 
 def unpack(fmu: Path, folder: Path):
@@ -146,8 +166,12 @@ def measure(exe, fmi, binary, token, sv, gv, data, steps, repeats, prefix=()) ->
     for ln in text.splitlines():
         key, *vals = ln.split()
         if key == "latency":
-            res["p50"], res["p99"], res["p9999"], res["max"] = map(float, vals)
-        elif key in ("allocations", "check", "latency_plain", "latency_clock"):
+            res["p50"], res["p99"], res["p999"], res["p9999"], res["max"] = map(float, vals)
+        elif key in ("interrupts", "switches"):
+            res[key] = tuple(map(int, vals))
+        elif key == "latency_clock":
+            res[key], res["resolution"] = map(float, vals)
+        elif key in ("allocations", "check", "outliers", "locked", "stolen"):
             res[key] = float(vals[0])
     return res
 
@@ -203,6 +227,34 @@ def syscalls(exe, args, folder: Path) -> tuple:
     return tuple(totals)
 
 
+def print_worst(rows, steps: int) -> None:
+    """The distribution of single steps, and what the slow ones coincided with."""
+    r0 = rows[0][2]
+    print(
+        f"single FMU steps ({steps} after a warm-up, time-stamp counter in steps of "
+        f"{r0['resolution']:.1f} ns, its own {r0['latency_clock']:.1f} ns subtracted; memory "
+        f"locked: {r0['locked'] == 1}), ns:"
+    )
+    print(
+        f"  {'FMU':17s} {'FMI':>3s} | {'p50':>5s} {'p99':>5s} {'p99.9':>6s} {'p99.99':>7s} "
+        f"{'max':>9s} {'p99.99/p50':>10s} | {'>3x p50':>7s} {'interrupts':>10s} {'(timer)':>7s} "
+        f"{'preempted':>9s} {'stolen ms':>9s}"
+    )
+    for name, fmi, r in rows:
+        irq, timer = r["interrupts"]
+        print(
+            f"  {name:17s} {fmi:3d} | {r['p50']:5.1f} {r['p99']:5.1f} {r['p999']:6.1f} "
+            f"{r['p9999']:7.1f} {r['max']:9.0f} {r['p9999'] / r['p50']:10.1f} | "
+            f"{r['outliers']:7.0f} {irq:10d} {timer:7d} {r['switches'][1]:9d} {r['stolen']:9.0f}"
+        )
+    print(
+        "  >3x p50: steps slower than 3 times the median; interrupts: taken by the host's core "
+        "during those steps (/proc/interrupts; timer: the local timer's); preempted: "
+        "involuntary context switches of the host's thread; stolen: the core's time the "
+        "virtual machine's host took meanwhile (/proc/stat, 10 ms ticks)"
+    )
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--steps", type=int, default=1_000_000, help="steps per loop (default 1e6)")
@@ -222,7 +274,6 @@ def main(argv=None):
     with tempfile.TemporaryDirectory(prefix="bodyvib-bench-step-") as tmp:
         tmp = Path(tmp)
         fmus = find(args.fmus) if args.fmus else build(tmp / "fmus")
-        exe = compile_host(tmp / "host")
         prefix = ()
         if args.realtime:
             prefix = ("chrt", "-f", "50", "taskset", "-c", str((os.cpu_count() or 1) - 1))
@@ -233,10 +284,9 @@ def main(argv=None):
         )
         print(
             f"  {'FMU':17s} {'FMI':>3s} | {'loop: FMU':>9s} {'plain':>6s} {'ratio':>5s} {'CPU':>5s} | "
-            f"{'instr: FMU':>10s} {'plain':>5s} {'ratio':>5s} | {'1 step: p50':>11s} {'p99.99':>6s} "
-            f"{'max':>9s} {'p99.99/p50':>10s} | {'allocs':>6s} {'rel diff':>8s}"
+            f"{'instr: FMU':>10s} {'plain':>5s} {'ratio':>5s} | {'allocs':>6s} {'rel diff':>8s}"
         )
-        notes = []
+        notes, worst = [], []
         for name in FMUS:
             sets, gets = SIGNALS[name]
             for fmi in (2, 3):
@@ -251,13 +301,14 @@ def main(argv=None):
                         compile_host(host, folder / "sources")
                     data = f"road:{float(start['speed'])!r}"
                 else:
-                    host = exe
                     data = str(folder / "plain.txt")
-                    plain_matrices(name, [vr[s] for s in sets], [vr[g] for g in gets], data)
+                    sizes = plain_matrices(name, [vr[s] for s in sets], [vr[g] for g in gets], data)
+                    host = tmp / ("host-" + "-".join(map(str, sizes)))
+                    if not host.exists():
+                        compile_host(host, sizes=sizes)
                 r = measure(
                     host, fmi, binary, token, sv, gv, data, args.steps, args.repeats, prefix
                 )
-                clock = r["latency_clock"]
                 ir = ir_plain = float("nan")
                 if callgrind:
                     ir = instructions(host, "fmu", fmi, binary, token, sv, gv, data)
@@ -265,9 +316,9 @@ def main(argv=None):
                 print(
                     f"  {name:17s} {fmi:3d} | {r['fmu']:9.1f} {r['plain']:6.1f} {r['ratio']:5.2f} "
                     f"{r['ratio_cpu']:5.2f} | {ir:10.0f} {ir_plain:5.0f} {ir / ir_plain:5.2f} | "
-                    f"{r['p50']:11.0f} {r['p9999']:6.0f} {r['max']:9.0f} "
-                    f"{r['p9999'] / r['p50']:10.1f} | {r['allocations']:6.0f} {r['check']:8.1e}"
+                    f"{r['allocations']:6.0f} {r['check']:8.1e}"
                 )
+                worst.append((name, fmi, r))
                 if fmi == 2 and shutil.which("strace"):
                     few, many = syscalls(
                         host, [str(fmi), str(binary), token, sv, gv, repr(H), data], folder
@@ -282,10 +333,9 @@ def main(argv=None):
                     notes.append(f"{name}: lock functions imported: {', '.join(locks) or 'none'}")
         print(
             "  loop: medians of whole loops, wall and thread CPU (ratio FMU / plain); instr: "
-            "callgrind, per step; 1 step: single FMU steps timed one by one, the clock read "
-            f"({clock:.0f} ns, about 10 ns resolution) included; rel diff: FMU against plain "
-            "outputs, over their largest"
+            "callgrind, per step; rel diff: FMU against plain outputs, over their largest"
         )
+        print_worst(worst, args.steps)
         for note in notes:
             print("  " + note)
         print(f"load after: {os.getloadavg()[0]:.2f}")

@@ -22,11 +22,16 @@
  *          or "road:SPEED" for a source FMU, whose plain loop evaluates the table compiled
  *          into this host (-DBV_ROAD_TABLE with the FMU's own sources/bodyvib_model.c).
  *
- * Output lines: "round fmu_ns plain_ns fmu_cpu_ns plain_cpu_ns" per round (ns per step),
- * "latency p50 p99 p9999 max" (ns, FMU steps timed one by one, clock overhead included),
- * "latency_plain p50" (plain steps so timed), "latency_clock p50" (two clock reads),
+ * Output lines: "round fmu_ns plain_ns fmu_cpu_ns plain_cpu_ns" per round (ns per step);
+ * "latency p50 p99 p99.9 p99.99 max" (ns, FMU steps timed one by one with the time-stamp
+ * counter after a warm-up, the counter's own cost subtracted), "latency_clock COST
+ * RESOLUTION" (ns: two reads, the smallest step the counter makes), "outliers N" (steps above 3x the median), "interrupts ALL TIMER" (taken by
+ * this core during those steps), "switches VOLUNTARY INVOLUNTARY" (of this thread, then),
+ * "stolen MS" (this core's time the virtual machine's host took then, ms; -1 unknown),
+ * "latency_plain_ticks" (median plain step, counter ticks), "locked 0|1" (mlockall),
  * "allocations N" (calls while stepping), "check D" (a pass of STEPS steps of both side by
- * side after the rounds: the largest difference of an output over its largest magnitude). The inputs are precomputed (a 1.7 Hz sine and its
+ * side after the rounds: the largest difference of an output over its largest
+ * magnitude). The inputs are precomputed (a 1.7 Hz sine and its
  * derivatives), so a step costs only the FMU.
  */
 #define _GNU_SOURCE
@@ -37,6 +42,14 @@
 #include <time.h>
 
 #include <dlfcn.h>
+#include <sched.h>
+#include <stdint.h>
+#include <sys/mman.h>
+#include <sys/resource.h>
+#include <unistd.h>
+#if defined(__x86_64__) || defined(__i386__)
+#include <x86intrin.h>
+#endif
 
 #ifdef BV_ROAD_TABLE
 #include "bodyvib_table.h"
@@ -180,10 +193,32 @@ static inline void fmu_step(const Fmu *f, const unsigned *sv, int ns, const doub
 
 /* ------------------------------------------------------------------ the plain loop */
 
+/* The model's sizes, when the benchmark compiles the host for one model (-DPLAIN_N=..,
+ * PLAIN_NI, PLAIN_NSET, PLAIN_NGET): constants, as they are in the FMU (built for its model
+ * with link-time optimization); otherwise read from DATA. */
+#ifdef PLAIN_N
+#define P_N PLAIN_N
+#define P_NI PLAIN_NI
+#define P_NSET PLAIN_NSET
+#define P_NGET PLAIN_NGET
+#else
+#define P_N p->n
+#define P_NI p->ni
+#define P_NSET p->nset
+#define P_NGET p->nget
+#endif
+
+/* The FMU's loops over the model's sizes are unrolled; so are the plain loop's. */
+#if defined(__GNUC__) && !defined(__clang__) && __GNUC__ >= 8
+#define UNROLL _Pragma("GCC unroll 16")
+#else
+#define UNROLL
+#endif
+
 typedef struct {
     int n, ni, nset, nget, road;
     int *setpos;
-    double *Sc, *Ms, *Y, *z, *zn, speed, t;
+    double *Sc, *Ms, *Y, *z, *zn, speed, t, periods;
 } Plain;
 
 static void read_plain(Plain *p, const char *path)
@@ -199,6 +234,10 @@ static void read_plain(Plain *p, const char *path)
     fp = fopen(path, "r");
     if (fp == NULL || fscanf(fp, "%d %d %d %d", &p->n, &p->ni, &p->nset, &p->nget) != 4)
         die("cannot read the plain loop's matrices");
+#ifdef PLAIN_N
+    if (p->n != PLAIN_N || p->ni != PLAIN_NI || p->nset != PLAIN_NSET || p->nget != PLAIN_NGET)
+        die("the plain loop was compiled for other sizes than DATA's");
+#endif
     k = p->n + p->ni;
     p->setpos = __libc_calloc((size_t)p->nset + 1, sizeof(int));
     p->Sc = __libc_calloc((size_t)(p->n + p->ni + p->nget) * k + 1, sizeof(double));
@@ -215,31 +254,46 @@ static void read_plain(Plain *p, const char *path)
     fclose(fp);
 }
 
-/* out = M v (rows x cols, row-major). */
+/* out = M v (rows x cols, row-major), each row with two accumulators (even and odd
+ * columns) added at the end: the FMU's sums, in its order. */
 static inline void mv(double *restrict out, const double *restrict M, const double *restrict v,
                       int rows, int cols)
 {
     int i, j;
+    UNROLL
     for (i = 0; i < rows; i++) {
-        double a = 0.0;
-        for (j = 0; j < cols; j++)
+        double a = 0.0, b = 0.0;
+        UNROLL
+        for (j = 0; j + 1 < cols; j += 2) {
             a += M[i * cols + j] * v[j];
-        out[i] = a;
+            b += M[i * cols + j + 1] * v[j + 1];
+        }
+        if (j < cols)
+            a += M[i * cols + j] * v[j];
+        out[i] = a + b;
     }
 }
 
 #ifdef BV_ROAD_TABLE
 /* The table's cubic Hermite interpolant at p (periodic or held), values and rates: the
- * arithmetic of the FMU's own evaluation, without its state machine and calls. */
-static inline void road_at(double p, double speed, double *out)
+ * arithmetic of the FMU's own evaluation, without its state machine and calls. A periodic
+ * table's position is reduced as the FMU does, from the whole periods of the last step
+ * (u - q k, exact), with fmod only when that guess fails. */
+static inline void road_at(Plain *p, double pos, double *out)
 {
     const bv_source *t = &bv_source_data;
     int k = t->rows - 1, i;
-    double u = (p - t->p0) / t->dp, s, s2, s3, z0, z1, m0, m1;
-    if (t->periodic) { /* the FMU's reduction: a remainder with the divisor's sign */
-        u = fmod(u, (double)k);
-        if (u < 0.0)
-            u += k;
+    double u = (pos - t->p0) / t->dp, s, s2, s3, z0, z1, m0, m1;
+    if (t->periodic) {
+        double r = u - p->periods * k;
+        if (fabs(u) < 0x1p52 && r >= 0.0 && r < k) {
+            u = r;
+        } else { /* a remainder with the divisor's sign */
+            p->periods = floor(u / k);
+            u = fmod(u, (double)k);
+            if (u < 0.0)
+                u += k;
+        }
     }
     u = u < 0.0 ? 0.0 : (u > k ? k : u);
     i = (int)u;
@@ -250,31 +304,47 @@ static inline void road_at(double p, double speed, double *out)
     m0 = t->slope[i * t->signals] * t->dp, m1 = t->slope[(i + 1) * t->signals] * t->dp;
     out[0] = (2 * s3 - 3 * s2 + 1) * z0 + (s3 - 2 * s2 + s) * m0 + (3 * s2 - 2 * s3) * z1 +
              (s3 - s2) * m1;
-    out[1] = speed * ((6 * s2 - 6 * s) * (z0 - z1) + (3 * s2 - 4 * s + 1) * m0 +
-                      (3 * s2 - 2 * s) * m1) / t->dp;
+    out[1] = p->speed * (((6 * s2 - 6 * s) * (z0 - z1) + (3 * s2 - 4 * s + 1) * m0 +
+                          (3 * s2 - 2 * s) * m1) / t->dp);
 }
 #endif
 
 static inline void plain_step(Plain *p, const double *in, double h, double *out)
 {
-    int i, n = p->n, k = p->n + p->ni;
+    int i, j, n = P_N, k = P_N + P_NI;
     if (p->road) {
 #ifdef BV_ROAD_TABLE
         p->t += h;
-        road_at(p->speed * p->t, p->speed, out);
+        road_at(p, p->speed * p->t, out);
 #else
-        (void)h, (void)out;
+        (void)h, (void)out, (void)j;
         die("a road's plain loop needs the table: compile with -DBV_ROAD_TABLE");
 #endif
         return;
     }
-    for (i = 0; i < p->nset; i++)
+    UNROLL
+    for (i = 0; i < P_NSET; i++)
         p->z[n + p->setpos[i]] = in[i];
     mv(p->zn, p->Sc, p->z, n, k);
-    mv(p->zn + n, p->Ms, p->z + n, p->ni, p->ni);
+    UNROLL
+    for (i = 0; i < P_NI; i++) { /* s <- Ms s, over Ms's non-zero entries (as the FMU) */
+        double a = 0.0, b = 0.0;
+        UNROLL
+        for (j = 0; j < P_NI; j++) {
+            double v = p->Ms[i * P_NI + j];
+            if (v == 0.0)
+                continue;
+            if (j & 1)
+                b += v * p->z[n + j];
+            else
+                a += v * p->z[n + j];
+        }
+        p->zn[n + i] = a + b;
+    }
+    UNROLL
     for (i = 0; i < k; i++)
         p->z[i] = p->zn[i];
-    mv(out, p->Y, p->z, p->nget, k);
+    mv(out, p->Y, p->z, P_NGET, k);
 }
 
 /* ------------------------------------------------------------------ untimed loops */
@@ -316,6 +386,78 @@ static double now(clockid_t id)
     return ts.tv_sec * 1e9 + ts.tv_nsec;
 }
 
+/* The clock of single steps: the time-stamp counter where there is one (x86: rdtsc between
+ * fences, a few ns to read; constant-rate on current processors), else CLOCK_MONOTONIC in ns.
+ * Converted to ns by the ratio of both over the timed loop. */
+static inline uint64_t ticks(void)
+{
+#if defined(__x86_64__) || defined(__i386__)
+    uint64_t t;
+    _mm_lfence();
+    t = __rdtsc();
+    _mm_lfence();
+    return t;
+#else
+    return (uint64_t)now(CLOCK_MONOTONIC);
+#endif
+}
+
+/* Interrupts delivered to `cpu` so far (/proc/interrupts): all of them, and the local
+ * timer's (LOC); -1 where the file cannot be read. */
+static void interrupts(int cpu, long *all, long *timer)
+{
+    char line[4096];
+    FILE *fp = fopen("/proc/interrupts", "r");
+    *all = *timer = -1;
+    if (fp == NULL || cpu < 0 || fgets(line, sizeof line, fp) == NULL) {
+        if (fp)
+            fclose(fp);
+        return;
+    }
+    *all = *timer = 0;
+    while (fgets(line, sizeof line, fp) != NULL) {
+        char *q = strchr(line, ':'), *end;
+        long v = 0;
+        int c;
+        if (q == NULL)
+            continue;
+        q++;
+        for (c = 0; c <= cpu; c++) {
+            v = strtol(q, &end, 10);
+            if (end == q)
+                break;
+            q = end;
+        }
+        if (c <= cpu) /* fewer columns (ERR, MIS): not per core */
+            continue;
+        *all += v;
+        if (strncmp(line + strspn(line, " "), "LOC:", 4) == 0)
+            *timer = v;
+    }
+    fclose(fp);
+}
+
+/* Time stolen from `cpu` so far by the virtual machine's host (/proc/stat, the eighth
+ * figure of its line, in clock ticks of sysconf(_SC_CLK_TCK)); -1 where not known. */
+static long stolen(int cpu)
+{
+    char line[512], name[16];
+    long v[8], found = -1;
+    FILE *fp = fopen("/proc/stat", "r");
+    if (fp == NULL)
+        return -1;
+    snprintf(name, sizeof name, "cpu%d ", cpu);
+    while (fgets(line, sizeof line, fp) != NULL)
+        if (strncmp(line, name, strlen(name)) == 0 &&
+            sscanf(line + strlen(name), "%ld %ld %ld %ld %ld %ld %ld %ld", &v[0], &v[1], &v[2],
+                   &v[3], &v[4], &v[5], &v[6], &v[7]) == 8) {
+            found = v[7];
+            break;
+        }
+    fclose(fp);
+    return found;
+}
+
 static int cmp(const void *a, const void *b)
 {
     double x = *(const double *)a, y = *(const double *)b;
@@ -354,6 +496,8 @@ int main(int argc, char **argv)
     steps = atol(argv[8]);
     repeats = atol(argv[9]);
     read_plain(&p, argv[10]);
+    /* no page faults while stepping (needs the right to lock memory: root or a limit) */
+    printf("locked %d\n", mlockall(MCL_CURRENT | MCL_FUTURE) == 0);
     open_fmu(&f, fmi, argv[3], argv[4]);
     /* inputs: a 1.7 Hz, 10 mm sine (displacement, velocity, acceleration, ...) */
     /* buffers of one size for any STEPS up to 1e6: runs of different lengths make the same
@@ -405,34 +549,77 @@ int main(int argc, char **argv)
             for (j = 0; j < ng; j++)
                 diff = fmax(diff, off[j] / fmax(big[j], 1e-300));
         }
-        counting = 1;
-        for (k = 0; k < steps; k++) {
-            double out[16], a = now(CLOCK_MONOTONIC);
-            fmu_step(&f, sv, ns, in + k * ns, t_fmu, h, gv, ng, out);
-            t_fmu += h;
-            lat[k] = now(CLOCK_MONOTONIC) - a;
-            sink += out[0];
+        { /* single FMU steps, timed one by one: after a warm-up (caches, branch
+           * predictors), the counter's own cost (two reads with nothing between, median)
+           * subtracted; the interrupts this core took and the thread's context switches
+           * during the loop, to name what the slowest steps waited for */
+            long irq0, irq1, loc0, loc1, st0, st1, outliers = 0;
+            int cpu = sched_getcpu();
+            struct rusage r0, r1;
+            double w0, w1, tick_ns, clock_ticks, step = 1e300;
+            uint64_t k0, k1;
+            for (k = 0; k < steps; k++) {
+                uint64_t a = ticks();
+                lat[k] = (double)(ticks() - a);
+            }
+            qsort(lat, (size_t)steps, sizeof *lat, cmp);
+            clock_ticks = lat[steps / 2];
+            /* the counter's resolution: the smallest difference between two of these
+             * durations (or the smallest non-zero one) */
+            for (k = 0; k < steps; k++) {
+                double d = k ? lat[k] - lat[k - 1] : lat[k];
+                if (d > 0 && d < step)
+                    step = d;
+            }
+            for (k = 0; k < 10000; k++) {
+                double out[16];
+                fmu_step(&f, sv, ns, in + (k % steps) * ns, t_fmu, h, gv, ng, out);
+                t_fmu += h;
+            }
+            interrupts(cpu, &irq0, &loc0);
+            st0 = stolen(cpu);
+            getrusage(RUSAGE_THREAD, &r0);
+            w0 = now(CLOCK_MONOTONIC), k0 = ticks();
+            counting = 1;
+            for (k = 0; k < steps; k++) {
+                double out[16];
+                uint64_t a = ticks();
+                fmu_step(&f, sv, ns, in + k * ns, t_fmu, h, gv, ng, out);
+                lat[k] = (double)(ticks() - a);
+                t_fmu += h;
+                sink += out[0];
+            }
+            counting = 0;
+            k1 = ticks(), w1 = now(CLOCK_MONOTONIC);
+            getrusage(RUSAGE_THREAD, &r1);
+            st1 = stolen(cpu);
+            interrupts(cpu, &irq1, &loc1);
+            tick_ns = (w1 - w0) / (double)(k1 - k0);
+            for (k = 0; k < steps; k++)
+                lat[k] = (lat[k] - clock_ticks) * tick_ns;
+            qsort(lat, (size_t)steps, sizeof *lat, cmp);
+            for (k = 0; k < steps; k++)
+                outliers += lat[k] > 3 * lat[steps / 2];
+            printf("latency %.1f %.1f %.1f %.1f %.0f\n", lat[steps / 2],
+                   lat[(long)(steps * 0.99)], lat[(long)(steps * 0.999)],
+                   lat[(long)(steps * 0.9999)], lat[steps - 1]);
+            printf("latency_clock %.1f %.1f\n", clock_ticks * tick_ns, step * tick_ns);
+            printf("outliers %ld\n", outliers);
+            printf("interrupts %ld %ld\n", irq0 < 0 ? -1 : irq1 - irq0, loc0 < 0 ? -1 : loc1 - loc0);
+            printf("switches %ld %ld\n", r1.ru_nvcsw - r0.ru_nvcsw, r1.ru_nivcsw - r0.ru_nivcsw);
+            printf("stolen %.0f\n", st0 < 0 || st1 < 0 ? -1.0 : (st1 - st0) * 1e3 / sysconf(_SC_CLK_TCK));
         }
-        counting = 0;
-        qsort(lat, (size_t)steps, sizeof *lat, cmp);
-        printf("latency %.0f %.0f %.0f %.0f\n", lat[steps / 2], lat[(long)(steps * 0.99)],
-               lat[(long)(steps * 0.9999)], lat[steps - 1]);
-        /* the same for the plain loop and for nothing (two clock reads): medians of single
-         * steps are what a loaded machine disturbs least */
+        /* the same for the plain loop: medians of single steps are what a loaded machine
+         * disturbs least */
         for (k = 0; k < steps; k++) {
-            double out[16], a = now(CLOCK_MONOTONIC);
+            double out[16];
+            uint64_t a = ticks();
             plain_step(&p, in + k * ns, h, out);
-            lat[k] = now(CLOCK_MONOTONIC) - a;
+            lat[k] = (double)(ticks() - a);
             sink += out[0];
         }
         qsort(lat, (size_t)steps, sizeof *lat, cmp);
-        printf("latency_plain %.1f\n", lat[steps / 2]);
-        for (k = 0; k < steps; k++) {
-            double a = now(CLOCK_MONOTONIC);
-            lat[k] = now(CLOCK_MONOTONIC) - a;
-        }
-        qsort(lat, (size_t)steps, sizeof *lat, cmp);
-        printf("latency_clock %.1f\n", lat[steps / 2]);
+        printf("latency_plain_ticks %.1f\n", lat[steps / 2]);
         printf("allocations %ld\n", allocations);
         printf("check %.3g\n", diff);
     }

@@ -390,3 +390,25 @@ def test_derivatives_alone_couple_car_and_body_to_the_wired_accuracy(native_fmus
     print(f"derivative coupling NRMSE: {e1:.3e} (1 ms), {e2:.3e} (0.5 ms); without {plain:.3e}")
     assert e1 < 1.0e-4 and e1 < plain / 30, (e1, plain)
     assert 3.0 < e1 / e2 < 6.0, (e1, e2)
+
+
+def test_fmi3_time_reads_among_outputs_and_an_unknown_reference_refuses(native_fmus):
+    """FMI 3.0's independent variable (value reference after the contract's) read in one
+    fmi3GetFloat64 with outputs: the time at its place, the outputs as read alone, bit for
+    bit; an unknown reference in such a request refuses the call (Error, logged)."""
+    f = Raw(native_fmus["fmi3/HumanBody3DOF"])
+    try:
+        f.init(start=0.25)
+        f.set({"seat_displacement": 0.01, "seat_velocity": 0.2})
+        f.fmu.doStep(0.25, 1e-3)
+        names = ["head_acceleration", "seat_force"]
+        alone = f.get(names)
+        t = max(v.valueReference for v in f.md.modelVariables if v.name == "time")
+        out, force = [f.vr[n] for n in names]
+        mixed = f.fmu.getFloat64([out, t, force, t])
+        refused = f.status("getFloat64", [out, t, t + 10_000])
+    finally:
+        f.close()
+    assert mixed == [alone[0], 0.25 + 1e-3, alone[1], 0.25 + 1e-3]
+    assert refused == 3
+    assert "no variable with value reference" in "\n".join(f.messages)

@@ -119,7 +119,11 @@ PLATFORMS = {
     ),
     "win64": ("x86_64-w64-mingw32-gcc", ["-static-libgcc"], ".dll", "win64", "x86_64-windows"),
 }
-COMMON_FLAGS = ["-std=c99", "-O2", "-shared", "-Wall", "-Wextra", "-Wno-unused-parameter"]
+#: Flags of every platform. ``-flto``: the FMI wrappers, the shared calls and the core inline
+#: into one function per FMI call, and the model's sizes are constants on the step's hot path
+#: (bodyvib_core.c reads them from the binary's own model). benchmarks/bench_native_step.py
+#: compiles its plain loop with the same code-generation flags.
+COMMON_FLAGS = ["-std=c99", "-O2", "-flto", "-shared", "-Wall", "-Wextra", "-Wno-unused-parameter"]
 
 #: Output derivative orders fmi2GetRealOutputDerivatives / fmi3GetOutputDerivatives give
 #: (bodyvib_core.h, BV_MAX_OUTPUT_ORDER).

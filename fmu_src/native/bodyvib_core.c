@@ -50,8 +50,6 @@ struct bv_instance {
     double h_raw;       /* the last step size seen with that key (skips the rounding) */
     double *Sc;         /* [Phi | Gamma0 U + Gamma1 U R + Gamma2 U R^2] row-major: x <- Sc z */
     double *Ms;         /* I + h R + h^2/2 R^2 (ni x ni): s <- Ms s */
-    int *ms_start, *ms_col; /* Ms's non-zero entries by row (CSR): ms_start[ni + 1] */
-    double *ms_val;
     /* what evolves: z = [x | s] contiguous; a step writes the next z into zn and swaps */
     double *x, *s;
     double *x_prev, *h_prev; /* per fallback pair: displacement and step at the last DoStep */
@@ -65,6 +63,12 @@ struct bv_instance {
     double *zn, *work;
     int *piv;
 };
+
+/* The model on the hot path (bv_set, bv_step, bv_get): this binary's, bv_model_data, read
+ * directly rather than through the instance. Where the build sees its definition (the FMUs
+ * are linked with link-time optimization) its sizes and index tables are constants, and the
+ * loops of a step are compiled for the model's sizes. bv_new accepts this model only. */
+#define HOT (&bv_model_data)
 
 /* ---------------------------------------------------------------- messages */
 
@@ -169,11 +173,20 @@ static double norm1(const double *M, int n)
     return best;
 }
 
+/* Loops over the model's sizes on the hot path: unrolled where the sizes are constants (HOT
+ * above, with link-time optimization), so that a step is straight-line code. */
+#if defined(__GNUC__) && !defined(__clang__) && __GNUC__ >= 8
+#define BV_UNROLL _Pragma("GCC unroll 16")
+#else
+#define BV_UNROLL
+#endif
+
 /* r . z over cols entries, two accumulators (even and odd columns) added at the end. */
 static inline double dot(const double *restrict r, const double *restrict z, int cols)
 {
     double a = 0.0, b = 0.0;
     int j;
+    BV_UNROLL
     for (j = 0; j + 1 < cols; j += 2) {
         a += r[j] * z[j];
         b += r[j + 1] * z[j + 1];
@@ -188,22 +201,32 @@ static void matvec(double *restrict out, const double *restrict M, const double 
                    int rows, int cols)
 {
     int i;
+    BV_UNROLL
     for (i = 0; i < rows; i++)
         out[i] = dot(M + (size_t)i * cols, z, cols);
 }
 
-/* out = M z for M in CSR form (row i: entries start[i] .. start[i + 1] - 1), with the
- * accumulators of dot() by column parity: the same sums as the dense product less its zero
- * terms (which add nothing to a finite sum). */
-static void csr_matvec(double *restrict out, const int *start, const int *col,
-                       const double *val, const double *restrict z, int rows)
+/* out = M z (n x n) over M's non-zero entries, with the accumulators of dot() by column
+ * parity: the same sums as the dense product less its zero terms (which add nothing to a
+ * finite sum). With n a constant the loops unroll and the parity is known per entry. */
+static inline void sparse_matvec(double *restrict out, const double *restrict M,
+                                 const double *restrict z, int n)
 {
-    int i, e;
-    for (i = 0; i < rows; i++) {
-        double acc[2] = {0.0, 0.0};
-        for (e = start[i]; e < start[i + 1]; e++)
-            acc[col[e] & 1] += val[e] * z[col[e]];
-        out[i] = acc[0] + acc[1];
+    int i, j;
+    BV_UNROLL
+    for (i = 0; i < n; i++) {
+        double a = 0.0, b = 0.0;
+        BV_UNROLL
+        for (j = 0; j < n; j++) {
+            double v = M[(size_t)i * n + j];
+            if (v == 0.0)
+                continue;
+            if (j & 1)
+                b += v * z[j];
+            else
+                a += v * z[j];
+        }
+        out[i] = a + b;
     }
 }
 
@@ -544,15 +567,6 @@ static int discretize(bv_instance *c, double h)
             if (c->curved)
                 c->Ms[i * ni + j] += 0.5 * h * h * r2;
         }
-    for (i = 0, k = 0; i < ni; i++) { /* its non-zero entries, for the step */
-        c->ms_start[i] = k;
-        for (j = 0; j < ni; j++)
-            if (c->Ms[i * ni + j] != 0.0) {
-                c->ms_col[k] = j;
-                c->ms_val[k++] = c->Ms[i * ni + j];
-            }
-    }
-    c->ms_start[ni] = k;
     c->h_key = key;
     c->h_raw = h;
     return 1;
@@ -575,11 +589,14 @@ static void clear_state(bv_instance *c)
 
 bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *env)
 {
-    bv_instance *c = calloc(1, sizeof *c);
+    bv_instance *c;
     int n = md->n, m = md->m, ni = md->ni, no = md->no, np = md->np, R = md->rows;
     int N = n + 3 * m, np1 = md->npairs + 1, i, j, k; /* N: the largest augmented matrix */
     size_t nd, nw, assembly;
     double *d;
+    if (md != HOT) /* the hot path reads this binary's model (HOT) */
+        return NULL;
+    c = calloc(1, sizeof *c);
     if (c == NULL)
         return NULL;
     bv_common_init(&c->bc, md, name, log, env);
@@ -592,12 +609,12 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
     if (assembly > nw)
         nw = assembly;
     nd = 2 * (size_t)np + (size_t)n * n + (size_t)n * m + 2 * (size_t)m * ni +
-         (size_t)no * (n + ni) + (size_t)n * (n + ni) + 2 * (size_t)ni * ni + n + ni +
+         (size_t)no * (n + ni) + (size_t)n * (n + ni) + (size_t)ni * ni + n + ni +
          2 * (size_t)np1 + n + ni + nw;
     nd += (size_t)n * n + (size_t)n * m + (size_t)no * (n + ni); /* candidates A2, B2, Yc2 */
     nd += 3 * (size_t)np1 + 3 * ((size_t)n + ni);                /* saved bookkeeping, zd */
     d = calloc(nd, sizeof *d);
-    c->piv = calloc((size_t)N + 1 + (size_t)ni * ni + ni + 1, sizeof *c->piv);
+    c->piv = calloc((size_t)N + 1, sizeof *c->piv);
     c->has_prev = calloc(8 * (size_t)np1 + ni, 1);
     if (d == NULL || c->piv == NULL || c->has_prev == NULL) {
         free(d);
@@ -613,8 +630,6 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
     c->is_rate = c->save_flags + 4 * (size_t)np1;
     for (k = 0; k < md->npairs; k++)
         c->is_rate[md->pairs[k].rate] = 1;
-    c->ms_col = c->piv + N + 1;
-    c->ms_start = c->ms_col + (size_t)ni * ni;
     c->p = d; d += np;
     c->p_built = d; d += np;
     c->A = d; d += (size_t)n * n;
@@ -624,7 +639,6 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
     c->Yc = d; d += (size_t)no * (n + ni);
     c->Sc = d; d += (size_t)n * (n + ni);
     c->Ms = d; d += (size_t)ni * ni;
-    c->ms_val = d; d += (size_t)ni * ni;
     c->x = d; d += n; /* x, s contiguous: z */
     c->s = d; d += ni;
     c->x_prev = d; d += np1;
@@ -711,19 +725,43 @@ static int me_var_set(bv_instance *c, unsigned int vr, double value);
 /* A value reference of the model-exchange states or their derivatives. */
 static int is_me_var(const bv_instance *c, unsigned int vr)
 {
-    unsigned int first = (unsigned int)BV_STATE_VR(c->bc.md, 0);
-    return vr >= first && vr < first + 2u * (unsigned int)c->n;
+    unsigned int first = (unsigned int)BV_STATE_VR(HOT, 0);
+    (void)c;
+    return vr >= first && vr < first + 2u * (unsigned int)HOT->n;
 }
 
 #define check_vr(c, vr) bv_common_check_vr(&(c)->bc, (vr))
 
+/* FMU input idx set to v: a velocity of a fallback pair set to a non-zero value is connected
+ * (its slope fallback ends). */
+static inline void set_input(bv_instance *c, int idx, double v)
+{
+    const bv_model *md = HOT;
+    int k;
+    c->s[idx] = v;
+    if (v != 0.0 && c->is_rate[idx])
+        for (k = 0; k < md->npairs; k++)
+            if (md->pairs[k].rate == idx) {
+                c->vel_set[k] = 1;
+                c->slope_on[k] = 0;
+            }
+}
+
 bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const double value[])
 {
-    const bv_model *md = c->bc.md;
+    const bv_model *md = HOT;
     const unsigned int nvars = (unsigned int)md->nvars;
     bv_status status = BV_OK;
     size_t i;
-    int k;
+    /* the call of every step: inputs only (always settable), checked before any is set */
+    for (i = 0; i < nvr; i++)
+        if (vr[i] >= nvars || md->vr_kind[vr[i]] != BV_INPUT)
+            break;
+    if (BV_LIKELY(i == nvr)) {
+        for (i = 0; i < nvr; i++)
+            set_input(c, md->vr_index[vr[i]], value[i]);
+        return BV_OK;
+    }
     /* an unknown value reference refuses the call: nothing set (the contract's variables
      * are below nvars, the model-exchange ones above) */
     for (i = 0; i < nvr; i++)
@@ -740,13 +778,7 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
         }
         idx = md->vr_index[vr[i]];
         if (md->vr_kind[vr[i]] == BV_INPUT) { /* always settable */
-            c->s[idx] = value[i];
-            if (value[i] != 0.0 && c->is_rate[idx])
-                for (k = 0; k < md->npairs; k++)
-                    if (md->pairs[k].rate == idx) {
-                        c->vel_set[k] = 1;
-                        c->slope_on[k] = 0;
-                    }
+            set_input(c, idx, value[i]);
         } else if (!bv_common_settable(&c->bc, vr[i])) {
             status = BV_ERROR;
         } else {
@@ -758,7 +790,7 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
 
 bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double value[])
 {
-    const bv_model *md = c->bc.md;
+    const bv_model *md = HOT;
     const unsigned int nvars = (unsigned int)md->nvars;
     bv_status status = BV_OK;
     size_t i;
@@ -777,7 +809,7 @@ bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double val
         kind = md->vr_kind[vr[i]];
         idx = md->vr_index[vr[i]];
         if (kind == BV_OUTPUT) { /* computed on read: y_idx = Yc_idx . [x | s] */
-            value[i] = dot(c->Yc + (size_t)idx * (c->n + c->ni), c->x, c->n + c->ni);
+            value[i] = dot(c->Yc + (size_t)idx * (md->n + md->ni), c->x, md->n + md->ni);
             if (!isfinite(value[i]) && status == BV_OK) {
                 say(c, BV_ERROR, "%s: output %s is not finite: an input is not finite or too "
                                  "large (set finite inputs of physical size)",
@@ -820,7 +852,7 @@ static void warn_unconnected(bv_instance *c, int k, double t, int me)
 /* The unconnected-velocity rule, before a step (bodyvib.runtime.engine's _slope_fallback). */
 static void slope_fallback(bv_instance *c, double t, double h)
 {
-    const bv_model *md = c->bc.md;
+    const bv_model *md = HOT;
     int k;
     for (k = 0; k < md->npairs; k++) {
         const bv_pair *pr = &md->pairs[k];
@@ -846,7 +878,7 @@ static void slope_fallback(bv_instance *c, double t, double h)
  * Per pair, plain loops: the hot path makes no library calls. */
 static inline void save_bookkeeping(bv_instance *c, int restore)
 {
-    const bv_model *md = c->bc.md;
+    const bv_model *md = HOT;
     int k, np1 = md->npairs + 1;
     unsigned char *f = c->save_flags;
     for (k = 0; k < md->npairs; k++) {
@@ -871,13 +903,13 @@ static inline void save_bookkeeping(bv_instance *c, int restore)
 
 bv_status bv_step(bv_instance *c, double t, double h)
 {
-    int n = c->n, ni = c->ni, j;
+    int n = HOT->n, ni = HOT->ni, j;
     double *zn = c->zn, zz = 0.0, zz2 = 0.0;
     char text[32];
     if (bv_common_step_check(&c->bc, t, h) != BV_OK)
         return BV_ERROR;
     save_bookkeeping(c, 0);
-    if (c->bc.md->npairs)
+    if (HOT->npairs)
         slope_fallback(c, t, h);
     if (!discretize(c, h)) {
         save_bookkeeping(c, 1);
@@ -887,7 +919,7 @@ bv_status bv_step(bv_instance *c, double t, double h)
         return BV_DISCARD;
     }
     matvec(zn, c->Sc, c->x, n, n + ni);
-    csr_matvec(zn + n, c->ms_start, c->ms_col, c->ms_val, c->s, ni);
+    sparse_matvec(zn + n, c->Ms, c->s, ni);
     /* z.z is finite iff no component exceeds about 1e154 (as the pythonfmu FMU checks):
      * no overflow, and room for the outputs, whose coefficients are far below 1e150 */
     for (j = 0; j + 1 < n + ni; j += 2) {

@@ -21,6 +21,13 @@
 
 #define BV_MESSAGE 640
 
+/* A condition the hot path expects to hold (a hint to the compiler where it takes one). */
+#if defined(__GNUC__)
+#define BV_LIKELY(x) __builtin_expect(!!(x), 1)
+#else
+#define BV_LIKELY(x) (x)
+#endif
+
 typedef struct {
     int mode;           /* first (BV_STATE_IS): BV_INSTANTIATED .. BV_EVENT, the FMI state */
     int me;             /* a model-exchange instance: Event and Continuous-Time Mode */

@@ -22,8 +22,16 @@ struct bv_instance {
     bv_common bc; /* first (BV_STATE_IS) */
     const bv_source *tb;
     double speed;
+    double periods; /* whole periods of the last position read (a periodic table's hint) */
     double *z, *dz, *d2z, *d3z; /* [signals] scratch: the interpolant and its derivatives */
 };
+
+/* The model and table on the hot path (bv_step, bv_get): this binary's, read directly
+ * rather than through the instance, so that where the build sees their definitions (the
+ * FMUs are linked with link-time optimization) the table's size, spacing and kind are
+ * constants. bv_new accepts this model only. */
+#define HOT (&bv_model_data)
+#define HOT_TABLE (&bv_source_data)
 
 #define say(c, ...) bv_say(&(c)->bc, __VA_ARGS__)
 
@@ -40,22 +48,45 @@ static double py_mod(double a, double b)
     return r;
 }
 
+/* py_mod(u, k) for a whole k > 0, starting from a guess of the whole periods in u (updated).
+ * With q = floor(u / k) the remainder is u - q k, and q k is exact (a whole number below
+ * 2^53); u - q k is then exact for q >= 0 (for q >= 1, q k <= u < 2 q k: Sterbenz), and for
+ * q < 0 rounded once, as fmod's exact remainder plus k is in py_mod: the same bits. A guess
+ * that does not put the remainder in [0, k) is not the floor: py_mod then, and a new guess.
+ * A run moves through the table in order, so the guess of the last read holds: no fmod. */
+#define TWO52 4503599627370496.0 /* 2^52 */
+
+static inline double periodic_mod(double u, double k, double *periods)
+{
+    double r;
+    if (BV_LIKELY(fabs(u) < TWO52)) {
+        r = u - *periods * k;
+        if (BV_LIKELY(r >= 0.0 && r < k))
+            return r;
+    }
+    r = py_mod(u, k); /* also NaN and infinities */
+    *periods = fabs(u) < TWO52 ? floor(u / k) : 0.0;
+    return r;
+}
+
 /* The segment i and the local coordinate s in [0, 1] of position p, as
- * HermiteTable.evaluate locates them; returns 0 when p is off a non-periodic table (held). */
-static int locate(const bv_source *t, double p, int *seg, double *local)
+ * HermiteTable.evaluate locates them; returns 0 when p is off a non-periodic table (held).
+ * periods: the guess of periodic_mod, or NULL (py_mod). */
+static inline int locate(const bv_source *t, double p, int *seg, double *local, double *periods)
 {
     int k = t->rows - 1, i;
     double u = (p - t->p0) / t->dp, uc;
     int inside;
     if (t->periodic && t->loop == 0)
-        u = py_mod(u, (double)k);
+        u = periods ? periodic_mod(u, (double)k, periods) : py_mod(u, (double)k);
     else if (t->periodic && u > (double)k) /* past the end: back into the repeating part */
-        u = t->loop + py_mod(u - t->loop, (double)(k - t->loop));
+        u = t->loop + (periods ? periodic_mod(u - t->loop, (double)(k - t->loop), periods)
+                               : py_mod(u - t->loop, (double)(k - t->loop)));
     inside = u >= 0.0 && u <= (double)k;
     uc = u < 0.0 ? 0.0 : (u > (double)k ? (double)k : u);
     if (isnan(u))
         uc = u;
-    i = isnan(uc) ? 0 : (int)floor(uc);
+    i = isnan(uc) ? 0 : (int)uc; /* uc >= 0 (or -0): truncation is floor */
     if (i > k - 1)
         i = k - 1;
     *seg = i;
@@ -63,11 +94,12 @@ static int locate(const bv_source *t, double p, int *seg, double *local)
     return (t->periodic && t->loop == 0) || inside;
 }
 
-void bv_source_evaluate(const bv_source *t, double p, double *z, double *dz)
+/* bv_source_evaluate with the periods guess of locate. */
+static inline void evaluate(const bv_source *t, double p, double *z, double *dz, double *periods)
 {
     int S = t->signals, i, c, on;
     double s, s2, s3, dp = t->dp;
-    on = locate(t, p, &i, &s);
+    on = locate(t, p, &i, &s, periods);
     s2 = s * s;
     s3 = s * s * s;
     for (c = 0; c < S; c++) {
@@ -83,11 +115,16 @@ void bv_source_evaluate(const bv_source *t, double p, double *z, double *dz)
     }
 }
 
+void bv_source_evaluate(const bv_source *t, double p, double *z, double *dz)
+{
+    evaluate(t, p, z, dz, NULL);
+}
+
 void bv_source_curvature(const bv_source *t, double p, double *d2z, double *d3z)
 {
     int S = t->signals, i, c, on;
     double s, dp = t->dp;
-    on = locate(t, p, &i, &s);
+    on = locate(t, p, &i, &s, NULL);
     for (c = 0; c < S; c++) {
         double z0 = t->value[(size_t)i * S + c], z1 = t->value[(size_t)(i + 1) * S + c];
         double m0 = t->slope[(size_t)i * S + c] * dp, m1 = t->slope[(size_t)(i + 1) * S + c] * dp;
@@ -101,9 +138,9 @@ void bv_source_curvature(const bv_source *t, double p, double *d2z, double *d3z)
 
 bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *env)
 {
-    const bv_source *tb = &bv_source_data;
+    const bv_source *tb = HOT_TABLE;
     bv_instance *c;
-    if (md->no != 2 * tb->signals || md->np != 1 || md->ni != 0 || md->n != 0 || tb->rows < 2 ||
+    if (md != HOT || md->no != 2 * tb->signals || md->np != 1 || md->ni != 0 || md->n != 0 || tb->rows < 2 ||
         !(tb->dp > 0.0))
         return NULL; /* a generated model that does not fit its table: a build error */
     c = calloc(1, sizeof *c);
@@ -134,6 +171,7 @@ void bv_free(bv_instance *c)
 void bv_reset(bv_instance *c)
 {
     c->speed = c->bc.md->param_start[0];
+    c->periods = 0.0;
     bv_common_clear(&c->bc);
 }
 
@@ -181,12 +219,12 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
 
 bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double value[])
 {
-    const bv_model *md = c->bc.md;
+    const bv_model *md = HOT;
     size_t i;
     int evaluated = 0;
     for (i = 0; i < nvr; i++) {
         int idx;
-        if (!check_vr(c, vr[i]))
+        if (vr[i] >= (unsigned int)md->nvars && !check_vr(c, vr[i])) /* logs the refusal */
             return BV_ERROR;
         idx = md->vr_index[vr[i]];
         if (md->vr_kind[vr[i]] == BV_PARAMETER) {
@@ -194,7 +232,7 @@ bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double val
             continue;
         }
         if (!evaluated) {
-            bv_source_evaluate(c->tb, c->speed * c->bc.time, c->z, c->dz);
+            evaluate(HOT_TABLE, c->speed * c->bc.time, c->z, c->dz, &c->periods);
             evaluated = 1;
         }
         value[i] = idx % 2 == 0 ? c->z[idx / 2] : c->speed * c->dz[idx / 2];

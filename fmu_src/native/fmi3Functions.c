@@ -161,6 +161,9 @@ fmi3Status fmi3Reset(fmi3Instance instance)
 
 #define TIME_VR ((fmi3ValueReference)bv_model_data.nvars)
 
+static fmi3Status get_with_time(bv_fmu *f, const fmi3ValueReference vr[], size_t nvr,
+                                fmi3Float64 values[]);
+
 fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
                           fmi3Float64 values[], size_t nValues)
 {
@@ -171,13 +174,20 @@ fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], 
     SCALARS(nValues, nvr);
     for (i = 0; i < nvr; i++)
         if (vr[i] == TIME_VR)
-            break;
-    if (i == nvr)
-        return st(bv_get(f->core, vr, nvr, values));
+            return get_with_time(f, vr, nvr, values);
+    return st(bv_get(f->core, vr, nvr, values));
+}
+
+/* fmi3GetFloat64 of a request that holds the time: value by value, the others through
+ * fmi3GetFloat64 itself (so that the core's bv_get has one caller, inlined there). */
+static fmi3Status get_with_time(bv_fmu *f, const fmi3ValueReference vr[], size_t nvr,
+                                fmi3Float64 values[])
+{
+    size_t i;
     for (i = 0; i < nvr; i++) {
         if (vr[i] == TIME_VR)
             values[i] = bv_time(f->core);
-        else if (bv_get(f->core, &vr[i], 1, &values[i]) != BV_OK)
+        else if (fmi3GetFloat64(f, &vr[i], 1, &values[i], 1) != fmi3OK)
             return fmi3Error;
     }
     return fmi3OK;
