@@ -262,8 +262,8 @@ def _common(p):
         help="drive the car's actuators (a car with actuators: quarter-car-active, "
         "half-car-active): skyhook, groundhook or hybrid, with options after ':' "
         "c=<N s/m> (skyhook gain; default the body's critical damping on the suspension "
-        "springs), g=<N s/m> (groundhook gain; default the wheels' critical damping on the "
-        "tires), semi (on-off semi-active clipping); e.g. skyhook:c=3000",
+        "springs), g=<N s/m> (groundhook gain; default the passive suspension damper's "
+        "coefficient), semi (on-off semi-active clipping); e.g. skyhook:c=3000",
     )
     p.add_argument(
         "--control-fmu",
