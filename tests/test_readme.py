@@ -4,7 +4,8 @@ at most 200 lines, and links that lead somewhere."""
 import os
 import re
 
-from helpers import ROOT
+import pytest
+from helpers import ROOT, run_cli
 
 
 def readme():
@@ -68,3 +69,31 @@ def test_measured_road_figures_are_the_road_guides():
     quoted = re.findall(r"(\d+\.\d{4}) m/s", section)
     assert quoted, section
     assert all(q in example for q in quoted), (quoted, "not in the guide's worked example")
+
+
+@pytest.mark.integration
+def test_readme_seat_and_control_figures_are_what_the_commands_print():
+    """The seat's resonance and SEAT value, and the control table, as `bodyvib frf --seat
+    suspension` and `bodyvib control` print them today (the figures are rounded as
+    printed, so they match to the printed digit)."""
+    text = readme()
+    frf = run_cli("frf", "--seat", "suspension")
+    assert frf.returncode == 0, frf.stderr
+    m = re.search(r"resonates at ([\d.]+) Hz \(\|T\| ([\d.]+) .*?SEAT\nvalue ([\d.]+) %", text)
+    assert m, "README: the suspension seat's sentence"
+    hz, peak, seat = m.groups()
+    assert f"floor to pan: {peak} at {hz} Hz" in frf.stdout
+    assert (
+        f"suspension in quarter-car with reduced-paper, ISO 8608 road (any class and speed): {seat} %"
+        in frf.stdout
+    )
+
+    control = run_cli("control")
+    assert control.returncode == 0, control.stderr
+    printed = {line.split()[0]: line.split() for line in control.stdout.splitlines() if line}
+    rows = re.findall(
+        r"^\| (passive|skyhook|groundhook) \| ([\d.]+) \| (\d+) \| ([\d.]+) \|$", text, re.M
+    )
+    assert [r[0] for r in rows] == ["passive", "skyhook", "groundhook"]
+    for law, head, tire, travel in rows:
+        assert printed[law][3:6] == [head, tire, travel], (law, printed[law])
