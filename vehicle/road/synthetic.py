@@ -522,7 +522,8 @@ def road_input(road: Road, speed: float, t) -> Tuple[np.ndarray, np.ndarray]:
     """
     _check_positive(speed, "speed", "m/s")
     x = speed * np.asarray(t, dtype=float)
-    return road.displacement(x), speed * road.slope(x)
+    z, s = road.profile(x)
+    return z, speed * s
 
 
 @dataclass
@@ -615,9 +616,14 @@ class TaperedRoad(Road):
 
     def slope(self, x) -> np.ndarray:
         """Exact slope ``dz/dx`` (product rule)."""
+        return self.profile(x)[1]
+
+    def profile(self, x):
+        """Height and slope at ``x``, the window and the inner road's height computed once."""
         xw, x = self._where(x)
         w, dw = self._window(xw)
-        return dw * self.road.displacement(x) + w * self.road.slope(x)
+        z = self.road.displacement(x)
+        return w * z, dw * z + w * self.road.slope(x)
 
     def describe(self) -> dict:
         return dict(
