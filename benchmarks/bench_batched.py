@@ -111,7 +111,7 @@ def minimal_kernel():
         @njit(cache=True, nogil=True, boundscheck=False)
         def run(M, gz, gv, road, z, v):  # pragma: no cover (compiled)
             chunks, m, n, L = M.shape
-            N = z.shape[1]
+            N = z.shape[0]
             x = np.empty((n, L))
             out = np.empty((m, L))
             zk = np.empty(L)
@@ -121,8 +121,8 @@ def minimal_kernel():
                 x[:] = 0.0
                 for k in range(N):
                     for i in range(L):
-                        zk[i] = z[road[ch, 0, i], k]
-                        vk[i] = v[road[ch, 0, i], k]
+                        zk[i] = z[k, road[ch, 0, i]]
+                        vk[i] = v[k, road[ch, 0, i]]
                     for r in range(m):
                         o = out[r]
                         for i in range(L):
@@ -156,6 +156,7 @@ def one_round(cases, stages: Stages):
     if any(r.get("error") for r in rows):
         raise SystemExit(f"a case failed: {[r['error'] for r in rows if r.get('error')][:1]}")
     packed, z, v = stages.captured
+    z, v = np.ascontiguousarray(z.T), np.ascontiguousarray(v.T)  # the engine's layout
     run = minimal_kernel()
     t0, c0 = time.perf_counter(), time.process_time()
     run(packed.M, packed.gz, packed.gv, packed.road, z, v)

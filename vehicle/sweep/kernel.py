@@ -63,7 +63,7 @@ def _kernel():
         chunks, m, n, L = M.shape
         P = gz.shape[1]
         nw = wphi.shape[0]
-        N = z.shape[1]
+        N = z.shape[0]
         record = hist.shape[3] > 0
         x = np.empty((P, n, L))
         out = np.empty((m, L))
@@ -87,8 +87,8 @@ def _kernel():
             for k in range(N):
                 for p in range(P):
                     for i in range(L):
-                        zk[p, i] = z[road[ch, p, i], k]
-                        vk[p, i] = v[road[ch, p, i], k]
+                        zk[p, i] = z[k, road[ch, p, i]]
+                        vk[p, i] = v[k, road[ch, p, i]]
                 # the exact step, one state per road point: C x + (g_z z + g_v v)
                 for p in range(P):
                     for r in range(m):
@@ -289,8 +289,9 @@ def run(inputs: KernelInputs, z, v, wk, window: int, record: bool = False):
         inputs.gz,
         inputs.gv,
         inputs.road,
-        np.ascontiguousarray(z, float),
-        np.ascontiguousarray(v, float),
+        # a sample of every road in one row: the lanes read them together
+        np.ascontiguousarray(np.transpose(z), float),
+        np.ascontiguousarray(np.transpose(v), float),
         np.ascontiguousarray(wk.Phi, float),
         np.asarray(wk.reads, np.int64),
         np.ascontiguousarray(wk.g_prev, float),
