@@ -350,13 +350,11 @@ def _local(workers, connect_timeout) -> Cluster:
     scratch = tempfile.mkdtemp(prefix="bodyvib-sweep-dask-")
     try:
         # Dask's workers return freed memory to the system at once (glibc
-        # MALLOC_TRIM_THRESHOLD_ = 64 kB), which made the batched engine's block
-        # buffers fault in again and again: 1.36x the in-process time against
-        # 1.12x with the default threshold (measured).
-        # Setting the trim threshold also fixes glibc's mmap threshold at 128 kB (it
-        # is dynamic, up to 32 MB, only while neither is set), so every block buffer
-        # of the Wk filter was mapped and faulted in afresh: 160k page faults per
-        # 256-case task against 59k in-process, 1.45x its CPU (measured). Both set.
+        # MALLOC_TRIM_THRESHOLD_ = 64 kB), and setting the trim threshold also fixes
+        # glibc's mmap threshold at 128 kB (it is dynamic, up to 32 MB, only while
+        # neither is set): every large buffer of a task (road samples, packed
+        # matrices) would be mapped and faulted in afresh, task after task. Both set
+        # high. The fork server starts with the first worker and these variables.
         # Each worker's statistical profiler samples the running task's stack every
         # 10 ms for a dashboard that a sweep's LocalCluster does not have: off.
         # The workers fork from one server process that has imported and warmed the
