@@ -30,8 +30,9 @@ import numpy as np
 __all__ = ["LANES", "SUMS", "KernelInputs", "pack", "run"]
 
 #: Most cases stepped side by side: wide enough that the compiler's vector loops over
-#: the lanes run several iterations, small enough that a chunk's matrices stay in cache.
-LANES = 64
+#: the lanes run many iterations, small enough that a chunk's matrices stay in cache
+#: (per case-step on 512 cases: 47 ns at 64 lanes, 43-45 at 128, 49-53 at 256).
+LANES = 128
 #: The rows of the running sums :func:`run` returns per case.
 SUMS = (
     "head_s2",
@@ -142,6 +143,8 @@ def _kernel():
                         w[i] = 0.0
                     for q in range(nw):
                         c = wc[q]
+                        if c == 0.0:  # the output row reads the last section only
+                            continue
                         for i in range(L):
                             w[i] += c * xw[s, q, i]
                     b = 4 * s
@@ -221,10 +224,10 @@ def pack(M, gz, gv, road) -> KernelInputs:
 
     Examples
     --------
-    >>> k = pack(np.zeros((100, 5, 1)), np.zeros((100, 1, 5)), np.zeros((100, 1, 5)),
-    ...          np.zeros((100, 1), int))
+    >>> k = pack(np.zeros((300, 5, 1)), np.zeros((300, 1, 5)), np.zeros((300, 1, 5)),
+    ...          np.zeros((300, 1), int))
     >>> k.M.shape, k.cases
-    ((2, 5, 1, 50), 100)
+    ((3, 5, 1, 100), 300)
     """
     c = M.shape[0]
     chunks = -(-c // LANES)
