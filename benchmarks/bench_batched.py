@@ -148,6 +148,43 @@ def minimal_kernel():
     return _minimal
 
 
+_one_by_one = None
+
+
+def case_by_case_kernel():
+    """The exact step one case at a time, its state in registers (for comparison only)."""
+    global _one_by_one
+    if _one_by_one is None:
+        from numba import njit
+
+        @njit(cache=True, nogil=True, boundscheck=False)
+        def run(M, gz, gv, road, z, v):  # pragma: no cover (compiled)
+            chunks, m, n, L = M.shape
+            out = np.empty(m)
+            x = np.empty(n)
+            y = np.zeros((2, chunks, L))
+            for ch in range(chunks):
+                for i in range(L):
+                    x[:] = 0.0
+                    ri = road[ch, 0, i]
+                    for k in range(z.shape[0]):
+                        zk = z[k, ri]
+                        vk = v[k, ri]
+                        for r in range(m):
+                            acc = 0.0
+                            for q in range(n):
+                                acc += M[ch, r, q, i] * x[q]
+                            out[r] = acc + (gz[ch, 0, r, i] * zk + gv[ch, 0, r, i] * vk)
+                        for q in range(n):
+                            x[q] = out[q]
+                        y[0, ch, i] += out[n] * out[n]
+                        y[1, ch, i] += out[n + 1] * out[n + 1]
+            return y
+
+        _one_by_one = run
+    return _one_by_one
+
+
 def one_round(cases, stages: Stages):
     t0, c0 = time.perf_counter(), time.process_time()
     with stages.patched():
@@ -161,7 +198,10 @@ def one_round(cases, stages: Stages):
     t0, c0 = time.perf_counter(), time.process_time()
     run(packed.M, packed.gz, packed.gv, packed.road, z, v)
     low = (time.perf_counter() - t0, time.process_time() - c0)
-    return eng, low, packed.M.shape
+    one = case_by_case_kernel()
+    c0 = time.process_time()
+    one(packed.M, packed.gz, packed.gv, packed.road, z, v)
+    return eng, low, time.process_time() - c0, packed.M.shape
 
 
 def main(argv=None):
@@ -175,12 +215,13 @@ def main(argv=None):
         cases = expand(spec(body, args.cases, args.duration))
         steps = len(cases) * cases[0].steps
         one_round(cases[:2], Stages())  # compile (or load the numba cache)
-        eng, low, shares = [], [], []
+        eng, low, shares, single = [], [], [], []
         for _ in range(args.repeats):
             st = Stages()
-            e, m, shape = one_round(cases, st)
+            e, m, s1, shape = one_round(cases, st)
             eng.append(e)
             low.append(m)
+            single.append(s1)
             shares.append({k: s / e[0] for k, s in st.seconds.items()})
         ew, ec = (statistics.median(x[i] for x in eng) for i in (0, 1))
         mw, mc = (statistics.median(x[i] for x in low) for i in (0, 1))
@@ -195,6 +236,10 @@ def main(argv=None):
         print(
             f"  minimal {mw * 1e9 / steps:7.1f} ns per case-step wall, {mc * 1e9 / steps:7.1f} CPU"
             f"  ({mw:.2f} s)"
+        )
+        print(
+            f"  (the step case by case, state in registers: "
+            f"{statistics.median(single) * 1e9 / steps:.1f} ns CPU)"
         )
         print(f"  ratio engine / minimal: {ew / mw:.2f} wall, {ec / mc:.2f} CPU (target <= 2)")
         rest = 1.0
