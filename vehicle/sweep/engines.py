@@ -209,6 +209,8 @@ class _Seated:
             base = cars[("body", case.body_model)] = load_model(case.body_model)
         body = base.with_parameters(**dict(case.body_values)) if case.body_values else base
         self.lm = linear_model(seated_system(car, body))
+        # exact step matrices once per step size, for every case of this body on this car
+        self.discretization = Discretization(self.lm)
         self.seat = car.roles["seat"]
         self.bases = car.bases
         self.behind = wheel_offsets(car)  # each road point's distance behind the first, m
@@ -277,7 +279,7 @@ def _step_inputs(cases, sys, roads):
     for i, (cs, s) in enumerate(zip(cases, sys)):
         lm = s.lm
         with np.errstate(over="ignore", invalid="ignore"):
-            Phi, G0, G1 = Discretization(lm).matrices(step)
+            Phi, G0, G1 = s.discretization.matrices(step)
         if not (np.all(np.isfinite(Phi)) and np.all(np.isfinite(G0)) and np.all(np.isfinite(G1))):
             raise BodyvibError(
                 "the exact step matrices are not finite (parameters out of numerical range?)"
