@@ -12,7 +12,8 @@ process, interleaved over ``--repeats`` rounds (medians):
   stage's share is measured by timing the engine's own functions while it runs;
 * the minimal step: a numba loop of ``x <- Phi x + g_z z + g_v v`` and the two outputs
   ``C x + d_z z + d_v v`` per case and sample, on the very matrices and road samples the
-  engine built (captured from its call of the time loop), nothing else.
+  engine built (captured from its call of the compiled loop), with the cases side by side
+  in the same lanes and vector loops as the engine's, nothing else.
 
 The ratio engine / minimal is the engine's cost over its arithmetic floor (target <= 2).
 The load average and the process CPU time are printed beside the wall times: on a
@@ -28,7 +29,7 @@ import time
 from contextlib import contextmanager
 
 import numpy as np
-from bodyvib.vehicle.sweep import engines
+from bodyvib.vehicle.sweep import engines, kernel
 from bodyvib.vehicle.sweep.spec import expand
 
 BODIES = ("reduced-paper", "iso7962")
@@ -66,7 +67,7 @@ class Stages:
     """Wall time spent in the engine's stages while it runs (patched in, then restored)."""
 
     def __init__(self):
-        self.seconds = {"road": 0.0, "matrices": 0.0, "time loop": 0.0, "Wk + figures": 0.0}
+        self.seconds = {"road": 0.0, "matrices": 0.0, "compiled loop": 0.0}
         self.captured = None
 
     def _timed(self, stage, fn, capture=False):
@@ -76,70 +77,112 @@ class Stages:
                 return fn(*a, **k)
             finally:
                 self.seconds[stage] += time.perf_counter() - t0
-                if capture and a[7] == 0:  # the first block: the whole group's arrays
-                    self.captured = a[:7]
+                if capture:  # the packed matrices and roads of the (one) group
+                    self.captured = a[:3]
 
         return wrapper
 
     @contextmanager
     def patched(self):
-        saved = (
-            engines.advance,
-            engines.case_road_input,
-            engines.Discretization.matrices,
-            engines.ComfortStream.update,
-            engines.ComfortStream.figures,
-        )
-        engines.advance = self._timed("time loop", saved[0], capture=True)
+        saved = (kernel.run, engines.case_road_input, engines.Discretization.matrices)
+        kernel.run = self._timed("compiled loop", saved[0], capture=True)
         engines.case_road_input = self._timed("road", saved[1])
         engines.Discretization.matrices = self._timed("matrices", saved[2])
-        engines.ComfortStream.update = self._timed("Wk + figures", saved[3])
-        engines.ComfortStream.figures = self._timed("Wk + figures", saved[4])
         try:
             yield self
         finally:
-            (
-                engines.advance,
-                engines.case_road_input,
-                engines.Discretization.matrices,
-                engines.ComfortStream.update,
-                engines.ComfortStream.figures,
-            ) = saved
+            kernel.run, engines.case_road_input, engines.Discretization.matrices = saved
 
 
 _minimal = None
 
 
 def minimal_kernel():
-    """The floor: the exact step and two outputs per case and sample, state in registers."""
+    """The floor: the exact step and two outputs of every case, cases side by side in lanes.
+
+    The same layout and the same vector loops over the lanes as the engine's compiled
+    loop, and nothing else: no Wk weighting, no figures, only the sum of squares of
+    the two outputs (so that the compiler keeps them).
+    """
     global _minimal
     if _minimal is None:
         from numba import njit
 
         @njit(cache=True, nogil=True, boundscheck=False)
-        def run(M, gz, gv, z, v, road, steps):  # pragma: no cover (compiled)
-            c, m, n = M.shape
-            out = np.empty(m)
-            y = np.zeros((2, c))
-            for i in range(c):
-                x = np.zeros(n)
-                ri = road[i]
-                for k in range(steps):
-                    zk = z[ri, k]
-                    vk = v[ri, k]
+        def run(M, gz, gv, road, z, v):  # pragma: no cover (compiled)
+            chunks, m, n, L = M.shape
+            N = z.shape[0]
+            x = np.empty((n, L))
+            out = np.empty((m, L))
+            zk = np.empty(L)
+            vk = np.empty(L)
+            y = np.zeros((2, L))
+            for ch in range(chunks):
+                x[:] = 0.0
+                for k in range(N):
+                    for i in range(L):
+                        zk[i] = z[k, road[ch, 0, i]]
+                        vk[i] = v[k, road[ch, 0, i]]
                     for r in range(m):
-                        acc = gz[i, r] * zk + gv[i, r] * vk
+                        o = out[r]
+                        for i in range(L):
+                            o[i] = 0.0
                         for q in range(n):
-                            acc += M[i, r, q] * x[q]
-                        out[r] = acc
+                            Mq = M[ch, r, q]
+                            xq = x[q]
+                            for i in range(L):
+                                o[i] += Mq[i] * xq[i]
+                        gzr = gz[ch, 0, r]
+                        gvr = gv[ch, 0, r]
+                        for i in range(L):
+                            o[i] = o[i] + (gzr[i] * zk[i] + gvr[i] * vk[i])
                     for q in range(n):
-                        x[q] = out[q]
-                    y[0, i] += out[n] * out[n]
-                    y[1, i] += out[n + 1] * out[n + 1]
+                        for i in range(L):
+                            x[q, i] = out[q, i]
+                    for i in range(L):
+                        y[0, i] += out[n, i] * out[n, i]
+                        y[1, i] += out[n + 1, i] * out[n + 1, i]
             return y
 
         _minimal = run
     return _minimal
+
+
+_one_by_one = None
+
+
+def case_by_case_kernel():
+    """The exact step one case at a time, its state in registers (for comparison only)."""
+    global _one_by_one
+    if _one_by_one is None:
+        from numba import njit
+
+        @njit(cache=True, nogil=True, boundscheck=False)
+        def run(M, gz, gv, road, z, v):  # pragma: no cover (compiled)
+            chunks, m, n, L = M.shape
+            out = np.empty(m)
+            x = np.empty(n)
+            y = np.zeros((2, chunks, L))
+            for ch in range(chunks):
+                for i in range(L):
+                    x[:] = 0.0
+                    ri = road[ch, 0, i]
+                    for k in range(z.shape[0]):
+                        zk = z[k, ri]
+                        vk = v[k, ri]
+                        for r in range(m):
+                            acc = 0.0
+                            for q in range(n):
+                                acc += M[ch, r, q, i] * x[q]
+                            out[r] = acc + (gz[ch, 0, r, i] * zk + gv[ch, 0, r, i] * vk)
+                        for q in range(n):
+                            x[q] = out[q]
+                        y[0, ch, i] += out[n] * out[n]
+                        y[1, ch, i] += out[n + 1] * out[n + 1]
+            return y
+
+        _one_by_one = run
+    return _one_by_one
 
 
 def one_round(cases, stages: Stages):
@@ -149,12 +192,16 @@ def one_round(cases, stages: Stages):
     eng = (time.perf_counter() - t0, time.process_time() - c0)
     if any(r.get("error") for r in rows):
         raise SystemExit(f"a case failed: {[r['error'] for r in rows if r.get('error')][:1]}")
-    M, gz, gv, z, v, road, _ = stages.captured
+    packed, z, v = stages.captured
+    z, v = np.ascontiguousarray(z.T), np.ascontiguousarray(v.T)  # the engine's layout
     run = minimal_kernel()
     t0, c0 = time.perf_counter(), time.process_time()
-    run(M, gz, gv, z, v, road, cases[0].steps)
+    run(packed.M, packed.gz, packed.gv, packed.road, z, v)
     low = (time.perf_counter() - t0, time.process_time() - c0)
-    return eng, low, M.shape
+    one = case_by_case_kernel()
+    c0 = time.process_time()
+    one(packed.M, packed.gz, packed.gv, packed.road, z, v)
+    return eng, low, time.process_time() - c0, packed.M.shape
 
 
 def main(argv=None):
@@ -168,17 +215,18 @@ def main(argv=None):
         cases = expand(spec(body, args.cases, args.duration))
         steps = len(cases) * cases[0].steps
         one_round(cases[:2], Stages())  # compile (or load the numba cache)
-        eng, low, shares = [], [], []
+        eng, low, shares, single = [], [], [], []
         for _ in range(args.repeats):
             st = Stages()
-            e, m, shape = one_round(cases, st)
+            e, m, s1, shape = one_round(cases, st)
             eng.append(e)
             low.append(m)
+            single.append(s1)
             shares.append({k: s / e[0] for k, s in st.seconds.items()})
         ew, ec = (statistics.median(x[i] for x in eng) for i in (0, 1))
         mw, mc = (statistics.median(x[i] for x in low) for i in (0, 1))
         print(
-            f"{body}: {len(cases)} cases x {cases[0].steps} steps, {shape[2]} states "
+            f"{body}: {len(cases)} cases x {cases[0].steps} steps, {shape[2]} states, {shape[3]} lanes "
             f"(body on the quarter car), medians of {args.repeats}"
         )
         print(
@@ -189,12 +237,19 @@ def main(argv=None):
             f"  minimal {mw * 1e9 / steps:7.1f} ns per case-step wall, {mc * 1e9 / steps:7.1f} CPU"
             f"  ({mw:.2f} s)"
         )
+        print(
+            f"  (the step case by case, state in registers: "
+            f"{statistics.median(single) * 1e9 / steps:.1f} ns CPU)"
+        )
         print(f"  ratio engine / minimal: {ew / mw:.2f} wall, {ec / mc:.2f} CPU (target <= 2)")
         rest = 1.0
         for k in shares[0]:
             share = statistics.median(s[k] for s in shares)
             rest -= share
             print(f"    {k:14s} {100 * share:5.1f} %")
+            if k == "compiled loop":  # the step's part of it: the minimal loop's time
+                print(f"      {'of it, step':12s} {100 * mw / ew:5.1f} %")
+                print(f"      {'Wk + figures':12s} {100 * (share - mw / ew):5.1f} %")
         print(f"    {'other':14s} {100 * rest:5.1f} %  (cases, grouping, rows)")
     print(f"load after: {os.getloadavg()[0]:.2f}")
     return 0

@@ -2,21 +2,21 @@
 
     python benchmarks/bench_cluster.py [--cases 16] [--duration 30]
 
-Measured, wall clock and the worker process's CPU seconds (psutil), on one-worker
-LocalClusters started as ``bodyvib sweep`` starts them:
+Measured, wall clock and CPU seconds of this process's children (the LocalCluster's
+worker processes and the server they fork from; psutil), on one-worker LocalClusters
+started as ``bodyvib sweep`` starts them (:func:`bodyvib.vehicle.sweep.cluster.open_cluster`):
 
 * **start**: from asking for the LocalCluster to a connected client with its
-  worker (the worker imports Python, numpy, dask and distributed);
+  worker. The worker forks from a server process that has imported distributed
+  and the engines and loaded the compiled loop (:mod:`bodyvib.vehicle.sweep.warmed`);
+  the first cluster of a process starts that server, later ones reuse it;
 * **first sweep**: ``--cases`` batched cases sent to that fresh worker through
-  its scheduler's address (``run_sweep(..., scheduler=ADDRESS)``): besides the
-  cases it pays for unpickling the spec, importing the engines and the road
-  synthesis (scipy.signal), importing numba and loading the compiled loop;
-* **second sweep**: the same cases again on the same, now warm, worker: the
-  price of the cases alone. The difference is what the worker's first task
-  costs beyond its cases, which a cluster kept between sweeps pays once;
-* the same on a LocalCluster whose worker preloads
-  :mod:`bodyvib.vehicle.sweep.preload` (``dask worker --preload``): the warm-up
-  moves into the start, and the first sweep costs what the second does.
+  its scheduler's address (``run_sweep(..., scheduler=ADDRESS)``);
+* **second sweep**: the same cases again on the same worker: the price of the
+  cases alone. The difference is what the worker's first task costs beyond its
+  cases;
+* the same on a plain ``distributed.LocalCluster`` (each worker a fresh Python
+  process that imports everything with its first task), for comparison.
 """
 
 import argparse
@@ -24,7 +24,9 @@ import logging
 import os
 import sys
 import time
+from contextlib import contextmanager
 
+from bodyvib.vehicle.sweep.cluster import open_cluster
 from bodyvib.vehicle.sweep.run import run_sweep
 
 
@@ -39,37 +41,53 @@ def spec(cases: int, duration: float) -> dict:
     }
 
 
-def worker_cpu(client) -> float:
+def children_cpu() -> float:
+    """CPU seconds of this process's live children (workers, the fork server), recursively."""
     import psutil
 
-    pids = client.run(os.getpid)
-    return sum(sum(psutil.Process(p).cpu_times()[:2]) for p in pids.values())
+    total = 0.0
+    for p in psutil.Process().children(recursive=True):
+        try:
+            total += sum(p.cpu_times()[:2])
+        except psutil.NoSuchProcess:
+            pass
+    return total
 
 
-def one(preload: bool, sp: dict, block: int):
+@contextmanager
+def plain_cluster():
     from dask.distributed import Client, LocalCluster
 
-    t0 = time.perf_counter()
     cluster = LocalCluster(
         n_workers=1,
         threads_per_worker=1,
         processes=True,
         dashboard_address=None,
         silence_logs=logging.CRITICAL + 1,
-        preload=["bodyvib.vehicle.sweep.preload"] if preload else None,
     )
     client = Client(cluster)
-    client.wait_for_workers(1)
-    start = (time.perf_counter() - t0, worker_cpu(client))
-    runs = []
     try:
-        for _ in range(2):
-            cpu0, t0 = worker_cpu(client), time.perf_counter()
-            run_sweep(sp, scheduler=cluster.scheduler_address, block=block)
-            runs.append((time.perf_counter() - t0, worker_cpu(client) - cpu0))
+        yield cluster.scheduler_address
     finally:
         client.close()
         cluster.close()
+
+
+@contextmanager
+def sweep_cluster():
+    with open_cluster(workers=1) as cl:
+        yield cl.client.scheduler.address
+
+
+def one(kind, sp: dict, block: int):
+    cpu0, t0 = children_cpu(), time.perf_counter()
+    with kind() as address:
+        start = (time.perf_counter() - t0, children_cpu() - cpu0)
+        runs = []
+        for _ in range(2):
+            cpu0, t0 = children_cpu(), time.perf_counter()
+            run_sweep(sp, scheduler=address, block=block)
+            runs.append((time.perf_counter() - t0, children_cpu() - cpu0))
     return start, runs
 
 
@@ -84,10 +102,15 @@ def main(argv=None):
     print(
         f"  {'worker':18s} {'start':>15s} {'first sweep':>17s} {'second sweep':>17s} {'first - second':>17s}"
     )
-    for preload in (False, True):
-        (sw, sc), ((w1, c1), (w2, c2)) = one(preload, sp, args.cases)
+    kinds = (
+        ("plain LocalCluster", plain_cluster),
+        ("sweep's, first", sweep_cluster),
+        ("sweep's, next", sweep_cluster),
+    )
+    for name, kind in kinds:
+        (sw, sc), ((w1, c1), (w2, c2)) = one(kind, sp, args.cases)
         print(
-            f"  {'preloaded' if preload else 'plain':18s} {sw:5.2f} s {sc:4.2f} CPU "
+            f"  {name:18s} {sw:5.2f} s {sc:4.2f} CPU "
             f"{w1:6.2f} s {c1:5.2f} CPU {w2:6.2f} s {c2:5.2f} CPU {w1 - w2:6.2f} s {c1 - c2:5.2f} CPU"
         )
     print(f"load after: {os.getloadavg()[0]:.2f}")

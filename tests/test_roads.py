@@ -226,3 +226,24 @@ def test_the_road_transform_is_scipys_without_importing_scipy_signal():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     assert out.stdout.split()[-2:] == ["False", "True"]
+
+
+def test_profile_of_a_faded_in_road_is_its_height_and_exact_slope():
+    """A faded-in random road computes its height and slope together (the inner road's
+    height once): beyond the fade-in the inner road's own bits, and over the fade-in a
+    slope that is the derivative of the height (central differences of 2 cm)."""
+    from bodyvib.vehicle.road.driven import driven_road
+
+    road = driven_road(RunSettings("C", 20.0, 3.0, 1e-3, 4))
+    h = 0.02  # m
+    x = np.arange(3001) * h
+    z, s = road.profile(x)
+    assert np.array_equal(z, road.displacement(x))
+    inside = (x > road.taper) & (x < road.length - road.taper)
+    assert np.array_equal(z[inside], road.road.displacement(x)[inside])
+    assert np.array_equal(s[inside], road.road.slope(x)[inside])
+    # over the fade-in the central difference errs by h^2 z'''/6: a few per cent of the
+    # slope at the shortest wavelength the road holds (0.35 m)
+    k = np.arange(1, int(road.taper / h))
+    central = (z[k + 1] - z[k - 1]) / (2 * h)
+    assert np.max(np.abs(s[k] - central)) < 0.05 * np.max(np.abs(s))

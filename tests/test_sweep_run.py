@@ -103,7 +103,7 @@ def test_table_columns_provenance_and_files(tmp_path):
     assert meta[b"bodyvib.created"].decode().endswith("Z")
     commit = meta[b"bodyvib.commit"].decode()
     assert commit == "" or len(commit.split("-")[0]) == 40
-    assert json.loads(df["engine_settings"][0])["block_steps"] == 256
+    assert json.loads(df["engine_settings"][0])["method"].startswith("exact")
     # the CSV: the same values, units in the header
     from_csv = pd.read_csv(csv)
     assert "head_vdv [m/s^1.75]" in from_csv.columns and "case_id" in from_csv.columns
@@ -387,3 +387,23 @@ def test_cli_grid_run_and_plot(tmp_path, capsys):
     png2 = tmp_path / "again.png"  # a finished table plots without running
     assert main(["sweep", "--out", str(out), "--plot", str(png2)]) == 0
     assert png2.stat().st_size > 10000
+
+
+@pytest.mark.integration
+@pytest.mark.skipif(
+    "forkserver" not in __import__("multiprocessing").get_all_start_methods(),
+    reason="workers fork from a warmed server only where multiprocessing has forkserver",
+)
+def test_a_sweeps_local_workers_start_with_the_engines_loaded():
+    """A sweep's LocalCluster forks its workers from a server that has imported the
+    engines and loaded the compiled loop: before any task, a worker has them."""
+    from bodyvib.vehicle.sweep.cluster import open_cluster
+
+    def loaded():
+        import sys
+
+        return [m in sys.modules for m in ("bodyvib.vehicle.sweep.warmed", "numba")]
+
+    with open_cluster(workers=2) as cl:
+        found = cl.client.run(loaded)
+    assert len(found) == 2 and all(all(v) for v in found.values())

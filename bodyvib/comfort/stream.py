@@ -42,6 +42,7 @@ from .figures import (
 
 __all__ = [
     "wk_statespace",
+    "WeightingStep",
     "WkFilter",
     "ComfortStream",
     "BatchComfortFigures",
@@ -92,6 +93,52 @@ class BatchComfortFigures:
     @classmethod
     def _names(cls):
         return tuple(f.name for f in fields(cls))
+
+    @classmethod
+    def from_sums(cls, s2, s4, peak, window_max, samples: int, fs: float, window: int):
+        """The figures from the running sums of the weighted samples.
+
+        Parameters
+        ----------
+        s2, s4 : (cases,) array_like
+            ``sum a_w^2`` and ``sum a_w^4`` over the record.
+        peak : (cases,) array_like
+            ``max |a_w|``, m/s2.
+        window_max : (cases,) array_like
+            The largest sum of ``a_w^2`` over ``window`` consecutive samples (zeros
+            before the record).
+        samples : int
+            Samples in the record.
+        fs : float
+            Sampling rate, Hz.
+        window : int
+            Samples of the MTVV window.
+
+        Returns
+        -------
+        BatchComfortFigures
+            ``sqrt(s2 / samples)``, ``(s4 / fs)^(1/4)``, the peak, the crest
+            factor (NaN for a zero record), the comfort words and
+            ``sqrt(window_max / window)``.
+
+        Examples
+        --------
+        >>> f = BatchComfortFigures.from_sums([4.0], [4.0], [1.0], [2.0], 4, 4.0, 2)
+        >>> float(f.weighted_rms[0]), float(f.vdv[0]), float(f.mtvv[0])
+        (1.0, 1.0, 1.0)
+        """
+        rms = np.sqrt(np.asarray(s2, float) / samples)
+        peak = np.array(peak, float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            crest = np.where(rms > 0, peak / np.where(rms > 0, rms, 1.0), np.nan)
+        return cls(
+            weighted_rms=rms,
+            vdv=(np.asarray(s4, float) / fs) ** 0.25,
+            peak=peak,
+            crest_factor=crest,
+            comfort=tuple(comfort_category(v) for v in rms),
+            mtvv=np.sqrt(np.asarray(window_max, float) / window),
+        )
 
     def case(self, i: int) -> ComfortFigures:
         """The figures of case ``i``.
@@ -197,6 +244,46 @@ def weighting_statespace(parameters):
     return A, B, C, D
 
 
+@dataclass(frozen=True)
+class WeightingStep:
+    """One sample of a discretized weighting: ``x_{k+1} = Phi x_k + g_prev a_k + g_next a_{k+1}``.
+
+    The weighted sample is ``w_k = c x_k + d a_k`` (:meth:`WkFilter.step`).
+
+    Attributes
+    ----------
+    Phi : (n, n) ndarray
+        State transition over one sample.
+    g_prev, g_next : (n,) ndarray
+        Input columns of the interval's start and end sample.
+    c : (n,) ndarray
+        Output row.
+    d : float
+        Feed-through.
+    reads : (n,) ndarray of int
+        Row ``r`` of the step reads the states ``0 .. reads[r] - 1`` only: a
+        weighting's sections in series make ``Phi`` block lower triangular
+        (what the discretization leaves above the blocks is the rounding of
+        exact zeros, below 1e-16 of the row's largest entry).
+    """
+
+    Phi: np.ndarray
+    g_prev: np.ndarray
+    g_next: np.ndarray
+    c: np.ndarray
+    d: float
+    reads: np.ndarray
+
+
+def _reads(A) -> np.ndarray:
+    """For each state, how many leading states it depends on in ``expm(A h)`` (any ``h``)."""
+    n = A.shape[0]
+    reach = (A != 0) | np.eye(n, dtype=bool)
+    for _ in range(max(1, n.bit_length())):  # transitive closure by squaring
+        reach = (reach.astype(int) @ reach.astype(int)) > 0
+    return np.array([np.flatnonzero(row).max() + 1 for row in reach], dtype=np.int64)
+
+
 class WkFilter:
     """Recursive Wk weighting of a batch of signals, from rest, block by block.
 
@@ -252,6 +339,7 @@ class WkFilter:
         self._g_next = G1[:, 0] / h  # multiplies a_{k+1}
         self._c = C[0]
         self._d = float(D[0, 0])
+        self._reads = _reads(A)
         self._x = np.zeros((self.cases, A.shape[0]))
         self._last: Optional[np.ndarray] = None
         self._lift: Dict[int, np.ndarray] = {}
@@ -306,6 +394,28 @@ class WkFilter:
             self._x = out[:, L:]
         self._last = a[:, -1].copy()
         return w
+
+    def step(self) -> WeightingStep:
+        """The filter's one-sample recursion, for loops that weight sample by sample.
+
+        Returns
+        -------
+        WeightingStep
+
+        Examples
+        --------
+        >>> st = WkFilter(1000.0, cases=1).step()
+        >>> st.Phi.shape, st.reads.tolist()
+        ((8, 8), [2, 2, 4, 4, 6, 6, 8, 8])
+        """
+        return WeightingStep(
+            Phi=self._PhiT.T.copy(),
+            g_prev=self._g_prev.copy(),
+            g_next=self._g_next.copy(),
+            c=self._c.copy(),
+            d=self._d,
+            reads=self._reads.copy(),
+        )
 
     def _lifted(self, L: int) -> np.ndarray:
         """The map of ``[x_{k-1}, a_{k-1}, a_k .. a_{k+L-1}]`` to ``[w_k .. w_{k+L-1}, x_{k+L-1}]``.
@@ -399,7 +509,12 @@ class ComfortStream:
         self._peak = np.zeros(self.cases)
         self._window = _window_samples(self.fs)
         self._running = _RunningWindow(self._window, self.cases)  # last second of a_w^2
-        self._ms_max = np.zeros(self.cases)  # largest 1 s mean of a_w^2
+        self._window_max = np.zeros(self.cases)  # largest 1 s sum of a_w^2
+
+    @property
+    def window(self) -> int:
+        """Samples of the MTVV's 1 s running window."""
+        return self._window
 
     def update(self, block) -> np.ndarray:
         """Weight the next samples and add them to the running figures.
@@ -426,7 +541,7 @@ class ComfortStream:
             self._s4 += (w2 * w2).sum(axis=1)
             np.maximum(self._peak, np.abs(w).max(axis=1), out=self._peak)
             sums = self._running.update(w2)
-            np.maximum(self._ms_max, sums.max(axis=1) / self._window, out=self._ms_max)
+            np.maximum(self._window_max, sums.max(axis=1), out=self._window_max)
             self.samples += w.shape[1]
         return w
 
@@ -447,19 +562,14 @@ class ComfortStream:
         """
         if self.samples == 0:
             raise BodyvibError("no samples yet: call update() first")
-        rms = np.sqrt(self._s2 / self.samples)
-        vdv = (self._s4 / self.fs) ** 0.25
-        peak = self._peak.copy()
-        with np.errstate(divide="ignore", invalid="ignore"):
-            crest = np.where(rms > 0, peak / np.where(rms > 0, rms, 1.0), np.nan)
-        words = tuple(comfort_category(v) for v in rms)
-        return BatchComfortFigures(
-            weighted_rms=rms,
-            vdv=vdv,
-            peak=peak,
-            crest_factor=crest,
-            comfort=words,
-            mtvv=np.sqrt(self._ms_max),
+        return BatchComfortFigures.from_sums(
+            self._s2,
+            self._s4,
+            self._peak,
+            self._window_max,
+            self.samples,
+            self.fs,
+            self._window,
         )
 
 

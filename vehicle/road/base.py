@@ -51,6 +51,26 @@ class Road:
         """Profile slope ``dz/dx`` at distances ``x`` (m), dimensionless."""
         raise NotImplementedError
 
+    def profile(self, x):
+        """Height and slope at distances ``x``: ``(displacement(x), slope(x))``.
+
+        A road whose two share work (a faded-in road evaluates its inner road's
+        height for both) computes that work once here; the values are the same.
+
+        Parameters
+        ----------
+        x : array_like
+            Distances, m.
+
+        Returns
+        -------
+        displacement : ndarray
+            m.
+        slope : ndarray
+            Dimensionless.
+        """
+        return self.displacement(x), self.slope(x)
+
     def describe(self) -> dict:
         """Parameters of the road for reports (JSON-serializable)."""
         return {"name": self.name}

@@ -523,7 +523,8 @@ def road_input(road: Road, speed: float, t) -> Tuple[np.ndarray, np.ndarray]:
     """
     _check_positive(speed, "speed", "m/s")
     x = speed * np.asarray(t, dtype=float)
-    return road.displacement(x), speed * road.slope(x)
+    z, s = road.profile(x)
+    return z, speed * s
 
 
 @dataclass
@@ -595,7 +596,10 @@ class TaperedRoad(Road):
         x = np.asarray(x, dtype=float)
         if not self.periodic:
             return x, x
-        xw = np.where((x >= 0) & (x < self.length), x, np.mod(x, self.length))
+        if x.size and x.min() >= 0 and x.max() < self.length:  # a run within one period
+            xw = x
+        else:
+            xw = np.where((x >= 0) & (x < self.length), x, np.mod(x, self.length))
         return xw, (x if isinstance(self.road, RandomRoad) else xw)
 
     def _window(self, x):
@@ -603,10 +607,17 @@ class TaperedRoad(Road):
         if d == 0:
             inside = (x >= 0) & (x <= L)
             return inside.astype(float), np.zeros_like(x)
-        u = np.clip(np.minimum(x, L - x) / d, 0.0, 1.0)
-        w = np.sin(0.5 * np.pi * u) ** 2
-        du = np.where((u > 0) & (u < 1), np.where(x < L / 2, 1.0, -1.0) / d, 0.0)
-        return w, 0.5 * np.pi * np.sin(np.pi * u) * du
+        x = np.asarray(x, dtype=float)
+        u = np.clip(np.minimum(x, L - x) / d, 0.0, 1.0).reshape(-1)
+        # sin^2 only over the fades: 1 beyond them (sin(pi / 2) is 1.0 exactly), 0 outside
+        w = (u >= 1.0).astype(float)
+        dw = np.zeros_like(u)
+        fade = (u > 0) & (u < 1)
+        uf = u[fade]
+        w[fade] = np.sin(0.5 * np.pi * uf) ** 2
+        du = np.where(x.reshape(-1)[fade] < L / 2, 1.0, -1.0) / d
+        dw[fade] = 0.5 * np.pi * np.sin(np.pi * uf) * du
+        return w.reshape(x.shape), dw.reshape(x.shape)
 
     def displacement(self, x) -> np.ndarray:
         """Profile height at distances ``x`` (m), in m."""
@@ -616,9 +627,14 @@ class TaperedRoad(Road):
 
     def slope(self, x) -> np.ndarray:
         """Exact slope ``dz/dx`` (product rule)."""
+        return self.profile(x)[1]
+
+    def profile(self, x):
+        """Height and slope at ``x``, the window and the inner road's height computed once."""
         xw, x = self._where(x)
         w, dw = self._window(xw)
-        return dw * self.road.displacement(x) + w * self.road.slope(x)
+        z = self.road.displacement(x)
+        return w * z, dw * z + w * self.road.slope(x)
 
     def describe(self) -> dict:
         return dict(

@@ -295,6 +295,54 @@ def _start(scheduler, scheduler_file, workers, connect_timeout) -> Cluster:
     return Cluster(client, where)
 
 
+def _start_method() -> str:
+    """How a LocalCluster starts its workers: ``forkserver`` where the system has it."""
+    import multiprocessing
+
+    return "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
+
+
+def _tempdir_environ() -> dict:
+    """The temporary-folder variables of this process (``TMPDIR``, ``TMP``, ``TEMP``)."""
+    return {k: os.environ[k] for k in ("TMPDIR", "TMP", "TEMP") if k in os.environ}
+
+
+def _preload_forkserver() -> None:
+    """Have the fork server import distributed and the warmed engines before it forks.
+
+    Without effect once the server runs (it keeps what it loaded), or with ``spawn``.
+    """
+    import dask
+    from distributed.utils import get_mp_context
+
+    ctx = get_mp_context()  # distributed sets its own list first
+    if dask.config.get("distributed.worker.multiprocessing-method") == "forkserver":
+        ctx.set_forkserver_preload(["distributed", "bodyvib.vehicle.sweep.warmed"])
+        _server_folder()
+
+
+def _server_folder() -> None:
+    """Make multiprocessing's folder (the fork server's socket) in the system's folder.
+
+    The fork server lives as long as this process: beyond a command's private temporary
+    folder (:func:`bodyvib.process.scratch.private_tempdir`), which is removed when the
+    command ends, while multiprocessing removes its own folder when the process exits.
+    """
+    import multiprocessing.util
+
+    for folder in ("/tmp", "/var/tmp"):
+        if os.path.isdir(folder) and os.access(folder, os.W_OK | os.X_OK):
+            break
+    else:
+        return
+    saved = tempfile.tempdir
+    tempfile.tempdir = folder
+    try:
+        multiprocessing.util.get_temp_dir()  # made once, kept for the process
+    finally:
+        tempfile.tempdir = saved
+
+
 def _local(workers, connect_timeout) -> Cluster:
     import dask
     from dask.distributed import Client, LocalCluster
@@ -302,25 +350,30 @@ def _local(workers, connect_timeout) -> Cluster:
     scratch = tempfile.mkdtemp(prefix="bodyvib-sweep-dask-")
     try:
         # Dask's workers return freed memory to the system at once (glibc
-        # MALLOC_TRIM_THRESHOLD_ = 64 kB), which made the batched engine's block
-        # buffers fault in again and again: 1.36x the in-process time against
-        # 1.12x with the default threshold (measured).
-        # Setting the trim threshold also fixes glibc's mmap threshold at 128 kB (it
-        # is dynamic, up to 32 MB, only while neither is set), so every block buffer
-        # of the Wk filter was mapped and faulted in afresh: 160k page faults per
-        # 256-case task against 59k in-process, 1.45x its CPU (measured). Both set.
+        # MALLOC_TRIM_THRESHOLD_ = 64 kB), and setting the trim threshold also fixes
+        # glibc's mmap threshold at 128 kB (it is dynamic, up to 32 MB, only while
+        # neither is set): every large buffer of a task (road samples, packed
+        # matrices) would be mapped and faulted in afresh, task after task. Both set
+        # high. The fork server starts with the first worker and these variables.
         # Each worker's statistical profiler samples the running task's stack every
         # 10 ms for a dashboard that a sweep's LocalCluster does not have: off.
+        # The workers fork from one server process that has imported and warmed the
+        # engines (bodyvib.vehicle.sweep.warmed) instead of each starting Python afresh.
         config = {
+            "distributed.worker.multiprocessing-method": _start_method(),
             "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": 128 * 1024 * 1024,
             "distributed.nanny.pre-spawn-environ.MALLOC_MMAP_THRESHOLD_": 32 * 1024 * 1024,
             "distributed.worker.profile.enabled": False,
+            # a forked worker has the fork server's environment: set this command's
+            # temporary folder in each worker as it starts
+            **{f"distributed.nanny.environ.{k}": v for k, v in _tempdir_environ().items()},
             "temporary-directory": scratch,
         }
         spawn = contextlib.ExitStack()  # until the cluster is closed (a worker may restart)
         spawn.enter_context(_workers_ignore_sigint(scratch))
         # a second Ctrl-C waits too: a cluster half started would leave its workers behind
         with dask.config.set(config), interrupts.critical():
+            _preload_forkserver()
             local = LocalCluster(
                 n_workers=workers,
                 threads_per_worker=1,

@@ -4,11 +4,12 @@
   :func:`bodyvib.vehicle.quarter_car.seated_system` (the co-simulation's reference,
   :mod:`bodyvib.vehicle.reference`), discretized exactly per case
   (:class:`bodyvib.runtime.discretize.Discretization`) and advanced for all cases of a
-  block together: one batched matrix product per time step over the block,
+  block together by one compiled loop (:mod:`bodyvib.vehicle.sweep.kernel`),
   ``[x_{k+1}; y_k] = [Phi; C] x_k + [Gamma; D] (z_k, v_k)``, with the road's
-  in-step slope as in :func:`bodyvib.runtime.discretize.input_rates`. The head and
-  seat accelerations go block by block into
-  :class:`bodyvib.comfort.stream.ComfortStream`; no time history is kept.
+  in-step slope as in :func:`bodyvib.runtime.discretize.input_rates`. The same loop
+  weights the head and seat accelerations with the recursion of
+  :class:`bodyvib.comfort.stream.WkFilter` and keeps the sums the figures of
+  :class:`bodyvib.comfort.stream.ComfortStream` come from; no time history is kept.
 * ``spectral`` -- for an ISO 8608 random road, the expected weighted mean
   square of a long run, ``a_w^2 = int |H(f)|^2 |Wk(f)|^2 S(f) df``, with
   ``H`` the road-to-head (or seat) acceleration response
@@ -39,7 +40,7 @@ from typing import Dict, List, Optional, Sequence
 import numpy as np
 
 from bodyvib.comfort.figures import comfort_category, wk_response
-from bodyvib.comfort.stream import ComfortStream
+from bodyvib.comfort.stream import BatchComfortFigures, ComfortStream
 from bodyvib.frequency.response import frequency_response
 from bodyvib.models import load_model
 from bodyvib.runtime.discretize import Discretization
@@ -49,7 +50,8 @@ from bodyvib.runtime.network import linear_model
 from ..quarter_car import seated_system, wheel_offsets
 from ..road.driven import RunSettings, driven_road, wheel_inputs
 from ..road.synthetic import ISO8608_CLASSES, N_BAND, displacement_psd, road_input
-from .kernel import advance
+from . import kernel
+from .kernel import SUMS
 from .spec import Case
 
 __all__ = [
@@ -84,7 +86,7 @@ FIGURES = (
 FORCES = ("neck_force", "lumbar_force")
 #: Settings of each engine as stored in the table's ``engine_settings`` column (JSON).
 ENGINE_SETTINGS = {
-    "batched": '{"method": "exact zero-order-hold-plus-slope step", "block_steps": 256}',
+    "batched": '{"method": "exact zero-order-hold-plus-slope step"}',
     "spectral": '{"method": "expected Wk r.m.s. from the ISO 8608 PSD", "points": 500}',
     "cosim": '{"method": "FMU co-simulation, extrapolating master"}',
 }
@@ -207,6 +209,8 @@ class _Seated:
             base = cars[("body", case.body_model)] = load_model(case.body_model)
         body = base.with_parameters(**dict(case.body_values)) if case.body_values else base
         self.lm = linear_model(seated_system(car, body))
+        # exact step matrices once per step size, for every case of this body on this car
+        self.discretization = Discretization(self.lm)
         self.seat = car.roles["seat"]
         self.bases = car.bases
         self.behind = wheel_offsets(car)  # each road point's distance behind the first, m
@@ -254,90 +258,89 @@ def _roads(case, roads, behind=(0.0,)):
     return r
 
 
-def _batched_group(cases, models, cars, roads, block_steps, record):
-    """Advance cases of one state size and length together; figures (and histories)."""
+def _step_inputs(cases, sys, roads):
+    """Each case's step matrices and road rows: ``M``, ``gz``, ``gv``, ``road``, ``z``, ``v``.
+
+    A car driven at several points (a half car) is linear: each point's road enters
+    through its own input columns, ``sum_p (g_z z + g_v v)_p``; cases of one road,
+    seed and speed share its rows of ``z`` and ``v``.
+    """
     c = len(cases)
-    sys = [_seated(cs, models, cars) for cs in cases]
     n = sys[0].lm.A.shape[0]
-    N = cases[0].steps
     step = cases[0].step
-    p = 2 + len(FORCES)  # outputs: head and seat acceleration, the forces
-    # one kernel row per case and road point: a car driven at several points (a half
-    # car) is linear, so its response is the sum of the responses to each point's road
-    kernel_rows = [(i, j) for i, s in enumerate(sys) for j in range(len(s.bases))]
-    R = len(kernel_rows)
-    M = np.empty((R, n + p, n))
-    gz = np.empty((R, n + p))
-    gv = np.empty((R, n + p))
-    road = np.empty(R, dtype=np.int64)  # cases share roads: one row per (road, seed, speed)
+    m = n + 2 + len(FORCES)  # states, then head and seat acceleration and the forces
+    P = max(len(s.bases) for s in sys)
+    M = np.empty((c, m, n))
+    gz = np.zeros((c, P, m))
+    gv = np.zeros((c, P, m))
+    road = np.zeros((c, P), dtype=np.int64)
     rows_of: Dict[tuple, int] = {}
     zs, vs = [], []
-    step_matrices = {}
-    for r, (i, j) in enumerate(kernel_rows):
-        cs, s = cases[i], sys[i]
+    for i, (cs, s) in enumerate(zip(cases, sys)):
         lm = s.lm
-        if i not in step_matrices:
-            with np.errstate(over="ignore", invalid="ignore"):
-                step_matrices[i] = Discretization(lm).matrices(step)
-        Phi, G0, G1 = step_matrices[i]
+        with np.errstate(over="ignore", invalid="ignore"):
+            Phi, G0, G1 = s.discretization.matrices(step)
         if not (np.all(np.isfinite(Phi)) and np.all(np.isfinite(G0)) and np.all(np.isfinite(G1))):
             raise BodyvibError(
                 "the exact step matrices are not finite (parameters out of numerical range?)"
             )
-        base = s.bases[j]
-        iz, iv = lm.input_index(f"{base}_displacement"), lm.input_index(f"{base}_velocity")
-        M[r, :n] = Phi
-        M[r, n:] = s.rows(lm.C)
-        # in-step road z_k + v_k tau: Gamma0 on (z, v), Gamma1 on the displacement's rate v
-        gz[r, :n] = G0[:, iz]
-        gv[r, :n] = G0[:, iv] + G1[:, iz]
+        M[i, :n] = Phi
+        M[i, n:] = s.rows(lm.C)
         D = s.rows(lm.D)
-        gz[r, n:] = D[:, iz]
-        gv[r, n:] = D[:, iv]
-        rkey = _road_key(cs) + (s.behind[j],)
-        if rkey not in rows_of:
-            rows_of[rkey] = len(zs)
-            zr, vr = _roads(cs, roads, s.behind)
-            zs.append(zr if zr.ndim == 1 else zr[:, j])
-            vs.append(vr if vr.ndim == 1 else vr[:, j])
-        road[r] = rows_of[rkey]
-    z, v = np.array(zs), np.array(vs)
-    stream = ComfortStream(1.0 / step, 2 * c)
-    hist = np.empty((2, c, N)) if record else None
-    x = np.zeros((R, n))
-    ys_buf = np.empty((p, R, block_steps))
-    owner = np.array([i for i, _ in kernel_rows])
-    force_peak = np.zeros((len(FORCES), c))  # largest magnitude so far, N
-    for k0 in range(0, N, block_steps):
-        k1 = min(N, k0 + block_steps)
-        ys = ys_buf if k1 - k0 == block_steps else np.empty((p, R, k1 - k0))
-        advance(M, gz, gv, z, v, road, x, k0, ys)  # compiled: one kernel row at a time
-        if R != c:  # sum each case's road points
-            summed = np.zeros((p, c, k1 - k0))
-            np.add.at(summed, (slice(None), owner), ys)
-            ys = summed
-        if not np.all(np.isfinite(ys)):
-            raise BodyvibError("the response is not finite (parameters out of numerical range?)")
-        stream.update(ys[:2].reshape(2 * c, k1 - k0))  # rows: head of each case, then seat
-        np.maximum(force_peak, np.max(np.abs(ys[2:]), axis=2), out=force_peak)
-        if record:
-            hist[:, :, k0:k1] = ys[:2]
-    fig = stream.figures()
+        for j, base in enumerate(s.bases):
+            iz, iv = lm.input_index(f"{base}_displacement"), lm.input_index(f"{base}_velocity")
+            # in-step road z_k + v_k tau: Gamma0 on (z, v), Gamma1 on the displacement's rate v
+            gz[i, j, :n] = G0[:, iz]
+            gv[i, j, :n] = G0[:, iv] + G1[:, iz]
+            gz[i, j, n:] = D[:, iz]
+            gv[i, j, n:] = D[:, iv]
+            rkey = _road_key(cs) + (s.behind[j],)
+            if rkey not in rows_of:
+                rows_of[rkey] = len(zs)
+                zr, vr = _roads(cs, roads, s.behind)
+                zs.append(zr if zr.ndim == 1 else zr[:, j])
+                vs.append(vr if vr.ndim == 1 else vr[:, j])
+            road[i, j] = rows_of[rkey]
+    return M, gz, gv, road, np.array(zs), np.array(vs)
+
+
+def _batched_group(cases, models, cars, roads, record):
+    """Figures (and histories) of cases of one state size and length, stepped together."""
+    c = len(cases)
+    sys = [_seated(cs, models, cars) for cs in cases]
+    step = cases[0].step
+    M, gz, gv, road, z, v = _step_inputs(cases, sys, roads)
+    wk = ComfortStream(1.0 / step, 1)  # the weighting and the MTVV window of the figures
+    sums, hist = kernel.run(kernel.pack(M, gz, gv, road), z, v, wk.filter.step(), wk.window, record)
+    if not (np.all(np.isfinite(sums)) and np.all(sums[SUMS.index("check")] == 0)):
+        raise BodyvibError("the response is not finite (parameters out of numerical range?)")
+    fig = {
+        part: BatchComfortFigures.from_sums(
+            *(sums[SUMS.index(f"{part}_{k}")] for k in ("s2", "s4", "peak", "window_max")),
+            samples=cases[0].steps,
+            fs=1.0 / step,
+            window=wk.window,
+        )
+        for part in ("head", "seat")
+    }
+    head, seat = fig["head"], fig["seat"]
     rows = []
     for i in range(c):
         peaks = {
-            f"{f}_peak": float(force_peak[r, i]) if sys[i].forces[r] is not None else math.nan
+            f"{f}_peak": float(sums[SUMS.index(f"force{r}_peak"), i])
+            if sys[i].forces[r] is not None
+            else math.nan
             for r, f in enumerate(FORCES)
         }
         rows.append(
             {
-                "head_weighted_rms": float(fig["weighted_rms"][i]),
-                "head_vdv": float(fig["vdv"][i]),
-                "head_peak": float(fig["peak"][i]),
-                "head_crest_factor": float(fig["crest_factor"][i]),
-                "head_comfort": fig["comfort"][i],
-                "seat_weighted_rms": float(fig["weighted_rms"][c + i]),
-                "head_mtvv": float(fig["mtvv"][i]),
+                "head_weighted_rms": float(head.weighted_rms[i]),
+                "head_vdv": float(head.vdv[i]),
+                "head_peak": float(head.peak[i]),
+                "head_crest_factor": float(head.crest_factor[i]),
+                "head_comfort": head.comfort[i],
+                "seat_weighted_rms": float(seat.weighted_rms[i]),
+                "head_mtvv": float(head.mtvv[i]),
                 **peaks,
                 "error": None,
             }
@@ -345,14 +348,12 @@ def _batched_group(cases, models, cars, roads, block_steps, record):
     return rows, hist
 
 
-def run_batched(cases: Sequence[Case], block_steps: int = 256, record: bool = False):
+def run_batched(cases: Sequence[Case], record: bool = False):
     """Figures of cases by the batched exact engine.
 
     Parameters
     ----------
     cases : sequence of Case
-    block_steps : int
-        Time steps per streaming update.
     record : bool
         Also return the head and seat acceleration histories.
 
@@ -388,7 +389,7 @@ def run_batched(cases: Sequence[Case], block_steps: int = 256, record: bool = Fa
         groups.setdefault((n, cs.steps, cs.step), []).append(i)
 
     def run(idx):
-        r, h = _batched_group([cases[i] for i in idx], models, cars, roads, block_steps, record)
+        r, h = _batched_group([cases[i] for i in idx], models, cars, roads, record)
         for j, i in enumerate(idx):
             rows[i] = r[j]
             if record:
