@@ -50,7 +50,7 @@ package name (``build_fmu.py``).
 """
 
 from dataclasses import dataclass
-from typing import Optional, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -343,7 +343,7 @@ def body_interface(network: Network) -> Interface:
     )
 
 
-def actuator_variables(network: Network) -> Tuple[Tuple[str, str, str, str], ...]:
+def actuator_variables(network: Network) -> Tuple[Tuple[str, str, str, str, str, str], ...]:
     """FMU variable names of each actuator of a car model, in the file's order.
 
     Parameters
@@ -369,7 +369,7 @@ def actuator_variables(network: Network) -> Tuple[Tuple[str, str, str, str], ...
     >>> actuator_variables(car)[0][:4]
     ('actuator_force', 'actuator_force_rate', 'actuator_upper_velocity', 'actuator_lower_velocity')
     """
-    out = []
+    out: List[Tuple[str, str, str, str, str, str]] = []
     for act in network.actuators:
         sfx = f"_{act['name']}" if act["name"] else ""
         out.append(
