@@ -8,7 +8,7 @@ force r.m.s. per law. ``bodyvib cosim --control LAW`` co-simulates one law with 
 from bodyvib.process.outputs import write_json
 from bodyvib.runtime.errors import BodyvibError
 
-from .options import add_output_options, add_road_options, road_options_from_args
+from .options import add_output_options, add_road_options, run_settings_from_args
 from .outputs import check_files, write_outputs
 
 __all__ = ["add_command"]
@@ -18,18 +18,10 @@ def _run(args):
     from bodyvib.models import load_model
     from bodyvib.vehicle.active import compare_laws, format_comparison, plot_laws
     from bodyvib.vehicle.quarter_car import load_car
-    from bodyvib.vehicle.road.driven import RunSettings
     from bodyvib.vehicle.study import check_settings
 
     check_files(args, ("json", "plot"))
-    settings = RunSettings(
-        road=args.road,
-        speed_m_s=args.speed,
-        duration_s=args.duration,
-        step_s=args.step,
-        seed=args.seed,
-        road_options=road_options_from_args(args),
-    )
+    settings = run_settings_from_args(args)
     check_settings(settings)
     car, body = load_car(args.car), load_model(args.params)
     laws = [s.strip() for s in args.laws.split(";") if s.strip()]

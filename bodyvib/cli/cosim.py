@@ -19,7 +19,6 @@ from bodyvib.vehicle.check import compare
 from bodyvib.vehicle.cosim import check_fmu
 from bodyvib.vehicle.fmus import build_fmus, car_fmu_name, temporary_fmu_dir
 from bodyvib.vehicle.report import format_report, study_json
-from bodyvib.vehicle.road.driven import RunSettings
 from bodyvib.vehicle.study import StudyCsv, check_settings, run_study
 from bodyvib.vehicle.study_plot import plot_study
 
@@ -28,7 +27,7 @@ from .options import (
     add_road_options,
     add_seat_option,
     car_and_seat,
-    road_options_from_args,
+    run_settings_from_args,
 )
 from .outputs import check_files, write_outputs
 
@@ -161,15 +160,7 @@ def _label(path, default):
 
 def _run(args, want_iso):
     _check_options(args)
-    road_options = road_options_from_args(args)
-    settings = RunSettings(
-        road=args.road,
-        speed_m_s=args.speed,
-        duration_s=args.duration,
-        step_s=args.step,
-        seed=args.seed,
-        road_options=road_options,
-    )
+    settings = run_settings_from_args(args)
     check_settings(settings, bodies=2 if want_iso else 1)  # before building
     if args.csv:
         _check_disk(args.csv, (args.duration / args.step + 1) * (2 if want_iso else 1))

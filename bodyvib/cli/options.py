@@ -4,7 +4,7 @@ models and the ``--road-*`` options of a driven road."""
 import os
 
 from bodyvib.vehicle.road.contact import CONTACTS
-from bodyvib.vehicle.road.driven import DEFAULT_TAPER_M, RoadOptions
+from bodyvib.vehicle.road.driven import DEFAULT_TAPER_M, RoadOptions, RunSettings
 from bodyvib.vehicle.sweep.spec import ROAD_OPTION_KEYS
 
 from .outputs import OUTPUT_OPTIONS
@@ -18,6 +18,7 @@ __all__ = [
     "ROAD_ARGUMENTS",
     "add_road_options",
     "road_options_from_args",
+    "run_settings_from_args",
 ]
 
 
@@ -215,4 +216,37 @@ def road_options_from_args(args) -> RoadOptions:
     """
     return RoadOptions(
         **{field: getattr(args, f"road_{key}") for key, field in ROAD_OPTION_KEYS.items()}
+    )
+
+
+def run_settings_from_args(args) -> RunSettings:
+    """The run of parsed ``--road``, ``--speed``, ``--duration``, ``--step``, ``--seed`` and
+    ``--road-*`` options, as one settings object.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        A command line with those options (``cosim``, ``check``, ``control``).
+
+    Returns
+    -------
+    bodyvib.vehicle.road.driven.RunSettings
+
+    Examples
+    --------
+    >>> import argparse
+    >>> p = argparse.ArgumentParser()
+    >>> add_road_options(p)
+    >>> args = p.parse_args([])
+    >>> args.road, args.speed, args.duration, args.step, args.seed = "C", 20.0, 30.0, 1e-3, 0
+    >>> run_settings_from_args(args).speed_m_s
+    20.0
+    """
+    return RunSettings(
+        road=args.road,
+        speed_m_s=args.speed,
+        duration_s=args.duration,
+        step_s=args.step,
+        seed=args.seed,
+        road_options=road_options_from_args(args),
     )
