@@ -133,10 +133,10 @@ def _cross_check(args, inputs) -> int:
     from bodyvib.fmu.crosscheck import write_cross_check
     from bodyvib.models import load_model
 
-    if args.fmus or args.native or args.platforms or args.seat:
+    if args.fmus or args.native or args.platforms or args.seat or args.car:
         raise BodyvibError(
             "--cross-check builds the native FMI 2.0 HumanBody3DOF.fmu for linux64 (its "
-            "model from --params); drop --fmus, --native, --platforms and --seat"
+            "model from --params); drop --fmus, --native, --platforms, --seat and --car"
         )
     check_outputs([("--cross-check", args.cross_check, None, True)], inputs)
     model = args.params or "reduced-paper"
