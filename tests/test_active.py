@@ -208,6 +208,8 @@ def test_cli_refuses_a_bad_controller_in_one_line(capsys, argv, words):
     [
         (["--control", "skyhook:c=x"], ["bodyvib build: error:", "is not a number"]),
         (["--control", "skyhook", "--fmus", "Road"], ["drop --fmus and --params"]),
+        (["--control", "skyhook", "--car", "half-car"], ["'half-car' has no actuators"]),
+        (["--car", "half-car-active"], ["use it with --control"]),
         (["control", "--laws", "passive;semi:c=1"], ["unknown controller 'semi'"]),
     ],
 )
@@ -583,3 +585,85 @@ def test_active_ssp_without_the_acceleration_wires_lags_a_step(active_ssp, tmp_p
     law = parse_control("skyhook", load_car("quarter-car-active"))
     ref = ssp_reference(5.0, 1e-3, car="quarter-car-active", controller=law)
     assert nrmse(res["Body.head_acceleration"], ref["head_acceleration"]) > 0.01
+
+
+def test_active_half_car_package_wires_each_axle_to_its_controller_channel():
+    """Every actuator input of half-car-active and every controller input is driven by one
+    wire, from the variable of the same axle and quantity (the car's contract and the
+    controller FMU's variable list, each from its own module)."""
+    from bodyvib.vehicle.ssp import ACTIVE_HALF_CAR_CONNECTIONS, PACKAGES
+
+    from bodyvib.fmu.controller import controller_variables
+    from bodyvib.runtime.contract import actuator_variables
+
+    car_vars = actuator_variables(load_car("half-car-active"))
+    assert [names[0] for names in car_vars] == ["actuator_force_front", "actuator_force_rear"]
+    ctrl = controller_variables(("_front", "_rear"))
+    wires = [w for w in ACTIVE_HALF_CAR_CONNECTIONS if "Controller" in (w[0], w[2])]
+    driven = sorted((b, bc) for _, _, b, bc in wires)
+    expected = [("Car", n) for names in car_vars for n in names[:2]]
+    expected += [("Controller", n) for n, causality, _ in ctrl if causality == "input"]
+    assert driven == sorted(expected)
+    for a, ac, _, bc in wires:
+        car_side, ctrl_side = (ac, bc) if a == "Car" else (bc, ac)
+        assert car_side.endswith(ctrl_side) and car_side.split("_")[-1] in ("front", "rear")
+    assert PACKAGES["ActiveHalfCarWithOccupant"][0]["Car"] == "HalfCar"
+
+
+@pytest.fixture(scope="module")
+def active_half_ssp(tmp_path_factory):
+    """``bodyvib build --control skyhook --car half-car-active --native``."""
+    from bodyvib.cli.main import main
+
+    dest = tmp_path_factory.mktemp("active_half_ssp")
+    argv = ["build", "--control", "skyhook", "--car", "half-car-active", "--native"]
+    assert main(argv + ["--platforms", "linux64", "--dest", str(dest)]) == 0
+    return dest / "native" / "active" / "ActiveHalfCarWithOccupant.ssp"
+
+
+@pytest.mark.integration
+@pytest.mark.parametrize("host", ["ssp_from_fmpy", "ssp_from_libcosimpy"])
+def test_active_half_car_ssp_runs_in_generic_hosts(active_half_ssp, host):
+    """fmpy's SSP runner and libcosim run the half car's active package unchanged; head
+    acceleration against the exact closed loop of the half car and both axles' skyhook
+    law on the road pair RoadFrontRear.fmu carries. Measured 0.086 % NRMSE over 5 s at
+    1 ms in both hosts (the passive half car in the same package: 0.006 %); the
+    quarter car's 0.08 % target is met at 0.9 ms, the error being second order in the
+    step (0.346 % at 2 ms, 0.021 % at 0.5 ms): the target here is 0.1 %. The passive
+    car's reference is far off (the controllers act)."""
+    from bodyvib.vehicle.reference import nrmse
+    from bodyvib.vehicle.ssp import ssp_reference
+    from test_ssp import host_run
+
+    kwargs = {"signals": [["Body", "head_acceleration"]]} if "libcosim" in host else {}
+    res, _ = host_run(host, active_half_ssp, duration=5.0, **kwargs)
+    law = parse_control("skyhook", load_car("half-car-active"))
+    ref = ssp_reference(5.0, 1e-3, car="half-car-active", controller=law)
+    head = res["Body.head_acceleration"]
+    assert head.size == ref["time"].size
+    assert nrmse(head, ref["head_acceleration"]) <= 1e-3
+    passive = ssp_reference(5.0, 1e-3, car="half-car-active")
+    assert nrmse(head, passive["head_acceleration"]) > 0.05
+
+
+@pytest.mark.integration
+def test_active_half_car_ssp_error_is_second_order_in_the_step(active_half_ssp):
+    """Doubling libcosim's step to 2 ms multiplies the error by 4 (measured 4.03): the
+    extrapolated velocities and the force rate make the coupling second order."""
+    from bodyvib.vehicle.reference import nrmse
+    from bodyvib.vehicle.ssp import ssp_reference
+    from test_ssp import host_run
+
+    law = parse_control("skyhook", load_car("half-car-active"))
+    err = {}
+    for h in (1e-3, 2e-3):
+        res, _ = host_run(
+            "ssp_from_libcosimpy",
+            active_half_ssp,
+            duration=5.0,
+            step=h,
+            signals=[["Body", "head_acceleration"]],
+        )
+        ref = ssp_reference(5.0, h, car="half-car-active", controller=law)
+        err[h] = nrmse(res["Body.head_acceleration"], ref["head_acceleration"])
+    assert 3.5 <= err[2e-3] / err[1e-3] <= 4.5, err

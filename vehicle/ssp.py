@@ -49,6 +49,10 @@ __all__ = [
     "ACTIVE_SSP_NAME",
     "ACTIVE_COMPONENTS",
     "ACTIVE_CONNECTIONS",
+    "ACTIVE_HALF_CAR_SSP_NAME",
+    "ACTIVE_HALF_CAR_COMPONENTS",
+    "ACTIVE_HALF_CAR_CONNECTIONS",
+    "ACTIVE_PACKAGES",
     "build_active_ssp",
     "PACKAGES",
     "parameter_values",
@@ -88,6 +92,27 @@ HALF_CAR_CONNECTIONS = tuple(
     for q in ("displacement", "velocity")
 ) + tuple(c for c in CONNECTIONS if c[0] != "Road")
 
+
+def _controller_connections(suffixes):
+    """Per actuator suffix: the car's motion to the controller, its force back to the car."""
+    wires = ()
+    for s in suffixes:
+        wires += tuple(
+            ("Car", f"actuator_{q}{s}", "Controller", f"{q}{s}")
+            for q in (
+                "upper_velocity",
+                "lower_velocity",
+                "upper_acceleration",
+                "lower_acceleration",
+            )
+        )
+        wires += tuple(
+            ("Controller", f"{q}{s}", "Car", f"{q}{s}")
+            for q in ("actuator_force", "actuator_force_rate")
+        )
+    return wires
+
+
 #: The active package: the quarter car with an actuator, driven by a skyhook controller.
 ACTIVE_SSP_NAME = "ActiveQuarterCarWithOccupant"
 
@@ -100,14 +125,17 @@ ACTIVE_COMPONENTS = dict(COMPONENTS, Controller="SkyhookController")
 #: controller the car's motion of the previous communication point: the controller
 #: extrapolates the velocities over the step with the accelerations, and the rate gives
 #: the force its slope over the next step.
-ACTIVE_CONNECTIONS = CONNECTIONS + (
-    ("Car", "actuator_upper_velocity", "Controller", "upper_velocity"),
-    ("Car", "actuator_lower_velocity", "Controller", "lower_velocity"),
-    ("Car", "actuator_upper_acceleration", "Controller", "upper_acceleration"),
-    ("Car", "actuator_lower_acceleration", "Controller", "lower_acceleration"),
-    ("Controller", "actuator_force", "Car", "actuator_force"),
-    ("Controller", "actuator_force_rate", "Car", "actuator_force_rate"),
-)
+ACTIVE_CONNECTIONS = CONNECTIONS + _controller_connections(("",))
+
+#: The active half car's package: the half car with an actuator per axle.
+ACTIVE_HALF_CAR_SSP_NAME = "ActiveHalfCarWithOccupant"
+
+#: Component name -> FMU name of the active half car's package (the car built from
+#: ``half-car-active``, the controller for the suffixes ``_front`` and ``_rear``).
+ACTIVE_HALF_CAR_COMPONENTS = dict(HALF_CAR_COMPONENTS, Controller="SkyhookController")
+
+#: The half car's connections, and the controller wired per axle as on the quarter car.
+ACTIVE_HALF_CAR_CONNECTIONS = HALF_CAR_CONNECTIONS + _controller_connections(("_front", "_rear"))
 
 #: Package name -> (components, connections, description of the system).
 PACKAGES = {
@@ -129,7 +157,17 @@ PACKAGES = {
         "Quarter car with an actuator on a road with a seated occupant; a skyhook/groundhook "
         "controller sets the actuator force from the car's body and wheel velocities",
     ),
+    ACTIVE_HALF_CAR_SSP_NAME: (
+        ACTIVE_HALF_CAR_COMPONENTS,
+        ACTIVE_HALF_CAR_CONNECTIONS,
+        "Half car with an actuator per axle on a road under both axles with a seated "
+        "occupant; a skyhook/groundhook controller sets each actuator force from the "
+        "body and wheel velocities at its axle",
+    ),
 }
+
+#: Car FMU name (:func:`bodyvib.vehicle.fmus.car_fmu_name`) -> its active package's name.
+ACTIVE_PACKAGES = {"QuarterCar": ACTIVE_SSP_NAME, "HalfCar": ACTIVE_HALF_CAR_SSP_NAME}
 
 _NS = {
     "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
@@ -398,14 +436,19 @@ def build_active_ssp(
     native: bool = False,
     platforms=None,
     echo=None,
+    car: str = "quarter-car-active",
 ) -> Path:
-    """Build the active package: its four FMUs and ``ActiveQuarterCarWithOccupant.ssp``.
+    """Build an active package: its four FMUs and the ``.ssp`` wiring them.
 
-    ``Road.fmu``, ``QuarterCar.fmu`` (built from ``quarter-car-active``: the inputs
-    ``actuator_force`` and ``actuator_force_rate``, the outputs
-    ``actuator_upper_velocity`` and ``actuator_lower_velocity``), ``HumanBody3DOF.fmu``
-    (pythonfmu, or native with ``native``) and ``SkyhookController.fmu`` (always native C,
-    FMI 2.0), wired by :data:`ACTIVE_CONNECTIONS`.
+    For a quarter car (``quarter-car-active`` by default): ``Road.fmu``, ``QuarterCar.fmu``
+    (the inputs ``actuator_force`` and ``actuator_force_rate``, the outputs
+    ``actuator_upper_velocity``, ``actuator_lower_velocity`` and their accelerations),
+    ``HumanBody3DOF.fmu`` (pythonfmu, or native with ``native``) and
+    ``SkyhookController.fmu`` (always native C, FMI 2.0), wired by
+    :data:`ACTIVE_CONNECTIONS` into ``ActiveQuarterCarWithOccupant.ssp``. For a half car
+    (``half-car-active``): ``RoadFrontRear.fmu`` and ``HalfCar.fmu`` instead, the
+    controller built for the car's actuator suffixes (``_front``, ``_rear``), wired by
+    :data:`ACTIVE_HALF_CAR_CONNECTIONS` into ``ActiveHalfCarWithOccupant.ssp``.
 
     Parameters
     ----------
@@ -414,13 +457,15 @@ def build_active_ssp(
     controller : bodyvib.vehicle.control.SkyhookController
         The law baked into the controller's parameters.
     road : dict, optional
-        Options of Road.fmu (:data:`bodyvib.vehicle.fmus.ROAD_DEFAULTS` by default).
+        Options of the road FMU (:data:`bodyvib.vehicle.fmus.ROAD_DEFAULTS` by default).
     native : bool
         Native C FMUs for road, car and body (FMI 2.0).
     platforms : iterable of str, optional
         Native binaries to compile (:data:`bodyvib.fmu.native.PLATFORMS`).
     echo : callable, optional
         Called with one line per file written.
+    car : str
+        Vehicle model with actuators (shipped name or parameter file).
 
     Returns
     -------
@@ -430,22 +475,30 @@ def build_active_ssp(
     Raises
     ------
     BodyvibError
-        What the FMU builders refuse.
+        A car without actuators, or what the FMU builders refuse.
     """
     from bodyvib.fmu.controller import build_controller_fmu
     from bodyvib.process import interrupts
     from bodyvib.process.outputs import staged_writes
+    from bodyvib.runtime.contract import actuator_variables
 
-    from .fmus import build_fmus
+    from .control import check_actuated
+    from .fmus import build_fmus, car_fmu_name
+    from .quarter_car import load_car
 
+    network = load_car(car)
+    check_actuated(network)
+    suffixes = tuple(names[0][len("actuator_force") :] for names in actuator_variables(network))
+    name = ACTIVE_PACKAGES[car_fmu_name(car)]
+    components = PACKAGES[name][0]
     dest = Path(dest)
     lines = []
     with staged_writes(guard=interrupts.critical):  # the FMUs and the package, or nothing
         built = build_fmus(
             dest,
             None,
-            "quarter-car-active",
-            names=["Road", "QuarterCar", "HumanBody3DOF"],
+            car,
+            names=[components[c] for c in ("Road", "Car", "Body")],
             echo=lines.append,
             road=road,
             native=native,
@@ -454,7 +507,7 @@ def build_active_ssp(
         )
         built["SkyhookController"] = build_controller_fmu(
             dest,
-            ("",),
+            suffixes,
             controller.c_sky,
             controller.c_ground,
             controller.semi_active,
@@ -462,9 +515,9 @@ def build_active_ssp(
         )
         lines.append(f"wrote {built['SkyhookController']} (native C, FMI 2.0, the law's gains)")
         path = write_ssp(
-            dest / f"{ACTIVE_SSP_NAME}.ssp",
-            {comp: str(built[name]) for comp, name in ACTIVE_COMPONENTS.items()},
-            name=ACTIVE_SSP_NAME,
+            dest / f"{name}.ssp",
+            {comp: str(built[fmu]) for comp, fmu in components.items()},
+            name=name,
         )
         lines.append(f"wrote {path} (Road -> Car <-> Body, Car <-> Controller, 1 ms step)")
         interrupts.check()

@@ -30,6 +30,11 @@ def _run(args) -> int:
         return _cross_check(args, inputs)
     if args.control:
         return _active(args, inputs)
+    if args.car:
+        raise BodyvibError(
+            "--car chooses the car of the active package: use it with --control LAW "
+            "(the passive FMUs are built from quarter-car and half-car)"
+        )
     names = list(args.fmus or FMUS)
     platforms = None
     if args.native:
@@ -92,15 +97,18 @@ def _run(args) -> int:
 def _active(args, inputs) -> int:
     """``--control LAW``: the active package (road, active car, body, controller) in DEST/active."""
     from bodyvib.vehicle.control import parse_control
+    from bodyvib.vehicle.fmus import car_fmu_name
     from bodyvib.vehicle.quarter_car import load_car
-    from bodyvib.vehicle.ssp import ACTIVE_COMPONENTS, ACTIVE_SSP_NAME, build_active_ssp
+    from bodyvib.vehicle.ssp import ACTIVE_PACKAGES, PACKAGES, build_active_ssp
 
     if args.fmus or args.params:
         raise BodyvibError(
             "--control builds the active package's own FMUs (the reduced body, the active "
-            "quarter car, Road and the controller): drop --fmus and --params"
+            "car, its road and the controller): drop --fmus and --params"
         )
-    controller = parse_control(args.control, load_car("quarter-car-active"))
+    car = args.car or "quarter-car-active"
+    controller = parse_control(args.control, load_car(car))  # refuses a car without actuators
+    name = ACTIVE_PACKAGES[car_fmu_name(car)]
     road = _road(args)
     platforms = None
     if args.native or args.platforms:
@@ -109,11 +117,13 @@ def _active(args, inputs) -> int:
         platforms = choose_platforms(args.platforms).platforms
     dest = Path(args.dest) / ("native/active" if args.native else "active")
     outs = [("--dest", args.dest, None, True)]
-    outs += [(f"--dest {n}.fmu", str(dest / f"{n}.fmu"), None) for n in ACTIVE_COMPONENTS.values()]
-    outs.append((f"--dest {ACTIVE_SSP_NAME}.ssp", str(dest / f"{ACTIVE_SSP_NAME}.ssp"), None))
+    outs += [(f"--dest {n}.fmu", str(dest / f"{n}.fmu"), None) for n in PACKAGES[name][0].values()]
+    outs.append((f"--dest {name}.ssp", str(dest / f"{name}.ssp"), None))
+    if args.car and os.path.isfile(args.car):
+        inputs = inputs + [("--car", args.car)]
     check_outputs(outs, inputs)
     build_active_ssp(
-        dest, controller, road=road, native=args.native, platforms=platforms, echo=print
+        dest, controller, road=road, native=args.native, platforms=platforms, echo=print, car=car
     )
     return 0
 
@@ -123,10 +133,10 @@ def _cross_check(args, inputs) -> int:
     from bodyvib.fmu.crosscheck import write_cross_check
     from bodyvib.models import load_model
 
-    if args.fmus or args.native or args.platforms or args.seat:
+    if args.fmus or args.native or args.platforms or args.seat or args.car:
         raise BodyvibError(
             "--cross-check builds the native FMI 2.0 HumanBody3DOF.fmu for linux64 (its "
-            "model from --params); drop --fmus, --native, --platforms and --seat"
+            "model from --params); drop --fmus, --native, --platforms, --seat and --car"
         )
     check_outputs([("--cross-check", args.cross_check, None, True)], inputs)
     model = args.params or "reduced-paper"
@@ -238,6 +248,13 @@ def add_command(subparsers):
         "C) and ActiveQuarterCarWithOccupant.ssp wiring the controller between the car's "
         "actuator velocities and its actuator force; LAW as for cosim --control "
         "(skyhook, groundhook, hybrid; c=, g=, semi)",
+    )
+    p.add_argument(
+        "--car",
+        metavar="MODEL",
+        help="with --control: the car with actuators, quarter-car-active (default), "
+        "half-car-active (HalfCar and RoadFrontRear, a controller per axle, "
+        "ActiveHalfCarWithOccupant.ssp) or a parameter file",
     )
     p.add_argument(
         "--cross-check",
