@@ -6,10 +6,11 @@ from bodyvib.vehicle.quarter_car import seated_system
 from bodyvib.vehicle.reference import nrmse, reference_run
 from bodyvib.vehicle.road.synthetic import N_BAND, displacement_psd
 from bodyvib.vehicle.sweep.engines import case_road_input, run_batched, run_cosim, run_spectral
+from bodyvib.vehicle.sweep.kernel import pack, run
 from bodyvib.vehicle.sweep.spec import expand
 
 from bodyvib.comfort.figures import wk_response
-from bodyvib.comfort.stream import stream_comfort_figures
+from bodyvib.comfort.stream import WeightingStep, stream_comfort_figures
 from bodyvib.frequency.response import frequency_response
 from bodyvib.runtime.discretize import simulate
 from bodyvib.runtime.network import linear_model
@@ -291,3 +292,52 @@ def test_compiled_figures_equal_the_streamed_figures_of_the_same_history():
         seat = stream_comfort_figures(h["seat_acceleration"], 1 / case.step)
         assert row["seat_weighted_rms"] == pytest.approx(seat.weighted_rms, rel=FUSED_RTOL, abs=0)
         assert row["head_comfort"] == head.comfort
+
+
+def _weighted_sums(wk, a, window):
+    """sum w^2, sum w^4, max |w| and the largest window sum of w^2, by a plain loop."""
+    x = np.zeros(wk.Phi.shape[0])
+    w = np.empty(a.size)
+    for k in range(a.size):
+        if k > 0:
+            x = wk.Phi @ x + wk.g_prev * a[k - 1] + wk.g_next * a[k]
+        w[k] = wk.c @ x + wk.d * a[k]
+    w2 = w * w
+    runs = np.convolve(w2, np.ones(window))[: a.size]
+    return np.array([w2.sum(), (w2 * w2).sum(), np.abs(w).max(), runs.max()])
+
+
+@pytest.mark.parametrize("reads", [[2, 2, 4, 4, 6, 6, 8, 8], [1, 2, 3], [1]])
+def test_kernel_weighting_of_any_fitting_shape_equals_a_plain_recursion(reads):
+    """The loop's written-out weighting rows (eight states, padded when fewer) against
+    the recursion evaluated with numpy: random stable coefficients, the head of one
+    case driven straight by a road (tolerance: rounding of sums over 400 samples).
+    The entries of ``Phi`` past a row's ``reads`` are not read (the reference has
+    zeros there)."""
+    rng = np.random.default_rng(7)
+    n = len(reads)
+    read = np.arange(n) < np.array(reads)[:, None]
+    Phi = rng.uniform(-0.3, 0.3, (n, n))
+    g, c = rng.normal(size=(2, n)), rng.normal(size=n)
+    wk = WeightingStep(Phi, g[0], g[1], c, 0.3, reads)
+    exact = WeightingStep(Phi * read, g[0], g[1], c, 0.3, reads)
+    gz = np.zeros((1, 1, 5))
+    gz[0, 0, 1] = 1.0  # the head acceleration is the road's displacement
+    z = rng.normal(size=(1, 400))
+    sums, _ = run(
+        pack(np.zeros((1, 5, 1)), gz, np.zeros((1, 1, 5)), np.zeros((1, 1), int)),
+        z,
+        np.zeros_like(z),
+        wk,
+        50,
+    )
+    np.testing.assert_allclose(sums[:4, 0], _weighted_sums(exact, z[0], 50), rtol=1e-12)
+
+
+def test_kernel_refuses_a_weighting_that_does_not_fit_its_rows():
+    wk = WeightingStep(np.eye(2), np.ones(2), np.ones(2), np.ones(2), 0.0, [1, 3])
+    inputs = pack(
+        np.zeros((1, 5, 1)), np.zeros((1, 1, 5)), np.zeros((1, 1, 5)), np.zeros((1, 1), int)
+    )
+    with pytest.raises(ValueError, match="does not fit"):
+        run(inputs, np.zeros((1, 10)), np.zeros((1, 10)), wk, 5)

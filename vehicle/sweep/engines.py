@@ -598,6 +598,26 @@ def _cosim_case(cs, folder, built, record, cosimulate, open_fmu):
         return _failed(exc), None
 
 
+_pools = None
+
+
+def _thread_pools():
+    """The process's thread pools (BLAS, OpenMP), found once.
+
+    Finding them walks the loaded libraries, a millisecond or more: a sweep task
+    runs many blocks, so the controller is kept. It sees the libraries loaded
+    when it is made, so the BLAS the engines use (numpy's and scipy's) are
+    loaded first.
+    """
+    global _pools
+    if _pools is None:
+        import scipy.linalg  # noqa: F401 (loads scipy's BLAS)
+        from threadpoolctl import ThreadpoolController
+
+        _pools = ThreadpoolController()
+    return _pools
+
+
 def run_engine(engine: str, cases: Sequence[Case], blas_threads: Optional[int] = 1) -> List[dict]:
     """Figures of a block of cases by one engine (the unit of work of a sweep task).
 
@@ -625,9 +645,7 @@ def run_engine(engine: str, cases: Sequence[Case], blas_threads: Optional[int] =
         raise BodyvibError(f"unknown engine '{engine}'; engines are {', '.join(ENGINES)}")
     from contextlib import nullcontext
 
-    from threadpoolctl import threadpool_limits
-
-    ctx = threadpool_limits(limits=blas_threads) if blas_threads else nullcontext()
+    ctx = _thread_pools().limit(limits=blas_threads) if blas_threads else nullcontext()
     with ctx:
         if engine == "batched":
             return run_batched(cases)[0]

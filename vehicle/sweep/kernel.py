@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["LANES", "SUMS", "KernelInputs", "pack", "run"]
+__all__ = ["LANES", "SUMS", "WK_STATES", "KernelInputs", "pack", "run"]
 
 #: Most cases stepped side by side: wide enough that the compiler's vector loops over
 #: the lanes run many iterations, small enough that a chunk's matrices stay in cache
@@ -48,6 +48,11 @@ SUMS = (
     "check",
 )
 
+#: The weighting's states in the loop: the ISO 2631-1 Wk filter's four sections of two
+#: states in series, row ``r`` of the step reading the states of sections ``0 .. r // 2``.
+#: A smaller weighting of that shape runs padded with zeros.
+WK_STATES = 8
+
 _compiled = None
 
 
@@ -58,12 +63,11 @@ def _kernel():
     from numba import njit
 
     @njit(cache=True, nogil=True, boundscheck=False)
-    def kernel(M, gz, gv, road, z, v, wphi, wreads, wgp, wgn, wc, wd, window, sums, hist):
+    def kernel(M, gz, gv, road, z, v, wstep, wrest, wc, wd, window, sums, hist):
         # pragma: no cover (compiled)
         # every innermost loop runs over the L lanes: the same operation for each case
         chunks, m, n, L = M.shape
         P = gz.shape[1]
-        nw = wphi.shape[0]
         N = z.shape[0]
         record = hist.shape[3] > 0
         x = np.empty((P, n, L))
@@ -71,16 +75,17 @@ def _kernel():
         y = np.empty((m - n, L))
         zk = np.empty((P, L))
         vk = np.empty((P, L))
-        xw = np.empty((2, nw, L))
-        xn = np.empty((nw, L))
+        xw = np.empty((2, WK_STATES, L))
         aprev = np.empty((2, L))
-        w = np.empty(L)
         ring = np.empty((2, window, L))
         total = np.empty((2, L))
         acc = np.empty((11, L))
+        # the weighting's coefficients, one name each (tuples: they stay in registers)
+        c0, c1, c2, c3, c4, c5, c6, c7 = wc
         for ch in range(chunks):
             x[:] = 0.0
             xw[:] = 0.0
+            aprev[:] = 0.0
             ring[:] = 0.0
             total[:] = 0.0
             acc[:] = 0.0
@@ -123,35 +128,87 @@ def _kernel():
                         yf = abs(y[2 + f, i])
                         acc[10, i] += yf * 0.0
                         acc[8 + f, i] = yf if yf > acc[8 + f, i] else acc[8 + f, i]
-                # Wk of head (s = 0) and seat (s = 1), then the figures' sums
+                # Wk of head (s = 0) and seat (s = 1), then the figures' sums. A lane's
+                # weighting states are read once into registers and its rows written
+                # out (row r reads the states of its own and the earlier sections,
+                # summed in the order q = 0, 1, ..): no memory traffic per coefficient.
+                # The first sample starts the filter from rest: a step of zeros
+                ph, gp, gn = wstep if k > 0 else wrest
+                p0, p1, p2, p3, p4, p5, p6, p7 = ph
+                g0, g1, g2, g3, g4, g5, g6, g7 = gp
+                h0, h1, h2, h3, h4, h5, h6, h7 = gn
                 for s in range(2):
-                    if k > 0:
-                        for r in range(nw):
-                            o = xn[r]
-                            for i in range(L):
-                                o[i] = 0.0
-                            for q in range(wreads[r]):
-                                c = wphi[r, q]
-                                for i in range(L):
-                                    o[i] += c * xw[s, q, i]
-                            for i in range(L):
-                                o[i] = o[i] + (wgp[r] * aprev[s, i] + wgn[r] * y[s, i])
-                        for r in range(nw):
-                            for i in range(L):
-                                xw[s, r, i] = xn[r, i]
-                    for i in range(L):
-                        w[i] = 0.0
-                    for q in range(nw):
-                        c = wc[q]
-                        if c == 0.0:  # the output row reads the last section only
-                            continue
-                        for i in range(L):
-                            w[i] += c * xw[s, q, i]
                     b = 4 * s
                     for i in range(L):
                         a = y[s, i]
+                        u = aprev[s, i]
                         aprev[s, i] = a
-                        wi = w[i] + wd * a
+                        x0 = xw[s, 0, i]
+                        x1 = xw[s, 1, i]
+                        x2 = xw[s, 2, i]
+                        x3 = xw[s, 3, i]
+                        x4 = xw[s, 4, i]
+                        x5 = xw[s, 5, i]
+                        x6 = xw[s, 6, i]
+                        x7 = xw[s, 7, i]
+                        n0 = (p0[0] * x0 + p0[1] * x1) + (g0 * u + h0 * a)
+                        n1 = (p1[0] * x0 + p1[1] * x1) + (g1 * u + h1 * a)
+                        n2 = (p2[0] * x0 + p2[1] * x1 + p2[2] * x2 + p2[3] * x3) + (g2 * u + h2 * a)
+                        n3 = (p3[0] * x0 + p3[1] * x1 + p3[2] * x2 + p3[3] * x3) + (g3 * u + h3 * a)
+                        n4 = (
+                            p4[0] * x0
+                            + p4[1] * x1
+                            + p4[2] * x2
+                            + p4[3] * x3
+                            + p4[4] * x4
+                            + p4[5] * x5
+                        ) + (g4 * u + h4 * a)
+                        n5 = (
+                            p5[0] * x0
+                            + p5[1] * x1
+                            + p5[2] * x2
+                            + p5[3] * x3
+                            + p5[4] * x4
+                            + p5[5] * x5
+                        ) + (g5 * u + h5 * a)
+                        n6 = (
+                            p6[0] * x0
+                            + p6[1] * x1
+                            + p6[2] * x2
+                            + p6[3] * x3
+                            + p6[4] * x4
+                            + p6[5] * x5
+                            + p6[6] * x6
+                            + p6[7] * x7
+                        ) + (g6 * u + h6 * a)
+                        n7 = (
+                            p7[0] * x0
+                            + p7[1] * x1
+                            + p7[2] * x2
+                            + p7[3] * x3
+                            + p7[4] * x4
+                            + p7[5] * x5
+                            + p7[6] * x6
+                            + p7[7] * x7
+                        ) + (g7 * u + h7 * a)
+                        xw[s, 0, i] = n0
+                        xw[s, 1, i] = n1
+                        xw[s, 2, i] = n2
+                        xw[s, 3, i] = n3
+                        xw[s, 4, i] = n4
+                        xw[s, 5, i] = n5
+                        xw[s, 6, i] = n6
+                        xw[s, 7, i] = n7
+                        wi = (
+                            c0 * n0
+                            + c1 * n1
+                            + c2 * n2
+                            + c3 * n3
+                            + c4 * n4
+                            + c5 * n5
+                            + c6 * n6
+                            + c7 * n7
+                        ) + wd * a
                         w2 = wi * wi
                         acc[b, i] += w2
                         acc[b + 1, i] += w2 * w2
@@ -242,6 +299,46 @@ def pack(M, gz, gv, road) -> KernelInputs:
     return KernelInputs(lanes(M), lanes(gz), lanes(gv), lanes(np.asarray(road, np.int64)), c)
 
 
+def _padded(a) -> tuple:
+    """``a`` as a tuple of :data:`WK_STATES` floats, zeros after its entries."""
+    return tuple(float(e) for e in np.concatenate([a, np.zeros(WK_STATES - len(a))]))
+
+
+def _sections(wk, rest: bool = False) -> tuple:
+    """The weighting's step as the loop reads it: ``(rows of Phi, g_prev, g_next)``.
+
+    Row ``r`` of ``Phi`` becomes a tuple of its first ``2 (r // 2 + 1)`` entries,
+    those at and past ``wk.reads[r]`` set to zero (the loop adds their zero products,
+    which leaves every sum as it is); ``g_prev`` and ``g_next`` are padded with zeros
+    to :data:`WK_STATES` entries. With ``rest``, the same shapes all zero: the step
+    that keeps the filter at rest over the first sample.
+    """
+    n = wk.Phi.shape[0]
+    reads = np.asarray(wk.reads, np.int64)
+    width = 2 * (np.arange(WK_STATES) // 2 + 1)
+    if n > WK_STATES or np.any(reads > width[:n]):
+        raise ValueError(
+            f"the weighting does not fit the loop: at most {WK_STATES} states, row r "
+            f"reading at most 2 (r // 2 + 1) of them; got reads {reads.tolist()}"
+        )
+    Phi = np.zeros((WK_STATES, WK_STATES))
+    if not rest:
+        for r in range(n):
+            Phi[r, : reads[r]] = wk.Phi[r, : reads[r]]
+    rows = tuple(tuple(float(e) for e in Phi[r, : width[r]]) for r in range(WK_STATES))
+    zero = np.zeros(n)
+    return (
+        rows,
+        _padded(zero if rest else wk.g_prev),
+        _padded(zero if rest else wk.g_next),
+    )
+
+
+def _output(wk) -> tuple:
+    """The weighting's output row ``c`` padded to :data:`WK_STATES` entries."""
+    return _padded(np.asarray(wk.c, float))
+
+
 def run(inputs: KernelInputs, z, v, wk, window: int, record: bool = False):
     """Step every case over all samples; the running sums (and histories).
 
@@ -253,7 +350,8 @@ def run(inputs: KernelInputs, z, v, wk, window: int, record: bool = False):
         Road displacement (m) and velocity (m/s) at every sample.
     wk : bodyvib.comfort.stream.WeightingStep
         The discretized Wk weighting (:meth:`bodyvib.comfort.stream.WkFilter.step`);
-        row ``r`` of its step reads the first ``reads[r]`` states.
+        row ``r`` of its step reads the first ``reads[r]`` states. At most
+        :data:`WK_STATES` states, row ``r`` reading at most ``2 (r // 2 + 1)``.
     window : int
         Samples of the MTVV's running window.
     record : bool
@@ -295,11 +393,9 @@ def run(inputs: KernelInputs, z, v, wk, window: int, record: bool = False):
         # a sample of every road in one row: the lanes read them together
         np.ascontiguousarray(np.transpose(z), float),
         np.ascontiguousarray(np.transpose(v), float),
-        np.ascontiguousarray(wk.Phi, float),
-        np.asarray(wk.reads, np.int64),
-        np.ascontiguousarray(wk.g_prev, float),
-        np.ascontiguousarray(wk.g_next, float),
-        np.ascontiguousarray(wk.c, float),
+        _sections(wk),
+        _sections(wk, rest=True),
+        _output(wk),
         float(wk.d),
         int(window),
         sums,
