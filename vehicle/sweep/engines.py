@@ -48,7 +48,7 @@ from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import linear_model
 
 from ..quarter_car import seated_system, wheel_offsets
-from ..road.driven import RunSettings, driven_road, wheel_inputs
+from ..road.driven import driven_road, wheel_inputs
 from ..road.synthetic import ISO8608_CLASSES, N_BAND, displacement_psd, road_input
 from . import kernel
 from .kernel import SUMS
@@ -148,16 +148,7 @@ def case_road_input(case: Case):
     >>> z.shape
     (2001,)
     """
-    road = driven_road(
-        RunSettings(
-            road=case.road,
-            speed_m_s=case.speed,
-            duration_s=case.duration,
-            step_s=case.step,
-            seed=case.seed,
-            road_options=case.road_settings(),
-        )
-    )
+    road = driven_road(case.run_settings())
     t = np.arange(case.steps) * case.step
     return road_input(road, case.speed, t)
 
@@ -177,16 +168,7 @@ def case_wheel_inputs(case: Case, behind=(0.0,)):
     z, v : (steps, wheels) ndarray
         m, m/s at ``t_k = k * step`` (:func:`bodyvib.vehicle.road.driven.wheel_inputs`).
     """
-    road = driven_road(
-        RunSettings(
-            road=case.road,
-            speed_m_s=case.speed,
-            duration_s=case.duration,
-            step_s=case.step,
-            seed=case.seed,
-            road_options=case.road_settings(),
-        )
-    )
+    road = driven_road(case.run_settings())
     return wheel_inputs(road, case.speed, np.arange(case.steps) * case.step, behind)
 
 

@@ -163,6 +163,19 @@ class Case:
 
         return RoadOptions(**dict(self.road_options))
 
+    def run_settings(self):
+        """The :class:`bodyvib.vehicle.road.driven.RunSettings` of this case's run."""
+        from ..road.driven import RunSettings
+
+        return RunSettings(
+            road=self.road,
+            speed_m_s=self.speed,
+            duration_s=self.duration,
+            step_s=self.step,
+            seed=self.seed,
+            road_options=self.road_settings(),
+        )
+
     def body_network(self):
         """The body model with this case's parameter values."""
         net = load_model(self.body_model)
