@@ -71,6 +71,7 @@ from typing import (
     Any,
     Collection,
     Dict,
+    Iterator,
     List,
     Mapping,
     Sequence,
@@ -559,22 +560,28 @@ def _forces(items: object, where: str, element_names: Collection[str], base: str
     return dict(items)
 
 
+def _objects(
+    items: object, where: str, key: str, fields: Sequence[str]
+) -> Iterator[Tuple[str, Dict[str, Any]]]:
+    """The entries of a list field ``key`` whose entries are objects of exactly ``fields``,
+    each with its place in the file (for messages); refuses any other shape."""
+    if not isinstance(items, list):
+        raise BodyvibError(
+            f"{where}: '{key}' must be a list of objects with fields {', '.join(fields)}"
+        )
+    for i, item in enumerate(items):
+        w = f"{where}: {key}[{i}]"
+        if not isinstance(item, dict) or set(item) != set(fields):
+            raise BodyvibError(f"{w} must be an object with exactly the fields {', '.join(fields)}")
+        yield w, item
+
+
 def _actuators(
     items: object, where: str, force_inputs: Collection[str]
 ) -> Tuple[Dict[str, str], ...]:
     """Validate ``actuators``: a list of ``{"name", "from", "to"}`` between force inputs."""
-    if not isinstance(items, list):
-        raise BodyvibError(
-            f"{where}: 'actuators' must be a list of objects with fields "
-            f"{', '.join(_ACTUATOR_FIELDS)}"
-        )
     out, names = [], set()
-    for i, item in enumerate(items):
-        w = f"{where}: actuators[{i}]"
-        if not isinstance(item, dict) or set(item) != set(_ACTUATOR_FIELDS):
-            raise BodyvibError(
-                f"{w} must be an object with exactly the fields {', '.join(_ACTUATOR_FIELDS)}"
-            )
+    for w, item in _objects(items, where, "actuators", _ACTUATOR_FIELDS):
         name, lower, upper = item["name"], item["from"], item["to"]
         if not isinstance(name, str) or (name and not PARAMETER_NAME.match(name)):
             raise BodyvibError(f"{w}.name must be empty or a plain name (letters, digits, _)")
@@ -604,18 +611,8 @@ def _fmu_outputs(
     bodies: Collection[str] = (),
 ) -> Tuple[Dict[str, str], ...]:
     """Validate ``fmu_outputs``: each an object of name, signal, unit, description."""
-    if not isinstance(items, list):
-        raise BodyvibError(
-            f"{where}: 'fmu_outputs' must be a list of objects with fields "
-            f"{', '.join(_FMU_OUTPUT_FIELDS)}"
-        )
     out, names = [], set()
-    for i, item in enumerate(items):
-        w = f"{where}: fmu_outputs[{i}]"
-        if not isinstance(item, dict) or set(item) != set(_FMU_OUTPUT_FIELDS):
-            raise BodyvibError(
-                f"{w} must be an object with exactly the fields {', '.join(_FMU_OUTPUT_FIELDS)}"
-            )
+    for w, item in _objects(items, where, "fmu_outputs", _FMU_OUTPUT_FIELDS):
         for key in _FMU_OUTPUT_FIELDS:
             if not isinstance(item[key], str) or not item[key]:
                 raise BodyvibError(f"{w}.{key} must be a non-empty string")
