@@ -20,10 +20,15 @@ per FMU:
   and thread-CPU ns per step, their ratio FMU / plain, and the largest relative difference
   of the outputs (the same step);
 * times ``--steps`` FMU steps one by one with the time-stamp counter, after a warm-up, the
-  counter's own cost subtracted, memory locked (``mlockall``): median, 99th, 99.9th and
-  99.99th percentile and the worst step, the steps slower than 3x the median, and what the
-  host's core and thread went through meanwhile (interrupts from ``/proc/interrupts``,
-  involuntary context switches);
+  counter's own cost subtracted, memory locked (``mlockall``), each followed by a plain
+  step timed the same way: median, 99th, 99.9th and 99.99th percentile and the worst step
+  of both, the steps slower than 3x their median, and what the host's core and thread went
+  through meanwhile (interrupts from ``/proc/interrupts``, involuntary context switches).
+  The durations are counted in a histogram of counter ticks (a few cache lines, where a
+  list of 1e6 durations would take the timed steps through a new memory page every 512
+  steps), and each step's inputs are copied to the host's stack before its clock starts. The
+  plain steps' tail is the machine's own for arithmetic of that size: where it is as long
+  as the FMU's, the slow steps are the machine's, not the FMU's;
 * counts what a step does besides arithmetic: malloc/calloc/realloc/free calls while
   stepping (the host interposes them), system calls (``strace -c`` of 1e3 against 1e5
   steps: equal totals mean none per step), and the lock functions the binary imports
@@ -165,13 +170,15 @@ def measure(exe, fmi, binary, token, sv, gv, data, steps, repeats, prefix=()) ->
     res["ratio_cpu"] = float(np.median(rounds[:, 2] / rounds[:, 3]))
     for ln in text.splitlines():
         key, *vals = ln.split()
-        if key == "latency":
-            res["p50"], res["p99"], res["p999"], res["p9999"], res["max"] = map(float, vals)
+        if key in ("latency", "latency_plain"):
+            pre = "" if key == "latency" else "plain_"
+            names = ("p50", "p99", "p999", "p9999", "max", "outliers")
+            res.update({pre + n: float(v) for n, v in zip(names, vals)})
         elif key in ("interrupts", "switches"):
             res[key] = tuple(map(int, vals))
         elif key == "latency_clock":
             res[key], res["resolution"] = map(float, vals)
-        elif key in ("allocations", "check", "outliers", "locked", "stolen"):
+        elif key in ("allocations", "check", "locked", "stolen"):
             res[key] = float(vals[0])
     return res
 
@@ -228,30 +235,35 @@ def syscalls(exe, args, folder: Path) -> tuple:
 
 
 def print_worst(rows, steps: int) -> None:
-    """The distribution of single steps, and what the slow ones coincided with."""
+    """The distribution of single steps, FMU and plain loop, and what the slow ones met."""
     r0 = rows[0][2]
     print(
-        f"single FMU steps ({steps} after a warm-up, time-stamp counter in steps of "
-        f"{r0['resolution']:.1f} ns, its own {r0['latency_clock']:.1f} ns subtracted; memory "
-        f"locked: {r0['locked'] == 1}), ns:"
+        f"single steps ({steps} after a warm-up, each FMU step followed by a plain step, both "
+        f"timed; time-stamp counter in steps of {r0['resolution']:.1f} ns, its own "
+        f"{r0['latency_clock']:.1f} ns subtracted; memory locked: {r0['locked'] == 1}), ns:"
     )
     print(
         f"  {'FMU':17s} {'FMI':>3s} | {'p50':>5s} {'p99':>5s} {'p99.9':>6s} {'p99.99':>7s} "
-        f"{'max':>9s} {'p99.99/p50':>10s} | {'>3x p50':>7s} {'interrupts':>10s} {'(timer)':>7s} "
+        f"{'max':>9s} {'p99.99/p50':>10s} {'>3x p50':>7s} | {'plain p50':>9s} {'p99.99':>7s} "
+        f"{'p99.99/p50':>10s} {'>3x p50':>7s} | {'interrupts':>10s} {'(timer)':>7s} "
         f"{'preempted':>9s} {'stolen ms':>9s}"
     )
     for name, fmi, r in rows:
         irq, timer = r["interrupts"]
         print(
             f"  {name:17s} {fmi:3d} | {r['p50']:5.1f} {r['p99']:5.1f} {r['p999']:6.1f} "
-            f"{r['p9999']:7.1f} {r['max']:9.0f} {r['p9999'] / r['p50']:10.1f} | "
-            f"{r['outliers']:7.0f} {irq:10d} {timer:7d} {r['switches'][1]:9d} {r['stolen']:9.0f}"
+            f"{r['p9999']:7.1f} {r['max']:9.0f} {r['p9999'] / r['p50']:10.1f} "
+            f"{r['outliers']:7.0f} | {r['plain_p50']:9.1f} {r['plain_p9999']:7.1f} "
+            f"{r['plain_p9999'] / r['plain_p50']:10.1f} {r['plain_outliers']:7.0f} | "
+            f"{irq:10d} {timer:7d} {r['switches'][1]:9d} {r['stolen']:9.0f}"
         )
     print(
-        "  >3x p50: steps slower than 3 times the median; interrupts: taken by the host's core "
-        "during those steps (/proc/interrupts; timer: the local timer's); preempted: "
-        "involuntary context switches of the host's thread; stolen: the core's time the "
-        "virtual machine's host took meanwhile (/proc/stat, 10 ms ticks)"
+        "  >3x p50: steps slower than 3 times their median; plain: the plain loop's steps, "
+        "timed in the same loop (the machine's own tail for arithmetic of that size); "
+        "interrupts: taken by the host's core during those steps (/proc/interrupts; timer: "
+        "the local timer's); preempted: involuntary context switches of the host's thread; "
+        "stolen: the core's time the virtual machine's host took meanwhile (/proc/stat, 10 ms "
+        "ticks)"
     )
 
 

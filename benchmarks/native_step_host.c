@@ -5,9 +5,10 @@
  *     native_step_host MODE FMI BINARY TOKEN SET_VRS GET_VRS H STEPS REPEATS DATA
  *
  * MODE     time      REPEATS rounds, each one loop of STEPS FMU steps and one of STEPS
- *                    plain steps (interleaved, so both see the same load); then one loop of
- *                    STEPS FMU steps timed step by step (percentiles), and the number of
- *                    malloc/calloc/realloc/free calls made while stepping.
+ *                    plain steps (interleaved, so both see the same load); then STEPS FMU
+ *                    steps each followed by a plain step, both timed one by one
+ *                    (percentiles), and the number of malloc/calloc/realloc/free calls made
+ *                    in the FMU's steps.
  *          fmu       STEPS FMU steps only, untimed (fmu_loop)    } for instruction counts
  *          plain     STEPS plain steps only, untimed (plain_loop) } (valgrind --tool=callgrind)
  * FMI      2 or 3
@@ -23,15 +24,15 @@
  *          into this host (-DBV_ROAD_TABLE with the FMU's own sources/bodyvib_model.c).
  *
  * Output lines: "round fmu_ns plain_ns fmu_cpu_ns plain_cpu_ns" per round (ns per step);
- * "latency p50 p99 p99.9 p99.99 max" (ns, FMU steps timed one by one with the time-stamp
- * counter after a warm-up, the counter's own cost subtracted), "latency_clock COST
- * RESOLUTION" (ns: two reads, the smallest step the counter makes), "outliers N" (steps above 3x the median), "interrupts ALL TIMER" (taken by
- * this core during those steps), "switches VOLUNTARY INVOLUNTARY" (of this thread, then),
+ * "latency p50 p99 p99.9 p99.99 max outliers" and "latency_plain ..." (ns, single FMU and
+ * plain steps timed with the time-stamp counter after a warm-up, the counter's own cost
+ * subtracted; outliers: steps above 3x their median), "latency_clock COST RESOLUTION" (ns:
+ * two reads, the smallest step the counter makes), "interrupts ALL TIMER" (taken by this
+ * core during those steps), "switches VOLUNTARY INVOLUNTARY" (of this thread, then),
  * "stolen MS" (this core's time the virtual machine's host took then, ms; -1 unknown),
- * "latency_plain_ticks" (median plain step, counter ticks), "locked 0|1" (mlockall),
- * "allocations N" (calls while stepping), "check D" (a pass of STEPS steps of both side by
- * side after the rounds: the largest difference of an output over its largest
- * magnitude). The inputs are precomputed (a 1.7 Hz sine and its
+ * "locked 0|1" (mlockall), "allocations N" (calls in the timed FMU steps), "check D" (a
+ * pass of STEPS steps of both side by side after the rounds: the largest difference of an
+ * output over its largest magnitude). The inputs are precomputed (a 1.7 Hz sine and its
  * derivatives), so a step costs only the FMU.
  */
 #define _GNU_SOURCE
@@ -458,6 +459,51 @@ static long stolen(int cpu)
     return found;
 }
 
+/* Durations of single steps in counter ticks, counted per tick (the last bin: that many
+ * or more), and the longest: a few cache lines touched, where an array of 1e6 durations
+ * would take the timed steps through a new page every 512 steps. */
+#define HIST_BINS 65536
+typedef struct {
+    unsigned bin[HIST_BINS];
+    uint64_t top;
+} Hist;
+static Hist hist[2]; /* the FMU's steps, the plain loop's */
+
+static inline void count(Hist *hs, uint64_t d)
+{
+    hs->bin[d < HIST_BINS ? d : HIST_BINS - 1]++;
+    hs->top = d > hs->top ? d : hs->top;
+}
+
+/* The q-quantile of the `total` durations counted in hs (ticks). */
+static double percentile(const Hist *hs, long total, double q)
+{
+    long k, seen = 0, rank = (long)(q * (double)total);
+    for (k = 0; k < HIST_BINS; k++) {
+        seen += hs->bin[k];
+        if (seen > rank)
+            return (double)k;
+    }
+    return (double)(HIST_BINS - 1);
+}
+
+/* "KEY p50 p99 p99.9 p99.99 max outliers": ns, the clock's own cost subtracted; outliers:
+ * the steps slower than 3 times the median. */
+static void report(const char *key, const Hist *hs, long total, double clock_ticks,
+                   double tick_ns)
+{
+    double q[4] = {0.5, 0.99, 0.999, 0.9999}, v[4];
+    long k, outliers = 0;
+    int j;
+    for (j = 0; j < 4; j++)
+        v[j] = (percentile(hs, total, q[j]) - clock_ticks) * tick_ns;
+    for (k = 0; k < HIST_BINS; k++)
+        if (((double)k - clock_ticks) * tick_ns > 3 * v[0])
+            outliers += hs->bin[k];
+    printf("%s %.1f %.1f %.1f %.1f %.0f %ld\n", key, v[0], v[1], v[2], v[3],
+           ((double)hs->top - clock_ticks) * tick_ns, outliers);
+}
+
 static int cmp(const void *a, const void *b)
 {
     double x = *(const double *)a, y = *(const double *)b;
@@ -553,7 +599,7 @@ int main(int argc, char **argv)
            * predictors), the counter's own cost (two reads with nothing between, median)
            * subtracted; the interrupts this core took and the thread's context switches
            * during the loop, to name what the slowest steps waited for */
-            long irq0, irq1, loc0, loc1, st0, st1, outliers = 0;
+            long irq0, irq1, loc0, loc1, st0, st1;
             int cpu = sched_getcpu();
             struct rusage r0, r1;
             double w0, w1, tick_ns, clock_ticks, step = 1e300;
@@ -576,50 +622,42 @@ int main(int argc, char **argv)
                 fmu_step(&f, sv, ns, in + (k % steps) * ns, t_fmu, h, gv, ng, out);
                 t_fmu += h;
             }
+            memset(hist, 0, sizeof hist);
             interrupts(cpu, &irq0, &loc0);
             st0 = stolen(cpu);
             getrusage(RUSAGE_THREAD, &r0);
             w0 = now(CLOCK_MONOTONIC), k0 = ticks();
-            counting = 1;
             for (k = 0; k < steps; k++) {
-                double out[16];
-                uint64_t a = ticks();
-                fmu_step(&f, sv, ns, in + k * ns, t_fmu, h, gv, ng, out);
-                lat[k] = (double)(ticks() - a);
+                double out[16], u[16];
+                uint64_t a, d;
+                for (r = 0; r < ns; r++) /* the step's inputs at hand, as a host has them */
+                    u[r] = in[k * ns + r];
+                counting = 1;
+                a = ticks();
+                fmu_step(&f, sv, ns, u, t_fmu, h, gv, ng, out);
+                d = ticks() - a;
+                counting = 0;
+                count(&hist[0], d);
                 t_fmu += h;
                 sink += out[0];
+                a = ticks();
+                plain_step(&p, u, h, out);
+                d = ticks() - a;
+                count(&hist[1], d);
+                sink += out[0];
             }
-            counting = 0;
             k1 = ticks(), w1 = now(CLOCK_MONOTONIC);
             getrusage(RUSAGE_THREAD, &r1);
             st1 = stolen(cpu);
             interrupts(cpu, &irq1, &loc1);
             tick_ns = (w1 - w0) / (double)(k1 - k0);
-            for (k = 0; k < steps; k++)
-                lat[k] = (lat[k] - clock_ticks) * tick_ns;
-            qsort(lat, (size_t)steps, sizeof *lat, cmp);
-            for (k = 0; k < steps; k++)
-                outliers += lat[k] > 3 * lat[steps / 2];
-            printf("latency %.1f %.1f %.1f %.1f %.0f\n", lat[steps / 2],
-                   lat[(long)(steps * 0.99)], lat[(long)(steps * 0.999)],
-                   lat[(long)(steps * 0.9999)], lat[steps - 1]);
+            report("latency", &hist[0], steps, clock_ticks, tick_ns);
+            report("latency_plain", &hist[1], steps, clock_ticks, tick_ns);
             printf("latency_clock %.1f %.1f\n", clock_ticks * tick_ns, step * tick_ns);
-            printf("outliers %ld\n", outliers);
             printf("interrupts %ld %ld\n", irq0 < 0 ? -1 : irq1 - irq0, loc0 < 0 ? -1 : loc1 - loc0);
             printf("switches %ld %ld\n", r1.ru_nvcsw - r0.ru_nvcsw, r1.ru_nivcsw - r0.ru_nivcsw);
             printf("stolen %.0f\n", st0 < 0 || st1 < 0 ? -1.0 : (st1 - st0) * 1e3 / sysconf(_SC_CLK_TCK));
         }
-        /* the same for the plain loop: medians of single steps are what a loaded machine
-         * disturbs least */
-        for (k = 0; k < steps; k++) {
-            double out[16];
-            uint64_t a = ticks();
-            plain_step(&p, in + k * ns, h, out);
-            lat[k] = (double)(ticks() - a);
-            sink += out[0];
-        }
-        qsort(lat, (size_t)steps, sizeof *lat, cmp);
-        printf("latency_plain_ticks %.1f\n", lat[steps / 2]);
         printf("allocations %ld\n", allocations);
         printf("check %.3g\n", diff);
     }
