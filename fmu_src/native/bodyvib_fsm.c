@@ -150,7 +150,6 @@ void bv_common_initialized(bv_common *b)
 bv_status bv_common_step_check(bv_common *b, double t, double h)
 {
     char text[32], text2[32];
-    double at = fabs(b->time);
     if (!(h > 0.0 && h < INFINITY)) {
         bv_say(b, BV_ERROR, "%s: communication step size must be positive and finite, got %s s",
                b->name, bv_shortest(h, text));
@@ -164,9 +163,7 @@ bv_status bv_common_step_check(bv_common *b, double t, double h)
                                 "ExitInitializationMode first", b->name);
         return BV_ERROR;
     }
-    /* the step starts where the last one ended (or at the start time): a host whose clock
-     * differs by more than rounding is out of step with the model */
-    if (!(fabs(t - b->time) <= 1e-9 * (at > 1.0 ? at : 1.0))) {
+    if (!bv_common_on_time(b, t)) {
         bv_say(b, BV_ERROR, "%s: DoStep from t = %s s, but the model is at t = %s s (the start "
                             "time or the end of the last step); step refused, state unchanged",
                b->name, bv_shortest(t, text), bv_shortest(b->time, text2));
