@@ -55,7 +55,6 @@ struct bv_instance {
     double *x, *s;
     double *x_prev, *h_prev; /* per fallback pair: displacement and step at the last DoStep */
     unsigned char *has_prev, *vel_set, *slope_on, *warned;
-    unsigned char *is_rate; /* [ni] 1: the input is the velocity of a fallback pair */
     /* a refused step restores these: the fallback bookkeeping and the inputs */
     double *save_x_prev, *save_h_prev, *save_s;
     unsigned char *save_flags;
@@ -635,7 +634,7 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
     nd += 3 * (size_t)np1 + 3 * ((size_t)n + ni);                /* saved bookkeeping, zd */
     d = calloc(nd, sizeof *d);
     c->piv = calloc((size_t)N + 1, sizeof *c->piv);
-    c->has_prev = calloc(8 * (size_t)np1 + ni, 1);
+    c->has_prev = calloc(8 * (size_t)np1, 1);
     if (d == NULL || c->piv == NULL || c->has_prev == NULL) {
         free(d);
         free(c->piv);
@@ -647,9 +646,6 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
     c->slope_on = c->vel_set + np1;
     c->warned = c->slope_on + np1;
     c->save_flags = c->warned + np1; /* 4 np1: has_prev, vel_set, slope_on, warned */
-    c->is_rate = c->save_flags + 4 * (size_t)np1;
-    for (k = 0; k < md->npairs; k++)
-        c->is_rate[md->pairs[k].rate] = 1;
     c->p = d; d += np;
     c->p_built = d; d += np;
     c->A = d; d += (size_t)n * n;
@@ -794,6 +790,9 @@ static BV_COLD bv_status set_general(bv_instance *c, const unsigned int vr[], si
     const unsigned int nvars = (unsigned int)md->nvars;
     bv_status status = BV_OK;
     size_t i;
+    for (i = 0; i < nvr; i++)
+        if (bv_common_is_time(&c->bc, vr[i]))
+            return bv_common_time_not_settable(&c->bc);
     /* an unknown value reference refuses the call: nothing set (the contract's variables
      * are below nvars, the model-exchange ones above) */
     for (i = 0; i < nvr; i++)
@@ -857,6 +856,10 @@ static BV_COLD bv_status get_general(bv_instance *c, const unsigned int vr[], si
     size_t i;
     follow_parameters(c);
     for (i = 0; i < nvr; i++) {
+        if (bv_common_is_time(&c->bc, vr[i])) {
+            value[i] = c->bc.time;
+            continue;
+        }
         if (vr[i] >= nvars) { /* a model-exchange variable, or none */
             int me = me_var_get(c, vr[i], &value[i]);
             if (me < 0)

@@ -139,6 +139,9 @@ void bv_terminate(bv_instance *c);
 /* Model exchange: a model-exchange instance (set once, after bv_new) is in Event Mode after
  * initialization; bv_me_enter changes between BV_EVENT and BV_STEPPING (Continuous-Time). */
 void bv_set_model_exchange(bv_instance *c);
+/* FMI 3.0's independent variable time, value reference vr (set once, after bv_new): bv_get
+ * reads it as the model's time, bv_set refuses it (before anything is set). */
+void bv_set_time_variable(bv_instance *c, unsigned int vr);
 void bv_me_enter(bv_instance *c, int mode);
 
 /* The standard's interpolation interface.

@@ -38,6 +38,7 @@ void bv_common_init(bv_common *b, const bv_model *md, const char *name, bv_log_f
 {
     b->md = md;
     b->me = 0;
+    b->time_vr = -1;
     snprintf(b->name, sizeof b->name, "%s", name ? name : md->model_name);
     b->log = log;
     b->env = env;
@@ -80,6 +81,14 @@ static const int MODES[] = {BV_INSTANTIATED, BV_INITIALIZATION, BV_EVENT, BV_STE
                             BV_TERMINATED, BV_FAILED};
 
 void bv_set_model_exchange(bv_instance *c) { BV_COMMON(c)->me = 1; }
+
+void bv_set_time_variable(bv_instance *c, unsigned int vr) { BV_COMMON(c)->time_vr = vr; }
+
+bv_status bv_common_time_not_settable(const bv_common *b)
+{
+    bv_say(b, BV_ERROR, "time is the independent variable and cannot be set");
+    return BV_ERROR;
+}
 
 void bv_me_enter(bv_instance *c, int mode) { BV_COMMON(c)->mode = mode; }
 

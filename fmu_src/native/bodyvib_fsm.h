@@ -26,6 +26,9 @@
 typedef struct {
     int mode;           /* first (BV_STATE_IS): BV_INSTANTIATED .. BV_EVENT, the FMI state */
     int me;             /* a model-exchange instance: Event and Continuous-Time Mode */
+    int64_t time_vr;    /* the value reference of the independent variable time, which reads
+                         * as the model's time and cannot be set (FMI 3.0:
+                         * bv_set_time_variable); -1: none (FMI 2.0) */
     const bv_model *md;
     char name[128];
     bv_log_fn log;
@@ -81,6 +84,13 @@ static inline int bv_common_on_time(const bv_common *b, double t)
  * Instantiated / InitializationMode. */
 void bv_common_restored(bv_common *b, double time, int initialized, int init_failed,
                         const char *fix);
+/* Whether vr is the independent variable time (b->time_vr). */
+static inline int bv_common_is_time(const bv_common *b, unsigned int vr)
+{
+    return (int64_t)vr == b->time_vr;
+}
+/* Set of the independent variable time: refused, logged (BV_ERROR). */
+bv_status bv_common_time_not_settable(const bv_common *b);
 /* A value reference the model has (logged and 0 if not). */
 int bv_common_check_vr(const bv_common *b, unsigned int vr);
 /* A value may be set for the model's variable vr now: an input, or a parameter before
