@@ -494,10 +494,12 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
     NEED(earlyReturn, 1);
     NEED(lastSuccessfulTime, 1);
     (void)noSetFMUStatePriorToCurrentPoint;
-    s = bv_step(f->core, currentCommunicationPoint, communicationStepSize);
+    /* the flags first: after the step only the time is left to write, so that little is kept
+     * across the call */
     *eventHandlingNeeded = fmi3False;
     *terminateSimulation = fmi3False;
     *earlyReturn = fmi3False;
+    s = bv_step(f->core, currentCommunicationPoint, communicationStepSize);
     *lastSuccessfulTime = bv_time(f->core);
     return st(s);
 }
