@@ -246,7 +246,8 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
  * rate speed * dz_k/dp. */
 BV_HOT_INLINE double output_value(const bv_instance *c, int idx)
 {
-    return idx % 2 == 0 ? c->z[idx / 2] : c->speed * c->dz[idx / 2];
+    unsigned int k = (unsigned int)idx; /* >= 0: halves and parity as shifts */
+    return k & 1u ? c->speed * c->dz[k >> 1] : c->z[k >> 1];
 }
 
 /* bv_get of a request that is not outputs only: the speed, the time (FMI 3.0), refusals
