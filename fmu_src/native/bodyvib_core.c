@@ -758,9 +758,9 @@ static inline void set_input(bv_instance *c, int idx, double v)
     BV_UNROLL
     for (k = 0; k < md->npairs; k++) /* the pairs are constants of this binary's model */
         if (md->pairs[k].rate == idx && v != 0.0) {
-                c->vel_set[k] = 1;
-                c->slope_on[k] = 0;
-            }
+            c->vel_set[k] = 1;
+            c->slope_on[k] = 0;
+        }
 }
 
 static BV_COLD bv_status set_general(bv_instance *c, const unsigned int vr[], size_t nvr,
