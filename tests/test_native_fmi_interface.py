@@ -412,3 +412,60 @@ def test_fmi3_time_reads_among_outputs_and_an_unknown_reference_refuses(native_f
     assert mixed == [alone[0], 0.25 + 1e-3, alone[1], 0.25 + 1e-3]
     assert refused == 3
     assert "no variable with value reference" in "\n".join(f.messages)
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_a_changed_step_size_steps_with_its_own_matrices(native_fmus, fmi):
+    """Steps of 1, 0.5, 1 and 2 ms in one run: the native step keeps the matrices of its
+    last step size and makes new ones when the size changes, so every output after every
+    step equals that of the library's FmuCore (its own exponential, in numpy) given the
+    same steps and inputs, to 1e-9 of the output's largest magnitude: the exponentials
+    agree to about 1e-14, and 200 steps of the damped 5-state recursion keep that far below
+    1e-9, while steps with another size's matrices are off by more than the outputs' own
+    size (measured with the step-size test of the fast path broken)."""
+    from bodyvib.runtime.engine import FmuCore
+
+    f = Raw(native_fmus["HumanBody3DOF" if fmi == 2 else "fmi3/HumanBody3DOF"])
+    core = FmuCore("body", load_model("reduced-paper"), "HumanBody3DOF")
+    names = [v.name for v in f.md.modelVariables if v.causality == "output"]
+    outs = [f.vr[n] for n in names]
+    ins = [f.vr[n] for n in ("seat_displacement", "seat_velocity", "seat_acceleration")]
+    core.initialize()
+    native, library, t = [], [], 0.0
+    try:
+        f.init()
+        for h in [1e-3] * 50 + [5e-4] * 50 + [1e-3] * 50 + [2e-3] * 50:
+            w = 2 * np.pi * 3.0
+            s = [0.01 * np.sin(w * t), 0.01 * w * np.cos(w * t), -0.01 * w * w * np.sin(w * t)]
+            f.set(dict(zip(("seat_displacement", "seat_velocity", "seat_acceleration"), s)))
+            core.set_real(ins, s)
+            f.fmu.doStep(t, h)
+            core.do_step(t, h)
+            native.append(f.get(names))
+            library.append(core.get_real(outs))
+            t += h
+    finally:
+        f.close()
+    native, library = np.array(native), np.array(library)
+    scale = np.abs(library).max(axis=0)
+    assert np.all(scale > 0)
+    np.testing.assert_array_less(np.abs(native - library).max(axis=0), 1e-9 * scale)
+
+
+@pytest.mark.parametrize("name", ["HumanBody3DOF", "QuarterCar"])
+def test_fmi3_time_cannot_be_set_and_a_request_with_it_sets_nothing(native_fmus, name):
+    """fmi3SetFloat64 of an input together with the independent variable time: Error, the
+    reason logged, the input keeps its value and the model its time."""
+    f = Raw(native_fmus[f"fmi3/{name}"])
+    first = next(v.name for v in f.md.modelVariables if v.causality == "input")
+    t = max(v.valueReference for v in f.md.modelVariables if v.name == "time")
+    try:
+        f.init(start=0.5)
+        f.set({first: 0.01})
+        refused = f.status("setFloat64", [f.vr[first], t], [0.02, 7.0])
+        after = f.fmu.getFloat64([f.vr[first], t])
+    finally:
+        f.close()
+    assert refused == 3
+    assert after == [0.01, 0.5]
+    assert any("time is the independent variable" in m for m in f.messages), f.messages

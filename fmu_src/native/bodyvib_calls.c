@@ -88,12 +88,9 @@ int bv_fmu_logs(const bv_fmu *f, int status)
     return (f->categories & (status == BV_ERROR ? BV_LOG_ERROR : BV_LOG_WARNING)) != 0;
 }
 
-int bv_fmu_arg(bv_fmu *f, const char *function, const char *name, const void *p, size_t n)
+void bv_fmu_null_arg(bv_fmu *f, const char *function, const char *name)
 {
-    if (p != NULL || n == 0)
-        return 1;
     bv_fmu_say(f, BV_ERROR, "%s: %s is NULL; call refused, nothing changed", function, name);
-    return 0;
 }
 
 int bv_fmu_finite(bv_fmu *f, const char *function, const char *name, const double v[],

@@ -81,9 +81,19 @@ bv_status bv_fmu_set_logging(bv_fmu *f, const char *function, int on, size_t n,
  * BV_ERROR, logStatusWarning for the others (the labels the wrappers give them). */
 int bv_fmu_logs(const bv_fmu *f, int status);
 
+/* A NULL pointer argument `name` of `function`: the refusal logged. */
+void bv_fmu_null_arg(bv_fmu *f, const char *function, const char *name) BV_COLD;
+
 /* A pointer argument of `function` that must not be NULL when the call reads or writes n > 0
  * entries through it (n = 1 for a single output): 1, or 0 with the refusal logged. */
-int bv_fmu_arg(bv_fmu *f, const char *function, const char *name, const void *p, size_t n);
+static inline int bv_fmu_arg(bv_fmu *f, const char *function, const char *name, const void *p,
+                             size_t n)
+{
+    if (BV_LIKELY(p != NULL || n == 0))
+        return 1;
+    bv_fmu_null_arg(f, function, name);
+    return 0;
+}
 
 /* Values that must be finite (a time, continuous states): 1, or 0 with the refusal logged
  * naming the first that is not. */
@@ -94,19 +104,25 @@ int bv_fmu_finite(bv_fmu *f, const char *function, const char *name, const doubl
 bv_status bv_fmu_unsupported(bv_fmu *f, const char *function, const char *why);
 
 /* A function called on an instance of the other interface: logged, 0. */
-int bv_fmu_wrong_interface(bv_fmu *f, const char *function);
+int bv_fmu_wrong_interface(bv_fmu *f, const char *function) BV_COLD;
 
 /* The entry of every FMI function: 1 when the instance exists, `function` belongs to its
  * interface and its state is in `mask`; otherwise 0, the reason logged (the wrapper returns
  * Error, nothing changed). Inline: the state test is on the hot path; bv_allowed (which
- * logs) runs only when it fails. */
+ * logs) runs only when it fails, and then the call is refused whatever it returns (it
+ * returns 0: the state is not in the mask), so that the hot path keeps nothing for it. */
 static inline int bv_fmu_enter(bv_fmu *f, const char *function, int mask)
 {
-    if (f == NULL)
+    if (BV_UNLIKELY(f == NULL))
         return 0;
-    if ((mask & BV_ME_ONLY && !f->me) || (mask & BV_CS_ONLY && f->me))
-        return bv_fmu_wrong_interface(f, function);
-    return BV_STATE_IS(f->core, mask) || bv_allowed(f->core, function, mask & BV_ANY_STATE);
+    if (BV_UNLIKELY((mask & BV_ME_ONLY && !f->me) || (mask & BV_CS_ONLY && f->me))) {
+        bv_fmu_wrong_interface(f, function);
+        return 0;
+    }
+    if (BV_LIKELY(BV_STATE_IS(f->core, mask)))
+        return 1;
+    bv_allowed(f->core, function, mask & BV_ANY_STATE);
+    return 0;
 }
 
 /* Values (real / Float64), input and output derivatives: the arrays the counts need. */

@@ -47,14 +47,14 @@ struct bv_instance {
     double *A2, *B2, *Yc2; /* candidates: build() fills these, checks them, then swaps */
     /* step cache */
     double h_key;       /* rounded step the matrices are for; 0: none */
-    double h_raw;       /* the last step size seen with that key (skips the rounding) */
+    double h_raw;       /* the last step size seen with that key (skips the rounding); NaN
+                         * while no key is valid, so that h == h_raw means "Sc, Ms are for h" */
     double *Sc;         /* [Phi | Gamma0 U + Gamma1 U R + Gamma2 U R^2] row-major: x <- Sc z */
     double *Ms;         /* I + h R + h^2/2 R^2 (ni x ni): s <- Ms s */
     /* what evolves: z = [x | s] contiguous; a step writes the next z into zn and swaps */
     double *x, *s;
     double *x_prev, *h_prev; /* per fallback pair: displacement and step at the last DoStep */
     unsigned char *has_prev, *vel_set, *slope_on, *warned;
-    unsigned char *is_rate; /* [ni] 1: the input is the velocity of a fallback pair */
     /* a refused step restores these: the fallback bookkeeping and the inputs */
     double *save_x_prev, *save_h_prev, *save_s;
     unsigned char *save_flags;
@@ -206,25 +206,42 @@ static void matvec(double *restrict out, const double *restrict M, const double 
         out[i] = dot(M + (size_t)i * cols, z, cols);
 }
 
-/* out = M z (n x n) over M's non-zero entries, with the accumulators of dot() by column
- * parity: the same sums as the dense product less its zero terms (which add nothing to a
- * finite sum). With n a constant the loops unroll and the parity is known per entry. */
-static inline void sparse_matvec(double *restrict out, const double *restrict M,
-                                 const double *restrict z, int n)
+/* Whether entry (i, j) of the inputs' step matrix Ms = I + h R + h^2/2 R^2 (ni x ni) can be
+ * non-zero: on the diagonal, or where R or R^2 has a non-zero entry. R is this binary's
+ * model's (HOT, a constant with link-time optimization), so the pattern is known where the
+ * step is compiled. */
+BV_HOT_INLINE int ms_entry(const bv_model *md, int i, int j)
 {
+    const int ni = md->ni;
+    int k, r2 = 0;
+    BV_UNROLL
+    for (k = 0; k < ni; k++)
+        r2 |= md->R[i * ni + k] != 0.0 && md->R[k * ni + j] != 0.0;
+    return i == j || md->R[i * ni + j] != 0.0 || r2;
+}
+
+/* out = Ms z (ni x ni) over the entries Ms can hold (ms_entry), with the accumulators of
+ * dot() by column parity: the same sums as the dense product less terms that are 0 z, which
+ * add nothing to a finite sum (a sum from +0 never is -0, so adding +-0 leaves it as it
+ * is); with z not finite the result is not finite either way, and the step is refused. With
+ * the model's sizes and R constants the loops unroll into the pattern's terms only. */
+BV_HOT_INLINE void ms_matvec(double *restrict out, const double *restrict M,
+                             const double *restrict z)
+{
+    const bv_model *md = HOT;
+    const int n = md->ni;
     int i, j;
     BV_UNROLL
     for (i = 0; i < n; i++) {
         double a = 0.0, b = 0.0;
         BV_UNROLL
         for (j = 0; j < n; j++) {
-            double v = M[(size_t)i * n + j];
-            if (v == 0.0)
+            if (!ms_entry(md, i, j))
                 continue;
             if (j & 1)
-                b += v * z[j];
+                b += M[(size_t)i * n + j] * z[j];
             else
-                a += v * z[j];
+                a += M[(size_t)i * n + j] * z[j];
         }
         out[i] = a + b;
     }
@@ -456,6 +473,7 @@ static int build(bv_instance *c, const double *p)
     swap = c->Yc, c->Yc = Yc, c->Yc2 = swap;
     memcpy(c->p_built, p, (size_t)c->np * sizeof(double));
     c->h_key = 0.0;
+    c->h_raw = NAN;
     return 1;
 }
 
@@ -512,7 +530,7 @@ static int discretize(bv_instance *c, double h)
     int N2 = n + 2 * m, N3 = n + 3 * m;
     double key, *E, *G, *T;
     const double *R = c->bc.md->R;
-    if (c->h_key != 0.0 && h == c->h_raw)
+    if (h == c->h_raw) /* NaN while no key is valid */
         return 1;
     key = round12(h);
     if (c->h_key == key) {
@@ -520,6 +538,7 @@ static int discretize(bv_instance *c, double h)
         return 1;
     }
     c->h_key = 0.0; /* Sc is rewritten below: no cache is valid until it is complete */
+    c->h_raw = NAN;
     E = c->work;
     G = E + 11 * (size_t)N3 * N3; /* past augmented()'s matrix and expm's work */
     T = G + (size_t)n * m;
@@ -615,7 +634,7 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
     nd += 3 * (size_t)np1 + 3 * ((size_t)n + ni);                /* saved bookkeeping, zd */
     d = calloc(nd, sizeof *d);
     c->piv = calloc((size_t)N + 1, sizeof *c->piv);
-    c->has_prev = calloc(8 * (size_t)np1 + ni, 1);
+    c->has_prev = calloc(8 * (size_t)np1, 1);
     if (d == NULL || c->piv == NULL || c->has_prev == NULL) {
         free(d);
         free(c->piv);
@@ -627,9 +646,6 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
     c->slope_on = c->vel_set + np1;
     c->warned = c->slope_on + np1;
     c->save_flags = c->warned + np1; /* 4 np1: has_prev, vel_set, slope_on, warned */
-    c->is_rate = c->save_flags + 4 * (size_t)np1;
-    for (k = 0; k < md->npairs; k++)
-        c->is_rate[md->pairs[k].rate] = 1;
     c->p = d; d += np;
     c->p_built = d; d += np;
     c->A = d; d += (size_t)n * n;
@@ -715,7 +731,7 @@ bv_status bv_initialize(bv_instance *c)
 }
 
 /* Parameters set before initialization: rebuild the model for them if valid. */
-static void follow_parameters(bv_instance *c);
+static BV_COLD void follow_parameters(bv_instance *c);
 
 /* Model-exchange variables (states, derivatives): me_var_get -1 if vr is not one, else a
  * bv_status; me_var_set only for one (is_me_var), a bv_status. */
@@ -739,29 +755,44 @@ static inline void set_input(bv_instance *c, int idx, double v)
     const bv_model *md = HOT;
     int k;
     c->s[idx] = v;
-    if (v != 0.0 && c->is_rate[idx])
-        for (k = 0; k < md->npairs; k++)
-            if (md->pairs[k].rate == idx) {
-                c->vel_set[k] = 1;
-                c->slope_on[k] = 0;
-            }
+    BV_UNROLL
+    for (k = 0; k < md->npairs; k++) /* the pairs are constants of this binary's model */
+        if (md->pairs[k].rate == idx && v != 0.0) {
+            c->vel_set[k] = 1;
+            c->slope_on[k] = 0;
+        }
 }
+
+static BV_COLD bv_status set_general(bv_instance *c, const unsigned int vr[], size_t nvr,
+                                     const double value[]);
 
 bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const double value[])
 {
     const bv_model *md = HOT;
     const unsigned int nvars = (unsigned int)md->nvars;
-    bv_status status = BV_OK;
     size_t i;
     /* the call of every step: inputs only (always settable), checked before any is set */
     for (i = 0; i < nvr; i++)
         if (vr[i] >= nvars || md->vr_kind[vr[i]] != BV_INPUT)
             break;
-    if (BV_LIKELY(i == nvr)) {
-        for (i = 0; i < nvr; i++)
-            set_input(c, md->vr_index[vr[i]], value[i]);
-        return BV_OK;
-    }
+    if (BV_UNLIKELY(i != nvr))
+        return set_general(c, vr, nvr, value);
+    for (i = 0; i < nvr; i++)
+        set_input(c, md->vr_index[vr[i]], value[i]);
+    return BV_OK;
+}
+
+/* bv_set of a request that is not inputs only: parameters, model-exchange states, refusals. */
+static BV_COLD bv_status set_general(bv_instance *c, const unsigned int vr[], size_t nvr,
+                                     const double value[])
+{
+    const bv_model *md = HOT;
+    const unsigned int nvars = (unsigned int)md->nvars;
+    bv_status status = BV_OK;
+    size_t i;
+    for (i = 0; i < nvr; i++)
+        if (bv_common_is_time(&c->bc, vr[i]))
+            return bv_common_time_not_settable(&c->bc);
     /* an unknown value reference refuses the call: nothing set (the contract's variables
      * are below nvars, the model-exchange ones above) */
     for (i = 0; i < nvr; i++)
@@ -788,16 +819,47 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
     return status;
 }
 
-bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double value[])
+/* Output idx, computed on read: y_idx = Yc_idx . [x | s]. */
+BV_HOT_INLINE double output_value(const bv_instance *c, int idx)
+{
+    const int w = HOT->n + HOT->ni;
+    return dot(c->Yc + (size_t)idx * w, c->x, w);
+}
+
+/* The value of a contract variable (vr < nvars): an output, an input (an unconnected
+ * velocity whose slope stands in reads as set: 0) or a parameter. */
+BV_HOT_INLINE double variable_value(const bv_instance *c, unsigned int vr)
+{
+    const bv_model *md = HOT;
+    int idx = md->vr_index[vr], kind = md->vr_kind[vr], k;
+    double v;
+    if (kind == BV_OUTPUT)
+        return output_value(c, idx);
+    if (kind != BV_INPUT)
+        return c->p[idx];
+    v = c->s[idx];
+    BV_UNROLL
+    for (k = 0; k < md->npairs; k++) /* the pairs are constants of this binary's model */
+        if (md->pairs[k].rate == idx && c->slope_on[k])
+            v = 0.0;
+    return v;
+}
+
+/* bv_get of a request the fast path does not finish: before initialization (the model
+ * follows the parameters set), the model-exchange variables, refusals (logged). */
+static BV_COLD bv_status get_general(bv_instance *c, const unsigned int vr[], size_t nvr,
+                                     double value[])
 {
     const bv_model *md = HOT;
     const unsigned int nvars = (unsigned int)md->nvars;
     bv_status status = BV_OK;
     size_t i;
-    int k;
     follow_parameters(c);
     for (i = 0; i < nvr; i++) {
-        int kind, idx;
+        if (bv_common_is_time(&c->bc, vr[i])) {
+            value[i] = c->bc.time;
+            continue;
+        }
         if (vr[i] >= nvars) { /* a model-exchange variable, or none */
             int me = me_var_get(c, vr[i], &value[i]);
             if (me < 0)
@@ -806,32 +868,41 @@ bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double val
                 return BV_ERROR;
             continue;
         }
-        kind = md->vr_kind[vr[i]];
-        idx = md->vr_index[vr[i]];
-        if (kind == BV_OUTPUT) { /* computed on read: y_idx = Yc_idx . [x | s] */
-            value[i] = dot(c->Yc + (size_t)idx * (md->n + md->ni), c->x, md->n + md->ni);
-            if (!isfinite(value[i]) && status == BV_OK) {
-                say(c, BV_ERROR, "%s: output %s is not finite: an input is not finite or too "
-                                 "large (set finite inputs of physical size)",
-                    c->bc.name, md->vr_name[vr[i]]);
-                status = BV_ERROR;
-            }
-        } else if (kind == BV_INPUT) {
-            value[i] = c->s[idx];
-            if (c->is_rate[idx])
-                for (k = 0; k < md->npairs; k++) /* the slope stands in: reads as set */
-                    if (c->slope_on[k] && md->pairs[k].rate == idx)
-                        value[i] = 0.0;
-        } else {
-            value[i] = c->p[idx];
+        value[i] = variable_value(c, vr[i]);
+        if (md->vr_kind[vr[i]] == BV_OUTPUT && !isfinite(value[i]) && status == BV_OK) {
+            say(c, BV_ERROR, "%s: output %s is not finite: an input is not finite or too "
+                             "large (set finite inputs of physical size)",
+                c->bc.name, md->vr_name[vr[i]]);
+            status = BV_ERROR;
         }
     }
     return status;
 }
 
+bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double value[])
+{
+    const unsigned int nvars = (unsigned int)HOT->nvars;
+    size_t i;
+    /* the call of every step: the contract's variables of an initialized instance, every
+     * value finite (an output that is not is reported by get_general, which reads the
+     * request again from its start) */
+    if (BV_UNLIKELY(!c->bc.initialized))
+        return get_general(c, vr, nvr, value);
+    for (i = 0; i < nvr; i++) {
+        double v;
+        if (BV_UNLIKELY(vr[i] >= nvars))
+            return get_general(c, vr, nvr, value);
+        v = variable_value(c, vr[i]);
+        if (BV_UNLIKELY(!isfinite(v)))
+            return get_general(c, vr, nvr, value);
+        value[i] = v;
+    }
+    return BV_OK;
+}
+
 /* The one warning of fallback pair k: its displacement moves at time t but its velocity was
  * never set; what the FMU does about it, co-simulation (me 0) or model exchange (me 1). */
-static void warn_unconnected(bv_instance *c, int k, double t, int me)
+static BV_COLD void warn_unconnected(bv_instance *c, int k, double t, int me)
 {
     const bv_pair *pr = &c->bc.md->pairs[k];
     const char *dname = var_name(c->bc.md, BV_INPUT, pr->value);
@@ -850,7 +921,7 @@ static void warn_unconnected(bv_instance *c, int k, double t, int me)
 }
 
 /* The unconnected-velocity rule, before a step (bodyvib.runtime.engine's _slope_fallback). */
-static void slope_fallback(bv_instance *c, double t, double h)
+BV_HOT_INLINE void slope_fallback(bv_instance *c, double t, double h)
 {
     const bv_model *md = HOT;
     int k;
@@ -876,7 +947,7 @@ static void slope_fallback(bv_instance *c, double t, double h)
  * restored if the step is refused: a refused step changes nothing. A pair whose velocity
  * was set is left alone by slope_fallback (and stays set through the step): nothing to save.
  * Per pair, plain loops: the hot path makes no library calls. */
-static inline void save_bookkeeping(bv_instance *c, int restore)
+BV_HOT_INLINE void save_bookkeeping(bv_instance *c, int restore)
 {
     const bv_model *md = HOT;
     int k, np1 = md->npairs + 1;
@@ -901,10 +972,58 @@ static inline void save_bookkeeping(bv_instance *c, int restore)
     }
 }
 
-bv_status bv_step(bv_instance *c, double t, double h)
+/* A step whose new state is not finite, refused: the fallback bookkeeping restored, the
+ * reason logged (a non-finite input: BV_ERROR; else BV_DISCARD). */
+static BV_COLD bv_status refuse_step(bv_instance *c, double t)
 {
-    int n = HOT->n, ni = HOT->ni, j;
-    double *zn = c->zn, zz = 0.0, zz2 = 0.0;
+    int j;
+    save_bookkeeping(c, 1);
+    for (j = 0; j < c->ni; j++)
+        if (!isfinite(c->s[j])) {
+            say(c, BV_ERROR, "%s: input %s = %g at t = %g s is not finite; step refused, "
+                             "state unchanged (set a finite value and step again)",
+                c->bc.name, var_name(c->bc.md, BV_INPUT, j), c->s[j], t);
+            return BV_ERROR;
+        }
+    say(c, BV_ERROR, "%s: the state after the step from t = %g s is not finite (inputs or "
+                     "state too large); step refused (discard), state unchanged",
+        c->bc.name, t);
+    return BV_DISCARD;
+}
+
+/* The step over [t, t + h] with the step matrices for h: z <- [Sc z; Ms s], accepted if the
+ * new z is finite. z.z is finite iff no component exceeds about 1e154 (as the pythonfmu FMU
+ * checks): no overflow, and room for the outputs, whose coefficients are far below 1e150.
+ * Every input reaches the new z (Ms holds I), so a non-finite input is refused too. z.z is
+ * summed as the components are made (even ones into zz, odd ones into zz2, in order). */
+BV_HOT_INLINE bv_status advance(bv_instance *c, double t, double h)
+{
+    const int n = HOT->n, ni = HOT->ni, w = n + ni;
+    double *restrict zn = c->zn, zz = 0.0, zz2 = 0.0;
+    int i;
+    matvec(zn, c->Sc, c->x, n, w);
+    ms_matvec(zn + n, c->Ms, c->s);
+    BV_UNROLL
+    for (i = 0; i < w; i++) {
+        if (i & 1)
+            zz2 += zn[i] * zn[i];
+        else
+            zz += zn[i] * zn[i];
+    }
+    zz += zz2;
+    if (BV_UNLIKELY(!(zz < INFINITY))) /* NaN or inf */
+        return refuse_step(c, t);
+    c->zn = c->x; /* zn is the new z: swap the buffers */
+    c->x = zn;
+    c->s = zn + n;
+    c->bc.time = t + h;
+    return BV_OK;
+}
+
+/* A step the fast path of bv_step does not take: its checks with their messages, and new
+ * step matrices (the first step, a new step size). */
+static BV_COLD bv_status step_prepare(bv_instance *c, double t, double h)
+{
     char text[32];
     if (bv_common_step_check(&c->bc, t, h) != BV_OK)
         return BV_ERROR;
@@ -918,36 +1037,19 @@ bv_status bv_step(bv_instance *c, double t, double h)
             c->bc.name, shortest(h, text));
         return BV_DISCARD;
     }
-    matvec(zn, c->Sc, c->x, n, n + ni);
-    sparse_matvec(zn + n, c->Ms, c->s, ni);
-    /* z.z is finite iff no component exceeds about 1e154 (as the pythonfmu FMU checks):
-     * no overflow, and room for the outputs, whose coefficients are far below 1e150 */
-    for (j = 0; j + 1 < n + ni; j += 2) {
-        zz += zn[j] * zn[j];
-        zz2 += zn[j + 1] * zn[j + 1];
-    }
-    if (j < n + ni)
-        zz += zn[j] * zn[j];
-    zz += zz2;
-    if (!(zz < INFINITY)) { /* NaN or inf; every input reaches zn (Ms holds I) */
-        save_bookkeeping(c, 1);
-        for (j = 0; j < ni; j++)
-            if (!isfinite(c->s[j])) {
-                say(c, BV_ERROR, "%s: input %s = %g at t = %g s is not finite; step refused, "
-                                 "state unchanged (set a finite value and step again)",
-                    c->bc.name, var_name(c->bc.md, BV_INPUT, j), c->s[j], t);
-                return BV_ERROR;
-            }
-        say(c, BV_ERROR, "%s: the state after the step from t = %g s is not finite (inputs or "
-                         "state too large); step refused (discard), state unchanged",
-            c->bc.name, t);
-        return BV_DISCARD;
-    }
-    c->zn = c->x; /* zn is the new z: swap the buffers */
-    c->x = zn;
-    c->s = zn + n;
-    c->bc.time = t + h;
-    return BV_OK;
+    return advance(c, t, h);
+}
+
+bv_status bv_step(bv_instance *c, double t, double h)
+{
+    /* h == h_raw: the step matrices are for h, which passed the step's checks when they were
+     * made (positive, finite); then the checks left are the instance's and the time's */
+    if (BV_UNLIKELY(!(h == c->h_raw && c->bc.initialized && bv_common_on_time(&c->bc, t))))
+        return step_prepare(c, t, h);
+    save_bookkeeping(c, 0);
+    if (HOT->npairs)
+        slope_fallback(c, t, h);
+    return advance(c, t, h);
 }
 
 /* ---------------------------------------------------------------- input and output derivatives */
@@ -1229,7 +1331,7 @@ bv_status bv_state_read(bv_instance *c, const unsigned char *buf, size_t size)
 
 /* Follow parameters set before initialization (bv_get, derivatives, Jacobians), so what
  * is read in initialization mode is that of the parameters set. */
-static void follow_parameters(bv_instance *c)
+static BV_COLD void follow_parameters(bv_instance *c)
 {
     if (!c->bc.initialized && memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0 &&
         params_valid(c, c->p, 1))

@@ -22,6 +22,22 @@
 
 #include <stddef.h>
 
+/* A condition the hot path expects to hold, or not (a hint to the compiler where it takes
+ * one); a function off the hot path (refusals, messages, first steps), compiled apart and
+ * for size, so that the functions of every step keep their registers and need no stack
+ * frame for it; and a part of the hot path inlined wherever it is called. */
+#if defined(__GNUC__)
+#define BV_LIKELY(x) __builtin_expect(!!(x), 1)
+#define BV_UNLIKELY(x) __builtin_expect(!!(x), 0)
+#define BV_COLD __attribute__((cold, noinline))
+#define BV_HOT_INLINE static inline __attribute__((always_inline))
+#else
+#define BV_LIKELY(x) (x)
+#define BV_UNLIKELY(x) (x)
+#define BV_COLD
+#define BV_HOT_INLINE static inline
+#endif
+
 /* Matrices of the descriptor form a stencil entry adds to. */
 enum { BV_E = 0, BV_A = 1, BV_B = 2, BV_C = 3, BV_CD = 4, BV_D = 5 };
 
@@ -113,7 +129,7 @@ const char *bv_name(const bv_instance *c); /* the name the messages begin with *
 
 /* The state machine: bv_allowed logs "<function>: not allowed in state <state> ..." and
  * returns 0 when the instance's state is not in `mask`; bv_enter_* change the state. */
-int bv_allowed(bv_instance *c, const char *function, int mask);
+int bv_allowed(bv_instance *c, const char *function, int mask) BV_COLD;
 /* The state is an instance's first member: the wrappers test it inline on the hot path and
  * call bv_allowed (which logs) only when the test fails. */
 #define BV_STATE_IS(c, mask) ((*(const int *)(const void *)(c)) & (mask))
@@ -123,6 +139,9 @@ void bv_terminate(bv_instance *c);
 /* Model exchange: a model-exchange instance (set once, after bv_new) is in Event Mode after
  * initialization; bv_me_enter changes between BV_EVENT and BV_STEPPING (Continuous-Time). */
 void bv_set_model_exchange(bv_instance *c);
+/* FMI 3.0's independent variable time, value reference vr (set once, after bv_new): bv_get
+ * reads it as the model's time, bv_set refuses it (before anything is set). */
+void bv_set_time_variable(bv_instance *c, unsigned int vr);
 void bv_me_enter(bv_instance *c, int mode);
 
 /* The standard's interpolation interface.

@@ -38,6 +38,7 @@ void bv_common_init(bv_common *b, const bv_model *md, const char *name, bv_log_f
 {
     b->md = md;
     b->me = 0;
+    b->time_vr = -1;
     snprintf(b->name, sizeof b->name, "%s", name ? name : md->model_name);
     b->log = log;
     b->env = env;
@@ -80,6 +81,14 @@ static const int MODES[] = {BV_INSTANTIATED, BV_INITIALIZATION, BV_EVENT, BV_STE
                             BV_TERMINATED, BV_FAILED};
 
 void bv_set_model_exchange(bv_instance *c) { BV_COMMON(c)->me = 1; }
+
+void bv_set_time_variable(bv_instance *c, unsigned int vr) { BV_COMMON(c)->time_vr = vr; }
+
+bv_status bv_common_time_not_settable(const bv_common *b)
+{
+    bv_say(b, BV_ERROR, "time is the independent variable and cannot be set");
+    return BV_ERROR;
+}
 
 void bv_me_enter(bv_instance *c, int mode) { BV_COMMON(c)->mode = mode; }
 
@@ -150,7 +159,6 @@ void bv_common_initialized(bv_common *b)
 bv_status bv_common_step_check(bv_common *b, double t, double h)
 {
     char text[32], text2[32];
-    double at = fabs(b->time);
     if (!(h > 0.0 && h < INFINITY)) {
         bv_say(b, BV_ERROR, "%s: communication step size must be positive and finite, got %s s",
                b->name, bv_shortest(h, text));
@@ -164,9 +172,7 @@ bv_status bv_common_step_check(bv_common *b, double t, double h)
                                 "ExitInitializationMode first", b->name);
         return BV_ERROR;
     }
-    /* the step starts where the last one ended (or at the start time): a host whose clock
-     * differs by more than rounding is out of step with the model */
-    if (!(fabs(t - b->time) <= 1e-9 * (at > 1.0 ? at : 1.0))) {
+    if (!bv_common_on_time(b, t)) {
         bv_say(b, BV_ERROR, "%s: DoStep from t = %s s, but the model is at t = %s s (the start "
                             "time or the end of the last step); step refused, state unchanged",
                b->name, bv_shortest(t, text), bv_shortest(b->time, text2));

@@ -15,22 +15,20 @@
 #ifndef BODYVIB_FSM_H
 #define BODYVIB_FSM_H
 
+#include <math.h>
 #include <stdint.h>
 
 #include "bodyvib_core.h"
 
 #define BV_MESSAGE 640
 
-/* A condition the hot path expects to hold (a hint to the compiler where it takes one). */
-#if defined(__GNUC__)
-#define BV_LIKELY(x) __builtin_expect(!!(x), 1)
-#else
-#define BV_LIKELY(x) (x)
-#endif
 
 typedef struct {
     int mode;           /* first (BV_STATE_IS): BV_INSTANTIATED .. BV_EVENT, the FMI state */
     int me;             /* a model-exchange instance: Event and Continuous-Time Mode */
+    int64_t time_vr;    /* the value reference of the independent variable time, which reads
+                         * as the model's time and cannot be set (FMI 3.0:
+                         * bv_set_time_variable); -1: none (FMI 2.0) */
     const bv_model *md;
     char name[128];
     bv_log_fn log;
@@ -72,11 +70,27 @@ void bv_common_initialized(bv_common *b);
  * the instance initialized, t the model's time (up to rounding). BV_OK or BV_ERROR
  * (logged). */
 bv_status bv_common_step_check(bv_common *b, double t, double h);
+/* A step from t starts where the model is: t equals the model's time up to rounding (a host
+ * whose clock differs by more is out of step with the model). The last of
+ * bv_common_step_check's tests, which a core's step whose other tests are known to pass
+ * makes inline. */
+static inline int bv_common_on_time(const bv_common *b, double t)
+{
+    double at = fabs(b->time);
+    return fabs(t - b->time) <= 1e-9 * (at > 1.0 ? at : 1.0);
+}
 /* A snapshot restored with these flags: initialized ones step, a failed one is in error
  * (`fix` ends the message: what to set), one from before initialization keeps
  * Instantiated / InitializationMode. */
 void bv_common_restored(bv_common *b, double time, int initialized, int init_failed,
                         const char *fix);
+/* Whether vr is the independent variable time (b->time_vr). */
+static inline int bv_common_is_time(const bv_common *b, unsigned int vr)
+{
+    return (int64_t)vr == b->time_vr;
+}
+/* Set of the independent variable time: refused, logged (BV_ERROR). */
+bv_status bv_common_time_not_settable(const bv_common *b);
 /* A value reference the model has (logged and 0 if not). */
 int bv_common_check_vr(const bv_common *b, unsigned int vr);
 /* A value may be set for the model's variable vr now: an input, or a parameter before

@@ -56,7 +56,18 @@ static double py_mod(double a, double b)
  * A run moves through the table in order, so the guess of the last read holds: no fmod. */
 #define TWO52 4503599627370496.0 /* 2^52 */
 
-static inline double periodic_mod(double u, double k, double *periods)
+/* periodic_mod when the guess misses (a new period, a jump, NaN, infinities): py_mod, and a
+ * new guess. Apart from the hot path, whose registers the library calls would claim. */
+static BV_COLD double periodic_mod_miss(double u, double k, double *periods)
+{
+    double r = py_mod(u, k); /* also NaN and infinities */
+    *periods = fabs(u) < TWO52 ? floor(u / k) : 0.0;
+    return r;
+}
+
+/* missed NULL: a miss is resolved by periodic_mod_miss. Else a miss sets *missed and changes
+ * nothing: the caller then evaluates again with missed NULL, off its hot path. */
+BV_HOT_INLINE double periodic_mod(double u, double k, double *periods, int *missed)
 {
     double r;
     if (BV_LIKELY(fabs(u) < TWO52)) {
@@ -64,24 +75,30 @@ static inline double periodic_mod(double u, double k, double *periods)
         if (BV_LIKELY(r >= 0.0 && r < k))
             return r;
     }
-    r = py_mod(u, k); /* also NaN and infinities */
-    *periods = fabs(u) < TWO52 ? floor(u / k) : 0.0;
-    return r;
+    if (missed != NULL) {
+        *missed = 1;
+        return u;
+    }
+    return periodic_mod_miss(u, k, periods);
 }
 
 /* The segment i and the local coordinate s in [0, 1] of position p, as
  * HermiteTable.evaluate locates them; returns 0 when p is off a non-periodic table (held).
- * periods: the guess of periodic_mod, or NULL (py_mod). */
-static inline int locate(const bv_source *t, double p, int *seg, double *local, double *periods)
+ * periods: the guess of periodic_mod, or NULL (py_mod); missed: as periodic_mod's (the
+ * segment is then not set). */
+BV_HOT_INLINE int locate(const bv_source *t, double p, int *seg, double *local, double *periods,
+                         int *missed)
 {
     int k = t->rows - 1, i;
     double u = (p - t->p0) / t->dp, uc;
     int inside;
     if (t->periodic && t->loop == 0)
-        u = periods ? periodic_mod(u, (double)k, periods) : py_mod(u, (double)k);
+        u = periods ? periodic_mod(u, (double)k, periods, missed) : py_mod(u, (double)k);
     else if (t->periodic && u > (double)k) /* past the end: back into the repeating part */
-        u = t->loop + (periods ? periodic_mod(u - t->loop, (double)(k - t->loop), periods)
+        u = t->loop + (periods ? periodic_mod(u - t->loop, (double)(k - t->loop), periods, missed)
                                : py_mod(u - t->loop, (double)(k - t->loop)));
+    if (missed != NULL && *missed)
+        return 0;
     inside = u >= 0.0 && u <= (double)k;
     uc = u < 0.0 ? 0.0 : (u > (double)k ? (double)k : u);
     if (isnan(u))
@@ -94,12 +111,16 @@ static inline int locate(const bv_source *t, double p, int *seg, double *local, 
     return (t->periodic && t->loop == 0) || inside;
 }
 
-/* bv_source_evaluate with the periods guess of locate. */
-static inline void evaluate(const bv_source *t, double p, double *z, double *dz, double *periods)
+/* bv_source_evaluate with the periods guess of locate; missed: as locate's (z, dz are then
+ * not written; 0 returned). Returns 1 when z, dz are written. */
+BV_HOT_INLINE int evaluate(const bv_source *t, double p, double *z, double *dz, double *periods,
+                           int *missed)
 {
     int S = t->signals, i, c, on;
     double s, s2, s3, dp = t->dp;
-    on = locate(t, p, &i, &s, periods);
+    on = locate(t, p, &i, &s, periods, missed);
+    if (missed != NULL && *missed)
+        return 0;
     s2 = s * s;
     s3 = s * s * s;
     for (c = 0; c < S; c++) {
@@ -113,18 +134,19 @@ static inline void evaluate(const bv_source *t, double p, double *z, double *dz,
         if (!on)
             dz[c] = 0.0;
     }
+    return 1;
 }
 
 void bv_source_evaluate(const bv_source *t, double p, double *z, double *dz)
 {
-    evaluate(t, p, z, dz, NULL);
+    evaluate(t, p, z, dz, NULL, NULL);
 }
 
 void bv_source_curvature(const bv_source *t, double p, double *d2z, double *d3z)
 {
     int S = t->signals, i, c, on;
     double s, dp = t->dp;
-    on = locate(t, p, &i, &s, NULL);
+    on = locate(t, p, &i, &s, NULL, NULL);
     for (c = 0; c < S; c++) {
         double z0 = t->value[(size_t)i * S + c], z1 = t->value[(size_t)(i + 1) * S + c];
         double m0 = t->slope[(size_t)i * S + c] * dp, m1 = t->slope[(size_t)(i + 1) * S + c] * dp;
@@ -204,6 +226,9 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
 {
     bv_status status = BV_OK;
     size_t i;
+    for (i = 0; i < nvr; i++)
+        if (bv_common_is_time(&c->bc, vr[i]))
+            return bv_common_time_not_settable(&c->bc);
     /* an unknown value reference refuses the call: nothing set */
     for (i = 0; i < nvr; i++)
         if (!check_vr(c, vr[i]))
@@ -217,33 +242,80 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
     return status;
 }
 
-bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double value[])
+/* Output idx of the interpolant evaluated into c->z, c->dz: 2 k the profile z_k, 2 k + 1 its
+ * rate speed * dz_k/dp. */
+BV_HOT_INLINE double output_value(const bv_instance *c, int idx)
+{
+    unsigned int k = (unsigned int)idx; /* >= 0: halves and parity as shifts */
+    return k & 1u ? c->speed * c->dz[k >> 1] : c->z[k >> 1];
+}
+
+/* bv_get of a request that is not outputs only: the speed, the time (FMI 3.0), refusals
+ * (logged). */
+static BV_COLD bv_status get_general(bv_instance *c, const unsigned int vr[], size_t nvr,
+                                     double value[])
 {
     const bv_model *md = HOT;
     size_t i;
     int evaluated = 0;
     for (i = 0; i < nvr; i++) {
-        int idx;
+        if (bv_common_is_time(&c->bc, vr[i])) {
+            value[i] = c->bc.time;
+            continue;
+        }
         if (vr[i] >= (unsigned int)md->nvars && !check_vr(c, vr[i])) /* logs the refusal */
             return BV_ERROR;
-        idx = md->vr_index[vr[i]];
         if (md->vr_kind[vr[i]] == BV_PARAMETER) {
             value[i] = c->speed;
             continue;
         }
         if (!evaluated) {
-            evaluate(HOT_TABLE, c->speed * c->bc.time, c->z, c->dz, &c->periods);
+            evaluate(HOT_TABLE, c->speed * c->bc.time, c->z, c->dz, &c->periods, NULL);
             evaluated = 1;
         }
-        value[i] = idx % 2 == 0 ? c->z[idx / 2] : c->speed * c->dz[idx / 2];
+        value[i] = output_value(c, md->vr_index[vr[i]]);
     }
+    return BV_OK;
+}
+
+bv_status bv_get(bv_instance *c, const unsigned int vr[], size_t nvr, double value[])
+{
+    const bv_model *md = HOT;
+    size_t i;
+    int evaluated = 0;
+    int missed = 0;
+    /* the call of every step: outputs only, from one evaluation of the interpolant with the
+     * last read's whole periods (any other request, and a read in another period, is read
+     * again from its start by get_general) */
+    for (i = 0; i < nvr; i++) {
+        if (BV_UNLIKELY(vr[i] >= (unsigned int)md->nvars || md->vr_kind[vr[i]] != BV_OUTPUT))
+            return get_general(c, vr, nvr, value);
+        if (!evaluated) {
+            evaluate(HOT_TABLE, c->speed * c->bc.time, c->z, c->dz, &c->periods, &missed);
+            if (BV_UNLIKELY(missed))
+                return get_general(c, vr, nvr, value);
+            evaluated = 1;
+        }
+        value[i] = output_value(c, md->vr_index[vr[i]]);
+    }
+    return BV_OK;
+}
+
+/* A step refused by its checks (logged: bv_common_step_check). */
+static BV_COLD bv_status step_checked(bv_instance *c, double t, double h)
+{
+    if (bv_common_step_check(&c->bc, t, h) != BV_OK)
+        return BV_ERROR;
+    c->bc.time = t + h;
     return BV_OK;
 }
 
 bv_status bv_step(bv_instance *c, double t, double h)
 {
-    if (bv_common_step_check(&c->bc, t, h) != BV_OK)
-        return BV_ERROR;
+    /* bv_common_step_check's tests inline; its messages when one fails */
+    if (BV_UNLIKELY(!(h > 0.0 && h < INFINITY && c->bc.initialized &&
+                      bv_common_on_time(&c->bc, t))))
+        return step_checked(c, t, h);
     c->bc.time = t + h;
     return BV_OK;
 }

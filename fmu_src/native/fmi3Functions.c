@@ -67,6 +67,18 @@ fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean loggingOn, siz
     return st(bv_fmu_set_logging(f, __func__, loggingOn, nCategories, categories));
 }
 
+/* The independent variable time: the value reference after the contract's variables. */
+#define TIME_VR ((fmi3ValueReference)bv_model_data.nvars)
+
+/* A new instance (or NULL) whose core knows the independent variable time: bv_get reads it
+ * as the model's time, bv_set refuses it. */
+static bv_fmu *with_time(bv_fmu *f)
+{
+    if (f != NULL)
+        bv_set_time_variable(f->core, TIME_VR);
+    return f;
+}
+
 /* The instantiation token is this FMU's (else logged, 0). */
 static int token_ok(fmi3String token, fmi3InstanceEnvironment env, fmi3LogMessageCallback log)
 {
@@ -86,7 +98,8 @@ fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String in
     (void)resourcePath, (void)visible, (void)loggingOn;
     if (!token_ok(instantiationToken, instanceEnvironment, logMessage))
         return NULL;
-    return bv_fmu_new(instanceName, 1, (bv_host_fn)logMessage, instanceEnvironment, fmu_log);
+    return with_time(
+        bv_fmu_new(instanceName, 1, (bv_host_fn)logMessage, instanceEnvironment, fmu_log));
 }
 
 fmi3Instance fmi3InstantiateCoSimulation(
@@ -107,7 +120,8 @@ fmi3Instance fmi3InstantiateCoSimulation(
                        "this FMU has no event mode");
         return NULL;
     }
-    return bv_fmu_new(instanceName, 0, (bv_host_fn)logMessage, instanceEnvironment, fmu_log);
+    return with_time(
+        bv_fmu_new(instanceName, 0, (bv_host_fn)logMessage, instanceEnvironment, fmu_log));
 }
 
 fmi3Instance fmi3InstantiateScheduledExecution(
@@ -159,53 +173,23 @@ fmi3Status fmi3Reset(fmi3Instance instance)
     return fmi3OK;
 }
 
-#define TIME_VR ((fmi3ValueReference)bv_model_data.nvars)
-
-static fmi3Status get_with_time(bv_fmu *f, const fmi3ValueReference vr[], size_t nvr,
-                                fmi3Float64 values[]);
-
 fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
                           fmi3Float64 values[], size_t nValues)
 {
-    size_t i;
     CHECKED(instance, fmi3GetFloat64, BV_ON_GET);
     NEED(vr, nvr);
     NEED(values, nvr);
     SCALARS(nValues, nvr);
-    for (i = 0; i < nvr; i++)
-        if (vr[i] == TIME_VR)
-            return get_with_time(f, vr, nvr, values);
     return st(bv_get(f->core, vr, nvr, values));
-}
-
-/* fmi3GetFloat64 of a request that holds the time: value by value, the others through
- * fmi3GetFloat64 itself (so that the core's bv_get has one caller, inlined there). */
-static fmi3Status get_with_time(bv_fmu *f, const fmi3ValueReference vr[], size_t nvr,
-                                fmi3Float64 values[])
-{
-    size_t i;
-    for (i = 0; i < nvr; i++) {
-        if (vr[i] == TIME_VR)
-            values[i] = bv_time(f->core);
-        else if (fmi3GetFloat64(f, &vr[i], 1, &values[i], 1) != fmi3OK)
-            return fmi3Error;
-    }
-    return fmi3OK;
 }
 
 fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
                           const fmi3Float64 values[], size_t nValues)
 {
-    size_t i;
     CHECKED(instance, fmi3SetFloat64, BV_ON_SET);
     NEED(vr, nvr);
     NEED(values, nvr);
     SCALARS(nValues, nvr);
-    for (i = 0; i < nvr; i++)
-        if (vr[i] == TIME_VR) {
-            fmu_log(f, BV_ERROR, "time is the independent variable and cannot be set");
-            return fmi3Error;
-        }
     return st(bv_set(f->core, vr, nvr, values));
 }
 
@@ -510,10 +494,12 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
     NEED(earlyReturn, 1);
     NEED(lastSuccessfulTime, 1);
     (void)noSetFMUStatePriorToCurrentPoint;
-    s = bv_step(f->core, currentCommunicationPoint, communicationStepSize);
+    /* the flags first: after the step only the time is left to write, so that little is kept
+     * across the call */
     *eventHandlingNeeded = fmi3False;
     *terminateSimulation = fmi3False;
     *earlyReturn = fmi3False;
+    s = bv_step(f->core, currentCommunicationPoint, communicationStepSize);
     *lastSuccessfulTime = bv_time(f->core);
     return st(s);
 }
