@@ -9,7 +9,10 @@ process, interleaved over ``--repeats`` rounds (medians):
 * the engine: :func:`bodyvib.vehicle.sweep.engines.run_engine` ("batched") on all the
   cases, everything a task does: road synthesis, model assembly and exact discretization,
   the compiled time loop, the streaming Wk weighting and the ISO 2631-1 figures. Each
-  stage's share is measured by timing the engine's own functions while it runs;
+  stage's share of the engine's CPU time is measured by timing the engine's own
+  functions while it runs (road: the road samples; models: each body on its car as a
+  linear model; matrices: the exact step; compiled loop, and of it the minimal step's
+  time; other: the rest);
 * the minimal step: a numba loop of ``x <- Phi x + g_z z + g_v v`` and the two outputs
   ``C x + d_z z + d_v v`` per case and sample, on the very matrices and road samples the
   engine built (captured from its call of the compiled loop), with the cases side by side
@@ -64,19 +67,23 @@ def _vary(body: str) -> dict:
 
 
 class Stages:
-    """Wall time spent in the engine's stages while it runs (patched in, then restored)."""
+    """CPU time spent in the engine's stages while it runs (patched in, then restored).
+
+    CPU time, not wall time: on a shared machine the other users' work stretches
+    wall times by up to two times from one call to the next.
+    """
 
     def __init__(self):
-        self.seconds = {"road": 0.0, "matrices": 0.0, "compiled loop": 0.0}
+        self.seconds = {"road": 0.0, "models": 0.0, "matrices": 0.0, "compiled loop": 0.0}
         self.captured = None
 
     def _timed(self, stage, fn, capture=False):
         def wrapper(*a, **k):
-            t0 = time.perf_counter()
+            t0 = time.process_time()
             try:
                 return fn(*a, **k)
             finally:
-                self.seconds[stage] += time.perf_counter() - t0
+                self.seconds[stage] += time.process_time() - t0
                 if capture:  # the packed matrices and roads of the (one) group
                     self.captured = a[:3]
 
@@ -84,14 +91,25 @@ class Stages:
 
     @contextmanager
     def patched(self):
-        saved = (kernel.run, engines.case_road_input, engines.Discretization.matrices)
+        saved = (
+            kernel.run,
+            engines.case_road_input,
+            engines.Discretization.matrices,
+            engines._seated,
+        )
         kernel.run = self._timed("compiled loop", saved[0], capture=True)
         engines.case_road_input = self._timed("road", saved[1])
         engines.Discretization.matrices = self._timed("matrices", saved[2])
+        engines._seated = self._timed("models", saved[3])  # each body on its car, assembled
         try:
             yield self
         finally:
-            kernel.run, engines.case_road_input, engines.Discretization.matrices = saved
+            (
+                kernel.run,
+                engines.case_road_input,
+                engines.Discretization.matrices,
+                engines._seated,
+            ) = saved
 
 
 _minimal = None
@@ -222,7 +240,7 @@ def main(argv=None):
             eng.append(e)
             low.append(m)
             single.append(s1)
-            shares.append({k: s / e[0] for k, s in st.seconds.items()})
+            shares.append({k: s / e[1] for k, s in st.seconds.items()})
         ew, ec = (statistics.median(x[i] for x in eng) for i in (0, 1))
         mw, mc = (statistics.median(x[i] for x in low) for i in (0, 1))
         print(
@@ -248,9 +266,9 @@ def main(argv=None):
             rest -= share
             print(f"    {k:14s} {100 * share:5.1f} %")
             if k == "compiled loop":  # the step's part of it: the minimal loop's time
-                print(f"      {'of it, step':12s} {100 * mw / ew:5.1f} %")
-                print(f"      {'Wk + figures':12s} {100 * (share - mw / ew):5.1f} %")
-        print(f"    {'other':14s} {100 * rest:5.1f} %  (cases, grouping, rows)")
+                print(f"      {'of it, step':12s} {100 * mc / ec:5.1f} %")
+                print(f"      {'Wk + figures':12s} {100 * (share - mc / ec):5.1f} %")
+        print(f"    {'other':14s} {100 * rest:5.1f} %  (step rows, grouping, figures, rows)")
     print(f"load after: {os.getloadavg()[0]:.2f}")
     return 0
 

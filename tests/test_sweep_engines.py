@@ -59,6 +59,17 @@ def test_batched_equals_per_case_reference_reduced_bodies():
         assert row["error"] is None
 
 
+def test_a_body_at_two_step_sizes_in_one_task_gets_each_steps_matrices():
+    """A body's step rows are kept with its model, one set per step size: one task
+    with the same body at 1 ms and at 2 ms gives each case the figures it has alone."""
+    spec = {"road": "C", "speed": [15, 25], "duration": 1, "body": "reduced-paper"}
+    fine, coarse = expand(dict(spec, step=1e-3)), expand(dict(spec, step=2e-3))
+    together, _ = run_batched(fine + coarse)
+    alone = run_batched(fine)[0] + run_batched(coarse)[0]
+    assert together == alone
+    assert together[0]["head_weighted_rms"] != together[2]["head_weighted_rms"]
+
+
 def test_batched_equals_reference_stiff_iso_body_to_its_rounding_floor():
     # The ISO 7962 head acceleration is a difference of terms ~1e6 times larger
     # than itself (k2s = 6.6e10 N/m): summing C x in another order changes it by

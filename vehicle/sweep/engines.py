@@ -193,6 +193,7 @@ class _Seated:
         self.lm = linear_model(seated_system(car, body))
         # exact step matrices once per step size, for every case of this body on this car
         self.discretization = Discretization(self.lm)
+        self.step_rows = {}  # step size -> the step rows of every case (_case_rows)
         self.seat = car.roles["seat"]
         self.bases = car.bases
         self.behind = wheel_offsets(car)  # each road point's distance behind the first, m
@@ -240,6 +241,40 @@ def _roads(case, roads, behind=(0.0,)):
     return r
 
 
+def _case_rows(s, step, m):
+    """A body on its car's step rows at ``step``: ``M`` (m, n), ``gz`` and ``gv`` (points, m).
+
+    Every case of that body and car shares them (whatever its road and speed): kept with
+    the seated model, one entry per step size.
+    """
+    rows = s.step_rows.get(step)
+    if rows is not None:
+        return rows
+    lm = s.lm
+    n = lm.A.shape[0]
+    with np.errstate(over="ignore", invalid="ignore"):
+        Phi, G0, G1 = s.discretization.matrices(step)
+    if not (np.all(np.isfinite(Phi)) and np.all(np.isfinite(G0)) and np.all(np.isfinite(G1))):
+        raise BodyvibError(
+            "the exact step matrices are not finite (parameters out of numerical range?)"
+        )
+    M = np.empty((m, n))
+    M[:n] = Phi
+    M[n:] = s.rows(lm.C)
+    D = s.rows(lm.D)
+    gz = np.zeros((len(s.bases), m))
+    gv = np.zeros((len(s.bases), m))
+    for j, base in enumerate(s.bases):
+        iz, iv = lm.input_index(f"{base}_displacement"), lm.input_index(f"{base}_velocity")
+        # in-step road z_k + v_k tau: Gamma0 on (z, v), Gamma1 on the displacement's rate v
+        gz[j, :n] = G0[:, iz]
+        gv[j, :n] = G0[:, iv] + G1[:, iz]
+        gz[j, n:] = D[:, iz]
+        gv[j, n:] = D[:, iv]
+    rows = s.step_rows[step] = (M, gz, gv)
+    return rows
+
+
 def _step_inputs(cases, sys, roads):
     """Each case's step matrices and road rows: ``M``, ``gz``, ``gv``, ``road``, ``z``, ``v``.
 
@@ -259,23 +294,8 @@ def _step_inputs(cases, sys, roads):
     rows_of: Dict[tuple, int] = {}
     zs, vs = [], []
     for i, (cs, s) in enumerate(zip(cases, sys)):
-        lm = s.lm
-        with np.errstate(over="ignore", invalid="ignore"):
-            Phi, G0, G1 = s.discretization.matrices(step)
-        if not (np.all(np.isfinite(Phi)) and np.all(np.isfinite(G0)) and np.all(np.isfinite(G1))):
-            raise BodyvibError(
-                "the exact step matrices are not finite (parameters out of numerical range?)"
-            )
-        M[i, :n] = Phi
-        M[i, n:] = s.rows(lm.C)
-        D = s.rows(lm.D)
-        for j, base in enumerate(s.bases):
-            iz, iv = lm.input_index(f"{base}_displacement"), lm.input_index(f"{base}_velocity")
-            # in-step road z_k + v_k tau: Gamma0 on (z, v), Gamma1 on the displacement's rate v
-            gz[i, j, :n] = G0[:, iz]
-            gv[i, j, :n] = G0[:, iv] + G1[:, iz]
-            gz[i, j, n:] = D[:, iz]
-            gv[i, j, n:] = D[:, iv]
+        M[i], gz[i, : len(s.bases)], gv[i, : len(s.bases)] = _case_rows(s, step, m)
+        for j in range(len(s.bases)):
             rkey = _road_key(cs) + (s.behind[j],)
             if rkey not in rows_of:
                 rows_of[rkey] = len(zs)
@@ -283,7 +303,8 @@ def _step_inputs(cases, sys, roads):
                 zs.append(zr if zr.ndim == 1 else zr[:, j])
                 vs.append(vr if vr.ndim == 1 else vr[:, j])
             road[i, j] = rows_of[rkey]
-    return M, gz, gv, road, np.array(zs), np.array(vs)
+    # (roads, samples) views of (samples, roads) arrays: the loop's layout, one copy
+    return M, gz, gv, road, np.stack(zs, axis=1).T, np.stack(vs, axis=1).T
 
 
 def _batched_group(cases, models, cars, roads, record):
