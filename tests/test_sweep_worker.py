@@ -1,0 +1,69 @@
+"""What a sweep's Dask worker loads: a task's Parquet part without pandas, the warmed fork server."""
+
+import io
+import math
+import subprocess
+import sys
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+from bodyvib.vehicle.sweep.engines import FIGURES
+from bodyvib.vehicle.sweep.table import arrow_array, part_bytes, table_schema
+
+FORKSERVER = "forkserver" in __import__("multiprocessing").get_all_start_methods()
+
+#: Values of every kind a sweep column holds: nulls (a failed case's figures, a road
+#: without seed), NaN (a parameter a model does not have), signed zero, extremes, text
+#: outside ASCII, empty text.
+VALUES = {
+    pa.int64(): [0, None, 2**62, -(2**63), 7, None],
+    pa.float64(): [1.5, None, math.nan, -0.0, 1e-308, math.inf, 2.0**-1074, None],
+    pa.string(): ["C", None, "", "a little uncomfortable", "é ✓ 𝛼", None],
+}
+
+
+@pytest.mark.parametrize("arrow_type", list(VALUES), ids=str)
+@pytest.mark.parametrize("nulls", [True, False])
+def test_a_column_is_the_array_pyarrow_converts(arrow_type, nulls):
+    values = [v for v in VALUES[arrow_type] if nulls or v is not None]
+    got, want = arrow_array(values, arrow_type), pa.array(values, arrow_type)
+    got.validate(full=True)
+    assert got.type == want.type and got.null_count == want.null_count
+    # the same bits, NaN and -0.0 included (Array.equals takes NaN for unequal)
+    assert [b.to_pybytes() if b else None for b in got.buffers()] == [
+        b.to_pybytes() if b else None for b in want.buffers()
+    ]
+
+
+def test_a_tasks_part_is_the_parquet_file_of_the_converted_table():
+    schema = table_schema({"m1": "kg", "k1": "N/m"}, {"ms": "kg"}, FIGURES)
+    rows = 5
+    columns = {}
+    for i, field in enumerate(schema):
+        values = VALUES[field.type]
+        columns[field.name] = [values[(i + r) % len(values)] for r in range(rows)]
+    want = io.BytesIO()
+    pq.write_table(pa.Table.from_pydict(columns, schema=schema), want)
+    assert part_bytes(columns, schema) == want.getvalue()
+
+
+def test_a_column_of_another_type_or_with_a_number_in_text_is_refused():
+    with pytest.raises(TypeError, match="Arrow type bool"):
+        arrow_array([True], pa.bool_())
+    with pytest.raises(TypeError, match="string column holds int 3"):
+        arrow_array(["a", 3], pa.string())
+
+
+@pytest.mark.integration
+def test_writing_a_part_does_not_import_pandas():
+    """pyarrow's conversion of Python values imports pandas; a part is written without it."""
+    code = (
+        "import sys\n"
+        "from bodyvib.vehicle.sweep.table import part_bytes, table_schema\n"
+        "s = table_schema({'m1': 'kg'}, {}, ['head_weighted_rms'])\n"
+        "part_bytes({f.name: [None] for f in s}, s)\n"
+        "print('pandas' in sys.modules)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
