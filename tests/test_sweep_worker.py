@@ -67,3 +67,43 @@ def test_writing_a_part_does_not_import_pandas():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+@pytest.mark.integration
+@pytest.mark.skipif(not FORKSERVER, reason="workers fork from a server only with forkserver")
+def test_a_local_workers_first_sweep_loads_nothing_and_it_has_dasks_environment():
+    """The fork server imports all a task needs (a task's first run imports no module),
+    and it starts early with the environment Dask gives its workers: the hash seed
+    (the hash of a string, as a Python started with PYTHONHASHSEED=6640 computes it)
+    and glibc's malloc settings, which glibc reads when the process starts."""
+    import psutil
+    from bodyvib.vehicle.sweep.cluster import open_cluster
+    from bodyvib.vehicle.sweep.run import run_sweep
+
+    def modules():
+        return sorted(sys.modules)
+
+    def text_hash():
+        return hash("bodyvib")
+
+    spec = {"road": "C", "speed": [10, 20], "seed": [0, 1], "duration": 1, "body": "reduced-paper"}
+    with open_cluster(workers=1) as cl:
+        before = next(iter(cl.client.run(modules).values()))
+        run_sweep(spec, scheduler=cl.client.scheduler.address)
+        after = next(iter(cl.client.run(modules).values()))
+        worker_hash = next(iter(cl.client.run(text_hash).values()))
+        servers = [
+            p.environ()
+            for p in psutil.Process().children(recursive=True)
+            if "forkserver" in " ".join(p.cmdline())
+        ]
+    assert sorted(set(after) - set(before)) == []
+    seeded = subprocess.run(
+        [sys.executable, "-c", "print(hash('bodyvib'))"],
+        env={"PYTHONHASHSEED": "6640"},
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert worker_hash == int(seeded.stdout)
+    assert servers and all(e.get("MALLOC_TRIM_THRESHOLD_") == str(128 << 20) for e in servers)

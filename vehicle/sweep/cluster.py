@@ -319,6 +319,41 @@ def _preload_forkserver() -> None:
     if dask.config.get("distributed.worker.multiprocessing-method") == "forkserver":
         ctx.set_forkserver_preload(["distributed", "bodyvib.vehicle.sweep.warmed"])
         _server_folder()
+        _start_server()
+
+
+def _start_server() -> None:
+    """Start the fork server now, so that its imports run while the scheduler starts.
+
+    The server otherwise starts with the first worker, after the scheduler. It gets
+    the environment the first worker would give it: the variables Dask sets before it
+    starts a worker process (``distributed.nanny.pre-spawn-environ``, a value of this
+    process's environment first, and the fixed hash seed of Dask's workers).
+    Returns at once: the server imports in its own process, and the first fork waits
+    for it.
+    """
+    import multiprocessing.forkserver
+
+    import dask
+
+    # what distributed.Nanny sets in this process's environment before a worker starts
+    env = {
+        k: os.environ.get(k, str(v))
+        for k, v in dask.config.get("distributed.nanny.pre-spawn-environ").items()
+        if v is not None
+    }
+    if env.get("PYTHONHASHSEED") in (None, "0"):
+        env["PYTHONHASHSEED"] = "6640"
+    saved = {k: os.environ.get(k) for k in env}
+    os.environ.update(env)
+    try:
+        multiprocessing.forkserver.ensure_running()
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                del os.environ[k]
+            else:
+                os.environ[k] = v
 
 
 def _server_folder() -> None:
