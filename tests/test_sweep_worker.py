@@ -1,7 +1,9 @@
 """What a sweep's Dask worker loads: a task's Parquet part without pandas, the warmed fork server."""
 
 import io
+import json
 import math
+import os
 import subprocess
 import sys
 
@@ -56,6 +58,25 @@ def test_a_column_of_another_type_or_with_a_number_in_text_is_refused():
 
 
 @pytest.mark.integration
+def test_the_servers_environment_is_known_before_distributed_is_imported():
+    """In a process that has not imported distributed, distributed's defaults come from
+    the file distributed reads them from: the same variables as after its import."""
+    from bodyvib.vehicle.sweep.cluster import _server_environ
+
+    code = (
+        "import json, sys\n"
+        "from bodyvib.vehicle.sweep.cluster import _server_environ\n"
+        "print(json.dumps([_server_environ({}), 'distributed' in sys.modules]))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    env, imported = json.loads(out.stdout)
+    import distributed  # noqa: F401  (its defaults in Dask's configuration)
+
+    assert not imported and env == _server_environ({})
+    assert env["OMP_NUM_THREADS"] == os.environ.get("OMP_NUM_THREADS", "1")
+
+
+@pytest.mark.integration
 def test_writing_a_part_does_not_import_pandas():
     """pyarrow's conversion of Python values imports pandas; a part is written without it."""
     code = (
@@ -107,3 +128,27 @@ def test_a_local_workers_first_sweep_loads_nothing_and_it_has_dasks_environment(
     )
     assert worker_hash == int(seeded.stdout)
     assert servers and all(e.get("MALLOC_TRIM_THRESHOLD_") == str(128 << 20) for e in servers)
+
+
+def test_the_fork_server_gets_the_environment_dask_gives_a_worker(monkeypatch):
+    """The server starts before this process imports distributed, with the variables
+    distributed.Nanny would set before starting a worker (its own computation here)."""
+    import dask
+    from bodyvib.vehicle.sweep.cluster import _server_environ
+    from distributed.nanny import _get_env_variables
+
+    key = "distributed.nanny.pre-spawn-environ"
+    config = {f"{key}.MALLOC_TRIM_THRESHOLD_": 1 << 27, f"{key}.BODYVIB_TEST_ONLY": "x"}
+    monkeypatch.setenv("OMP_NUM_THREADS", "3")  # this process's value wins
+    for seed in (None, "0", "12"):
+        if seed is None:
+            monkeypatch.delenv("PYTHONHASHSEED", raising=False)
+        else:
+            monkeypatch.setenv("PYTHONHASHSEED", seed)
+        with dask.config.set({**config, f"{key}.PYTHONHASHSEED": seed}):
+            want = _get_env_variables(key)
+        if want.get("PYTHONHASHSEED") in (None, "0"):
+            want["PYTHONHASHSEED"] = "6640"  # distributed.Nanny's fixed seed
+        got = _server_environ({**config, f"{key}.PYTHONHASHSEED": seed})
+        assert got == want
+        assert got["OMP_NUM_THREADS"] == "3" and got["MALLOC_TRIM_THRESHOLD_"] == str(1 << 27)

@@ -307,6 +307,13 @@ def _tempdir_environ() -> dict:
     return {k: os.environ[k] for k in ("TMPDIR", "TMP", "TEMP") if k in os.environ}
 
 
+#: What a sweep's fork server imports before it forks a worker.
+SERVER_PRELOAD = ("distributed", "bodyvib.vehicle.sweep.warmed")
+#: The variables distributed.Nanny sets before it starts a worker process: its
+#: ``distributed.nanny.pre-spawn-environ`` settings.
+_PRE_SPAWN = "distributed.nanny.pre-spawn-environ"
+
+
 def _preload_forkserver() -> None:
     """Have the fork server import distributed and the warmed engines before it forks.
 
@@ -317,33 +324,29 @@ def _preload_forkserver() -> None:
 
     ctx = get_mp_context()  # distributed sets its own list first
     if dask.config.get("distributed.worker.multiprocessing-method") == "forkserver":
-        ctx.set_forkserver_preload(["distributed", "bodyvib.vehicle.sweep.warmed"])
+        ctx.set_forkserver_preload(list(SERVER_PRELOAD))
         _server_folder()
-        _start_server()
 
 
-def _start_server() -> None:
-    """Start the fork server now, so that its imports run while the scheduler starts.
+def _start_server(config: dict) -> None:
+    """Start the fork server at once, before this process imports distributed.
 
-    The server otherwise starts with the first worker, after the scheduler. It gets
-    the environment the first worker would give it: the variables Dask sets before it
-    starts a worker process (``distributed.nanny.pre-spawn-environ``, a value of this
-    process's environment first, and the fixed hash seed of Dask's workers).
-    Returns at once: the server imports in its own process, and the first fork waits
-    for it.
+    The server otherwise starts with the first worker, after this process has
+    imported distributed and started the scheduler: now its imports and warm-up run
+    alongside those. It gets the environment the first worker would give it
+    (:func:`_server_environ`). Returns at once; the first fork waits for the server.
+
+    Parameters
+    ----------
+    config : dict
+        The Dask settings the LocalCluster is made with (dotted keys).
     """
+    import multiprocessing
     import multiprocessing.forkserver
 
-    import dask
-
-    # what distributed.Nanny sets in this process's environment before a worker starts
-    env = {
-        k: os.environ.get(k, str(v))
-        for k, v in dask.config.get("distributed.nanny.pre-spawn-environ").items()
-        if v is not None
-    }
-    if env.get("PYTHONHASHSEED") in (None, "0"):
-        env["PYTHONHASHSEED"] = "6640"
+    multiprocessing.get_context("forkserver").set_forkserver_preload(list(SERVER_PRELOAD))
+    _server_folder()
+    env = _server_environ(config)
     saved = {k: os.environ.get(k) for k in env}
     os.environ.update(env)
     try:
@@ -351,9 +354,51 @@ def _start_server() -> None:
     finally:
         for k, v in saved.items():
             if v is None:
-                del os.environ[k]
+                os.environ.pop(k, None)
             else:
                 os.environ[k] = v
+
+
+def _server_environ(config: dict) -> dict:
+    """The variables distributed.Nanny sets in this process before it starts a worker.
+
+    Its ``distributed.nanny.pre-spawn-environ`` settings: distributed's defaults (read
+    from the file distributed loads them from, without importing distributed), then
+    Dask's configuration and ``config``; a variable this process already has keeps its
+    value, and the hash seed is fixed (``PYTHONHASHSEED=6640``) unless set, so that
+    every worker hashes alike. A process reads these as it starts (glibc's malloc
+    settings, the BLAS threads, the hash seed): the fork server must have them.
+
+    Parameters
+    ----------
+    config : dict
+        Dask settings with dotted keys (``distributed.nanny.pre-spawn-environ.X``).
+
+    Returns
+    -------
+    dict
+        Variable -> value (text).
+    """
+    import importlib.util
+
+    import dask
+    import yaml
+
+    settings = {}
+    spec = importlib.util.find_spec("distributed")
+    for folder in (spec.submodule_search_locations if spec else None) or ():
+        path = os.path.join(folder, "distributed.yaml")
+        if os.path.isfile(path):
+            with open(path) as f:
+                defaults = yaml.safe_load(f)
+            settings.update(defaults["distributed"]["nanny"]["pre-spawn-environ"] or {})
+    settings.update(dask.config.get(_PRE_SPAWN, default=None) or {})
+    prefix = _PRE_SPAWN + "."
+    settings.update({k[len(prefix) :]: v for k, v in config.items() if k.startswith(prefix)})
+    env = {k: os.environ.get(k, str(v)) for k, v in settings.items() if v is not None}
+    if env.get("PYTHONHASHSEED") in (None, "0"):
+        env["PYTHONHASHSEED"] = "6640"
+    return env
 
 
 def _server_folder() -> None:
@@ -379,9 +424,6 @@ def _server_folder() -> None:
 
 
 def _local(workers, connect_timeout) -> Cluster:
-    import dask
-    from dask.distributed import Client, LocalCluster
-
     scratch = tempfile.mkdtemp(prefix="bodyvib-sweep-dask-")
     try:
         # Dask's workers return freed memory to the system at once (glibc
@@ -389,11 +431,13 @@ def _local(workers, connect_timeout) -> Cluster:
         # glibc's mmap threshold at 128 kB (it is dynamic, up to 32 MB, only while
         # neither is set): every large buffer of a task (road samples, packed
         # matrices) would be mapped and faulted in afresh, task after task. Both set
-        # high. The fork server starts with the first worker and these variables.
+        # high; the fork server starts with these variables (_server_environ).
         # Each worker's statistical profiler samples the running task's stack every
         # 10 ms for a dashboard that a sweep's LocalCluster does not have: off.
         # The workers fork from one server process that has imported and warmed the
-        # engines (bodyvib.vehicle.sweep.warmed) instead of each starting Python afresh.
+        # engines (bodyvib.vehicle.sweep.warmed) instead of each starting Python afresh;
+        # the server starts first, its warm-up alongside this process's import of
+        # distributed and the scheduler's start.
         config = {
             "distributed.worker.multiprocessing-method": _start_method(),
             "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": 128 * 1024 * 1024,
@@ -406,6 +450,11 @@ def _local(workers, connect_timeout) -> Cluster:
         }
         spawn = contextlib.ExitStack()  # until the cluster is closed (a worker may restart)
         spawn.enter_context(_workers_ignore_sigint(scratch))
+        if config["distributed.worker.multiprocessing-method"] == "forkserver":
+            _start_server(config)
+        import dask
+        from dask.distributed import Client, LocalCluster
+
         # a second Ctrl-C waits too: a cluster half started would leave its workers behind
         with dask.config.set(config), interrupts.critical():
             _preload_forkserver()
