@@ -77,6 +77,22 @@ def test_the_servers_environment_is_known_before_distributed_is_imported():
 
 
 @pytest.mark.integration
+@pytest.mark.skipif(not FORKSERVER, reason="workers fork from a server only with forkserver")
+def test_starting_a_local_cluster_leaves_distributeds_preload_list_unimported():
+    """distributed imports the packages of its own preload list (pandas among them) in
+    the process that starts a LocalCluster; the sweep's fork server has its own list."""
+    code = (
+        "import sys\n"
+        "from bodyvib.vehicle.sweep.cluster import open_cluster\n"
+        "with open_cluster(workers=1) as cl:\n"
+        "    assert cl.threads(10) == 1\n"
+        "print('pandas' in sys.modules)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
+
+
+@pytest.mark.integration
 def test_writing_a_part_does_not_import_pandas():
     """pyarrow's conversion of Python values imports pandas; a part is written without it."""
     code = (
