@@ -12,7 +12,9 @@ started as ``bodyvib sweep`` starts them
 * **start**: from asking for the LocalCluster to a connected client with its
   worker. The worker forks from a server process that imports distributed and
   the engines and loads the compiled loop (:mod:`bodyvib.vehicle.sweep.warmed`);
-  the first cluster of a process starts that server, later ones reuse it;
+  the first cluster of a process starts that server, later ones reuse it. As
+  ``run_sweep`` does, this process imports what it makes the table with (pandas)
+  while the server warms up; with the plain cluster, in its first sweep;
 * **first sweep**: ``--cases`` batched cases sent to that fresh worker through
   its scheduler's address (``run_sweep(..., scheduler=ADDRESS)``);
 * **second sweep**: the same cases again on the same worker: the price of the
@@ -86,9 +88,15 @@ def plain_cluster():
         cluster.close()
 
 
+def table_imports() -> None:
+    """What ``run_sweep`` imports while a LocalCluster's workers start (for its table)."""
+    import pandas  # noqa: F401
+    import pyarrow.parquet  # noqa: F401
+
+
 @contextmanager
 def sweep_cluster():
-    with open_cluster(workers=1) as cl:
+    with open_cluster(workers=1, meanwhile=table_imports) as cl:
         yield cl.client.scheduler.address
 
 

@@ -123,18 +123,27 @@ def test_a_local_workers_first_sweep_loads_nothing_and_it_has_dasks_environment(
     def text_hash():
         return hash("bodyvib")
 
+    def running_servers():
+        return [
+            p
+            for p in psutil.Process().children(recursive=True)
+            if "forkserver" in " ".join(p.cmdline())
+        ]
+
+    seen = []  # the servers running when this process's own preparation is called
+
+    def meanwhile():
+        seen.append(len(running_servers()))
+
     spec = {"road": "C", "speed": [10, 20], "seed": [0, 1], "duration": 1, "body": "reduced-paper"}
-    with open_cluster(workers=1) as cl:
+    with open_cluster(workers=1, meanwhile=meanwhile) as cl:
         before = next(iter(cl.client.run(modules).values()))
         run_sweep(spec, scheduler=cl.client.scheduler.address)
         after = next(iter(cl.client.run(modules).values()))
         worker_hash = next(iter(cl.client.run(text_hash).values()))
-        servers = [
-            p.environ()
-            for p in psutil.Process().children(recursive=True)
-            if "forkserver" in " ".join(p.cmdline())
-        ]
+        servers = [p.environ() for p in running_servers()]
     assert sorted(set(after) - set(before)) == []
+    assert len(seen) == 1 and seen[0] >= 1
     seeded = subprocess.run(
         [sys.executable, "-c", "print(hash('bodyvib'))"],
         env={"PYTHONHASHSEED": "6640"},

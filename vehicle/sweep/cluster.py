@@ -207,6 +207,7 @@ def open_cluster(
     workers: int = 1,
     connect_timeout: float = 10.0,
     worker_timeout: float = 60.0,
+    meanwhile: Optional[Callable[[], None]] = None,
 ) -> Iterator[Cluster]:
     """A Dask client for a sweep, with at least one worker; closed when the block ends.
 
@@ -223,6 +224,10 @@ def open_cluster(
         Seconds to wait for the scheduler.
     worker_timeout : float
         Seconds to wait for a first worker.
+    meanwhile : callable, optional
+        This process's own preparation (imports for the results), called once: for a
+        LocalCluster while its workers' fork server warms up on another core, else
+        before connecting.
 
     Yields
     ------
@@ -236,7 +241,7 @@ def open_cluster(
         Ctrl-C while waiting.
     """
     with _quiet_logs() as cover:
-        cluster = _start(scheduler, scheduler_file, workers, connect_timeout)
+        cluster = _start(scheduler, scheduler_file, workers, connect_timeout, meanwhile)
         cover()  # the loggers the client made
         try:
             t_end = time.monotonic() + worker_timeout
@@ -265,7 +270,11 @@ def open_cluster(
             cluster.close()
 
 
-def _start(scheduler, scheduler_file, workers, connect_timeout) -> Cluster:
+def _start(scheduler, scheduler_file, workers, connect_timeout, meanwhile=None) -> Cluster:
+    if scheduler_file is None and scheduler in (None, "local"):
+        return _local(workers, connect_timeout, meanwhile)  # distributed after its fork server
+    if meanwhile is not None:
+        meanwhile()
     if scheduler_file is not None:
         if not os.path.isfile(scheduler_file):
             raise BodyvibError(
@@ -274,11 +283,9 @@ def _start(scheduler, scheduler_file, workers, connect_timeout) -> Cluster:
             )
         where = f"of '{scheduler_file}'"
         kw = {"scheduler_file": scheduler_file}
-    elif scheduler not in (None, "local"):
+    else:
         where = check_address(scheduler)
         kw = {"address": scheduler}
-    else:
-        return _local(workers, connect_timeout)  # imports distributed after its fork server starts
     from dask.distributed import Client
 
     try:
@@ -425,7 +432,7 @@ def _server_folder() -> None:
         tempfile.tempdir = saved
 
 
-def _local(workers, connect_timeout) -> Cluster:
+def _local(workers, connect_timeout, meanwhile=None) -> Cluster:
     scratch = tempfile.mkdtemp(prefix="bodyvib-sweep-dask-")
     try:
         # Dask's workers return freed memory to the system at once (glibc
@@ -454,6 +461,8 @@ def _local(workers, connect_timeout) -> Cluster:
         spawn.enter_context(_workers_ignore_sigint(scratch))
         if config["distributed.worker.multiprocessing-method"] == "forkserver":
             _start_server(config)
+        if meanwhile is not None:
+            meanwhile()
         import dask
         from dask.distributed import Client, LocalCluster
 
