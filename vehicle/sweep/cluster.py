@@ -314,7 +314,7 @@ def _tempdir_environ() -> dict:
 
 
 #: What a sweep's fork server imports before it forks a worker.
-SERVER_PRELOAD = ("distributed", "bodyvib.vehicle.sweep.warmed")
+_SERVER_PRELOAD = ("distributed", "bodyvib.vehicle.sweep.warmed")
 #: The variables distributed.Nanny sets before it starts a worker process: its
 #: ``distributed.nanny.pre-spawn-environ`` settings.
 _PRE_SPAWN = "distributed.nanny.pre-spawn-environ"
@@ -335,7 +335,7 @@ def _preload_forkserver() -> None:
     if dask.config.get("distributed.worker.multiprocessing-method") == "forkserver":
         if hasattr(distributed.utils, "_forkserver_preload_set"):
             distributed.utils._forkserver_preload_set = True
-        multiprocessing.get_context("forkserver").set_forkserver_preload(list(SERVER_PRELOAD))
+        multiprocessing.get_context("forkserver").set_forkserver_preload(list(_SERVER_PRELOAD))
 
 
 def _start_server(config: dict) -> None:
@@ -353,7 +353,7 @@ def _start_server(config: dict) -> None:
     """
     import multiprocessing.forkserver
 
-    multiprocessing.get_context("forkserver").set_forkserver_preload(list(SERVER_PRELOAD))
+    multiprocessing.get_context("forkserver").set_forkserver_preload(list(_SERVER_PRELOAD))
     _server_folder()
     env = _server_environ(config)
     saved = {k: os.environ.get(k) for k in env}
