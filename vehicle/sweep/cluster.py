@@ -20,6 +20,7 @@ in one line.
 
 import contextlib
 import logging
+import multiprocessing
 import os
 import shutil
 import tempfile
@@ -206,6 +207,7 @@ def open_cluster(
     workers: int = 1,
     connect_timeout: float = 10.0,
     worker_timeout: float = 60.0,
+    meanwhile: Optional[Callable[[], None]] = None,
 ) -> Iterator[Cluster]:
     """A Dask client for a sweep, with at least one worker; closed when the block ends.
 
@@ -222,6 +224,10 @@ def open_cluster(
         Seconds to wait for the scheduler.
     worker_timeout : float
         Seconds to wait for a first worker.
+    meanwhile : callable, optional
+        This process's own preparation (imports for the results), called once: for a
+        LocalCluster while its workers' fork server warms up on another core, else
+        before connecting.
 
     Yields
     ------
@@ -235,7 +241,7 @@ def open_cluster(
         Ctrl-C while waiting.
     """
     with _quiet_logs() as cover:
-        cluster = _start(scheduler, scheduler_file, workers, connect_timeout)
+        cluster = _start(scheduler, scheduler_file, workers, connect_timeout, meanwhile)
         cover()  # the loggers the client made
         try:
             t_end = time.monotonic() + worker_timeout
@@ -264,9 +270,11 @@ def open_cluster(
             cluster.close()
 
 
-def _start(scheduler, scheduler_file, workers, connect_timeout) -> Cluster:
-    from dask.distributed import Client
-
+def _start(scheduler, scheduler_file, workers, connect_timeout, meanwhile=None) -> Cluster:
+    if scheduler_file is None and scheduler in (None, "local"):
+        return _local(workers, connect_timeout, meanwhile)  # distributed after its fork server
+    if meanwhile is not None:
+        meanwhile()
     if scheduler_file is not None:
         if not os.path.isfile(scheduler_file):
             raise BodyvibError(
@@ -275,11 +283,11 @@ def _start(scheduler, scheduler_file, workers, connect_timeout) -> Cluster:
             )
         where = f"of '{scheduler_file}'"
         kw = {"scheduler_file": scheduler_file}
-    elif scheduler not in (None, "local"):
+    else:
         where = check_address(scheduler)
         kw = {"address": scheduler}
-    else:
-        return _local(workers, connect_timeout)
+    from dask.distributed import Client
+
     try:
         client = _call(
             lambda: Client(timeout=f"{connect_timeout}s", **kw), connect_timeout + 5, "connect"
@@ -297,8 +305,6 @@ def _start(scheduler, scheduler_file, workers, connect_timeout) -> Cluster:
 
 def _start_method() -> str:
     """How a LocalCluster starts its workers: ``forkserver`` where the system has it."""
-    import multiprocessing
-
     return "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
 
 
@@ -307,18 +313,101 @@ def _tempdir_environ() -> dict:
     return {k: os.environ[k] for k in ("TMPDIR", "TMP", "TEMP") if k in os.environ}
 
 
-def _preload_forkserver() -> None:
-    """Have the fork server import distributed and the warmed engines before it forks.
+#: What a sweep's fork server imports before it forks a worker.
+_SERVER_PRELOAD = ("distributed", "bodyvib.vehicle.sweep.warmed")
+#: The variables distributed.Nanny sets before it starts a worker process: its
+#: ``distributed.nanny.pre-spawn-environ`` settings.
+_PRE_SPAWN = "distributed.nanny.pre-spawn-environ"
 
-    Without effect once the server runs (it keeps what it loaded), or with ``spawn``.
+
+def _preload_forkserver() -> None:
+    """Keep the fork server's list: the warmed engines, not distributed's own list.
+
+    distributed sets its list (distributed and the packages it reports, pandas among
+    them) the first time it asks for the forkserver context, importing each of them in
+    this process to see that it is there: 0.3-0.5 s of CPU at the cluster's start,
+    for a list that the server started by :func:`_start_server` does not use. Marked
+    as set, distributed leaves the list alone. Without effect with ``spawn``.
     """
     import dask
-    from distributed.utils import get_mp_context
+    import distributed.utils
 
-    ctx = get_mp_context()  # distributed sets its own list first
     if dask.config.get("distributed.worker.multiprocessing-method") == "forkserver":
-        ctx.set_forkserver_preload(["distributed", "bodyvib.vehicle.sweep.warmed"])
-        _server_folder()
+        if hasattr(distributed.utils, "_forkserver_preload_set"):
+            distributed.utils._forkserver_preload_set = True
+        multiprocessing.get_context("forkserver").set_forkserver_preload(list(_SERVER_PRELOAD))
+
+
+def _start_server(config: dict) -> None:
+    """Start the fork server at once, before this process imports distributed.
+
+    The server otherwise starts with the first worker, after this process has
+    imported distributed and started the scheduler: now its imports and warm-up run
+    alongside those. It gets the environment the first worker would give it
+    (:func:`_server_environ`). Returns at once; the first fork waits for the server.
+
+    Parameters
+    ----------
+    config : dict
+        The Dask settings the LocalCluster is made with (dotted keys).
+    """
+    import multiprocessing.forkserver
+
+    multiprocessing.get_context("forkserver").set_forkserver_preload(list(_SERVER_PRELOAD))
+    _server_folder()
+    env = _server_environ(config)
+    saved = {k: os.environ.get(k) for k in env}
+    os.environ.update(env)
+    try:
+        multiprocessing.forkserver.ensure_running()
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+def _server_environ(config: dict) -> dict:
+    """The variables distributed.Nanny sets in this process before it starts a worker.
+
+    Its ``distributed.nanny.pre-spawn-environ`` settings: distributed's defaults (read
+    from the file distributed loads them from, without importing distributed), then
+    Dask's configuration and ``config``; a variable this process already has keeps its
+    value, and the hash seed is fixed (``PYTHONHASHSEED=6640``) unless set, so that
+    every worker hashes alike. A process reads these as it starts (glibc's malloc
+    settings, the BLAS threads, the hash seed): the fork server must have them.
+
+    Parameters
+    ----------
+    config : dict
+        Dask settings with dotted keys (``distributed.nanny.pre-spawn-environ.X``).
+
+    Returns
+    -------
+    dict
+        Variable -> value (text).
+    """
+    import importlib.util
+
+    import dask
+    import yaml
+
+    settings = {}
+    spec = importlib.util.find_spec("distributed")
+    for folder in (spec.submodule_search_locations if spec else None) or ():
+        path = os.path.join(folder, "distributed.yaml")
+        if os.path.isfile(path):
+            with open(path) as f:  # libyaml's parser where there is one: 20 ms less
+                defaults = yaml.load(f, Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
+            settings.update(defaults["distributed"]["nanny"]["pre-spawn-environ"] or {})
+    settings.update(dask.config.get(_PRE_SPAWN, default=None) or {})
+    prefix = _PRE_SPAWN + "."
+    settings.update({k[len(prefix) :]: v for k, v in config.items() if k.startswith(prefix)})
+    env = {k: os.environ.get(k, str(v)) for k, v in settings.items() if v is not None}
+    if env.get("PYTHONHASHSEED") in (None, "0"):
+        env["PYTHONHASHSEED"] = "6640"
+    return env
 
 
 def _server_folder() -> None:
@@ -343,10 +432,7 @@ def _server_folder() -> None:
         tempfile.tempdir = saved
 
 
-def _local(workers, connect_timeout) -> Cluster:
-    import dask
-    from dask.distributed import Client, LocalCluster
-
+def _local(workers, connect_timeout, meanwhile=None) -> Cluster:
     scratch = tempfile.mkdtemp(prefix="bodyvib-sweep-dask-")
     try:
         # Dask's workers return freed memory to the system at once (glibc
@@ -354,11 +440,13 @@ def _local(workers, connect_timeout) -> Cluster:
         # glibc's mmap threshold at 128 kB (it is dynamic, up to 32 MB, only while
         # neither is set): every large buffer of a task (road samples, packed
         # matrices) would be mapped and faulted in afresh, task after task. Both set
-        # high. The fork server starts with the first worker and these variables.
+        # high; the fork server starts with these variables (_server_environ).
         # Each worker's statistical profiler samples the running task's stack every
         # 10 ms for a dashboard that a sweep's LocalCluster does not have: off.
         # The workers fork from one server process that has imported and warmed the
-        # engines (bodyvib.vehicle.sweep.warmed) instead of each starting Python afresh.
+        # engines (bodyvib.vehicle.sweep.warmed) instead of each starting Python afresh;
+        # the server starts first, its warm-up alongside this process's import of
+        # distributed and the scheduler's start.
         config = {
             "distributed.worker.multiprocessing-method": _start_method(),
             "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": 128 * 1024 * 1024,
@@ -371,6 +459,13 @@ def _local(workers, connect_timeout) -> Cluster:
         }
         spawn = contextlib.ExitStack()  # until the cluster is closed (a worker may restart)
         spawn.enter_context(_workers_ignore_sigint(scratch))
+        if config["distributed.worker.multiprocessing-method"] == "forkserver":
+            _start_server(config)
+        if meanwhile is not None:
+            meanwhile()
+        import dask
+        from dask.distributed import Client, LocalCluster
+
         # a second Ctrl-C waits too: a cluster half started would leave its workers behind
         with dask.config.set(config), interrupts.critical():
             _preload_forkserver()

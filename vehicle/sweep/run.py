@@ -638,6 +638,7 @@ def _on_cluster(
         cfg.threads,
         cfg.connect_timeout,
         cfg.worker_timeout,
+        meanwhile=_table_imports,
     ) as cluster:
         threads = cluster.threads(cfg.connect_timeout)
         size = task_size(cfg.engine, todo, threads, cfg.block)
@@ -667,6 +668,12 @@ def _on_cluster(
             raise ClusterLost(
                 f"{exc}; the sweep is incomplete, the cases finished are {where}"
             ) from None
+
+
+def _table_imports() -> None:
+    """Import what this process makes the table with (run while a cluster's workers start)."""
+    import pandas  # noqa: F401
+    import pyarrow.parquet  # noqa: F401
 
 
 def _finish(cfg: SweepSettings, folder: str, schema, say: Callable[[str], None]):
