@@ -99,12 +99,18 @@ def host_flags() -> list:
     return [f for f in COMMON_FLAGS if f.startswith(("-std", "-O", "-f"))]
 
 
-def compile_host(exe: Path, road_sources: Path = None, sizes: tuple = None) -> Path:
+def compile_host(
+    exe: Path, road_sources: Path = None, sizes: tuple = None, pattern: tuple = None
+) -> Path:
     """Compile the host with the FMUs' flags; ``sizes`` (n, ni, nset, nget) makes the plain
-    loop's sizes constants, as the FMU's are; ``road_sources`` compiles a road's table in."""
+    loop's sizes constants, as the FMU's are, and ``pattern`` (0/1 per entry of ``Ms``, row
+    by row) the entries of ``Ms`` it multiplies, as the FMU's are; ``road_sources`` compiles
+    a road's table in."""
     cmd = ["gcc", *host_flags(), str(HOST), "-o", str(exe), "-ldl", "-lm"]
     if sizes is not None:
         cmd[1:1] = [f"-DPLAIN_{k}={v}" for k, v in zip(("N", "NI", "NSET", "NGET"), sizes)]
+    if pattern is not None:
+        cmd[1:1] = ["-DPLAIN_MS_PATTERN=" + ",".join(str(int(b)) for b in pattern)]
     if road_sources is not None:
         cmd[1:1] = [
             "-DBV_ROAD_TABLE",
@@ -118,7 +124,8 @@ def compile_host(exe: Path, road_sources: Path = None, sizes: tuple = None) -> P
 
 def plain_matrices(name: str, set_idx, get_idx, path: Path) -> tuple:
     """Write what the plain loop multiplies: the FMU's step matrices from the model; returns
-    the sizes (n, ni, nset, nget)."""
+    the sizes (n, ni, nset, nget) and where ``Ms`` can be non-zero (0/1 per entry): on its
+    diagonal and where ``R`` or ``R^2`` is, as the FMU's compiled step knows it."""
     from bodyvib.vehicle.quarter_car import load_car
 
     from bodyvib.models import load_model
@@ -135,7 +142,9 @@ def plain_matrices(name: str, set_idx, get_idx, path: Path) -> tuple:
         f.write(" ".join(str(i) for i in set_idx) + "\n")
         for block in (M[:n], M[n:, n:], Y):
             f.write(" ".join(repr(float(v)) for v in block.ravel()) + "\n")
-    return n, ni, len(set_idx), len(get_idx)
+    R = core._R
+    pattern = (np.eye(ni) + (R != 0) + ((R != 0).astype(int) @ (R != 0).astype(int))) != 0
+    return (n, ni, len(set_idx), len(get_idx)), tuple(pattern.ravel())
 
 
 def unpack(fmu: Path, folder: Path):
@@ -180,6 +189,24 @@ def measure(exe, fmi, binary, token, sv, gv, data, steps, repeats, prefix=()) ->
             res[key], res["resolution"] = map(float, vals)
         elif key in ("allocations", "check", "locked", "stolen"):
             res[key] = float(vals[0])
+    return res
+
+
+def measure_processes(count: int, args: tuple) -> dict:
+    """:func:`measure` in ``count`` fresh host processes: medians of the timings and
+    percentiles over the processes, the range of their wall ratios, the largest worst step,
+    and the counts (allocations, interrupts, ...) of the first."""
+    runs = [measure(*args) for _ in range(count)]
+    res = dict(runs[0])
+    medians = ("fmu", "plain", "fmu_cpu", "plain_cpu", "ratio", "ratio_cpu")
+    medians += ("p50", "p99", "p999", "p9999", "outliers")
+    for key in medians + tuple("plain_" + k for k in ("p50", "p99", "p999", "p9999", "outliers")):
+        res[key] = float(np.median([r[key] for r in runs]))
+    res["max"] = max(r["max"] for r in runs)
+    res["plain_max"] = max(r["plain_max"] for r in runs)
+    res["allocations"] = max(r["allocations"] for r in runs)
+    res["check"] = max(r["check"] for r in runs)
+    res["ratio_range"] = (min(r["ratio"] for r in runs), max(r["ratio"] for r in runs))
     return res
 
 
@@ -234,12 +261,14 @@ def syscalls(exe, args, folder: Path) -> tuple:
     return tuple(totals)
 
 
-def print_worst(rows, steps: int) -> None:
+def print_worst(rows, steps: int, processes: int) -> None:
     """The distribution of single steps, FMU and plain loop, and what the slow ones met."""
     r0 = rows[0][2]
     print(
-        f"single steps ({steps} after a warm-up, each FMU step followed by a plain step, both "
-        f"timed; time-stamp counter in steps of {r0['resolution']:.1f} ns, its own "
+        f"single steps ({steps} after a warm-up in each of {processes} processes, each FMU step "
+        "followed by a plain step, both timed; percentiles: medians over the processes, max: the "
+        f"worst of all; "
+        f"time-stamp counter in steps of {r0['resolution']:.1f} ns, its own "
         f"{r0['latency_clock']:.1f} ns subtracted; memory locked: {r0['locked'] == 1}), ns:"
     )
     print(
@@ -271,6 +300,13 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--steps", type=int, default=1_000_000, help="steps per loop (default 1e6)")
     p.add_argument("--repeats", type=int, default=7, help="interleaved rounds (default 7)")
+    p.add_argument(
+        "--processes",
+        type=int,
+        default=5,
+        help="host processes per FMU (default 5): a process's timing can sit apart from the "
+        "next one's by a third on a virtual machine; the median over processes is steady",
+    )
     p.add_argument("--fmus", type=Path, help="folder of built native FMUs (default: build them)")
     p.add_argument("--no-callgrind", action="store_true", help="skip the instruction counts")
     p.add_argument(
@@ -291,11 +327,13 @@ def main(argv=None):
             prefix = ("chrt", "-f", "50", "taskset", "-c", str((os.cpu_count() or 1) - 1))
         print(
             f"load: {os.getloadavg()[0]:.2f} (1 min) on {os.cpu_count()} cores; {args.steps} steps "
-            f"a loop, medians of {args.repeats} interleaved rounds; one step = set 2 inputs + "
-            "doStep + get 2 outputs, ns"
+            f"a loop, {args.repeats} interleaved rounds in each of {args.processes} processes "
+            "(medians; range: of the processes' ratios); one step = set 2 inputs + doStep + get "
+            "2 outputs, ns"
         )
         print(
-            f"  {'FMU':17s} {'FMI':>3s} | {'loop: FMU':>9s} {'plain':>6s} {'ratio':>5s} {'CPU':>5s} | "
+            f"  {'FMU':17s} {'FMI':>3s} | {'loop: FMU':>9s} {'plain':>6s} {'ratio':>5s} "
+            f"{'range':>9s} {'CPU':>5s} | "
             f"{'instr: FMU':>10s} {'plain':>5s} {'ratio':>5s} | {'allocs':>6s} {'rel diff':>8s}"
         )
         notes, worst = [], []
@@ -314,21 +352,26 @@ def main(argv=None):
                     data = f"road:{float(start['speed'])!r}"
                 else:
                     data = str(folder / "plain.txt")
-                    sizes = plain_matrices(name, [vr[s] for s in sets], [vr[g] for g in gets], data)
-                    host = tmp / ("host-" + "-".join(map(str, sizes)))
+                    sizes, pattern = plain_matrices(
+                        name, [vr[s] for s in sets], [vr[g] for g in gets], data
+                    )
+                    host = tmp / f"host-{name}"  # the model's sizes and Ms pattern
                     if not host.exists():
-                        compile_host(host, sizes=sizes)
-                r = measure(
-                    host, fmi, binary, token, sv, gv, data, args.steps, args.repeats, prefix
+                        compile_host(host, sizes=sizes, pattern=pattern)
+                r = measure_processes(
+                    args.processes,
+                    (host, fmi, binary, token, sv, gv, data, args.steps, args.repeats, prefix),
                 )
                 ir = ir_plain = float("nan")
                 if callgrind:
                     ir = instructions(host, "fmu", fmi, binary, token, sv, gv, data)
                     ir_plain = instructions(host, "plain", fmi, binary, token, sv, gv, data)
+                low, high = r["ratio_range"]
                 print(
                     f"  {name:17s} {fmi:3d} | {r['fmu']:9.1f} {r['plain']:6.1f} {r['ratio']:5.2f} "
-                    f"{r['ratio_cpu']:5.2f} | {ir:10.0f} {ir_plain:5.0f} {ir / ir_plain:5.2f} | "
-                    f"{r['allocations']:6.0f} {r['check']:8.1e}"
+                    f"{f'{low:.2f}-{high:.2f}':>9s} {r['ratio_cpu']:5.2f} | {ir:10.0f} "
+                    f"{ir_plain:5.0f} {ir / ir_plain:5.2f} | {r['allocations']:6.0f} "
+                    f"{r['check']:8.1e}"
                 )
                 worst.append((name, fmi, r))
                 if fmi == 2 and shutil.which("strace"):
@@ -347,7 +390,7 @@ def main(argv=None):
             "  loop: medians of whole loops, wall and thread CPU (ratio FMU / plain); instr: "
             "callgrind, per step; rel diff: FMU against plain outputs, over their largest"
         )
-        print_worst(worst, args.steps)
+        print_worst(worst, args.steps, args.processes)
         for note in notes:
             print("  " + note)
         print(f"load after: {os.getloadavg()[0]:.2f}")

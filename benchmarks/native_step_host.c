@@ -216,6 +216,12 @@ static inline void fmu_step(const Fmu *f, const unsigned *sv, int ns, const doub
 #define UNROLL
 #endif
 
+#ifdef PLAIN_MS_PATTERN
+/* Where Ms can be non-zero, when the host is compiled for one model: the FMU knows this
+ * pattern where its step is compiled (from its model's constant R), so the floor does too. */
+static const unsigned char ms_pattern[] = {PLAIN_MS_PATTERN};
+#endif
+
 typedef struct {
     int n, ni, nset, nget, road;
     int *setpos;
@@ -333,8 +339,13 @@ static inline void plain_step(Plain *p, const double *in, double h, double *out)
         UNROLL
         for (j = 0; j < P_NI; j++) {
             double v = p->Ms[i * P_NI + j];
+#ifdef PLAIN_MS_PATTERN
+            if (!ms_pattern[i * P_NI + j])
+                continue;
+#else
             if (v == 0.0)
                 continue;
+#endif
             if (j & 1)
                 b += v * p->z[n + j];
             else
