@@ -1,24 +1,28 @@
 """A native FMU's step against a plain C loop of the same arithmetic, in one C host.
 
-    python benchmarks/bench_native_step.py [--steps 1000000] [--repeats 7] [--no-callgrind]
-                                           [--fmus DIR]
+    python benchmarks/bench_native_step.py [--steps 1000000] [--repeats 7] [--processes 5]
+                                           [--no-callgrind] [--realtime] [--fmus DIR]
 
 Builds the native FMUs (FMI 2.0 and 3.0: HumanBody3DOF, HumanBodyISO7962, QuarterCar,
 Road) unless ``--fmus`` names a folder of them (``bodyvib build --native``), compiles
 ``benchmarks/native_step_host.c`` with the FMUs' own flags (``-O2 -flto``), once per model
-with the model's sizes as constants (the FMU is compiled for its model's sizes too), and,
-per FMU:
+with the model's sizes and the pattern of its inputs' step matrix as constants (the FMU is
+compiled for its model's sizes and pattern too), and, per FMU, in ``--processes`` fresh
+host processes:
 
-* times, in one process and interleaved over ``--repeats`` rounds, ``--steps`` FMU steps
-  (set two inputs, doStep, get two outputs; inputs precomputed) and the same number of
-  steps of a plain C loop on the same matrices: ``x <- Sc [x | s]``, ``s <- Ms s``, the two
-  outputs ``Y [x | s]``, summed as the FMU sums (two accumulators a row, Ms over its
-  non-zero entries), with the matrices of :class:`bodyvib.runtime.engine.FmuCore` (the same
-  exact discretization the FMU computes at initialization). For Road the plain loop
-  evaluates the FMU's own table (its ``sources/bodyvib_model.c``, compiled into the host) at
-  ``speed * t``, the position reduced as the FMU reduces it. Printed: medians of wall-clock
-  and thread-CPU ns per step, their ratio FMU / plain, and the largest relative difference
-  of the outputs (the same step);
+* times, interleaved over ``--repeats`` rounds, ``--steps`` FMU steps (set two inputs,
+  doStep, get two outputs; inputs precomputed), the same number of steps of a plain C loop
+  on the same matrices: ``x <- Sc [x | s]``, ``s <- Ms s``, the two outputs ``Y [x | s]``,
+  summed as the FMU sums (two accumulators a row, Ms over the entries its pattern allows),
+  with the matrices of :class:`bodyvib.runtime.engine.FmuCore` (the same exact
+  discretization the FMU computes at initialization), and the same calls into functions
+  that do nothing. For Road the plain loop evaluates the FMU's own table (its
+  ``sources/bodyvib_model.c``, compiled into the host) at ``speed * t``, the position
+  reduced as the FMU reduces it. Printed: the best round of each and their ratio (the
+  step's own cost: on a virtual machine another thread may share the physical core, and
+  that only adds time), medians of wall-clock and thread-CPU ns per step with the range of
+  the processes' ratios, and the largest relative difference of the outputs (the same
+  step);
 * times ``--steps`` FMU steps one by one with the time-stamp counter, after a warm-up, the
   counter's own cost subtracted, memory locked (``mlockall``), each followed by a plain
   step timed the same way: median, 99th, 99.9th and 99.99th percentile and the worst step
@@ -174,8 +178,10 @@ def measure(exe, fmi, binary, token, sv, gv, data, steps, repeats, prefix=()) ->
     rounds = np.array(
         [list(map(float, ln.split()[1:])) for ln in text.splitlines() if ln.startswith("round")]
     )
-    res = dict(zip(("fmu", "plain", "fmu_cpu", "plain_cpu"), np.median(rounds, axis=0)))
+    res = dict(zip(("fmu", "plain", "fmu_cpu", "plain_cpu", "calls"), np.median(rounds, axis=0)))
+    res["calls_best"] = rounds[:, 4].min()
     res["ratio"] = float(np.median(rounds[:, 0] / rounds[:, 1]))
+    res["fmu_best"], res["plain_best"] = rounds[:, 0].min(), rounds[:, 1].min()
     res["ratio_cpu"] = float(np.median(rounds[:, 2] / rounds[:, 3]))
     for ln in text.splitlines():
         key, *vals = ln.split()
@@ -207,6 +213,9 @@ def measure_processes(count: int, args: tuple) -> dict:
     res["allocations"] = max(r["allocations"] for r in runs)
     res["check"] = max(r["check"] for r in runs)
     res["ratio_range"] = (min(r["ratio"] for r in runs), max(r["ratio"] for r in runs))
+    res["fmu_best"] = min(r["fmu_best"] for r in runs)
+    res["plain_best"] = min(r["plain_best"] for r in runs)
+    res["calls_best"] = min(r["calls_best"] for r in runs)
     return res
 
 
@@ -332,7 +341,9 @@ def main(argv=None):
             "2 outputs, ns"
         )
         print(
-            f"  {'FMU':17s} {'FMI':>3s} | {'loop: FMU':>9s} {'plain':>6s} {'ratio':>5s} "
+            f"  {'FMU':17s} {'FMI':>3s} | {'best':>5s} {'plain':>5s} {'ratio':>5s} {'extra':>5s} "
+            f"{'calls':>5s} | "
+            f"{'loop: FMU':>9s} {'plain':>6s} {'ratio':>5s} "
             f"{'range':>9s} {'CPU':>5s} | "
             f"{'instr: FMU':>10s} {'plain':>5s} {'ratio':>5s} | {'allocs':>6s} {'rel diff':>8s}"
         )
@@ -367,8 +378,11 @@ def main(argv=None):
                     ir = instructions(host, "fmu", fmi, binary, token, sv, gv, data)
                     ir_plain = instructions(host, "plain", fmi, binary, token, sv, gv, data)
                 low, high = r["ratio_range"]
+                best = r["fmu_best"] / r["plain_best"]
                 print(
-                    f"  {name:17s} {fmi:3d} | {r['fmu']:9.1f} {r['plain']:6.1f} {r['ratio']:5.2f} "
+                    f"  {name:17s} {fmi:3d} | {r['fmu_best']:5.1f} {r['plain_best']:5.1f} "
+                    f"{best:5.2f} {r['fmu_best'] - r['plain_best']:5.1f} {r['calls_best']:5.1f} | "
+                    f"{r['fmu']:9.1f} {r['plain']:6.1f} {r['ratio']:5.2f} "
                     f"{f'{low:.2f}-{high:.2f}':>9s} {r['ratio_cpu']:5.2f} | {ir:10.0f} "
                     f"{ir_plain:5.0f} {ir / ir_plain:5.2f} | {r['allocations']:6.0f} "
                     f"{r['check']:8.1e}"
@@ -387,8 +401,15 @@ def main(argv=None):
                     locks = sorted({s for s in syms if LOCKS.search(s)})
                     notes.append(f"{name}: lock functions imported: {', '.join(locks) or 'none'}")
         print(
-            "  loop: medians of whole loops, wall and thread CPU (ratio FMU / plain); instr: "
-            "callgrind, per step; rel diff: FMU against plain outputs, over their largest"
+            "  best: the fastest round of 1e6 steps of each over all processes, wall, and their "
+            "ratio (the step's own cost: another thread on the same physical core, which a "
+            "virtual machine's host may run there, only adds time); extra: best FMU - best "
+            "plain; calls: the best round of the same calls from the same host code into "
+            "functions that do nothing (an extra below it: what the FMU adds to its arithmetic "
+            "is less than its calls alone cost); loop: medians of whole "
+            "loops, wall, the range of the processes' ratios, and thread CPU (ratio FMU / "
+            "plain); instr: callgrind, per step; rel diff: FMU against plain outputs, over "
+            "their largest"
         )
         print_worst(worst, args.steps, args.processes)
         for note in notes:
