@@ -699,6 +699,9 @@ int main(int argc, char **argv)
                 if (d > 0 && d < step)
                     step = d;
             }
+            /* a new second of the kernel's real-time budget (0.95 s of every 1 s, which the
+             * rounds may have spent): a real-time run is not stopped inside the timed steps */
+            usleep(1100000);
             for (k = 0; k < 10000; k++) {
                 double out[16];
                 fmu_step(&f, sv, ns, in + (k % steps) * ns, t_fmu, h, gv, ng, out);
