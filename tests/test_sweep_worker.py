@@ -25,6 +25,12 @@ VALUES = {
 }
 
 
+def _fresh_python(code: str) -> str:
+    """What ``code`` prints when run by a new interpreter (nothing imported before it)."""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    return out.stdout
+
+
 @pytest.mark.parametrize("arrow_type", list(VALUES), ids=str)
 @pytest.mark.parametrize("nulls", [True, False])
 def test_a_column_is_the_array_pyarrow_converts(arrow_type, nulls):
@@ -68,8 +74,7 @@ def test_the_servers_environment_is_known_before_distributed_is_imported():
         "from bodyvib.vehicle.sweep.cluster import _server_environ\n"
         "print(json.dumps([_server_environ({}), 'distributed' in sys.modules]))\n"
     )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    env, imported = json.loads(out.stdout)
+    env, imported = json.loads(_fresh_python(code))
     import distributed  # noqa: F401  (its defaults in Dask's configuration)
 
     assert not imported and env == _server_environ({})
@@ -88,8 +93,7 @@ def test_starting_a_local_cluster_leaves_distributeds_preload_list_unimported():
         "    assert cl.threads(10) == 1\n"
         "print('pandas' in sys.modules)\n"
     )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "False"
+    assert _fresh_python(code).strip() == "False"
 
 
 @pytest.mark.integration
@@ -102,8 +106,7 @@ def test_writing_a_part_does_not_import_pandas():
         "part_bytes({f.name: [None] for f in s}, s)\n"
         "print('pandas' in sys.modules)\n"
     )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "False"
+    assert _fresh_python(code).strip() == "False"
 
 
 @pytest.mark.integration
