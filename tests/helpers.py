@@ -23,6 +23,10 @@ __all__ = [
     "check_stopped_run",
     "win64_host",
     "dynamic_stiffness_response",
+    "sine_road",
+    "write_sine_road",
+    "read_run_csv",
+    "nrmse_against_ode",
 ]
 
 #: The repository's root (where ``build_fmu.py`` is).
@@ -155,3 +159,54 @@ def dynamic_stiffness_response(net, f_hz, point):
         X = np.linalg.solve(K, F)
         out.append(X[idx[net.point(point)]])
     return np.array(out)
+
+
+# -- a sine road and the co-simulation against a hand-written ODE ---------------------------
+
+#: The sine road's amplitude and wavelength, m
+SINE_AMPLITUDE_M, SINE_WAVELENGTH_M = 0.01, 5.0
+
+
+def sine_road(x):
+    """The road height: A (1 - cos(2 pi x / wavelength)) from x = 0, level before."""
+    x = np.asarray(x, dtype=float)
+    return np.where(x >= 0, SINE_AMPLITUDE_M * (1 - np.cos(2 * np.pi * x / SINE_WAVELENGTH_M)), 0.0)
+
+
+def write_sine_road(path, length_m):
+    """The sine road as a road file (distance in m, elevation in mm, every 1 cm)."""
+    x = np.arange(0.0, length_m + 1e-9, 0.01)
+    rows = "\n".join(f"{xi:.2f},{1e3 * zi:.15g}" for xi, zi in zip(x, sine_road(x)))
+    path.write_text("distance_m,elevation_mm\n" + rows + "\n")
+    return path
+
+
+def read_run_csv(path):
+    """The columns of a ``bodyvib cosim --csv`` table by name (units dropped)."""
+    import csv
+
+    with open(path, newline="") as f:
+        table = list(csv.reader(f))
+    data = np.array(table[1:], dtype=float)
+    return {h.split(" [")[0]: data[:, i] for i, h in enumerate(table[0])}
+
+
+def nrmse_against_ode(rhs, states, t, y, after):
+    """NRMSE of ``y`` at times ``t`` (from ``after`` on) against the output of the ODE
+    ``rhs(t, q) -> (dq/dt, output)`` solved from rest by DOP853 (rtol 1e-10)."""
+    from scipy.integrate import solve_ivp
+
+    sol = solve_ivp(
+        lambda t, q: rhs(t, q)[0],
+        (0.0, t[-1]),
+        np.zeros(states),
+        method="DOP853",
+        rtol=1e-10,
+        atol=1e-13,
+        t_eval=t,
+        max_step=1e-3,
+    )
+    assert sol.success
+    exact = np.array([rhs(tk, qk)[1] for tk, qk in zip(sol.t, sol.y.T)])
+    keep = t >= after
+    return np.sqrt(np.mean((y[keep] - exact[keep]) ** 2) / np.mean(exact[keep] ** 2))

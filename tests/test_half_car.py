@@ -14,6 +14,7 @@ import json
 import numpy as np
 import pytest
 from bodyvib.vehicle.quarter_car import CAR_DIR, load_car
+from helpers import nrmse_against_ode, read_run_csv, sine_road, write_sine_road
 
 from bodyvib.frequency.response import frequency_response
 from bodyvib.runtime.errors import BodyvibError
@@ -200,13 +201,7 @@ def test_a_road_pulse_reaches_the_rear_axle_a_wheelbase_later(speed, step):
 
 # -- the half car on a sine road, co-simulated from the command line ------------------
 
-AMPLITUDE_M, WAVELENGTH_M, SPEED, DURATION = 0.01, 5.0, 10.0, 6.0
-
-
-def sine_road(x):
-    """The road height: A (1 - cos(2 pi x / wavelength)) from x = 0, level before."""
-    x = np.asarray(x, dtype=float)
-    return np.where(x >= 0, AMPLITUDE_M * (1 - np.cos(2 * np.pi * x / WAVELENGTH_M)), 0.0)
+SPEED, DURATION = 10.0, 6.0
 
 
 def hand_written_half_car_with_body(car, body):
@@ -250,46 +245,22 @@ def hand_written_half_car_with_body(car, body):
 def test_cosim_half_car_on_a_sine_road_matches_an_independent_solution(tmp_path):
     """bodyvib cosim --car half-car: head acceleration within the coupling error of
     solve_ivp (rtol 1e-10) on the hand-written equations, rear road delayed by hand."""
-    import csv
     import subprocess
     import sys
 
-    from scipy.integrate import solve_ivp
-
     from bodyvib.models import load_model
 
-    x = np.arange(0.0, SPEED * DURATION + 5.0 + 1e-9, 0.01)
-    road = tmp_path / "sine.csv"
-    rows = "\n".join(f"{xi:.2f},{1e3 * zi:.15g}" for xi, zi in zip(x, sine_road(x)))
-    road.write_text("distance_m,elevation_mm\n" + rows + "\n")
+    road = write_sine_road(tmp_path / "sine.csv", SPEED * DURATION + 5.0)
     out = tmp_path / "run.csv"
     cmd = [sys.executable, "-m", "bodyvib.cli", "cosim", "--car", "half-car"]
     cmd += ["--road", str(road), "--road-taper", "0", "--speed", str(SPEED)]
     cmd += ["--duration", str(DURATION), "--step", "0.001", "--csv", str(out), "--quiet"]
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
-    with open(out, newline="") as f:
-        table = list(csv.reader(f))
-    names = [h.split(" [")[0] for h in table[0]]
-    data = np.array(table[1:], dtype=float)
-    t = data[:, names.index("time")]
-    head = data[:, names.index("head_acceleration")]
-
+    run = read_run_csv(out)
     rhs = hand_written_half_car_with_body(load_car("half-car"), load_model("reduced-paper"))
-    sol = solve_ivp(
-        lambda t, q: rhs(t, q)[0],
-        (0.0, t[-1]),
-        np.zeros(13),
-        method="DOP853",
-        rtol=1e-10,
-        atol=1e-13,
-        t_eval=t,
-        max_step=1e-3,
-    )
-    assert sol.success
-    exact = np.array([rhs(tk, qk)[1] for tk, qk in zip(sol.t, sol.y.T)])
-    after = t >= 2.0  # after the start-up transient
-    err = np.sqrt(np.mean((head[after] - exact[after]) ** 2) / np.mean(exact[after] ** 2))
+    # after the start-up transient
+    err = nrmse_against_ode(rhs, 13, run["time"], run["head_acceleration"], after=2.0)
     assert err <= 5e-4, f"head acceleration NRMSE {100 * err:.4f} %"
 
 
