@@ -537,6 +537,20 @@ def active_ssp(tmp_path_factory):
     return dest / "native" / "active" / "ActiveQuarterCarWithOccupant.ssp"
 
 
+def _assert_skyhook_closed_loop(head, car, tol):
+    """A 5 s head acceleration of an active SSP with skyhook: within ``tol`` NRMSE of the
+    exact closed loop (the law in the car's state space), far from the passive car."""
+    from bodyvib.vehicle.reference import nrmse
+    from bodyvib.vehicle.ssp import ssp_reference
+
+    law = parse_control("skyhook", load_car(car))
+    ref = ssp_reference(5.0, 1e-3, car=car, controller=law)
+    assert head.size == ref["time"].size
+    assert nrmse(head, ref["head_acceleration"]) <= tol
+    passive = ssp_reference(5.0, 1e-3, car=car)
+    assert nrmse(head, passive["head_acceleration"]) > 0.05
+
+
 @pytest.mark.integration
 @pytest.mark.parametrize("host", ["ssp_from_libcosimpy", "ssp_from_fmpy"])
 def test_active_ssp_runs_in_generic_hosts(active_ssp, host):
@@ -546,18 +560,10 @@ def test_active_ssp_runs_in_generic_hosts(active_ssp, host):
     the velocities with the accelerations over the step and gives the force its rate:
     measured 0.065 % NRMSE over 5 s (bodyvib's own master: 0.025 %). The passive car's
     reference is far off (the controller acts)."""
-    from bodyvib.vehicle.reference import nrmse
-    from bodyvib.vehicle.ssp import ssp_reference
     from test_ssp import host_run
 
     res, _ = host_run(host, active_ssp, duration=5.0)
-    law = parse_control("skyhook", load_car("quarter-car-active"))
-    ref = ssp_reference(5.0, 1e-3, car="quarter-car-active", controller=law)
-    head = res["Body.head_acceleration"]
-    assert head.size == ref["time"].size
-    assert nrmse(head, ref["head_acceleration"]) <= 8e-4
-    passive = ssp_reference(5.0, 1e-3, car="quarter-car-active")
-    assert nrmse(head, passive["head_acceleration"]) > 0.05
+    _assert_skyhook_closed_loop(res["Body.head_acceleration"], "quarter-car-active", 8e-4)
 
 
 @pytest.mark.integration
@@ -631,19 +637,11 @@ def test_active_half_car_ssp_runs_in_generic_hosts(active_half_ssp, host):
     quarter car's 0.08 % target is met at 0.9 ms, the error being second order in the
     step (0.346 % at 2 ms, 0.021 % at 0.5 ms): the target here is 0.1 %. The passive
     car's reference is far off (the controllers act)."""
-    from bodyvib.vehicle.reference import nrmse
-    from bodyvib.vehicle.ssp import ssp_reference
     from test_ssp import host_run
 
     kwargs = {"signals": [["Body", "head_acceleration"]]} if "libcosim" in host else {}
     res, _ = host_run(host, active_half_ssp, duration=5.0, **kwargs)
-    law = parse_control("skyhook", load_car("half-car-active"))
-    ref = ssp_reference(5.0, 1e-3, car="half-car-active", controller=law)
-    head = res["Body.head_acceleration"]
-    assert head.size == ref["time"].size
-    assert nrmse(head, ref["head_acceleration"]) <= 1e-3
-    passive = ssp_reference(5.0, 1e-3, car="half-car-active")
-    assert nrmse(head, passive["head_acceleration"]) > 0.05
+    _assert_skyhook_closed_loop(res["Body.head_acceleration"], "half-car-active", 1e-3)
 
 
 @pytest.mark.integration
