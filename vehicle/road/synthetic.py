@@ -28,8 +28,6 @@ exact discretization uses as the in-step slope).
 
 import functools
 import math
-import os
-import sys
 from dataclasses import dataclass, field
 from typing import Tuple
 
@@ -204,14 +202,70 @@ class RandomRoad(Road):
 
 
 @functools.lru_cache(maxsize=8)
-def _chirp_z(points: int, count: int, step: float):
+def _chirp_z(points: int, count: int, step: float) -> "_ChirpZ":
     """The chirp-z transform of ``points`` amplitudes to ``count`` points ``e^{2 pi i step j}``.
 
     Its set-up (the chirp ``w^(k^2/2)`` and its FFT) costs twice the transform itself
     and depends only on the sizes and the step, which the roads of a sweep share
     (every class and seed at one speed and length): kept for the next road.
     """
-    return _czt_class()(points, m=count, w=np.exp(2j * np.pi * step), a=1.0)
+    return _ChirpZ(points, count, np.exp(2j * np.pi * step))
+
+
+class _ChirpZ:
+    """Bluestein's chirp-z transform along the unit circle: ``y_j = sum_k x_k w^(j k)``.
+
+    With ``j k = (j^2 + k^2 - (j - k)^2) / 2``, the sum is the chirp ``w^(j^2/2)``
+    times the convolution of ``x_k w^(k^2/2)`` with ``w^(-k^2/2)``, done by FFTs of
+    a length of small prime factors. The arithmetic is that of
+    :class:`scipy.signal.CZT` (Rabiner, Schafer and Rader 1969) step for step, on
+    :mod:`numpy.fft`, which imports in a millisecond where :mod:`scipy.fft` takes
+    0.1-0.3 s of a sweep worker's start: since numpy 2.0 both run the same
+    pocketfft code, and the transform is the same bits (a test compares them).
+
+    Parameters
+    ----------
+    points : int
+        Length of the input ``x``.
+    count : int
+        Number of outputs.
+    w : complex
+        The ratio between output points (here ``e^{2 pi i step}``).
+    """
+
+    def __init__(self, points: int, count: int, w: complex):
+        k = np.arange(max(count, points), dtype=np.min_scalar_type(-(max(count, points) ** 2)))
+        wk2 = w ** (k**2 / 2.0)
+        self.points = points
+        self._nfft = _fast_length(points + count - 1)
+        self._wk2_in = wk2[:points]
+        self._fwk2 = np.fft.fft(1 / np.hstack((wk2[points - 1 : 0 : -1], wk2[:count])), self._nfft)
+        self._wk2_out = wk2[:count]
+        self._out = slice(points - 1, points + count - 1)
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        y = np.fft.ifft(self._fwk2 * np.fft.fft(x * self._wk2_in, self._nfft))
+        return y[self._out] * self._wk2_out
+
+
+def _fast_length(n: int) -> int:
+    """The least length ``>= n`` whose prime factors are 2, 3, 5, 7 and 11 (pocketfft's fast sizes).
+
+    The choice of :func:`scipy.fft.next_fast_len` for complex transforms.
+
+    Examples
+    --------
+    >>> _fast_length(61234), _fast_length(13)
+    (61236, 14)
+    """
+    while True:
+        m = n
+        for p in (2, 3, 5, 7, 11):
+            while m % p == 0:
+                m //= p
+        if m == 1:
+            return n
+        n += 1
 
 
 @functools.lru_cache(maxsize=8)
@@ -224,35 +278,6 @@ def _shift(count: int, step: float, i0: int) -> np.ndarray:
     shift = np.exp(2j * np.pi * ((i0 * step * j) % 1.0))
     shift.flags.writeable = False
     return shift
-
-
-@functools.lru_cache(maxsize=1)
-def _czt_class():
-    """scipy's :class:`scipy.signal.CZT`, loaded without the rest of :mod:`scipy.signal`.
-
-    Importing :mod:`scipy.signal` costs about 0.9 s of CPU, most of a sweep
-    worker's start, for one class whose module needs only numpy and
-    :mod:`scipy.fft` (0.3 s). That module file is loaded by itself when it is
-    there as such; otherwise (another scipy layout, or :mod:`scipy.signal`
-    already imported) the class comes from :mod:`scipy.signal`. The same code
-    either way: the same transforms, bit for bit.
-    """
-    if "scipy.signal" not in sys.modules:
-        try:
-            import importlib.util
-
-            import scipy
-
-            path = os.path.join(os.path.dirname(scipy.__file__), "signal", "_czt.py")
-            spec = importlib.util.spec_from_file_location("bodyvib_scipy_czt", path)
-            module = importlib.util.module_from_spec(spec)
-            spec.loader.exec_module(module)
-            return module.CZT
-        except Exception:  # any failure: the public import below
-            pass
-    from scipy.signal import CZT
-
-    return CZT
 
 
 def random_road(
