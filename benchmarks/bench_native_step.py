@@ -32,7 +32,9 @@ host processes:
   list of 1e6 durations would take the timed steps through a new memory page every 512
   steps), and each step's inputs are copied to the host's stack before its clock starts. The
   plain steps' tail is the machine's own for arithmetic of that size: where it is as long
-  as the FMU's, the slow steps are the machine's, not the FMU's;
+  as the FMU's, the slow steps are the machine's, not the FMU's. A third region in the
+  same loop times nothing (two reads of the counter): how often the machine alone makes
+  a region of no work as slow as an FMU step's outlier;
 * counts what a step does besides arithmetic: malloc/calloc/realloc/free calls while
   stepping (the host interposes them), system calls (``strace -c`` of 1e3 against 1e5
   steps: equal totals mean none per step), and the lock functions the binary imports
@@ -185,8 +187,8 @@ def measure(exe, fmi, binary, token, sv, gv, data, steps, repeats, prefix=()) ->
     res["ratio_cpu"] = float(np.median(rounds[:, 2] / rounds[:, 3]))
     for ln in text.splitlines():
         key, *vals = ln.split()
-        if key in ("latency", "latency_plain"):
-            pre = "" if key == "latency" else "plain_"
+        if key in ("latency", "latency_plain", "latency_empty"):
+            pre = {"latency": "", "latency_plain": "plain_", "latency_empty": "empty_"}[key]
             names = ("p50", "p99", "p999", "p9999", "max", "outliers")
             res.update({pre + n: float(v) for n, v in zip(names, vals)})
         elif key in ("interrupts", "switches"):
@@ -206,7 +208,9 @@ def measure_processes(count: int, args: tuple) -> dict:
     res = dict(runs[0])
     medians = ("fmu", "plain", "fmu_cpu", "plain_cpu", "ratio", "ratio_cpu")
     medians += ("p50", "p99", "p999", "p9999", "outliers")
-    for key in medians + tuple("plain_" + k for k in ("p50", "p99", "p999", "p9999", "outliers")):
+    for key in medians + tuple(
+        pre + k for pre in ("plain_", "empty_") for k in ("p50", "p99", "p999", "p9999", "outliers")
+    ):
         res[key] = float(np.median([r[key] for r in runs]))
     res["max"] = max(r["max"] for r in runs)
     res["plain_max"] = max(r["plain_max"] for r in runs)
@@ -283,7 +287,8 @@ def print_worst(rows, steps: int, processes: int) -> None:
     print(
         f"  {'FMU':17s} {'FMI':>3s} | {'p50':>5s} {'p99':>5s} {'p99.9':>6s} {'p99.99':>7s} "
         f"{'max':>9s} {'p99.99/p50':>10s} {'>3x p50':>7s} | {'plain p50':>9s} {'p99.99':>7s} "
-        f"{'p99.99/p50':>10s} {'>3x p50':>7s} | {'interrupts':>10s} {'(timer)':>7s} "
+        f"{'p99.99/p50':>10s} {'>3x p50':>7s} | {'nothing p99.99':>14s} {'>3x FMU p50':>11s} | "
+        f"{'interrupts':>10s} {'(timer)':>7s} "
         f"{'preempted':>9s} {'stolen ms':>9s}"
     )
     for name, fmi, r in rows:
@@ -293,11 +298,14 @@ def print_worst(rows, steps: int, processes: int) -> None:
             f"{r['p9999']:7.1f} {r['max']:9.0f} {r['p9999'] / r['p50']:10.1f} "
             f"{r['outliers']:7.0f} | {r['plain_p50']:9.1f} {r['plain_p9999']:7.1f} "
             f"{r['plain_p9999'] / r['plain_p50']:10.1f} {r['plain_outliers']:7.0f} | "
+            f"{r['empty_p9999']:14.1f} {r['empty_outliers']:11.0f} | "
             f"{irq:10d} {timer:7d} {r['switches'][1]:9d} {r['stolen']:9.0f}"
         )
     print(
         "  >3x p50: steps slower than 3 times their median; plain: the plain loop's steps, "
         "timed in the same loop (the machine's own tail for arithmetic of that size); "
+        "nothing: two reads of the counter with no work between, in the same loop after each "
+        "plain step (>3x FMU p50: as slow as an FMU step's outlier with no work at all); "
         "interrupts: taken by the host's core during those steps (/proc/interrupts; timer: "
         "the local timer's); preempted: involuntary context switches of the host's thread; "
         "stolen: the core's time the virtual machine's host took meanwhile (/proc/stat, 10 ms "

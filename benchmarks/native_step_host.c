@@ -27,7 +27,9 @@
  * step; calls: the same calls into functions that do nothing, after the plain loop);
  * "latency p50 p99 p99.9 p99.99 max outliers" and "latency_plain ..." (ns, single FMU and
  * plain steps timed with the time-stamp counter after a warm-up, the counter's own cost
- * subtracted; outliers: steps above 3x their median), "latency_clock COST RESOLUTION" (ns:
+ * subtracted; outliers: steps above 3x their median), "latency_empty ..." (the same of a
+ * region of no work timed in the same loop after each plain step; outliers: above 3x the
+ * FMU step's median), "latency_clock COST RESOLUTION" (ns:
  * two reads, the smallest step the counter makes), "interrupts ALL TIMER" (taken by this
  * core during those steps), "switches VOLUNTARY INVOLUNTARY" (of this thread, then),
  * "stolen MS" (this core's time the virtual machine's host took then, ms; -1 unknown),
@@ -543,7 +545,7 @@ typedef struct {
     unsigned bin[HIST_BINS];
     uint64_t top;
 } Hist;
-static Hist hist[2]; /* the FMU's steps, the plain loop's */
+static Hist hist[3]; /* the FMU's steps, the plain loop's, nothing's (two reads) */
 
 static inline void count(Hist *hs, uint64_t d)
 {
@@ -564,20 +566,23 @@ static double percentile(const Hist *hs, long total, double q)
 }
 
 /* "KEY p50 p99 p99.9 p99.99 max outliers": ns, the clock's own cost subtracted; outliers:
- * the steps slower than 3 times the median. */
-static void report(const char *key, const Hist *hs, long total, double clock_ticks,
-                   double tick_ns)
+ * the durations above `above` ns (0: above 3 times their own median). Returns the median. */
+static double report(const char *key, const Hist *hs, long total, double clock_ticks,
+                     double tick_ns, double above)
 {
     double q[4] = {0.5, 0.99, 0.999, 0.9999}, v[4];
     long k, outliers = 0;
     int j;
     for (j = 0; j < 4; j++)
         v[j] = (percentile(hs, total, q[j]) - clock_ticks) * tick_ns;
+    if (above <= 0.0)
+        above = 3 * v[0];
     for (k = 0; k < HIST_BINS; k++)
-        if (((double)k - clock_ticks) * tick_ns > 3 * v[0])
+        if (((double)k - clock_ticks) * tick_ns > above)
             outliers += hs->bin[k];
     printf("%s %.1f %.1f %.1f %.1f %.0f %ld\n", key, v[0], v[1], v[2], v[3],
            ((double)hs->top - clock_ticks) * tick_ns, outliers);
+    return v[0];
 }
 
 static int cmp(const void *a, const void *b)
@@ -684,7 +689,7 @@ int main(int argc, char **argv)
             long irq0, irq1, loc0, loc1, st0, st1;
             int cpu = sched_getcpu();
             struct rusage r0, r1;
-            double w0, w1, tick_ns, clock_ticks, step = 1e300;
+            double w0, w1, tick_ns, clock_ticks, step = 1e300, fmu_p50;
             uint64_t k0, k1;
             for (k = 0; k < steps; k++) {
                 uint64_t a = ticks();
@@ -730,14 +735,19 @@ int main(int argc, char **argv)
                 d = ticks() - a;
                 count(&hist[1], d);
                 sink += out[0];
+                a = ticks(); /* nothing: what the machine adds to a region of no work */
+                d = ticks() - a;
+                count(&hist[2], d);
             }
             k1 = ticks(), w1 = now(CLOCK_MONOTONIC);
             getrusage(RUSAGE_THREAD, &r1);
             st1 = stolen(cpu);
             interrupts(cpu, &irq1, &loc1);
             tick_ns = (w1 - w0) / (double)(k1 - k0);
-            report("latency", &hist[0], steps, clock_ticks, tick_ns);
-            report("latency_plain", &hist[1], steps, clock_ticks, tick_ns);
+            fmu_p50 = report("latency", &hist[0], steps, clock_ticks, tick_ns, 0.0);
+            report("latency_plain", &hist[1], steps, clock_ticks, tick_ns, 0.0);
+            /* nothing's outliers: the regions of no work as slow as an FMU step's outlier */
+            report("latency_empty", &hist[2], steps, clock_ticks, tick_ns, 3 * fmu_p50);
             printf("latency_clock %.1f %.1f\n", clock_ticks * tick_ns, step * tick_ns);
             printf("interrupts %ld %ld\n", irq0 < 0 ? -1 : irq1 - irq0, loc0 < 0 ? -1 : loc1 - loc0);
             printf("switches %ld %ld\n", r1.ru_nvcsw - r0.ru_nvcsw, r1.ru_nivcsw - r0.ru_nivcsw);
