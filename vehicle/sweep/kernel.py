@@ -75,20 +75,25 @@ def _kernel():
         y = np.empty((m - n, L))
         zk = np.empty((P, L))
         vk = np.empty((P, L))
-        xw = np.empty((2, WK_STATES, L))
-        aprev = np.empty((2, L))
+        # The weighting's per-lane rows of head and seat in one block, each row LANES
+        # long (a constant), not L: the compiler then knows any two rows a fixed
+        # distance apart and vectorizes the weighting's lane loop as it is. Rows of L
+        # lanes are an unknown distance apart, and the loop would first check every
+        # pair of them for overlap, at every sample (more time than its arithmetic).
+        rows = np.empty((2, WK_STATES + 6, LANES))
+        xw = rows[:, :WK_STATES]  # the filter's states
+        aprev = rows[:, WK_STATES]  # the previous sample's acceleration
+        total = rows[:, WK_STATES + 1]  # the running window's sum of a_w^2
+        wsum = rows[:, WK_STATES + 2 :]  # sum a_w^2, sum a_w^4, max |a_w|, window max
         ring = np.empty((2, window, L))
-        total = np.empty((2, L))
-        acc = np.empty((11, L))
+        fsum = np.empty((3, LANES))  # the force peaks and the check sum, the same way
         # the weighting's coefficients, one name each (tuples: they stay in registers)
         c0, c1, c2, c3, c4, c5, c6, c7 = wc
         for ch in range(chunks):
             x[:] = 0.0
-            xw[:] = 0.0
-            aprev[:] = 0.0
+            rows[:] = 0.0
             ring[:] = 0.0
-            total[:] = 0.0
-            acc[:] = 0.0
+            fsum[:] = 0.0
             pos = 0
             for k in range(N):
                 for p in range(P):
@@ -126,8 +131,8 @@ def _kernel():
                 for f in range(m - n - 2):
                     for i in range(L):
                         yf = abs(y[2 + f, i])
-                        acc[10, i] += yf * 0.0
-                        acc[8 + f, i] = yf if yf > acc[8 + f, i] else acc[8 + f, i]
+                        fsum[2, i] += yf * 0.0
+                        fsum[f, i] = yf if yf > fsum[f, i] else fsum[f, i]
                 # Wk of head (s = 0) and seat (s = 1), then the figures' sums. A lane's
                 # weighting states are read once into registers and its rows written
                 # out (row r reads the states of its own and the earlier sections,
@@ -138,7 +143,6 @@ def _kernel():
                 g0, g1, g2, g3, g4, g5, g6, g7 = gp
                 h0, h1, h2, h3, h4, h5, h6, h7 = gn
                 for s in range(2):
-                    b = 4 * s
                     for i in range(L):
                         a = y[s, i]
                         u = aprev[s, i]
@@ -210,14 +214,14 @@ def _kernel():
                             + c7 * n7
                         ) + wd * a
                         w2 = wi * wi
-                        acc[b, i] += w2
-                        acc[b + 1, i] += w2 * w2
+                        wsum[s, 0, i] += w2
+                        wsum[s, 1, i] += w2 * w2
                         aw = abs(wi)
-                        acc[b + 2, i] = aw if aw > acc[b + 2, i] else acc[b + 2, i]
+                        wsum[s, 2, i] = aw if aw > wsum[s, 2, i] else wsum[s, 2, i]
                         t = total[s, i] + (w2 - ring[s, pos, i])
                         total[s, i] = t
                         ring[s, pos, i] = w2
-                        acc[b + 3, i] = t if t > acc[b + 3, i] else acc[b + 3, i]
+                        wsum[s, 3, i] = t if t > wsum[s, 3, i] else wsum[s, 3, i]
                 if record:
                     for s in range(2):
                         for i in range(L):
@@ -231,9 +235,14 @@ def _kernel():
                         for j in range(window):
                             for i in range(L):
                                 total[s, i] += ring[s, j, i]
-            for r in range(11):
+            # in the order of SUMS: head, seat, forces and check
+            for s in range(2):
+                for j in range(4):
+                    for i in range(L):
+                        sums[ch, 4 * s + j, i] = wsum[s, j, i]
+            for r in range(3):
                 for i in range(L):
-                    sums[ch, r, i] = acc[r, i]
+                    sums[ch, 8 + r, i] = fsum[r, i]
 
     _compiled = kernel
     return kernel
@@ -345,7 +354,7 @@ def run(inputs: KernelInputs, z, v, wk, window: int, record: bool = False):
     Parameters
     ----------
     inputs : KernelInputs
-        From :func:`pack`.
+        From :func:`pack`: at most :data:`LANES` lanes.
     z, v : (roads, samples) ndarray
         Road displacement (m) and velocity (m/s) at every sample.
     wk : bodyvib.comfort.stream.WeightingStep
@@ -382,6 +391,8 @@ def run(inputs: KernelInputs, z, v, wk, window: int, record: bool = False):
     ([0.0, 1.0, 0.5, 0.25], 1.3125, 1.25)
     """
     chunks, width = inputs.M.shape[0], inputs.M.shape[3]
+    if width > LANES:  # the loop's rows of the weighting hold LANES lanes
+        raise ValueError(f"at most {LANES} lanes, got {width}")
     N = z.shape[1]
     sums = np.empty((chunks, len(SUMS), width))
     hist = np.empty((chunks, 2, width, N if record else 0))
