@@ -180,3 +180,35 @@ def test_the_fork_server_gets_the_environment_dask_gives_a_worker(monkeypatch):
         got = _server_environ({**config, f"{key}.PYTHONHASHSEED": seed})
         assert got == want
         assert got["OMP_NUM_THREADS"] == "3" and got["MALLOC_TRIM_THRESHOLD_"] == str(1 << 27)
+
+
+@pytest.mark.integration
+@pytest.mark.skipif(not FORKSERVER, reason="workers fork from a server only with forkserver")
+def test_a_sweep_starts_its_workers_server_before_it_samples_the_bodies():
+    """The server a LocalCluster's workers fork from is started as soon as the sweep's
+    cases are counted: its warm-up (0.8 s of CPU) runs while this process samples the
+    bodies (scipy.stats for a Latin hypercube) and checks the outputs. A serial sweep,
+    and one small enough to run in this process, start none."""
+    code = (
+        "import json, sys\n"
+        "import psutil\n"
+        "import bodyvib.vehicle.sweep.spec as sp\n"
+        "from bodyvib.vehicle.sweep.run import run_sweep\n"
+        "seen = []\n"
+        "sample = sp._samples\n"
+        "def samples(*a):\n"
+        "    kids = psutil.Process().children(recursive=True)\n"
+        "    seen.append(any('forkserver' in ' '.join(p.cmdline()) for p in kids))\n"
+        "    return sample(*a)\n"
+        "sp._samples = samples\n"
+        "body = [{'model': 'reduced-paper', 'samples': 5, 'vary': {'m1': [0.9, 1.1]}}]\n"
+        "spec = {'road': ['C', 'D'], 'speed': [10, 20], 'duration': 1, 'body': body}\n"
+        "small = dict(spec, road='C', speed=10)\n"
+        "if __name__ == '__main__':\n"
+        "    run_sweep(spec, scheduler='serial')\n"
+        "    run_sweep(small)\n"
+        "    df = run_sweep(spec, workers=1)\n"
+        "    print(json.dumps([seen, len(df)]))\n"
+    )
+    seen, rows = json.loads(_fresh_python(code).strip().splitlines()[-1])
+    assert seen == [False, False, True] and rows == 20

@@ -33,7 +33,7 @@ from typing import Callable, Iterator, Optional
 from bodyvib.process import interrupts
 from bodyvib.runtime.errors import BodyvibError
 
-__all__ = ["ClusterLost", "Cluster", "open_cluster", "run_tasks", "check_address"]
+__all__ = ["ClusterLost", "Cluster", "open_cluster", "run_tasks", "check_address", "start_server"]
 
 _QUIET = ("distributed", "tornado", "asyncio", "bokeh")
 
@@ -432,31 +432,75 @@ def _server_folder() -> None:
         tempfile.tempdir = saved
 
 
+def _local_config(scratch: Optional[str] = None) -> dict:
+    """The Dask settings of a sweep's LocalCluster (dotted keys); ``scratch``: its folder.
+
+    Dask's workers return freed memory to the system at once (glibc
+    MALLOC_TRIM_THRESHOLD_ = 64 kB), and setting the trim threshold also fixes
+    glibc's mmap threshold at 128 kB (it is dynamic, up to 32 MB, only while
+    neither is set): every large buffer of a task (road samples, packed
+    matrices) would be mapped and faulted in afresh, task after task. Both set
+    high; the fork server starts with these variables (:func:`_server_environ`).
+    Each worker's statistical profiler samples the running task's stack every
+    10 ms for a dashboard that a sweep's LocalCluster does not have: off.
+    The workers fork from one server process that has imported and warmed the
+    engines (:mod:`bodyvib.vehicle.sweep.warmed`) instead of each starting Python
+    afresh.
+    """
+    config = {
+        "distributed.worker.multiprocessing-method": _start_method(),
+        "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": 128 * 1024 * 1024,
+        "distributed.nanny.pre-spawn-environ.MALLOC_MMAP_THRESHOLD_": 32 * 1024 * 1024,
+        "distributed.worker.profile.enabled": False,
+        # a forked worker has the fork server's environment: set this command's
+        # temporary folder in each worker as it starts
+        **{f"distributed.nanny.environ.{k}": v for k, v in _tempdir_environ().items()},
+    }
+    if scratch is not None:
+        config["temporary-directory"] = scratch
+    return config
+
+
+def start_server() -> None:
+    """Start the fork server of a sweep's LocalCluster workers now, ahead of the cluster.
+
+    The server imports and warms the engines before its first fork (about 0.8 s of
+    CPU). Started while this process still prepares a sweep (samples the bodies,
+    checks the outputs), that runs beside the preparation on another core; the
+    cluster then finds it running. Idempotent, and without effect where the workers
+    are spawned instead of forked or outside the main thread. The server starts with
+    SIGINT ignored (the workers it forks inherit that), so that a terminal's Ctrl-C,
+    sent to the whole process group, reaches only the command, which shuts the
+    cluster down.
+
+    Examples
+    --------
+    >>> start_server()  # doctest: +SKIP
+    """
+    import signal
+
+    config = _local_config()
+    if config["distributed.worker.multiprocessing-method"] != "forkserver":
+        return
+    if threading.current_thread() is not threading.main_thread():
+        return  # only the main thread sets handlers: the cluster starts the server
+    # SIGINT ignored while the server is spawned: a process starts with the handling it
+    # inherits (an ignored signal stays ignored across exec, and Python then installs no
+    # KeyboardInterrupt handler); a blocked signal would not do, the server's start
+    # unblocks it. A Ctrl-C in these few milliseconds is lost; the next one is taken.
+    handler = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        _start_server(config)
+    finally:
+        signal.signal(signal.SIGINT, handler)
+
+
 def _local(workers, connect_timeout, meanwhile=None) -> Cluster:
     scratch = tempfile.mkdtemp(prefix="bodyvib-sweep-dask-")
     try:
-        # Dask's workers return freed memory to the system at once (glibc
-        # MALLOC_TRIM_THRESHOLD_ = 64 kB), and setting the trim threshold also fixes
-        # glibc's mmap threshold at 128 kB (it is dynamic, up to 32 MB, only while
-        # neither is set): every large buffer of a task (road samples, packed
-        # matrices) would be mapped and faulted in afresh, task after task. Both set
-        # high; the fork server starts with these variables (_server_environ).
-        # Each worker's statistical profiler samples the running task's stack every
-        # 10 ms for a dashboard that a sweep's LocalCluster does not have: off.
-        # The workers fork from one server process that has imported and warmed the
-        # engines (bodyvib.vehicle.sweep.warmed) instead of each starting Python afresh;
-        # the server starts first, its warm-up alongside this process's import of
-        # distributed and the scheduler's start.
-        config = {
-            "distributed.worker.multiprocessing-method": _start_method(),
-            "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": 128 * 1024 * 1024,
-            "distributed.nanny.pre-spawn-environ.MALLOC_MMAP_THRESHOLD_": 32 * 1024 * 1024,
-            "distributed.worker.profile.enabled": False,
-            # a forked worker has the fork server's environment: set this command's
-            # temporary folder in each worker as it starts
-            **{f"distributed.nanny.environ.{k}": v for k, v in _tempdir_environ().items()},
-            "temporary-directory": scratch,
-        }
+        # the server starts first (unless start_server has), its warm-up alongside this
+        # process's import of distributed and the scheduler's start
+        config = _local_config(scratch)
         spawn = contextlib.ExitStack()  # until the cluster is closed (a worker may restart)
         spawn.enter_context(_workers_ignore_sigint(scratch))
         if config["distributed.worker.multiprocessing-method"] == "forkserver":

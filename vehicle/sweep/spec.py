@@ -49,7 +49,7 @@ import math
 import os
 from dataclasses import dataclass
 from itertools import product
-from typing import Dict, Iterator, List, Optional, Sequence, Tuple
+from typing import Callable, Dict, Iterator, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -541,7 +541,7 @@ def _digest(net) -> str:
 class _Prepared:
     """A validated spec: the value lists of every key and the digests the case keys need."""
 
-    def __init__(self, spec: dict):
+    def __init__(self, spec: dict, counted: Optional[Callable[[int], None]] = None):
         if not isinstance(spec, dict):
             raise BodyvibError("sweep spec must be a JSON object")
         unknown = sorted(set(spec) - set(SPEC_KEYS))
@@ -566,6 +566,8 @@ class _Prepared:
             f"a sweep of {count:.3g} cases",
             "fewer cases (samples, seeds, speeds, roads), or several sweeps",
         )
+        if counted is not None:  # the caller's head start (the sweep's workers)
+            counted(count)
         seeds = [_number(s, "seed", "", integer=True) for s in _seed_list(spec["seed"])]
         for name, values in (
             ("road", roads),
