@@ -236,7 +236,6 @@ class _ChirpZ:
     def __init__(self, points: int, count: int, w: complex):
         k = np.arange(max(count, points), dtype=np.min_scalar_type(-(max(count, points) ** 2)))
         wk2 = w ** (k**2 / 2.0)
-        self.points = points
         self._nfft = _fast_length(points + count - 1)
         self._wk2_in = wk2[:points]
         self._fwk2 = np.fft.fft(1 / np.hstack((wk2[points - 1 : 0 : -1], wk2[:count])), self._nfft)

@@ -603,9 +603,13 @@ def _start_workers_early(cfg: SweepSettings, count: int) -> None:
     hypercube imports scipy.stats, 0.3-0.5 s) and its outputs checked: the server's
     imports and warm-up (about 0.8 s of CPU) run beside them on another core.
     """
-    local = cfg.scheduler in (None, "local") and cfg.scheduler_file is None
-    if local and not _in_process(cfg, count):
+    if _local_cluster(cfg) and not _in_process(cfg, count):
         start_server()
+
+
+def _local_cluster(cfg: SweepSettings) -> bool:
+    """Whether a sweep that runs on Dask runs on its own LocalCluster (no scheduler named)."""
+    return cfg.scheduler in (None, "local") and cfg.scheduler_file is None
 
 
 def _compute(
@@ -643,9 +647,8 @@ def _on_cluster(
     todo: int,
 ) -> None:
     """Run the pending cases on Dask (a LocalCluster or a running scheduler)."""
-    local = cfg.scheduler in (None, "local") and cfg.scheduler_file is None
     with open_cluster(
-        None if local else cfg.scheduler,
+        None if _local_cluster(cfg) else cfg.scheduler,
         cfg.scheduler_file,
         cfg.threads,
         cfg.connect_timeout,
