@@ -9,6 +9,9 @@ are a :class:`~bodyvib.comfort.figures.ComfortFigures`, a batch's a
 (physical and Lee & Pradko's estimate), the motion sickness dose value (Wf) and the
 ISO 10326-1 SEAT value; :mod:`~bodyvib.comfort.spine` the ISO 2631-5:2018 spinal
 response, acceleration dose and injury risk of repeated shocks.
+:mod:`~bodyvib.comfort.axes` covers every axis of a seated person: the six
+weightings (Wk, Wd, Wf, Wc, We, Wj), the multiplying factors for comfort and health,
+the point and overall vibration total values and the health guidance caution zone.
 :mod:`~bodyvib.comfort.forces` gives the figures of the body's internal forces (neck,
 lumbar): r.m.s., peak and the peak's time.
 
@@ -16,6 +19,20 @@ Import from the package (``from bodyvib.comfort import comfort_figures``): the n
 are its public interface, and the modules that hold them are internal and may move.
 """
 
+from .axes import (
+    HEALTH_CAUTION_ZONE,
+    POINTS,
+    SEATED_AXES,
+    WEIGHTINGS,
+    AxisFigures,
+    HealthGuidance,
+    VibrationTotals,
+    axis_figures,
+    health_guidance,
+    vibration_totals,
+    weighted_axis,
+    weighting,
+)
 from .figures import (
     BASIC_METHOD_LIMITS,
     COMFORT_SCALE,
@@ -56,6 +73,18 @@ from .stream import (
 )
 
 __all__ = [
+    "WEIGHTINGS",
+    "SEATED_AXES",
+    "POINTS",
+    "weighting",
+    "weighted_axis",
+    "AxisFigures",
+    "axis_figures",
+    "VibrationTotals",
+    "vibration_totals",
+    "HEALTH_CAUTION_ZONE",
+    "HealthGuidance",
+    "health_guidance",
     "WK_PARAMETERS",
     "COMFORT_SCALE",
     "wk_response",

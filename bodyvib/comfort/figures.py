@@ -128,7 +128,9 @@ def weighting_response(parameters, frequencies_hz) -> np.ndarray:
     ----------
     parameters : dict
         ``f1 ... f6`` (Hz), ``Q1, Q4, Q5, Q6`` as in :data:`WK_PARAMETERS`; ``f3``
-        may be ``inf`` (no numerator term in the a-v transition, as in Wf).
+        may be ``inf`` (no numerator term in the a-v transition, as in Wf), ``f3``
+        and ``f4`` both ``inf`` (no transition, as in Wj), ``f5`` and ``f6`` both
+        ``inf`` (no upward step, as in Wd, Wc and We).
     frequencies_hz : array_like
         Frequencies in Hz (0 allowed).
 
@@ -142,7 +144,10 @@ def weighting_response(parameters, frequencies_hz) -> np.ndarray:
     q1 = P["Q1"]
     high = p**2 / (p**2 + w1 * p / q1 + w1**2)
     low = w2**2 / (p**2 + w2 * p / q1 + w2**2)
+    # a corner at infinity removes its term (the standard's Table A.1 leaves it blank)
     transition = (1 + p / w3) / (1 + p / (P["Q4"] * w4) + (p / w4) ** 2)
+    if np.isinf(w5):
+        return high * low * transition
     step = (
         (1 + p / (P["Q5"] * w5) + (p / w5) ** 2)
         / (1 + p / (P["Q6"] * w6) + (p / w6) ** 2)
