@@ -2,7 +2,8 @@
 
 :class:`~bodyvib.vehicle.road.base.Road` is the interface every road implements.
 :mod:`~bodyvib.vehicle.road.synthetic` makes roads from a short name: ISO 8608 random
-roads of classes A-H, a bump, a sine sweep, and the speed humps, tables and potholes of
+roads of classes A-H (one track, or the two tracks of a car correlated as an isotropic
+surface), a bump, a sine sweep, and the speed humps, tables and potholes of
 :mod:`~bodyvib.vehicle.road.bumps` (``hump:h=0.075,l=3.7``); it also holds the fade-in
 :class:`~bodyvib.vehicle.road.synthetic.TaperedRoad`, the road input at a speed, and the
 table that ``Road.fmu`` carries. :mod:`~bodyvib.vehicle.road.measured` reads measured
@@ -47,6 +48,8 @@ from .synthetic import (
     road_input,
     road_source,
     road_table,
+    track_coherence,
+    two_track_road,
 )
 
 __all__ = [
@@ -64,6 +67,8 @@ __all__ = [
     "ShapedBump",
     "parse_bump",
     "random_road",
+    "two_track_road",
+    "track_coherence",
     "road_source",
     "road_table",
     "make_road",

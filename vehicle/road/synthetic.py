@@ -49,6 +49,8 @@ __all__ = [
     "SweepRoad",
     "TaperedRoad",
     "random_road",
+    "track_coherence",
+    "two_track_road",
     "road_source",
     "axle_road_source",
     "road_table",
@@ -355,6 +357,124 @@ def random_road(
             "waviness": waviness,
         },
     )
+
+
+def track_coherence(n, track_width: float, waviness: float = 2.0) -> np.ndarray:
+    """Left/right correlation of an isotropic ISO 8608 surface, per spatial frequency.
+
+    Two parallel tracks ``B`` apart on a homogeneous isotropic surface whose
+    longitudinal PSD falls as ``n^-2`` have the real, normalised cross-spectral density
+
+        ``rho(n) = 2 pi n B K1(2 pi n B)``
+
+    (``K1``: the modified Bessel function of the second kind, order 1), so their
+    coherence is ``rho^2`` (Dodds & Robson, 1973, *The description of road surface
+    roughness*, J. Sound Vib. 31(2), 175-183, for the isotropic surface with
+    waviness 2). ``rho`` is 1 at long wavelengths, where both wheels ride the same
+    undulation, and falls to 0 for wavelengths short against the track width.
+
+    Parameters
+    ----------
+    n : array_like
+        Spatial frequencies, cycle/m (positive).
+    track_width : float
+        Distance between the tracks, m (positive).
+    waviness : float
+        The PSD exponent; the closed form holds for 2 (ISO 8608's) only.
+
+    Returns
+    -------
+    ndarray
+        ``rho(n)``, between 0 and 1.
+
+    Raises
+    ------
+    BodyvibError
+        A waviness other than 2, or a track width that is not a positive number.
+
+    Examples
+    --------
+    >>> rho = track_coherence([0.01, 0.5, 5.0], 1.5)
+    >>> [round(float(r), 3) for r in rho]
+    [0.987, 0.026, 0.0]
+    """
+    if waviness != 2.0:
+        raise BodyvibError(
+            f"the two-track coherence model holds for waviness 2 only, got {waviness!r}"
+        )
+    _check_positive(track_width, "track width", "m")
+    from scipy.special import k1  # only two-track roads need it
+
+    u = 2 * np.pi * np.asarray(n, dtype=float) * float(track_width)
+    with np.errstate(over="ignore", invalid="ignore"):
+        rho = np.where(u > 700, 0.0, u * k1(np.minimum(u, 700)))
+    return np.where(u > 0, rho, 1.0)
+
+
+def two_track_road(
+    road_class: str = "C",
+    track_width: float = 1.5,
+    length: float = 600.0,
+    seed: int = 0,
+    band: Tuple[float, float] = N_BAND,
+) -> Tuple[RandomRoad, RandomRoad]:
+    """The left and right tracks of an ISO 8608 road, correlated as an isotropic surface.
+
+    Each track alone is :func:`random_road`'s profile of the class (the left one is
+    exactly ``random_road(road_class, length, seed, band)``). The right track shares
+    each harmonic's phase in the proportion :func:`track_coherence` gives and takes
+    an independent phase for the rest:
+
+        ``z_R = sum_i a_i [rho_i cos(2 pi n_i x + phi_i)
+        + sqrt(1 - rho_i^2) cos(2 pi n_i x + psi_i)]``
+
+    so the right track has the class's PSD in expectation, and their cross-spectrum is
+    ``rho(n) Gd(n)``: coherence ``rho^2``.
+
+    Parameters
+    ----------
+    road_class : str
+        ``"A"`` ... ``"H"``.
+    track_width : float
+        Distance between the wheel tracks, m.
+    length : float
+        Road length, m.
+    seed : int
+        Seed of both tracks' phases.
+    band : (float, float)
+        Spatial-frequency band, cycle/m.
+
+    Returns
+    -------
+    (RandomRoad, RandomRoad)
+        The left and the right track.
+
+    Raises
+    ------
+    BodyvibError
+        As :func:`random_road`, or a bad track width.
+
+    Examples
+    --------
+    >>> left, right = two_track_road("C", track_width=1.5, length=200.0, seed=1)
+    >>> bool(np.allclose(left.displacement([0.0]), random_road("C", 200.0, 1).displacement([0.0])))
+    True
+    """
+    left = random_road(road_class, length, seed, band)
+    rho = track_coherence(left.n, track_width)
+    psi = np.random.default_rng([seed, 1]).uniform(0, 2 * np.pi, left.n.size)
+    c = left.amplitude * (rho * np.exp(1j * left.phase) + np.sqrt(1 - rho**2) * np.exp(1j * psi))
+    right = RandomRoad(
+        n=left.n,
+        amplitude=np.abs(c),
+        phase=np.angle(c),
+        length=left.length,
+        name=f"{left.name}, right track",
+        info={**left.info, "track_width_m": float(track_width)},
+    )
+    left.name = f"{left.name}, left track"
+    left.info["track_width_m"] = float(track_width)
+    return left, right
 
 
 @dataclass
