@@ -36,7 +36,7 @@ def main(argv=None):
         f"({a.seeds} seeds per row), per cent"
     )
     print(f"{'body':15s} {'speed':>6s} {'mean':>7s} {'std':>6s} {'min':>7s} {'max':>7s}")
-    for (body, speed), g in df.groupby(["body", "speed_m_s"]):
+    for (body, speed), g in df.groupby(["body", "speed"]):
         print(
             f"{body:15s} {speed:6.0f} {g.dev.mean():7.2f} {g.dev.std():6.2f} "
             f"{g.dev.min():7.2f} {g.dev.max():7.2f}"

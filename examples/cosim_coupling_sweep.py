@@ -24,12 +24,12 @@ def run(steps=STEPS, duration=30.0, body="HumanBody3DOF", car="quarter-car"):
     Returns
     -------
     list of dict
-        ``{"step_s", "held", "extrapolated"}`` (NRMSE as fractions).
+        ``{"step", "held", "extrapolated"}`` (NRMSE as fractions).
     """
     with tempfile.TemporaryDirectory() as d:
         fmus = {n: str(p) for n, p in build_fmus(d, car=car, names=(body, "QuarterCar")).items()}
         rows = []
-        settings = RunSettings(duration_s=duration)
+        settings = RunSettings(duration=duration)
         held = coupling_error_sweep(
             steps, fmus[body], fmus["QuarterCar"], settings, extrapolate=False
         )
@@ -37,7 +37,7 @@ def run(steps=STEPS, duration=30.0, body="HumanBody3DOF", car="quarter-car"):
         for a, b in zip(held, extr):
             rows.append(
                 {
-                    "step_s": a["step_s"],
+                    "step": a["step"],
                     "held": a["coupling_nrmse"],
                     "extrapolated": b["coupling_nrmse"],
                 }
@@ -49,7 +49,7 @@ def main(duration=30.0):
     rows = run(duration=duration)
     print(f"{'step [s]':>9} | {'held [%]':>9} | {'extrapolated [%]':>16}")
     for r in rows:
-        print(f"{r['step_s']:9.0e} | {100 * r['held']:9.4f} | {100 * r['extrapolated']:16.5f}")
+        print(f"{r['step']:9.0e} | {100 * r['held']:9.4f} | {100 * r['extrapolated']:16.5f}")
     return rows
 
 

@@ -26,15 +26,15 @@ def seat_bump(t, height=0.02, start=0.1, width=0.1):
     return x, v
 
 
-def run(fmu_path="dist/HumanBody3DOF.fmu", stop_time=1.0, step=1e-3):
+def run(fmu_path="dist/HumanBody3DOF.fmu", duration=1.0, step=1e-3):
     """Simulate the body FMU with fmpy on a seat bump.
 
     Parameters
     ----------
     fmu_path : str
         HumanBody3DOF.fmu or HumanBodyISO7962.fmu.
-    stop_time : float
-        End time, s.
+    duration : float
+        Simulated time from 0, s.
     step : float
         Communication step, s (fmpy's ``output_interval`` for co-simulation FMUs).
 
@@ -46,7 +46,7 @@ def run(fmu_path="dist/HumanBody3DOF.fmu", stop_time=1.0, step=1e-3):
     """
     from fmpy import simulate_fmu
 
-    t = np.arange(round(stop_time / step) + 1) * step
+    t = np.arange(round(duration / step) + 1) * step
     x, v = seat_bump(t)
     signals = np.array(
         list(zip(t, x, v)),
@@ -55,7 +55,7 @@ def run(fmu_path="dist/HumanBody3DOF.fmu", stop_time=1.0, step=1e-3):
     return simulate_fmu(
         fmu_path,
         start_time=0.0,
-        stop_time=stop_time,
+        stop_time=duration,
         output_interval=step,
         input=signals,
         output=["head_acceleration", "head_displacement", "torso_displacement", "seat_force"],

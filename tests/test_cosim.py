@@ -70,9 +70,7 @@ def test_coupling_error_meets_target_at_1ms(fmus, which):
 def test_coupling_error_is_second_order_in_the_step(fmus):
     """Linear extrapolation makes the coupling error O(h^2): halving the step
     divides it by about 4 (3 to 5 allows for the higher-order terms)."""
-    rows = coupling_error_sweep(
-        [2e-3, 1e-3], fmus["body"], fmus["car"], RunSettings(duration_s=5.0)
-    )
+    rows = coupling_error_sweep([2e-3, 1e-3], fmus["body"], fmus["car"], RunSettings(duration=5.0))
     ratio = rows[0]["coupling_nrmse"] / rows[1]["coupling_nrmse"]
     assert 3.0 < ratio < 5.0
 

@@ -21,15 +21,15 @@ from bodyvib.runtime.network import linear_model
 def test_the_exact_reference_equals_a_high_accuracy_integration():
     from scipy.integrate import solve_ivp
 
-    net, s = load_model("reduced-paper"), CrossCheckSettings(stop_time=2.0)
+    net, s = load_model("reduced-paper"), CrossCheckSettings(duration=2.0)
     lm, iface = linear_model(net), KINDS["body"](net)
     a, w = s.amplitude, 2 * math.pi * s.frequency
     seat = lambda t: np.array([a * np.sin(w * t), a * w * np.cos(w * t), 0.0])  # noqa: E731
     U = iface.input_map
-    t = np.linspace(0, s.stop_time, 201)
+    t = np.linspace(0, s.duration, 201)
     sol = solve_ivp(
         lambda tt, x: lm.A @ x + lm.B @ (U @ seat(tt)),
-        (0, s.stop_time),
+        (0, s.duration),
         np.zeros(len(lm.A)),
         t_eval=t,
         method="DOP853",
@@ -68,13 +68,13 @@ def test_build_cross_check_writes_a_folder_fmpy_validates_and_the_fmu_matches(tm
     outs = list(ref.dtype.names[1:])
     res = simulate_fmu(
         f"{base}.fmu",
-        stop_time=s.stop_time,
+        stop_time=s.duration,
         step_size=s.step,
         output_interval=s.output_step,
         input=read_csv(f"{base}_in.csv"),
         output=outs,
     )
-    assert validate_result(res, ref, 0.0, s.stop_time) is None  # fmpy's band check
+    assert validate_result(res, ref, 0.0, s.duration) is None  # fmpy's band check
     # the displacements (no feedthrough) within one communication step of phase, w h,
     # of their peak: the importer applies each input row for the step after it
     for name in ("head_displacement", "torso_displacement"):

@@ -128,7 +128,7 @@ def test_parseval_against_iso_time_domain_definition(iso, paper, role, which):
 
 
 def test_time_domain_converges_in_dt(iso, paper):
-    j = [objective_time_domain(iso, paper, dt=dt) for dt in (1e-3, 2e-4, 5e-5)]
+    j = [objective_time_domain(iso, paper, step=h) for h in (1e-3, 2e-4, 5e-5)]
     assert abs(j[1] - j[2]) < 1e-6 * j[2]
     assert abs(j[0] - j[2]) < 1e-5 * j[2]
 
@@ -262,7 +262,7 @@ def test_bad_configuration_is_refused(tmp_path):
         # wrong types and names were TypeError/ValueError tracebacks (from a comparison,
         # PyGAD or scipy) instead of one line naming the setting
         ({"quadrature": {"f_split_hz": "a"}}, "quadrature.f_split_hz must be a positive number"),
-        ({"time_domain": {"dt_s": None}}, "time_domain.dt_s must be a positive number"),
+        ({"time_domain": {"step": None}}, "time_domain.step must be a positive number"),
         ({"quadrature": {"panels": 2.5}}, "quadrature.panels must be a positive integer"),
         ({"polish": {"method": "nope"}}, "polish.method must be one of"),
         ({"method": "pso"}, "method must be one of ga, cmaes, de"),

@@ -155,7 +155,7 @@ def test_check_report_points_to_the_front_when_the_peak_fails():
         forces={},
     )
     study = NS(
-        settings=NS(speed_m_s=20, duration_s=30, step_s=1e-3),
+        settings=NS(speed=20, duration=30, step=1e-3),
         master="m",
         road={"name": "C"},
         bodies={"A": body, "B": body},

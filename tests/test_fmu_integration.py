@@ -346,7 +346,7 @@ def test_fmpy_simulate_fmu_example_agrees_with_library(fmus, name):
         from fmu_from_fmpy import run, seat_bump
     finally:
         sys.path.pop(0)
-    res = run(fmus[name], stop_time=1.0, step=1e-3)
+    res = run(fmus[name], duration=1.0, step=1e-3)
     t = np.arange(1001) * 1e-3
     np.testing.assert_allclose(res["time"], t, rtol=0, atol=1e-12)
     x, v = seat_bump(t)

@@ -446,7 +446,7 @@ def test_same_head_figures_from_crg_csv_and_erd(files, fmus):
         st = run_study(
             {"body": fmus["HumanBody3DOF"]},
             fmus["QuarterCar"],
-            RunSettings(road=path, speed_m_s=20.0, duration_s=10.0),
+            RunSettings(road=path, speed=20.0, duration=10.0),
         )
         b = st.bodies["body"]
         figs[kind] = b.figures

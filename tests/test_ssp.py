@@ -232,7 +232,7 @@ def test_ssp_in_libcosim_is_bodyvib_cosim_from_t0(dist):
     study = run_study(
         {"body": str(dist / "HumanBody3DOF.fmu")},
         str(dist / "QuarterCar.fmu"),
-        RunSettings(road="C", speed_m_s=20.0, duration_s=30.0),
+        RunSettings(road="C", speed=20.0, duration=30.0),
         histories=True,
     )
     run = study.bodies["body"]

@@ -89,7 +89,7 @@ def test_table_columns_provenance_and_files(tmp_path):
 
     schema = pq.read_schema(out)
     assert schema.field("head_vdv").metadata[b"unit"] == b"m/s^1.75"
-    assert schema.field("speed_m_s").metadata[b"unit"] == b"m/s"
+    assert schema.field("speed").metadata[b"unit"] == b"m/s"
     assert schema.field("body_k1").metadata[b"unit"] == b"N/m"
     assert schema.field("car_ms").metadata[b"unit"] == b"kg"
     meta = schema.metadata
@@ -107,7 +107,7 @@ def test_table_columns_provenance_and_files(tmp_path):
     # the CSV: the same values, units in the header
     from_csv = pd.read_csv(csv)
     assert "head_vdv [m/s^1.75]" in from_csv.columns and "case_id" in from_csv.columns
-    assert "body_k1 [N/m]" in from_csv.columns and "speed_m_s [m/s]" in from_csv.columns
+    assert "body_k1 [N/m]" in from_csv.columns and "speed [m/s]" in from_csv.columns
     np.testing.assert_array_equal(from_csv["head_vdv [m/s^1.75]"], df["head_vdv"])
     assert not os.path.exists(parts_dir(str(out)))
     # one table with the class ordering physics expects: rougher road, more vibration

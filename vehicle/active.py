@@ -152,8 +152,8 @@ def compare_laws(
     check_actuated(car)
     settings = RunSettings() if settings is None else settings
     tires, travels = _axle_outputs(car)
-    h, speed = settings.step_s, settings.speed_m_s
-    n = int(round(settings.duration_s / h)) + 1
+    h, speed = settings.step, settings.speed
+    n = int(round(settings.duration / h)) + 1
     t = np.arange(n) * h
     z, v = wheel_inputs(driven_road(settings), speed, t, wheel_offsets(car))
     open_loop = linear_model(seated_system(car, body))
@@ -220,8 +220,8 @@ def format_comparison(comparison: ControlComparison) -> str:
     """
     s = comparison.settings
     lines = [
-        f"{comparison.body} on {comparison.car}: road {s.road}, {s.speed_m_s:g} m/s, "
-        f"{s.duration_s:g} s, step {s.step_s:g} s (exact closed loop)",
+        f"{comparison.body} on {comparison.car}: road {s.road}, {s.speed:g} m/s, "
+        f"{s.duration:g} s, step {s.step:g} s (exact closed loop)",
         "",
         f"{'law':<16}{'c_sky':>8}{'c_ground':>10}{'head Wk rms':>13}{'tire force':>12}"
         f"{'susp. travel':>14}{'actuator':>10}",
@@ -274,7 +274,5 @@ def plot_laws(comparison: ControlComparison, path, window_s: float = 3.0) -> Non
     axes[0].legend(loc="upper right", fontsize="small", title="head Wk r.m.s. [m/s2]")
     axes[-1].set_xlabel("time [s]")
     s = comparison.settings
-    axes[0].set_title(
-        f"{comparison.body} on {comparison.car}, road {s.road} at {s.speed_m_s:g} m/s"
-    )
+    axes[0].set_title(f"{comparison.body} on {comparison.car}, road {s.road} at {s.speed:g} m/s")
     save_figure(fig, path)

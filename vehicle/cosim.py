@@ -279,9 +279,9 @@ class FmuController:
         self.slave.fmu.setReal(self._in, list(velocities))
         return list(self.slave.fmu.getReal(self._out))
 
-    def advance(self, t: float, h: float) -> None:
+    def advance(self, t: float, step: float) -> None:
         """Step the FMU with the master (a stateless law ignores it)."""
-        self.slave.fmu.doStep(t, h)
+        self.slave.fmu.doStep(t, step)
 
 
 @contextlib.contextmanager

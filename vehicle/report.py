@@ -46,8 +46,8 @@ def format_report(study: Study, comparison: Optional[Comparison] = None) -> str:
     handling = road_handling(study.road)
     lines = [
         f"road {study.road['name']}{', ' + handling if handling else ''}, "
-        f"{s.speed_m_s:g} m/s, {s.duration_s:g} s, "
-        f"step {s.step_s:g} s ({study.master})",
+        f"{s.speed:g} m/s, {s.duration:g} s, "
+        f"step {s.step:g} s ({study.master})",
         "",
     ]
     bodies = study.bodies

@@ -38,6 +38,7 @@ import numpy as np
 
 from bodyvib.process.outputs import atomic_write_bytes, staged_source
 from bodyvib.runtime.contract import UNITS
+from bodyvib.runtime.renames import renamed_parameters
 
 __all__ = [
     "SSP_NAME",
@@ -226,9 +227,10 @@ def _units(root_parent, tag_prefix, used):
         ET.SubElement(unit, _q("ssc", "BaseUnit"), {k: str(e) for k, e in UNITS[u].items()})
 
 
+@renamed_parameters(stop_time="duration")
 def system_structure(
     fmus: Dict[str, str],
-    stop_time: float = 30.0,
+    duration: float = 30.0,
     step: float = 1e-3,
     connections=CONNECTIONS,
     name: str = SSP_NAME,
@@ -239,8 +241,8 @@ def system_structure(
     ----------
     fmus : dict of str to str
         Component name -> FMU path (read for connector units).
-    stop_time : float
-        Default experiment's stop time, s.
+    duration : float
+        Default experiment's stop time (it starts at 0), s.
     step : float
         Communication step suggested to hosts that read it (libcosim's OSP
         annotation), s.
@@ -298,7 +300,7 @@ def system_structure(
         )
     _units(root, "ssd", used)
     experiment = ET.SubElement(
-        root, _q("ssd", "DefaultExperiment"), startTime="0.0", stopTime=repr(float(stop_time))
+        root, _q("ssd", "DefaultExperiment"), startTime="0.0", stopTime=repr(float(duration))
     )
     annotations = ET.SubElement(experiment, _q("ssd", "Annotations"))  # libcosim's step
     ann = ET.SubElement(annotations, _q("ssc", "Annotation"), type="com.opensimulationplatform")
@@ -337,10 +339,11 @@ def parameter_values(fmu_path, name: str = SSP_NAME) -> bytes:
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
 
 
+@renamed_parameters(stop_time="duration")
 def write_ssp(
     path,
     fmus: Dict[str, str],
-    stop_time: float = 30.0,
+    duration: float = 30.0,
     step: float = 1e-3,
     connections=None,
     name: str = SSP_NAME,
@@ -353,7 +356,7 @@ def write_ssp(
         ``.../QuarterCarWithOccupant.ssp`` (or ``HalfCarWithOccupant.ssp``).
     fmus : dict of str to str
         Component name (``Road``, ``Car``, ``Body``) -> FMU path.
-    stop_time, step : float
+    duration, step : float
         See :func:`system_structure`.
     connections : sequence of (str, str, str, str), optional
         The package's own (:data:`PACKAGES`) by default.
@@ -368,7 +371,7 @@ def write_ssp(
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
         zf.writestr(
-            "SystemStructure.ssd", system_structure(fmus, stop_time, step, connections, name)
+            "SystemStructure.ssd", system_structure(fmus, duration, step, connections, name)
         )
         for comp, fmu in fmus.items():
             zf.writestr(f"resources/{comp}.ssv", parameter_values(fmu, name))

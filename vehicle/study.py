@@ -200,7 +200,7 @@ MAX_STEPS = 1e9
 COSIM_DEFAULTS = RunSettings()
 
 #: The run :func:`coupling_error_sweep` repeats at each step by default: 10 s.
-SWEEP_DEFAULTS = RunSettings(duration_s=10.0)
+SWEEP_DEFAULTS = RunSettings(duration=10.0)
 
 
 def check_settings(settings: RunSettings, bodies: int = 1, histories: bool = False) -> Road:
@@ -227,7 +227,7 @@ def check_settings(settings: RunSettings, bodies: int = 1, histories: bool = Fal
         than half the duration, an unknown road or a road file that cannot be
         driven, a negative seed, or a run (or a road) too long for the memory at hand.
     """
-    speed, duration, step = settings.speed_m_s, settings.duration_s, settings.step_s
+    speed, duration, step = settings.speed, settings.duration, settings.step
     for value, what, unit in (
         (speed, "speed", "m/s"),
         (duration, "duration", "s"),
@@ -321,7 +321,7 @@ def run_study(
         Bad settings, missing or unsuitable FMUs.
     """
     rd = check_settings(settings, bodies=len(body_fmus), histories=histories)
-    speed, duration, step = settings.speed_m_s, settings.duration_s, settings.step_s
+    speed, duration, step = settings.speed, settings.duration, settings.step
     n = int(round(duration / step)) + 1
     fs = 1.0 / step
     labels = list(body_fmus)
@@ -582,27 +582,27 @@ def coupling_error_sweep(
         FMU paths (bodyvib FMUs: the reference comes from their parameter files).
     settings : bodyvib.vehicle.road.driven.RunSettings
         As :func:`run_study` takes them (a 10 s run by default); each step replaces its
-        ``step_s``.
+        ``step``.
     extrapolate : bool
         Master with (True) or without seat-force extrapolation.
 
     Returns
     -------
     list of dict
-        ``{"step_s", "coupling_nrmse", "real_time_factor"}`` per step.
+        ``{"step", "coupling_nrmse", "real_time_factor"}`` per step.
     """
     rows = []
     for h in steps:
         st = run_study(
             {"body": body_fmu},
             car_fmu,
-            replace(settings, step_s=float(h)),
+            replace(settings, step=float(h)),
             extrapolate=extrapolate,
         )
         b = st.bodies["body"]
         rows.append(
             {
-                "step_s": float(h),
+                "step": float(h),
                 "coupling_nrmse": b.coupling_nrmse,
                 "real_time_factor": b.real_time_factor,
             }

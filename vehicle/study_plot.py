@@ -54,7 +54,7 @@ def plot_study(study: Study, path, comparison: Optional[Comparison] = None, wind
         ax1.set_xlabel(axis_label("time"))
         ax1.set_ylabel(axis_label("head_acceleration"))
         ax1.set_title(
-            f"{study.road['name']}, {study.settings.speed_m_s:g} m/s: head acceleration "
+            f"{study.road['name']}, {study.settings.speed:g} m/s: head acceleration "
             f"({window_s:g} s window)"
         )
         ax1.grid(True, alpha=0.3)

@@ -239,14 +239,14 @@ def run_settings_from_args(args) -> RunSettings:
     >>> add_road_options(p)
     >>> args = p.parse_args([])
     >>> args.road, args.speed, args.duration, args.step, args.seed = "C", 20.0, 30.0, 1e-3, 0
-    >>> run_settings_from_args(args).speed_m_s
+    >>> run_settings_from_args(args).speed
     20.0
     """
     return RunSettings(
         road=args.road,
-        speed_m_s=args.speed,
-        duration_s=args.duration,
-        step_s=args.step,
+        speed=args.speed,
+        duration=args.duration,
+        step=args.step,
         seed=args.seed,
         road_options=road_options_from_args(args),
     )

@@ -48,6 +48,7 @@ from typing import Dict
 import numpy as np
 
 from ..runtime.errors import BodyvibError
+from ..runtime.renames import renamed_parameters
 
 __all__ = [
     "WK_PARAMETERS",
@@ -508,14 +509,15 @@ BASIC_METHOD_LIMITS = (
 )
 
 
-def basic_method_checks(figures: ComfortFigures, duration_s: float) -> Dict[str, dict]:
+@renamed_parameters(duration_s="duration")
+def basic_method_checks(figures: ComfortFigures, duration: float) -> Dict[str, dict]:
     """The standard's tests of whether the weighted r.m.s. alone describes a record.
 
     Parameters
     ----------
     figures : ComfortFigures
         Figures of the record.
-    duration_s : float
+    duration : float
         Its duration T in s (for ``VDV / (a_w T^1/4)``).
 
     Returns
@@ -537,8 +539,8 @@ def basic_method_checks(figures: ComfortFigures, duration_s: float) -> Dict[str,
             "crest_factor": figures.crest_factor,
             "mtvv_ratio": figures.mtvv / rms if rms > 0 else float("nan"),
             "vdv_ratio": (
-                figures.vdv / (rms * float(duration_s) ** 0.25)
-                if rms > 0 and duration_s > 0
+                figures.vdv / (rms * float(duration) ** 0.25)
+                if rms > 0 and duration > 0
                 else float("nan")
             ),
         }

@@ -20,6 +20,7 @@ import numpy as np
 from ..models import MODEL_DIR
 from ..runtime.errors import BodyvibError
 from ..runtime.jsonfile import read_json
+from ..runtime.renames import warn_renamed
 from .methods import COORDINATES, METHODS
 from .space import GENES, PAIR_ROLES
 
@@ -150,7 +151,7 @@ class QuadratureSettings(_Section):
 class TimeDomainSettings(_Section):
     """The time-domain form of the objective (``time_domain``)."""
 
-    dt_s: float
+    step: float
     decay_time_constants: float
 
 
@@ -235,8 +236,17 @@ class FitConfig:
         return out
 
 
+#: Keys renamed (section -> old key -> new key): a file with an old key still loads, warned.
+RENAMED_KEYS = {"time_domain": {"dt_s": "step"}}
+
+
 def _merge(base: dict, over: dict, where: str) -> dict:
     out = copy.deepcopy(base)
+    section = where.rpartition(": ")[2]
+    for old, new in RENAMED_KEYS.get(section, {}).items():
+        if old in over and new not in over:
+            warn_renamed(where, old, new, stacklevel=4)
+            over = {new if k == old else k: v for k, v in over.items()}
     for k, v in over.items():
         if k not in base:
             raise BodyvibError(f"{where}: unknown key '{k}'; keys are {', '.join(base)}")
@@ -409,7 +419,7 @@ def load_config(path=None, overrides: Optional[dict] = None) -> FitConfig:
     q = cfg["quadrature"]
     if not q["f_first_panel_hz"] < q["f_split_hz"]:
         raise BodyvibError(f"{where}: quadrature needs 0 < f_first_panel_hz < f_split_hz")
-    positive("time_domain", "dt_s")
+    positive("time_domain", "step")
     positive("time_domain", "decay_time_constants")
     return FitConfig(
         pairs=cfg["pairs"],

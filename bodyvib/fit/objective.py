@@ -58,6 +58,7 @@ from ..analytic import head_transmissibility, torso_transmissibility
 from ..models import load_model
 from ..runtime.errors import BodyvibError
 from ..runtime.network import Network
+from ..runtime.renames import renamed_parameters
 from .config import FitConfig, load_config
 from .space import REDUCED_PARAMETERS
 
@@ -178,10 +179,11 @@ def default_horizon(*models, time_constants: float = 40.0) -> float:
     return time_constants / sigma
 
 
-def impulse_response(model, t_end: float, dt: float, point: str = "head"):
+@renamed_parameters(t_end="duration", dt="step")
+def impulse_response(model, duration: float, step: float, point: str = "head"):
     """Exact samples of a position's response to a unit impulse of seat displacement.
 
-    ``h(t_k) = c e^{A t_k} b`` at ``t_k = k dt`` (the state space driven by
+    ``h(t_k) = c e^{A t_k} b`` at ``t_k = k step`` (the state space driven by
     seat displacement alone, :func:`bodyvib.frequency.response.displacement_input_statespace`),
     the matrix exponential from :func:`bodyvib.runtime.discretize.expm`. Exact at the
     samples for any stiffness (the ISO model's fastest pole is -1.1e8 1/s).
@@ -190,9 +192,9 @@ def impulse_response(model, t_end: float, dt: float, point: str = "head"):
     ----------
     model : Network or LinearModel
         The model whose impulse response is sampled.
-    t_end : float
+    duration : float
         Horizon in s.
-    dt : float
+    step : float
         Sample spacing in s.
     point : str
         Role or mass name.
@@ -217,7 +219,7 @@ def impulse_response(model, t_end: float, dt: float, point: str = "head"):
     True
     """
     t_parts, h_parts = [], []
-    for t, h in _impulse_blocks(model, _samples(t_end, dt), dt, point):
+    for t, h in _impulse_blocks(model, _samples(duration, step), step, point):
         t_parts.append(t)
         h_parts.append(h)
     return np.concatenate(t_parts), np.concatenate(h_parts)
@@ -227,24 +229,26 @@ def impulse_response(model, t_end: float, dt: float, point: str = "head"):
 MAX_SAMPLES = 50_000_000
 
 
-def _samples(t_end: float, dt: float) -> int:
-    if not (t_end > 0 and dt > 0):
-        raise BodyvibError(f"impulse response needs t_end > 0 and dt > 0, got {t_end}, {dt}")
-    n = int(math.ceil(t_end / dt)) + 1
+def _samples(duration: float, step: float) -> int:
+    if not (duration > 0 and step > 0):
+        raise BodyvibError(
+            f"impulse response needs duration > 0 and step > 0, got {duration}, {step}"
+        )
+    n = int(math.ceil(duration / step)) + 1
     if n > MAX_SAMPLES:
         raise BodyvibError(
-            f"impulse response over {t_end:g} s at {dt:g} s would take {n} samples; a model "
-            "decays too slowly (a nearly undamped mode): give a shorter t_end or a larger dt"
+            f"impulse response over {duration:g} s at {step:g} s would take {n} samples; a model "
+            "decays too slowly (a nearly undamped mode): give a shorter duration or a larger step"
         )
     return n
 
 
-def _impulse_blocks(model, n: int, dt: float, point: str, block: int = 512):
+def _impulse_blocks(model, n: int, step: float, point: str, block: int = 512):
     """Yield ``(t, h)`` of the exact impulse response in blocks of samples."""
     from ..runtime.discretize import expm
 
     A, b, c = _displacement_statespace(model, point)
-    phi = expm(A * dt)
+    phi = expm(A * step)
     block = min(n, block)
     V = np.empty((A.shape[0], block))
     V[:, 0] = b
@@ -254,17 +258,18 @@ def _impulse_blocks(model, n: int, dt: float, point: str, block: int = 512):
     done = 0
     while done < n:
         m = min(block, n - done)
-        yield (np.arange(done, done + m) * dt, (c @ V)[:m])
+        yield (np.arange(done, done + m) * step, (c @ V)[:m])
         done += m
         V = phi_block @ V
 
 
+@renamed_parameters(t_end="duration", dt="step")
 def objective_time_domain(
     reference,
     reduced,
     pairs: Optional[Mapping[str, float]] = None,
-    dt: Optional[float] = None,
-    t_end: Optional[float] = None,
+    step: Optional[float] = None,
+    duration: Optional[float] = None,
     config: Optional[FitConfig] = None,
 ) -> float:
     """The paper's Eq. 3 by its definition: integrated squared impulse-response difference.
@@ -279,11 +284,11 @@ def objective_time_domain(
     pairs : dict of str to float, optional
         Role -> weight; the configuration's ``pairs`` by default (head and torso,
         weight 1 each).
-    dt : float, optional
-        Sample spacing in s (configuration ``time_domain.dt_s``, 0.2 ms: 5 kHz,
+    step : float, optional
+        Sample spacing in s (configuration ``time_domain.step``, 0.2 ms: 5 kHz,
         above twice every resonance of both models, so the sampled sum
         converges spectrally).
-    t_end : float, optional
+    duration : float, optional
         Horizon in s; by default 40 time constants of the slowest pole of
         either model (:func:`default_horizon`).
     config : FitConfig, optional
@@ -308,24 +313,26 @@ def objective_time_domain(
     """
     cfg = config or load_config()
     pairs = dict(pairs or cfg.pairs)
-    dt = float(dt or cfg.time_domain.dt_s)
-    if t_end is None:
-        t_end = default_horizon(
+    step = float(step or cfg.time_domain.step)
+    if duration is None:
+        duration = default_horizon(
             reference, reduced, time_constants=cfg.time_domain.decay_time_constants
         )
-    n = _samples(t_end, dt)
+    n = _samples(duration, step)
     total = 0.0
     for role, wgt in pairs.items():
         acc = 0.0  # trapezoid rule, streamed block by block: memory stays one block
-        blocks = zip(_impulse_blocks(reference, n, dt, role), _impulse_blocks(reduced, n, dt, role))
+        blocks = zip(
+            _impulse_blocks(reference, n, step, role), _impulse_blocks(reduced, n, step, role)
+        )
         for (t, h1), (_, h2) in blocks:
             g = (h1 - h2) ** 2
             acc += float(np.sum(g))
             if t[0] == 0.0:
                 acc -= 0.5 * float(g[0])
-            if t[-1] >= (n - 1) * dt * (1 - 1e-12):
+            if t[-1] >= (n - 1) * step * (1 - 1e-12):
                 acc -= 0.5 * float(g[-1])
-        total += wgt * dt * acc
+        total += wgt * step * acc
     return total
 
 

@@ -223,14 +223,14 @@ def plot_comparison(result, refit, folder):
     fig, axes = new_figure(
         len(roles), 1, sharex=True, figsize=(7, 2.6 * len(roles) + 0.8), squeeze=False
     )
-    dt = result.config.time_domain.dt_s
+    step = result.config.time_domain.step
     models = [(paper, "paper's Table 2", "--"), (refit, "refit (GA)", "-")]
     if t.kind == "model":
         models.insert(0, (t.reference, f"{t.reference.name} (reference)", "k-"))
-    t_end = min(0.6, default_horizon(*(m for m, _, _ in models)))
+    duration = min(0.6, default_horizon(*(m for m, _, _ in models)))
     for ax, role in zip(axes[:, 0], roles):
         for net, label, style in models:
-            tt, h = impulse_response(net, t_end, dt, role)
+            tt, h = impulse_response(net, duration, step, role)
             ax.plot(tt, h, style, label=label, lw=2 if style == "k-" else 1.2)
         ax.set_ylabel(f"{role} position\nper seat impulse [1/s]")
         ax.grid(True, alpha=0.3)

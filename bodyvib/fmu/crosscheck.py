@@ -31,6 +31,7 @@ from ..process.outputs import atomic_write_text
 from ..runtime.contract import KINDS
 from ..runtime.errors import BodyvibError
 from ..runtime.network import Network, linear_model
+from ..runtime.renames import renamed_fields
 
 if TYPE_CHECKING:  # for annotations only
     from numpy.typing import ArrayLike
@@ -41,6 +42,7 @@ __all__ = ["CrossCheckSettings", "CrossCheck", "exact_sine_outputs", "write_cros
 TOOL = "bodyvib"
 
 
+@renamed_fields(stop_time="duration")
 @dataclass(frozen=True)
 class CrossCheckSettings:
     """What the cross-check folder runs: a seat sine from rest.
@@ -49,8 +51,9 @@ class CrossCheckSettings:
     ----------
     name : str
         The FMU's model name.
-    stop_time : float
-        Run length, s.
+    duration : float
+        Run length, s (``stop_time`` still works for one release, with a
+        ``DeprecationWarning``).
     step : float
         Communication step (and the input table's row spacing), s.
     output_step : float
@@ -64,7 +67,7 @@ class CrossCheckSettings:
     """
 
     name: str = "HumanBody3DOF"
-    stop_time: float = 4.0
+    duration: float = 4.0
     step: float = 1e-3
     output_step: float = 1e-2
     amplitude: float = 5e-3
@@ -165,7 +168,7 @@ acceleration [m/s2]; outputs: {", ".join(outputs)} and the seat force's rate.
 
 Inputs (`{settings.name}_in.csv`): the seat sine d = {settings.amplitude:g} sin(2 pi
 {settings.frequency:g} t) m with its exact velocity and acceleration, one row per
-communication step ({settings.step:g} s), from rest at t = 0 to {settings.stop_time:g} s.
+communication step ({settings.step:g} s), from rest at t = 0 to {settings.duration:g} s.
 
 Reference (`{settings.name}_ref.csv`): the exact response of the model's linear state space to
 that sine from rest (the harmonic solution plus the matrix-exponential free response that
@@ -204,10 +207,10 @@ def write_cross_check(
     from .native import build_native_fmu
 
     s = settings
-    n_steps, n_out = s.stop_time / s.step, s.output_step / s.step
+    n_steps, n_out = s.duration / s.step, s.output_step / s.step
     if not (abs(n_steps - round(n_steps)) < 1e-9 * n_steps and abs(n_out - round(n_out)) < 1e-9):
         raise BodyvibError(
-            f"cross-check: the step {s.step:g} s must divide the run ({s.stop_time:g} s) and "
+            f"cross-check: the step {s.step:g} s must divide the run ({s.duration:g} s) and "
             f"the output step ({s.output_step:g} s)"
         )
     folder = Path(dest) / "fmus" / "2.0" / "cs" / "linux64" / TOOL / __version__ / s.name
@@ -219,14 +222,14 @@ def write_cross_check(
     inputs = folder / f"{s.name}_in.csv"
     names = [v.name for v in KINDS["body"](network).inputs]
     atomic_write_text(inputs, _csv(t_in, dict(zip(names, seat.T, strict=True))))
-    t_ref = np.arange(round(s.stop_time / s.output_step) + 1) * s.output_step
+    t_ref = np.arange(round(s.duration / s.output_step) + 1) * s.output_step
     ref = exact_sine_outputs(network, s, t_ref)
     reference = folder / f"{s.name}_ref.csv"
     atomic_write_text(reference, _csv(t_ref, ref))
     options = folder / f"{s.name}_ref.opt"
     atomic_write_text(
         options,
-        f"StartTime, 0.0\nStopTime, {s.stop_time!r}\nStepSize, {s.step!r}\nRelTol, {s.rel_tol!r}\n",
+        f"StartTime, 0.0\nStopTime, {s.duration!r}\nStepSize, {s.step!r}\nRelTol, {s.rel_tol!r}\n",
     )
     command = f"bodyvib build --cross-check DEST --params {model}"
     atomic_write_text(folder / f"{s.name}_cc.sh", f"#!/bin/sh\n{command}\n")

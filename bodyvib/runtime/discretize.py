@@ -23,6 +23,7 @@ import numpy as np
 
 from .errors import BodyvibError
 from .network import LinearModel, Network, as_linear_model
+from .renames import renamed_parameters
 
 if TYPE_CHECKING:  # for annotations only: the FMU run-time does not import it
     from numpy.typing import ArrayLike
@@ -58,16 +59,17 @@ _B13 = (
 _THETA13 = 5.371920351148152
 
 
-def check_step(h: float, what: str = "step size") -> None:
+@renamed_parameters(h="step")
+def check_step(step: float, what: str = "step size") -> None:
     """Refuse a step that is not a positive finite number of seconds.
 
     Raises
     ------
     BodyvibError
-        ``"<what> must be a positive finite number of seconds, got <h>"``.
+        ``"<what> must be a positive finite number of seconds, got <step>"``.
     """
-    if not (isinstance(h, (int, float, np.floating)) and math.isfinite(h) and h > 0):
-        raise BodyvibError(f"{what} must be a positive finite number of seconds, got {h!r}")
+    if not (isinstance(step, (int, float, np.floating)) and math.isfinite(step) and step > 0):
+        raise BodyvibError(f"{what} must be a positive finite number of seconds, got {step!r}")
 
 
 def expm(M: np.ndarray) -> np.ndarray:
@@ -126,7 +128,10 @@ def expm(M: np.ndarray) -> np.ndarray:
     return E
 
 
-def discretize(A: np.ndarray, B: np.ndarray, h: float) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+@renamed_parameters(h="step")
+def discretize(
+    A: np.ndarray, B: np.ndarray, step: float
+) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Exact step matrices ``Phi, Gamma0, Gamma1`` for input ``u_k + du_k tau``.
 
     Parameters
@@ -135,8 +140,8 @@ def discretize(A: np.ndarray, B: np.ndarray, h: float) -> Tuple[np.ndarray, np.n
         State matrix of ``x' = A x + B u`` (1/s).
     B : (n, m) ndarray
         Input matrix (state units per input unit and second).
-    h : float
-        Step length in seconds, positive and finite.
+    step : float
+        Step length ``h`` in seconds, positive and finite.
 
     Returns
     -------
@@ -150,9 +155,9 @@ def discretize(A: np.ndarray, B: np.ndarray, h: float) -> Tuple[np.ndarray, np.n
     Raises
     ------
     BodyvibError
-        If ``h`` is not a positive finite number.
+        If ``step`` is not a positive finite number.
     """
-    Phi, (Gamma0, Gamma1) = _input_blocks(A, B, h, 2)
+    Phi, (Gamma0, Gamma1) = _input_blocks(A, B, step, 2)
     return Phi, Gamma0, Gamma1
 
 
@@ -182,7 +187,8 @@ def _augmented(A: np.ndarray, B: np.ndarray, blocks: int) -> np.ndarray:
     return M
 
 
-def discretize_quadratic(A: np.ndarray, B: np.ndarray, h: float) -> np.ndarray:
+@renamed_parameters(h="step")
+def discretize_quadratic(A: np.ndarray, B: np.ndarray, step: float) -> np.ndarray:
     """The step matrix ``Gamma2`` of an input's curvature: input ``u_k + du_k tau + d2u_k tau^2 / 2``.
 
     ``Gamma2 = int_0^h e^{A (h - tau)} B tau^2 / 2 dtau`` (multiplies ``d2u_k``),
@@ -193,7 +199,7 @@ def discretize_quadratic(A: np.ndarray, B: np.ndarray, h: float) -> np.ndarray:
 
     Parameters
     ----------
-    A, B, h
+    A, B, step
         As in :func:`discretize`.
 
     Returns
@@ -204,9 +210,9 @@ def discretize_quadratic(A: np.ndarray, B: np.ndarray, h: float) -> np.ndarray:
     Raises
     ------
     BodyvibError
-        If ``h`` is not a positive finite number (:func:`check_step`).
+        If ``step`` is not a positive finite number (:func:`check_step`).
     """
-    return _input_blocks(A, B, h, 3)[1][2]
+    return _input_blocks(A, B, step, 3)[1][2]
 
 
 class StepCache:
@@ -237,19 +243,21 @@ class StepCache:
     def __len__(self) -> int:
         return len(self._values)
 
-    def get(self, h: float) -> Any:
-        """The value for step ``h``, computed on first use."""
-        value = self._values.get(h)
+    @renamed_parameters(h="step")
+    def get(self, step: float) -> Any:
+        """The value for ``step``, computed on first use."""
+        value = self._values.get(step)
         if value is None:
-            value = self._compute(h)
+            value = self._compute(step)
             if len(self._values) > self._limit:
                 self._values.clear()
-            self._values[h] = value
+            self._values[step] = value
         return value
 
-    def discard(self, h: float) -> None:
-        """Forget the value of step ``h`` (e.g. one found unusable)."""
-        self._values.pop(h, None)
+    @renamed_parameters(h="step")
+    def discard(self, step: float) -> None:
+        """Forget the value of ``step`` (e.g. one found unusable)."""
+        self._values.pop(step, None)
 
 
 class Discretization:
@@ -281,17 +289,20 @@ class Discretization:
         """The equilibrium state (all zeros)."""
         return np.zeros(self.model.A.shape[0])
 
-    def matrices(self, h: float) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(Phi, Gamma0, Gamma1)`` for step ``h`` (computed once per rounded h)."""
-        check_step(h)
-        return self._cache.get(float(f"{h:.{self._digits}g}"))
+    @renamed_parameters(h="step")
+    def matrices(self, step: float) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(Phi, Gamma0, Gamma1)`` for ``step`` (computed once per rounded step)."""
+        check_step(step)
+        return self._cache.get(float(f"{step:.{self._digits}g}"))
 
-    def step(self, x: "ArrayLike", u: "ArrayLike", du: "ArrayLike", h: float) -> np.ndarray:
-        """State after one step of length ``h`` from ``x`` with input ``u + du tau``."""
-        Phi, G0, G1 = self.matrices(h)
+    @renamed_parameters(h="step")
+    def step(self, x: "ArrayLike", u: "ArrayLike", du: "ArrayLike", step: float) -> np.ndarray:
+        """State after one step of length ``step`` from ``x`` with input ``u + du tau``."""
+        Phi, G0, G1 = self.matrices(step)
         return Phi @ x + G0 @ np.asarray(u, float) + G1 @ np.asarray(du, float)
 
-    def run(self, u: np.ndarray, du: np.ndarray, h: float) -> np.ndarray:
+    @renamed_parameters(h="step")
+    def run(self, u: np.ndarray, du: np.ndarray, step: float) -> np.ndarray:
         """States over a uniform grid from the zero state: ``x[k+1] = Phi x[k] + G0 u[k] + G1 du[k]``.
 
         Parameters
@@ -299,7 +310,7 @@ class Discretization:
         u, du : (samples, inputs) ndarray
             Inputs at each sample and their rate over the step that starts there (the
             last row's rate is unused), in the model's input units.
-        h : float
+        step : float
             The grid's step, s.
 
         Returns
@@ -308,7 +319,7 @@ class Discretization:
             ``x[0] = 0``; the forcing of all steps is formed at once, so a sample costs
             one state-matrix product.
         """
-        Phi, G0, G1 = self.matrices(h)
+        Phi, G0, G1 = self.matrices(step)
         forcing = u[:-1] @ G0.T + du[:-1] @ G1.T  # (samples - 1, states)
         x = np.zeros((u.shape[0], Phi.shape[0]))
         for k in range(u.shape[0] - 1):

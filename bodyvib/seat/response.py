@@ -237,7 +237,7 @@ class Response:
                     "name": s.name,
                     "samples": int(s.acceleration.size),
                     "sampling_rate_hz": s.fs,
-                    "duration_s": s.duration,
+                    "duration": s.duration,
                 },
                 "seat": {
                     **self.seat_figures.to_dict(),

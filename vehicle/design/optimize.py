@@ -263,8 +263,7 @@ class DesignResult:
             "objectives": [o.name for o in s.objectives],
             "constraints": {c.name: lim for c, lim in s.constraints},
             "operating_points": [
-                {"road": p.road, "speed_m_s": p.speed, "weight": p.weight}
-                for p in s.operating_points
+                {"road": p.road, "speed": p.speed, "weight": p.weight} for p in s.operating_points
             ],
             "front_size": int(len(self.values)),
             "evaluations": self.evaluations,

@@ -27,6 +27,7 @@ from typing import Optional, Sequence, Tuple
 import numpy as np
 
 from bodyvib.runtime.errors import BodyvibError
+from bodyvib.runtime.renames import renamed_fields
 
 from ..records import Record
 from .base import Road, RoadWarning
@@ -80,6 +81,7 @@ class RoadOptions(Record):
     contact: str = "auto"
 
 
+@renamed_fields(speed_m_s="speed", duration_s="duration", step_s="step")
 @dataclass(frozen=True)
 class RunSettings(Record):
     """What a run drives: the road, at which speed, for how long, at which step.
@@ -94,8 +96,10 @@ class RunSettings(Record):
     ----------
     road : str
         ISO 8608 class ``A``-``H``, ``bump``, ``sweep`` or a road file, as given.
-    speed_m_s, duration_s, step_s : float
-        Vehicle speed (m/s), simulated time (s), communication step (s).
+    speed, duration, step : float
+        Vehicle speed (m/s), simulated time (s), communication step (s). The names
+        ``speed_m_s``, ``duration_s`` and ``step_s`` still work for one release, with a
+        ``DeprecationWarning``.
     seed : int
         Random-road seed.
     road_options : RoadOptions
@@ -103,14 +107,14 @@ class RunSettings(Record):
 
     Examples
     --------
-    >>> RunSettings(road="bump", speed_m_s=10.0).duration_s
+    >>> RunSettings(road="bump", speed=10.0).duration
     30.0
     """
 
     road: str = "C"
-    speed_m_s: float = 20.0
-    duration_s: float = 30.0
-    step_s: float = 1e-3
+    speed: float = 20.0
+    duration: float = 30.0
+    step: float = 1e-3
     seed: int = 0
     road_options: RoadOptions = RoadOptions()
 
@@ -189,16 +193,16 @@ def driven_road(settings: RunSettings) -> Road:
 
     Examples
     --------
-    >>> r = driven_road(RunSettings(road="C", speed_m_s=20.0, duration_s=10.0))
+    >>> r = driven_road(RunSettings(road="C", speed=20.0, duration=10.0))
     >>> float(r.displacement(0.0)), float(r.slope(0.0))
     (0.0, 0.0)
     """
-    spec, speed, duration = settings.road, settings.speed_m_s, settings.duration_s
+    spec, speed, duration = settings.road, settings.speed, settings.duration
     opt = settings.road_options
     if is_road_file(spec):
         if not (isinstance(speed, (int, float)) and math.isfinite(speed) and speed > 0):
             raise BodyvibError(f"speed must be a positive number of m/s, got {speed!r}")
-        return file_road(spec, opt, speed, duration, settings.step_s)
+        return file_road(spec, opt, speed, duration, settings.step)
     if opt.track_m or opt.units or opt.envelope or opt.repeat or opt.contact != "auto":
         raise BodyvibError(
             "--road-track, --road-units, --road-envelope, --road-repeat and --road-contact "

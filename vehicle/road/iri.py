@@ -41,6 +41,7 @@ import numpy as np
 
 from bodyvib.runtime.discretize import discretize
 from bodyvib.runtime.errors import BodyvibError
+from bodyvib.runtime.renames import renamed_fields
 
 from ..records import Record
 
@@ -184,6 +185,7 @@ def moving_average(elevation, spacing: float, base: float = SMOOTHING_BASE_M) ->
     return (c[k:] - c[:-k]) / k
 
 
+@renamed_fields(speed_m_s="speed")
 @dataclass(frozen=True)
 class IriResult(Record):
     """The International Roughness Index of a profile.
@@ -194,15 +196,16 @@ class IriResult(Record):
         IRI, m/km (= mm/m).
     length_m : float
         Distance over which the suspension travel was accumulated, m.
-    speed_m_s : float
-        Simulated speed, m/s.
+    speed : float
+        Simulated speed, m/s (``speed_m_s`` still works for one release, with a
+        ``DeprecationWarning``).
     smoothing_samples : int
         Samples of the 250 mm moving average (1: none).
     """
 
     iri_m_per_km: float
     length_m: float
-    speed_m_s: float
+    speed: float
     smoothing_samples: int
 
 
@@ -266,6 +269,6 @@ def international_roughness_index(
     return IriResult(
         iri_m_per_km=float(1000.0 * slope.mean()),
         length_m=float(length),
-        speed_m_s=float(speed),
+        speed=float(speed),
         smoothing_samples=k,
     )

@@ -76,9 +76,9 @@ def plot_comfort_maps(df, path, figure: str = "head_weighted_rms", title: Option
             )
         sel = ok[(ok["body"] == body) & (ok["car"] == car)]
         for road, g in sel.groupby("road", sort=True):
-            stats = g.groupby("speed_m_s")[figure].quantile([0.05, 0.5, 0.95]).unstack()
+            stats = g.groupby("speed")[figure].quantile([0.05, 0.5, 0.95]).unstack()
             (line,) = ax.plot(stats.index, stats[0.5], "o-", ms=3, label=f"road {road}")
-            if (g.groupby("speed_m_s").size() > 1).any():
+            if (g.groupby("speed").size() > 1).any():
                 ax.fill_between(
                     stats.index, stats[0.05], stats[0.95], color=line.get_color(), alpha=0.25, lw=0
                 )
@@ -158,7 +158,7 @@ def plot_bump_study(df, path, title: Optional[str] = None) -> None:
     for ax, (column, label) in zip(axes.flat, BUMP_PANELS):
         for group, g in ok.groupby(["road"] + others, sort=True):
             group = group if isinstance(group, tuple) else (group,)
-            y = g.groupby("speed_m_s")[column].median()
+            y = g.groupby("speed")[column].median()
             if np.all(np.isnan(y.to_numpy(dtype=float))):
                 continue
             ax.plot(

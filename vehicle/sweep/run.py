@@ -25,8 +25,8 @@ in the schema, see :mod:`bodyvib.vehicle.sweep.table`):
 case_id, case_key  position in the spec; hash identifying the case
 road, seed         ISO 8608 class, ``bump``, ``sweep``, a bump shape with its
                    dimensions or a road file; random-road seed
-speed_m_s          vehicle speed, m/s
-duration_s, step_s run length and time step, s
+speed              vehicle speed, m/s
+duration, step     run length and time step, s
 body, body_model   body entry name; shipped model name or parameter file
 body_sample        parameter-set number of a ``vary`` entry (-1: none)
 car                car model name or file
@@ -244,9 +244,9 @@ class _Rows:
                 ("case_key", c.case_key),
                 ("road", c.road),
                 ("seed", c.seed),
-                ("speed_m_s", c.speed),
-                ("duration_s", c.duration),
-                ("step_s", c.step),
+                ("speed", c.speed),
+                ("duration", c.duration),
+                ("step", c.step),
                 ("body", c.body),
                 ("body_model", c.body_model),
                 ("body_sample", c.body_sample),
@@ -463,7 +463,7 @@ def run_sweep(
     --------
     >>> df = run_sweep({"road": "C", "speed": [10, 20], "duration": 2,
     ...                 "body": "reduced-paper"}, scheduler="serial")
-    >>> list(df["speed_m_s"]), bool(df["head_weighted_rms"].gt(0).all())
+    >>> list(df["speed"]), bool(df["head_weighted_rms"].gt(0).all())
     ([10.0, 20.0], True)
     """
     try:

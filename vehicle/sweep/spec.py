@@ -169,9 +169,9 @@ class Case:
 
         return RunSettings(
             road=self.road,
-            speed_m_s=self.speed,
-            duration_s=self.duration,
-            step_s=self.step,
+            speed=self.speed,
+            duration=self.duration,
+            step=self.step,
             seed=self.seed,
             road_options=self.road_settings(),
         )

@@ -25,9 +25,12 @@ from typing import Dict, List, Optional, Sequence
 
 from bodyvib import __version__
 from bodyvib.runtime.errors import BodyvibError
+from bodyvib.runtime.renames import warn_renamed
 
 __all__ = [
     "CASE_COLUMNS",
+    "RENAMED_COLUMNS",
+    "current_columns",
     "TRAILING_COLUMNS",
     "FIGURE_UNITS",
     "REPLACES_OUT",
@@ -51,14 +54,17 @@ CASE_COLUMNS = (
     ("case_key", ""),
     ("road", ""),
     ("seed", ""),
-    ("speed_m_s", "m/s"),
-    ("duration_s", "s"),
-    ("step_s", "s"),
+    ("speed", "m/s"),
+    ("duration", "s"),
+    ("step", "s"),
     ("body", ""),
     ("body_model", ""),
     ("body_sample", ""),
     ("car", ""),
 )
+#: Case columns renamed (old -> new): a table written before reads with the new names.
+RENAMED_COLUMNS = {"speed_m_s": "speed", "duration_s": "duration", "step_s": "step"}
+
 #: Units of the figure columns (a figure not listed here has none).
 FIGURE_UNITS = {
     "head_weighted_rms": "m/s2",
@@ -452,7 +458,29 @@ def _read_range(path: str, lo: int, hi: int):
         st = f.metadata.row_group(g).column(col).statistics
         if st is None or not st.has_min_max or (st.min <= hi and st.max >= lo):
             groups.append(g)
-    return f.read_row_groups(groups, use_threads=False)
+    return current_columns(f.read_row_groups(groups, use_threads=False), path)
+
+
+def current_columns(table, source: str):
+    """``table`` with the case columns of an older table under their current names, warned.
+
+    Parameters
+    ----------
+    table : pyarrow.Table
+        Rows of a sweep table.
+    source : str
+        Its file, for the warning.
+
+    Returns
+    -------
+    pyarrow.Table
+        The same table when no column is renamed.
+    """
+    names = table.column_names
+    old = [n for n in names if n in RENAMED_COLUMNS]
+    for n in old:
+        warn_renamed(f"sweep table '{source}'", n, RENAMED_COLUMNS[n])
+    return table.rename_columns([RENAMED_COLUMNS.get(n, n) for n in names]) if old else table
 
 
 def assemble(found: Scan, schema, out_file=None, csv_file=None, check=None) -> int:

@@ -1,0 +1,160 @@
+"""One name per concept: the renamed parameters, fields and keys still work, warned.
+
+Each case calls the same thing by its old name and by its new one: the old call must warn
+with a ``DeprecationWarning`` naming both names and give the same result as the new call,
+which must not warn (the test configuration turns bodyvib's warnings into errors).
+"""
+
+import json
+import warnings
+
+import numpy as np
+import pytest
+from bodyvib.vehicle.road.driven import RunSettings
+from bodyvib.vehicle.road.iri import international_roughness_index
+
+from bodyvib.comfort import ComfortFigures, basic_method_checks
+from bodyvib.fit import load_config
+from bodyvib.fit.objective import impulse_response, objective_time_domain
+from bodyvib.fmu.crosscheck import CrossCheckSettings
+from bodyvib.models import load_model
+from bodyvib.runtime.discretize import Discretization, check_step, discretize
+from bodyvib.runtime.renames import renamed_fields, renamed_parameters
+
+REDUCED = load_model("reduced-paper")
+LM = Discretization(REDUCED).model
+
+#: (what, call by the old names, call by the new names, old name -> new name)
+CALLS = [
+    (
+        "RunSettings",
+        lambda: RunSettings(step_s=2e-3, duration_s=5.0, speed_m_s=10.0),
+        lambda: RunSettings(step=2e-3, duration=5.0, speed=10.0),
+        {"step_s": "step", "duration_s": "duration", "speed_m_s": "speed"},
+    ),
+    (
+        "discretize",
+        lambda: discretize(LM.A, LM.B, h=1e-3),
+        lambda: discretize(LM.A, LM.B, step=1e-3),
+        {"h": "step"},
+    ),
+    (
+        "Discretization.step",
+        lambda: Discretization(REDUCED).step(np.zeros(5), [0.01, 0], [0, 0], h=1e-3),
+        lambda: Discretization(REDUCED).step(np.zeros(5), [0.01, 0], [0, 0], step=1e-3),
+        {"h": "step"},
+    ),
+    (
+        "impulse_response",
+        lambda: impulse_response(REDUCED, t_end=0.5, dt=1e-3),
+        lambda: impulse_response(REDUCED, duration=0.5, step=1e-3),
+        {"t_end": "duration", "dt": "step"},
+    ),
+    (
+        "objective_time_domain",
+        lambda: objective_time_domain(REDUCED, REDUCED, dt=1e-3, t_end=0.5),
+        lambda: objective_time_domain(REDUCED, REDUCED, step=1e-3, duration=0.5),
+        {"t_end": "duration", "dt": "step"},
+    ),
+    (
+        "CrossCheckSettings",
+        lambda: CrossCheckSettings(stop_time=2.0),
+        lambda: CrossCheckSettings(duration=2.0),
+        {"stop_time": "duration"},
+    ),
+    (
+        "basic_method_checks",
+        lambda: basic_method_checks(ComfortFigures(1.0, 1.0, 10.0, 10.0, "", 1.2), duration_s=4.0),
+        lambda: basic_method_checks(ComfortFigures(1.0, 1.0, 10.0, 10.0, "", 1.2), duration=4.0),
+        {"duration_s": "duration"},
+    ),
+]
+
+
+def _same(a, b):
+    if (
+        isinstance(a, tuple)
+        and not hasattr(a, "_fields")
+        and not hasattr(a, "__dataclass_fields__")
+    ):
+        return all(_same(x, y) for x, y in zip(a, b))
+    if isinstance(a, np.ndarray):
+        return np.array_equal(a, b)
+    return a == b
+
+
+@pytest.mark.parametrize("what, old, new, renames", CALLS, ids=[c[0] for c in CALLS])
+def test_old_name_warns_and_means_the_new(what, old, new, renames):
+    with pytest.warns(DeprecationWarning) as record:
+        by_old = old()
+    told = sorted(str(w.message) for w in record)
+    assert told == sorted(
+        f"{what}: '{o}' is renamed '{n}'; the old name will be removed in the next release"
+        for o, n in renames.items()
+    )
+    assert all(w.filename == __file__ for w in record)  # points at the caller
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        by_new = new()
+    assert _same(by_old, by_new)
+
+
+def test_old_attributes_read_the_new_fields():
+    s = RunSettings(step=2e-3, duration=5.0, speed=10.0)
+    for old, value in (("step_s", 2e-3), ("duration_s", 5.0), ("speed_m_s", 10.0)):
+        with pytest.warns(DeprecationWarning, match=f"RunSettings: '{old}' is renamed"):
+            assert getattr(s, old) == value
+    iri = international_roughness_index(np.arange(200) * 0.25, np.zeros(200))
+    with pytest.warns(DeprecationWarning, match="'speed_m_s' is renamed 'speed'"):
+        assert iri.speed_m_s == iri.speed
+    with pytest.warns(DeprecationWarning, match="'stop_time' is renamed 'duration'"):
+        assert CrossCheckSettings().stop_time == CrossCheckSettings().duration
+
+
+def test_old_and_new_name_together_are_refused():
+    with pytest.raises(TypeError, match="got 'h' and its new name 'step'"):
+        check_step(h=1e-3, step=1e-3)
+    with pytest.raises(TypeError, match="got 'step_s' and its new name 'step'"):
+        RunSettings(step_s=1e-3, step=1e-3)
+
+
+def test_helpers_leave_a_call_by_the_new_name_alone():
+    calls = []
+
+    @renamed_parameters(old="new")
+    def f(new=0, other=0):
+        calls.append((new, other))
+
+    @renamed_fields(a_s="a")
+    class K:
+        def __init__(self, a=0):
+            self.a = a
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        f(1, other=2)
+        f(new=3)
+        assert K(a=4).a == 4
+    assert calls == [(1, 2), (3, 0)]
+    assert f.__name__ == "f"
+
+
+def test_fit_configuration_file_takes_the_old_time_step_key(tmp_path):
+    path = tmp_path / "fit.json"
+    path.write_text(json.dumps({"time_domain": {"dt_s": 1e-3}}))
+    with pytest.warns(DeprecationWarning, match="time_domain: 'dt_s' is renamed 'step'"):
+        cfg = load_config(path)
+    assert cfg.time_domain.step == 1e-3
+    assert load_config(overrides={"time_domain": {"step": 1e-3}}).time_domain == cfg.time_domain
+
+
+def test_sweep_table_of_the_old_columns_reads_with_the_new_names():
+    pa = pytest.importorskip("pyarrow")
+    from bodyvib.vehicle.sweep.table import current_columns
+
+    old = pa.table({"case_id": [0], "speed_m_s": [20.0], "duration_s": [30.0], "step_s": [1e-3]})
+    with pytest.warns(DeprecationWarning) as record:
+        t = current_columns(old, "old.parquet")
+    assert len(record) == 3 and "sweep table 'old.parquet'" in str(record[0].message)
+    assert t.column_names == ["case_id", "speed", "duration", "step"]
+    assert t["speed"].to_pylist() == [20.0]
