@@ -43,6 +43,7 @@ from ..analytic import head_transmissibility
 from ..models import save_model
 from ..process.outputs import atomic_write_text
 from ..runtime.errors import BodyvibError
+from ..runtime.renames import renamed_parameters
 from .config import log_bounds
 from .methods import SearchSpace
 from .space import REDUCED_PARAMETERS, genes_to_parameters, parameters_to_genes, reduced_network
@@ -391,7 +392,8 @@ def _plot(front: ParetoFront, chosen: Dict[str, int], path) -> None:
     save_figure(fig, path)
 
 
-def write_pareto(folder, front: ParetoFront, command: str = "") -> List[str]:
+@renamed_parameters(folder="dest")
+def write_pareto(dest, front: ParetoFront, command: str = "") -> List[str]:
     """Write ``pareto_front.csv``, ``pareto_front.png`` and ``pareto-<point>.json`` files.
 
     Each parameter file is a reduced model that every command reads, with
@@ -400,7 +402,7 @@ def write_pareto(folder, front: ParetoFront, command: str = "") -> List[str]:
 
     Parameters
     ----------
-    folder : str or os.PathLike
+    dest : str or os.PathLike
         Created if missing.
     front : ParetoFront
         The front to publish, from :func:`pareto_front`.
@@ -414,10 +416,10 @@ def write_pareto(folder, front: ParetoFront, command: str = "") -> List[str]:
     """
     from importlib.metadata import version
 
-    folder = os.fspath(folder)
-    os.makedirs(folder, exist_ok=True)
+    dest = os.fspath(dest)
+    os.makedirs(dest, exist_ok=True)
     chosen = chosen_points(front)
-    files = [os.path.join(folder, "pareto_front.csv"), os.path.join(folder, "pareto_front.png")]
+    files = [os.path.join(dest, "pareto_front.csv"), os.path.join(dest, "pareto_front.png")]
     atomic_write_text(files[0], _table(front))
     _plot(front, chosen, files[1])
     t, ref = front.target, front.reference_peak
@@ -461,7 +463,7 @@ def write_pareto(folder, front: ParetoFront, command: str = "") -> List[str]:
             f"(reference {ref[0]:.3f} at {ref[1]:.2f} Hz).",
             provenance=prov,
         )
-        path = os.path.join(folder, f"pareto-{name}.json")
+        path = os.path.join(dest, f"pareto-{name}.json")
         save_model(net, path)
         files.append(path)
     return files

@@ -15,6 +15,7 @@ import numpy as np
 from ..frequency.response import apparent_mass, find_peaks, transmissibility
 from ..models import load_model
 from ..process.outputs import atomic_write_text, write_json
+from ..runtime.renames import renamed_parameters
 
 __all__ = [
     "F_MIN_HZ",
@@ -185,8 +186,9 @@ def format_comparison(cmp) -> str:
     return "\n".join(lines) + "\n"
 
 
-def plot_comparison(result, refit, folder):
-    """Write ``transmissibility.png`` and ``impulse_response.png`` into ``folder``.
+@renamed_parameters(folder="dest")
+def plot_comparison(result, refit, dest):
+    """Write ``transmissibility.png`` and ``impulse_response.png`` into ``dest``.
 
     Returns
     -------
@@ -216,7 +218,7 @@ def plot_comparison(result, refit, folder):
         ax2.plot(f, np.degrees(np.unwrap(np.angle(T))), style)
     transmissibility_axes(ax1, ax2, title="Seat-to-head transmissibility")
     ax1.legend()
-    files = [os.path.join(folder, "transmissibility.png")]
+    files = [os.path.join(dest, "transmissibility.png")]
     save_figure(fig, files[0])
 
     roles = list(t.pairs)
@@ -237,17 +239,18 @@ def plot_comparison(result, refit, folder):
     axes[0, 0].set_title("Impulse responses (seat displacement impulse, 1 m s)")
     axes[0, 0].legend()
     axes[-1, 0].set_xlabel("time [s]")
-    files.append(os.path.join(folder, "impulse_response.png"))
+    files.append(os.path.join(dest, "impulse_response.png"))
     save_figure(fig, files[1])
     return files
 
 
-def write_report(folder, result, refit):
-    """Write ``comparison.md``, ``comparison.json`` and the plots into ``folder``.
+@renamed_parameters(folder="dest")
+def write_report(dest, result, refit):
+    """Write ``comparison.md``, ``comparison.json`` and the plots into ``dest``.
 
     Parameters
     ----------
-    folder : str or os.PathLike
+    dest : str or os.PathLike
         Created if missing.
     result : bodyvib.fit.result.FitResult
         The search's outcome (targets, parameters, objective values).
@@ -259,11 +262,11 @@ def write_report(folder, result, refit):
     list of str
         ``comparison.md``, ``comparison.json``, then the plots.
     """
-    folder = os.fspath(folder)
-    os.makedirs(folder, exist_ok=True)
+    dest = os.fspath(dest)
+    os.makedirs(dest, exist_ok=True)
     cmp = compare_fit(result, refit)
-    md = os.path.join(folder, "comparison.md")
-    js = os.path.join(folder, "comparison.json")
+    md = os.path.join(dest, "comparison.md")
+    js = os.path.join(dest, "comparison.json")
     atomic_write_text(md, "# Paper's Table 2 against the GA refit\n\n" + format_comparison(cmp))
     write_json(js, cmp)
-    return [md, js] + plot_comparison(result, refit, folder)
+    return [md, js] + plot_comparison(result, refit, dest)

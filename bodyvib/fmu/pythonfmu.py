@@ -41,6 +41,7 @@ from ..process import interrupts
 from ..process.outputs import atomic_write_bytes
 from ..runtime.errors import BodyvibError
 from ..runtime.network import Network
+from ..runtime.renames import renamed_parameters
 
 if TYPE_CHECKING:  # for annotations only: the cores are imported where a build needs them
     from ..runtime.engine import FmuCore
@@ -90,14 +91,15 @@ def _content_hash(parts: Iterable[bytes]) -> str:
     return h.hexdigest()[:10]
 
 
+@renamed_parameters(folder="dest")
 def write_runtime_package(
-    folder: Union[str, os.PathLike], package: str, owner: str = "an FMU"
+    dest: Union[str, os.PathLike], package: str, owner: str = "an FMU"
 ) -> Path:
-    """Copy the run-time package :mod:`bodyvib.runtime` into ``folder/package/``.
+    """Copy the run-time package :mod:`bodyvib.runtime` into ``dest/package/``.
 
     Parameters
     ----------
-    folder : str or path
+    dest : str or path
         Where to create the package folder.
     package : str
         Its (private, unique) name.
@@ -109,7 +111,7 @@ def write_runtime_package(
     Path
         The package folder.
     """
-    pkg = Path(folder) / package
+    pkg = Path(dest) / package
     pkg.mkdir(parents=True, exist_ok=True)
     for m, data in runtime_sources().items():
         if m != "__init__.py":

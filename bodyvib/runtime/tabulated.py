@@ -42,6 +42,7 @@ import numpy as np
 from .contract import PARAMETER_LIMITS, Interface, Variable
 from .errors import BodyvibError
 from .lifecycle import Lifecycle
+from .renames import renamed_parameters
 
 if TYPE_CHECKING:  # for annotations only: the FMU run-time does not import it
     from numpy.typing import ArrayLike
@@ -181,12 +182,13 @@ class HermiteTable:
         return z, dz
 
 
-def write_source(folder: Union[str, os.PathLike], meta: dict, table: HermiteTable) -> List[str]:
+@renamed_parameters(folder="dest")
+def write_source(dest: Union[str, os.PathLike], meta: dict, table: HermiteTable) -> List[str]:
     """Write a source description and its table (what a source FMU carries).
 
     Parameters
     ----------
-    folder : str or path
+    dest : str or path
         Destination folder.
     meta : dict
         The JSON description (module docstring) without ``table`` and ``periodic``.
@@ -207,7 +209,7 @@ def write_source(folder: Union[str, os.PathLike], meta: dict, table: HermiteTabl
     for c in range(table.value.shape[1]):
         cols += [table.value[:, c], table.slope[:, c]]
     rows = np.column_stack(cols)
-    paths = [os.path.join(folder, SOURCE_FILE), os.path.join(folder, meta["table"])]
+    paths = [os.path.join(dest, SOURCE_FILE), os.path.join(dest, meta["table"])]
     with open(paths[0], "w", encoding="utf-8") as f:
         json.dump(meta, f, indent=2)
         f.write("\n")

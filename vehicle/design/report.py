@@ -25,6 +25,7 @@ import numpy as np
 from bodyvib import __version__
 from bodyvib.models import save_model
 from bodyvib.process.outputs import atomic_write_bytes, atomic_write_text, write_json
+from bodyvib.runtime.renames import renamed_parameters
 
 from ..quarter_car import load_car
 from .optimize import DesignResult
@@ -150,14 +151,15 @@ def design_car(result: DesignResult, label: str, command: str = ""):
     )
 
 
-def write_design(folder, result: DesignResult, command: str = "") -> List[str]:
+@renamed_parameters(folder="dest")
+def write_design(dest, result: DesignResult, command: str = "") -> List[str]:
     """Write the front, its plot, the summary and one car file per chosen design.
 
     Call inside :func:`bodyvib.process.outputs.staged_writes` for all-or-none.
 
     Parameters
     ----------
-    folder : str or os.PathLike
+    dest : str or os.PathLike
         Created if missing.
     result : DesignResult
     command : str
@@ -167,15 +169,15 @@ def write_design(folder, result: DesignResult, command: str = "") -> List[str]:
     list of str
         The files written.
     """
-    folder = os.fspath(folder)
-    os.makedirs(folder, exist_ok=True)
-    paths = [os.path.join(folder, f) for f in FILES]
+    dest = os.fspath(dest)
+    os.makedirs(dest, exist_ok=True)
+    paths = [os.path.join(dest, f) for f in FILES]
     atomic_write_text(paths[0], front_table(result))
     atomic_write_bytes(paths[1], _parquet_bytes(result))
     plot_front(result, paths[2])
     write_json(paths[3], result.to_dict())
     for c in result.chosen:
-        p = os.path.join(folder, f"design-{c.label}.json")
+        p = os.path.join(dest, f"design-{c.label}.json")
         save_model(design_car(result, c.label, command), p)
         paths.append(p)
     return paths
