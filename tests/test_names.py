@@ -11,7 +11,7 @@ import warnings
 import numpy as np
 import pytest
 from bodyvib.vehicle.road.driven import RunSettings
-from bodyvib.vehicle.road.iri import international_roughness_index
+from bodyvib.vehicle.road.iri import IriResult
 
 from bodyvib.comfort import ComfortFigures, basic_method_checks
 from bodyvib.fit import load_config
@@ -104,7 +104,7 @@ def test_old_attributes_read_the_new_fields():
     for old, value in (("step_s", 2e-3), ("duration_s", 5.0), ("speed_m_s", 10.0)):
         with pytest.warns(DeprecationWarning, match=f"RunSettings: '{old}' is renamed"):
             assert getattr(s, old) == value
-    iri = international_roughness_index(np.arange(200) * 0.25, np.zeros(200))
+    iri = IriResult(iri_m_per_km=1.0, length_m=50.0, speed=80 / 3.6, smoothing_samples=1)
     with pytest.warns(DeprecationWarning, match="'speed_m_s' is renamed 'speed'"):
         assert iri.speed_m_s == iri.speed
     with pytest.warns(DeprecationWarning, match="'stop_time' is renamed 'duration'"):
@@ -158,3 +158,38 @@ def test_sweep_table_of_the_old_columns_reads_with_the_new_names():
     assert len(record) == 3 and "sweep table 'old.parquet'" in str(record[0].message)
     assert t.column_names == ["case_id", "speed", "duration", "step"]
     assert t["speed"].to_pylist() == [20.0]
+
+
+def test_output_folder_is_dest(tmp_path):
+    from bodyvib.fmu.pythonfmu import write_runtime_package
+
+    with pytest.warns(DeprecationWarning, match="'folder' is renamed 'dest'"):
+        old = write_runtime_package(folder=tmp_path / "a", package="rt_x")
+    new = write_runtime_package(dest=tmp_path / "b", package="rt_x")
+    assert sorted(p.name for p in old.iterdir()) == sorted(p.name for p in new.iterdir())
+
+
+def test_sweep_status_lines_go_to_progress():
+    from bodyvib.vehicle.sweep.run import run_sweep
+
+    spec = {"road": "C", "speed": 20, "body": "reduced-paper"}
+    by_old, by_new = [], []
+    with pytest.warns(DeprecationWarning, match="run_sweep: 'echo' is renamed 'progress'"):
+        run_sweep(spec, engine="spectral", scheduler="serial", echo=by_old.append)
+    run_sweep(spec, engine="spectral", scheduler="serial", progress=by_new.append)
+    assert by_old == by_new and by_new[-1] == "sweep: 1 cases"
+
+
+def test_quiet_is_the_opposite_of_progress():
+    from bodyvib.runtime.renames import NOT
+
+    @renamed_parameters(quiet=NOT("progress"))
+    def run(progress=False):
+        return progress
+
+    with pytest.warns(DeprecationWarning, match="'quiet' is renamed 'progress'"):
+        assert run(quiet=False) is True
+    with pytest.warns(DeprecationWarning):
+        assert run(quiet=True) is False
+    with pytest.warns(DeprecationWarning):  # both, as the old command line gave them
+        assert run(progress=True, quiet=True) is True

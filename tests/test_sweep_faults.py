@@ -386,12 +386,12 @@ def test_failed_cases_are_recorded_and_retried_on_request(tmp_path):
     first = run_sweep(spec, out=out, scheduler="serial")
     assert first["error"].notna().sum() == 2
     said = []
-    again = run_sweep(spec, out=out, scheduler="serial", resume=True, echo=said.append)
+    again = run_sweep(spec, out=out, scheduler="serial", resume=True, progress=said.append)
     assert "4 already done, 0 to run" in said[0]
     pd.testing.assert_frame_equal(again, first)
     said.clear()
     retried = run_sweep(
-        spec, out=out, scheduler="serial", resume=True, retry_failed=True, echo=said.append
+        spec, out=out, scheduler="serial", resume=True, retry_failed=True, progress=said.append
     )
     assert "2 already done, 2 to run" in said[0]
     bad = retried["error"].notna()

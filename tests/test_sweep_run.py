@@ -265,7 +265,7 @@ def test_killed_sweep_resumes_without_running_a_case_twice(tmp_path):
     assert not os.path.exists(out)  # the table itself is only written at the end
     said = []
     df = run_sweep(
-        str(spec_file), out=out, resume=True, scheduler="serial", block=1, echo=said.append
+        str(spec_file), out=out, resume=True, scheduler="serial", block=1, progress=said.append
     )
     assert f"{len(first)} already done, {30 - len(first)} to run" in said[0]
     assert len(df) == 30 and df["case_key"].is_unique and list(df["case_id"]) == list(range(30))
@@ -280,7 +280,9 @@ def test_killed_sweep_resumes_without_running_a_case_twice(tmp_path):
         np.testing.assert_allclose(df[f], fresh[f], rtol=GROUPING_RTOL, atol=0)
     # resuming a finished sweep runs nothing
     said.clear()
-    again = run_sweep(str(spec_file), out=out, resume=True, scheduler="serial", echo=said.append)
+    again = run_sweep(
+        str(spec_file), out=out, resume=True, scheduler="serial", progress=said.append
+    )
     assert "30 already done, 0 to run" in said[0] and len(again) == 30
 
 

@@ -15,7 +15,9 @@ from bodyvib.fmu.builder import build
 from bodyvib.models import load_model
 from bodyvib.process import interrupts
 from bodyvib.process.outputs import staged_writes
+from bodyvib.process.progress import Progress, progress_lines
 from bodyvib.runtime.errors import BodyvibError
+from bodyvib.runtime.renames import renamed_parameters
 
 from .quarter_car import load_car
 from .road.bumps import check_bump_start
@@ -340,12 +342,13 @@ def build_project_fmu(
     )
 
 
+@renamed_parameters(echo="progress")
 def build_fmus(
     dest="dist",
     params: Optional[str] = None,
     car: str = "quarter-car",
     names: Optional[Iterable[str]] = None,
-    echo=None,
+    progress: Progress = False,
     road: Optional[dict] = None,
     native: bool = False,
     fmi: Iterable[int] = (2, 3),
@@ -366,8 +369,9 @@ def build_fmus(
         one road point) or ``HalfCar.fmu`` (at a front and a rear one).
     names : iterable of str, optional
         Which FMUs (all of :data:`FMUS` by default).
-    echo : callable, optional
-        Called with one line per FMU written.
+    progress : bool or callable
+        One line per FMU written: on stderr (True) or to a callable (``echo`` still
+        works for one release, with a ``DeprecationWarning``).
     road : dict, optional
         Options of :func:`fmu_road` for ``Road.fmu`` (``road``, ``seed``, ...)
         (:data:`ROAD_DEFAULTS` by default).
@@ -457,9 +461,10 @@ def build_fmus(
                 if native:
                     what[key] = f"native C, FMI {version}.0, {what[key]}, {'+'.join(platforms)}"
         interrupts.check()
-    if echo:
+    if progress:
+        say = progress_lines(progress)
         for key in out:
-            echo(f"wrote {out[key]} ({what[key]}; fmpy validate: no problems)")
+            say(f"wrote {out[key]} ({what[key]}; fmpy validate: no problems)")
     return out
 
 

@@ -37,6 +37,7 @@ from xml.etree import ElementTree as ET
 import numpy as np
 
 from bodyvib.process.outputs import atomic_write_bytes, staged_source
+from bodyvib.process.progress import Progress, progress_lines
 from bodyvib.runtime.contract import UNITS
 from bodyvib.runtime.renames import renamed_parameters
 
@@ -432,13 +433,14 @@ def ssp_reference(
     )
 
 
+@renamed_parameters(echo="progress")
 def build_active_ssp(
     dest,
     controller,
     road: Optional[dict] = None,
     native: bool = False,
     platforms=None,
-    echo=None,
+    progress: Progress = False,
     car: str = "quarter-car-active",
 ) -> Path:
     """Build an active package: its four FMUs and the ``.ssp`` wiring them.
@@ -465,8 +467,9 @@ def build_active_ssp(
         Native C FMUs for road, car and body (FMI 2.0).
     platforms : iterable of str, optional
         Native binaries to compile (:data:`bodyvib.fmu.native.PLATFORMS`).
-    echo : callable, optional
-        Called with one line per file written.
+    progress : bool or callable
+        One line per file written: on stderr (True) or to a callable (``echo`` still
+        works for one release, with a ``DeprecationWarning``).
     car : str
         Vehicle model with actuators (shipped name or parameter file).
 
@@ -502,7 +505,7 @@ def build_active_ssp(
             None,
             car,
             names=[components[c] for c in ("Road", "Car", "Body")],
-            echo=lines.append,
+            progress=lines.append,
             road=road,
             native=native,
             fmi=(2,),
@@ -525,6 +528,5 @@ def build_active_ssp(
         lines.append(f"wrote {path} (Road -> Car <-> Body, Car <-> Controller, 1 ms step)")
         interrupts.check()
     for line in lines:
-        if echo is not None:
-            echo(line)
+        progress_lines(progress)(line)
     return path

@@ -12,7 +12,6 @@ their ``to_dict()`` is the JSON form (figures, no time histories).
 import contextlib
 import math
 import os
-import sys
 from dataclasses import dataclass, field, replace
 from typing import Dict, List, Optional
 
@@ -25,8 +24,9 @@ from bodyvib.comfort.stream import ComfortStream
 from bodyvib.frequency.estimate import TransmissibilityEstimate, TransmissibilityStream
 from bodyvib.process import interrupts
 from bodyvib.process.limits import require_memory
-from bodyvib.process.progress import progress_bar
+from bodyvib.process.progress import Progress, progress_bar, progress_lines
 from bodyvib.runtime.errors import BodyvibError
+from bodyvib.runtime.renames import NOT, renamed_parameters
 
 from .control import controller_from_fmu, describe
 from .cosim import CsvStream, Master, check_fmu, model_from_fmu, open_controller, open_fmu
@@ -182,11 +182,6 @@ class Study:
         }
 
 
-def _say(msg, quiet):
-    if not quiet:
-        print(msg, file=sys.stderr, flush=True)
-
-
 #: Memory per communication step and body of a study that keeps its histories
 #: (``run_study(..., histories=True)``), bytes: every signal of the co-simulation and of
 #: the reference at full length (measured about 0.6 kB). A streamed study needs none.
@@ -257,14 +252,14 @@ def check_settings(settings: RunSettings, bodies: int = 1, histories: bool = Fal
     return driven_road(settings)
 
 
+@renamed_parameters(quiet=NOT("progress"))
 def run_study(
     body_fmus: Dict[str, str],
     car_fmu: str,
     settings: RunSettings = COSIM_DEFAULTS,
     extrapolate: bool = True,
     reference: bool = True,
-    progress: bool = False,
-    quiet: bool = True,
+    progress: Progress = False,
     histories: bool = False,
     csv: "StudyCsv" = None,
     block: int = 4096,
@@ -288,10 +283,10 @@ def run_study(
         Seat-force extrapolation in the master (see :mod:`bodyvib.vehicle.cosim`).
     reference : bool
         Also run the monolithic reference and report the coupling error.
-    progress : bool
-        tqdm progress bars on stderr.
-    quiet : bool
-        No stage messages on stderr.
+    progress : bool or callable
+        True: a progress bar and the stage messages on stderr; a callable receives the
+        messages (:mod:`bodyvib.process.progress`). ``quiet=False`` still works for one
+        release, with a ``DeprecationWarning``.
     histories : bool
         Keep every signal of every run at full length (``BodyRun.run``,
         ``BodyRun.reference``, ``Study.time``): memory grows with the run. By default
@@ -351,11 +346,10 @@ def run_study(
     windows = {label: [] for label in labels}
     kept = {label: [] for label in labels} if histories else None
     kept_ref = {label: [] for label in refs} if histories else None
-    _say(
+    progress_lines(progress)(
         f"co-simulating {', '.join(f'{b} ({os.path.basename(p)})' for b, p in body_fmus.items())}"
         f" on {rd.name} at {speed:g} m/s, {duration:g} s, step {step:g} s"
-        + (" with the monolithic reference" if refs else ""),
-        quiet,
+        + (" with the monolithic reference" if refs else "")
     )
     bar = progress_bar(n, progress, "co-simulation")
     with contextlib.ExitStack() as stack:

@@ -69,7 +69,7 @@ def _run(args) -> int:
             dest,
             args.params,
             names=names,
-            echo=lines.append,
+            progress=lines.append,
             road=_road(args),
             native=args.native,
             platforms=platforms,
@@ -123,7 +123,13 @@ def _active(args, inputs) -> int:
         inputs = inputs + [("--car", args.car)]
     check_outputs(outs, inputs)
     build_active_ssp(
-        dest, controller, road=road, native=args.native, platforms=platforms, echo=print, car=car
+        dest,
+        controller,
+        road=road,
+        native=args.native,
+        platforms=platforms,
+        progress=print,
+        car=car,
     )
     return 0
 

@@ -181,7 +181,6 @@ def _run(args, want_iso):
                 settings,
                 extrapolate=not args.hold,
                 progress=not args.quiet,
-                quiet=args.quiet,
                 csv=csv,
                 controller=controller,
             )

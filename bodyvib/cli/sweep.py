@@ -1,7 +1,5 @@
 """The ``bodyvib sweep`` command: many cases from a spec or a grid, one table."""
 
-import sys
-
 from bodyvib.process.outputs import check_outputs
 from bodyvib.runtime.errors import BodyvibError
 
@@ -62,7 +60,6 @@ def _run(args):
     spec = args.spec if args.spec else grid_spec(args.grid, args.duration, args.step, given)
     from bodyvib.vehicle.sweep.run import SweepSettings, run_sweep
 
-    say = None if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
     settings = SweepSettings(
         out=args.out,
         engine=args.engine,
@@ -79,7 +76,7 @@ def _run(args):
         worker_timeout=args.worker_timeout,
         table=bool(args.plot),
     )
-    df = run_sweep(spec, settings, echo=say)
+    df = run_sweep(spec, settings)
     for f in (args.out, args.csv):
         if f:
             print(f"wrote {f}")

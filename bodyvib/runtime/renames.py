@@ -13,7 +13,7 @@ import functools
 import warnings
 from typing import Any, Callable, Dict, TypeVar, cast
 
-__all__ = ["renamed_parameters", "renamed_fields", "warn_renamed"]
+__all__ = ["NOT", "renamed_parameters", "renamed_fields", "warn_renamed"]
 
 F = TypeVar("F", bound=Callable[..., Any])
 C = TypeVar("C", bound=type)
@@ -47,14 +47,23 @@ def warn_renamed(owner: str, old: str, new: str, stacklevel: int = 3) -> None:
     )
 
 
+#: An old name that meant the opposite of the new one: ``quiet=NOT("progress")``.
+class NOT(str):
+    """The new name of an old flag of the opposite sense (``quiet`` -> ``progress``).
+
+    A call with both keeps the old behaviour: the new flag is on if either says so.
+    """
+
+
 def _rename_keywords(owner: str, renames: Dict[str, str], kwargs: dict) -> None:
     """Move each old keyword of ``kwargs`` to its new name, warning; refuse both given."""
     for old, new in renames.items():
         if old in kwargs:
-            if new in kwargs:
+            if new in kwargs and not isinstance(new, NOT):
                 raise TypeError(f"{owner}() got {old!r} and its new name {new!r}: give {new!r}")
-            warn_renamed(owner, old, new, stacklevel=4)
-            kwargs[new] = kwargs.pop(old)
+            warn_renamed(owner, old, str(new), stacklevel=4)
+            value = kwargs.pop(old)
+            kwargs[new] = bool(kwargs.get(new)) or not value if isinstance(new, NOT) else value
 
 
 def renamed_parameters(**renames: str) -> Callable[[F], F]:
@@ -63,7 +72,8 @@ def renamed_parameters(**renames: str) -> Callable[[F], F]:
     Parameters
     ----------
     **renames : str
-        Old parameter name -> new parameter name.
+        Old parameter name -> new parameter name; a :class:`NOT` name for an old flag
+        of the opposite sense.
 
     Returns
     -------

@@ -68,7 +68,9 @@ from numpy.linalg import LinAlgError
 from bodyvib import __version__
 from bodyvib.process import interrupts
 from bodyvib.process.outputs import atomic_write_bytes, check_outputs, open_staged, staged_writes
+from bodyvib.process.progress import Progress, progress_lines
 from bodyvib.runtime.errors import BodyvibError
+from bodyvib.runtime.renames import renamed_parameters
 
 from .cluster import ClusterLost, open_cluster, run_tasks, start_server
 from .engines import ENGINE_SETTINGS, FIGURES, check_engine, run_engine
@@ -350,8 +352,9 @@ class SweepSettings:
         Replace an existing ``out`` instead of refusing.
     csv : str, optional
         Also write the table as CSV (header ``name [unit]``).
-    progress : bool
-        Progress bar on stderr.
+    progress : bool or callable
+        A progress bar and the status lines on stderr (True), or the bar on stderr and
+        each status line to a callable (:mod:`bodyvib.process.progress`).
     connect_timeout : float
         Seconds to wait for a scheduler to answer.
     worker_timeout : float
@@ -380,7 +383,7 @@ class SweepSettings:
     retry_failed: bool = False
     overwrite: bool = False
     csv: Optional[str] = None
-    progress: bool = False
+    progress: Progress = False
     connect_timeout: float = 10.0
     worker_timeout: float = 60.0
     table: bool = True
@@ -417,10 +420,10 @@ class SweepSettings:
         return self.workers or os.cpu_count() or 1
 
 
+@renamed_parameters(echo="progress")
 def run_sweep(
     spec: Union[dict, str],
     settings: Optional[SweepSettings] = None,
-    echo: Optional[Callable[[str], None]] = None,
     **options,
 ):
     """Run a sweep and return its table.
@@ -432,11 +435,11 @@ def run_sweep(
     settings : SweepSettings, optional
         How to run it and where to write (defaults: batched engine, in memory,
         on a LocalCluster when the cases make more than one task).
-    echo : callable, optional
-        Called with one-line status messages.
     **options
         Fields of :class:`SweepSettings` that replace those of ``settings``
-        (``out="r.parquet", scheduler="serial"``).
+        (``out="r.parquet", scheduler="serial"``, ``progress=print``). The old keyword
+        ``echo`` (a callable for the status lines) still works for one release as
+        ``progress``, with a ``DeprecationWarning``.
 
     Returns
     -------
@@ -470,7 +473,7 @@ def run_sweep(
         cfg = replace(settings or SweepSettings(), **options)
     except TypeError as exc:
         raise BodyvibError(f"run_sweep: {exc} (the options are SweepSettings' fields)") from None
-    say = echo or (lambda msg: None)
+    say = progress_lines(cfg.progress)
     spec, spec_path = _load(spec)
     prep = _Prepared(spec, counted=lambda count: _start_workers_early(cfg, count))
     check_engine(cfg.engine, [_RoadOnly(r) for r in prep.roads])
