@@ -148,16 +148,22 @@ def test_fit_configuration_file_takes_the_old_time_step_key(tmp_path):
     assert load_config(overrides={"time_domain": {"step": 1e-3}}).time_domain == cfg.time_domain
 
 
-def test_sweep_table_of_the_old_columns_reads_with_the_new_names():
-    pa = pytest.importorskip("pyarrow")
-    from bodyvib.vehicle.sweep.table import current_columns
+def test_sweep_table_of_the_old_columns_reads_with_the_new_names(tmp_path):
+    pq = pytest.importorskip("pyarrow.parquet")
+    from bodyvib.vehicle.sweep.run import read_results, run_sweep
 
-    old = pa.table({"case_id": [0], "speed_m_s": [20.0], "duration_s": [30.0], "step_s": [1e-3]})
+    out = str(tmp_path / "r.parquet")
+    spec = {"road": "C", "speed": [10, 20], "body": "reduced-paper"}
+    new = run_sweep(spec, engine="spectral", scheduler="serial", out=out)
+    table = pq.read_table(out)  # as an older bodyvib wrote it
+    old_names = {"speed": "speed_m_s", "duration": "duration_s", "step": "step_s"}
+    pq.write_table(table.rename_columns([old_names.get(n, n) for n in table.column_names]), out)
     with pytest.warns(DeprecationWarning) as record:
-        t = current_columns(old, "old.parquet")
-    assert len(record) == 3 and "sweep table 'old.parquet'" in str(record[0].message)
-    assert t.column_names == ["case_id", "speed", "duration", "step"]
-    assert t["speed"].to_pylist() == [20.0]
+        again = read_results(out)
+    told = {str(w.message).split(": ", 1)[1].split(";")[0] for w in record}
+    assert told == {f"'{o}' is renamed '{n}'" for n, o in old_names.items()}
+    assert list(again.columns) == list(new.columns)
+    assert again["speed"].tolist() == [10.0, 20.0]
 
 
 def test_output_folder_is_dest(tmp_path):

@@ -80,6 +80,7 @@ from .table import (
     REPLACES_OUT,
     TRAILING_COLUMNS,
     assemble,
+    current_columns,
     part_bytes,
     part_name,
     parts_dir,
@@ -195,7 +196,7 @@ def read_results(out: str):
     found = scan(out)
     if not found.rows:
         return None
-    schema = pq.read_schema(found.sources[-1])
+    schema = current_columns(pq.read_schema(found.sources[-1]), found.sources[-1])
     buf = io.BytesIO()
     assemble(found, schema, out_file=buf)
     buf.seek(0)

@@ -466,21 +466,28 @@ def current_columns(table, source: str):
 
     Parameters
     ----------
-    table : pyarrow.Table
-        Rows of a sweep table.
+    table : pyarrow.Table or pyarrow.Schema
+        Rows of a sweep table, or its schema.
     source : str
         Its file, for the warning.
 
     Returns
     -------
-    pyarrow.Table
-        The same table when no column is renamed.
+    pyarrow.Table or pyarrow.Schema
+        The same object when no column is renamed.
     """
-    names = table.column_names
-    old = [n for n in names if n in RENAMED_COLUMNS]
+    import pyarrow as pa
+
+    schema = table if isinstance(table, pa.Schema) else table.schema
+    old = [n for n in schema.names if n in RENAMED_COLUMNS]
+    if not old:
+        return table
     for n in old:
         warn_renamed(f"sweep table '{source}'", n, RENAMED_COLUMNS[n])
-    return table.rename_columns([RENAMED_COLUMNS.get(n, n) for n in names]) if old else table
+    new = pa.schema(
+        [f.with_name(RENAMED_COLUMNS.get(f.name, f.name)) for f in schema], schema.metadata
+    )
+    return new if isinstance(table, pa.Schema) else table.rename_columns(new.names)
 
 
 def assemble(found: Scan, schema, out_file=None, csv_file=None, check=None) -> int:
