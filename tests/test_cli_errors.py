@@ -123,3 +123,48 @@ def test_sweep_too_large_for_memory_is_refused_before_sampling(capsys, tmp_path)
     )
     assert time.monotonic() - t0 < 30
     assert not (tmp_path / "r.parquet").exists()
+
+
+@pytest.mark.parametrize(
+    "argv, line",
+    [
+        (
+            ["sweep", "--grid", "road=C", "speed=10", "--retry-failed", "--csv", "r.csv"],
+            "bodyvib sweep: error: --retry-failed needs --resume",
+        ),
+        (
+            ["sweep", "--grid", "road=C", "speed=10", "--resume", "--csv", "r.csv"],
+            "bodyvib sweep: error: --resume needs an output file (--out)",
+        ),
+        (
+            ["sweep", "--grid", "road", "--out", "r.parquet"],
+            "bodyvib sweep: error: --grid item 'road' must look like key=v1,v2",
+        ),
+        (
+            ["sweep", "--grid", "road=C", "speed=ten", "--out", "r.parquet"],
+            "bodyvib sweep: error: --grid speed: 'ten' is not a list of numbers",
+        ),
+    ],
+)
+def test_library_errors_name_the_flags_on_the_command_line(
+    capsys, tmp_path, monkeypatch, argv, line
+):
+    # the library names its parameters (retry_failed=True needs resume=True); the command
+    # line shows the flags that set them, through bodyvib.cli.flags
+    monkeypatch.chdir(tmp_path)
+    assert _one_line(capsys, argv) == line
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_error_keeps_the_parameters_it_names_across_processes():
+    # a sweep's worker raises, the client prints: the names travel pickled with the message
+    import pickle
+
+    from bodyvib.vehicle.sweep.cluster import ClusterLost
+
+    from bodyvib.runtime.errors import BodyvibError
+
+    for error in (BodyvibError("'out' is bad", parameters=("out",)), ClusterLost("lost")):
+        again = pickle.loads(pickle.dumps(error))
+        assert type(again) is type(error) and str(again) == str(error)
+        assert again.parameters == error.parameters

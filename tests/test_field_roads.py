@@ -504,5 +504,5 @@ def test_contact_is_a_road_option_of_specs_and_commands(cobbles):
     assert dict(case.road_options) == {"contact": "point", "taper_m": 2.0}
     with pytest.raises(BodyvibError, match="road option 'contact' must be one of auto, tandem-cam"):
         expand(grid_spec([f"road={cobbles[0]}", "speed=10"], 0.4, 1e-3, {"contact": "soft"}))
-    with pytest.raises(BodyvibError, match="--road-contact apply to road files; road 'C'"):
+    with pytest.raises(BodyvibError, match="and 'contact' apply to road files; road 'C'"):
         driven_road(RunSettings("C", 10.0, 1.0, road_options=RoadOptions(contact="point")))

@@ -15,6 +15,7 @@ function), so an import on a rarely used path counts as much as one at the top.
 
 import ast
 import os
+import re
 import sys
 
 import pytest
@@ -242,3 +243,110 @@ def test_checks_can_fail():
         imports_in("from ..models import load_model\n", "bodyvib.process.outputs")
     ) == ["bodyvib.models"]
     assert "bodyvib.runtime.errors" in imports_of("bodyvib.runtime.network")
+
+
+# -- the library speaks Python, the command line speaks flags ---------------------------
+
+#: A ``--flag`` in a string: two dashes, a lower-case word, more words after single dashes.
+FLAG = re.compile(r"(?<![\w-])--[a-z][a-z0-9]*(?:-[a-z0-9]+)*(?![\w-])")
+
+#: The library strings outside docstrings that may name a ``--flag``: the arguments of
+#: other programs (a linker, pythonfmu's builder, git) and the provenance record of the
+#: command that made a file (the cross-check's ``_cc.sh``). Module -> flags.
+ALLOWED_FLAGS = {
+    "bodyvib.fmu.crosscheck": ["--cross-check", "--params"],
+    "bodyvib.fmu.native": ["--no-undefined"],
+    "bodyvib.fmu.pythonfmu": ["--handle-state", "--no-external-tool", "--serialize-state"],
+    "bodyvib.vehicle.sweep.table": ["--porcelain", "--untracked-files"],
+}
+
+
+def flags_in(source):
+    """``(line, flag)`` of every ``--flag`` in the string literals of ``source`` outside
+    docstrings (the parts of f-strings included)."""
+    tree = ast.parse(source)
+    docstrings = set()
+    for node in ast.walk(tree):
+        body = getattr(node, "body", None)
+        if (
+            isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef))
+            and body
+            and isinstance(body[0], ast.Expr)
+            and isinstance(body[0].value, ast.Constant)
+        ):
+            docstrings.add(id(body[0].value))
+    return sorted(
+        (node.lineno, flag)
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Constant)
+        and isinstance(node.value, str)
+        and id(node) not in docstrings
+        for flag in FLAG.findall(node.value)
+    )
+
+
+def library_flags():
+    """Module -> the flags its strings name, for every module outside ``bodyvib.cli``."""
+    found = {}
+    for name, path in sorted(MODULES.items()):
+        if name == "bodyvib.cli" or name.startswith("bodyvib.cli."):
+            continue
+        flags = sorted(f for _, f in flags_in(open(path, encoding="utf-8").read()))
+        if flags:
+            found[name] = flags
+    return found
+
+
+def test_library_strings_name_no_command_line_flags():
+    """The library names its own parameters (``retry_failed=True needs resume=True``, with
+    the names in ``BodyvibError.parameters``); ``bodyvib.cli`` shows them as flags."""
+    found = library_flags()
+    assert found == ALLOWED_FLAGS, "flags in library strings: " + "; ".join(
+        f"{m}: {', '.join(f)}" for m, f in found.items() if ALLOWED_FLAGS.get(m) != f
+    )
+    assert sum(len(f) for f in found.values()) <= 10
+
+
+def test_the_flag_check_can_fail():
+    src = (
+        'def f(x):\n    """Docstring: --resume is fine here."""\n'
+        '    raise ValueError(f"--retry-failed goes with {x} --resume")\n'
+        'LABEL = ("--out", 1)\nDIAGRAM = "seat --ks-- m2"\n'
+    )
+    assert flags_in(src) == [(3, "--resume"), (3, "--retry-failed"), (4, "--out")]
+
+
+def declared_parameters():
+    """Every name a library call lists literally in ``parameters=(...)``: name -> modules."""
+    found = {}
+    for name, path in sorted(MODULES.items()):
+        if name == "bodyvib.cli" or name.startswith("bodyvib.cli."):
+            continue
+        for node in ast.walk(ast.parse(open(path, encoding="utf-8").read())):
+            for kw in getattr(node, "keywords", ()) if isinstance(node, ast.Call) else ():
+                if kw.arg == "parameters" and isinstance(kw.value, (ast.Tuple, ast.List)):
+                    for elt in kw.value.elts:
+                        if isinstance(elt, ast.Constant) and isinstance(elt.value, str):
+                            found.setdefault(elt.value, set()).add(name)
+    return found
+
+
+def test_every_parameter_a_library_message_names_has_its_flag():
+    """The one table ``bodyvib.cli.flags.FLAGS`` knows every parameter the library names
+    in a message, and each flag it gives is one the command line has."""
+    from bodyvib.cli.flags import FLAGS
+    from bodyvib.cli.main import build_parser
+
+    named = declared_parameters()
+    assert len(named) > 20  # the scan finds them
+    missing = {p: sorted(m) for p, m in named.items() if p not in FLAGS}
+    assert not missing, f"parameters without a flag in bodyvib.cli.flags.FLAGS: {missing}"
+    parser = build_parser()
+    options = set()
+    for action in parser._actions:
+        if isinstance(action.choices, dict):  # the subcommands
+            for command in action.choices.values():
+                options.update(o for a in command._actions for o in a.option_strings)
+    for flag in FLAGS.values():
+        for word in flag.split():
+            assert not word.startswith("--") or word in options, (flag, word)

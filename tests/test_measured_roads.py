@@ -190,7 +190,7 @@ def test_measured_road_starts_level_and_repeats_on_request(files):
     with pytest.warns(
         RoadWarning,
         match=r"250 m long and the 30 s run at 20 m/s drives 600 m: it is driven repeated "
-        r"\(faded in once; --duration 12\.5 drives it once\)",
+        r"\(faded in once; duration=12\.5 drives it once\)",
     ):
         auto = driven_road(RunSettings(files["csv"], 20.0, 30.0, 1e-3))
     rep = driven_road(
@@ -261,7 +261,7 @@ ROWS = "".join(f"{i * 0.05:.2f},{np.sin(i / 7.0):.4f}\n" for i in range(200))
             "nounits.csv",
             "distance,elevation\n" + ROWS,
             None,
-            r"names no units; name them \(distance_m,elevation_mm\) or give --road-units",
+            r"names no units; name them \(distance_m,elevation_mm\) or give units=m,mm",
         ),
         (
             "badunit.csv",
@@ -379,7 +379,7 @@ def test_bad_crg_is_refused(folder, files):
         load_profile(path)
     with pytest.raises(BodyvibError, match="OpenCRG file is in metres"):
         load_profile(files["crg"], units="m,mm")
-    with pytest.raises(BodyvibError, match="--road-track applies to OpenCRG files only"):
+    with pytest.raises(BodyvibError, match="track_m applies to OpenCRG files only"):
         load_profile(files["csv"], track_m=0.5)
 
 
@@ -421,6 +421,7 @@ def test_cli_refuses_a_bad_road_in_one_line(folder, capsys):
     assert main(["cosim", "--road", path, "--duration", "1", "--quiet"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "names no units" in err and err.startswith("bodyvib cosim")
+    assert err.endswith("or give --road-units m,mm")  # the flag, and only where it is one
 
 
 # -- driven: cosim, sweep, Road.fmu ------------------------------------------------------

@@ -151,10 +151,10 @@ def test_command_writes_figures_csv_and_plot(tmp_path, capsys):
         ("slow", "below the 80 Hz"),
         ("short", "shorter than the 1 s"),
         ("column", "no column 'seat_y'"),
-        ("ambiguous", "choose one with --channel"),
+        ("ambiguous", "choose one with --channel NAME"),
         ("truncated", "truncated file"),
         ("mdf_channel", "no channel 'seat_y'"),
-        ("mdf_none", "name the channel with --channel"),
+        ("mdf_none", "choose a channel with --channel NAME"),
     ],
 )
 def test_bad_signals_are_refused_in_one_line(tmp_path, capsys, case, words):

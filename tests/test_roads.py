@@ -157,7 +157,7 @@ def test_every_driven_road_starts_level_and_joins_the_road_smoothly(spec):
 def test_taper_longer_than_half_the_road_is_refused():
     from bodyvib.vehicle.road.driven import RoadOptions, driven_road
 
-    with pytest.raises(BodyvibError, match=r"cannot fade in and out over 6 m .*--road-taper"):
+    with pytest.raises(BodyvibError, match=r"cannot fade in and out over 6 m .*\(taper_m\)"):
         driven_road(RunSettings("C", 10.0, 1.0, road_options=RoadOptions(taper_m=6.0)))
     with pytest.raises(BodyvibError, match="non-negative"):
         driven_road(RunSettings("C", 10.0, 1.0, road_options=RoadOptions(taper_m=-1.0)))

@@ -167,7 +167,7 @@ def test_settings_object_and_keywords_run_the_same_sweep(tmp_path):
     assert settings.out == str(tmp_path / "b.parquet")  # frozen: a call replaces a copy
     with pytest.raises(BodyvibError, match="worker_count"):
         run_sweep(spec, settings, worker_count=2)
-    with pytest.raises(BodyvibError, match="--retry-failed goes with --resume"):
+    with pytest.raises(BodyvibError, match="retry_failed=True needs resume=True"):
         run_sweep(spec, settings, retry_failed=True)
 
 

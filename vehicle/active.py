@@ -167,7 +167,8 @@ def compare_laws(
         if controller is not None and controller.semi_active:
             raise BodyvibError(
                 f"law '{law}': the semi-active law is nonlinear; compare it by co-simulation "
-                "(bodyvib cosim --control)"
+                "(run_study)",
+                parameters=("run_study",),
             )
     rows, traces = [], ({}, {}, {})
     for law, controller in zip(laws, controllers):

@@ -277,7 +277,8 @@ def controller_from_fmu(path) -> SkyhookController:
     if not {"c_sky", "c_ground", "semi_active"} <= set(start):
         raise BodyvibError(
             f"controller FMU '{path}' has no parameters c_sky, c_ground and semi_active "
-            "(build it with bodyvib build --control)"
+            "(build it with build_active_ssp)",
+            parameters=("build_active_ssp",),
         )
     semi = str(start["semi_active"]).lower() in ("true", "1")
     return SkyhookController(float(start["c_sky"]), float(start["c_ground"]), semi)

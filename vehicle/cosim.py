@@ -131,7 +131,8 @@ class Slave:
             shutil.rmtree(self._unzipdir, ignore_errors=True)
 
 
-_OPTIONS = {"body": "--body", "car": "--car-fmu", "controller": "--control-fmu"}
+#: Where each kind of FMU goes (:func:`bodyvib.vehicle.study.run_study`'s parameters).
+_PARAMETERS = {"body": "body_fmus", "car": "car_fmu", "controller": "controller"}
 
 
 def _missing(md, kind):
@@ -222,7 +223,8 @@ def actuator_pairs(variables, path="car FMU"):
     if not out:
         raise BodyvibError(
             f"{path} has no actuator inputs (actuator_force): a controller needs a car "
-            "built from a file with 'actuators' (--car quarter-car-active or half-car-active)"
+            "built from a file with 'actuators' (car=quarter-car-active or half-car-active)",
+            parameters=("car",),
         )
     return out
 
@@ -327,13 +329,14 @@ def _check_interface(md, path, kind):
     if missing:
         other = [k for k in _INTERFACES if k != kind and not _missing(md, k)]
         what = (
-            f"it is a {other[0]} FMU (give it to {_OPTIONS[other[0]]})"
+            f"it is a {other[0]} FMU (give it to {_PARAMETERS[other[0]]})"
             if other
             else f"no {', '.join(missing)}"
         )
         raise BodyvibError(
             f"FMU '{path}' lacks the {kind} interface: {what}; a {kind} FMU "
-            f"needs inputs {', '.join(inputs)} and outputs {', '.join(outputs)} (the FMU contract: docs/tutorials/fmu_hosts.md)"
+            f"needs inputs {', '.join(inputs)} and outputs {', '.join(outputs)} (the FMU contract: docs/tutorials/fmu_hosts.md)",
+            parameters=[_PARAMETERS[k] for k in other[:1]],
         )
 
 

@@ -21,7 +21,7 @@ from bodyvib.runtime.renames import renamed_parameters
 
 from .quarter_car import load_car
 from .road.bumps import check_bump_start
-from .road.driven import RoadOptions, file_road, is_road_file
+from .road.driven import RoadOptions, file_options_refused, file_road, is_road_file
 from .road.synthetic import (
     ISO8608_CLASSES,
     TaperedRoad,
@@ -166,10 +166,7 @@ def fmu_road(
         options = RoadOptions(taper, track, units, envelope, False, contact)
         return file_road(s, options, speed)
     if track or units or envelope or repeat or contact != "auto":
-        raise BodyvibError(
-            "--road-track, --road-units, --road-envelope, --road-repeat and --road-contact "
-            f"apply to road files; road '{spec}' is synthetic"
-        )
+        raise file_options_refused(spec)
     if len(s) == 1 and s.upper() in ISO8608_CLASSES:
         return TaperedRoad(random_road(s.upper(), length=length, seed=seed), length, taper)
     road = make_road(s, speed, length / speed if length > 0 else length, seed=seed)

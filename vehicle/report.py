@@ -124,8 +124,8 @@ def format_report(study: Study, comparison: Optional[Comparison] = None) -> str:
 
 #: The line under a failed transmissibility-peak criterion: where the trade-off is drawn.
 PEAK_HINT = (
-    "  the 3-DOF chain trades Eq. 3's J for the peak: 'bodyvib fit --pareto --report DIR' "
-    "draws it (docs/tutorials/refit.md, 'The trade-off')"
+    "  the 3-DOF chain trades Eq. 3's J for the peak: pareto_front draws it "
+    "(docs/tutorials/refit.md, 'The trade-off')"
 )
 
 

@@ -240,7 +240,8 @@ def check_settings(settings: RunSettings, bodies: int = 1, histories: bool = Fal
         raise BodyvibError(
             f"a {duration:g} s run at a {step:g} s step has {steps:.3g} "
             f"communication points; the limit is {MAX_STEPS:.3g} (about 9 hours "
-            "of wall time per body): shorten --duration or lengthen --step"
+            "of wall time per body): shorten 'duration' or lengthen 'step'",
+            parameters=("duration", "step"),
         )
     if histories:
         require_memory(
@@ -482,7 +483,8 @@ def _wheels(car_fmu, car_net):
         raise BodyvibError(
             f"car FMU '{car_fmu}' has {len(pairs)} road inputs but carries no bodyvib "
             "model, so the distance between its wheels is unknown; use a car FMU built "
-            "by bodyvib (bodyvib build --fmus HalfCar)"
+            "by build_fmus (HalfCar)",
+            parameters=("build_fmus",),
         )
     return (0.0,)
 

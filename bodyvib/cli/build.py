@@ -13,6 +13,7 @@ from bodyvib.vehicle.road.measured import PROFILE_EXTENSIONS
 from bodyvib.vehicle.ssp import PACKAGES, write_ssp
 from bodyvib.vehicle.sweep.spec import ROAD_OPTION_KEYS
 
+from .flags import in_flags
 from .options import add_road_options, add_seat_option, road_options_from_args
 
 __all__ = ["add_command", "main"]
@@ -60,7 +61,7 @@ def _run(args) -> int:
     check_outputs(outs, inputs)
     if args.native:
         for line in choice.skipped:
-            print(line, file=sys.stderr, flush=True)
+            print(in_flags(line, ("platforms",)), file=sys.stderr, flush=True)
     lines = []
     # the FMUs and the SSPs made of them are committed together or not at all: a full
     # disk at the SSP left new FMUs beside the old SSP

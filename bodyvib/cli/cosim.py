@@ -22,6 +22,7 @@ from bodyvib.vehicle.report import format_report, study_json
 from bodyvib.vehicle.study import StudyCsv, check_settings, run_study
 from bodyvib.vehicle.study_plot import plot_study
 
+from .flags import in_flags
 from .options import (
     add_output_options,
     add_road_options,
@@ -185,7 +186,7 @@ def _run(args, want_iso):
                 controller=controller,
             )
             comparison = compare(study, *bodies) if want_iso else None
-            print(format_report(study, comparison))
+            print(in_flags(format_report(study, comparison), ("pareto_front",)))
             write_outputs(
                 [
                     (args.json, lambda path: write_json(path, study_json(study, comparison))),

@@ -16,6 +16,8 @@ import sys
 import threading
 import warnings
 
+from .flags import in_flags
+
 # signals that arrive while the modules load (before bodyvib.process.interrupts takes over)
 _early = []
 _EARLY_SIGNALS = tuple(
@@ -89,9 +91,10 @@ def _one_line(command):
 
     def show(message, category, filename, lineno, file=None, line=None):
         if category.__module__.startswith("bodyvib"):
-            if str(message) not in seen:
-                seen.add(str(message))
-                print(f"{command}: warning: {message}", file=sys.stderr)
+            text = in_flags(str(message), getattr(message, "parameters", ()))
+            if text not in seen:
+                seen.add(text)
+                print(f"{command}: warning: {text}", file=sys.stderr)
         else:
             default(message, category, filename, lineno, file, line)
 
@@ -153,7 +156,7 @@ def main(argv=None) -> int:
         except BodyvibError as exc:
             if interrupts.requested():
                 return stopped()
-            print(f"{command}: error: {exc}", file=sys.stderr)
+            print(f"{command}: error: {in_flags(str(exc), exc.parameters)}", file=sys.stderr)
             return 2
         except OSError as exc:
             if interrupts.requested():

@@ -5,6 +5,7 @@ import os
 from bodyvib.process import interrupts
 from bodyvib.runtime.errors import BodyvibError
 
+from .flags import in_flags
 from .options import add_output_options
 from .outputs import check_files, write_result
 
@@ -71,7 +72,11 @@ def load_road(
     if units is not None and "," not in str(units):
         units = f"m,{units}"
     kwargs = {k: v for k, v in (("track_m", track), ("units", units)) if v is not None}
-    profile = load_profile(s, option="--units", **kwargs)
+    try:
+        profile = load_profile(s, **kwargs)
+    except BodyvibError as exc:  # this command's flags are --track and --units
+        flags = {"track_m": "--track", "units": "--units"}
+        raise BodyvibError(in_flags(str(exc), exc.parameters, flags)) from None
     return (
         np.asarray(profile.distance, float),
         np.asarray(profile.elevation, float),

@@ -1,8 +1,11 @@
 """The ``bodyvib sweep`` command: many cases from a spec or a grid, one table."""
 
+import sys
+
 from bodyvib.process.outputs import check_outputs
 from bodyvib.runtime.errors import BodyvibError
 
+from .flags import in_flags
 from .options import add_output_options, add_road_options, road_options_from_args
 from .outputs import PLOT_EXTENSIONS, check_files
 
@@ -71,7 +74,7 @@ def _run(args):
         retry_failed=args.retry_failed,
         overwrite=args.overwrite,
         csv=args.csv,
-        progress=not args.quiet,
+        progress=False if args.quiet else _status,
         connect_timeout=args.connect_timeout,
         worker_timeout=args.worker_timeout,
         table=bool(args.plot),
@@ -111,6 +114,11 @@ def _positive_int(text):
     if v < 1:
         raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}")
     return v
+
+
+def _status(line: str) -> None:
+    """A sweep's status line on stderr, its settings named as flags."""
+    print(in_flags(line, ("resume", "retry_failed", "out")), file=sys.stderr, flush=True)
 
 
 def add_command(subparsers):

@@ -468,7 +468,8 @@ def model_target(
             raise BodyvibError(
                 f"reference model '{net.name}' has no role '{role}' (its roles: "
                 f"{', '.join(net.roles) or 'none'}); add it to the file's 'roles' or drop it "
-                "from --pairs"
+                "from 'pairs'",
+                parameters=("pairs",),
             )
         if role not in _REDUCED_TF:
             raise BodyvibError(f"role '{role}' has no counterpart in the reduced model")
@@ -519,7 +520,10 @@ def measured_target(data, total_mass: Optional[float] = None) -> FitTarget:
     m = data if isinstance(data, MeasuredTransmissibility) else read_transmissibility_csv(data)
     M = DEFAULT_MEASURED_TOTAL_MASS if total_mass is None else float(total_mass)
     if not (math.isfinite(M) and M > 0):
-        raise BodyvibError(f"--total-mass must be a positive number of kg, got {total_mass}")
+        raise BodyvibError(
+            f"total_mass must be a positive number of kg, got {total_mass}",
+            parameters=("total_mass",),
+        )
     f = m.frequency_hz
     w = np.zeros_like(f)
     df = np.diff(f)

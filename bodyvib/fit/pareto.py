@@ -216,8 +216,9 @@ def pareto_front(target, config, seed: int = 1, start=None, progress: bool = Fal
 
     if target.reference is None:
         raise BodyvibError(
-            "--pareto needs a reference model (the peak error is against its "
-            "transmissibility); measured data are not supported"
+            "pareto_front needs a reference model (the peak error is against its "
+            "transmissibility); measured data are not supported",
+            parameters=("pareto_front",),
         )
     s = config.pareto
     lo, hi = log_bounds(config)
@@ -247,7 +248,7 @@ def pareto_front(target, config, seed: int = 1, start=None, progress: bool = Fal
         X0[0] = space.coordinates(parameters_to_genes(np.asarray(start, dtype=float)))
     bar = tqdm(
         total=int(s.generations),
-        desc="bodyvib fit --pareto (NSGA-II)",
+        desc="Pareto front (NSGA-II)",
         unit="gen",
         file=sys.stderr,
         disable=None if progress else True,
@@ -429,7 +430,7 @@ def write_pareto(dest, front: ParetoFront, command: str = "") -> List[str]:
         prov = {
             "source": "a point of the Pareto front of the reduced 3-DOF model of Balci & "
             "Gundogdu (2025), Fig. 2: paper Eq. 3 against the transmissibility peak "
-            "error, by 'bodyvib fit --pareto' (bodyvib.fit.pareto)",
+            "error, by NSGA-II (bodyvib.fit.pareto_front)",
             "point": name,
             "command": command,
             "date": date,

@@ -163,7 +163,7 @@ def write_parameter_file(result: FitResult, path, command: str = "") -> Network:
             "how": (
                 "m1 + m2 pinned to the reference model's static apparent mass"
                 if t.kind == "model"
-                else "m1 + m2 pinned to --total-mass (75 kg by default)"
+                else "m1 + m2 pinned to total_mass (75 kg by default)"
             )
             + "; every transmissibility is invariant to scaling all m, k, c by one "
             "factor, so the fit searched only the six ratios m1/M, k1/M, k2/M, ks/M, "

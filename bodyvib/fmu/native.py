@@ -282,15 +282,17 @@ def choose_platforms(requested: Optional[Iterable[str]] = None) -> PlatformChoic
         unknown = [p for p in names if p not in PLATFORMS]
         if unknown or not names:
             raise BodyvibError(
-                f"--platforms: unknown platform {', '.join(unknown) or '(none)'};"
-                f" choose among {', '.join(PLATFORMS)} (comma-separated)"
+                f"'platforms': unknown platform {', '.join(unknown) or '(none)'};"
+                f" choose among {', '.join(PLATFORMS)} (comma-separated)",
+                parameters=("platforms",),
             )
         for p in names:
             if shutil.which(PLATFORMS[p][0]) is None:
                 others = [q for q in names if q != p]
                 raise BodyvibError(
-                    f"{p}: {_missing_compiler(p)}, or leave it out (--platforms "
-                    f"{','.join(others) or 'another platform'})"
+                    f"{p}: {_missing_compiler(p)}, or leave it out (platforms="
+                    f"{','.join(others) or 'another platform'})",
+                    parameters=("platforms",),
                 )
         return PlatformChoice(tuple(p for p in PLATFORMS if p in names), ())
     have = tuple(p for p in PLATFORMS if shutil.which(PLATFORMS[p][0]) is not None)
@@ -300,7 +302,7 @@ def choose_platforms(requested: Optional[Iterable[str]] = None) -> PlatformChoic
             + "; ".join(f"{p}: {_missing_compiler(p)}" for p in PLATFORMS)
         )
     skipped = tuple(
-        f"{p} skipped: {_missing_compiler(p)}, or pass --platforms "
+        f"{p} skipped: {_missing_compiler(p)}, or pass platforms="
         f"{','.join(have)} to build without it"
         for p in PLATFORMS
         if p not in have
@@ -728,7 +730,8 @@ def _compile(platform: str, src: Path, fmi: int, out: Path, files: Sequence[str]
     if shutil.which(compiler) is None:
         raise BodyvibError(
             f"{platform}: {_missing_compiler(platform)}, or build the other "
-            "platforms only (bodyvib build --native --platforms ...)"
+            "platforms only (platforms=...)",
+            parameters=("platforms",),
         )
     cmd = (
         [compiler]

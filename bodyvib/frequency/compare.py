@@ -142,7 +142,8 @@ def compare_transmissibility(
     require_memory(
         points * (16 + len(nets) * BYTES_PER_POINT),
         f"{points} frequency points for {len(nets)} model(s)",
-        "use fewer points (--points; 1200 resolve every peak of the shipped models)",
+        "use fewer points ('points'; 1200 resolve every peak of the shipped models)",
+        parameters=("points",),
     )
     f = np.geomspace(f_min, f_max, points)
     curves = {}

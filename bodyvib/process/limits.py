@@ -7,6 +7,7 @@ computation's working memory with :func:`available_memory` and refuses with both
 """
 
 import os
+from typing import Sequence
 
 from ..runtime.errors import BodyvibError
 
@@ -71,7 +72,7 @@ def format_bytes(n: float) -> str:
     return f"{n:.3g} PB"  # pragma: no cover
 
 
-def require_memory(nbytes: float, what: str, fix: str) -> None:
+def require_memory(nbytes: float, what: str, fix: str, parameters: Sequence[str] = ()) -> None:
     """Refuse a computation whose working memory exceeds the share allowed.
 
     Parameters
@@ -79,9 +80,11 @@ def require_memory(nbytes: float, what: str, fix: str) -> None:
     nbytes : float
         Estimated peak working memory (may be ``inf``).
     what : str
-        The computation and its size, e.g. ``"--points 100000000 (2 models of 12 states)"``.
+        The computation and its size, e.g. ``"100000000 points (2 models of 12 states)"``.
     fix : str
         What to do instead, e.g. ``"use fewer points"``.
+    parameters : sequence of str
+        The parameters ``what`` and ``fix`` name (``BodyvibError.parameters``).
 
     Raises
     ------
@@ -92,5 +95,6 @@ def require_memory(nbytes: float, what: str, fix: str) -> None:
     if not nbytes <= limit:
         raise BodyvibError(
             f"{what} needs about {format_bytes(nbytes)} of memory; the limit is "
-            f"{format_bytes(limit)} (half the memory available): {fix}"
+            f"{format_bytes(limit)} (half the memory available): {fix}",
+            parameters=parameters,
         )

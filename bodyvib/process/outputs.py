@@ -427,7 +427,8 @@ def check_output_path(path, option: str, extensions=None, inputs=(), folder: boo
     path : str or os.PathLike
         The output.
     option : str
-        The option that named it (``"--json"``), for the message.
+        The parameter or option that named it (``"out"``, ``"--json"``), for the message
+        (listed in the error's ``parameters``).
     extensions : sequence of str, optional
         Allowed extensions, lower case with the dot (``(".json",)``).
     inputs : iterable of (str, str)
@@ -449,19 +450,35 @@ def check_output_path(path, option: str, extensions=None, inputs=(), folder: boo
         (or a file where a folder is); a read-only file; a folder that cannot
         be created or written.
     """
-    path = os.fspath(path)
+    try:
+        return _check_output_path(os.fspath(path), option, extensions, inputs, folder)
+    except BodyvibError as exc:
+        names = (option,) + tuple(opt for opt, _ in inputs)
+        raise BodyvibError(str(exc), parameters=names) from None
+
+
+def _named(option: str, path: str = "") -> str:
+    """An output as a message names it: ``out='r.parquet'`` for a parameter, ``--json
+    'f.json'`` for a flag; without a path, ``'out'`` or ``--json``."""
+    parameter = option.isidentifier() and option.islower()
+    if path:
+        return f"{option}='{path}'" if parameter else f"{option} '{path}'"
+    return f"'{option}'" if parameter else option
+
+
+def _check_output_path(path: str, option: str, extensions, inputs, folder: bool) -> str:
     if not path:
-        raise BodyvibError(f"{option}: empty path")
+        raise BodyvibError(f"{_named(option)}: empty path")
     for opt, inp in inputs:
         if inp is not None and os.path.exists(os.fspath(inp)) and _same(path, os.fspath(inp)):
             raise BodyvibError(
-                f"{option} '{path}' is the input of {opt}; writing it would "
+                f"{_named(option, path)} is the input of {_named(opt)}; writing it would "
                 "destroy the input: give another output path"
             )
     if extensions and os.path.splitext(path)[1].lower() not in extensions:
-        raise BodyvibError(f"{option} '{path}' must end in {' or '.join(extensions)}")
+        raise BodyvibError(f"{_named(option, path)} must end in {' or '.join(extensions)}")
     real = os.path.realpath(path)
-    where = f"{option} '{path}'"
+    where = _named(option, path)
     if os.path.exists(real):
         mode = os.stat(real).st_mode
         if folder:
@@ -514,8 +531,9 @@ def check_outputs(outputs, inputs=()) -> None:
         real = check_output_path(path, option, exts, inputs, folder)
         if real in seen:
             raise BodyvibError(
-                f"{option} and {seen[real]} name the same file '{path}'; give "
-                "each output its own path"
+                f"{_named(option)} and {_named(seen[real])} name the same file '{path}'; give "
+                "each output its own path",
+                parameters=(option, seen[real]),
             )
         seen[real] = option
 

@@ -236,7 +236,8 @@ def read_csv_signal(path, channel: Optional[str] = None) -> SeatSignal:
     else:
         raise BodyvibError(
             f"{path}: {len(others)} signal columns "
-            f"({', '.join(header[i] for i in others)}); choose one with --channel"
+            f"({', '.join(header[i] for i in others)}); choose one with channel=NAME",
+            parameters=("channel",),
         )
     data = np.empty((len(rows) - 1, 2))
     for k, r in enumerate(rows[1:]):
@@ -309,7 +310,8 @@ def read_mdf_signal(path, channel: Optional[str]) -> SeatSignal:
         names = sorted(n for n in mdf.channels_db if not n.lower().startswith("time") and n != "t")
         if channel is None:
             raise BodyvibError(
-                f"{path}: name the channel with --channel; channels are {', '.join(names)}"
+                f"{path}: choose a channel with channel=NAME; channels are {', '.join(names)}",
+                parameters=("channel",),
             )
         if channel not in mdf.channels_db:
             raise BodyvibError(f"{path}: no channel '{channel}'; channels are {', '.join(names)}")

@@ -9,6 +9,7 @@ from :class:`Road`; a car at speed ``V`` sees ``z(V t)`` and the road velocity
 """
 
 import math
+from typing import Sequence
 
 import numpy as np
 
@@ -18,7 +19,15 @@ __all__ = ["Road", "RoadWarning"]
 class RoadWarning(UserWarning):
     """A fact about a road a run should know but that does not stop it (a band the profile
     does not carry at the run's speed, a step a point contact passes on as it is); the
-    command line prints it as one line."""
+    command line prints it as one line.
+
+    ``parameters`` lists the settings the message names, as
+    :class:`~bodyvib.runtime.errors.BodyvibError` does, for the command line to show as flags.
+    """
+
+    def __init__(self, message: str = "", *, parameters: Sequence[str] = ()):
+        super().__init__(message)
+        self.parameters = tuple(parameters)
 
 
 class Road:

@@ -273,10 +273,11 @@ def check_bump_start(road, taper: float) -> None:
     >>> check_bump_start(parse_bump("hump:at=2"), 5.0)
     Traceback (most recent call last):
     ...
-    bodyvib.runtime.errors.BodyvibError: bump 'hump:h=0.075,l=3.7,at=2' begins at 2 m, inside the road's 5 m fade-in; move it (at=) or shorten --road-taper
+    bodyvib.runtime.errors.BodyvibError: bump 'hump:h=0.075,l=3.7,at=2' begins at 2 m, inside the road's 5 m fade-in; move it (at=) or shorten taper_m
     """
     if isinstance(road, ShapedBump) and road.start < taper:
         raise BodyvibError(
             f"bump '{road.name}' begins at {road.start:g} m, inside the road's "
-            f"{taper:g} m fade-in; move it (at=) or shorten --road-taper"
+            f"{taper:g} m fade-in; move it (at=) or shorten taper_m",
+            parameters=("taper_m",),
         )

@@ -42,6 +42,7 @@ __all__ = [
     "is_road_file",
     "driven_road",
     "file_road",
+    "file_options_refused",
     "road_label",
     "road_handling",
     "wheel_inputs",
@@ -204,13 +205,21 @@ def driven_road(settings: RunSettings) -> Road:
             raise BodyvibError(f"speed must be a positive number of m/s, got {speed!r}")
         return file_road(spec, opt, speed, duration, settings.step)
     if opt.track_m or opt.units or opt.envelope or opt.repeat or opt.contact != "auto":
-        raise BodyvibError(
-            "--road-track, --road-units, --road-envelope, --road-repeat and --road-contact "
-            f"apply to road files; road '{spec}' is synthetic"
-        )
+        raise file_options_refused(spec)
     road = make_road(spec, speed, duration, seed=settings.seed)
     check_bump_start(road, opt.taper_m)
     return TaperedRoad(road, road.length, opt.taper_m)
+
+
+def file_options_refused(spec) -> BodyvibError:
+    """The error for a synthetic road given options that only a road file takes."""
+    names = ("track_m", "units", "envelope", "repeat", "contact")
+    quoted = [f"'{n}'" for n in names]
+    return BodyvibError(
+        f"{', '.join(quoted[:-1])} and {quoted[-1]} apply to road files; road '{spec}' is "
+        "synthetic",
+        parameters=names,
+    )
 
 
 def file_road(spec, options: RoadOptions, speed: float, duration=None, step=None) -> Road:
@@ -269,10 +278,12 @@ def file_road(spec, options: RoadOptions, speed: float, duration=None, step=None
         # a scan shorter than the run is driven again and again (as a test track is), and
         # said so; the contact then envelops the profile across its join too
         warnings.warn(
-            f"road '{road.name}' is {road.length:.6g} m long and the {duration:g} s run at "
-            f"{speed:g} m/s drives {speed * duration:.6g} m: it is driven repeated (faded in "
-            f"once; --duration {road.length / speed:.4g} drives it once)",
-            RoadWarning,
+            RoadWarning(
+                f"road '{road.name}' is {road.length:.6g} m long and the {duration:g} s run "
+                f"at {speed:g} m/s drives {speed * duration:.6g} m: it is driven repeated "
+                f"(faded in once; duration={road.length / speed:.4g} drives it once)",
+                parameters=("duration",),
+            ),
             stacklevel=2,
         )
         repeat = True
@@ -284,10 +295,12 @@ def file_road(spec, options: RoadOptions, speed: float, duration=None, step=None
         steep, where = road.steepest()
         if steep > STEEP_SLOPE:
             warnings.warn(
-                f"road '{road.name}': its slope reaches {steep:.3g} m per m at {where:.4g} m "
-                "(a step, a joint or an edge), steeper than a tire follows; point contact "
-                "passes it to the wheel as it is (--road-contact tandem-cam envelops it)",
-                RoadWarning,
+                RoadWarning(
+                    f"road '{road.name}': its slope reaches {steep:.3g} m per m at {where:.4g} "
+                    "m (a step, a joint or an edge), steeper than a tire follows; point "
+                    "contact passes it to the wheel as it is (contact=tandem-cam envelops it)",
+                    parameters=("contact",),
+                ),
                 stacklevel=2,
             )
     taper = options.taper_m
@@ -296,10 +309,12 @@ def file_road(spec, options: RoadOptions, speed: float, duration=None, step=None
     if isinstance(taper, (int, float)) and 4 * taper > road.length:
         short = road.length / 4
         warnings.warn(
-            f"road '{road.name}' is {road.length:.4g} m long: faded in and out over "
-            f"{short:.4g} m at each end instead of {taper:g} m (choose with --road-taper, or "
-            "drive it repeated with --road-repeat: it then fades in once)",
-            RoadWarning,
+            RoadWarning(
+                f"road '{road.name}' is {road.length:.4g} m long: faded in and out over "
+                f"{short:.4g} m at each end instead of {taper:g} m (choose with taper_m, or "
+                "drive it repeated with repeat=True: it then fades in once)",
+                parameters=("taper_m", "repeat"),
+            ),
             stacklevel=2,
         )
         taper = short

@@ -116,7 +116,7 @@ def load_profile(
     channel: int = 1,
     contact: str = "point",
     periodic: bool = False,
-    option: str = "--road-units",
+    option: str = "units",
 ) -> ProfileRoad:
     """Read a measured road profile (OpenCRG, CSV, text or ERD) as a
     :class:`~bodyvib.vehicle.road.profile.ProfileRoad`.
@@ -142,7 +142,7 @@ def load_profile(
         The profile repeats with its length
         (:class:`~bodyvib.vehicle.road.profile.ProfileRoad`).
     option : str
-        The command-line option that gives ``units``, as the messages name it.
+        What the messages call ``units`` (listed in the error's ``parameters``).
 
     Returns
     -------
@@ -172,13 +172,17 @@ def load_profile(
     base = os.path.basename(path)
     if ext == ".crg":
         if units is not None:
-            raise BodyvibError(f"road '{base}': an OpenCRG file is in metres; drop {option}")
+            raise BodyvibError(
+                f"road '{base}': an OpenCRG file is in metres; drop '{option}'",
+                parameters=(option,),
+            )
         x, z, info = _read_crg(path, float(track_m))
     elif ext in (".csv", ".txt", ".erd"):
         if track_m:
             raise BodyvibError(
-                f"road '{base}': a {ext} file holds one profile; --road-track "
-                "applies to OpenCRG files only"
+                f"road '{base}': a {ext} file holds one profile; track_m "
+                "applies to OpenCRG files only",
+                parameters=("track_m",),
             )
         read = _read_erd if ext == ".erd" else _read_columns
         x, z, info = read(path, units, channel, option)
@@ -255,12 +259,13 @@ def _check_units(elevation, spacing, base, crg, option):
         "an OpenCRG file holds metres: the file is corrupt or was written in other units"
         if crg
         else "the units look wrong (mm read as m?); name them in the header "
-        f"(distance_m,elevation_mm) or give {option}"
+        f"(distance_m,elevation_mm) or give {option}=DIST,ELEV"
     )
     raise BodyvibError(
         f"road '{base}': the height changes by a median {typical:.3g} m per m over "
         f"{UNIT_BASE_M:g} m steps (grade removed), where roads stay below "
-        f"{MAX_MEDIAN_SLOPE:g}: {fix}"
+        f"{MAX_MEDIAN_SLOPE:g}: {fix}",
+        parameters=(option,),
     )
 
 
@@ -328,7 +333,8 @@ def _given_units(units, base, option) -> Optional[Tuple[float, float]]:
     parts = [p.strip() for p in str(units).split(",")]
     if len(parts) != 2:
         raise BodyvibError(
-            f"{option} '{units}' must name two units, distance and elevation, e.g. m,mm"
+            f"{option}='{units}' must name two units, distance and elevation, e.g. m,mm",
+            parameters=(option,),
         )
     return _unit(parts[0], "distance", base), _unit(parts[1], "elevation", base)
 
@@ -341,7 +347,7 @@ def _scales(base, units, given, header, header_text, no_units, option) -> Tuple[
     base : str
         The file's name, for the messages.
     units : str or None
-        ``--road-units`` as given (``"DIST,ELEV"``), for the messages.
+        ``units`` as given (``"DIST,ELEV"``), for the messages.
     given : (float, float) or None
         ``units`` read by :func:`_given_units`.
     header : (str, str) or None
@@ -352,7 +358,7 @@ def _scales(base, units, given, header, header_text, no_units, option) -> Tuple[
         What a message says when neither the header nor ``--road-units`` names the
         units (the fix ``or give OPTION m,mm`` is appended).
     option : str
-        The option that gives the units, as the messages name it (``--road-units``).
+        What the messages call ``units``.
 
     Returns
     -------
@@ -369,12 +375,13 @@ def _scales(base, units, given, header, header_text, no_units, option) -> Tuple[
         scales = (_unit(header[0], "distance", base), _unit(header[1], "elevation", base))
         if given is not None and given != scales:
             raise BodyvibError(
-                f"road '{base}': {option} {units} disagrees with the header "
-                f"{header_text}; drop one of them"
+                f"road '{base}': {option}={units} disagrees with the header "
+                f"{header_text}; drop one of them",
+                parameters=(option,),
             )
         return scales
     if given is None:
-        raise BodyvibError(f"road '{base}': {no_units} or give {option} m,mm")
+        raise BodyvibError(f"road '{base}': {no_units} or give {option}=m,mm", parameters=(option,))
     return given
 
 
@@ -711,9 +718,10 @@ def _read_crg(path, track):
             u, v = np.asarray(g.u, dtype=float), np.asarray(g.v, dtype=float)
             if not (v.min() - 1e-9 <= track <= v.max() + 1e-9):
                 raise BodyvibError(
-                    f"road '{base}': --road-track {track:g} m is off the road "
+                    f"road '{base}': track_m={track:g} m is off the road "
                     f"(it spans {v.min():g} to {v.max():g} m from the reference "
-                    "line); choose a track on it"
+                    "line); choose a track on it",
+                    parameters=("track_m",),
                 )
             end = (ds.header.road or {}).get("reference_line_end_u")
             du = float(u[1] - u[0]) if u.size > 1 else 0.0

@@ -286,5 +286,6 @@ class ProfileRoad(Road):
             raise BodyvibError(
                 f"road '{self.name}' is {self.length:.6g} m long; a {duration:g} s run at "
                 f"{speed:g} m/s needs {run:.6g} m: shorten the run to {self.length / speed:.4g} s "
-                "or less, or repeat the road (--road-repeat)"
+                "or less, or repeat the road (repeat=True)",
+                parameters=("repeat",),
             )

@@ -332,7 +332,8 @@ def random_road(
     require_memory(
         count * BYTES_PER_HARMONIC,
         f"an ISO 8608 road of {length:.4g} m ({count:.3g} harmonics)",
-        "shorten the run (--duration) or lower --speed",
+        "shorten the run ('duration') or lower 'speed'",
+        parameters=("duration", "speed"),
     )
     i = np.arange(max(1, math.ceil(lo / dn)), math.floor(hi / dn) + 1)
     if i.size == 0:
@@ -617,7 +618,8 @@ def make_road(spec: str, speed: float, duration: float, seed: int = 0) -> Road:
             raise BodyvibError(
                 f"bump '{bump.name}' ends {bump.end:g} m down the road, but the road is "
                 f"{length:g} m long ({speed:g} m/s for {duration:g} s); lengthen the run "
-                "(--duration; --road-length for Road.fmu) or move the bump (at=)"
+                "('duration'; road_length for Road.fmu) or move the bump (at=)",
+                parameters=("duration", "road_length"),
             )
         return bump
     if s.lower() == "sweep":
@@ -714,8 +716,9 @@ class TaperedRoad(Road):
         if 2 * self.taper > self.length:
             raise BodyvibError(
                 f"a {self.length:g} m road cannot fade in and out over "
-                f"{self.taper:g} m at each end; shorten the taper (--road-taper) "
-                "or lengthen the road (a longer run or profile)"
+                f"{self.taper:g} m at each end; shorten the taper (taper_m) "
+                "or lengthen the road (a longer run or profile)",
+                parameters=("taper_m",),
             )
         if self.periodic is None:
             self.periodic = (

@@ -68,8 +68,9 @@ def check_address(address: str) -> str:
     """
     if "://" not in address:
         raise BodyvibError(
-            f"--scheduler '{address}' has no protocol: write it as "
-            f"tcp://{address} (or 'serial', or leave it out for a LocalCluster)"
+            f"scheduler='{address}' has no protocol: write it as "
+            f"tcp://{address} (or 'serial', or leave it out for a LocalCluster)",
+            parameters=("scheduler",),
         )
     return address
 
@@ -259,8 +260,9 @@ def open_cluster(
                 if time.monotonic() > t_end:
                     raise BodyvibError(
                         f"the Dask scheduler {cluster.where} has no worker after "
-                        f"{worker_timeout:g} s (--worker-timeout); start "
-                        f"workers with 'dask worker {cluster.where}'"
+                        f"{worker_timeout:g} s (worker_timeout); start "
+                        f"workers with 'dask worker {cluster.where}'",
+                        parameters=("worker_timeout",),
                     )
                 for _ in range(5):
                     interrupts.check()
@@ -278,8 +280,9 @@ def _start(scheduler, scheduler_file, workers, connect_timeout, meanwhile=None) 
     if scheduler_file is not None:
         if not os.path.isfile(scheduler_file):
             raise BodyvibError(
-                f"--scheduler-file '{scheduler_file}' does not exist (the file "
-                "'dask scheduler --scheduler-file' writes)"
+                f"scheduler_file='{scheduler_file}' does not exist (start the Dask "
+                "scheduler first: it writes that file)",
+                parameters=("scheduler_file",),
             )
         where = f"of '{scheduler_file}'"
         kw = {"scheduler_file": scheduler_file}
@@ -297,8 +300,9 @@ def _start(scheduler, scheduler_file, workers, connect_timeout, meanwhile=None) 
     except Exception as exc:
         raise BodyvibError(
             f"cannot connect to the Dask scheduler {where} within "
-            f"{connect_timeout:g} s (--connect-timeout): "
-            f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
+            f"{connect_timeout:g} s (connect_timeout): "
+            f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}",
+            parameters=("connect_timeout",),
         ) from None
     return Cluster(client, where)
 
@@ -700,12 +704,12 @@ def _run(client, cluster, ac, meta, submit, on_result, worker_timeout, connect_t
                 reason = (
                     "the scheduler stopped answering"
                     if threads < 0
-                    else f"no Dask worker for {worker_timeout:g} s (--worker-timeout)"
+                    else f"no Dask worker for {worker_timeout:g} s (worker_timeout)"
                 )
                 lost += ac.count()
                 break
         time.sleep(0.02)
     if lost:
         _cancel(client, ac)
-        raise ClusterLost(f"{lost} task(s) lost: {reason}")
+        raise ClusterLost(f"{lost} task(s) lost: {reason}", parameters=("worker_timeout",))
     return 0

@@ -371,7 +371,7 @@ class SweepSettings:
     >>> SweepSettings(retry_failed=True).check()
     Traceback (most recent call last):
     ...
-    bodyvib.runtime.errors.BodyvibError: --retry-failed goes with --resume
+    bodyvib.runtime.errors.BodyvibError: retry_failed=True needs resume=True
     """
 
     out: Optional[str] = None
@@ -399,21 +399,34 @@ class SweepSettings:
         """
         if self.resume and self.overwrite:
             raise BodyvibError(
-                "--resume keeps the cases in --out and --overwrite replaces it: give one of them"
+                "resume=True keeps the cases in 'out' and overwrite=True replaces it: give one "
+                "of them",
+                parameters=("resume", "out", "overwrite"),
             )
         w = self.workers
         if w is not None and (isinstance(w, bool) or not isinstance(w, int) or w < 1):
-            raise BodyvibError(f"workers must be a positive integer, got {w!r}")
+            raise BodyvibError(
+                f"'workers' must be a positive integer, got {w!r}", parameters=("workers",)
+            )
         for name in ("connect_timeout", "worker_timeout"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and 0 < value < math.inf):
-                raise BodyvibError(f"{name} must be a positive number of seconds, got {value!r}")
+                raise BodyvibError(
+                    f"{name} must be a positive number of seconds, got {value!r}",
+                    parameters=(name,),
+                )
         if self.retry_failed and not self.resume:
-            raise BodyvibError("--retry-failed goes with --resume")
+            raise BodyvibError(
+                "retry_failed=True needs resume=True", parameters=("retry_failed", "resume")
+            )
         if self.resume and self.out is None:
-            raise BodyvibError("resume needs an output file (--out)")
+            raise BodyvibError(
+                "resume=True needs an output file ('out')", parameters=("resume", "out")
+            )
         if self.out is None and self.csv is None and not self.table:
-            raise BodyvibError("give an output file (--out and/or --csv)")
+            raise BodyvibError(
+                "give an output file ('out' and/or 'csv')", parameters=("out", "csv")
+            )
 
     @property
     def threads(self) -> int:
@@ -480,7 +493,7 @@ def run_sweep(
     check_engine(cfg.engine, [_RoadOnly(r) for r in prep.roads])
     cfg.check()
     check_outputs(
-        [("--out", cfg.out, PARQUET_EXTENSIONS), ("--csv", cfg.csv, None)],
+        [("out", cfg.out, PARQUET_EXTENSIONS), ("csv", cfg.csv, None)],
         _spec_inputs(spec, spec_path),
     )
     sh = spec_hash(spec)
@@ -534,8 +547,9 @@ def _done_cases(cfg: SweepSettings, count: int, sh: str) -> np.ndarray:
             done = found.done(count, cfg.retry_failed)
     elif (os.path.exists(out) or os.path.isdir(parts_dir(out))) and not cfg.overwrite:
         raise BodyvibError(
-            f"output '{out}' exists; pass --resume to continue that sweep or "
-            "--overwrite to replace it"
+            f"output '{out}' exists; pass resume=True to continue that sweep or "
+            "overwrite=True to replace it",
+            parameters=("resume", "overwrite"),
         )
     return done
 
@@ -680,12 +694,13 @@ def _on_cluster(
             )
         except ClusterLost as exc:
             where = (
-                f"kept in {parts.folder}/: run again with --resume"
+                f"kept in {parts.folder}/: run again with resume=True"
                 if cfg.out is not None
-                else "lost (no --out)"
+                else "lost (no 'out')"
             )
             raise ClusterLost(
-                f"{exc}; the sweep is incomplete, the cases finished are {where}"
+                f"{exc}; the sweep is incomplete, the cases finished are {where}",
+                parameters=exc.parameters + ("resume", "out"),
             ) from None
 
 
@@ -703,15 +718,18 @@ def _finish(cfg: SweepSettings, folder: str, schema, say: Callable[[str], None])
         with staged_writes(guard=interrupts.critical), _open(out) as fout, _open(cfg.csv) as fcsv:
             n = assemble(found, schema, fout, fcsv, interrupts.check)
     except OSError as exc:
-        kept = f"; the finished cases are kept in {folder}/ (--resume)" if out else ""
-        raise BodyvibError(f"cannot write '{exc.filename}': {exc.strerror or exc}{kept}") from None
+        kept = f"; the finished cases are kept in {folder}/ (resume=True)" if out else ""
+        raise BodyvibError(
+            f"cannot write '{exc.filename}': {exc.strerror or exc}{kept}", parameters=("resume",)
+        ) from None
     if out is not None:
         shutil.rmtree(folder, ignore_errors=True)
     failed = found.failed()
     say(
         f"sweep: {n} cases"
         + (
-            f", {failed} failed (see the error column; --resume --retry-failed runs them again)"
+            f", {failed} failed (see the error column; resume=True with retry_failed=True "
+            "runs them again)"
             if failed
             else ""
         )

@@ -334,14 +334,17 @@ def grid_spec(
         key, sep, values = str(item).partition("=")
         key = key.strip()
         if not sep or not values.strip():
-            raise BodyvibError(f"--grid item '{item}' must look like key=v1,v2")
+            raise BodyvibError(
+                f"grid_spec item '{item}' must look like key=v1,v2", parameters=("grid_spec",)
+            )
         if key not in SPEC_KEYS or key == "road_options":
             raise BodyvibError(
-                f"--grid key '{key}' is unknown; keys are "
-                + ", ".join(k for k in SPEC_KEYS if k != "road_options")
+                f"grid_spec key '{key}' is unknown; keys are "
+                + ", ".join(k for k in SPEC_KEYS if k != "road_options"),
+                parameters=("grid_spec",),
             )
         if key in seen:
-            raise BodyvibError(f"--grid key '{key}' is given twice")
+            raise BodyvibError(f"grid_spec key '{key}' is given twice", parameters=("grid_spec",))
         seen.add(key)
         parts = [v.strip() for v in values.split(",") if v.strip()]
         if key == "road":
@@ -352,7 +355,7 @@ def grid_spec(
             try:
                 nums = [float(v) for v in parts]
             except ValueError:
-                raise BodyvibError(f"--grid {key}: '{values}' is not a list of numbers") from None
+                raise _not_numbers(key, values) from None
             parts = (
                 [int(v) for v in nums]
                 if key == "seed" and all(v.is_integer() for v in nums)
@@ -380,8 +383,14 @@ def _grid_number(v, key, values):
     try:
         x = float(v)
     except ValueError:
-        raise BodyvibError(f"--grid {key}: '{values}' is not a list of numbers") from None
+        raise _not_numbers(key, values) from None
     return int(x) if x.is_integer() else x
+
+
+def _not_numbers(key, values) -> BodyvibError:
+    return BodyvibError(
+        f"grid_spec {key}: '{values}' is not a list of numbers", parameters=("grid_spec",)
+    )
 
 
 def _file_digest(source: str) -> Optional[str]:

@@ -421,7 +421,8 @@ def scan(out: Optional[str], folder: Optional[str] = None) -> Scan:
             t = pq.read_table(f, columns=["case_id", "error", "spec_hash"])
         except Exception as exc:
             raise BodyvibError(
-                f"'{f}' is not a readable sweep table ({exc}); move it away or pass --overwrite"
+                f"'{f}' is not a readable sweep table ({exc}); move it away or pass overwrite=True",
+                parameters=("overwrite",),
             ) from None
         ids.append(t["case_id"].to_numpy())
         oks.append(t["error"].is_null().to_numpy(zero_copy_only=False))
