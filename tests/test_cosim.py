@@ -143,7 +143,7 @@ def _description_only_fmu(path, fmi):
     [
         ("junk", "body", r"'.*junk\.fmu' is not a readable FMU: File is not a zip file"),
         ("fmi3", "body", r"FMU '.*fmi3\.fmu' is FMI 3\.0; FMI 2\.0 is needed"),
-        ("fmi2", "car", r"lacks the car interface: it is a body FMU \(give it to body_fmus\)"),
+        ("fmi2", "car", r"lacks the car interface: it is a body FMU \(give it to 'body_fmus'\)"),
     ],
 )
 def test_check_fmu_and_open_fmu_refuse_a_description_alike(tmp_path, what, kind, message):

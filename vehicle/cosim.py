@@ -329,7 +329,7 @@ def _check_interface(md, path, kind):
     if missing:
         other = [k for k in _INTERFACES if k != kind and not _missing(md, k)]
         what = (
-            f"it is a {other[0]} FMU (give it to {_PARAMETERS[other[0]]})"
+            f"it is a {other[0]} FMU (give it to '{_PARAMETERS[other[0]]}')"
             if other
             else f"no {', '.join(missing)}"
         )

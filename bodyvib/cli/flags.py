@@ -25,20 +25,12 @@ FLAGS = {
     "envelope": "--road-envelope",
     "repeat": "--road-repeat",
     "contact": "--road-contact",
-    # the FMUs of a co-simulation
-    "body": "--body",
+    # the FMUs of a co-simulation, their build
     "body_fmus": "--body",
     "car": "--car",
     "car_fmu": "--car-fmu",
     "controller": "--control-fmu",
-    # the library's functions, where a message names the one that does the fix
-    "build_active_ssp": "bodyvib build --control",
-    "build_fmus": "bodyvib build --fmus",
-    "run_study": "bodyvib cosim --control",
-    "pareto_front": "bodyvib fit --pareto",
-    "fmus": "--fmus",
     "platforms": "--platforms",
-    "native": "--native",
     # a sweep (SweepSettings)
     "grid_spec": "--grid",
     "out": "--out",
@@ -56,6 +48,11 @@ FLAGS = {
     "pairs": "--pairs",
     "channel": "--channel",
     "points": "--points",
+    # the library's functions, where a message names the one that does the fix
+    "build_active_ssp": "bodyvib build --control",
+    "build_fmus": "bodyvib build --fmus",
+    "run_study": "bodyvib cosim --control",
+    "pareto_front": "bodyvib fit --pareto",
 }
 
 
