@@ -51,7 +51,7 @@ def seat_bump_csv(path, duration=10.0, step=1e-3, height=0.02, start=0.1, width=
     return t, x, v
 
 
-def run(fmu_path="dist/HumanBody3DOF.fmu", output_interval=1e-3, folder=None):
+def run(fmu_path="dist/HumanBody3DOF.fmu", output_interval=1e-3, dest=None):
     """fmpy's ``simulate`` command on the seat bump.
 
     Parameters
@@ -59,7 +59,7 @@ def run(fmu_path="dist/HumanBody3DOF.fmu", output_interval=1e-3, folder=None):
     fmu_path : str
     output_interval : float or None
         ``--output-interval``; None leaves it out (fmpy's own choice).
-    folder : str, optional
+    dest : str, optional
         Where the CSV files go (a temporary folder by default).
 
     Returns
@@ -70,8 +70,8 @@ def run(fmu_path="dist/HumanBody3DOF.fmu", output_interval=1e-3, folder=None):
     from fmpy.util import read_csv
 
     with tempfile.TemporaryDirectory() as tmp:
-        folder = folder or tmp
-        seat_bump_csv(os.path.join(folder, "seat_bump.csv"))
+        dest = dest or tmp
+        seat_bump_csv(os.path.join(dest, "seat_bump.csv"))
         cmd = [
             sys.executable,
             "-m",
@@ -88,8 +88,8 @@ def run(fmu_path="dist/HumanBody3DOF.fmu", output_interval=1e-3, folder=None):
         ]
         if output_interval is not None:
             cmd += ["--output-interval", repr(float(output_interval))]
-        subprocess.run(cmd, cwd=folder, check=True, capture_output=True, text=True)
-        return read_csv(os.path.join(folder, "result.csv"))
+        subprocess.run(cmd, cwd=dest, check=True, capture_output=True, text=True)
+        return read_csv(os.path.join(dest, "result.csv"))
 
 
 if __name__ == "__main__":
