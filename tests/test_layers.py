@@ -14,6 +14,7 @@ function), so an import on a rarely used path counts as much as one at the top.
 """
 
 import ast
+import functools
 import os
 import re
 import sys
@@ -261,10 +262,16 @@ ALLOWED_FLAGS = {
 }
 
 
+@functools.cache
+def library_tree(path):
+    """The parsed source of a module file (both checks below read every module)."""
+    return ast.parse(open(path, encoding="utf-8").read())
+
+
 def flags_in(source):
-    """``(line, flag)`` of every ``--flag`` in the string literals of ``source`` outside
-    docstrings (the parts of f-strings included)."""
-    tree = ast.parse(source)
+    """``(line, flag)`` of every ``--flag`` in the string literals of ``source`` (text or a
+    parsed tree) outside docstrings (the parts of f-strings included)."""
+    tree = ast.parse(source) if isinstance(source, str) else source
     docstrings = set()
     for node in ast.walk(tree):
         body = getattr(node, "body", None)
@@ -291,7 +298,7 @@ def library_flags():
     for name, path in sorted(MODULES.items()):
         if name == "bodyvib.cli" or name.startswith("bodyvib.cli."):
             continue
-        flags = sorted(f for _, f in flags_in(open(path, encoding="utf-8").read()))
+        flags = sorted(f for _, f in flags_in(library_tree(path)))
         if flags:
             found[name] = flags
     return found
@@ -322,7 +329,7 @@ def declared_parameters():
     for name, path in sorted(MODULES.items()):
         if name == "bodyvib.cli" or name.startswith("bodyvib.cli."):
             continue
-        for node in ast.walk(ast.parse(open(path, encoding="utf-8").read())):
+        for node in ast.walk(library_tree(path)):
             for kw in getattr(node, "keywords", ()) if isinstance(node, ast.Call) else ():
                 if kw.arg == "parameters" and isinstance(kw.value, (ast.Tuple, ast.List)):
                     for elt in kw.value.elts:
