@@ -168,3 +168,25 @@ def test_an_error_keeps_the_parameters_it_names_across_processes():
         again = pickle.loads(pickle.dumps(error))
         assert type(again) is type(error) and str(again) == str(error)
         assert again.parameters == error.parameters
+
+
+def test_a_road_warning_names_the_flags_on_the_command_line(capsys):
+    # the warning's own words are the library's (duration=12.5); the command line's line
+    # shows the flag, once however often the road is checked
+    import warnings
+
+    from bodyvib.vehicle.road.base import RoadWarning
+
+    from bodyvib.cli.main import _one_line
+
+    show = _one_line("bodyvib cosim")
+    w = RoadWarning("faded in once; duration=12.5 drives it once", parameters=("duration",))
+    for _ in range(2):
+        show(w, RoadWarning, __file__, 1)
+    assert capsys.readouterr().err == (
+        "bodyvib cosim: warning: faded in once; --duration 12.5 drives it once\n"
+    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        warnings.warn(w, stacklevel=1)
+    assert caught[0].message.parameters == ("duration",)
