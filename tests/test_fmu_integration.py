@@ -21,12 +21,12 @@ import zipfile
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.quarter_car import CAR_FMU_OUTPUTS, load_car
 
 from bodyvib.models import load_model, save_model
 from bodyvib.runtime.contract import BODY_OUTPUTS, CAR_INPUTS, CAR_OUTPUTS
 from bodyvib.runtime.discretize import simulate
 from bodyvib.runtime.network import linear_model
+from bodyvib.vehicle.quarter_car import CAR_FMU_OUTPUTS, load_car
 
 pytestmark = pytest.mark.integration
 

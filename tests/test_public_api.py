@@ -74,11 +74,10 @@ def test_a_declared_name_stays_itself_once_every_module_is_imported(name):
 
 
 def test_a_name_from_the_package_is_the_one_its_module_defines():
-    from bodyvib.vehicle import cosimulate, road
-    from bodyvib.vehicle.cosim import cosimulate as cosimulate_in_module
-
     from bodyvib.fmu import build
     from bodyvib.fmu.builder import build as build_in_module
+    from bodyvib.vehicle import cosimulate, road
+    from bodyvib.vehicle.cosim import cosimulate as cosimulate_in_module
 
     assert cosimulate is cosimulate_in_module and build is build_in_module
     assert road is importlib.import_module("bodyvib.vehicle.road")

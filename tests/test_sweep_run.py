@@ -10,6 +10,10 @@ import time
 import numpy as np
 import pandas as pd
 import pytest
+
+from bodyvib import __version__
+from bodyvib.cli.main import main
+from bodyvib.models import load_model
 from bodyvib.vehicle.quarter_car import load_car
 from bodyvib.vehicle.sweep.run import (
     BASE_COLUMNS,
@@ -21,10 +25,6 @@ from bodyvib.vehicle.sweep.run import (
     task_size,
 )
 from bodyvib.vehicle.sweep.spec import expand, spec_hash
-
-from bodyvib import __version__
-from bodyvib.cli.main import main
-from bodyvib.models import load_model
 
 # Dask clusters, killed and resumed runs and the command line: processes and seconds each
 pytestmark = pytest.mark.integration

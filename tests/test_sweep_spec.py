@@ -5,10 +5,10 @@ import os
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.sweep.spec import expand, grid_spec, spec_hash, varied_parameters
 
 from bodyvib.models import MODEL_DIR, load_model
 from bodyvib.runtime.errors import BodyvibError
+from bodyvib.vehicle.sweep.spec import expand, grid_spec, spec_hash, varied_parameters
 
 
 def test_product_order_and_defaults():

@@ -11,6 +11,7 @@ from the index.
 """
 
 import os
+import runpy
 import shutil
 import site
 import subprocess
@@ -103,24 +104,22 @@ def test_wheel_has_one_import_root(wheel):
     assert {r for r in roots if not r.endswith(".dist-info")} == {"bodyvib"}, roots
 
 
-def test_package_list_matches_the_tree():
-    """pyproject.toml lists every package folder (a new subpackage missing from the list
-    would be left out of the wheel)."""
+def test_package_list_is_derived_from_the_tree():
+    """No package list is kept by hand: setup.py derives it from the folders and
+    pyproject.toml's package-dir, so a new subpackage is in the wheel without an entry."""
     tomllib = pytest.importorskip("tomllib")
 
     with open(os.path.join(ROOT, "pyproject.toml"), "rb") as f:
         tool = tomllib.load(f)["tool"]["setuptools"]
-    listed = set(tool["packages"])
+    assert "packages" not in tool
+    assert tool["package-dir"] == {"bodyvib.vehicle": "vehicle", "bodyvib.fmu_src": "fmu_src"}
+    derived = set(runpy.run_path(os.path.join(ROOT, "setup.py"), run_name="setup")["packages"]())
     found = set()
     for folder, place in FOLDERS.items():
-        for d, _, files in os.walk(os.path.join(ROOT, folder)):
-            rel = os.path.relpath(d, os.path.join(ROOT, folder))
-            if "__pycache__" in rel or not any(f.endswith((".py", ".json")) for f in files):
-                continue
-            parts = place.split("/") + ([] if rel == "." else rel.split(os.sep))
-            found.add(".".join(parts))
-    assert listed == found, (sorted(listed - found), sorted(found - listed))
-    assert tool["package-dir"] == {"bodyvib.vehicle": "vehicle", "bodyvib.fmu_src": "fmu_src"}
+        for f in _tracked(folder):
+            parts = place.split("/") + os.path.dirname(os.path.relpath(f, folder)).split(os.sep)
+            found.add(".".join(p for p in parts if p))
+    assert derived == found, (sorted(derived - found), sorted(found - derived))
 
 
 def test_installed_wheel_builds_fmus_and_runs_the_check(wheel, tmp_path):

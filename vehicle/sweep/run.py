@@ -204,9 +204,8 @@ class _Rows:
     """Turns a task's figures into table columns: the case, every model parameter, provenance."""
 
     def __init__(self, prep: _Prepared, engine: str, sh: str, run_id: str):
-        from bodyvib.vehicle.quarter_car import load_car
-
         from bodyvib.models import load_model
+        from bodyvib.vehicle.quarter_car import load_car
 
         self.prep, self.engine, self.sh, self.run_id = prep, engine, sh, run_id
         self.base = {m: load_model(m) for m in dict.fromkeys(b[1] for b in prep.bodies)}
