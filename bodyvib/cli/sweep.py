@@ -2,6 +2,7 @@
 
 import sys
 
+from bodyvib.process import extras
 from bodyvib.process.outputs import check_outputs
 from bodyvib.runtime.errors import BodyvibError
 
@@ -12,6 +13,7 @@ __all__ = ["add_command"]
 
 
 def _run(args):
+    extras.require("bodyvib sweep", "sweep")
     from bodyvib.vehicle.sweep.run import PARQUET_EXTENSIONS
     from bodyvib.vehicle.sweep.spec import ROAD_OPTION_KEYS, grid_spec
 

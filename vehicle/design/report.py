@@ -24,6 +24,7 @@ import numpy as np
 
 from bodyvib import __version__
 from bodyvib.models import save_model
+from bodyvib.process import extras
 from bodyvib.process.outputs import atomic_write_bytes, atomic_write_text, write_json
 
 from ..quarter_car import load_car
@@ -166,7 +167,13 @@ def write_design(folder, result: DesignResult, command: str = "") -> List[str]:
     -------
     list of str
         The files written.
+
+    Raises
+    ------
+    bodyvib.process.extras.MissingExtraError
+        The sweep extra (its Parquet writer) is not installed.
     """
+    extras.require("writing a design's front", "sweep")
     folder = os.fspath(folder)
     os.makedirs(folder, exist_ok=True)
     paths = [os.path.join(folder, f) for f in FILES]

@@ -66,7 +66,7 @@ import numpy as np
 from numpy.linalg import LinAlgError
 
 from bodyvib import __version__
-from bodyvib.process import interrupts
+from bodyvib.process import extras, interrupts
 from bodyvib.process.outputs import atomic_write_bytes, check_outputs, open_staged, staged_writes
 from bodyvib.runtime.errors import BodyvibError
 
@@ -185,9 +185,12 @@ def read_results(out: str):
     ------
     BodyvibError
         A file that is not a sweep table.
+    bodyvib.process.extras.MissingExtraError
+        The sweep extra is not installed.
     """
     import io
 
+    extras.require("reading a sweep table", "sweep")
     import pyarrow.parquet as pq
 
     found = scan(out)
@@ -450,6 +453,8 @@ def run_sweep(
         ``out`` not ending in ``.parquet``; an output that exists (without ``resume`` or
         ``overwrite``), cannot be written, or is one of the sweep's inputs; an output of
         another spec on resume; an unreachable scheduler or no worker in time.
+    bodyvib.process.extras.MissingExtraError
+        The sweep extra is not installed.
     bodyvib.vehicle.sweep.cluster.ClusterLost
         The cluster lost tasks (scheduler gone, workers dead, no worker): the
         finished cases are kept in ``OUT.parts/``, the lost ones are not
@@ -465,6 +470,7 @@ def run_sweep(
     >>> list(df["speed_m_s"]), bool(df["head_weighted_rms"].gt(0).all())
     ([10.0, 20.0], True)
     """
+    extras.require("a sweep", "sweep")
     try:
         cfg = replace(settings or SweepSettings(), **options)
     except TypeError as exc:
