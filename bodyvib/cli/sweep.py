@@ -90,6 +90,9 @@ def _run(args):
 
         plot_sweep(df, args.plot)
         print(f"wrote {args.plot}")
+    from bodyvib.vehicle.sweep.summary import format_summary, summary_columns
+
+    print(format_summary(df if df is not None else summary_columns(args.out or args.csv)))
     return 0
 
 

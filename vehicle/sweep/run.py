@@ -54,7 +54,6 @@ import json
 import math
 import os
 import shutil
-import sys
 import tempfile
 import time
 import uuid
@@ -68,6 +67,7 @@ from numpy.linalg import LinAlgError
 from bodyvib import __version__
 from bodyvib.process import extras, interrupts
 from bodyvib.process.outputs import atomic_write_bytes, check_outputs, open_staged, staged_writes
+from bodyvib.process.progress import progress_bar
 from bodyvib.runtime.errors import BodyvibError
 
 from .cluster import ClusterLost, open_cluster, run_tasks, start_server
@@ -550,17 +550,8 @@ class _Parts:
         self.bar = None
 
     def open_bar(self, total: int, todo: int) -> None:
-        from tqdm import tqdm
-
-        self.bar = tqdm(
-            total=total,
-            initial=total - todo,
-            unit="case",
-            file=sys.stderr,
-            desc="sweep",
-            mininterval=0.5,
-            disable=None,
-        )
+        # off a terminal (a log), a line every 10 s: a sweep may run for hours
+        self.bar = progress_bar(total, True, "sweep", "case", total - todo, 10.0, leave=True)
 
     def arrived(self, task_no: int, ids, data) -> None:
         """Write a task's rows (or, for a task that raised, failed rows for its cases)."""
