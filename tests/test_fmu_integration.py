@@ -355,6 +355,73 @@ def test_fmpy_simulate_fmu_example_agrees_with_library(fmus, name):
     assert np.all(rel_err(y, ref) < 1e-6), rel_err(y, ref)
 
 
+def _python_block(path, start):
+    """The first ```python block of a page after the line that starts with ``start``."""
+    text = open(os.path.join(ROOT, path), encoding="utf-8").read()
+    return text.split(start, 1)[1].split("```python\n", 1)[1].split("```", 1)[0]
+
+
+@pytest.mark.parametrize(
+    "page, start",
+    [("README.md", "**Drop the FMU into a host**"), ("docs/tutorials/fmu_hosts.md", "From fmpy (")],
+)
+def test_the_fmpy_snippets_run_as_written_and_warn_of_no_input(
+    fmus, page, start, tmp_path, capfd, monkeypatch
+):
+    """The page's snippet, executed as a reader pastes it next to ``dist/``: every input of
+    the FMU given (fmpy prints a warning for one left out), and the run is the example's."""
+    os.makedirs(tmp_path / "dist")
+    with (
+        open(fmus["HumanBody3DOF"], "rb") as src,
+        open(tmp_path / "dist" / "HumanBody3DOF.fmu", "wb") as dst,
+    ):
+        dst.write(src.read())
+    monkeypatch.chdir(tmp_path)
+    namespace = {}
+    exec(compile(_python_block(page, start), page, "exec"), namespace)
+    out, err = capfd.readouterr()
+    assert "Warning" not in out + err and "missing input" not in out + err, out + err
+    sys.path.insert(0, os.path.join(ROOT, "examples"))
+    try:
+        from fmu_from_fmpy import run
+    finally:
+        sys.path.pop(0)
+    example = run(fmus["HumanBody3DOF"], stop_time=1.0, step=1e-3)
+    assert "Warning" not in capfd.readouterr().out
+    for name in ("head_acceleration", "seat_force"):
+        # the README's slope divides by 1e-3, not by the grid's differences: a few ulps
+        np.testing.assert_allclose(namespace["res"][name], example[name], rtol=1e-12, atol=0)
+
+
+def test_the_fmpy_command_line_of_the_tutorial_runs_as_written(fmus, tmp_path):
+    """The tutorial's two commands, in one folder: the example leaves ``seat_bump.csv``
+    there for ``fmpy simulate``, which then runs as written (once it was deleted)."""
+    text = open(os.path.join(ROOT, "docs", "tutorials", "fmu_hosts.md"), encoding="utf-8").read()
+    block = text.split("From fmpy's command line", 1)[1].split("```bash\n", 1)[1].split("```", 1)[0]
+    lines = block.replace("\\\n", " ").splitlines()
+    assert [ln.split()[:2] for ln in lines] == [
+        ["python", "examples/fmu_from_fmpy_cli.py"],
+        ["fmpy", "simulate"],
+    ]
+    os.makedirs(tmp_path / "dist")
+    with (
+        open(fmus["HumanBody3DOF"], "rb") as src,
+        open(tmp_path / "dist" / "HumanBody3DOF.fmu", "wb") as dst,
+    ):
+        dst.write(src.read())
+    os.symlink(os.path.join(ROOT, "examples"), tmp_path / "examples")
+    env = {**os.environ, "PATH": os.path.dirname(sys.executable) + os.pathsep + os.environ["PATH"]}
+    for line in lines:
+        out = subprocess.run(
+            line.split(), cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300
+        )
+        assert out.returncode == 0 and "Warning" not in out.stdout + out.stderr, (
+            line,
+            out.stdout + out.stderr,
+        )
+        assert (tmp_path / "seat_bump.csv").exists() and (tmp_path / "result.csv").exists()
+
+
 @pytest.mark.parametrize("grid", ["fixed", "varying"])
 @pytest.mark.parametrize("name", ["HumanBody3DOF", "HumanBodyISO7962"])
 def test_fmu2slave_equals_library_fixed_and_varying_steps(fmus, name, grid):
