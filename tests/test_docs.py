@@ -194,14 +194,17 @@ def test_layout_page_lists_the_top_level_of_the_tree():
 
 # -- cross-references resolve -------------------------------------------------
 ROLE = re.compile(r":(func|class|mod|meth|data|attr):`([^`]+)`")
-PACKAGES = ("bodyvib", "vehicle", "bodyvib.cli")
+PACKAGES = ("bodyvib", "bodyvib.vehicle", "bodyvib.cli")
+#: Repository folder -> the package it installs as (pyproject.toml's package-dir).
+FOLDERS = {"bodyvib": "bodyvib", "vehicle": "bodyvib.vehicle"}
 
 
 def module_of(path):
-    """The module a tracked file is, or None (docs, scripts)."""
-    if not path.endswith(".py") or path.split("/")[0] not in PACKAGES:
+    """The module a tracked file is, by its installed name, or None (docs, scripts)."""
+    top = path.split("/")[0]
+    if not path.endswith(".py") or top not in FOLDERS:
         return None
-    name = path[:-3].replace("/", ".")
+    name = FOLDERS[top] + path[len(top) : -3].replace("/", ".")
     return name[: -len(".__init__")] if name.endswith(".__init__") else name
 
 

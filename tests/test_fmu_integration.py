@@ -355,30 +355,16 @@ def test_fmpy_simulate_fmu_example_agrees_with_library(fmus, name):
     assert np.all(rel_err(y, ref) < 1e-6), rel_err(y, ref)
 
 
-def _python_block(path, start):
-    """The first ```python block of a page after the line that starts with ``start``."""
-    text = open(os.path.join(ROOT, path), encoding="utf-8").read()
-    return text.split(start, 1)[1].split("```python\n", 1)[1].split("```", 1)[0]
-
-
-@pytest.mark.parametrize(
-    "page, start",
-    [("README.md", "**Drop the FMU into a host**"), ("docs/tutorials/fmu_hosts.md", "From fmpy (")],
-)
-def test_the_fmpy_snippets_run_as_written_and_warn_of_no_input(
-    fmus, page, start, tmp_path, capfd, monkeypatch
-):
-    """The page's snippet, executed as a reader pastes it next to ``dist/``: every input of
-    the FMU given (fmpy prints a warning for one left out), and the run is the example's."""
+def check_fmpy_snippet(code, fmu, tmp_path, capfd, monkeypatch):
+    """Run a page's fmpy snippet as a reader pastes it next to ``dist/``: every input of
+    the FMU given (fmpy prints a warning for one left out), and the run is the example's.
+    tests/test_readme.py runs the short front page's with it."""
     os.makedirs(tmp_path / "dist")
-    with (
-        open(fmus["HumanBody3DOF"], "rb") as src,
-        open(tmp_path / "dist" / "HumanBody3DOF.fmu", "wb") as dst,
-    ):
+    with open(fmu, "rb") as src, open(tmp_path / "dist" / "HumanBody3DOF.fmu", "wb") as dst:
         dst.write(src.read())
     monkeypatch.chdir(tmp_path)
     namespace = {}
-    exec(compile(_python_block(page, start), page, "exec"), namespace)
+    exec(compile(code, "snippet", "exec"), namespace)
     out, err = capfd.readouterr()
     assert "Warning" not in out + err and "missing input" not in out + err, out + err
     sys.path.insert(0, os.path.join(ROOT, "examples"))
@@ -386,11 +372,17 @@ def test_the_fmpy_snippets_run_as_written_and_warn_of_no_input(
         from fmu_from_fmpy import run
     finally:
         sys.path.pop(0)
-    example = run(fmus["HumanBody3DOF"], stop_time=1.0, step=1e-3)
+    example = run(fmu, stop_time=1.0, step=1e-3)
     assert "Warning" not in capfd.readouterr().out
     for name in ("head_acceleration", "seat_force"):
-        # the README's slope divides by 1e-3, not by the grid's differences: a few ulps
+        # a snippet's slope may divide by 1e-3, not by the grid's differences: a few ulps
         np.testing.assert_allclose(namespace["res"][name], example[name], rtol=1e-12, atol=0)
+
+
+def test_the_tutorial_fmpy_snippet_runs_as_written(fmus, tmp_path, capfd, monkeypatch):
+    text = open(os.path.join(ROOT, "docs", "tutorials", "fmu_hosts.md"), encoding="utf-8").read()
+    code = text.split("From fmpy (", 1)[1].split("```python\n", 1)[1].split("```", 1)[0]
+    check_fmpy_snippet(code, fmus["HumanBody3DOF"], tmp_path, capfd, monkeypatch)
 
 
 def test_the_fmpy_command_line_of_the_tutorial_runs_as_written(fmus, tmp_path):

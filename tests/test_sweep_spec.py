@@ -179,7 +179,7 @@ def test_the_documented_spec_example_expands():
     text = open(path, encoding="utf-8").read()
     section = text.split("## Sweeps", 1)[1].split("\n## ", 1)[0]
     spec = json.loads(section.split("```json\n", 1)[1].split("```", 1)[0])
-    # the README's and the tutorial's `bodyvib sweep examples/study.json` runs this spec
+    # the tutorial's `bodyvib sweep examples/study.json` runs this spec
     with open(os.path.join(ROOT, "examples", "study.json"), encoding="utf-8") as f:
         assert json.load(f) == spec
     cases = expand(spec)

@@ -27,7 +27,7 @@ class MissingExtraError(BodyvibError, ImportError):
     """A task needs an optional part of bodyvib that is not installed.
 
     A :class:`~bodyvib.runtime.errors.BodyvibError` (the command line prints it as one line
-    and exits with status 2) and an :class:`ImportError` (what it is to Python code).
+    and exits with status 2) and an ``ImportError`` (what it is to Python code).
 
     Attributes
     ----------
