@@ -10,6 +10,7 @@ import glob
 import os
 import re
 import subprocess
+import sys
 
 import pytest
 from helpers import ROOT
@@ -171,6 +172,17 @@ def test_a_path_of_the_machine_is_no_path_of_the_tree():
     must not depend on whether this machine has it."""
     named = "`/usr/bin/bodyvib-no-such-browser`, `docs/no-such-page.md`, `docs/index.md`"
     assert _missing_paths(named) == ["docs/no-such-page.md"]
+
+
+def test_page_titles_are_short():
+    """The theme's sidebar lists every page by its title: a title names the subject, and the
+    page's first paragraph says the rest."""
+    long = {}
+    for page in pages():
+        title = re.search(r"^# (.+)$", text(page), re.M).group(1)
+        if len(title) > 30:
+            long[page] = title
+    assert not long, long
 
 
 def test_layout_page_lists_the_top_level_of_the_tree():
@@ -342,3 +354,24 @@ def test_the_changelog_fragments_merge_by_section():
     assert doctest.testmod(gen).failed == 0
     merged = gen.merge_fragments(sorted(glob.glob(os.path.join(ROOT, "docs", "changes", "*.md"))))
     assert merged.startswith("### ") and merged.count("### Added") <= 1
+
+
+@pytest.mark.integration
+def test_the_development_guide_counts_the_tiers():
+    """The development guide's test counts are pytest's, within 15 % (the suite grows with
+    every change; a guide 50 % behind misled a reader once)."""
+    page = text("docs/guide/development.md")
+    fast = int(re.search(r"the fast tier collects (\d+) tests", page).group(1))
+    rest = int(re.search(r"integration tier holds the other (\d+) tests", page).group(1))
+    out = subprocess.run(
+        [sys.executable, "-m", "pytest", "--collect-only", "-q", "-m", "not integration"]
+        + ["-p", "no:cacheprovider"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    picked, total = map(int, re.search(r"(\d+)/(\d+) tests collected", out.stdout).groups())
+    counted = (picked, total - picked)
+    for documented, n in zip((fast, rest), counted):
+        assert abs(documented - n) <= 0.15 * n, (documented, n)
