@@ -153,6 +153,8 @@ def main(argv=None) -> int:
             print(exc, file=sys.stderr)
             return 2
         except MissingExtraError as exc:  # the line names the command when it is the task
+            if interrupts.requested():
+                return stopped()
             print(exc if exc.task == command else f"{command}: {exc}", file=sys.stderr)
             return 2
         except BodyvibError as exc:
