@@ -32,6 +32,7 @@ import time
 from contextlib import contextmanager
 
 import numpy as np
+
 from bodyvib.vehicle.sweep import engines, kernel
 from bodyvib.vehicle.sweep.spec import expand
 

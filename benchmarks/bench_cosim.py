@@ -24,11 +24,11 @@ import tempfile
 import time
 
 import numpy as np
+
+from bodyvib.runtime import contract
 from bodyvib.vehicle.cosim import BODY_INPUTS, BODY_OUTPUTS, CAR_OUTPUTS, cosimulate, open_fmu
 from bodyvib.vehicle.fmus import build_project_fmu
 from bodyvib.vehicle.road.synthetic import make_road, road_input
-
-from bodyvib.runtime import contract
 
 
 def bare_calls(car, body, z, v, steps, h):

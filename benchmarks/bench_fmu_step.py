@@ -29,12 +29,12 @@ import tempfile
 import time
 
 import numpy as np
-from bodyvib.vehicle.cosim import open_fmu
-from bodyvib.vehicle.fmus import build_project_fmu
 
 from bodyvib.models import load_model
 from bodyvib.runtime.contract import BODY_OUTPUTS
 from bodyvib.runtime.discretize import Discretization
+from bodyvib.vehicle.cosim import open_fmu
+from bodyvib.vehicle.fmus import build_project_fmu
 
 OUT = list(BODY_OUTPUTS[:4])  # as the master reads them (not seat_force_rate)
 SIG = ["head.a", "head.x", "torso.x", "seat_force"]

@@ -126,6 +126,7 @@ def c_host_step(exe, fmu, folder: Path, steps: int, env: dict, mode: str = "benc
 def master_step(body, car, duration, repeats):
     """Median microseconds per macro-step of bodyvib.vehicle.cosim.cosimulate."""
     import numpy as np
+
     from bodyvib.vehicle.cosim import cosimulate, open_fmu
     from bodyvib.vehicle.road.synthetic import make_road, road_input
 

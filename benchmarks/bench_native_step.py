@@ -132,10 +132,9 @@ def plain_matrices(name: str, set_idx, get_idx, path: Path) -> tuple:
     """Write what the plain loop multiplies: the FMU's step matrices from the model; returns
     the sizes (n, ni, nset, nget) and where ``Ms`` can be non-zero (0/1 per entry): on its
     diagonal and where ``R`` or ``R^2`` is, as the FMU's compiled step knows it."""
-    from bodyvib.vehicle.quarter_car import load_car
-
     from bodyvib.models import load_model
     from bodyvib.runtime.engine import FmuCore
+    from bodyvib.vehicle.quarter_car import load_car
 
     kind = "car" if name == "QuarterCar" else "body"
     net = load_car("quarter-car") if kind == "car" else load_model(MODELS[name])

@@ -45,10 +45,9 @@ import sys
 import tempfile
 import time
 
+from bodyvib.models import MODEL_DIR
 from bodyvib.vehicle.sweep.run import run_sweep
 from bodyvib.vehicle.sweep.spec import expand
-
-from bodyvib.models import MODEL_DIR
 
 
 def sweep_spec(cases: int) -> dict:

@@ -12,6 +12,7 @@ per body and speed, the mean, standard deviation and range of
 import argparse
 
 import numpy as np
+
 from bodyvib.vehicle.sweep.run import run_sweep
 
 

@@ -48,9 +48,16 @@ def run(fmu_path="dist/HumanBody3DOF.fmu", duration=1.0, step=1e-3):
 
     t = np.arange(round(duration / step) + 1) * step
     x, v = seat_bump(t)
+    # every input of the FMU (fmpy warns about one left out): seat_acceleration 0, the
+    # seat moving linearly over each step, as the bump does
     signals = np.array(
-        list(zip(t, x, v)),
-        dtype=[("time", float), ("seat_displacement", float), ("seat_velocity", float)],
+        list(zip(t, x, v, np.zeros_like(t))),
+        dtype=[
+            ("time", float),
+            ("seat_displacement", float),
+            ("seat_velocity", float),
+            ("seat_acceleration", float),
+        ],
     )
     return simulate_fmu(
         fmu_path,

@@ -4,7 +4,8 @@ Build the FMU first (``python build_fmu.py``), then::
 
     python examples/fmu_from_fmpy_cli.py dist/HumanBody3DOF.fmu
 
-which writes ``seat_bump.csv`` and runs exactly::
+which writes ``seat_bump.csv`` into the current folder and runs there exactly (so the
+command runs again as written, result in ``result.csv``)::
 
     fmpy simulate dist/HumanBody3DOF.fmu --input-file seat_bump.csv --output-interval 0.001 \\
         --output-variables head_acceleration seat_force --output-file result.csv
@@ -32,7 +33,8 @@ __all__ = ["seat_bump_csv", "run"]
 
 
 def seat_bump_csv(path, duration=10.0, step=1e-3, height=0.02, start=0.1, width=0.1):
-    """Write a triangular seat bump as fmpy's input CSV (``time``, ``seat_displacement``, ``seat_velocity``).
+    """Write a triangular seat bump as fmpy's input CSV (``time``, ``seat_displacement``,
+    ``seat_velocity`` and ``seat_acceleration``, 0: every input given, none warned about).
 
     Returns
     -------
@@ -43,9 +45,9 @@ def seat_bump_csv(path, duration=10.0, step=1e-3, height=0.02, start=0.1, width=
     v = np.append(np.diff(x) / np.diff(t), 0.0)
     np.savetxt(
         path,
-        np.c_[t, x, v],
+        np.c_[t, x, v, np.zeros_like(t)],
         delimiter=",",
-        header="time,seat_displacement,seat_velocity",
+        header="time,seat_displacement,seat_velocity,seat_acceleration",
         comments="",
     )
     return t, x, v
@@ -60,7 +62,8 @@ def run(fmu_path="dist/HumanBody3DOF.fmu", output_interval=1e-3, dest=None):
     output_interval : float or None
         ``--output-interval``; None leaves it out (fmpy's own choice).
     dest : str, optional
-        Where the CSV files go (a temporary folder by default).
+        Where ``seat_bump.csv`` and ``result.csv`` go and stay (by default a temporary
+        folder, deleted on return).
 
     Returns
     -------
@@ -93,7 +96,7 @@ def run(fmu_path="dist/HumanBody3DOF.fmu", output_interval=1e-3, dest=None):
 
 
 if __name__ == "__main__":
-    res = run(*sys.argv[1:2])
+    res = run(*sys.argv[1:2], dest=os.getcwd())  # the files stay for the next command
     k = int(np.argmax(np.abs(res["head_acceleration"])))
     print(
         f"peak head acceleration {res['head_acceleration'][k]:.3f} m/s2 at {res['time'][k]:.3f} s"

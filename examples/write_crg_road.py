@@ -35,6 +35,7 @@ def write(path="road.crg", length=300.0, spacing=0.05, width=3.5):
         ``path``.
     """
     import pycrg
+
     from bodyvib.vehicle.road.synthetic import random_road
 
     u = np.arange(0.0, length + spacing / 2, spacing)

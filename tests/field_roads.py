@@ -10,6 +10,7 @@
 """
 
 import numpy as np
+
 from bodyvib.vehicle.road.synthetic import random_road
 
 #: Grid of the cobblestone scan, m.

@@ -13,6 +13,11 @@ import json
 
 import numpy as np
 import pytest
+
+from bodyvib.runtime.contract import fmu_variables
+from bodyvib.runtime.errors import BodyvibError
+from bodyvib.runtime.modelfile import network_from_dict, network_to_dict
+from bodyvib.runtime.network import linear_model
 from bodyvib.vehicle.control import (
     SkyhookController,
     closed_loop_model,
@@ -21,11 +26,6 @@ from bodyvib.vehicle.control import (
     skyhook,
 )
 from bodyvib.vehicle.quarter_car import CAR_DIR, load_car
-
-from bodyvib.runtime.contract import fmu_variables
-from bodyvib.runtime.errors import BodyvibError
-from bodyvib.runtime.modelfile import network_from_dict, network_to_dict
-from bodyvib.runtime.network import linear_model
 
 
 def active_dict():
@@ -261,8 +261,9 @@ def every_kind(tmp_path_factory):
     import subprocess
     import sys
 
-    from bodyvib.vehicle.fmus import build_project_fmu
     from helpers import ROOT
+
+    from bodyvib.vehicle.fmus import build_project_fmu
 
     out = {}
     dest = tmp_path_factory.mktemp("pythonfmu")
@@ -309,13 +310,12 @@ def test_active_fmu_validates_and_holds_a_constant_force(every_kind, kind):
 def test_controlled_half_car_meets_the_coupling_target(tmp_path):
     """The half car's two actuators under the default skyhook law, native FMUs at 1 ms,
     against the exact closed loop: head NRMSE <= 0.05 % after 2 s (measured 0.031 %)."""
+    from bodyvib.models import load_model
     from bodyvib.vehicle.cosim import cosimulate, open_fmu
     from bodyvib.vehicle.fmus import build_project_fmu
     from bodyvib.vehicle.quarter_car import wheel_offsets
     from bodyvib.vehicle.reference import nrmse, reference_run
     from bodyvib.vehicle.road.driven import RunSettings, driven_road, wheel_inputs
-
-    from bodyvib.models import load_model
 
     car = load_car("half-car-active")
     native = {"native": True, "platforms": ("linux64",)}
@@ -354,10 +354,9 @@ def test_controlled_cosimulation_meets_the_coupling_target(active_fmus, law):
     the same closed loop: head-acceleration NRMSE <= 0.05 % after the first 2 s (the
     road fades in over 5 m, 0.25 s). Measured: 0.025 % skyhook, 0.035 %
     groundhook, 0.031 % hybrid."""
+    from bodyvib.models import load_model
     from bodyvib.vehicle.cosim import cosimulate, open_fmu
     from bodyvib.vehicle.reference import nrmse, reference_run
-
-    from bodyvib.models import load_model
 
     car = load_car("quarter-car-active")
     controller = parse_control(law, car)
@@ -387,12 +386,11 @@ def test_law_comparison_matches_the_reference_runs():
     """The comparison's passive row against the monolithic reference of the passive car
     (another path: the car file's FMU outputs), and the skyhook row's actuator force
     against c_sky times the body velocity of the closed-loop reference."""
+    from bodyvib.comfort.figures import weighted_rms
+    from bodyvib.models import load_model
     from bodyvib.vehicle.active import compare_laws, format_comparison
     from bodyvib.vehicle.reference import ReferenceStream, reference_run
     from bodyvib.vehicle.road.driven import RunSettings
-
-    from bodyvib.comfort.figures import weighted_rms
-    from bodyvib.models import load_model
 
     car, body = load_car("quarter-car-active"), load_model("reduced-paper")
     settings = RunSettings("C", 20.0, 4.0)
@@ -572,6 +570,8 @@ def test_active_ssp_without_the_acceleration_wires_lags_a_step(active_ssp, tmp_p
     held, measured 1.27 % NRMSE in libcosim; the extrapolation is what meets the target."""
     import zipfile
 
+    from test_ssp import host_run
+
     from bodyvib.vehicle.reference import nrmse
     from bodyvib.vehicle.ssp import (
         ACTIVE_COMPONENTS,
@@ -580,7 +580,6 @@ def test_active_ssp_without_the_acceleration_wires_lags_a_step(active_ssp, tmp_p
         ssp_reference,
         write_ssp,
     )
-    from test_ssp import host_run
 
     with zipfile.ZipFile(active_ssp) as z:
         z.extractall(tmp_path / "x")
@@ -597,10 +596,9 @@ def test_active_half_car_package_wires_each_axle_to_its_controller_channel():
     """Every actuator input of half-car-active and every controller input is driven by one
     wire, from the variable of the same axle and quantity (the car's contract and the
     controller FMU's variable list, each from its own module)."""
-    from bodyvib.vehicle.ssp import ACTIVE_HALF_CAR_CONNECTIONS, PACKAGES
-
     from bodyvib.fmu.controller import controller_variables
     from bodyvib.runtime.contract import actuator_variables
+    from bodyvib.vehicle.ssp import ACTIVE_HALF_CAR_CONNECTIONS, PACKAGES
 
     car_vars = actuator_variables(load_car("half-car-active"))
     assert [names[0] for names in car_vars] == ["actuator_force_front", "actuator_force_rear"]
@@ -648,9 +646,10 @@ def test_active_half_car_ssp_runs_in_generic_hosts(active_half_ssp, host):
 def test_active_half_car_ssp_error_is_second_order_in_the_step(active_half_ssp):
     """Doubling libcosim's step to 2 ms multiplies the error by 4 (measured 4.03): the
     extrapolated velocities and the force rate make the coupling second order."""
+    from test_ssp import host_run
+
     from bodyvib.vehicle.reference import nrmse
     from bodyvib.vehicle.ssp import ssp_reference
-    from test_ssp import host_run
 
     law = parse_control("skyhook", load_car("half-car-active"))
     err = {}

@@ -78,7 +78,6 @@ def test_build_on_a_full_disk_keeps_every_old_output(python_fmus, tmp_path):
 def test_build_write_failure_keeps_every_old_output(tmp_path, monkeypatch, capsys):
     """The same failure injected at the SSP's write: ENOSPC after the four FMUs were staged."""
     import bodyvib.vehicle.ssp
-
     from bodyvib.cli.main import main
 
     real = bodyvib.vehicle.ssp.atomic_write_bytes

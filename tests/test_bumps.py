@@ -10,6 +10,12 @@ import math
 
 import numpy as np
 import pytest
+from helpers import run_cli
+
+from bodyvib.models import load_model
+from bodyvib.runtime.discretize import Discretization, input_rates
+from bodyvib.runtime.errors import BodyvibError
+from bodyvib.runtime.network import linear_model
 from bodyvib.vehicle.quarter_car import load_car, seated_system
 from bodyvib.vehicle.reference import reference_run
 from bodyvib.vehicle.road.bumps import SHAPES, bump_library, parse_bump
@@ -18,12 +24,6 @@ from bodyvib.vehicle.road.synthetic import road_input
 from bodyvib.vehicle.sweep.engines import case_road_input, run_batched
 from bodyvib.vehicle.sweep.spec import expand, grid_spec
 from bodyvib.vehicle.sweep.table import FIGURE_UNITS
-from helpers import run_cli
-
-from bodyvib.models import load_model
-from bodyvib.runtime.discretize import Discretization, input_rates
-from bodyvib.runtime.errors import BodyvibError
-from bodyvib.runtime.network import linear_model
 
 
 def _grid(bump, n=200001):

@@ -2,9 +2,6 @@
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.quarter_car import load_car
-from bodyvib.vehicle.reference import reference_run
-from bodyvib.vehicle.road.synthetic import make_road, road_input
 from scipy import signal
 
 from bodyvib.comfort.figures import (
@@ -23,6 +20,9 @@ from bodyvib.comfort.stream import (
 )
 from bodyvib.models import load_model
 from bodyvib.runtime.errors import BodyvibError
+from bodyvib.vehicle.quarter_car import load_car
+from bodyvib.vehicle.reference import reference_run
+from bodyvib.vehicle.road.synthetic import make_road, road_input
 
 
 @pytest.fixture(scope="module")

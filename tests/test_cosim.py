@@ -12,16 +12,16 @@ import sys
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.cosim import cosimulate, model_from_fmu, open_fmu, write_csv
-from bodyvib.vehicle.reference import nrmse, reference_run
-from bodyvib.vehicle.road.driven import RunSettings
-from bodyvib.vehicle.road.synthetic import make_road, road_input
-from bodyvib.vehicle.study import coupling_error_sweep, run_study
 from helpers import ROOT, run_cli
 
 from bodyvib.comfort.figures import weighted_rms
 from bodyvib.comfort.stream import stream_comfort_figures
 from bodyvib.runtime.errors import BodyvibError
+from bodyvib.vehicle.cosim import cosimulate, model_from_fmu, open_fmu, write_csv
+from bodyvib.vehicle.reference import nrmse, reference_run
+from bodyvib.vehicle.road.driven import RunSettings
+from bodyvib.vehicle.road.synthetic import make_road, road_input
+from bodyvib.vehicle.study import coupling_error_sweep, run_study
 
 pytestmark = pytest.mark.integration
 

@@ -55,14 +55,17 @@ def test_build_cross_check_writes_a_folder_fmpy_validates_and_the_fmu_matches(tm
     p = run_cli("build", "--cross-check", "cc", cwd=tmp_path)
     assert p.returncode == 0, p.stderr
     fmus, results, problems = validate_repo(str(tmp_path / "cc"))
-    assert (fmus, problems) == (1, []), problems
+    assert (fmus, problems) == (2, []), problems  # the FMU as co-simulation and model exchange
     (folder,) = (tmp_path / "cc" / "fmus" / "2.0" / "cs" / "linux64" / "bodyvib").glob("*/*")
+    (twin,) = (tmp_path / "cc" / "fmus" / "2.0" / "me" / "linux64" / "bodyvib").glob("*/*")
     base = folder / folder.name
     names = sorted(p.name for p in folder.iterdir())
     assert names == sorted(
         f"HumanBody3DOF{x}"
         for x in (".fmu", "_in.csv", "_ref.csv", "_ref.opt", "_cc.sh", "_cc.bat")
     ) + ["ReadMe.md"]
+    for name in names:
+        assert (twin / name).read_bytes() == (folder / name).read_bytes(), name
     s = CrossCheckSettings()
     ref = read_csv(f"{base}_ref.csv")
     outs = list(ref.dtype.names[1:])
@@ -80,3 +83,32 @@ def test_build_cross_check_writes_a_folder_fmpy_validates_and_the_fmu_matches(tm
     for name in ("head_displacement", "torso_displacement"):
         err = np.max(np.abs(np.interp(ref["time"], res["time"], res[name]) - ref[name]))
         assert err <= 2 * math.pi * s.frequency * s.step * np.max(np.abs(ref[name])), name
+
+
+@pytest.mark.integration
+def test_the_cross_check_script_rebuilds_its_tree_from_anywhere(tmp_path):
+    """``_cc.sh`` is the command that made the tree, with the tree's own root (no
+    placeholder): run from another folder, it writes the same reference again."""
+    import os
+    import subprocess
+    import sys
+
+    p = run_cli("build", "--cross-check", "cc", cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    (folder,) = (tmp_path / "cc" / "fmus" / "2.0" / "cs" / "linux64" / "bodyvib").glob("*/*")
+    script = folder / "HumanBody3DOF_cc.sh"
+    assert (
+        "DEST" not in script.read_text()
+        and "DEST" not in (folder / "HumanBody3DOF_cc.bat").read_text()
+    )
+    ref = folder / "HumanBody3DOF_ref.csv"
+    before = ref.read_bytes()
+    ref.unlink()
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    env = {**os.environ, "PATH": os.path.dirname(sys.executable) + os.pathsep + os.environ["PATH"]}
+    out = subprocess.run(
+        ["sh", str(script)], cwd=elsewhere, env=env, capture_output=True, text=True, timeout=600
+    )
+    assert out.returncode == 0, out.stderr
+    assert ref.read_bytes() == before and list(elsewhere.iterdir()) == []

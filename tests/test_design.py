@@ -18,10 +18,10 @@ import os
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.design import design, parse_spec
 
 from bodyvib.cli.main import main
 from bodyvib.runtime.errors import BodyvibError
+from bodyvib.vehicle.design import design, parse_spec
 
 MS, MU, K, KT = 290.0, 59.0, 16812.0, 190000.0
 M = MS + MU

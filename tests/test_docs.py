@@ -10,6 +10,7 @@ import glob
 import os
 import re
 import subprocess
+import sys
 
 import pytest
 from helpers import ROOT
@@ -133,15 +134,26 @@ GENERATED = ("docs/_build/", "docs/api/", "docs/auto_examples/", "docs/_generate
 
 
 def _check_paths(doc):
+    missing = _missing_paths(text(doc))
+    assert not missing, f"{doc} names paths the tree lacks: {missing}"
+
+
+def _missing_paths(content):
+    """The paths of the tree that ``content`` names in backquotes and the tree lacks."""
     files = set(tracked())
     dirs = {os.path.dirname(f) for f in files}
     dirs |= {d for f in list(dirs) for d in [os.path.dirname(f)] if d}
     outputs = {"params/refit.json"}  # what `bodyvib fit` writes by default, not a shipped file
     missing = []
-    for token in re.findall(r"`([^`\s]+)`", text(doc)):
+    for token in re.findall(r"`([^`\s]+)`", content):
         token = token.rstrip(".,:;")
         top = token.split("/")[0]
-        if "/" not in token or not os.path.exists(os.path.join(ROOT, top)) or "<" in token:
+        if (
+            "/" not in token
+            or os.path.isabs(token)  # a path of the machine (/usr/bin/chromium), not the tree
+            or not os.path.exists(os.path.join(ROOT, top))
+            or "<" in token
+        ):
             continue  # not a path of this tree (a unit like m/s2, a URL, a placeholder)
         if (
             token.rstrip("/") in dirs
@@ -152,7 +164,25 @@ def _check_paths(doc):
             continue
         if not glob.glob(os.path.join(ROOT, token)):
             missing.append(token)
-    assert not missing, f"{doc} names paths the tree lacks: {missing}"
+    return missing
+
+
+def test_a_path_of_the_machine_is_no_path_of_the_tree():
+    """The documentation guide names the browser's binary; the check of the tree's paths
+    must not depend on whether this machine has it."""
+    named = "`/usr/bin/bodyvib-no-such-browser`, `docs/no-such-page.md`, `docs/index.md`"
+    assert _missing_paths(named) == ["docs/no-such-page.md"]
+
+
+def test_page_titles_are_short():
+    """The theme's sidebar lists every page by its title: a title names the subject, and the
+    page's first paragraph says the rest."""
+    long = {}
+    for page in pages():
+        title = re.search(r"^# (.+)$", text(page), re.M).group(1)
+        if len(title) > 30:
+            long[page] = title
+    assert not long, long
 
 
 def test_layout_page_lists_the_top_level_of_the_tree():
@@ -176,14 +206,17 @@ def test_layout_page_lists_the_top_level_of_the_tree():
 
 # -- cross-references resolve -------------------------------------------------
 ROLE = re.compile(r":(func|class|mod|meth|data|attr):`([^`]+)`")
-PACKAGES = ("bodyvib", "vehicle", "bodyvib.cli")
+PACKAGES = ("bodyvib", "bodyvib.vehicle", "bodyvib.cli")
+#: Repository folder -> the package it installs as (pyproject.toml's package-dir).
+FOLDERS = {"bodyvib": "bodyvib", "vehicle": "bodyvib.vehicle"}
 
 
 def module_of(path):
-    """The module a tracked file is, or None (docs, scripts)."""
-    if not path.endswith(".py") or path.split("/")[0] not in PACKAGES:
+    """The module a tracked file is, by its installed name, or None (docs, scripts)."""
+    top = path.split("/")[0]
+    if not path.endswith(".py") or top not in FOLDERS:
         return None
-    name = path[:-3].replace("/", ".")
+    name = FOLDERS[top] + path[len(top) : -3].replace("/", ".")
     return name[: -len(".__init__")] if name.endswith(".__init__") else name
 
 
@@ -321,3 +354,24 @@ def test_the_changelog_fragments_merge_by_section():
     assert doctest.testmod(gen).failed == 0
     merged = gen.merge_fragments(sorted(glob.glob(os.path.join(ROOT, "docs", "changes", "*.md"))))
     assert merged.startswith("### ") and merged.count("### Added") <= 1
+
+
+@pytest.mark.integration
+def test_the_development_guide_counts_the_tiers():
+    """The development guide's test counts are pytest's, within 15 % (the suite grows with
+    every change; a guide 50 % behind misled a reader once)."""
+    page = text("docs/guide/development.md")
+    fast = int(re.search(r"the fast tier collects (\d+) tests", page).group(1))
+    rest = int(re.search(r"integration tier holds the other (\d+) tests", page).group(1))
+    out = subprocess.run(
+        [sys.executable, "-m", "pytest", "--collect-only", "-q", "-m", "not integration"]
+        + ["-p", "no:cacheprovider"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    picked, total = map(int, re.search(r"(\d+)/(\d+) tests collected", out.stdout).groups())
+    counted = (picked, total - picked)
+    for documented, n in zip((fast, rest), counted):
+        assert abs(documented - n) <= 0.15 * n, (documented, n)

@@ -32,7 +32,8 @@ def newest_source():
     """The latest modification time among the site's sources (pages, code, changelog, the
     package list)."""
     newest = max(
-        os.path.getmtime(os.path.join(ROOT, f)) for f in ("CHANGELOG.md", "pyproject.toml")
+        os.path.getmtime(os.path.join(ROOT, f))
+        for f in ("CHANGELOG.md", "pyproject.toml", "setup.py")
     )
     for top in ("docs", "bodyvib", "vehicle"):
         for folder, dirs, files in os.walk(os.path.join(ROOT, top)):
@@ -95,6 +96,15 @@ def test_landing_page_shows_its_title_and_a_gallery_plot(site, tmp_path):
     with open(png, "rb") as f:
         assert f.read(8) == b"\x89PNG\r\n\x1a\n"  # the plot was rendered, not a placeholder
     assert os.path.getsize(png) > 10_000
+    # the theme's sidebar holds the table of contents, by the pages' short titles
+    sidebar = re.search(r'<div class="sidebar-tree">(.*?)</div>', page, re.S)
+    assert sidebar, "the landing page has the theme's sidebar"
+    titles = re.findall(
+        r'<li class="toctree-l1[^"]*"><a class="reference internal" href="[^"]+">([^<]+)</a>',
+        sidebar.group(1),
+    )
+    assert {"Getting started", "Seats", "Command line"} <= set(titles), titles
+    assert max(len(t) for t in titles) <= 30, titles
     # the navigation leads to pages that exist
     links = set(re.findall(r'<a class="reference internal" href="([^"#]+)', page))
     assert {"getting_started.html", "cli.html", "api/index.html"} <= links, links

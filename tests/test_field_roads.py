@@ -9,8 +9,6 @@ import re
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.road.measured import MAX_MEDIAN_SLOPE, load_profile, median_slope
-from bodyvib.vehicle.road.synthetic import N0, N_BAND, class_psd_n0, random_road
 from field_roads import (
     PROFILER_DATUM,
     PROFILER_GRADE,
@@ -19,6 +17,8 @@ from field_roads import (
 )
 
 from bodyvib.runtime.errors import BodyvibError
+from bodyvib.vehicle.road.measured import MAX_MEDIAN_SLOPE, load_profile, median_slope
+from bodyvib.vehicle.road.synthetic import N0, N_BAND, class_psd_n0, random_road
 
 pycrg = pytest.importorskip("pycrg")
 

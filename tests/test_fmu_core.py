@@ -17,7 +17,6 @@ import textwrap
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.quarter_car import load_car
 
 from bodyvib.models import load_model, save_model
 from bodyvib.runtime.contract import MODEL_FILE
@@ -25,6 +24,7 @@ from bodyvib.runtime.discretize import simulate
 from bodyvib.runtime.engine import FmuCore
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import linear_model
+from bodyvib.vehicle.quarter_car import load_car
 
 BODY_OUT = ("head.a", "head.x", "torso.x", "seat_force")
 
@@ -557,9 +557,8 @@ def load_slave_class(name):
     """The FMU's slave script, rendered as the build renders it, run against the library."""
     import types
 
-    from bodyvib.vehicle.fmus import FMUS
-
     from bodyvib.fmu.pythonfmu import render_slave_script
+    from bodyvib.vehicle.fmus import FMUS
 
     kind, _, description = FMUS[name]
     mod = types.ModuleType(f"slave_{name}")

@@ -41,10 +41,9 @@ def _root(path):
 
 def _core(name):
     """The core a pythonfmu FMU of the project runs (the contract both kinds declare)."""
-    from bodyvib.vehicle.fmus import FMUS, ROAD_DEFAULTS, _road_source, load_fmu_model
-
     from bodyvib.runtime.engine import FmuCore
     from bodyvib.runtime.tabulated import SourceCore
+    from bodyvib.vehicle.fmus import FMUS, ROAD_DEFAULTS, _road_source, load_fmu_model
 
     kind = FMUS[name][0]
     if kind == "source":

@@ -21,12 +21,12 @@ import zipfile
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.quarter_car import CAR_FMU_OUTPUTS, load_car
 
 from bodyvib.models import load_model, save_model
 from bodyvib.runtime.contract import BODY_OUTPUTS, CAR_INPUTS, CAR_OUTPUTS
 from bodyvib.runtime.discretize import simulate
 from bodyvib.runtime.network import linear_model
+from bodyvib.vehicle.quarter_car import CAR_FMU_OUTPUTS, load_car
 
 pytestmark = pytest.mark.integration
 
@@ -353,6 +353,65 @@ def test_fmpy_simulate_fmu_example_agrees_with_library(fmus, name):
     ref = body_reference(MODEL_OF[name], t, x, v)
     y = np.column_stack([res[n] for n in BODY_OUT])
     assert np.all(rel_err(y, ref) < 1e-6), rel_err(y, ref)
+
+
+def check_fmpy_snippet(code, fmu, tmp_path, capfd, monkeypatch):
+    """Run a page's fmpy snippet as a reader pastes it next to ``dist/``: every input of
+    the FMU given (fmpy prints a warning for one left out), and the run is the example's.
+    tests/test_readme.py runs the short front page's with it."""
+    os.makedirs(tmp_path / "dist")
+    with open(fmu, "rb") as src, open(tmp_path / "dist" / "HumanBody3DOF.fmu", "wb") as dst:
+        dst.write(src.read())
+    monkeypatch.chdir(tmp_path)
+    namespace = {}
+    exec(compile(code, "snippet", "exec"), namespace)
+    out, err = capfd.readouterr()
+    assert "Warning" not in out + err and "missing input" not in out + err, out + err
+    sys.path.insert(0, os.path.join(ROOT, "examples"))
+    try:
+        from fmu_from_fmpy import run
+    finally:
+        sys.path.pop(0)
+    example = run(fmu, stop_time=1.0, step=1e-3)
+    assert "Warning" not in capfd.readouterr().out
+    for name in ("head_acceleration", "seat_force"):
+        # a snippet's slope may divide by 1e-3, not by the grid's differences: a few ulps
+        np.testing.assert_allclose(namespace["res"][name], example[name], rtol=1e-12, atol=0)
+
+
+def test_the_tutorial_fmpy_snippet_runs_as_written(fmus, tmp_path, capfd, monkeypatch):
+    text = open(os.path.join(ROOT, "docs", "tutorials", "fmu_hosts.md"), encoding="utf-8").read()
+    code = text.split("From fmpy (", 1)[1].split("```python\n", 1)[1].split("```", 1)[0]
+    check_fmpy_snippet(code, fmus["HumanBody3DOF"], tmp_path, capfd, monkeypatch)
+
+
+def test_the_fmpy_command_line_of_the_tutorial_runs_as_written(fmus, tmp_path):
+    """The tutorial's two commands, in one folder: the example leaves ``seat_bump.csv``
+    there for ``fmpy simulate``, which then runs as written (once it was deleted)."""
+    text = open(os.path.join(ROOT, "docs", "tutorials", "fmu_hosts.md"), encoding="utf-8").read()
+    block = text.split("From fmpy's command line", 1)[1].split("```bash\n", 1)[1].split("```", 1)[0]
+    lines = block.replace("\\\n", " ").splitlines()
+    assert [ln.split()[:2] for ln in lines] == [
+        ["python", "examples/fmu_from_fmpy_cli.py"],
+        ["fmpy", "simulate"],
+    ]
+    os.makedirs(tmp_path / "dist")
+    with (
+        open(fmus["HumanBody3DOF"], "rb") as src,
+        open(tmp_path / "dist" / "HumanBody3DOF.fmu", "wb") as dst,
+    ):
+        dst.write(src.read())
+    os.symlink(os.path.join(ROOT, "examples"), tmp_path / "examples")
+    env = {**os.environ, "PATH": os.path.dirname(sys.executable) + os.pathsep + os.environ["PATH"]}
+    for line in lines:
+        out = subprocess.run(
+            line.split(), cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300
+        )
+        assert out.returncode == 0 and "Warning" not in out.stdout + out.stderr, (
+            line,
+            out.stdout + out.stderr,
+        )
+        assert (tmp_path / "seat_bump.csv").exists() and (tmp_path / "result.csv").exists()
 
 
 @pytest.mark.parametrize("grid", ["fixed", "varying"])

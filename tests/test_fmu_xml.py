@@ -11,9 +11,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.ssp import COMPONENTS, CONNECTIONS
 
 from bodyvib.runtime.modelfile import PARAMETER_RANGE
+from bodyvib.vehicle.ssp import COMPONENTS, CONNECTIONS
 
 pytestmark = pytest.mark.integration
 

@@ -13,13 +13,13 @@ import json
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.quarter_car import CAR_DIR, load_car
 from helpers import nrmse_against_ode, read_run_csv, sine_road, write_sine_road
 
 from bodyvib.frequency.response import frequency_response
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.modelfile import network_from_dict, network_to_dict
 from bodyvib.runtime.network import linear_model
+from bodyvib.vehicle.quarter_car import CAR_DIR, load_car
 
 
 def half_car_dict():
@@ -267,12 +267,11 @@ def test_cosim_half_car_on_a_sine_road_matches_an_independent_solution(tmp_path)
 def test_batched_sweep_engine_sums_the_wheels_as_the_reference_drives_them():
     """The sweep's batched engine (one kernel row per road point, summed) gives the
     monolithic reference's head acceleration of the half car driven at both wheels."""
+    from bodyvib.models import load_model
     from bodyvib.vehicle.quarter_car import wheel_offsets
     from bodyvib.vehicle.reference import reference_run
     from bodyvib.vehicle.sweep.engines import case_wheel_inputs, run_batched
     from bodyvib.vehicle.sweep.spec import expand
-
-    from bodyvib.models import load_model
 
     case = expand(
         {"road": "C", "speed": 15, "duration": 2, "body": "reduced-paper", "car": "half-car"}
@@ -292,13 +291,12 @@ def test_native_half_car_with_moved_axles_matches_the_reference(tmp_path):
     """The native HalfCar.fmu assembles the products of positions and stiffnesses: with
     lf, lr and seat_x changed through its parameters it co-simulates within the coupling
     error of the reference of the changed model."""
+    from bodyvib.models import load_model
     from bodyvib.vehicle.cosim import cosimulate, open_fmu
     from bodyvib.vehicle.fmus import build_project_fmu
     from bodyvib.vehicle.quarter_car import wheel_offsets
     from bodyvib.vehicle.reference import nrmse, reference_run
     from bodyvib.vehicle.road.driven import RunSettings, driven_road, wheel_inputs
-
-    from bodyvib.models import load_model
 
     changed = {"lf": 1.1, "lr": 1.7, "seat_x": 0.4}
     car = load_car("half-car").with_parameters(**changed)
@@ -331,9 +329,10 @@ def test_half_car_ssp_runs_in_ssp_hosts(tmp_path, host):
     import subprocess
     import sys
 
+    from test_ssp import HOSTS, TARGET, host_run
+
     from bodyvib.vehicle.reference import nrmse
     from bodyvib.vehicle.ssp import HALF_CAR_SSP_NAME, ssp_reference
-    from test_ssp import HOSTS, TARGET, host_run
 
     if host == "ecos":
         pytest.importorskip("ecospy")
@@ -352,3 +351,16 @@ def test_half_car_ssp_runs_in_ssp_hosts(tmp_path, host):
     head = res["Body.head_acceleration"]
     assert head.size == ref["head_acceleration"].size
     assert nrmse(head, ref["head_acceleration"]) <= TARGET
+
+
+def test_cosim_help_names_the_cars_it_drives():
+    """``bodyvib cosim`` drives any shipped car; its help once said "quarter-car" alone."""
+    import argparse
+
+    from bodyvib.cli.main import build_parser
+
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    listed = next(c for c in sub._choices_actions if c.dest == "cosim").help
+    description = sub.choices["cosim"].description
+    assert "quarter-car" not in listed and "a car" in listed
+    assert "half-car" in description and "quarter car" in description

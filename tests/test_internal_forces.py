@@ -11,9 +11,6 @@ import json
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.quarter_car import load_car, seated_system
-from bodyvib.vehicle.reference import reference_run
-from bodyvib.vehicle.road.synthetic import make_road, road_input
 from scipy.integrate import solve_ivp
 
 from bodyvib.models import load_model
@@ -23,6 +20,9 @@ from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.modelfile import network_from_dict, network_to_dict
 from bodyvib.runtime.network import linear_model
 from bodyvib.seat.response import head_acceleration, internal_forces
+from bodyvib.vehicle.quarter_car import load_car, seated_system
+from bodyvib.vehicle.reference import reference_run
+from bodyvib.vehicle.road.synthetic import make_road, road_input
 
 #: Seat motion: a 2 cm (1 - cos) pulse of 0.25 s (up to 4 Hz, the bodies' first resonance).
 H, T = 0.02, 0.25

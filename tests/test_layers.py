@@ -15,6 +15,7 @@ function), so an import on a rarely used path counts as much as one at the top.
 
 import ast
 import functools
+import importlib.util
 import os
 import re
 import sys
@@ -92,6 +93,22 @@ def layer(mod):
 def test_the_source_tree_is_what_the_checks_read():
     assert "bodyvib.runtime.engine" in MODULES and "bodyvib.vehicle.cosim" in MODULES
     assert "bodyvib.cli.main" in MODULES
+
+
+@pytest.mark.parametrize("folder", ["vehicle", "fmu_src"])
+def test_a_checkout_folder_is_no_second_package(folder):
+    """``import vehicle`` from a checkout would load a second copy of bodyvib.vehicle (its
+    own classes, registries and settings): the folder refuses any name but the installed one,
+    which it names, and nothing is left in sys.modules."""
+    package = FOLDERS[folder]
+    init = os.path.join(ROOT, folder, "__init__.py")
+    spec = importlib.util.spec_from_file_location(
+        folder, init, submodule_search_locations=[os.path.dirname(init)]
+    )
+    with pytest.raises(ImportError, match=f"import {package}, not {folder}"):
+        spec.loader.exec_module(importlib.util.module_from_spec(spec))
+    assert folder not in sys.modules
+    assert importlib.import_module(package).__file__ == init
 
 
 def upward(imports):

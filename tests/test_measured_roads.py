@@ -8,13 +8,13 @@ import tempfile
 
 import numpy as np
 import pytest
+
+from bodyvib.runtime.errors import BodyvibError
 from bodyvib.vehicle.road.base import RoadWarning
 from bodyvib.vehicle.road.driven import RoadOptions, RunSettings, driven_road
 from bodyvib.vehicle.road.measured import load_profile
 from bodyvib.vehicle.road.profile import ProfileRoad, envelope
 from bodyvib.vehicle.road.synthetic import random_road, road_input
-
-from bodyvib.runtime.errors import BodyvibError
 
 pycrg = pytest.importorskip("pycrg")
 
@@ -539,9 +539,10 @@ def test_road_fmu_of_a_file_is_the_driven_road(files, folder):
     interpolation error (table_bounds; rows every 5/3 cm, a third of the profile's spacing:
     measured 3.4e-9 m and 1.3e-5 m/s in the fade, half the bounds, and 1e-15 m, 2e-12 m/s
     beyond it, where the table reproduces the profile's cubics)."""
+    from fmpy import simulate_fmu
+
     from bodyvib.vehicle.fmus import build_project_fmu
     from bodyvib.vehicle.road.synthetic import table_spacing
-    from fmpy import simulate_fmu
 
     speed = 17.3
     fmu = build_project_fmu("Road", os.path.join(folder, "roadfmu"), files["csv"])
@@ -566,11 +567,10 @@ def test_sweep_engines_drive_a_road_file_as_cosim_does(files, folder, capsys):
     """A sweep case on the ERD file: its road input is bodyvib cosim's, sample for sample from
     t = 0 (the CSV's 10 digits); the cosim engine gives cosim's head acceleration, the batched
     engine the same within the coupling error."""
+    from bodyvib.cli.main import main
     from bodyvib.vehicle.reference import nrmse
     from bodyvib.vehicle.sweep.engines import case_road_input, run_batched, run_cosim
     from bodyvib.vehicle.sweep.spec import expand, grid_spec
-
-    from bodyvib.cli.main import main
 
     csv = os.path.join(folder, "erd-run.csv")
     assert (
@@ -705,9 +705,8 @@ def test_guide_worked_example(folder):
 
 def test_build_help_names_every_road_file_format(capsys):
     """``bodyvib build --road`` lists the extensions the reader takes, all of them."""
-    from bodyvib.vehicle.road.measured import PROFILE_EXTENSIONS
-
     from bodyvib.cli.main import main
+    from bodyvib.vehicle.road.measured import PROFILE_EXTENSIONS
 
     with pytest.raises(SystemExit):
         main(["build", "--help"])

@@ -106,13 +106,12 @@ def test_cushion_seat_value_matches_the_frequency_integral():
     |Wk(f)|^2 integrated over a white road velocity (S_v flat, so S_z ~ 1/f^2) by
     the trapezoid rule on 200,000 log-spaced points over 0.01-1000 Hz.
     """
-    from bodyvib.vehicle.design import DesignProblem, parse_spec
-    from bodyvib.vehicle.quarter_car import load_car, seated_system
-
     from bodyvib.comfort import wk_response
     from bodyvib.frequency.response import frequency_response
     from bodyvib.models import load_model
     from bodyvib.runtime.network import linear_model
+    from bodyvib.vehicle.design import DesignProblem, parse_spec
+    from bodyvib.vehicle.quarter_car import load_car, seated_system
 
     spec = parse_spec(
         {

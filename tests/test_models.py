@@ -43,9 +43,8 @@ def test_round_trip_through_file(tmp_path):
 
 def test_units_are_kept_through_files_and_mounting(tmp_path):
     """The units field is validated and travels with the model (it is not dropped)."""
-    from bodyvib.vehicle.quarter_car import load_car
-
     from bodyvib.runtime.network import mount
+    from bodyvib.vehicle.quarter_car import load_car
 
     d = reduced_dict()
     assert d["units"]["k1"] == "N/m"  # network_to_dict writes it

@@ -18,11 +18,11 @@ import json
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.quarter_car import load_car
-from bodyvib.vehicle.reference import nrmse, reference_run
 from helpers import ROOT, run_cli
 
 from bodyvib.models import load_model
+from bodyvib.vehicle.quarter_car import load_car
+from bodyvib.vehicle.reference import nrmse, reference_run
 
 pytestmark = pytest.mark.integration
 

@@ -22,12 +22,12 @@ import shutil
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.quarter_car import load_car
-from bodyvib.vehicle.reference import nrmse, reference_run
 from test_native_cosim import DURATION, road
 from test_native_fmu import BODY_OUT, _fmi2_callbacks, chirp, grid
 
 from bodyvib.models import load_model
+from bodyvib.vehicle.quarter_car import load_car
+from bodyvib.vehicle.reference import nrmse, reference_run
 
 pytestmark = pytest.mark.integration
 

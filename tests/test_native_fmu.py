@@ -29,13 +29,13 @@ import zipfile
 import numpy as np
 import pytest
 import scipy.linalg
-from bodyvib.vehicle.quarter_car import load_car
 from helpers import ROOT
 
 from bodyvib.models import load_model
 from bodyvib.runtime.discretize import input_rates, simulate
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import linear_model
+from bodyvib.vehicle.quarter_car import load_car
 
 pytestmark = pytest.mark.integration
 

@@ -34,7 +34,6 @@ from xml.etree import ElementTree as ET
 import numpy as np
 import pytest
 import scipy.linalg
-from bodyvib.vehicle.quarter_car import load_car
 from helpers import ROOT, win64_host
 from test_native_fmu import _fmi2_callbacks
 
@@ -42,6 +41,7 @@ from bodyvib.models import load_model
 from bodyvib.runtime.contract import KINDS
 from bodyvib.runtime.discretize import discretize
 from bodyvib.runtime.network import linear_model
+from bodyvib.vehicle.quarter_car import load_car
 
 pytestmark = pytest.mark.integration
 

@@ -24,10 +24,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.reference import nrmse
-from bodyvib.vehicle.ssp import CONNECTIONS, SSP_NAME, ssp_reference
 from helpers import ROOT
 from test_ssp import DURATION, HOSTS, host_run
+
+from bodyvib.vehicle.reference import nrmse
+from bodyvib.vehicle.ssp import CONNECTIONS, SSP_NAME, ssp_reference
 
 pytestmark = pytest.mark.integration
 
@@ -50,9 +51,10 @@ def test_native_road_is_the_pythonfmu_road_sample_for_sample(native_dist, python
     """At 17.3 m/s (samples between rows) over 40 s (past the 601 m table: it repeats),
     in fmpy at 1 ms: the native Road.fmu's outputs equal the library's interpolant and
     the pythonfmu Road.fmu's to 1e-12 of their peaks (measured: identical)."""
+    from fmpy import simulate_fmu
+
     from bodyvib.vehicle.fmus import fmu_road
     from bodyvib.vehicle.road.synthetic import road_table
-    from fmpy import simulate_fmu
 
     speed = 17.3
     sub = "fmi3/" if fmi == 3 else ""

@@ -2,13 +2,13 @@
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.quarter_car import load_car, seated_system
 from helpers import dynamic_stiffness_response
 
 from bodyvib.frequency.response import find_peaks, frequency_response, transmissibility
 from bodyvib.models import load_model
 from bodyvib.runtime.modelfile import network_from_dict
 from bodyvib.runtime.network import linear_model, mount
+from bodyvib.vehicle.quarter_car import load_car, seated_system
 
 
 def reduced_matrices(m1, m2, k1, k2, c1, c2, ks):

@@ -18,6 +18,9 @@ import math
 
 import numpy as np
 import pytest
+
+from bodyvib.models import load_model
+from bodyvib.runtime.network import linear_model
 from bodyvib.vehicle.design import (
     GRAVITY,
     random_response,
@@ -26,9 +29,6 @@ from bodyvib.vehicle.design import (
     stationary_outputs,
 )
 from bodyvib.vehicle.quarter_car import load_car, seated_system
-
-from bodyvib.models import load_model
-from bodyvib.runtime.network import linear_model
 
 
 def closed_form(ms, mu, k, c, kt, W):

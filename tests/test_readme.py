@@ -97,3 +97,13 @@ def test_readme_seat_and_control_figures_are_what_the_commands_print():
     assert [r[0] for r in rows] == ["passive", "skyhook", "groundhook"]
     for law, head, tire, travel in rows:
         assert printed[law][3:6] == [head, tire, travel], (law, printed[law])
+
+
+@pytest.mark.integration
+def test_readme_fmpy_snippet_runs_as_written(python_fmus, tmp_path, capfd, monkeypatch):
+    """The snippet once used an undefined ``signals`` and left an input out."""
+    from test_fmu_integration import check_fmpy_snippet
+
+    section = readme().split("**Drop the FMU into a host**", 1)[1]
+    code = section.split("```python\n", 1)[1].split("```", 1)[0]
+    check_fmpy_snippet(code, python_fmus["HumanBody3DOF"], tmp_path, capfd, monkeypatch)

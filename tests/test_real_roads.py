@@ -12,6 +12,7 @@ import shutil
 
 import numpy as np
 import pytest
+
 from bodyvib.vehicle.road.iri import international_roughness_index
 from bodyvib.vehicle.road.measured import load_profile
 
@@ -176,9 +177,10 @@ def test_road_fmu_of_a_repeated_scan_fades_in_once(native, tmp_path):
     """Road.fmu built with ``--road-repeat`` from the 10 m scan, run in fmpy for 2.5 s at
     20 m/s (five passes): its height is the road the library drives on every pass, to the
     table's interpolation in the fade (1e-6 m) and to rounding after it."""
+    from fmpy import simulate_fmu
+
     from bodyvib.vehicle.fmus import build_project_fmu
     from bodyvib.vehicle.road.driven import RoadOptions, RunSettings, driven_road
-    from fmpy import simulate_fmu
 
     fmu = build_project_fmu(
         "Road", tmp_path, SCAN, road={"repeat": True}, native=native, platforms=("linux64",)

@@ -2,15 +2,15 @@
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.quarter_car import load_car, seated_system
-from bodyvib.vehicle.reference import nrmse, reference_run
-from bodyvib.vehicle.road.synthetic import make_road, road_input
 from helpers import dynamic_stiffness_response
 
 from bodyvib.frequency.estimate import estimate_transmissibility
 from bodyvib.frequency.response import transmissibility
 from bodyvib.models import load_model
 from bodyvib.runtime.errors import BodyvibError
+from bodyvib.vehicle.quarter_car import load_car, seated_system
+from bodyvib.vehicle.reference import nrmse, reference_run
+from bodyvib.vehicle.road.synthetic import make_road, road_input
 
 
 def _steady_phasor(t, y, f, t_from):

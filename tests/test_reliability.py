@@ -63,9 +63,8 @@ def test_failed_build_keeps_the_folders_previous_fmus(tmp_path):
     in place: all FMUs are committed together at the end."""
     import json
 
-    from bodyvib.vehicle.quarter_car import load_car
-
     from bodyvib.runtime.modelfile import network_to_dict
+    from bodyvib.vehicle.quarter_car import load_car
 
     dest = tmp_path / "dist"
     dest.mkdir()

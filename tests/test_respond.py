@@ -4,9 +4,6 @@ import json
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.quarter_car import load_car
-from bodyvib.vehicle.reference import reference_run
-from bodyvib.vehicle.road.synthetic import make_road, road_input
 from helpers import dynamic_stiffness_response
 
 from bodyvib.cli.main import main
@@ -15,6 +12,9 @@ from bodyvib.models import load_model
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.seat.response import head_acceleration, respond
 from bodyvib.seat.signal import check_signal, read_signal
+from bodyvib.vehicle.quarter_car import load_car
+from bodyvib.vehicle.reference import reference_run
+from bodyvib.vehicle.road.synthetic import make_road, road_input
 
 MODELS = ("reduced-paper", "iso7962")
 

@@ -2,6 +2,8 @@
 
 import numpy as np
 import pytest
+
+from bodyvib.runtime.errors import BodyvibError
 from bodyvib.vehicle.road.classify import class_limits, class_of, classify_profile
 from bodyvib.vehicle.road.iri import (
     GOLDEN_CAR,
@@ -11,8 +13,6 @@ from bodyvib.vehicle.road.iri import (
     moving_average,
 )
 from bodyvib.vehicle.road.synthetic import class_psd_n0, random_road
-
-from bodyvib.runtime.errors import BodyvibError
 
 DX = 0.025  # m: 10 samples in the 250 mm moving average
 #: Sayers (1986) / ASTM E1926, typed here from the standard, not imported
@@ -131,9 +131,8 @@ def test_bad_profiles_are_refused():
 def test_modal_recursion_equals_stepping_the_discretization():
     # the IRI's recursion runs mode by mode (lfilter); stepping Phi directly from
     # the same start gives the same states to rounding (cond(V) ~ 76: 1e-12)
-    from bodyvib.vehicle.road.iri import _recursion
-
     from bodyvib.runtime.discretize import discretize
+    from bodyvib.vehicle.road.iri import _recursion
 
     A, B, C = golden_car()
     Phi, _, _ = discretize(A, B, 0.05 / IRI_SPEED_M_S)

@@ -5,11 +5,11 @@ import json
 
 import numpy as np
 import pytest
+
+from bodyvib.cli.main import main
 from bodyvib.vehicle.road.classify import classify_profile
 from bodyvib.vehicle.road.iri import international_roughness_index
 from bodyvib.vehicle.road.synthetic import random_road
-
-from bodyvib.cli.main import main
 
 HAS_READER = importlib.util.find_spec("bodyvib.vehicle.road.measured") is not None
 

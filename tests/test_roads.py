@@ -2,6 +2,9 @@
 
 import numpy as np
 import pytest
+from scipy.signal import welch
+
+from bodyvib.runtime.errors import BodyvibError
 from bodyvib.vehicle.road.driven import RunSettings
 from bodyvib.vehicle.road.synthetic import (
     BumpRoad,
@@ -12,9 +15,6 @@ from bodyvib.vehicle.road.synthetic import (
     random_road,
     road_input,
 )
-from scipy.signal import welch
-
-from bodyvib.runtime.errors import BodyvibError
 
 
 def test_class_levels_follow_iso8608():

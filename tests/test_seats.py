@@ -11,14 +11,6 @@ import json
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.quarter_car import CAR_DIR, load_car, seated_system
-from bodyvib.vehicle.seat_response import seat_transmissibility, seat_value
-from bodyvib.vehicle.seats import (
-    SEAT_DIR,
-    car_with_seat,
-    load_seat,
-    mount_seat,
-)
 from helpers import nrmse_against_ode, read_run_csv, sine_road, write_sine_road
 
 from bodyvib.cli.main import main
@@ -27,6 +19,14 @@ from bodyvib.models import load_model
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.modelfile import network_from_dict, network_to_dict
 from bodyvib.runtime.network import linear_model
+from bodyvib.vehicle.quarter_car import CAR_DIR, load_car, seated_system
+from bodyvib.vehicle.seat_response import seat_transmissibility, seat_value
+from bodyvib.vehicle.seats import (
+    SEAT_DIR,
+    car_with_seat,
+    load_seat,
+    mount_seat,
+)
 
 F_HZ = np.geomspace(0.3, 40.0, 60)
 
@@ -339,9 +339,10 @@ def test_cosim_with_a_suspension_seat_matches_an_independent_solution(tmp_path, 
 @pytest.mark.integration
 @pytest.mark.parametrize("native", [False, True])
 def test_car_fmu_with_a_seat_passes_fmpy_validate(tmp_path, native):
-    from bodyvib.vehicle.fmus import build_project_fmu
     from fmpy import read_model_description
     from fmpy.validation import validate_fmu
+
+    from bodyvib.vehicle.fmus import build_project_fmu
 
     if native:
         from bodyvib.fmu.native import choose_platforms

@@ -23,6 +23,9 @@ import zipfile
 
 import numpy as np
 import pytest
+
+from bodyvib.models import load_model
+from bodyvib.runtime.engine import FmuCore
 from bodyvib.vehicle.quarter_car import load_car
 from bodyvib.vehicle.reference import nrmse
 from bodyvib.vehicle.road.driven import RunSettings
@@ -34,9 +37,6 @@ from bodyvib.vehicle.ssp import (
     ssp_reference,
     write_ssp,
 )
-
-from bodyvib.models import load_model
-from bodyvib.runtime.engine import FmuCore
 
 pytestmark = pytest.mark.integration
 
@@ -170,10 +170,11 @@ def test_road_fmu_is_its_table_and_the_library_road(dist):
     table's cubic Hermite interpolant (to rounding), and from t = 0, sample for sample, the
     road every run drives (faded in from level over 5 m) to within the interpolation error
     bound (hermite_bounds; measured 8 % of it: 5.3e-8 m and 1.3e-4 m/s)."""
+    from fmpy import simulate_fmu
+
     from bodyvib.vehicle.fmus import fmu_road
     from bodyvib.vehicle.road.driven import driven_road
     from bodyvib.vehicle.road.synthetic import TABLE_SPACING, road_input, road_table
-    from fmpy import simulate_fmu
 
     speed = 17.3
     res = simulate_fmu(

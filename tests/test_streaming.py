@@ -12,15 +12,15 @@ to rounding.
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.quarter_car import load_car
-from bodyvib.vehicle.reference import ReferenceStream, nrmse, reference_run
-from bodyvib.vehicle.road.driven import RunSettings
-from bodyvib.vehicle.road.synthetic import make_road, road_input
 
 from bodyvib.comfort.figures import comfort_figures
 from bodyvib.comfort.stream import stream_comfort_figures
 from bodyvib.frequency.estimate import TransmissibilityStream, estimate_transmissibility
 from bodyvib.models import load_model
+from bodyvib.vehicle.quarter_car import load_car
+from bodyvib.vehicle.reference import ReferenceStream, nrmse, reference_run
+from bodyvib.vehicle.road.driven import RunSettings
+from bodyvib.vehicle.road.synthetic import make_road, road_input
 
 
 def _road(duration=12.0, h=1e-3):

@@ -2,18 +2,18 @@
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.quarter_car import seated_system
-from bodyvib.vehicle.reference import nrmse, reference_run
-from bodyvib.vehicle.road.synthetic import N_BAND, displacement_psd
-from bodyvib.vehicle.sweep.engines import case_road_input, run_batched, run_cosim, run_spectral
-from bodyvib.vehicle.sweep.kernel import pack, run
-from bodyvib.vehicle.sweep.spec import expand
 
 from bodyvib.comfort.figures import wk_response
 from bodyvib.comfort.stream import WeightingStep, stream_comfort_figures
 from bodyvib.frequency.response import frequency_response
 from bodyvib.runtime.discretize import simulate
 from bodyvib.runtime.network import linear_model
+from bodyvib.vehicle.quarter_car import seated_system
+from bodyvib.vehicle.reference import nrmse, reference_run
+from bodyvib.vehicle.road.synthetic import N_BAND, displacement_psd
+from bodyvib.vehicle.sweep.engines import case_road_input, run_batched, run_cosim, run_spectral
+from bodyvib.vehicle.sweep.kernel import pack, run
+from bodyvib.vehicle.sweep.spec import expand
 
 EPS = np.finfo(float).eps
 
@@ -264,9 +264,8 @@ def test_a_sweep_case_runs_on_the_road_of_bodyvib_cosim(tmp_path, capsys):
 
 
 def test_frequency_response_of_several_outputs_shares_one_solve():
-    from bodyvib.vehicle.quarter_car import load_car
-
     from bodyvib.models import load_model
+    from bodyvib.vehicle.quarter_car import load_car
 
     lm = linear_model(seated_system(load_car(), load_model("iso7962")))
     f = np.geomspace(0.1, 100, 50)

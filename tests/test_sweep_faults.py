@@ -15,8 +15,9 @@ import time
 import numpy as np
 import pandas as pd
 import pytest
-from bodyvib.vehicle.sweep.run import parts_dir, read_results, run_sweep
 from test_sweep_run import GROUPING_RTOL
+
+from bodyvib.vehicle.sweep.run import parts_dir, read_results, run_sweep
 
 pytestmark = pytest.mark.integration
 

@@ -10,6 +10,10 @@ import time
 import numpy as np
 import pandas as pd
 import pytest
+
+from bodyvib import __version__
+from bodyvib.cli.main import main
+from bodyvib.models import load_model
 from bodyvib.vehicle.quarter_car import load_car
 from bodyvib.vehicle.sweep.run import (
     BASE_COLUMNS,
@@ -21,10 +25,6 @@ from bodyvib.vehicle.sweep.run import (
     task_size,
 )
 from bodyvib.vehicle.sweep.spec import expand, spec_hash
-
-from bodyvib import __version__
-from bodyvib.cli.main import main
-from bodyvib.models import load_model
 
 # Dask clusters, killed and resumed runs and the command line: processes and seconds each
 pytestmark = pytest.mark.integration
@@ -384,7 +384,24 @@ def test_cli_grid_run_and_plot(tmp_path, capsys):
     )
     text = capsys.readouterr().out
     assert f"wrote {out}" in text and f"wrote {png}" in text
-    assert len(pd.read_parquet(out)) == 16
+    table = pd.read_parquet(out)
+    assert len(table) == 16
+    # the summary closes the output: its figures and cases are the table's
+    summary = text.split(f"wrote {png}\n", 1)[1].splitlines()
+    assert summary[0] == "sweep: 16 cases, 16 computed, 0 failed (engine batched)"
+    rms = table["head_weighted_rms"]
+    assert summary[1] == (
+        f"head Wk r.m.s. [m/s2]: min {rms.min():.4g}, median {rms.median():.4g}, max {rms.max():.4g}"
+    )
+    for line, row in zip(summary[2:4], (table.loc[rms.idxmin()], table.loc[rms.idxmax()])):
+        assert line.endswith(
+            f"road {row.road}, {row.speed_m_s:g} m/s, body {row.body}, "
+            f"car {row.car} (case {row.case_id})"
+        )
+    bands = table["head_comfort"].value_counts()
+    assert sorted(summary[4].split(": ", 1)[1].split(", ")) == sorted(
+        f"{n} {b}" for b, n in bands.items()
+    )
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     png2 = tmp_path / "again.png"  # a finished table plots without running
     assert main(["sweep", "--out", str(out), "--plot", str(png2)]) == 0

@@ -5,10 +5,10 @@ import os
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.sweep.spec import expand, grid_spec, spec_hash, varied_parameters
 
 from bodyvib.models import MODEL_DIR, load_model
 from bodyvib.runtime.errors import BodyvibError
+from bodyvib.vehicle.sweep.spec import expand, grid_spec, spec_hash, varied_parameters
 
 
 def test_product_order_and_defaults():
@@ -179,6 +179,9 @@ def test_the_documented_spec_example_expands():
     text = open(path, encoding="utf-8").read()
     section = text.split("## Sweeps", 1)[1].split("\n## ", 1)[0]
     spec = json.loads(section.split("```json\n", 1)[1].split("```", 1)[0])
+    # the tutorial's `bodyvib sweep examples/study.json` runs this spec
+    with open(os.path.join(ROOT, "examples", "study.json"), encoding="utf-8") as f:
+        assert json.load(f) == spec
     cases = expand(spec)
     assert len(cases) == 5 * 5 * (1 + 400) * 2
     assert {c.body for c in cases} == {"iso7962", "reduced-varied"}

@@ -10,6 +10,7 @@ import sys
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
+
 from bodyvib.vehicle.sweep.engines import FIGURES
 from bodyvib.vehicle.sweep.table import arrow_array, part_bytes, table_schema
 
@@ -117,6 +118,7 @@ def test_a_local_workers_first_sweep_loads_nothing_and_it_has_dasks_environment(
     (the hash of a string, as a Python started with PYTHONHASHSEED=6640 computes it)
     and glibc's malloc settings, which glibc reads when the process starts."""
     import psutil
+
     from bodyvib.vehicle.sweep.cluster import open_cluster
     from bodyvib.vehicle.sweep.run import run_sweep
 
@@ -162,8 +164,9 @@ def test_the_fork_server_gets_the_environment_dask_gives_a_worker(monkeypatch):
     """The server starts before this process imports distributed, with the variables
     distributed.Nanny would set before starting a worker (its own computation here)."""
     import dask
-    from bodyvib.vehicle.sweep.cluster import _server_environ
     from distributed.nanny import _get_env_variables
+
+    from bodyvib.vehicle.sweep.cluster import _server_environ
 
     key = "distributed.nanny.pre-spawn-environ"
     config = {f"{key}.MALLOC_TRIM_THRESHOLD_": 1 << 27, f"{key}.BODYVIB_TEST_ONLY": "x"}

@@ -10,13 +10,13 @@ import json
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.reference import nrmse
-from bodyvib.vehicle.road.synthetic import BumpRoad, make_road, road_input, road_source, road_table
 
 from bodyvib.models import load_model
 from bodyvib.runtime.engine import FmuCore
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.tabulated import HermiteTable, SourceCore, read_source, write_source
+from bodyvib.vehicle.reference import nrmse
+from bodyvib.vehicle.road.synthetic import BumpRoad, make_road, road_input, road_source, road_table
 
 
 def test_hermite_reproduces_cubics_and_its_slope_is_the_derivative():
@@ -122,9 +122,8 @@ def test_road_slave_in_plain_python(tmp_path):
     pytest.importorskip("pythonfmu")
     import types
 
-    from bodyvib.vehicle.fmus import FMUS
-
     from bodyvib.fmu.pythonfmu import render_slave_script
+    from bodyvib.vehicle.fmus import FMUS
 
     mod = types.ModuleType("slave_Road")
     exec(

@@ -20,9 +20,8 @@ pytestmark = pytest.mark.integration
 
 @pytest.fixture(scope="module")
 def native_body(tmp_path_factory):
-    from bodyvib.vehicle.fmus import FMUS, load_fmu_model
-
     from bodyvib.fmu.native import build_native_fmu
+    from bodyvib.vehicle.fmus import FMUS, load_fmu_model
 
     kind, _, description = FMUS["HumanBody3DOF"]
     dest = tmp_path_factory.mktemp("native_body")

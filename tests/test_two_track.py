@@ -3,10 +3,10 @@ isotropic-surface model, within the estimate's statistical bounds."""
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.road import random_road, track_coherence, two_track_road
 from scipy.signal import coherence
 
 from bodyvib import BodyvibError
+from bodyvib.vehicle.road import random_road, track_coherence, two_track_road
 
 LENGTH, DX, SEGMENT = 4000.0, 0.05, 2048
 

@@ -13,6 +13,16 @@ Names are imported from their module on first use, so ``import bodyvib.vehicle``
 nothing until a name is used (the command line imports only what a command needs).
 """
 
+# One module identity: this folder installs as bodyvib.vehicle (pyproject.toml's package-dir).
+# Imported as `vehicle` from a checkout it would be a second copy of every module, with
+# its own classes and registries, so it refuses.
+if __name__ != "bodyvib.vehicle":
+    raise ImportError(
+        f"import bodyvib.vehicle, not {__name__}: the repository's vehicle/ folder is the "
+        "package bodyvib.vehicle (pip install -e . installs it so)"
+    )
+
+
 import importlib
 
 _HOME = {

@@ -155,6 +155,8 @@ def _cross_check(args, inputs) -> int:
         f"wrote {made.folder}: {made.fmu.name}, {made.inputs.name}, {made.reference.name} "
         f"(exact), {made.options.name}, _cc.sh/_cc.bat, {made.readme.name}"
     )
+    for twin in made.entries[1:]:
+        print(f"wrote {twin}: the same files (the FMU is also a model-exchange FMU)")
     return 0
 
 
@@ -267,8 +269,9 @@ def add_command(subparsers):
         "--cross-check",
         metavar="DIR",
         help="instead: write the native FMI 2.0 HumanBody3DOF.fmu into DIR in the FMI "
-        "cross-check layout (fmus/2.0/cs/linux64/bodyvib/VERSION/HumanBody3DOF/: the FMU, "
-        "its _in.csv seat sine, the exact _ref.csv, _ref.opt, _cc.sh/.bat and ReadMe.md)",
+        "cross-check layout (fmus/2.0/cs/linux64/bodyvib/VERSION/HumanBody3DOF/ and the same "
+        "under me/: the FMU, its _in.csv seat sine, the exact _ref.csv, _ref.opt, "
+        "_cc.sh/.bat that rebuild the tree, and ReadMe.md)",
     )
     add_road_options(
         p,

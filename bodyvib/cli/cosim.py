@@ -1,6 +1,7 @@
-"""``bodyvib cosim`` and ``bodyvib check``: quarter-car co-simulation with body FMUs.
+"""``bodyvib cosim`` and ``bodyvib check``: co-simulation of a car with body FMUs.
 
-``cosim`` drives the quarter car over a road with one body FMU and reports the
+``cosim`` drives a car (the quarter car by default, ``--car half-car``, a car with a seat or
+actuators) over a road with one body FMU and reports the
 head acceleration's ISO 2631-1 figures and the coupling error against the
 monolithic reference. ``check`` does the same with the reduced body and the
 ISO 7962 body and prints the verdict of the reduced model against the ISO one.
@@ -281,8 +282,9 @@ def add_command(subparsers):
     """Register ``bodyvib cosim`` and ``bodyvib check``."""
     p = subparsers.add_parser(
         "cosim",
-        help="quarter-car co-simulation with a body FMU (ISO 2631-1 figures)",
-        description="Drive the quarter-car FMU over a road with a body FMU (fmpy, two-way "
+        help="a car co-simulated with a body FMU over a road (ISO 2631-1 figures)",
+        description="Drive a car FMU (the quarter car by default; --car half-car, a car with a "
+        "seat or with actuators) over a road with a body FMU (fmpy, two-way "
         "coupled), report the head acceleration's ISO 2631-1 figures and the coupling error "
         "against the monolithic reference.",
     )

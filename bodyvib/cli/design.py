@@ -3,13 +3,14 @@
 import shlex
 import sys
 
-from bodyvib.process import interrupts
+from bodyvib.process import extras, interrupts
 from bodyvib.process.outputs import check_output_path, staged_writes
 
 __all__ = ["add_command"]
 
 
 def _run(args):
+    extras.require("bodyvib design", "fit", "sweep")
     from bodyvib.vehicle.design.optimize import design
     from bodyvib.vehicle.design.report import format_summary, write_design
     from bodyvib.vehicle.design.spec import load_spec

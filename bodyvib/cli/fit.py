@@ -7,7 +7,7 @@ from bodyvib.fit.methods import METHODS
 from bodyvib.fit.objective import measured_target, model_target
 from bodyvib.fit.result import write_parameter_file
 from bodyvib.fit.search import fit
-from bodyvib.process import interrupts
+from bodyvib.process import extras, interrupts
 from bodyvib.process.outputs import check_outputs, staged_writes
 from bodyvib.runtime.errors import BodyvibError
 
@@ -63,6 +63,7 @@ def _check_files(args):
 
 
 def _run(args):
+    extras.require("bodyvib fit", "fit")
     if args.pareto and not args.report:
         raise BodyvibError("--pareto writes its front into --report DIR: give --report")
     if args.pareto and args.measured:

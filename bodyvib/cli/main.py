@@ -3,7 +3,8 @@
 Each sub-command is a module of :mod:`bodyvib.cli` that registers itself through
 an ``add_command(subparsers)`` function listed in :data:`COMMAND_MODULES`. Errors a user can cause (:class:`bodyvib.runtime.errors.BodyvibError`,
 unreadable files, bad options) print one line and exit with status 2, without a
-traceback. Ctrl-C ends any command with the single line ``interrupted`` and status 130,
+traceback; a command that needs an optional part of bodyvib names the extra that brings it
+(:mod:`bodyvib.process.extras`). Ctrl-C ends any command with the single line ``interrupted`` and status 130,
 SIGTERM with ``terminated (SIGTERM)`` and 143, SIGHUP with ``hung up (SIGHUP)`` and 129:
 the command runs inside :func:`bodyvib.process.interrupts.deferred`, so the signal is
 taken at a safe point, never inside an FMU, temporary files are removed, and outputs are
@@ -121,6 +122,7 @@ def main(argv=None) -> int:
     previous = {s: signal.signal(s, _early_handler) for s in _EARLY_SIGNALS} if main_thread else {}
     try:
         from bodyvib.process import interrupts
+        from bodyvib.process.extras import MissingExtraError
         from bodyvib.process.scratch import private_tempdir
         from bodyvib.runtime.errors import BodyvibError
     finally:
@@ -152,6 +154,11 @@ def main(argv=None) -> int:
             if interrupts.requested():
                 return stopped()
             print(exc, file=sys.stderr)
+            return 2
+        except MissingExtraError as exc:  # the line names the command when it is the task
+            if interrupts.requested():
+                return stopped()
+            print(exc if exc.task == command else f"{command}: {exc}", file=sys.stderr)
             return 2
         except BodyvibError as exc:
             if interrupts.requested():

@@ -2,6 +2,7 @@
 
 import sys
 
+from bodyvib.process import extras
 from bodyvib.process.outputs import check_outputs
 from bodyvib.runtime.errors import BodyvibError
 
@@ -13,6 +14,7 @@ __all__ = ["add_command"]
 
 
 def _run(args):
+    extras.require("bodyvib sweep", "sweep")
     from bodyvib.vehicle.sweep.run import PARQUET_EXTENSIONS
     from bodyvib.vehicle.sweep.spec import ROAD_OPTION_KEYS, grid_spec
 
@@ -88,6 +90,9 @@ def _run(args):
 
         plot_sweep(df, args.plot)
         print(f"wrote {args.plot}")
+    from bodyvib.vehicle.sweep.summary import format_summary, summary_columns
+
+    print(format_summary(df if df is not None else summary_columns(args.out or args.csv)))
     return 0
 
 

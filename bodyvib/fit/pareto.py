@@ -41,6 +41,7 @@ import numpy as np
 from .. import __version__
 from ..analytic import head_transmissibility
 from ..models import save_model
+from ..process import extras
 from ..process.outputs import atomic_write_text
 from ..runtime.errors import BodyvibError
 from ..runtime.renames import renamed_parameters
@@ -203,8 +204,12 @@ def pareto_front(target, config, seed: int = 1, start=None, progress: bool = Fal
     ------
     BodyvibError
         The target is measured data (no reference model to take the peak from).
+    bodyvib.process.extras.MissingExtraError
+        The fit extra is not installed.
     """
     import time
+
+    extras.require("the Pareto front", "fit")
 
     from pymoo.algorithms.moo.nsga2 import NSGA2
     from pymoo.core.problem import Problem

@@ -20,7 +20,7 @@ from typing import List, Optional
 import numpy as np
 
 from ..models import load_model
-from ..process import interrupts
+from ..process import extras, interrupts
 from ..runtime.errors import BodyvibError
 from .config import FitConfig, load_config, log_bounds
 from .methods import METHODS, search
@@ -72,6 +72,8 @@ def fit(
     ------
     BodyvibError
         A seed that is not a non-negative integer, or an unknown method.
+    bodyvib.process.extras.MissingExtraError
+        The fit extra is not installed.
 
     Examples
     --------
@@ -81,6 +83,7 @@ def fit(
     >>> bool(r.objective < r.objective_table2)
     True
     """
+    extras.require("the fit", "fit")
     from threadpoolctl import threadpool_limits
     from tqdm import tqdm
 

@@ -2,7 +2,10 @@
 
 The FMI cross-check (the modelica-tools ``fmi-cross-check`` repository) publishes every
 exported FMU in ``fmus/<FMI version>/<cs|me>/<platform>/<tool>/<tool version>/<model>/``
-beside the files an importing tool needs to run it and judge its result:
+beside the files an importing tool needs to run it and judge its result. The native FMI
+2.0 body FMU is both a co-simulation and a model-exchange FMU, so it is published twice,
+under ``cs`` and under ``me``, with the same files (the cross-check covers FMI 1.0 and
+2.0 only):
 
 * ``<model>.fmu`` -- the FMU (here the native FMI 2.0 body FMU, linux64 binary and sources);
 * ``<model>_in.csv`` -- the inputs over time (a seat sine: displacement, velocity and
@@ -11,7 +14,8 @@ beside the files an importing tool needs to run it and judge its result:
   state space to that sine from rest (harmonic part plus the matrix-exponential free
   response), not a run of the FMU;
 * ``<model>_ref.opt`` -- start time, stop time, step size and relative tolerance;
-* ``<model>_cc.sh`` / ``<model>_cc.bat`` -- the command that made the folder;
+* ``<model>_cc.sh`` / ``<model>_cc.bat`` -- the command that made the tree, which run from
+  anywhere rebuilds it in place (the tree's root is seven folders above the script);
 * ``ReadMe.md`` -- what the FMU is and how the reference was computed.
 
 ``fmpy.cross_check.validate_vendor_repo.validate_repo`` checks such a tree.
@@ -19,6 +23,7 @@ beside the files an importing tool needs to run it and judge its result:
 
 import math
 import os
+import shlex
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Dict, Mapping, Sequence, Tuple, Union
@@ -27,7 +32,7 @@ import numpy as np
 import scipy.linalg
 
 from .. import __version__
-from ..process.outputs import atomic_write_text
+from ..process.outputs import atomic_write_bytes, atomic_write_text, staged_source
 from ..runtime.contract import KINDS
 from ..runtime.errors import BodyvibError
 from ..runtime.network import Network, linear_model
@@ -40,6 +45,9 @@ __all__ = ["CrossCheckSettings", "CrossCheck", "exact_sine_outputs", "write_cros
 
 #: The exporting tool's name in the layout.
 TOOL = "bodyvib"
+
+#: The cross-check's interface folders the FMU is published in: co-simulation, model exchange.
+INTERFACES = ("cs", "me")
 
 
 @renamed_fields(stop_time="duration")
@@ -87,6 +95,8 @@ class CrossCheck:
         Its FMU, ``_in.csv``, ``_ref.csv``, ``_ref.opt`` and ``ReadMe.md``.
     outputs : tuple of str
         The output variables of the reference.
+    entries : tuple of Path
+        Every folder that publishes the FMU: ``folder`` and its ``me`` twin.
     """
 
     folder: Path
@@ -96,6 +106,7 @@ class CrossCheck:
     options: Path
     readme: Path
     outputs: Tuple[str, ...]
+    entries: Tuple[Path, ...] = ()
 
 
 def _seat(settings: CrossCheckSettings, t: np.ndarray) -> np.ndarray:
@@ -213,7 +224,11 @@ def write_cross_check(
             f"cross-check: the step {s.step:g} s must divide the run ({s.duration:g} s) and "
             f"the output step ({s.output_step:g} s)"
         )
-    folder = Path(dest) / "fmus" / "2.0" / "cs" / "linux64" / TOOL / __version__ / s.name
+    entries = tuple(
+        Path(dest) / "fmus" / "2.0" / kind / "linux64" / TOOL / __version__ / s.name
+        for kind in INTERFACES
+    )
+    folder = entries[0]
     fmu = build_native_fmu(
         network, "body", s.name, f"{model} (cross-check)", folder, fmi=2, platforms=("linux64",)
     )
@@ -231,9 +246,30 @@ def write_cross_check(
         options,
         f"StartTime, 0.0\nStopTime, {s.duration!r}\nStepSize, {s.step!r}\nRelTol, {s.rel_tol!r}\n",
     )
-    command = f"bodyvib build --cross-check DEST --params {model}"
-    atomic_write_text(folder / f"{s.name}_cc.sh", f"#!/bin/sh\n{command}\n")
-    atomic_write_text(folder / f"{s.name}_cc.bat", f"{command}\r\n")
+    sh, bat = _commands(model)
+    atomic_write_text(folder / f"{s.name}_cc.sh", sh)
+    atomic_write_text(folder / f"{s.name}_cc.bat", bat)
     readme = folder / "ReadMe.md"
     atomic_write_text(readme, _readme(s, model, list(ref)))
-    return CrossCheck(folder, fmu, inputs, reference, options, readme, tuple(ref))
+    scripts = [folder / f"{s.name}_cc.{ext}" for ext in ("sh", "bat")]
+    files = [fmu, inputs, reference, options, *scripts, readme]
+    for twin in entries[1:]:  # the same FMU and files, published for the other interface
+        for f in files:  # (inside staged_writes, what was written is still staged)
+            with open(staged_source(f), "rb") as src:
+                atomic_write_bytes(twin / f.name, src.read())
+    return CrossCheck(folder, fmu, inputs, reference, options, readme, tuple(ref), entries)
+
+
+def _commands(model: str) -> Tuple[str, str]:
+    """``_cc.sh`` and ``_cc.bat``: the command that rebuilds the tree the script is in (its
+    root seven folders up: model, version, tool, platform, interface, FMI version, fmus)."""
+    if os.path.isfile(model):  # a parameter file: found wherever the script runs from
+        model = os.path.abspath(model)
+    up = "/".join([".."] * 7)
+    sh = (
+        "#!/bin/sh\n"
+        f'root="$(cd "$(dirname "$0")/{up}" && pwd)"\n'
+        f'exec bodyvib build --cross-check "$root" --params {shlex.quote(model)}\n'
+    )
+    bat = f'bodyvib build --cross-check "%~dp0{up.replace("/", chr(92))}" --params "{model}"\r\n'
+    return sh, bat

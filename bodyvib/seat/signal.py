@@ -33,6 +33,7 @@ from typing import Optional
 
 import numpy as np
 
+from ..process.extras import require
 from ..runtime.errors import BodyvibError
 from ..runtime.inputfile import check_input_file
 
@@ -300,10 +301,9 @@ def read_mdf_signal(path, channel: Optional[str]) -> SeatSignal:
         No channel given or none of that name (the file's channels are listed),
         a file asammdf cannot read, and everything :func:`check_signal` refuses.
     """
-    try:
-        from asammdf import MDF
-    except ImportError:  # pragma: no cover - a dependency
-        raise BodyvibError("reading MDF files needs asammdf: pip install asammdf") from None
+    require("reading an MDF4 file", "mdf")
+    from asammdf import MDF
+
     path = check_input_file(path, "signal file")
     mdf = _open_mdf(MDF, path)
     try:

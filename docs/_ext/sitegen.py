@@ -12,7 +12,6 @@
 import importlib
 import os
 import pkgutil
-import re
 
 HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 ROOT = os.path.dirname(HERE)
@@ -20,16 +19,20 @@ ROOT = os.path.dirname(HERE)
 # -- the API reference, from the packages' __all__ ------------------------------------
 #: Packages installed but not documented as API: data, C sources, the command line
 #: (its reference is the CLI page, generated from the parsers).
-NOT_API = {"bodyvib.data", "bodyvib.data.fit", "bodyvib.fmu_src", "bodyvib.cli"}
+NOT_API = {
+    "bodyvib.data",
+    "bodyvib.data.fit",
+    "bodyvib.fmu_src",
+    "bodyvib.fmu_src.native",
+    "bodyvib.cli",
+}
 
 
 def _listed_packages():
-    """The [tool.setuptools] packages list of ``pyproject.toml``, in order."""
-    with open(os.path.join(ROOT, "pyproject.toml"), "rb") as f:
-        text = f.read().decode("utf-8")
-    # tomllib is Python 3.11+; the list is plain strings
-    block = re.search(r"^packages = \[(.*?)\]", text, re.M | re.S).group(1)
-    return re.findall(r'"([\w.]+)"', block)
+    """The packages the wheel installs, as ``setup.py`` derives them from the tree, sorted."""
+    import runpy
+
+    return runpy.run_path(os.path.join(ROOT, "setup.py"), run_name="setup")["packages"]()
 
 
 def public_packages():

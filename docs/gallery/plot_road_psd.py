@@ -10,6 +10,7 @@ class's straight line Gd(n0) (n/n0)^-2 (:func:`bodyvib.vehicle.road.displacement
 
 import matplotlib.pyplot as plt
 import numpy as np
+
 from bodyvib.vehicle.road import displacement_psd, profile_psd, random_road
 
 road = random_road("C", length=600.0, seed=0)

@@ -26,7 +26,7 @@ import numpy as np
 
 from bodyvib.comfort import ComfortStream
 from bodyvib.models import load_model
-from bodyvib.process import interrupts
+from bodyvib.process import extras, interrupts
 from bodyvib.runtime.discretize import Discretization
 from bodyvib.runtime.errors import BodyvibError
 
@@ -512,6 +512,8 @@ def design(spec: DesignSpec, verify: bool = True) -> DesignResult:
     ------
     BodyvibError
         No design within the bounds meets the constraints.
+    bodyvib.process.extras.MissingExtraError
+        The fit extra is not installed.
 
     Examples
     --------
@@ -524,6 +526,7 @@ def design(spec: DesignSpec, verify: bool = True) -> DesignResult:
     >>> round(r.chosen[0].values["cs"])  # 16812 sqrt((290 + 59) / 190000), N s/m
     721
     """
+    extras.require("a design search", "fit")
     from threadpoolctl import threadpool_limits
 
     problem = DesignProblem(spec)

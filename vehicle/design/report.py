@@ -24,6 +24,7 @@ import numpy as np
 
 from bodyvib import __version__
 from bodyvib.models import save_model
+from bodyvib.process import extras
 from bodyvib.process.outputs import atomic_write_bytes, atomic_write_text, write_json
 from bodyvib.runtime.renames import renamed_parameters
 
@@ -168,7 +169,13 @@ def write_design(dest, result: DesignResult, command: str = "") -> List[str]:
     -------
     list of str
         The files written.
+
+    Raises
+    ------
+    bodyvib.process.extras.MissingExtraError
+        The sweep extra (its Parquet writer) is not installed.
     """
+    extras.require("writing a design's front", "sweep")
     dest = os.fspath(dest)
     os.makedirs(dest, exist_ok=True)
     paths = [os.path.join(dest, f) for f in FILES]

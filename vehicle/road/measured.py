@@ -56,6 +56,7 @@ from typing import List, Optional, Tuple
 
 import numpy as np
 
+from bodyvib.process.extras import require
 from bodyvib.runtime.errors import BodyvibError
 
 from .profile import ProfileRoad
@@ -705,12 +706,9 @@ def _check_crg_structure(path, base):
 def _read_crg(path, track):
     base = os.path.basename(path)
     _check_crg_structure(path, base)
-    try:
-        import pycrg
-    except ImportError:  # pragma: no cover - a dependency
-        raise BodyvibError(
-            "reading OpenCRG files needs the pycrg package: pip install pycrg"
-        ) from None
+    require("reading an OpenCRG file", "roads")
+    import pycrg
+
     pycrg.set_message_level(pycrg.MSG_LEVEL_NONE)
     try:
         with pycrg.DataSet.open(path) as ds:

@@ -28,6 +28,7 @@ _HOME = {
     "run_sweep": "run",
     "SweepSettings": "run",
     "read_results": "run",
+    "format_summary": "summary",
     "plot_comfort_maps": "plot",
 }
 

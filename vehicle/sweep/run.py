@@ -54,7 +54,6 @@ import json
 import math
 import os
 import shutil
-import sys
 import tempfile
 import time
 import uuid
@@ -66,9 +65,9 @@ import numpy as np
 from numpy.linalg import LinAlgError
 
 from bodyvib import __version__
-from bodyvib.process import interrupts
+from bodyvib.process import extras, interrupts
 from bodyvib.process.outputs import atomic_write_bytes, check_outputs, open_staged, staged_writes
-from bodyvib.process.progress import Progress, progress_lines
+from bodyvib.process.progress import Progress, progress_bar, progress_lines
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.renames import renamed_parameters
 
@@ -188,9 +187,12 @@ def read_results(out: str):
     ------
     BodyvibError
         A file that is not a sweep table.
+    bodyvib.process.extras.MissingExtraError
+        The sweep extra is not installed.
     """
     import io
 
+    extras.require("reading a sweep table", "sweep")
     import pyarrow.parquet as pq
 
     found = scan(out)
@@ -207,9 +209,8 @@ class _Rows:
     """Turns a task's figures into table columns: the case, every model parameter, provenance."""
 
     def __init__(self, prep: _Prepared, engine: str, sh: str, run_id: str):
-        from bodyvib.vehicle.quarter_car import load_car
-
         from bodyvib.models import load_model
+        from bodyvib.vehicle.quarter_car import load_car
 
         self.prep, self.engine, self.sh, self.run_id = prep, engine, sh, run_id
         self.base = {m: load_model(m) for m in dict.fromkeys(b[1] for b in prep.bodies)}
@@ -468,6 +469,8 @@ def run_sweep(
         ``out`` not ending in ``.parquet``; an output that exists (without ``resume`` or
         ``overwrite``), cannot be written, or is one of the sweep's inputs; an output of
         another spec on resume; an unreachable scheduler or no worker in time.
+    bodyvib.process.extras.MissingExtraError
+        The sweep extra is not installed.
     bodyvib.vehicle.sweep.cluster.ClusterLost
         The cluster lost tasks (scheduler gone, workers dead, no worker): the
         finished cases are kept in ``OUT.parts/``, the lost ones are not
@@ -483,6 +486,7 @@ def run_sweep(
     >>> list(df["speed"]), bool(df["head_weighted_rms"].gt(0).all())
     ([10.0, 20.0], True)
     """
+    extras.require("a sweep", "sweep")
     try:
         cfg = replace(settings or SweepSettings(), **options)
     except TypeError as exc:
@@ -563,17 +567,8 @@ class _Parts:
         self.bar = None
 
     def open_bar(self, total: int, todo: int) -> None:
-        from tqdm import tqdm
-
-        self.bar = tqdm(
-            total=total,
-            initial=total - todo,
-            unit="case",
-            file=sys.stderr,
-            desc="sweep",
-            mininterval=0.5,
-            disable=None,
-        )
+        # off a terminal (a log), a line every 10 s: a sweep may run for hours
+        self.bar = progress_bar(total, True, "sweep", "case", total - todo, 10.0, leave=True)
 
     def arrived(self, task_no: int, ids, data) -> None:
         """Write a task's rows (or, for a task that raised, failed rows for its cases)."""
