@@ -5,7 +5,8 @@
 run-time package :mod:`bodyvib.runtime`; :mod:`~bodyvib.fmu.native` compiles the
 one C code base in ``fmu_src/native`` for the model baked in as data;
 :mod:`~bodyvib.fmu.contents` locates the sources both start from;
-:mod:`~bodyvib.fmu.controller` builds the skyhook controller, a small C model of its own. Names are
+:mod:`~bodyvib.fmu.controller` builds the skyhook controller, a small C model of its own;
+:mod:`~bodyvib.fmu.inspect` checks an extracted FMU before a host loads it. Names are
 imported from their module on first use (pythonfmu and the compilers are only
 needed when building).
 
@@ -28,6 +29,8 @@ _HOME = {
     "build_controller_fmu": "controller",
     "ModelDescription": "description",
     "validate_fmu_file": "description",
+    "check_extracted_fmu": "inspect",
+    "check_elf": "inspect",
     "fmu_src_dir": "contents",
     "native_dir": "contents",
     "RUNTIME_DIR": "contents",
