@@ -587,6 +587,27 @@ class Master:
         """The controller's force per actuator from the velocities read last."""
         return self._control.forces(self._act_v)
 
+    def _road(self, road_displacement, road_velocity) -> np.ndarray:
+        """The car's road inputs at the next points: displacement and velocity of each pair."""
+        z = np.asarray(road_displacement, dtype=float)
+        v = np.asarray(road_velocity, dtype=float)
+        nr = self.roads
+        if z.ndim == 1 and nr == 1:
+            z, v = z[:, None], v[:, None]
+        if z.shape != v.shape or z.ndim != 2 or z.shape[1] != nr:
+            raise BodyvibError(
+                "road displacement and velocity must be arrays of equal shape, "
+                f"(samples,) or (samples, {nr}): a column per road input pair of the car"
+            )
+        m = z.shape[0]
+        if self.k + m > self.n:
+            raise BodyvibError(f"the run has {self.n} communication points; {self.k + m} given")
+        if not (np.all(np.isfinite(z)) and np.all(np.isfinite(v))):
+            raise BodyvibError("road input is not finite; check the road profile")
+        road = np.empty((m, 2 * nr))
+        road[:, 0::2], road[:, 1::2] = z, v
+        return road
+
     def advance(self, road_displacement, road_velocity) -> np.ndarray:
         """Co-simulate the next communication points.
 
@@ -610,26 +631,10 @@ class Master:
         KeyboardInterrupt
             Ctrl-C (:mod:`bodyvib.process.interrupts`), taken between macro-steps.
         """
-        z = np.asarray(road_displacement, dtype=float)
-        v = np.asarray(road_velocity, dtype=float)
-        nr = self.roads
-        if z.ndim == 1 and nr == 1:
-            z, v = z[:, None], v[:, None]
-        if z.shape != v.shape or z.ndim != 2 or z.shape[1] != nr:
-            raise BodyvibError(
-                "road displacement and velocity must be arrays of equal shape, "
-                f"(samples,) or (samples, {nr}): a column per road input pair of the car"
-            )
-        m = z.shape[0]
-        if self.k + m > self.n:
-            raise BodyvibError(f"the run has {self.n} communication points; {self.k + m} given")
-        if not (np.all(np.isfinite(z)) and np.all(np.isfinite(v))):
-            raise BodyvibError("road input is not finite; check the road profile")
+        road = self._road(road_displacement, road_velocity)
+        m = road.shape[0]
         t0 = time.perf_counter()
         rows = [None] * m
-        # the car's road inputs at each point: displacement and velocity of each pair
-        road = np.empty((m, 2 * nr))
-        road[:, 0::2], road[:, 1::2] = z, v
         h, last, extrapolate, has_rate = self.h, self.n - 1, self.extrapolate, self._has_rate
         cf, bf = self._car.fmu, self._body.fmu
         car_in, car_out, body_in, body_out = (
