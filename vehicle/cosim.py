@@ -54,6 +54,7 @@ from bodyvib.runtime.discretize import check_step
 from bodyvib.runtime.errors import BodyvibError
 
 from .quarter_car import CAR_FMU_OUTPUTS
+from .road.driven import road_columns
 from .signals import (
     BODY_SIGNALS,
     CAR_SIGNALS,
@@ -589,21 +590,11 @@ class Master:
 
     def _road(self, road_displacement, road_velocity) -> np.ndarray:
         """The car's road inputs at the next points: displacement and velocity of each pair."""
-        z = np.asarray(road_displacement, dtype=float)
-        v = np.asarray(road_velocity, dtype=float)
         nr = self.roads
-        if z.ndim == 1 and nr == 1:
-            z, v = z[:, None], v[:, None]
-        if z.shape != v.shape or z.ndim != 2 or z.shape[1] != nr:
-            raise BodyvibError(
-                "road displacement and velocity must be arrays of equal shape, "
-                f"(samples,) or (samples, {nr}): a column per road input pair of the car"
-            )
+        z, v = road_columns(road_displacement, road_velocity, nr)
         m = z.shape[0]
         if self.k + m > self.n:
             raise BodyvibError(f"the run has {self.n} communication points; {self.k + m} given")
-        if not (np.all(np.isfinite(z)) and np.all(np.isfinite(v))):
-            raise BodyvibError("road input is not finite; check the road profile")
         road = np.empty((m, 2 * nr))
         road[:, 0::2], road[:, 1::2] = z, v
         return road

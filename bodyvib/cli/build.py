@@ -178,28 +178,24 @@ def _add_road_arguments(p):
         + ", ".join(PROFILE_EXTENSIONS)
         + ") (default: C)",
     )
-    p.add_argument(
-        "--road-seed",
-        type=int,
-        default=ROAD_DEFAULTS["seed"],
-        metavar="N",
-        help="Road.fmu: seed of a random road (default: 0)",
-    )
-    p.add_argument(
-        "--road-length",
-        type=float,
-        default=None,
-        metavar="M",
-        help="Road.fmu: tabulated length in m (default: 601, 30 s at 20 m/s; a random "
-        "road repeats after it)",
-    )
-    p.add_argument(
-        "--road-speed",
-        type=float,
-        default=ROAD_DEFAULTS["speed"],
-        metavar="V",
-        help="Road.fmu: default of its speed parameter, m/s (default: 20)",
-    )
+    for flag, kind, default, metavar, text in (
+        ("--road-seed", int, ROAD_DEFAULTS["seed"], "N", "seed of a random road (default: 0)"),
+        (
+            "--road-length",
+            float,
+            None,
+            "M",
+            "tabulated length in m (default: 601, 30 s at 20 m/s; a random road repeats after it)",
+        ),
+        (
+            "--road-speed",
+            float,
+            ROAD_DEFAULTS["speed"],
+            "V",
+            "default of its speed parameter, m/s (default: 20)",
+        ),
+    ):
+        p.add_argument(flag, type=kind, default=default, metavar=metavar, help="Road.fmu: " + text)
 
 
 def add_command(subparsers):

@@ -329,14 +329,15 @@ class _Check:
     def fail(self, message: str):
         raise BodyvibError(f"{self.where}: {message}")
 
-    def positive(self, section: str, key: str, integer: bool = False):
-        v = self.cfg[section][key]
+    def positive(self, section: str, *keys: str, integer: bool = False):
         kind = int if integer else (int, float)
-        if isinstance(v, bool) or not isinstance(v, kind) or not (math.isfinite(v) and v > 0):
-            self.fail(
-                f"{section}.{key} must be a positive "
-                f"{'integer' if integer else 'number'}, got {v!r}"
-            )
+        for key in keys:
+            v = self.cfg[section][key]
+            if isinstance(v, bool) or not isinstance(v, kind) or not (math.isfinite(v) and v > 0):
+                self.fail(
+                    f"{section}.{key} must be a positive "
+                    f"{'integer' if integer else 'number'}, got {v!r}"
+                )
 
     def one_of(self, name: str, value, choices, note: str = ""):
         if value not in choices:
@@ -393,19 +394,23 @@ def _check_restarts(check: _Check):
 
 
 def _check_ga(check: _Check):
-    for k in ("population", "generations", "tournament_size", "elitism", "stall_generations"):
-        check.positive("ga", k, integer=True)
+    check.positive(
+        "ga",
+        "population",
+        "generations",
+        "tournament_size",
+        "elitism",
+        "stall_generations",
+        integer=True,
+    )
     if check.cfg["ga"]["elitism"] >= check.cfg["ga"]["population"]:
         check.fail("ga.elitism must be below ga.population")
-    for k in ("crossover_eta", "mutation_probability", "mutation_scale", "ftol"):
-        check.positive("ga", k)
+    check.positive("ga", "crossover_eta", "mutation_probability", "mutation_scale", "ftol")
 
 
 def _check_cmaes(check: _Check):
-    for k in ("max_evaluations", "stall_generations"):
-        check.positive("cmaes", k, integer=True)
-    check.positive("cmaes", "sigma0")
-    check.positive("cmaes", "ftol")
+    check.positive("cmaes", "max_evaluations", "stall_generations", integer=True)
+    check.positive("cmaes", "sigma0", "ftol")
     p = check.cfg["cmaes"]["population"]
     if isinstance(p, bool) or not isinstance(p, int) or p < 0:
         check.fail(
@@ -414,10 +419,8 @@ def _check_cmaes(check: _Check):
 
 
 def _check_de(check: _Check):
-    for k in ("population_per_gene", "generations"):
-        check.positive("de", k, integer=True)
-    check.positive("de", "tol")
-    check.positive("de", "recombination")
+    check.positive("de", "population_per_gene", "generations", integer=True)
+    check.positive("de", "tol", "recombination")
     mut = check.cfg["de"]["mutation"]
     if not (
         isinstance(mut, list)
@@ -430,10 +433,8 @@ def _check_de(check: _Check):
 
 
 def _check_pareto(check: _Check):
-    for k in ("population", "generations"):
-        check.positive("pareto", k, integer=True)
-    check.positive("pareto", "crossover_eta")
-    check.positive("pareto", "mutation_eta")
+    check.positive("pareto", "population", "generations", integer=True)
+    check.positive("pareto", "crossover_eta", "mutation_eta")
 
 
 def _check_coordinates(check: _Check):
@@ -452,18 +453,15 @@ def _check_polish(check: _Check):
 
 
 def _check_quadrature(check: _Check):
-    for k in ("f_first_panel_hz", "f_split_hz"):
-        check.positive("quadrature", k)
-    for k in ("panels", "nodes_per_panel", "tail_nodes"):
-        check.positive("quadrature", k, integer=True)
+    check.positive("quadrature", "f_first_panel_hz", "f_split_hz")
+    check.positive("quadrature", "panels", "nodes_per_panel", "tail_nodes", integer=True)
     q = check.cfg["quadrature"]
     if not q["f_first_panel_hz"] < q["f_split_hz"]:
         check.fail("quadrature needs 0 < f_first_panel_hz < f_split_hz")
 
 
 def _check_time_domain(check: _Check):
-    check.positive("time_domain", "dt_s")
-    check.positive("time_domain", "decay_time_constants")
+    check.positive("time_domain", "dt_s", "decay_time_constants")
 
 
 #: The checks of :func:`load_config`, one per section of the document, in this order
