@@ -467,12 +467,9 @@ def nsga2_front(
     evaluate: Callable,
     bounds: tuple,
     objectives: int,
-    population: int,
-    generations: int,
+    settings,
     seed: int,
     constraints: int = 0,
-    crossover_eta: float = 10.0,
-    mutation_eta: float = 20.0,
     sampling: Optional[np.ndarray] = None,
     callback: Optional[Callable] = None,
 ) -> tuple:
@@ -491,12 +488,12 @@ def nsga2_front(
         The number of coordinates and their bounds (floats or arrays).
     objectives : int
         Number of objectives.
-    population, generations : int
+    settings : bodyvib.fit.config.ParetoSettings
+        ``population``, ``generations`` and the distribution indices of the crossover
+        and the mutation (``crossover_eta``, ``mutation_eta``).
     seed : int
     constraints : int
         Number of inequality constraints.
-    crossover_eta, mutation_eta : float
-        Distribution indices of the crossover and the mutation.
     sampling : ndarray, optional
         The first population (rows); pymoo's uniform random sampling by default.
     callback : callable, optional
@@ -510,8 +507,9 @@ def nsga2_front(
 
     Examples
     --------
-    >>> X, F = nsga2_front(lambda x: np.column_stack([x[:, 0], 1 - x[:, 0]]),
-    ...                    (1, 0.0, 1.0), 2, population=8, generations=3, seed=1)
+    >>> from bodyvib.fit.config import ParetoSettings
+    >>> X, F = nsga2_front(lambda x: np.column_stack([x[:, 0], 1 - x[:, 0]]), (1, 0.0, 1.0),
+    ...                    2, ParetoSettings(8, 3, crossover_eta=10.0, mutation_eta=20.0), seed=1)
     >>> bool(np.allclose(F.sum(axis=1), 1.0))
     True
     """
@@ -537,14 +535,15 @@ def nsga2_front(
 
     options = {} if sampling is None else {"sampling": sampling}
     algorithm = NSGA2(
-        pop_size=population,
-        crossover=SBX(prob=0.9, eta=crossover_eta),
-        mutation=PM(eta=mutation_eta),
+        pop_size=settings.population,
+        crossover=SBX(prob=0.9, eta=settings.crossover_eta),
+        mutation=PM(eta=settings.mutation_eta),
         eliminate_duplicates=True,
         **options,
     )
     run = {} if callback is None else {"callback": callback}
-    res = minimize(Trade(), algorithm, ("n_gen", generations), seed=seed, verbose=False, **run)
+    termination = ("n_gen", settings.generations)
+    res = minimize(Trade(), algorithm, termination, seed=seed, verbose=False, **run)
     return res.X, res.F
 
 

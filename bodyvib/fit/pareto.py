@@ -43,7 +43,7 @@ from ..analytic import head_transmissibility
 from ..models import save_model
 from ..process.outputs import atomic_write_text
 from ..runtime.errors import BodyvibError
-from .config import log_bounds
+from .config import ParetoSettings, log_bounds
 from .methods import SearchSpace, nsga2_front
 from .space import REDUCED_PARAMETERS, genes_to_parameters, parameters_to_genes, reduced_network
 
@@ -247,11 +247,10 @@ def pareto_front(target, config, seed: int = 1, start=None, progress: bool = Fal
                 evaluate,
                 (6, space.zlo, space.zhi),
                 2,
-                population=n,
-                generations=int(s.generations),
+                ParetoSettings(
+                    n, int(s.generations), float(s.crossover_eta), float(s.mutation_eta)
+                ),
                 seed=int(seed),
-                crossover_eta=float(s.crossover_eta),
-                mutation_eta=float(s.mutation_eta),
                 sampling=X0,
                 callback=lambda _a: bar.update(1),
             )

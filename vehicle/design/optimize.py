@@ -303,6 +303,7 @@ class DesignResult:
 
 
 def _nsga2(problem: DesignProblem, spec: DesignSpec):
+    from bodyvib.fit.config import ParetoSettings
     from bodyvib.fit.methods import nsga2_front
 
     ncon = len(spec.constraints)
@@ -315,8 +316,9 @@ def _nsga2(problem: DesignProblem, spec: DesignSpec):
         evaluate,
         (len(problem.names), 0.0, 1.0),
         len(spec.objectives),
-        population=spec.search.population,
-        generations=spec.search.generations,
+        # distribution indices (chosen): SBX 10 spreads children wider than pymoo's
+        # default 15; mutation 20 is pymoo's default
+        ParetoSettings(spec.search.population, spec.search.generations, 10.0, 20.0),
         seed=spec.search.seed,
         constraints=ncon,
     )
