@@ -38,16 +38,11 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from bodyvib.runtime.contract import BODY_OUTPUTS  # noqa: E402
 from bodyvib.vehicle.fmus import build_fmus  # noqa: E402
 
 HOST = ROOT / "tests" / "c_host" / "native_host.c"
-BODY_OUT = [
-    "head_acceleration",
-    "head_displacement",
-    "torso_displacement",
-    "seat_force",
-    "seat_force_rate",
-]
+BODY_OUT = list(BODY_OUTPUTS)  # the body interface of the FMU contract
 
 
 def compile_host(folder: Path) -> str:

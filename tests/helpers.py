@@ -22,6 +22,10 @@ __all__ = [
     "write_old_outputs",
     "check_stopped_run",
     "win64_host",
+    "fmpy_headers",
+    "compile_c_host",
+    "fmpy_compile_sources",
+    "VARIABLE_ATTRIBUTES",
     "dynamic_stiffness_response",
     "sine_road",
     "write_sine_road",
@@ -76,6 +80,76 @@ def check_stopped_run(rc, err, outputs, status, line, what):
     ]
     assert not beside, (what, beside)
     return bool(rc)
+
+
+#: What a model description declares of a variable, as fmpy reads it.
+VARIABLE_ATTRIBUTES = (
+    "valueReference",
+    "causality",
+    "variability",
+    "unit",
+    "start",
+    "min",
+    "max",
+    "description",
+)
+
+
+def fmpy_headers():
+    """fmpy's copy of the FMI C headers, which the C test hosts include."""
+    import fmpy
+
+    return os.path.join(os.path.dirname(fmpy.__file__), "c-code")
+
+
+def compile_c_host(
+    sources, exe, flags=("-O2", "-Wall", "-Wextra", "-Werror"), includes=None, libs=("-ldl", "-lm")
+):
+    """Compile a C test host with gcc as C99 (the test skips where there is no gcc).
+
+    ``includes`` are the header folders, fmpy's by default; returns ``exe``.
+    """
+    if shutil.which("gcc") is None:
+        pytest.skip("gcc not found: cannot build the C host")
+    includes = [fmpy_headers()] if includes is None else includes
+    out = subprocess.run(
+        [
+            "gcc",
+            "-std=c99",
+            *flags,
+            *(a for d in includes for a in ("-I", d)),
+            *sources,
+            "-o",
+            exe,
+            *libs,
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert out.returncode == 0, out.stderr
+    return exe
+
+
+def fmpy_compile_sources(fmu, path, cwd):
+    """Copy ``fmu`` to ``path`` without its binaries and have ``fmpy compile`` build them
+    from its sources (the test skips where there is no cmake)."""
+    import zipfile
+
+    if shutil.which("cmake") is None:
+        pytest.skip("cmake not found: fmpy compile needs it")
+    with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(path, "w") as dst:
+        for info in src.infolist():
+            if not info.filename.startswith("binaries/"):  # only the sources remain
+                dst.writestr(info, src.read(info))
+    out = subprocess.run(
+        [sys.executable, "-m", "fmpy.cli", "compile", str(path)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=cwd,
+    )
+    assert out.returncode == 0, out.stdout + out.stderr
 
 
 @contextlib.contextmanager

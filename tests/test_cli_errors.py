@@ -160,9 +160,8 @@ def test_an_error_keeps_the_parameters_it_names_across_processes():
     # a sweep's worker raises, the client prints: the names travel pickled with the message
     import pickle
 
-    from bodyvib.vehicle.sweep.cluster import ClusterLost
-
     from bodyvib.runtime.errors import BodyvibError
+    from bodyvib.vehicle.sweep.cluster import ClusterLost
 
     for error in (BodyvibError("'out' is bad", parameters=("out",)), ClusterLost("lost")):
         again = pickle.loads(pickle.dumps(error))
@@ -175,9 +174,8 @@ def test_a_road_warning_names_the_flags_on_the_command_line(capsys):
     # shows the flag, once however often the road is checked
     import warnings
 
-    from bodyvib.vehicle.road.base import RoadWarning
-
     from bodyvib.cli.main import _one_line
+    from bodyvib.vehicle.road.base import RoadWarning
 
     show = _one_line("bodyvib cosim")
     w = RoadWarning("faded in once; duration=12.5 drives it once", parameters=("duration",))

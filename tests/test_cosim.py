@@ -67,6 +67,34 @@ def test_coupling_error_meets_target_at_1ms(fmus, which):
     assert doc["settings"]["master"] == "gauss-seidel, seat force held"
 
 
+def test_study_options_and_keywords_record_the_same_run(fmus):
+    """A StudyOptions and the old keywords are one call; the recorder's plot window and
+    pair sums, kept block by block (333 points: the window straddles blocks), are the
+    slices and sums of the full histories."""
+    from bodyvib.vehicle.study import StudyOptions
+
+    bodies = {"a": fmus["body"], "b": fmus["iso"]}
+    settings = RunSettings("C", 20.0, 2.0, 1e-3)
+    opts = StudyOptions(histories=True, block=333, window_s=0.5, reference=False)
+    st = run_study(bodies, fmus["car"], settings, opts)
+    kw = run_study(
+        bodies, fmus["car"], settings, histories=True, block=333, window_s=0.5, reference=False
+    )
+    for label in bodies:
+        head = st.bodies[label].run["head_acceleration"]
+        assert np.array_equal(head, kw.bodies[label].run["head_acceleration"])
+        inside = (st.time >= st.window_time[0]) & (st.time <= st.window_time[-1])
+        assert np.array_equal(st.bodies[label].head_window, head[inside])
+        assert st.bodies[label].coupling_nrmse is None
+    assert st.window_time[-1] - st.window_time[0] == pytest.approx(0.5)
+    a, b = (st.bodies[k].run["head_acceleration"] for k in "ab")
+    num, den = st.history_sums[("a", "b")]
+    assert num == pytest.approx(np.sum((a - b) ** 2), rel=1e-12)
+    assert den == pytest.approx(np.sum(b**2), rel=1e-12)
+    with pytest.raises(TypeError, match="'histoires'"):
+        run_study(bodies, fmus["car"], settings, histoires=True)
+
+
 def test_coupling_error_is_second_order_in_the_step(fmus):
     """Linear extrapolation makes the coupling error O(h^2): halving the step
     divides it by about 4 (3 to 5 allows for the higher-order terms)."""

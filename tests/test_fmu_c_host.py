@@ -33,7 +33,6 @@ leaving the call out (--skip-finalize) brings it back.
 import os
 import re
 import shlex
-import shutil
 import subprocess
 import sys
 import sysconfig
@@ -49,7 +48,7 @@ from bodyvib.runtime.network import linear_model
 
 pytestmark = pytest.mark.integration
 
-from helpers import ROOT
+from helpers import ROOT, compile_c_host
 
 HOST_SOURCE = os.path.join(ROOT, "tests", "c_host", "fmi2_host.c")
 MODEL_OF = {"HumanBody3DOF": "reduced-paper", "HumanBodyISO7962": "iso7962"}
@@ -105,36 +104,9 @@ def host_env(preload=True, home=True):
 
 @pytest.fixture(scope="module")
 def host(tmp_path_factory):
-    gcc = shutil.which("gcc")
-    if gcc is None:
-        pytest.skip("gcc not found: cannot build the C host")
-    import fmpy
-
     exe = str(tmp_path_factory.mktemp("c_host") / "fmi2_host")
-    headers = os.path.join(os.path.dirname(fmpy.__file__), "c-code")
-    out = subprocess.run(
-        [
-            gcc,
-            "-std=c99",
-            "-O2",
-            "-Wall",
-            "-Wextra",
-            "-Werror",
-            "-ffp-contract=off",
-            "-I",
-            headers,
-            HOST_SOURCE,
-            "-o",
-            exe,
-            "-ldl",
-            "-lm",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert out.returncode == 0, out.stderr
-    return exe
+    flags = ("-O2", "-Wall", "-Wextra", "-Werror", "-ffp-contract=off")
+    return compile_c_host([HOST_SOURCE], exe, flags)
 
 
 @pytest.fixture(scope="module")

@@ -10,8 +10,6 @@ import warnings
 
 import numpy as np
 import pytest
-from bodyvib.vehicle.road.driven import RunSettings
-from bodyvib.vehicle.road.iri import IriResult
 
 from bodyvib.comfort import ComfortFigures, basic_method_checks
 from bodyvib.fit import load_config
@@ -20,6 +18,8 @@ from bodyvib.fmu.crosscheck import CrossCheckSettings
 from bodyvib.models import load_model
 from bodyvib.runtime.discretize import Discretization, check_step, discretize
 from bodyvib.runtime.renames import renamed_fields, renamed_parameters
+from bodyvib.vehicle.road.driven import RunSettings
+from bodyvib.vehicle.road.iri import IriResult
 
 REDUCED = load_model("reduced-paper")
 LM = Discretization(REDUCED).model

@@ -305,6 +305,7 @@ def test_binaries_need_only_libc_and_libm_export_only_fmi_and_have_no_mutable_gl
 
 def test_contract_is_the_pythonfmu_contract_plus_seat_force_rate(native_fmus, python_fmus):
     from fmpy import read_model_description
+    from helpers import VARIABLE_ATTRIBUTES
 
     for name in ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar"):
         py = {v.name: v for v in read_model_description(python_fmus[name]).modelVariables}
@@ -314,16 +315,7 @@ def test_contract_is_the_pythonfmu_contract_plus_seat_force_rate(native_fmus, py
         }
         for vname, p in py.items():
             for other in (nat[vname], nat3[vname]):
-                for attr in (
-                    "valueReference",
-                    "causality",
-                    "variability",
-                    "unit",
-                    "start",
-                    "min",
-                    "max",
-                    "description",
-                ):
+                for attr in VARIABLE_ATTRIBUTES:
                     assert str(getattr(other, attr)) == str(getattr(p, attr)), (name, vname, attr)
         # plus, for model exchange, the continuous states and their derivatives (locals)
         me = {n for n in nat if n.startswith(("state.", "der(state."))}
@@ -640,27 +632,11 @@ def test_fmpy_simulates_the_fmi3_versions(native_fmus):
 
 @pytest.mark.parametrize("fmi", ["", "fmi3/"])
 def test_fmpy_compile_builds_the_sources(native_fmus, fmi, tmp_path):
-    import shutil
+    from helpers import fmpy_compile_sources
 
-    if shutil.which("cmake") is None:
-        pytest.skip("cmake not found: fmpy compile needs it")
     path = tmp_path / "HumanBody3DOF.fmu"
     folder = "x86_64-linux" if fmi else "linux64"
-    with (
-        zipfile.ZipFile(native_fmus[fmi + "HumanBody3DOF"]) as src,
-        zipfile.ZipFile(path, "w") as dst,
-    ):
-        for info in src.infolist():
-            if not info.filename.startswith("binaries/"):  # only the sources remain
-                dst.writestr(info, src.read(info))
-    out = subprocess.run(
-        [sys.executable, "-m", "fmpy.cli", "compile", str(path)],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        cwd=tmp_path,
-    )
-    assert out.returncode == 0, out.stdout + out.stderr
+    fmpy_compile_sources(native_fmus[fmi + "HumanBody3DOF"], path, tmp_path)
     with zipfile.ZipFile(path) as z:
         assert f"binaries/{folder}/HumanBody3DOF.so" in z.namelist()
     t = grid(False, n=400)

@@ -17,7 +17,7 @@ import zipfile
 
 import numpy as np
 import pytest
-from helpers import ROOT, win64_host
+from helpers import ROOT, compile_c_host, fmpy_headers, win64_host
 from test_native_fmu import BODY_OUT, MODEL_OF, TIGHT, body_reference, relative_error, tolerance
 
 from bodyvib.models import load_model
@@ -28,40 +28,10 @@ HOST = os.path.join(ROOT, "tests", "c_host", "native_host.c")
 STEP, N_STEPS = 1e-3, 1500
 
 
-def headers():
-    import fmpy
-
-    return os.path.join(os.path.dirname(fmpy.__file__), "c-code")
-
-
 @pytest.fixture(scope="module")
 def host(tmp_path_factory):
-    if shutil.which("gcc") is None:
-        pytest.skip("gcc not found: cannot build the C host")
     exe = str(tmp_path_factory.mktemp("native_host") / "native_host")
-    out = subprocess.run(
-        [
-            "gcc",
-            "-std=c99",
-            "-O2",
-            "-Wall",
-            "-Wextra",
-            "-Werror",
-            "-I",
-            headers(),
-            HOST,
-            "-o",
-            exe,
-            "-ldl",
-            "-lm",
-            "-lpthread",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert out.returncode == 0, out.stderr
-    return exe
+    return compile_c_host([HOST], exe, libs=("-ldl", "-lm", "-lpthread"))
 
 
 @pytest.fixture(scope="module")
@@ -290,7 +260,7 @@ def test_c_host_under_valgrind_is_clean(host, unpacked, mode):
 
 def test_win64_binary_under_wine_matches_linux64(host, unpacked, tmp_path):
     exe = str(tmp_path / "native_host.exe")
-    with win64_host(HOST, headers(), exe, tmp_path) as (wine, env):
+    with win64_host(HOST, fmpy_headers(), exe, tmp_path) as (wine, env):
         for name in MODEL_OF:
             win = run(
                 exe, unpacked, name, "run", platform="win64", suffix=".dll", prefix=(wine,), env=env

@@ -34,7 +34,7 @@ from xml.etree import ElementTree as ET
 import numpy as np
 import pytest
 import scipy.linalg
-from helpers import ROOT, win64_host
+from helpers import ROOT, compile_c_host, fmpy_headers, win64_host
 from test_native_fmu import _fmi2_callbacks
 
 from bodyvib.models import load_model
@@ -162,24 +162,29 @@ def test_model_exchange_cvode_converges_to_the_exact_solution(native_fmus, name,
         assert np.max(np.abs(res[out] - ref)) <= bound, (out, np.max(np.abs(res[out] - ref)), bound)
 
 
+def _me_model(md, folder, fmi):
+    """The extracted native FMU as fmpy's model-exchange instance, not yet instantiated."""
+    from fmpy.fmi2 import FMU2Model
+    from fmpy.fmi3 import FMU3Model
+
+    return (FMU2Model if fmi == 2 else FMU3Model)(
+        guid=md.guid if fmi == 2 else md.instantiationToken,
+        unzipDirectory=folder,
+        instanceName="me",
+        modelIdentifier=md.modelExchange.modelIdentifier,
+    )
+
+
 class _MeInstance:
     """A native FMU instantiated for model exchange in fmpy, in continuous-time mode."""
 
     def __init__(self, path, logger=None):
         from fmpy import extract, read_model_description
-        from fmpy.fmi2 import FMU2Model
-        from fmpy.fmi3 import FMU3Model
 
         self.md = read_model_description(path)
         self.dir = extract(path)
         self.fmi = 2 if self.md.fmiVersion == "2.0" else 3
-        cls = FMU2Model if self.fmi == 2 else FMU3Model
-        self.fmu = cls(
-            guid=self.md.guid if self.fmi == 2 else self.md.instantiationToken,
-            unzipDirectory=self.dir,
-            instanceName="me",
-            modelIdentifier=self.md.modelExchange.modelIdentifier,
-        )
+        self.fmu = _me_model(self.md, self.dir, self.fmi)
         if self.fmi == 2:
             self.fmu.instantiate(loggingOn=True, callbacks=_fmi2_callbacks(logger))
             self.fmu.setupExperiment(startTime=0.0)
@@ -359,8 +364,6 @@ def test_model_exchange_calls_out_of_order_are_errors(native_fmus, fmi):
     """Model-exchange calls are checked against the instance's state, as the co-simulation
     ones: before ExitInitializationMode and after Terminate they return Error, logged."""
     from fmpy import extract, read_model_description
-    from fmpy.fmi2 import FMU2Model
-    from fmpy.fmi3 import FMU3Model
 
     path = _path(native_fmus, "HumanBody3DOF", fmi)
     md = read_model_description(path)
@@ -368,23 +371,12 @@ def test_model_exchange_calls_out_of_order_are_errors(native_fmus, fmi):
     said = []
     logger = lambda *a: said.append(a[-1])  # noqa: E731
     try:
+        fmu = _me_model(md, folder, fmi)
         if fmi == 2:
-            fmu = FMU2Model(
-                guid=md.guid,
-                unzipDirectory=folder,
-                instanceName="me",
-                modelIdentifier=md.modelExchange.modelIdentifier,
-            )
             fmu.instantiate(loggingOn=True, callbacks=_fmi2_callbacks(logger))
             fmu.setupExperiment(startTime=0.0)
             names = ("fmi2EnterContinuousTimeMode", "fmi2CompletedIntegratorStep")
         else:
-            fmu = FMU3Model(
-                guid=md.instantiationToken,
-                unzipDirectory=folder,
-                instanceName="me",
-                modelIdentifier=md.modelExchange.modelIdentifier,
-            )
             fmu.instantiate(
                 loggingOn=True, logMessage=lambda env, status, cat, msg: said.append(msg)
             )
@@ -416,8 +408,6 @@ def test_event_and_continuous_time_modes_refuse_each_others_calls(native_fmus, f
     the Reference FMUs' masks have them); SetTime and the derivatives are allowed in both."""
     from fmpy import extract, read_model_description
     from fmpy.fmi1 import FMICallException
-    from fmpy.fmi2 import FMU2Model
-    from fmpy.fmi3 import FMU3Model
 
     path = _path(native_fmus, "HumanBody3DOF", fmi)
     md = read_model_description(path)
@@ -433,23 +423,12 @@ def test_event_and_continuous_time_modes_refuse_each_others_calls(native_fmus, f
         return 0
 
     try:
+        fmu = _me_model(md, folder, fmi)
         if fmi == 2:
-            fmu = FMU2Model(
-                guid=md.guid,
-                unzipDirectory=folder,
-                instanceName="me",
-                modelIdentifier=md.modelExchange.modelIdentifier,
-            )
             fmu.instantiate(callbacks=_fmi2_callbacks(lambda *a: said.append(a[-1].decode())))
             fmu.setupExperiment(startTime=0.0)
             discrete, derivatives = fmu.newDiscreteStates, fmu.getDerivatives
         else:
-            fmu = FMU3Model(
-                guid=md.instantiationToken,
-                unzipDirectory=folder,
-                instanceName="me",
-                modelIdentifier=md.modelExchange.modelIdentifier,
-            )
             fmu.instantiate(logMessage=lambda env, st, cat, msg: said.append(msg.decode()))
             discrete, derivatives = fmu.updateDiscreteStates, fmu.getContinuousStateDerivatives
         x = (c_double * n)(*[1e-3 * (i + 1) for i in range(n)])
@@ -536,12 +515,6 @@ ME_CASES = ("HumanBody3DOF", "QuarterCar")  # RK4-stable at 1e-4 s (the ISO body
 RK4_T, RK4_AMP, RK4_HZ = 0.5, 0.01, 2.0
 
 
-def _fmpy_headers():
-    import fmpy
-
-    return os.path.join(os.path.dirname(fmpy.__file__), "c-code")
-
-
 def _sine_response(network, kind, t):
     """Exact states under d = a sin(w t), v = a w cos(w t) from rest: the harmonic response
     plus the free response that cancels it at t = 0."""
@@ -596,31 +569,8 @@ def _me_host_run(
 
 @pytest.fixture(scope="module")
 def me_host(tmp_path_factory):
-    if shutil.which("gcc") is None:
-        pytest.skip("gcc not found: cannot build the C host")
     exe = str(tmp_path_factory.mktemp("me_host") / "me_host")
-    out = subprocess.run(
-        [
-            "gcc",
-            "-std=c99",
-            "-O2",
-            "-Wall",
-            "-Wextra",
-            "-Werror",
-            "-I",
-            _fmpy_headers(),
-            ME_HOST,
-            "-o",
-            exe,
-            "-ldl",
-            "-lm",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert out.returncode == 0, out.stderr
-    return exe
+    return compile_c_host([ME_HOST], exe)
 
 
 @pytest.mark.parametrize("name", ME_CASES)
@@ -705,7 +655,7 @@ def test_c_host_refuses_calls_of_the_other_model_exchange_mode(
 
 def test_win64_model_exchange_under_wine_matches_linux64(me_host, native_fmus, tmp_path):
     exe = str(tmp_path / "me_host.exe")
-    with win64_host(ME_HOST, _fmpy_headers(), exe, tmp_path) as (wine, env):
+    with win64_host(ME_HOST, fmpy_headers(), exe, tmp_path) as (wine, env):
         for name in ME_CASES:
             folder = tmp_path / name
             with zipfile.ZipFile(native_fmus[name]) as z:

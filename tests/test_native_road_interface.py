@@ -214,40 +214,19 @@ def test_road_in_a_c_host_under_valgrind(native_dist, tmp_path):
     import subprocess
     import zipfile
 
-    from conftest import ROOT
     from fmpy import read_model_description
-    from test_native_host import headers
+    from helpers import ROOT, compile_c_host, fmpy_headers
 
-    if shutil.which("gcc") is None:
-        pytest.skip("gcc not found: cannot build the C host")
     path = native_dist / "Road.fmu"
     with zipfile.ZipFile(path) as z:
         z.extractall(tmp_path / "fmu")
     src = tmp_path / "fmu" / "sources"
     exe = str(tmp_path / "road_host")
     files = [str(src / f) for f in sorted(os.listdir(src)) if f.endswith(".c")]
-    out = subprocess.run(
-        [
-            "gcc",
-            "-std=c99",
-            "-g",
-            "-O1",
-            "-Wall",
-            "-I",
-            str(src),
-            "-I",
-            headers(),
-            os.path.join(ROOT, "tests", "c_host", "road_host.c"),
-            *files,
-            "-o",
-            exe,
-            "-lm",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=120,
+    host = os.path.join(ROOT, "tests", "c_host", "road_host.c")
+    compile_c_host(
+        [host, *files], exe, ("-g", "-O1", "-Wall"), [str(src), fmpy_headers()], ("-lm",)
     )
-    assert out.returncode == 0, out.stderr
     md = read_model_description(str(path))
     vr = {v.name: str(v.valueReference) for v in md.modelVariables}
     argv = [exe, md.guid, vr["road_displacement"], vr["road_velocity"], vr["speed"]]

@@ -5,6 +5,7 @@ processes started here on 127.0.0.1 (ports chosen by the scheduler); Ctrl-C is
 sent as a terminal sends it, to the whole process group of the command.
 """
 
+import functools
 import json
 import os
 import signal
@@ -15,7 +16,7 @@ import time
 import numpy as np
 import pandas as pd
 import pytest
-from test_sweep_run import GROUPING_RTOL
+from test_sweep_run import FAILING_SPEC, GROUPING_RTOL
 
 from bodyvib.vehicle.sweep.run import parts_dir, read_results, run_sweep
 
@@ -285,45 +286,16 @@ def test_outputs_are_checked_before_the_work(tmp_path, capsys):
     # .parquet, so the device is reached through a link that does
     os.symlink("/dev/full", tmp_path / "full.parquet")
     t0 = time.time()
-    assert (
-        main(
-            [
-                "sweep",
-                str(spec),
-                "--scheduler",
-                "serial",
-                "--quiet",
-                "--out",
-                str(tmp_path / "full.parquet"),
-                "--overwrite",
-            ]
-        )
-        == 2
-    )
+    serial = ["sweep", str(spec), "--scheduler", "serial", "--quiet", "--out"]
+    assert main([*serial, str(tmp_path / "full.parquet"), "--overwrite"]) == 2
     assert "character device" in capsys.readouterr().err and time.time() - t0 < 10
     assert not os.path.exists("/dev/full.parts")
     # --csv on a device: refused before the work, the previous --out untouched
     out = tmp_path / "a.parquet"
-    assert main(["sweep", str(spec), "--scheduler", "serial", "--quiet", "--out", str(out)]) == 0
+    assert main([*serial, str(out)]) == 0
     old = out.read_bytes()
     capsys.readouterr()
-    assert (
-        main(
-            [
-                "sweep",
-                str(spec),
-                "--scheduler",
-                "serial",
-                "--quiet",
-                "--out",
-                str(out),
-                "--overwrite",
-                "--csv",
-                "/dev/full",
-            ]
-        )
-        == 2
-    )
+    assert main([*serial, str(out), "--overwrite", "--csv", "/dev/full"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--csv '/dev/full' is a character device" in err[0], err
     assert out.read_bytes() == old and not os.path.exists(parts_dir(str(out)))
@@ -344,45 +316,24 @@ def test_all_outputs_or_none_on_a_full_disk(tmp_path):
             "seed": [0, 1, 2, 3, 4],
             "body": "reduced-paper",
         }  # 300 cases: a CSV of about 100 kB
-        run_sweep({**spec, "speed": 10}, out=out, engine="spectral", scheduler="serial")
+        sweep = functools.partial(run_sweep, out=out, engine="spectral", scheduler="serial")
+        sweep({**spec, "speed": 10})
         old = open(out, "rb").read()
         from bodyvib.runtime.errors import BodyvibError
 
         with pytest.raises(BodyvibError, match="No space left") as e:
-            run_sweep(
-                spec,
-                out=out,
-                csv=str(full / "a.csv"),
-                engine="spectral",
-                scheduler="serial",
-                overwrite=True,
-            )
+            sweep(spec, csv=str(full / "a.csv"), overwrite=True)
         assert "--resume" in str(e.value)
         assert open(out, "rb").read() == old and not os.listdir(full)
         # the finished cases are kept: --resume writes both once there is room
-        df = run_sweep(
-            spec,
-            out=out,
-            csv=str(tmp_path / "a.csv"),
-            engine="spectral",
-            scheduler="serial",
-            resume=True,
-        )
+        df = sweep(spec, csv=str(tmp_path / "a.csv"), resume=True)
         assert len(df) == 300 and len(pd.read_csv(tmp_path / "a.csv")) == 300
     finally:
         subprocess.run(["umount", str(full)], check=True)
 
 
 def test_failed_cases_are_recorded_and_retried_on_request(tmp_path):
-    spec = {
-        "road": "C",
-        "speed": [10, 20],
-        "duration": 1,
-        "body": [
-            "reduced-paper",
-            {"model": "reduced-paper", "vary": {"k1": [1e290, 1e290]}, "name": "absurd"},
-        ],
-    }
+    spec = FAILING_SPEC
     out = str(tmp_path / "r.parquet")
     first = run_sweep(spec, out=out, scheduler="serial")
     assert first["error"].notna().sum() == 2

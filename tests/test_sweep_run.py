@@ -182,16 +182,21 @@ def test_local_cluster_equals_serial_exactly():
     pd.testing.assert_frame_equal(_figures(spectral), _figures(spectral_serial), check_exact=True)
 
 
+#: Four cases, two of which fail: a neck stiffness of 1e290 N/m gives a state matrix whose
+#: exponential is not finite.
+FAILING_SPEC = {
+    "road": "C",
+    "speed": [10, 20],
+    "duration": 1,
+    "body": [
+        "reduced-paper",
+        {"model": "reduced-paper", "vary": {"k1": [1e290, 1e290]}, "name": "absurd"},
+    ],
+}
+
+
 def test_a_failing_case_is_recorded_and_the_sweep_goes_on(tmp_path):
-    spec = {
-        "road": "C",
-        "speed": [10, 20],
-        "duration": 1,
-        "body": [
-            "reduced-paper",
-            {"model": "reduced-paper", "vary": {"k1": [1e290, 1e290]}, "name": "absurd"},
-        ],
-    }
+    spec = FAILING_SPEC
     df = run_sweep(spec, out=str(tmp_path / "r.parquet"), scheduler="serial")
     bad = df[df["body"] == "absurd"]
     assert len(df) == 4 and len(bad) == 2

@@ -23,7 +23,7 @@ if __name__ != "bodyvib.vehicle":
     )
 
 
-import importlib
+from bodyvib._lazy import lazy_exports
 
 _HOME = {
     # the car
@@ -76,6 +76,7 @@ _HOME = {
     "BodyRun": "study",
     "Study": "study",
     "StudyCsv": "study",
+    "StudyOptions": "study",
     "check_settings": "study",
     "run_study": "study",
     "coupling_error_sweep": "study",
@@ -90,16 +91,4 @@ _HOME = {
 #: Subpackages, imported on first use like the names.
 _SUBPACKAGES = ("road", "sweep")
 
-__all__ = sorted(_HOME) + list(_SUBPACKAGES)
-
-
-def __getattr__(name: str) -> object:
-    if name in _HOME:
-        return getattr(importlib.import_module(f"{__name__}.{_HOME[name]}"), name)
-    if name in _SUBPACKAGES:
-        return importlib.import_module(f"{__name__}.{name}")
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__() -> list:
-    return sorted(set(globals()) | set(__all__))
+__all__, __getattr__, __dir__ = lazy_exports(__name__, _HOME, _SUBPACKAGES)

@@ -45,15 +45,16 @@ from typing import Dict, Optional
 
 import numpy as np
 
+from bodyvib.fmu.inspect import check_extracted_fmu
 from bodyvib.process import interrupts
 from bodyvib.process.outputs import PendingFile
 from bodyvib.process.progress import progress_bar
-from bodyvib.process.scratch import uri_unsafe_characters
 from bodyvib.runtime import contract
 from bodyvib.runtime.discretize import check_step
 from bodyvib.runtime.errors import BodyvibError
 
 from .quarter_car import CAR_FMU_OUTPUTS
+from .road.driven import road_columns
 from .signals import (
     BODY_SIGNALS,
     CAR_SIGNALS,
@@ -389,113 +390,6 @@ def check_fmu(path, kind: str) -> None:
     _model_description(path, kind)
 
 
-def _check_tree(unzipdir, md, path):
-    """Refuse an extracted FMU that lacks what its binary loads at instantiation.
-
-    pythonfmu's binary reads ``resources/slavemodule.txt`` and imports the module it
-    names from ``resources/``; without them it crashed the host (a segfault) instead
-    of failing ``fmi2Instantiate``. It finds them from the resource URI, decoding only
-    ``%20``: the extracted folder's path must be URI-safe
-    (:func:`bodyvib.process.scratch.uri_unsafe_characters`).
-    """
-    import platform
-
-    system = {"Linux": "linux", "Windows": "win", "Darwin": "darwin"}.get(platform.system(), "")
-    ext = {"linux": ".so", "win": ".dll", "darwin": ".dylib"}.get(system, "")
-    binary = os.path.join(
-        unzipdir, "binaries", f"{system}64", md.coSimulation.modelIdentifier + ext
-    )
-    if not os.path.isfile(binary):
-        raise BodyvibError(
-            f"FMU '{path}' has no binary for this platform "
-            f"(binaries/{system}64/{md.coSimulation.modelIdentifier}{ext})"
-        )
-    if system == "linux":
-        _check_elf(binary, path, f"binaries/linux64/{md.coSimulation.modelIdentifier}.so")
-    # pythonfmu writes "PythonFMU x.y"; bodyvib's writer "bodyvib v with PythonFMU x.y"
-    if "PythonFMU" not in (md.generationTool or ""):
-        return
-    resources = os.path.join(unzipdir, "resources")
-    listing = os.path.join(resources, "slavemodule.txt")
-    try:
-        with open(listing, encoding="utf-8") as f:
-            module = f.read().strip()
-    except OSError:
-        raise BodyvibError(
-            f"FMU '{path}' is incomplete: no resources/slavemodule.txt (a "
-            "pythonfmu FMU needs its resources folder); rebuild it"
-        ) from None
-    if not module or not any(
-        os.path.isfile(os.path.join(resources, module + e)) for e in (".py", "")
-    ):
-        raise BodyvibError(
-            f"FMU '{path}' is incomplete: resources/{module or '?'}.py (its "
-            "slave script) is missing; rebuild it"
-        )
-    bad = uri_unsafe_characters(unzipdir)
-    if bad:  # its binary would miss its resources and crash the host
-        raise BodyvibError(
-            f"FMU '{path}' was extracted to '{unzipdir}', whose "
-            f"{' '.join(repr(c) for c in bad)} a pythonfmu FMU cannot read back from its "
-            "resource URI; set TMPDIR to a folder without them"
-        )
-
-
-def _check_elf(binary, path, member):
-    """Refuse an ELF shared library that is not whole, before ``dlopen`` maps it.
-
-    ``dlopen`` of a truncated library maps pages beyond the end of the file and the
-    process dies of SIGBUS (measured: ``cosim --body`` of a native FMU whose binary was
-    cut in half), with no message and its temporary folders left behind. The header,
-    every program segment and every section (but the ``NOBITS`` ones) must lie inside
-    the file.
-    """
-    import struct
-
-    what = f"FMU '{path}': its binary {member}"
-    with open(binary, "rb") as f:
-        data = f.read()
-    size = len(data)
-    if size < 64 or data[:4] != b"\x7fELF" or data[4] not in (1, 2) or data[5] not in (1, 2):
-        raise BodyvibError(f"{what} is not an ELF shared library ({size} bytes); rebuild the FMU")
-    bits64, order = data[4] == 2, "<" if data[5] == 1 else ">"
-    if bits64:
-        phoff, shoff = struct.unpack_from(order + "QQ", data, 0x20)
-        phentsize, phnum, shentsize, shnum = struct.unpack_from(order + "HHHH", data, 0x36)
-    else:
-        phoff, shoff = struct.unpack_from(order + "II", data, 0x1C)
-        phentsize, phnum, shentsize, shnum = struct.unpack_from(order + "HHHH", data, 0x2A)
-
-    def truncated(need):
-        return BodyvibError(
-            f"{what} is truncated: {size} bytes, its headers describe at "
-            f"least {need}; the file was cut short (copy or download it "
-            "again, or rebuild the FMU)"
-        )
-
-    for off, entsize, num in ((phoff, phentsize, phnum), (shoff, shentsize, shnum)):
-        if num and off + entsize * num > size:
-            raise truncated(off + entsize * num)
-    for k in range(phnum):
-        base = phoff + k * phentsize
-        if bits64:
-            p_offset, _, _, p_filesz = struct.unpack_from(order + "QQQQ", data, base + 8)
-        else:
-            p_offset, _, _, p_filesz = struct.unpack_from(order + "IIII", data, base + 4)
-        if p_offset + p_filesz > size:
-            raise truncated(p_offset + p_filesz)
-    for k in range(shnum):
-        base = shoff + k * shentsize
-        if bits64:
-            (sh_type,) = struct.unpack_from(order + "I", data, base + 4)
-            sh_offset, sh_size = struct.unpack_from(order + "QQ", data, base + 24)
-        else:
-            (sh_type,) = struct.unpack_from(order + "I", data, base + 4)
-            sh_offset, sh_size = struct.unpack_from(order + "II", data, base + 16)
-        if sh_type != 8 and sh_offset + sh_size > size:  # 8: SHT_NOBITS (.bss), no bytes
-            raise truncated(sh_offset + sh_size)
-
-
 @contextlib.contextmanager
 def open_fmu(
     path,
@@ -551,7 +445,7 @@ def _instantiated(path, kind, instance_name, start_values=None):
     unzipdir = extract(path, unzipdir=tempfile.mkdtemp(prefix="bodyvib-fmu-"))
     fmu = None
     try:
-        _check_tree(unzipdir, md, path)
+        check_extracted_fmu(unzipdir, md, path)
         fmu = FMU2Slave(
             guid=md.guid,
             unzipDirectory=unzipdir,
@@ -697,6 +591,17 @@ class Master:
         """The controller's force per actuator from the velocities read last."""
         return self._control.forces(self._act_v)
 
+    def _road(self, road_displacement, road_velocity) -> np.ndarray:
+        """The car's road inputs at the next points: displacement and velocity of each pair."""
+        nr = self.roads
+        z, v = road_columns(road_displacement, road_velocity, nr)
+        m = z.shape[0]
+        if self.k + m > self.n:
+            raise BodyvibError(f"the run has {self.n} communication points; {self.k + m} given")
+        road = np.empty((m, 2 * nr))
+        road[:, 0::2], road[:, 1::2] = z, v
+        return road
+
     def advance(self, road_displacement, road_velocity) -> np.ndarray:
         """Co-simulate the next communication points.
 
@@ -720,26 +625,10 @@ class Master:
         KeyboardInterrupt
             Ctrl-C (:mod:`bodyvib.process.interrupts`), taken between macro-steps.
         """
-        z = np.asarray(road_displacement, dtype=float)
-        v = np.asarray(road_velocity, dtype=float)
-        nr = self.roads
-        if z.ndim == 1 and nr == 1:
-            z, v = z[:, None], v[:, None]
-        if z.shape != v.shape or z.ndim != 2 or z.shape[1] != nr:
-            raise BodyvibError(
-                "road displacement and velocity must be arrays of equal shape, "
-                f"(samples,) or (samples, {nr}): a column per road input pair of the car"
-            )
-        m = z.shape[0]
-        if self.k + m > self.n:
-            raise BodyvibError(f"the run has {self.n} communication points; {self.k + m} given")
-        if not (np.all(np.isfinite(z)) and np.all(np.isfinite(v))):
-            raise BodyvibError("road input is not finite; check the road profile")
+        road = self._road(road_displacement, road_velocity)
+        m = road.shape[0]
         t0 = time.perf_counter()
         rows = [None] * m
-        # the car's road inputs at each point: displacement and velocity of each pair
-        road = np.empty((m, 2 * nr))
-        road[:, 0::2], road[:, 1::2] = z, v
         h, last, extrapolate, has_rate = self.h, self.n - 1, self.extrapolate, self._has_rate
         cf, bf = self._car.fmu, self._body.fmu
         car_in, car_out, body_in, body_out = (

@@ -339,6 +339,28 @@ def build_project_fmu(
     )
 
 
+def _chosen_models(params, car, seat):
+    """The model file of each FMU that takes one, the seat put into the cars; the car's."""
+    chosen = {"HumanBody3DOF": params, car_fmu_name(car): car}
+    if seat:
+        from .seats import car_with_seat
+
+        for n, (kind, default, _) in FMUS.items():
+            if kind == "car":
+                chosen[n] = car_with_seat(chosen.get(n) or default, seat)
+        car = chosen[car_fmu_name(car)]
+    return chosen, car
+
+
+def _built_from(name, road, chosen):
+    """What an FMU was built from, in words: its road or its model."""
+    if FMUS[name][0] != "source":
+        return f"model {chosen.get(name) or FMUS[name][1]}"
+    if is_road_file(road["road"]):
+        return f"road {road['road']}"
+    return f"road {road['road']}, seed {road['seed']}, {road['length']:g} m"
+
+
 @renamed_parameters(echo="progress")
 def build_fmus(
     dest="dist",
@@ -403,14 +425,7 @@ def build_fmus(
     ['HumanBody3DOF', 'HumanBodyISO7962', 'QuarterCar']
     """
     names = list(names or FMUS)
-    chosen = {"HumanBody3DOF": params, car_fmu_name(car): car}
-    if seat:
-        from .seats import car_with_seat
-
-        for n, (kind, default, _) in FMUS.items():
-            if kind == "car":
-                chosen[n] = car_with_seat(chosen.get(n) or default, seat)
-        car = chosen[car_fmu_name(car)]
+    chosen, car = _chosen_models(params, car, seat)
     road = dict(ROAD_DEFAULTS, **(road or {}))
     half_car = car if car_fmu_name(car) == "HalfCar" else None
     sources = {}
@@ -430,31 +445,15 @@ def build_fmus(
             folder = Path(dest) if version == 2 else Path(dest) / "fmi3"
             for n in names:
                 key = n if version == 2 else f"fmi3/{n}"
-                is_source = FMUS[n][0] == "source"
-                if is_source:
+                how = {"fmi": version, "platforms": platforms}
+                if FMUS[n][0] == "source":
+                    backend = "native" if native else "pythonfmu"
                     out[key] = build(
-                        sources[n],
-                        "source",
-                        n,
-                        FMUS[n][2],
-                        folder,
-                        backend="native" if native else "pythonfmu",
-                        fmi=version,
-                        platforms=platforms,
+                        sources[n], "source", n, FMUS[n][2], folder, backend=backend, **how
                     )
                 else:
-                    out[key] = build_project_fmu(
-                        n, folder, chosen.get(n), native=native, fmi=version, platforms=platforms
-                    )
-                what[key] = (
-                    (
-                        f"road {road['road']}"
-                        if is_road_file(road["road"])
-                        else f"road {road['road']}, seed {road['seed']}, {road['length']:g} m"
-                    )
-                    if is_source
-                    else f"model {chosen.get(n) or FMUS[n][1]}"
-                )
+                    out[key] = build_project_fmu(n, folder, chosen.get(n), native=native, **how)
+                what[key] = _built_from(n, road, chosen)
                 if native:
                     what[key] = f"native C, FMI {version}.0, {what[key]}, {'+'.join(platforms)}"
         interrupts.check()

@@ -26,6 +26,7 @@ from bodyvib.runtime.network import Network, linear_model
 
 from .control import closed_loop_model
 from .quarter_car import seated_system
+from .road.driven import road_columns
 from .signals import BODY_SIGNALS, CAR_SIGNALS, OPTIONAL_SIGNALS, car_variable
 from .signals import SIGNALS as _SIGNALS
 
@@ -215,18 +216,8 @@ class ReferenceStream:
         BodyvibError
             Non-finite road input or mismatched lengths.
         """
-        z = np.asarray(road_displacement, dtype=float)
-        v = np.asarray(road_velocity, dtype=float)
         nb = self._bases
-        if z.ndim == 1 and nb == 1:
-            z, v = z[:, None], v[:, None]
-        if z.shape != v.shape or z.ndim != 2 or z.shape[1] != nb:
-            raise BodyvibError(
-                "road displacement and velocity must be arrays of equal shape, "
-                f"(samples,) or (samples, {nb}): a column per road point of the car"
-            )
-        if not (np.all(np.isfinite(z)) and np.all(np.isfinite(v))):
-            raise BodyvibError("road input is not finite; check the road profile")
+        z, v = road_columns(road_displacement, road_velocity, nb)
         lm, d, h = self._lm, self._disc, self._h
         u = np.zeros((z.shape[0], len(lm.inputs)))
         u[:, 0 : 2 * nb : 2], u[:, 1 : 2 * nb : 2] = z, v

@@ -12,8 +12,8 @@ their ``to_dict()`` is the JSON form (figures, no time histories).
 import contextlib
 import math
 import os
-from dataclasses import dataclass, field, replace
-from typing import Dict, List, Optional
+from dataclasses import dataclass, field, fields, replace
+from typing import Any, Dict, List, Optional
 
 import numpy as np
 
@@ -40,6 +40,7 @@ __all__ = [
     "BodyRun",
     "Study",
     "StudyCsv",
+    "StudyOptions",
     "check_settings",
     "run_study",
     "coupling_error_sweep",
@@ -253,41 +254,19 @@ def check_settings(settings: RunSettings, bodies: int = 1, histories: bool = Fal
     return driven_road(settings)
 
 
-@renamed_parameters(quiet=NOT("progress"))
-def run_study(
-    body_fmus: Dict[str, str],
-    car_fmu: str,
-    settings: RunSettings = COSIM_DEFAULTS,
-    extrapolate: bool = True,
-    reference: bool = True,
-    progress: Progress = False,
-    histories: bool = False,
-    csv: "StudyCsv" = None,
-    block: int = 4096,
-    window_s: float = 5.0,
-    controller=None,
-) -> Study:
-    """Co-simulate the car with each body FMU on one road; figures, references, transmissibility.
+@dataclass(frozen=True)
+class StudyOptions:
+    """How :func:`run_study` runs: the master, the reference, what it keeps and says.
 
-    Parameters
+    Attributes
     ----------
-    body_fmus : dict of str to str
-        Label -> body FMU path.
-    car_fmu : str
-        Car FMU path.
-    settings : bodyvib.vehicle.road.driven.RunSettings
-        The road (ISO 8608 class ``A``-``H``, ``bump``, ``sweep`` or a road file, faded in
-        from level: :func:`bodyvib.vehicle.road.driven.driven_road`), speed (m/s), duration
-        (s), communication step (s), random-road seed and road options; by default those of
-        ``bodyvib cosim``.
     extrapolate : bool
         Seat-force extrapolation in the master (see :mod:`bodyvib.vehicle.cosim`).
     reference : bool
         Also run the monolithic reference and report the coupling error.
     progress : bool or callable
         True: a progress bar and the stage messages on stderr; a callable receives the
-        messages (:mod:`bodyvib.process.progress`). ``quiet=False`` still works for one
-        release, with a ``DeprecationWarning``.
+        messages (:mod:`bodyvib.process.progress`).
     histories : bool
         Keep every signal of every run at full length (``BodyRun.run``,
         ``BodyRun.reference``, ``Study.time``): memory grows with the run. By default
@@ -305,6 +284,51 @@ def run_study(
         gains it declares, :func:`bodyvib.vehicle.control.controller_from_fmu`), and a
         semi-active (nonlinear) law has none.
 
+    Examples
+    --------
+    >>> StudyOptions(extrapolate=False).block
+    4096
+    """
+
+    extrapolate: bool = True
+    reference: bool = True
+    progress: Progress = False
+    histories: bool = False
+    csv: Optional["StudyCsv"] = None
+    block: int = 4096
+    window_s: float = 5.0
+    controller: Any = None
+
+
+@renamed_parameters(quiet=NOT("progress"))
+def run_study(
+    body_fmus: Dict[str, str],
+    car_fmu: str,
+    settings: RunSettings = COSIM_DEFAULTS,
+    options: Optional[StudyOptions] = None,
+    **keywords,
+) -> Study:
+    """Co-simulate the car with each body FMU on one road; figures, references, transmissibility.
+
+    Parameters
+    ----------
+    body_fmus : dict of str to str
+        Label -> body FMU path.
+    car_fmu : str
+        Car FMU path.
+    settings : bodyvib.vehicle.road.driven.RunSettings
+        The road (ISO 8608 class ``A``-``H``, ``bump``, ``sweep`` or a road file, faded in
+        from level: :func:`bodyvib.vehicle.road.driven.driven_road`), speed (m/s), duration
+        (s), communication step (s), random-road seed and road options; by default those of
+        ``bodyvib cosim``.
+    options : StudyOptions, optional
+        The master, the reference, the histories kept, the CSV stream, progress and
+        messages; by default ``StudyOptions()``.
+    **keywords
+        Any field of :class:`StudyOptions` (``extrapolate``, ``reference``, ``progress``,
+        ``histories``, ``csv``, ``block``, ``window_s``, ``controller``),
+        replacing that of ``options``.
+
     Returns
     -------
     Study
@@ -315,100 +339,215 @@ def run_study(
     ------
     BodyvibError
         Bad settings, missing or unsuitable FMUs.
+    TypeError
+        A keyword that is no field of :class:`StudyOptions`.
     """
-    rd = check_settings(settings, bodies=len(body_fmus), histories=histories)
-    speed, duration, step = settings.speed, settings.duration, settings.step
-    n = int(round(duration / step)) + 1
-    fs = 1.0 / step
-    labels = list(body_fmus)
+    opts = _study_options(options, keywords)
+    rd = check_settings(settings, bodies=len(body_fmus), histories=opts.histories)
+    n = int(round(settings.duration / settings.step)) + 1
     check_fmu(car_fmu, "car")  # a body FMU given as the car: named, before any work
     for path in body_fmus.values():
         check_fmu(path, "body")
-    controller_fmu = controller if isinstance(controller, (str, os.PathLike)) else None
-    law = controller_from_fmu(controller_fmu) if controller_fmu else controller
-    reference = reference and (law is None or law.linear)
+    controller_fmu = opts.controller if isinstance(opts.controller, (str, os.PathLike)) else None
+    law = controller_from_fmu(controller_fmu) if controller_fmu else opts.controller
+    reference = opts.reference and (law is None or law.linear)
     car_net = model_from_fmu(car_fmu) if reference else None
     behind = _wheels(car_fmu, car_net)
-    nets = {label: model_from_fmu(path) if reference else None for label, path in body_fmus.items()}
-    refs = {
-        label: ReferenceStream(car_net, net, step, law)
-        for label, net in nets.items()
-        if net is not None and car_net is not None
+    window = _window(n, settings.step, opts.window_s)
+    bodies = {
+        label: _BodyRecorder(label, path, settings.step, n, window, opts.histories)
+        for label, path in body_fmus.items()
     }
-    comfort = {label: ComfortStream(fs, 2) for label in labels}  # head, seat
-    seat_measures = {label: SeatMeasureStream(fs) for label in labels}
-    trans = {label: TransmissibilityStream(fs, n) for label in labels}
-    forces = {label: {name: ForceStream(step) for name in OPTIONAL_SIGNALS} for label in labels}
-    err = {label: [0.0, 0.0] for label in refs}  # sum (a - r)^2, sum r^2
-    pairs = {(a, b): [0.0, 0.0] for a in labels for b in labels if a != b}
-    w0 = max(0.0, (n - 1) * step / 2 - window_s / 2)  # the plot's window
-    k0 = int(math.ceil(w0 / step - 1e-9))
-    k1 = min(n - 1, int(math.floor((w0 + window_s) / step + 1e-9)))  # a run shorter than it
-    windows = {label: [] for label in labels}
-    kept = {label: [] for label in labels} if histories else None
-    kept_ref = {label: [] for label in refs} if histories else None
-    progress_lines(progress)(
-        f"co-simulating {', '.join(f'{b} ({os.path.basename(p)})' for b, p in body_fmus.items())}"
-        f" on {rd.name} at {speed:g} m/s, {duration:g} s, step {step:g} s"
-        + (" with the monolithic reference" if refs else "")
-    )
-    bar = progress_bar(n, progress, "co-simulation")
+    for rec in bodies.values():
+        rec.add_reference(car_net, reference, law)
+    progress_lines(opts.progress)(_opening(body_fmus, rd, settings, bodies))
+    pairs = {(a, b): [0.0, 0.0] for a in bodies for b in bodies if a != b}
+    bar = progress_bar(n, opts.progress, "co-simulation")
     with contextlib.ExitStack() as stack:
-        masters = {}
-        for label, path in body_fmus.items():
-            car = stack.enter_context(open_fmu(car_fmu, "car", "car"))
-            body = stack.enter_context(open_fmu(path, "body", label))
-            if controller_fmu is not None:
-                law = stack.enter_context(open_controller(controller_fmu, car))
-            masters[label] = Master(car, body, step, n, extrapolate=extrapolate, controller=law)
+        for rec in bodies.values():
+            rec.open(stack, car_fmu, controller_fmu, law, n, opts.extrapolate)
         try:
-            for a in range(0, n, block):
-                t = np.arange(a, min(n, a + block)) * step
-                zw, vw = wheel_inputs(rd, speed, t, behind)
+            for a in range(0, n, opts.block):
+                t = np.arange(a, min(n, a + opts.block)) * settings.step
+                zw, vw = wheel_inputs(rd, settings.speed, t, behind)
                 z, v = zw[:, 0], vw[:, 0]  # the (front) wheel's: the study's road columns
                 wheels = (z, v) if len(behind) == 1 else (zw, vw)
                 heads = {}
-                for label in labels:
-                    rows = masters[label].advance(*wheels)
-                    sig = dict(zip(MASTER_SIGNALS, rows.T))
-                    head, seat = sig["head_acceleration"], sig["seat_acceleration"]
-                    heads[label] = head
-                    comfort[label].update(np.vstack([head, seat]))
-                    seat_measures[label].update(seat, sig["seat_force"], sig["seat_velocity"])
-                    trans[label].update(seat, head)
-                    for name, stream in forces[label].items():
-                        stream.update(sig[name])
-                    ref = None
-                    if label in refs:
-                        interrupts.check()
-                        ref = refs[label].advance(*wheels)
-                        r = ref["head_acceleration"]
-                        err[label][0] += float(np.dot(head - r, head - r))
-                        err[label][1] += float(np.dot(r, r))
-                    lo, hi = max(k0, a) - a, min(k1 + 1, a + t.size) - a
-                    if hi > lo:
-                        windows[label].append(head[lo:hi])
-                    if histories:
-                        kept[label].append(sig)
-                        if ref is not None:
-                            kept_ref[label].append(ref)
-                    if csv is not None:
-                        csv.add(label, sig, ref)
-                for (x, y), acc in pairs.items():
-                    d = heads[x] - heads[y]
-                    acc[0] += float(np.dot(d, d))
-                    acc[1] += float(np.dot(heads[y], heads[y]))
-                if csv is not None:
-                    csv.flush(t, z, v)
+                for label, rec in bodies.items():
+                    sig, ref = rec.advance(a, t.size, wheels)
+                    heads[label] = sig["head_acceleration"]
+                    if opts.csv is not None:
+                        opts.csv.add(label, sig, ref)
+                _add_pairs(pairs, heads)
+                if opts.csv is not None:
+                    opts.csv.flush(t, z, v)
                 if bar is not None:
                     bar.update(t.size)
         finally:
             if bar is not None:
                 bar.close()
+    return _study(settings, opts, controller_fmu, rd, window, pairs, bodies)
+
+
+def _study_options(options, keywords):
+    """``options`` with the keyword arguments of :func:`run_study` put in."""
+    opts = StudyOptions() if options is None else options
+    unknown = sorted(set(keywords) - {f.name for f in fields(StudyOptions)})
+    if unknown:
+        raise TypeError(f"run_study() got an unexpected keyword argument '{unknown[0]}'")
+    return replace(opts, **keywords)
+
+
+def _window(n, step, window_s):
+    """First and last communication point of the plot's window, mid-run."""
+    w0 = max(0.0, (n - 1) * step / 2 - window_s / 2)
+    k0 = int(math.ceil(w0 / step - 1e-9))
+    k1 = min(n - 1, int(math.floor((w0 + window_s) / step + 1e-9)))  # a run shorter than it
+    return k0, k1
+
+
+def _opening(body_fmus, rd, settings, bodies):
+    """The study's first stage message."""
+    return (
+        f"co-simulating {', '.join(f'{b} ({os.path.basename(p)})' for b, p in body_fmus.items())}"
+        f" on {rd.name} at {settings.speed:g} m/s, {settings.duration:g} s, "
+        f"step {settings.step:g} s"
+        + (
+            " with the monolithic reference"
+            if any(rec.ref is not None for rec in bodies.values())
+            else ""
+        )
+    )
+
+
+def _add_pairs(pairs, heads):
+    """Add one block's ``sum((a - b)^2)`` and ``sum(b^2)`` of each pair of heads."""
+    for (x, y), acc in pairs.items():
+        d = heads[x] - heads[y]
+        acc[0] += float(np.dot(d, d))
+        acc[1] += float(np.dot(heads[y], heads[y]))
+
+
+class _BodyRecorder:
+    """One body of a study: its master, reference and the running figures of its run.
+
+    Parameters
+    ----------
+    label : str
+        The body's label.
+    path : str
+        Body FMU path.
+    step : float
+        Communication step, s.
+    n : int
+        Communication points of the run.
+    window : (int, int)
+        First and last communication point of the plot's window.
+    histories : bool
+        Keep every signal at full length.
+    """
+
+    def __init__(self, label, path, step, n, window, histories):
+        fs = 1.0 / step
+        self.label, self.path, self.step, self.window = label, path, step, window
+        self.comfort = ComfortStream(fs, 2)  # head, seat
+        self.measures = SeatMeasureStream(fs)
+        self.trans = TransmissibilityStream(fs, n)
+        self.forces = {name: ForceStream(step) for name in OPTIONAL_SIGNALS}
+        self.net = self.ref = self.master = None
+        self.err = [0.0, 0.0]  # sum (a - r)^2, sum r^2
+        self.head_window = []
+        self.kept = [] if histories else None
+        self.kept_ref = [] if histories else None
+
+    def add_reference(self, car_net, reference, law):
+        """Read the body's model and set up its monolithic reference (``reference``)."""
+        self.net = model_from_fmu(self.path) if reference else None
+        if self.net is not None and car_net is not None:
+            self.ref = ReferenceStream(car_net, self.net, self.step, law)
+
+    def open(self, stack, car_fmu, controller_fmu, law, n, extrapolate):
+        """Open the car, the body (and the controller FMU) on ``stack``; their master."""
+        car = stack.enter_context(open_fmu(car_fmu, "car", "car"))
+        body = stack.enter_context(open_fmu(self.path, "body", self.label))
+        if controller_fmu is not None:
+            law = stack.enter_context(open_controller(controller_fmu, car))
+        self.master = Master(car, body, self.step, n, extrapolate=extrapolate, controller=law)
+
+    def advance(self, a, size, wheels):
+        """Run one block from point ``a``; its signals and the reference's (or None)."""
+        rows = self.master.advance(*wheels)
+        sig = dict(zip(MASTER_SIGNALS, rows.T))
+        head, seat = sig["head_acceleration"], sig["seat_acceleration"]
+        self.comfort.update(np.vstack([head, seat]))
+        self.measures.update(seat, sig["seat_force"], sig["seat_velocity"])
+        self.trans.update(seat, head)
+        for name, stream in self.forces.items():
+            stream.update(sig[name])
+        ref = None
+        if self.ref is not None:
+            interrupts.check()
+            ref = self.ref.advance(*wheels)
+            r = ref["head_acceleration"]
+            self.err[0] += float(np.dot(head - r, head - r))
+            self.err[1] += float(np.dot(r, r))
+        k0, k1 = self.window
+        lo, hi = max(k0, a) - a, min(k1 + 1, a + size) - a
+        if hi > lo:
+            self.head_window.append(head[lo:hi])
+        if self.kept is not None:
+            self.kept.append(sig)
+            if ref is not None:
+                self.kept_ref.append(ref)
+        return sig, ref
+
+    def result(self, road, duration):
+        """The body's :class:`BodyRun`; ``road`` holds the study's time and road columns."""
+        figs = self.comfort.figures()
+        return BodyRun(
+            fmu=os.fspath(self.path),
+            model=self.net.name if self.net is not None else None,
+            run=self._histories(road, self.kept, MASTER_SIGNALS),
+            reference=self._histories(road, self.kept_ref, None),
+            figures=figs.case(0),
+            seat_figures=figs.case(1),
+            coupling_nrmse=self._coupling(),
+            transmissibility=self.trans.result(),
+            real_time_factor=duration / max(self.master.wall_s, 1e-12),
+            head_window=np.concatenate(self.head_window) if self.head_window else np.empty(0),
+            seat_measures=self.measures.figures(),
+            forces={
+                name: f
+                for name, f in ((k, s.figures()) for k, s in self.forces.items())
+                if math.isfinite(f.rms)
+            },
+        )
+
+    @staticmethod
+    def _histories(road, blocks, names):
+        """The time and road columns with the blocks joined (None when none were kept)."""
+        if not blocks:
+            return None
+        names = names if names is not None else blocks[0]
+        return {**road, **{k: np.concatenate([b[k] for b in blocks]) for k in names}}
+
+    def _coupling(self):
+        if self.ref is None:
+            return None
+        if self.err[1] == 0:
+            raise BodyvibError("reference signal is zero throughout; NRMSE undefined")
+        return math.sqrt(self.err[0] / self.err[1])
+
+
+def _study(settings, opts, controller_fmu, rd, window, pairs, bodies):
+    """The :class:`Study` of a finished run."""
+    step = settings.step
+    n = int(round(settings.duration / step)) + 1
+    controller = opts.controller
     out = Study(
         settings=replace(settings, road=str(settings.road)),
         master="gauss-seidel, seat force "
-        + ("extrapolated linearly" if extrapolate else "held")
+        + ("extrapolated linearly" if opts.extrapolate else "held")
         + (
             f", actuators: {os.path.basename(controller_fmu) if controller_fmu else ''}"
             f"{describe(controller_from_fmu(controller_fmu) if controller_fmu else controller)}"
@@ -416,56 +555,20 @@ def run_study(
             else ""
         ),
         road=rd.describe(),
-        window_time=np.arange(k0, k1 + 1) * step,
+        window_time=np.arange(window[0], window[1] + 1) * step,
         history_sums={k: tuple(v) for k, v in pairs.items()},
     )
-    if histories:
+    road = {}
+    if opts.histories:
         out.time = np.arange(n) * step
-        out.road_displacement, out.road_velocity = road_input(rd, speed, out.time)
-    for label, path in body_fmus.items():
-        figs = comfort[label].figures()
-        head_fig, seat_fig = figs.case(0), figs.case(1)
-        run = ref_hist = None
-        if histories:
-            run = {
-                "time": out.time,
-                "road_displacement": out.road_displacement,
-                "road_velocity": out.road_velocity,
-            }
-            run.update({k: np.concatenate([b[k] for b in kept[label]]) for k in MASTER_SIGNALS})
-            if label in refs:
-                ref_hist = {
-                    "time": out.time,
-                    "road_displacement": out.road_displacement,
-                    "road_velocity": out.road_velocity,
-                }
-                ref_hist.update(
-                    {k: np.concatenate([b[k] for b in kept_ref[label]]) for k in kept_ref[label][0]}
-                )
-        coupling = None
-        if label in err:
-            if err[label][1] == 0:
-                raise BodyvibError("reference signal is zero throughout; NRMSE undefined")
-            coupling = math.sqrt(err[label][0] / err[label][1])
-        net = nets[label]
-        out.bodies[label] = BodyRun(
-            fmu=os.fspath(path),
-            model=net.name if net is not None else None,
-            run=run,
-            reference=ref_hist,
-            figures=head_fig,
-            seat_figures=seat_fig,
-            coupling_nrmse=coupling,
-            transmissibility=trans[label].result(),
-            real_time_factor=duration / max(masters[label].wall_s, 1e-12),
-            head_window=np.concatenate(windows[label]) if windows[label] else np.empty(0),
-            seat_measures=seat_measures[label].figures(),
-            forces={
-                name: f
-                for name, f in ((k, s.figures()) for k, s in forces[label].items())
-                if math.isfinite(f.rms)
-            },
-        )
+        out.road_displacement, out.road_velocity = road_input(rd, settings.speed, out.time)
+        road = {
+            "time": out.time,
+            "road_displacement": out.road_displacement,
+            "road_velocity": out.road_velocity,
+        }
+    for label, rec in bodies.items():
+        out.bodies[label] = rec.result(road, settings.duration)
     return out
 
 

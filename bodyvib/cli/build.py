@@ -177,6 +177,36 @@ def _road(args) -> dict:
     }
 
 
+def _add_road_arguments(p):
+    """The options of the road Road.fmu tabulates."""
+    p.add_argument(
+        "--road",
+        default=ROAD_DEFAULTS["road"],
+        help="Road.fmu: ISO 8608 class A-H, bump, sweep, a bump shape (hump:h=0.075,l=3.7; "
+        "table, sine, halfsine, pothole) or a road file ("
+        + ", ".join(PROFILE_EXTENSIONS)
+        + ") (default: C)",
+    )
+    for flag, kind, default, metavar, text in (
+        ("--road-seed", int, ROAD_DEFAULTS["seed"], "N", "seed of a random road (default: 0)"),
+        (
+            "--road-length",
+            float,
+            None,
+            "M",
+            "tabulated length in m (default: 601, 30 s at 20 m/s; a random road repeats after it)",
+        ),
+        (
+            "--road-speed",
+            float,
+            ROAD_DEFAULTS["speed"],
+            "V",
+            "default of its speed parameter, m/s (default: 20)",
+        ),
+    ):
+        p.add_argument(flag, type=kind, default=default, metavar=metavar, help="Road.fmu: " + text)
+
+
 def add_command(subparsers):
     """Register ``bodyvib build``."""
     p = subparsers.add_parser(
@@ -219,36 +249,7 @@ def add_command(subparsers):
         "win64 (default: every platform whose compiler is on PATH; the others are "
         "reported as skipped)",
     )
-    p.add_argument(
-        "--road",
-        default=ROAD_DEFAULTS["road"],
-        help="Road.fmu: ISO 8608 class A-H, bump, sweep, a bump shape (hump:h=0.075,l=3.7; "
-        "table, sine, halfsine, pothole) or a road file ("
-        + ", ".join(PROFILE_EXTENSIONS)
-        + ") (default: C)",
-    )
-    p.add_argument(
-        "--road-seed",
-        type=int,
-        default=ROAD_DEFAULTS["seed"],
-        metavar="N",
-        help="Road.fmu: seed of a random road (default: 0)",
-    )
-    p.add_argument(
-        "--road-length",
-        type=float,
-        default=None,
-        metavar="M",
-        help="Road.fmu: tabulated length in m (default: 601, 30 s at 20 m/s; a random "
-        "road repeats after it)",
-    )
-    p.add_argument(
-        "--road-speed",
-        type=float,
-        default=ROAD_DEFAULTS["speed"],
-        metavar="V",
-        help="Road.fmu: default of its speed parameter, m/s (default: 20)",
-    )
+    _add_road_arguments(p)
     p.add_argument(
         "--control",
         metavar="LAW",

@@ -14,7 +14,7 @@ Import from the package (``from bodyvib.fit import fit``): the names in ``__all_
 are its public interface, and the modules that hold them are internal and may move.
 """
 
-import importlib
+from bodyvib._lazy import lazy_exports
 
 _HOME = {
     "load_config": "config",
@@ -40,14 +40,4 @@ _HOME = {
     "pareto_front": "pareto",
 }
 
-__all__ = sorted(_HOME)
-
-
-def __getattr__(name: str) -> object:
-    if name in _HOME:
-        return getattr(importlib.import_module(f"{__name__}.{_HOME[name]}"), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__() -> list:
-    return sorted(set(globals()) | set(__all__))
+__all__, __getattr__, __dir__ = lazy_exports(__name__, _HOME)

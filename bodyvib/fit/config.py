@@ -313,12 +313,56 @@ def load_config(path=None, overrides: Optional[dict] = None) -> FitConfig:
         cfg = _merge(cfg, _read_json(os.fspath(path)), os.fspath(path))
     if overrides:
         cfg = _merge(cfg, overrides, "configuration")
-    where = os.fspath(path) if path is not None else "configuration"
-    pairs = cfg["pairs"]
+    check = _Check(cfg, os.fspath(path) if path is not None else "configuration")
+    for section in _CHECKS:
+        section(check)
+    return FitConfig(
+        pairs=cfg["pairs"],
+        bounds_per_kg_total_mass={g: tuple(b) for g, b in cfg["bounds_per_kg_total_mass"].items()},
+        method=cfg["method"],
+        restarts=Restarts(**cfg["restarts"]),
+        **{
+            name: section(
+                **{k: (tuple(v) if isinstance(v, list) else v) for k, v in cfg[name].items()}
+            )
+            for name, section in _SECTIONS.items()
+        },
+    )
+
+
+class _Check:
+    """The merged document of :func:`load_config` and the checks its sections share."""
+
+    def __init__(self, cfg: dict, where: str):
+        self.cfg, self.where = cfg, where
+
+    def fail(self, message: str):
+        raise BodyvibError(f"{self.where}: {message}")
+
+    def positive(self, section: str, *keys: str, integer: bool = False):
+        kind = int if integer else (int, float)
+        for key in keys:
+            v = self.cfg[section][key]
+            if isinstance(v, bool) or not isinstance(v, kind) or not (math.isfinite(v) and v > 0):
+                self.fail(
+                    f"{section}.{key} must be a positive "
+                    f"{'integer' if integer else 'number'}, got {v!r}"
+                )
+
+    def one_of(self, name: str, value, choices, note: str = ""):
+        if value not in choices:
+            self.fail(f"{name} must be one of {', '.join(choices)}{note}, got {value!r}")
+
+
+def _check_pairs(check: _Check):
+    pairs = check.cfg["pairs"]
     if not isinstance(pairs, dict):
-        raise BodyvibError(f"{where}: 'pairs' must be an object of role: weight")
-    cfg["pairs"] = check_pairs(pairs.items())
-    bounds = cfg["bounds_per_kg_total_mass"]
+        check.fail("'pairs' must be an object of role: weight")
+    check.cfg["pairs"] = check_pairs(pairs.items())
+
+
+def _check_bounds(check: _Check):
+    bounds = check.cfg["bounds_per_kg_total_mass"]
     for g in GENES:
         b = bounds.get(g)
         ok = (
@@ -329,110 +373,123 @@ def load_config(path=None, overrides: Optional[dict] = None) -> FitConfig:
             and 0 < b[0] < b[1]
         )
         if not ok:
-            raise BodyvibError(
-                f"{where}: bounds_per_kg_total_mass.{g} must be [low, high] with "
-                f"0 < low < high, got {b!r}"
+            check.fail(
+                f"bounds_per_kg_total_mass.{g} must be [low, high] with 0 < low < high, got {b!r}"
             )
     if bounds["m1"][1] >= 1:
-        raise BodyvibError(
-            f"{where}: bounds_per_kg_total_mass.m1 is the head's fraction of the "
+        check.fail(
+            "bounds_per_kg_total_mass.m1 is the head's fraction of the "
             "total mass and must stay below 1"
         )
 
-    def positive(section, key, integer=False):
-        v = cfg[section][key]
-        kind = int if integer else (int, float)
-        if isinstance(v, bool) or not isinstance(v, kind) or not (math.isfinite(v) and v > 0):
-            raise BodyvibError(
-                f"{where}: {section}.{key} must be a positive "
-                f"{'integer' if integer else 'number'}, got {v!r}"
-            )
 
-    def one_of(name, value, choices, note=""):
-        if value not in choices:
-            raise BodyvibError(
-                f"{where}: {name} must be one of {', '.join(choices)}{note}, got {value!r}"
-            )
+def _check_method(check: _Check):
+    check.one_of("method", check.cfg["method"], METHODS)
 
-    one_of("method", cfg["method"], METHODS)
-    r = cfg["restarts"]
+
+def _check_restarts(check: _Check):
+    r = check.cfg["restarts"]
     if isinstance(r, int) and not isinstance(r, bool):
-        r = cfg["restarts"] = {"model": r, "measured": r}
+        r = check.cfg["restarts"] = {"model": r, "measured": r}
     if not (
         isinstance(r, dict)
         and set(r) == {"model", "measured"}
         and all(isinstance(v, int) and not isinstance(v, bool) and v >= 1 for v in r.values())
     ):
-        raise BodyvibError(
-            f"{where}: restarts must be a positive integer or "
+        check.fail(
+            "restarts must be a positive integer or "
             '{"model": N, "measured": N} (reference model / measured data), '
-            f"got {cfg['restarts']!r}"
+            f"got {check.cfg['restarts']!r}"
         )
-    for k in ("population", "generations", "tournament_size", "elitism", "stall_generations"):
-        positive("ga", k, integer=True)
-    if cfg["ga"]["elitism"] >= cfg["ga"]["population"]:
-        raise BodyvibError(f"{where}: ga.elitism must be below ga.population")
-    for k in ("crossover_eta", "mutation_probability", "mutation_scale", "ftol"):
-        positive("ga", k)
-    for k in ("max_evaluations", "stall_generations"):
-        positive("cmaes", k, integer=True)
-    positive("cmaes", "sigma0")
-    positive("cmaes", "ftol")
-    p = cfg["cmaes"]["population"]
+
+
+def _check_ga(check: _Check):
+    check.positive(
+        "ga",
+        "population",
+        "generations",
+        "tournament_size",
+        "elitism",
+        "stall_generations",
+        integer=True,
+    )
+    if check.cfg["ga"]["elitism"] >= check.cfg["ga"]["population"]:
+        check.fail("ga.elitism must be below ga.population")
+    check.positive("ga", "crossover_eta", "mutation_probability", "mutation_scale", "ftol")
+
+
+def _check_cmaes(check: _Check):
+    check.positive("cmaes", "max_evaluations", "stall_generations", integer=True)
+    check.positive("cmaes", "sigma0", "ftol")
+    p = check.cfg["cmaes"]["population"]
     if isinstance(p, bool) or not isinstance(p, int) or p < 0:
-        raise BodyvibError(
-            f"{where}: cmaes.population must be a non-negative integer (0: "
-            f"CMA-ES's default), got {p!r}"
+        check.fail(
+            f"cmaes.population must be a non-negative integer (0: CMA-ES's default), got {p!r}"
         )
-    for k in ("population_per_gene", "generations"):
-        positive("de", k, integer=True)
-    positive("de", "tol")
-    positive("de", "recombination")
-    mut = cfg["de"]["mutation"]
+
+
+def _check_de(check: _Check):
+    check.positive("de", "population_per_gene", "generations", integer=True)
+    check.positive("de", "tol", "recombination")
+    mut = check.cfg["de"]["mutation"]
     if not (
         isinstance(mut, list)
         and len(mut) == 2
         and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in mut)
         and 0 <= mut[0] <= mut[1] < 2
     ):
-        raise BodyvibError(
-            f"{where}: de.mutation must be [low, high] with 0 <= low <= high < 2, got {mut!r}"
-        )
-    one_of("de.strategy", cfg["de"]["strategy"], DE_STRATEGIES)
-    for k in ("population", "generations"):
-        positive("pareto", k, integer=True)
-    positive("pareto", "crossover_eta")
-    positive("pareto", "mutation_eta")
+        check.fail(f"de.mutation must be [low, high] with 0 <= low <= high < 2, got {mut!r}")
+    check.one_of("de.strategy", check.cfg["de"]["strategy"], DE_STRATEGIES)
+
+
+def _check_pareto(check: _Check):
+    check.positive("pareto", "population", "generations", integer=True)
+    check.positive("pareto", "crossover_eta", "mutation_eta")
+
+
+def _check_coordinates(check: _Check):
     for m in METHODS:
-        one_of(f"{m}.coordinates", cfg[m]["coordinates"], COORDINATES)
-    pol = cfg["polish"]
+        check.one_of(f"{m}.coordinates", check.cfg[m]["coordinates"], COORDINATES)
+
+
+def _check_polish(check: _Check):
+    pol = check.cfg["polish"]
     if not isinstance(pol["enabled"], bool):
-        raise BodyvibError(f"{where}: polish.enabled must be true or false")
-    one_of(
+        check.fail("polish.enabled must be true or false")
+    check.one_of(
         "polish.method", pol["method"], POLISH_METHODS, " (bounded scipy.optimize.minimize methods)"
     )
-    positive("polish", "max_iterations", integer=True)
-    for k in ("f_first_panel_hz", "f_split_hz"):
-        positive("quadrature", k)
-    for k in ("panels", "nodes_per_panel", "tail_nodes"):
-        positive("quadrature", k, integer=True)
-    q = cfg["quadrature"]
+    check.positive("polish", "max_iterations", integer=True)
+
+
+def _check_quadrature(check: _Check):
+    check.positive("quadrature", "f_first_panel_hz", "f_split_hz")
+    check.positive("quadrature", "panels", "nodes_per_panel", "tail_nodes", integer=True)
+    q = check.cfg["quadrature"]
     if not q["f_first_panel_hz"] < q["f_split_hz"]:
-        raise BodyvibError(f"{where}: quadrature needs 0 < f_first_panel_hz < f_split_hz")
-    positive("time_domain", "step")
-    positive("time_domain", "decay_time_constants")
-    return FitConfig(
-        pairs=cfg["pairs"],
-        bounds_per_kg_total_mass={g: tuple(b) for g, b in bounds.items()},
-        method=cfg["method"],
-        restarts=Restarts(**cfg["restarts"]),
-        **{
-            name: section(
-                **{k: (tuple(v) if isinstance(v, list) else v) for k, v in cfg[name].items()}
-            )
-            for name, section in _SECTIONS.items()
-        },
-    )
+        check.fail("quadrature needs 0 < f_first_panel_hz < f_split_hz")
+
+
+def _check_time_domain(check: _Check):
+    check.positive("time_domain", "step", "decay_time_constants")
+
+
+#: The checks of :func:`load_config`, one per section of the document, in this order
+#: (the first error found is the one reported).
+_CHECKS = (
+    _check_pairs,
+    _check_bounds,
+    _check_method,
+    _check_restarts,
+    _check_ga,
+    _check_cmaes,
+    _check_de,
+    _check_pareto,
+    _check_coordinates,
+    _check_polish,
+    _check_quadrature,
+    _check_time_domain,
+)
 
 
 def log_bounds(cfg: FitConfig):

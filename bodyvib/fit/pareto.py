@@ -45,8 +45,8 @@ from ..process import extras
 from ..process.outputs import atomic_write_text
 from ..runtime.errors import BodyvibError
 from ..runtime.renames import renamed_parameters
-from .config import log_bounds
-from .methods import SearchSpace
+from .config import ParetoSettings, log_bounds
+from .methods import SearchSpace, nsga2_front
 from .space import REDUCED_PARAMETERS, genes_to_parameters, parameters_to_genes, reduced_network
 
 __all__ = [
@@ -210,12 +210,6 @@ def pareto_front(target, config, seed: int = 1, start=None, progress: bool = Fal
     import time
 
     extras.require("the Pareto front", "fit")
-
-    from pymoo.algorithms.moo.nsga2 import NSGA2
-    from pymoo.core.problem import Problem
-    from pymoo.operators.crossover.sbx import SBX
-    from pymoo.operators.mutation.pm import PM
-    from pymoo.optimize import minimize
     from threadpoolctl import threadpool_limits
     from tqdm import tqdm
 
@@ -239,13 +233,6 @@ def pareto_front(target, config, seed: int = 1, start=None, progress: bool = Fal
         e = np.nan_to_num(peak_error(peaks(p), ref), nan=1e300, posinf=1e300)
         return np.column_stack([J, e])
 
-    class Trade(Problem):
-        def __init__(self):
-            super().__init__(n_var=6, n_obj=2, xl=space.zlo, xu=space.zhi)
-
-        def _evaluate(self, z, out, *args, **kwargs):
-            out["F"] = evaluate(z)
-
     n = int(s.population)
     rng = np.random.default_rng(seed)
     X0 = space.zlo + rng.random((n, 6)) * (space.zhi - space.zlo)
@@ -259,28 +246,24 @@ def pareto_front(target, config, seed: int = 1, start=None, progress: bool = Fal
         disable=None if progress else True,
         leave=False,
     )
-    algorithm = NSGA2(
-        pop_size=n,
-        sampling=X0,
-        crossover=SBX(prob=0.9, eta=float(s.crossover_eta)),
-        mutation=PM(eta=float(s.mutation_eta)),
-        eliminate_duplicates=True,
-    )
     t0 = time.perf_counter()
     try:
         with threadpool_limits(1, user_api="blas"):
-            res = minimize(
-                Trade(),
-                algorithm,
-                ("n_gen", int(s.generations)),
+            Z, F = nsga2_front(
+                evaluate,
+                (6, space.zlo, space.zhi),
+                2,
+                ParetoSettings(
+                    n, int(s.generations), float(s.crossover_eta), float(s.mutation_eta)
+                ),
                 seed=int(seed),
-                verbose=False,
+                sampling=X0,
                 callback=lambda _a: bar.update(1),
             )
     finally:
         bar.close()
     elapsed = time.perf_counter() - t0
-    F, Z = np.atleast_2d(res.F), np.atleast_2d(res.X)
+    F, Z = np.atleast_2d(F), np.atleast_2d(Z)
     order = np.argsort(F[:, 0])
     P = genes_to_parameters(space.genes(Z[order]), M)
     return ParetoFront(

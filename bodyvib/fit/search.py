@@ -13,6 +13,7 @@ threads only cost there; the polish, which evaluates one to twelve points at a
 time, is about ten times faster so (``benchmarks/bench_fit_methods.py``).
 """
 
+import functools
 import sys
 import time
 from typing import List, Optional
@@ -85,87 +86,39 @@ def fit(
     """
     extras.require("the fit", "fit")
     from threadpoolctl import threadpool_limits
-    from tqdm import tqdm
 
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise BodyvibError(f"seed must be a non-negative integer, got {seed!r}")
     cfg = config or load_config()
-    method = cfg.method if method is None else method
-    if method not in METHODS:
-        raise BodyvibError(f"unknown search method '{method}'; methods are {', '.join(METHODS)}")
+    method = _checked(seed, cfg.method if method is None else method)
     settings = cfg.settings(method)
     do_polish = cfg.polish.enabled if polish is None else bool(polish)
     lo, hi = log_bounds(cfg)
-    M = target.total_mass
-    evaluations = [0]
-
-    def objective_of_genes(genes):
-        interrupts.check()  # Ctrl-C: every GA generation and polish step passes here
-        evaluations[0] += int(np.prod(np.shape(genes)[:-1]))
-        return target.objective(genes_to_parameters(genes, M))
-
+    objective_of_genes = _GeneObjective(target)
     restarts = int(getattr(cfg.restarts, target.kind))
     run_seeds = [int(v) for v in np.random.SeedSequence(int(seed)).generate_state(restarts)]
-    history: List[float] = []
     generations = getattr(settings, "generations", None)
-    total = restarts * generations if generations is not None else None
-    bar = tqdm(
-        total=total,
-        desc=f"bodyvib fit ({method})",
-        unit="gen",
-        file=sys.stderr,
-        disable=None if progress else True,
-        leave=False,
-    )
-
-    def on_generation(best):
-        history.append(best)
-        bar.set_postfix_str(f"J={min(history):.5g} 1/s", refresh=False)
-        bar.update(1)
-
+    bar = _Progress(method, restarts * generations if generations is not None else None, progress)
     if do_polish:
         import scipy.optimize  # noqa: F401  (imported before the clock: start-up, not search)
     t0 = time.perf_counter()
-    runs = []
     try:
         with threadpool_limits(1, user_api="blas"):
-            for run_seed in run_seeds:
-                found = search(
-                    method,
-                    objective_of_genes,
-                    lo,
-                    hi,
-                    settings,
-                    run_seed,
-                    on_generation=on_generation,
-                )
-                genes, J = found.genes, found.objective
-                if do_polish:
-                    genes, J = _polish(objective_of_genes, genes, lo, hi, cfg.polish)
-                runs.append(
-                    {
-                        "seed": run_seed,
-                        "search_objective_per_s": found.objective,
-                        "objective_per_s": float(J),
-                        "evaluations": found.evaluations,
-                        "generations": found.generations,
-                        "stopped": found.stopped,
-                        "genes": genes,
-                    }
-                )
+            run = functools.partial(
+                _search_run,
+                method,
+                objective_of_genes,
+                (lo, hi),
+                settings,
+                on_generation=bar.on_generation,
+                pcfg=cfg.polish if do_polish else None,
+            )
+            runs = [run(run_seed) for run_seed in run_seeds]
     finally:
         bar.close()
     elapsed = time.perf_counter() - t0
     best = min(runs, key=lambda r: r["objective_per_s"])
     best_genes, J, ga_J = best["genes"], best["objective_per_s"], best["search_objective_per_s"]
-    params = genes_to_parameters(best_genes, M)
+    params = genes_to_parameters(best_genes, target.total_mass)
     J_paper = float(target.objective(parameter_array(load_model("reduced-paper"))))
-    tol = 1e-3 * (hi - lo)
-    at_bounds = [
-        f"{g}/M at {'lower' if x - a <= t else 'upper'} bound"
-        for g, x, a, b, t in zip(GENES, best_genes, lo, hi, tol)
-        if x - a <= t or b - x <= t
-    ]
     for r in runs:
         del r["genes"]
     return FitResult(
@@ -178,13 +131,89 @@ def fit(
         seed=int(seed),
         config=cfg,
         polished=do_polish,
-        evaluations=evaluations[0],
+        evaluations=objective_of_genes.evaluations,
         elapsed_s=elapsed,
-        history=history,
-        at_bounds=at_bounds,
+        history=bar.history,
+        at_bounds=_at_bounds(best_genes, lo, hi),
         runs=runs,
         method=method,
     )
+
+
+def _checked(seed, method):
+    """The search method, once it and the seed are known to be valid."""
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise BodyvibError(f"seed must be a non-negative integer, got {seed!r}")
+    if method not in METHODS:
+        raise BodyvibError(f"unknown search method '{method}'; methods are {', '.join(METHODS)}")
+    return method
+
+
+class _GeneObjective:
+    """The target's objective of genes (rows), counting the models it evaluates."""
+
+    def __init__(self, target):
+        self.target, self.evaluations = target, 0
+
+    def __call__(self, genes):
+        interrupts.check()  # Ctrl-C: every GA generation and polish step passes here
+        self.evaluations += int(np.prod(np.shape(genes)[:-1]))
+        return self.target.objective(genes_to_parameters(genes, self.target.total_mass))
+
+
+class _Progress:
+    """The search's progress bar and the best objective of every generation."""
+
+    def __init__(self, method, total, progress):
+        from tqdm import tqdm
+
+        self.history: List[float] = []
+        self._bar = tqdm(
+            total=total,
+            desc=f"bodyvib fit ({method})",
+            unit="gen",
+            file=sys.stderr,
+            disable=None if progress else True,
+            leave=False,
+        )
+
+    def on_generation(self, best):
+        self.history.append(best)
+        self._bar.set_postfix_str(f"J={min(self.history):.5g} 1/s", refresh=False)
+        self._bar.update(1)
+
+    def close(self):
+        self._bar.close()
+
+
+def _search_run(method, objective_of_genes, bounds, settings, run_seed, on_generation, pcfg):
+    """One seeded search, polished when ``pcfg`` (the polish settings) is given: its record."""
+    lo, hi = bounds
+    found = search(
+        method, objective_of_genes, lo, hi, settings, run_seed, on_generation=on_generation
+    )
+    genes, J = found.genes, found.objective
+    if pcfg is not None:
+        genes, J = _polish(objective_of_genes, genes, lo, hi, pcfg)
+    return {
+        "seed": run_seed,
+        "search_objective_per_s": found.objective,
+        "objective_per_s": float(J),
+        "evaluations": found.evaluations,
+        "generations": found.generations,
+        "stopped": found.stopped,
+        "genes": genes,
+    }
+
+
+def _at_bounds(genes, lo, hi):
+    """The genes within 0.1 % of their range of a bound, in words."""
+    tol = 1e-3 * (hi - lo)
+    return [
+        f"{g}/M at {'lower' if x - a <= t else 'upper'} bound"
+        for g, x, a, b, t in zip(GENES, genes, lo, hi, tol)
+        if x - a <= t or b - x <= t
+    ]
 
 
 def polish(objective_of_genes, x0, lo, hi, pcfg):

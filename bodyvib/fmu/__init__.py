@@ -5,7 +5,8 @@
 run-time package :mod:`bodyvib.runtime`; :mod:`~bodyvib.fmu.native` compiles the
 one C code base in ``fmu_src/native`` for the model baked in as data;
 :mod:`~bodyvib.fmu.contents` locates the sources both start from;
-:mod:`~bodyvib.fmu.controller` builds the skyhook controller, a small C model of its own. Names are
+:mod:`~bodyvib.fmu.controller` builds the skyhook controller, a small C model of its own;
+:mod:`~bodyvib.fmu.inspect` checks an extracted FMU before a host loads it. Names are
 imported from their module on first use (pythonfmu and the compilers are only
 needed when building).
 
@@ -13,7 +14,7 @@ Import from the package (``from bodyvib.fmu import build``): the names below are
 public interface, and the modules that hold them are internal and may move.
 """
 
-import importlib
+from bodyvib._lazy import lazy_exports
 
 _HOME = {
     "build": "builder",
@@ -28,19 +29,11 @@ _HOME = {
     "build_controller_fmu": "controller",
     "ModelDescription": "description",
     "validate_fmu_file": "description",
+    "check_extracted_fmu": "inspect",
+    "check_elf": "inspect",
     "fmu_src_dir": "contents",
     "native_dir": "contents",
     "RUNTIME_DIR": "contents",
 }
 
-__all__ = sorted(_HOME)
-
-
-def __getattr__(name: str) -> object:
-    if name in _HOME:
-        return getattr(importlib.import_module(f"{__name__}.{_HOME[name]}"), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__() -> list:
-    return sorted(set(globals()) | set(__all__))
+__all__, __getattr__, __dir__ = lazy_exports(__name__, _HOME)

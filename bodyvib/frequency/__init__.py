@@ -22,14 +22,14 @@ from .response import (
     transmissibility,
 )
 
-__all__ = [
-    "control_labels",
-    "to_statespace",
-    "frequency_response",
-    "transmissibility",
+__all__ = [  # alphabetical: the index of the package
     "apparent_mass",
-    "Peak",
-    "find_peaks",
+    "control_labels",
     "displacement_input_matrices",
     "displacement_input_statespace",
+    "find_peaks",
+    "frequency_response",
+    "Peak",
+    "to_statespace",
+    "transmissibility",
 ]

@@ -143,6 +143,13 @@ def read_transmissibility_csv(path) -> MeasuredTransmissibility:
     (array([1., 2., 3.]), False)
     """
     src = check_input_file(path, "measured data")  # a FIFO would wait for a writer
+    lines, rows, header = _read_rows(src)
+    data = _columns(src, lines, rows, header)
+    return _checked_transmissibility(src, data, [ln for ln, _ in lines[1:]])
+
+
+def _read_rows(src):
+    """The file's numbered non-comment lines, their CSV rows and the header (lower case)."""
     try:
         with open(src, newline="", encoding="utf-8-sig") as f:
             lines = [
@@ -175,6 +182,11 @@ def read_transmissibility_csv(path) -> MeasuredTransmissibility:
             "than once; which one holds the data is ambiguous: rename or remove "
             "the extra column"
         )
+    return lines, rows, header
+
+
+def _columns(src, lines, rows, header):
+    """Column name -> the numbers of its data rows."""
     cols = {c: header.index(c) for c in _REQUIRED + _OPTIONAL if c in header}
     data = {c: [] for c in cols}
     for (lineno, _), row in zip(lines[1:], rows[1:]):
@@ -185,6 +197,11 @@ def read_transmissibility_csv(path) -> MeasuredTransmissibility:
             )
         for c, j in cols.items():
             data[c].append(_parse_number(row[j], where, c))
+    return data
+
+
+def _checked_transmissibility(src, data, data_lines):
+    """The measured transmissibility once its rows, frequencies and moduli pass."""
     n = len(data["frequency_hz"])
     if n < MIN_ROWS:
         raise BodyvibError(
@@ -193,7 +210,6 @@ def read_transmissibility_csv(path) -> MeasuredTransmissibility:
         )
     f = np.array(data["frequency_hz"])
     mod = np.array(data["modulus"])
-    data_lines = [ln for ln, _ in lines[1:]]
     if f[0] <= 0:
         raise BodyvibError(
             f"{src}: line {data_lines[0]}: frequency_hz = {f[0]:g} must be positive (Hz)"

@@ -471,33 +471,7 @@ def car_interface(network: Network) -> Interface:
     )
     outputs, signals = _with_extra_outputs(network, outputs, ("seat.x", "seat.v"))
     actuators = actuator_variables(network)
-    act_inputs, act_outputs = [], []
-    for act, names in zip(network.actuators, actuators, strict=True):
-        force, rate = names[:2]
-        pair = f"from {act['from']} to {act['to']}"
-        act_inputs += [
-            (
-                force,
-                (
-                    "N",
-                    f"Actuator force {pair}; positive pushes {act['to']} up and "
-                    f"{act['from']} down (0, the default, leaves the car passive)",
-                ),
-            ),
-            (rate, ("N/s", f"Optional slope of {force} over the coming step (0 holds it)")),
-        ]
-        points = ((act["to"], "upper"), (act["from"], "lower"))
-        for name, ((point, which), (unit, quantity, q)) in zip(
-            names[2:],
-            [
-                (p, m)
-                for m in (("m/s", "velocity", "v"), ("m/s2", "acceleration", "a"))
-                for p in points
-            ],
-            strict=True,
-        ):
-            text = f"Absolute vertical {quantity} of {point} (the actuator's {which} point)"
-            act_outputs.append((name, (unit, text), f"{point}.{q}"))
+    act_inputs, act_outputs = _actuator_variables_described(network, actuators)
     inputs += _inputs([n for n, _ in act_inputs], [spec for _, spec in act_inputs])
     outputs += _outputs([n for n, _, _ in act_outputs], [spec for _, spec, _ in act_outputs])
     signals += tuple(sig for _, _, sig in act_outputs)
@@ -525,6 +499,38 @@ def car_interface(network: Network) -> Interface:
         slope_fallback=road_pairs,  # not the seat force: seat_force_rate 0 means hold
         output_signals=signals,
     )
+
+
+def _actuator_variables_described(network: Network, actuators: Sequence) -> tuple:
+    """The car's actuator inputs ``(name, (unit, text))`` and outputs (with their signal)."""
+    act_inputs, act_outputs = [], []
+    for act, names in zip(network.actuators, actuators, strict=True):
+        force, rate = names[:2]
+        pair = f"from {act['from']} to {act['to']}"
+        act_inputs += [
+            (
+                force,
+                (
+                    "N",
+                    f"Actuator force {pair}; positive pushes {act['to']} up and "
+                    f"{act['from']} down (0, the default, leaves the car passive)",
+                ),
+            ),
+            (rate, ("N/s", f"Optional slope of {force} over the coming step (0 holds it)")),
+        ]
+        points = ((act["to"], "upper"), (act["from"], "lower"))
+        for name, ((point, which), (unit, quantity, q)) in zip(
+            names[2:],
+            [
+                (p, m)
+                for m in (("m/s", "velocity", "v"), ("m/s2", "acceleration", "a"))
+                for p in points
+            ],
+            strict=True,
+        ):
+            text = f"Absolute vertical {quantity} of {point} (the actuator's {which} point)"
+            act_outputs.append((name, (unit, text), f"{point}.{q}"))
+    return act_inputs, act_outputs
 
 
 def road_inputs(network: Network) -> Tuple[str, ...]:

@@ -209,31 +209,11 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
     elements = _elements(data["elements"], refs, points, where)
     _check_connected(elements, bodies, masses, nodes, (base, *extra_bases), where)
 
-    force_inputs = data.get("force_inputs", [])
-    if not isinstance(force_inputs, list) or any(
-        not isinstance(f, str) or f not in set(masses) | set(body_points) for f in force_inputs
-    ):
-        raise BodyvibError(
-            f"{where}: 'force_inputs' must list mass names (or rigid-body point names)"
-        )
-    roles = data.get("roles", {})
-    if not isinstance(roles, dict):
-        raise BodyvibError(f"{where}: 'roles' must be an object of role: point")
-    for r, p in roles.items():
-        if not isinstance(p, str) or (p not in points and p not in bodies):
-            raise BodyvibError(f"{where}: roles.{r} names unknown point '{p}'")
-    unused = [p for p in refs.params if p not in refs.used]
-    if unused:
-        raise BodyvibError(
-            f"{where}: parameter(s) {', '.join(unused)} not used by any mass, body or element"
-        )
-    units = data.get("units", {})
-    if (
-        not isinstance(units, dict)
-        or any(u not in refs.params for u in units)
-        or not all(isinstance(u, str) for u in units.values())
-    ):
-        raise BodyvibError(f"{where}: 'units' must map parameter names to unit strings")
+    force_inputs = _force_inputs(
+        data.get("force_inputs", []), set(masses) | set(body_points), where
+    )
+    roles = _roles(data.get("roles", {}), points | set(bodies), where)
+    units = _units(data.get("units", {}), refs, where)
     fmu_outputs = _fmu_outputs(
         data.get("fmu_outputs", []),
         where,
@@ -268,6 +248,43 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
         forces=forces,
         actuators=actuators,
     )
+
+
+def _force_inputs(force_inputs: object, loaded: set, where: str) -> list:
+    """``force_inputs``: names of masses (or rigid-body points) a force drives."""
+    if not isinstance(force_inputs, list) or any(
+        not isinstance(f, str) or f not in loaded for f in force_inputs
+    ):
+        raise BodyvibError(
+            f"{where}: 'force_inputs' must list mass names (or rigid-body point names)"
+        )
+    return force_inputs
+
+
+def _roles(roles: object, known: set, where: str) -> dict:
+    """``roles``: role -> a point or body of the network."""
+    if not isinstance(roles, dict):
+        raise BodyvibError(f"{where}: 'roles' must be an object of role: point")
+    for r, p in roles.items():
+        if not isinstance(p, str) or p not in known:
+            raise BodyvibError(f"{where}: roles.{r} names unknown point '{p}'")
+    return roles
+
+
+def _units(units: object, refs: "_References", where: str) -> dict:
+    """Every parameter used, and ``units``: parameter -> unit string."""
+    unused = [p for p in refs.params if p not in refs.used]
+    if unused:
+        raise BodyvibError(
+            f"{where}: parameter(s) {', '.join(unused)} not used by any mass, body or element"
+        )
+    if (
+        not isinstance(units, dict)
+        or any(u not in refs.params for u in units)
+        or not all(isinstance(u, str) for u in units.values())
+    ):
+        raise BodyvibError(f"{where}: 'units' must map parameter names to unit strings")
+    return units
 
 
 def _check_fields(data: object, where: str) -> None:

@@ -460,6 +460,65 @@ class DescriptorModel(SignalNames):
         )
 
 
+def _point_dofs(network: Network) -> dict:
+    """Each mass-like point as a combination of degrees of freedom: {dof index: weight}."""
+    masses = network.mass_names
+    point_dofs = {m: {i: 1.0} for i, m in enumerate(masses)}
+    i_body = len(masses)
+    for b in network.bodies:
+        for p, (owner, x) in network.body_points.items():
+            if owner == b:
+                point_dofs[p] = {i_body: 1.0, i_body + 1: x}  # w = z + x theta
+        i_body += 2
+    return point_dofs
+
+
+def _element_forces(network: Network, pos: dict, vel: dict, force_on: dict, nw: int) -> dict:
+    """Each element's compression-positive force on its ``to`` point, as a row over ``w``;
+    adds the forces of its springs and dampers to ``force_on`` of their points."""
+    element_force = {}
+    for el in network.elements:
+        el_springs, el_dampers = network.element_primitives(el)
+        f_el = np.zeros(nw)
+        for (a, b, k), is_spring in [(p, True) for p in el_springs] + [
+            (p, False) for p in el_dampers
+        ]:
+            f = k * (pos[b] - pos[a]) if is_spring else k * (vel[b] - vel[a])  # force on a, up
+            force_on[a] += f
+            force_on[b] -= f
+            if b == el.b:
+                f_el -= f
+            elif a == el.b:
+                f_el += f
+        element_force[el.name] = f_el
+    return element_force
+
+
+def _point_outputs(
+    network: Network, motion: tuple, element_force: dict, force_on: dict
+) -> Tuple[list, list]:
+    """The output rows and names after the degrees of freedom's: rigid-body points, nodes,
+    elements, base forces and named forces."""
+    pos, vel, acc = motion
+    out_rows, out_names = [], []
+    for p in network.body_points:
+        out_rows += [pos[p], vel[p], acc[p]]
+        out_names += [f"{p}.x", f"{p}.v", f"{p}.a"]
+    for n in network.node_names:
+        out_rows.append(pos[n])
+        out_names.append(f"{n}.y")
+    for el in network.elements:
+        out_rows += [pos[el.b] - pos[el.a], element_force[el.name]]
+        out_names += [f"{el.name}.deflection", f"{el.name}.force"]
+    for b in network.bases:
+        out_rows.append(-force_on[b])
+        out_names.append(f"{b}_force")
+    for name, el_name in network.forces.items():
+        out_rows.append(element_force[el_name])
+        out_names.append(f"{name}_force")
+    return out_rows, out_names
+
+
 def descriptor_model(network: Network) -> DescriptorModel:
     """Assemble the descriptor form of a network (linear in its parameters).
 
@@ -505,15 +564,7 @@ def descriptor_model(network: Network) -> DescriptorModel:
         e[i] = 1.0
         return e
 
-    # each mass-like point as a combination of degrees of freedom: {dof index: weight}
-    point_dofs = {m: {i: 1.0} for i, m in enumerate(masses)}
-    i_body = len(masses)
-    body_points = network.body_points
-    for b in network.bodies:
-        for p, (owner, x) in body_points.items():
-            if owner == b:
-                point_dofs[p] = {i_body: 1.0, i_body + 1: x}  # w = z + x theta
-        i_body += 2
+    point_dofs = _point_dofs(network)
 
     def combine(vectors: Sequence[np.ndarray], weights: Mapping[int, float]) -> np.ndarray:
         return sum((c * vectors[i] for i, c in weights.items()), np.zeros(nw))
@@ -530,21 +581,7 @@ def descriptor_model(network: Network) -> DescriptorModel:
         pos[b], vel[b] = unit(ns + 2 * j), unit(ns + 2 * j + 1)
 
     force_on = {p: np.zeros(nw) for p in list(point_dofs) + list(nodes) + list(bases)}
-    element_force = {}  # compression-positive force each element exerts on its 'to' point
-    for el in network.elements:
-        el_springs, el_dampers = network.element_primitives(el)
-        f_el = np.zeros(nw)
-        for (a, b, k), is_spring in [(p, True) for p in el_springs] + [
-            (p, False) for p in el_dampers
-        ]:
-            f = k * (pos[b] - pos[a]) if is_spring else k * (vel[b] - vel[a])  # force on a, up
-            force_on[a] += f
-            force_on[b] -= f
-            if b == el.b:
-                f_el -= f
-            elif a == el.b:
-                f_el += f
-        element_force[el.name] = f_el
+    element_force = _element_forces(network, pos, vel, force_on, nw)
     for m in network.force_inputs:
         force_on[m] = force_on[m] + unit(ns + inputs.index(f"{m}.force"))
 
@@ -563,22 +600,9 @@ def descriptor_model(network: Network) -> DescriptorModel:
     for i, names in enumerate(dofs):
         out_rows += [dof_pos[i], dof_vel[i], dof_acc[i]]
         out_names += list(names)
-    for p in body_points:
-        out_rows += [pos[p], vel[p], acc[p]]
-        out_names += [f"{p}.x", f"{p}.v", f"{p}.a"]
-    for n in nodes:
-        out_rows.append(pos[n])
-        out_names.append(f"{n}.y")
-    for el in network.elements:
-        out_rows += [pos[el.b] - pos[el.a], element_force[el.name]]
-        out_names += [f"{el.name}.deflection", f"{el.name}.force"]
-    for b in bases:
-        out_rows.append(-force_on[b])
-        out_names.append(f"{b}_force")
-    for name, el_name in network.forces.items():
-        out_rows.append(element_force[el_name])
-        out_names.append(f"{name}_force")
-    out = np.array(out_rows).reshape(len(out_names), nw)
+    point_rows, point_names = _point_outputs(network, (pos, vel, acc), element_force, force_on)
+    out = np.array(out_rows + point_rows).reshape(len(out_names) + len(point_names), nw)
+    out_names += point_names
     states = tuple(d[0] for d in dofs) + tuple(d[1] for d in dofs) + tuple(f"{n}.y" for n in nodes)
     return DescriptorModel(
         E=-eq[:, ns + ni :] + 0.0,

@@ -27,7 +27,7 @@ import numpy as np
 from bodyvib.comfort import ComfortStream
 from bodyvib.models import load_model
 from bodyvib.process import extras, interrupts
-from bodyvib.runtime.discretize import Discretization
+from bodyvib.runtime.discretize import Discretization, input_rates
 from bodyvib.runtime.errors import BodyvibError
 
 from ..quarter_car import load_car
@@ -56,6 +56,33 @@ PENALTY = 1000.0
 
 #: How a figure scales with ``sqrt(W)`` of an operating point, by kind (1 if not listed).
 _POWER_OF_SCALE = {"seat": 0.0, "power": 2.0}
+
+
+@dataclass(frozen=True)
+class _Basis:
+    """What a figure of one design is computed from besides its own r.m.s."""
+
+    model: object  # the seated LinearModel
+    rattle_space: Optional[float]
+    floor: float  # Wk r.m.s. of the floor under the seat (sprung.a): SEAT's denominator
+    power: Optional[float]  # the absorbed power, W
+
+
+#: Figure kind -> (computed from the Wk-weighted r.m.s. rather than the plain one, the
+#: figure from that r.m.s.); a kind not listed is the plain r.m.s. itself.
+_EVALUATORS = {
+    "wk_rms": (True, lambda x, b: x),
+    "seat": (True, lambda x, b: 100.0 * x / b.floor),
+    "load_ratio": (False, lambda x, b: x / static_wheel_load(b.model)),
+    "rattle_ratio": (False, lambda x, b: 3.0 * x / b.rattle_space),
+    "power": (False, lambda x, b: b.power),
+}
+_PLAIN = (False, lambda x, b: x)
+
+
+def _figure(kind: str, x: float, basis: _Basis) -> float:
+    """A figure of kind ``kind`` from its r.m.s. ``x`` (weighted or not, as the kind says)."""
+    return _EVALUATORS.get(kind, _PLAIN)[1](x, basis)
 
 
 class DesignProblem:
@@ -124,26 +151,19 @@ class DesignProblem:
 
         for f in self._figures:
             i = lm.output_index(f.output)
-            if f.kind in ("wk_rms", "seat"):
+            if _EVALUATORS.get(f.kind, _PLAIN)[0]:
                 floor = slot(wrows, lm.output_index("sprung.a")) if f.kind == "seat" else None
                 plan.append(("w", slot(wrows, i), floor))
             else:
                 plan.append(("r", slot(rows, i), None))
         r, w = unit_rms(lm, rows, wrows)
-        if any(f.kind == "power" for f in self._figures):
-            power = self._unit_power(lm)
+        power = self._unit_power(lm) if any(f.kind == "power" for f in self._figures) else None
         out = np.empty(len(self._figures))
         for i, (f, (where, j, floor)) in enumerate(zip(self._figures, plan)):
-            x = r[j] if where == "r" else w[j]
-            if f.kind == "load_ratio":
-                x = x / static_wheel_load(lm)
-            elif f.kind == "rattle_ratio":
-                x = 3.0 * x / self.spec.rattle_space
-            elif f.kind == "seat":
-                x = 100.0 * w[j] / w[floor]
-            elif f.kind == "power":
-                x = power
-            out[i] = x
+            basis = _Basis(
+                lm, self.spec.rattle_space, w[floor] if floor is not None else 0.0, power
+            )
+            out[i] = _figure(f.kind, r[j] if where == "r" else w[j], basis)
         return out
 
     def _unit_power(self, lm) -> float:
@@ -282,38 +302,31 @@ class DesignResult:
 
 
 def _nsga2(problem: DesignProblem, spec: DesignSpec):
-    from pymoo.algorithms.moo.nsga2 import NSGA2
-    from pymoo.core.problem import Problem
-    from pymoo.operators.crossover.sbx import SBX
-    from pymoo.operators.mutation.pm import PM
-    from pymoo.optimize import minimize
+    from bodyvib.fit.config import ParetoSettings
+    from bodyvib.fit.methods import nsga2_front
 
-    d, ncon = len(problem.names), len(spec.constraints)
+    ncon = len(spec.constraints)
 
-    class Trade(Problem):
-        def __init__(self):
-            super().__init__(n_var=d, n_obj=len(spec.objectives), n_ieq_constr=ncon, xl=0.0, xu=1.0)
+    def evaluate(u):
+        F, G = problem.evaluate(problem.values(u))
+        return (np.minimum(F, 1e300), np.minimum(G, 1e300)) if ncon else np.minimum(F, 1e300)
 
-        def _evaluate(self, u, out, *args, **kwargs):
-            F, G = problem.evaluate(problem.values(u))
-            out["F"] = np.minimum(F, 1e300)
-            if ncon:
-                out["G"] = np.minimum(G, 1e300)
-
-    algorithm = NSGA2(
-        pop_size=spec.search.population,
-        crossover=SBX(prob=0.9, eta=10.0),
-        mutation=PM(eta=20.0),
-        eliminate_duplicates=True,
+    X, _ = nsga2_front(
+        evaluate,
+        (len(problem.names), 0.0, 1.0),
+        len(spec.objectives),
+        # distribution indices (chosen): SBX 10 spreads children wider than pymoo's
+        # default 15; mutation 20 is pymoo's default
+        ParetoSettings(spec.search.population, spec.search.generations, 10.0, 20.0),
+        seed=spec.search.seed,
+        constraints=ncon,
     )
-    res = minimize(Trade(), algorithm, ("n_gen", spec.search.generations), seed=spec.search.seed)
-    if res.X is None:
+    if X is None:
         raise BodyvibError(
             "no design meets the constraints within the bounds; widen the bounds or relax "
             "the limits"
         )
-    U = np.atleast_2d(res.X)
-    return problem.values(U)
+    return problem.values(np.atleast_2d(X))
 
 
 def _single(problem: DesignProblem, spec: DesignSpec):
@@ -399,19 +412,13 @@ def chosen_points(objectives: np.ndarray, names) -> Dict[str, int]:
     return out
 
 
-def _simulate(lm, rows, z, v, step):
-    """Outputs ``rows`` of a model on road samples, by the exact step of the batched engine."""
-    Phi, G0, G1 = Discretization(lm).matrices(step)
-    iz, iv = lm.input_index("road_displacement"), lm.input_index("road_velocity")
-    gz, gv = G0[:, iz], G0[:, iv] + G1[:, iz]  # in-step road z_k + v_k tau
-    n = lm.A.shape[0]
-    X = np.empty((len(z), n))
-    x = np.zeros(n)
-    for k in range(len(z)):
-        X[k] = x
-        x = Phi @ x + gz * z[k] + gv * v[k]
-    C, D = lm.C[rows], lm.D[rows]
-    return X @ C.T + np.outer(z, D[:, iz]) + np.outer(v, D[:, iv])
+def _simulate(lm, z, v, step):
+    """Every output of a model on road samples, by the exact step of the batched engine."""
+    u = np.zeros((len(z), len(lm.inputs)))
+    u[:, lm.input_index("road_displacement")] = z
+    u[:, lm.input_index("road_velocity")] = v
+    X = Discretization(lm).run(u, input_rates(lm, u), step)  # in-step road z_k + v_k tau
+    return X @ lm.C.T + u @ lm.D.T
 
 
 def verify_design(spec: DesignSpec, values: Dict[str, float]) -> Dict[str, float]:
@@ -453,8 +460,9 @@ def verify_design(spec: DesignSpec, values: Dict[str, float]) -> Dict[str, float
         )
         t = np.arange(int(round(spec.verify.duration / st)) + 1) * st
         z, v = road_input(road, p.speed, t)
-        Y_all = _simulate(lm, range(len(lm.outputs)), z, v, st)
+        Y_all = _simulate(lm, z, v, st)
         Y = Y_all[:, rows]
+        power = None
         if any(f.kind == "power" for f in figs):  # seat force times seat velocity
             force = Y_all @ seat_force_weights(lm, body, seat)
             power = float(np.mean(force * Y_all[:, lm.output_index(f"{seat}.v")]))
@@ -462,21 +470,17 @@ def verify_design(spec: DesignSpec, values: Dict[str, float]) -> Dict[str, float
         stream.update(np.ascontiguousarray(Y.T))
         wk = dict(zip(outs, stream.figures()["weighted_rms"]))
         rms = dict(zip(outs, np.sqrt(np.mean(Y**2, axis=0))))
-        vals = {}
-        for f in figs:
-            if f.kind == "wk_rms":
-                vals[f.name] = float(wk[f.output])
-            elif f.kind == "seat":
-                vals[f.name] = float(100.0 * wk[f.output] / wk["sprung.a"])
-            elif f.kind == "load_ratio":
-                vals[f.name] = float(rms[f.output] / static_wheel_load(lm))
-            elif f.kind == "rattle_ratio":
-                vals[f.name] = float(3.0 * rms[f.output] / spec.rattle_space)
-            elif f.kind == "power":
-                vals[f.name] = power
-            else:
-                vals[f.name] = float(rms[f.output])
-        per_point.append(vals)
+        basis = _Basis(lm, spec.rattle_space, wk.get("sprung.a", 0.0), power)
+        per_point.append(
+            {
+                f.name: float(
+                    _figure(
+                        f.kind, (wk if _EVALUATORS.get(f.kind, _PLAIN)[0] else rms)[f.output], basis
+                    )
+                )
+                for f in figs
+            }
+        )
     out = {}
     for f in spec.objectives:
         out[f.name] = float(sum(wi * pp[f.name] for wi, pp in zip(w, per_point)))

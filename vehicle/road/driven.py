@@ -46,6 +46,7 @@ __all__ = [
     "road_label",
     "road_handling",
     "wheel_inputs",
+    "road_columns",
 ]
 
 #: Default fade-in (and fade-out) length of every road, m.
@@ -420,4 +421,43 @@ def wheel_inputs(
         x = np.where(ahead, x, 0.0)
         z[:, j] = np.where(ahead, road.displacement(x), 0.0)
         v[:, j] = np.where(ahead, speed * road.slope(x), 0.0)
+    return z, v
+
+
+def road_columns(road_displacement, road_velocity, points: int) -> Tuple[np.ndarray, np.ndarray]:
+    """A car's road input as given to a run, checked: a column per road point.
+
+    Parameters
+    ----------
+    road_displacement, road_velocity : (m,) or (m, points) array_like
+        m and m/s (a single column may be given flat for a car driven at one point).
+    points : int
+        The car's road points.
+
+    Returns
+    -------
+    displacement, velocity : (m, points) ndarray
+
+    Raises
+    ------
+    BodyvibError
+        Arrays of another shape, or a non-finite value.
+
+    Examples
+    --------
+    >>> z, v = road_columns([0.0, 0.01], [0.0, 0.2], 1)
+    >>> z.shape
+    (2, 1)
+    """
+    z = np.asarray(road_displacement, dtype=float)
+    v = np.asarray(road_velocity, dtype=float)
+    if z.ndim == 1 and points == 1:
+        z, v = z[:, None], v[:, None]
+    if z.shape != v.shape or z.ndim != 2 or z.shape[1] != points:
+        raise BodyvibError(
+            "road displacement and velocity must be arrays of equal shape, "
+            f"(samples,) or (samples, {points}): a column per road point of the car"
+        )
+    if not (np.all(np.isfinite(z)) and np.all(np.isfinite(v))):
+        raise BodyvibError("road input is not finite; check the road profile")
     return z, v

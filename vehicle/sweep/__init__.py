@@ -13,7 +13,7 @@ Import from the package (``from bodyvib.vehicle.sweep import run_sweep``): the n
 are its public interface, and the modules that hold them are internal and may move.
 """
 
-import importlib
+from bodyvib._lazy import lazy_exports
 
 _HOME = {
     "Case": "spec",
@@ -32,14 +32,4 @@ _HOME = {
     "plot_comfort_maps": "plot",
 }
 
-__all__ = sorted(_HOME)
-
-
-def __getattr__(name: str) -> object:
-    if name in _HOME:
-        return getattr(importlib.import_module(f"{__name__}.{_HOME[name]}"), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__() -> list:
-    return sorted(set(globals()) | set(__all__))
+__all__, __getattr__, __dir__ = lazy_exports(__name__, _HOME)
