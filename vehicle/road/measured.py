@@ -645,7 +645,8 @@ def _check_crg_structure(path, base):
     u_stored = bool(u_line) and u_line.group(1).count(b",") < 3
     if u_stored:
         channels += 1  # u is stored as a channel of its own (distances, not heights)
-    u0 = _crg_value(road, "reference_line_start_u") or 0.0
+    u0 = _crg_value(road, "reference_line_start_u")
+    u0 = 0.0 if u0 is None else u0
     u1 = _crg_value(road, "reference_line_end_u")
     du = _crg_value(road, "reference_line_increment")
     if u_line and u_line.group(1).count(b",") >= 3 and du is None:
@@ -653,6 +654,16 @@ def _check_crg_structure(path, base):
             du = float(u_line.group(1).split(b",")[3])
         except ValueError:
             du = None
+    for key, v in (
+        ("reference_line_start_u", u0),
+        ("reference_line_end_u", u1),
+        ("reference_line_increment", du),
+    ):
+        if v is not None and not math.isfinite(v):
+            raise BodyvibError(
+                f"road '{base}' is corrupt: its header gives {key.upper()} = {v!r}, not a "
+                "finite number of metres; write it again"
+            )
     if fmt is None or channels == 0 or u1 is None or not du or du <= 0 or u1 <= u0:
         raise BodyvibError(
             f"road '{base}' is corrupt: its header does not declare the data "
