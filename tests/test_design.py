@@ -46,10 +46,14 @@ def test_finds_the_comfort_optimum_damping(method):
     assert c == pytest.approx(C_ACC, rel=0.01)  # measured: 5e-8
 
 
-def test_finds_the_road_holding_optimum_damping():
-    spec = parse_spec({**BASE, "objectives": ["tire_load_ratio"]})
+@pytest.mark.parametrize("method", ["ga", "cmaes"])
+def test_finds_the_road_holding_optimum_damping(method):
+    """CMA-ES on one parameter ended in cma's ``not yet initialized (dimension needed)``:
+    one coordinate is searched on a grid refined by bounded Brent."""
+    search = {"method": method, "population": 16, "generations": 20}
+    spec = parse_spec({**BASE, "objectives": ["tire_load_ratio"], "search": search})
     c = design(spec, verify=False).chosen[0].values["cs"]
-    assert c == pytest.approx(C_TIRE, rel=0.01)
+    assert c == pytest.approx(C_TIRE, rel=0.01)  # measured: 7e-8 (ga), 3e-8 (cmaes)
 
 
 def test_pareto_set_is_the_interval_between_the_optima():
