@@ -15,6 +15,7 @@ the two in c alone is the interval between c_a and c_t.
 import json
 import math
 import os
+import time
 
 import numpy as np
 import pytest
@@ -115,11 +116,27 @@ def _spec(tmp_path, **changes):
         ({"operating_points": [{"road": "C", "speed": 0}]}, ["speed"]),
         ({"search": {"method": "ga"}}, ["'ga' minimizes one objective"]),
         ({"colour": "red"}, ["unknown key(s) colour"]),
+        # a bound given as a string was taken as its number
+        ({"parameters": {"cs": {"min": "200", "max": 8000}}}, ["'cs' min", "string '200'"]),
+        ({"operating_points": [{"road": "C", "speed": "20"}]}, ["speed", "string '20'"]),
+        # sizes bounded by what they cost: a billion hung, 1e18 was a traceback
+        ({"search": {"population": 1000000000}}, ["about 4.1e+10 designs", "limit is 1e+07"]),
+        ({"search": {"population": 1e18}}, ["population 1e+18", "limit is 1e+07"]),
+        ({"search": {"generations": 1e12}}, ["1e+12 generations", "limit is 1e+07"]),
+        ({"search": {"generations": 1e100}}, ["1e+100 generations", "limit is 1e+07"]),
+        ({"search": {"population": 10**6, "generations": 1}}, ["16 TB of memory", "population"]),
+        # a verification of one sample wrote figures of 0.0
+        ({"verify": {"duration": 1, "step": 5}}, ["verify step 5 s", "duration 1 s"]),
+        ({"verify": {"step": 0.05}}, ["20 Hz, below the 80 Hz", "at most 0.0125 s"]),
+        ({"verify": {"duration": 0.5}}, ["verify duration 0.5 s", "MTVV"]),
+        ({"verify": {"duration": 1e7}}, ["verification run of 1e+07 s", "TB of memory"]),
     ],
 )
 def test_bad_specs_are_refused_in_one_line_before_any_work(capsys, tmp_path, changes, words):
     out = tmp_path / "out"
+    t0 = time.monotonic()
     status = main(["design", _spec(tmp_path, **changes), "--out", str(out)])
+    assert time.monotonic() - t0 < 10  # refused before any search (a second measured)
     err = capsys.readouterr().err.strip().splitlines()
     assert status == 2 and len(err) == 1 and "Traceback" not in err[0], err
     for w in words:
