@@ -258,3 +258,30 @@ def test_ctrl_c_during_the_search_stops_it_and_keeps_the_old_files(tmp_path):
     p.send_signal(signal.SIGINT)
     _, err = p.communicate(timeout=60)
     assert check_stopped_run(p.returncode, err, outputs, 130, "interrupted", "design")
+
+
+@pytest.mark.integration
+def test_full_disk_under_out_leaves_no_folder(tmp_path, capsys, monkeypatch):
+    """A full disk under ``design --out`` left an empty output folder; every other command
+    leaves nothing. A 16 kB tmpfs holds the front's CSV but not its plot; where no tmpfs can
+    be mounted, the same ENOSPC is injected at the chosen designs' car files, the last."""
+    import errno
+
+    import bodyvib.vehicle.design.report as report
+    from helpers import mount_tmpfs
+
+    spec = _spec(tmp_path, search={"population": 8, "generations": 2})
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    with mount_tmpfs(disk, "16k") as mounted:
+        if not mounted:
+
+            def full(net, path):
+                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), os.fspath(path))
+
+            monkeypatch.setattr(report, "save_model", full)
+        out = disk / "new" / "design"
+        assert main(["design", spec, "--out", str(out), "--no-verify"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "No space left" in err[0], err
+        assert os.listdir(disk) == []  # not even the folders

@@ -158,7 +158,8 @@ def write_design(folder, result: DesignResult, command: str = "") -> List[str]:
     Parameters
     ----------
     folder : str or os.PathLike
-        Created if missing.
+        Created if missing (by the first file's write, so that a failed
+        :func:`~bodyvib.process.outputs.staged_writes` block leaves no folder behind).
     result : DesignResult
     command : str
 
@@ -168,7 +169,8 @@ def write_design(folder, result: DesignResult, command: str = "") -> List[str]:
         The files written.
     """
     folder = os.fspath(folder)
-    os.makedirs(folder, exist_ok=True)
+    # no makedirs here: the atomic writers create the folder and, within staged_writes,
+    # remove it again with the files if a write fails (a full disk left it empty)
     paths = [os.path.join(folder, f) for f in FILES]
     atomic_write_text(paths[0], front_table(result))
     atomic_write_bytes(paths[1], _parquet_bytes(result))
