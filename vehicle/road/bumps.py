@@ -177,8 +177,19 @@ def _keys(shape: str, text: str) -> Dict[str, float]:
     """The shape's dimensions: its defaults, overridden by ``key=value`` items of ``text``."""
     defaults = bump_library()["shapes"][shape]["defaults"]
     values = dict(defaults)
+    seen = set()
     for item in filter(None, (p.strip() for p in text.split(","))):
         key, sep, value = (p.strip() for p in item.partition("="))
+        if key in defaults and not (sep and value):
+            raise BodyvibError(
+                f"bump '{shape}': key '{key}' needs a value in m, e.g. {shape}:{key}="
+                f"{defaults[key]:g}"
+            )
+        if key in seen:
+            raise BodyvibError(
+                f"bump '{shape}' gives {key} twice ({shape}:{text}); give each key once"
+            )
+        seen.add(key)
         if not sep or key not in defaults:
             raise BodyvibError(
                 f"bump '{shape}' has no key '{key if sep else item}'; its keys are "
