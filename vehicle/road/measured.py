@@ -56,6 +56,7 @@ from typing import List, Optional, Tuple
 
 import numpy as np
 
+from bodyvib.process.units import LENGTH_UNITS, split_unit, unit_scale
 from bodyvib.runtime.errors import BodyvibError
 
 from .profile import ProfileRoad
@@ -71,25 +72,6 @@ __all__ = [
 
 #: File extensions read as road profiles.
 PROFILE_EXTENSIONS = (".crg", ".csv", ".txt", ".erd")
-
-#: Length units of CSV and ERD files, in m.
-LENGTH_UNITS = {
-    "m": 1.0,
-    "km": 1e3,
-    "cm": 1e-2,
-    "mm": 1e-3,
-    "um": 1e-6,
-    "µm": 1e-6,
-    "micron": 1e-6,
-    "microns": 1e-6,
-    "ft": 0.3048,
-    "feet": 0.3048,
-    "in": 0.0254,
-    "inch": 0.0254,
-    "inches": 0.0254,
-    "mi": 1609.344,
-    "mile": 1609.344,
-}
 
 #: Largest median slope over :data:`UNIT_BASE_M` steps, grade removed, of a road whose
 #: units are right. The steepest public roads climb 0.35 m per m, and the median change of
@@ -312,14 +294,10 @@ def _uniform(x, z, base) -> float:
 
 
 def _unit(text, what, base) -> float:
-    u = str(text).strip().strip("[]()").strip()
-    u = u if u in LENGTH_UNITS else u.lower()
-    if u not in LENGTH_UNITS:
-        raise BodyvibError(
-            f"road '{base}': unknown {what} unit '{u}'; use one of "
-            + ", ".join(k for k in LENGTH_UNITS if k.isascii())
-        )
-    return LENGTH_UNITS[u]
+    try:
+        return unit_scale(text, LENGTH_UNITS, what)
+    except BodyvibError as exc:
+        raise BodyvibError(f"road '{base}': {exc}") from None
 
 
 def _given_units(units, base, option) -> Optional[Tuple[float, float]]:
@@ -380,8 +358,6 @@ def _scales(base, units, given, header, header_text, no_units, option) -> Tuple[
 
 # -- CSV and text columns -------------------------------------------------------------
 
-_HEADER_UNIT = re.compile(r"^\s*([A-Za-z][A-Za-z0-9 ]*?)\s*(?:_|\[|\()\s*([A-Za-zµ]+)\s*[\])]?\s*$")
-
 
 def _splitter(line):
     """How a file's lines split into fields: by semicolons, commas or white space."""
@@ -420,13 +396,13 @@ def _read_columns(path, units, channel, option):
                 f"road '{base}': the header '{rows[0][1].strip()}' needs two columns, "
                 "distance and elevation"
             )
-    named = [_HEADER_UNIT.match(h) for h in head[:2]] if head else [None, None]
+    named = [split_unit(h)[1] for h in head[:2]] if head else [None, None]
     text = f"'{','.join(head[:2])}'" if head else "(none)"
     scales = _scales(
         base,
         units,
         given,
-        (named[0].group(2), named[1].group(2)) if all(named) else None,
+        (named[0], named[1]) if all(named) else None,
         text,
         f"the header {text} names no units; name them (distance_m,elevation_mm)",
         option,
