@@ -171,3 +171,18 @@ def test_folder_given_as_an_fmu_is_named_a_folder(capsys, tmp_path):
             ["cosim", option, str(tmp_path), "--duration", "1", *extra],
             f"'{tmp_path}' is a folder, not an FMU ({option})",
         )
+
+
+@pytest.mark.parametrize("name", ["road-bumps", "tandem-cam-205-60R15"])
+def test_road_data_files_are_not_listed_or_taken_as_cars(capsys, name):
+    """``--car`` listed the bump library and the tire's data as cars; choosing one failed on
+    missing fields. They live with the roads; the list names the cars alone."""
+    line = _one_line(capsys, ["cosim", "--car", name], f"unknown vehicle model '{name}'")
+    listed = line.split("one of: ")[1].split(", ")
+    assert listed == [
+        "half-car",
+        "half-car-active",
+        "quarter-car",
+        "quarter-car-active",
+        "quarter-car-cushion",
+    ]
