@@ -160,6 +160,29 @@ def _controller(args):
     return controller
 
 
+def _vehicle(args, controller) -> dict:
+    """The car, seat and controller of the run, as the report and the JSON name them."""
+    from bodyvib.vehicle.control import describe
+
+    if controller is None:
+        control = None
+    elif isinstance(controller, str):  # a controller FMU
+        control = {"fmu": controller}
+    else:
+        control = {
+            "law": describe(controller),
+            "given": args.control,
+            "c_sky_N_s_m": controller.c_sky,
+            "c_ground_N_s_m": controller.c_ground,
+            "semi_active": controller.semi_active,
+        }
+    return {
+        "car": args.car_fmu or args.car or "quarter-car",
+        "seat": args.seat,
+        "control": control,
+    }
+
+
 def _label(path, default):
     base = os.path.splitext(os.path.basename(path))[0]
     return base or default
@@ -193,10 +216,14 @@ def _run(args, want_iso):
                 controller=controller,
             )
             comparison = compare(study, *bodies) if want_iso else None
-            print(format_report(study, comparison))
+            vehicle = _vehicle(args, controller)
+            print(format_report(study, comparison, vehicle))
             write_outputs(
                 [
-                    (args.json, lambda path: write_json(path, study_json(study, comparison))),
+                    (
+                        args.json,
+                        lambda path: write_json(path, study_json(study, comparison, vehicle)),
+                    ),
                     (args.plot, lambda path: plot_study(study, path, comparison)),
                     # streamed during the run, staged with the others
                     (args.csv, lambda path: csv.place()),
