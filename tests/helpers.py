@@ -31,6 +31,7 @@ __all__ = [
     "write_sine_road",
     "read_run_csv",
     "nrmse_against_ode",
+    "mount_tmpfs",
 ]
 
 #: The repository's root (where ``build_fmu.py`` is).
@@ -284,3 +285,25 @@ def nrmse_against_ode(rhs, states, t, y, after):
     exact = np.array([rhs(tk, qk)[1] for tk, qk in zip(sol.t, sol.y.T)])
     keep = t >= after
     return np.sqrt(np.mean((y[keep] - exact[keep]) ** 2) / np.mean(exact[keep] ** 2))
+
+
+@contextlib.contextmanager
+def mount_tmpfs(folder, size):
+    """A tmpfs of ``size`` (``"16k"``) mounted on ``folder`` for the block: a disk that fills.
+
+    Yields True when mounted (unmounted at the end), False where the machine cannot mount
+    one (not root, no ``mount``): the caller then injects the failure instead.
+    """
+    if os.geteuid() != 0 or shutil.which("mount") is None:
+        yield False
+        return
+    proc = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(folder)], capture_output=True
+    )
+    if proc.returncode != 0:
+        yield False
+        return
+    try:
+        yield True
+    finally:
+        subprocess.run(["umount", str(folder)], check=True)

@@ -8,12 +8,11 @@ root), the same failure (ENOSPC) is injected at the SSP's write instead.
 
 import errno
 import os
-import shutil
 import subprocess
 import sys
 
 import pytest
-from helpers import ROOT
+from helpers import ROOT, mount_tmpfs
 
 pytestmark = pytest.mark.integration
 
@@ -37,15 +36,6 @@ def _assert_all_old(folder):
     assert not [f for f in os.listdir(folder) if f.startswith(".tmp-")]
 
 
-def _mount_tmpfs(folder, size):
-    if os.geteuid() != 0 or shutil.which("mount") is None:
-        return False
-    proc = subprocess.run(
-        ["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(folder)], capture_output=True
-    )
-    return proc.returncode == 0
-
-
 def test_build_on_a_full_disk_keeps_every_old_output(python_fmus, tmp_path):
     dist = os.path.dirname(python_fmus["HumanBody3DOF"])
     sizes = {n: os.path.getsize(os.path.join(dist, n)) for n in NAMES}
@@ -53,12 +43,12 @@ def test_build_on_a_full_disk_keeps_every_old_output(python_fmus, tmp_path):
     size = fmus + sizes["QuarterCarWithOccupant.ssp"] // 2  # room for the FMUs, not the SSP
     dest = tmp_path / "dest"
     dest.mkdir()
-    if not _mount_tmpfs(dest, size):
-        pytest.skip(
-            "cannot mount a tmpfs here; test_build_write_failure_keeps_every_old_output "
-            "injects the failure instead"
-        )
-    try:
+    with mount_tmpfs(dest, size) as mounted:
+        if not mounted:
+            pytest.skip(
+                "cannot mount a tmpfs here; test_build_write_failure_keeps_every_old_output "
+                "injects the failure instead"
+            )
         _old(dest)
         proc = subprocess.run(
             [sys.executable, "-m", "bodyvib.cli", "build", "--dest", str(dest)],
@@ -71,8 +61,6 @@ def test_build_on_a_full_disk_keeps_every_old_output(python_fmus, tmp_path):
         assert proc.returncode == 2, proc.stderr
         assert len(lines) == 1 and "No space left" in lines[0], proc.stderr
         _assert_all_old(dest)
-    finally:
-        subprocess.run(["umount", str(dest)], check=True)
 
 
 def test_build_write_failure_keeps_every_old_output(tmp_path, monkeypatch, capsys):

@@ -5,6 +5,7 @@ be 2, stderr a single line naming the problem, and nothing may have been written
 """
 
 import json
+import os
 import time
 
 import pytest
@@ -188,3 +189,65 @@ def test_a_road_warning_names_the_flags_on_the_command_line(capsys):
         warnings.simplefilter("always")
         warnings.warn(w, stacklevel=1)
     assert caught[0].message.parameters == ("duration",)
+
+
+@pytest.mark.parametrize(
+    "argv,words",
+    [
+        # empty values were taken as no seat, the default car, a plain build into ./dist
+        (["cosim", "--seat", ""], ["argument --seat: empty value"]),
+        (["cosim", "--car", " "], ["argument --car: empty value"]),
+        (["build", "--cross-check", ""], ["argument --cross-check: empty value"]),
+        (["build", "--control", ""], ["argument --control: empty value"]),
+        (["frf", "--models", "reduced-paper", ""], ["argument --models: empty value"]),
+        # duplicate keys: the last one won
+        (["cosim", "--road", "hump:h=0.1,h=0.2"], ["bump 'hump' gives h twice"]),
+        (
+            ["cosim", "--car", "quarter-car-active", "--control", "skyhook:c=1,c=2"],
+            ["controller 'skyhook:c=1,c=2' gives c twice"],
+        ),
+        # a key without its value was "no key 'h'"
+        (["cosim", "--road", "hump:h"], ["key 'h' needs a value", "hump:h=0.075"]),
+        (
+            ["cosim", "--car", "quarter-car-active", "--control", "skyhook:c"],
+            ["option 'c' needs a value"],
+        ),
+        # 18 numpy warnings and "acceleration contains NaN"; a generic discard in cosim
+        (["control", "--laws", "skyhook:c=1e300"], ["c_sky = 1e+300", "beyond 1e+08 N s/m"]),
+        (
+            ["cosim", "--car", "quarter-car-active", "--control", "skyhook:c=1e6"],
+            ["by 3.45 times", "0.001 s communication step", "at most 0.000116 s"],
+        ),
+    ],
+)
+def test_empty_duplicate_and_absurd_options_are_refused(capsys, tmp_path, monkeypatch, argv, words):
+    """Each refused in one line, status 2, before any FMU is built or file written."""
+    monkeypatch.chdir(tmp_path)
+    _one_line(capsys, argv + ["--duration", "1"] if argv[0] != "build" else argv, *words)
+    assert os.listdir(tmp_path) == []  # build wrote no ./dist
+
+
+def test_folder_given_as_an_fmu_is_named_a_folder(capsys, tmp_path):
+    """``--control-fmu FOLDER`` said the FMU file "does not exist"."""
+    for option in ("--control-fmu", "--body", "--car-fmu"):
+        extra = ["--car", "quarter-car-active"] if option == "--control-fmu" else []
+        _one_line(
+            capsys,
+            ["cosim", option, str(tmp_path), "--duration", "1", *extra],
+            f"'{tmp_path}' is a folder, not an FMU ({option})",
+        )
+
+
+@pytest.mark.parametrize("name", ["road-bumps", "tandem-cam-205-60R15"])
+def test_road_data_files_are_not_listed_or_taken_as_cars(capsys, name):
+    """``--car`` listed the bump library and the tire's data as cars; choosing one failed on
+    missing fields. They live with the roads; the list names the cars alone."""
+    line = _one_line(capsys, ["cosim", "--car", name], f"unknown vehicle model '{name}'")
+    listed = line.split("one of: ")[1].split(", ")
+    assert listed == [
+        "half-car",
+        "half-car-active",
+        "quarter-car",
+        "quarter-car-active",
+        "quarter-car-cushion",
+    ]

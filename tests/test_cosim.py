@@ -320,3 +320,36 @@ def test_example_coupling_sweep_runs():
     rows = cosim_coupling_sweep.run(steps=(4e-3, 1e-3), duration=3.0)
     assert all(r["extrapolated"] < r["held"] for r in rows)
     assert rows[1]["held"] < rows[0]["held"] and rows[1]["extrapolated"] < rows[0]["extrapolated"]
+
+
+@pytest.mark.integration
+def test_report_and_json_name_the_car_seat_and_controller(fmus, tmp_path, capsys):
+    """``cosim --json`` recorded neither the car, the seat nor the control law, and the text
+    header did not name the seat; ``check --road D`` ran its two comfort words together."""
+    from bodyvib.cli.main import main
+
+    out = tmp_path / "run.json"
+    argv = ["cosim", "--car", "quarter-car-active", "--seat", "cushion", "--control"]
+    argv += ["skyhook:c=3000", "--duration", "1", "--quiet", "--body", fmus["body"]]
+    assert main(argv + ["--json", str(out)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[1] == "car quarter-car-active, seat cushion, controller skyhook c_sky = 3000 N s/m"
+    assert json.loads(out.read_text())["vehicle"] == {
+        "car": "quarter-car-active",
+        "seat": "cushion",
+        "control": {
+            "law": "skyhook c_sky = 3000 N s/m",
+            "given": "skyhook:c=3000",
+            "c_sky_N_s_m": 3000.0,
+            "c_ground_N_s_m": 0.0,
+            "semi_active": False,
+        },
+    }
+    argv = ["check", "--road", "D", "--duration", "2", "--quiet", "--body", fmus["body"]]
+    assert main(argv + ["--iso-body", fmus["iso"], "--car-fmu", fmus["car"]]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[1].startswith(f"car {fmus['car']}, no seat")
+    comfort = next(line for line in lines if line.startswith("comfort"))
+    words = "very uncomfortable / extremely uncomfortable"
+    assert comfort.split("  ")[-1].strip() == words, comfort  # each cell after two spaces
+    assert comfort.count(words) == 2 and words + words[0] not in comfort

@@ -383,6 +383,32 @@ def test_bad_crg_is_refused(folder, files):
         load_profile(files["csv"], track_m=0.5)
 
 
+@pytest.mark.parametrize(
+    "key,value",
+    [
+        ("REFERENCE_LINE_INCREMENT", "NaN"),
+        ("REFERENCE_LINE_START_U", "NaN"),
+        ("REFERENCE_LINE_END_U", "nan"),
+        ("REFERENCE_LINE_INCREMENT", "inf"),
+    ],
+)
+def test_crg_header_number_that_is_not_finite_is_refused(folder, capsys, key, value):
+    """``REFERENCE_LINE_INCREMENT = NaN`` ended ``bodyvib road`` in a traceback
+    (cannot convert float NaN to integer): the header's extent is checked finite."""
+    from bodyvib.cli.main import main
+
+    text = open(os.path.join(DATA, "handmade_straight.crg")).read()
+    text, n = re.subn(rf"(?m)^{key}\s*=.*$", f"{key} = {value}", text)
+    assert n == 1
+    path = os.path.join(folder, f"nan-{key}-{value}.crg")
+    with open(path, "w") as f:
+        f.write(text)
+    assert main(["road", path]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "Traceback" not in err
+    assert f"{key} = {value.lower()}" in err and "not a finite number" in err
+
+
 def test_spacing_too_coarse_for_the_speed_and_step_is_stated(files):
     """The 1 m OpenCRG sample at 20 m/s: wavelengths down to 2 m pass at 10 Hz, far below the
     80 Hz of ISO 2631-1's range; a 5 cm profile reaches 200 Hz. A 10 ms step resolves 50 Hz

@@ -101,6 +101,53 @@ def test_mdf4_and_csv_give_the_same_figures(tmp_path):
     )
 
 
+@pytest.mark.parametrize(
+    "time_header, t_scale, acc_header, a_scale, named",
+    [
+        ("time_ms", 1e3, "seat_z [m/s2]", 1.0, "seat_z"),
+        ("time [ms]", 1e3, "acc_g", 1 / 9.80665, "acc (in g, x 9.80665 to m/s2)"),
+        ("t (s)", 1.0, "seat [mg]", 1e3 / 9.80665, "seat (in mg, x 0.00980665 to m/s2)"),
+    ],
+)
+def test_units_the_header_names_are_read(
+    tmp_path, capsys, time_header, t_scale, acc_header, a_scale, named
+):
+    """``time_ms`` was read as seconds ("sampled at 1 Hz, below the 80 Hz") and ``acc_g``
+    as m/s2 without a word. The same record written in other units gives the figures of
+    the SI file to the CSV's 12 digits; an acceleration converted says so in its name."""
+    t, seat, _ = _reference("reduced-paper", 1e-3, duration=3.0)
+    si = tmp_path / "si.csv"
+    _write_csv(si, t, seat)
+    other = tmp_path / "other.csv"
+    np.savetxt(
+        other,
+        np.column_stack([t * t_scale, seat * a_scale]),
+        delimiter=",",
+        header=f"{time_header},{acc_header}",
+        comments="",
+        fmt="%.12g",
+    )
+    a, b = read_signal(si), read_signal(other)
+    assert b.fs == pytest.approx(1000.0, rel=1e-9)
+    assert b.name == f"{other}:{named}"
+    np.testing.assert_allclose(b.acceleration, a.acceleration, rtol=1e-11, atol=1e-11)
+    assert main(["respond", str(other), "--models", "reduced-paper"]) == 0
+    assert f"signal {other}:{named}: 3001 samples at 1000 Hz" in capsys.readouterr().out
+
+
+def test_unknown_units_in_a_header_are_refused(tmp_path, capsys):
+    t = np.arange(0, 3, 1e-3)
+    for header, words in (
+        ("time [ticks],seat_z", "column 'time [ticks]': unknown time unit 'ticks'"),
+        ("time,seat [m/s]", "column 'seat [m/s]': unknown acceleration unit 'm/s'"),
+    ):
+        path = tmp_path / "s.csv"
+        np.savetxt(path, np.column_stack([t, np.sin(t)]), delimiter=",", header=header, comments="")
+        assert main(["respond", str(path)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and words in err, err
+
+
 def test_command_writes_figures_csv_and_plot(tmp_path, capsys):
     t, seat, head = _reference("reduced-paper", 1e-3, duration=5.0)
     _write_csv(tmp_path / "seat.csv", t, seat, extra=0 * seat)

@@ -57,6 +57,9 @@ def test_class_road_prints_and_writes_the_summary(tmp_path, capsys):
     "args, words",
     [
         (["road", "X"], "neither a profile file nor an ISO 8608 class"),
+        # a file's name: the reader's own words, as cosim says them (was "neither ...")
+        (["road", "nosuch.csv"], "road file 'nosuch.csv' does not exist"),
+        (["road", "no/such.crg"], "road file 'no/such.crg' does not exist"),
         (["road", "C", "--spacing", "0"], "--spacing must be a positive number"),
         (["road", "C", "--length", "1"], "too little of ISO 8608"),
         (["road", "C", "--json", "out.txt"], "--json"),

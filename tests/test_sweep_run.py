@@ -400,7 +400,7 @@ def test_cli_grid_run_and_plot(tmp_path, capsys):
     )
     for line, row in zip(summary[2:4], (table.loc[rms.idxmin()], table.loc[rms.idxmax()])):
         assert line.endswith(
-            f"road {row.road}, {row.speed_m_s:g} m/s, body {row.body}, "
+            f"road {row.road}, {row.speed:g} m/s, body {row.body}, "
             f"car {row.car} (case {row.case_id})"
         )
     bands = table["head_comfort"].value_counts()

@@ -42,10 +42,29 @@ __all__ = [
     "default_gains",
     "actuator_gain_matrix",
     "closed_loop_model",
+    "check_coupling",
+    "step_gain",
+    "MAX_GAIN",
+    "MAX_STEP_GAIN",
 ]
 
 #: Control laws by name: which of the two gains a law uses by default.
 LAWS = ("skyhook", "groundhook", "hybrid")
+
+#: Largest controller gain, N s/m (chosen): 20,000 times the quarter car's default skyhook
+#: gain (4416 N s/m). At 1e8 the skyhook already holds the quarter car's body still (head
+#: Wk r.m.s. 0.000 m/s2 to three digits, its figures within 0.02 % of those at 1e15); above
+#: it the closed loop's rates only spread over more decades, until at 1e18 its exact
+#: discretization loses the figures (5 % off) and at 1e50 overflows.
+MAX_GAIN = 1e8
+
+#: Largest change a co-simulated controller may make to the velocities it reads within one
+#: communication step, per unit velocity: ``gain x step / effective mass`` (the spectral
+#: radius of ``step C B G``, :func:`check_coupling`). Chosen below the onset of divergence
+#: measured at a 1 ms step with the extrapolating master: on the quarter car 0.51 for the
+#: groundhook on the wheel (0.42 ran), 0.59 for the skyhook on the body (0.48 ran), 0.53
+#: for the hybrid law (0.38 ran); on the half car 0.63 and 0.67 (0.5 ran).
+MAX_STEP_GAIN = 0.4
 
 
 @dataclass(frozen=True)
@@ -82,6 +101,12 @@ class SkyhookController:
             if not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
                 raise BodyvibError(
                     f"controller gain {name} = {value!r} must be a finite number >= 0 (N s/m)"
+                )
+            if value > MAX_GAIN:
+                raise BodyvibError(
+                    f"controller gain {name} = {value:g} N s/m is beyond {MAX_GAIN:g} N s/m, "
+                    "where a skyhook already holds the body still and the closed loop's "
+                    "figures stop changing; use a gain of at most that"
                 )
 
     def force(self, upper_velocity, lower_velocity):
@@ -234,11 +259,17 @@ def parse_control(text: str, car: Network) -> SkyhookController:
         "g": c_ground if law in ("groundhook", "hybrid") else 0.0,
     }
     semi = False
+    seen = set()
     for item in filter(None, (s.strip() for s in rest.split(","))):
-        key, eq, value = item.partition("=")
+        key, eq, value = (p.strip() for p in item.partition("="))
+        if key in seen:
+            raise BodyvibError(f"controller '{text}' gives {key} twice; give each option once")
+        seen.add(key)
         if item == "semi":
             semi = True
             continue
+        if key in gains and not (eq and value):
+            raise BodyvibError(f"controller option '{key}' needs a value, e.g. {key}=3000 (N s/m)")
         if key not in gains or not eq:
             raise BodyvibError(
                 f"controller option '{item}' not understood; use c=<N s/m>, g=<N s/m> or semi"
@@ -339,6 +370,82 @@ def actuator_gain_matrix(
         G[model.input_index(f"{act['to']}.force")] += F[i]
         G[model.input_index(f"{act['from']}.force")] -= F[i]
     return G, F
+
+
+def step_gain(controller: SkyhookController, car: Network, step: float) -> float:
+    """How much a controller changes the velocities it reads within one step, per unit.
+
+    The spectral radius of ``step C B G``: the law's gains ``G``
+    (:func:`actuator_gain_matrix`, the semi-active law as its ideal law) through the
+    car's instantaneous response ``C B`` of velocities to forces.
+
+    Parameters
+    ----------
+    controller : SkyhookController
+    car : Network
+        The car with actuators.
+    step : float
+        Communication step, s.
+
+    Returns
+    -------
+    float
+        ``gain x step / mass`` of the point an actuator drives, for one law alone.
+
+    Examples
+    --------
+    >>> from bodyvib.vehicle.quarter_car import load_car
+    >>> car = load_car("quarter-car-active")  # the skyhook on the 290 kg body
+    >>> round(step_gain(SkyhookController(c_sky=2900.0), car, 1e-3), 6)
+    0.01
+    """
+    from bodyvib.runtime.network import linear_model
+
+    lm = linear_model(car)
+    G, _ = actuator_gain_matrix(lm, car, replace(controller, semi_active=False))
+    return float(step) * float(np.max(np.abs(np.linalg.eigvals(lm.C @ lm.B @ G))))
+
+
+def check_coupling(controller: SkyhookController, car: Network, step: float) -> None:
+    """Refuse gains an explicitly coupled co-simulation cannot follow at this step.
+
+    A co-simulation master reads the velocities at a communication point and applies the
+    controller's force over the step: a gain that changes those velocities by more than
+    :data:`MAX_STEP_GAIN` of themselves within one step makes the loop diverge (the run
+    then stops with a step the FMUs discard). The change is :func:`step_gain`, ``gain x
+    step / mass`` of the point the actuator drives. The semi-active law is checked as
+    its ideal law (it gives the ideal force or none).
+
+    Parameters
+    ----------
+    controller : SkyhookController
+    car : Network
+        The car with actuators.
+    step : float
+        Communication step, s.
+
+    Raises
+    ------
+    BodyvibError
+        The gains or the step too large, naming the largest gains at this step and the
+        longest step at these gains.
+
+    Examples
+    --------
+    >>> from bodyvib.vehicle.quarter_car import load_car
+    >>> check_coupling(SkyhookController(c_sky=4416.0), load_car("quarter-car-active"), 1e-3)
+    """
+    change = step_gain(controller, car, step)
+    if change > MAX_STEP_GAIN:
+        scale = MAX_STEP_GAIN / change
+        raise BodyvibError(
+            f"controller {describe(controller)} changes the velocities it reads by "
+            f"{change:.3g} times themselves within one {step:g} s communication step "
+            f"(gain x step / mass), above the {MAX_STEP_GAIN:g} a co-simulation follows (it "
+            f"diverges from about 0.5): "
+            f"use gains of at most {scale:.3g} times these or a step of at most "
+            f"{scale * step:.3g} s"
+        )
 
 
 def closed_loop_model(

@@ -9,7 +9,7 @@ from .check import Comparison
 from .road.driven import road_handling
 from .study import Study
 
-__all__ = ["PEAK_HINT", "format_report", "study_json"]
+__all__ = ["PEAK_HINT", "format_report", "study_json", "vehicle_line"]
 
 _WORDS = {
     "crest_factor": "crest factor [-]",
@@ -23,7 +23,38 @@ _WORDS = {
 }
 
 
-def format_report(study: Study, comparison: Optional[Comparison] = None) -> str:
+def vehicle_line(vehicle: dict) -> str:
+    """The report's line naming the car, its seat and its controller.
+
+    Parameters
+    ----------
+    vehicle : dict
+        ``car`` (a name, a parameter file or a car FMU), ``seat`` (None: the occupant on
+        the car's seat point) and ``control`` (None, or a dict with ``law`` in words or
+        ``fmu``), as :func:`study_json` records them.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> vehicle_line({"car": "quarter-car", "seat": None, "control": None})
+    'car quarter-car, no seat (the occupant on the seat point), no controller'
+    """
+    seat = vehicle.get("seat")
+    control = vehicle.get("control")
+    if control is None:
+        law = "no controller"
+    else:
+        law = "controller " + (control.get("law") or f"FMU {control.get('fmu')}")
+    seat_words = f"seat {seat}" if seat else "no seat (the occupant on the seat point)"
+    return f"car {vehicle['car']}, {seat_words}, {law}"
+
+
+def format_report(
+    study: Study, comparison: Optional[Comparison] = None, vehicle: Optional[dict] = None
+) -> str:
     """Text report: per-body head and internal-force figures, coupling error, the check's lines.
 
     Parameters
@@ -34,6 +65,9 @@ def format_report(study: Study, comparison: Optional[Comparison] = None) -> str:
     comparison : Comparison, optional
         From :func:`bodyvib.vehicle.check.compare`: adds one PASS/FAIL line per criterion, the
         hint :data:`PEAK_HINT` if a transmissibility-peak criterion failed, and the verdict.
+    vehicle : dict, optional
+        The car, seat and controller of the run (:func:`vehicle_line`): a second heading
+        line names them.
 
     Returns
     -------
@@ -48,11 +82,15 @@ def format_report(study: Study, comparison: Optional[Comparison] = None) -> str:
         f"road {study.road['name']}{', ' + handling if handling else ''}, "
         f"{s.speed:g} m/s, {s.duration:g} s, "
         f"step {s.step:g} s ({study.master})",
+        *([vehicle_line(vehicle)] if vehicle is not None else []),
         "",
     ]
     bodies = study.bodies
     labels = list(bodies)
-    w = max(24, *(len(label) for label in labels))
+    # every cell fits with two spaces before it: ISO 2631-1's comfort words are the longest
+    # ("very uncomfortable / extremely uncomfortable" ran into the next column)
+    w = max(24, *(len(label) + 2 for label in labels))
+    w = max(w, *(len(b.figures.comfort) + 2 for b in bodies.values()))
 
     def row(title, cell):  # one line: a title, then cell(body) right-aligned per body
         return f"{title:<28}" + "".join(f"{cell(bodies[b]):>{w}}" for b in labels)
@@ -143,7 +181,9 @@ def _pct(x):
     return "n/a" if x is None else f"{100 * x:.4f} %"
 
 
-def study_json(study: Study, comparison: Optional[Comparison] = None) -> dict:
+def study_json(
+    study: Study, comparison: Optional[Comparison] = None, vehicle: Optional[dict] = None
+) -> dict:
     """The JSON document of a study (figures, no time histories); keys in
     docs/getting_started.md, "JSON output".
 
@@ -153,14 +193,20 @@ def study_json(study: Study, comparison: Optional[Comparison] = None) -> dict:
         From :func:`bodyvib.vehicle.study.run_study`; its time histories are left out.
     comparison : Comparison, optional
         From :func:`bodyvib.vehicle.check.compare`; None for ``bodyvib cosim`` (no check keys).
+    vehicle : dict, optional
+        The car, seat and controller of the run (:func:`vehicle_line`), recorded as
+        ``vehicle``.
 
     Returns
     -------
     dict
-        :meth:`bodyvib.vehicle.study.Study.to_dict`, with ``check`` (:meth:`bodyvib.vehicle.check.Comparison.to_dict`) and
-        ``verdict`` when a comparison is given.
+        :meth:`bodyvib.vehicle.study.Study.to_dict`, with ``vehicle`` when given, and
+        ``check`` (:meth:`bodyvib.vehicle.check.Comparison.to_dict`) and ``verdict`` when a
+        comparison is given.
     """
     doc = study.to_dict()
+    if vehicle is not None:
+        doc["vehicle"] = dict(vehicle)
     if comparison is not None:
         doc["check"] = comparison.to_dict()
         doc["verdict"] = comparison.verdict

@@ -89,14 +89,21 @@ def _check_disk(path, rows):
         )
 
 
+def _check_fmu_file(path, option, kind):
+    """Refuse an FMU option's path that is not an FMU file of that kind, naming the option."""
+    if os.path.isdir(path):
+        raise BodyvibError(f"'{path}' is a folder, not an FMU ({option}); give the .fmu file in it")
+    if not os.path.isfile(path):
+        raise BodyvibError(f"FMU file '{path}' does not exist ({option})")
+    check_fmu(path, kind)  # the wrong kind of FMU, named before anything is built
+
+
 def _fmus(args, want_iso: bool):
     """Paths of (reduced body, ISO body or None, car) and a temporary folder to delete."""
     for opt, kind in (("body", "body"), ("car_fmu", "car"), ("iso_body", "body")):
         p = getattr(args, opt, None)
-        if p is not None and not os.path.isfile(p):
-            raise BodyvibError(f"FMU file '{p}' does not exist (option --{opt.replace('_', '-')})")
         if p is not None:
-            check_fmu(p, kind)  # the wrong kind of FMU, named before anything is built
+            _check_fmu_file(p, f"--{opt.replace('_', '-')}", kind)
     need = []
     if args.body is None:
         need.append("HumanBody3DOF")
@@ -141,18 +148,41 @@ def _controller(args):
     if args.control is not None and args.control_fmu is not None:
         raise BodyvibError("--control and --control-fmu both choose the controller: give one")
     if args.control_fmu is not None:
-        if not os.path.isfile(args.control_fmu):
-            raise BodyvibError(f"FMU file '{args.control_fmu}' does not exist (--control-fmu)")
-        check_fmu(args.control_fmu, "controller")  # a car or ME-only FMU: named now
+        _check_fmu_file(args.control_fmu, "--control-fmu", "controller")  # a car FMU: now
         return args.control_fmu
     if args.control is None:
         return None
-    from bodyvib.vehicle.control import parse_control
+    from bodyvib.vehicle.control import check_coupling, parse_control
     from bodyvib.vehicle.cosim import model_from_fmu
     from bodyvib.vehicle.quarter_car import load_car
 
     car = model_from_fmu(args.car_fmu) if args.car_fmu else load_car(args.car or "quarter-car")
-    return parse_control(args.control, car)
+    controller = parse_control(args.control, car)
+    check_coupling(controller, car, args.step)  # gains the coupling cannot follow: now
+    return controller
+
+
+def _vehicle(args, controller) -> dict:
+    """The car, seat and controller of the run, as the report and the JSON name them."""
+    from bodyvib.vehicle.control import describe
+
+    if controller is None:
+        control = None
+    elif isinstance(controller, str):  # a controller FMU
+        control = {"fmu": controller}
+    else:
+        control = {
+            "law": describe(controller),
+            "given": args.control,
+            "c_sky_N_s_m": controller.c_sky,
+            "c_ground_N_s_m": controller.c_ground,
+            "semi_active": controller.semi_active,
+        }
+    return {
+        "car": args.car_fmu or args.car or "quarter-car",
+        "seat": args.seat,
+        "control": control,
+    }
 
 
 def _label(path, default):
@@ -187,10 +217,14 @@ def _run(args, want_iso):
                 controller=controller,
             )
             comparison = compare(study, *bodies) if want_iso else None
-            print(in_flags(format_report(study, comparison), ("pareto_front",)))
+            vehicle = _vehicle(args, controller)
+            print(in_flags(format_report(study, comparison, vehicle), ("pareto_front",)))
             write_outputs(
                 [
-                    (args.json, lambda path: write_json(path, study_json(study, comparison))),
+                    (
+                        args.json,
+                        lambda path: write_json(path, study_json(study, comparison, vehicle)),
+                    ),
                     (args.plot, lambda path: plot_study(study, path, comparison)),
                     # streamed during the run, staged with the others
                     (args.csv, lambda path: csv.place()),

@@ -44,6 +44,31 @@ class _Parser(argparse.ArgumentParser):
     def error(self, message):
         raise UsageError(f"{self.prog}: error: {message} (see {self.prog} --help)")
 
+    def parse_known_args(self, args=None, namespace=None):
+        """argparse's parse, then: no argument may be given an empty value.
+
+        ``--seat ""`` was taken as no seat, ``--car ""`` as the default car and ``build
+        --cross-check ""`` as a plain build into dist/: an empty (or blank) value is
+        refused, as argparse refuses a missing one.
+        """
+        namespace, extras = super().parse_known_args(args, namespace)
+        parsers = [self]
+        for action in self._actions:  # and the command's parser (however argparse calls it)
+            if isinstance(action, argparse._SubParsersAction):
+                parsers.append(action.choices.get(getattr(namespace, action.dest, None)))
+        for parser in filter(None, parsers):
+            for action in parser._actions:
+                value = getattr(namespace, action.dest, None)
+                if action.default == value:  # not given (a default is never blank)
+                    continue
+                values = value if isinstance(value, list) else [value]
+                if any(isinstance(v, str) and not v.strip() for v in values):
+                    name = "/".join(action.option_strings) or action.metavar or action.dest
+                    parser.error(
+                        f"argument {name}: empty value; give one or leave the argument out"
+                    )
+        return namespace, extras
+
 
 __all__ = ["COMMAND_MODULES", "main", "build_parser"]
 

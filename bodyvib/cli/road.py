@@ -60,7 +60,9 @@ def load_road(
         x = np.arange(int(np.floor(length / spacing)) + 1) * spacing
         road = random_road(s.upper(), length=float(length) + spacing, seed=seed)
         return x, road.displacement(x), f"{road.name} (synthetic, seed {seed})"
-    if not os.path.exists(s):
+    from bodyvib.vehicle.road.driven import is_road_file
+
+    if not os.path.exists(s) and not is_road_file(s):  # a file's name: the reader says
         raise BodyvibError(f"'{s}' is neither a profile file nor an ISO 8608 class A-H")
     try:
         from bodyvib.vehicle.road.measured import load_profile

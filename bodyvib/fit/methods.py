@@ -324,6 +324,10 @@ def cmaes_search(
         ``stall_generations`` (it stops as :func:`ga_search` does, or on
         ``cma``'s own criteria).
 
+    A box of one coordinate, which ``cma`` cannot search (its bound handling needs two
+    or more: ``not yet initialized (dimension needed)``), is searched by
+    :func:`_scalar_search` instead.
+
     Returns
     -------
     SearchResult
@@ -332,6 +336,8 @@ def cmaes_search(
 
     f = _Counted(objective, space)
     span = space.zhi - space.zlo
+    if len(span) == 1:
+        return _scalar_search(f, space, settings, on_generation)
     rng = np.random.default_rng(seed)
     x0 = 0.5 + 0.1 * (rng.random(len(span)) - 0.5)
     opts = {
@@ -355,6 +361,39 @@ def cmaes_search(
         if stopped:
             break
     return f.result(gen, history, stopped or "cma: " + ", ".join(es.stop()))
+
+
+def _scalar_search(f: _Counted, space: SearchSpace, settings, on_generation) -> SearchResult:
+    """Minimize over one coordinate: the best of an even grid, refined by bounded Brent.
+
+    The grid has ``population`` points (CMA-ES's default of 9 for 0; at least 3) spread
+    over the box, ends included, so a function with several minima is searched over the
+    whole box as CMA-ES's first generation would; Brent's method
+    (``scipy.optimize.minimize_scalar``, ``method="bounded"``) then refines the best
+    point between its two neighbours, within the rest of ``max_evaluations``, to
+    ``1e-12`` of the box. Two generations: the grid, the refinement.
+    """
+    from scipy.optimize import minimize_scalar
+
+    lo, hi = float(space.zlo[0]), float(space.zhi[0])
+    budget = int(settings.max_evaluations)
+    n = max(3, min(int(settings.population) or 9, budget))
+    z = np.linspace(lo, hi, n)
+    J = f(z[:, None])
+    history: List[float] = []
+    _end_generation(f.best_J, history, on_generation)
+    i = int(np.argmin(J))
+    stopped = f"one coordinate: the best of {n} even points"
+    if budget > n:
+        res = minimize_scalar(
+            lambda x: float(f(np.array([[x]]))[0]),
+            bounds=(z[max(i - 1, 0)], z[min(i + 1, n - 1)]),
+            method="bounded",
+            options={"xatol": 1e-12 * (hi - lo), "maxiter": budget - n},
+        )
+        _end_generation(f.best_J, history, on_generation)
+        stopped += f", refined by bounded Brent (scipy: {res.message})"
+    return f.result(len(history), history, stopped)
 
 
 def de_search(

@@ -7,12 +7,13 @@ points; :mod:`~bodyvib.process.scratch` gives each command a private temporary f
 removed however the command ends; :mod:`~bodyvib.process.limits` refuses sizes the
 memory cannot hold, up front; :mod:`~bodyvib.process.progress` draws the progress bars;
 :mod:`~bodyvib.process.extras` says which optional part of bodyvib a task needs.
+:mod:`~bodyvib.process.units` reads the units input files' column headers name.
 
 Here the modules are the public interface (``from bodyvib.process import outputs``, then
 ``outputs.atomic_write_text``): each is a small namespace of one concern, and their
 names (``check``, ``message``) read well only under the module's name.
 """
 
-from . import extras, interrupts, limits, outputs, progress, scratch
+from . import extras, interrupts, limits, outputs, progress, scratch, units
 
-__all__ = ["extras", "interrupts", "limits", "outputs", "progress", "scratch"]
+__all__ = ["extras", "interrupts", "limits", "outputs", "progress", "scratch", "units"]

@@ -34,6 +34,7 @@ from typing import Optional
 import numpy as np
 
 from ..process.extras import require
+from ..process.units import ACCELERATION_UNITS, TIME_UNITS, split_unit, unit_scale
 from ..runtime.errors import BodyvibError
 from ..runtime.inputfile import check_input_file
 
@@ -173,16 +174,21 @@ def check_signal(time, acceleration, name: str = "seat acceleration") -> SeatSig
 
 def _is_time(header: str) -> bool:
     h = header.strip().lower()
-    return h == "t" or h.startswith("time") or h.startswith("t [") or h.startswith("t(")
+    return h.startswith("time") or split_unit(h, TIME_UNITS)[0] == "t"
 
 
 def _column_name(header: str) -> str:
-    """A header without its unit: ``"seat_z [m/s2]"`` -> ``"seat_z"``."""
-    h = header.strip()
-    for sep in (" [", "[", " (", "("):
-        if sep in h:
-            return h.split(sep)[0].strip()
-    return h
+    """A header without its unit: ``"seat_z [m/s2]"`` -> ``"seat_z"``, ``"acc_g"`` -> ``"acc"``."""
+    return split_unit(header, ACCELERATION_UNITS)[0]
+
+
+def _column_scale(path, header: str, units, what: str, default: str) -> float:
+    """The factor to SI of the unit a column's header names (``default`` if it names none)."""
+    unit = split_unit(header, units)[1]
+    try:
+        return unit_scale(default if unit is None else unit, units, what)
+    except BodyvibError as exc:
+        raise BodyvibError(f"{path}: column '{header}': {exc}") from None
 
 
 def read_csv_signal(path, channel: Optional[str] = None) -> SeatSignal:
@@ -192,7 +198,11 @@ def read_csv_signal(path, channel: Optional[str] = None) -> SeatSignal:
     ----------
     path : str or os.PathLike
         A CSV file: ``#`` comment lines, a header row with a time column (``time``,
-        ``t``, ``t [s]``, in s), then one row of numbers per sample.
+        ``t``, ``t [s]``, ``time_ms``: in s unless its header names another unit of
+        :data:`~bodyvib.process.units.TIME_UNITS`), then one row of numbers per sample.
+        The acceleration is in m/s2 unless its header names another unit of
+        :data:`~bodyvib.process.units.ACCELERATION_UNITS` (``acc_g``, ``seat [g]``:
+        multiplied by 9.80665, and the record's name says so).
     channel : str, optional
         Name of the acceleration column (with or without its unit); needed when
         the file has more than one column besides the time.
@@ -205,8 +215,9 @@ def read_csv_signal(path, channel: Optional[str] = None) -> SeatSignal:
     Raises
     ------
     BodyvibError
-        No header or time column, a missing or ambiguous column, a cell that
-        is not a number, and everything :func:`check_signal` refuses.
+        No header or time column, a missing or ambiguous column, a unit a header
+        names that is not one of its quantity, a cell that is not a number, and
+        everything :func:`check_signal` refuses.
     """
     path = check_input_file(path, "signal file")
     with open(path, newline="", encoding="utf-8") as f:
@@ -249,7 +260,13 @@ def read_csv_signal(path, channel: Optional[str] = None) -> SeatSignal:
                 f"{path}: line {k + 2} is not two numbers in columns "
                 f"'{header[ti]}' and '{header[ci]}' (truncated file?)"
             ) from None
-    return check_signal(data[:, 0], data[:, 1], f"{path}:{_column_name(header[ci])}")
+    t_scale = _column_scale(path, header[ti], TIME_UNITS, "time", "s")
+    a_scale = _column_scale(path, header[ci], ACCELERATION_UNITS, "acceleration", "m/s2")
+    name = f"{path}:{_column_name(header[ci])}"
+    if a_scale != 1.0:  # said where the record is named: in the report and the JSON
+        unit = split_unit(header[ci], ACCELERATION_UNITS)[1]
+        name += f" (in {unit}, x {a_scale:g} to m/s2)"
+    return check_signal(data[:, 0] * t_scale, data[:, 1] * a_scale, name)
 
 
 @contextlib.contextmanager
@@ -288,7 +305,9 @@ def read_mdf_signal(path, channel: Optional[str]) -> SeatSignal:
     path : str or os.PathLike
         An ASAM MDF file (``.mf4``, ``.mdf``).
     channel : str
-        Channel name (the acceleration in m/s2).
+        Channel name: the acceleration in the channel's unit, one of
+        :data:`~bodyvib.process.units.ACCELERATION_UNITS` (converted to m/s2, the
+        record's name saying so) or none (m/s2).
 
     Returns
     -------
@@ -324,9 +343,19 @@ def read_mdf_signal(path, channel: Optional[str]) -> SeatSignal:
             ) from None
         t = np.asarray(sig.timestamps, dtype=float)
         a = np.asarray(sig.samples, dtype=float)
+        unit = str(getattr(sig, "unit", "") or "").strip()
     finally:
         mdf.close()
-    return check_signal(t, a, f"{path}:{channel}")
+    name = f"{path}:{channel}"
+    scale = 1.0
+    if unit:  # the channel's own unit, read as a CSV header's (none: m/s2)
+        try:
+            scale = unit_scale(unit, ACCELERATION_UNITS, "acceleration")
+        except BodyvibError as exc:
+            raise BodyvibError(f"{name}: {exc}") from None
+    if scale != 1.0:
+        name += f" (in {unit}, x {scale:g} to m/s2)"
+    return check_signal(t, a * scale, name)
 
 
 def read_signal(path, channel: Optional[str] = None) -> SeatSignal:

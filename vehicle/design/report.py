@@ -161,7 +161,8 @@ def write_design(dest, result: DesignResult, command: str = "") -> List[str]:
     Parameters
     ----------
     dest : str or os.PathLike
-        Created if missing.
+        Created if missing (by the first file's write, so that a failed
+        :func:`~bodyvib.process.outputs.staged_writes` block leaves no folder behind).
     result : DesignResult
     command : str
 
@@ -177,7 +178,8 @@ def write_design(dest, result: DesignResult, command: str = "") -> List[str]:
     """
     extras.require("writing a design's front", "sweep")
     dest = os.fspath(dest)
-    os.makedirs(dest, exist_ok=True)
+    # no makedirs here: the atomic writers create the dest and, within staged_writes,
+    # remove it again with the files if a write fails (a full disk left it empty)
     paths = [os.path.join(dest, f) for f in FILES]
     atomic_write_text(paths[0], front_table(result))
     atomic_write_bytes(paths[1], _parquet_bytes(result))

@@ -27,8 +27,13 @@ points; a constraint holds at every operating point. An output that follows the 
 statically (an absolute displacement) has no stationary r.m.s. and is refused.
 
 Every check runs when the specification is read, before any search: an unknown key,
-parameter, objective or road, a bound below zero or an empty range, an empty
-operating set, a method that does not fit the number of objectives.
+parameter, objective or road, a value that is not a JSON number (``"8000"``), a bound
+below zero or an empty range, an empty operating set, a method that does not fit the
+number of objectives, a search that would evaluate more than :data:`MAX_EVALUATIONS`
+designs or a population whose search would not fit in half the memory at hand, and a
+verification whose step is not below its duration, samples below the 80 Hz the Wk
+weighting needs (:data:`bodyvib.seat.signal.MIN_RATE_HZ`), runs shorter than the MTVV's
+1 s window or would not fit in memory.
 """
 
 import json
@@ -38,8 +43,10 @@ from dataclasses import dataclass, field
 from typing import Optional, Tuple
 
 from bodyvib.models import load_model
+from bodyvib.process.limits import require_memory
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import linear_model
+from bodyvib.seat.signal import MIN_DURATION_S, MIN_RATE_HZ
 
 from ..quarter_car import load_car, seated_system
 from ..road.synthetic import ISO8608_CLASSES
@@ -48,6 +55,10 @@ from .stationary import stationary_outputs
 __all__ = [
     "OBJECTIVES",
     "METHODS",
+    "MAX_EVALUATIONS",
+    "NSGA2_BYTES_PER_PAIR",
+    "BYTES_PER_CANDIDATE",
+    "VERIFY_BYTES_PER_VALUE",
     "Bound",
     "OperatingPoint",
     "Objective",
@@ -98,6 +109,25 @@ OBJECTIVES = {
 #: Search methods: NSGA-II (pymoo) for two objectives or more; the fit's genetic
 #: algorithm and CMA-ES (:mod:`bodyvib.fit.methods`) for one.
 METHODS = ("nsga2", "ga", "cmaes")
+
+#: Most designs one search may evaluate (population times generations and one): about 4 to
+#: 11 hours at the 1.2 to 4 ms one evaluation of the shipped quarter car with the reduced
+#: body takes (measured), as a run is bounded by its steps (``bodyvib.vehicle.study.MAX_STEPS``).
+MAX_EVALUATIONS = 1e7
+
+#: Memory of NSGA-II per pair of candidates, bytes: pymoo's duplicate elimination holds
+#: the distances between a generation's offspring and the population, ``2 population^2``
+#: doubles (measured 17 B per squared population at 8000).
+NSGA2_BYTES_PER_PAIR = 16
+
+#: Memory per candidate of every method, bytes (chosen: twice the 1.1 kB per member of
+#: the population measured for CMA-ES, the largest of the three).
+BYTES_PER_CANDIDATE = 2000
+
+#: Memory of a verification run per step and per state or output of the seated model,
+#: bytes: the states, the outputs and a copy, three doubles each (measured 640 to 690 B
+#: a step for the quarter car with the reduced body, 9 states and 26 outputs: 840 here).
+VERIFY_BYTES_PER_VALUE = 24
 
 _KEYS = {
     "car",
@@ -262,9 +292,14 @@ def seated_model(car, body, values=None):
 
 
 def _number(value, what, positive=False, integer=False):
+    """A JSON number of the spec, checked; a string (``"8000"``) is not one."""
+    if isinstance(value, str):
+        raise BodyvibError(
+            f"{what} must be a number, not the string {value!r}; write it without quotes"
+        )
     try:
         x = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise BodyvibError(f"{what} must be a number, not {value!r}") from None
     if isinstance(value, bool) or not math.isfinite(x) or (positive and x <= 0):
         raise BodyvibError(
@@ -360,6 +395,72 @@ def _check_computable(obj: Objective, lm, rattle, body) -> None:
             )
 
 
+def _search(s, objectives: int) -> SearchSettings:
+    """The ``search`` block, its sizes bounded by the time and memory the search would take."""
+    _only(s, {"method", "population", "generations", "seed"}, "'search'")
+    method = s.get("method", "nsga2" if objectives > 1 else "ga")
+    if method not in METHODS:
+        raise BodyvibError(f"unknown search method '{method}'; methods are {', '.join(METHODS)}")
+    if method == "nsga2" and objectives < 2:
+        raise BodyvibError("nsga2 needs two objectives or more; use 'ga' or 'cmaes' for one")
+    if method != "nsga2" and objectives != 1:
+        raise BodyvibError(f"'{method}' minimizes one objective; use 'nsga2' for a Pareto front")
+    population = _number(s.get("population", 40), "search population", True, True)
+    generations = _number(s.get("generations", 40), "search generations", True, True)
+    evaluations = population * (generations + 1)  # the first population, then each generation
+    if evaluations > MAX_EVALUATIONS:
+        raise BodyvibError(
+            f"a search of population {population:.3g} over {generations:.3g} generations "
+            f"evaluates about {float(evaluations):.3g} designs; the limit is "
+            f"{MAX_EVALUATIONS:.3g} (hours of wall time at a few ms each): lower the "
+            "population or the generations"
+        )
+    pairs = population**2 * NSGA2_BYTES_PER_PAIR if method == "nsga2" else 0
+    require_memory(
+        pairs + population * BYTES_PER_CANDIDATE,
+        f"a {method} search of population {population}",
+        "lower the population",
+    )
+    return SearchSettings(
+        method=method,
+        population=population,
+        generations=generations,
+        seed=_number(s.get("seed", 1), "search seed", integer=True),
+    )
+
+
+def _verify(v, lm) -> VerifySettings:
+    """The ``verify`` block: runs the Wk weighting and the MTVV can take, that fit in memory."""
+    _only(v, {"duration", "step", "seed"}, "'verify'")
+    duration = _number(v.get("duration", 30.0), "verify duration (s)", positive=True)
+    step = _number(v.get("step", 0.001), "verify step (s)", positive=True)
+    if step >= duration:
+        raise BodyvibError(
+            f"verify step {step:g} s is not shorter than its duration {duration:g} s; "
+            f"use a step of at most {1 / MIN_RATE_HZ:g} s"
+        )
+    if step > 1 / MIN_RATE_HZ:
+        raise BodyvibError(
+            f"verify step {step:g} s samples at {1 / step:.3g} Hz, below the "
+            f"{MIN_RATE_HZ:g} Hz the Wk weighting needs; use a step of at most "
+            f"{1 / MIN_RATE_HZ:g} s (0.001 s by default)"
+        )
+    if duration < MIN_DURATION_S:
+        raise BodyvibError(
+            f"verify duration {duration:g} s is shorter than the {MIN_DURATION_S:g} s the "
+            "figures need (the MTVV's window); 30 s by default"
+        )
+    steps = duration / step + 1
+    require_memory(
+        steps * VERIFY_BYTES_PER_VALUE * (lm.A.shape[0] + len(lm.outputs)),
+        f"a verification run of {duration:g} s at a {step:g} s step ({steps:.3g} steps)",
+        "shorten the verify duration or lengthen its step",
+    )
+    return VerifySettings(
+        duration=duration, step=step, seed=_number(v.get("seed", 0), "verify seed", integer=True)
+    )
+
+
 def parse_spec(spec: dict) -> DesignSpec:
     """Check a design specification and return it typed.
 
@@ -420,28 +521,6 @@ def parse_spec(spec: dict) -> DesignSpec:
     lm = seated_model(car, body)
     for obj in objectives + tuple(c for c, _ in constraints):
         _check_computable(obj, lm, rattle, body)
-    s = spec.get("search") or {}
-    _only(s, {"method", "population", "generations", "seed"}, "'search'")
-    method = s.get("method", "nsga2" if len(objectives) > 1 else "ga")
-    if method not in METHODS:
-        raise BodyvibError(f"unknown search method '{method}'; methods are {', '.join(METHODS)}")
-    if method == "nsga2" and len(objectives) < 2:
-        raise BodyvibError("nsga2 needs two objectives or more; use 'ga' or 'cmaes' for one")
-    if method != "nsga2" and len(objectives) != 1:
-        raise BodyvibError(f"'{method}' minimizes one objective; use 'nsga2' for a Pareto front")
-    search = SearchSettings(
-        method=method,
-        population=_number(s.get("population", 40), "search population", True, True),
-        generations=_number(s.get("generations", 40), "search generations", True, True),
-        seed=_number(s.get("seed", 1), "search seed", integer=True),
-    )
-    v = spec.get("verify") or {}
-    _only(v, {"duration", "step", "seed"}, "'verify'")
-    verify = VerifySettings(
-        duration=_number(v.get("duration", 30.0), "verify duration (s)", positive=True),
-        step=_number(v.get("step", 0.001), "verify step (s)", positive=True),
-        seed=_number(v.get("seed", 0), "verify seed", integer=True),
-    )
     return DesignSpec(
         car=car,
         body=body,
@@ -450,8 +529,8 @@ def parse_spec(spec: dict) -> DesignSpec:
         objectives=objectives,
         constraints=constraints,
         rattle_space=rattle,
-        search=search,
-        verify=verify,
+        search=_search(spec.get("search") or {}, len(objectives)),
+        verify=_verify(spec.get("verify") or {}, lm),
         description=str(spec.get("description", "")),
     )
 

@@ -18,7 +18,7 @@ Every shape also takes ``at`` (10 m by default). The slope is the exact derivati
 the height, in closed form; where the profile has a corner (the ends of a hump, the
 ramps' ends) it jumps, and the value at the corner itself is the one of the closed
 interval's formula. The defaults and their sources (TRL reports, UK regulations; a
-chosen value says so) are data, in ``vehicle/data/road-bumps.json``.
+chosen value says so) are data, in ``vehicle/data/roads/road-bumps.json``.
 
 A road spec names a shape and overrides keys: ``"hump"``, ``"hump:h=0.1"``,
 ``"table:h=0.075,l=7,ramp=1"``. :func:`parse_bump` reads one; :func:`is_bump_spec`
@@ -47,7 +47,7 @@ __all__ = [
 
 #: The bump library: shapes, their default dimensions and where each comes from.
 BUMP_FILE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "data",
-                         "road-bumps.json")  # fmt: skip
+                         "roads", "road-bumps.json")  # fmt: skip
 
 #: Shape names, in the library's order.
 SHAPES = ("hump", "table", "sine", "halfsine", "pothole")
@@ -56,7 +56,7 @@ _library = None
 
 
 def bump_library() -> dict:
-    """The bump library (``vehicle/data/road-bumps.json``), read once.
+    """The bump library (``vehicle/data/roads/road-bumps.json``), read once.
 
     Returns
     -------
@@ -177,8 +177,19 @@ def _keys(shape: str, text: str) -> Dict[str, float]:
     """The shape's dimensions: its defaults, overridden by ``key=value`` items of ``text``."""
     defaults = bump_library()["shapes"][shape]["defaults"]
     values = dict(defaults)
+    seen = set()
     for item in filter(None, (p.strip() for p in text.split(","))):
         key, sep, value = (p.strip() for p in item.partition("="))
+        if key in defaults and not (sep and value):
+            raise BodyvibError(
+                f"bump '{shape}': key '{key}' needs a value in m, e.g. {shape}:{key}="
+                f"{defaults[key]:g}"
+            )
+        if key in seen:
+            raise BodyvibError(
+                f"bump '{shape}' gives {key} twice ({shape}:{text}); give each key once"
+            )
+        seen.add(key)
         if not sep or key not in defaults:
             raise BodyvibError(
                 f"bump '{shape}' has no key '{key if sep else item}'; its keys are "

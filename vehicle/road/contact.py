@@ -21,7 +21,7 @@ wheel feels, in two steps:
 
 The sizes come from the tire: ``a_e = p_ae r0``, ``b_e = p_be r0``, ``l_s = p_ls a``
 with ``r0`` the unloaded radius and ``a`` half the footprint length
-(:class:`TandemCam`, parameters from ``vehicle/data/tandem-cam-205-60R15.json``).
+(:class:`TandemCam`, parameters from ``vehicle/data/roads/tandem-cam-205-60R15.json``).
 The effective road is evaluated at the profile's samples (the cam's contour at the
 offsets ``j dx``) and driven through the profile's interpolant like the profile
 itself.
@@ -56,7 +56,7 @@ __all__ = [
 CONTACTS = ("auto", "tandem-cam", "point")
 
 _TIRE_FILE = os.path.join(
-    os.path.dirname(os.path.dirname(__file__)), "data", "tandem-cam-205-60R15.json"
+    os.path.dirname(os.path.dirname(__file__)), "data", "roads", "tandem-cam-205-60R15.json"
 )
 
 

@@ -57,6 +57,7 @@ from typing import List, Optional, Tuple
 import numpy as np
 
 from bodyvib.process.extras import require
+from bodyvib.process.units import LENGTH_UNITS, split_unit, unit_scale
 from bodyvib.runtime.errors import BodyvibError
 
 from .profile import ProfileRoad
@@ -72,25 +73,6 @@ __all__ = [
 
 #: File extensions read as road profiles.
 PROFILE_EXTENSIONS = (".crg", ".csv", ".txt", ".erd")
-
-#: Length units of CSV and ERD files, in m.
-LENGTH_UNITS = {
-    "m": 1.0,
-    "km": 1e3,
-    "cm": 1e-2,
-    "mm": 1e-3,
-    "um": 1e-6,
-    "µm": 1e-6,
-    "micron": 1e-6,
-    "microns": 1e-6,
-    "ft": 0.3048,
-    "feet": 0.3048,
-    "in": 0.0254,
-    "inch": 0.0254,
-    "inches": 0.0254,
-    "mi": 1609.344,
-    "mile": 1609.344,
-}
 
 #: Largest median slope over :data:`UNIT_BASE_M` steps, grade removed, of a road whose
 #: units are right. The steepest public roads climb 0.35 m per m, and the median change of
@@ -318,14 +300,10 @@ def _uniform(x, z, base) -> float:
 
 
 def _unit(text, what, base) -> float:
-    u = str(text).strip().strip("[]()").strip()
-    u = u if u in LENGTH_UNITS else u.lower()
-    if u not in LENGTH_UNITS:
-        raise BodyvibError(
-            f"road '{base}': unknown {what} unit '{u}'; use one of "
-            + ", ".join(k for k in LENGTH_UNITS if k.isascii())
-        )
-    return LENGTH_UNITS[u]
+    try:
+        return unit_scale(text, LENGTH_UNITS, what)
+    except BodyvibError as exc:
+        raise BodyvibError(f"road '{base}': {exc}") from None
 
 
 def _given_units(units, base, option) -> Optional[Tuple[float, float]]:
@@ -388,8 +366,6 @@ def _scales(base, units, given, header, header_text, no_units, option) -> Tuple[
 
 # -- CSV and text columns -------------------------------------------------------------
 
-_HEADER_UNIT = re.compile(r"^\s*([A-Za-z][A-Za-z0-9 ]*?)\s*(?:_|\[|\()\s*([A-Za-zµ]+)\s*[\])]?\s*$")
-
 
 def _splitter(line):
     """How a file's lines split into fields: by semicolons, commas or white space."""
@@ -428,13 +404,13 @@ def _read_columns(path, units, channel, option):
                 f"road '{base}': the header '{rows[0][1].strip()}' needs two columns, "
                 "distance and elevation"
             )
-    named = [_HEADER_UNIT.match(h) for h in head[:2]] if head else [None, None]
+    named = [split_unit(h)[1] for h in head[:2]] if head else [None, None]
     text = f"'{','.join(head[:2])}'" if head else "(none)"
     scales = _scales(
         base,
         units,
         given,
-        (named[0].group(2), named[1].group(2)) if all(named) else None,
+        (named[0], named[1]) if all(named) else None,
         text,
         f"the header {text} names no units; name them (distance_m,elevation_mm)",
         option,
@@ -653,7 +629,8 @@ def _check_crg_structure(path, base):
     u_stored = bool(u_line) and u_line.group(1).count(b",") < 3
     if u_stored:
         channels += 1  # u is stored as a channel of its own (distances, not heights)
-    u0 = _crg_value(road, "reference_line_start_u") or 0.0
+    u0 = _crg_value(road, "reference_line_start_u")
+    u0 = 0.0 if u0 is None else u0
     u1 = _crg_value(road, "reference_line_end_u")
     du = _crg_value(road, "reference_line_increment")
     if u_line and u_line.group(1).count(b",") >= 3 and du is None:
@@ -661,6 +638,16 @@ def _check_crg_structure(path, base):
             du = float(u_line.group(1).split(b",")[3])
         except ValueError:
             du = None
+    for key, v in (
+        ("reference_line_start_u", u0),
+        ("reference_line_end_u", u1),
+        ("reference_line_increment", du),
+    ):
+        if v is not None and not math.isfinite(v):
+            raise BodyvibError(
+                f"road '{base}' is corrupt: its header gives {key.upper()} = {v!r}, not a "
+                "finite number of metres; write it again"
+            )
     if fmt is None or channels == 0 or u1 is None or not du or du <= 0 or u1 <= u0:
         raise BodyvibError(
             f"road '{base}' is corrupt: its header does not declare the data "

@@ -16,7 +16,7 @@ __all__ = ["SUMMARY_COLUMNS", "format_summary", "summary_columns"]
 SUMMARY_COLUMNS = (
     "case_id",
     "road",
-    "speed_m_s",
+    "speed",
     "body",
     "car",
     "head_weighted_rms",
@@ -48,7 +48,7 @@ def summary_columns(path: str):
 
 def _case(row) -> str:
     return (
-        f"road {row['road']}, {row['speed_m_s']:g} m/s, body {row['body']}, car {row['car']} "
+        f"road {row['road']}, {row['speed']:g} m/s, body {row['body']}, car {row['car']} "
         f"(case {int(row['case_id'])})"
     )
 
@@ -70,7 +70,7 @@ def format_summary(df) -> str:
     Examples
     --------
     >>> import pandas as pd
-    >>> df = pd.DataFrame({"case_id": [0, 1], "road": ["C", "D"], "speed_m_s": [20.0, 20.0],
+    >>> df = pd.DataFrame({"case_id": [0, 1], "road": ["C", "D"], "speed": [20.0, 20.0],
     ...     "body": ["reduced-paper"] * 2, "car": ["quarter-car"] * 2,
     ...     "head_weighted_rms": [1.1239, 2.2478], "engine": ["batched"] * 2,
     ...     "head_comfort": ["uncomfortable", "extremely uncomfortable"], "error": ["", ""]})
