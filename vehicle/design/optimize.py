@@ -409,6 +409,8 @@ def _simulate(lm, rows, z, v, step):
     X = np.empty((len(z), n))
     x = np.zeros(n)
     for k in range(len(z)):
+        if not k & 4095:
+            interrupts.check()  # a long verification run: a safe point every ~30 ms
         X[k] = x
         x = Phi @ x + gz * z[k] + gv * v[k]
     C, D = lm.C[rows], lm.D[rows]
