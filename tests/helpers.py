@@ -8,9 +8,11 @@ import mode, as ``conftest.py`` is). Fixtures live in ``conftest.py``.
 import contextlib
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
+import time
 
 import numpy as np
 import pytest
@@ -21,6 +23,8 @@ __all__ = [
     "OLD_CONTENT",
     "write_old_outputs",
     "check_stopped_run",
+    "handles_signal",
+    "start_cli",
     "win64_host",
     "fmpy_headers",
     "compile_c_host",
@@ -151,6 +155,46 @@ def fmpy_compile_sources(fmu, path, cwd):
         cwd=cwd,
     )
     assert out.returncode == 0, out.stdout + out.stderr
+
+
+def handles_signal(pid, signum):
+    """True once process ``pid`` catches ``signum`` (its SigCgt mask in /proc)."""
+    try:
+        with open(f"/proc/{pid}/status") as f:
+            for line in f:
+                if line.startswith("SigCgt:"):
+                    return bool(int(line.split()[1], 16) >> (signum - 1) & 1)
+    except OSError:
+        pass
+    return False
+
+
+def start_cli(argv, cwd, tmpdir, program=None):
+    """A command started as a shell starts it, once its signal handlers are in place.
+
+    ``python -m bodyvib.cli ARGV`` (or ``python PROGRAM ARGV``) in its own process group
+    and session, with ``TMPDIR`` = ``tmpdir``, stdout and stderr piped as text; returned
+    once it catches SIGTERM (bodyvib catches its three signals at once, Python catches
+    SIGINT from its start), or has ended, or after 60 s.
+    """
+    cmd = [sys.executable, "-m", "bodyvib.cli"] if program is None else [sys.executable, program]
+    proc = subprocess.Popen(
+        [*cmd, *argv],
+        cwd=cwd,
+        env=dict(os.environ, TMPDIR=str(tmpdir)),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    t0 = time.monotonic()
+    while (
+        not handles_signal(proc.pid, signal.SIGTERM)
+        and proc.poll() is None
+        and time.monotonic() < t0 + 60
+    ):
+        time.sleep(0.005)
+    return proc
 
 
 @contextlib.contextmanager

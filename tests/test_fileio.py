@@ -118,6 +118,33 @@ def test_staged_outputs_whose_folder_vanished_are_all_refused(tmp_path):
     assert not gone.exists() and list(tmp_path.iterdir()) == []
 
 
+def test_a_streamed_file_takes_the_folders_made_for_it_when_discarded(tmp_path):
+    """A CSV streamed into folders that did not exist (``cosim --csv out/run/r.csv``)
+    removes them with itself when the run stops (a signal), before or inside the staged
+    block; placed and committed, they stay."""
+    out = tmp_path / "out"
+    csv = PendingFile(out / "run" / "r.csv")
+    csv.file.write("t,x\n")
+    assert (out / "run").is_dir()
+    csv.discard()
+    assert list(tmp_path.iterdir()) == []
+
+    csv = PendingFile(out / "run" / "r.csv")
+    with pytest.raises(KeyboardInterrupt):
+        with staged_writes():
+            csv.place()
+            raise KeyboardInterrupt  # stopped after the CSV, before the other outputs
+    csv.discard()
+    assert list(tmp_path.iterdir()) == []
+
+    csv = PendingFile(out / "run" / "r.csv")
+    with staged_writes():
+        csv.file.write("t,x\n")
+        csv.place()
+    csv.discard()  # a no-op once placed
+    assert (out / "run" / "r.csv").read_text() == "t,x\n"
+
+
 def test_a_failed_rename_undoes_the_renames_before_it(tmp_path, monkeypatch):
     """All or none when the second of two renames fails: the first destination gets its old
     content back, a new one is removed."""

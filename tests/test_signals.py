@@ -26,11 +26,10 @@ import random
 import shutil
 import signal
 import subprocess
-import sys
 import time
 
 import pytest
-from helpers import check_stopped_run, write_old_outputs
+from helpers import check_stopped_run, start_cli, write_old_outputs
 
 pytestmark = pytest.mark.integration
 
@@ -85,18 +84,6 @@ def _commands(tmp):
     ]
 
 
-def _handles(pid, signum):
-    """True once process ``pid`` catches ``signum`` (its SigCgt mask in /proc)."""
-    try:
-        with open(f"/proc/{pid}/status") as f:
-            for line in f:
-                if line.startswith("SigCgt:"):
-                    return bool(int(line.split()[1], 16) >> (signum - 1) & 1)
-    except OSError:
-        pass
-    return False
-
-
 def _naming(text):
     """Pids of live processes whose command line contains ``text``."""
     out = []
@@ -112,32 +99,9 @@ def _naming(text):
     return out
 
 
-def _start(argv, cwd, tmpdir):
-    """The command started as a shell starts it, once its signal handlers are in place."""
-    env = dict(os.environ, TMPDIR=str(tmpdir))
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "bodyvib.cli", *argv],
-        cwd=cwd,
-        env=env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        start_new_session=True,
-    )
-    t0 = time.monotonic()
-    # bodyvib catches the three signals at once; Python catches SIGINT from its start
-    while (
-        not _handles(proc.pid, signal.SIGTERM)
-        and proc.poll() is None
-        and time.monotonic() < t0 + 60
-    ):
-        time.sleep(0.005)
-    return proc
-
-
 def _duration(argv, cwd, tmpdir):
     """Seconds a command runs on this machine now, from its handlers in place to its end."""
-    proc = _start(argv, cwd, tmpdir)
+    proc = start_cli(argv, cwd, tmpdir)
     t0 = time.monotonic()
     _, err = proc.communicate(timeout=600)
     assert proc.returncode == 0, err
@@ -145,7 +109,7 @@ def _duration(argv, cwd, tmpdir):
 
 
 def _run(argv, signum, to_group, delay, twice, cwd, tmpdir):
-    proc = _start(argv, cwd, tmpdir)
+    proc = start_cli(argv, cwd, tmpdir)
     time.sleep(delay)
     for _ in range(2 if twice else 1):
         try:

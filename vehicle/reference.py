@@ -19,6 +19,7 @@ from typing import Dict
 
 import numpy as np
 
+from bodyvib.process import interrupts
 from bodyvib.runtime.contract import actuator_variables
 from bodyvib.runtime.discretize import Discretization, check_step, input_rates
 from bodyvib.runtime.errors import BodyvibError
@@ -225,6 +226,8 @@ class ReferenceStream:
         x = np.empty((z.shape[0], lm.A.shape[0]))
         xk = self._x
         for k in range(z.shape[0]):
+            if not k & 4095:
+                interrupts.check()  # a long block (reference_run's whole run): a safe point
             x[k] = xk
             xk = d.step(xk, u[k], du[k], h)
         self._x = xk

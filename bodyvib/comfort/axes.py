@@ -28,6 +28,7 @@ from ..runtime.errors import BodyvibError
 from .figures import (
     WK_PARAMETERS,
     _check_signal,
+    _filtered,
     _mtvv,
     _peak,
     _rms,
@@ -179,10 +180,7 @@ def weighted_axis(acceleration, fs: float, name: str = "Wk") -> np.ndarray:
     """
     parameters = _parameters(name)
     a = _check_signal(acceleration, fs)
-    n = a.size
-    nfft = 1 << int(np.ceil(np.log2(2 * n + int(8 * fs))))
-    f = np.fft.rfftfreq(nfft, 1.0 / fs)
-    return np.fft.irfft(np.fft.rfft(a, nfft) * weighting_response(parameters, f), nfft)[:n]
+    return _filtered(a, fs, lambda f: weighting_response(parameters, f), 8.0)
 
 
 @dataclass(frozen=True)

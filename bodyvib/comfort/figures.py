@@ -47,6 +47,7 @@ from typing import Dict
 
 import numpy as np
 
+from ..process import interrupts
 from ..runtime.errors import BodyvibError
 from ..runtime.renames import renamed_parameters
 
@@ -239,12 +240,28 @@ def weighted_acceleration(acceleration, fs: float) -> np.ndarray:
 
     %(record_raises)s
     """
-    a = _check_signal(acceleration, fs)
+    return _filtered(_check_signal(acceleration, fs), fs, wk_response, 8.0)
+
+
+def _filtered(a, fs, response, settle_s):
+    """A record filtered by an analog response from rest (FFT of the zero-padded record).
+
+    The record is padded to a power of two of at least twice its length plus ``settle_s``
+    seconds, in which the response's impulse response decays, so the circular
+    convolution equals the linear one. The response is evaluated a piece of the
+    spectrum at a time, a safe point for a signal after each
+    (:func:`bodyvib.process.interrupts.check`): at once it took 4 s for a record of
+    3e6 samples; the FFTs take well under a second.
+    """
     n = a.size
-    nfft = 1 << int(np.ceil(np.log2(2 * n + int(8 * fs))))
+    nfft = 1 << int(np.ceil(np.log2(2 * n + int(settle_s * fs))))
     spec = np.fft.rfft(a, nfft)
     f = np.fft.rfftfreq(nfft, 1.0 / fs)
-    return np.fft.irfft(spec * wk_response(f), nfft)[:n]
+    for s in range(0, f.size, 1 << 18):
+        interrupts.check()
+        spec[s : s + (1 << 18)] *= response(f[s : s + (1 << 18)])
+    interrupts.check()
+    return np.fft.irfft(spec, nfft)[:n]
 
 
 # The figures of a weighted record, defined once (ISO 2631-1 clause 6).

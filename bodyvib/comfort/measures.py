@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..runtime.errors import BodyvibError
-from .figures import _check_signal, check_rate, weighted_rms, weighting_response
+from .figures import _check_signal, _filtered, check_rate, weighted_rms, weighting_response
 from .stream import WkFilter, weighting_statespace
 
 __all__ = [
@@ -114,14 +114,6 @@ def lee_pradko_statespace():
     from scipy.signal import tf2ss
 
     return tf2ss(*LEE_PRADKO_FILTER)
-
-
-def _filtered(a, fs, response, settle_s):
-    """A record filtered by an analog response from rest (FFT of the zero-padded record)."""
-    n = a.size
-    nfft = 1 << int(np.ceil(np.log2(2 * n + int(settle_s * fs))))
-    f = np.fft.rfftfreq(nfft, 1.0 / fs)
-    return np.fft.irfft(np.fft.rfft(a, nfft) * response(f), nfft)[:n]
 
 
 def msdv(acceleration, fs: float) -> float:

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..runtime.errors import BodyvibError
-from .figures import _check_signal
+from .figures import _check_signal, _filtered
 
 __all__ = [
     "SPINE_ZERO",
@@ -128,11 +128,7 @@ def spinal_response(acceleration, fs: float) -> np.ndarray:
         m/s2: the analog filter applied from rest (FFT of the record zero-padded by
         its length plus 2 s, in which the response decays).
     """
-    a = _check_signal(acceleration, fs)
-    n = a.size
-    nfft = 1 << int(np.ceil(np.log2(2 * n + int(2 * fs))))
-    f = np.fft.rfftfreq(nfft, 1.0 / fs)
-    return np.fft.irfft(np.fft.rfft(a, nfft) * spine_response(f), nfft)[:n]
+    return _filtered(_check_signal(acceleration, fs), fs, spine_response, 2.0)
 
 
 def response_peaks(response) -> np.ndarray:

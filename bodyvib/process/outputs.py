@@ -60,8 +60,12 @@ def _destination(path: str):
     return real, stat.S_IMODE(st.st_mode)
 
 
-def _temporary(real: str, mode):
-    """A new temporary file beside ``real`` with the mode the result should have: ``(fd, path)``."""
+def _temporary(real: str, mode, made=None):
+    """A new temporary file beside ``real`` with the mode the result should have: ``(fd, path)``.
+
+    The folders it creates are recorded, deepest first, on the active
+    :class:`StagedWrites` and on the list ``made`` if given, to be removed with the file.
+    """
     folder = os.path.dirname(real)
     missing = []  # the folders this write creates, deepest first
     f = folder
@@ -72,6 +76,8 @@ def _temporary(real: str, mode):
     stage = getattr(_local, "stage", None)
     if stage is not None:  # removed again if the block writes nothing
         stage._made.extend(missing)
+    if made is not None:
+        made.extend(missing)
     fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=os.path.basename(real))
     try:
         if mode is None:  # mkstemp makes the file private (0600); give it a plain open()'s mode
@@ -213,8 +219,9 @@ class PendingFile:
     def __init__(self, path, mode: str = "w"):
         self.path = os.fspath(path)
         self._real, keep = _destination(self.path)
+        self._made = []  # the folders made for it: removed with it unless it is placed
         try:
-            fd, self._tmp = _temporary(self._real, keep)
+            fd, self._tmp = _temporary(self._real, keep, self._made)
         except OSError as exc:
             raise _oserror(exc, self.path) from exc
         self.file = os.fdopen(
@@ -234,14 +241,25 @@ class PendingFile:
             raise
         _place(self._tmp, self._real, self.path)
         self._tmp = None
+        stage = getattr(_local, "stage", None)
+        if stage is not None:  # staged: its folders go if the block's commit does not happen
+            stage._made.extend(self._made)
+        self._made = []
 
     def discard(self) -> None:
-        """Close and delete the file; the destination keeps its old content."""
+        """Close and delete the file; the destination keeps its old content.
+
+        The folders made for the file go too, where they are empty.
+        """
         with contextlib.suppress(OSError):
             self.file.close()
         if self._tmp is not None:
             _unlink(self._tmp)
             self._tmp = None
+        made, self._made = self._made, []
+        for folder in made:
+            with contextlib.suppress(OSError):
+                os.rmdir(folder)
 
     def __enter__(self):
         return self

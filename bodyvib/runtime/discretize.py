@@ -302,7 +302,13 @@ class Discretization:
         return Phi @ x + G0 @ np.asarray(u, float) + G1 @ np.asarray(du, float)
 
     @renamed_parameters(h="step")
-    def run(self, u: np.ndarray, du: np.ndarray, step: float) -> np.ndarray:
+    def run(
+        self,
+        u: np.ndarray,
+        du: np.ndarray,
+        step: float,
+        safe_point: Optional[Callable[[], None]] = None,
+    ) -> np.ndarray:
         """States over a uniform grid from the zero state: ``x[k+1] = Phi x[k] + G0 u[k] + G1 du[k]``.
 
         Parameters
@@ -312,18 +318,25 @@ class Discretization:
             last row's rate is unused), in the model's input units.
         step : float
             The grid's step, s.
+        safe_point : callable, optional
+            Called with no argument every 4096 samples (a few tens of ms): where a
+            command may stop a long run on a signal, by raising
+            (:func:`bodyvib.process.interrupts.check`).
 
         Returns
         -------
         (samples, states) ndarray
-            ``x[0] = 0``; the forcing of all steps is formed at once, so a sample costs
+            ``x[0] = 0``; the forcing of 4096 steps is formed at once, so a sample costs
             one state-matrix product.
         """
         Phi, G0, G1 = self.matrices(step)
-        forcing = u[:-1] @ G0.T + du[:-1] @ G1.T  # (samples - 1, states)
         x = np.zeros((u.shape[0], Phi.shape[0]))
-        for k in range(u.shape[0] - 1):
-            x[k + 1] = Phi @ x[k] + forcing[k]
+        for a in range(0, u.shape[0] - 1, 4096):  # the forcing of 4096 steps at once
+            if safe_point is not None:
+                safe_point()
+            forcing = u[a : a + 4096] @ G0.T + du[a : a + 4096] @ G1.T
+            for k in range(a, min(a + 4096, u.shape[0] - 1)):
+                x[k + 1] = Phi @ x[k] + forcing[k - a]
         return x
 
 

@@ -44,6 +44,7 @@ from ..comfort.forces import ForceFigures, force_figures
 from ..comfort.measures import lee_pradko_power, msdv
 from ..comfort.spine import SpinalDose, spinal_dose
 from ..models import DEFAULT_MODELS, load_model
+from ..process import interrupts
 from ..runtime.discretize import Discretization
 from ..runtime.errors import BodyvibError
 from ..runtime.network import Network, linear_model
@@ -100,7 +101,7 @@ def head_acceleration(body: Network, acceleration, fs: float) -> np.ndarray:
     u[:, iz], u[:, iv] = a, rate  # acceleration in place of displacement
     du[:, iz] = rate  # its rate over each step; the rate is held
     out = lm.output_index("head.x")
-    x = Discretization(lm).run(u, du, h)
+    x = Discretization(lm).run(u, du, h, safe_point=interrupts.check)
     return x @ lm.C[out] + u @ lm.D[out]
 
 
@@ -150,7 +151,7 @@ def internal_forces(body: Network, acceleration, fs: float) -> Dict[str, np.ndar
     for m, mass in frame.mass_values().items():
         j = lm.input_index(f"{m}.force")
         u[:, j], du[:, j] = -mass * a, -mass * rate
-    x = Discretization(lm).run(u, du, h)
+    x = Discretization(lm).run(u, du, h, safe_point=interrupts.check)
     out = {}
     for name in body.forces:
         i = lm.output_index(f"{name}_force")

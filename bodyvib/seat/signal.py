@@ -33,6 +33,7 @@ from typing import Optional
 
 import numpy as np
 
+from ..process import interrupts
 from ..process.extras import require
 from ..process.units import ACCELERATION_UNITS, TIME_UNITS, split_unit, unit_scale
 from ..runtime.errors import BodyvibError
@@ -191,6 +192,15 @@ def _column_scale(path, header: str, units, what: str, default: str) -> float:
         raise BodyvibError(f"{path}: column '{header}': {exc}") from None
 
 
+def _data_lines(f):
+    """The lines of a CSV file but its comments, a safe point for a signal every 16384 lines."""
+    for i, line in enumerate(f):
+        if not i & 16383:
+            interrupts.check()
+        if not line.lstrip().startswith("#"):
+            yield line
+
+
 def read_csv_signal(path, channel: Optional[str] = None) -> SeatSignal:
     """A seat acceleration from a CSV file with a time column.
 
@@ -221,11 +231,7 @@ def read_csv_signal(path, channel: Optional[str] = None) -> SeatSignal:
     """
     path = check_input_file(path, "signal file")
     with open(path, newline="", encoding="utf-8") as f:
-        rows = [
-            r
-            for r in csv.reader(line for line in f if not line.lstrip().startswith("#"))
-            if r and any(c.strip() for c in r)
-        ]
+        rows = [r for r in csv.reader(_data_lines(f)) if r and any(c.strip() for c in r)]
     if not rows:
         raise BodyvibError(f"{path}: empty file; expected a header row and samples")
     header = [h.strip() for h in rows[0]]
@@ -253,6 +259,8 @@ def read_csv_signal(path, channel: Optional[str] = None) -> SeatSignal:
         )
     data = np.empty((len(rows) - 1, 2))
     for k, r in enumerate(rows[1:]):
+        if not k & 16383:
+            interrupts.check()  # a long record: a safe point every few tens of ms
         try:
             data[k] = float(r[ti]), float(r[ci])
         except (ValueError, IndexError):

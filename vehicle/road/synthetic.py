@@ -33,6 +33,7 @@ from typing import Tuple
 
 import numpy as np
 
+from bodyvib.process import interrupts
 from bodyvib.process.limits import require_memory
 from bodyvib.runtime.errors import BodyvibError
 
@@ -150,8 +151,13 @@ class RandomRoad(Road):
     name: str = "random road"
     info: dict = field(default_factory=dict)
 
-    _CHUNK = 2048
+    # Work per piece, each followed by a safe point for a signal (a few ms to ~0.1 s): the
+    # direct sum takes points a few at a time so that points times harmonics stays under
+    # _TERMS; the chirp-z transform takes the harmonics _HARMONICS and the grid _POINTS
+    # at a time. One piece of the whole grid took 1-2 s per harmonic chunk at 3e6 points.
+    _TERMS = 1 << 22
     _HARMONICS = 16384
+    _POINTS = 1 << 16
 
     def _sum(self, x, derivative: bool) -> np.ndarray:
         x = np.asarray(x, dtype=float)
@@ -161,11 +167,17 @@ class RandomRoad(Road):
         if flat.size >= 64:
             dx = (flat[-1] - flat[0]) / (flat.size - 1)
             if dx > 0 and np.max(np.abs(np.diff(flat) - dx)) <= 1e-9 * dx:
-                return self._uniform(flat[0], dx, flat.size, weights, derivative).reshape(x.shape)
+                out = np.empty_like(flat)
+                for s in range(0, flat.size, self._POINTS):
+                    m = min(self._POINTS, flat.size - s)
+                    out[s : s + m] = self._uniform(flat[0] + s * dx, dx, m, weights, derivative)
+                return out.reshape(x.shape)
         out = np.empty_like(flat)
-        for s in range(0, flat.size, self._CHUNK):
-            arg = np.outer(flat[s : s + self._CHUNK], k) + self.phase
-            out[s : s + self._CHUNK] = (-np.sin(arg) if derivative else np.cos(arg)) @ weights
+        rows = max(1, self._TERMS // max(1, k.size))
+        for s in range(0, flat.size, rows):
+            interrupts.check()
+            arg = np.outer(flat[s : s + rows], k) + self.phase
+            out[s : s + rows] = (-np.sin(arg) if derivative else np.cos(arg)) @ weights
         return out.reshape(x.shape)
 
     def _uniform(self, x0, dx, count, weights, derivative):
@@ -180,6 +192,7 @@ class RandomRoad(Road):
         # harmonics a chunk at a time: the transform's buffers stay (chunk + count) long
         # however long the road (a run's length sets the number of harmonics)
         for a in range(0, self.n.size, self._HARMONICS):
+            interrupts.check()
             n = self.n[a : a + self._HARMONICS]
             c = weights[a : a + self._HARMONICS] * np.exp(
                 1j * (self.phase[a : a + self._HARMONICS] + 2 * np.pi * n * x0)
@@ -269,7 +282,7 @@ def _fast_length(n: int) -> int:
         n += 1
 
 
-@functools.lru_cache(maxsize=8)
+@functools.lru_cache(maxsize=32)  # a grid piece's shifts for up to 32 harmonic chunks: <= 32 MB
 def _shift(count: int, step: float, i0: int) -> np.ndarray:
     """``e^{2 pi i (i0 step j mod 1)}``, ``j < count``: the first harmonic's phase at each point.
 
