@@ -771,11 +771,12 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
     const bv_model *md = HOT;
     const unsigned int nvars = (unsigned int)md->nvars;
     size_t i;
-    /* the call of every step: inputs only (always settable), checked before any is set */
+    /* the call of every co-simulation step: inputs only (always settable), checked before
+     * any is set; model exchange checks every input's value (set_general) */
     for (i = 0; i < nvr; i++)
         if (vr[i] >= nvars || md->vr_kind[vr[i]] != BV_INPUT)
             break;
-    if (BV_UNLIKELY(i != nvr))
+    if (BV_UNLIKELY(i != nvr || c->bc.me))
         return set_general(c, vr, nvr, value);
     for (i = 0; i < nvr; i++)
         set_input(c, md->vr_index[vr[i]], value[i]);
@@ -790,16 +791,20 @@ static BV_COLD bv_status set_general(bv_instance *c, const unsigned int vr[], si
     const unsigned int nvars = (unsigned int)md->nvars;
     bv_status status = BV_OK;
     size_t i;
-    for (i = 0; i < nvr; i++)
+    /* the time, an unknown value reference (the contract's variables are below nvars, the
+     * model-exchange ones above) or, in model exchange, an input that is not finite refuses
+     * the call: nothing set. One scan, which stops at the first refusal: a host that
+     * passes more references than its arrays hold is not read past the first unknown one. */
+    for (i = 0; i < nvr; i++) {
         if (bv_common_is_time(&c->bc, vr[i]))
             return bv_common_time_not_settable(&c->bc);
-    /* an unknown value reference refuses the call: nothing set (the contract's variables
-     * are below nvars, the model-exchange ones above) */
-    for (i = 0; i < nvr; i++)
         if (vr[i] >= nvars && !is_me_var(c, vr[i])) {
             check_vr(c, vr[i]); /* logs the refusal */
             return BV_ERROR;
         }
+        if (c->bc.me && vr[i] < nvars && md->vr_kind[vr[i]] == BV_INPUT && !isfinite(value[i]))
+            return bv_common_not_finite(&c->bc, vr[i], value[i]);
+    }
     for (i = 0; i < nvr; i++) {
         int idx;
         if (vr[i] >= nvars) { /* a model-exchange state or its derivative */
