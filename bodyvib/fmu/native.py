@@ -4,9 +4,11 @@ The same models and the same FMU contract as the pythonfmu FMUs
 (:func:`bodyvib.fmu.pythonfmu.build_fmu`), written as C that needs nothing on the host beyond
 libc and libm. No C is written per model:
 
-* the C sources in ``fmu_src/native/`` are model-independent: one core
-  (``bodyvib_core.c``: assembly, solve, Pade(13) exponential, exact stepping,
-  snapshots) and thin FMI 2.0 / 3.0 function files;
+* the C sources in ``fmu_src/native/`` are model-independent: one core (linear
+  algebra and the Pade(13) exponential in ``bodyvib_linalg.c``, assembly and
+  discretization in ``bodyvib_assembly.c``, snapshots in ``bodyvib_state.c``, exact
+  stepping and the calls the FMI functions make in ``bodyvib_core.c``) and thin FMI
+  2.0 / 3.0 function files;
 * this module emits the model as data (``bodyvib_model.c``): the descriptor form
   of :func:`bodyvib.runtime.network.descriptor_model`, whose matrices are affine in the
   parameters (quadratic in a rigid body's point positions), as sparse stencils of
@@ -83,11 +85,19 @@ __all__ = [
 
 
 #: The model-independent C sources and the FMI function file of each FMI version.
-#: The FMI state machine both cores share (bodyvib_fsm.c) is compiled into every native FMU.
+#: The FMI state machine both cores share (bodyvib_fsm.c) is compiled into every native FMU;
+#: the linear core is split by subject: linear algebra and the matrix exponential
+#: (bodyvib_linalg.c), model assembly (bodyvib_assembly.c), state serialization
+#: (bodyvib_state.c) and the calls the FMI functions make (bodyvib_core.c).
 NATIVE_SOURCES = (
     "bodyvib_core.h",
     "bodyvib_fsm.h",
     "bodyvib_fsm.c",
+    "bodyvib_linalg.h",
+    "bodyvib_linalg.c",
+    "bodyvib_instance.h",
+    "bodyvib_assembly.c",
+    "bodyvib_state.c",
     "bodyvib_core.c",
     "bodyvib_calls.h",
     "bodyvib_calls.c",
