@@ -606,6 +606,19 @@ def test_active_ssp_runs_in_generic_hosts(active_ssp, host):
 
 
 @pytest.mark.integration
+def test_active_ssp_runs_within_target_when_inputs_are_set_first(active_ssp):
+    """examples/ssp_set_then_read.py sets every input before it reads the outputs that
+    depend on it (OMSimulator's order): the controller is handed the car's velocities at
+    the current point and must give the law of those, not of their extrapolation over the
+    last step. Measured 0.016 % NRMSE over 5 s (0.83 % with a controller that
+    extrapolated the velocities it was just handed), within the issue's 0.1 %."""
+    from test_ssp import host_run
+
+    res, _ = host_run("ssp_set_then_read", active_ssp, duration=5.0)
+    _assert_skyhook_closed_loop(res["Body.head_acceleration"], "quarter-car-active", 1e-3)
+
+
+@pytest.mark.integration
 def test_active_ssp_without_the_acceleration_wires_lags_a_step(active_ssp, tmp_path):
     """The same package with only velocities and force connected: the force a step late and
     held, measured 1.27 % NRMSE in libcosim; the extrapolation is what meets the target."""
@@ -680,6 +693,16 @@ def test_active_half_car_ssp_runs_in_generic_hosts(active_half_ssp, host):
 
     kwargs = {"signals": [["Body", "head_acceleration"]]} if "libcosim" in host else {}
     res, _ = host_run(host, active_half_ssp, duration=5.0, **kwargs)
+    _assert_skyhook_closed_loop(res["Body.head_acceleration"], "half-car-active", 1e-3)
+
+
+@pytest.mark.integration
+def test_active_half_car_ssp_runs_within_target_when_inputs_are_set_first(active_half_ssp):
+    """The half car's active package in the set-then-read master: measured 0.016 % NRMSE
+    over 5 s, within the issue's 0.1 %."""
+    from test_ssp import host_run
+
+    res, _ = host_run("ssp_set_then_read", active_half_ssp, duration=5.0)
     _assert_skyhook_closed_loop(res["Body.head_acceleration"], "half-car-active", 1e-3)
 
 

@@ -254,6 +254,36 @@ def test_model_exchange_refuses_bad_arguments_with_a_log_line_and_the_state_kept
 
 
 @pytest.mark.parametrize("fmi", (2, 3))
+@pytest.mark.parametrize("name", ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar", "HalfCar"))
+def test_model_exchange_refuses_a_non_finite_input(native_dist, name, fmi):
+    """Model exchange has no step to refuse a non-finite input at (co-simulation refuses it
+    at DoStep): SetReal of NaN, inf or -inf on any input is refused with one log line naming
+    the input, nothing changed, and the derivatives stay finite."""
+    inst = Instance(_path(native_dist, name, fmi), me=True)
+    inputs = [v.valueReference for v in inst.md.modelVariables if v.causality == "input"]
+    names = {v.valueReference: v.name for v in inst.md.modelVariables}
+    setter = "SetReal" if fmi == 2 else "SetFloat64"
+    try:
+        before = inst.state()
+        wrong = {}
+        for vr in inputs:
+            for bad in (NAN, INF, -INF):
+                del inst.log[:]
+                args = ((c_uint * 2)(inputs[0], vr), c_size_t(2), (c_double * 2)(1e-3, bad))
+                status = inst.call(setter, *args, *((c_size_t(2),) if fmi == 3 else ()))
+                if status != ERROR or len(inst.log) != 1 or names[vr] not in inst.log[0][1]:
+                    wrong[(names[vr], bad)] = (status, inst.log[:])
+                assert inst.state() == before, (names[vr], bad)
+        assert not wrong, wrong
+        dx = (c_double * inst.n)()
+        fn = "GetDerivatives" if fmi == 2 else "GetContinuousStateDerivatives"
+        assert inst.call(fn, dx, c_size_t(inst.n)) == 0
+        assert all(math.isfinite(x) for x in dx)
+    finally:
+        inst.close()
+
+
+@pytest.mark.parametrize("fmi", (2, 3))
 def test_model_exchange_functions_on_a_co_simulation_instance_are_refused(native_dist, fmi):
     inst = Instance(_path(native_dist, "HumanBody3DOF", fmi), me=False)
     try:

@@ -258,6 +258,40 @@ def test_c_host_under_valgrind_is_clean(host, unpacked, mode):
     assert "definitely lost" not in out.stderr or "definitely lost: 0 bytes" in out.stderr
 
 
+@pytest.mark.parametrize("fmu", ["HumanBody3DOF", "Road", "SkyhookController"])
+def test_a_host_that_lies_about_n_is_refused_at_the_first_unknown_reference(
+    host, unpacked, native_fmus, tmp_path, fmu
+):
+    """fmi2SetReal / fmi2GetReal with n = SIZE_MAX and one-element arrays holding an unknown
+    reference: fmi2Error, and memcheck sees no read past the arrays (the scan for the time
+    variable and the unknown references stops at the first unknown one) in the linear core,
+    the table core and the controller."""
+    from bodyvib.fmu.controller import build_controller_fmu
+
+    valgrind = shutil.which("valgrind")
+    if valgrind is None:
+        pytest.skip("valgrind not found")
+    if fmu == "HumanBody3DOF":
+        binaries, guid = unpacked[fmu][:2]
+    else:
+        from fmpy import read_model_description
+
+        path = (
+            build_controller_fmu(tmp_path, ("",), platforms=("linux64",))
+            if fmu == "SkyhookController"
+            else native_fmus["HumanBody3DOF"].replace("HumanBody3DOF", fmu)
+        )
+        with zipfile.ZipFile(path) as z:
+            z.extractall(tmp_path / "x")
+        binaries, guid = str(tmp_path / "x" / "binaries"), read_model_description(path).guid
+    argv = [valgrind, "--tool=memcheck", "--error-exitcode=9", host, "misuse"]
+    argv += [os.path.join(binaries, "linux64", fmu + ".so"), guid, "0,1", "2", repr(STEP), "2"]
+    out = subprocess.run(argv, capture_output=True, text=True, timeout=600, env={})
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert out.stdout.split() == ["setreal", "3", "getreal", "3", "ok"], out.stdout
+    assert "ERROR SUMMARY: 0 errors" in out.stderr, out.stderr[-3000:]
+
+
 def test_win64_binary_under_wine_matches_linux64(host, unpacked, tmp_path):
     exe = str(tmp_path / "native_host.exe")
     with win64_host(HOST, fmpy_headers(), exe, tmp_path) as (wine, env):

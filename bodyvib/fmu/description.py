@@ -314,6 +314,9 @@ class ModelDescription:
         depends on.
     step_size : float
         The DefaultExperiment's step size, s.
+    booleans : tuple of (str, str, bool)
+        FMI 2.0 Boolean parameters (name, description, start), value references 0, 1, ...
+        of the Boolean type, after the real variables (the controller's ``semi_active``).
     """
 
     fmi: int
@@ -332,6 +335,7 @@ class ModelDescription:
     output_state_dependencies: Tuple[Tuple[int, ...], ...] = ()
     derivative_dependencies: Tuple[Tuple[Tuple[int, ...], Tuple[int, ...]], ...] = ()
     step_size: float = 0.001
+    booleans: Tuple[Tuple[str, str, bool], ...] = ()
 
     @property
     def outputs(self) -> Tuple[int, ...]:
@@ -438,6 +442,11 @@ def _variables(root: ET.Element, md: ModelDescription) -> None:
             },
             {"unit": state_units(state)[1], "derivative": md.reference(md.state_vr(i))},
         )
+    for vr, (name, text, start) in enumerate(md.booleans):  # FMI 2.0 (write_model_description)
+        attrs = {"name": name, "valueReference": str(vr), "description": text}
+        attrs.update(causality="parameter", variability="fixed", initial="exact")
+        sv = ET.SubElement(mv, "ScalarVariable", attrs)
+        ET.SubElement(sv, "Boolean", start="true" if start else "false")
 
 
 def _structure(root: ET.Element, md: ModelDescription) -> None:
@@ -514,6 +523,8 @@ def write_model_description(md: ModelDescription) -> bytes:
     """
     if md.fmi not in (2, 3):
         raise BodyvibError(f"FMI version must be 2 or 3, got {md.fmi!r}")
+    if md.booleans and md.fmi != 2:
+        raise BodyvibError(f"{md.model_name}: Boolean parameters are written for FMI 2.0 only")
     unknown = [i.element for i in md.interfaces if i.element not in _INTERFACE_ORDER]
     if unknown or not md.interfaces:
         raise BodyvibError(

@@ -4,9 +4,11 @@ The same models and the same FMU contract as the pythonfmu FMUs
 (:func:`bodyvib.fmu.pythonfmu.build_fmu`), written as C that needs nothing on the host beyond
 libc and libm. No C is written per model:
 
-* the C sources in ``fmu_src/native/`` are model-independent: one core
-  (``bodyvib_core.c``: assembly, solve, Pade(13) exponential, exact stepping,
-  snapshots) and thin FMI 2.0 / 3.0 function files;
+* the C sources in ``fmu_src/native/`` are model-independent: one core (linear
+  algebra and the Pade(13) exponential in ``bodyvib_linalg.c``, assembly and
+  discretization in ``bodyvib_assembly.c``, snapshots in ``bodyvib_state.c``, exact
+  stepping and the calls the FMI functions make in ``bodyvib_core.c``) and thin FMI
+  2.0 / 3.0 function files;
 * this module emits the model as data (``bodyvib_model.c``): the descriptor form
   of :func:`bodyvib.runtime.network.descriptor_model`, whose matrices are affine in the
   parameters (quadratic in a rigid body's point positions), as sparse stencils of
@@ -77,16 +79,25 @@ __all__ = [
     "build_description",
     "build_native_fmu",
     "package_native_fmu",
+    "package_c_fmu",
     "fmi_headers",
 ]
 
 
 #: The model-independent C sources and the FMI function file of each FMI version.
-#: The FMI state machine both cores share (bodyvib_fsm.c) is compiled into every native FMU.
+#: The FMI state machine both cores share (bodyvib_fsm.c) is compiled into every native FMU;
+#: the linear core is split by subject: linear algebra and the matrix exponential
+#: (bodyvib_linalg.c), model assembly (bodyvib_assembly.c), state serialization
+#: (bodyvib_state.c) and the calls the FMI functions make (bodyvib_core.c).
 NATIVE_SOURCES = (
     "bodyvib_core.h",
     "bodyvib_fsm.h",
     "bodyvib_fsm.c",
+    "bodyvib_linalg.h",
+    "bodyvib_linalg.c",
+    "bodyvib_instance.h",
+    "bodyvib_assembly.c",
+    "bodyvib_state.c",
     "bodyvib_core.c",
     "bodyvib_calls.h",
     "bodyvib_calls.c",
@@ -716,9 +727,10 @@ def fmi_headers() -> Path:
 
 
 def _token(model_text: str, core: Sequence[str]) -> str:
-    """The instantiation token: a hash of the model's C text and every C source it builds with."""
+    """The instantiation token: a hash of the generated text and every C source it builds with
+    (``core`` and the FMI function files, each once)."""
     h = hashlib.sha256(model_text.encode())
-    for s in tuple(core) + tuple(FMI_FILES.values()):
+    for s in dict.fromkeys(tuple(core) + tuple(FMI_FILES.values())):
         h.update((native_dir() / s).read_bytes())
     d = h.hexdigest()
     return "{" + f"{d[:8]}-{d[8:12]}-{d[12:16]}-{d[16:20]}-{d[20:32]}" + "}"
@@ -846,38 +858,105 @@ def package_native_fmu(
     """
     if fmi not in FMI_FILES:
         raise BodyvibError(f"FMI version must be 2 or 3, got {fmi!r}")
+    core = core_sources(nm.kind)
+    return package_c_fmu(
+        nm.name,
+        fmi,
+        tuple(core) + (FMI_FILES[fmi],),
+        lambda token: {MODEL_C: model_c(token)},
+        _c_files(nm, fmi),
+        lambda token: model_description(nm, token, fmi),
+        resources,
+        dest,
+        platforms,
+        f"{nm.name}.fmu (native, FMI {fmi}.0)",
+        build_description(nm) if fmi == 3 else None,
+    )
+
+
+def package_c_fmu(
+    name: str,
+    fmi: int,
+    sources: Sequence[str],
+    generated: Callable[[str], Dict[str, str]],
+    c_files: Sequence[str],
+    description: Callable[[str], bytes],
+    resources: Dict[str, bytes],
+    dest: Union[str, os.PathLike],
+    platforms: Iterable[str],
+    label: str,
+    build_xml: Optional[bytes] = None,
+) -> Path:
+    """Compile, package, validate and place an FMU from C: the one native build path.
+
+    Parameters
+    ----------
+    name : str
+        Model identifier (the binaries' and the FMU's file name).
+    fmi : {2, 3}
+        FMI version (the headers copied into ``sources/``, the binaries' folders).
+    sources : sequence of str
+        Files of ``fmu_src/native`` the FMU ships in ``sources/``.
+    generated : callable
+        ``generated(token)`` -> generated files (name -> text) for ``sources/``; the
+        token is the hash of ``generated("")`` and ``sources``.
+    c_files : sequence of str
+        The C files (of ``sources/``) compiled into the binary.
+    description : callable
+        ``description(token)`` -> ``modelDescription.xml``.
+    resources : dict of str to bytes
+        Files for ``resources/`` (none: no folder).
+    dest : str or path
+        Output folder.
+    platforms : iterable of str
+        Binaries to compile (:data:`PLATFORMS`).
+    label : str
+        How errors name the FMU.
+    build_xml : bytes, optional
+        ``sources/buildDescription.xml`` (FMI 3.0).
+
+    Returns
+    -------
+    Path
+        ``dest/<name>.fmu``.
+
+    Raises
+    ------
+    BodyvibError
+        A platform that does not exist, a compiler missing, failing or warning, or an
+        FMU that ``fmpy validate`` finds problems in (the previous file is kept).
+    """
     platforms = list(platforms)
     unknown = [p for p in platforms if p not in PLATFORMS]
     if unknown or not platforms:
         raise BodyvibError(f"platforms must be among {', '.join(PLATFORMS)}, got {platforms}")
-    core = core_sources(nm.kind)
-    token = _token(model_c(""), core)
+    token = _token("".join(generated("").values()), sources)
     headers = fmi_headers()
-    dest = Path(dest)
-    name = nm.name
     with tempfile.TemporaryDirectory(prefix="bodyvib_native_") as tmp:
         stage = Path(tmp) / "fmu"
         src = stage / "sources"
         src.mkdir(parents=True)
-        for s in tuple(core) + (FMI_FILES[fmi],):
+        for s in sources:
             shutil.copyfile(native_dir() / s, src / s)
         for h in FMI_HEADERS[fmi]:
             shutil.copyfile(headers / h, src / h)
-        (src / MODEL_C).write_text(model_c(token), encoding="utf-8")
-        if fmi == 3:
-            (src / "buildDescription.xml").write_bytes(build_description(nm))
-        (stage / "modelDescription.xml").write_bytes(model_description(nm, token, fmi))
-        (stage / "resources").mkdir()
+        for file, text in generated(token).items():
+            (src / file).write_text(text, encoding="utf-8")
+        if build_xml is not None:
+            (src / "buildDescription.xml").write_bytes(build_xml)
+        (stage / "modelDescription.xml").write_bytes(description(token))
+        if resources:
+            (stage / "resources").mkdir()
         for file, data in resources.items():
             (stage / "resources" / file).write_bytes(data)
         for p in platforms:
             _, _, suffix, folder2, folder3 = PLATFORMS[p]
             out = stage / "binaries" / (folder2 if fmi == 2 else folder3) / (name + suffix)
             out.parent.mkdir(parents=True, exist_ok=True)
-            _compile(p, src, fmi, out, _c_files(nm, fmi))
+            _compile(p, src, fmi, out, c_files)
         staged = Path(tmp) / f"{name}.fmu"
         staged.write_bytes(_zip(stage))
-        validate_fmu_file(staged, f"{name}.fmu (native, FMI {fmi}.0)")
-        target = dest / f"{name}.fmu"
+        validate_fmu_file(staged, label)
+        target = Path(dest) / f"{name}.fmu"
         atomic_write_bytes(target, staged.read_bytes())
     return target

@@ -200,6 +200,13 @@ void bv_common_restored(bv_common *b, double time, int initialized, int init_fai
                  "successfully; reset and set %s", b->name, fix);
 }
 
+bv_status bv_common_not_finite(const bv_common *b, unsigned int vr, double value)
+{
+    bv_say(b, BV_ERROR, "%s: %s = %g is not finite; call refused, nothing changed (set a "
+                        "finite value)", b->name, b->md->vr_name[vr], value);
+    return BV_ERROR;
+}
+
 int bv_common_check_vr(const bv_common *b, unsigned int vr)
 {
     if (vr >= (unsigned int)b->md->nvars) {

@@ -91,6 +91,10 @@ static inline int bv_common_is_time(const bv_common *b, unsigned int vr)
 }
 /* Set of the independent variable time: refused, logged (BV_ERROR). */
 bv_status bv_common_time_not_settable(const bv_common *b);
+/* A value that is not finite for the variable vr: refused, logged (BV_ERROR). Model
+ * exchange refuses it at SetReal (the derivatives would not be finite); co-simulation at
+ * the step, whose state it would make not finite. */
+bv_status bv_common_not_finite(const bv_common *b, unsigned int vr, double value);
 /* A value reference the model has (logged and 0 if not). */
 int bv_common_check_vr(const bv_common *b, unsigned int vr);
 /* A value may be set for the model's variable vr now: an input, or a parameter before

@@ -226,13 +226,15 @@ bv_status bv_set(bv_instance *c, const unsigned int vr[], size_t nvr, const doub
 {
     bv_status status = BV_OK;
     size_t i;
-    for (i = 0; i < nvr; i++)
+    /* the time or an unknown value reference refuses the call: nothing set. One scan, which
+     * stops at the first refusal (a host that passes more references than its arrays hold
+     * is not read past the first unknown one) */
+    for (i = 0; i < nvr; i++) {
         if (bv_common_is_time(&c->bc, vr[i]))
             return bv_common_time_not_settable(&c->bc);
-    /* an unknown value reference refuses the call: nothing set */
-    for (i = 0; i < nvr; i++)
         if (!check_vr(c, vr[i]))
             return BV_ERROR;
+    }
     for (i = 0; i < nvr; i++) {
         if (bv_common_settable(&c->bc, vr[i]))
             c->speed = value[i]; /* the one parameter (no inputs) */

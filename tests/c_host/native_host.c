@@ -17,6 +17,10 @@
  *                      and change nothing), fmi2SetupExperiment's start time (needs MASS_VR)
  *             overflow finite inputs that overflow, a huge step with the velocity never set,
  *                      crafted FMU states, a denormal mass then Reset (needs MASS_VR)
+ *             misuse   fmi2SetReal and fmi2GetReal with n = SIZE_MAX and one-element arrays
+ *                      (malloc'd, so memcheck sees a read past them) whose reference is
+ *                      unknown: each must be refused without reading past the arrays;
+ *                      prints "setreal STATUS", "getreal STATUS"
  *             bench    N_STEPS of set input + doStep + get output, 7 times; prints wall-clock
  *                      and thread CPU time per step of each and the best
  *             bench-vary  the same with a new step size at every step (each step
@@ -670,6 +674,21 @@ int main(int argc, char **argv)
         printf("denormal_mass_back_recovers %d\n", same(y, y2, rows * n_out));
         cs.free_instance(c);
 #ifndef _WIN32
+    } else if (strcmp(mode, "misuse") == 0) {
+        /* a host that lies about n: the FMU cannot guard against it fully, but it refuses at
+         * the first unknown reference and reads nothing after it */
+        fmi2ValueReference *refs = malloc(sizeof *refs);
+        double *values = malloc(sizeof *values);
+        c = start("misuse");
+        refs[0] = 0x7fffffffu;
+        values[0] = 0.0;
+        quiet_log = 1;
+        printf("setreal %d\n", (int)cs.set_real(c, refs, (size_t)-1, values));
+        printf("getreal %d\n", (int)cs.get_real(c, refs, (size_t)-1, values));
+        quiet_log = 0;
+        cs.free_instance(c);
+        free(refs);
+        free(values);
     } else if (strcmp(mode, "bench") == 0 || strcmp(mode, "bench-vary") == 0) {
         int vary = strcmp(mode, "bench-vary") == 0;
         double in[2] = {0.0, 0.0}, out[MAX_VRS], best = 1e300, best_cpu = 1e300, t0, t1, cpu;
