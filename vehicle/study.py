@@ -27,9 +27,11 @@ from bodyvib.process import interrupts
 from bodyvib.process.limits import require_memory
 from bodyvib.process.progress import progress_bar
 from bodyvib.runtime.errors import BodyvibError
+from bodyvib.runtime.network import static_preloads
 
 from .control import controller_from_fmu, describe
 from .cosim import CsvStream, Master, check_fmu, model_from_fmu, open_controller, open_fmu
+from .events import EventStream, RunEvents
 from .quarter_car import wheel_offsets
 from .reference import ReferenceStream
 from .road.driven import RunSettings, driven_road, wheel_inputs
@@ -78,6 +80,13 @@ class BodyRun:
     forces : dict of str to ForceFigures
         Figures of the body's internal forces over the run (``"neck_force"``,
         ``"lumbar_force"``; only those the body FMU outputs), N and s.
+    events : RunEvents or None
+        Lift-offs, flights, stop contacts and the smallest tire-load ratio of the run, at
+        its communication points (:mod:`bodyvib.vehicle.events`).
+    reference_events : dict
+        The same from the monolithic reference, each event located inside its step:
+        element name -> figures (:meth:`bodyvib.runtime.regimes.EventLog.summary`);
+        empty for a linear car or without a reference.
     """
 
     fmu: str
@@ -92,6 +101,8 @@ class BodyRun:
     head_window: np.ndarray = field(default_factory=lambda: np.empty(0))
     seat_measures: Optional[SeatMeasures] = None
     forces: Dict[str, ForceFigures] = field(default_factory=dict)
+    events: Optional[RunEvents] = None
+    reference_events: Dict[str, dict] = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """The body's entry of the JSON document (figures, no histories; docs/getting_started.md, "JSON output")."""
@@ -105,6 +116,8 @@ class BodyRun:
             "real_time_factor": self.real_time_factor,
             **(self.seat_measures.to_dict() if self.seat_measures is not None else {}),
             **{name: f.to_dict() for name, f in self.forces.items()},
+            **({"events": self.events.to_dict()} if self.events is not None else {}),
+            **({"reference_events": self.reference_events} if self.reference_events else {}),
         }
 
 
@@ -331,9 +344,11 @@ def run_study(
     controller_fmu = controller if isinstance(controller, (str, os.PathLike)) else None
     law = controller_from_fmu(controller_fmu) if controller_fmu else controller
     reference = reference and (law is None or law.linear)
-    car_net = model_from_fmu(car_fmu) if reference else None
+    car_model = model_from_fmu(car_fmu)
+    car_net = car_model if reference else None
     behind = _wheels(car_fmu, car_net)
     nets = {label: model_from_fmu(path) if reference else None for label, path in body_fmus.items()}
+    tire_load, occupant = _static_load(car_model, body_fmus, nets)
     refs = {
         label: ReferenceStream(car_net, net, step, law)
         for label, net in nets.items()
@@ -343,6 +358,7 @@ def run_study(
     seat_measures = {label: SeatMeasureStream(fs) for label in labels}
     trans = {label: TransmissibilityStream(fs, n) for label in labels}
     forces = {label: {name: ForceStream(step) for name in OPTIONAL_SIGNALS} for label in labels}
+    events = {label: EventStream(step, tire_load[label]) for label in labels}
     err = {label: [0.0, 0.0] for label in refs}  # sum (a - r)^2, sum r^2
     pairs = {(a, b): [0.0, 0.0] for a in labels for b in labels if a != b}
     w0 = max(0.0, (n - 1) * step / 2 - window_s / 2)  # the plot's window
@@ -361,7 +377,7 @@ def run_study(
     with contextlib.ExitStack() as stack:
         masters = {}
         for label, path in body_fmus.items():
-            car = stack.enter_context(open_fmu(car_fmu, "car", "car"))
+            car = stack.enter_context(open_fmu(car_fmu, "car", "car", occupant.get(label)))
             body = stack.enter_context(open_fmu(path, "body", label))
             if controller_fmu is not None:
                 law = stack.enter_context(open_controller(controller_fmu, car))
@@ -383,6 +399,7 @@ def run_study(
                     trans[label].update(seat, head)
                     for name, stream in forces[label].items():
                         stream.update(sig[name])
+                    events[label].update(sig["tire_contact"], sig["stop_force"], sig["tire_force"])
                     ref = None
                     if label in refs:
                         interrupts.check()
@@ -470,8 +487,32 @@ def run_study(
                 for name, f in ((k, s.figures()) for k, s in forces[label].items())
                 if math.isfinite(f.rms)
             },
+            events=events[label].result(),
+            reference_events=refs[label].events() if label in refs else {},
         )
     return out
+
+
+def _static_load(car, body_fmus, nets):
+    """Per body label, the tire's static load (N, or None) and the car FMU's start values
+    that put that body's weight on the seat (the car's static load at its seat point).
+
+    The tire is the element of the car's ``tire_force`` output. A body FMU without its
+    model leaves the car's own value.
+    """
+    loads, occupant = {}, {}
+    if car is None:
+        return dict.fromkeys(body_fmus), occupant
+    ref = car.static_loads.get(car.roles.get("seat", ""))
+    tire = {o["name"]: o["signal"] for o in car.fmu_outputs}.get("tire_force", "")
+    for label, path in body_fmus.items():
+        body = nets.get(label) or model_from_fmu(path)
+        seated = car
+        if isinstance(ref, str) and body is not None:
+            occupant[label] = {ref: body.total_mass()}
+            seated = car.with_parameters(**occupant[label])
+        loads[label] = static_preloads(seated).get(tire.rpartition(".")[0])
+    return loads, occupant
 
 
 def _wheels(car_fmu, car_net):

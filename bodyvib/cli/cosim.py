@@ -46,6 +46,11 @@ def _check_options(args):
             "--car chooses the model of the QuarterCar.fmu built for the run; with "
             "--car-fmu FMU it would be ignored: give one of them"
         )
+    if args.car_fmu is not None and getattr(args, "linear", False):
+        raise BodyvibError(
+            "--linear linearizes the car FMU built for the run; with --car-fmu FMU it "
+            "would be ignored: give one of them"
+        )
     if args.car_fmu is not None and args.seat is not None:
         raise BodyvibError(
             "--seat goes into the car FMU built for the run; with --car-fmu FMU it would "
@@ -109,8 +114,11 @@ def _fmus(args, want_iso: bool):
     if "HumanBody3DOF" in need and args.params:
         load_model(args.params)
     tmp, built = None, {}
+    car_model = car_and_seat(args.car, args.seat) if args.car_fmu is None else None
     if need:
         tmp = temporary_fmu_dir()
+        if car_model is not None and args.linear:  # the car as a file of its linear model
+            car_model = _linear_car_file(car_model, tmp)
         if not args.quiet:
             print(f"building {', '.join(need)} into {tmp}", file=sys.stderr, flush=True)
         try:
@@ -119,7 +127,7 @@ def _fmus(args, want_iso: bool):
                 for n, p in build_fmus(
                     tmp,
                     args.params,
-                    car_and_seat(args.car, args.seat),
+                    car_model,
                     need,
                     native=args.native,
                     fmi=(2,),
@@ -132,6 +140,17 @@ def _fmus(args, want_iso: bool):
     iso = (args.iso_body or built["HumanBodyISO7962"]) if want_iso else None
     car = args.car_fmu or built[car_name]
     return body, iso, car, tmp
+
+
+def _linear_car_file(car: str, folder: str) -> str:
+    """A parameter file of the car linearized (``--linear``), written into ``folder``."""
+    from bodyvib.process.outputs import write_json
+    from bodyvib.runtime.modelfile import network_to_dict
+    from bodyvib.vehicle.quarter_car import load_car
+
+    path = os.path.join(folder, "car-linear.json")
+    write_json(path, network_to_dict(load_car(car, linear=True)))
+    return path
 
 
 def _controller(args):
@@ -262,6 +281,12 @@ def _common(p):
         help="drive the car's actuators by a controller FMU (FMI 2.0 co-simulation with "
         "inputs upper_velocity, lower_velocity and output actuator_force per actuator: "
         "SkyhookController.fmu from bodyvib build --control)",
+    )
+    p.add_argument(
+        "--linear",
+        action="store_true",
+        help="run the car linearized about static equilibrium (a tire that never leaves "
+        "the road, no suspension stops: the linear car of earlier releases)",
     )
     p.add_argument(
         "--hold",
