@@ -512,14 +512,27 @@ class EventStepper:
             xt = reg.step_exact(x, u, du, tau)
             return float(sign * (model.G[i] @ np.concatenate([xt, u + du * tau]) + model.g0[i]))
 
+        def cubic_root(j: int) -> float:  # the estimate's root in the sample interval j
+            a, b = (s[j - 1] if j else 0.0), s[j]
+            for _ in range(30):
+                m = 0.5 * (a + b)
+                p = (
+                    (2 * m**3 - 3 * m**2 + 1) * g0
+                    + (m**3 - 2 * m**2 + m) * m0
+                    + (-2 * m**3 + 3 * m**2) * g1
+                    + (m**3 - m**2) * m1
+                )
+                a, b = (m, b) if p >= 0 else (a, m)
+            return 0.5 * (a + b) * H
+
         if g1 < 0:
             lo, hi = 0.0, H
-            guess = s[bad[0]] * H if bad.size else H * g0 / max(g0 - g1, 1e-300)
+            guess = cubic_root(int(bad[0])) if bad.size else H * g0 / max(g0 - g1, 1e-300)
         elif bad.size:  # two crossings inside the segment: is the dip real?
             mid = s[int(np.argmin(cubic))] * H
             if g_at(mid) >= 0:
                 return None
-            lo, hi, guess = 0.0, mid, s[bad[0]] * H
+            lo, hi, guess = 0.0, mid, cubic_root(int(bad[0]))
         else:
             return None
         return self._newton(i, reg, x, u, du, lo, hi, guess, h)
