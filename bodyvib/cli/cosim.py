@@ -17,7 +17,7 @@ from bodyvib.process.outputs import write_json
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.vehicle.check import compare
 from bodyvib.vehicle.cosim import check_fmu
-from bodyvib.vehicle.fmus import build_fmus, car_fmu_name, temporary_fmu_dir
+from bodyvib.vehicle.fmus import build_fmus, car_fmu_name, linear_car_file, temporary_fmu_dir
 from bodyvib.vehicle.report import format_report, study_json
 from bodyvib.vehicle.study import StudyCsv, check_settings, run_study
 from bodyvib.vehicle.study_plot import plot_study
@@ -118,7 +118,7 @@ def _fmus(args, want_iso: bool):
     if need:
         tmp = temporary_fmu_dir()
         if car_model is not None and args.linear:  # the car as a file of its linear model
-            car_model = _linear_car_file(car_model, tmp)
+            car_model = linear_car_file(car_model, tmp)
         if not args.quiet:
             print(f"building {', '.join(need)} into {tmp}", file=sys.stderr, flush=True)
         try:
@@ -140,17 +140,6 @@ def _fmus(args, want_iso: bool):
     iso = (args.iso_body or built["HumanBodyISO7962"]) if want_iso else None
     car = args.car_fmu or built[car_name]
     return body, iso, car, tmp
-
-
-def _linear_car_file(car: str, folder: str) -> str:
-    """A parameter file of the car linearized (``--linear``), written into ``folder``."""
-    from bodyvib.process.outputs import write_json
-    from bodyvib.runtime.modelfile import network_to_dict
-    from bodyvib.vehicle.quarter_car import load_car
-
-    path = os.path.join(folder, "car-linear.json")
-    write_json(path, network_to_dict(load_car(car, linear=True)))
-    return path
 
 
 def _controller(args):

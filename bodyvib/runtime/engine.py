@@ -438,7 +438,7 @@ class FmuCore(Lifecycle):
         self.time = current_time + h
 
     def events(self) -> dict:
-        """What the nonlinear elements did so far (:meth:`EventLog.summary`); ``{}`` if none.
+        """What the nonlinear elements did so far (:meth:`bodyvib.runtime.regimes.EventLog.summary`); ``{}`` if none.
 
         Returns
         -------
