@@ -81,9 +81,10 @@ def test_cli_linear_runs_the_linear_car_and_the_report_says_what_happened(tmp_pa
         assert r.returncode == 0, r.stderr
         out[name] = (r.stdout, json.loads(js.read_text()))
     text, doc = out["nl"]
-    assert "2 lift-offs" in text and "smallest tire-load ratio" in text
+    assert "lift-offs (air, longest)" in text and "2 (80 ms, 66 ms)" in text
+    assert "smallest tire-load ratio" in text
     assert doc["bodies"]["HumanBody3DOF"]["events"]["lift_offs"] == 2
-    assert "lift-off" not in out["lin"][0]
+    assert "lift-offs" not in out["lin"][0]
     header = (tmp_path / "nl.csv").read_text().splitlines()[0]
     assert "tire_contact [1]" in header
     lin = np.genfromtxt(tmp_path / "lin.csv", delimiter=",", names=True)

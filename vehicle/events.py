@@ -112,11 +112,8 @@ class EventStream:
 
 
 def format_events(e: RunEvents) -> str:
-    """One cell of the text report: ``2 lift-offs (80 ms in the air, longest 66 ms)``."""
-    lift = f"{e.lift_offs} lift-off{'s' if e.lift_offs != 1 else ''}"
-    if e.lift_offs:
-        lift += (
-            f" ({1e3 * e.time_in_air_s:.0f} ms in the air, "
-            f"longest {1e3 * e.longest_flight_s:.0f} ms)"
-        )
-    return lift
+    """The lift-offs' cell of the text report: ``2 (80 ms, 66 ms)``: their count, the time
+    in the air and the longest flight."""
+    if not e.lift_offs:
+        return "0"
+    return f"{e.lift_offs} ({1e3 * e.time_in_air_s:.0f} ms, {1e3 * e.longest_flight_s:.0f} ms)"

@@ -149,7 +149,7 @@ def _event_rows(row):
         return f"{e.smallest_tire_load_ratio:.3f}"
 
     return [
-        row("tire", lambda b: cell(b, "lift")),
+        row("lift-offs (air, longest)", lambda b: cell(b, "lift")),
         row("stop contacts", lambda b: cell(b, "stop")),
         row("smallest tire-load ratio", lambda b: cell(b, "ratio")),
     ]
