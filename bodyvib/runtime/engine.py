@@ -13,7 +13,7 @@ seat force at ``seat_force_rate``, every other input is held), and the state is
 advanced exactly: ``x <- Phi x + Gamma0 u + Gamma1 du``. A rate that itself has
 a rate (a body's ``seat_velocity`` rising at ``seat_acceleration``) makes the
 input a parabola over the step, advanced exactly with ``Gamma2 d2u``
-(:func:`bodyvib.runtime.discretize.discretize_quadratic`). At the end of the step
+(:func:`bodyvib.runtime.exact.discretize_quadratic`). At the end of the step
 the inputs are set to their extrapolated values, so outputs read right after
 ``do_step`` (before the host sets new inputs) are those of the step's end;
 outputs are ``C x + D u`` computed when read, so feedthrough outputs follow a
