@@ -84,7 +84,7 @@ def format_report(study: Study, comparison: Optional[Comparison] = None) -> str:
             lines.append(row(f"{words} r.m.s. [N]", lambda b, n=name: _force(b, n, "rms")))
             lines.append(row(f"{words} peak [N]", lambda b, n=name: _force(b, n, "peak")))
     if any(
-        b.events is not None and b.events.smallest_tire_load_ratio is not None
+        getattr(b, "events", None) is not None and b.events.smallest_tire_load_ratio is not None
         for b in bodies.values()
     ):
         lines += _event_rows(row)
