@@ -37,7 +37,7 @@ Numpy only, relative imports only: this module runs inside the FMUs.
 """
 
 import math
-from typing import Dict, List, Optional, Sequence, Tuple, Union
+from typing import Dict, List, NamedTuple, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -338,6 +338,28 @@ class EventLog:
         self.t = float(s["t"])
 
 
+class _Segment(NamedTuple):
+    """One switching function ``i`` (signed: >= 0 allowed) along a regime's exact solution
+    from ``x`` with input ``u + du tau``."""
+
+    model: PiecewiseModel
+    reg: Regime
+    i: int
+    sign: float
+    x: np.ndarray
+    u: np.ndarray
+    du: np.ndarray
+
+    def value(self, tau: float) -> Tuple[float, float]:
+        """``g`` and ``g'`` at ``tau``, signed."""
+        m, ns = self.model, self.model._ns
+        xt = self.reg.step_exact(self.x, self.u, self.du, tau)
+        ut = self.u + self.du * tau
+        g = m.G[self.i] @ np.concatenate([xt, ut]) + m.g0[self.i]
+        dg = m.G[self.i, :ns] @ self.reg.rate(xt, ut) + m.G[self.i, ns:] @ self.du
+        return float(self.sign * g), float(self.sign * dg)
+
+
 class EventStepper:
     """Exact stepping of a :class:`PiecewiseModel` with located events (module docstring).
 
@@ -464,7 +486,8 @@ class EventStepper:
             hits: List[Tuple[float, int]] = []
             for i in range(g_s.size):
                 start = 0.0 if i in fresh else g_s[i]
-                root = self._locate(i, reg, x, ub, du, H, start, r_s[i], g_e[i], r_e[i], h)
+                seg = _Segment(model, reg, i, s[i], x, ub, du)
+                root = self._locate(seg, H, start, r_s[i], g_e[i], r_e[i], h)
                 if root is not None:
                     hits.append((root, i))
                     best = root if best is None else min(best, root)
@@ -486,31 +509,15 @@ class EventStepper:
         )
 
     def _locate(
-        self,
-        i: int,
-        reg: Regime,
-        x: np.ndarray,
-        u: np.ndarray,
-        du: np.ndarray,
-        H: float,
-        g0: float,
-        m0: float,
-        g1: float,
-        m1: float,
-        h: float,
+        self, seg: "_Segment", H: float, g0: float, m0: float, g1: float, m1: float, h: float
     ) -> Optional[float]:
-        """The first root of function ``i`` in ``(0, H]``, or None (signed values: >= 0 ok)."""
+        """The first root of ``seg``'s function in ``(0, H]``, or None (its signed values
+        ``g0``, ``g1`` and rates times ``H`` ``m0``, ``m1`` at the ends: >= 0 is allowed)."""
         s = np.linspace(0.0, 1.0, _SAMPLES + 1)[1:]
         h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
         h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
         cubic = h00 * g0 + h10 * m0 + h01 * g1 + h11 * m1
         bad = np.flatnonzero(cubic < 0)
-        sign = self._sign[i]
-        model = self.model
-
-        def g_at(tau: float) -> float:
-            xt = reg.step_exact(x, u, du, tau)
-            return float(sign * (model.G[i] @ np.concatenate([xt, u + du * tau]) + model.g0[i]))
 
         def cubic_root(j: int) -> float:  # the estimate's root in the sample interval j
             a, b = (s[j - 1] if j else 0.0), s[j]
@@ -530,36 +537,21 @@ class EventStepper:
             guess = cubic_root(int(bad[0])) if bad.size else H * g0 / max(g0 - g1, 1e-300)
         elif bad.size:  # two crossings inside the segment: is the dip real?
             mid = s[int(np.argmin(cubic))] * H
-            if g_at(mid) >= 0:
+            if seg.value(mid)[0] >= 0:
                 return None
             lo, hi, guess = 0.0, mid, cubic_root(int(bad[0]))
         else:
             return None
-        return self._newton(i, reg, x, u, du, lo, hi, guess, h)
+        return self._newton(seg, lo, hi, guess, h)
 
-    def _newton(
-        self,
-        i: int,
-        reg: Regime,
-        x: np.ndarray,
-        u: np.ndarray,
-        du: np.ndarray,
-        lo: float,
-        hi: float,
-        tau: float,
-        h: float,
-    ) -> float:
+    @staticmethod
+    def _newton(seg: "_Segment", lo: float, hi: float, tau: float, h: float) -> float:
         """Newton on the exact ``g(tau)`` inside the bracket ``[lo, hi]`` (bisection outside)."""
-        model, sign = self.model, self._sign[i]
-        ns = model._ns
         tau = min(max(tau, lo), hi)
         for _ in range(100):
             if tau <= 0.0:
                 tau = 0.5 * (lo + hi)
-            xt = reg.step_exact(x, u, du, tau)
-            ut = u + du * tau
-            g = float(sign * (model.G[i] @ np.concatenate([xt, ut]) + model.g0[i]))
-            dg = float(sign * (model.G[i, :ns] @ reg.rate(xt, ut) + model.G[i, ns:] @ du))
+            g, dg = seg.value(tau)
             if g < 0:
                 hi = tau
             else:
