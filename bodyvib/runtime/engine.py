@@ -152,6 +152,9 @@ class FmuCore(Lifecycle):
                     "with seat_acceleration): use a linear model"
                 )
             self._stepper = EventStepper(PiecewiseModel(net))
+            pw = self._stepper.model
+            self._Gz = np.hstack([pw.Gx, pw.Gu @ U])  # the functions on [x | s]
+            self._last: tuple = (None, None, None, None)  # step, regime, M, affine column
             self._regimes: dict = {}
             reg = self._stepper.regime
             lm = reg.model
@@ -408,7 +411,12 @@ class FmuCore(Lifecycle):
         st = self._stepper
         assert st is not None
         n = self._n
-        M, m = self._regime_step(h)
+        last = self._last
+        if last[0] == h and last[1] == st.state:
+            M, m = last[2], last[3]
+        else:
+            M, m = self._regime_step(h)
+            self._last = (h, st.state, M, m)
         with np.errstate(over="ignore", invalid="ignore"):
             np.dot(M, self._z, out=self._znew)
             if st.regime.affine:
@@ -420,15 +428,19 @@ class FmuCore(Lifecycle):
                 f"{current_time:g} s is not finite (inputs or state too large); "
                 "step refused, state unchanged"
             )
-        s = self._s
-        u, du = self._U @ s, self._dU @ s
-        saved = st.to_state()
-        try:
-            xe = st.finish(self._x, u, du, h, current_time, self._znew[:n])
-        except BodyvibError as exc:
-            st.from_state(saved)
-            raise BodyvibError(f"{self.name}: {exc}; step refused, state unchanged") from None
-        self._znew[:n] = xe
+        ge = (self._Gz @ self._znew + st.model.g0).tolist()  # the switching functions
+        if st.clear(ge):  # nothing switches: one sign test each
+            st.accept(ge, current_time + h)
+        else:
+            s = self._s
+            u, du = self._U @ s, self._dU @ s
+            saved = st.to_state()
+            try:
+                xe = st.finish(self._x, u, du, h, current_time, self._znew[:n])
+            except BodyvibError as exc:
+                st.from_state(saved)
+                raise BodyvibError(f"{self.name}: {exc}; step refused, state unchanged") from None
+            self._znew[:n] = xe
         self._z[:] = self._znew
         if st.state != self._state_built:
             reg = st.regime

@@ -441,19 +441,21 @@ class EventStepper:
             return xe
         model = self.model
         ge = (model.Gx @ xe + model.Gu @ (u + du * h) + model.g0).tolist()
-        if self._clear(ge):
-            self._g_prev, self._g_now = self._g_now, ge
-            self.log.sample(t + h, ge)
-            return xe
-        xe = self._events(np.asarray(x, dtype=float), u, du, h, t)
-        ge = model.g(xe, u + du * h).tolist()
-        self._g_prev, self._g_now = self._g_now, ge
-        self.log.sample(t + h, ge)
+        if not self.clear(ge):
+            xe = self._events(np.asarray(x, dtype=float), u, du, h, t)
+            ge = model.g(xe, u + du * h).tolist()
+        self.accept(ge, t + h)
         return xe
 
-    def _clear(self, ge: List[float]) -> bool:
-        """Nothing switches: each function keeps its sign at the step's end, and no
-        parabola through its last three values dips across zero inside the step."""
+    def accept(self, ge: List[float], t: float) -> None:
+        """Take the functions' values ``ge`` at the end ``t`` of a finished step."""
+        self._g_prev, self._g_now = self._g_now, ge
+        self.log.sample(t, ge)
+
+    def clear(self, ge: List[float]) -> bool:
+        """Nothing switches in a step whose end has the functions' values ``ge``: each keeps
+        its sign, and no parabola through its last three values dips across zero inside
+        the step."""
         for on, gm, g0, g1 in zip(self.state, self._g_prev, self._g_now, ge):
             if not on:
                 gm, g0, g1 = -gm, -g0, -g1
