@@ -121,9 +121,14 @@ def test_master_outputs_match_reference_signal_by_signal(fmus):
     h, T, V = 1e-3, 4.0, 20.0
     t = np.arange(int(round(T / h)) + 1) * h
     z, v = road_input(make_road("bump", V, T), V, t)
-    with open_fmu(fmus["car"], "car") as car, open_fmu(fmus["iso"], "body") as body:
+    iso = model_from_fmu(fmus["iso"])
+    occupant = {"m_occupant": iso.total_mass()}  # its weight on the tire, as the reference's
+    with (
+        open_fmu(fmus["car"], "car", start_values=occupant) as car,
+        open_fmu(fmus["iso"], "body") as body,
+    ):
         run = cosimulate(car, body, z, v, h)
-    ref = reference_run(model_from_fmu(fmus["car"]), model_from_fmu(fmus["iso"]), z, v, h)
+    ref = reference_run(model_from_fmu(fmus["car"]), iso, z, v, h)
     for k in (
         "seat_displacement",
         "seat_acceleration",
@@ -244,7 +249,7 @@ def test_check_cli_end_to_end(fmus, tmp_path):
     col = rows[0].index("HumanBody3DOF.head_acceleration [m/s2]")
     a = np.array([float(r[col]) for r in rows[1:]])
     # every point, every column (with each body's neck and lumbar force), streamed
-    assert len(rows) == 1 + 6001 and len(rows[0]) == 22
+    assert len(rows) == 1 + 6001 and len(rows[0]) == 24  # with tire_contact, stop_force
     for label, b in doc["bodies"].items():
         neck = np.array([float(r[rows[0].index(f"{label}.neck_force [N]")]) for r in rows[1:]])
         assert b["neck_force"]["peak"] == pytest.approx(neck[np.argmax(np.abs(neck))], rel=1e-6)

@@ -95,6 +95,8 @@ def test_car_core_equals_library_simulation(grid):
     core = FmuCore("car", car, "QuarterCar")
     core.initialize()
     y = run_core(core, t, np.c_[zr, vr, fs, dfs])
+    assert np.all(y[:, 5:] == [1.0, 0.0])  # on the road, off the stops: nothing switches
+    y = y[:, :5]
     lm = linear_model(car)
     u = np.c_[zr, vr, -fs]
     du = np.c_[vr, np.zeros_like(t), -dfs]
@@ -356,13 +358,15 @@ def test_interfaces_follow_the_design_table():
         "sprung_acceleration",
         "suspension_deflection",
         "tire_force",
+        "tire_contact",
+        "stop_force",
     ]
     # feedthrough: seat force on seat displacement, its rate on both inputs (C B and
     # D through the displacement's rate); car acceleration on seat force, tire force
     # on road displacement; the neck force on none, the lumbar force (in series with
     # the seat spring, it is the seat force) on the seat displacement
     assert body.output_dependencies() == [[], [], [], [0], [0, 1], [], [0]]
-    assert car.output_dependencies() == [[], [], [2], [], [0]]
+    assert car.output_dependencies() == [[], [], [2], [], [0], [], []]
 
 
 #: The car interface as the contract hard-coded it before the extra outputs became
@@ -426,8 +430,11 @@ def test_car_interface_from_data_is_the_one_hard_coded_before(car, seat):
     iface, params, variables = fmu_variables("car", load_car(car))
     got = [(i, v.name, v.causality, v.unit, v.description) for i, v in enumerate(variables[:9])]
     assert got == [(i, n, c, u, d.format(seat=seat)) for i, n, c, u, d in _CAR_BEFORE]
-    assert all(v.causality == "parameter" for v in variables[9:])
-    assert iface.output_signals == (
+    # a car with a tire contact and stops adds their outputs after these
+    extra = [v.name for v in variables[9:] if v.causality != "parameter"]
+    assert extra == (["tire_contact", "stop_force"] if car == "quarter-car" else [])
+    assert all(v.causality == "parameter" for v in variables[9 + len(extra) :])
+    assert iface.output_signals[:5] == (
         "seat.x",
         "seat.v",
         "seat.a",
@@ -455,7 +462,7 @@ def test_car_without_fmu_outputs_has_the_seat_outputs_only():
     d = _car_dict()
     del d["fmu_outputs"]
     for el in d["elements"]:
-        el["name"] = {"tire": "tyre", "suspension": "strut"}[el["name"]]
+        el["name"] = {"tire": "tyre", "suspension": "strut", "stops": "bumpers"}[el["name"]]
     iface, _, _ = fmu_variables("car", network_from_dict(d))
     assert [v.name for v in iface.outputs] == ["seat_displacement", "seat_velocity"]
     core = FmuCore("car", network_from_dict(d))

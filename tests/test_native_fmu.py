@@ -313,13 +313,24 @@ def test_contract_is_the_pythonfmu_contract_plus_seat_force_rate(native_fmus, py
         nat3 = {
             v.name: v for v in read_model_description(native_fmus[f"fmi3/{name}"]).modelVariables
         }
+        # the pythonfmu car steps its tire contact and stops; the native one, linearized,
+        # lacks their outputs and parameters, and its parameters come two references earlier
+        only_py = {"tire_contact", "stop_force", "k_stop", "c_stop", "gap_compression"}
+        only_py |= {"gap_rebound", "m_occupant"}
+        if name == "QuarterCar":
+            assert set(py) - set(nat) == only_py
+            py = {n: p for n, p in py.items() if n not in only_py}
         for vname, p in py.items():
             for other in (nat[vname], nat3[vname]):
                 for attr in VARIABLE_ATTRIBUTES:
+                    if attr == "valueReference" and p.causality == "parameter":
+                        continue  # the order is checked below, the numbers shift by two
                     assert str(getattr(other, attr)) == str(getattr(p, attr)), (name, vname, attr)
         # plus, for model exchange, the continuous states and their derivatives (locals)
         me = {n for n in nat if n.startswith(("state.", "der(state."))}
         assert set(nat) - me == set(py)
+        order = [n for n in sorted(nat, key=lambda n: nat[n].valueReference) if n in py]
+        assert order == sorted(py, key=lambda n: py[n].valueReference)
         assert all(nat[n].causality == "local" for n in me) and me
         if name != "QuarterCar":
             rate = nat["seat_force_rate"]
@@ -396,7 +407,8 @@ def test_car_outputs_equal_the_library(native_fmus, vary):
 def test_outputs_equal_the_pythonfmu_fmus(native_fmus, python_fmus, name):
     t = grid(True, n=600)
     if name == "QuarterCar":
-        z, zv = chirp(t, amp=0.02)
+        # 5 mm: the tire keeps the road (the native car is the linearized one)
+        z, zv = chirp(t, amp=0.005)
         inputs = {
             "road_displacement": z,
             "road_velocity": zv,
@@ -473,7 +485,8 @@ def test_unconnected_velocity_falls_back_to_the_slope_like_the_pythonfmu_fmu(
 
     t = grid(True, n=600)
     body = name != "QuarterCar"
-    x, _ = chirp(t, amp=0.01 if body else 0.02)
+    # the car's tire keeps the road at 5 mm (the native car is the linearized one)
+    x, _ = chirp(t, amp=0.01 if body else 0.005)
     disp = "seat_displacement" if body else "road_displacement"
     outs = BODY_OUT if body else CAR_OUT
     ours = fallback_run(native_fmus[name], t, x, disp, outs, logger)

@@ -12,6 +12,7 @@ fixtures build them).
 """
 
 import pytest
+
 from bodyvib.vehicle.reference import nrmse
 from bodyvib.vehicle.ssp import HALF_CAR_SSP_NAME, SSP_NAME, ssp_reference
 
@@ -67,9 +68,10 @@ def test_active_pythonfmu_packages_run_within_the_target(python_active, car, pac
     """The controller is handed the car's velocities at the current point and gives the law
     of those: measured 0.016 % (quarter car) against the closed loop, the issue's target
     0.1 % (0.83 % with a controller that extrapolated what it was just handed)."""
+    from test_ssp import host_run
+
     from bodyvib.vehicle.control import parse_control
     from bodyvib.vehicle.quarter_car import load_car
-    from test_ssp import host_run
 
     ssp = python_active / car / "active" / f"{package}.ssp"
     res, _ = host_run(HOST, ssp, duration=5.0)

@@ -243,6 +243,7 @@ def test_a_sweep_case_runs_on_the_road_of_bodyvib_cosim(tmp_path, capsys):
                 "--csv",
                 str(csv),
                 "--quiet",
+                "--linear",  # the car the sweep engines step
             ]
         )
         == 0

@@ -57,6 +57,7 @@ from .quarter_car import CAR_FMU_OUTPUTS
 from .road.driven import road_columns
 from .signals import (
     BODY_SIGNALS,
+    CAR_DEFAULTS,
     CAR_SIGNALS,
     MASTER_SIGNALS,
     OPTIONAL_SIGNALS,
@@ -566,8 +567,19 @@ class Master:
             + [car.vr["seat_force"]]
             + ([car.vr["seat_force_rate"]] if self._has_rate else [])
         )
-        # what is recorded, in the signal table's order (seat motion first: read after a step)
-        self._car_out = [car.vr[car_variable(s, car.vr)] for s in CAR_SIGNALS]
+        # what is recorded, in the signal table's order (seat motion first: read after a step);
+        # a signal the car lacks (a linear car's contact flag) is recorded as its default
+        self._car_out = [
+            car.vr[car_variable(s, car.vr)]
+            for s in CAR_SIGNALS
+            if car_variable(s, car.vr) in car.vr
+        ]
+        lacks = [s.name for s in CAR_SIGNALS if car_variable(s, car.vr) not in car.vr]
+        if set(lacks) - set(CAR_DEFAULTS) or lacks != [
+            s.name for s in CAR_SIGNALS[len(self._car_out) :]
+        ]:
+            raise BodyvibError(f"car FMU has no output(s) {', '.join(lacks)}")
+        self._car_pad = [CAR_DEFAULTS[name] for name in lacks]
         self._control = controller
         self._act_vel, self._act_F = [], ([], [])
         if controller is not None:
@@ -640,7 +652,7 @@ class Master:
         car_motion = car_out[:2]
         c_set, c_get, c_step = cf.setReal, cf.getReal, cf.doStep
         b_set, b_get, b_step = bf.setReal, bf.getReal, bf.doStep
-        B, F_prev, pad = self._B, self._F_prev, self._pad
+        B, F_prev, pad, car_pad = self._B, self._F_prev, self._pad, self._car_pad
         law, act_vel, (Fa, Fa_prev) = self._control, self._act_vel, self._act_F
         act = []  # the actuators' inputs: force and rate of each
         law_step = getattr(law, "advance", None)  # a controller FMU steps with the car
@@ -658,7 +670,7 @@ class Master:
                     ]
                 if k == last:  # the last point: the car's outputs, no step
                     c_set(car_in, rk + [F] + ([0.0] if has_rate else []) + act)
-                    rows[j] = list(c_get(car_out)) + B
+                    rows[j] = list(c_get(car_out)) + car_pad + B
                     break
                 t = k * h
                 dF = (F - F_prev) if extrapolate else 0.0
@@ -668,8 +680,9 @@ class Master:
                     c_set(car_in, rk + [F + 0.5 * dF])
                 # car outputs at t_k with the inputs of t_k (tire force and seat
                 # acceleration are feedthrough of road and seat force)
-                xs, vs, a_s, sd, tf = c_get(car_out)
-                rows[j] = [xs, vs, a_s, sd, tf] + B
+                car_now = list(c_get(car_out))
+                xs = car_now[0]
+                rows[j] = car_now + car_pad + B
                 c_step(t, h)
                 xn, vn = c_get(car_motion)  # states only: exact right after the step
                 if law is not None:

@@ -42,6 +42,7 @@ __all__ = [
     "fmu_road",
     "fmu_road_length",
     "fmu_road_of",
+    "linear_car_file",
     "load_fmu_model",
     "temporary_fmu_dir",
 ]
@@ -462,6 +463,33 @@ def build_fmus(
         for key in out:
             say(f"wrote {out[key]} ({what[key]}; fmpy validate: no problems)")
     return out
+
+
+def linear_car_file(car: str, folder) -> str:
+    """Write a car linearized about static equilibrium as a parameter file; its path.
+
+    What ``--linear`` builds its car FMU from (and the sweeps' co-simulation engine, whose
+    other engines step linear cars).
+
+    Parameters
+    ----------
+    car : str
+        Shipped vehicle name, parameter file or ``CAR+SEAT``
+        (:func:`bodyvib.vehicle.quarter_car.load_car`).
+    folder : str or path
+        An existing folder; the file is ``car-linear.json`` there.
+
+    Returns
+    -------
+    str
+        The file's path.
+    """
+    from bodyvib.process.outputs import write_json
+    from bodyvib.runtime.modelfile import network_to_dict
+
+    path = str(Path(folder) / "car-linear.json")
+    write_json(path, network_to_dict(load_car(car, linear=True)))
+    return path
 
 
 def car_fmu_name(car: str = "quarter-car") -> str:

@@ -17,7 +17,7 @@ from typing import Tuple
 from bodyvib.models import load_network
 from bodyvib.runtime.contract import seat_point
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib.runtime.network import Network, mount
+from bodyvib.runtime.network import Network, linearized, mount
 
 from .seats import load_seat, mount_seat, split_car_name
 
@@ -32,7 +32,7 @@ CAR_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
 CAR_FMU_OUTPUTS = ("sprung_acceleration", "suspension_deflection", "tire_force")
 
 
-def load_car(name_or_path: str = "quarter-car") -> Network:
+def load_car(name_or_path: str = "quarter-car", linear: bool = False) -> Network:
     """Load a vehicle model by shipped name or parameter-file path, with a seat or without.
 
     Parameters
@@ -41,6 +41,10 @@ def load_car(name_or_path: str = "quarter-car") -> Network:
         ``"quarter-car"`` (default), ``"half-car"``, another shipped name or a JSON
         parameter file; followed by ``+`` and a seat (a shipped seat name or a seat
         file, :mod:`bodyvib.vehicle.seats`), that car with the seat on its seat point.
+    linear : bool
+        The car linearized about static equilibrium
+        (:func:`bodyvib.runtime.network.linearized`: a tire that never leaves the road,
+        no stops): the linear car of earlier releases.
 
     Returns
     -------
@@ -60,10 +64,11 @@ def load_car(name_or_path: str = "quarter-car") -> Network:
     """
     car_name, seat_name = split_car_name(os.fspath(name_or_path))
     if seat_name:
-        return mount_seat(load_car(car_name), load_seat(seat_name))
-    car = load_network(name_or_path, CAR_DIR, "vehicle model")
-    seat_point(car)  # refuses a car without a seat for the occupant
-    return car
+        car = mount_seat(load_car(car_name), load_seat(seat_name))
+    else:
+        car = load_network(name_or_path, CAR_DIR, "vehicle model")
+        seat_point(car)  # refuses a car without a seat for the occupant
+    return linearized(car) if linear else car
 
 
 def seated_system(car: Network, body: Network) -> Network:

@@ -23,12 +23,13 @@ from bodyvib.process import interrupts
 from bodyvib.runtime.contract import actuator_variables
 from bodyvib.runtime.discretize import Discretization, check_step, input_rates
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib.runtime.network import Network, linear_model
+from bodyvib.runtime.network import Network, linear_model, linearized
+from bodyvib.runtime.regimes import EventStepper
 
 from .control import closed_loop_model
 from .quarter_car import seated_system
 from .road.driven import road_columns
-from .signals import BODY_SIGNALS, CAR_SIGNALS, OPTIONAL_SIGNALS, car_variable
+from .signals import BODY_SIGNALS, CAR_DEFAULTS, CAR_SIGNALS, OPTIONAL_SIGNALS, car_variable
 from .signals import SIGNALS as _SIGNALS
 
 __all__ = ["SIGNALS", "reference_run", "ReferenceStream", "seat_force_weights", "nrmse"]
@@ -87,7 +88,13 @@ def seat_force_weights(lm, body: Network, seat: str, prefix: str = "body.") -> n
 
 
 def reference_run(
-    car: Network, body: Network, road_displacement, road_velocity, step: float, controller=None
+    car: Network,
+    body: Network,
+    road_displacement,
+    road_velocity,
+    step: float,
+    controller=None,
+    linear: bool = False,
 ) -> Dict[str, np.ndarray]:
     """Simulate the seated car monolithically on a uniform time grid.
 
@@ -106,6 +113,10 @@ def reference_run(
         Time step in s.
     controller : bodyvib.vehicle.control.SkyhookController, optional
         Drive the car's actuators by this linear law (the closed loop).
+    linear : bool
+        Run the car linearized about static equilibrium
+        (:func:`bodyvib.runtime.network.linearized`: the tire never leaves the road, no
+        stops) instead of stepping its nonlinear elements.
 
     Returns
     -------
@@ -133,7 +144,7 @@ def reference_run(
         raise BodyvibError(
             "road displacement and velocity must be arrays of equal length (and shape), >= 2 samples"
         )
-    signals = ReferenceStream(car, body, step, controller).advance(z, v)
+    signals = ReferenceStream(car, body, step, controller, linear=linear).advance(z, v)
     n = z.shape[0]
     front = (z, v) if z.ndim == 1 else (z[:, 0], v[:, 0])
     signals.update(time=np.arange(n) * float(step), road_displacement=front[0])
@@ -157,19 +168,41 @@ class ReferenceStream:
         Drive the car's actuators by this (linear) law: the closed loop
         (:func:`bodyvib.vehicle.control.closed_loop_model`); :meth:`advance` then also
         returns each actuator's force under its FMU input name (``actuator_force``).
+    linear : bool
+        Run the car linearized (:func:`reference_run`).
+
+    Attributes
+    ----------
+    stepper : bodyvib.runtime.regimes.EventStepper or None
+        Steps a car with nonlinear elements (exact steps, located events); its ``log``
+        holds what they did. None for a linear car.
 
     Raises
     ------
     BodyvibError
-        A body without head/torso roles, or a step that is not a positive number.
+        A body without head/torso roles, a step that is not a positive number, or a
+        controller on a car with nonlinear elements.
     """
 
-    def __init__(self, car: Network, body: Network, step: float, controller=None):
+    def __init__(
+        self, car: Network, body: Network, step: float, controller=None, linear: bool = False
+    ):
         for role in ("head", "torso"):
             if role not in body.roles:
                 raise BodyvibError(f"body model '{body.name}' has no '{role}' role")
         check_step(step)
-        lm = linear_model(seated_system(car, body))
+        seated = seated_system(linearized(car) if linear else car, body)
+        self.stepper = None
+        if seated.nonlinear_elements:
+            if controller is not None:
+                raise BodyvibError(
+                    f"car '{car.name}' has nonlinear elements; the closed-loop reference "
+                    "needs a linear car (linear=True)"
+                )
+            self.stepper = EventStepper(seated)
+            lm = self.stepper.regime.model
+        else:
+            lm = linear_model(seated)
         self._forces = {}
         if controller is not None:
             lm, forces = closed_loop_model(lm, car, controller)
@@ -179,6 +212,7 @@ class ReferenceStream:
         self._disc = Discretization(lm)
         self._h = float(step)
         self._x = self._disc.zero_state()
+        self._k = 0  # samples advanced
         seat = car.roles["seat"]
         self._bases = len(car.bases)
         # the car signals the car FMU gives as its parameter file's fmu_outputs
@@ -188,7 +222,9 @@ class ReferenceStream:
         self._rows = {}
         for s in CAR_SIGNALS + BODY_SIGNALS:
             variable = car_variable(s, fmu_outputs)
-            if s.name in OPTIONAL_SIGNALS and s.seated_output(seat) not in lm.outputs:
+            if s.name in CAR_DEFAULTS and s.seated_output(seat) not in lm.outputs:
+                self._rows[s.name] = CAR_DEFAULTS[s.name]  # a linear car's: constant
+            elif s.name in OPTIONAL_SIGNALS and s.seated_output(seat) not in lm.outputs:
                 self._rows[s.name] = None  # a body without this named force: NaN
             elif variable in fmu_outputs:
                 self._rows[s.name] = lm.output_index(fmu_outputs[variable])
@@ -225,22 +261,58 @@ class ReferenceStream:
         du = input_rates(lm, u)
         x = np.empty((z.shape[0], lm.A.shape[0]))
         xk = self._x
-        for k in range(z.shape[0]):
-            if not k & 4095:
-                interrupts.check()  # a long block (reference_run's whole run): a safe point
-            x[k] = xk
-            xk = d.step(xk, u[k], du[k], h)
-        self._x = xk
-        y = x @ lm.C.T + u @ lm.D.T
+        if self.stepper is not None:
+            y = self._advance_regimes(x, u, du)
+        else:
+            for k in range(z.shape[0]):
+                if not k & 4095:
+                    interrupts.check()  # a long block (reference_run's whole run): a safe point
+                x[k] = xk
+                xk = d.step(xk, u[k], du[k], h)
+            self._x = xk
+            y = x @ lm.C.T + u @ lm.D.T
+        self._k += z.shape[0]
         out = {name: _row(y, i) for name, i in self._rows.items()}
         out.update({name: x @ row for name, row in self._forces.items()})
         return out
 
+    def _advance_regimes(self, x: np.ndarray, u: np.ndarray, du: np.ndarray) -> np.ndarray:
+        """Step a piecewise-affine car (x filled in); the outputs of each sample's regime."""
+        st, h, xk = self.stepper, self._h, self._x
+        nominal = st.model.initial  # static equilibrium's regime: the linear outputs
+        first = st.model.regime(nominal)
+        states = []
+        for k in range(u.shape[0]):
+            x[k] = xk
+            states.append(st.state)
+            xk = st.step(xk, u[k], du[k], h, (self._k + k) * h)
+        self._x = xk
+        lm = first.model
+        y = x @ lm.C.T + u @ lm.D.T + first.d
+        for k, state in enumerate(states):
+            if state != nominal:
+                reg = st.model.regime(state)
+                y[k] = reg.model.C @ x[k] + reg.model.D @ u[k] + reg.d
+        return y
+
+    def events(self) -> dict:
+        """What the car's nonlinear elements did so far (``{}`` for a linear car).
+
+        Returns
+        -------
+        dict
+            Element name -> figures (:meth:`bodyvib.runtime.regimes.EventLog.summary`).
+        """
+        return {} if self.stepper is None else self.stepper.log.summary()
+
 
 def _row(y, i):
-    """A signal from the outputs ``y``: a weighted sum, one column, or NaN (``i`` None)."""
+    """A signal from the outputs ``y``: a weighted sum, one column, NaN (``i`` None) or a
+    constant (``i`` a float)."""
     if i is None:
         return np.full(y.shape[0], np.nan)
+    if isinstance(i, float):
+        return np.full(y.shape[0], i)
     return y @ i if isinstance(i, np.ndarray) else y[:, i]
 
 

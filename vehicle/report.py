@@ -6,6 +6,7 @@ The JSON document's keys are listed in docs/getting_started.md, "JSON output".
 from typing import Optional
 
 from .check import Comparison
+from .events import format_events
 from .road.driven import road_handling
 from .study import Study
 
@@ -120,6 +121,11 @@ def format_report(
             words = name.replace("_", " ")
             lines.append(row(f"{words} r.m.s. [N]", lambda b, n=name: _force(b, n, "rms")))
             lines.append(row(f"{words} peak [N]", lambda b, n=name: _force(b, n, "peak")))
+    if any(
+        getattr(b, "events", None) is not None and b.events.smallest_tire_load_ratio is not None
+        for b in bodies.values()
+    ):
+        lines += _event_rows(row)
     lines.append(row("coupling NRMSE vs reference", lambda b: _pct(b.coupling_nrmse)))
     lines.append(row("real-time factor", lambda b: f"{b.real_time_factor:.1f}"))
     seat = bodies[labels[0]].seat_figures.weighted_rms
@@ -165,6 +171,26 @@ PEAK_HINT = (
     "  the 3-DOF chain trades Eq. 3's J for the peak: pareto_front draws it "
     "(docs/tutorials/refit.md, 'The trade-off')"
 )
+
+
+def _event_rows(row):
+    """The rows of what the tire and the stops did (a car with a tire contact)."""
+
+    def cell(b, what):
+        e = b.events
+        if e is None or e.smallest_tire_load_ratio is None:
+            return "n/a"
+        if what == "lift":
+            return format_events(e)
+        if what == "stop":
+            return f"{e.stop_contacts}, largest {e.largest_stop_force_n:.0f} N"
+        return f"{e.smallest_tire_load_ratio:.3f}"
+
+    return [
+        row("lift-offs (air, longest)", lambda b: cell(b, "lift")),
+        row("stop contacts", lambda b: cell(b, "stop")),
+        row("smallest tire-load ratio", lambda b: cell(b, "ratio")),
+    ]
 
 
 def _force(body, name, what):

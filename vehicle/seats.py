@@ -270,6 +270,11 @@ def mount_seat(car: Network, seat: Network) -> Network:
         force_inputs=both.force_inputs + (SEAT_PREFIX + pan,),
         roles=roles,
         fmu_outputs=_outputs(car, seat, floor),
+        # the occupant's weight, for the tire's preload, rests on the pan now
+        static_loads={
+            **both.static_loads,
+            **({SEAT_PREFIX + pan: car.static_loads[floor]} if floor in car.static_loads else {}),
+        },
     )
 
 

@@ -30,6 +30,7 @@ __all__ = [
     "CAR_SIGNALS",
     "BODY_SIGNALS",
     "OPTIONAL_SIGNALS",
+    "CAR_DEFAULTS",
     "header",
     "axis_label",
     "car_variable",
@@ -103,6 +104,22 @@ SIGNALS: Tuple[Signal, ...] = (
         "tire.force",
     ),
     Signal(
+        "tire_contact",
+        "1",
+        "1 while the (front) tire touches the road, 0 in the air (a linear car: always 1)",
+        "car",
+        "tire_contact",
+        "tire.contact",
+    ),
+    Signal(
+        "stop_force",
+        "N",
+        "force of the (front) suspension's stops, + bump, - rebound (0 without stops)",
+        "car",
+        "stop_force",
+        "stops.force",
+    ),
+    Signal(
         "seat_force",
         "N",
         "force of the occupant on the seat, + in compression",
@@ -150,6 +167,10 @@ SIGNALS: Tuple[Signal, ...] = (
 #: FMU): a run records them as NaN.
 OPTIONAL_SIGNALS: Tuple[str, ...] = ("neck_force", "lumbar_force")
 
+#: Car signals a car model may lack (a linear car has no contact and no stops), and the
+#: value a run records for them then.
+CAR_DEFAULTS: Dict[str, float] = {"tire_contact": 1.0, "stop_force": 0.0}
+
 #: Unit of each signal by name.
 UNITS: Dict[str, str] = {s.name: s.unit for s in SIGNALS}
 
@@ -186,7 +207,7 @@ def car_variable(signal: Signal, variables) -> str:
 
     Examples
     --------
-    >>> tire = SIGNALS[7]
+    >>> tire = SIGNALS[7]  # tire_force
     >>> car_variable(tire, {"tire_force"}), car_variable(tire, {"tire_force_front"})
     ('tire_force', 'tire_force_front')
     """

@@ -26,10 +26,12 @@ from bodyvib.process import interrupts
 from bodyvib.process.limits import require_memory
 from bodyvib.process.progress import Progress, progress_bar, progress_lines
 from bodyvib.runtime.errors import BodyvibError
+from bodyvib.runtime.network import static_preloads
 from bodyvib.runtime.renames import NOT, renamed_parameters
 
 from .control import controller_from_fmu, describe
 from .cosim import CsvStream, Master, check_fmu, model_from_fmu, open_controller, open_fmu
+from .events import EventStream, RunEvents
 from .quarter_car import wheel_offsets
 from .reference import ReferenceStream
 from .road.driven import RunSettings, driven_road, wheel_inputs
@@ -79,6 +81,13 @@ class BodyRun:
     forces : dict of str to ForceFigures
         Figures of the body's internal forces over the run (``"neck_force"``,
         ``"lumbar_force"``; only those the body FMU outputs), N and s.
+    events : RunEvents or None
+        Lift-offs, flights, stop contacts and the smallest tire-load ratio of the run, at
+        its communication points (:mod:`bodyvib.vehicle.events`).
+    reference_events : dict
+        The same from the monolithic reference, each event located inside its step:
+        element name -> figures (:meth:`bodyvib.runtime.regimes.EventLog.summary`);
+        empty for a linear car or without a reference.
     """
 
     fmu: str
@@ -93,6 +102,8 @@ class BodyRun:
     head_window: np.ndarray = field(default_factory=lambda: np.empty(0))
     seat_measures: Optional[SeatMeasures] = None
     forces: Dict[str, ForceFigures] = field(default_factory=dict)
+    events: Optional[RunEvents] = None
+    reference_events: Dict[str, dict] = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """The body's entry of the JSON document (figures, no histories; docs/getting_started.md, "JSON output")."""
@@ -106,6 +117,8 @@ class BodyRun:
             "real_time_factor": self.real_time_factor,
             **(self.seat_measures.to_dict() if self.seat_measures is not None else {}),
             **{name: f.to_dict() for name, f in self.forces.items()},
+            **({"events": self.events.to_dict()} if self.events is not None else {}),
+            **({"reference_events": self.reference_events} if self.reference_events else {}),
         }
 
 
@@ -351,7 +364,8 @@ def run_study(
     controller_fmu = opts.controller if isinstance(opts.controller, (str, os.PathLike)) else None
     law = controller_from_fmu(controller_fmu) if controller_fmu else opts.controller
     reference = opts.reference and (law is None or law.linear)
-    car_net = model_from_fmu(car_fmu) if reference else None
+    car_model = model_from_fmu(car_fmu)
+    car_net = car_model if reference else None
     behind = _wheels(car_fmu, car_net)
     window = _window(n, settings.step, opts.window_s)
     bodies = {
@@ -360,6 +374,9 @@ def run_study(
     }
     for rec in bodies.values():
         rec.add_reference(car_net, reference, law)
+    tire_load, occupant = _static_load(car_model, body_fmus, {k: r.net for k, r in bodies.items()})
+    for label, rec in bodies.items():
+        rec.watch_events(tire_load[label], occupant.get(label))
     progress_lines(opts.progress)(_opening(body_fmus, rd, settings, bodies))
     pairs = {(a, b): [0.0, 0.0] for a in bodies for b in bodies if a != b}
     bar = progress_bar(n, opts.progress, "co-simulation")
@@ -459,6 +476,13 @@ class _BodyRecorder:
         self.head_window = []
         self.kept = [] if histories else None
         self.kept_ref = [] if histories else None
+        self.events, self.occupant = EventStream(step, None), None
+
+    def watch_events(self, tire_load, occupant):
+        """The tire's static load (N, or None) for the events, and the car FMU's start
+        values that put this body's weight on its seat (None: the car's own)."""
+        self.events = EventStream(self.step, tire_load)
+        self.occupant = occupant
 
     def add_reference(self, car_net, reference, law):
         """Read the body's model and set up its monolithic reference (``reference``)."""
@@ -468,7 +492,7 @@ class _BodyRecorder:
 
     def open(self, stack, car_fmu, controller_fmu, law, n, extrapolate):
         """Open the car, the body (and the controller FMU) on ``stack``; their master."""
-        car = stack.enter_context(open_fmu(car_fmu, "car", "car"))
+        car = stack.enter_context(open_fmu(car_fmu, "car", "car", self.occupant))
         body = stack.enter_context(open_fmu(self.path, "body", self.label))
         if controller_fmu is not None:
             law = stack.enter_context(open_controller(controller_fmu, car))
@@ -484,6 +508,7 @@ class _BodyRecorder:
         self.trans.update(seat, head)
         for name, stream in self.forces.items():
             stream.update(sig[name])
+        self.events.update(sig["tire_contact"], sig["stop_force"], sig["tire_force"])
         ref = None
         if self.ref is not None:
             interrupts.check()
@@ -521,6 +546,8 @@ class _BodyRecorder:
                 for name, f in ((k, s.figures()) for k, s in self.forces.items())
                 if math.isfinite(f.rms)
             },
+            events=self.events.result(),
+            reference_events=self.ref.events() if self.ref is not None else {},
         )
 
     @staticmethod
@@ -570,6 +597,28 @@ def _study(settings, opts, controller_fmu, rd, window, pairs, bodies):
     for label, rec in bodies.items():
         out.bodies[label] = rec.result(road, settings.duration)
     return out
+
+
+def _static_load(car, body_fmus, nets):
+    """Per body label, the tire's static load (N, or None) and the car FMU's start values
+    that put that body's weight on the seat (the car's static load at its seat point).
+
+    The tire is the element of the car's ``tire_force`` output. A body FMU without its
+    model leaves the car's own value.
+    """
+    loads, occupant = {}, {}
+    if car is None:
+        return dict.fromkeys(body_fmus), occupant
+    ref = car.static_loads.get(car.roles.get("seat", ""))
+    tire = {o["name"]: o["signal"] for o in car.fmu_outputs}.get("tire_force", "")
+    for label, path in body_fmus.items():
+        body = nets.get(label) or model_from_fmu(path)
+        seated = car
+        if isinstance(ref, str) and body is not None:
+            occupant[label] = {ref: body.total_mass()}
+            seated = car.with_parameters(**occupant[label])
+        loads[label] = static_preloads(seated).get(tire.rpartition(".")[0])
+    return loads, occupant
 
 
 def _wheels(car_fmu, car_net):

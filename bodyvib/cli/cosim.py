@@ -18,7 +18,7 @@ from bodyvib.process.outputs import write_json
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.vehicle.check import compare
 from bodyvib.vehicle.cosim import check_fmu
-from bodyvib.vehicle.fmus import build_fmus, car_fmu_name, temporary_fmu_dir
+from bodyvib.vehicle.fmus import build_fmus, car_fmu_name, linear_car_file, temporary_fmu_dir
 from bodyvib.vehicle.report import format_report, study_json
 from bodyvib.vehicle.study import StudyCsv, check_settings, run_study
 from bodyvib.vehicle.study_plot import plot_study
@@ -47,6 +47,11 @@ def _check_options(args):
         raise BodyvibError(
             "--car chooses the model of the QuarterCar.fmu built for the run; with "
             "--car-fmu FMU it would be ignored: give one of them"
+        )
+    if args.car_fmu is not None and getattr(args, "linear", False):
+        raise BodyvibError(
+            "--linear linearizes the car FMU built for the run; with --car-fmu FMU it "
+            "would be ignored: give one of them"
         )
     if args.car_fmu is not None and args.seat is not None:
         raise BodyvibError(
@@ -118,8 +123,11 @@ def _fmus(args, want_iso: bool):
     if "HumanBody3DOF" in need and args.params:
         load_model(args.params)
     tmp, built = None, {}
+    car_model = car_and_seat(args.car, args.seat) if args.car_fmu is None else None
     if need:
         tmp = temporary_fmu_dir()
+        if car_model is not None and args.linear:  # the car as a file of its linear model
+            car_model = linear_car_file(car_model, tmp)
         if not args.quiet:
             print(f"building {', '.join(need)} into {tmp}", file=sys.stderr, flush=True)
         try:
@@ -128,7 +136,7 @@ def _fmus(args, want_iso: bool):
                 for n, p in build_fmus(
                     tmp,
                     args.params,
-                    car_and_seat(args.car, args.seat),
+                    car_model,
                     need,
                     native=args.native,
                     fmi=(2,),
@@ -297,6 +305,12 @@ def _common(p):
         help="drive the car's actuators by a controller FMU (FMI 2.0 co-simulation with "
         "inputs upper_velocity, lower_velocity and output actuator_force per actuator: "
         "SkyhookController.fmu from bodyvib build --control)",
+    )
+    p.add_argument(
+        "--linear",
+        action="store_true",
+        help="run the car linearized about static equilibrium (a tire that never leaves "
+        "the road, no suspension stops: the linear car of earlier releases)",
     )
     p.add_argument(
         "--hold",

@@ -9,7 +9,7 @@ keeping the time histories. This module does that with
   (ISO 2631-1 Annex A: band limits, a-v transition, upward step) as one
   8-state, single-input state space, the four second-order sections in series;
 * :class:`WkFilter` -- that state space discretized exactly
-  (:func:`bodyvib.runtime.discretize.discretize`) with the input interpolated linearly
+  (:func:`bodyvib.runtime.exact.discretize`) with the input interpolated linearly
   between samples, started from rest: the causal analog filter applied to the
   piecewise-linear signal through the samples, advanced for ``(cases,
   samples)`` blocks;

@@ -185,7 +185,7 @@ def impulse_response(model, duration: float, step: float, point: str = "head"):
 
     ``h(t_k) = c e^{A t_k} b`` at ``t_k = k step`` (the state space driven by
     seat displacement alone, :func:`bodyvib.frequency.response.displacement_input_statespace`),
-    the matrix exponential from :func:`bodyvib.runtime.discretize.expm`. Exact at the
+    the matrix exponential from :func:`bodyvib.runtime.exact.expm`. Exact at the
     samples for any stiffness (the ISO model's fastest pole is -1.1e8 1/s).
 
     Parameters

@@ -55,7 +55,7 @@ from ..process.outputs import atomic_write_bytes
 from ..runtime.contract import RATE_PREFIX, Variable
 from ..runtime.engine import FmuCore
 from ..runtime.errors import BodyvibError
-from ..runtime.network import Network, descriptor_model
+from ..runtime.network import Network, descriptor_model, linearized
 from .contents import model_resources, native_dir
 from .description import (
     MODEL_STOP_TIME,
@@ -800,7 +800,9 @@ def build_native_fmu(
     -------
     Path
         The FMU written, ``dest/<name>.fmu``: FMI ``fmi``.0, co-simulation and Model
-        Exchange, binaries for ``platforms`` and its C sources.
+        Exchange, binaries for ``platforms`` and its C sources. A model with contacts,
+        stops or asymmetric dampers is built linearized
+        (:func:`bodyvib.runtime.network.linearized`): the C core does not step regimes.
 
     Raises
     ------
@@ -816,6 +818,8 @@ def build_native_fmu(
     ...                  "dist/native/fmi3", fmi=3, platforms=["linux64"])  # doctest: +SKIP
     PosixPath('dist/native/fmi3/HumanBody3DOF.fmu')
     """
+    # the C core steps linear models: a car's contacts and stops run linearized there
+    network = linearized(network)
     nm = native_model(kind, network, name, description)
     return package_native_fmu(
         nm, lambda token: model_source(nm, token), model_resources(network), dest, fmi, platforms

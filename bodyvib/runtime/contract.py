@@ -112,6 +112,10 @@ PARAMETER_UNITS = {
     "k": "N/m",
     "k_series": "N/m",
     "c": "N.s/m",
+    "gap_compression": "m",
+    "gap_rebound": "m",
+    "c_compression": "N.s/m",
+    "c_rebound": "N.s/m",
 }
 
 #: Parameter values a model accepts (SI: kg, N/m, N s/m), the loader's range
@@ -121,6 +125,7 @@ PARAMETER_LIMITS = (1e-6, 1e12)
 
 #: SI units used by the FMUs, as exponents of the FMI base units.
 UNITS = {
+    "1": {},
     "m": {"m": 1},
     "m/s": {"m": 1, "s": -1},
     "m/s2": {"m": 1, "s": -2},
@@ -610,7 +615,18 @@ def parameter_variables(network: Network) -> Tuple[Variable, ...]:
                         f"Distance of point {point} {side} the centre of mass of {body_name}",
                     ),
                 )
-    field_words = {"k": "stiffness", "k_series": "series stiffness", "c": "damping"}
+    for point, ref in network.static_loads.items():
+        if isinstance(ref, str):
+            use.setdefault(ref, ("mass", f"Static mass resting on {point} (its weight only)"))
+    field_words = {
+        "k": "stiffness",
+        "k_series": "series stiffness",
+        "c": "damping",
+        "gap_compression": "gap in compression",
+        "gap_rebound": "gap in rebound",
+        "c_compression": "damping in compression",
+        "c_rebound": "damping in rebound",
+    }
     for el in network.elements:
         for fieldname, ref in el.values.items():
             if isinstance(ref, str):

@@ -13,7 +13,7 @@ seat force at ``seat_force_rate``, every other input is held), and the state is
 advanced exactly: ``x <- Phi x + Gamma0 u + Gamma1 du``. A rate that itself has
 a rate (a body's ``seat_velocity`` rising at ``seat_acceleration``) makes the
 input a parabola over the step, advanced exactly with ``Gamma2 d2u``
-(:func:`bodyvib.runtime.discretize.discretize_quadratic`). At the end of the step
+(:func:`bodyvib.runtime.exact.discretize_quadratic`). At the end of the step
 the inputs are set to their extrapolated values, so outputs read right after
 ``do_step`` (before the host sets new inputs) are those of the step's end;
 outputs are ``C x + D u`` computed when read, so feedthrough outputs follow a
@@ -46,7 +46,8 @@ from .contract import RATE_PREFIX, fmu_variables
 from .discretize import Discretization, StepCache, discretize_quadratic
 from .errors import BodyvibError
 from .lifecycle import Lifecycle
-from .network import Network, linear_model
+from .network import LinearModel, Network, linear_model
+from .regimes import EventStepper, PiecewiseModel
 
 __all__ = ["FmuCore"]
 
@@ -137,28 +138,74 @@ class FmuCore(Lifecycle):
     def _build(self, params: np.ndarray) -> None:
         """Model, output matrix and step cache for a parameter vector."""
         net = self.network.with_parameters(**dict(zip(self._pnames, params.tolist())))
-        lm = linear_model(net)
         iface = self.interface
         U = iface.input_map
-        self._n = lm.A.shape[0]
-        self._disc = Discretization(lm)
         self._U = U
         self._dU = U @ self._R  # du = dU @ s
-        rows = []
-        for sig in iface.output_signals:  # y = Y @ [x | s]
-            if sig.startswith(RATE_PREFIX):  # d/dt (C x + D u) = C (A x + B u) + D du
-                i = lm.output_index(sig[len(RATE_PREFIX) :])
-                rows.append(
-                    np.concatenate([lm.C[i] @ lm.A, lm.C[i] @ lm.B @ U + lm.D[i] @ self._dU])
+        self._stepper: Optional[EventStepper] = None
+        self._y0: Optional[np.ndarray] = None
+        if net.nonlinear_elements:  # a piecewise-affine model: regimes, located events
+            if (self._R @ self._R).any():
+                raise BodyvibError(
+                    f"{self.name}: nonlinear elements are stepped with inputs that rise "
+                    "linearly over a step; this FMU's inputs rise quadratically (a body "
+                    "with seat_acceleration): use a linear model"
                 )
-            else:
-                i = lm.output_index(sig)
-                rows.append(np.concatenate([lm.C[i], lm.D[i] @ U]))
-        self._Y = np.array(rows)
+            self._stepper = EventStepper(PiecewiseModel(net))
+            pw = self._stepper.model
+            self._Gz = np.hstack([pw.Gx, pw.Gu @ U])  # the functions on [x | s]
+            self._last: tuple = (None, None, None, None)  # step, regime, M, affine column
+            self._regimes: dict = {}
+            reg = self._stepper.regime
+            lm = reg.model
+            self._Y, self._y0 = self._output_rows(lm, reg.b, reg.d)
+            self._state_built = self._stepper.state
+        else:
+            lm = linear_model(net)
+            self._Y = self._output_rows(lm)[0]
+        self._n = lm.A.shape[0]
+        self._disc = Discretization(lm)
         self._steps = StepCache(self._step_matrix)
         self._h: Optional[float] = None
         self._M: Optional[np.ndarray] = None
         self._built_params = params.copy()
+
+    def _output_rows(
+        self, lm: LinearModel, b: Optional[np.ndarray] = None, d: Optional[np.ndarray] = None
+    ) -> "tuple[np.ndarray, Optional[np.ndarray]]":
+        """``Y`` with ``y = Y @ [x | s] (+ y0)`` for a (regime's) state space."""
+        U, rows, const = self._U, [], []
+        for sig in self.interface.output_signals:
+            if sig.startswith(RATE_PREFIX):  # d/dt (C x + D u) = C (A x + B u + b) + D du
+                i = lm.output_index(sig[len(RATE_PREFIX) :])
+                rows.append(
+                    np.concatenate([lm.C[i] @ lm.A, lm.C[i] @ lm.B @ U + lm.D[i] @ self._dU])
+                )
+                const.append(0.0 if b is None else float(lm.C[i] @ b))
+            else:
+                i = lm.output_index(sig)
+                rows.append(np.concatenate([lm.C[i], lm.D[i] @ U]))
+                const.append(0.0 if d is None else float(d[i]))
+        return np.array(rows), (None if b is None else np.array(const))
+
+    def _regime_step(self, h: float) -> "tuple[np.ndarray, np.ndarray]":
+        """``M`` and the affine column of the regime in force, for a step ``h``."""
+        st = self._stepper
+        assert st is not None
+        key = (st.state, float(f"{h:.12g}"))
+        got = self._regimes.get(key)
+        if got is None:
+            reg = st.regime
+            Phi, G0, G1, gb = reg.matrices(h)
+            n, ni = self._n, self._ni
+            M = np.zeros((n + ni, n + ni))
+            M[:n, :n] = Phi
+            M[:n, n:] = G0 @ self._U + G1 @ self._dU
+            M[n:, n:] = np.eye(ni) + h * self._R
+            if len(self._regimes) > 256:
+                self._regimes.clear()
+            got = self._regimes[key] = (M, np.concatenate([gb, np.zeros(ni)]))
+        return got
 
     def _step_matrix(self, h: float) -> np.ndarray:
         """``[x | s]`` at the step's end ``= M @ [x | s]``: exact state update, inputs extrapolated."""
@@ -232,6 +279,8 @@ class FmuCore(Lifecycle):
                 pass
             self._stale = False
         np.dot(self._Y, self._z, out=self._y)
+        if self._y0 is not None:
+            self._y += self._y0
         self._values[: self._ni + self._no] = self._buf[self._n :].tolist()
         for p, (_, j) in enumerate(self._fallback):
             if self._slope_on[p]:  # an input reads back as set (never non-zero), not the slope
@@ -328,6 +377,9 @@ class FmuCore(Lifecycle):
 
     def _advance(self, current_time: float, h: float) -> None:
         """The exact step itself: refused (BodyvibError) with the state unchanged if not finite."""
+        if self._stepper is not None:
+            self._advance_regimes(current_time, h)
+            return
         M = self._M
         if h != self._h or M is None:
             with np.errstate(all="ignore"):  # an overflow is refused below, not warned about
@@ -353,6 +405,59 @@ class FmuCore(Lifecycle):
         self._z[:] = self._znew
         self._dirty = True
         self.time = current_time + h
+
+    def _advance_regimes(self, current_time: float, h: float) -> None:
+        """:meth:`_advance` of a piecewise-affine model: the regime's step, events located."""
+        st = self._stepper
+        assert st is not None
+        n = self._n
+        last = self._last
+        if last[0] == h and last[1] == st.state:
+            M, m = last[2], last[3]
+        else:
+            M, m = self._regime_step(h)
+            self._last = (h, st.state, M, m)
+        with np.errstate(over="ignore", invalid="ignore"):
+            np.dot(M, self._z, out=self._znew)
+            if st.regime.affine:
+                self._znew += m
+            finite = math.isfinite(self._zdot(self._znew))
+        if not finite:
+            raise BodyvibError(
+                f"{self.name}: the state after the step from t = "
+                f"{current_time:g} s is not finite (inputs or state too large); "
+                "step refused, state unchanged"
+            )
+        ge = (self._Gz @ self._znew + st.model.g0).tolist()  # the switching functions
+        if st.clear(ge):  # nothing switches: one sign test each
+            st.accept(ge, current_time + h)
+        else:
+            s = self._s
+            u, du = self._U @ s, self._dU @ s
+            saved = st.to_state()
+            try:
+                xe = st.finish(self._x, u, du, h, current_time, self._znew[:n])
+            except BodyvibError as exc:
+                st.from_state(saved)
+                raise BodyvibError(f"{self.name}: {exc}; step refused, state unchanged") from None
+            self._znew[:n] = xe
+        self._z[:] = self._znew
+        if st.state != self._state_built:
+            reg = st.regime
+            self._Y, self._y0 = self._output_rows(reg.model, reg.b, reg.d)
+            self._state_built = st.state
+        self._dirty = True
+        self.time = current_time + h
+
+    def events(self) -> dict:
+        """What the nonlinear elements did so far (:meth:`bodyvib.runtime.regimes.EventLog.summary`); ``{}`` if none.
+
+        Returns
+        -------
+        dict
+            Element name -> its figures.
+        """
+        return {} if self._stepper is None else self._stepper.log.summary()
 
     def _slope_fallback(self, current_time: float, h: float) -> None:
         """The unconnected-velocity rule (module docstring), before a step."""
@@ -389,6 +494,7 @@ class FmuCore(Lifecycle):
             "bad": list(self._bad),
             "initialized": self._initialized,
             "time": self.time,
+            **({"regimes": self._stepper.to_state()} if self._stepper is not None else {}),
             "fallback": {
                 "seen": list(self._vel_seen),
                 "on": list(self._slope_on),
@@ -469,6 +575,11 @@ class FmuCore(Lifecycle):
         self._bad = list(state["bad"])
         self._initialized = bool(state["initialized"])
         self.time = float(state["time"])
+        if self._stepper is not None and "regimes" in state:
+            self._stepper.from_state(state["regimes"])
+            reg = self._stepper.regime
+            self._Y, self._y0 = self._output_rows(reg.model, reg.b, reg.d)
+            self._state_built = self._stepper.state
         fb = state.get("fallback")
         if fb is not None:
             self._vel_seen, self._slope_on = list(fb["seen"]), list(fb["on"])

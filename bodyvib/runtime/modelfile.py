@@ -84,7 +84,16 @@ from typing import (
 from .contract import PARAMETER_LIMITS, UNITS
 from .errors import BodyvibError
 from .jsonfile import read_json
-from .network import ELEMENT_KINDS, Element, Network, RigidBody, Value
+from .network import (
+    ELEMENT_KINDS,
+    NONLINEAR_KINDS,
+    OPTIONAL_FIELDS,
+    Element,
+    Network,
+    RigidBody,
+    Value,
+    static_preloads,
+)
 
 __all__ = [
     "network_from_dict",
@@ -105,6 +114,7 @@ _OPTIONAL = (
     "forces",
     "bodies",
     "actuators",
+    "static_loads",
 )
 _ACTUATOR_FIELDS = ("name", "from", "to")
 _BODY_FIELDS = ("mass", "inertia", "points")
@@ -206,13 +216,14 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
     if len(set(named)) != len(named):
         raise BodyvibError(f"{where}: mass, node, body, body point and base names must all differ")
     points = set(named) - set(bodies)
-    elements = _elements(data["elements"], refs, points, where)
+    elements = _elements(data["elements"], refs, points, where, nodes)
     _check_connected(elements, bodies, masses, nodes, (base, *extra_bases), where)
 
     force_inputs = _force_inputs(
         data.get("force_inputs", []), set(masses) | set(body_points), where
     )
     roles = _roles(data.get("roles", {}), points | set(bodies), where)
+    static_loads = _static_loads(data.get("static_loads", {}), refs, force_inputs, where)
     units = _units(data.get("units", {}), refs, where)
     fmu_outputs = _fmu_outputs(
         data.get("fmu_outputs", []),
@@ -223,6 +234,7 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
         roles,
         (base, *extra_bases),
         set(bodies),
+        {el.name for el in elements if el.kind == "contact"},
     )
     forces = _forces(data.get("forces", {}), where, {el.name for el in elements}, base)
     actuators = _actuators(data.get("actuators", []), where, force_inputs)
@@ -230,7 +242,7 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
     if not isinstance(provenance, dict):
         raise BodyvibError(f"{where}: 'provenance' must be an object")
 
-    return Network(
+    net = Network(
         name=data["name"],
         parameters=refs.params,
         masses=masses,
@@ -247,7 +259,29 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
         extra_bases=extra_bases,
         forces=forces,
         actuators=actuators,
+        static_loads=static_loads,
     )
+    if any(el.kind == "contact" for el in elements):
+        try:
+            static_preloads(net)
+        except BodyvibError as exc:
+            raise BodyvibError(f"{where}: {exc}") from None
+    return net
+
+
+def _static_loads(
+    raw: object, refs: "_References", force_inputs: Collection[str], where: str
+) -> Dict[str, Value]:
+    """``static_loads``: point -> mass (kg) resting on it, a point that takes a force input."""
+    if not isinstance(raw, dict):
+        raise BodyvibError(f"{where}: 'static_loads' must be an object of point: mass parameter")
+    for p in raw:
+        if p not in force_inputs:
+            raise BodyvibError(
+                f"{where}: static_loads.{p}: '{p}' takes no force input; a static load rests "
+                "on a point listed in 'force_inputs' (where the other model pushes)"
+            )
+    return {p: refs.value(m, f"{where}: static_loads.{p}") for p, m in raw.items()}
 
 
 def _force_inputs(force_inputs: object, loaded: set, where: str) -> list:
@@ -455,11 +489,14 @@ def _extent(raw: object, where: str) -> Tuple[float, float]:
     return (lo, hi)
 
 
-def _elements(raw: object, refs: _References, points: Set[str], where: str) -> List[Element]:
+def _elements(
+    raw: object, refs: _References, points: Set[str], where: str, nodes: Collection[str] = ()
+) -> List[Element]:
     """The elements: fields by kind, unique names, known points; adds internal nodes to points."""
     if not isinstance(raw, list) or not raw:
         raise BodyvibError(f"{where}: 'elements' must be a non-empty list")
     elements, names = [], set()
+    nodes = set(nodes)  # declared, and below the internal ones
     for i, e in enumerate(raw):
         el = _element(e, refs, f"{where}: elements[{i}]", where)
         if el.name in names:
@@ -471,6 +508,7 @@ def _elements(raw: object, refs: _References, points: Set[str], where: str) -> L
                     f"{where}: element '{el.name}': node name '{el.internal_node}' is already used"
                 )
             points.add(el.internal_node)
+            nodes.add(el.internal_node)
         elements.append(el)
     for el in elements:
         for p in (el.a, el.b):
@@ -478,6 +516,11 @@ def _elements(raw: object, refs: _References, points: Set[str], where: str) -> L
                 raise BodyvibError(
                     f"{where}: element '{el.name}' connects unknown point '{p}'; "
                     f"points are {', '.join(sorted(points))}"
+                )
+            if el.kind in NONLINEAR_KINDS and p in nodes:
+                raise BodyvibError(
+                    f"{where}: element '{el.name}' ({el.kind}) connects the massless node "
+                    f"'{p}'; a {el.kind} acts between masses, rigid-body points and bases"
                 )
         if el.a == el.b:
             raise BodyvibError(f"{where}: element '{el.name}' connects '{el.a}' to itself")
@@ -499,7 +542,7 @@ def _element(e: object, refs: _References, ew: str, where: str) -> Element:
     if kind not in ELEMENT_KINDS:
         raise BodyvibError(f"{ew}: unknown kind '{kind}'; kinds are {', '.join(ELEMENT_KINDS)}")
     need = ELEMENT_KINDS[kind]
-    allowed = set(_ELEMENT_FIELDS) | set(need)
+    allowed = set(_ELEMENT_FIELDS) | set(need) | set(OPTIONAL_FIELDS.get(kind, ()))
     if kind in ("series_kelvin", "zener"):
         allowed.add("node")
     miss = [k for k in need if k not in e]
@@ -511,14 +554,36 @@ def _element(e: object, refs: _References, ew: str, where: str) -> Element:
             f"{ew}: unknown field(s) {', '.join(extra)} for a {kind}; "
             f"its fields are {', '.join(sorted(allowed))}"
         )
+    if kind in NONLINEAR_KINDS:
+        _check_nonlinear(e, refs, ew)
+    fields = [p for p in need + OPTIONAL_FIELDS.get(kind, ()) if p in e]
     return Element(
         name=e["name"],
         kind=kind,
         a=e["from"],
         b=e["to"],
-        values={p: refs.value(e[p], f"{ew}.{p}") for p in need},
+        values={p: refs.value(e[p], f"{ew}.{p}") for p in fields},
         node=e.get("node"),
     )
+
+
+def _check_nonlinear(e: Dict[str, Any], refs: "_References", ew: str) -> None:
+    """The values of a contact, stop or asymmetric damper, each refused with its own reason."""
+    for key in ("gap_compression", "gap_rebound"):
+        if key in e:
+            gap = refs.params.get(e[key], e[key]) if isinstance(e[key], str) else e[key]
+            if isinstance(gap, (int, float)) and not isinstance(gap, bool) and gap < 0:
+                raise BodyvibError(
+                    f"{ew}: {key} = {gap:g} m is negative; a gap is the clearance from "
+                    "static equilibrium to the stop, give a positive number of metres"
+                )
+    if e["kind"] == "stop":
+        k = refs.params.get(e["k"], e["k"]) if isinstance(e["k"], str) else e["k"]
+        if isinstance(k, (int, float)) and not isinstance(k, bool) and k <= 0:
+            raise BodyvibError(
+                f"{ew}: a stop with stiffness k = {k:g} N/m stops nothing; give k > 0 N/m "
+                "(or remove the stop)"
+            )
 
 
 def _check_connected(
@@ -626,6 +691,7 @@ def _fmu_outputs(
     roles: Mapping[str, str],
     bases: Sequence[str],
     bodies: Collection[str] = (),
+    contacts: Collection[str] = (),
 ) -> Tuple[Dict[str, str], ...]:
     """Validate ``fmu_outputs``: each an object of name, signal, unit, description."""
     out, names = [], set()
@@ -647,12 +713,13 @@ def _fmu_outputs(
             or (point in bodies and quantity in ("x", "v", "a", "theta", "omega", "alpha"))
             or (point in points and point not in masses and point not in bases and quantity == "y")
             or (point in element_names and quantity in ("deflection", "force"))
+            or (point in contacts and quantity == "contact")
         )
         if not ok:
             raise BodyvibError(
                 f"{w}.signal '{signal}' is not an output of the model: use <mass, body point "
                 "or role>.x/.v/.a, <body>.theta/.omega/.alpha, <node>.y, "
-                f"<element>.deflection/.force or {bases[0]}_force"
+                f"<element>.deflection/.force, <contact>.contact or {bases[0]}_force"
             )
         out.append({k: item[k] for k in _FMU_OUTPUT_FIELDS})
     return tuple(out)
@@ -704,6 +771,8 @@ def network_to_dict(net: Network) -> dict:
         out["forces"] = dict(net.forces)
     if net.actuators:
         out["actuators"] = [dict(a) for a in net.actuators]
+    if net.static_loads:
+        out["static_loads"] = dict(net.static_loads)
     if net.bodies:
         out["bodies"] = {
             name: {

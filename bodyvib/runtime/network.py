@@ -8,15 +8,30 @@ model, ``road`` for a vehicle). Optional external forces act on listed masses
 
 Every element is expanded into primitive springs and dampers:
 
-============== ============================== ==================================
-kind           parameters                     meaning (``from`` -> ``to``)
-============== ============================== ==================================
-spring         k [N/m]                        k
-damper         c [N s/m]                      c
-kelvin         k, c                           k parallel c
-series_kelvin  k_series, k, c                 k_series, then node, then (k || c)
-zener          k, c, k_series                 k parallel (c in series with k_series)
-============== ============================== ==================================
+================= ============================== ==================================
+kind              parameters                     meaning (``from`` -> ``to``)
+================= ============================== ==================================
+spring            k [N/m]                        k
+damper            c [N s/m]                      c
+kelvin            k, c                           k parallel c
+series_kelvin     k_series, k, c                 k_series, then node, then (k || c)
+zener             k, c, k_series                 k parallel (c in series with k_series)
+contact           k, optional c                  k (|| c) that can only push
+stop              k, gap_compression,            nothing within the gaps, k (|| c)
+                  gap_rebound [m], optional c    beyond either
+asymmetric_damper c_compression, c_rebound       c by the sign of the rate
+================= ============================== ==================================
+
+The last three are *nonlinear* (:data:`NONLINEAR_KINDS`): each is linear within a
+regime, and :mod:`bodyvib.runtime.regimes` steps the piecewise-affine model they make.
+A contact's force (compression-positive) is ``max(0, F0 + k (x_from - x_to) + c
+(v_from - v_to))`` with ``F0`` its static preload under gravity
+(:func:`static_preloads`); a stop's side ``s`` (+1 compression, -1 rebound) pushes
+with ``max(0, -k gap + s (k (x_from - x_to) + c (v_from - v_to)))``, gaps measured
+from static equilibrium; an asymmetric damper uses ``c_rebound`` while it extends and
+``c_compression`` while it shortens. Here (:func:`linear_model`) they are linearized
+about static equilibrium: a contact as ``k`` (|| ``c``), a stop as nothing, an
+asymmetric damper as the mean of its two coefficients.
 
 ``series_kelvin`` and ``zener`` create a massless internal node, named by the
 element's ``node`` field (``<element>.node`` by default).
@@ -65,6 +80,10 @@ from .errors import BodyvibError
 
 __all__ = [
     "ELEMENT_KINDS",
+    "OPTIONAL_FIELDS",
+    "NONLINEAR_KINDS",
+    "ELEMENT_MODES",
+    "GRAVITY",
     "Element",
     "RigidBody",
     "Network",
@@ -73,6 +92,9 @@ __all__ = [
     "DescriptorModel",
     "descriptor_model",
     "linear_model",
+    "regime_model",
+    "static_preloads",
+    "linearized",
     "as_linear_model",
     "mount",
 ]
@@ -84,6 +106,26 @@ ELEMENT_KINDS: Dict[str, Tuple[str, ...]] = {
     "kelvin": ("k", "c"),
     "series_kelvin": ("k_series", "k", "c"),
     "zener": ("k", "c", "k_series"),
+    "contact": ("k",),
+    "stop": ("k", "gap_compression", "gap_rebound"),
+    "asymmetric_damper": ("c_compression", "c_rebound"),
+}
+
+#: Fields an element kind may have beyond :data:`ELEMENT_KINDS`' (its damping).
+OPTIONAL_FIELDS: Dict[str, Tuple[str, ...]] = {"contact": ("c",), "stop": ("c",)}
+
+#: Element kinds that switch between linear regimes (module docstring).
+NONLINEAR_KINDS: Tuple[str, ...] = ("contact", "stop", "asymmetric_damper")
+
+#: Standard acceleration of gravity (m/s2), for the static preloads of contacts
+#: (ISO 80000-3 standard value).
+GRAVITY = 9.80665
+
+#: The regimes of each nonlinear kind; the first is the one at static equilibrium.
+ELEMENT_MODES: Dict[str, Tuple[str, ...]] = {
+    "contact": ("engaged", "free"),
+    "stop": ("free", "compression", "rebound"),
+    "asymmetric_damper": ("compression", "rebound"),
 }
 
 Value = Union[str, float]
@@ -210,6 +252,11 @@ class Network:
         point (the sprung side of a suspension). Both points are in
         ``force_inputs``; a car FMU takes each as the input
         ``actuator_force[_<name>]``.
+    static_loads : dict of str to str or float
+        Point -> mass (kg, a parameter name or literal) that rests on it under gravity
+        without being part of this model (the occupant of a car FMU, who is another
+        FMU): it loads the contacts' static preloads (:func:`static_preloads`) only.
+        :func:`mount` drops the one at the mount point, whose masses it brings.
     """
 
     name: str
@@ -228,6 +275,7 @@ class Network:
     bodies: Mapping[str, RigidBody] = field(default_factory=dict)
     extra_bases: Tuple[str, ...] = ()
     actuators: Tuple[Mapping[str, str], ...] = ()
+    static_loads: Mapping[str, Value] = field(default_factory=dict)
 
     # -- derived views -----------------------------------------------------
     @property
@@ -301,8 +349,18 @@ class Network:
         """Resolve a role (``"head"``) or a point name to a point name."""
         return self.roles.get(role_or_name, role_or_name)
 
-    def element_primitives(self, el: Element) -> Tuple[List[Primitive], List[Primitive]]:
+    def element_primitives(
+        self, el: Element, mode: Optional[str] = None
+    ) -> Tuple[List[Primitive], List[Primitive]]:
         """Expand one element into primitive springs and dampers.
+
+        Parameters
+        ----------
+        el : Element
+            One of the network's elements.
+        mode : str, optional
+            The regime of a nonlinear element (:data:`ELEMENT_MODES`); None linearizes
+            it about static equilibrium (module docstring).
 
         Returns
         -------
@@ -316,12 +374,45 @@ class Network:
             return [], [(el.a, el.b, v["c"])]
         if el.kind == "kelvin":
             return [(el.a, el.b, v["k"])], [(el.a, el.b, v["c"])]
+        if el.kind in ("contact", "stop"):
+            engaged = mode in ("engaged", "compression", "rebound") or (
+                mode is None and el.kind == "contact"
+            )
+            if not engaged:
+                return [], []
+            return [(el.a, el.b, v["k"])], ([(el.a, el.b, v["c"])] if "c" in v else [])
+        if el.kind == "asymmetric_damper":
+            c = {"compression": v["c_compression"], "rebound": v["c_rebound"]}.get(
+                mode or "", 0.5 * (v["c_compression"] + v["c_rebound"])
+            )
+            return [], [(el.a, el.b, c)]
         n = el.internal_node
         if el.kind == "series_kelvin" and n is not None:  # the kind always has one
             return [(el.a, n, v["k_series"]), (n, el.b, v["k"])], [(n, el.b, v["c"])]
         if el.kind == "zener" and n is not None:
             return [(el.a, el.b, v["k"]), (el.a, n, v["k_series"])], [(n, el.b, v["c"])]
         raise BodyvibError(f"element '{el.name}': unknown kind '{el.kind}'")
+
+    def element_constant(self, el: Element, mode: Optional[str], preload: float = 0.0) -> float:
+        """The constant part of a nonlinear element's force in a regime, N (+ in compression).
+
+        A perturbation about static equilibrium: a free contact loses its static
+        preload (``-preload``), an engaged stop side pushes from its gap on
+        (``-k gap_compression``, ``+k gap_rebound``); every other case is 0.
+        """
+        if el.kind == "contact" and mode == "free":
+            return -float(preload)
+        if el.kind == "stop" and mode in ("compression", "rebound"):
+            k = self.value(el.values["k"])
+            if mode == "compression":
+                return -k * self.value(el.values["gap_compression"])
+            return k * self.value(el.values["gap_rebound"])
+        return 0.0
+
+    @property
+    def nonlinear_elements(self) -> Tuple[Element, ...]:
+        """The elements of :data:`NONLINEAR_KINDS`, in the network's order."""
+        return tuple(el for el in self.elements if el.kind in NONLINEAR_KINDS)
 
     def primitives(self) -> Tuple[List[Primitive], List[Primitive]]:
         """All elements expanded into primitive springs and dampers.
@@ -473,12 +564,23 @@ def _point_dofs(network: Network) -> dict:
     return point_dofs
 
 
-def _element_forces(network: Network, pos: dict, vel: dict, force_on: dict, nw: int) -> dict:
-    """Each element's compression-positive force on its ``to`` point, as a row over ``w``;
-    adds the forces of its springs and dampers to ``force_on`` of their points."""
-    element_force = {}
+def _element_forces(
+    network: Network, motion: tuple, force_on: dict, const_on: dict, nw: int, regime: tuple
+) -> Tuple[dict, dict]:
+    """Each element's compression-positive force on its ``to`` point, as a row over ``w``,
+    and its constant part (a nonlinear element's preload or gap in its regime); adds the
+    forces of its springs and dampers to ``force_on`` and the constants to ``const_on``.
+    ``regime`` is ``(modes, preloads)``."""
+    pos, vel = motion
+    modes, preloads = regime
+    element_force, element_const = {}, {}
     for el in network.elements:
-        el_springs, el_dampers = network.element_primitives(el)
+        mode = modes.get(el.name)
+        el_springs, el_dampers = network.element_primitives(el, mode)
+        c0 = network.element_constant(el, mode, preloads.get(el.name, 0.0))
+        element_const[el.name] = c0
+        const_on[el.b] += c0
+        const_on[el.a] -= c0
         f_el = np.zeros(nw)
         for (a, b, k), is_spring in [(p, True) for p in el_springs] + [
             (p, False) for p in el_dampers
@@ -491,15 +593,18 @@ def _element_forces(network: Network, pos: dict, vel: dict, force_on: dict, nw: 
             elif a == el.b:
                 f_el += f
         element_force[el.name] = f_el
-    return element_force
+    return element_force, element_const
 
 
 def _point_outputs(
-    network: Network, motion: tuple, element_force: dict, force_on: dict
-) -> Tuple[list, list]:
-    """The output rows and names after the degrees of freedom's: rigid-body points, nodes,
-    elements, base forces and named forces."""
+    network: Network, motion: tuple, elements: tuple, forces: tuple
+) -> Tuple[list, list, list]:
+    """The output rows, names and constants after the degrees of freedom's: rigid-body
+    points, nodes, elements, base forces and named forces. ``elements`` is
+    ``(element_force, element_const)``, ``forces`` ``(force_on, const_on)``."""
     pos, vel, acc = motion
+    element_force, element_const = elements
+    force_on, const_on = forces
     out_rows, out_names = [], []
     for p in network.body_points:
         out_rows += [pos[p], vel[p], acc[p]]
@@ -507,16 +612,20 @@ def _point_outputs(
     for n in network.node_names:
         out_rows.append(pos[n])
         out_names.append(f"{n}.y")
+    out_const = [0.0] * len(out_rows)
     for el in network.elements:
         out_rows += [pos[el.b] - pos[el.a], element_force[el.name]]
         out_names += [f"{el.name}.deflection", f"{el.name}.force"]
+        out_const += [0.0, element_const[el.name]]
     for b in network.bases:
         out_rows.append(-force_on[b])
         out_names.append(f"{b}_force")
+        out_const.append(-const_on[b])
     for name, el_name in network.forces.items():
         out_rows.append(element_force[el_name])
         out_names.append(f"{name}_force")
-    return out_rows, out_names
+        out_const.append(element_const[el_name])
+    return out_rows, out_names, out_const
 
 
 def descriptor_model(network: Network) -> DescriptorModel:
@@ -540,6 +649,26 @@ def descriptor_model(network: Network) -> DescriptorModel:
     >>> dm.E.shape, dm.B.shape
     ((5, 5), (5, 2))
     """
+    return _descriptor(network)[0]
+
+
+def _descriptor(
+    network: Network,
+    modes: Optional[Mapping[str, str]] = None,
+    preloads: Optional[Mapping[str, float]] = None,
+) -> Tuple[DescriptorModel, np.ndarray, np.ndarray]:
+    """The descriptor form in a regime, and its constant terms.
+
+    ``modes`` (element name -> mode) puts nonlinear elements in a regime (None: their
+    linearization); ``preloads`` gives the contacts' static forces (N). Returns the
+    model and the constants ``e`` (equations: ``E z' = A z + B u + e``) and ``d0``
+    (outputs: ``y = C z + Cd z' + D u + d0``), both zero without ``modes``. With
+    ``modes`` each contact adds the output ``"<contact>.contact"``, 1 engaged and 0
+    free, after all others.
+    """
+    regime = modes is not None
+    modes = modes or {}
+    preloads = preloads or {}
     masses = network.mass_names
     nodes = network.node_names
     mvals = network.mass_values()
@@ -581,7 +710,10 @@ def descriptor_model(network: Network) -> DescriptorModel:
         pos[b], vel[b] = unit(ns + 2 * j), unit(ns + 2 * j + 1)
 
     force_on = {p: np.zeros(nw) for p in list(point_dofs) + list(nodes) + list(bases)}
-    element_force = _element_forces(network, pos, vel, force_on, nw)
+    const_on = dict.fromkeys(force_on, 0.0)  # constant forces of nonlinear elements, up
+    element_force, element_const = _element_forces(
+        network, (pos, vel), force_on, const_on, nw, (modes, preloads)
+    )
     for m in network.force_inputs:
         force_on[m] = force_on[m] + unit(ns + inputs.index(f"{m}.force"))
 
@@ -596,15 +728,29 @@ def descriptor_model(network: Network) -> DescriptorModel:
     rows += [generalized[i] - inertia[i] * dof_acc[i] for i in range(nd)]
     rows += [force_on[n] for n in nodes]
     eq = np.array(rows).reshape(ns, nw)
+    gen_const = [0.0] * nd
+    for p, weights in point_dofs.items():
+        for i, c in weights.items():
+            gen_const[i] += c * const_on[p]
+    e = np.array([0.0] * nd + gen_const + [const_on[n] for n in nodes])
     out_rows, out_names = [], []
     for i, names in enumerate(dofs):
         out_rows += [dof_pos[i], dof_vel[i], dof_acc[i]]
         out_names += list(names)
-    point_rows, point_names = _point_outputs(network, (pos, vel, acc), element_force, force_on)
-    out = np.array(out_rows + point_rows).reshape(len(out_names) + len(point_names), nw)
+    point_rows, point_names, point_const = _point_outputs(
+        network, (pos, vel, acc), (element_force, element_const), (force_on, const_on)
+    )
+    out_const = [0.0] * len(out_rows) + point_const
+    out_rows += point_rows
     out_names += point_names
+    for el in network.elements if regime else ():  # a regime's contact flags: 1 engaged
+        if el.kind == "contact":
+            out_rows.append(np.zeros(nw))
+            out_names.append(f"{el.name}.contact")
+            out_const.append(0.0 if modes.get(el.name) == "free" else 1.0)
+    out = np.array(out_rows).reshape(len(out_names), nw)
     states = tuple(d[0] for d in dofs) + tuple(d[1] for d in dofs) + tuple(f"{n}.y" for n in nodes)
-    return DescriptorModel(
+    dm = DescriptorModel(
         E=-eq[:, ns + ni :] + 0.0,
         A=eq[:, :ns],
         B=eq[:, ns : ns + ni],
@@ -616,6 +762,7 @@ def descriptor_model(network: Network) -> DescriptorModel:
         outputs=tuple(out_names),
         network=network,
     )
+    return dm, e, np.array(out_const)
 
 
 def linear_model(network: Network) -> LinearModel:
@@ -647,6 +794,164 @@ def linear_model(network: Network) -> LinearModel:
     (5, 5)
     """
     return descriptor_model(network).solve()
+
+
+def regime_model(
+    network: Network, modes: Mapping[str, str], preloads: Mapping[str, float]
+) -> Tuple[LinearModel, np.ndarray, np.ndarray]:
+    """The affine state space of one regime: ``x' = A x + B u + b``, ``y = C x + D u + d``.
+
+    Parameters
+    ----------
+    network : Network
+        A network with nonlinear elements.
+    modes : dict of str to str
+        Nonlinear element name -> its mode (:data:`ELEMENT_MODES`); one missing is
+        linearized.
+    preloads : dict of str to float
+        Contact name -> static preload, N (:func:`static_preloads`).
+
+    Returns
+    -------
+    model : LinearModel
+        ``A, B, C, D`` of the regime.
+    b : (ns,) ndarray
+        Constant state-derivative term.
+    d : (no,) ndarray
+        Constant output term.
+
+    Raises
+    ------
+    BodyvibError
+        What :meth:`DescriptorModel.solve` refuses.
+    """
+    dm, e, d0 = _descriptor(network, modes, preloads)
+    lm = dm.solve()
+    b = np.linalg.solve(dm.E, e) if e.any() else np.zeros(e.shape)
+    return lm, b, d0 + dm.Cd @ b
+
+
+def static_preloads(network: Network) -> Dict[str, float]:
+    """The static force of each contact under gravity, N (+ in compression).
+
+    The static equilibrium of the whole network (linearized, :func:`linear_model`) under
+    gravity on every mass and rigid body and on its :attr:`Network.static_loads`, the
+    bases held at 0: each contact's force there.
+
+    Parameters
+    ----------
+    network : Network
+        Any network; one without contacts gives ``{}``.
+
+    Returns
+    -------
+    dict of str to float
+        Contact name -> preload, N.
+
+    Raises
+    ------
+    BodyvibError
+        A network without a static equilibrium (a mass held by dampers only), or a
+        contact that carries no load (no mass rests on it under gravity).
+
+    Examples
+    --------
+    >>> net = Network("drop", {"m": 10.0, "k": 1e4}, {"m": "m"},
+    ...               (Element("floor", "contact", "ground", "m", {"k": "k"}),), base="ground")
+    >>> round(static_preloads(net)["floor"], 4)
+    98.0665
+    """
+    contacts = [el for el in network.elements if el.kind == "contact"]
+    if not contacts:
+        return {}
+    lm = linear_model(network)
+    g = np.zeros(lm.A.shape[0])
+    for m in list(network.masses) + list(network.bodies):
+        g[lm.states.index(f"{m}.v")] = -GRAVITY
+    u = np.zeros(len(lm.inputs))
+    carried = {}
+    for p, ref in network.static_loads.items():  # a weight on a point, as a force input
+        name = f"{p}.force"
+        if name not in lm.inputs:
+            raise BodyvibError(
+                f"model '{network.name}': static load on '{p}', which takes no force input; "
+                "list it in 'force_inputs'"
+            )
+        carried[name] = -GRAVITY * network.value(ref)
+    for name, f in carried.items():
+        u[lm.inputs.index(name)] = f
+    try:
+        x = np.linalg.solve(lm.A, -(g + lm.B @ u))
+    except np.linalg.LinAlgError:
+        raise BodyvibError(
+            f"model '{network.name}': no static equilibrium under gravity (a mass or body "
+            "held by dampers only); give every mass a spring path to a base"
+        ) from None
+    y = lm.C @ x + lm.D @ u
+    out = {}
+    for el in contacts:
+        f = float(y[lm.output_index(f"{el.name}.force")])
+        if not f > 1e-9 * GRAVITY * max(network.total_mass(), 1e-300):
+            raise BodyvibError(
+                f"model '{network.name}': contact '{el.name}' carries no static load "
+                f"({f:.3g} N): no mass rests on it under gravity; a contact needs a load "
+                "path to gravity (put masses above it, or use a spring)"
+            )
+        out[el.name] = f
+    return out
+
+
+def linearized(network: Network) -> Network:
+    """The network with its nonlinear elements replaced by their linearizations.
+
+    A contact becomes a spring (a kelvin element with its damping), a stop is dropped,
+    an asymmetric damper becomes a damper of the mean coefficient; a network without
+    nonlinear elements is returned as it is. Its state space equals
+    :func:`linear_model` of ``network`` (but for the stops' outputs).
+
+    Parameters
+    ----------
+    network : Network
+
+    Returns
+    -------
+    Network
+        Linear, without the parameters only the dropped elements and static loads used,
+        and without the FMU outputs and named forces of what it dropped (the stops' and
+        the contact flags).
+    """
+    if not network.nonlinear_elements:
+        return network
+    elements = []
+    for el in network.elements:
+        v = dict(el.values)
+        if el.kind == "contact":
+            kind = "kelvin" if "c" in v else "spring"
+            elements.append(Element(el.name, kind, el.a, el.b, v))
+        elif el.kind == "asymmetric_damper":
+            c = 0.5 * (network.value(v["c_compression"]) + network.value(v["c_rebound"]))
+            elements.append(Element(el.name, "damper", el.a, el.b, {"c": c}))
+        elif el.kind != "stop":
+            elements.append(el)
+    refs = [r for el in elements for r in el.values.values()] + list(network.masses.values())
+    for body in network.bodies.values():
+        refs += [body.mass, body.inertia] + [str(x).lstrip("-") for x in body.points.values()]
+    used = {r for r in refs if isinstance(r, str)}
+    stops = {el.name for el in network.elements if el.kind == "stop"}
+    kept = tuple(
+        o
+        for o in network.fmu_outputs
+        if o["signal"].rpartition(".")[0] not in stops and not o["signal"].endswith(".contact")
+    )
+    return replace(
+        network,
+        elements=tuple(elements),
+        fmu_outputs=kept,
+        forces={n: e for n, e in network.forces.items() if e not in stops},
+        static_loads={},
+        parameters={k: v for k, v in network.parameters.items() if k in used},
+        units={k: u for k, u in network.units.items() if k in used},
+    )
 
 
 def as_linear_model(model: Union[Network, LinearModel]) -> LinearModel:
@@ -753,4 +1058,5 @@ def mount(carrier: Network, occupant: Network, at: str, prefix: str = "body.") -
         bodies=bodies,
         extra_bases=carrier.extra_bases,
         actuators=carrier.actuators,
+        static_loads={p: m for p, m in carrier.static_loads.items() if p != at},
     )

@@ -17,7 +17,7 @@ parameters are per unit sprung mass (:data:`GOLDEN_CAR`):
 Before the car sees it the profile is smoothed by a 250 mm moving average
 (the tire's enveloping; ``round(0.25 m / dx)`` samples, none when the spacing
 is 0.25 m or coarser). The car is then simulated exactly: its state space is
-discretized by :func:`bodyvib.runtime.discretize.discretize` with the profile
+discretized by :func:`bodyvib.runtime.exact.discretize` with the profile
 *linear between samples* (at 80 km/h a straight line in distance is one in
 time), so the suspension velocity at the samples carries no integration
 error (the recursion runs mode by mode in compiled code: 10 km at 25 mm in

@@ -514,13 +514,15 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
 
 def _fmu(kind: str, source: str, folder: str, built: Dict[tuple, str]) -> str:
     """Path of an FMU for a body or car source, built once into ``folder``."""
-    from ..fmus import build_project_fmu, car_fmu_name
+    from ..fmus import build_project_fmu, car_fmu_name, linear_car_file
 
     key = (kind, os.path.abspath(source) if os.path.isfile(source) else source)
     path = built.get(key)
     if path is None:
-        if kind == "car":
+        if kind == "car":  # linearized, as the other engines step it
             name = car_fmu_name(source)
+            os.makedirs(os.path.join(folder, str(len(built))), exist_ok=True)
+            source = linear_car_file(source, os.path.join(folder, str(len(built))))
         elif source == "iso7962":
             name = "HumanBodyISO7962"
         else:

@@ -182,8 +182,8 @@ class Case:
         return net.with_parameters(**dict(self.body_values)) if self.body_values else net
 
     def car_network(self):
-        """The car model."""
-        return load_car(self.car)
+        """The car model, linearized: the sweep engines step linear cars."""
+        return load_car(self.car, linear=True)
 
 
 def _list(value):
@@ -603,7 +603,7 @@ class _Prepared:
             for c in _list(spec["car"])
             for s in _list(spec["seat"])
         ]
-        self.car_digests = {c: _digest(load_car(c)) for c in self.cars}
+        self.car_digests = {c: _digest(load_car(c, linear=True)) for c in self.cars}
         base = {m: load_model(m) for m in dict.fromkeys(b[1] for b in self.bodies)}
         self.body_digests = [
             _digest(base[m].with_parameters(**dict(v)) if v else base[m])
