@@ -89,7 +89,7 @@ SIGNALS: Tuple[Signal, ...] = (
     Signal(
         "suspension_deflection",
         "m",
-        "+ in extension (a half car's: the front axle's)",
+        "+ in extension (a half car's: the front axle's; a full car's: the front left)",
         "car",
         "suspension_deflection",
         "suspension.deflection",
@@ -97,7 +97,7 @@ SIGNALS: Tuple[Signal, ...] = (
     Signal(
         "tire_force",
         "N",
-        "+ in compression (a half car's: the front axle's)",
+        "+ in compression (a half car's: the front axle's; a full car's: the front left)",
         "car",
         "tire_force",
         "tire.force",
@@ -169,7 +169,8 @@ def car_variable(signal: Signal, variables) -> str:
 
     A half car has no ``suspension_deflection``; it has ``suspension_deflection_front``
     and ``suspension_deflection_rear``. The signal table's per-car columns are the
-    front axle's there.
+    front axle's there, and a full car's front left corner's
+    (``suspension_deflection_front_left``).
 
     Parameters
     ----------
@@ -181,8 +182,8 @@ def car_variable(signal: Signal, variables) -> str:
     Returns
     -------
     str
-        ``signal.variable`` if the car has it, else ``signal.variable + "_front"`` if it
-        has that, else ``signal.variable``.
+        ``signal.variable`` if the car has it, else ``signal.variable + "_front"`` or
+        ``+ "_front_left"`` if it has that, else ``signal.variable``.
 
     Examples
     --------
@@ -191,8 +192,10 @@ def car_variable(signal: Signal, variables) -> str:
     ('tire_force', 'tire_force_front')
     """
     name = signal.variable
-    if name is not None and name not in variables and f"{name}_front" in variables:
-        return f"{name}_front"
+    if name is not None and name not in variables:
+        for corner in ("_front", "_front_left"):  # a half car's front axle, a full car's
+            if name + corner in variables:
+                return name + corner
     return name
 
 
