@@ -58,9 +58,11 @@ from .signals import (
     BODY_SIGNALS,
     CAR_SIGNALS,
     MASTER_SIGNALS,
+    OPTIONAL_CAR_SIGNALS,
     OPTIONAL_SIGNALS,
     SIGNALS,
     car_variable,
+    corner_variable,
     header,
 )
 
@@ -143,7 +145,7 @@ def _missing(md, kind):
         outputs = [f"{n}{s}" for s in suffixes for n in outputs]
     if kind == "car" and road_pairs(have):  # a car driven at several road points
         inputs = [n for pair in road_pairs(have) for n in pair] + list(inputs[2:])
-        outputs = [n if n in have or f"{n}_front" not in have else f"{n}_front" for n in outputs]
+        outputs = [corner_variable(n, have) for n in outputs]
     return [n for n in inputs if have.get(n) != "input"] + [
         n for n in outputs if have.get(n) != "output"
     ]
@@ -670,7 +672,13 @@ class Master:
             + ([car.vr["seat_force_rate"]] if self._has_rate else [])
         )
         # what is recorded, in the signal table's order (seat motion first: read after a step)
-        self._car_out = [car.vr[car_variable(s, car.vr)] for s in CAR_SIGNALS]
+        self._car_out = [
+            car.vr[car_variable(s, car.vr)]
+            for s in CAR_SIGNALS
+            if s.name not in OPTIONAL_CAR_SIGNALS or s.variable in car.vr
+        ]
+        # the optional car signals the car lacks (they come last): NaN
+        self._car_pad = [math.nan] * (len(CAR_SIGNALS) - len(self._car_out))
         self._control = controller
         self._act_vel, self._act_F = [], ([], [])
         if controller is not None:
@@ -748,7 +756,7 @@ class Master:
         car_motion = car_out[:2]
         c_set, c_get, c_step = cf.setReal, cf.getReal, cf.doStep
         b_set, b_get, b_step = bf.setReal, bf.getReal, bf.doStep
-        B, F_prev, pad = self._B, self._F_prev, self._pad
+        B, F_prev, pad, car_pad = self._B, self._F_prev, self._pad, self._car_pad
         law, act_vel, (Fa, Fa_prev) = self._control, self._act_vel, self._act_F
         act = []  # the actuators' inputs: force and rate of each
         law_step = getattr(law, "advance", None)  # a controller FMU steps with the car
@@ -766,7 +774,7 @@ class Master:
                     ]
                 if k == last:  # the last point: the car's outputs, no step
                     c_set(car_in, rk + [F] + ([0.0] if has_rate else []) + act)
-                    rows[j] = list(c_get(car_out)) + B
+                    rows[j] = list(c_get(car_out)) + car_pad + B
                     break
                 t = k * h
                 dF = (F - F_prev) if extrapolate else 0.0
@@ -776,8 +784,9 @@ class Master:
                     c_set(car_in, rk + [F + 0.5 * dF])
                 # car outputs at t_k with the inputs of t_k (tire force and seat
                 # acceleration are feedthrough of road and seat force)
-                xs, vs, a_s, sd, tf = c_get(car_out)
-                rows[j] = [xs, vs, a_s, sd, tf] + B
+                car_row = list(c_get(car_out))
+                xs = car_row[0]
+                rows[j] = car_row + car_pad + B
                 c_step(t, h)
                 xn, vn = c_get(car_motion)  # states only: exact right after the step
                 if law is not None:

@@ -26,7 +26,7 @@ from bodyvib.runtime.network import Network, linear_model
 
 from .control import closed_loop_model
 from .quarter_car import seated_system
-from .signals import BODY_SIGNALS, CAR_SIGNALS, OPTIONAL_SIGNALS, car_variable
+from .signals import BODY_SIGNALS, CAR_SIGNALS, OPTIONAL_CAR_SIGNALS, OPTIONAL_SIGNALS, car_variable
 from .signals import SIGNALS as _SIGNALS
 
 __all__ = ["SIGNALS", "reference_run", "ReferenceStream", "seat_force_weights", "nrmse"]
@@ -186,7 +186,8 @@ class ReferenceStream:
         self._rows = {}
         for s in CAR_SIGNALS + BODY_SIGNALS:
             variable = car_variable(s, fmu_outputs)
-            if s.name in OPTIONAL_SIGNALS and s.seated_output(seat) not in lm.outputs:
+            optional = OPTIONAL_SIGNALS + OPTIONAL_CAR_SIGNALS
+            if s.name in optional and s.seated_output(seat) not in lm.outputs:
                 self._rows[s.name] = None  # a body without this named force: NaN
             elif variable in fmu_outputs:
                 self._rows[s.name] = lm.output_index(fmu_outputs[variable])

@@ -30,9 +30,11 @@ __all__ = [
     "CAR_SIGNALS",
     "BODY_SIGNALS",
     "OPTIONAL_SIGNALS",
+    "OPTIONAL_CAR_SIGNALS",
     "header",
     "axis_label",
     "car_variable",
+    "corner_variable",
 ]
 
 
@@ -103,6 +105,25 @@ SIGNALS: Tuple[Signal, ...] = (
         "tire.force",
     ),
     Signal(
+        "seat_acceleration_x",
+        "m/s2",
+        "the car's seat point, forward, from the body's pitch: -h theta'' (h: the seat's "
+        "height above the centre of mass; inertial, gravity not included; NaN: a car "
+        "without it)",
+        "car",
+        "seat_acceleration_x",
+        "{seat}.ax",
+    ),
+    Signal(
+        "seat_acceleration_y",
+        "m/s2",
+        "the car's seat point, to the left, from the body's roll: -h phi'' (roll positive "
+        "left side up; inertial, gravity not included; NaN: a car without it)",
+        "car",
+        "seat_acceleration_y",
+        "{seat}.ay",
+    ),
+    Signal(
         "seat_force",
         "N",
         "force of the occupant on the seat, + in compression",
@@ -150,6 +171,10 @@ SIGNALS: Tuple[Signal, ...] = (
 #: FMU): a run records them as NaN.
 OPTIONAL_SIGNALS: Tuple[str, ...] = ("neck_force", "lumbar_force")
 
+#: Car signals a car may lack (all but a full car: a car whose body does not roll has
+#: no seat height): a run records them as NaN. They follow the car's other signals.
+OPTIONAL_CAR_SIGNALS: Tuple[str, ...] = ("seat_acceleration_x", "seat_acceleration_y")
+
 #: Unit of each signal by name.
 UNITS: Dict[str, str] = {s.name: s.unit for s in SIGNALS}
 
@@ -191,8 +216,21 @@ def car_variable(signal: Signal, variables) -> str:
     >>> car_variable(tire, {"tire_force"}), car_variable(tire, {"tire_force_front"})
     ('tire_force', 'tire_force_front')
     """
-    name = signal.variable
-    if name is not None and name not in variables:
+    return (
+        signal.variable if signal.variable is None else corner_variable(signal.variable, variables)
+    )
+
+
+def corner_variable(name: str, variables) -> str:
+    """``name``, or on a car with axles the front axle's (``_front``) or a full car's
+    front left corner's (``_front_left``) variable of that name, if the car has it.
+
+    Examples
+    --------
+    >>> corner_variable("tire_force", {"tire_force_front_left"})
+    'tire_force_front_left'
+    """
+    if name not in variables:
         for corner in ("_front", "_front_left"):  # a half car's front axle, a full car's
             if name + corner in variables:
                 return name + corner

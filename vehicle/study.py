@@ -18,6 +18,7 @@ from typing import Dict, List, Optional
 
 import numpy as np
 
+from bodyvib.comfort.axes import vibration_totals
 from bodyvib.comfort.figures import ComfortFigures
 from bodyvib.comfort.forces import ForceFigures, ForceStream
 from bodyvib.comfort.measures import SeatMeasures, SeatMeasureStream
@@ -30,10 +31,11 @@ from bodyvib.runtime.errors import BodyvibError
 
 from .control import controller_from_fmu, describe
 from .cosim import CsvStream, Master, check_fmu, model_from_fmu, open_controller, open_fmu
-from .quarter_car import wheel_offsets
+from .quarter_car import track_width, wheel_offsets, wheel_sides
 from .reference import ReferenceStream
-from .road.driven import RunSettings, driven_road, wheel_inputs
+from .road.driven import RunSettings, driven_road
 from .road.synthetic import Road, road_input
+from .road.tracks import roads_input, wheel_roads
 from .signals import BODY_SIGNALS, MASTER_SIGNALS, OPTIONAL_SIGNALS
 
 __all__ = [
@@ -78,6 +80,12 @@ class BodyRun:
     forces : dict of str to ForceFigures
         Figures of the body's internal forces over the run (``"neck_force"``,
         ``"lumbar_force"``; only those the body FMU outputs), N and s.
+    seat_axes : dict of str to float or None
+        A car with the seat's horizontal accelerations (a full car): the seat's ISO
+        2631-1 weighted r.m.s. per axis, ``seat_aw_x``, ``seat_aw_y`` (Wd) and
+        ``seat_aw_z`` (Wk), and its point vibration total value for comfort ``seat_av``
+        (k = 1.4, 1.4, 1; :func:`bodyvib.comfort.vibration_totals`), m/s2. The seat's
+        records are kept for it (24 bytes a step).
     """
 
     fmu: str
@@ -92,6 +100,7 @@ class BodyRun:
     head_window: np.ndarray = field(default_factory=lambda: np.empty(0))
     seat_measures: Optional[SeatMeasures] = None
     forces: Dict[str, ForceFigures] = field(default_factory=dict)
+    seat_axes: Optional[Dict[str, float]] = None
 
     def to_dict(self) -> dict:
         """The body's entry of the JSON document (figures, no histories; docs/getting_started.md, "JSON output")."""
@@ -105,6 +114,7 @@ class BodyRun:
             "real_time_factor": self.real_time_factor,
             **(self.seat_measures.to_dict() if self.seat_measures is not None else {}),
             **{name: f.to_dict() for name, f in self.forces.items()},
+            **(self.seat_axes or {}),
         }
 
 
@@ -332,7 +342,7 @@ def run_study(
     law = controller_from_fmu(controller_fmu) if controller_fmu else controller
     reference = reference and (law is None or law.linear)
     car_net = model_from_fmu(car_fmu) if reference else None
-    behind = _wheels(car_fmu, car_net)
+    behind, roads = _wheels(car_fmu, car_net, settings, rd)
     nets = {label: model_from_fmu(path) if reference else None for label, path in body_fmus.items()}
     refs = {
         label: ReferenceStream(car_net, net, step, law)
@@ -343,6 +353,7 @@ def run_study(
     seat_measures = {label: SeatMeasureStream(fs) for label in labels}
     trans = {label: TransmissibilityStream(fs, n) for label in labels}
     forces = {label: {name: ForceStream(step) for name in OPTIONAL_SIGNALS} for label in labels}
+    seat_axes = {label: [] for label in labels}  # the seat's x, y, z blocks (a full car)
     err = {label: [0.0, 0.0] for label in refs}  # sum (a - r)^2, sum r^2
     pairs = {(a, b): [0.0, 0.0] for a in labels for b in labels if a != b}
     w0 = max(0.0, (n - 1) * step / 2 - window_s / 2)  # the plot's window
@@ -369,7 +380,7 @@ def run_study(
         try:
             for a in range(0, n, block):
                 t = np.arange(a, min(n, a + block)) * step
-                zw, vw = wheel_inputs(rd, speed, t, behind)
+                zw, vw = roads_input(roads, speed, t, behind)
                 z, v = zw[:, 0], vw[:, 0]  # the (front) wheel's: the study's road columns
                 wheels = (z, v) if len(behind) == 1 else (zw, vw)
                 heads = {}
@@ -383,6 +394,10 @@ def run_study(
                     trans[label].update(seat, head)
                     for name, stream in forces[label].items():
                         stream.update(sig[name])
+                    if not np.isnan(sig["seat_acceleration_x"][0]):  # a car that has them
+                        seat_axes[label].append(
+                            (sig["seat_acceleration_x"], sig["seat_acceleration_y"], seat)
+                        )
                     ref = None
                     if label in refs:
                         interrupts.check()
@@ -465,6 +480,7 @@ def run_study(
             real_time_factor=duration / max(masters[label].wall_s, 1e-12),
             head_window=np.concatenate(windows[label]) if windows[label] else np.empty(0),
             seat_measures=seat_measures[label].figures(),
+            seat_axes=_seat_axes(seat_axes[label], fs),
             forces={
                 name: f
                 for name, f in ((k, s.figures()) for k, s in forces[label].items())
@@ -474,11 +490,28 @@ def run_study(
     return out
 
 
-def _wheels(car_fmu, car_net):
-    """Distance of each road input pair of the car FMU behind the first, m."""
+def _seat_axes(blocks, fs: float) -> Optional[Dict[str, float]]:
+    """The seat's ISO 2631-1 figures in x, y and z from its recorded blocks (None: none).
+
+    Returns the per-axis frequency-weighted r.m.s. (``seat_aw_x``, ``seat_aw_y`` with
+    Wd, ``seat_aw_z`` with Wk) and the point vibration total value for comfort
+    ``seat_av`` (:func:`bodyvib.comfort.vibration_totals`), m/s2.
+    """
+    if not blocks:
+        return None
+    x, y, z = (np.concatenate(b) for b in zip(*blocks))
+    tot = vibration_totals({"seat_x": x, "seat_y": y, "seat_z": z}, fs)
+    out = {f"seat_aw_{a}": tot.axes[f"seat_{a}"].weighted_rms for a in "xyz"}
+    out["seat_av"] = tot.points["seat"]
+    return out
+
+
+def _wheels(car_fmu, car_net, settings, road):
+    """Distance of each road input pair of the car FMU behind the first, m, and the road
+    of each (a full car's left and right tracks, :func:`bodyvib.vehicle.road.tracks.wheel_roads`)."""
     net = car_net if car_net is not None else model_from_fmu(car_fmu)
     if net is not None:
-        return wheel_offsets(net)
+        return wheel_offsets(net), wheel_roads(settings, road, wheel_sides(net), track_width(net))
     from fmpy import read_model_description
 
     from .cosim import road_pairs
@@ -490,7 +523,7 @@ def _wheels(car_fmu, car_net):
             "model, so the distance between its wheels is unknown; use a car FMU built "
             "by bodyvib (bodyvib build --fmus HalfCar)"
         )
-    return (0.0,)
+    return (0.0,), (road,)
 
 
 class StudyCsv:
