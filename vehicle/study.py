@@ -33,9 +33,9 @@ from .control import controller_from_fmu, describe
 from .cosim import CsvStream, Master, check_fmu, model_from_fmu, open_controller, open_fmu
 from .quarter_car import track_width, wheel_offsets, wheel_sides
 from .reference import ReferenceStream
+from .road import roads_input, wheel_roads
 from .road.driven import RunSettings, driven_road
 from .road.synthetic import Road, road_input
-from .road.tracks import roads_input, wheel_roads
 from .signals import BODY_SIGNALS, MASTER_SIGNALS, OPTIONAL_SIGNALS
 
 __all__ = [

@@ -51,6 +51,7 @@ from .synthetic import (
     track_coherence,
     two_track_road,
 )
+from .tracks import roads_input, wheel_roads
 
 __all__ = [
     "ISO8608_CLASSES",
@@ -69,6 +70,8 @@ __all__ = [
     "random_road",
     "two_track_road",
     "track_coherence",
+    "wheel_roads",
+    "roads_input",
     "road_source",
     "road_table",
     "make_road",
