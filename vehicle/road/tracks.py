@@ -67,10 +67,10 @@ def wheel_roads(
     right = road
     if not is_road_file(spec) and len(spec) == 1 and spec.upper() in ISO8608_CLASSES:
         length = settings.speed_m_s * settings.duration_s + 1.0  # as make_road's
-        left, far = two_track_road(spec.upper(), track_width, length, settings.seed)
-        taper = settings.road_options.taper_m
-        road = TaperedRoad(left, left.length, taper)
-        right = TaperedRoad(far, far.length, taper)
+        # the left track is the one-track road ``road`` already is (same class, length
+        # and seed): only the right one is made here
+        _, far = two_track_road(spec.upper(), track_width, length, settings.seed)
+        right = TaperedRoad(far, far.length, settings.road_options.taper_m)
     return tuple(right if side < 0 else road for side in sides)
 
 
