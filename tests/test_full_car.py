@@ -322,7 +322,9 @@ def test_cosim_full_car_reports_the_seat_in_three_axes(tmp_path):
     )
     assert done.returncode == 0, done.stderr
     run = read_run_csv(out)
-    body = json.loads(js.read_text())["bodies"]["HumanBody3DOF"]
+    doc = json.loads(js.read_text())
+    assert "two_track_road" in doc["road"]["right_track"]
+    body = doc["bodies"]["HumanBody3DOF"]
     axes = {"seat_x": "seat_acceleration_x", "seat_y": "seat_acceleration_y"}
     axes["seat_z"] = "seat_acceleration"
     tot = vibration_totals({k: run[c] for k, c in axes.items()}, 1000.0)

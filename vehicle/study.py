@@ -435,7 +435,7 @@ def run_study(
             if controller is not None
             else ""
         ),
-        road=rd.describe(),
+        road=_road_description(rd, roads),
         window_time=np.arange(k0, k1 + 1) * step,
         history_sums={k: tuple(v) for k, v in pairs.items()},
     )
@@ -486,6 +486,17 @@ def run_study(
                 for name, f in ((k, s.figures()) for k, s in forces[label].items())
                 if math.isfinite(f.rms)
             },
+        )
+    return out
+
+
+def _road_description(road, roads) -> dict:
+    """The run's road described; a full car's right track (another road) named beside it."""
+    out = road.describe()
+    if any(r is not road for r in roads):
+        out["right_track"] = (
+            "the class's second track, a track width to the right, correlated with the "
+            "left (this road) as an isotropic surface (bodyvib.vehicle.road.two_track_road)"
         )
     return out
 
