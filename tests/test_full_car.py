@@ -393,3 +393,12 @@ def test_batched_sweep_engine_drives_the_full_car_on_two_tracks():
     np.testing.assert_allclose(head, ref["head_acceleration"], rtol=0, atol=1e-9 * scale)
     # the spectral engine would drive both tracks alike: it refuses, in the row
     assert "left and right wheels" in run_spectral([case])[0]["error"]
+
+
+def test_refuses_a_rolling_body_with_every_point_on_its_centreline():
+    data = full_car_dict()
+    points = data["bodies"]["body"]["points"]
+    for name in points:
+        points[name] = points[name][0]
+    with pytest.raises(BodyvibError, match="roll is not held"):
+        network_from_dict(data, source="full-car.json")

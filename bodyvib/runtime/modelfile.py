@@ -443,6 +443,12 @@ def _bodies(raw: object, refs: _References, where: str) -> Dict[str, RigidBody]:
                         f"{bw}: point '{p}' at x = {x:g} m is outside the body's extent "
                         f"{extent[0]:g} to {extent[1]:g} m; move the point or widen the extent"
                     )
+        lateral = {refs.resolve(r[1]) if isinstance(r, tuple) else 0.0 for r in positions.values()}
+        if rolls and len(lateral) < 2:
+            raise BodyvibError(
+                f"{bw}: a body with a roll_inertia needs points at two lateral positions "
+                "(points [x, y], y to the left), or its roll is not held"
+            )
         bodies[name] = RigidBody(
             mass=refs.value(b["mass"], f"{bw}.mass"),
             inertia=refs.value(b["inertia"], f"{bw}.inertia"),
