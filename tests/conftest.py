@@ -104,9 +104,9 @@ def native_dist(tmp_path_factory):
 
 @pytest.fixture(scope="session")
 def native_fmus(native_dist):
-    """The native body and car FMUs (the half car's too): ``"<name>"`` (FMI 2.0) and
-    ``"fmi3/<name>"`` -> .fmu path."""
-    names = FMU_NAMES + ("HalfCar",)
+    """The native body and car FMUs (the half and full cars' too): ``"<name>"`` (FMI 2.0)
+    and ``"fmi3/<name>"`` -> .fmu path."""
+    names = FMU_NAMES + ("HalfCar", "FullCar")
     paths = {n: str(native_dist / f"{n}.fmu") for n in names}
     paths.update({f"fmi3/{n}": str(native_dist / "fmi3" / f"{n}.fmu") for n in names})
     return paths

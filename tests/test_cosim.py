@@ -248,8 +248,11 @@ def test_check_cli_end_to_end(fmus, tmp_path):
         rows = list(csv.reader(f))
     col = rows[0].index("HumanBody3DOF.head_acceleration [m/s2]")
     a = np.array([float(r[col]) for r in rows[1:]])
-    # every point, every column (with each body's neck and lumbar force), streamed
-    assert len(rows) == 1 + 6001 and len(rows[0]) == 24  # with tire_contact, stop_force
+    # every point, every column (with each body's neck and lumbar force, and the seat's
+    # x and y accelerations, NaN: the quarter car's body does not pitch or roll), streamed
+    assert len(rows) == 1 + 6001 and len(rows[0]) == 26  # with tire_contact, stop_force
+    sideways = rows[0].index("seat_acceleration_y [m/s2]")
+    assert all(r[sideways] == "nan" for r in rows[1:])
     for label, b in doc["bodies"].items():
         neck = np.array([float(r[rows[0].index(f"{label}.neck_force [N]")]) for r in rows[1:]])
         assert b["neck_force"]["peak"] == pytest.approx(neck[np.argmax(np.abs(neck))], rel=1e-6)

@@ -83,6 +83,17 @@ FMUS = {
             "tire_force_rear": "tire_rear.force",
         },
     ),
+    "FullCar": (
+        lambda: load_car("full-car"),
+        "car",
+        "road_displacement_front_left",
+        "road_velocity_front_left",
+        {
+            "seat_displacement": "seat.x",
+            "roll_rate": "body.phi_rate",
+            "seat_acceleration_y": "seat.ay",
+        },
+    ),
 }
 CASES = [(name, fmi) for name in FMUS for fmi in (2, 3)]
 T_END, DT, HOLD, F_HZ, AMP = 0.5, 1e-3, 5, 3.0, 0.01

@@ -57,7 +57,15 @@ def test_every_declared_name_imports(name):
 
 #: Declared names that are modules by design.
 MODULE_NAMES = {
-    "bodyvib.process": {"extras", "interrupts", "limits", "outputs", "progress", "scratch", "units"},
+    "bodyvib.process": {
+        "extras",
+        "interrupts",
+        "limits",
+        "outputs",
+        "progress",
+        "scratch",
+        "units",
+    },
     "bodyvib.vehicle": {"road", "sweep"},
 }
 

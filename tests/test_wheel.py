@@ -196,6 +196,7 @@ def test_installed_wheel_builds_fmus_and_runs_the_check(wheel, tmp_path):
     )
     assert build.returncode == 0, build.stdout + build.stderr
     assert sorted(p.name for p in (work / "fmus").iterdir()) == [
+        "FullCar.fmu",
         "HalfCar.fmu",
         "HalfCarWithOccupant.ssp",
         "HumanBody3DOF.fmu",

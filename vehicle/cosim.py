@@ -60,9 +60,11 @@ from .signals import (
     CAR_DEFAULTS,
     CAR_SIGNALS,
     MASTER_SIGNALS,
+    OPTIONAL_CAR_SIGNALS,
     OPTIONAL_SIGNALS,
     SIGNALS,
     car_variable,
+    corner_variable,
     header,
 )
 
@@ -146,7 +148,7 @@ def _missing(md, kind):
         outputs = [f"{n}{s}" for s in suffixes for n in outputs]
     if kind == "car" and road_pairs(have):  # a car driven at several road points
         inputs = [n for pair in road_pairs(have) for n in pair] + list(inputs[2:])
-        outputs = [n if n in have or f"{n}_front" not in have else f"{n}_front" for n in outputs]
+        outputs = [corner_variable(n, have) for n in outputs]
     return [n for n in inputs if have.get(n) != "input"] + [
         n for n in outputs if have.get(n) != "output"
     ]
@@ -568,18 +570,19 @@ class Master:
             + ([car.vr["seat_force_rate"]] if self._has_rate else [])
         )
         # what is recorded, in the signal table's order (seat motion first: read after a step);
-        # a signal the car lacks (a linear car's contact flag) is recorded as its default
-        self._car_out = [
-            car.vr[car_variable(s, car.vr)]
-            for s in CAR_SIGNALS
-            if car_variable(s, car.vr) in car.vr
-        ]
-        lacks = [s.name for s in CAR_SIGNALS if car_variable(s, car.vr) not in car.vr]
-        if set(lacks) - set(CAR_DEFAULTS) or lacks != [
-            s.name for s in CAR_SIGNALS[len(self._car_out) :]
-        ]:
+        # a signal the car lacks is recorded as its default (a linear car's contact flag)
+        # or NaN (the seat's horizontal accelerations of a car whose body does not roll)
+        names = [s.name for s in CAR_SIGNALS]
+        has = [car_variable(s, car.vr) in car.vr for s in CAR_SIGNALS]
+        lacks = [n for n, h in zip(names, has) if not h]
+        if set(lacks) - set(CAR_DEFAULTS) - set(OPTIONAL_CAR_SIGNALS):
             raise BodyvibError(f"car FMU has no output(s) {', '.join(lacks)}")
-        self._car_pad = [CAR_DEFAULTS[name] for name in lacks]
+        self._car_out = [car.vr[car_variable(s, car.vr)] for s, h in zip(CAR_SIGNALS, has) if h]
+        self._car_pad = [CAR_DEFAULTS.get(n, math.nan) for n in lacks]
+        # read: the present signals, then the pads; recorded: the table's order
+        read = [n for n, h in zip(names, has) if h] + lacks
+        perm = [read.index(n) for n in names] + list(range(len(names), len(MASTER_SIGNALS)))
+        self._perm = None if read == names else perm
         self._control = controller
         self._act_vel, self._act_F = [], ([], [])
         if controller is not None:
@@ -705,7 +708,8 @@ class Master:
             self.wall_s += time.perf_counter() - t0
         self._B, self._F_prev, self._act_F = B, F_prev, (Fa, Fa_prev)
         self.k += m
-        return np.array(rows, dtype=float).reshape(m, len(MASTER_SIGNALS))
+        out = np.array(rows, dtype=float).reshape(m, len(MASTER_SIGNALS))
+        return out if self._perm is None else out[:, self._perm]
 
 
 def cosimulate(

@@ -1,4 +1,5 @@
-"""The project's FMUs: HumanBody3DOF, HumanBodyISO7962, QuarterCar, HalfCar, Road, RoadFrontRear.
+"""The project's FMUs: HumanBody3DOF, HumanBodyISO7962, QuarterCar, HalfCar, FullCar, Road,
+RoadFrontRear.
 
 ``python build_fmu.py`` and ``bodyvib build`` build these with
 :func:`bodyvib.fmu.builder.build`, pythonfmu or native (``Road``: a road of
@@ -89,6 +90,14 @@ FMUS = {
         "Half car (body bounce and pitch on front and rear suspensions, unsprung masses and "
         "tires): front and rear road and seat force in, seat motion, bounce, pitch, "
         "suspension deflections and tire forces out; exact discretization",
+    ),
+    "FullCar": (
+        "car",
+        "full-car",
+        "Full car (body bounce, pitch and roll on four suspensions, unsprung masses and "
+        "tires): the four corners' road and the seat force in, the seat point's vertical "
+        "motion and horizontal accelerations, bounce, pitch, roll, suspension deflections "
+        "and tire forces out; exact discretization",
     ),
     "Road": (
         "source",
@@ -493,7 +502,8 @@ def linear_car_file(car: str, folder) -> str:
 
 
 def car_fmu_name(car: str = "quarter-car") -> str:
-    """The FMU a vehicle model is built as: ``HalfCar`` for a car with axles, else ``QuarterCar``.
+    """The FMU a vehicle model is built as: ``FullCar`` for a car with left and right
+    wheels, ``HalfCar`` for a car with axles, else ``QuarterCar``.
 
     Parameters
     ----------
@@ -512,10 +522,13 @@ def car_fmu_name(car: str = "quarter-car") -> str:
 
     Examples
     --------
-    >>> car_fmu_name("quarter-car"), car_fmu_name("half-car")
-    ('QuarterCar', 'HalfCar')
+    >>> car_fmu_name("quarter-car"), car_fmu_name("half-car"), car_fmu_name("full-car")
+    ('QuarterCar', 'HalfCar', 'FullCar')
     """
-    return "HalfCar" if load_car(car).extra_bases else "QuarterCar"
+    net = load_car(car)
+    if any(net.body_point_places[p][2] for p in net.body_points):
+        return "FullCar"  # a body with points off its centreline: it rolls
+    return "HalfCar" if net.extra_bases else "QuarterCar"
 
 
 def temporary_fmu_dir() -> str:

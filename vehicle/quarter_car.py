@@ -8,11 +8,15 @@ front and a rear axle, driven at ``road_front`` and ``road_rear``; the rear
 wheel meets the road :func:`wheel_offsets` metres after the front. Its inputs are
 ``road_displacement`` [m], ``road_velocity`` [m/s] and ``sprung.force`` [N,
 positive up] -- the negative of the occupant's seat force, which is positive
-in compression. The occupant sits on the point with role ``seat``.
+in compression. The occupant sits on the point with role ``seat``. The full car
+(``vehicle/data/full-car.json``) also rolls, on four corners: its left wheels run
+on a road's left track, its right wheels on the right (:func:`wheel_sides`).
 """
 
 import os
-from typing import Tuple
+from typing import Dict, Tuple
+
+import numpy as np
 
 from bodyvib.models import load_network
 from bodyvib.runtime.contract import seat_point
@@ -21,7 +25,15 @@ from bodyvib.runtime.network import Network, linearized, mount
 
 from .seats import load_seat, mount_seat, split_car_name
 
-__all__ = ["CAR_DIR", "CAR_FMU_OUTPUTS", "load_car", "seated_system", "wheel_offsets"]
+__all__ = [
+    "CAR_DIR",
+    "CAR_FMU_OUTPUTS",
+    "load_car",
+    "seated_system",
+    "wheel_offsets",
+    "track_width",
+    "wheel_sides",
+]
 
 #: Folder of the shipped vehicle parameter files.
 CAR_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
@@ -122,8 +134,77 @@ def wheel_offsets(car: Network) -> Tuple[float, ...]:
     """
     if not car.extra_bases:
         return (0.0,)
+    where = [car.body_points[p][1] for p in _axle_points(car)]
+    offsets = tuple(where[0] - x for x in where)
+    if min(offsets) < 0:
+        raise BodyvibError(
+            f"vehicle model '{car.name}': its first road point '{car.base}' must be the "
+            "front axle's (list the bases front to rear)"
+        )
+    return offsets
+
+
+def wheel_sides(car: Network) -> Tuple[int, ...]:
+    """The road track each road point (base) of a car runs on: 1 left, -1 right, 0 centre.
+
+    A base's side is that of the rigid-body point its tire and suspension lead to
+    (``y`` > 0: left); a car without rigid bodies has one base on the centre line.
+
+    Parameters
+    ----------
+    car : Network
+        A vehicle model (:func:`load_car`).
+
+    Returns
+    -------
+    tuple of int
+        A side per base, in the order of its bases.
+
+    Raises
+    ------
+    BodyvibError
+        As :func:`wheel_offsets`.
+
+    Examples
+    --------
+    >>> wheel_sides(load_car("half-car")), wheel_sides(load_car("full-car"))
+    ((0, 0), (1, -1, 1, -1))
+    """
+    if not car.extra_bases:
+        return (0,)
+    places = car.body_point_places
+    return tuple(int(np.sign(places[p][2])) for p in _axle_points(car))
+
+
+def track_width(car: Network) -> float:
+    """Distance between a car's left and right wheels (the front pair's), m; 0 without sides.
+
+    Parameters
+    ----------
+    car : Network
+        A vehicle model (:func:`load_car`).
+
+    Returns
+    -------
+    float
+        ``y`` of the first left wheel's body point minus ``y`` of the first right one's.
+
+    Examples
+    --------
+    >>> track_width(load_car("full-car")), track_width(load_car("half-car"))
+    (1.5, 0.0)
+    """
+    sides = wheel_sides(car)
+    if 1 not in sides or -1 not in sides:
+        return 0.0
+    places, points = car.body_point_places, _axle_points(car)
+    return places[points[sides.index(1)]][2] - places[points[sides.index(-1)]][2]
+
+
+def _axle_points(car: Network) -> Tuple[str, ...]:
+    """The rigid-body point each base's tire and suspension lead to, base by base."""
     points = car.body_points
-    links = {}
+    links: Dict[str, set] = {}
     for el in car.elements:
         chain = [el.a, el.b] if el.internal_node is None else [el.a, el.internal_node, el.b]
         for p, q in zip(chain, chain[1:]):
@@ -147,11 +228,5 @@ def wheel_offsets(car: Network) -> Tuple[float, ...]:
                 f"{len(found)} body points ({', '.join(sorted(found)) or 'none'}); each road "
                 "point must carry one axle, its tire and suspension ending at one body point"
             )
-        where.append(points[found.pop()][1])
-    offsets = tuple(where[0] - x for x in where)
-    if min(offsets) < 0:
-        raise BodyvibError(
-            f"vehicle model '{car.name}': its first road point '{car.base}' must be the "
-            "front axle's (list the bases front to rear)"
-        )
-    return offsets
+        where.append(found.pop())
+    return tuple(where)

@@ -29,7 +29,14 @@ from bodyvib.runtime.regimes import EventStepper
 from .control import closed_loop_model
 from .quarter_car import seated_system
 from .road.driven import road_columns
-from .signals import BODY_SIGNALS, CAR_DEFAULTS, CAR_SIGNALS, OPTIONAL_SIGNALS, car_variable
+from .signals import (
+    BODY_SIGNALS,
+    CAR_DEFAULTS,
+    CAR_SIGNALS,
+    OPTIONAL_CAR_SIGNALS,
+    OPTIONAL_SIGNALS,
+    car_variable,
+)
 from .signals import SIGNALS as _SIGNALS
 
 __all__ = ["SIGNALS", "reference_run", "ReferenceStream", "seat_force_weights", "nrmse"]
@@ -224,7 +231,10 @@ class ReferenceStream:
             variable = car_variable(s, fmu_outputs)
             if s.name in CAR_DEFAULTS and s.seated_output(seat) not in lm.outputs:
                 self._rows[s.name] = CAR_DEFAULTS[s.name]  # a linear car's: constant
-            elif s.name in OPTIONAL_SIGNALS and s.seated_output(seat) not in lm.outputs:
+            elif (
+                s.name in OPTIONAL_SIGNALS + OPTIONAL_CAR_SIGNALS
+                and s.seated_output(seat) not in lm.outputs
+            ):
                 self._rows[s.name] = None  # a body without this named force: NaN
             elif variable in fmu_outputs:
                 self._rows[s.name] = lm.output_index(fmu_outputs[variable])

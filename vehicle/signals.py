@@ -31,9 +31,11 @@ __all__ = [
     "BODY_SIGNALS",
     "OPTIONAL_SIGNALS",
     "CAR_DEFAULTS",
+    "OPTIONAL_CAR_SIGNALS",
     "header",
     "axis_label",
     "car_variable",
+    "corner_variable",
 ]
 
 
@@ -90,7 +92,7 @@ SIGNALS: Tuple[Signal, ...] = (
     Signal(
         "suspension_deflection",
         "m",
-        "+ in extension (a half car's: the front axle's)",
+        "+ in extension (a half car's: the front axle's; a full car's: the front left)",
         "car",
         "suspension_deflection",
         "suspension.deflection",
@@ -98,7 +100,7 @@ SIGNALS: Tuple[Signal, ...] = (
     Signal(
         "tire_force",
         "N",
-        "+ in compression (a half car's: the front axle's)",
+        "+ in compression (a half car's: the front axle's; a full car's: the front left)",
         "car",
         "tire_force",
         "tire.force",
@@ -118,6 +120,25 @@ SIGNALS: Tuple[Signal, ...] = (
         "car",
         "stop_force",
         "stops.force",
+    ),
+    Signal(
+        "seat_acceleration_x",
+        "m/s2",
+        "the car's seat point, forward, from the body's pitch: -h theta'' (h: the seat's "
+        "height above the centre of mass; inertial, gravity not included; NaN: a car "
+        "without it)",
+        "car",
+        "seat_acceleration_x",
+        "{seat}.ax",
+    ),
+    Signal(
+        "seat_acceleration_y",
+        "m/s2",
+        "the car's seat point, to the left, from the body's roll: -h phi'' (roll positive "
+        "left side up; inertial, gravity not included; NaN: a car without it)",
+        "car",
+        "seat_acceleration_y",
+        "{seat}.ay",
     ),
     Signal(
         "seat_force",
@@ -170,6 +191,9 @@ OPTIONAL_SIGNALS: Tuple[str, ...] = ("neck_force", "lumbar_force")
 #: Car signals a car model may lack (a linear car has no contact and no stops), and the
 #: value a run records for them then.
 CAR_DEFAULTS: Dict[str, float] = {"tire_contact": 1.0, "stop_force": 0.0}
+#: Car signals a car may lack (all but a full car: a car whose body does not roll has
+#: no seat height): a run records them as NaN. They follow the car's other signals.
+OPTIONAL_CAR_SIGNALS: Tuple[str, ...] = ("seat_acceleration_x", "seat_acceleration_y")
 
 #: Unit of each signal by name.
 UNITS: Dict[str, str] = {s.name: s.unit for s in SIGNALS}
@@ -190,7 +214,8 @@ def car_variable(signal: Signal, variables) -> str:
 
     A half car has no ``suspension_deflection``; it has ``suspension_deflection_front``
     and ``suspension_deflection_rear``. The signal table's per-car columns are the
-    front axle's there.
+    front axle's there, and a full car's front left corner's
+    (``suspension_deflection_front_left``).
 
     Parameters
     ----------
@@ -202,8 +227,8 @@ def car_variable(signal: Signal, variables) -> str:
     Returns
     -------
     str
-        ``signal.variable`` if the car has it, else ``signal.variable + "_front"`` if it
-        has that, else ``signal.variable``.
+        ``signal.variable`` if the car has it, else ``signal.variable + "_front"`` or
+        ``+ "_front_left"`` if it has that, else ``signal.variable``.
 
     Examples
     --------
@@ -211,9 +236,24 @@ def car_variable(signal: Signal, variables) -> str:
     >>> car_variable(tire, {"tire_force"}), car_variable(tire, {"tire_force_front"})
     ('tire_force', 'tire_force_front')
     """
-    name = signal.variable
-    if name is not None and name not in variables and f"{name}_front" in variables:
-        return f"{name}_front"
+    return (
+        signal.variable if signal.variable is None else corner_variable(signal.variable, variables)
+    )
+
+
+def corner_variable(name: str, variables) -> str:
+    """``name``, or on a car with axles the front axle's (``_front``) or a full car's
+    front left corner's (``_front_left``) variable of that name, if the car has it.
+
+    Examples
+    --------
+    >>> corner_variable("tire_force", {"tire_force_front_left"})
+    'tire_force_front_left'
+    """
+    if name not in variables:
+        for corner in ("_front", "_front_left"):  # a half car's front axle, a full car's
+            if name + corner in variables:
+                return name + corner
     return name
 
 

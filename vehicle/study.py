@@ -17,6 +17,7 @@ from typing import Any, Dict, List, Optional
 
 import numpy as np
 
+from bodyvib.comfort.axes import vibration_totals
 from bodyvib.comfort.figures import ComfortFigures
 from bodyvib.comfort.forces import ForceFigures, ForceStream
 from bodyvib.comfort.measures import SeatMeasures, SeatMeasureStream
@@ -32,9 +33,10 @@ from bodyvib.runtime.renames import NOT, renamed_parameters
 from .control import controller_from_fmu, describe
 from .cosim import CsvStream, Master, check_fmu, model_from_fmu, open_controller, open_fmu
 from .events import EventStream, RunEvents
-from .quarter_car import wheel_offsets
+from .quarter_car import track_width, wheel_offsets, wheel_sides
 from .reference import ReferenceStream
-from .road.driven import RunSettings, driven_road, wheel_inputs
+from .road import roads_input, wheel_roads
+from .road.driven import RunSettings, driven_road
 from .road.synthetic import Road, road_input
 from .signals import BODY_SIGNALS, MASTER_SIGNALS, OPTIONAL_SIGNALS
 
@@ -88,6 +90,12 @@ class BodyRun:
         The same from the monolithic reference, each event located inside its step:
         element name -> figures (:meth:`bodyvib.runtime.regimes.EventLog.summary`);
         empty for a linear car or without a reference.
+    seat_axes : dict of str to float or None
+        A car with the seat's horizontal accelerations (a full car): the seat's ISO
+        2631-1 weighted r.m.s. per axis, ``seat_aw_x``, ``seat_aw_y`` (Wd) and
+        ``seat_aw_z`` (Wk), and its point vibration total value for comfort ``seat_av``
+        (k = 1.4, 1.4, 1; :func:`bodyvib.comfort.vibration_totals`), m/s2. The seat's
+        records are kept for it (24 bytes a step).
     """
 
     fmu: str
@@ -104,6 +112,7 @@ class BodyRun:
     forces: Dict[str, ForceFigures] = field(default_factory=dict)
     events: Optional[RunEvents] = None
     reference_events: Dict[str, dict] = field(default_factory=dict)
+    seat_axes: Optional[Dict[str, float]] = None
 
     def to_dict(self) -> dict:
         """The body's entry of the JSON document (figures, no histories; docs/getting_started.md, "JSON output")."""
@@ -119,6 +128,7 @@ class BodyRun:
             **{name: f.to_dict() for name, f in self.forces.items()},
             **({"events": self.events.to_dict()} if self.events is not None else {}),
             **({"reference_events": self.reference_events} if self.reference_events else {}),
+            **(self.seat_axes or {}),
         }
 
 
@@ -366,7 +376,7 @@ def run_study(
     reference = opts.reference and (law is None or law.linear)
     car_model = model_from_fmu(car_fmu)
     car_net = car_model if reference else None
-    behind = _wheels(car_fmu, car_net)
+    behind, roads = _wheels(car_fmu, car_net, settings, rd)
     window = _window(n, settings.step, opts.window_s)
     bodies = {
         label: _BodyRecorder(label, path, settings.step, n, window, opts.histories)
@@ -386,7 +396,7 @@ def run_study(
         try:
             for a in range(0, n, opts.block):
                 t = np.arange(a, min(n, a + opts.block)) * settings.step
-                zw, vw = wheel_inputs(rd, settings.speed, t, behind)
+                zw, vw = roads_input(roads, settings.speed, t, behind)
                 z, v = zw[:, 0], vw[:, 0]  # the (front) wheel's: the study's road columns
                 wheels = (z, v) if len(behind) == 1 else (zw, vw)
                 heads = {}
@@ -403,7 +413,7 @@ def run_study(
         finally:
             if bar is not None:
                 bar.close()
-    return _study(settings, opts, controller_fmu, rd, window, pairs, bodies)
+    return _study(settings, opts, controller_fmu, (rd, roads), window, pairs, bodies)
 
 
 def _study_options(options, keywords):
@@ -477,6 +487,7 @@ class _BodyRecorder:
         self.kept = [] if histories else None
         self.kept_ref = [] if histories else None
         self.events, self.occupant = EventStream(step, None), None
+        self.seat_blocks = []  # the seat's x, y, z (a car that has x and y: a full car)
 
     def watch_events(self, tire_load, occupant):
         """The tire's static load (N, or None) for the events, and the car FMU's start
@@ -509,6 +520,8 @@ class _BodyRecorder:
         for name, stream in self.forces.items():
             stream.update(sig[name])
         self.events.update(sig["tire_contact"], sig["stop_force"], sig["tire_force"])
+        if not np.isnan(sig["seat_acceleration_x"][0]):  # a car that has them
+            self.seat_blocks.append((sig["seat_acceleration_x"], sig["seat_acceleration_y"], seat))
         ref = None
         if self.ref is not None:
             interrupts.check()
@@ -548,6 +561,7 @@ class _BodyRecorder:
             },
             events=self.events.result(),
             reference_events=self.ref.events() if self.ref is not None else {},
+            seat_axes=_seat_axes(self.seat_blocks, 1.0 / self.step),
         )
 
     @staticmethod
@@ -566,8 +580,9 @@ class _BodyRecorder:
         return math.sqrt(self.err[0] / self.err[1])
 
 
-def _study(settings, opts, controller_fmu, rd, window, pairs, bodies):
-    """The :class:`Study` of a finished run."""
+def _study(settings, opts, controller_fmu, road_and_wheels, window, pairs, bodies):
+    """The :class:`Study` of a finished run; ``road_and_wheels``: the road, each wheel's."""
+    rd, roads = road_and_wheels
     step = settings.step
     n = int(round(settings.duration / step)) + 1
     controller = opts.controller
@@ -581,7 +596,7 @@ def _study(settings, opts, controller_fmu, rd, window, pairs, bodies):
             if controller is not None
             else ""
         ),
-        road=rd.describe(),
+        road=_road_description(rd, roads),
         window_time=np.arange(window[0], window[1] + 1) * step,
         history_sums={k: tuple(v) for k, v in pairs.items()},
     )
@@ -621,11 +636,39 @@ def _static_load(car, body_fmus, nets):
     return loads, occupant
 
 
-def _wheels(car_fmu, car_net):
-    """Distance of each road input pair of the car FMU behind the first, m."""
+def _road_description(road, roads) -> dict:
+    """The run's road described; a full car's right track (another road) named beside it."""
+    out = road.describe()
+    if any(r is not road for r in roads):
+        out["right_track"] = (
+            "the class's second track, a track width to the right, correlated with the "
+            "left (this road) as an isotropic surface (bodyvib.vehicle.road.two_track_road)"
+        )
+    return out
+
+
+def _seat_axes(blocks, fs: float) -> Optional[Dict[str, float]]:
+    """The seat's ISO 2631-1 figures in x, y and z from its recorded blocks (None: none).
+
+    Returns the per-axis frequency-weighted r.m.s. (``seat_aw_x``, ``seat_aw_y`` with
+    Wd, ``seat_aw_z`` with Wk) and the point vibration total value for comfort
+    ``seat_av`` (:func:`bodyvib.comfort.vibration_totals`), m/s2.
+    """
+    if not blocks:
+        return None
+    x, y, z = (np.concatenate(b) for b in zip(*blocks))
+    tot = vibration_totals({"seat_x": x, "seat_y": y, "seat_z": z}, fs)
+    out = {f"seat_aw_{a}": tot.axes[f"seat_{a}"].weighted_rms for a in "xyz"}
+    out["seat_av"] = tot.points["seat"]
+    return out
+
+
+def _wheels(car_fmu, car_net, settings, road):
+    """Distance of each road input pair of the car FMU behind the first, m, and the road
+    of each (a full car's left and right tracks, :func:`bodyvib.vehicle.road.tracks.wheel_roads`)."""
     net = car_net if car_net is not None else model_from_fmu(car_fmu)
     if net is not None:
-        return wheel_offsets(net)
+        return wheel_offsets(net), wheel_roads(settings, road, wheel_sides(net), track_width(net))
     from fmpy import read_model_description
 
     from .cosim import road_pairs
@@ -638,7 +681,7 @@ def _wheels(car_fmu, car_net):
             "by build_fmus (HalfCar)",
             parameters=("build_fmus",),
         )
-    return (0.0,)
+    return (0.0,), (road,)
 
 
 class StudyCsv:

@@ -216,6 +216,8 @@ _STATE_UNITS = {
     "v": ("m/s", "m/s2"),
     "theta": ("rad", "rad/s"),
     "omega": ("rad/s", "rad/s2"),
+    "phi": ("rad", "rad/s"),
+    "phi_rate": ("rad/s", "rad/s2"),
 }
 _STATE_WORDS = {
     "x": "displacement",
@@ -223,6 +225,8 @@ _STATE_WORDS = {
     "v": "velocity",
     "theta": "pitch angle",
     "omega": "pitch rate",
+    "phi": "roll angle",
+    "phi_rate": "roll rate",
 }
 
 #: The order FMI's schemas want the interface elements in.

@@ -55,7 +55,7 @@ from ..process.outputs import atomic_write_bytes
 from ..runtime.contract import RATE_PREFIX, Variable
 from ..runtime.engine import FmuCore
 from ..runtime.errors import BodyvibError
-from ..runtime.network import Network, descriptor_model, linearized
+from ..runtime.network import Network, descriptor_model, linearized, split_position
 from .contents import model_resources, native_dir
 from .description import (
     MODEL_STOP_TIME,
@@ -333,9 +333,10 @@ def _stencils(network: Network, params: Sequence[str], rows: Sequence[int]) -> L
     affine model needs.
     """
     positions = {
-        ref.lstrip("-")
+        split_position(ref)[2]
         for body in network.bodies.values()
-        for ref in body.points.values()
+        for place in body.points.values()
+        for ref in (place if isinstance(place, tuple) else (place,))
         if isinstance(ref, str)
     }
     geometry = [j for j, p in enumerate(params) if p in positions]

@@ -55,7 +55,7 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from .errors import BodyvibError
-from .network import Network
+from .network import Network, split_position
 
 __all__ = [
     "Variable",
@@ -116,6 +116,8 @@ PARAMETER_UNITS = {
     "gap_rebound": "m",
     "c_compression": "N.s/m",
     "c_rebound": "N.s/m",
+    "roll_stiffness": "N.m/rad",
+    "track": "m",
 }
 
 #: Parameter values a model accepts (SI: kg, N/m, N s/m), the loader's range
@@ -138,6 +140,7 @@ UNITS = {
     "rad/s2": {"rad": 1, "s": -2},
     "N/m": {"kg": 1, "s": -2},
     "N.s/m": {"kg": 1, "s": -1},
+    "N.m/rad": {"kg": 1, "m": 2, "s": -2, "rad": -1},
 }
 
 
@@ -605,16 +608,22 @@ def parameter_variables(network: Network) -> Tuple[Variable, ...]:
                 body.inertia,
                 ("inertia", f"Pitch moment of inertia of rigid body {body_name}"),
             )
-        for point, ref in body.points.items():
-            if isinstance(ref, str):
-                side = "behind" if ref.startswith("-") else "ahead of"
-                use.setdefault(
-                    ref.lstrip("-"),
-                    (
-                        "position",
-                        f"Distance of point {point} {side} the centre of mass of {body_name}",
-                    ),
-                )
+        if isinstance(body.roll_inertia, str):
+            use.setdefault(
+                body.roll_inertia,
+                ("inertia", f"Roll moment of inertia of rigid body {body_name}"),
+            )
+        for point, place in body.points.items():
+            refs = place if isinstance(place, tuple) else (place,)
+            for ref, sides in zip(
+                refs, (("behind", "ahead of"), ("right of", "left of"), ("below", "above"))
+            ):
+                if isinstance(ref, str):
+                    sign, factor, name = split_position(ref)
+                    side = sides[0] if sign < 0 else sides[1]
+                    times = "" if factor == 1.0 else f"{1 / factor:g} times the "
+                    text = f"istance of point {point} {side} the centre of mass of {body_name}"
+                    use.setdefault(name, ("position", f"{times}d{text}" if times else f"D{text}"))
     for point, ref in network.static_loads.items():
         if isinstance(ref, str):
             use.setdefault(ref, ("mass", f"Static mass resting on {point} (its weight only)"))
@@ -626,17 +635,20 @@ def parameter_variables(network: Network) -> Tuple[Variable, ...]:
         "gap_rebound": "gap in rebound",
         "c_compression": "damping in compression",
         "c_rebound": "damping in rebound",
+        "track": "track width",
     }
     for el in network.elements:
         for fieldname, ref in el.values.items():
             if isinstance(ref, str):
+                kind = (
+                    "roll_stiffness"
+                    if el.kind == "anti_roll_bar" and fieldname == "k"
+                    else fieldname
+                )
+                word = "roll stiffness" if kind == "roll_stiffness" else field_words[fieldname]
                 use.setdefault(
                     ref,
-                    (
-                        fieldname,
-                        f"{field_words[fieldname].capitalize()} of element "
-                        f"'{el.name}' ({el.a} to {el.b})",
-                    ),
+                    (kind, f"{word.capitalize()} of element '{el.name}' ({el.a} to {el.b})"),
                 )
     out = []
     for name, value in network.parameters.items():

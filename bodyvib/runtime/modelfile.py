@@ -42,7 +42,8 @@ be listed in ``force_inputs``. ``name`` is a plain name or empty; a car FMU take
 the force as the input ``actuator_force_<name>`` (``actuator_force`` when the name
 is empty).
 
-``bodies`` declares rigid bodies that bounce and pitch (a car body):
+``bodies`` declares rigid bodies that bounce and pitch, and roll if given a
+``roll_inertia`` (a car body):
 
 .. code-block:: json
 
@@ -58,6 +59,16 @@ parameter name after ``-`` (a point behind the centre of mass). The optional
 ``extent`` [rear end, front end] (m) bounds the points. The points are used
 in elements, ``force_inputs`` and ``roles`` as masses are. ``base`` may also
 be a list of points, all driven (the front and rear road of a half car).
+
+A body with ``"roll_inertia"`` (roll moment of inertia about the centre of mass,
+kg m2) also rolls; its points may then be pairs ``[x, y]``, ``y`` positive to
+the left, or triples ``[x, y, h]``, ``h`` above the centre of mass (the point then
+has the horizontal accelerations ``.ax`` and ``.ay``); roll ``phi`` is positive when
+the left side rises, and a point moves ``z + x theta + y phi``. A position may
+scale a parameter: ``"0.5*tf"``, ``"-0.5*tf"``. An ``anti_roll_bar`` element joins two suspensions:
+``from``/``to`` the left wheel and body point, ``from_right``/``to_right`` the
+right ones, ``k`` its roll stiffness [N m/rad] and ``track`` [m] the distance
+between its ends (see :mod:`bodyvib.runtime.network`).
 
 The shipped models and loading by name are :mod:`bodyvib.models`. Numpy-free
 apart from what :mod:`bodyvib.runtime.network` needs; relative imports only:
@@ -92,6 +103,7 @@ from .network import (
     Network,
     RigidBody,
     Value,
+    split_position,
     static_preloads,
 )
 
@@ -120,6 +132,8 @@ _ACTUATOR_FIELDS = ("name", "from", "to")
 _BODY_FIELDS = ("mass", "inertia", "points")
 _ELEMENT_FIELDS = ("name", "kind", "from", "to")
 _FMU_OUTPUT_FIELDS = ("name", "signal", "unit", "description")
+#: A rigid body's outputs: bounce, pitch and (of a body that rolls) roll.
+_BODY_QUANTITIES = ("x", "v", "a", "theta", "omega", "alpha", "phi", "phi_rate", "phi_acceleration")
 
 #: A parameter name: it becomes an FMU variable name, so it must be a plain name of the
 #: FMI 2.0 "structured" naming convention the FMUs declare (a letter or _, then letters,
@@ -395,17 +409,27 @@ class _References:
         return val
 
     def position(self, value: object, field_where: str) -> Value:
-        """A signed position: a literal, a parameter name, or ``-`` and a parameter name."""
+        """A signed position: a literal, or a parameter name after an optional ``-`` and
+        an optional positive factor ``<number>*`` (``"-0.5*tf"``)."""
         if isinstance(value, str):
-            if value.startswith("-"):
-                return "-" + self.value(value[1:], field_where)
-            return self.value(value, field_where)
+            try:
+                _, factor, name = split_position(value)
+            except ValueError:
+                factor, name = -1.0, ""
+            if not factor > 0 or not math.isfinite(factor):
+                raise BodyvibError(
+                    f"{field_where}: position {value!r} must be a number, a parameter name, "
+                    "or one after '-' and a positive factor '<number>*' (e.g. -0.5*tf)"
+                )
+            self.value(name, field_where)
+            return value
         return _number(value, field_where)
 
     def resolve(self, ref: Value) -> float:
         """The number a checked reference stands for."""
         if isinstance(ref, str):
-            return -self.params[ref[1:]] if ref.startswith("-") else self.params[ref]
+            sign, factor, name = split_position(ref)
+            return sign * factor * self.params[name]
         return float(ref)
 
 
@@ -447,11 +471,11 @@ def _bodies(raw: object, refs: _References, where: str) -> Dict[str, RigidBody]:
                 "moment of inertia in kg m2, points: name -> position in m ahead of the "
                 "centre of mass)"
             )
-        extra = sorted(set(b) - set(_BODY_FIELDS) - {"extent"})
+        extra = sorted(set(b) - set(_BODY_FIELDS) - {"extent", "roll_inertia"})
         if extra:
             raise BodyvibError(
                 f"{bw}: unknown field(s) {', '.join(extra)}; its fields are "
-                f"{', '.join(_BODY_FIELDS)}, extent"
+                f"{', '.join(_BODY_FIELDS)}, extent, roll_inertia"
             )
         points = b["points"]
         if not isinstance(points, dict) or len(points) < 2:
@@ -459,24 +483,44 @@ def _bodies(raw: object, refs: _References, where: str) -> Dict[str, RigidBody]:
                 f"{bw}: 'points' must name at least two points (name -> position in m), "
                 "or its pitch is not held"
             )
-        positions = {p: refs.position(x, f"{bw}: points.{p}") for p, x in points.items()}
+        rolls = "roll_inertia" in b
+        positions = {p: _place(x, refs, f"{bw}: points.{p}", rolls) for p, x in points.items()}
         extent = b.get("extent")
         if extent is not None:
             extent = _extent(extent, bw)
             for p, ref in positions.items():
-                x = refs.resolve(ref)
+                x = refs.resolve(ref[0] if isinstance(ref, tuple) else ref)
                 if not extent[0] <= x <= extent[1]:
                     raise BodyvibError(
                         f"{bw}: point '{p}' at x = {x:g} m is outside the body's extent "
                         f"{extent[0]:g} to {extent[1]:g} m; move the point or widen the extent"
                     )
+        lateral = {refs.resolve(r[1]) if isinstance(r, tuple) else 0.0 for r in positions.values()}
+        if rolls and len(lateral) < 2:
+            raise BodyvibError(
+                f"{bw}: a body with a roll_inertia needs points at two lateral positions "
+                "(points [x, y], y to the left), or its roll is not held"
+            )
         bodies[name] = RigidBody(
             mass=refs.value(b["mass"], f"{bw}.mass"),
             inertia=refs.value(b["inertia"], f"{bw}.inertia"),
             points=positions,
             extent=extent,
+            roll_inertia=refs.value(b["roll_inertia"], f"{bw}.roll_inertia") if rolls else None,
         )
     return bodies
+
+
+def _place(raw: object, refs: _References, where: str, rolls: bool) -> Any:
+    """A body point: a position ``x``, or (on a body that rolls) a pair ``[x, y]``."""
+    if not isinstance(raw, list):
+        return refs.position(raw, where)
+    if not rolls or len(raw) not in (2, 3):
+        raise BodyvibError(
+            f"{where}: a point is a position x in m ahead of the centre of mass, or "
+            "[x, y] or [x, y, h] (y in m to the left, h above) on a body with a roll_inertia"
+        )
+    return tuple(refs.position(q, where) for q in raw)
 
 
 def _extent(raw: object, where: str) -> Tuple[float, float]:
@@ -511,7 +555,7 @@ def _elements(
             nodes.add(el.internal_node)
         elements.append(el)
     for el in elements:
-        for p in (el.a, el.b):
+        for p in (el.a, el.b) + (el.right or ()):
             if p not in points:
                 raise BodyvibError(
                     f"{where}: element '{el.name}' connects unknown point '{p}'; "
@@ -545,6 +589,16 @@ def _element(e: object, refs: _References, ew: str, where: str) -> Element:
     allowed = set(_ELEMENT_FIELDS) | set(need) | set(OPTIONAL_FIELDS.get(kind, ()))
     if kind in ("series_kelvin", "zener"):
         allowed.add("node")
+    right = None
+    if kind == "anti_roll_bar":
+        allowed |= {"from_right", "to_right"}
+        for k in ("from_right", "to_right"):
+            if not isinstance(e.get(k), str) or not e[k]:
+                raise BodyvibError(
+                    f"{ew}: an anti_roll_bar needs '{k}', the right-hand wheel ('from_right') "
+                    "and body point ('to_right') beside the left-hand 'from' and 'to'"
+                )
+        right = (e["from_right"], e["to_right"])
     miss = [k for k in need if k not in e]
     if miss:
         raise BodyvibError(f"{ew}: a {kind} needs field(s) {', '.join(miss)}")
@@ -564,6 +618,7 @@ def _element(e: object, refs: _References, ew: str, where: str) -> Element:
         b=e["to"],
         values={p: refs.value(e[p], f"{ew}.{p}") for p in fields},
         node=e.get("node"),
+        right=right,
     )
 
 
@@ -605,6 +660,8 @@ def _check_connected(
         chain = [el.a, el.b] if el.internal_node is None else [el.a, el.internal_node, el.b]
         for p, q in zip(chain, chain[1:]):
             link(p, q)
+        if el.right is not None:
+            link(*el.right)
     for b, body in bodies.items():
         for p in body.points:
             link(b, p)
@@ -710,7 +767,8 @@ def _fmu_outputs(
         ok = (
             signal in {f"{b}_force" for b in bases}
             or (point in masses and quantity in ("x", "v", "a"))
-            or (point in bodies and quantity in ("x", "v", "a", "theta", "omega", "alpha"))
+            or (point in points and quantity in ("ax", "ay"))
+            or (point in bodies and quantity in _BODY_QUANTITIES)
             or (point in points and point not in masses and point not in bases and quantity == "y")
             or (point in element_names and quantity in ("deflection", "force"))
             or (point in contacts and quantity == "contact")
@@ -749,6 +807,8 @@ def network_to_dict(net: Network) -> dict:
         d.update(el.values)
         if el.node is not None:
             d["node"] = el.node
+        if el.right is not None:
+            d["from_right"], d["to_right"] = el.right
         elements.append(d)
     out = {
         "name": net.name,
@@ -778,8 +838,9 @@ def network_to_dict(net: Network) -> dict:
             name: {
                 "mass": b.mass,
                 "inertia": b.inertia,
-                "points": dict(b.points),
+                "points": {p: list(x) if isinstance(x, tuple) else x for p, x in b.points.items()},
                 **({"extent": list(b.extent)} if b.extent is not None else {}),
+                **({"roll_inertia": b.roll_inertia} if b.roll_inertia is not None else {}),
             }
             for name, b in net.bodies.items()
         }

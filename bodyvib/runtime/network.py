@@ -20,6 +20,7 @@ contact           k, optional c                  k (|| c) that can only push
 stop              k, gap_compression,            nothing within the gaps, k (|| c)
                   gap_rebound [m], optional c    beyond either
 asymmetric_damper c_compression, c_rebound       c by the sign of the rate
+anti_roll_bar     k [N m/rad], track [m]         see below
 ================= ============================== ==================================
 
 The last three are *nonlinear* (:data:`NONLINEAR_KINDS`): each is linear within a
@@ -33,6 +34,14 @@ from static equilibrium; an asymmetric damper uses ``c_rebound`` while it extend
 about static equilibrium: a contact as ``k`` (|| ``c``), a stop as nothing, an
 asymmetric damper as the mean of its two coefficients.
 
+An ``anti_roll_bar`` has four terminals: ``from`` and ``to`` (left wheel, left body
+point) and ``from_right`` and ``to_right`` (the same on the right). With ``d =
+(x_to - x_from) - (x_to_right - x_from_right)``, the two suspensions' deflection
+difference, it pushes ``to`` down and ``from`` up by ``(k / track^2) d`` and the
+right pair the other way: the potential ``k / (2 track^2) d^2``, which is six
+primitive springs of ``+-k / track^2`` (a bar of roll stiffness ``k`` between
+points ``track`` apart).
+
 ``series_kelvin`` and ``zener`` create a massless internal node, named by the
 element's ``node`` field (``<element>.node`` by default).
 
@@ -45,6 +54,17 @@ they connect masses; a force ``F`` (up) at ``x`` enters the bounce equation as
 ``F`` and the pitch equation as ``x F``. A network may be driven at several
 base points (the front and rear road of a half car): each has its own
 displacement and velocity inputs.
+
+A rigid body with a roll inertia (``roll_inertia``, ``Ix``) also rolls: its points
+then sit at ``(x, y)``, ``y`` positive to the left, and a point moves ``w = z +
+x theta + y phi``. Roll ``phi`` (rad) is positive when the left side rises: a
+right-handed rotation about the forward axis. A force ``F`` (up) at ``(x, y)``
+enters the roll equation as ``y F``; the roll outputs are ``.phi``,
+``.phi_rate`` and ``.phi_acceleration``. A point given a height ``h`` above the
+centre of mass, ``(x, y, h)``, also has the outputs ``.ax`` (forward) and ``.ay``
+(to the left), its inertial horizontal accelerations for small angles, ``-h
+theta''`` and ``-h phi''`` (gravity not included: an accelerometer fixed to the
+tilting body would also read ``g theta`` and ``g phi``).
 
 Equations (SI units, z up, perturbations about static equilibrium): a mass
 obeys ``m a = sum of element forces (+ external force)``, a rigid body
@@ -97,6 +117,7 @@ __all__ = [
     "linearized",
     "as_linear_model",
     "mount",
+    "split_position",
 ]
 
 #: Element kinds and the parameters each needs (all in SI: N/m, N s/m).
@@ -106,6 +127,7 @@ ELEMENT_KINDS: Dict[str, Tuple[str, ...]] = {
     "kelvin": ("k", "c"),
     "series_kelvin": ("k_series", "k", "c"),
     "zener": ("k", "c", "k_series"),
+    "anti_roll_bar": ("k", "track"),
     "contact": ("k",),
     "stop": ("k", "gap_compression", "gap_rebound"),
     "asymmetric_damper": ("c_compression", "c_rebound"),
@@ -133,6 +155,20 @@ Value = Union[str, float]
 Primitive = Tuple[str, str, float]
 
 
+def split_position(ref: str) -> Tuple[float, float, str]:
+    """A position reference ``[-][<factor>*]<name>`` as (sign, factor, parameter name).
+
+    Examples
+    --------
+    >>> split_position("-0.5*tf")
+    (-1.0, 0.5, 'tf')
+    """
+    sign = -1.0 if ref.startswith("-") else 1.0
+    body = ref[1:] if ref.startswith("-") else ref
+    factor, star, name = body.rpartition("*")
+    return sign, float(factor) if star else 1.0, name
+
+
 @dataclass(frozen=True)
 class Element:
     """A two-terminal element between points ``a`` (``from``) and ``b`` (``to``).
@@ -151,6 +187,8 @@ class Element:
     node : str, optional
         Name of the internal massless node of a ``series_kelvin`` or ``zener``
         element; ``"<name>.node"`` by default.
+    right : (str, str), optional
+        An ``anti_roll_bar``'s right-hand ``from`` and ``to`` points.
     """
 
     name: str
@@ -159,6 +197,7 @@ class Element:
     b: str
     values: Mapping[str, Value]
     node: Optional[str] = None
+    right: Optional[Tuple[str, str]] = None
 
     @property
     def internal_node(self) -> Optional[str]:
@@ -186,6 +225,13 @@ class RigidBody:
     extent : (float, float), optional
         Rear and front end of the body, m from the centre of mass; the points
         must lie within it.
+    roll_inertia : str or float, optional
+        Parameter name (or literal) of its roll moment of inertia about the
+        centre of mass, kg m^2: the body then also rolls, and a point may be a
+        pair ``(x, y)`` of positions (``y`` positive to the left, each a position
+        as ``x`` is) or a triple ``(x, y, h)`` (``h`` above the centre of mass: the
+        point then also has horizontal accelerations ``.ax`` and ``.ay``); a single
+        position stands for ``(x, 0)``.
 
     Examples
     --------
@@ -195,8 +241,9 @@ class RigidBody:
 
     mass: Value
     inertia: Value
-    points: Mapping[str, Value]
+    points: Mapping[str, Union[Value, Tuple[Value, ...]]]
     extent: Optional[Tuple[float, float]] = None
+    roll_inertia: Optional[Value] = None
 
 
 @dataclass(frozen=True)
@@ -300,11 +347,23 @@ class Network:
     @property
     def body_points(self) -> Dict[str, Tuple[str, float]]:
         """Rigid-body point name -> (body name, position in m ahead of its centre of mass)."""
-        return {
-            p: (b, self.position(x))
-            for b, body in self.bodies.items()
-            for p, x in body.points.items()
-        }
+        return {p: (b, x) for p, (b, x, _) in self.body_point_places.items()}
+
+    @property
+    def body_point_places(self) -> Dict[str, Tuple[str, float, float]]:
+        """Rigid-body point name -> (body name, m ahead of and m left of its centre of mass)."""
+        return {p: (b, x, y) for p, (b, x, y, _) in self.body_point_heights.items()}
+
+    @property
+    def body_point_heights(self) -> Dict[str, Tuple[str, float, float, Optional[float]]]:
+        """Rigid-body point -> (body, m ahead, m left, m above its centre of mass or None)."""
+        out = {}
+        for b, body in self.bodies.items():
+            for p, ref in body.points.items():
+                x, y, *h = ref if isinstance(ref, tuple) else (ref, 0.0)
+                height = self.position(h[0]) if h else None
+                out[p] = (b, self.position(x), self.position(y), height)
+        return out
 
     def value(self, ref: Value) -> float:
         """Resolve a parameter reference (name or literal) to a float."""
@@ -313,9 +372,11 @@ class Network:
         return float(ref)
 
     def position(self, ref: Value) -> float:
-        """Resolve a point position: a literal, a parameter name, or ``-`` and a name (m)."""
-        if isinstance(ref, str) and ref.startswith("-"):
-            return -self.value(ref[1:])
+        """Resolve a point position: a literal, or a parameter name after an optional
+        ``-`` and an optional factor ``<number>*`` (``"-0.5*tf"``), m."""
+        if isinstance(ref, str):
+            sign, factor, name = split_position(ref)
+            return sign * factor * self.value(name)
         return self.value(ref)
 
     def mass_values(self) -> Dict[str, float]:
@@ -391,6 +452,18 @@ class Network:
             return [(el.a, n, v["k_series"]), (n, el.b, v["k"])], [(n, el.b, v["c"])]
         if el.kind == "zener" and n is not None:
             return [(el.a, el.b, v["k"]), (el.a, n, v["k_series"])], [(n, el.b, v["c"])]
+        if el.kind == "anti_roll_bar" and el.right is not None:
+            # the Laplacian of (k/t^2) d^2 with d = (b - a) - (br - ar): -k/t^2 v_i v_j per pair
+            k = v["k"] / v["track"] ** 2
+            ar, br = el.right
+            return [
+                (el.a, el.b, k),
+                (ar, br, k),
+                (el.b, br, k),
+                (el.a, ar, k),
+                (el.b, ar, -k),
+                (el.a, br, -k),
+            ], []
         raise BodyvibError(f"element '{el.name}': unknown kind '{el.kind}'")
 
     def element_constant(self, el: Element, mode: Optional[str], preload: float = 0.0) -> float:
@@ -556,11 +629,14 @@ def _point_dofs(network: Network) -> dict:
     masses = network.mass_names
     point_dofs = {m: {i: 1.0} for i, m in enumerate(masses)}
     i_body = len(masses)
-    for b in network.bodies:
-        for p, (owner, x) in network.body_points.items():
+    for b, body in network.bodies.items():
+        rolls = body.roll_inertia is not None
+        for p, (owner, x, y) in network.body_point_places.items():
             if owner == b:
                 point_dofs[p] = {i_body: 1.0, i_body + 1: x}  # w = z + x theta
-        i_body += 2
+                if rolls:
+                    point_dofs[p][i_body + 2] = y  # ... + y phi
+        i_body += 3 if rolls else 2
     return point_dofs
 
 
@@ -597,10 +673,11 @@ def _element_forces(
 
 
 def _point_outputs(
-    network: Network, motion: tuple, elements: tuple, forces: tuple
+    network: Network, motion: tuple, elements: tuple, forces: tuple, heights: dict
 ) -> Tuple[list, list, list]:
     """The output rows, names and constants after the degrees of freedom's: rigid-body
-    points, nodes, elements, base forces and named forces. ``elements`` is
+    points (and the horizontal accelerations ``heights`` gives of those above the centre
+    of mass), nodes, elements, base forces and named forces. ``elements`` is
     ``(element_force, element_const)``, ``forces`` ``(force_on, const_on)``."""
     pos, vel, acc = motion
     element_force, element_const = elements
@@ -609,6 +686,9 @@ def _point_outputs(
     for p in network.body_points:
         out_rows += [pos[p], vel[p], acc[p]]
         out_names += [f"{p}.x", f"{p}.v", f"{p}.a"]
+    for p, rows in heights.items():  # a point above the centre of mass: -h theta'', -h phi''
+        out_rows += list(rows)
+        out_names += [f"{p}.ax", f"{p}.ay"]
     for n in network.node_names:
         out_rows.append(pos[n])
         out_names.append(f"{n}.y")
@@ -678,6 +758,9 @@ def _descriptor(
     for b, body in network.bodies.items():
         dofs += [(f"{b}.x", f"{b}.v", f"{b}.a"), (f"{b}.theta", f"{b}.omega", f"{b}.alpha")]
         inertia += [network.value(body.mass), network.value(body.inertia)]
+        if body.roll_inertia is not None:
+            dofs.append((f"{b}.phi", f"{b}.phi_rate", f"{b}.phi_acceleration"))
+            inertia.append(network.value(body.roll_inertia))
     nd, nn = len(dofs), len(nodes)
     ns = 2 * nd + nn
     bases = network.bases
@@ -737,8 +820,13 @@ def _descriptor(
     for i, names in enumerate(dofs):
         out_rows += [dof_pos[i], dof_vel[i], dof_acc[i]]
         out_names += list(names)
+    heights = {}  # a point above the centre of mass: -h theta'', -h phi''
+    for p, (_, _, _, h) in network.body_point_heights.items():
+        if h is not None:
+            i = next(iter(point_dofs[p]))  # the body's bounce, then pitch, then roll
+            heights[p] = (-h * dof_acc[i + 1], -h * dof_acc[i + 2])
     point_rows, point_names, point_const = _point_outputs(
-        network, (pos, vel, acc), (element_force, element_const), (force_on, const_on)
+        network, (pos, vel, acc), (element_force, element_const), (force_on, const_on), heights
     )
     out_const = [0.0] * len(out_rows) + point_const
     out_rows += point_rows
@@ -1004,9 +1092,14 @@ def mount(carrier: Network, occupant: Network, at: str, prefix: str = "body.") -
         return prefix + r if isinstance(r, str) else r
 
     def position(r: Value) -> Value:
-        if isinstance(r, str) and r.startswith("-"):
-            return "-" + prefix + r[1:]
+        if isinstance(r, str):
+            sign, factor, name = split_position(r)
+            scale = "" if factor == 1.0 else f"{factor!r}*"
+            return ("-" if sign < 0 else "") + scale + prefix + name
         return ref(r)
+
+    def place(r: Union[Value, Tuple[Value, ...]]) -> Union[Value, Tuple[Value, ...]]:
+        return tuple(position(q) for q in r) if isinstance(r, tuple) else position(r)
 
     elements = tuple(
         Element(
@@ -1016,6 +1109,7 @@ def mount(carrier: Network, occupant: Network, at: str, prefix: str = "body.") -
             b=rename(el.b),
             values={k: ref(v) for k, v in el.values.items()},
             node=prefix + el.internal_node if el.internal_node else None,
+            right=None if el.right is None else (rename(el.right[0]), rename(el.right[1])),
         )
         for el in occupant.elements
     )
@@ -1036,8 +1130,9 @@ def mount(carrier: Network, occupant: Network, at: str, prefix: str = "body.") -
             prefix + b: RigidBody(
                 ref(body.mass),
                 ref(body.inertia),
-                {prefix + p: position(x) for p, x in body.points.items()},
+                {prefix + p: place(x) for p, x in body.points.items()},
                 body.extent,
+                None if body.roll_inertia is None else ref(body.roll_inertia),
             )
             for b, body in occupant.bodies.items()
         }

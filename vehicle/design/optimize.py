@@ -417,7 +417,9 @@ def _simulate(lm, z, v, step):
     u = np.zeros((len(z), len(lm.inputs)))
     u[:, lm.input_index("road_displacement")] = z
     u[:, lm.input_index("road_velocity")] = v
-    X = Discretization(lm).run(u, input_rates(lm, u), step, safe_point=interrupts.check)  # in-step road z_k + v_k tau
+    X = Discretization(lm).run(
+        u, input_rates(lm, u), step, safe_point=interrupts.check
+    )  # in-step road z_k + v_k tau
     return X @ lm.C.T + u @ lm.D.T
 
 

@@ -51,6 +51,7 @@ from .synthetic import (
     track_coherence,
     two_track_road,
 )
+from .tracks import roads_input, wheel_roads
 
 __all__ = [  # alphabetical: the index of the package
     "BumpRoad",
@@ -84,6 +85,7 @@ __all__ = [  # alphabetical: the index of the package
     "road_table",
     "RoadClass",
     "RoadOptions",
+    "roads_input",
     "RunSettings",
     "ShapedBump",
     "SHAPES",
@@ -91,4 +93,5 @@ __all__ = [  # alphabetical: the index of the package
     "TaperedRoad",
     "track_coherence",
     "two_track_road",
+    "wheel_roads",
 ]

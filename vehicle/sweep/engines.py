@@ -47,8 +47,9 @@ from bodyvib.runtime.discretize import Discretization
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import linear_model
 
-from ..quarter_car import seated_system, wheel_offsets
-from ..road.driven import driven_road, wheel_inputs
+from ..quarter_car import seated_system, track_width, wheel_offsets, wheel_sides
+from ..road import roads_input, wheel_roads
+from ..road.driven import driven_road
 from ..road.synthetic import ISO8608_CLASSES, N_BAND, displacement_psd, road_input
 from . import kernel
 from .kernel import SUMS
@@ -153,7 +154,7 @@ def case_road_input(case: Case):
     return road_input(road, case.speed, t)
 
 
-def case_wheel_inputs(case: Case, behind=(0.0,)):
+def case_wheel_inputs(case: Case, behind=(0.0,), sides=None, track=0.0):
     """Road displacement and velocity under each wheel of a case's car (columns).
 
     Parameters
@@ -162,14 +163,21 @@ def case_wheel_inputs(case: Case, behind=(0.0,)):
     behind : sequence of float
         Each wheel's distance behind the first, m
         (:func:`bodyvib.vehicle.quarter_car.wheel_offsets`).
+    sides : sequence of int, optional
+        Each wheel's track, 1 left, -1 right, 0 centre
+        (:func:`bodyvib.vehicle.quarter_car.wheel_sides`); all on one track by default.
+    track : float
+        Distance between the tracks, m (:func:`bodyvib.vehicle.quarter_car.track_width`).
 
     Returns
     -------
     z, v : (steps, wheels) ndarray
-        m, m/s at ``t_k = k * step`` (:func:`bodyvib.vehicle.road.driven.wheel_inputs`).
+        m, m/s at ``t_k = k * step`` (:func:`bodyvib.vehicle.road.tracks.roads_input`).
     """
-    road = driven_road(case.run_settings())
-    return wheel_inputs(road, case.speed, np.arange(case.steps) * case.step, behind)
+    settings = case.run_settings()
+    road = driven_road(settings)
+    roads = wheel_roads(settings, road, sides or [0] * len(behind), track)
+    return roads_input(roads, case.speed, np.arange(case.steps) * case.step, behind)
 
 
 def _failed(exc) -> Dict[str, object]:
@@ -197,6 +205,8 @@ class _Seated:
         self.seat = car.roles["seat"]
         self.bases = car.bases
         self.behind = wheel_offsets(car)  # each road point's distance behind the first, m
+        self.sides = wheel_sides(car)  # and its track: 1 left, -1 right, 0 centre
+        self.track = track_width(car)
         self.outputs = [self.lm.output_index("body.head.a"), self.lm.output_index(f"{self.seat}.a")]
         # the named forces, None where the body names none (a zero row, reported as NaN)
         self.forces = [
@@ -229,14 +239,16 @@ def _road_key(case) -> tuple:
     return (case.road, case.seed, case.speed, case.duration, case.step, case.road_options)
 
 
-def _roads(case, roads, behind=(0.0,)):
-    key = _road_key(case) + (tuple(behind),)
+def _roads(case, roads, behind=(0.0,), sides=None, track=0.0):
+    key = _road_key(case) + (tuple(behind), tuple(sides or ()), track)
     r = roads.get(key)
     if r is None:
         if len(roads) > 64:
             roads.clear()
         r = roads[key] = (
-            case_road_input(case) if len(behind) == 1 else case_wheel_inputs(case, behind)
+            case_road_input(case)
+            if len(behind) == 1
+            else case_wheel_inputs(case, behind, sides, track)
         )
     return r
 
@@ -296,10 +308,10 @@ def _step_inputs(cases, sys, roads):
     for i, (cs, s) in enumerate(zip(cases, sys)):
         M[i], gz[i, : len(s.bases)], gv[i, : len(s.bases)] = _case_rows(s, step, m)
         for j in range(len(s.bases)):
-            rkey = _road_key(cs) + (s.behind[j],)
+            rkey = _road_key(cs) + (s.behind[j], s.sides[j], s.track)
             if rkey not in rows_of:
                 rows_of[rkey] = len(zs)
-                zr, vr = _roads(cs, roads, s.behind)
+                zr, vr = _roads(cs, roads, s.behind, s.sides, s.track)
                 zs.append(zr if zr.ndim == 1 else zr[:, j])
                 vs.append(vr if vr.ndim == 1 else vr[:, j])
             road[i, j] = rows_of[rkey]
@@ -460,6 +472,11 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
     for idx in groups.values():
         try:
             s = _seated(cases[idx[0]], models, cars)
+            if any(s.sides):
+                raise BodyvibError(
+                    f"the spectral engine drives every wheel on one road track; car "
+                    f"'{cases[idx[0]].car}' has left and right wheels: use the batched engine"
+                )
             speeds = sorted({cases[i].speed for i in idx})
             lo, hi = N_BAND[0] * speeds[0], N_BAND[1] * speeds[-1]
             lnf = np.linspace(
@@ -571,7 +588,7 @@ def _cosim_case(cs, folder, built, record, cosimulate, open_fmu):
         car = cs.car_network()
         body_fmu = _fmu("body", cs.body_model, folder, built)
         car_fmu = _fmu("car", cs.car, folder, built)
-        z, v = _roads(cs, {}, wheel_offsets(car))
+        z, v = _roads(cs, {}, wheel_offsets(car), wheel_sides(car), track_width(car))
         with (
             open_fmu(car_fmu, "car", "car", start_values=_parameters(car)) as c,
             open_fmu(body_fmu, "body", "body", start_values=_parameters(body)) as b,
