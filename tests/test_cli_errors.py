@@ -245,6 +245,7 @@ def test_road_data_files_are_not_listed_or_taken_as_cars(capsys, name):
     line = _one_line(capsys, ["cosim", "--car", name], f"unknown vehicle model '{name}'")
     listed = line.split("one of: ")[1].split(", ")
     assert listed == [
+        "full-car",
         "half-car",
         "half-car-active",
         "quarter-car",

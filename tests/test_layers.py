@@ -273,7 +273,7 @@ FLAG = re.compile(r"(?<![\w-])--[a-z][a-z0-9]*(?:-[a-z0-9]+)*(?![\w-])")
 #: other programs (a linker, pythonfmu's builder, git) and the provenance record of the
 #: command that made a file (the cross-check's ``_cc.sh``). Module -> flags.
 ALLOWED_FLAGS = {
-    "bodyvib.fmu.crosscheck": ["--cross-check", "--params"],
+    "bodyvib.fmu.crosscheck": ["--cross-check", "--cross-check", "--params", "--params"],
     "bodyvib.fmu.native": ["--no-undefined"],
     "bodyvib.fmu.pythonfmu": ["--handle-state", "--no-external-tool", "--serialize-state"],
     "bodyvib.vehicle.sweep.table": ["--porcelain", "--untracked-files"],

@@ -354,7 +354,7 @@ def test_quarter_car_over_the_bump_matches_hand_written_equations():
 
 
 def test_the_wheel_leaves_the_road_over_the_pothole():
-    rs = RunSettings(road="pothole", speed_m_s=20.0, duration_s=2.0, step_s=H)
+    rs = RunSettings(road="pothole", speed=20.0, duration=2.0, step=H)
     t = np.arange(int(round(2.0 / H)) + 1) * H
     z, v = road_input(driven_road(rs), 20.0, t)
     car, body = load_car(), load_model("reduced-paper")
@@ -374,7 +374,7 @@ def test_class_c_equals_the_linear_car_bit_for_bit_until_the_first_switching():
     class B at 20 m/s never switches: equal throughout."""
     body = load_model("reduced-paper")
     for road, n in (("C", 30001), ("B", 10001)):  # a random road depends on its length
-        rs = RunSettings(road=road, speed_m_s=20.0, duration_s=(n - 1) * H, step_s=H)
+        rs = RunSettings(road=road, speed=20.0, duration=(n - 1) * H, step=H)
         t = np.arange(n) * H
         z, v = road_input(driven_road(rs), 20.0, t)
         stream = ReferenceStream(load_car(), body, H)

@@ -448,8 +448,7 @@ def build_fmus(
         from bodyvib.fmu.native import choose_platforms
 
         platforms = choose_platforms(platforms).platforms
-    out = {}
-    what = {}
+    out, what = {}, {}
     with staged_writes(guard=interrupts.critical):  # all FMUs or none: a failed (or
         for version in fmi if native else (2,):  # interrupted) build keeps the old ones
             folder = Path(dest) if version == 2 else Path(dest) / "fmi3"
@@ -467,10 +466,9 @@ def build_fmus(
                 if native:
                     what[key] = f"native C, FMI {version}.0, {what[key]}, {'+'.join(platforms)}"
         interrupts.check()
-    if progress:
-        say = progress_lines(progress)
-        for key in out:
-            say(f"wrote {out[key]} ({what[key]}; fmpy validate: no problems)")
+    say = progress_lines(progress)
+    for key in out:
+        say(f"wrote {out[key]} ({what[key]}; fmpy validate: no problems)")
     return out
 
 

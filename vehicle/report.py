@@ -3,7 +3,7 @@
 The JSON document's keys are listed in docs/getting_started.md, "JSON output".
 """
 
-from typing import Optional
+from typing import List, Optional
 
 from .check import Comparison
 from .events import format_events
@@ -142,28 +142,35 @@ def format_report(
             row("seat ISO 2631-5 Dz [m/s2]", lambda b: f"{b.seat_measures.spinal_dose:.4f}")
         )
     if comparison:
-        lines += ["", f"check: {comparison.reduced} against {comparison.iso}"]
-        for c in comparison.criteria:
-            mark = "PASS" if c.passed else "FAIL"
-            if c.unit == "Hz":
-                what = (
-                    f"{c.reduced:.2f} vs {c.iso:.2f} Hz: difference "
-                    f"{c.difference:.2f} Hz <= {c.tolerance:g} Hz?"
-                )
-            elif c.name == "time_history_nrmse":
-                what = f"{100 * c.difference:.1f} % <= {100 * c.tolerance:g} %?"
-            else:
-                what = (
-                    f"{c.reduced:.4g} vs {c.iso:.4g}: difference "
-                    f"{100 * c.difference:.1f} % <= {100 * c.tolerance:g} %?"
-                )
-            lines.append(f"  {mark}  {_WORDS[c.name]:<38} {what}")
-        if any(
-            c.name.startswith("transmissibility_peak") and not c.passed for c in comparison.criteria
-        ):
-            lines.append(PEAK_HINT)
-        lines.append(f"verdict: {comparison.verdict}")
+        lines += _check_lines(comparison)
     return "\n".join(lines)
+
+
+def _check_lines(comparison: Comparison) -> List[str]:
+    """The check's lines: one PASS/FAIL line per criterion, the hint, the verdict."""
+    lines: List[str] = []
+    lines += ["", f"check: {comparison.reduced} against {comparison.iso}"]
+    for c in comparison.criteria:
+        mark = "PASS" if c.passed else "FAIL"
+        if c.unit == "Hz":
+            what = (
+                f"{c.reduced:.2f} vs {c.iso:.2f} Hz: difference "
+                f"{c.difference:.2f} Hz <= {c.tolerance:g} Hz?"
+            )
+        elif c.name == "time_history_nrmse":
+            what = f"{100 * c.difference:.1f} % <= {100 * c.tolerance:g} %?"
+        else:
+            what = (
+                f"{c.reduced:.4g} vs {c.iso:.4g}: difference "
+                f"{100 * c.difference:.1f} % <= {100 * c.tolerance:g} %?"
+            )
+        lines.append(f"  {mark}  {_WORDS[c.name]:<38} {what}")
+    if any(
+        c.name.startswith("transmissibility_peak") and not c.passed for c in comparison.criteria
+    ):
+        lines.append(PEAK_HINT)
+    lines.append(f"verdict: {comparison.verdict}")
+    return lines
 
 
 #: The line under a failed transmissibility-peak criterion: where the trade-off is drawn.

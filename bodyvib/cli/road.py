@@ -74,8 +74,12 @@ def load_road(
     if units is not None and "," not in str(units):
         units = f"m,{units}"
     kwargs = {k: v for k, v in (("track_m", track), ("units", units)) if v is not None}
+    from bodyvib.process.extras import MissingExtraError
+
     try:
         profile = load_profile(s, **kwargs)
+    except MissingExtraError:
+        raise  # its own words name the extra
     except BodyvibError as exc:  # this command's flags are --track and --units
         flags = {"track_m": "--track", "units": "--units"}
         raise BodyvibError(in_flags(str(exc), exc.parameters, flags)) from None

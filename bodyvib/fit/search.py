@@ -115,18 +115,9 @@ def fit(
     finally:
         bar.close()
     elapsed = time.perf_counter() - t0
-    best = min(runs, key=lambda r: r["objective_per_s"])
-    best_genes, J, ga_J = best["genes"], best["objective_per_s"], best["search_objective_per_s"]
-    params = genes_to_parameters(best_genes, target.total_mass)
-    J_paper = float(target.objective(parameter_array(load_model("reduced-paper"))))
-    for r in runs:
-        del r["genes"]
+    best_genes, found = _best(runs, target)
     return FitResult(
-        parameters=dict(zip(REDUCED_PARAMETERS, (float(v) for v in params))),
-        objective=float(J),
-        objective_table2=J_paper,
-        ga_objective=ga_J,
-        relative_error=float(J) / target.energy(),
+        **found,
         target=target,
         seed=int(seed),
         config=cfg,
@@ -138,6 +129,22 @@ def fit(
         runs=runs,
         method=method,
     )
+
+
+def _best(runs, target):
+    """The best run's genes, and its fields of :class:`FitResult` (the runs lose their genes)."""
+    best = min(runs, key=lambda r: r["objective_per_s"])
+    best_genes, J = best["genes"], best["objective_per_s"]
+    params = genes_to_parameters(best_genes, target.total_mass)
+    for r in runs:
+        del r["genes"]
+    return best_genes, {
+        "parameters": dict(zip(REDUCED_PARAMETERS, (float(v) for v in params))),
+        "objective": float(J),
+        "objective_table2": float(target.objective(parameter_array(load_model("reduced-paper")))),
+        "ga_objective": best["search_objective_per_s"],
+        "relative_error": float(J) / target.energy(),
+    }
 
 
 def _checked(seed, method):

@@ -255,7 +255,6 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
     provenance = data.get("provenance", {})
     if not isinstance(provenance, dict):
         raise BodyvibError(f"{where}: 'provenance' must be an object")
-
     net = Network(
         name=data["name"],
         parameters=refs.params,
@@ -275,12 +274,17 @@ def network_from_dict(data: dict, source: str = "<model>") -> Network:
         actuators=actuators,
         static_loads=static_loads,
     )
-    if any(el.kind == "contact" for el in elements):
+    _check_load_paths(net, where)
+    return net
+
+
+def _check_load_paths(net: Network, where: str) -> None:
+    """A contact must carry a static load: solve the static equilibrium once."""
+    if any(el.kind == "contact" for el in net.elements):
         try:
             static_preloads(net)
         except BodyvibError as exc:
             raise BodyvibError(f"{where}: {exc}") from None
-    return net
 
 
 def _static_loads(

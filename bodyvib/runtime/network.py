@@ -732,6 +732,61 @@ def descriptor_model(network: Network) -> DescriptorModel:
     return _descriptor(network)[0]
 
 
+def _degrees_of_freedom(network: Network) -> Tuple[list, list]:
+    """The degrees of freedom (names of position, rate, acceleration) and their inertia:
+    a mass's displacement; a rigid body's bounce and pitch (and roll, if it rolls)."""
+    mvals = network.mass_values()
+    dofs = [(f"{m}.x", f"{m}.v", f"{m}.a") for m in network.mass_names]
+    inertia = [mvals[m] for m in network.mass_names]
+    for b, body in network.bodies.items():
+        dofs += [(f"{b}.x", f"{b}.v", f"{b}.a"), (f"{b}.theta", f"{b}.omega", f"{b}.alpha")]
+        inertia += [network.value(body.mass), network.value(body.inertia)]
+        if body.roll_inertia is not None:
+            dofs.append((f"{b}.phi", f"{b}.phi_rate", f"{b}.phi_acceleration"))
+            inertia.append(network.value(body.roll_inertia))
+    return dofs, inertia
+
+
+def _constant_terms(point_dofs: dict, const_on: dict, nd: int, nodes: Sequence[str]) -> np.ndarray:
+    """The equations' constant terms ``e``: none in ``x' = v``, the generalized constant
+    forces in the momentum equations, the constant forces on the massless nodes."""
+    gen_const = [0.0] * nd
+    for p, weights in point_dofs.items():
+        for i, c in weights.items():
+            gen_const[i] += c * const_on[p]
+    return np.array([0.0] * nd + gen_const + [const_on[n] for n in nodes])
+
+
+def _horizontal_rows(network: Network, point_dofs: dict, dof_acc: list) -> dict:
+    """A rigid-body point above the centre of mass: its fore-aft and lateral accelerations
+    ``-h theta''`` and ``-h phi''`` as rows over ``w`` (point -> (x row, y row))."""
+    rows = {}
+    for p, (_, _, _, h) in network.body_point_heights.items():
+        if h is not None:
+            i = next(iter(point_dofs[p]))  # the body's bounce, then pitch, then roll
+            rows[p] = (-h * dof_acc[i + 1], -h * dof_acc[i + 2])
+    return rows
+
+
+def _equations(
+    point_dofs: dict, force_on: dict, motion: tuple, inertia: list, nodes: Sequence[str]
+) -> np.ndarray:
+    """The equations, each ``0 = row @ w``: ``x' = v`` for a degree of freedom; inertia
+    times ``v'`` = the generalized force (the forces on its points, weighted by the point
+    map); 0 = the sum of forces on a massless node (first order in ``y'``).
+    ``motion`` is the rows of each degree of freedom's ``v``, ``v'`` and ``x'``."""
+    dof_vel, dof_acc, dof_rate = motion
+    nd = len(inertia)
+    generalized = [np.zeros_like(dof_vel[0]) for _ in range(nd)]
+    for p, weights in point_dofs.items():
+        for i, c in weights.items():
+            generalized[i] = generalized[i] + c * force_on[p]
+    rows = [dof_vel[i] - dof_rate[i] for i in range(nd)]
+    rows += [generalized[i] - inertia[i] * dof_acc[i] for i in range(nd)]
+    rows += [force_on[n] for n in nodes]
+    return np.array(rows).reshape(len(rows), len(dof_vel[0]))
+
+
 def _descriptor(
     network: Network,
     modes: Optional[Mapping[str, str]] = None,
@@ -749,18 +804,8 @@ def _descriptor(
     regime = modes is not None
     modes = modes or {}
     preloads = preloads or {}
-    masses = network.mass_names
     nodes = network.node_names
-    mvals = network.mass_values()
-    # degrees of freedom: a mass's displacement; a rigid body's bounce and pitch
-    dofs = [(f"{m}.x", f"{m}.v", f"{m}.a") for m in masses]
-    inertia = [mvals[m] for m in masses]
-    for b, body in network.bodies.items():
-        dofs += [(f"{b}.x", f"{b}.v", f"{b}.a"), (f"{b}.theta", f"{b}.omega", f"{b}.alpha")]
-        inertia += [network.value(body.mass), network.value(body.inertia)]
-        if body.roll_inertia is not None:
-            dofs.append((f"{b}.phi", f"{b}.phi_rate", f"{b}.phi_acceleration"))
-            inertia.append(network.value(body.roll_inertia))
+    dofs, inertia = _degrees_of_freedom(network)
     nd, nn = len(dofs), len(nodes)
     ns = 2 * nd + nn
     bases = network.bases
@@ -800,42 +845,28 @@ def _descriptor(
     for m in network.force_inputs:
         force_on[m] = force_on[m] + unit(ns + inputs.index(f"{m}.force"))
 
-    # Equations, each "0 = row @ w": x' = v for a degree of freedom; inertia times v' =
-    # the generalized force (the forces on its points, weighted by the point map); 0 = sum
-    # of forces for a massless node (first order in y').
-    generalized = [np.zeros(nw) for _ in range(nd)]
-    for p, weights in point_dofs.items():
-        for i, c in weights.items():
-            generalized[i] = generalized[i] + c * force_on[p]
-    rows = [dof_vel[i] - unit(ns + ni + i) for i in range(nd)]
-    rows += [generalized[i] - inertia[i] * dof_acc[i] for i in range(nd)]
-    rows += [force_on[n] for n in nodes]
-    eq = np.array(rows).reshape(ns, nw)
-    gen_const = [0.0] * nd
-    for p, weights in point_dofs.items():
-        for i, c in weights.items():
-            gen_const[i] += c * const_on[p]
-    e = np.array([0.0] * nd + gen_const + [const_on[n] for n in nodes])
+    dof_rate = [unit(ns + ni + i) for i in range(nd)]  # x' of each degree of freedom
+    eq = _equations(point_dofs, force_on, (dof_vel, dof_acc, dof_rate), inertia, nodes)
+    e = _constant_terms(point_dofs, const_on, nd, nodes)
     out_rows, out_names = [], []
     for i, names in enumerate(dofs):
         out_rows += [dof_pos[i], dof_vel[i], dof_acc[i]]
         out_names += list(names)
-    heights = {}  # a point above the centre of mass: -h theta'', -h phi''
-    for p, (_, _, _, h) in network.body_point_heights.items():
-        if h is not None:
-            i = next(iter(point_dofs[p]))  # the body's bounce, then pitch, then roll
-            heights[p] = (-h * dof_acc[i + 1], -h * dof_acc[i + 2])
     point_rows, point_names, point_const = _point_outputs(
-        network, (pos, vel, acc), (element_force, element_const), (force_on, const_on), heights
+        network,
+        (pos, vel, acc),
+        (element_force, element_const),
+        (force_on, const_on),
+        _horizontal_rows(network, point_dofs, dof_acc),
     )
     out_const = [0.0] * len(out_rows) + point_const
     out_rows += point_rows
     out_names += point_names
-    for el in network.elements if regime else ():  # a regime's contact flags: 1 engaged
-        if el.kind == "contact":
-            out_rows.append(np.zeros(nw))
-            out_names.append(f"{el.name}.contact")
-            out_const.append(0.0 if modes.get(el.name) == "free" else 1.0)
+    if regime:  # a regime's contact flags: 1 engaged, 0 free, constant in the regime
+        flags = [el for el in network.elements if el.kind == "contact"]
+        out_rows += [np.zeros(nw)] * len(flags)
+        out_names += [f"{el.name}.contact" for el in flags]
+        out_const += [0.0 if modes.get(el.name) == "free" else 1.0 for el in flags]
     out = np.array(out_rows).reshape(len(out_names), nw)
     states = tuple(d[0] for d in dofs) + tuple(d[1] for d in dofs) + tuple(f"{n}.y" for n in nodes)
     dm = DescriptorModel(

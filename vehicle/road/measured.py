@@ -585,6 +585,20 @@ def _crg_block(header, name):
     return m.group(1) if m else None
 
 
+def _check_crg_extent(base, u0, u1, du):
+    """Refuse a header whose start, end or increment of u is given but not finite."""
+    for key, v in (
+        ("reference_line_start_u", u0),
+        ("reference_line_end_u", u1),
+        ("reference_line_increment", du),
+    ):
+        if v is not None and not math.isfinite(v):
+            raise BodyvibError(
+                f"road '{base}' is corrupt: its header gives {key.upper()} = {v!r}, not a "
+                "finite number of metres; write it again"
+            )
+
+
 def _check_crg_structure(path, base):
     """Refuse an OpenCRG file whose blocks or data do not match what its header declares.
 
@@ -638,16 +652,7 @@ def _check_crg_structure(path, base):
             du = float(u_line.group(1).split(b",")[3])
         except ValueError:
             du = None
-    for key, v in (
-        ("reference_line_start_u", u0),
-        ("reference_line_end_u", u1),
-        ("reference_line_increment", du),
-    ):
-        if v is not None and not math.isfinite(v):
-            raise BodyvibError(
-                f"road '{base}' is corrupt: its header gives {key.upper()} = {v!r}, not a "
-                "finite number of metres; write it again"
-            )
+    _check_crg_extent(base, u0, u1, du)
     if fmt is None or channels == 0 or u1 is None or not du or du <= 0 or u1 <= u0:
         raise BodyvibError(
             f"road '{base}' is corrupt: its header does not declare the data "

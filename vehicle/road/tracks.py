@@ -66,7 +66,7 @@ def wheel_roads(
     spec = str(settings.road).strip()
     right = road
     if not is_road_file(spec) and len(spec) == 1 and spec.upper() in ISO8608_CLASSES:
-        length = settings.speed_m_s * settings.duration_s + 1.0  # as make_road's
+        length = settings.speed * settings.duration + 1.0  # as make_road's
         # the left track is the one-track road ``road`` already is (same class, length
         # and seed): only the right one is made here
         _, far = two_track_road(spec.upper(), track_width, length, settings.seed)
