@@ -58,7 +58,9 @@ def test_table_columns_provenance_and_files(tmp_path):
     cols = list(BASE_COLUMNS)
     at = cols.index("car") + 1
     cols[at:at] = [f"body_{p}" for p in body_params] + [
-        f"car_{p}" for p in dict.fromkeys([*load_car("quarter-car").parameters, *car.parameters])
+        # the sweep engines run the linear car (no stops): its parameters
+        f"car_{p}"
+        for p in dict.fromkeys([*load_car("quarter-car", linear=True).parameters, *car.parameters])
     ]
     assert list(df.columns) == cols
     assert list(df["case_id"]) == list(range(64))
