@@ -372,7 +372,7 @@ def check_fmpy_snippet(code, fmu, tmp_path, capfd, monkeypatch):
         from fmu_from_fmpy import run
     finally:
         sys.path.pop(0)
-    example = run(fmu, stop_time=1.0, step=1e-3)
+    example = run(fmu, duration=1.0, step=1e-3)
     assert "Warning" not in capfd.readouterr().out
     for name in ("head_acceleration", "seat_force"):
         # a snippet's slope may divide by 1e-3, not by the grid's differences: a few ulps
