@@ -323,7 +323,7 @@ def test_all_outputs_or_none_on_a_full_disk(tmp_path):
 
         with pytest.raises(BodyvibError, match="No space left") as e:
             sweep(spec, csv=str(full / "a.csv"), overwrite=True)
-        assert "--resume" in str(e.value)
+        assert "resume=True" in str(e.value)
         assert open(out, "rb").read() == old and not os.listdir(full)
         # the finished cases are kept: --resume writes both once there is room
         df = sweep(spec, csv=str(tmp_path / "a.csv"), resume=True)

@@ -43,7 +43,11 @@ def summary_columns(path: str):
 
     if os.path.splitext(path)[1].lower() in (".parquet", ".pq"):
         return pd.read_parquet(path, columns=list(SUMMARY_COLUMNS))
-    return pd.read_csv(path, usecols=list(SUMMARY_COLUMNS), keep_default_na=False)
+    # a CSV's headers carry their units ("speed [m/s]"): the name is before the bracket
+    df = pd.read_csv(
+        path, usecols=lambda c: c.split(" [")[0] in SUMMARY_COLUMNS, keep_default_na=False
+    )
+    return df.rename(columns=lambda c: c.split(" [")[0])[list(SUMMARY_COLUMNS)]
 
 
 def _case(row) -> str:
