@@ -293,6 +293,8 @@ class ReferenceStream:
         first = st.model.regime(nominal)
         states = []
         for k in range(u.shape[0]):
+            if not k & 4095:
+                interrupts.check()  # a long block (reference_run's whole run): a safe point
             x[k] = xk
             states.append(st.state)
             xk = st.step(xk, u[k], du[k], h, (self._k + k) * h)
