@@ -498,7 +498,7 @@ def test_contact_is_a_road_option_of_specs_and_commands(cobbles):
     with pytest.warns(RoadWarning, match="its slope reaches 2.08 m per m at 3.26 m"):
         (case,) = expand(
             grid_spec(
-                [f"road={cobbles[0]}", "speed=10"], 0.4, 1e-3, {"contact": "point", "taper": 2}
+                [f"road={cobbles[0]}", "speed=10"], 0.4, 1e-3, {"contact": "point", "taper_m": 2}
             )
         )
     assert dict(case.road_options) == {"contact": "point", "taper_m": 2.0}

@@ -519,7 +519,7 @@ def test_sweep_takes_road_files(files):
     assert rows[0]["head_weighted_rms"] > 0.05
     with pytest.raises(BodyvibError, match="spectral engine needs stationary ISO 8608 roads"):
         check_engine("spectral", cases)
-    opts = expand(dict(spec, road_options={"repeat": True, "taper": 2}))
+    opts = expand(dict(spec, road_options={"repeat": True, "taper_m": 2}))
     assert opts[0].road_settings() == RoadOptions(taper_m=2.0, repeat=True)
     assert opts[0].case_key != cases[0].case_key and spec_hash(spec) != spec_hash(
         dict(spec, road_options={"repeat": True})
@@ -621,7 +621,7 @@ def test_sweep_engines_drive_a_road_file_as_cosim_does(files, folder, capsys):
     spec = grid_spec(
         [f"road={files['erd']}", "speed=20", "body=reduced-paper"],
         duration=2.0,
-        road_options={"taper": 3.0},
+        road_options={"taper_m": 3.0},
     )
     (case,) = expand(spec)
     z, v = case_road_input(case)

@@ -199,3 +199,22 @@ def test_quiet_is_the_opposite_of_progress():
         assert run(quiet=True) is False
     with pytest.warns(DeprecationWarning):  # both, as the old command line gave them
         assert run(progress=True, quiet=True) is True
+
+
+def test_road_options_take_the_old_taper_and_track():
+    from bodyvib.runtime.errors import BodyvibError
+    from bodyvib.vehicle.fmus import fmu_road, road_with_defaults
+    from bodyvib.vehicle.sweep.spec import expand
+
+    spec = {"road": "C", "body": "reduced-paper", "duration": 1.0}
+    with pytest.warns(DeprecationWarning, match="'taper' is renamed 'taper_m'"):
+        old = expand(dict(spec, road_options={"taper": 2.0}))
+    assert old == expand(dict(spec, road_options={"taper_m": 2.0}))
+    assert old[0].road_settings().taper_m == 2.0
+    with pytest.warns(DeprecationWarning, match="fmu_road: 'taper' is renamed 'taper_m'"):
+        by_old = fmu_road("bump", 40.0, taper=3.0)
+    assert by_old.taper == fmu_road("bump", 40.0, taper_m=3.0).taper == 3.0
+    with pytest.warns(DeprecationWarning, match="'track' is renamed 'track_m'"):
+        assert road_with_defaults({"track": 0.5})["track_m"] == 0.5
+    with pytest.raises(BodyvibError, match="'taper' and its new name 'taper_m'"):
+        expand(dict(spec, road_options={"taper": 2.0, "taper_m": 2.0}))

@@ -22,7 +22,13 @@ from bodyvib.runtime.renames import renamed_parameters
 
 from .quarter_car import load_car
 from .road.bumps import check_bump_start
-from .road.driven import RoadOptions, file_options_refused, file_road, is_road_file
+from .road.driven import (
+    RoadOptions,
+    file_options_refused,
+    file_road,
+    is_road_file,
+    renamed_road_options,
+)
 from .road.synthetic import (
     ISO8608_CLASSES,
     TaperedRoad,
@@ -44,6 +50,7 @@ __all__ = [
     "fmu_road_length",
     "fmu_road_of",
     "linear_car_file",
+    "road_with_defaults",
     "load_fmu_model",
     "temporary_fmu_dir",
 ]
@@ -56,8 +63,8 @@ ROAD_DEFAULTS = {
     "seed": 0,
     "length": 601.0,
     "speed": 20.0,
-    "taper": 5.0,
-    "track": 0.0,
+    "taper_m": 5.0,
+    "track_m": 0.0,
     "units": None,
     "envelope": False,
     "repeat": False,
@@ -118,13 +125,14 @@ FMUS = {
 AXLE_ROAD_CAR = "half-car"
 
 
+@renamed_parameters(taper="taper_m", track="track_m")
 def fmu_road(
     spec: str = "C",
     length: float = 601.0,
     seed: int = 0,
     speed: float = 20.0,
-    taper: float = 5.0,
-    track: float = 0.0,
+    taper_m: float = 5.0,
+    track_m: float = 0.0,
     units: Optional[str] = None,
     envelope: bool = False,
     repeat: bool = False,
@@ -144,12 +152,13 @@ def fmu_road(
         Seed of a random road.
     speed : float
         Design speed of a sweep, and the speed a profile's spacing is checked at, m/s.
-    taper : float
-        Every road fades in from level over its first ``taper`` metres and out
+    taper_m : float
+        Every road fades in from level over its first ``taper_m`` metres and out
         over its last (:class:`bodyvib.vehicle.road.synthetic.TaperedRoad`; 0: none), as
         every run's road does (:func:`bodyvib.vehicle.road.driven.driven_road`): the car
-        starts at rest on a level road.
-    track, units, envelope, repeat, contact
+        starts at rest on a level road. The old name ``taper`` works for one release,
+        with a ``DeprecationWarning`` (``track`` likewise).
+    track_m, units, envelope, repeat, contact
         A road file's track (OpenCRG), units (CSV/ERD), moving average, repetition
         and tire contact (:class:`bodyvib.vehicle.road.driven.RoadOptions`). A repeated
         file is tabulated over one period, faded in and out (a table repeats whole).
@@ -169,19 +178,19 @@ def fmu_road(
 
         if repeat:  # faded in once, then the profile again and again, as a run drives it
             road = load_profile(
-                s, track_m=track, units=units, envelope=envelope, contact=contact, periodic=True
+                s, track_m=track_m, units=units, envelope=envelope, contact=contact, periodic=True
             )
             road.check_run(speed, road.length / speed, None, repeat=True)  # its spacing
-            return TaperedRoad(road, math.inf, taper)
-        options = RoadOptions(taper, track, units, envelope, False, contact)
+            return TaperedRoad(road, math.inf, taper_m)
+        options = RoadOptions(taper_m, track_m, units, envelope, False, contact)
         return file_road(s, options, speed)
-    if track or units or envelope or repeat or contact != "auto":
+    if track_m or units or envelope or repeat or contact != "auto":
         raise file_options_refused(spec)
     if len(s) == 1 and s.upper() in ISO8608_CLASSES:
-        return TaperedRoad(random_road(s.upper(), length=length, seed=seed), length, taper)
+        return TaperedRoad(random_road(s.upper(), length=length, seed=seed), length, taper_m)
     road = make_road(s, speed, length / speed if length > 0 else length, seed=seed)
-    check_bump_start(road, taper)
-    return TaperedRoad(road, road.length, taper)
+    check_bump_start(road, taper_m)
+    return TaperedRoad(road, road.length, taper_m)
 
 
 def fmu_road_length(road, length: float) -> float:
@@ -211,25 +220,36 @@ def fmu_road_of(options: dict):
     length : float
         m, :func:`fmu_road_length`.
     """
-    r = dict(ROAD_DEFAULTS, **options)
-    rd = fmu_road(
-        r["road"],
-        r["length"],
-        r["seed"],
-        r["speed"],
-        r["taper"],
-        r["track"],
-        r["units"],
-        r["envelope"],
-        r["repeat"],
-        r["contact"],
-    )
+    r = road_with_defaults(options)
+    rd = fmu_road(r["road"], **{k: r[k] for k in ROAD_DEFAULTS if k != "road"})
     return rd, fmu_road_length(rd, r["length"])
+
+
+def road_with_defaults(options: Optional[dict]) -> dict:
+    """Road.fmu's road options: ``options`` over :data:`ROAD_DEFAULTS`, under the new names.
+
+    Parameters
+    ----------
+    options : dict or None
+        Some keys of :data:`ROAD_DEFAULTS`; the old ``taper`` and ``track`` work for one
+        release, with a ``DeprecationWarning``.
+
+    Returns
+    -------
+    dict
+        Every key of :data:`ROAD_DEFAULTS`.
+
+    Examples
+    --------
+    >>> road_with_defaults({"road": "bump"})["taper_m"]
+    5.0
+    """
+    return dict(ROAD_DEFAULTS, **renamed_road_options(options or {}, "Road.fmu's road options"))
 
 
 def _road_source(**options):
     """The source description and table of Road.fmu, pythonfmu or native alike."""
-    r = dict(ROAD_DEFAULTS, **options)
+    r = road_with_defaults(options)
     return road_source(*fmu_road_of(r), r["speed"])
 
 
@@ -246,7 +266,7 @@ def _source(name: str, car: Optional[str] = None, **options):
             f"RoadFrontRear.fmu serves a car with a front and a rear road point; "
             f"'{car}' has {len(offsets)}"
         )
-    r = dict(ROAD_DEFAULTS, **options)
+    r = road_with_defaults(options)
     road, length = fmu_road_of(r)
     return axle_road_source(road, length, offsets[1], r["speed"])
 
@@ -303,7 +323,7 @@ def build_project_fmu(
         ``Road``, the road (an ISO 8608 class, ``bump``, ``sweep`` or a road file).
     road : dict, optional
         ``Road`` only: the options of :func:`fmu_road` (``seed``, ``length``, ``speed``,
-        ``taper``, ``track``, ``units``, ``envelope``, ``repeat``) over
+        ``taper_m``, ``track_m``, ``units``, ``envelope``, ``repeat``) over
         :data:`ROAD_DEFAULTS`.
     native : bool
         A native C FMU (:mod:`bodyvib.fmu.native`) instead of a pythonfmu one.
@@ -436,7 +456,7 @@ def build_fmus(
     """
     names = list(names or FMUS)
     chosen, car = _chosen_models(params, car, seat)
-    road = dict(ROAD_DEFAULTS, **(road or {}))
+    road = road_with_defaults(road)
     half_car = car if car_fmu_name(car) == "HalfCar" else None
     sources = {}
     for n in names:  # refuse a bad model (or road) before building anything

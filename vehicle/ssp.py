@@ -414,12 +414,12 @@ def ssp_reference(
     """
     from bodyvib.models import load_model
 
-    from .fmus import ROAD_DEFAULTS, _source, car_fmu_name, fmu_road_of
+    from .fmus import _source, car_fmu_name, fmu_road_of, road_with_defaults
     from .quarter_car import load_car
     from .reference import reference_run
     from .road.synthetic import road_table
 
-    r = dict(ROAD_DEFAULTS, **(road or {}))
+    r = road_with_defaults(road)
     if car_fmu_name(car) == "HalfCar":  # RoadFrontRear.fmu's table: a column per axle
         _, table = _source("RoadFrontRear", car, **r)
     else:

@@ -173,7 +173,7 @@ def _road(args) -> dict:
         "seed": args.road_seed,
         "length": ROAD_DEFAULTS["length"] if args.road_length is None else args.road_length,
         "speed": args.road_speed,
-        **{key: getattr(opts, field) for key, field in ROAD_OPTION_KEYS.items()},
+        **{field: getattr(opts, field) for field in ROAD_OPTION_KEYS},
     }
 
 

@@ -130,18 +130,19 @@ def car_and_seat(car, seat, default="quarter-car"):
     return car_with_seat(car, seat) if seat else car
 
 
-#: The ``--road-KEY`` options' argparse settings, by KEY: a key of a sweep spec's
-#: ``road_options`` and of Road.fmu's road options (:data:`bodyvib.vehicle.sweep.spec.ROAD_OPTION_KEYS`
-#: names the :class:`~bodyvib.vehicle.road.driven.RoadOptions` field each one sets).
+#: The ``--road-*`` options' argparse settings, by the
+#: :class:`~bodyvib.vehicle.road.driven.RoadOptions` field each one sets (a key of a sweep
+#: spec's ``road_options`` and of Road.fmu's road options,
+#: :data:`bodyvib.vehicle.sweep.spec.ROAD_OPTION_KEYS`); the flag is :data:`ROAD_FLAGS`'s.
 ROAD_ARGUMENTS = {
-    "taper": dict(
+    "taper_m": dict(
         type=float,
         default=DEFAULT_TAPER_M,
         metavar="M",
         help="the road fades in from level over its first M metres (and out over its "
         "last), so the car starts at rest on it (default: 5; 0: none)",
     ),
-    "track": dict(
+    "track_m": dict(
         type=float,
         default=0.0,
         metavar="M",
@@ -173,6 +174,10 @@ ROAD_ARGUMENTS = {
 }
 
 
+#: The flag of each road option: ``--road-`` and the field without its unit (``--road-taper``).
+ROAD_FLAGS = {field: "--road-" + field.removesuffix("_m") for field in ROAD_ARGUMENTS}
+
+
 def add_road_options(p, taper_help=None) -> None:
     """The ``--road-*`` options of a command that drives a road (cosim, check, sweep, build).
 
@@ -184,10 +189,10 @@ def add_road_options(p, taper_help=None) -> None:
         Help of ``--road-taper`` where the taper means something else (``build``: the
         default of Road.fmu).
     """
-    for key, settings in ROAD_ARGUMENTS.items():
-        if key == "taper" and taper_help:
+    for field, settings in ROAD_ARGUMENTS.items():
+        if field == "taper_m" and taper_help:
             settings = dict(settings, help=taper_help)
-        p.add_argument(f"--road-{key}", **settings)
+        p.add_argument(ROAD_FLAGS[field], dest=f"road_{field}", **settings)
 
 
 def road_options_from_args(args) -> RoadOptions:
@@ -214,9 +219,7 @@ def road_options_from_args(args) -> RoadOptions:
     >>> road_options_from_args(p.parse_args(["--road-taper", "3", "--road-repeat"]))
     RoadOptions(taper_m=3.0, track_m=0.0, units=None, envelope=False, repeat=True, contact='auto')
     """
-    return RoadOptions(
-        **{field: getattr(args, f"road_{key}") for key, field in ROAD_OPTION_KEYS.items()}
-    )
+    return RoadOptions(**{field: getattr(args, f"road_{field}") for field in ROAD_OPTION_KEYS})
 
 
 def run_settings_from_args(args) -> RunSettings:

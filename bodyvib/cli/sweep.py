@@ -55,11 +55,11 @@ def _run(args):
     if args.spec and opts != RoadOptions():
         raise BodyvibError(
             "--road-* options go with --grid; a SPEC file gives them as "
-            '"road_options": {"taper": 5, "track": 0.8, ...}'
+            '"road_options": {"taper_m": 5, "track_m": 0.8, ...}'
         )
     given = {
-        k: getattr(opts, f)
-        for k, f in ROAD_OPTION_KEYS.items()
+        f: getattr(opts, f)
+        for f in ROAD_OPTION_KEYS
         if getattr(opts, f) != getattr(RoadOptions(), f)
     }
     spec = args.spec if args.spec else grid_spec(args.grid, args.duration, args.step, given)

@@ -27,7 +27,7 @@ from typing import Optional, Sequence, Tuple
 import numpy as np
 
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib.runtime.renames import renamed_fields
+from bodyvib.runtime.renames import renamed_fields, warn_renamed
 
 from ..records import Record
 from .base import Road, RoadWarning
@@ -37,7 +37,9 @@ from .synthetic import ISO8608_CLASSES, TaperedRoad, make_road, road_input
 
 __all__ = [
     "DEFAULT_TAPER_M",
+    "RENAMED_ROAD_OPTIONS",
     "RoadOptions",
+    "renamed_road_options",
     "RunSettings",
     "is_road_file",
     "driven_road",
@@ -81,6 +83,53 @@ class RoadOptions(Record):
     envelope: bool = False
     repeat: bool = False
     contact: str = "auto"
+
+
+#: Old names of road options (a sweep spec's ``road_options``, ``Road.fmu``'s road
+#: options) -> the :class:`RoadOptions` field: accepted for one release, warned.
+RENAMED_ROAD_OPTIONS = {"taper": "taper_m", "track": "track_m"}
+
+
+def renamed_road_options(options: dict, owner: str) -> dict:
+    """``options`` with the old road option names of :data:`RENAMED_ROAD_OPTIONS` renamed.
+
+    Parameters
+    ----------
+    options : dict
+        Road options by name (a sweep spec's ``road_options``, ``Road.fmu``'s options).
+    owner : str
+        What takes them, for the ``DeprecationWarning`` an old name gives.
+
+    Returns
+    -------
+    dict
+        A copy under the new names (``options`` itself when no old name is in it).
+
+    Raises
+    ------
+    BodyvibError
+        An old name given together with its new one.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> with warnings.catch_warnings(record=True) as w:
+    ...     warnings.simplefilter("always")
+    ...     renamed_road_options({"taper": 2.0, "repeat": True}, "spec")
+    {'repeat': True, 'taper_m': 2.0}
+    >>> str(w[0].message)
+    "spec: 'taper' is renamed 'taper_m'; the old name will be removed in the next release"
+    """
+    if RENAMED_ROAD_OPTIONS.keys().isdisjoint(options):
+        return options
+    out = dict(options)
+    for old, new in RENAMED_ROAD_OPTIONS.items():
+        if old in out:
+            if new in out:
+                raise BodyvibError(f"{owner}: {old!r} and its new name {new!r}: give {new!r}")
+            warn_renamed(owner, old, new, stacklevel=4)
+            out[new] = out.pop(old)
+    return out
 
 
 @renamed_fields(speed_m_s="speed", duration_s="duration", step_s="step")

@@ -8,7 +8,7 @@ the order road, seed, speed, duration, step, body, car)::
       "road": ["A", "B", "C", "D", "E"],   ISO 8608 class A-H, "bump", "sweep", a bump shape
                                            ("hump:h=0.075,l=3.7", bodyvib.vehicle.road.bumps) or a road file
                                            (.crg, .csv, .txt, .erd; relative to the working folder)
-      "road_options": {"taper": 5},        how roads are driven: taper (m), track (m), units,
+      "road_options": {"taper_m": 5},      how roads are driven: taper_m, track_m, units,
                                            envelope, repeat, contact (as the --road-* options)
       "seed": [0],                         random-road seed(s), or a range "0..24" (no effect on bump/sweep)
       "speed": [10, 15, 20, 25, 30],       m/s
@@ -94,15 +94,9 @@ SPEC_KEYS = {
     "seat": NO_SEAT,
     "road_options": {},
 }
-#: Keys of ``road_options`` -> fields of :class:`bodyvib.vehicle.road.driven.RoadOptions`.
-ROAD_OPTION_KEYS = {
-    "taper": "taper_m",
-    "track": "track_m",
-    "units": "units",
-    "envelope": "envelope",
-    "repeat": "repeat",
-    "contact": "contact",
-}
+#: Keys of ``road_options``: the fields of :class:`bodyvib.vehicle.road.driven.RoadOptions`
+#: (``taper`` and ``track``, the old names of the first two, work for one release, warned).
+ROAD_OPTION_KEYS = ("taper_m", "track_m", "units", "envelope", "repeat", "contact")
 _BODY_KEYS = {"model", "vary", "samples", "seed", "method", "name"}
 
 
@@ -785,12 +779,13 @@ def expand(spec: dict) -> List[Case]:
 def _road_options(value) -> Tuple[Tuple[str, object], ...]:
     """``road_options`` of a spec as RoadOptions fields that differ from the defaults."""
     from ..road.contact import CONTACTS
-    from ..road.driven import RoadOptions
+    from ..road.driven import RoadOptions, renamed_road_options
 
     if not isinstance(value, dict):
         raise BodyvibError(
-            'spec: \'road_options\' must be an object like {"taper": 5, "track": 0.8}'
+            'spec: \'road_options\' must be an object like {"taper_m": 5, "track_m": 0.8}'
         )
+    value = renamed_road_options(value, "spec: road_options")
     unknown = sorted(set(value) - set(ROAD_OPTION_KEYS))
     if unknown:
         raise BodyvibError(
@@ -799,16 +794,16 @@ def _road_options(value) -> Tuple[Tuple[str, object], ...]:
         )
     default = RoadOptions()
     out = []
-    for k, field in ROAD_OPTION_KEYS.items():
+    for k in ROAD_OPTION_KEYS:
         if k not in value:
             continue
         v = value[k]
-        if k in ("taper", "track"):
+        if k in ("taper_m", "track_m"):
             ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-            if not ok or (k == "taper" and v < 0):
+            if not ok or (k == "taper_m" and v < 0):
                 raise BodyvibError(
                     f"spec: road option '{k}' must be a "
-                    f"{'non-negative ' if k == 'taper' else ''}number of m, "
+                    f"{'non-negative ' if k == 'taper_m' else ''}number of m, "
                     f"got {v!r}"
                 )
             v = float(v)
@@ -820,8 +815,8 @@ def _road_options(value) -> Tuple[Tuple[str, object], ...]:
             )
         elif k == "units" and v is not None and not isinstance(v, str):
             raise BodyvibError(f"spec: road option 'units' must be text like \"m,mm\", got {v!r}")
-        if v != getattr(default, field):
-            out.append((field, v))
+        if v != getattr(default, k):
+            out.append((k, v))
     return tuple(out)
 
 
