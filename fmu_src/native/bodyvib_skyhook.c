@@ -199,12 +199,17 @@ FMI2_Export fmi2Status fmi2SetupExperiment(fmi2Component component, fmi2Boolean 
     return (fmi2Status)bv_setup(c, start);
 }
 
-FMI2_Export fmi2Status fmi2EnterInitializationMode(fmi2Component component)
-{
-    ENTER(component, fmi2EnterInitializationMode, BV_INSTANTIATED);
-    bv_enter_initialization(c);
-    return fmi2OK;
-}
+/* An entry point of the instance alone that, allowed in the instance's state, makes one
+ * call that cannot fail. */
+#define STATE_CHANGE(function, mask, call)                                                   \
+    FMI2_Export fmi2Status function(fmi2Component component)                                 \
+    {                                                                                        \
+        ENTER(component, function, mask);                                                    \
+        call;                                                                                \
+        return fmi2OK;                                                                       \
+    }
+
+STATE_CHANGE(fmi2EnterInitializationMode, BV_INSTANTIATED, bv_enter_initialization(c))
 
 FMI2_Export fmi2Status fmi2ExitInitializationMode(fmi2Component component)
 {
@@ -221,19 +226,8 @@ FMI2_Export fmi2Status fmi2ExitInitializationMode(fmi2Component component)
     return fmi2OK;
 }
 
-FMI2_Export fmi2Status fmi2Terminate(fmi2Component component)
-{
-    ENTER(component, fmi2Terminate, BV_ON_TERMINATE);
-    bv_terminate(c);
-    return fmi2OK;
-}
-
-FMI2_Export fmi2Status fmi2Reset(fmi2Component component)
-{
-    ENTER(component, fmi2Reset, BV_ANY_STATE);
-    clear(c);
-    return fmi2OK;
-}
+STATE_CHANGE(fmi2Terminate, BV_ON_TERMINATE, bv_terminate(c))
+STATE_CHANGE(fmi2Reset, BV_ANY_STATE, clear(c))
 
 FMI2_Export fmi2Status fmi2GetReal(fmi2Component component, const fmi2ValueReference vr[],
                                    size_t n, fmi2Real value[])
