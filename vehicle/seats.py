@@ -107,13 +107,7 @@ def check_seat(seat: Network) -> str:
             f"seat model '{seat.name}' has no floor point: its base must be '{FLOOR}' "
             f"(the car point it stands on), not {', '.join(repr(b) for b in seat.bases)}"
         )
-    pan = seat.roles.get("seat")
-    if pan is None or pan not in seat.force_inputs:
-        raise BodyvibError(
-            f"seat model '{seat.name}' needs a 'seat' role naming the mass the occupant "
-            "sits on, listed in force_inputs (the occupant's seat force acts there)"
-        )
-    return pan
+    return seat_point(seat, "seat model")
 
 
 def load_seat(name_or_path: str) -> Network:

@@ -49,6 +49,7 @@ Numpy only, relative imports only: the FMUs ship this module under a private
 package name (``build_fmu.py``).
 """
 
+import math
 from dataclasses import dataclass
 from typing import List, Optional, Sequence, Tuple
 
@@ -172,6 +173,36 @@ class Variable:
     start: Optional[float] = None
     min: Optional[float] = None
     max: Optional[float] = None
+
+    def check_positive(self, owner: str, value: float) -> None:
+        """Refuse a value of this parameter that is not a positive finite number.
+
+        Parameters
+        ----------
+        owner : str
+            The FMU instance, for the message.
+        value : float
+            The value set.
+
+        Raises
+        ------
+        BodyvibError
+            Naming the parameter, its value and unit, and the fix.
+
+        Examples
+        --------
+        >>> Variable("m1", "parameter", "fixed", "kg", "Head mass", 5.3).check_positive("b", -1)
+        Traceback (most recent call last):
+        ...
+        bodyvib.runtime.errors.BodyvibError: b: parameter m1 = -1.0 kg is invalid: head mass must be a positive finite number; set a value > 0 (the FMU's default is 5.3 kg)
+        """
+        if not (math.isfinite(value) and value > 0):
+            what = self.description[:1].lower() + self.description[1:]
+            raise BodyvibError(
+                f"{owner}: parameter {self.name} = {float(value)!r} {self.unit} is invalid: "
+                f"{what} must be a positive finite number; set a value > 0 (the FMU's "
+                f"default is {self.start:g} {self.unit})"
+            )
 
 
 @dataclass(frozen=True)
@@ -393,13 +424,15 @@ def actuator_variables(network: Network) -> Tuple[Tuple[str, str, str, str, str,
     return tuple(out)
 
 
-def seat_point(network: Network) -> str:
-    """The mass a vehicle model seats the occupant on: its ``seat`` role.
+def seat_point(network: Network, what: str = "vehicle model") -> str:
+    """The mass a vehicle (or seat) model seats the occupant on: its ``seat`` role.
 
     Parameters
     ----------
     network : Network
-        A vehicle model.
+        A vehicle model, or a seat model.
+    what : str
+        What the model is, for the message.
 
     Returns
     -------
@@ -414,8 +447,8 @@ def seat_point(network: Network) -> str:
     seat = network.roles.get("seat")
     if seat is None or seat not in network.force_inputs:
         raise BodyvibError(
-            f"vehicle model '{network.name}' needs a 'seat' role naming a mass listed in "
-            "force_inputs (the occupant's seat force acts there)"
+            f"{what} '{network.name}' needs a 'seat' role naming the mass the occupant "
+            "sits on, listed in force_inputs (the occupant's seat force acts there)"
         )
     return seat
 

@@ -237,12 +237,7 @@ class FmuCore(Lifecycle):
         """
         params = self._params if params is None else params
         for var, value in zip(self.parameters, params):
-            if not (math.isfinite(value) and value > 0):
-                raise BodyvibError(
-                    f"{self.name}: parameter {var.name} = {float(value)!r} {var.unit} is invalid: "
-                    f"{var.description[0].lower() + var.description[1:]} must be a positive finite "
-                    f"number; set a value > 0 (the FMU's default is {var.start:g} {var.unit})"
-                )
+            var.check_positive(self.name, value)
 
     def initialize(self) -> None:
         """Validate the parameters and prepare the model (``fmi2ExitInitializationMode``).

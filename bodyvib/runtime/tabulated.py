@@ -344,14 +344,9 @@ class SourceCore(Lifecycle):
         ------
         BodyvibError
         """
-        v = self._speed if params is None else float(params[0])
-        var = self.parameters[0]
-        if not (math.isfinite(v) and v > 0):
-            raise BodyvibError(
-                f"{self.name}: parameter {var.name} = {v!r} {var.unit} is invalid: "
-                f"it must be a positive finite number (the FMU's default is "
-                f"{var.start:g} {var.unit})"
-            )
+        self.parameters[0].check_positive(
+            self.name, self._speed if params is None else float(params[0])
+        )
 
     def initialize(self) -> None:
         """Validate the parameters (``fmi2ExitInitializationMode``).
