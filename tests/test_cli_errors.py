@@ -252,3 +252,16 @@ def test_road_data_files_are_not_listed_or_taken_as_cars(capsys, name):
         "quarter-car-active",
         "quarter-car-cushion",
     ]
+
+
+@pytest.mark.parametrize(
+    "argv,words",
+    [
+        (["--body", "b.fmu", "--params", "p.json"], ["--params", "with --body FMU", "one of"]),
+        (["--car-fmu", "c.fmu", "--car", "half-car"], ["--car chooses", "with --car-fmu FMU"]),
+        (["--car-fmu", "c.fmu", "--linear"], ["--linear linearizes", "with --car-fmu FMU"]),
+        (["--car-fmu", "c.fmu", "--seat", "cushion"], ["--seat goes", "leave out --car-fmu"]),
+    ],
+)
+def test_cosim_refuses_an_option_another_makes_moot(capsys, argv, words):
+    _one_line(capsys, ["cosim", *argv], *words)

@@ -36,28 +36,40 @@ from .outputs import check_files, write_outputs
 __all__ = ["add_command"]
 
 
+def _moot_options(args):
+    """``(given, would be ignored, message)`` of each option another one makes moot."""
+    built = "the run; with --car-fmu FMU it would be ignored"
+    return (
+        (
+            args.body,
+            args.params is not None,
+            "--params bakes a parameter file into the HumanBody3DOF.fmu built for "
+            "the run; with --body FMU it would be ignored: give one of them",
+        ),
+        (
+            args.car_fmu,
+            args.car is not None,
+            f"--car chooses the model of the QuarterCar.fmu built for {built}: give one of them",
+        ),
+        (
+            args.car_fmu,
+            getattr(args, "linear", False),
+            f"--linear linearizes the car FMU built for {built}: give one of them",
+        ),
+        (
+            args.car_fmu,
+            args.seat is not None,
+            f"--seat goes into the car FMU built for {built}: build that FMU with the seat, "
+            "or leave out --car-fmu",
+        ),
+    )
+
+
 def _check_options(args):
     """Refuse options that would be silently ignored, and outputs that cannot be written."""
-    if args.body is not None and args.params is not None:
-        raise BodyvibError(
-            "--params bakes a parameter file into the HumanBody3DOF.fmu built for "
-            "the run; with --body FMU it would be ignored: give one of them"
-        )
-    if args.car_fmu is not None and args.car is not None:
-        raise BodyvibError(
-            "--car chooses the model of the QuarterCar.fmu built for the run; with "
-            "--car-fmu FMU it would be ignored: give one of them"
-        )
-    if args.car_fmu is not None and getattr(args, "linear", False):
-        raise BodyvibError(
-            "--linear linearizes the car FMU built for the run; with --car-fmu FMU it "
-            "would be ignored: give one of them"
-        )
-    if args.car_fmu is not None and args.seat is not None:
-        raise BodyvibError(
-            "--seat goes into the car FMU built for the run; with --car-fmu FMU it would "
-            "be ignored: build that FMU with the seat, or leave out --car-fmu"
-        )
+    for given, ignored, message in _moot_options(args):
+        if given is not None and ignored:
+            raise BodyvibError(message)
     inputs = [
         ("--body", args.body),
         ("--car-fmu", args.car_fmu),
