@@ -20,6 +20,8 @@ import pytest
 __all__ = [
     "ROOT",
     "run_cli",
+    "run_text",
+    "run_ok",
     "OLD_CONTENT",
     "write_old_outputs",
     "check_stopped_run",
@@ -34,6 +36,8 @@ __all__ = [
     "sine_road",
     "write_sine_road",
     "read_run_csv",
+    "assert_csv_is_the_cosim_engine",
+    "cosim_changed_car",
     "nrmse_against_ode",
     "mount_tmpfs",
 ]
@@ -51,6 +55,18 @@ def run_cli(*args, cwd=None, timeout=600):
         text=True,
         timeout=timeout,
     )
+
+
+def run_text(cmd, cwd=None, env=None, timeout=600):
+    """Run ``cmd`` (a list) in ``cwd`` with ``env``: the finished process, output as text."""
+    return subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout)
+
+
+def run_ok(cmd, cwd=None, env=None, timeout=600):
+    """:func:`run_text`, asserting that ``cmd`` exits 0 (its output in the failure)."""
+    out = run_text(cmd, cwd, env, timeout)
+    assert out.returncode == 0, out.stdout + out.stderr
+    return out
 
 
 #: What every output holds before a command that is sent a signal runs.
@@ -308,6 +324,43 @@ def read_run_csv(path):
         table = list(csv.reader(f))
     data = np.array(table[1:], dtype=float)
     return {h.split(" [")[0]: data[:, i] for i, h in enumerate(table[0])}
+
+
+def assert_csv_is_the_cosim_engine(csv, case):
+    """Assert that ``bodyvib cosim``'s CSV ``csv`` holds the road input and the head
+    acceleration of the sweep's cosim engine on ``case``, sample for sample (the CSV keeps
+    10 significant digits: rtol 1e-9). Returns that road displacement and acceleration."""
+    from bodyvib.vehicle.sweep.engines import case_road_input, run_cosim
+
+    data = np.genfromtxt(csv, delimiter=",", names=True)
+    z, v = case_road_input(case)
+    _, hist = run_cosim([case], record=True)
+    a = hist[0]["head_acceleration"]
+    for column, x in (
+        ("road_displacement_m", z),
+        ("road_velocity_ms", v),
+        ("head_acceleration_ms2", a),
+    ):
+        np.testing.assert_allclose(data[column], x, rtol=1e-9, atol=1e-9 * np.abs(x).max())
+    return z, a
+
+
+def cosim_changed_car(car_fmu, body_fmu, changed, car, body, z, v, step):
+    """Co-simulate ``car_fmu`` with the parameters ``changed`` set and ``body_fmu`` on the
+    road input ``z, v``, and assert the head acceleration within the coupling error
+    (NRMSE 5e-4) of the monolithic reference of ``car`` (the changed model) and ``body``.
+    Returns the run and the reference."""
+    from bodyvib.vehicle.cosim import cosimulate, open_fmu
+    from bodyvib.vehicle.reference import nrmse, reference_run
+
+    with (
+        open_fmu(car_fmu, "car", "car", start_values=changed) as c,
+        open_fmu(body_fmu, "body", "body") as b,
+    ):
+        run = cosimulate(c, b, z, v, step)
+    ref = reference_run(car, body, z, v, step)
+    assert nrmse(run["head_acceleration"], ref["head_acceleration"]) <= 5e-4
+    return run, ref
 
 
 def nrmse_against_ode(rhs, states, t, y, after):

@@ -11,12 +11,12 @@ both.
 import json
 import math
 import os
-import subprocess
 import sys
 import textwrap
 
 import numpy as np
 import pytest
+from helpers import run_ok
 
 from bodyvib.models import load_model, save_model
 from bodyvib.runtime.contract import MODEL_FILE
@@ -546,15 +546,7 @@ def test_runtime_package_needs_numpy_only(tmp_path):
               {'scipy', 'control', 'matplotlib', 'bodyvib'}))
     """)
     env = dict(os.environ, PYTHONPATH=str(tmp_path))
-    out = subprocess.run(
-        [sys.executable, "-c", code],
-        cwd=tmp_path,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert out.returncode == 0, out.stderr
+    out = run_ok([sys.executable, "-c", code], tmp_path, env, timeout=120)
     force, mods = out.stdout.split("\n")[:2]
     assert math.isfinite(float(force)) and float(force) != 0.0
     assert mods == "[]"

@@ -343,8 +343,8 @@ def test_native_full_car_with_moved_corners_matches_the_reference(tmp_path):
     and, with the track and the seat moved through its parameters, co-simulates a class C
     two-track road within the coupling error of the monolithic reference."""
     from fmpy.validation import validate_fmu
+    from helpers import cosim_changed_car
 
-    from bodyvib.vehicle.cosim import cosimulate, open_fmu
     from bodyvib.vehicle.fmus import build_project_fmu
     from bodyvib.vehicle.quarter_car import track_width, wheel_sides
     from bodyvib.vehicle.road.tracks import roads_input, wheel_roads
@@ -360,13 +360,7 @@ def test_native_full_car_with_moved_corners_matches_the_reference(tmp_path):
     roads = wheel_roads(settings, driven_road(settings), wheel_sides(car), track_width(car))
     t = np.arange(0.0, 3.0, STEP)
     z, v = roads_input(roads, speed, t, wheel_offsets(car))
-    with (
-        open_fmu(native, "car", "car", start_values=changed) as c,
-        open_fmu(pyfmu, "body", "body") as b,
-    ):
-        run = cosimulate(c, b, z, v, STEP)
-    ref = reference_run(car, body, z, v, STEP)
-    assert nrmse(run["head_acceleration"], ref["head_acceleration"]) <= 5e-4
+    run, ref = cosim_changed_car(native, pyfmu, changed, car, body, z, v, STEP)
     # the seat's sideways acceleration, -h phi'', within the same coupling error
     assert nrmse(run["seat_acceleration_y"], ref["seat_acceleration_y"]) <= 5e-4
     # the unchanged car differs by far more: the parameters did reach the C assembly

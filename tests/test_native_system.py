@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import ROOT
+from helpers import ROOT, run_ok, run_text
 from test_ssp import DURATION, HOSTS, host_run
 
 from bodyvib.vehicle.reference import nrmse
@@ -217,15 +217,7 @@ def test_build_without_mingw_builds_linux_and_says_what_it_skipped(tmp_path):
     assert shutil.which(mingw + "gcc", path=env["PATH"]) is None
     assert shutil.which("gcc", path=env["PATH"]) is not None
     cmd = [sys.executable, "build_fmu.py", "--native", "--fmus", "Road", "QuarterCar"]
-    out = subprocess.run(
-        cmd + ["--dest", str(tmp_path / "d")],
-        cwd=ROOT,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    assert out.returncode == 0, out.stderr
+    out = run_ok(cmd + ["--dest", str(tmp_path / "d")], ROOT, env)
     skipped = [line for line in out.stderr.splitlines() if "skipped" in line]
     assert len(skipped) == 1 and skipped[0].startswith("win64 skipped: " + mingw + "gcc not found")
     assert "apt-get install gcc-mingw-w64-x86-64" in skipped[0]
@@ -235,13 +227,8 @@ def test_build_without_mingw_builds_linux_and_says_what_it_skipped(tmp_path):
             with zipfile.ZipFile(tmp_path / "d" / "native" / f"{sub}{name}.fmu") as z:
                 binaries = [f for f in z.namelist() if f.startswith("binaries/")]
             assert binaries == [f"binaries/{plat}/{name}.so"], binaries
-    refused = subprocess.run(
-        cmd + ["--dest", str(tmp_path / "e"), "--platforms", "linux64,win64"],
-        cwd=ROOT,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=600,
+    refused = run_text(
+        cmd + ["--dest", str(tmp_path / "e"), "--platforms", "linux64,win64"], ROOT, env
     )
     assert refused.returncode == 2
     assert len(refused.stderr.strip().splitlines()) == 1, refused.stderr

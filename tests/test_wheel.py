@@ -21,7 +21,7 @@ import pytest
 
 pytestmark = pytest.mark.integration
 
-from helpers import ROOT
+from helpers import ROOT, run_ok, run_text
 
 #: Repository folder -> its place in the wheel (pyproject.toml's package-dir).
 FOLDERS = {"bodyvib": "bodyvib", "vehicle": "bodyvib/vehicle", "fmu_src": "bodyvib/fmu_src"}
@@ -169,32 +169,21 @@ def test_installed_wheel_builds_fmus_and_runs_the_check(wheel, tmp_path):
     work.mkdir()
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME")}
     env["MPLBACKEND"] = "Agg"
-    where = subprocess.run(
+    where = run_ok(
         [
             str(py),
             "-c",
             "import bodyvib, bodyvib.fmu_src, bodyvib.vehicle; "
             "print(bodyvib.__file__, bodyvib.fmu_src.__file__, bodyvib.vehicle.__file__)",
         ],
-        cwd=work,
-        env=env,
-        capture_output=True,
-        text=True,
+        work,
+        env,
         timeout=120,
     )
-    assert where.returncode == 0, where.stderr
     assert all(p.startswith(str(venv)) for p in where.stdout.split()), where.stdout
 
     exe = str(venv / "bin" / "bodyvib")
-    build = subprocess.run(
-        [exe, "build", "--dest", "fmus"],
-        cwd=work,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    assert build.returncode == 0, build.stdout + build.stderr
+    run_ok([exe, "build", "--dest", "fmus"], work, env)
     assert sorted(p.name for p in (work / "fmus").iterdir()) == [
         "FullCar.fmu",
         "HalfCar.fmu",
@@ -206,24 +195,9 @@ def test_installed_wheel_builds_fmus_and_runs_the_check(wheel, tmp_path):
         "Road.fmu",
         "RoadFrontRear.fmu",
     ]
-    check = subprocess.run(
-        [exe, "check", "--duration", "2", "--quiet"],
-        cwd=work,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    assert check.returncode == 0, check.stdout + check.stderr
+    check = run_ok([exe, "check", "--duration", "2", "--quiet"], work, env)
     assert "verdict: " in check.stdout
-    sweep = subprocess.run(
-        [exe, "sweep", "--grid", "speed=10,20", "--out", "r.parquet"],
-        cwd=work,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    sweep = run_text([exe, "sweep", "--grid", "speed=10,20", "--out", "r.parquet"], work, env, 120)
     assert (sweep.returncode, sweep.stdout) == (2, "")
     assert sweep.stderr.startswith(
         "bodyvib sweep needs the sweep extra: pip install 'bodyvib[sweep]'"
