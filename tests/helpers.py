@@ -39,6 +39,7 @@ __all__ = [
     "assert_csv_is_the_cosim_engine",
     "cosim_changed_car",
     "nrmse_against_ode",
+    "reduced_body_on_seat",
     "mount_tmpfs",
 ]
 
@@ -361,6 +362,17 @@ def cosim_changed_car(car_fmu, body_fmu, changed, car, body, z, v, step):
     ref = reference_run(car, body, z, v, step)
     assert nrmse(run["head_acceleration"], ref["head_acceleration"]) <= 5e-4
     return run, ref
+
+
+def reduced_body_on_seat(b, s, y, x2, x1, v2, v1):
+    """The hand-written reduced body on a seat point at height ``s``: the seat spring ks to
+    the massless platform ``y``, k2 || c2 to the torso ``x2``, k1 || c1 to the head ``x1``
+    (parameters ``b``). Returns the platform's rate, the torso's and the head's
+    accelerations and the force on the seat point, ``ks (y - s)``."""
+    yd = v2 + (b["ks"] * (s - y) + b["k2"] * (x2 - y)) / b["c2"]  # massless platform
+    a1 = (b["k1"] * (x2 - x1) + b["c1"] * (v2 - v1)) / b["m1"]
+    a2 = (b["ks"] * (s - y) + b["k1"] * (x1 - x2) + b["c1"] * (v1 - v2)) / b["m2"]
+    return yd, a2, a1, b["ks"] * (y - s)
 
 
 def nrmse_against_ode(rhs, states, t, y, after):

@@ -10,7 +10,13 @@ import json
 
 import numpy as np
 import pytest
-from helpers import SINE_AMPLITUDE_M, SINE_WAVELENGTH_M, nrmse_against_ode, sine_road
+from helpers import (
+    SINE_AMPLITUDE_M,
+    SINE_WAVELENGTH_M,
+    nrmse_against_ode,
+    reduced_body_on_seat,
+    sine_road,
+)
 
 from bodyvib.models import load_model
 from bodyvib.runtime.errors import BodyvibError
@@ -236,16 +242,13 @@ def hand_written_full_car_with_body(car, body):
         vz, om, pr, *vu = q[10:17]
         v2, v1 = q[17:19]
         s = z + sx * th + sy * ph  # the seat point
-        yd = v2 + (b["ks"] * (s - y) + b["k2"] * (x2 - y)) / b["c2"]  # massless platform
-        f_seat = b["ks"] * (y - s)
+        yd, a2, a1, f_seat = reduced_body_on_seat(b, s, y, x2, x1, v2, v1)
         Fz, Mth, Mph = f_seat, sx * f_seat, sy * f_seat
         wheel_acc = []
         for (cx, cy, ks, cs, kt, mu, lag), zw, vw in zip(corners, zu, vu):
             f = ks * (zw - z - cx * th - cy * ph) + cs * (vw - vz - cx * om - cy * pr)
             Fz, Mth, Mph = Fz + f, Mth + cx * f, Mph + cy * f
             wheel_acc.append((-f + kt * (sine_road(SPEED * t - lag) - zw)) / mu)
-        a1 = (b["k1"] * (x2 - x1) + b["c1"] * (v2 - v1)) / b["m1"]
-        a2 = (b["ks"] * (s - y) + b["k1"] * (x1 - x2) + b["c1"] * (v1 - v2)) / b["m2"]
         acc = [Fz / p["ms"], Mth / p["Iy"], Mph / p["Ix"], *wheel_acc]
         return [vz, om, pr, *vu, yd, v2, v1, *acc, a2, a1], a1
 

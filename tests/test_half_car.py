@@ -13,7 +13,13 @@ import json
 
 import numpy as np
 import pytest
-from helpers import nrmse_against_ode, read_run_csv, sine_road, write_sine_road
+from helpers import (
+    nrmse_against_ode,
+    read_run_csv,
+    reduced_body_on_seat,
+    sine_road,
+    write_sine_road,
+)
 
 from bodyvib.frequency.response import frequency_response
 from bodyvib.runtime.errors import BodyvibError
@@ -216,12 +222,9 @@ def hand_written_half_car_with_body(car, body):
         z, th, zf, zr, y, x2, x1, vz, om, vf, vr, v2, v1 = q
         rf, rr = sine_road(SPEED * t), sine_road(SPEED * t - wheelbase)
         s = z + sx * th  # the seat point
-        yd = v2 + (b["ks"] * (s - y) + b["k2"] * (x2 - y)) / b["c2"]  # massless platform
+        yd, a2, a1, f_seat = reduced_body_on_seat(b, s, y, x2, x1, v2, v1)
         f_front = p["ksf"] * (zf - z - lf * th) + p["csf"] * (vf - vz - lf * om)
         f_rear = p["ksr"] * (zr - z + lr * th) + p["csr"] * (vr - vz + lr * om)
-        f_seat = b["ks"] * (y - s)  # the occupant pulls the seat point up when y > s
-        a1 = (b["k1"] * (x2 - x1) + b["c1"] * (v2 - v1)) / b["m1"]
-        a2 = (b["ks"] * (s - y) + b["k1"] * (x1 - x2) + b["c1"] * (v1 - v2)) / b["m2"]
         return [
             vz,
             om,

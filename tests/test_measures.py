@@ -82,20 +82,27 @@ def test_seat_value_of_a_rigid_seat_is_100():
     assert seat_value(a, a, 1000.0) == pytest.approx(100.0, abs=1e-9)
 
 
-def test_rigid_seat_in_the_design_evaluator_is_100_percent():
-    """The quarter car's seat is the sprung mass itself: SEAT 100 % to 1e-9."""
+def _seat_values(car, damper, values):
+    """The design evaluator's SEAT objective (a row per value of ``damper``) of the reduced
+    body on ``car`` on a class C road at 20 m/s."""
     from bodyvib.vehicle.design import DesignProblem, parse_spec
 
     spec = parse_spec(
         {
-            "car": "quarter-car",
+            "car": car,
             "body": "reduced-paper",
-            "parameters": {"cs": {"min": 300, "max": 3000}},
+            "parameters": {damper: {"min": 100, "max": 3000}},
             "operating_points": [{"road": "C", "speed": 20}],
             "objectives": ["seat_seat"],
         }
     )
-    F, _ = DesignProblem(spec).evaluate([[1000.0], [2500.0]])
+    return DesignProblem(spec).evaluate([[v] for v in values])[0]
+
+
+def test_rigid_seat_in_the_design_evaluator_is_100_percent():
+    """The quarter car's seat is the sprung mass itself: SEAT 100 % to 1e-9."""
+
+    F = _seat_values("quarter-car", "cs", [1000.0, 2500.0])
     np.testing.assert_allclose(F[:, 0], 100.0, rtol=0, atol=1e-9)
 
 
@@ -110,19 +117,9 @@ def test_cushion_seat_value_matches_the_frequency_integral():
     from bodyvib.frequency.response import frequency_response
     from bodyvib.models import load_model
     from bodyvib.runtime.network import linear_model
-    from bodyvib.vehicle.design import DesignProblem, parse_spec
     from bodyvib.vehicle.quarter_car import load_car, seated_system
 
-    spec = parse_spec(
-        {
-            "car": "quarter-car-cushion",
-            "body": "reduced-paper",
-            "parameters": {"cc": {"min": 100, "max": 3000}},
-            "operating_points": [{"road": "C", "speed": 20}],
-            "objectives": ["seat_seat"],
-        }
-    )
-    F, _ = DesignProblem(spec).evaluate([[565.0]])
+    F = _seat_values("quarter-car-cushion", "cc", [565.0])
     lm = linear_model(seated_system(load_car("quarter-car-cushion"), load_model("reduced-paper")))
     f = np.geomspace(0.01, 1000, 200001)
     H = frequency_response(lm, f, ["pan.a", "sprung.a"])

@@ -11,7 +11,13 @@ import json
 
 import numpy as np
 import pytest
-from helpers import nrmse_against_ode, read_run_csv, sine_road, write_sine_road
+from helpers import (
+    nrmse_against_ode,
+    read_run_csv,
+    reduced_body_on_seat,
+    sine_road,
+    write_sine_road,
+)
 
 from bodyvib.cli.main import main
 from bodyvib.frequency.response import frequency_response
@@ -288,13 +294,10 @@ def hand_written_quarter_car_seat_body(car, seat, body):
     def rhs(t, q):
         zs, zu, zf, zp, y, x2, x1, vs, vu, vf, vp, v2, v1 = q
         r = sine_road(SPEED * t)
-        yd = v2 + (b["ks"] * (zp - y) + b["k2"] * (x2 - y)) / b["c2"]
+        yd, a2, a1, f_body = reduced_body_on_seat(b, zp, y, x2, x1, v2, v1)  # on the pan
         f_susp = p["ks"] * (zu - zs) + p["cs"] * (vu - vs)  # on the sprung mass
         f_seat = s["ks"] * (zs - zf) + s["cs"] * (vs - vf)  # on the frame
         f_cush = s["kc"] * (zf - zp) + s["cc"] * (vf - vp)  # on the pan
-        f_body = b["ks"] * (y - zp)  # on the pan
-        a1 = (b["k1"] * (x2 - x1) + b["c1"] * (v2 - v1)) / b["m1"]
-        a2 = (b["ks"] * (zp - y) + b["k1"] * (x1 - x2) + b["c1"] * (v1 - v2)) / b["m2"]
         return [
             vs,
             vu,

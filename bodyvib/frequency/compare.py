@@ -27,26 +27,9 @@ __all__ = [
 
 #: One-third-octave centre frequencies of ISO 7962's range, Hz.
 THIRD_OCTAVE_HZ = (
-    0.5,
-    0.63,
-    0.8,
-    1.0,
-    1.25,
-    1.6,
-    2.0,
-    2.5,
-    3.15,
-    4.0,
-    5.0,
-    6.3,
-    8.0,
-    10.0,
-    12.5,
-    16.0,
-    20.0,
-    25.0,
-    31.5,
-)
+    0.5, 0.63, 0.8, 1.0, 1.25, 1.6, 2.0, 2.5, 3.15, 4.0,
+    5.0, 6.3, 8.0, 10.0, 12.5, 16.0, 20.0, 25.0, 31.5,
+)  # fmt: skip
 
 #: Working memory per frequency point and model in :func:`compare_transmissibility`,
 #: bytes: the complex response, modulus and phase arrays, the two lists of Python floats,
