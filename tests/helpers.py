@@ -36,6 +36,7 @@ __all__ = [
     "sine_road",
     "write_sine_road",
     "read_run_csv",
+    "car_dict",
     "assert_csv_is_the_cosim_engine",
     "cosim_changed_car",
     "nrmse_against_ode",
@@ -315,6 +316,16 @@ def write_sine_road(path, length_m):
     rows = "\n".join(f"{xi:.2f},{1e3 * zi:.15g}" for xi, zi in zip(x, sine_road(x)))
     path.write_text("distance_m,elevation_mm\n" + rows + "\n")
     return path
+
+
+def car_dict(name):
+    """The shipped car file ``name`` as the dict it holds (to change and load again)."""
+    import json
+
+    from bodyvib.vehicle.quarter_car import CAR_DIR
+
+    with open(f"{CAR_DIR}/{name}.json", encoding="utf-8") as f:
+        return json.load(f)
 
 
 def read_run_csv(path):

@@ -9,10 +9,10 @@ loop (exact discretization of the closed-loop matrices) for the co-simulation.
 """
 
 import copy
-import json
 
 import numpy as np
 import pytest
+from helpers import car_dict
 
 from bodyvib.runtime.contract import fmu_variables
 from bodyvib.runtime.errors import BodyvibError
@@ -25,12 +25,11 @@ from bodyvib.vehicle.control import (
     parse_control,
     skyhook,
 )
-from bodyvib.vehicle.quarter_car import CAR_DIR, load_car
+from bodyvib.vehicle.quarter_car import load_car
 
 
 def active_dict():
-    with open(f"{CAR_DIR}/quarter-car-active.json", encoding="utf-8") as f:
-        return json.load(f)
+    return car_dict("quarter-car-active")
 
 
 def textbook(p, c_sky=0.0, c_ground=0.0):

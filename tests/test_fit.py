@@ -294,6 +294,12 @@ def write_csv(path, text):
 GOOD_ROWS = "".join(f"{f},{1 + f / 50},{-f}\n" for f in range(1, MIN_ROWS + 2))
 
 
+def _csv(bad="", start=3, stop=10, header="frequency_hz,modulus", row="{},1"):
+    """A measured-transmissibility CSV: the header, the rows ``bad``, then good rows
+    ``row`` at the frequencies ``start`` ... ``stop - 1`` Hz."""
+    return f"{header}\n{bad}" + "".join(row.format(f) + "\n" for f in range(start, stop))
+
+
 @pytest.mark.parametrize(
     "text, match",
     [
@@ -308,45 +314,44 @@ GOOD_ROWS = "".join(f"{f},{1 + f / 50},{-f}\n" for f in range(1, MIN_ROWS + 2))
             "line 5.*sort the rows",
         ),
         (
-            "frequency_hz,modulus\n1,1\n2,nan\n" + "".join(f"{f},1\n" for f in range(3, 10)),
+            _csv("1,1\n2,nan\n"),
             "line 3: modulus is nan",
         ),
         (
-            "frequency_hz,modulus,phase_deg\n1,1,0\n2,1,NaN\n"
-            + "".join(f"{f},1,0\n" for f in range(3, 10)),
+            _csv("1,1,0\n2,1,NaN\n", header="frequency_hz,modulus,phase_deg", row="{},1,0"),
             "phase_deg is NaN",
         ),
         (
-            "frequency_hz,modulus\n1,1\n2,-0.5\n" + "".join(f"{f},1\n" for f in range(3, 10)),
+            _csv("1,1\n2,-0.5\n"),
             "line 3: modulus = -0.5 is negative",
         ),
         (
-            "frequency_hz,modulus\n1,1\n2,abc\n" + "".join(f"{f},1\n" for f in range(3, 10)),
+            _csv("1,1\n2,abc\n"),
             "'abc' is not a number",
         ),
         (
-            "frequency_hz,modulus\n0,1\n" + "".join(f"{f},1\n" for f in range(1, 10)),
+            _csv("0,1\n", start=1),
             "must be positive",
         ),
         ("frequency_hz,modulus\n1,1\n2,1\n", f"at least {MIN_ROWS}"),
         (
-            "frequency_hz,modulus\n1,1\n2\n" + "".join(f"{f},1\n" for f in range(3, 10)),
+            _csv("1,1\n2\n"),
             "line 3: 1 value",
         ),
         ("", "empty file"),
         # all-zero modulus: a ZeroDivisionError traceback in the fit
         (
-            "frequency_hz,modulus\n" + "".join(f"{f},0\n" for f in range(1, 11)),
+            _csv(start=1, stop=11, row="{},0"),
             "every modulus is 0",
         ),
         # a modulus of 1e300 wrote a parameter file holding Infinity
         (
-            "frequency_hz,modulus\n1,1\n2,1e300\n" + "".join(f"{f},1\n" for f in range(3, 11)),
+            _csv("1,1\n2,1e300\n", stop=11),
             "line 3: modulus = 1e.300 is not a plausible",
         ),
         # a duplicated column was accepted (the first one silently used)
         (
-            "frequency_hz,modulus,modulus\n" + "".join(f"{f},1,2\n" for f in range(1, 11)),
+            _csv(header="frequency_hz,modulus,modulus", start=1, stop=11, row="{},1,2"),
             "column.s. modulus named more than once",
         ),
     ],

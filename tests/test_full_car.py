@@ -13,6 +13,7 @@ import pytest
 from helpers import (
     SINE_AMPLITUDE_M,
     SINE_WAVELENGTH_M,
+    car_dict,
     nrmse_against_ode,
     reduced_body_on_seat,
     sine_road,
@@ -22,7 +23,7 @@ from bodyvib.models import load_model
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.modelfile import network_from_dict, network_to_dict
 from bodyvib.runtime.network import linear_model
-from bodyvib.vehicle.quarter_car import CAR_DIR, load_car, wheel_offsets
+from bodyvib.vehicle.quarter_car import load_car, wheel_offsets
 from bodyvib.vehicle.reference import nrmse, reference_run
 from bodyvib.vehicle.road.driven import RunSettings, driven_road, wheel_inputs
 
@@ -30,8 +31,7 @@ STEP = 1e-3
 
 
 def full_car_dict():
-    with open(f"{CAR_DIR}/full-car.json", encoding="utf-8") as f:
-        return json.load(f)
+    return car_dict("full-car")
 
 
 def half_car_road(speed=15.0, duration=3.0):

@@ -14,6 +14,7 @@ import json
 import numpy as np
 import pytest
 from helpers import (
+    car_dict,
     nrmse_against_ode,
     read_run_csv,
     reduced_body_on_seat,
@@ -25,12 +26,11 @@ from bodyvib.frequency.response import frequency_response
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.modelfile import network_from_dict, network_to_dict
 from bodyvib.runtime.network import linear_model
-from bodyvib.vehicle.quarter_car import CAR_DIR, load_car
+from bodyvib.vehicle.quarter_car import load_car
 
 
 def half_car_dict():
-    with open(f"{CAR_DIR}/half-car.json", encoding="utf-8") as f:
-        return json.load(f)
+    return car_dict("half-car")
 
 
 def textbook_matrices(p):

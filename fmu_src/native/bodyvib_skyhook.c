@@ -98,6 +98,12 @@ static void logger(void *env, int status, const char *message)
         say(c, BV_ERROR, "%s: %s is NULL; call refused, nothing changed", __func__, #p);     \
         return fmi2Error;                                                                    \
     }
+/* ENTER for a call that reads or writes the n values of the n value references vr[]. */
+#define ENTER_VALUES(component, function, mask)                                              \
+    ENTER(component, function, mask);                                                        \
+    size_t k;                                                                                \
+    NEED(vr, n);                                                                             \
+    NEED(value, n)
 
 /* The force (rate = 0) or its rate (rate = 1) of actuator i from velocities v. */
 static double law(const Instance *c, const double *v, int i, int rate)
@@ -232,10 +238,7 @@ STATE_CHANGE(fmi2Reset, BV_ANY_STATE, clear(c))
 FMI2_Export fmi2Status fmi2GetReal(fmi2Component component, const fmi2ValueReference vr[],
                                    size_t n, fmi2Real value[])
 {
-    ENTER(component, fmi2GetReal, BV_ON_GET);
-    size_t k;
-    NEED(vr, n);
-    NEED(value, n);
+    ENTER_VALUES(component, fmi2GetReal, BV_ON_GET);
     for (k = 0; k < n; k++) {
         if (!bv_common_check_vr(&c->bc, vr[k]))
             return fmi2Error;
@@ -256,10 +259,7 @@ FMI2_Export fmi2Status fmi2GetReal(fmi2Component component, const fmi2ValueRefer
 FMI2_Export fmi2Status fmi2SetReal(fmi2Component component, const fmi2ValueReference vr[],
                                    size_t n, const fmi2Real value[])
 {
-    ENTER(component, fmi2SetReal, BV_ON_SET);
-    size_t k;
-    NEED(vr, n);
-    NEED(value, n);
+    ENTER_VALUES(component, fmi2SetReal, BV_ON_SET);
     /* every reference and value checked before any is set; the scan stops at the first
      * refusal (a host that passes more references than its arrays hold is not read past) */
     for (k = 0; k < n; k++) {
@@ -279,10 +279,7 @@ FMI2_Export fmi2Status fmi2SetReal(fmi2Component component, const fmi2ValueRefer
 FMI2_Export fmi2Status fmi2GetBoolean(fmi2Component component, const fmi2ValueReference vr[],
                                       size_t n, fmi2Boolean value[])
 {
-    ENTER(component, fmi2GetBoolean, BV_ON_GET);
-    size_t k;
-    NEED(vr, n);
-    NEED(value, n);
+    ENTER_VALUES(component, fmi2GetBoolean, BV_ON_GET);
     for (k = 0; k < n; k++)
         if (vr[k] != 0) {
             say(c, BV_ERROR, "%s: no Boolean variable with value reference %u (semi_active "
@@ -297,10 +294,7 @@ FMI2_Export fmi2Status fmi2GetBoolean(fmi2Component component, const fmi2ValueRe
 FMI2_Export fmi2Status fmi2SetBoolean(fmi2Component component, const fmi2ValueReference vr[],
                                       size_t n, const fmi2Boolean value[])
 {
-    ENTER(component, fmi2SetBoolean, BV_ON_SET);
-    size_t k;
-    NEED(vr, n);
-    NEED(value, n);
+    ENTER_VALUES(component, fmi2SetBoolean, BV_ON_SET);
     for (k = 0; k < n; k++)
         if (vr[k] != 0 || c->bc.initialized) {
             say(c, BV_ERROR, "%s: semi_active (Boolean value reference 0) is a parameter, "
