@@ -174,7 +174,7 @@ class Variable:
     min: Optional[float] = None
     max: Optional[float] = None
 
-    def check_positive(self, owner: str, value: float) -> None:
+    def check_positive(self, owner: str, value: float, what: Optional[str] = None) -> None:
         """Refuse a value of this parameter that is not a positive finite number.
 
         Parameters
@@ -183,6 +183,8 @@ class Variable:
             The FMU instance, for the message.
         value : float
             The value set.
+        what : str, optional
+            The subject of the message (default: the description, lower-cased).
 
         Raises
         ------
@@ -197,7 +199,7 @@ class Variable:
         bodyvib.runtime.errors.BodyvibError: b: parameter m1 = -1.0 kg is invalid: head mass must be a positive finite number; set a value > 0 (the FMU's default is 5.3 kg)
         """
         if not (math.isfinite(value) and value > 0):
-            what = self.description[:1].lower() + self.description[1:]
+            what = what or self.description[:1].lower() + self.description[1:]
             raise BodyvibError(
                 f"{owner}: parameter {self.name} = {float(value)!r} {self.unit} is invalid: "
                 f"{what} must be a positive finite number; set a value > 0 (the FMU's "

@@ -344,9 +344,8 @@ class SourceCore(Lifecycle):
         ------
         BodyvibError
         """
-        self.parameters[0].check_positive(
-            self.name, self._speed if params is None else float(params[0])
-        )
+        speed = self._speed if params is None else float(params[0])
+        self.parameters[0].check_positive(self.name, speed, "it")
 
     def initialize(self) -> None:
         """Validate the parameters (``fmi2ExitInitializationMode``).
