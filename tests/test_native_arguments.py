@@ -146,6 +146,15 @@ def _me_calls(fmi, n):
         + ((c_size_t(1), out, c_size_t(1)) if fmi == 3 else (out,)),
         "log category": ("SetDebugLogging", c_int(1), c_size_t(1), (c_char_p * 1)(b"logNothing")),
         "log category NULL": ("SetDebugLogging", c_int(1), c_size_t(1), None),
+        # a co-simulation function on a model-exchange instance
+        "cs output derivatives": (
+            ("GetRealOutputDerivatives" if fmi == 2 else "GetOutputDerivatives"),
+            (c_uint * 1)(0),
+            c_size_t(1),
+            (c_int * 1)(1),
+            out,
+        )
+        + ((c_size_t(1),) if fmi == 3 else ()),
     }
     if fmi == 2:
         calls.update(
@@ -156,13 +165,6 @@ def _me_calls(fmi, n):
                     c_size_t(1),
                     (c_int * 1)(1),
                     (c_double * 1)(0.0),
-                ),
-                "cs output derivatives": (
-                    "GetRealOutputDerivatives",
-                    (c_uint * 1)(0),
-                    c_size_t(1),
-                    (c_int * 1)(1),
-                    out,
                 ),
                 "cs do step": ("DoStep", c_double(0.0), c_double(1e-3), c_int(1)),
                 "cs cancel": ("CancelStep",),
@@ -178,14 +180,6 @@ def _me_calls(fmi, n):
         b = byref(c_bool())
         calls.update(
             {
-                "cs output derivatives": (
-                    "GetOutputDerivatives",
-                    (c_uint * 1)(0),
-                    c_size_t(1),
-                    (c_int * 1)(1),
-                    out,
-                    c_size_t(1),
-                ),
                 "cs do step": (
                     "DoStep",
                     c_double(0.0),
