@@ -153,7 +153,7 @@ def wheel_sides(car: Network) -> Tuple[int, ...]:
     Parameters
     ----------
     car : Network
-        A vehicle model (:func:`load_car`).
+        As :func:`wheel_offsets`.
 
     Returns
     -------

@@ -853,13 +853,12 @@ def package_native_fmu(
     Returns
     -------
     Path
-        ``dest/<name>.fmu``.
+        As :func:`package_c_fmu`.
 
     Raises
     ------
     BodyvibError
-        An FMI version or platform that does not exist, a compiler missing or failing,
-        or an FMU that ``fmpy validate`` finds problems in (the previous file is kept).
+        An FMI version that does not exist, or what :func:`package_c_fmu` refuses.
     """
     if fmi not in FMI_FILES:
         raise BodyvibError(f"FMI version must be 2 or 3, got {fmi!r}")

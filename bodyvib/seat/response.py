@@ -112,10 +112,8 @@ def internal_forces(body: Network, acceleration, fs: float) -> Dict[str, np.ndar
     ----------
     body : Network
         A body model; its ``forces`` (``neck``, ``lumbar``) are computed.
-    acceleration : (n,) array_like
-        Seat acceleration, m/s2, uniformly sampled, linear between samples.
-    fs : float
-        Sampling rate, Hz.
+    acceleration, fs
+        As :func:`head_acceleration`.
 
     Returns
     -------

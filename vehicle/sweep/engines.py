@@ -559,15 +559,13 @@ def run_cosim(cases: Sequence[Case], record: bool = False):
 
     Parameters
     ----------
-    cases : sequence of Case
-    record : bool
-        Also return the head and seat acceleration histories.
+    cases, record
+        As :func:`run_batched`.
 
     Returns
     -------
-    rows : list of dict
+    rows, histories
         As :func:`run_batched`.
-    histories : list of dict or None
     """
     from ..cosim import cosimulate, open_fmu
 
