@@ -101,19 +101,8 @@ def main(argv=None):
 
     def cli():
         subprocess.run(
-            [
-                sys.executable,
-                "-m",
-                "bodyvib.cli",
-                "fit",
-                "--reference",
-                "iso7962",
-                "--seed",
-                "1",
-                "--out",
-                out,
-                "--quiet",
-            ],
+            [sys.executable, "-m", "bodyvib.cli", *"fit --reference iso7962 --seed 1".split()]
+            + ["--out", out, "--quiet"],
             check=True,
         )
 

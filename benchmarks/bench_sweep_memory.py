@@ -71,19 +71,8 @@ def measure(cases: int, workers: int, folder: str) -> dict:
     env = {**os.environ, "DASK_TEMPORARY_DIRECTORY": folder}
     sf = os.path.join(folder, "scheduler.json")
     sched = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "dask",
-            "scheduler",
-            "--host",
-            "127.0.0.1",
-            "--port",
-            "0",
-            "--no-dashboard",
-            "--scheduler-file",
-            sf,
-        ],
+        [sys.executable, "-m", *"dask scheduler --host 127.0.0.1 --port 0".split()]
+        + ["--no-dashboard", "--scheduler-file", sf],
         env=env,
         start_new_session=True,
         stdout=subprocess.DEVNULL,
@@ -98,18 +87,8 @@ def measure(cases: int, workers: int, folder: str) -> dict:
         for i in range(workers):
             procs.append(
                 subprocess.Popen(
-                    [
-                        sys.executable,
-                        "-m",
-                        "dask",
-                        "worker",
-                        address,
-                        "--nthreads",
-                        "1",
-                        "--no-dashboard",
-                        "--local-directory",
-                        os.path.join(folder, f"w{i}"),
-                    ],
+                    [sys.executable, "-m", "dask", "worker", address, "--nthreads", "1"]
+                    + ["--no-dashboard", "--local-directory", os.path.join(folder, f"w{i}")],
                     env=env,
                     start_new_session=True,
                     stdout=subprocess.DEVNULL,

@@ -59,19 +59,8 @@ RUN_FMU = textwrap.dedent(f"""
 def test_refit_flows_into_the_rebuilt_fmu(tmp_path):
     refit_file = tmp_path / "refit.json"
     fit = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "bodyvib.cli",
-            "fit",
-            "--reference",
-            "iso7962",
-            "--seed",
-            "1",
-            "--out",
-            str(refit_file),
-            "--quiet",
-        ],
+        [sys.executable, "-m", "bodyvib.cli", *"fit --reference iso7962 --seed 1".split()]
+        + ["--out", str(refit_file), "--quiet"],
         capture_output=True,
         text=True,
         timeout=300,

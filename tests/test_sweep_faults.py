@@ -60,19 +60,8 @@ class Cluster:
         sf = os.path.join(folder, f"scheduler-{time.time_ns()}.json")
         env = {**ENV, "DASK_TEMPORARY_DIRECTORY": folder}  # their scratch space: not in /tmp
         self.scheduler = _start(
-            [
-                sys.executable,
-                "-m",
-                "dask",
-                "scheduler",
-                "--host",
-                "127.0.0.1",
-                "--port",
-                "0",
-                "--no-dashboard",
-                "--scheduler-file",
-                sf,
-            ],
+            [sys.executable, "-m", *"dask scheduler --host 127.0.0.1 --port 0".split()]
+            + ["--no-dashboard", "--scheduler-file", sf],
             env=env,
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,
@@ -88,18 +77,9 @@ class Cluster:
         for _i in range(workers):
             self.procs.append(
                 _start(
-                    [
-                        sys.executable,
-                        "-m",
-                        "dask",
-                        "worker",
-                        self.address,
-                        "--nthreads",
-                        "1",
-                        "--no-dashboard",
-                        "--local-directory",
-                        os.path.join(folder, f"w{len(self.procs)}"),
-                    ],
+                    [sys.executable, "-m", "dask", "worker", self.address, "--nthreads", "1"]
+                    + ["--no-dashboard", "--local-directory"]
+                    + [os.path.join(folder, f"w{len(self.procs)}")],
                     env=env,
                     stdout=subprocess.DEVNULL,
                     stderr=subprocess.DEVNULL,
