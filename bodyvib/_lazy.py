@@ -1,19 +1,19 @@
 """Lazy exports of a package: its public names, imported from their module on first use.
 
-A package ``__init__`` names where each public name lives and takes its ``__all__``,
+A package ``__init__`` names the public names each of its modules defines and takes its ``__all__``,
 ``__getattr__`` and ``__dir__`` from :func:`lazy_exports`, so importing the package costs
 nothing until a name is used (the command line imports only what a command needs).
 """
 
 import importlib
 import sys
-from typing import Callable, Dict, List, Sequence, Tuple
+from typing import Callable, List, Mapping, Sequence, Tuple
 
 __all__ = ["lazy_exports"]
 
 
 def lazy_exports(
-    package: str, home: Dict[str, str], subpackages: Sequence[str] = ()
+    package: str, modules: Mapping[str, Sequence[str]], subpackages: Sequence[str] = ()
 ) -> Tuple[List[str], Callable[[str], object], Callable[[], list]]:
     """The ``__all__``, ``__getattr__`` and ``__dir__`` of a package that imports lazily.
 
@@ -21,8 +21,9 @@ def lazy_exports(
     ----------
     package : str
         The package's ``__name__``.
-    home : dict of str to str
-        Public name -> the submodule (relative to ``package``) that defines it.
+    modules : mapping of str to sequence of str
+        Submodule (relative to ``package``) -> the public names it defines, as the
+        ``from .submodule import ...`` lines of an eager package would list them.
     subpackages : sequence of str
         Subpackages that are public names too, imported on first use like the names.
 
@@ -34,12 +35,13 @@ def lazy_exports(
 
     Examples
     --------
-    >>> all_, getattr_, dir_ = lazy_exports("bodyvib", {"linear_model": "runtime.network"})
+    >>> all_, getattr_, dir_ = lazy_exports("bodyvib", {"runtime.network": ("linear_model",)})
     >>> all_
     ['linear_model']
     >>> getattr_("linear_model").__name__
     'linear_model'
     """
+    home = {name: module for module, names in modules.items() for name in names}
     names = sorted(home) + list(subpackages)
 
     def __getattr__(name: str) -> object:

@@ -25,70 +25,51 @@ if __name__ != "bodyvib.vehicle":
 
 from bodyvib._lazy import lazy_exports
 
-_HOME = {
+_MODULES = {
     # the car
-    "CAR_DIR": "quarter_car",
-    "load_car": "quarter_car",
-    "seated_system": "quarter_car",
+    "quarter_car": ("CAR_DIR", "load_car", "seated_system"),
     # the seat as a part
-    "load_seat": "seats",
-    "mount_seat": "seats",
-    "car_with_seat": "seats",
-    "seat_transmissibility": "seat_response",
-    "seat_value": "seat_response",
+    "seats": ("load_seat", "mount_seat", "car_with_seat"),
+    "seat_response": ("seat_transmissibility", "seat_value"),
     # the FMUs of a run
-    "FMUS": "fmus",
-    "build_fmus": "fmus",
-    "build_project_fmu": "fmus",
-    "load_fmu_model": "fmus",
-    "temporary_fmu_dir": "fmus",
+    "fmus": ("FMUS", "build_fmus", "build_project_fmu", "load_fmu_model", "temporary_fmu_dir"),
     # active suspension control
-    "SkyhookController": "control",
-    "skyhook": "control",
-    "closed_loop_model": "control",
-    "compare_laws": "active",
+    "control": ("SkyhookController", "skyhook", "closed_loop_model"),
+    "active": ("compare_laws",),
     # the co-simulation
-    "Master": "cosim",
-    "Slave": "cosim",
-    "open_fmu": "cosim",
-    "check_fmu": "cosim",
-    "model_from_fmu": "cosim",
-    "cosimulate": "cosim",
-    "write_csv": "cosim",
-    "CsvStream": "cosim",
-    "Record": "records",
+    "cosim": (
+        "Master",
+        "Slave",
+        "open_fmu",
+        "check_fmu",
+        "model_from_fmu",
+        "cosimulate",
+        "write_csv",
+        "CsvStream",
+    ),
+    "records": ("Record",),
     # the signals a run records
-    "Signal": "signals",
-    "SIGNALS": "signals",
-    "UNITS": "signals",
-    "header": "signals",
-    "axis_label": "signals",
+    "signals": ("Signal", "SIGNALS", "UNITS", "header", "axis_label"),
     # the exact reference and the check against it
-    "reference_run": "reference",
-    "ReferenceStream": "reference",
-    "nrmse": "reference",
-    "seat_force_weights": "reference",
-    "TOLERANCES": "check",
-    "Criterion": "check",
-    "Comparison": "check",
-    "compare": "check",
+    "reference": ("reference_run", "ReferenceStream", "nrmse", "seat_force_weights"),
+    "check": ("TOLERANCES", "Criterion", "Comparison", "compare"),
     # studies
-    "BodyRun": "study",
-    "Study": "study",
-    "StudyCsv": "study",
-    "StudyOptions": "study",
-    "check_settings": "study",
-    "run_study": "study",
-    "coupling_error_sweep": "study",
-    "format_report": "report",
-    "study_json": "report",
-    "plot_study": "study_plot",
+    "study": (
+        "BodyRun",
+        "Study",
+        "StudyCsv",
+        "StudyOptions",
+        "check_settings",
+        "run_study",
+        "coupling_error_sweep",
+    ),
+    "report": ("format_report", "study_json"),
+    "study_plot": ("plot_study",),
     # the system structure (SSP) of the co-simulation
-    "write_ssp": "ssp",
-    "system_structure": "ssp",
+    "ssp": ("write_ssp", "system_structure"),
 }
 
 #: Subpackages, imported on first use like the names.
 _SUBPACKAGES = ("road", "sweep")
 
-__all__, __getattr__, __dir__ = lazy_exports(__name__, _HOME, _SUBPACKAGES)
+__all__, __getattr__, __dir__ = lazy_exports(__name__, _MODULES, _SUBPACKAGES)

@@ -16,28 +16,21 @@ are its public interface, and the modules that hold them are internal and may mo
 
 from bodyvib._lazy import lazy_exports
 
-_HOME = {
-    "load_config": "config",
-    "parse_pairs": "config",
-    "FitConfig": "config",
-    "FitTarget": "objective",
-    "model_target": "objective",
-    "measured_target": "objective",
-    "objective_time_domain": "objective",
-    "objective_frequency_domain": "objective",
-    "GENES": "space",
-    "genes_to_parameters": "space",
-    "parameters_to_genes": "space",
-    "METHODS": "methods",
-    "SearchResult": "methods",
-    "fit": "search",
-    "polish": "search",
-    "FitResult": "result",
-    "write_parameter_file": "result",
-    "compare_fit": "report",
-    "write_report": "report",
-    "ParetoFront": "pareto",
-    "pareto_front": "pareto",
+_MODULES = {
+    "config": ("load_config", "parse_pairs", "FitConfig"),
+    "objective": (
+        "FitTarget",
+        "model_target",
+        "measured_target",
+        "objective_time_domain",
+        "objective_frequency_domain",
+    ),
+    "space": ("GENES", "genes_to_parameters", "parameters_to_genes"),
+    "methods": ("METHODS", "SearchResult"),
+    "search": ("fit", "polish"),
+    "result": ("FitResult", "write_parameter_file"),
+    "report": ("compare_fit", "write_report"),
+    "pareto": ("ParetoFront", "pareto_front"),
 }
 
-__all__, __getattr__, __dir__ = lazy_exports(__name__, _HOME)
+__all__, __getattr__, __dir__ = lazy_exports(__name__, _MODULES)

@@ -16,24 +16,15 @@ public interface, and the modules that hold them are internal and may move.
 
 from bodyvib._lazy import lazy_exports
 
-_HOME = {
-    "build": "builder",
-    "BACKENDS": "builder",
-    "build_fmu": "pythonfmu",
-    "build_source_fmu": "pythonfmu",
-    "build_native_fmu": "native",
-    "native_model": "native",
-    "NativeModel": "native",
-    "PLATFORMS": "native",
-    "build_native_source_fmu": "native_table",
-    "build_controller_fmu": "controller",
-    "ModelDescription": "description",
-    "validate_fmu_file": "description",
-    "check_extracted_fmu": "inspect",
-    "check_elf": "inspect",
-    "fmu_src_dir": "contents",
-    "native_dir": "contents",
-    "RUNTIME_DIR": "contents",
+_MODULES = {
+    "builder": ("build", "BACKENDS"),
+    "pythonfmu": ("build_fmu", "build_source_fmu"),
+    "native": ("build_native_fmu", "native_model", "NativeModel", "PLATFORMS"),
+    "native_table": ("build_native_source_fmu",),
+    "controller": ("build_controller_fmu",),
+    "description": ("ModelDescription", "validate_fmu_file"),
+    "inspect": ("check_extracted_fmu", "check_elf"),
+    "contents": ("fmu_src_dir", "native_dir", "RUNTIME_DIR"),
 }
 
-__all__, __getattr__, __dir__ = lazy_exports(__name__, _HOME)
+__all__, __getattr__, __dir__ = lazy_exports(__name__, _MODULES)

@@ -10,26 +10,20 @@ Import from the package (``from bodyvib.frequency import transmissibility``): th
 are its public interface, and the modules that hold them are internal and may move.
 """
 
-from .response import (
-    Peak,
-    apparent_mass,
-    control_labels,
-    displacement_input_matrices,
-    displacement_input_statespace,
-    find_peaks,
-    frequency_response,
-    to_statespace,
-    transmissibility,
-)
+from bodyvib._lazy import lazy_exports
 
-__all__ = [  # alphabetical: the index of the package
-    "apparent_mass",
-    "control_labels",
-    "displacement_input_matrices",
-    "displacement_input_statespace",
-    "find_peaks",
-    "frequency_response",
-    "Peak",
-    "to_statespace",
-    "transmissibility",
-]
+_MODULES = {
+    "response": (
+        "Peak",
+        "apparent_mass",
+        "control_labels",
+        "displacement_input_matrices",
+        "displacement_input_statespace",
+        "find_peaks",
+        "frequency_response",
+        "to_statespace",
+        "transmissibility",
+    ),
+}
+
+__all__, __getattr__, __dir__ = lazy_exports(__name__, _MODULES)

@@ -11,30 +11,20 @@ Import from the package (``from bodyvib.seat import respond``): the names in ``_
 are its public interface, and the modules that hold them are internal and may move.
 """
 
-from .response import DEFAULT_MODELS, BodyResponse, Response, head_acceleration, respond
-from .signal import (
-    MIN_DURATION_S,
-    MIN_RATE_HZ,
-    UNIFORM_TOLERANCE,
-    SeatSignal,
-    check_signal,
-    read_csv_signal,
-    read_mdf_signal,
-    read_signal,
-)
+from bodyvib._lazy import lazy_exports
 
-__all__ = [
-    "MIN_RATE_HZ",
-    "MIN_DURATION_S",
-    "UNIFORM_TOLERANCE",
-    "SeatSignal",
-    "check_signal",
-    "read_csv_signal",
-    "read_mdf_signal",
-    "read_signal",
-    "DEFAULT_MODELS",
-    "head_acceleration",
-    "BodyResponse",
-    "Response",
-    "respond",
-]
+_MODULES = {
+    "response": ("DEFAULT_MODELS", "BodyResponse", "Response", "head_acceleration", "respond"),
+    "signal": (
+        "MIN_DURATION_S",
+        "MIN_RATE_HZ",
+        "UNIFORM_TOLERANCE",
+        "SeatSignal",
+        "check_signal",
+        "read_csv_signal",
+        "read_mdf_signal",
+        "read_signal",
+    ),
+}
+
+__all__, __getattr__, __dir__ = lazy_exports(__name__, _MODULES)

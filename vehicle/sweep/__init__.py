@@ -15,21 +15,13 @@ are its public interface, and the modules that hold them are internal and may mo
 
 from bodyvib._lazy import lazy_exports
 
-_HOME = {
-    "Case": "spec",
-    "load_spec": "spec",
-    "grid_spec": "spec",
-    "expand": "spec",
-    "iter_cases": "spec",
-    "count_cases": "spec",
-    "ClusterLost": "cluster",
-    "ENGINES": "engines",
-    "run_engine": "engines",
-    "run_sweep": "run",
-    "SweepSettings": "run",
-    "read_results": "run",
-    "format_summary": "summary",
-    "plot_comfort_maps": "plot",
+_MODULES = {
+    "spec": ("Case", "load_spec", "grid_spec", "expand", "iter_cases", "count_cases"),
+    "cluster": ("ClusterLost",),
+    "engines": ("ENGINES", "run_engine"),
+    "run": ("run_sweep", "SweepSettings", "read_results"),
+    "summary": ("format_summary",),
+    "plot": ("plot_comfort_maps",),
 }
 
-__all__, __getattr__, __dir__ = lazy_exports(__name__, _HOME)
+__all__, __getattr__, __dir__ = lazy_exports(__name__, _MODULES)
