@@ -31,7 +31,7 @@ from bodyvib.vehicle.quarter_car import CAR_FMU_OUTPUTS, load_car
 
 pytestmark = pytest.mark.integration
 
-from helpers import ROOT
+from helpers import ROOT, run_cli
 
 NAMES = ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar")
 MODEL_OF = {"HumanBody3DOF": "reduced-paper", "HumanBodyISO7962": "iso7962"}
@@ -232,24 +232,8 @@ def test_params_file_is_baked_into_humanbody3dof(fmus, tmp_path):
     also beside the default HumanBody3DOF.fmu in the same process (different hashed names)."""
     net = load_model("reduced-paper").with_parameters(m1=5.5, c1=400.0)
     save_model(net, tmp_path / "refit.json")
-    out = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "bodyvib.cli",
-            "build",
-            "--params",
-            str(tmp_path / "refit.json"),
-            "--fmus",
-            "HumanBody3DOF",
-            "--dest",
-            str(tmp_path),
-        ],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
+    args = ["--params", str(tmp_path / "refit.json"), "--fmus", "HumanBody3DOF"]
+    out = run_cli("build", *args, "--dest", str(tmp_path), cwd=ROOT, timeout=300)
     assert out.returncode == 0, out.stderr
     assert "HumanBody3DOF.fmu" in out.stdout
     code = textwrap.dedent(f"""
@@ -311,20 +295,13 @@ def test_build_in_a_process_that_already_ran_an_fmu(fmus, tmp_path):
 
 def test_bad_params_file_is_refused_by_the_build_command(tmp_path):
     (tmp_path / "bad.json").write_text('{"name": "x"}')
-    out = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "bodyvib.cli",
-            "build",
-            "--params",
-            str(tmp_path / "bad.json"),
-            "--dest",
-            str(tmp_path),
-        ],
+    out = run_cli(
+        "build",
+        "--params",
+        str(tmp_path / "bad.json"),
+        "--dest",
+        str(tmp_path),
         cwd=ROOT,
-        capture_output=True,
-        text=True,
         timeout=120,
     )
     assert out.returncode == 2
