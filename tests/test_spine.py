@@ -21,13 +21,16 @@ from bodyvib.comfort.spine import (
 
 
 def _spine_ss():
-    """Formula 1 as a transfer function in s, built from its factors (not the module's)."""
-    w, z = SPINE_ZERO
-    num = np.array([1 / w**2, 2 * z / w, 1.0])
-    den = np.array([1.0])
-    for w, z in SPINE_POLES:
-        den = np.polymul(den, [1 / w**2, 2 * z / w, 1.0])
-    return signal.TransferFunction(num, den)
+    """Formula 1 from its roots (not the module's polynomials): a factor
+    ``1 + 2 z s / w + (s / w)^2`` has the roots ``w (-z +- j sqrt(1 - z^2))`` and leading
+    coefficient ``1 / w^2``; unity gain at DC."""
+
+    def roots(w, z):
+        return [w * complex(-z, sign * np.sqrt(1 - z**2)) for sign in (1, -1)]
+
+    poles = [r for w, z in SPINE_POLES for r in roots(w, z)]
+    gain = np.prod([w**2 for w, _ in SPINE_POLES]) / SPINE_ZERO[0] ** 2
+    return signal.ZerosPolesGain(roots(*SPINE_ZERO), poles, gain)
 
 
 def _shocks(fs):
