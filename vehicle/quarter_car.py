@@ -182,7 +182,7 @@ def track_width(car: Network) -> float:
     Parameters
     ----------
     car : Network
-        A vehicle model (:func:`load_car`).
+        As :func:`wheel_offsets`.
 
     Returns
     -------
