@@ -29,30 +29,30 @@ _MODULES = {
     # the car
     "quarter_car": ("CAR_DIR", "load_car", "seated_system"),
     # the seat as a part
-    "seats": ("load_seat", "mount_seat", "car_with_seat"),
+    "seats": ("car_with_seat", "load_seat", "mount_seat"),
     "seat_response": ("seat_transmissibility", "seat_value"),
     # the FMUs of a run
     "fmus": ("FMUS", "build_fmus", "build_project_fmu", "load_fmu_model", "temporary_fmu_dir"),
     # active suspension control
-    "control": ("SkyhookController", "skyhook", "closed_loop_model"),
+    "control": ("SkyhookController", "closed_loop_model", "skyhook"),
     "active": ("compare_laws",),
     # the co-simulation
     "cosim": (
+        "CsvStream",
         "Master",
         "Slave",
-        "open_fmu",
         "check_fmu",
-        "model_from_fmu",
         "cosimulate",
+        "model_from_fmu",
+        "open_fmu",
         "write_csv",
-        "CsvStream",
     ),
     "records": ("Record",),
     # the signals a run records
-    "signals": ("Signal", "SIGNALS", "UNITS", "header", "axis_label"),
+    "signals": ("SIGNALS", "UNITS", "Signal", "axis_label", "header"),
     # the exact reference and the check against it
-    "reference": ("reference_run", "ReferenceStream", "nrmse", "seat_force_weights"),
-    "check": ("TOLERANCES", "Criterion", "Comparison", "compare"),
+    "reference": ("ReferenceStream", "nrmse", "reference_run", "seat_force_weights"),
+    "check": ("TOLERANCES", "Comparison", "Criterion", "compare"),
     # studies
     "study": (
         "BodyRun",
@@ -60,13 +60,13 @@ _MODULES = {
         "StudyCsv",
         "StudyOptions",
         "check_settings",
-        "run_study",
         "coupling_error_sweep",
+        "run_study",
     ),
     "report": ("format_report", "study_json"),
     "study_plot": ("plot_study",),
     # the system structure (SSP) of the co-simulation
-    "ssp": ("write_ssp", "system_structure"),
+    "ssp": ("system_structure", "write_ssp"),
 }
 
 #: Subpackages, imported on first use like the names.

@@ -57,8 +57,8 @@ _MODULES = {
     "forces": ("ForceFigures", "ForceStream", "force_figures"),
     "measures": (
         "WF_PARAMETERS",
-        "SeatMeasures",
         "SeatMeasureStream",
+        "SeatMeasures",
         "absorbed_power",
         "lee_pradko_power",
         "msdv",

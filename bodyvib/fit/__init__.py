@@ -17,13 +17,13 @@ are its public interface, and the modules that hold them are internal and may mo
 from bodyvib._lazy import lazy_exports
 
 _MODULES = {
-    "config": ("load_config", "parse_pairs", "FitConfig"),
+    "config": ("FitConfig", "load_config", "parse_pairs"),
     "objective": (
         "FitTarget",
-        "model_target",
         "measured_target",
-        "objective_time_domain",
+        "model_target",
         "objective_frequency_domain",
+        "objective_time_domain",
     ),
     "space": ("GENES", "genes_to_parameters", "parameters_to_genes"),
     "methods": ("METHODS", "SearchResult"),

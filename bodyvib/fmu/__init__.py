@@ -17,14 +17,14 @@ public interface, and the modules that hold them are internal and may move.
 from bodyvib._lazy import lazy_exports
 
 _MODULES = {
-    "builder": ("build", "BACKENDS"),
+    "builder": ("BACKENDS", "build"),
     "pythonfmu": ("build_fmu", "build_source_fmu"),
-    "native": ("build_native_fmu", "native_model", "NativeModel", "PLATFORMS"),
+    "native": ("PLATFORMS", "NativeModel", "build_native_fmu", "native_model"),
     "native_table": ("build_native_source_fmu",),
     "controller": ("build_controller_fmu",),
     "description": ("ModelDescription", "validate_fmu_file"),
-    "inspect": ("check_extracted_fmu", "check_elf"),
-    "contents": ("fmu_src_dir", "native_dir", "RUNTIME_DIR"),
+    "inspect": ("check_elf", "check_extracted_fmu"),
+    "contents": ("RUNTIME_DIR", "fmu_src_dir", "native_dir"),
 }
 
 __all__, __getattr__, __dir__ = lazy_exports(__name__, _MODULES)

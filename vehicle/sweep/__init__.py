@@ -16,10 +16,10 @@ are its public interface, and the modules that hold them are internal and may mo
 from bodyvib._lazy import lazy_exports
 
 _MODULES = {
-    "spec": ("Case", "load_spec", "grid_spec", "expand", "iter_cases", "count_cases"),
+    "spec": ("Case", "count_cases", "expand", "grid_spec", "iter_cases", "load_spec"),
     "cluster": ("ClusterLost",),
     "engines": ("ENGINES", "run_engine"),
-    "run": ("run_sweep", "SweepSettings", "read_results"),
+    "run": ("SweepSettings", "read_results", "run_sweep"),
     "summary": ("format_summary",),
     "plot": ("plot_comfort_maps",),
 }
