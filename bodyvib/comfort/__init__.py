@@ -13,7 +13,9 @@ response, acceleration dose and injury risk of repeated shocks.
 weightings (Wk, Wd, Wf, Wc, We, Wj), the multiplying factors for comfort and health,
 the point and overall vibration total values and the health guidance caution zone.
 :mod:`~bodyvib.comfort.forces` gives the figures of the body's internal forces (neck,
-lumbar): r.m.s., peak and the peak's time.
+lumbar): r.m.s., peak and the peak's time. :mod:`~bodyvib.comfort.validity` says where a
+figure is valid: the largest time step the figures allow, and which of ISO 2631-1's
+methods governs a record (clause 6.3).
 
 Import from the package (``from bodyvib.comfort import comfort_figures``): the names in ``__all__``
 are its public interface, and the modules that hold them are internal and may move.
@@ -71,6 +73,20 @@ _MODULES = {
         "injury_probability",
         "injury_risk",
         "spinal_dose",
+    ),
+    "validity": (
+        "COUPLING_NRMSE_LIMIT",
+        "FIGURE_TOLERANCE",
+        "MODE_LIMIT_HZ",
+        "SAMPLES_PER_PERIOD",
+        "WK_BAND_HZ",
+        "StepLimit",
+        "check_step",
+        "comfort_words",
+        "coupling_warning",
+        "governing_method",
+        "highest_mode_hz",
+        "largest_valid_step",
     ),
     "stream": (
         "BatchComfortFigures",

@@ -1,0 +1,128 @@
+"""Where a figure is valid: the largest step the figures allow, and ISO 2631-1 clause 6.3."""
+
+import numpy as np
+import pytest
+
+from bodyvib.comfort import (
+    FIGURE_TOLERANCE,
+    basic_method_checks,
+    check_step,
+    comfort_figures,
+    comfort_words,
+    coupling_warning,
+    governing_method,
+    highest_mode_hz,
+    largest_valid_step,
+)
+from bodyvib.models import load_model
+from bodyvib.runtime.errors import BodyvibError
+from bodyvib.vehicle.quarter_car import load_car, seated_system
+from bodyvib.vehicle.reference import reference_run
+from bodyvib.vehicle.road.driven import RunSettings, driven_road
+from bodyvib.vehicle.road.synthetic import road_input
+
+FS = 1000.0
+
+
+def _head_rms(step, duration=10.0, speed=20.0):
+    """Head Wk r.m.s. of the exact monolithic run (quarter car, reduced body, class C)."""
+    road = driven_road(RunSettings(duration=duration, speed=speed))
+    t = np.arange(int(round(duration / step)) + 1) * step
+    z, v = road_input(road, speed, t)
+    run = reference_run(load_car(), load_model("reduced-paper"), z, v, step, linear=True)
+    return comfort_figures(run["head_acceleration"], 1.0 / step).weighted_rms
+
+
+def test_the_band_criterion_keeps_the_head_figure_within_its_tolerance():
+    # The measured argument of the step's bound: against a 0.125 ms run, the largest
+    # valid step keeps the head's Wk r.m.s. within 1 %, and the Nyquist step of the
+    # 80 Hz band (1/160 s) does not (+1.6 % measured), so a looser bound fails here.
+    fine = _head_rms(1.25e-4)
+    limit = largest_valid_step([seated_system(load_car(), load_model("reduced-paper"))])
+    assert abs(_head_rms(limit.step) / fine - 1) <= FIGURE_TOLERANCE
+    assert abs(_head_rms(1 / 160) / fine - 1) > FIGURE_TOLERANCE
+    assert "Wk band" in limit.reason
+
+
+def test_highest_mode_of_the_quarter_car_is_that_of_its_hand_written_matrices():
+    # M x'' + C x' + K x = 0 of sprung and unsprung mass on suspension and tire.
+    p = load_car().parameters
+    M = np.diag([p["ms"], p["mu"]])
+    K = np.array([[p["ks"], -p["ks"]], [-p["ks"], p["ks"] + p["kt"]]])
+    C = np.array([[p["cs"], -p["cs"]], [-p["cs"], p["cs"]]])
+    A = np.block([[np.zeros((2, 2)), np.eye(2)], [-np.linalg.solve(M, K), -np.linalg.solve(M, C)]])
+    expected = np.abs(np.linalg.eigvals(A)).max() / (2 * np.pi)
+    assert highest_mode_hz(load_car()) == pytest.approx(expected, rel=1e-12)
+    assert highest_mode_hz(A) == pytest.approx(expected, rel=1e-12)
+
+
+def test_a_mode_inside_the_band_sets_the_step_and_one_above_it_does_not():
+    # the cushion's 92 Hz mode is inside Wk's 100 Hz band limit: 3 samples a period
+    cushion = seated_system(load_car("quarter-car-cushion"), load_model("reduced-paper"))
+    limit = largest_valid_step([cushion])
+    assert limit.highest_mode_hz == pytest.approx(91.77, abs=0.01)
+    assert limit.step == pytest.approx(1 / (3 * limit.highest_mode_hz), rel=1e-12)
+    assert "highest mode" in limit.reason
+    # the ISO 7962 body's 1.4 kHz mode is weighted out: the band's bound
+    iso = seated_system(load_car(), load_model("iso7962"))
+    assert largest_valid_step([iso]).step == pytest.approx(1 / 240, rel=1e-12)
+
+
+def test_a_step_too_long_is_refused_naming_a_step_that_passes():
+    with pytest.raises(ValueError, match=r"step 0\.05 s is too long .* at most 0\.0041 s") as e:
+        check_step(0.05)
+    assert e.value.parameters == ("step",)
+    check_step(0.0041)
+    check_step(1e-3, [load_car()])
+    with pytest.raises(BodyvibError, match="highest mode, 91.8 Hz"):
+        check_step(
+            4e-3, [seated_system(load_car("quarter-car-cushion"), load_model("reduced-paper"))]
+        )
+
+
+def test_coupling_warning_only_beyond_its_bound():
+    assert coupling_warning(0.0099, 1e-3) is None
+    assert coupling_warning(None, 1e-3) is None
+    assert "104 %" in coupling_warning(1.04, 0.05)
+
+
+@pytest.mark.parametrize(
+    "crest, mtvv, vdv, method",
+    [
+        (9.0, 1.5, 1.75, "basic"),  # every ratio at its limit: still basic
+        (9.001, 1.5, 1.75, "vdv"),  # the crest factor alone: the dose, more peak-sensitive
+        (4.0, 1.5001, 1.75, "mtvv"),
+        (4.0, 1.5, 1.7501, "vdv"),
+        (12.0, 3.0, 2.0, "mtvv"),  # both: 3 / 1.5 = 2 > 2 / 1.75
+        (12.0, 1.6, 3.5, "vdv"),  # both: 3.5 / 1.75 = 2 > 1.6 / 1.5
+        (12.0, 3.0, 3.5, "vdv"),  # a tie (2 and 2): vdv
+        (float("nan"), float("nan"), float("nan"), "basic"),  # a spectral estimate
+    ],
+)
+def test_governing_method_at_the_limits(crest, mtvv, vdv, method):
+    # a_w = 1 and T = 1 s: the ratios are the figures themselves
+    assert governing_method(1.0, crest, mtvv, vdv, 1.0) == method
+
+
+def test_governing_method_of_hand_made_signals():
+    # A steady 5 Hz sine: crest factor sqrt(2), MTVV / a_w = 1 and VDV / (a_w T^1/4) =
+    # (3/8)^(1/4) sqrt(2) = 1.107 (Wk's gain at 5 Hz cancels in the ratios): basic.
+    t = np.arange(0, 100, 1 / FS)
+    sine = np.sin(2 * np.pi * 5 * t)
+    f = comfort_figures(sine, FS)
+    assert governing_method(f.weighted_rms, f.crest_factor, f.mtvv, f.vdv, 100.0) == "basic"
+    # A 1 s burst of it in 100 s: a_w is 1/10 of the burst's, so MTVV / a_w = 10 (6.7 times
+    # its limit), VDV / (a_w T^1/4) = (3/8)^(1/4) sqrt(2) 100^(1/4) / 10^(1/2) = 3.5 (2
+    # times), crest factor 14.1: the running r.m.s. governs.
+    burst = np.where(t < 1.0, sine, 0.0)
+    b = comfort_figures(burst, FS)
+    assert b.mtvv / b.weighted_rms == pytest.approx(10.0, rel=0.01)
+    assert b.vdv / (b.weighted_rms * 100.0**0.25) == pytest.approx(3.5, rel=0.01)
+    assert governing_method(b.weighted_rms, b.crest_factor, b.mtvv, b.vdv, 100.0) == "mtvv"
+    words = comfort_words(b.comfort, b.weighted_rms, b.crest_factor, b.mtvv, b.vdv, 100.0)
+    assert words.startswith(f"MTVV {b.mtvv:.3f} m/s2 governs (basic: ")
+    # the rule says "basic" exactly where the standard's checks are all within
+    for fig in (f, b):
+        over = any(c["exceeded"] for c in basic_method_checks(fig, 100.0).values())
+        assert (governing_method(fig.weighted_rms, fig.crest_factor, fig.mtvv, fig.vdv, 100.0)
+                != "basic") == over  # fmt: skip
