@@ -126,3 +126,53 @@ def test_governing_method_of_hand_made_signals():
         over = any(c["exceeded"] for c in basic_method_checks(fig, 100.0).values())
         assert (governing_method(fig.weighted_rms, fig.crest_factor, fig.mtvv, fig.vdv, 100.0)
                 != "basic") == over  # fmt: skip
+
+
+def test_cosim_refuses_the_step_that_gave_a_third_of_the_figure(capsys):
+    # --step 0.05 gave head Wk r.m.s. 0.3503 m/s2 instead of 1.1239, exit 0: refused
+    # in one line before anything is built, naming a step that passes
+    from bodyvib.cli.main import main
+
+    assert main(["cosim", "--step", "0.05", "--duration", "30", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "Traceback" not in err
+    assert "0.05 s is too long for the figures" in err and "at most 0.0041 s" in err
+
+
+def test_respond_sweep_and_control_refuse_a_step_too_long(tmp_path):
+    from bodyvib.seat.response import respond
+    from bodyvib.seat.signal import check_signal
+    from bodyvib.vehicle.active import compare_laws
+    from bodyvib.vehicle.sweep.spec import count_cases
+
+    t = np.arange(0, 5, 1 / 200.0)  # a record at 200 Hz: the head's figures need 240 Hz
+    signal = check_signal(t, np.sin(2 * np.pi * 3 * t))
+    with pytest.raises(BodyvibError, match="sampling step 0.005 s is too long"):
+        respond(signal)
+    with pytest.raises(BodyvibError, match="step 0.01 s is too long") as e:
+        count_cases({"road": "C", "speed": 10, "duration": 5, "step": [0.001, 0.01]})
+    assert e.value.parameters == ("step",)
+    with pytest.raises(BodyvibError, match="step 0.01 s is too long"):
+        compare_laws(
+            load_car("quarter-car-active"),
+            load_model("reduced-paper"),
+            RunSettings(duration=2.0, step=0.01),
+        )
+
+
+@pytest.mark.integration
+def test_a_study_opted_out_of_the_step_check_says_its_figures_are_not_valid(python_fmus):
+    from bodyvib.vehicle.report import format_report
+    from bodyvib.vehicle.study import run_study
+
+    fmus = {"body": python_fmus["HumanBody3DOF"]}
+    settings = RunSettings(duration=3.0, step=0.01)
+    with pytest.raises(BodyvibError, match="step 0.01 s is too long"):
+        run_study(fmus, python_fmus["QuarterCar"], settings)
+    st = run_study(fmus, python_fmus["QuarterCar"], settings, step_validity=False)
+    # 10 ms: the band's bound is 1/240 s, and the coupling error (2.3 % measured on 10 s)
+    # is beyond its 1 % bound
+    assert any("not refused: step_validity=False" in w for w in st.warnings)
+    assert any(w.startswith("body: coupling error") for w in st.warnings)
+    assert st.to_dict()["warnings"] == st.warnings
+    assert sum(line.startswith("warning: ") for line in format_report(st).splitlines()) == 2

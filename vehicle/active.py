@@ -15,7 +15,7 @@ from typing import Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
-from bodyvib.comfort.figures import weighted_rms
+from bodyvib.comfort import check_step, weighted_rms
 from bodyvib.process import interrupts
 from bodyvib.runtime.discretize import Discretization, input_rates
 from bodyvib.runtime.errors import BodyvibError
@@ -139,7 +139,8 @@ def compare_laws(
     Raises
     ------
     BodyvibError
-        A car without actuators, an unknown or semi-active law, bad settings.
+        A car without actuators, an unknown or semi-active law, bad settings, a step
+        longer than the figures allow (:func:`bodyvib.comfort.check_step`).
 
     Examples
     --------
@@ -171,13 +172,15 @@ def compare_laws(
                 "(run_study)",
                 parameters=("run_study",),
             )
+    loops = [
+        (open_loop, np.zeros((0, len(open_loop.states))))
+        if controller is None
+        else closed_loop_model(open_loop, car, controller)
+        for controller in controllers
+    ]
+    check_step(h, [lm for lm, _ in loops])  # before any run: the figures' step
     rows, traces = [], ({}, {}, {})
-    for law, controller in zip(laws, controllers):
-        lm, forces = (
-            (open_loop, np.zeros((0, len(open_loop.states))))
-            if controller is None
-            else closed_loop_model(open_loop, car, controller)
-        )
+    for law, controller, (lm, forces) in zip(laws, controllers, loops):
         x = Discretization(lm).run(u, du, h, safe_point=interrupts.check)
         interrupts.check()
 

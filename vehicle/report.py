@@ -141,6 +141,7 @@ def format_report(
         lines.append(
             row("seat ISO 2631-5 Dz [m/s2]", lambda b: f"{b.seat_measures.spinal_dose:.4f}")
         )
+    lines += [f"warning: {w}" for w in study.warnings]
     if comparison:
         lines += _check_lines(comparison)
     return "\n".join(lines)

@@ -17,6 +17,7 @@ from typing import Any, Dict, List, Optional
 
 import numpy as np
 
+from bodyvib.comfort import check_step, coupling_warning
 from bodyvib.comfort.axes import vibration_totals
 from bodyvib.comfort.figures import ComfortFigures
 from bodyvib.comfort.forces import ForceFigures, ForceStream
@@ -33,7 +34,7 @@ from bodyvib.runtime.renames import NOT, renamed_parameters
 from .control import controller_from_fmu, describe
 from .cosim import CsvStream, Master, check_fmu, model_from_fmu, open_controller, open_fmu
 from .events import EventStream, RunEvents
-from .quarter_car import track_width, wheel_offsets, wheel_sides
+from .quarter_car import seated_system, track_width, wheel_offsets, wheel_sides
 from .reference import ReferenceStream
 from .road import roads_input, wheel_roads
 from .road.driven import RunSettings, driven_road
@@ -48,6 +49,7 @@ __all__ = [
     "check_settings",
     "run_study",
     "coupling_error_sweep",
+    "check_study_step",
 ]
 
 
@@ -154,6 +156,10 @@ class Study:
     history_sums : dict of (str, str) to (float, float)
         For each ordered pair of labels ``(a, b)``: ``sum((a_head - b_head)^2)`` and
         ``sum(b_head^2)`` over the run, for :meth:`history_nrmse`.
+    warnings : list of str
+        Where a figure of the run is outside its method's validity, one line each: a
+        step the figures do not allow (``step_validity=False``), a coupling error beyond
+        :data:`bodyvib.comfort.COUPLING_NRMSE_LIMIT`.
     """
 
     settings: RunSettings
@@ -165,6 +171,7 @@ class Study:
     bodies: Dict[str, BodyRun] = field(default_factory=dict)
     window_time: np.ndarray = field(default_factory=lambda: np.empty(0))
     history_sums: Dict[tuple, tuple] = field(default_factory=dict)
+    warnings: List[str] = field(default_factory=list)
 
     def history_nrmse(self, estimate: str, reference: str) -> float:
         """NRMSE of one body's head acceleration against another's over the whole run.
@@ -203,6 +210,7 @@ class Study:
             "settings": {**settings, "master": self.master},
             "road": dict(self.road),
             "bodies": {label: b.to_dict() for label, b in self.bodies.items()},
+            "warnings": list(self.warnings),
         }
 
 
@@ -306,6 +314,10 @@ class StudyOptions:
         the reference is then the closed loop of the law (of a controller FMU: of the
         gains it declares, :func:`bodyvib.vehicle.control.controller_from_fmu`), and a
         semi-active (nonlinear) law has none.
+    step_validity : bool
+        Refuse a step longer than the figures allow (:func:`check_study_step`). False
+        runs it anyway (a study of the step itself, :func:`coupling_error_sweep`) and
+        the study's ``warnings`` say that its figures are not valid.
 
     Examples
     --------
@@ -321,6 +333,7 @@ class StudyOptions:
     block: int = 4096
     window_s: float = 5.0
     controller: Any = None
+    step_validity: bool = True
 
 
 @renamed_parameters(quiet=NOT("progress"))
@@ -349,8 +362,8 @@ def run_study(
         messages; by default ``StudyOptions()``.
     **keywords
         Any field of :class:`StudyOptions` (``extrapolate``, ``reference``, ``progress``,
-        ``histories``, ``csv``, ``block``, ``window_s``, ``controller``),
-        replacing that of ``options``.
+        ``histories``, ``csv``, ``block``, ``window_s``, ``controller``,
+        ``step_validity``), replacing that of ``options``.
 
     Returns
     -------
@@ -361,7 +374,8 @@ def run_study(
     Raises
     ------
     BodyvibError
-        Bad settings, missing or unsuitable FMUs.
+        Bad settings, missing or unsuitable FMUs, a step longer than the figures allow
+        (:func:`check_study_step`; a ``ValueError`` naming ``step``).
     TypeError
         A keyword that is no field of :class:`StudyOptions`.
     """
@@ -375,6 +389,12 @@ def run_study(
     law = controller_from_fmu(controller_fmu) if controller_fmu else opts.controller
     reference = opts.reference and (law is None or law.linear)
     car_model = model_from_fmu(car_fmu)
+    validity = check_study_step(
+        settings.step,
+        car_model,
+        [model_from_fmu(p) for p in body_fmus.values()],
+        enforce=opts.step_validity,
+    )
     car_net = car_model if reference else None
     behind, roads = _wheels(car_fmu, car_net, settings, rd)
     window = _window(n, settings.step, opts.window_s)
@@ -413,7 +433,63 @@ def run_study(
         finally:
             if bar is not None:
                 bar.close()
-    return _study(settings, opts, controller_fmu, (rd, roads), window, pairs, bodies)
+    out = _study(settings, opts, controller_fmu, (rd, roads), window, pairs, bodies)
+    out.warnings += validity + [
+        f"{label}: {w}"
+        for label, b in out.bodies.items()
+        for w in [coupling_warning(b.coupling_nrmse, settings.step)]
+        if w is not None
+    ]
+    return out
+
+
+def check_study_step(step: float, car, bodies, enforce: bool = True) -> List[str]:
+    """Refuse a study's step that cannot give the figures (:func:`bodyvib.comfort.check_step`).
+
+    The models are the seated systems of the car with each body (either alone where
+    the other is unknown, a foreign FMU).
+
+    Parameters
+    ----------
+    step : float
+        Communication step, s.
+    car : Network or None
+        The car's model.
+    bodies : sequence of Network or None
+        The bodies' models.
+    enforce : bool
+        False: do not refuse; return the line saying the figures are not valid.
+
+    Returns
+    -------
+    list of str
+        Empty, or (``enforce=False``) the one line of a step too long.
+
+    Raises
+    ------
+    BodyvibError
+        The step longer than the largest valid one (``enforce=True``), naming it.
+
+    Examples
+    --------
+    >>> from bodyvib.models import load_model
+    >>> from bodyvib.vehicle.quarter_car import load_car
+    >>> check_study_step(0.05, load_car(), [load_model("reduced-paper")], enforce=False)[0][:60]
+    'step 0.05 s is too long for the figures: the Wk band up to 8'
+    """
+    models = [
+        seated_system(car, b) if car is not None and b is not None else (car or b)
+        for b in (bodies or [None])
+    ]
+    models = [m for m in models if m is not None]
+    if enforce:
+        check_step(step, models)
+        return []
+    try:
+        check_step(step, models)
+    except BodyvibError as exc:
+        return [f"{exc} (not refused: step_validity=False): the figures are not valid"]
+    return []
 
 
 def _study_options(options, keywords):
@@ -780,7 +856,9 @@ def coupling_error_sweep(
     Returns
     -------
     list of dict
-        ``{"step", "coupling_nrmse", "real_time_factor"}`` per step.
+        ``{"step", "coupling_nrmse", "real_time_factor", "warnings"}`` per step; the
+        steps are run even where the figures are not valid (``warnings`` says so,
+        :attr:`Study.warnings`).
     """
     rows = []
     for h in steps:
@@ -789,6 +867,7 @@ def coupling_error_sweep(
             car_fmu,
             replace(settings, step=float(h)),
             extrapolate=extrapolate,
+            step_validity=False,  # the coupling error at steps the figures do not allow
         )
         b = st.bodies["body"]
         rows.append(
@@ -796,6 +875,7 @@ def coupling_error_sweep(
                 "step": float(h),
                 "coupling_nrmse": b.coupling_nrmse,
                 "real_time_factor": b.real_time_factor,
+                "warnings": st.warnings,
             }
         )
     return rows

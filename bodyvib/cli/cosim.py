@@ -205,6 +205,19 @@ def _vehicle(args, controller) -> dict:
     }
 
 
+def _check_step(args, want_iso):
+    """Refuse a step the figures do not allow before building: the models built for the
+    run (those of FMUs given are checked by the study, from the FMUs)."""
+    from bodyvib.vehicle.quarter_car import load_car
+    from bodyvib.vehicle.study import check_study_step
+
+    car = load_car(car_and_seat(args.car, args.seat)) if args.car_fmu is None else None
+    bodies = [] if args.body is not None else [load_model(args.params or "reduced-paper")]
+    if want_iso and getattr(args, "iso_body", None) is None:
+        bodies.append(load_model("iso7962"))
+    check_study_step(args.step, car, bodies)
+
+
 def _label(path, default):
     base = os.path.splitext(os.path.basename(path))[0]
     return base or default
@@ -214,6 +227,7 @@ def _run(args, want_iso):
     _check_options(args)
     settings = run_settings_from_args(args)
     check_settings(settings, bodies=2 if want_iso else 1)  # before building
+    _check_step(args, want_iso)
     if args.csv:
         _check_disk(args.csv, (args.duration / args.step + 1) * (2 if want_iso else 1))
     controller = _controller(args)  # refused before building

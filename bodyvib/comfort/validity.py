@@ -188,7 +188,8 @@ def check_step(
     models, band_hz
         As :func:`largest_valid_step`.
     name : str
-        The parameter the message names (the command line shows its flag).
+        What the message calls the step: a parameter name (the command line shows its
+        flag) or words (``"sampling step"``).
 
     Returns
     -------
@@ -212,7 +213,7 @@ def check_step(
         raise BodyvibError(
             f"{name} {step:g} s is too long for the figures: {limit.reason}; use a "
             f"{name} of at most {_round_down(limit.step):g} s",
-            parameters=(name,),
+            parameters=(name,) if name.isidentifier() else (),
         )
     return limit
 

@@ -43,6 +43,7 @@ from ..comfort.figures import ComfortFigures, basic_method_checks, check_rate, c
 from ..comfort.forces import ForceFigures, force_figures
 from ..comfort.measures import lee_pradko_power, msdv
 from ..comfort.spine import SpinalDose, spinal_dose
+from ..comfort.validity import check_step
 from ..models import DEFAULT_MODELS, load_model
 from ..process import interrupts
 from ..runtime.discretize import Discretization
@@ -283,11 +284,15 @@ def respond(signal: SeatSignal, models: Sequence[str] = DEFAULT_MODELS) -> Respo
     Raises
     ------
     BodyvibError
-        An unknown model or a bad parameter file.
+        An unknown model or a bad parameter file, a record sampled more coarsely than the
+        head's figures allow (:func:`bodyvib.comfort.check_step`: 240 Hz for the shipped
+        bodies).
     """
     if not models:
         raise BodyvibError("give at least one body model")
     nets = [(m, load_model(m)) for m in models]  # every model checked before any work
+    # the head's figures are computed at the record's samples: its step must give them
+    check_step(1.0 / signal.fs, [net for _, net in nets], name="sampling step")
     seat = comfort_figures(signal.acceleration, signal.fs)
     out = Response(
         signal=signal,

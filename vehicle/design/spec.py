@@ -31,8 +31,8 @@ parameter, objective or road, a value that is not a JSON number (``"8000"``), a 
 below zero or an empty range, an empty operating set, a method that does not fit the
 number of objectives, a search that would evaluate more than :data:`MAX_EVALUATIONS`
 designs or a population whose search would not fit in half the memory at hand, and a
-verification whose step is not below its duration, samples below the 80 Hz the Wk
-weighting needs (:data:`bodyvib.seat.signal.MIN_RATE_HZ`), runs shorter than the MTVV's
+verification whose step is not below its duration, is longer than the figures allow
+(:func:`bodyvib.comfort.check_step`, for the nominal design), runs shorter than the MTVV's
 1 s window or would not fit in memory.
 """
 
@@ -42,11 +42,12 @@ import os
 from dataclasses import dataclass, field
 from typing import Optional, Tuple
 
+from bodyvib.comfort import check_step
 from bodyvib.models import load_model
 from bodyvib.process.limits import require_memory
 from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import linear_model
-from bodyvib.seat.signal import MIN_DURATION_S, MIN_RATE_HZ
+from bodyvib.seat.signal import MIN_DURATION_S
 
 from ..quarter_car import load_car, seated_system
 from ..road.synthetic import ISO8608_CLASSES
@@ -437,14 +438,9 @@ def _verify(v, lm) -> VerifySettings:
     if step >= duration:
         raise BodyvibError(
             f"verify step {step:g} s is not shorter than its duration {duration:g} s; "
-            f"use a step of at most {1 / MIN_RATE_HZ:g} s"
+            "use a step of 0.001 s (the default)"
         )
-    if step > 1 / MIN_RATE_HZ:
-        raise BodyvibError(
-            f"verify step {step:g} s samples at {1 / step:.3g} Hz, below the "
-            f"{MIN_RATE_HZ:g} Hz the Wk weighting needs; use a step of at most "
-            f"{1 / MIN_RATE_HZ:g} s (0.001 s by default)"
-        )
+    check_step(step, [lm], name="verify step")  # the figures' step (the nominal design)
     if duration < MIN_DURATION_S:
         raise BodyvibError(
             f"verify duration {duration:g} s is shorter than the {MIN_DURATION_S:g} s the "

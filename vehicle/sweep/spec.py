@@ -27,6 +27,8 @@ Defaults: ``seed`` 0, ``duration`` 30, ``step`` 0.001, ``car`` ``quarter-car``, 
 ``car`` is then ``CAR+SEAT`` (:func:`bodyvib.vehicle.seats.car_with_seat`);
 ``road`` is required; ``speed`` defaults to cosim's speed (20 m/s), ``body`` to cosim's body
 (the paper's reduced model, ``reduced-paper``) and ``car`` to its car (``quarter-car``).
+A step longer than the figures allow for a car with a named body is refused
+(:func:`bodyvib.comfort.check_step`; the ``vary`` samples share their model's check).
 
 **Parameter ranges around one model.** ``vary`` maps parameter names of
 ``model`` to ``[low, high]`` *factors* on the model's own value. ``samples``
@@ -63,7 +65,7 @@ from ..fmus import FMUS
 from ..quarter_car import load_car
 from ..road.driven import RoadOptions, RunSettings, is_road_file, road_label
 from ..seats import car_with_seat
-from ..study import check_settings
+from ..study import check_settings, check_study_step
 
 __all__ = [
     "Case",
@@ -597,8 +599,11 @@ class _Prepared:
             for c in _list(spec["car"])
             for s in _list(spec["seat"])
         ]
-        self.car_digests = {c: _digest(load_car(c, linear=True)) for c in self.cars}
+        linear_cars = {c: load_car(c, linear=True) for c in self.cars}
+        self.car_digests = {c: _digest(net) for c, net in linear_cars.items()}
         base = {m: load_model(m) for m in dict.fromkeys(b[1] for b in self.bodies)}
+        for net in linear_cars.values():  # the figures' step, of each car and named body
+            check_study_step(max(steps), net, list(base.values()))
         self.body_digests = [
             _digest(base[m].with_parameters(**dict(v)) if v else base[m])
             for _, m, _, v in self.bodies
