@@ -176,3 +176,70 @@ def test_a_study_opted_out_of_the_step_check_says_its_figures_are_not_valid(pyth
     assert any(w.startswith("body: coupling error") for w in st.warnings)
     assert st.to_dict()["warnings"] == st.warnings
     assert sum(line.startswith("warning: ") for line in format_report(st).splitlines()) == 2
+
+
+def test_the_front_page_hump_sweep_leads_with_the_additional_method():
+    # The hump sweep of the project's front page: every row labelled "not uncomfortable" had
+    # crest factors of 10.8-12.9, where ISO 2631-1 6.3 says the basic method is not sufficient.
+    from bodyvib.vehicle.sweep.engines import run_engine
+    from bodyvib.vehicle.sweep.spec import expand, grid_spec
+    from bodyvib.vehicle.sweep.summary import format_summary
+
+    pd = pytest.importorskip("pandas")
+    cases = expand(grid_spec(["road=hump:h=0.075,l=3.7,at=10", "speed=2,4,6,8"]))
+    rows = run_engine("batched", cases)
+    crest = [r["head_crest_factor"] for r in rows]
+    assert max(crest) > 9  # the rule has rows to act on
+    for r, c in zip(rows, cases):
+        expected = governing_method(
+            r["head_weighted_rms"], r["head_crest_factor"], r["head_mtvv"], r["head_vdv"],
+            c.duration,
+        )  # fmt: skip
+        assert r["head_comfort_method"] == expected
+        if r["head_crest_factor"] > 9:
+            assert r["head_comfort_method"] != "basic"
+    df = pd.DataFrame(
+        [
+            {**r, "case_id": c.case_id, "road": c.road, "speed": c.speed, "body": c.body,
+             "car": c.car, "engine": "batched"}
+            for r, c in zip(rows, cases)
+        ]
+    )  # fmt: skip
+    text = format_summary(df)
+    assert "ISO 2631-1 6.3: the basic method is not sufficient in" in text
+    assert text.index("6.3") < text.index("comfort (ISO 2631-1 C)")
+
+
+def test_respond_leads_with_the_governing_method(tmp_path):
+    # a 1 s burst in 20 s (MTVV / a_w about 4.5): the running r.m.s. governs
+    from bodyvib.cli.respond import format_response
+    from bodyvib.seat.response import respond
+    from bodyvib.seat.signal import check_signal
+
+    t = np.arange(0, 20, 1 / FS)
+    signal = check_signal(t, np.where((t > 5) & (t < 6), np.sin(2 * np.pi * 5 * t), 0.0))
+    result = respond(signal, ["reduced-paper"])
+    text = format_response(result)
+    comfort = next(line for line in text.splitlines() if line.startswith("comfort"))
+    assert comfort.count("governs (basic: ") == 2  # seat and head
+    assert "basic method not sufficient, MTVV governs" in text
+    doc = result.to_dict()
+    assert doc["seat"]["comfort_method"] == doc["bodies"]["reduced-paper"]["comfort_method"]
+    assert doc["seat"]["comfort_method"] == "mtvv"
+
+
+@pytest.mark.integration
+def test_cosim_over_a_hump_leads_with_the_governing_method(tmp_path, capsys):
+    from bodyvib.cli.main import main
+
+    out = tmp_path / "hump.json"
+    argv = ["cosim", "--road", "hump:h=0.075,l=3.7,at=10", "--speed", "5", "--duration", "6"]
+    assert main(argv + ["--json", str(out), "--quiet"]) == 0
+    comfort = next(line for line in capsys.readouterr().out.splitlines() if "comfort" in line)
+    import json
+
+    body = next(iter(json.loads(out.read_text())["bodies"].values()))
+    # 6 s over one hump: MTVV / a_w = 2.1 (crest factor 5.4)
+    assert body["mtvv"] / body["weighted_rms"] > 1.5 and body["comfort_method"] == "mtvv"
+    assert f"MTVV {body['mtvv']:.3f} m/s2 governs (basic: {body['comfort']})" in comfort
+    assert body["comfort_words"] in comfort

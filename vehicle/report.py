@@ -91,7 +91,8 @@ def format_report(
     # every cell fits with two spaces before it: ISO 2631-1's comfort words are the longest
     # ("very uncomfortable / extremely uncomfortable" ran into the next column)
     w = max(24, *(len(label) + 2 for label in labels))
-    w = max(w, *(len(b.figures.comfort) + 2 for b in bodies.values()))
+    comfort = {label: study.comfort(label)["comfort_words"] for label in labels}
+    w = max(w, *(len(c) + 2 for c in comfort.values()))
 
     def row(title, cell):  # one line: a title, then cell(body) right-aligned per body
         return f"{title:<28}" + "".join(f"{cell(bodies[b]):>{w}}" for b in labels)
@@ -107,7 +108,7 @@ def format_report(
         lines.append(
             row(_WORDS[key], lambda b, fmt=fmt, key=key: fmt.format(getattr(b.figures, key)))
         )
-    lines.append(row("comfort (ISO 2631-1 C)", lambda b: b.figures.comfort))
+    lines.append(f"{'comfort (ISO 2631-1 C)':<28}" + "".join(f"{comfort[b]:>{w}}" for b in labels))
     lines.append(
         row(
             "transmissibility peak",

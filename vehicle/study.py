@@ -17,7 +17,7 @@ from typing import Any, Dict, List, Optional
 
 import numpy as np
 
-from bodyvib.comfort import check_step, coupling_warning
+from bodyvib.comfort import check_step, comfort_words, coupling_warning, governing_method
 from bodyvib.comfort.axes import vibration_totals
 from bodyvib.comfort.figures import ComfortFigures
 from bodyvib.comfort.forces import ForceFigures, ForceStream
@@ -199,17 +199,44 @@ class Study:
             raise BodyvibError("reference signal is zero throughout; NRMSE undefined")
         return math.sqrt(num / den)
 
-    def to_dict(self) -> dict:
-        """The study as JSON: ``settings``, ``road`` and ``bodies`` (figures, no histories).
+    def comfort(self, label: str) -> Dict[str, str]:
+        """Which ISO 2631-1 method governs a body's head figures, and the report's words.
 
-        ``settings`` holds the run's road, speed, duration, step and seed, and the master.
+        Parameters
+        ----------
+        label : str
+            A body of the study.
+
+        Returns
+        -------
+        dict
+            ``comfort_method`` (``"basic"``, ``"vdv"`` or ``"mtvv"``,
+            :func:`bodyvib.comfort.governing_method`) and ``comfort_words`` (the Annex C
+            words, led by the additional measure where the basic method is not
+            sufficient, :func:`bodyvib.comfort.comfort_words`).
+        """
+        f = self.bodies[label].figures
+        args = (f.weighted_rms, f.crest_factor, f.mtvv, f.vdv, self.settings.duration)
+        return {
+            "comfort_method": governing_method(*args),
+            "comfort_words": comfort_words(f.comfort, *args),
+        }
+
+    def to_dict(self) -> dict:
+        """The study as JSON: ``settings``, ``road``, ``bodies`` (figures, no histories)
+        and ``warnings``.
+
+        ``settings`` holds the run's road, speed, duration, step and seed, and the master;
+        each body its figures with :meth:`comfort`.
         """
         settings = self.settings.to_dict()
         del settings["road_options"]  # described with the road
         return {
             "settings": {**settings, "master": self.master},
             "road": dict(self.road),
-            "bodies": {label: b.to_dict() for label, b in self.bodies.items()},
+            "bodies": {
+                label: {**b.to_dict(), **self.comfort(label)} for label, b in self.bodies.items()
+            },
             "warnings": list(self.warnings),
         }
 

@@ -36,7 +36,8 @@ def format_response(result) -> str:
     cols = [("seat", result.seat_figures, result.seat_checks)] + [
         (f"head, {k}", b.figures, b.checks) for k, b in result.bodies.items()
     ]
-    w = max(16, *(len(c[0]) + 2 for c in cols), *(len(c[1].comfort) + 2 for c in cols))
+    comfort = [_words(c[1], s.duration) for c in cols]
+    w = max(16, *(len(c[0]) + 2 for c in cols), *(len(x) + 2 for x in comfort))
     lines = [
         f"signal {s.name}: {s.acceleration.size} samples at {s.fs:.6g} Hz ({s.duration:.6g} s)",
         "",
@@ -46,7 +47,7 @@ def format_response(result) -> str:
         lines.append(
             f"{words:<28}" + "".join(f"{fmt.format(getattr(c[1], key)):>{w}}" for c in cols)
         )
-    lines.append(f"{'comfort (ISO 2631-1 C)':<28}" + "".join(f"{c[1].comfort:>{w}}" for c in cols))
+    lines.append(f"{'comfort (ISO 2631-1 C)':<28}" + "".join(f"{x:>{w}}" for x in comfort))
     if result.seat_msdv is not None:
         lines.append(f"{'seat MSDV (Wf) [m/s^1.5]':<28}{result.seat_msdv:>{w}.4f}")
         lines.append(f"{'seat Lee & Pradko power [W]':<28}{result.lee_pradko_power_w:>{w}.4f}")
@@ -76,7 +77,7 @@ def format_response(result) -> str:
         "ISO 2631-1 6.3, basic method enough if crest factor <= 9, MTVV / a_w <= 1.5, "
         "VDV / (a_w T^1/4) <= 1.75:"
     )
-    for name, _, checks in cols:
+    for name, figures, checks in cols:
         over = [
             f"{c['what']} = {c['value']:.2f} > {c['limit']:g}"
             for c in checks.values()
@@ -86,10 +87,25 @@ def format_response(result) -> str:
         verdict = (
             "basic method enough"
             if not over
-            else "use MTVV and VDV as well (" + "; ".join(over) + ")"
+            else f"basic method not sufficient, {_method(figures, s.duration).upper()} "
+            "governs (" + "; ".join(over) + ")"
         )
         lines.append(f"  {name}: {values} -> {verdict}")
     return "\n".join(lines)
+
+
+def _method(f, duration):
+    """Which ISO 2631-1 method governs a record's figures (clause 6.3)."""
+    from bodyvib.comfort import governing_method
+
+    return governing_method(f.weighted_rms, f.crest_factor, f.mtvv, f.vdv, duration)
+
+
+def _words(f, duration):
+    """The comfort cell: the Annex C words, led by the governing additional measure."""
+    from bodyvib.comfort import comfort_words
+
+    return comfort_words(f.comfort, f.weighted_rms, f.crest_factor, f.mtvv, f.vdv, duration)
 
 
 def plot_response(result, path) -> None:

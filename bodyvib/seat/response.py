@@ -43,7 +43,7 @@ from ..comfort.figures import ComfortFigures, basic_method_checks, check_rate, c
 from ..comfort.forces import ForceFigures, force_figures
 from ..comfort.measures import lee_pradko_power, msdv
 from ..comfort.spine import SpinalDose, spinal_dose
-from ..comfort.validity import check_step
+from ..comfort.validity import check_step, governing_method
 from ..models import DEFAULT_MODELS, load_model
 from ..process import interrupts
 from ..runtime.discretize import Discretization
@@ -241,14 +241,23 @@ class Response:
                 },
                 "seat": {
                     **self.seat_figures.to_dict(),
+                    "comfort_method": _method(self.seat_figures, s.duration),
                     "checks": self.seat_checks,
                     "msdv": self.seat_msdv,
                     "lee_pradko_power_w": self.lee_pradko_power_w,
                     **(self.spinal.to_dict() if self.spinal is not None else {}),
                 },
-                "bodies": {k: b.to_dict() for k, b in self.bodies.items()},
+                "bodies": {
+                    k: {**b.to_dict(), "comfort_method": _method(b.figures, s.duration)}
+                    for k, b in self.bodies.items()
+                },
             }
         )
+
+
+def _method(f: ComfortFigures, duration: float) -> str:
+    """Which ISO 2631-1 method governs a record (clause 6.3): basic, vdv or mtvv."""
+    return governing_method(f.weighted_rms, f.crest_factor, f.mtvv, f.vdv, duration)
 
 
 def _finite(obj):

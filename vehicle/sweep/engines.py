@@ -39,6 +39,7 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
+from bodyvib.comfort import governing_method
 from bodyvib.comfort.figures import comfort_category, wk_response
 from bodyvib.comfort.stream import BatchComfortFigures, ComfortStream
 from bodyvib.frequency.response import frequency_response
@@ -67,17 +68,20 @@ __all__ = [
     "case_road_input",
     "case_wheel_inputs",
     "check_engine",
+    "comfort_method",
 ]
 
 #: Engine names.
 ENGINES = ("batched", "spectral", "cosim")
-#: Figure columns every engine returns (NaN where it has none).
+#: Figure columns every engine returns (NaN where it has none); ``head_comfort_method``
+#: is added to every engine's rows by :func:`run_engine` (:func:`comfort_method`).
 FIGURES = (
     "head_weighted_rms",
     "head_vdv",
     "head_peak",
     "head_crest_factor",
     "head_comfort",
+    "head_comfort_method",
     "seat_weighted_rms",
     "head_mtvv",
     "neck_force_peak",
@@ -668,7 +672,45 @@ def run_engine(engine: str, cases: Sequence[Case], blas_threads: Optional[int] =
     ctx = _thread_pools().limit(limits=blas_threads) if blas_threads else nullcontext()
     with ctx:
         if engine == "batched":
-            return run_batched(cases)[0]
-        if engine == "spectral":
-            return run_spectral(cases)
-        return run_cosim(cases)[0]
+            rows = run_batched(cases)[0]
+        elif engine == "spectral":
+            rows = run_spectral(cases)
+        else:
+            rows = run_cosim(cases)[0]
+    for row, case in zip(rows, cases):
+        row["head_comfort_method"] = comfort_method(row, case.duration)
+    return rows
+
+
+def comfort_method(row: dict, duration: float) -> Optional[str]:
+    """The ``head_comfort_method`` of a sweep row: which ISO 2631-1 method governs.
+
+    :func:`bodyvib.comfort.governing_method` of the row's head figures: ``"basic"``,
+    ``"vdv"`` or ``"mtvv"``; a ``spectral`` row (no record: crest factor, VDV and MTVV
+    NaN, a stationary Gaussian response) is ``"basic"``.
+
+    Parameters
+    ----------
+    row : dict
+        An engine's row (``head_weighted_rms``, ``head_crest_factor``, ``head_mtvv``,
+        ``head_vdv``).
+    duration : float
+        The case's duration, s.
+
+    Returns
+    -------
+    str or None
+        None for a failed case (no figures).
+
+    Examples
+    --------
+    >>> comfort_method({"head_weighted_rms": 0.1, "head_crest_factor": 12.0,
+    ...                 "head_mtvv": 0.12, "head_vdv": 0.3}, 6.0)
+    'vdv'
+    """
+    rms = row.get("head_weighted_rms")
+    if rms is None or not math.isfinite(rms):
+        return None
+    return governing_method(
+        rms, row["head_crest_factor"], row["head_mtvv"], row["head_vdv"], duration
+    )

@@ -21,6 +21,7 @@ SUMMARY_COLUMNS = (
     "car",
     "head_weighted_rms",
     "head_comfort",
+    "head_comfort_method",
     "engine",
     "error",
 )
@@ -37,17 +38,21 @@ def summary_columns(path: str):
     Returns
     -------
     pandas.DataFrame
-        :data:`SUMMARY_COLUMNS`, one row per case.
+        :data:`SUMMARY_COLUMNS` (those the table has), one row per case.
     """
     import pandas as pd
 
     if os.path.splitext(path)[1].lower() in (".parquet", ".pq"):
-        return pd.read_parquet(path, columns=list(SUMMARY_COLUMNS))
+        import pyarrow.parquet as pq
+
+        names = set(pq.read_schema(path).names)  # a table of an earlier release lacks some
+        return pd.read_parquet(path, columns=[c for c in SUMMARY_COLUMNS if c in names])
     # a CSV's headers carry their units ("speed [m/s]"): the name is before the bracket
     df = pd.read_csv(
         path, usecols=lambda c: c.split(" [")[0] in SUMMARY_COLUMNS, keep_default_na=False
     )
-    return df.rename(columns=lambda c: c.split(" [")[0])[list(SUMMARY_COLUMNS)]
+    df = df.rename(columns=lambda c: c.split(" [")[0])
+    return df[[c for c in SUMMARY_COLUMNS if c in df]]
 
 
 def _case(row) -> str:
@@ -59,7 +64,8 @@ def _case(row) -> str:
 
 def format_summary(df) -> str:
     """The summary of a sweep table: cases and failures, the head's Wk r.m.s. range with the
-    cases at its ends, the cases per ISO 2631-1 comfort band.
+    cases at its ends, the cases where ISO 2631-1's basic method is not sufficient
+    (``head_comfort_method``, clause 6.3) ahead of the cases per comfort band.
 
     Parameters
     ----------
@@ -99,6 +105,7 @@ def format_summary(df) -> str:
         )
         lines.append(f"  min: {_case(ok.loc[rms.idxmin()])}")
         lines.append(f"  max: {_case(ok.loc[rms.idxmax()])}")
+        lines += _method_lines(ok)
         bands = ok.groupby(ok["head_comfort"].astype(str))["head_weighted_rms"]
         order = bands.min().sort_values().index  # the bands from the mildest
         bands = ", ".join(f"{bands.size()[b]} {b}" for b in order)
@@ -107,3 +114,19 @@ def format_summary(df) -> str:
         first = df[failed].iloc[0]
         lines.append(f"first failure: {_case(first)}: {first['error']}")
     return "\n".join(lines)
+
+
+def _method_lines(ok) -> list:
+    """The line of the cases whose basic method is not sufficient (none: no line)."""
+    if "head_comfort_method" not in ok:
+        return []
+    methods = ok["head_comfort_method"].astype(str)
+    other = methods[methods.isin(("vdv", "mtvv"))]
+    if other.empty:
+        return []
+    counts = ", ".join(f"{n} {m}" for m, n in other.value_counts().sort_index().items())
+    return [
+        f"ISO 2631-1 6.3: the basic method is not sufficient in {len(other)} of {len(ok)} "
+        f"cases ({counts} governs: head_comfort_method); their comfort words name the "
+        "r.m.s. only"
+    ]

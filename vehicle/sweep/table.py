@@ -72,6 +72,7 @@ FIGURE_UNITS = {
     "head_peak": "m/s2",
     "head_crest_factor": "",
     "head_comfort": "",
+    "head_comfort_method": "",
     "seat_weighted_rms": "m/s2",
     "head_mtvv": "m/s2",
     "neck_force_peak": "N",
@@ -80,7 +81,15 @@ FIGURE_UNITS = {
 #: Columns after the figures.
 TRAILING_COLUMNS = ("engine", "engine_settings", "error", "bodyvib_version", "spec_hash", "run_id")
 _INTS = {"case_id", "seed", "body_sample"}
-_STRINGS = {"case_key", "road", "body", "body_model", "car", "head_comfort"} | set(TRAILING_COLUMNS)
+_STRINGS = {
+    "case_key",
+    "road",
+    "body",
+    "body_model",
+    "car",
+    "head_comfort",
+    "head_comfort_method",
+} | set(TRAILING_COLUMNS)
 WINDOW = 16384  # rows assembled at a time
 
 
