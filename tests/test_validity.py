@@ -243,3 +243,75 @@ def test_cosim_over_a_hump_leads_with_the_governing_method(tmp_path, capsys):
     assert body["mtvv"] / body["weighted_rms"] > 1.5 and body["comfort_method"] == "mtvv"
     assert f"MTVV {body['mtvv']:.3f} m/s2 governs (basic: {body['comfort']})" in comfort
     assert body["comfort_words"] in comfort
+
+
+G = 9.80665  # m/s2, standard gravity (the models' g)
+
+
+def test_linear_range_is_the_static_load_and_the_gaps_of_the_car_file():
+    from bodyvib.vehicle.events import linear_range
+
+    p = load_car().parameters
+    r = linear_range(load_car(), 69.88)
+    assert r.static_load == pytest.approx((p["ms"] + p["mu"] + 69.88) * G, rel=1e-12)
+    assert (r.gap_compression, r.gap_rebound) == (p["gap_compression"], p["gap_rebound"])
+    assert linear_range(load_car("half-car")).static_load is None  # linear tires: no range
+
+
+@pytest.mark.parametrize(
+    "force, deflection, words",
+    [
+        (-4000.0, 0.0, None),  # the dynamic force just cancels the static load: no pull
+        (-4400.0, 0.0, "pulls with up to 0.4 kN (0.1x the static load) at t = 0.02 s"),
+        (0.0, -0.07, None),  # at the bump stop's gap
+        (0.0, -0.08, "travels 80 mm in compression at t = 0.02 s, beyond the bump stop's"),
+        (0.0, 0.09, None),
+        (0.0, 0.1, "travels 100 mm in rebound at t = 0.02 s, beyond the rebound stop's"),
+    ],
+)
+def test_linear_range_warnings_at_their_limits(force, deflection, words):
+    from bodyvib.vehicle.events import LinearRange, LinearRangeStream
+
+    s = LinearRangeStream(0.01, LinearRange(4000.0, 0.07, 0.09))
+    s.update([0.0, 0.0], [0.0, 0.0])
+    s.update([force, 0.0], [deflection, 0.0])  # the third point: t = 0.02 s
+    lines = s.warnings()
+    assert lines == [] if words is None else (len(lines) == 1 and words in lines[0])
+
+
+def test_the_linear_car_over_the_pothole_warns_that_its_wheel_would_leave_the_road():
+    from bodyvib.vehicle.events import LinearRangeWarning
+
+    step, duration = 1e-3, 6.0
+    road = driven_road(RunSettings(road="pothole", duration=duration))
+    t = np.arange(int(round(duration / step)) + 1) * step
+    z, v = road_input(road, 20.0, t)
+    body = load_model("reduced-paper")
+    with pytest.warns(LinearRangeWarning, match="the linear tire pulls with up to") as rec:
+        run = reference_run(load_car(), body, z, v, step, linear=True)
+    p = load_car().parameters
+    f0 = (p["ms"] + p["mu"] + body.total_mass()) * G
+    pull = -(f0 + run["tire_force"].min())  # 5.3 kN in the issue: 1.3x the static load
+    assert f"{pull / 1e3:.1f} kN ({pull / f0:.1f}x the static load)" in str(rec[0].message)
+    assert f"t = {t[np.argmin(run['tire_force'])]:.2f} s" in str(rec[0].message)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", LinearRangeWarning)
+        reference_run(load_car(), body, z, v, step)  # the nonlinear car: no warning
+
+
+@pytest.mark.integration
+def test_cosim_linear_over_road_f_names_the_pull_and_both_stops(capsys):
+    from bodyvib.cli.main import main
+
+    argv = ["cosim", "--road", "F", "--speed", "30", "--duration", "10", "--quiet"]
+    assert main(argv + ["--linear"]) == 0
+    warned = [x for x in capsys.readouterr().out.splitlines() if x.startswith("warning: ")]
+    assert len(warned) == 3
+    assert "the linear tire pulls" in warned[0] and "run without --linear" in warned[0]
+    assert "in compression" in warned[1] and "in rebound" in warned[2]
+    # the car with its tire contact and stops: no range to leave (its lift-offs and stop
+    # impacts raise the coupling error to 1.1 % at 1 ms, which is warned of)
+    assert main(argv) == 0
+    assert "--linear" not in capsys.readouterr().out

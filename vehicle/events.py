@@ -13,7 +13,15 @@ from typing import Optional
 
 import numpy as np
 
-__all__ = ["RunEvents", "EventStream", "format_events"]
+__all__ = [
+    "RunEvents",
+    "EventStream",
+    "format_events",
+    "LinearRange",
+    "LinearRangeStream",
+    "LinearRangeWarning",
+    "linear_range",
+]
 
 
 @dataclass(frozen=True)
@@ -117,3 +125,136 @@ def format_events(e: RunEvents) -> str:
     if not e.lift_offs:
         return "0"
     return f"{e.lift_offs} ({1e3 * e.time_in_air_s:.0f} ms, {1e3 * e.longest_flight_s:.0f} ms)"
+
+
+class LinearRangeWarning(UserWarning):
+    """A run of a car's linear model left its range (:class:`LinearRangeStream`): a message
+    to the user about the run, not a defect of the program."""
+
+
+@dataclass(frozen=True)
+class LinearRange:
+    """Where a car's linear model holds: its (front) tire's static load and its (front)
+    suspension's stop gaps, from the car with its nonlinear elements (:func:`linear_range`).
+
+    Attributes
+    ----------
+    static_load : float or None
+        The tire's static load with the occupant, N (None: the tire is no contact).
+    gap_compression, gap_rebound : float or None
+        Suspension travel from static equilibrium to the bump (rebound) stop, m (None:
+        no stops on that suspension).
+    """
+
+    static_load: Optional[float]
+    gap_compression: Optional[float]
+    gap_rebound: Optional[float]
+
+
+def linear_range(car, occupant_mass: Optional[float] = None) -> LinearRange:
+    """The range of a car's linearization: the (front) tire's static load and stop gaps.
+
+    Parameters
+    ----------
+    car : Network
+        The car with its nonlinear elements (:func:`bodyvib.vehicle.quarter_car.load_car`).
+    occupant_mass : float, optional
+        The occupant's mass, kg, on the car's seat point for the static load (the car's
+        own ``static_loads`` value, e.g. ``m_occupant``, if not given).
+
+    Returns
+    -------
+    LinearRange
+
+    Examples
+    --------
+    >>> from bodyvib.vehicle.quarter_car import load_car
+    >>> r = linear_range(load_car(), 69.88)
+    >>> round(r.static_load), r.gap_compression, r.gap_rebound
+    (4108, 0.07, 0.09)
+    """
+    from bodyvib.runtime.network import static_preloads
+
+    from .signals import corner_variable
+
+    outs = {o["name"]: o["signal"] for o in car.fmu_outputs}
+    tire = outs.get(corner_variable("tire_force", outs), "").rpartition(".")[0]
+    susp = outs.get(corner_variable("suspension_deflection", outs), "").rpartition(".")[0]
+    ref = car.static_loads.get(car.roles.get("seat", ""))
+    seated = car
+    if isinstance(ref, str) and occupant_mass is not None:
+        seated = car.with_parameters(**{ref: float(occupant_mass)})
+    load = static_preloads(seated).get(tire) if tire else None
+    elements = {e.name: e for e in car.elements}
+    gaps: tuple = (None, None)
+    s = elements.get(susp)
+    for e in car.elements:
+        if s is not None and e.kind == "stop" and {e.a, e.b} == {s.a, s.b}:
+            gaps = tuple(car.value(e.values[k]) for k in ("gap_compression", "gap_rebound"))
+    return LinearRange(load, *gaps)
+
+
+class LinearRangeStream:
+    """Where a run of a car's linear model leaves its range, fed block by block.
+
+    Parameters
+    ----------
+    step : float
+        Communication step, s.
+    limits : LinearRange
+        The nonlinear car's static tire load and stop gaps.
+    fix : str
+        The advice that ends each line (the command line's by default).
+
+    Examples
+    --------
+    >>> s = LinearRangeStream(0.01, LinearRange(4000.0, 0.07, 0.09))
+    >>> s.update(np.array([0.0, -9300.0, 100.0]), np.array([0.0, -0.1, 0.02]))
+    >>> for line in s.warnings(): print(line)
+    the linear tire pulls with up to 5.3 kN (1.3x the static load) at t = 0.01 s: the wheel would leave the road; run without --linear
+    the linear suspension travels 100 mm in compression at t = 0.01 s, beyond the bump stop's gap of 70 mm: the car would hit it; run without --linear
+    """
+
+    def __init__(self, step: float, limits: LinearRange, fix: str = "run without --linear"):
+        self._h, self.limits, self.fix = float(step), limits, fix
+        self._k = 0  # points seen
+        self.tire = (np.inf, 0)  # smallest dynamic tire force, N, and its point
+        self.low = (np.inf, 0)  # smallest deflection (compression), m, and its point
+        self.high = (-np.inf, 0)  # largest deflection (rebound), m, and its point
+
+    def update(self, tire_force, deflection) -> None:
+        """Take the next points' dynamic tire forces (N, + in compression) and suspension
+        deflections (m, + in extension)."""
+        f, d = np.asarray(tire_force, dtype=float), np.asarray(deflection, dtype=float)
+        if f.size:
+            i, j, m = int(np.argmin(f)), int(np.argmin(d)), int(np.argmax(d))
+            if f[i] < self.tire[0]:
+                self.tire = (float(f[i]), self._k + i)
+            if d[j] < self.low[0]:
+                self.low = (float(d[j]), self._k + j)
+            if d[m] > self.high[0]:
+                self.high = (float(d[m]), self._k + m)
+        self._k += f.size
+
+    def warnings(self) -> list:
+        """One line for each way the run left the range (none: an empty list)."""
+        lim, out = self.limits, []
+        f0 = lim.static_load
+        if f0 and self.tire[0] < -f0:
+            pull = -(f0 + self.tire[0])
+            out.append(
+                f"the linear tire pulls with up to {pull / 1e3:.1f} kN ({pull / f0:.1f}x the "
+                f"static load) at t = {self.tire[1] * self._h:.2f} s: the wheel would leave "
+                f"the road; {self.fix}"
+            )
+        for (x, k), gap, sign, way, stop in (
+            (self.low, lim.gap_compression, -1.0, "compression", "bump"),
+            (self.high, lim.gap_rebound, 1.0, "rebound", "rebound"),
+        ):
+            if gap is not None and np.isfinite(x) and sign * x > gap:
+                out.append(
+                    f"the linear suspension travels {1e3 * sign * x:.0f} mm in {way} at t = "
+                    f"{k * self._h:.2f} s, beyond the {stop} stop's gap of {1e3 * gap:.0f} mm: "
+                    f"the car would hit it; {self.fix}"
+                )
+        return out

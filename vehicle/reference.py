@@ -15,6 +15,7 @@ Coupling error (NRMSE, a fraction; reported in %)::
 over all communication points, for the head acceleration.
 """
 
+import warnings
 from typing import Dict
 
 import numpy as np
@@ -27,6 +28,7 @@ from bodyvib.runtime.network import Network, linear_model, linearized
 from bodyvib.runtime.regimes import EventStepper
 
 from .control import closed_loop_model
+from .events import LinearRangeStream, LinearRangeWarning, linear_range
 from .quarter_car import seated_system
 from .road.driven import road_columns
 from .signals import (
@@ -123,7 +125,9 @@ def reference_run(
     linear : bool
         Run the car linearized about static equilibrium
         (:func:`bodyvib.runtime.network.linearized`: the tire never leaves the road, no
-        stops) instead of stepping its nonlinear elements.
+        stops) instead of stepping its nonlinear elements; a ``UserWarning`` says where
+        the run leaves the linear model's range
+        (:class:`bodyvib.vehicle.events.LinearRangeStream`).
 
     Returns
     -------
@@ -152,6 +156,11 @@ def reference_run(
             "road displacement and velocity must be arrays of equal length (and shape), >= 2 samples"
         )
     signals = ReferenceStream(car, body, step, controller, linear=linear).advance(z, v)
+    if linear:  # where the linear car leaves its range: a warning each
+        rng = LinearRangeStream(step, linear_range(car, body.total_mass()), "run with linear=False")
+        rng.update(signals["tire_force"], signals["suspension_deflection"])
+        for line in rng.warnings():
+            warnings.warn(line, LinearRangeWarning, stacklevel=2)
     n = z.shape[0]
     front = (z, v) if z.ndim == 1 else (z[:, 0], v[:, 0])
     signals.update(time=np.arange(n) * float(step), road_displacement=front[0])

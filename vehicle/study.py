@@ -33,7 +33,7 @@ from bodyvib.runtime.renames import NOT, renamed_parameters
 
 from .control import controller_from_fmu, describe
 from .cosim import CsvStream, Master, check_fmu, model_from_fmu, open_controller, open_fmu
-from .events import EventStream, RunEvents
+from .events import EventStream, LinearRangeStream, RunEvents, linear_range
 from .quarter_car import seated_system, track_width, wheel_offsets, wheel_sides
 from .reference import ReferenceStream
 from .road import roads_input, wheel_roads
@@ -159,7 +159,8 @@ class Study:
     warnings : list of str
         Where a figure of the run is outside its method's validity, one line each: a
         step the figures do not allow (``step_validity=False``), a coupling error beyond
-        :data:`bodyvib.comfort.COUPLING_NRMSE_LIMIT`.
+        :data:`bodyvib.comfort.COUPLING_NRMSE_LIMIT`, a linear car outside its range
+        (``linear_of``).
     """
 
     settings: RunSettings
@@ -345,6 +346,11 @@ class StudyOptions:
         Refuse a step longer than the figures allow (:func:`check_study_step`). False
         runs it anyway (a study of the step itself, :func:`coupling_error_sweep`) and
         the study's ``warnings`` say that its figures are not valid.
+    linear_of : Network, optional
+        The car with its nonlinear elements whose linearization the car FMU is
+        (``bodyvib cosim --linear``): the study's ``warnings`` say wherever the run leaves
+        the linear model's range (a dynamic tire force beyond the static load, travel
+        beyond the stops' gaps; :class:`bodyvib.vehicle.events.LinearRangeStream`).
 
     Examples
     --------
@@ -361,6 +367,7 @@ class StudyOptions:
     window_s: float = 5.0
     controller: Any = None
     step_validity: bool = True
+    linear_of: Any = None
 
 
 @renamed_parameters(quiet=NOT("progress"))
@@ -390,7 +397,7 @@ def run_study(
     **keywords
         Any field of :class:`StudyOptions` (``extrapolate``, ``reference``, ``progress``,
         ``histories``, ``csv``, ``block``, ``window_s``, ``controller``,
-        ``step_validity``), replacing that of ``options``.
+        ``step_validity``, ``linear_of``), replacing that of ``options``.
 
     Returns
     -------
@@ -434,6 +441,10 @@ def run_study(
     tire_load, occupant = _static_load(car_model, body_fmus, {k: r.net for k, r in bodies.items()})
     for label, rec in bodies.items():
         rec.watch_events(tire_load[label], occupant.get(label))
+        if opts.linear_of is not None:
+            net = rec.net or model_from_fmu(rec.path)
+            mass = net.total_mass() if net is not None else None
+            rec.range = LinearRangeStream(settings.step, linear_range(opts.linear_of, mass))
     progress_lines(opts.progress)(_opening(body_fmus, rd, settings, bodies))
     pairs = {(a, b): [0.0, 0.0] for a in bodies for b in bodies if a != b}
     bar = progress_bar(n, opts.progress, "co-simulation")
@@ -461,12 +472,12 @@ def run_study(
             if bar is not None:
                 bar.close()
     out = _study(settings, opts, controller_fmu, (rd, roads), window, pairs, bodies)
-    out.warnings += validity + [
-        f"{label}: {w}"
-        for label, b in out.bodies.items()
-        for w in [coupling_warning(b.coupling_nrmse, settings.step)]
-        if w is not None
-    ]
+    out.warnings += validity
+    for label, b in out.bodies.items():
+        w = coupling_warning(b.coupling_nrmse, settings.step)
+        out.warnings += [f"{label}: {w}"] if w is not None else []
+        rng = bodies[label].range
+        out.warnings += [f"{label}: {w}" for w in (rng.warnings() if rng is not None else [])]
     return out
 
 
@@ -590,6 +601,7 @@ class _BodyRecorder:
         self.kept = [] if histories else None
         self.kept_ref = [] if histories else None
         self.events, self.occupant = EventStream(step, None), None
+        self.range: Optional[LinearRangeStream] = None  # a linear car's range (linear_of)
         self.seat_blocks = []  # the seat's x, y, z (a car that has x and y: a full car)
 
     def watch_events(self, tire_load, occupant):
@@ -623,6 +635,8 @@ class _BodyRecorder:
         for name, stream in self.forces.items():
             stream.update(sig[name])
         self.events.update(sig["tire_contact"], sig["stop_force"], sig["tire_force"])
+        if self.range is not None:
+            self.range.update(sig["tire_force"], sig["suspension_deflection"])
         if not np.isnan(sig["seat_acceleration_x"][0]):  # a car that has them
             self.seat_blocks.append((sig["seat_acceleration_x"], sig["seat_acceleration_y"], seat))
         ref = None

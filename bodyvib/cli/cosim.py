@@ -218,6 +218,15 @@ def _check_step(args, want_iso):
     check_study_step(args.step, car, bodies)
 
 
+def _nonlinear_car(args):
+    """With ``--linear``: the car with its nonlinear elements (the run's range), else None."""
+    if not getattr(args, "linear", False):
+        return None
+    from bodyvib.vehicle.quarter_car import load_car
+
+    return load_car(car_and_seat(args.car, args.seat))
+
+
 def _label(path, default):
     base = os.path.splitext(os.path.basename(path))[0]
     return base or default
@@ -249,6 +258,7 @@ def _run(args, want_iso):
                 progress=not args.quiet,
                 csv=csv,
                 controller=controller,
+                linear_of=_nonlinear_car(args),
             )
             comparison = compare(study, *bodies) if want_iso else None
             vehicle = _vehicle(args, controller)
