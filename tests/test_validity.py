@@ -235,7 +235,8 @@ def test_cosim_over_a_hump_leads_with_the_governing_method(tmp_path, capsys):
     out = tmp_path / "hump.json"
     argv = ["cosim", "--road", "hump:h=0.075,l=3.7,at=10", "--speed", "5", "--duration", "6"]
     assert main(argv + ["--json", str(out), "--quiet"]) == 0
-    comfort = next(line for line in capsys.readouterr().out.splitlines() if "comfort" in line)
+    text = capsys.readouterr().out
+    comfort = next(line for line in text.splitlines() if "comfort" in line)
     import json
 
     body = next(iter(json.loads(out.read_text())["bodies"].values()))
@@ -243,6 +244,13 @@ def test_cosim_over_a_hump_leads_with_the_governing_method(tmp_path, capsys):
     assert body["mtvv"] / body["weighted_rms"] > 1.5 and body["comfort_method"] == "mtvv"
     assert f"MTVV {body['mtvv']:.3f} m/s2 governs (basic: {body['comfort']})" in comfort
     assert body["comfort_words"] in comfort
+    # the run's transmissibility estimate is labelled so, beside the model's own peak
+    model = body["model_transmissibility_peak"]
+    assert body["transmissibility_peak_source"].startswith("estimated from the run")
+    assert f"{model['modulus']:.3f} at {model['frequency_hz']:.2f} Hz" in next(
+        line for line in text.splitlines() if line.startswith("|T| peak of the model (FRF)")
+    )
+    assert any(line.startswith("|T| peak estimated from run") for line in text.splitlines())
 
 
 G = 9.80665  # m/s2, standard gravity (the models' g)
@@ -315,3 +323,27 @@ def test_cosim_linear_over_road_f_names_the_pull_and_both_stops(capsys):
     # impacts raise the coupling error to 1.1 % at 1 ms, which is warned of)
     assert main(argv) == 0
     assert "--linear" not in capsys.readouterr().out
+
+
+def test_the_models_transmissibility_peak_is_that_of_its_hand_written_equations():
+    # The reduced body: seat spring ks to a massless platform, kelvin (k2, c2) to m2,
+    # kelvin (k1, c1) to the head m1; |X1 / X0| on a 0.0005 Hz grid, its maximum.
+    from bodyvib.vehicle.study import model_peak
+
+    p = load_model("reduced-paper").parameters
+    f = np.arange(3.0, 7.0, 5e-4)
+    t = []
+    for w in 2 * np.pi * f:
+        z1, z2 = p["k1"] + 1j * w * p["c1"], p["k2"] + 1j * w * p["c2"]
+        a = np.array(
+            [
+                [p["ks"] + z2, -z2, 0],
+                [-z2, z2 + z1 - w**2 * p["m2"], -z1],
+                [0, -z1, z1 - w**2 * p["m1"]],
+            ]
+        )
+        t.append(abs(np.linalg.solve(a, [p["ks"], 0, 0])[2]))
+    peak = model_peak(load_model("reduced-paper"))
+    k = int(np.argmax(t))
+    assert peak.frequency_hz == pytest.approx(f[k], abs=1e-3)  # the 0.01 Hz grid, refined
+    assert peak.modulus == pytest.approx(t[k], rel=1e-4)

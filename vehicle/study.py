@@ -23,7 +23,12 @@ from bodyvib.comfort.figures import ComfortFigures
 from bodyvib.comfort.forces import ForceFigures, ForceStream
 from bodyvib.comfort.measures import SeatMeasures, SeatMeasureStream
 from bodyvib.comfort.stream import ComfortStream
-from bodyvib.frequency.estimate import TransmissibilityEstimate, TransmissibilityStream
+from bodyvib.frequency.estimate import (
+    TRANSMISSIBILITY_BAND_HZ,
+    TransmissibilityEstimate,
+    TransmissibilityStream,
+)
+from bodyvib.frequency.response import Peak, find_peaks, transmissibility
 from bodyvib.process import interrupts
 from bodyvib.process.limits import require_memory
 from bodyvib.process.progress import Progress, progress_bar, progress_lines
@@ -50,6 +55,7 @@ __all__ = [
     "run_study",
     "coupling_error_sweep",
     "check_study_step",
+    "model_peak",
 ]
 
 
@@ -92,6 +98,10 @@ class BodyRun:
         The same from the monolithic reference, each event located inside its step:
         element name -> figures (:meth:`bodyvib.runtime.regimes.EventLog.summary`);
         empty for a linear car or without a reference.
+    model_transmissibility_peak : Peak or None
+        The highest peak of the body model's own seat-to-head transmissibility (its
+        frequency response, :func:`model_peak`), beside the run's estimate; None for a
+        body FMU without its model.
     seat_axes : dict of str to float or None
         A car with the seat's horizontal accelerations (a full car): the seat's ISO
         2631-1 weighted r.m.s. per axis, ``seat_aw_x``, ``seat_aw_y`` (Wd) and
@@ -115,6 +125,7 @@ class BodyRun:
     events: Optional[RunEvents] = None
     reference_events: Dict[str, dict] = field(default_factory=dict)
     seat_axes: Optional[Dict[str, float]] = None
+    model_transmissibility_peak: Optional[Peak] = None
 
     def to_dict(self) -> dict:
         """The body's entry of the JSON document (figures, no histories; docs/getting_started.md, "JSON output")."""
@@ -125,6 +136,12 @@ class BodyRun:
             "coupling_nrmse": self.coupling_nrmse,
             "seat_weighted_rms": self.seat_figures.weighted_rms,
             "transmissibility_peak": self.transmissibility.peak.to_dict(),
+            "transmissibility_peak_source": "estimated from the run (H1, seat to head)",
+            "model_transmissibility_peak": (
+                self.model_transmissibility_peak.to_dict()
+                if self.model_transmissibility_peak is not None
+                else None
+            ),
             "real_time_factor": self.real_time_factor,
             **(self.seat_measures.to_dict() if self.seat_measures is not None else {}),
             **{name: f.to_dict() for name, f in self.forces.items()},
@@ -481,6 +498,38 @@ def run_study(
     return out
 
 
+#: Frequencies the model's own transmissibility peak is searched over, Hz: the run
+#: estimate's band at 0.01 Hz (a peak's frequency to well under the estimate's resolution).
+MODEL_PEAK_HZ = np.arange(TRANSMISSIBILITY_BAND_HZ[0], TRANSMISSIBILITY_BAND_HZ[1] + 1e-9, 0.01)
+
+
+def model_peak(body) -> Optional[Peak]:
+    """The highest peak of a body model's seat-to-head transmissibility ``|X_head / X_seat|``.
+
+    Parameters
+    ----------
+    body : Network or None
+        A body model (base ``seat``).
+
+    Returns
+    -------
+    Peak or None
+        Over :data:`MODEL_PEAK_HZ` (the run estimate's band); None without a model.
+
+    Examples
+    --------
+    >>> from bodyvib.models import load_model
+    >>> p = model_peak(load_model("reduced-paper"))
+    >>> round(p.frequency_hz, 1), round(p.modulus, 2)
+    (4.4, 1.45)
+    """
+    if body is None:
+        return None
+    modulus = np.abs(transmissibility(body, MODEL_PEAK_HZ))
+    peaks = find_peaks(MODEL_PEAK_HZ, modulus)
+    return max(peaks, key=lambda p: p.modulus) if peaks else None
+
+
 def check_study_step(step: float, car, bodies, enforce: bool = True) -> List[str]:
     """Refuse a study's step that cannot give the figures (:func:`bodyvib.comfort.check_step`).
 
@@ -679,6 +728,7 @@ class _BodyRecorder:
             events=self.events.result(),
             reference_events=self.ref.events() if self.ref is not None else {},
             seat_axes=_seat_axes(self.seat_blocks, 1.0 / self.step),
+            model_transmissibility_peak=model_peak(self.net or model_from_fmu(self.path)),
         )
 
     @staticmethod
