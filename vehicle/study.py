@@ -17,7 +17,7 @@ from typing import Any, Dict, List, Optional
 
 import numpy as np
 
-from bodyvib.comfort import check_step, comfort_words, coupling_warning, governing_method
+from bodyvib.comfort import check_step, comfort_verdict, coupling_warning
 from bodyvib.comfort.axes import vibration_totals
 from bodyvib.comfort.figures import ComfortFigures
 from bodyvib.comfort.forces import ForceFigures, ForceStream
@@ -228,17 +228,11 @@ class Study:
         Returns
         -------
         dict
-            ``comfort_method`` (``"basic"``, ``"vdv"`` or ``"mtvv"``,
-            :func:`bodyvib.comfort.governing_method`) and ``comfort_words`` (the Annex C
-            words, led by the additional measure where the basic method is not
-            sufficient, :func:`bodyvib.comfort.comfort_words`).
+            ``comfort_method`` (``"basic"``, ``"vdv"`` or ``"mtvv"``) and
+            ``comfort_words`` (the Annex C words, led by the additional measure where the
+            basic method is not sufficient): :func:`bodyvib.comfort.comfort_verdict`.
         """
-        f = self.bodies[label].figures
-        args = (f.weighted_rms, f.crest_factor, f.mtvv, f.vdv, self.settings.duration)
-        return {
-            "comfort_method": governing_method(*args),
-            "comfort_words": comfort_words(f.comfort, *args),
-        }
+        return comfort_verdict(self.bodies[label].figures, self.settings.duration)
 
     def to_dict(self) -> dict:
         """The study as JSON: ``settings``, ``road``, ``bodies`` (figures, no histories)

@@ -32,11 +32,13 @@ def format_response(result) -> str:
     -------
     str
     """
+    from bodyvib.comfort import comfort_verdict
+
     s = result.signal
     cols = [("seat", result.seat_figures, result.seat_checks)] + [
         (f"head, {k}", b.figures, b.checks) for k, b in result.bodies.items()
     ]
-    comfort = [_words(c[1], s.duration) for c in cols]
+    comfort = [comfort_verdict(c[1], s.duration)["comfort_words"] for c in cols]
     w = max(16, *(len(c[0]) + 2 for c in cols), *(len(x) + 2 for x in comfort))
     lines = [
         f"signal {s.name}: {s.acceleration.size} samples at {s.fs:.6g} Hz ({s.duration:.6g} s)",
@@ -87,25 +89,12 @@ def format_response(result) -> str:
         verdict = (
             "basic method enough"
             if not over
-            else f"basic method not sufficient, {_method(figures, s.duration).upper()} "
+            else "basic method not sufficient, "
+            f"{comfort_verdict(figures, s.duration)['comfort_method'].upper()} "
             "governs (" + "; ".join(over) + ")"
         )
         lines.append(f"  {name}: {values} -> {verdict}")
     return "\n".join(lines)
-
-
-def _method(f, duration):
-    """Which ISO 2631-1 method governs a record's figures (clause 6.3)."""
-    from bodyvib.comfort import governing_method
-
-    return governing_method(f.weighted_rms, f.crest_factor, f.mtvv, f.vdv, duration)
-
-
-def _words(f, duration):
-    """The comfort cell: the Annex C words, led by the governing additional measure."""
-    from bodyvib.comfort import comfort_words
-
-    return comfort_words(f.comfort, f.weighted_rms, f.crest_factor, f.mtvv, f.vdv, duration)
 
 
 def plot_response(result, path) -> None:

@@ -82,6 +82,7 @@ _MODULES = {
         "WK_BAND_HZ",
         "StepLimit",
         "check_step",
+        "comfort_verdict",
         "comfort_words",
         "coupling_warning",
         "governing_method",

@@ -54,6 +54,7 @@ __all__ = [
     "WK_BAND_HZ",
     "StepLimit",
     "check_step",
+    "comfort_verdict",
     "comfort_words",
     "coupling_warning",
     "governing_method",
@@ -348,3 +349,33 @@ def comfort_words(
         return comfort
     lead = f"VDV {vdv:.3f} m/s^1.75" if method == "vdv" else f"MTVV {mtvv:.3f} m/s2"
     return f"{lead} governs (basic: {comfort})"
+
+
+def comfort_verdict(figures, duration: float) -> Dict[str, str]:
+    """:func:`governing_method` and :func:`comfort_words` of one record's figures.
+
+    Parameters
+    ----------
+    figures : ComfortFigures
+        A record's figures (``weighted_rms``, ``crest_factor``, ``mtvv``, ``vdv``,
+        ``comfort``).
+    duration : float
+        The record's duration, s.
+
+    Returns
+    -------
+    dict
+        ``comfort_method`` and ``comfort_words``, as reports and their JSON name them.
+
+    Examples
+    --------
+    >>> from bodyvib.comfort import ComfortFigures
+    >>> comfort_verdict(ComfortFigures(0.2, 0.5, 2.2, 11.0, "not uncomfortable", 0.3), 6.0)
+    {'comfort_method': 'vdv', 'comfort_words': 'VDV 0.500 m/s^1.75 governs (basic: not uncomfortable)'}
+    """
+    f = figures
+    args = (f.weighted_rms, f.crest_factor, f.mtvv, f.vdv, duration)
+    return {
+        "comfort_method": governing_method(*args),
+        "comfort_words": comfort_words(f.comfort, *args),
+    }

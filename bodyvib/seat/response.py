@@ -43,7 +43,7 @@ from ..comfort.figures import ComfortFigures, basic_method_checks, check_rate, c
 from ..comfort.forces import ForceFigures, force_figures
 from ..comfort.measures import lee_pradko_power, msdv
 from ..comfort.spine import SpinalDose, spinal_dose
-from ..comfort.validity import check_step, governing_method
+from ..comfort.validity import check_step, comfort_verdict
 from ..models import DEFAULT_MODELS, load_model
 from ..process import interrupts
 from ..runtime.discretize import Discretization
@@ -257,7 +257,7 @@ class Response:
 
 def _method(f: ComfortFigures, duration: float) -> str:
     """Which ISO 2631-1 method governs a record (clause 6.3): basic, vdv or mtvv."""
-    return governing_method(f.weighted_rms, f.crest_factor, f.mtvv, f.vdv, duration)
+    return comfort_verdict(f, duration)["comfort_method"]
 
 
 def _finite(obj):
