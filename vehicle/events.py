@@ -194,6 +194,11 @@ def linear_range(car, occupant_mass: Optional[float] = None) -> LinearRange:
     return LinearRange(load, *gaps)
 
 
+#: The fix each line of :class:`LinearRangeStream` ends with (the command line shows
+#: ``'linear'`` as its flag, ``--linear``).
+_FIX = "run without 'linear'"
+
+
 class LinearRangeStream:
     """Where a run of a car's linear model leaves its range, fed block by block.
 
@@ -203,20 +208,18 @@ class LinearRangeStream:
         Communication step, s.
     limits : LinearRange
         The nonlinear car's static tire load and stop gaps.
-    fix : str
-        The advice that ends each line (the command line's by default).
 
     Examples
     --------
     >>> s = LinearRangeStream(0.01, LinearRange(4000.0, 0.07, 0.09))
     >>> s.update(np.array([0.0, -9300.0, 100.0]), np.array([0.0, -0.1, 0.02]))
     >>> for line in s.warnings(): print(line)
-    the linear tire pulls with up to 5.3 kN (1.3x the static load) at t = 0.01 s: the wheel would leave the road; run without --linear
-    the linear suspension travels 100 mm in compression at t = 0.01 s, beyond the bump stop's gap of 70 mm: the car would hit it; run without --linear
+    the linear tire pulls with up to 5.3 kN (1.3x the static load) at t = 0.01 s: the wheel would leave the road; run without 'linear'
+    the linear suspension travels 100 mm in compression at t = 0.01 s, beyond the bump stop's gap of 70 mm: the car would hit it; run without 'linear'
     """
 
-    def __init__(self, step: float, limits: LinearRange, fix: str = "run without --linear"):
-        self._h, self.limits, self.fix = float(step), limits, fix
+    def __init__(self, step: float, limits: LinearRange):
+        self._h, self.limits = float(step), limits
         self._k = 0  # points seen
         self.tire = (np.inf, 0)  # smallest dynamic tire force, N, and its point
         self.low = (np.inf, 0)  # smallest deflection (compression), m, and its point
@@ -245,7 +248,7 @@ class LinearRangeStream:
             out.append(
                 f"the linear tire pulls with up to {pull / 1e3:.1f} kN ({pull / f0:.1f}x the "
                 f"static load) at t = {self.tire[1] * self._h:.2f} s: the wheel would leave "
-                f"the road; {self.fix}"
+                f"the road; {_FIX}"
             )
         for (x, k), gap, sign, way, stop in (
             (self.low, lim.gap_compression, -1.0, "compression", "bump"),
@@ -255,6 +258,6 @@ class LinearRangeStream:
                 out.append(
                     f"the linear suspension travels {1e3 * sign * x:.0f} mm in {way} at t = "
                     f"{k * self._h:.2f} s, beyond the {stop} stop's gap of {1e3 * gap:.0f} mm: "
-                    f"the car would hit it; {self.fix}"
+                    f"the car would hit it; {_FIX}"
                 )
         return out

@@ -157,7 +157,7 @@ def reference_run(
         )
     signals = ReferenceStream(car, body, step, controller, linear=linear).advance(z, v)
     if linear:  # where the linear car leaves its range: a warning each
-        rng = LinearRangeStream(step, linear_range(car, body.total_mass()), "run with linear=False")
+        rng = LinearRangeStream(step, linear_range(car, body.total_mass()))
         rng.update(signals["tire_force"], signals["suspension_deflection"])
         for line in rng.warnings():
             warnings.warn(line, LinearRangeWarning, stacklevel=2)

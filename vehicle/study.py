@@ -451,11 +451,7 @@ def run_study(
         rec.add_reference(car_net, reference, law)
     tire_load, occupant = _static_load(car_model, body_fmus, {k: r.net for k, r in bodies.items()})
     for label, rec in bodies.items():
-        rec.watch_events(tire_load[label], occupant.get(label))
-        if opts.linear_of is not None:
-            net = rec.net or model_from_fmu(rec.path)
-            mass = net.total_mass() if net is not None else None
-            rec.range = LinearRangeStream(settings.step, linear_range(opts.linear_of, mass))
+        rec.watch_events(tire_load[label], occupant.get(label), opts.linear_of)
     progress_lines(opts.progress)(_opening(body_fmus, rd, settings, bodies))
     pairs = {(a, b): [0.0, 0.0] for a in bodies for b in bodies if a != b}
     bar = progress_bar(n, opts.progress, "co-simulation")
@@ -483,12 +479,7 @@ def run_study(
             if bar is not None:
                 bar.close()
     out = _study(settings, opts, controller_fmu, (rd, roads), window, pairs, bodies)
-    out.warnings += validity
-    for label, b in out.bodies.items():
-        w = coupling_warning(b.coupling_nrmse, settings.step)
-        out.warnings += [f"{label}: {w}"] if w is not None else []
-        rng = bodies[label].range
-        out.warnings += [f"{label}: {w}" for w in (rng.warnings() if rng is not None else [])]
+    out.warnings += validity + [w for rec in bodies.values() for w in rec.warnings()]
     return out
 
 
@@ -647,11 +638,22 @@ class _BodyRecorder:
         self.range: Optional[LinearRangeStream] = None  # a linear car's range (linear_of)
         self.seat_blocks = []  # the seat's x, y, z (a car that has x and y: a full car)
 
-    def watch_events(self, tire_load, occupant):
-        """The tire's static load (N, or None) for the events, and the car FMU's start
-        values that put this body's weight on its seat (None: the car's own)."""
+    def watch_events(self, tire_load, occupant, linear_of=None):
+        """The tire's static load (N, or None) for the events, the car FMU's start
+        values that put this body's weight on its seat (None: the car's own), and the
+        nonlinear car whose linearization the car FMU is (None: watch no range)."""
         self.events = EventStream(self.step, tire_load)
         self.occupant = occupant
+        if linear_of is not None:
+            net = self.net or model_from_fmu(self.path)
+            mass = net.total_mass() if net is not None else None
+            self.range = LinearRangeStream(self.step, linear_range(linear_of, mass))
+
+    def warnings(self) -> List[str]:
+        """The run's lines beyond validity: its coupling error, a linear car's range."""
+        lines = [coupling_warning(self._coupling(), self.step)]
+        lines += self.range.warnings() if self.range is not None else []
+        return [f"{self.label}: {w}" for w in lines if w is not None]
 
     def add_reference(self, car_net, reference, law):
         """Read the body's model and set up its monolithic reference (``reference``)."""

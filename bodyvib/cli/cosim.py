@@ -262,7 +262,7 @@ def _run(args, want_iso):
             )
             comparison = compare(study, *bodies) if want_iso else None
             vehicle = _vehicle(args, controller)
-            print(in_flags(format_report(study, comparison, vehicle), ("pareto_front",)))
+            print(in_flags(format_report(study, comparison, vehicle), ("pareto_front", "linear")))
             write_outputs(
                 [
                     (

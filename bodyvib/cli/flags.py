@@ -31,6 +31,7 @@ FLAGS = {
     "car_fmu": "--car-fmu",
     "controller": "--control-fmu",
     "platforms": "--platforms",
+    "linear": "--linear",
     # a sweep (SweepSettings)
     "grid_spec": "--grid",
     "out": "--out",
