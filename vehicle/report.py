@@ -5,6 +5,8 @@ The JSON document's keys are listed in docs/getting_started.md, "JSON output".
 
 from typing import List, Optional
 
+from bodyvib.comfort import comfort_verdict
+
 from .check import Comparison
 from .events import format_events
 from .road.driven import road_handling
@@ -91,7 +93,10 @@ def format_report(
     # every cell fits with two spaces before it: ISO 2631-1's comfort words are the longest
     # ("very uncomfortable / extremely uncomfortable" ran into the next column)
     w = max(24, *(len(label) + 2 for label in labels))
-    comfort = {label: study.comfort(label)["comfort_words"] for label in labels}
+    comfort = {
+        label: comfort_verdict(bodies[label].figures, s.duration)["comfort_words"]
+        for label in labels
+    }
     w = max(w, *(len(c) + 2 for c in comfort.values()))
 
     def row(title, cell):  # one line: a title, then cell(body) right-aligned per body
@@ -110,7 +115,12 @@ def format_report(
         )
     lines.append(f"{'comfort (ISO 2631-1 C)':<28}" + "".join(f"{comfort[b]:>{w}}" for b in labels))
     lines.append(row("|T| peak estimated from run", lambda b: _peak(b.transmissibility.peak)))
-    lines.append(row("|T| peak of the model (FRF)", lambda b: _peak(b.model_transmissibility_peak)))
+    lines.append(
+        row(
+            "|T| peak of the model (FRF)",
+            lambda b: _peak(getattr(b, "model_transmissibility_peak", None)),
+        )
+    )
     for name in ("neck_force", "lumbar_force"):
         if any(name in b.forces for b in bodies.values()):
             words = name.replace("_", " ")
@@ -136,7 +146,7 @@ def format_report(
         lines.append(
             row("seat ISO 2631-5 Dz [m/s2]", lambda b: f"{b.seat_measures.spinal_dose:.4f}")
         )
-    lines += [f"warning: {w}" for w in study.warnings]
+    lines += [f"warning: {w}" for w in getattr(study, "warnings", [])]
     if comparison:
         lines += _check_lines(comparison)
     return "\n".join(lines)
@@ -198,7 +208,7 @@ def _event_rows(row):
 
 def _peak(p):
     """A transmissibility peak's cell: ``1.600 at 4.66 Hz`` (``n/a``: none)."""
-    return "n/a" if p is None else f"{p.modulus:.3f} at {p.frequency_hz:.2f} Hz"
+    return "n/a" if p is None else "{modulus:.3f} at {frequency_hz:.2f} Hz".format(**p.to_dict())
 
 
 def _force(body, name, what):
