@@ -370,3 +370,26 @@ def test_spectral_half_car_rows_carry_the_seats_axes():
     assert half["seat_av"] == pytest.approx(np.hypot(half["seat_aw_x"], z), rel=1e-12)
     assert half["seat_rotation_av"] == pytest.approx(0.40 * half["seat_aw_ry"], rel=1e-12)
     assert all(np.isnan(quarter[k]) for k in ("seat_aw_x", "seat_av", "seat_aw_ry"))
+
+
+@pytest.mark.integration
+@pytest.mark.parametrize("car", ["half-car", "full-car"])
+def test_batched_rows_carry_the_seats_axes_of_the_reference_run(car):
+    """The batched engine weights the seat's x and y with Wd and We by the kernel's
+    recursion (:func:`bodyvib.comfort.weighting_statespace`); the same figures from the
+    monolithic reference run's histories by the FFT filters of
+    :func:`bodyvib.comfort.vibration_totals` (:func:`bodyvib.vehicle.seat_axes`)."""
+    from bodyvib.vehicle import seat_axes, seat_height
+    from bodyvib.vehicle.quarter_car import track_width, wheel_offsets, wheel_sides
+    from bodyvib.vehicle.sweep.engines import case_wheel_inputs
+
+    case = expand({"road": "C", "speed": 20, "duration": 10, "body": "reduced-paper", "car": car})
+    (row,), _ = run_batched(case)
+    net = case[0].car_network()
+    z, v = case_wheel_inputs(case[0], wheel_offsets(net), wheel_sides(net), track_width(net))
+    ref = reference_run(net, case[0].body_network(), z, v, case[0].step)
+    x, y = ref["seat_acceleration_x"], ref["seat_acceleration_y"]
+    expected = seat_axes(x, y, ref["seat_acceleration"], 1000.0, seat_height(net))
+    for key, value in expected.items():
+        assert row[key] == pytest.approx(value, rel=1e-3, abs=1e-12), key
+    assert np.isnan(row["seat_aw_rx"]) == (car == "half-car")

@@ -17,7 +17,7 @@ import numpy as np
 
 from bodyvib.comfort.axes import vibration_totals
 
-__all__ = ["SEAT_FIGURES", "seat_axes", "seat_height"]
+__all__ = ["SEAT_FIGURES", "seat_axes", "seat_height", "seat_point"]
 
 #: The seat's figures a run and a sweep row report (:func:`seat_axes`).
 SEAT_FIGURES = (
@@ -81,6 +81,20 @@ def seat_axes(x, y, z, fs: float, seat=None) -> Dict[str, float]:
     return out
 
 
+def seat_point(car) -> str:
+    """The role of the car body's point under the seat, as outputs are named by it:
+    ``floor`` on a car with a seat mounted (its pan moves only up and down on the
+    floor: fore-aft and sideways it moves with it), else ``seat``.
+
+    Examples
+    --------
+    >>> from bodyvib.vehicle.quarter_car import load_car
+    >>> seat_point(load_car("half-car")), seat_point(load_car("half-car+cushion"))
+    ('seat', 'floor')
+    """
+    return "floor" if "floor" in car.roles else "seat"
+
+
 def seat_height(car) -> Optional[Tuple[float, bool]]:
     """A car's seat height above its body's centre of mass and whether the body rolls.
 
@@ -102,7 +116,7 @@ def seat_height(car) -> Optional[Tuple[float, bool]]:
     """
     if car is None:
         return None
-    place = car.body_point_heights.get(car.roles.get("seat", ""))
+    place = car.body_point_heights.get(car.roles.get(seat_point(car), ""))
     if place is None or place[3] is None or not place[3]:
         return None
     return place[3], car.bodies[place[0]].roll_inertia is not None

@@ -39,9 +39,14 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
-from bodyvib.comfort.axes import SEATED_AXES, weighting
+from bodyvib.comfort.axes import SEATED_AXES, WEIGHTINGS, weighting
 from bodyvib.comfort.figures import comfort_category, wk_response
-from bodyvib.comfort.stream import BatchComfortFigures, ComfortStream
+from bodyvib.comfort.stream import (
+    BatchComfortFigures,
+    ComfortStream,
+    WkFilter,
+    weighting_statespace,
+)
 from bodyvib.frequency.response import frequency_response
 from bodyvib.models import load_model
 from bodyvib.runtime.discretize import Discretization
@@ -52,7 +57,7 @@ from ..quarter_car import seated_system, track_width, wheel_offsets, wheel_sides
 from ..road import roads_input, wheel_roads
 from ..road.driven import driven_road
 from ..road.synthetic import ISO8608_CLASSES, N_BAND, displacement_psd, road_input
-from ..seat_motion import SEAT_FIGURES, seat_axes, seat_height
+from ..seat_motion import SEAT_FIGURES, seat_axes, seat_height, seat_point
 from . import kernel
 from .kernel import SUMS
 from .spec import Case
@@ -216,6 +221,7 @@ class _Seated:
         self.sides = wheel_sides(car)  # and its track: 1 left, -1 right, 0 centre
         self.track = track_width(car)
         self.height = seat_height(car)  # the seat's height and roll (None: no x and y)
+        self.floor = seat_point(car)  # the body point of the seat's x and y
         self.outputs = [self.lm.output_index("body.head.a"), self.lm.output_index(f"{self.seat}.a")]
         # the named forces, None where the body names none (a zero row, reported as NaN)
         self.forces = [
@@ -328,6 +334,38 @@ def _step_inputs(cases, sys, roads):
     return M, gz, gv, road, np.stack(zs, axis=1).T, np.stack(vs, axis=1).T
 
 
+def _batched_seat_axes(sys, inputs, step, window, samples) -> Dict[int, list]:
+    """The seat's x and y (Wd) and its roll and pitch (We) of the cases whose car gives
+    them (a seat with a height): case index -> ``[x, y, rx, ry]`` weighted r.m.s.
+
+    Two more passes of the kernel over the group's cases, each weighting the seat's
+    ``a_x`` and ``a_y`` in place of head and seat: with Wd, and with We divided by the
+    seat's height (the body's pitch and roll accelerations, ``-a_x / h``, ``-a_y / h``).
+    """
+    have = [i for i, s in enumerate(sys) if s.height is not None]
+    if not have:
+        return {}
+    M, gz, gv, road, z, v = inputs
+    n = sys[0].lm.A.shape[0]
+    M2, gz2, gv2 = M.copy(), gz.copy(), gv.copy()
+    M2[:, n:], gz2[:, :, n:], gv2[:, :, n:] = 0.0, 0.0, 0.0
+    for i in have:
+        lm, floor = sys[i].lm, sys[i].floor
+        rows = [lm.output_index(f"{floor}.ax"), lm.output_index(f"{floor}.ay")]
+        M2[i, n : n + 2] = lm.C[rows]
+        for j, base in enumerate(sys[i].bases):
+            iz, iv = lm.input_index(f"{base}_displacement"), lm.input_index(f"{base}_velocity")
+            gz2[i, j, n : n + 2], gv2[i, j, n : n + 2] = lm.D[rows, iz], lm.D[rows, iv]
+    packed = kernel.pack(M2, gz2, gv2, road)
+    rms = []
+    for name in ("Wd", "We"):
+        w = WkFilter(1.0 / step, 1, weighting_statespace(WEIGHTINGS[name]))
+        sums, _ = kernel.run(packed, z, v, w.step(), window, False)
+        rms.append([np.sqrt(sums[SUMS.index(f"{p}_s2")] / samples) for p in ("head", "seat")])
+    (x, y), (rx, ry) = rms
+    return {i: [x[i], y[i], ry[i] / sys[i].height[0], rx[i] / sys[i].height[0]] for i in have}
+
+
 def _batched_group(cases, models, cars, roads, record):
     """Figures (and histories) of cases of one state size and length, stepped together."""
     c = len(cases)
@@ -348,6 +386,7 @@ def _batched_group(cases, models, cars, roads, record):
         for part in ("head", "seat")
     }
     head, seat = fig["head"], fig["seat"]
+    axes = _batched_seat_axes(sys, (M, gz, gv, road, z, v), step, wk.window, cases[0].steps)
     rows = []
     for i in range(c):
         peaks = {
@@ -366,7 +405,11 @@ def _batched_group(cases, models, cars, roads, record):
                 "seat_weighted_rms": float(seat.weighted_rms[i]),
                 "head_mtvv": float(head.mtvv[i]),
                 **peaks,
-                **_seat_columns(None),  # the batched kernel weights head and seat z only
+                **_seat_columns(
+                    _seat_figures(float(seat.weighted_rms[i]), axes[i], sys[i].height)
+                    if i in axes
+                    else None
+                ),
                 "error": None,
             }
         )
@@ -454,15 +497,16 @@ def _spectral_outputs(s, f):
     wk = np.abs(wk_response(f)) ** 2 * f  # |W|^2 f: the df = f dln f of the integral
     outputs, weights = ["body.head.a", f"{s.seat}.a"], [(0, wk), (1, wk)]
     if s.height is not None:
-        outputs += [f"{s.seat}.ax", f"{s.seat}.ay"]
+        outputs += [f"{s.floor}.ax", f"{s.floor}.ay"]
         wd = np.abs(weighting("Wd", f)) ** 2 * f
         we = np.abs(weighting("We", f)) ** 2 * f / s.height[0] ** 2
         weights += [(2, wd), (3, wd), (3, we), (2, we)]  # x, y, roll, pitch
     return outputs, weights
 
 
-def _spectral_seat(z, axes, height) -> Optional[Dict[str, float]]:
-    """The seat's figures from the spectral engine's weighted r.m.s. ``[x, y, rx, ry]``."""
+def _seat_figures(z, axes, height) -> Optional[Dict[str, float]]:
+    """The seat's figures from its weighted r.m.s., ``z`` (Wk) and ``axes``, ``[x, y]``
+    (Wd) and the roll and pitch ``[rx, ry]`` (We), of a car whose seat has a ``height``."""
     if height is None:
         return None
     x, y, rx, ry = axes
@@ -560,7 +604,7 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
                 "head_mtvv": float("nan"),
                 "neck_force_peak": float("nan"),  # a peak needs a record
                 "lumbar_force_peak": float("nan"),
-                **_seat_columns(_spectral_seat(seat, axes, s.height)),
+                **_seat_columns(_seat_figures(seat, axes, s.height)),
                 "error": None,
             }
     return rows
