@@ -141,3 +141,17 @@ def test_health_guidance_zone_follows_annex_b():
 def test_bad_input_is_refused_in_words(call, match):
     with pytest.raises(BodyvibError, match=match):
         call()
+
+
+@pytest.mark.parametrize("name", sorted(TABLES))
+def test_every_weighting_has_a_state_space_for_recursive_filters(name):
+    """weighting_statespace (a term the weighting leaves out is a unity section) against
+    the standard's tables at their frequencies, to their rounding."""
+    from bodyvib.comfort import weighting_statespace
+    from bodyvib.comfort.axes import WEIGHTINGS
+
+    A, B, C, D = weighting_statespace(WEIGHTINGS[name])
+    f = np.array(sorted(TABLES[name]))
+    H = [(C @ np.linalg.solve(2j * np.pi * x * np.eye(len(A)) - A, B) + D)[0, 0] for x in f]
+    table = np.array([TABLES[name][x] for x in f]) / 1000.0
+    np.testing.assert_allclose(np.abs(H), table, rtol=0.01)

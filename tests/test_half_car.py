@@ -254,17 +254,42 @@ def test_cosim_half_car_on_a_sine_road_matches_an_independent_solution(tmp_path)
     from bodyvib.models import load_model
 
     road = write_sine_road(tmp_path / "sine.csv", SPEED * DURATION + 5.0)
-    out = tmp_path / "run.csv"
+    out, js = tmp_path / "run.csv", tmp_path / "run.json"
     cmd = [sys.executable, "-m", "bodyvib.cli", "cosim", "--car", "half-car"]
     cmd += ["--road", str(road), "--road-taper", "0", "--speed", str(SPEED)]
     cmd += ["--duration", str(DURATION), "--step", "0.001", "--csv", str(out), "--quiet"]
-    done = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    done = subprocess.run(cmd + ["--json", str(js)], capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
     run = read_run_csv(out)
-    rhs = hand_written_half_car_with_body(load_car("half-car"), load_model("reduced-paper"))
+    car = load_car("half-car")
+    rhs = hand_written_half_car_with_body(car, load_model("reduced-paper"))
     # after the start-up transient
     err = nrmse_against_ode(rhs, 13, run["time"], run["head_acceleration"], after=2.0)
     assert err <= 5e-4, f"head acceleration NRMSE {100 * err:.4f} %"
+    # the seat's forward acceleration: -h times the hand-written pitch acceleration
+    h = car.parameters["seat_h"]
+
+    def seat_x(t, q):
+        dq, _ = rhs(t, q)
+        return dq, -h * dq[8]
+
+    err = nrmse_against_ode(seat_x, 13, run["time"], run["seat_acceleration_x"], after=2.0)
+    assert err <= 5e-4, f"seat x acceleration NRMSE {100 * err:.4f} %"
+    assert np.all(run["seat_acceleration_y"] == 0.0)  # the half car does not roll
+    _check_seat_figures(json.loads(js.read_text())["bodies"]["HumanBody3DOF"], run, h)
+
+
+def _check_seat_figures(body, run, h):
+    """The run's seat figures are ISO 2631-1's of its CSV columns, the pitch -a_x / h."""
+    from bodyvib.comfort import vibration_totals
+
+    x, z = run["seat_acceleration_x"], run["seat_acceleration"]
+    tot = vibration_totals({"seat_x": x, "seat_z": z, "seat_ry": -x / h}, 1000.0)
+    assert body["seat_aw_x"] == pytest.approx(tot.axes["seat_x"].weighted_rms, rel=1e-6)
+    assert body["seat_aw_ry"] == pytest.approx(tot.axes["seat_ry"].weighted_rms, rel=1e-6)
+    assert body["seat_aw_y"] == 0.0 and "seat_aw_rx" not in body
+    assert body["seat_av"] == pytest.approx(tot.points["seat"], rel=1e-6)
+    assert body["seat_rotation_av"] == pytest.approx(0.4 * body["seat_aw_ry"], rel=1e-12)
 
 
 def test_batched_sweep_engine_sums_the_wheels_as_the_reference_drives_them():

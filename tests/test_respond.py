@@ -201,7 +201,7 @@ def test_command_writes_figures_csv_and_plot(tmp_path, capsys):
         ("ambiguous", "choose one with --channel NAME"),
         ("truncated", "truncated file"),
         ("mdf_channel", "no channel 'seat_y'"),
-        ("mdf_none", "choose a channel with --channel NAME"),
+        ("mdf_none", "none of them seat_z; choose one with --channel NAME"),
     ],
 )
 def test_bad_signals_are_refused_in_one_line(tmp_path, capsys, case, words):
@@ -223,10 +223,12 @@ def test_bad_signals_are_refused_in_one_line(tmp_path, capsys, case, words):
         args = ["--channel", "seat_y"]
     if case.startswith("mdf"):
         path = tmp_path / "s.mf4"
-        _write_mdf(path, t, a)
+        _write_mdf(path, t, a, name="AccZ" if case == "mdf_none" else "seat_z")
         args = ["--channel", "seat_y"] if case == "mdf_channel" else []
+    elif case == "ambiguous":  # two columns, neither named seat_z
+        _write_csv(path, t, a, name="acc [m/s2]", extra=a)
     else:
-        _write_csv(path, t, a, extra=a if case == "ambiguous" else None)
+        _write_csv(path, t, a)
     if case == "truncated":
         with open(path, "a") as f:
             f.write("3.0,\n")

@@ -342,3 +342,54 @@ def test_kernel_refuses_a_weighting_that_does_not_fit_its_rows():
     )
     with pytest.raises(ValueError, match="does not fit"):
         run(inputs, np.zeros((1, 10)), np.zeros((1, 10)), wk, 5)
+
+
+def test_spectral_half_car_rows_carry_the_seats_axes():
+    """The seat's x and pitch of a half car on an ISO 8608 road: the spectral engine's
+    figures against the integral of the pitch acceleration's response (body.alpha, not
+    the seat's .ax row) times the seat height, weighted by Wd and We, by trapezoids on
+    another grid; a quarter car's seat columns are NaN."""
+    from bodyvib.comfort import weighting
+
+    cases = expand(
+        {"road": "C", "speed": 20, "body": "reduced-paper", "car": ["half-car", "quarter-car"]}
+    )
+    half, quarter = run_spectral(cases)
+    car = cases[0].car_network()
+    lm = linear_model(seated_system(car, cases[0].body_network()))
+    h, wheelbase = car.parameters["seat_h"], car.parameters["lf"] + car.parameters["lr"]
+    f = np.geomspace(N_BAND[0] * 20, N_BAND[1] * 20, 20000)
+    alpha = frequency_response(lm, f, "body.alpha", delays=[0.0, wheelbase / 20])
+    S = displacement_psd(f / 20, "C") / 20
+    for name, scale, key in (("Wd", h, "seat_aw_x"), ("We", 1.0, "seat_aw_ry")):
+        ms = np.trapezoid(np.abs(scale * alpha * weighting(name, f)) ** 2 * S, f)
+        assert half[key] == pytest.approx(np.sqrt(ms), rel=1e-4), key
+    assert half["seat_aw_y"] == 0.0 and np.isnan(half["seat_aw_rx"])
+    z = half["seat_weighted_rms"]
+    assert half["seat_aw_z"] == z
+    assert half["seat_av"] == pytest.approx(np.hypot(half["seat_aw_x"], z), rel=1e-12)
+    assert half["seat_rotation_av"] == pytest.approx(0.40 * half["seat_aw_ry"], rel=1e-12)
+    assert all(np.isnan(quarter[k]) for k in ("seat_aw_x", "seat_av", "seat_aw_ry"))
+
+
+@pytest.mark.integration
+@pytest.mark.parametrize("car", ["half-car", "full-car"])
+def test_batched_rows_carry_the_seats_axes_of_the_reference_run(car):
+    """The batched engine weights the seat's x and y with Wd and We by the kernel's
+    recursion (:func:`bodyvib.comfort.weighting_statespace`); the same figures from the
+    monolithic reference run's histories by the FFT filters of
+    :func:`bodyvib.comfort.vibration_totals` (:func:`bodyvib.vehicle.seat_axes`)."""
+    from bodyvib.vehicle import seat_axes, seat_height
+    from bodyvib.vehicle.quarter_car import track_width, wheel_offsets, wheel_sides
+    from bodyvib.vehicle.sweep.engines import case_wheel_inputs
+
+    case = expand({"road": "C", "speed": 20, "duration": 10, "body": "reduced-paper", "car": car})
+    (row,), _ = run_batched(case)
+    net = case[0].car_network()
+    z, v = case_wheel_inputs(case[0], wheel_offsets(net), wheel_sides(net), track_width(net))
+    ref = reference_run(net, case[0].body_network(), z, v, case[0].step)
+    x, y = ref["seat_acceleration_x"], ref["seat_acceleration_y"]
+    expected = seat_axes(x, y, ref["seat_acceleration"], 1000.0, seat_height(net))
+    for key, value in expected.items():
+        assert row[key] == pytest.approx(value, rel=1e-3, abs=1e-12), key
+    assert np.isnan(row["seat_aw_rx"]) == (car == "half-car")

@@ -31,6 +31,7 @@ _MODULES = {
     # the seat as a part
     "seats": ("car_with_seat", "load_seat", "mount_seat"),
     "seat_response": ("seat_transmissibility", "seat_value"),
+    "seat_motion": ("seat_axes", "seat_height", "seat_point"),
     # the FMUs of a run
     "fmus": ("FMUS", "build_fmus", "build_project_fmu", "load_fmu_model", "temporary_fmu_dir"),
     # active suspension control

@@ -147,9 +147,32 @@ def format_report(
             row("seat ISO 2631-5 Dz [m/s2]", lambda b: f"{b.seat_measures.spinal_dose:.4f}")
         )
     lines += [f"warning: {w}" for w in getattr(study, "warnings", [])]
+    lines += _seat_axes_lines(row, bodies, labels)
     if comparison:
         lines += _check_lines(comparison)
     return "\n".join(lines)
+
+
+#: The seat surface's figures a run reports beside the head's: key, words.
+_SEAT_AXES = (
+    ("seat_aw_x", "seat a_w x (Wd) [m/s2]"),
+    ("seat_aw_y", "seat a_w y (Wd) [m/s2]"),
+    ("seat_aw_z", "seat a_w z (Wk) [m/s2]"),
+    ("seat_av", "seat a_v, comfort [m/s2]"),
+    ("seat_aw_rx", "seat a_w roll (We) [rad/s2]"),
+    ("seat_aw_ry", "seat a_w pitch (We) [rad/s2]"),
+    ("seat_rotation_av", "seat rotations a_v [m/s2]"),
+)
+
+
+def _seat_axes_lines(row, bodies, labels) -> List[str]:
+    """The seat surface's ISO 2631-1 axes and rotations (a car that has them)."""
+    axes = [getattr(bodies[b], "seat_axes", None) or {} for b in labels]
+    return [
+        row(words, lambda b, k=key: f"{(b.seat_axes or {}).get(k, float('nan')):.4f}")
+        for key, words in _SEAT_AXES
+        if any(key in a for a in axes)
+    ]
 
 
 def _check_lines(comparison: Comparison) -> List[str]:

@@ -190,6 +190,8 @@ def _outputs(car: Network, seat: Network, floor: str) -> tuple:
         point, _, q = o["signal"].rpartition(".")
         if point == "seat" and q in _QUANTITY:
             o = dict(o, description=f"{_QUANTITY[q]} of the seat pan (seat {seat.name})")
+        elif point == "seat" and q in ("ax", "ay"):  # a seat moves only up and down on
+            o = dict(o, signal=f"{FLOOR}.{q}")  # its floor: fore-aft and sideways, the floor's
         out.append(dict(o))
     out.append(
         {

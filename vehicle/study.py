@@ -18,7 +18,6 @@ from typing import Any, Dict, List, Optional
 import numpy as np
 
 from bodyvib.comfort import check_step, comfort_verdict, coupling_warning
-from bodyvib.comfort.axes import vibration_totals
 from bodyvib.comfort.figures import ComfortFigures
 from bodyvib.comfort.forces import ForceFigures, ForceStream
 from bodyvib.comfort.measures import SeatMeasures, SeatMeasureStream
@@ -44,6 +43,7 @@ from .reference import ReferenceStream
 from .road import roads_input, wheel_roads
 from .road.driven import RunSettings, driven_road
 from .road.synthetic import Road, road_input
+from .seat_motion import seat_axes, seat_height
 from .signals import BODY_SIGNALS, MASTER_SIGNALS, OPTIONAL_SIGNALS
 
 __all__ = [
@@ -103,11 +103,12 @@ class BodyRun:
         frequency response, :func:`model_peak`), beside the run's estimate; None for a
         body FMU without its model.
     seat_axes : dict of str to float or None
-        A car with the seat's horizontal accelerations (a full car): the seat's ISO
-        2631-1 weighted r.m.s. per axis, ``seat_aw_x``, ``seat_aw_y`` (Wd) and
-        ``seat_aw_z`` (Wk), and its point vibration total value for comfort ``seat_av``
-        (k = 1.4, 1.4, 1; :func:`bodyvib.comfort.vibration_totals`), m/s2. The seat's
-        records are kept for it (24 bytes a step).
+        A car with the seat's horizontal accelerations (a half or a full car): the
+        seat's ISO 2631-1 weighted r.m.s. per axis, ``seat_aw_x``, ``seat_aw_y`` (Wd)
+        and ``seat_aw_z`` (Wk), its point vibration total value for comfort ``seat_av``
+        (k = 1, 1, 1), m/s2, and its rotations' ``seat_aw_ry`` (pitch), ``seat_aw_rx``
+        (roll, a full car) (We, rad/s2) and ``seat_rotation_av`` (m/s2) (:func:`seat_axes`).
+        The seat's records are kept for it (24 bytes a step).
     """
 
     fmu: str
@@ -452,6 +453,7 @@ def run_study(
     tire_load, occupant = _static_load(car_model, body_fmus, {k: r.net for k, r in bodies.items()})
     for label, rec in bodies.items():
         rec.watch_events(tire_load[label], occupant.get(label), opts.linear_of)
+        rec.seat = seat_height(car_model)
     progress_lines(opts.progress)(_opening(body_fmus, rd, settings, bodies))
     pairs = {(a, b): [0.0, 0.0] for a in bodies for b in bodies if a != b}
     bar = progress_bar(n, opts.progress, "co-simulation")
@@ -636,7 +638,8 @@ class _BodyRecorder:
         self.kept_ref = [] if histories else None
         self.events, self.occupant = EventStream(step, None), None
         self.range: Optional[LinearRangeStream] = None  # a linear car's range (linear_of)
-        self.seat_blocks = []  # the seat's x, y, z (a car that has x and y: a full car)
+        self.seat_blocks = []  # the seat's x, y, z (a car that has x and y: half, full car)
+        self.seat = None  # the seat's height and whether the body rolls (seat_height)
 
     def watch_events(self, tire_load, occupant, linear_of=None):
         """The tire's static load (N, or None) for the events, the car FMU's start
@@ -723,7 +726,7 @@ class _BodyRecorder:
             },
             events=self.events.result(),
             reference_events=self.ref.events() if self.ref is not None else {},
-            seat_axes=_seat_axes(self.seat_blocks, 1.0 / self.step),
+            seat_axes=_seat_axes(self.seat_blocks, 1.0 / self.step, self.seat),
             model_transmissibility_peak=model_peak(self.net or model_from_fmu(self.path)),
         )
 
@@ -810,20 +813,12 @@ def _road_description(road, roads) -> dict:
     return out
 
 
-def _seat_axes(blocks, fs: float) -> Optional[Dict[str, float]]:
-    """The seat's ISO 2631-1 figures in x, y and z from its recorded blocks (None: none).
-
-    Returns the per-axis frequency-weighted r.m.s. (``seat_aw_x``, ``seat_aw_y`` with
-    Wd, ``seat_aw_z`` with Wk) and the point vibration total value for comfort
-    ``seat_av`` (:func:`bodyvib.comfort.vibration_totals`), m/s2.
-    """
+def _seat_axes(blocks, fs: float, seat) -> Optional[Dict[str, float]]:
+    """:func:`seat_axes` of the seat's recorded blocks (None: none were recorded)."""
     if not blocks:
         return None
     x, y, z = (np.concatenate(b) for b in zip(*blocks))
-    tot = vibration_totals({"seat_x": x, "seat_y": y, "seat_z": z}, fs)
-    out = {f"seat_aw_{a}": tot.axes[f"seat_{a}"].weighted_rms for a in "xyz"}
-    out["seat_av"] = tot.points["seat"]
-    return out
+    return seat_axes(x, y, z, fs, seat)
 
 
 def _wheels(car_fmu, car_net, settings, road):

@@ -16,7 +16,7 @@ def _run(args):
     from bodyvib.vehicle.design.spec import load_spec
 
     check_output_path(args.out, "--out", inputs=[("SPEC", args.spec)], folder=True)
-    spec = load_spec(args.spec)  # every check of the spec, before any search
+    spec = load_spec(args.spec, car=args.car)  # every check of the spec, before any search
     result = design(spec, verify=not args.no_verify)
     print(format_summary(result))
     command = " ".join(shlex.quote(a) for a in ["bodyvib", *sys.argv[1:]])
@@ -47,6 +47,12 @@ def add_command(subparsers):
         metavar="DIR",
         help="folder for the front (CSV, Parquet, plot), the summary and the chosen "
         "designs' car files (default: design)",
+    )
+    p.add_argument(
+        "--car",
+        metavar="CAR",
+        help="the car to tune in place of the spec's 'car' (shipped name, e.g. full-car, "
+        "or parameter file); the spec's parameters must be its own",
     )
     p.add_argument(
         "--no-verify",

@@ -48,6 +48,7 @@ FLAGS = {
     "total_mass": "--total-mass",
     "pairs": "--pairs",
     "channel": "--channel",
+    "channels": "--channels",
     "points": "--points",
     # the library's functions, where a message names the one that does the fix
     "build_active_ssp": "bodyvib build --control",

@@ -168,8 +168,10 @@ ROAD_ARGUMENTS = {
         choices=CONTACTS,
         default="auto",
         help="road file: the tire contact: the tandem-cam effective road of a 205/60R15 "
-        "tire, the profile point by point, or auto: tandem-cam on a profile sampled finer "
-        "than the tire's footprint (0.111 m), point otherwise (default: auto)",
+        "tire (tandem-cam: default shape factors; mfswift-205-60R15: the enveloping set "
+        "MF-Swift measured on cleats), the profile point by point, or auto: tandem-cam on "
+        "a profile sampled finer than the tire's footprint (0.111 m), point otherwise "
+        "(default: auto)",
     ),
 }
 

@@ -5,11 +5,12 @@ import io
 import numpy as np
 
 from bodyvib.process import interrupts
+from bodyvib.runtime.errors import BodyvibError
 
 from .options import add_models_option, add_output_options, model_inputs
 from .outputs import check_files, write_result
 
-__all__ = ["add_command", "format_response", "plot_response"]
+__all__ = ["add_command", "format_response", "format_axes", "plot_response"]
 
 _ROWS = (
     ("weighted_rms", "Wk r.m.s. [m/s2]", "{:.4f}"),
@@ -97,6 +98,46 @@ def format_response(result) -> str:
     return "\n".join(lines)
 
 
+_ZONE_WORDS = {"below": "below", "caution": "in", "above": "above"}
+
+
+def format_axes(result) -> str:
+    """The ISO 2631-1 lines of every measured axis: figures, totals and health guidance.
+
+    Parameters
+    ----------
+    result : bodyvib.seat.response.Response
+
+    Returns
+    -------
+    str
+        One row per axis (weighting, comfort factor ``k``, weighted r.m.s., VDV, MTVV),
+        the point and overall vibration total values for comfort, and the seat's
+        health value against the caution zone of Annex B.
+    """
+    tot, channels = result.axes, result.signal.channels
+    lines = [
+        "ISO 2631-1 per axis (m/s2; rotations rad/s2, k in m/rad):",
+        f"  {'axis':<11}{'weighting':>10}{'k':>6}{'a_w':>10}{'VDV':>10}{'MTVV':>10}  channel",
+    ]
+    for axis, f in tot.axes.items():
+        lines.append(
+            f"  {axis:<11}{f.weighting:>10}{f.k_comfort:>6.2f}{f.weighted_rms:>10.4f}"
+            f"{f.vdv:>10.4f}{f.mtvv:>10.4f}  {channels.get(axis, '')}"
+        )
+    points = ", ".join(f"{p} {v:.4f}" for p, v in tot.points.items())
+    lines.append(f"point vibration total values (comfort, m/s2): {points}")
+    lines.append(f"overall vibration total value: {tot.overall:.4f} m/s2 ({tot.comfort})")
+    h = tot.health
+    if h is not None:
+        lines.append(
+            f"health (Annex B, max of 1.4 a_wx, 1.4 a_wy, a_wz of the seat): {h.value:.4f} m/s2, "
+            f"{_ZONE_WORDS[h.zone]} the caution zone ({h.lower:.3g} to {h.upper:.3g} m/s2 "
+            f"at {h.exposure_s / 3600:g} h a day)"
+        )
+    return "\n".join(lines)
+
+
 def plot_response(result, path) -> None:
     """Seat and head accelerations over time, their 1 s running r.m.s. (the MTVV's), and the
     bodies' neck and lumbar forces.
@@ -174,17 +215,22 @@ def _csv_text(result) -> str:
 def _run(args):
     from bodyvib.models import load_model
     from bodyvib.seat.response import respond
-    from bodyvib.seat.signal import read_signal
+    from bodyvib.seat.signal import parse_channels, read_signal
 
+    if not (np.isfinite(args.exposure) and args.exposure > 0):
+        raise BodyvibError(f"--exposure must be a positive number of hours, got {args.exposure:g}")
+    channels = parse_channels(args.channels) if args.channels else None
     check_files(
         args, ("json", "plot", "csv"), inputs=[("SIGNAL", args.signal)] + model_inputs(args.models)
     )
     for m in args.models:  # an unknown model is refused before the signal is read
         load_model(m)
-    signal = read_signal(args.signal, args.channel)
+    signal = read_signal(args.signal, args.channel, channels)
     interrupts.check()
-    result = respond(signal, args.models)
+    result = respond(signal, args.models, exposure_s=args.exposure * 3600.0)
     print(format_response(result))
+    print()
+    print(format_axes(result))
     write_result(args, result, plot_response, csv_text=_csv_text)
     return 0
 
@@ -198,9 +244,13 @@ def add_command(subparsers):
         help="a measured seat acceleration through body models: ISO 2631-1 figures of "
         "seat and head",
         description="Run a measured seat-pan vertical acceleration (CSV with a time column, or "
-        "an MDF4 file with --channel) through each body model exactly, and give the ISO 2631-1 "
+        "an MDF4 file) through each body model exactly, and give the ISO 2631-1 "
         "figures (Wk r.m.s., VDV, MTVV, peak, crest factor) of the seat and of each head, with "
-        "the standard's checks of when the basic method is not enough.",
+        "the standard's checks of when the basic method is not enough. Every other axis "
+        "measured (seat x, y and rotations, backrest, feet: columns or channels named "
+        "seat_x, seat_rx, backrest_z, feet_y, ..., or mapped with --channels) gets its "
+        "weighted figures, and all of them the point and overall vibration total values "
+        "and the health guidance of ISO 2631-1.",
     )
     p.add_argument(
         "signal",
@@ -211,8 +261,22 @@ def add_command(subparsers):
     p.add_argument(
         "--channel",
         metavar="NAME",
-        help="the acceleration's column (CSV) or channel (MDF4); needed when there "
-        "is more than one",
+        help="the seat's vertical acceleration column (CSV) or channel (MDF4); needed "
+        "when there is more than one and none is named seat_z",
+    )
+    p.add_argument(
+        "--channels",
+        metavar="AXIS=NAME,...",
+        help="the columns or channels of the axes, e.g. seat_z=AccZ,seat_x=AccX,"
+        "backrest_x=BackX; axes: seat_x, seat_y, seat_z, seat_rx, seat_ry, seat_rz, "
+        "backrest_x/y/z, feet_x/y/z (columns already named so are read without it)",
+    )
+    p.add_argument(
+        "--exposure",
+        type=float,
+        default=8.0,
+        metavar="HOURS",
+        help="daily exposure for the ISO 2631-1 Annex B health guidance (default 8 h)",
     )
     add_models_option(p, DEFAULT_MODELS)
     add_output_options(

@@ -95,6 +95,7 @@ _MODULES = {
         "WkFilter",
         "stream_batch_figures",
         "stream_comfort_figures",
+        "weighting_statespace",
         "wk_statespace",
     ),
 }

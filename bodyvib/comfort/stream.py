@@ -42,6 +42,7 @@ from .figures import (
 
 __all__ = [
     "wk_statespace",
+    "weighting_statespace",
     "WeightingStep",
     "WkFilter",
     "ComfortStream",
@@ -176,11 +177,18 @@ def _sections(P=WK_PARAMETERS):
     """
     w1, w2, w3, w4, w5, w6 = (2 * np.pi * P[k] for k in ("f1", "f2", "f3", "f4", "f5", "f6"))
     q1 = P["Q1"]
+    # a term the weighting leaves out (both its frequencies infinite: Wd's step, Wj's
+    # transition) is 1: a section whose numerator is its denominator, the high pass's
+    unity = ((1.0, w1 / q1, w1**2), (w1 / q1, w1**2))
     return (
         ((1.0, 0.0, 0.0), (w1 / q1, w1**2)),  # high pass
         ((0.0, 0.0, w2**2), (w2 / q1, w2**2)),  # low pass
-        ((0.0, w4**2 / w3, w4**2), (w4 / P["Q4"], w4**2)),  # a-v transition
-        ((1.0, w5 / P["Q5"], w5**2), (w6 / P["Q6"], w6**2)),  # upward step
+        ((0.0, w4**2 / w3, w4**2), (w4 / P["Q4"], w4**2))  # a-v transition
+        if np.isfinite(w4)
+        else unity,
+        ((1.0, w5 / P["Q5"], w5**2), (w6 / P["Q6"], w6**2))  # upward step
+        if np.isfinite(w5) or np.isfinite(w6)
+        else unity,
     )
 
 
@@ -225,6 +233,15 @@ def weighting_statespace(parameters):
     A, B, C, D : ndarray
         Four second-order sections in series (high pass, low pass, transition,
         step), each in controllable canonical form.
+
+    Examples
+    --------
+    >>> from bodyvib.comfort.axes import WEIGHTINGS, weighting
+    >>> A, B, C, D = weighting_statespace(WEIGHTINGS["Wd"])  # no upward step: a unity section
+    >>> p = 2j * np.pi * 2.0
+    >>> H = (C @ np.linalg.solve(p * np.eye(8) - A, B) + D)[0, 0]
+    >>> bool(abs(H - weighting("Wd", 2.0)[0]) < 1e-12)
+    True
     """
     A = np.zeros((0, 0))
     B = np.zeros((0, 1))

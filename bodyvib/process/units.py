@@ -12,6 +12,7 @@ unit) or where it is one of the quantity's units (a seat signal's ``seat_z`` is 
 ``acc_g`` an acceleration in g).
 """
 
+import math
 import re
 from typing import Dict, Optional, Tuple
 
@@ -21,6 +22,7 @@ __all__ = [
     "LENGTH_UNITS",
     "TIME_UNITS",
     "ACCELERATION_UNITS",
+    "ANGULAR_ACCELERATION_UNITS",
     "STANDARD_GRAVITY",
     "split_unit",
     "unit_scale",
@@ -82,6 +84,18 @@ ACCELERATION_UNITS = {
     "mm/s^2": 1e-3,
     "ft/s2": 0.3048,
     "ft/s^2": 0.3048,
+}
+
+#: Angular acceleration units (a seat's rotations), in rad/s2.
+ANGULAR_ACCELERATION_UNITS = {
+    "rad/s2": 1.0,
+    "rad/s^2": 1.0,
+    "rad/s²": 1.0,
+    "rad s-2": 1.0,
+    "deg/s2": math.pi / 180.0,
+    "deg/s^2": math.pi / 180.0,
+    "°/s2": math.pi / 180.0,
+    "°/s^2": math.pi / 180.0,
 }
 
 _BRACKETED = re.compile(r"^\s*(.*?)\s*[\[(]\s*([^\[\]()]+?)\s*[\])]\s*$")

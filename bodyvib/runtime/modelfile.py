@@ -64,7 +64,9 @@ A body with ``"roll_inertia"`` (roll moment of inertia about the centre of mass,
 kg m2) also rolls; its points may then be pairs ``[x, y]``, ``y`` positive to
 the left, or triples ``[x, y, h]``, ``h`` above the centre of mass (the point then
 has the horizontal accelerations ``.ax`` and ``.ay``); roll ``phi`` is positive when
-the left side rises, and a point moves ``z + x theta + y phi``. A position may
+the left side rises, and a point moves ``z + x theta + y phi``. A body that does not
+roll takes a triple ``[x, 0, h]`` for a point above its centre of mass (its ``.ay`` is
+zero). A position may
 scale a parameter: ``"0.5*tf"``, ``"-0.5*tf"``. An ``anti_roll_bar`` element joins two suspensions:
 ``from``/``to`` the left wheel and body point, ``from_right``/``to_right`` the
 right ones, ``k`` its roll stiffness [N m/rad] and ``track`` [m] the distance
@@ -516,13 +518,16 @@ def _bodies(raw: object, refs: _References, where: str) -> Dict[str, RigidBody]:
 
 
 def _place(raw: object, refs: _References, where: str, rolls: bool) -> Any:
-    """A body point: a position ``x``, or (on a body that rolls) a pair ``[x, y]``."""
+    """A body point: a position ``x``, or (on a body that rolls) a pair ``[x, y]``, or a
+    triple ``[x, y, h]`` (``y`` = 0 on a body that does not roll)."""
     if not isinstance(raw, list):
         return refs.position(raw, where)
-    if not rolls or len(raw) not in (2, 3):
+    flat = not rolls and len(raw) == 3 and refs.resolve(refs.position(raw[1], where)) == 0
+    if not (rolls and len(raw) in (2, 3)) and not flat:
         raise BodyvibError(
             f"{where}: a point is a position x in m ahead of the centre of mass, or "
-            "[x, y] or [x, y, h] (y in m to the left, h above) on a body with a roll_inertia"
+            "[x, y] or [x, y, h] (y in m to the left, h above) on a body with a roll_inertia, "
+            "or [x, 0, h] on one without"
         )
     return tuple(refs.position(q, where) for q in raw)
 

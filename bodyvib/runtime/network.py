@@ -64,7 +64,8 @@ enters the roll equation as ``y F``; the roll outputs are ``.phi``,
 centre of mass, ``(x, y, h)``, also has the outputs ``.ax`` (forward) and ``.ay``
 (to the left), its inertial horizontal accelerations for small angles, ``-h
 theta''`` and ``-h phi''`` (gravity not included: an accelerometer fixed to the
-tilting body would also read ``g theta`` and ``g phi``).
+tilting body would also read ``g theta`` and ``g phi``); a body that does not roll
+takes ``(x, 0, h)``, its ``.ay`` zero.
 
 Equations (SI units, z up, perturbations about static equilibrium): a mass
 obeys ``m a = sum of element forces (+ external force)``, a rigid body
@@ -759,12 +760,14 @@ def _constant_terms(point_dofs: dict, const_on: dict, nd: int, nodes: Sequence[s
 
 def _horizontal_rows(network: Network, point_dofs: dict, dof_acc: list) -> dict:
     """A rigid-body point above the centre of mass: its fore-aft and lateral accelerations
-    ``-h theta''`` and ``-h phi''`` as rows over ``w`` (point -> (x row, y row))."""
+    ``-h theta''`` and ``-h phi''`` (zero on a body that does not roll) as rows over ``w`` (point -> (x row,
+    y row))."""
     rows = {}
-    for p, (_, _, _, h) in network.body_point_heights.items():
+    for p, (b, _, _, h) in network.body_point_heights.items():
         if h is not None:
             i = next(iter(point_dofs[p]))  # the body's bounce, then pitch, then roll
-            rows[p] = (-h * dof_acc[i + 1], -h * dof_acc[i + 2])
+            rolls = network.bodies[b].roll_inertia is not None
+            rows[p] = (-h * dof_acc[i + 1], -h * dof_acc[i + 2] if rolls else 0 * dof_acc[i + 1])
     return rows
 
 

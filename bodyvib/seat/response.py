@@ -39,6 +39,7 @@ from typing import Dict, Optional, Sequence
 
 import numpy as np
 
+from ..comfort.axes import SEATED_AXES, VibrationTotals, vibration_totals
 from ..comfort.figures import ComfortFigures, basic_method_checks, check_rate, comfort_figures
 from ..comfort.forces import ForceFigures, force_figures
 from ..comfort.measures import lee_pradko_power, msdv
@@ -218,6 +219,10 @@ class Response:
     spinal : SpinalDose or None
         ISO 2631-5:2018 acceleration dose of the seat record (mean removed), its daily
         value for 8 h and the compressive stress (:func:`bodyvib.comfort.spine.spinal_dose`).
+    axes : VibrationTotals or None
+        ISO 2631-1 in every measured axis (``seat_z`` and the record's other axes): each
+        axis's figures with its weighting, the point and overall vibration total values
+        and the health guidance (:func:`bodyvib.comfort.vibration_totals`).
     """
 
     signal: SeatSignal
@@ -227,6 +232,7 @@ class Response:
     seat_msdv: Optional[float] = None
     lee_pradko_power_w: Optional[float] = None
     spinal: Optional[SpinalDose] = None
+    axes: Optional[VibrationTotals] = None
 
     def to_dict(self) -> dict:
         """The JSON document of ``bodyvib respond --json`` (undefined ratios as None)."""
@@ -238,6 +244,7 @@ class Response:
                     "samples": int(s.acceleration.size),
                     "sampling_rate_hz": s.fs,
                     "duration": s.duration,
+                    "channels": dict(s.channels),
                 },
                 "seat": {
                     **self.seat_figures.to_dict(),
@@ -251,6 +258,7 @@ class Response:
                     k: {**b.to_dict(), "comfort_method": _method(b.figures, s.duration)}
                     for k, b in self.bodies.items()
                 },
+                **({"axes": self.axes.to_dict()} if self.axes is not None else {}),
             }
         )
 
@@ -269,14 +277,25 @@ def _finite(obj):
     return obj
 
 
+def _axes_in_order(signal: SeatSignal) -> Dict[str, np.ndarray]:
+    """Every axis of the record, in the order of :data:`bodyvib.comfort.SEATED_AXES`."""
+    records = {"seat_z": signal.acceleration, **signal.axes}
+    return {axis: records[axis] for axis in SEATED_AXES if axis in records}
+
+
 def _label(model: str) -> str:
     import os
 
     return os.path.splitext(os.path.basename(model))[0] if os.path.isfile(model) else model
 
 
-def respond(signal: SeatSignal, models: Sequence[str] = DEFAULT_MODELS) -> Response:
+def respond(
+    signal: SeatSignal, models: Sequence[str] = DEFAULT_MODELS, exposure_s: float = 8 * 3600.0
+) -> Response:
     """Seat and head ISO 2631-1 figures of a seat record through each body model.
+
+    The body models are driven by the seat's vertical acceleration; every axis of the
+    record (``seat_z`` and ``signal.axes``) gets its ISO 2631-1 figures and totals.
 
     Parameters
     ----------
@@ -285,6 +304,8 @@ def respond(signal: SeatSignal, models: Sequence[str] = DEFAULT_MODELS) -> Respo
         :func:`bodyvib.seat.signal.check_signal`.
     models : sequence of str
         Shipped model names or parameter-file paths.
+    exposure_s : float
+        Daily exposure for the health guidance of ISO 2631-1 Annex B, s (default 8 h).
 
     Returns
     -------
@@ -310,6 +331,7 @@ def respond(signal: SeatSignal, models: Sequence[str] = DEFAULT_MODELS) -> Respo
         seat_msdv=msdv(signal.acceleration, signal.fs),
         lee_pradko_power_w=lee_pradko_power(signal.acceleration, signal.fs),
         spinal=spinal_dose(signal.acceleration - signal.acceleration.mean(), signal.fs),
+        axes=vibration_totals(_axes_in_order(signal), signal.fs, exposure_s),
     )
     for name, net in nets:
         head = head_acceleration(net, signal.acceleration, signal.fs)

@@ -1,14 +1,21 @@
-"""Measured seat-pan vertical acceleration: reading (CSV, ASAM MDF4) and the checks it must pass.
+"""Measured seat vibration: reading (CSV, ASAM MDF4) and the checks it must pass.
 
-A :class:`SeatSignal` is a uniformly sampled acceleration record in m/s2. It
+A :class:`SeatSignal` is a uniformly sampled seat-pan vertical acceleration record in
+m/s2, with any other measured axes of the seated person beside it (:data:`AXES`). It
 comes from
 
 * a CSV file: a header row of column names, one of them the time (``time``,
   ``t``, or a name starting with ``time``, optionally with a unit such as
-  ``time [s]``), the acceleration in another (``channel``, or the only other
-  column); ``#`` lines are comments;
-* an ASAM MDF4 file (``.mf4``/``.mdf``), read through ``asammdf``: the channel
-  named ``channel`` with its own time stamps.
+  ``time [s]``), the acceleration in another (``channel``, ``seat_z``, or the only
+  other column); ``#`` lines are comments;
+* an ASAM MDF4 file (``.mf4``/``.mdf``), read through ``asammdf``: the channels
+  with their own time stamps, which must be the same for every axis.
+
+The axes are found by one naming rule (:func:`assign_channels`): a column or
+channel named as an axis of ISO 2631-1 (``seat_x``, ``seat_y``, ``seat_z``,
+``seat_rx``, ``seat_ry``, ``seat_rz``, ``backrest_x`` ... ``feet_z``) holds that
+axis; a mapping (``channels={"seat_z": "AccZ", "seat_x": "AccX"}``, on the command
+line ``--channels seat_z=AccZ,seat_x=AccX``) names the others.
 
 :func:`check_signal` refuses, each with one line naming the problem and the
 fix, what the exact response and the ISO 2631-1 figures cannot take: time
@@ -28,14 +35,21 @@ import gc
 import logging
 import os
 import sys
-from dataclasses import dataclass
-from typing import Optional
+from dataclasses import dataclass, field, replace
+from typing import Dict, Mapping, Optional, Sequence
 
 import numpy as np
 
+from ..comfort.axes import SEATED_AXES
 from ..process import interrupts
 from ..process.extras import require
-from ..process.units import ACCELERATION_UNITS, TIME_UNITS, split_unit, unit_scale
+from ..process.units import (
+    ACCELERATION_UNITS,
+    ANGULAR_ACCELERATION_UNITS,
+    TIME_UNITS,
+    split_unit,
+    unit_scale,
+)
 from ..runtime.errors import BodyvibError
 from ..runtime.inputfile import check_input_file
 
@@ -44,7 +58,10 @@ __all__ = [
     "MIN_DURATION_S",
     "UNIFORM_TOLERANCE",
     "MAX_ACCELERATION",
+    "AXES",
     "SeatSignal",
+    "parse_channels",
+    "assign_channels",
     "check_signal",
     "read_csv_signal",
     "read_mdf_signal",
@@ -61,6 +78,13 @@ UNIFORM_TOLERANCE = 1e-3
 #: crash pulse; a larger value is a unit or file error, and at 1e76 m/s2 the fourth powers of
 #: the VDV would overflow).
 MAX_ACCELERATION = 1e6
+#: The standard names of a record's channels: the axes of a seated person as
+#: :data:`bodyvib.comfort.SEATED_AXES` names them, the point, an underscore and the axis
+#: (``seat_x``, ``seat_y``, ``seat_z``, the seat's rotations ``seat_rx``, ``seat_ry``,
+#: ``seat_rz``, ``backrest_x`` ... ``feet_z``).
+AXES = tuple(SEATED_AXES)
+#: The axis that drives the occupant: the seat surface's vertical acceleration.
+Z_AXIS = "seat_z"
 #: File extensions read as ASAM MDF.
 MDF_EXTENSIONS = (".mf4", ".mdf")
 
@@ -79,12 +103,20 @@ class SeatSignal:
         Sampling rate, Hz (from the mean step).
     name : str
         Where it came from (file and channel).
+    axes : dict of str to ndarray
+        The record's other axes (keys of :data:`AXES` but ``seat_z``), at the same
+        sample times, in m/s2 (rotations in rad/s2); empty for a vertical record.
+    channels : dict of str to str
+        Axis -> where it came from (file and channel), ``seat_z`` included; empty for a
+        record not read from a file.
     """
 
     time: np.ndarray
     acceleration: np.ndarray
     fs: float
     name: str = "seat acceleration"
+    axes: Dict[str, np.ndarray] = field(default_factory=dict)
+    channels: Dict[str, str] = field(default_factory=dict)
 
     @property
     def duration(self) -> float:
@@ -178,6 +210,13 @@ def _is_time(header: str) -> bool:
     return h.startswith("time") or split_unit(h, TIME_UNITS)[0] == "t"
 
 
+def _units(axis: str):
+    """The units, quantity and SI unit of an axis's channel (a rotation's are angular)."""
+    if SEATED_AXES[axis][3] == "rad/s2":
+        return ANGULAR_ACCELERATION_UNITS, "angular acceleration", "rad/s2"
+    return ACCELERATION_UNITS, "acceleration", "m/s2"
+
+
 def _column_name(header: str) -> str:
     """A header without its unit: ``"seat_z [m/s2]"`` -> ``"seat_z"``, ``"acc_g"`` -> ``"acc"``."""
     return split_unit(header, ACCELERATION_UNITS)[0]
@@ -201,8 +240,139 @@ def _data_lines(f):
             yield line
 
 
-def read_csv_signal(path, channel: Optional[str] = None) -> SeatSignal:
-    """A seat acceleration from a CSV file with a time column.
+def _check_channels(channels: Optional[Mapping[str, str]]) -> Dict[str, str]:
+    """A mapping of axes to channels, its axes checked against :data:`AXES`."""
+    out = {}
+    for axis, name in (channels or {}).items():
+        if axis not in SEATED_AXES:
+            raise BodyvibError(
+                f"unknown axis '{axis}' in channels=AXIS=NAME; the axes are {', '.join(AXES)}",
+                parameters=("channels",),
+            )
+        out[axis] = str(name).strip()
+    return out
+
+
+def parse_channels(text: str) -> Dict[str, str]:
+    """A mapping of axes to channels from ``"seat_z=AccZ,seat_x=AccX"``.
+
+    Parameters
+    ----------
+    text : str
+        Comma-separated ``AXIS=CHANNEL`` pairs, each axis one of :data:`AXES`.
+
+    Returns
+    -------
+    dict of str to str
+        Axis -> channel (column) name.
+
+    Raises
+    ------
+    BodyvibError
+        A pair without ``=``, an unknown or repeated axis.
+
+    Examples
+    --------
+    >>> parse_channels("seat_z=AccZ, seat_x=AccX")
+    {'seat_z': 'AccZ', 'seat_x': 'AccX'}
+    """
+    out: Dict[str, str] = {}
+    for item in str(text).split(","):
+        axis, eq, name = (p.strip() for p in item.partition("="))
+        if not eq or not axis or not name:
+            raise BodyvibError(
+                f"channels=AXIS=NAME,...: '{item.strip()}' is not AXIS=NAME "
+                f"(e.g. seat_z=AccZ,seat_x=AccX)",
+                parameters=("channels",),
+            )
+        if axis in out:
+            raise BodyvibError(f"axis '{axis}' mapped twice in channels", parameters=("channels",))
+        out[axis] = name
+    return _check_channels(out)
+
+
+def assign_channels(
+    path, names: Sequence[str], channel=None, channels=None, kind: str = "column"
+) -> Dict[str, str]:
+    """Which of a file's channels holds which axis: mapped, by standard name, or the only one.
+
+    The naming rule: a channel (or a column, its unit aside) named as an axis of
+    :data:`AXES` (``seat_x``, ``backrest_z``, ``feet_y``, ``seat_rx``) holds that axis.
+    ``channels`` maps axes to other names and ``channel`` names the ``seat_z`` channel;
+    a file with a single channel and no mapping holds ``seat_z``. The seat's ``seat_z``
+    must be found: it drives the occupant.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file, for the messages.
+    names : sequence of str
+        Its signal channels (columns: without their units), time excluded.
+    channel : str, optional
+        The ``seat_z`` channel.
+    channels : mapping of str to str, optional
+        Axis -> channel.
+    kind : str
+        ``"column"`` or ``"channel"``, for the messages.
+
+    Returns
+    -------
+    dict of str to str
+        Axis -> channel, ``seat_z`` first.
+
+    Raises
+    ------
+    BodyvibError
+        A mapped channel the file does not have (its channels are listed), an unknown
+        axis, ``channel`` and ``channels`` naming two ``seat_z``, no ``seat_z`` found.
+
+    Examples
+    --------
+    >>> assign_channels("f.csv", ["AccZ", "seat_x", "speed"], channel="AccZ")
+    {'seat_z': 'AccZ', 'seat_x': 'seat_x'}
+    """
+    mapping = _check_channels(channels)
+    if channel is not None:
+        if mapping.get(Z_AXIS, channel.strip()) != channel.strip():
+            raise BodyvibError(
+                f"channel={channel} and channels={Z_AXIS}={mapping[Z_AXIS]} name two "
+                f"{Z_AXIS} channels; give one",
+                parameters=("channel", "channels"),
+            )
+        mapping[Z_AXIS] = channel.strip()
+    listed = ", ".join(names)
+    for axis, name in mapping.items():
+        if name not in names:
+            raise BodyvibError(f"{path}: no {kind} '{name}' (for {axis}); {kind}s are {listed}")
+    used = set(mapping.values())
+    for name in names:  # the naming rule: a channel named as an axis holds it
+        if name in SEATED_AXES and name not in mapping and name not in used:
+            mapping[name] = name
+    if Z_AXIS not in mapping:
+        if len(names) == 1 and not mapping:
+            mapping[Z_AXIS] = names[0]
+        else:
+            raise BodyvibError(
+                f"{path}: {len(names)} signal {kind}s ({listed}), none of them {Z_AXIS}; "
+                f"choose one with channel=NAME, or name the axes with "
+                f"channels={Z_AXIS}=NAME,seat_x=NAME",
+                parameters=("channel", "channels"),
+            )
+    return {Z_AXIS: mapping.pop(Z_AXIS), **mapping}
+
+
+def _axis_signal(time, samples: Mapping[str, np.ndarray], names: Mapping[str, str]) -> SeatSignal:
+    """A checked record of several axes: ``seat_z`` the signal, the others beside it."""
+    z = check_signal(time, samples[Z_AXIS], names[Z_AXIS])
+    others = {}
+    for axis, a in samples.items():
+        if axis != Z_AXIS:
+            others[axis] = check_signal(time, a, names[axis]).acceleration
+    return replace(z, axes=others, channels=dict(names))
+
+
+def read_csv_signal(path, channel: Optional[str] = None, channels=None) -> SeatSignal:
+    """A seat acceleration, and any other axes, from a CSV file with a time column.
 
     Parameters
     ----------
@@ -210,24 +380,31 @@ def read_csv_signal(path, channel: Optional[str] = None) -> SeatSignal:
         A CSV file: ``#`` comment lines, a header row with a time column (``time``,
         ``t``, ``t [s]``, ``time_ms``: in s unless its header names another unit of
         :data:`~bodyvib.process.units.TIME_UNITS`), then one row of numbers per sample.
-        The acceleration is in m/s2 unless its header names another unit of
+        An acceleration is in m/s2 unless its header names another unit of
         :data:`~bodyvib.process.units.ACCELERATION_UNITS` (``acc_g``, ``seat [g]``:
-        multiplied by 9.80665, and the record's name says so).
+        multiplied by 9.80665, and the record's name says so); a rotation (``seat_rx``)
+        in rad/s2 unless it names one of
+        :data:`~bodyvib.process.units.ANGULAR_ACCELERATION_UNITS`.
     channel : str, optional
-        Name of the acceleration column (with or without its unit); needed when
-        the file has more than one column besides the time.
+        Name of the seat's vertical acceleration column (with or without its unit);
+        needed when the file has more than one column besides the time and none is
+        named ``seat_z``.
+    channels : mapping of str to str, optional
+        Axis (:data:`AXES`) -> column, for columns not named by the naming rule
+        (:func:`assign_channels`).
 
     Returns
     -------
     SeatSignal
-        The column against the time column, named ``path:column``.
+        The ``seat_z`` column against the time column, named ``path:column``, and the
+        other axes found in ``axes``.
 
     Raises
     ------
     BodyvibError
         No header or time column, a missing or ambiguous column, a unit a header
-        names that is not one of its quantity, a cell that is not a number, and
-        everything :func:`check_signal` refuses.
+        names that is not one of its quantity, a cell that is not a number (a column
+        shorter than the others), and everything :func:`check_signal` refuses.
     """
     path = check_input_file(path, "signal file")
     with open(path, newline="", encoding="utf-8") as f:
@@ -242,39 +419,37 @@ def read_csv_signal(path, channel: Optional[str] = None) -> SeatSignal:
         )
     ti = times[0]
     others = [i for i in range(len(header)) if i != ti]
-    if channel is not None:
-        found = [i for i in others if channel.strip() in (header[i], _column_name(header[i]))]
-        if not found:
-            raise BodyvibError(
-                f"{path}: no column '{channel}'; columns are {', '.join(header[i] for i in others)}"
-            )
-        ci = found[0]
-    elif len(others) == 1:
-        ci = others[0]
-    else:
-        raise BodyvibError(
-            f"{path}: {len(others)} signal columns "
-            f"({', '.join(header[i] for i in others)}); choose one with channel=NAME",
-            parameters=("channel",),
-        )
-    data = np.empty((len(rows) - 1, 2))
+    names = [_column_name(header[i]) for i in others]  # a column is named without its unit
+    index = dict(zip(reversed(names), reversed(others)))  # the first of a repeated name
+    if channels:
+        channels = {a: _column_name(str(n)) for a, n in channels.items()}
+    assigned = assign_channels(
+        path, names, None if channel is None else _column_name(channel), channels
+    )
+    cols = [ti] + [index[n] for n in assigned.values()]
+    data = np.empty((len(rows) - 1, len(cols)))
     for k, r in enumerate(rows[1:]):
         if not k & 16383:
             interrupts.check()  # a long record: a safe point every few tens of ms
         try:
-            data[k] = float(r[ti]), float(r[ci])
+            data[k] = [float(r[c]) for c in cols]
         except (ValueError, IndexError):
             raise BodyvibError(
-                f"{path}: line {k + 2} is not two numbers in columns "
-                f"'{header[ti]}' and '{header[ci]}' (truncated file?)"
+                f"{path}: line {k + 2} is not {len(cols)} numbers in columns "
+                + ", ".join(f"'{header[c]}'" for c in cols)
+                + " (a column shorter than the others, or a truncated file?)"
             ) from None
-    t_scale = _column_scale(path, header[ti], TIME_UNITS, "time", "s")
-    a_scale = _column_scale(path, header[ci], ACCELERATION_UNITS, "acceleration", "m/s2")
-    name = f"{path}:{_column_name(header[ci])}"
-    if a_scale != 1.0:  # said where the record is named: in the report and the JSON
-        unit = split_unit(header[ci], ACCELERATION_UNITS)[1]
-        name += f" (in {unit}, x {a_scale:g} to m/s2)"
-    return check_signal(data[:, 0] * t_scale, data[:, 1] * a_scale, name)
+    t = data[:, 0] * _column_scale(path, header[ti], TIME_UNITS, "time", "s")
+    samples, labels = {}, {}
+    for j, (axis, name) in enumerate(assigned.items(), start=1):
+        units, what, si = _units(axis)
+        column = header[index[name]]
+        scale = _column_scale(path, column, units, what, si)
+        samples[axis] = data[:, j] * scale
+        labels[axis] = f"{path}:{name}"
+        if scale != 1.0:  # said where the record is named: in the report and the JSON
+            labels[axis] += f" (in {split_unit(column, units)[1]}, x {scale:g} to {si})"
+    return _axis_signal(t, samples, labels)
 
 
 @contextlib.contextmanager
@@ -305,28 +480,64 @@ def _open_mdf(MDF, path: str):
     raise BodyvibError(f"{path}: not a readable MDF file ({reason})")
 
 
-def read_mdf_signal(path, channel: Optional[str]) -> SeatSignal:
-    """A seat acceleration from an ASAM MDF file (``asammdf``), one channel with its time stamps.
+def _mdf_channel(mdf, path, name: str):
+    """One channel's time stamps, samples and unit."""
+    try:
+        sig = mdf.get(name)
+    except Exception as exc:
+        raise BodyvibError(
+            f"{path}: channel '{name}' cannot be read ({exc}); if "
+            "the name occurs in several groups, rename it"
+        ) from None
+    t = np.asarray(sig.timestamps, dtype=float)
+    return t, np.asarray(sig.samples, dtype=float), str(getattr(sig, "unit", "") or "").strip()
+
+
+def _same_times(path, first, t0, name, t) -> None:
+    """Refuse an axis sampled at other times than the first (``seat_z``)."""
+    if t.size == t0.size:
+        h = (t0[-1] - t0[0]) / max(t0.size - 1, 1)
+        if np.max(np.abs(t - t0)) <= UNIFORM_TOLERANCE * h:
+            return
+
+    def rate(x):
+        return f"{x.size} samples at {(x.size - 1) / (x[-1] - x[0]):.6g} Hz" if x.size > 1 else ""
+
+    raise BodyvibError(
+        f"{path}: channel '{name}' ({rate(t)}) is not sampled at the times of '{first}' "
+        f"({rate(t0)}); resample the axes to one time base"
+    )
+
+
+def read_mdf_signal(path, channel: Optional[str] = None, channels=None) -> SeatSignal:
+    """A seat acceleration, and any other axes, from an ASAM MDF file (``asammdf``).
 
     Parameters
     ----------
     path : str or os.PathLike
         An ASAM MDF file (``.mf4``, ``.mdf``).
-    channel : str
-        Channel name: the acceleration in the channel's unit, one of
+    channel : str, optional
+        The seat's vertical acceleration channel; needed unless a channel is named
+        ``seat_z`` or the file has one channel. A channel is in its own unit, one of
         :data:`~bodyvib.process.units.ACCELERATION_UNITS` (converted to m/s2, the
-        record's name saying so) or none (m/s2).
+        record's name saying so) or none (m/s2); a rotation's one of
+        :data:`~bodyvib.process.units.ANGULAR_ACCELERATION_UNITS` or none (rad/s2).
+    channels : mapping of str to str, optional
+        Axis (:data:`AXES`) -> channel, for channels not named by the naming rule
+        (:func:`assign_channels`). Every axis must have the time stamps of ``seat_z``.
 
     Returns
     -------
     SeatSignal
-        The channel at its time stamps, named ``path:channel``.
+        The ``seat_z`` channel at its time stamps, named ``path:channel``, and the
+        other axes found in ``axes``.
 
     Raises
     ------
     BodyvibError
-        No channel given or none of that name (the file's channels are listed),
-        a file asammdf cannot read, and everything :func:`check_signal` refuses.
+        No channel given or none of a name (the file's channels are listed), axes
+        sampled at different times, a file asammdf cannot read, and everything
+        :func:`check_signal` refuses.
     """
     require("reading an MDF4 file", "mdf")
     from asammdf import MDF
@@ -335,46 +546,40 @@ def read_mdf_signal(path, channel: Optional[str]) -> SeatSignal:
     mdf = _open_mdf(MDF, path)
     try:
         names = sorted(n for n in mdf.channels_db if not n.lower().startswith("time") and n != "t")
-        if channel is None:
-            raise BodyvibError(
-                f"{path}: choose a channel with channel=NAME; channels are {', '.join(names)}",
-                parameters=("channel",),
-            )
-        if channel not in mdf.channels_db:
-            raise BodyvibError(f"{path}: no channel '{channel}'; channels are {', '.join(names)}")
-        try:
-            sig = mdf.get(channel)
-        except Exception as exc:
-            raise BodyvibError(
-                f"{path}: channel '{channel}' cannot be read ({exc}); if "
-                "the name occurs in several groups, rename it"
-            ) from None
-        t = np.asarray(sig.timestamps, dtype=float)
-        a = np.asarray(sig.samples, dtype=float)
-        unit = str(getattr(sig, "unit", "") or "").strip()
+        assigned = assign_channels(path, names, channel, channels, kind="channel")
+        read = {axis: _mdf_channel(mdf, path, name) for axis, name in assigned.items()}
     finally:
         mdf.close()
-    name = f"{path}:{channel}"
-    scale = 1.0
-    if unit:  # the channel's own unit, read as a CSV header's (none: m/s2)
-        try:
-            scale = unit_scale(unit, ACCELERATION_UNITS, "acceleration")
-        except BodyvibError as exc:
-            raise BodyvibError(f"{name}: {exc}") from None
-    if scale != 1.0:
-        name += f" (in {unit}, x {scale:g} to m/s2)"
-    return check_signal(t, a * scale, name)
+    t0 = read[Z_AXIS][0]
+    samples, labels = {}, {}
+    for axis, (t, a, unit) in read.items():
+        _same_times(path, assigned[Z_AXIS], t0, assigned[axis], t)
+        units, what, si = _units(axis)
+        labels[axis] = f"{path}:{assigned[axis]}"
+        scale = 1.0
+        if unit:  # the channel's own unit, read as a CSV header's (none: SI)
+            try:
+                scale = unit_scale(unit, units, what)
+            except BodyvibError as exc:
+                raise BodyvibError(f"{labels[axis]}: {exc}") from None
+        if scale != 1.0:
+            labels[axis] += f" (in {unit}, x {scale:g} to {si})"
+        samples[axis] = a * scale
+    return _axis_signal(t0, samples, labels)
 
 
-def read_signal(path, channel: Optional[str] = None) -> SeatSignal:
-    """A seat acceleration from a CSV or an MDF file (by extension).
+def read_signal(path, channel: Optional[str] = None, channels=None) -> SeatSignal:
+    """A seat acceleration, and any other axes, from a CSV or an MDF file (by extension).
 
     Parameters
     ----------
     path : str or os.PathLike
         ``.mf4`` or ``.mdf`` is read as MDF, anything else as CSV.
     channel : str, optional
-        Column (CSV) or channel (MDF) name.
+        Column (CSV) or channel (MDF) of the seat's vertical acceleration.
+    channels : mapping of str to str, optional
+        Axis -> column or channel (:func:`assign_channels`); the other columns or
+        channels named as axes (:data:`AXES`) are read as those.
 
     Returns
     -------
@@ -390,5 +595,5 @@ def read_signal(path, channel: Optional[str] = None) -> SeatSignal:
     """
     ext = os.path.splitext(os.fspath(path))[1].lower()
     if ext in MDF_EXTENSIONS:
-        return read_mdf_signal(path, channel)
-    return read_csv_signal(path, channel)
+        return read_mdf_signal(path, channel, channels)
+    return read_csv_signal(path, channel, channels)

@@ -30,16 +30,20 @@ from bodyvib.process import extras, interrupts
 from bodyvib.runtime.discretize import Discretization, input_rates
 from bodyvib.runtime.errors import BodyvibError
 
-from ..quarter_car import load_car
+from ..quarter_car import load_car, track_width, wheel_offsets, wheel_sides
 from ..reference import seat_force_weights
+from ..road import roads_input, wheel_roads
 from ..road.driven import RunSettings, driven_road
 from ..road.synthetic import road_input
 from .spec import DesignSpec, Objective, seated_model
 from .stationary import (
+    road_inputs,
     road_velocity_intensity,
+    static_output,
     static_wheel_load,
     unit_mean_product,
     unit_rms,
+    wheel_spectral_rms,
 )
 
 __all__ = [
@@ -66,6 +70,7 @@ class _Basis:
     rattle_space: Optional[float]
     floor: float  # Wk r.m.s. of the floor under the seat (sprung.a): SEAT's denominator
     power: Optional[float]  # the absorbed power, W
+    load: float = 0.0  # the static load of the wheel of a load ratio, N
 
 
 #: Figure kind -> (computed from the Wk-weighted r.m.s. rather than the plain one, the
@@ -73,7 +78,7 @@ class _Basis:
 _EVALUATORS = {
     "wk_rms": (True, lambda x, b: x),
     "seat": (True, lambda x, b: 100.0 * x / b.floor),
-    "load_ratio": (False, lambda x, b: x / static_wheel_load(b.model)),
+    "load_ratio": (False, lambda x, b: x / b.load),
     "rattle_ratio": (False, lambda x, b: 3.0 * x / b.rattle_space),
     "power": (False, lambda x, b: b.power),
 }
@@ -121,6 +126,7 @@ class DesignProblem:
         self._figures: List[Objective] = list(spec.objectives) + [c for c, _ in spec.constraints]
         self._limits = np.array([lim for _, lim in spec.constraints])
         self._car = load_car(spec.car)  # the files read once, not once per candidate
+        self._wheels = _wheels(self._car)
         self._body = None if spec.body is None else load_model(spec.body)
         self.evaluations = 0
 
@@ -140,8 +146,9 @@ class DesignProblem:
                 cols.append((x[:, j] - b.lo) / (b.hi - b.lo))
         return np.column_stack(cols)
 
-    def _unit_figures(self, lm) -> np.ndarray:
-        """Each figure per unit road intensity (before the operating points' scaling)."""
+    def _unit_figures(self, lm, rms=unit_rms) -> np.ndarray:
+        """Each figure per unit road intensity (before the operating points' scaling);
+        with another ``rms(lm, rows, weighted_rows)``, each figure as it gives them."""
         rows, wrows, plan = [], [], []
 
         def slot(lst, i):  # an output computed once however many figures use it
@@ -156,12 +163,16 @@ class DesignProblem:
                 plan.append(("w", slot(wrows, i), floor))
             else:
                 plan.append(("r", slot(rows, i), None))
-        r, w = unit_rms(lm, rows, wrows)
+        r, w = rms(lm, rows, wrows)
         power = self._unit_power(lm) if any(f.kind == "power" for f in self._figures) else None
         out = np.empty(len(self._figures))
         for i, (f, (where, j, floor)) in enumerate(zip(self._figures, plan)):
             basis = _Basis(
-                lm, self.spec.rattle_space, w[floor] if floor is not None else 0.0, power
+                lm,
+                self.spec.rattle_space,
+                w[floor] if floor is not None else 0.0,
+                power,
+                _wheel_load(lm, f),
             )
             out[i] = _figure(f.kind, r[j] if where == "r" else w[j], basis)
         return out
@@ -181,6 +192,16 @@ class DesignProblem:
         with ``W`` of the operating point, every other figure with ``sqrt(W)``.
         """
         lm = seated_model(self._car, self._body, dict(zip(self.names, values)))
+        if self._wheels is not None:  # delays and two tracks: each point on its own
+            self.evaluations += 1
+            return np.column_stack(
+                [
+                    self._unit_figures(
+                        lm, lambda m, r, w, p=p: wheel_spectral_rms(m, r, w, p, self._wheels)
+                    )
+                    for p in self.spec.operating_points
+                ]
+            )
         u = self._unit_figures(lm)
         self.evaluations += 1
         scale = np.array([_POWER_OF_SCALE.get(f.kind, 1.0) for f in self._figures])
@@ -412,11 +433,30 @@ def chosen_points(objectives: np.ndarray, names) -> Dict[str, int]:
     return out
 
 
+def _wheels(car):
+    """A car's road points, ``(behind, sides, track)``, or None for a car on one point."""
+    if len(car.bases) == 1:
+        return None
+    return wheel_offsets(car), wheel_sides(car), track_width(car)
+
+
+def _wheel_load(lm, figure: Objective) -> float:
+    """The static load (N) a load-ratio figure divides by: the quarter car's whole weight,
+    or a car's tire of that figure under gravity (0 for other figures)."""
+    if figure.kind != "load_ratio":
+        return 0.0
+    if len(lm.network.bases) == 1:
+        return static_wheel_load(lm)
+    return abs(static_output(lm, figure.output))
+
+
 def _simulate(lm, z, v, step):
-    """Every output of a model on road samples, by the exact step of the batched engine."""
+    """Every output of a model on road samples, by the exact step of the batched engine
+    (``z``, ``v``: one column per road point of the model)."""
     u = np.zeros((len(z), len(lm.inputs)))
-    u[:, lm.input_index("road_displacement")] = z
-    u[:, lm.input_index("road_velocity")] = v
+    zc, vc = np.reshape(z, (len(z), -1)), np.reshape(v, (len(v), -1))
+    for j, (iz, iv) in enumerate(road_inputs(lm)):
+        u[:, iz], u[:, iv] = zc[:, j], vc[:, j]
     X = Discretization(lm).run(
         u, input_rates(lm, u), step, safe_point=interrupts.check
     )  # in-step road z_k + v_k tau
@@ -461,7 +501,13 @@ def verify_design(spec: DesignSpec, values: Dict[str, float]) -> Dict[str, float
             RunSettings(p.road, p.speed, spec.verify.duration, st, seed=spec.verify.seed)
         )
         t = np.arange(int(round(spec.verify.duration / st)) + 1) * st
-        z, v = road_input(road, p.speed, t)
+        wheels = _wheels(car)
+        if wheels is None:
+            z, v = road_input(road, p.speed, t)
+        else:  # each wheel on its track, the rear ones later (as cosim drives them)
+            settings = RunSettings(p.road, p.speed, spec.verify.duration, st, seed=spec.verify.seed)
+            roads = wheel_roads(settings, road, wheels[1], wheels[2])
+            z, v = roads_input(roads, p.speed, t, wheels[0])
         Y_all = _simulate(lm, z, v, st)
         Y = Y_all[:, rows]
         power = None
@@ -472,12 +518,19 @@ def verify_design(spec: DesignSpec, values: Dict[str, float]) -> Dict[str, float
         stream.update(np.ascontiguousarray(Y.T))
         wk = dict(zip(outs, stream.figures()["weighted_rms"]))
         rms = dict(zip(outs, np.sqrt(np.mean(Y**2, axis=0))))
-        basis = _Basis(lm, spec.rattle_space, wk.get("sprung.a", 0.0), power)
         per_point.append(
             {
                 f.name: float(
                     _figure(
-                        f.kind, (wk if _EVALUATORS.get(f.kind, _PLAIN)[0] else rms)[f.output], basis
+                        f.kind,
+                        (wk if _EVALUATORS.get(f.kind, _PLAIN)[0] else rms)[f.output],
+                        _Basis(
+                            lm,
+                            spec.rattle_space,
+                            wk.get("sprung.a", 0.0),
+                            power,
+                            _wheel_load(lm, f),
+                        ),
                     )
                 )
                 for f in figs

@@ -39,7 +39,7 @@ verification whose step is not below its duration, is longer than the figures al
 import json
 import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Optional, Tuple
 
 from bodyvib.comfort import check_step
@@ -51,6 +51,7 @@ from bodyvib.seat.signal import MIN_DURATION_S
 
 from ..quarter_car import load_car, seated_system
 from ..road.synthetic import ISO8608_CLASSES
+from ..signals import corner_variable
 from .stationary import stationary_outputs
 
 __all__ = [
@@ -376,10 +377,26 @@ def _operating_points(points) -> Tuple[OperatingPoint, ...]:
     return tuple(out)
 
 
+def _on_car(obj: Objective, lm) -> Objective:
+    """A named objective's output on a car with axles or corners: a half car's front
+    axle's (``tire_front.force``), a full car's front left corner's
+    (``tire_front_left.force``), where the car has no output of the plain name."""
+    if obj.output in lm.outputs:
+        return obj
+    element, dot, signal = obj.output.partition(".")
+    parts = {o.partition(".")[0] for o in lm.outputs}
+    return replace(obj, output=corner_variable(element, parts) + dot + signal)
+
+
 def _check_computable(obj: Objective, lm, rattle, body) -> None:
     """Refuse an objective the model cannot compute (before any search)."""
     if (obj.output.startswith("body.") or obj.kind == "power") and body is None:
         raise BodyvibError(f"objective '{obj.name}' needs a body model; the spec has none")
+    if obj.kind in ("power", "seat") and len(lm.network.bases) > 1:
+        raise BodyvibError(
+            f"objective '{obj.name}' is computed for a car on one road point (a quarter car); "
+            "this car has several: choose another objective"
+        )
     if obj.kind == "rattle_ratio" and rattle is None:
         raise BodyvibError(f"objective '{obj.name}' needs 'rattle_space' (m) in the spec")
     outs = [obj.output] + (["sprung.a"] if obj.kind == "seat" else [])
@@ -515,6 +532,8 @@ def parse_spec(spec: dict) -> DesignSpec:
         (objective(k), _number(v, f"constraint '{k}'", positive=True)) for k, v in cons.items()
     )
     lm = seated_model(car, body)
+    objectives = tuple(_on_car(o, lm) for o in objectives)
+    constraints = tuple((_on_car(c, lm), lim) for c, lim in constraints)
     for obj in objectives + tuple(c for c, _ in constraints):
         _check_computable(obj, lm, rattle, body)
     return DesignSpec(
@@ -531,7 +550,7 @@ def parse_spec(spec: dict) -> DesignSpec:
     )
 
 
-def load_spec(path) -> DesignSpec:
+def load_spec(path, car: Optional[str] = None) -> DesignSpec:
     """Read and check a design specification file (JSON).
 
     Relative car and body file paths are taken from the spec file's folder.
@@ -539,6 +558,9 @@ def load_spec(path) -> DesignSpec:
     Parameters
     ----------
     path : str or os.PathLike
+    car : str, optional
+        A car (shipped name or parameter file) in place of the spec's ``car``: the
+        spec's parameters must be its own.
 
     Returns
     -------
@@ -565,4 +587,6 @@ def load_spec(path) -> DesignSpec:
             val = spec.get(key)
             if isinstance(val, str) and val.endswith(".json") and not os.path.isabs(val):
                 spec = {**spec, key: os.path.join(here, val)}
+        if car is not None:
+            spec = {**spec, "car": car}
     return parse_spec(spec)

@@ -142,13 +142,26 @@ def stationary_outputs(lm: LinearModel) -> Tuple[bool, ...]:
     >>> dict(zip(lm.outputs, stationary_outputs(lm)))["sprung.x"]
     False
     """
+    if len(lm.network.bases) > 1:
+        # the road points' heights differ by stationary amounts (a delay, the other
+        # track): an output is stationary when the road's common rise leaves it as it
+        # was (its static gains sum to zero) and no road velocity enters it directly
+        gains = [_relative(lm, iz, iv)[1:] for iz, iv in road_inputs(lm)]
+        total = sum(K for K, _ in gains)
+        scale = sum(np.abs(K) for K, _ in gains)
+        ok = np.abs(total) <= 1e-9 * np.maximum(scale, 1e-300)
+        for _, Dv in gains:
+            ok &= Dv == 0
+        return tuple(bool(v) for v in ok)
     _, K, Dv = _relative(lm)
     return tuple(bool(k == 0 and d == 0) for k, d in zip(K, Dv))
 
 
-def _relative(lm):
-    """``(Bw, K, Dv)``: noise column of the relative state, static road gains, direct terms."""
-    iz, iv = lm.input_index("road_displacement"), lm.input_index("road_velocity")
+def _relative(lm, iz=None, iv=None):
+    """``(Bw, K, Dv)``: noise column of the relative state, static road gains, direct terms
+    (of the road point whose inputs are ``iz``, ``iv``; by default the one road)."""
+    if iz is None:
+        iz, iv = lm.input_index("road_displacement"), lm.input_index("road_velocity")
     A = lm.A
     try:
         e = -np.linalg.solve(A, lm.B[:, iz])
@@ -386,3 +399,110 @@ def random_response(
         weighted_rms=tuple(float(x * s) for x in wrms),
         static_wheel_load=static_wheel_load(lm),
     )
+
+
+#: Frequency grid of :func:`wheel_spectral_rms`, Hz: log-spaced points over seven decades,
+#: wide enough that an output with a stationary r.m.s. on the ideal ISO 8608 road (no band
+#: limits, as the Lyapunov solution takes it) has its whole variance inside (the quarter
+#: car's figures agree with :func:`unit_rms` to 1e-4, tested): lowest, highest, points.
+SPECTRAL_GRID_HZ = (1e-3, 1e4, 7000)
+
+
+def road_inputs(lm: LinearModel):
+    """Each road point's displacement and velocity input indices, ``[(iz, iv), ...]``."""
+    return [
+        (lm.input_index(f"{b}_displacement"), lm.input_index(f"{b}_velocity"))
+        for b in lm.network.bases
+    ]
+
+
+def static_output(lm: LinearModel, output: str) -> float:
+    """An output's value in the static equilibrium under gravity, the road held level.
+
+    Parameters
+    ----------
+    lm : LinearModel
+    output : str
+        E.g. a tire's force, ``"tire_front_left.force"`` (N, + in compression).
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> from bodyvib.vehicle.quarter_car import load_car
+    >>> from bodyvib.runtime.network import linear_model
+    >>> lm = linear_model(load_car())
+    >>> bool(abs(static_output(lm, "tire.force") - static_wheel_load(lm)) < 1e-6)
+    True
+    """
+    g = np.zeros(lm.A.shape[0])
+    net = lm.network
+    for m in list(net.masses) + list(net.bodies):
+        g[lm.states.index(f"{m}.v")] = -GRAVITY
+    x = np.linalg.solve(lm.A, -g)
+    return float(lm.C[lm.output_index(output)] @ x)
+
+
+def wheel_spectral_rms(lm: LinearModel, rows, weighted_rows, point, wheels):
+    """R.m.s. of outputs of a car driven at several road points, on an ISO 8608 road.
+
+    The rear wheels meet the road a distance ``behind`` later, and the two tracks of a
+    full car are correlated as an isotropic surface
+    (:func:`bodyvib.vehicle.road.track_coherence`): with ``H_p`` an output's response to the road at point ``p`` and
+    ``G(f) = Gd(f / V) / V`` the road's PSD in time, the output's one-sided PSD is
+    ``G sum_pq H_p conj(H_q) e^(-i w (tau_p - tau_q)) rho_pq`` (``tau_p`` the point's
+    delay, ``rho_pq`` 1 on one track and the coherence across). Its integral over
+    :data:`SPECTRAL_GRID_HZ` (trapezoids in ``ln f``) is the mean square; a Lyapunov
+    equation cannot hold the delays.
+
+    Parameters
+    ----------
+    lm : LinearModel
+        Inputs ``<base>_displacement`` and ``<base>_velocity`` per road point.
+    rows, weighted_rows : sequence of int
+        Outputs whose r.m.s. and Wk-weighted r.m.s. are wanted.
+    point : OperatingPoint-like
+        ``road`` (ISO 8608 class) and ``speed`` (m/s).
+    wheels : (behind, sides, track)
+        Each road point's distance behind the first (m), its track (1 left, -1 right,
+        0 centre) and the track width (m) (:mod:`bodyvib.vehicle.quarter_car`).
+
+    Returns
+    -------
+    rms, weighted : ndarray
+        ``inf`` where the model is not asymptotically stable.
+    """
+    from bodyvib.comfort.figures import wk_response
+
+    from ..road.synthetic import displacement_psd, track_coherence
+
+    rows, wrows = list(rows), list(weighted_rows)
+    if not np.all(np.linalg.eigvals(lm.A).real < 0):
+        return np.full(len(rows), np.inf), np.full(len(wrows), np.inf)
+    behind, sides, track = wheels
+    f = np.geomspace(*SPECTRAL_GRID_HZ[:2], int(SPECTRAL_GRID_HZ[2]))
+    jw = 2j * np.pi * f
+    out = rows + wrows
+    n = lm.A.shape[0]
+    ins = road_inputs(lm)
+    Bp = np.stack([lm.B[:, iz][None, :] + jw[:, None] * lm.B[:, iv][None, :] for iz, iv in ins], -1)
+    X = np.linalg.solve(jw[:, None, None] * np.eye(n) - lm.A, Bp)  # (F, n, P)
+    Dp = np.stack(
+        [lm.D[out, iz][None, :] + jw[:, None] * lm.D[out, iv][None, :] for iz, iv in ins], -1
+    )
+    H = np.einsum("rn,fnp->frp", lm.C[out], X) + Dp  # (F, outputs, points)
+    H = H * np.exp(-jw[:, None, None] * np.asarray(behind)[None, None, :] / point.speed)
+    n_road = f / point.speed
+    rho = track_coherence(n_road, track) if track > 0 else np.ones_like(f)
+    S = np.zeros((f.size, len(out)))
+    for p in range(len(ins)):
+        for q in range(len(ins)):
+            c = np.ones_like(f) if sides[p] == sides[q] else rho
+            S += c[:, None] * (H[:, :, p] * np.conj(H[:, :, q])).real
+    S *= (displacement_psd(n_road, point.road) / point.speed)[:, None]
+    S[:, len(rows) :] *= (np.abs(wk_response(f)) ** 2)[:, None]
+    ms = np.trapezoid(S * f[:, None], np.log(f), axis=0)
+    rms = np.sqrt(np.maximum(ms, 0.0))
+    return rms[: len(rows)], rms[len(rows) :]

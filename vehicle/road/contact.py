@@ -21,7 +21,9 @@ wheel feels, in two steps:
 
 The sizes come from the tire: ``a_e = p_ae r0``, ``b_e = p_be r0``, ``l_s = p_ls a``
 with ``r0`` the unloaded radius and ``a`` half the footprint length
-(:class:`TandemCam`, parameters from ``vehicle/data/roads/tandem-cam-205-60R15.json``).
+(:class:`TandemCam`, parameters from ``vehicle/data/roads/tandem-cam-205-60R15.json``, or
+the enveloping set MF-Swift measured on the same tire size,
+``vehicle/data/roads/mfswift-205-60R15.json``: :func:`load_tire`).
 The effective road is evaluated at the profile's samples (the cam's contour at the
 offsets ``j dx``) and driven through the profile's interpolant like the profile
 itself.
@@ -45,19 +47,28 @@ from ..records import Record
 __all__ = [
     "CONTACTS",
     "TandemCam",
+    "TIRES",
     "default_tire",
+    "load_tire",
     "cam_contour",
     "basic_function",
     "effective_road",
 ]
 
-#: The contact models a road file can be driven with (``--road-contact``): ``auto`` is
-#: ``tandem-cam`` on a profile sampled finer than the footprint, ``point`` on a coarser one.
-CONTACTS = ("auto", "tandem-cam", "point")
+#: The tandem-cam parameter sets a road file can be driven with, by contact name: the
+#: default shape factors of a tire not measured on cleats, and the enveloping set
+#: MF-Swift measured on a 205/60 R15 (TNO, 2013); both in ``vehicle/data/roads/``.
+TIRES = {
+    "tandem-cam": "tandem-cam-205-60R15.json",
+    "mfswift-205-60R15": "mfswift-205-60R15.json",
+}
 
-_TIRE_FILE = os.path.join(
-    os.path.dirname(os.path.dirname(__file__)), "data", "roads", "tandem-cam-205-60R15.json"
-)
+#: The contact models a road file can be driven with (``--road-contact``): ``auto`` is
+#: ``tandem-cam`` on a profile sampled finer than the footprint, ``point`` on a coarser
+#: one; each name of :data:`TIRES` is the tandem cam with that set.
+CONTACTS = ("auto", *TIRES, "point")
+
+_TIRE_DIR = os.path.join(os.path.dirname(os.path.dirname(__file__)), "data", "roads")
 
 
 @dataclass(frozen=True)
@@ -76,6 +87,8 @@ class TandemCam(Record):
         ``c_e``, the super-ellipse's order (2: an ellipse).
     shift_factor : float
         ``p_ls``: the tandem base over the footprint half-length ``a``.
+    name : str
+        The parameter set's contact name (:data:`TIRES`, :func:`load_tire`).
 
     Raises
     ------
@@ -95,9 +108,12 @@ class TandemCam(Record):
     height_factor: float = 1.0
     order: float = 1.8
     shift_factor: float = 0.8
+    name: str = "tandem-cam"
 
     def __post_init__(self):
         for name, value in self.to_dict().items():
+            if name == "name":
+                continue
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise BodyvibError(f"tire contact: {name} must be a positive number, got {value!r}")
 
@@ -124,8 +140,39 @@ def default_tire() -> TandemCam:
     -------
     TandemCam
     """
-    with open(_TIRE_FILE, encoding="utf-8") as f:
-        return TandemCam(**json.load(f)["parameters"])
+    return load_tire("tandem-cam")
+
+
+def load_tire(name: str) -> TandemCam:
+    """A shipped tandem-cam parameter set by its contact name (:data:`TIRES`).
+
+    Parameters
+    ----------
+    name : str
+        ``"tandem-cam"`` (default shape factors) or ``"mfswift-205-60R15"`` (the
+        enveloping set measured by MF-Swift).
+
+    Returns
+    -------
+    TandemCam
+        Named ``name``.
+
+    Raises
+    ------
+    BodyvibError
+        A name that is not one of :data:`TIRES`.
+
+    Examples
+    --------
+    >>> t = load_tire("mfswift-205-60R15")
+    >>> t.name, round(t.half_length, 4), round(t.half_height, 4)
+    ('mfswift-205-60R15', 0.4588, 0.2994)
+    """
+    if name not in TIRES:
+        raise BodyvibError(f"unknown tire contact '{name}'; the sets are {', '.join(TIRES)}")
+    with open(os.path.join(_TIRE_DIR, TIRES[name]), encoding="utf-8") as f:
+        doc = json.load(f)
+    return TandemCam(**doc["parameters"], name=name)
 
 
 def cam_contour(d, half_length: float, half_height: float, order: float) -> np.ndarray:

@@ -73,7 +73,7 @@ class RoadOptions(Record):
         Measured roads: drive the profile periodically. A run longer than the profile
         repeats it in any case (with a warning).
     contact : str
-        Measured roads: the tire contact, ``auto``, ``tandem-cam`` or ``point``
+        Measured roads: the tire contact, ``auto``, ``tandem-cam``, ``mfswift-205-60R15`` or ``point``
         (:data:`bodyvib.vehicle.road.contact.CONTACTS`).
     """
 
@@ -403,8 +403,8 @@ def road_handling(road: dict) -> str:
         parts.append(
             "point contact"
             if contact.get("model") == "point"
-            else f"{contact['model']} contact (r0 {contact['radius_m']:g} m, footprint "
-            f"{contact['footprint_m']:g} m)"
+            else f"{contact.get('name', contact['model'])} contact "
+            f"(r0 {contact['radius_m']:g} m, footprint {contact['footprint_m']:g} m)"
         )
     if road.get("moving_average_m"):
         parts.append(f"{1000 * road['moving_average_m']:g} mm moving average")

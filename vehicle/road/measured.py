@@ -117,9 +117,10 @@ def load_profile(
         Apply the IRI standard's 250 mm moving average.
     channel : int
         ERD: the channel (profile) to read, from 1.
-    contact : {"point", "tandem-cam", "auto"}
+    contact : {"point", "tandem-cam", "mfswift-205-60R15", "auto"}
         The tire contact (:mod:`bodyvib.vehicle.road.contact`): the profile as it is, the
-        effective road of the shipped tire, or the effective road when the spacing is
+        effective road of the shipped tire (default shape factors, or the enveloping set
+        MF-Swift measured), or the default set's effective road when the spacing is
         finer than the tire's footprint (point contact otherwise).
     periodic : bool
         The profile repeats with its length
@@ -191,14 +192,14 @@ def load_profile(
 
 def _tire(contact, spacing):
     """The tandem cam to drive with, or None (point contact)."""
-    from .contact import CONTACTS, default_tire
+    from .contact import CONTACTS, TIRES, load_tire
 
     if contact not in CONTACTS:
         raise BodyvibError(f"unknown road contact '{contact}'; use one of {', '.join(CONTACTS)}")
     if contact == "point":
         return None
-    tire = default_tire()
-    return tire if contact == "tandem-cam" or spacing < tire.footprint_m else None
+    tire = load_tire(contact if contact in TIRES else "tandem-cam")
+    return tire if contact != "auto" or spacing < tire.footprint_m else None
 
 
 def median_slope(elevation, spacing: float, base: float = UNIT_BASE_M) -> float:

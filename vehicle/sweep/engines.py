@@ -40,8 +40,14 @@ from typing import Dict, List, Optional, Sequence
 import numpy as np
 
 from bodyvib.comfort import governing_method
+from bodyvib.comfort.axes import SEATED_AXES, WEIGHTINGS, weighting
 from bodyvib.comfort.figures import comfort_category, wk_response
-from bodyvib.comfort.stream import BatchComfortFigures, ComfortStream
+from bodyvib.comfort.stream import (
+    BatchComfortFigures,
+    ComfortStream,
+    WkFilter,
+    weighting_statespace,
+)
 from bodyvib.frequency.response import frequency_response
 from bodyvib.models import load_model
 from bodyvib.runtime.discretize import Discretization
@@ -52,6 +58,7 @@ from ..quarter_car import seated_system, track_width, wheel_offsets, wheel_sides
 from ..road import roads_input, wheel_roads
 from ..road.driven import driven_road
 from ..road.synthetic import ISO8608_CLASSES, N_BAND, displacement_psd, road_input
+from ..seat_motion import SEAT_FIGURES, seat_axes, seat_height, seat_point
 from . import kernel
 from .kernel import SUMS
 from .spec import Case
@@ -86,7 +93,7 @@ FIGURES = (
     "head_mtvv",
     "neck_force_peak",
     "lumbar_force_peak",
-)
+) + SEAT_FIGURES
 #: The body's named forces a sweep reports, as outputs of the seated system.
 FORCES = ("neck_force", "lumbar_force")
 #: Settings of each engine as stored in the table's ``engine_settings`` column (JSON).
@@ -184,6 +191,12 @@ def case_wheel_inputs(case: Case, behind=(0.0,), sides=None, track=0.0):
     return roads_input(roads, case.speed, np.arange(case.steps) * case.step, behind)
 
 
+def _seat_columns(figures: Optional[Dict[str, float]]) -> Dict[str, float]:
+    """A row's seat columns (:data:`SEAT_FIGURES`): the figures a car gives, NaN for the
+    rest (a quarter car's seat has no x and y, a half car's does not roll)."""
+    return {k: float((figures or {}).get(k, math.nan)) for k in SEAT_FIGURES}
+
+
 def _failed(exc) -> Dict[str, object]:
     row = {k: float("nan") for k in FIGURES}
     row["head_comfort"] = None
@@ -211,6 +224,8 @@ class _Seated:
         self.behind = wheel_offsets(car)  # each road point's distance behind the first, m
         self.sides = wheel_sides(car)  # and its track: 1 left, -1 right, 0 centre
         self.track = track_width(car)
+        self.height = seat_height(car)  # the seat's height and roll (None: no x and y)
+        self.floor = seat_point(car)  # the body point of the seat's x and y
         self.outputs = [self.lm.output_index("body.head.a"), self.lm.output_index(f"{self.seat}.a")]
         # the named forces, None where the body names none (a zero row, reported as NaN)
         self.forces = [
@@ -323,6 +338,38 @@ def _step_inputs(cases, sys, roads):
     return M, gz, gv, road, np.stack(zs, axis=1).T, np.stack(vs, axis=1).T
 
 
+def _batched_seat_axes(sys, inputs, step, window, samples) -> Dict[int, list]:
+    """The seat's x and y (Wd) and its roll and pitch (We) of the cases whose car gives
+    them (a seat with a height): case index -> ``[x, y, rx, ry]`` weighted r.m.s.
+
+    Two more passes of the kernel over the group's cases, each weighting the seat's
+    ``a_x`` and ``a_y`` in place of head and seat: with Wd, and with We divided by the
+    seat's height (the body's pitch and roll accelerations, ``-a_x / h``, ``-a_y / h``).
+    """
+    have = [i for i, s in enumerate(sys) if s.height is not None]
+    if not have:
+        return {}
+    M, gz, gv, road, z, v = inputs
+    n = sys[0].lm.A.shape[0]
+    M2, gz2, gv2 = M.copy(), gz.copy(), gv.copy()
+    M2[:, n:], gz2[:, :, n:], gv2[:, :, n:] = 0.0, 0.0, 0.0
+    for i in have:
+        lm, floor = sys[i].lm, sys[i].floor
+        rows = [lm.output_index(f"{floor}.ax"), lm.output_index(f"{floor}.ay")]
+        M2[i, n : n + 2] = lm.C[rows]
+        for j, base in enumerate(sys[i].bases):
+            iz, iv = lm.input_index(f"{base}_displacement"), lm.input_index(f"{base}_velocity")
+            gz2[i, j, n : n + 2], gv2[i, j, n : n + 2] = lm.D[rows, iz], lm.D[rows, iv]
+    packed = kernel.pack(M2, gz2, gv2, road)
+    rms = []
+    for name in ("Wd", "We"):
+        w = WkFilter(1.0 / step, 1, weighting_statespace(WEIGHTINGS[name]))
+        sums, _ = kernel.run(packed, z, v, w.step(), window, False)
+        rms.append([np.sqrt(sums[SUMS.index(f"{p}_s2")] / samples) for p in ("head", "seat")])
+    (x, y), (rx, ry) = rms
+    return {i: [x[i], y[i], ry[i] / sys[i].height[0], rx[i] / sys[i].height[0]] for i in have}
+
+
 def _batched_group(cases, models, cars, roads, record):
     """Figures (and histories) of cases of one state size and length, stepped together."""
     c = len(cases)
@@ -343,6 +390,7 @@ def _batched_group(cases, models, cars, roads, record):
         for part in ("head", "seat")
     }
     head, seat = fig["head"], fig["seat"]
+    axes = _batched_seat_axes(sys, (M, gz, gv, road, z, v), step, wk.window, cases[0].steps)
     rows = []
     for i in range(c):
         peaks = {
@@ -361,6 +409,11 @@ def _batched_group(cases, models, cars, roads, record):
                 "seat_weighted_rms": float(seat.weighted_rms[i]),
                 "head_mtvv": float(head.mtvv[i]),
                 **peaks,
+                **_seat_columns(
+                    _seat_figures(float(seat.weighted_rms[i]), axes[i], sys[i].height)
+                    if i in axes
+                    else None
+                ),
                 "error": None,
             }
         )
@@ -441,6 +494,37 @@ def _band_mean_square(g, lnf, lo, hi):
     return float(np.trapezoid(y, x))
 
 
+def _spectral_outputs(s, f):
+    """The outputs of the spectral engine and each one's weighting: ``(outputs, [(output
+    index, |W|^2 f)])``: head and seat z (Wk), and a seat with a height its x and y (Wd)
+    and its pitch and roll ``-a_x / h``, ``-a_y / h`` (We)."""
+    wk = np.abs(wk_response(f)) ** 2 * f  # |W|^2 f: the df = f dln f of the integral
+    outputs, weights = ["body.head.a", f"{s.seat}.a"], [(0, wk), (1, wk)]
+    if s.height is not None:
+        outputs += [f"{s.floor}.ax", f"{s.floor}.ay"]
+        wd = np.abs(weighting("Wd", f)) ** 2 * f
+        we = np.abs(weighting("We", f)) ** 2 * f / s.height[0] ** 2
+        weights += [(2, wd), (3, wd), (3, we), (2, we)]  # x, y, roll, pitch
+    return outputs, weights
+
+
+def _seat_figures(z, axes, height) -> Optional[Dict[str, float]]:
+    """The seat's figures from its weighted r.m.s., ``z`` (Wk) and ``axes``, ``[x, y]``
+    (Wd) and the roll and pitch ``[rx, ry]`` (We), of a car whose seat has a ``height``."""
+    if height is None:
+        return None
+    x, y, rx, ry = axes
+    k = {a: SEATED_AXES[a][1] for a in ("seat_rx", "seat_ry")}  # comfort factors, m/rad
+    out = {"seat_aw_x": x, "seat_aw_y": y, "seat_aw_z": z, "seat_aw_ry": ry}
+    out["seat_av"] = math.sqrt(x * x + y * y + z * z)  # k = 1, 1, 1 (comfort)
+    rot = [(k["seat_ry"] * ry) ** 2]
+    if height[1]:  # a body that rolls
+        out["seat_aw_rx"] = rx
+        rot.append((k["seat_rx"] * rx) ** 2)
+    out["seat_rotation_av"] = math.sqrt(sum(rot))
+    return out
+
+
 def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[dict]:
     """Expected weighted r.m.s. of cases on ISO 8608 roads from the road PSD.
 
@@ -487,9 +571,8 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
                 math.log(lo), math.log(hi), int(math.ceil(density * math.log(hi / lo))) + 1
             )
             f = np.exp(lnf)
-            outputs = ["body.head.a", f"{s.seat}.a"]
+            outputs, weights = _spectral_outputs(s, f)
             H = frequency_response(s.lm, f, outputs)
-            W2f = np.abs(wk_response(f)) ** 2 * f  # |Wk|^2 f: the df = f dln f of the integral
             per_speed = {}
             for v in speeds:
                 # road PSD in time at speed v: S(f) = Gd(f / v) / v (class A here; scaled below)
@@ -497,8 +580,8 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
                 if len(s.behind) > 1:  # every wheel on the same road, later by its distance / v
                     H = frequency_response(s.lm, f, outputs, delays=[d / v for d in s.behind])
                 per_speed[v] = [
-                    _band_mean_square(np.abs(h) ** 2 * W2f * S, lnf, N_BAND[0] * v, N_BAND[1] * v)
-                    for h in H
+                    _band_mean_square(np.abs(H[i]) ** 2 * w * S, lnf, N_BAND[0] * v, N_BAND[1] * v)
+                    for i, w in weights
                 ]
             if not np.all(np.isfinite(list(per_speed.values()))):
                 raise BodyvibError(
@@ -514,7 +597,7 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
                 rows[i] = _failed(BodyvibError(f"road '{cs.road}' is not an ISO 8608 class"))
                 continue
             scale = 4.0 ** ISO8608_CLASSES.index(cs.road)  # Gd(n0) of the class over class A's
-            head, seat = (math.sqrt(m * scale) for m in per_speed[cs.speed])
+            head, seat, *axes = (math.sqrt(m * scale) for m in per_speed[cs.speed])
             rows[i] = {
                 "head_weighted_rms": head,
                 "head_vdv": float("nan"),
@@ -525,6 +608,7 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
                 "head_mtvv": float("nan"),
                 "neck_force_peak": float("nan"),  # a peak needs a record
                 "lumbar_force_peak": float("nan"),
+                **_seat_columns(_seat_figures(seat, axes, s.height)),
                 "error": None,
             }
     return rows
@@ -608,6 +692,7 @@ def _cosim_case(cs, folder, built, record, cosimulate, open_fmu):
             "seat_weighted_rms": float(fig["weighted_rms"][1]),
             "head_mtvv": float(fig["mtvv"][0]),
             **{f"{f}_peak": float(np.max(np.abs(run[f]))) for f in FORCES},
+            **_seat_columns(_run_seat_axes(run, cs.step, car)),
             "error": None,
         }
         return row, (
@@ -620,6 +705,15 @@ def _cosim_case(cs, folder, built, record, cosimulate, open_fmu):
         )
     except Exception as exc:
         return _failed(exc), None
+
+
+def _run_seat_axes(run, step: float, car) -> Optional[Dict[str, float]]:
+    """The seat's axes of a co-simulated run (None: a car without the seat's x and y)."""
+    x = run.get("seat_acceleration_x")
+    if x is None or not np.all(np.isfinite(x)):
+        return None
+    y, z = run["seat_acceleration_y"], run["seat_acceleration"]
+    return seat_axes(x, y, z, 1.0 / step, seat_height(car))
 
 
 _pools = None

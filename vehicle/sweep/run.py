@@ -44,6 +44,12 @@ head_mtvv           head maximum transient vibration value (largest 1 s running
 neck_force_peak     largest magnitude of the body's neck force, N (NaN for
                     ``spectral`` and for a body that names no neck force)
 lumbar_force_peak   the same for the lumbar force, N
+seat_aw_x, _y, _z   the seat surface's ISO 2631-1 weighted r.m.s. fore-aft,
+                    sideways (Wd) and vertical (Wk), m/s2 (NaN: a car whose seat
+                    has no height above the body's centre, a quarter car)
+seat_av             their point vibration total value for comfort, m/s2
+seat_aw_rx, _ry     the seat's roll (a full car) and pitch accelerations, We, rad/s2
+seat_rotation_av    their point vibration total value for comfort, m/s2
 engine              ``batched``, ``spectral`` or ``cosim``
 engine_settings     the engine's settings (JSON)
 error               why the case failed (empty when it did not)

@@ -77,6 +77,13 @@ FIGURE_UNITS = {
     "head_mtvv": "m/s2",
     "neck_force_peak": "N",
     "lumbar_force_peak": "N",
+    "seat_aw_x": "m/s2",
+    "seat_aw_y": "m/s2",
+    "seat_aw_z": "m/s2",
+    "seat_av": "m/s2",
+    "seat_aw_rx": "rad/s2",
+    "seat_aw_ry": "rad/s2",
+    "seat_rotation_av": "m/s2",
 }
 #: Columns after the figures.
 TRAILING_COLUMNS = ("engine", "engine_settings", "error", "bodyvib_version", "spec_hash", "run_id")
