@@ -203,7 +203,7 @@ def fmu_road(
             road = load_profile(
                 s,
                 track_m=track_m + (side * track_width / 2 if crg else 0.0),
-                side=0 if crg else side,
+                side=side,
                 units=units,
                 envelope=envelope,
                 contact=contact,

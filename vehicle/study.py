@@ -637,13 +637,25 @@ def _static_load(car, body_fmus, nets):
 
 
 def _road_description(road, roads) -> dict:
-    """The run's road described; a full car's right track (another road) named beside it."""
+    """The run's road described; a full car's tracks, when they are other roads, beside it.
+
+    A random road's right track is the class's second track (``right_track`` says so, the
+    left being the road itself); a road file's tracks are each read from the file
+    (``tracks``: each track described, in the order of the wheels on them, left first for
+    the full car: an OpenCRG surface's lateral offsets or a two-track profile's columns).
+    """
     out = road.describe()
-    if any(r is not road for r in roads):
+    others = [r for r in roads if r is not road]
+    if not others:
+        return out
+    if any(r is road for r in roads):
         out["right_track"] = (
             "the class's second track, a track width to the right, correlated with the "
             "left (this road) as an isotropic surface (bodyvib.vehicle.road.two_track_road)"
         )
+        return out
+    distinct = list({id(r): r for r in roads}.values())  # in the wheels' order
+    out["tracks"] = [r.describe() for r in distinct]
     return out
 
 

@@ -332,7 +332,7 @@ def file_road(
         return load_profile(
             str(spec).strip(),
             track_m=options.track_m + offset,
-            side=0 if crg else side,
+            side=side,
             units=options.units,
             envelope=options.envelope,
             contact=options.contact,

@@ -120,6 +120,8 @@ def load_profile(
         CSV and text: the track of a two-track profile (columns ``elevation_left`` and
         ``elevation_right`` beside ``distance``): 1 or 0 the left, -1 the right; a
         one-track profile's elevation whatever the side. Both tracks are checked.
+        OpenCRG: ``track_m`` is the track; a side names it in the messages (the left or
+        right wheels of a car, at ``track_m`` plus or minus half its track width).
     units : str, optional
         CSV, text and ERD: ``"DIST,ELEV"`` units, e.g. ``"m,mm"``, when the file does not
         name them (a file that names other units is refused).
@@ -189,7 +191,7 @@ def _read_any(path, ext, track_m, side, units, channel, option):
                 f"road '{base}': an OpenCRG file is in metres; drop '{option}'",
                 parameters=(option,),
             )
-        return _read_crg(path, float(track_m))
+        return _read_crg(path, float(track_m), side)
     if ext in (".csv", ".txt", ".erd"):
         if track_m:
             raise BodyvibError(
@@ -780,7 +782,7 @@ def _check_crg_structure(path, base):
             )
 
 
-def _read_crg(path, track):
+def _read_crg(path, track, side=0):
     base = os.path.basename(path)
     _check_crg_structure(path, base)
     require("reading an OpenCRG file", "roads")
@@ -792,10 +794,16 @@ def _read_crg(path, track):
             g = ds.grid()
             u, v = np.asarray(g.u, dtype=float), np.asarray(g.v, dtype=float)
             if not (v.min() - 1e-9 <= track <= v.max() + 1e-9):
+                where = (
+                    f"the car's {'left' if side > 0 else 'right'} wheels run at {track:g} m "
+                    f"(track_m {'plus' if side > 0 else 'minus'} half the car's track width)"
+                    if side
+                    else f"track_m={track:g} m is"
+                )
                 raise BodyvibError(
-                    f"road '{base}': track_m={track:g} m is off the road "
-                    f"(it spans {v.min():g} to {v.max():g} m from the reference "
-                    "line); choose a track on it",
+                    f"road '{base}': {where} off the road (it spans {v.min():g} to "
+                    f"{v.max():g} m from the reference line); choose a track_m that keeps "
+                    + ("both of the car's tracks on it" if side else "the track on it"),
                     parameters=("track_m",),
                 )
             end = (ds.header.road or {}).get("reference_line_end_u")
