@@ -99,7 +99,6 @@ CONNECTIONS = (
 )
 
 
-#: The half car's connections: a road pair per axle, then the occupant as on the quarter car.
 def _wheel_connections(wheels):
     """A road pair per wheel suffix from the road FMU to the car, then the occupant."""
     return tuple(
@@ -109,6 +108,7 @@ def _wheel_connections(wheels):
     ) + tuple(c for c in CONNECTIONS if c[0] != "Road")
 
 
+#: The half car's connections: a road pair per axle, then the occupant as on the quarter car.
 HALF_CAR_CONNECTIONS = _wheel_connections(("front", "rear"))
 
 #: The full car's connections: a road pair per wheel (the names of FullCar's road

@@ -222,7 +222,9 @@ COSIM_DEFAULTS = RunSettings()
 SWEEP_DEFAULTS = RunSettings(duration=10.0)
 
 
-def check_settings(settings: RunSettings, bodies: int = 1, histories: bool = False) -> Road:
+def check_settings(
+    settings: RunSettings, bodies: int = 1, histories: bool = False, car=None
+) -> Road:
     """Validate run settings before any work is done; returns the road.
 
     Parameters
@@ -233,6 +235,9 @@ def check_settings(settings: RunSettings, bodies: int = 1, histories: bool = Fal
         Number of bodies the study will run (for its memory estimate).
     histories : bool
         The study keeps its histories (memory grows with the run).
+    car : bodyvib.runtime.network.Network, optional
+        The car: a car with left and right wheels has both its tracks made and checked
+        too (an OpenCRG track off the surface, a broken two-track profile).
 
     Returns
     -------
@@ -274,7 +279,10 @@ def check_settings(settings: RunSettings, bodies: int = 1, histories: bool = Fal
             f"{max(1, bodies)} body/bodies) with its histories",
             "shorten the run or do not keep the histories",
         )
-    return driven_road(settings)
+    road = driven_road(settings)
+    if car is not None:
+        wheel_roads(settings, road, wheel_sides(car), track_width(car))
+    return road
 
 
 @dataclass(frozen=True)
