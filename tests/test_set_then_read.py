@@ -14,7 +14,7 @@ fixtures build them).
 import pytest
 
 from bodyvib.vehicle.reference import nrmse
-from bodyvib.vehicle.ssp import HALF_CAR_SSP_NAME, SSP_NAME, ssp_reference
+from bodyvib.vehicle.ssp import FULL_CAR_SSP_NAME, HALF_CAR_SSP_NAME, SSP_NAME, ssp_reference
 
 pytestmark = pytest.mark.integration
 
@@ -27,6 +27,8 @@ PACKAGES = {
     "native-fmi3": ("native_dist", f"fmi3/{SSP_NAME}.ssp", "quarter-car"),
     "native-half": ("native_dist", f"{HALF_CAR_SSP_NAME}.ssp", "half-car"),
     "native-half-fmi3": ("native_dist", f"fmi3/{HALF_CAR_SSP_NAME}.ssp", "half-car"),
+    "native-full": ("native_dist", f"{FULL_CAR_SSP_NAME}.ssp", "full-car"),
+    "native-full-fmi3": ("native_dist", f"fmi3/{FULL_CAR_SSP_NAME}.ssp", "full-car"),
 }
 
 

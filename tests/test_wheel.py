@@ -186,6 +186,7 @@ def test_installed_wheel_builds_fmus_and_runs_the_check(wheel, tmp_path):
     run_ok([exe, "build", "--dest", "fmus"], work, env)
     assert sorted(p.name for p in (work / "fmus").iterdir()) == [
         "FullCar.fmu",
+        "FullCarWithOccupant.ssp",
         "HalfCar.fmu",
         "HalfCarWithOccupant.ssp",
         "HumanBody3DOF.fmu",
@@ -193,6 +194,7 @@ def test_installed_wheel_builds_fmus_and_runs_the_check(wheel, tmp_path):
         "QuarterCar.fmu",
         "QuarterCarWithOccupant.ssp",
         "Road.fmu",
+        "RoadFourWheel.fmu",
         "RoadFrontRear.fmu",
     ]
     check = run_ok([exe, "check", "--duration", "2", "--quiet"], work, env)

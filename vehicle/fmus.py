@@ -32,7 +32,6 @@ from .road.driven import (
 from .road.synthetic import (
     ISO8608_CLASSES,
     TaperedRoad,
-    axle_road_source,
     lead_in_period,
     make_road,
     random_road,
@@ -42,6 +41,7 @@ from .road.synthetic import (
 __all__ = [
     "AXLE_ROAD_CAR",
     "FMUS",
+    "WHEEL_ROAD_CARS",
     "ROAD_DEFAULTS",
     "build_fmus",
     "build_project_fmu",
@@ -119,10 +119,26 @@ FMUS = {
         "behind) driving at a speed: road_displacement_front/_rear and their exact time "
         "derivatives road_velocity_front/_rear, from a table built by bodyvib.vehicle.road",
     ),
+    "RoadFourWheel": (
+        "source",
+        "C",
+        "Road profiles under the four wheels of a full car driving at a speed, the left "
+        "wheels on the road's left track and the right wheels on its right track (a track "
+        "width apart), the rear a wheelbase behind: road_displacement_front_left, "
+        "_front_right, _rear_left, _rear_right and their exact time derivatives "
+        "road_velocity_..., from a table built by bodyvib.vehicle.road",
+    ),
 }
 
 #: The car whose wheelbase RoadFrontRear.fmu is built for, unless a half car is chosen.
 AXLE_ROAD_CAR = "half-car"
+
+#: Road FMU with a pair per wheel -> (the car FMU it feeds, the car it is built for unless
+#: a car of that FMU is chosen: its wheelbase, its wheels' sides and track width).
+WHEEL_ROAD_CARS = {
+    "RoadFrontRear": ("HalfCar", AXLE_ROAD_CAR),
+    "RoadFourWheel": ("FullCar", "full-car"),
+}
 
 
 @renamed_parameters(taper="taper_m", track="track_m")
@@ -137,6 +153,9 @@ def fmu_road(
     envelope: bool = False,
     repeat: bool = False,
     contact: str = "auto",
+    *,
+    side: int = 0,
+    track_width: float = 0.0,
 ):
     """The road a ``Road.fmu`` tabulates: the road a run drives (faded in from level).
 
@@ -162,6 +181,9 @@ def fmu_road(
         A road file's track (OpenCRG), units (CSV/ERD), moving average, repetition
         and tire contact (:class:`bodyvib.vehicle.road.driven.RoadOptions`). A repeated
         file is tabulated over one period, faded in and out (a table repeats whole).
+    side, track_width
+        A road file's track of a car with left and right wheels
+        (:func:`bodyvib.vehicle.road.driven.file_road`).
 
     Returns
     -------
@@ -177,13 +199,20 @@ def fmu_road(
         from .road.measured import load_profile
 
         if repeat:  # faded in once, then the profile again and again, as a run drives it
+            crg = s.lower().endswith(".crg")
             road = load_profile(
-                s, track_m=track_m, units=units, envelope=envelope, contact=contact, periodic=True
+                s,
+                track_m=track_m + (side * track_width / 2 if crg else 0.0),
+                side=side,
+                units=units,
+                envelope=envelope,
+                contact=contact,
+                periodic=True,
             )
             road.check_run(speed, road.length / speed, None, repeat=True)  # its spacing
             return TaperedRoad(road, math.inf, taper_m)
         options = RoadOptions(taper_m, track_m, units, envelope, False, contact)
-        return file_road(s, options, speed)
+        return file_road(s, options, speed, side=side, track_width=track_width)
     if track_m or units or envelope or repeat or contact != "auto":
         raise file_options_refused(spec)
     if len(s) == 1 and s.upper() in ISO8608_CLASSES:
@@ -206,13 +235,15 @@ def fmu_road_length(road, length: float) -> float:
     return float(inner.length) if hasattr(inner, "spacing") else float(length)
 
 
-def fmu_road_of(options: dict):
+def fmu_road_of(options: dict, side: int = 0, track_width: float = 0.0):
     """Road.fmu's road and the extent of its table (m) from options over :data:`ROAD_DEFAULTS`.
 
     Parameters
     ----------
     options : dict
         Keys of :data:`ROAD_DEFAULTS` (``road`` is the road, :func:`fmu_road`'s ``spec``).
+    side, track_width
+        A road file's track (:func:`fmu_road`).
 
     Returns
     -------
@@ -221,7 +252,12 @@ def fmu_road_of(options: dict):
         m, :func:`fmu_road_length`.
     """
     r = road_with_defaults(options)
-    rd = fmu_road(r["road"], **{k: r[k] for k in ROAD_DEFAULTS if k != "road"})
+    rd = fmu_road(
+        r["road"],
+        **{k: r[k] for k in ROAD_DEFAULTS if k != "road"},
+        side=side,
+        track_width=track_width,
+    )
     return rd, fmu_road_length(rd, r["length"])
 
 
@@ -254,21 +290,42 @@ def _road_source(**options):
 
 
 def _source(name: str, car: Optional[str] = None, **options):
-    """The source of a road FMU of :data:`FMUS`: Road.fmu's, or RoadFrontRear.fmu's for the
-    wheelbase of ``car`` (a car with axles; :data:`AXLE_ROAD_CAR` by default)."""
-    if name != "RoadFrontRear":
+    """The source of a road FMU of :data:`FMUS`: Road.fmu's, or that of a road FMU with a
+    pair per wheel (:data:`WHEEL_ROAD_CARS`) for the wheels of ``car`` (its default car
+    by default): each wheel on its track, a wheelbase behind the first."""
+    if name not in WHEEL_ROAD_CARS:
         return _road_source(**options)
-    from .quarter_car import wheel_offsets
+    from .quarter_car import track_width, wheel_offsets, wheel_sides
+    from .road.synthetic import wheel_road_source
+    from .road.tracks import two_tracks
 
-    offsets = wheel_offsets(load_car(car or AXLE_ROAD_CAR))
-    if len(offsets) != 2:
+    fmu, default = WHEEL_ROAD_CARS[name]
+    network = load_car(car or default)
+    offsets = wheel_offsets(network)
+    if car_fmu_name(car or default) != fmu:
         raise BodyvibError(
-            f"RoadFrontRear.fmu serves a car with a front and a rear road point; "
-            f"'{car}' has {len(offsets)}"
+            f"{name}.fmu serves a car built as {fmu}.fmu; '{car}' is built as "
+            f"{car_fmu_name(car)}.fmu"
         )
     r = road_with_defaults(options)
     road, length = fmu_road_of(r)
-    return axle_road_source(road, length, offsets[1], r["speed"])
+    sides, width = wheel_sides(network), track_width(network)
+    tracks = {0: road}
+    if -1 in sides:
+        tracks[1], tracks[-1] = two_tracks(
+            r["road"],
+            road,
+            width,
+            length=r["length"],
+            seed=r["seed"],
+            taper=r["taper_m"],
+            file_track=lambda side: fmu_road_of(r, side, width)[0],
+        )
+    wheels = {
+        base[len("road_") :]: (tracks[side], behind)
+        for base, side, behind in zip(network.bases, sides, offsets)
+    }
+    return wheel_road_source(wheels, length, r["speed"])
 
 
 def load_fmu_model(name: str, model: Optional[str] = None):
@@ -457,11 +514,12 @@ def build_fmus(
     names = list(names or FMUS)
     chosen, car = _chosen_models(params, car, seat)
     road = road_with_defaults(road)
-    half_car = car if car_fmu_name(car) == "HalfCar" else None
     sources = {}
     for n in names:  # refuse a bad model (or road) before building anything
         if n in FMUS and FMUS[n][0] == "source":
-            sources[n] = _source(n, half_car, **road)  # tabulated once for every FMI version
+            # a wheel road FMU for the chosen car if it feeds that car's FMU, else its own
+            mine = n in WHEEL_ROAD_CARS and car_fmu_name(car) == WHEEL_ROAD_CARS[n][0]
+            sources[n] = _source(n, car if mine else None, **road)  # once for every FMI
         else:
             load_fmu_model(n, chosen.get(n))
     if native:

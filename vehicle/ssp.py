@@ -22,7 +22,9 @@ FMUs in parallel and holds every input over a step (libcosim, Ecos, fmpy.ssp):
 
 The half car's package, ``HalfCarWithOccupant.ssp`` (:data:`HALF_CAR_COMPONENTS`), wires
 ``RoadFrontRear``'s two road pairs to the ``HalfCar``'s front and rear road inputs and the
-occupant the same way.
+occupant the same way; the full car's, ``FullCarWithOccupant.ssp``
+(:data:`FULL_CAR_COMPONENTS`), ``RoadFourWheel``'s four pairs (left and right tracks, the
+rear a wheelbase behind) to the ``FullCar``'s four corners.
 
 Measured head-acceleration errors per host: docs/tutorials/fmu_hosts.md,
 "Co-simulation in any host (SSP)".
@@ -48,6 +50,9 @@ __all__ = [
     "HALF_CAR_SSP_NAME",
     "HALF_CAR_COMPONENTS",
     "HALF_CAR_CONNECTIONS",
+    "FULL_CAR_SSP_NAME",
+    "FULL_CAR_COMPONENTS",
+    "FULL_CAR_CONNECTIONS",
     "ACTIVE_SSP_NAME",
     "ACTIVE_COMPONENTS",
     "ACTIVE_CONNECTIONS",
@@ -76,6 +81,12 @@ HALF_CAR_SSP_NAME = "HalfCarWithOccupant"
 #: Component name -> FMU name of the half car's package.
 HALF_CAR_COMPONENTS = {"Road": "RoadFrontRear", "Car": "HalfCar", "Body": "HumanBody3DOF"}
 
+#: The full car's package: road under the four wheels, full car, occupant.
+FULL_CAR_SSP_NAME = "FullCarWithOccupant"
+
+#: Component name -> FMU name of the full car's package.
+FULL_CAR_COMPONENTS = {"Road": "RoadFourWheel", "Car": "FullCar", "Body": "HumanBody3DOF"}
+
 #: (start element, start connector, end element, end connector).
 CONNECTIONS = (
     ("Road", "road_displacement", "Car", "road_displacement"),
@@ -87,12 +98,22 @@ CONNECTIONS = (
     ("Body", "seat_force_rate", "Car", "seat_force_rate"),
 )
 
+
+def _wheel_connections(wheels):
+    """A road pair per wheel suffix from the road FMU to the car, then the occupant."""
+    return tuple(
+        ("Road", f"road_{q}_{w}", "Car", f"road_{q}_{w}")
+        for w in wheels
+        for q in ("displacement", "velocity")
+    ) + tuple(c for c in CONNECTIONS if c[0] != "Road")
+
+
 #: The half car's connections: a road pair per axle, then the occupant as on the quarter car.
-HALF_CAR_CONNECTIONS = tuple(
-    ("Road", f"road_{q}_{axle}", "Car", f"road_{q}_{axle}")
-    for axle in ("front", "rear")
-    for q in ("displacement", "velocity")
-) + tuple(c for c in CONNECTIONS if c[0] != "Road")
+HALF_CAR_CONNECTIONS = _wheel_connections(("front", "rear"))
+
+#: The full car's connections: a road pair per wheel (the names of FullCar's road
+#: inputs), then the occupant as on the quarter car.
+FULL_CAR_CONNECTIONS = _wheel_connections(("front_left", "front_right", "rear_left", "rear_right"))
 
 
 def _controller_connections(suffixes):
@@ -152,6 +173,13 @@ PACKAGES = {
         HALF_CAR_CONNECTIONS,
         "Half car (bounce and pitch) on a road under both axles with a seated occupant, "
         "two-way coupled through seat motion and seat force (and their rates)",
+    ),
+    FULL_CAR_SSP_NAME: (
+        FULL_CAR_COMPONENTS,
+        FULL_CAR_CONNECTIONS,
+        "Full car (bounce, pitch and roll) on a two-track road under its four wheels with a "
+        "seated occupant, two-way coupled through seat motion and seat force (and their "
+        "rates)",
     ),
     ACTIVE_SSP_NAME: (
         ACTIVE_COMPONENTS,
@@ -398,8 +426,9 @@ def ssp_reference(
     body : str
         Body model baked into the SSP's body FMU.
     car : str
-        Vehicle model of its car FMU (``QuarterCar.fmu``, or ``HalfCar.fmu`` with
-        ``RoadFrontRear.fmu``: the half car's package).
+        Vehicle model of its car FMU (``QuarterCar.fmu``, ``HalfCar.fmu`` with
+        ``RoadFrontRear.fmu``: the half car's package, or ``FullCar.fmu`` with
+        ``RoadFourWheel.fmu``: the full car's).
     road : dict, optional
         The keyword arguments its ``Road.fmu`` was built with
         (:data:`bodyvib.vehicle.fmus.ROAD_DEFAULTS` by default); ``speed`` is the run's.
@@ -414,14 +443,15 @@ def ssp_reference(
     """
     from bodyvib.models import load_model
 
-    from .fmus import _source, car_fmu_name, fmu_road_of, road_with_defaults
+    from .fmus import WHEEL_ROAD_CARS, _source, car_fmu_name, fmu_road_of, road_with_defaults
     from .quarter_car import load_car
     from .reference import reference_run
     from .road.synthetic import road_table
 
     r = road_with_defaults(road)
-    if car_fmu_name(car) == "HalfCar":  # RoadFrontRear.fmu's table: a column per axle
-        _, table = _source("RoadFrontRear", car, **r)
+    wheel_road = [n for n, (fmu, _) in WHEEL_ROAD_CARS.items() if fmu == car_fmu_name(car)]
+    if wheel_road:  # RoadFrontRear.fmu's or RoadFourWheel.fmu's table: a column per wheel
+        _, table = _source(wheel_road[0], car, **r)
     else:
         table = road_table(*fmu_road_of(r))
     t = np.arange(int(round(duration / step)) + 1) * step

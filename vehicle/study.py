@@ -270,7 +270,9 @@ COSIM_DEFAULTS = RunSettings()
 SWEEP_DEFAULTS = RunSettings(duration=10.0)
 
 
-def check_settings(settings: RunSettings, bodies: int = 1, histories: bool = False) -> Road:
+def check_settings(
+    settings: RunSettings, bodies: int = 1, histories: bool = False, car=None
+) -> Road:
     """Validate run settings before any work is done; returns the road.
 
     Parameters
@@ -281,6 +283,9 @@ def check_settings(settings: RunSettings, bodies: int = 1, histories: bool = Fal
         Number of bodies the study will run (for its memory estimate).
     histories : bool
         The study keeps its histories (memory grows with the run).
+    car : bodyvib.runtime.network.Network, optional
+        The car: a car with left and right wheels has both its tracks made and checked
+        too (an OpenCRG track off the surface, a broken two-track profile).
 
     Returns
     -------
@@ -322,7 +327,10 @@ def check_settings(settings: RunSettings, bodies: int = 1, histories: bool = Fal
             f"{max(1, bodies)} body/bodies) with its histories",
             "shorten the run or do not keep the histories",
         )
-    return driven_road(settings)
+    road = driven_road(settings)
+    if car is not None:
+        wheel_roads(settings, road, wheel_sides(car), track_width(car))
+    return road
 
 
 @dataclass(frozen=True)
@@ -803,13 +811,25 @@ def _static_load(car, body_fmus, nets):
 
 
 def _road_description(road, roads) -> dict:
-    """The run's road described; a full car's right track (another road) named beside it."""
+    """The run's road described; a full car's tracks, when they are other roads, beside it.
+
+    A random road's right track is the class's second track (``right_track`` says so, the
+    left being the road itself); a road file's tracks are each read from the file
+    (``tracks``: each track described, in the order of the wheels on them, left first for
+    the full car: an OpenCRG surface's lateral offsets or a two-track profile's columns).
+    """
     out = road.describe()
-    if any(r is not road for r in roads):
+    others = [r for r in roads if r is not road]
+    if not others:
+        return out
+    if any(r is road for r in roads):
         out["right_track"] = (
             "the class's second track, a track width to the right, correlated with the "
             "left (this road) as an isotropic surface (bodyvib.vehicle.road.two_track_road)"
         )
+        return out
+    distinct = list({id(r): r for r in roads}.values())  # in the wheels' order
+    out["tracks"] = [r.describe() for r in distinct]
     return out
 
 

@@ -211,15 +211,18 @@ def add_command(subparsers):
     """Register ``bodyvib build``."""
     p = subparsers.add_parser(
         "build",
-        help="build the FMUs (HumanBody3DOF, HumanBodyISO7962, QuarterCar, HalfCar, Road, "
-        "RoadFrontRear) into dist/",
+        help="build the FMUs (HumanBody3DOF, HumanBodyISO7962, QuarterCar, HalfCar, FullCar, "
+        "Road, RoadFrontRear, RoadFourWheel) into dist/",
         description="Build HumanBody3DOF.fmu, HumanBodyISO7962.fmu, QuarterCar.fmu, HalfCar.fmu, "
-        "Road.fmu and RoadFrontRear.fmu with pythonfmu and check them with fmpy validate, and the "
-        "coupled systems of Road, QuarterCar and HumanBody3DOF as QuarterCarWithOccupant.ssp and "
-        "of RoadFrontRear, HalfCar and HumanBody3DOF as HalfCarWithOccupant.ssp (SSP 1.0). "
+        "FullCar.fmu, Road.fmu, RoadFrontRear.fmu and RoadFourWheel.fmu with pythonfmu and check "
+        "them with fmpy validate, and the coupled systems of Road, QuarterCar and HumanBody3DOF "
+        "as QuarterCarWithOccupant.ssp, of RoadFrontRear, HalfCar and HumanBody3DOF as "
+        "HalfCarWithOccupant.ssp and of RoadFourWheel, FullCar and HumanBody3DOF as "
+        "FullCarWithOccupant.ssp (SSP 1.0). "
         "--params bakes a parameter file into "
         "HumanBody3DOF.fmu (default: the paper's Table 2); --road, --road-seed and --road-length "
-        "choose the road Road.fmu tabulates.",
+        "choose the road Road.fmu tabulates (and RoadFrontRear.fmu and RoadFourWheel.fmu: "
+        "RoadFourWheel's left and right tracks are those of bodyvib cosim --car full-car).",
     )
     p.add_argument(
         "--params",

@@ -235,7 +235,10 @@ def _label(path, default):
 def _run(args, want_iso):
     _check_options(args)
     settings = run_settings_from_args(args)
-    check_settings(settings, bodies=2 if want_iso else 1)  # before building
+    from bodyvib.vehicle.quarter_car import load_car
+
+    car = None if args.car_fmu else load_car(args.car or "quarter-car")  # its tracks, too
+    check_settings(settings, bodies=2 if want_iso else 1, car=car)  # before building
     _check_step(args, want_iso)
     if args.csv:
         _check_disk(args.csv, (args.duration / args.step + 1) * (2 if want_iso else 1))

@@ -147,7 +147,8 @@ ROAD_ARGUMENTS = {
         default=0.0,
         metavar="M",
         help="OpenCRG road: lateral offset of the wheel from the reference line, m, "
-        "positive to the left (default: 0)",
+        "positive to the left (default: 0); a full car's wheels run half its track width "
+        "to either side of it",
     ),
     "units": dict(
         metavar="DIST,ELEV",

@@ -51,7 +51,7 @@ from .synthetic import (
     track_coherence,
     two_track_road,
 )
-from .tracks import roads_input, wheel_roads
+from .tracks import roads_input, two_tracks, wheel_roads
 
 __all__ = [  # alphabetical: the index of the package
     "BumpRoad",
@@ -93,5 +93,6 @@ __all__ = [  # alphabetical: the index of the package
     "TaperedRoad",
     "track_coherence",
     "two_track_road",
+    "two_tracks",
     "wheel_roads",
 ]

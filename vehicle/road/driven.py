@@ -272,7 +272,16 @@ def file_options_refused(spec) -> BodyvibError:
     )
 
 
-def file_road(spec, options: RoadOptions, speed: float, duration=None, step=None) -> Road:
+def file_road(
+    spec,
+    options: RoadOptions,
+    speed: float,
+    duration=None,
+    step=None,
+    *,
+    side: int = 0,
+    track_width: float = 0.0,
+) -> Road:
     """A road file as a run drives it: read, through its tire contact, faded in.
 
     Parameters
@@ -287,6 +296,11 @@ def file_road(spec, options: RoadOptions, speed: float, duration=None, step=None
         s; None: the profile's own length at ``speed`` (a table of it, ``Road.fmu``).
     step : float, optional
         Communication step, s.
+    side, track_width : int, float
+        1 the left, -1 the right track of a car whose tracks are ``track_width`` m apart
+        (OpenCRG: the surface at ``options.track_m`` plus or minus ``track_width / 2``; a
+        profile: its ``elevation_left`` or ``elevation_right``, or its one column), 0 the
+        file's road (OpenCRG at ``options.track_m``, a two-track profile's left track).
 
     Returns
     -------
@@ -310,12 +324,15 @@ def file_road(spec, options: RoadOptions, speed: float, duration=None, step=None
         carry, a shortened fade.
     """
     from .measured import load_profile
-    from .profile import STEEP_SLOPE
+
+    crg = str(spec).strip().lower().endswith(".crg")
+    offset = side * track_width / 2 if crg else 0.0
 
     def load(periodic):
         return load_profile(
             str(spec).strip(),
-            track_m=options.track_m,
+            track_m=options.track_m + offset,
+            side=side,
             units=options.units,
             envelope=options.envelope,
             contact=options.contact,
@@ -342,33 +359,45 @@ def file_road(spec, options: RoadOptions, speed: float, duration=None, step=None
         speed, road.length / speed if duration is None else duration, step, repeat=repeat
     )
     if road.contact is None:
-        steep, where = road.steepest()
-        if steep > STEEP_SLOPE:
-            warnings.warn(
-                RoadWarning(
-                    f"road '{road.name}': its slope reaches {steep:.3g} m per m at {where:.4g} "
-                    "m (a step, a joint or an edge), steeper than a tire follows; point "
-                    "contact passes it to the wheel as it is (contact=tandem-cam envelops it)",
-                    parameters=("contact",),
-                ),
-                stacklevel=2,
-            )
+        _warn_steep(road)
     taper = options.taper_m
     if repeat:
         return TaperedRoad(road, math.inf, taper)
-    if isinstance(taper, (int, float)) and 4 * taper > road.length:
-        short = road.length / 4
+    return TaperedRoad(road, road.length, _fitted_taper(road, taper))
+
+
+def _fitted_taper(road, taper):
+    """The fade of a profile driven once: ``taper``, or a quarter of a shorter profile."""
+    if not (isinstance(taper, (int, float)) and 4 * taper > road.length):
+        return taper
+    short = road.length / 4
+    warnings.warn(
+        RoadWarning(
+            f"road '{road.name}' is {road.length:.4g} m long: faded in and out over "
+            f"{short:.4g} m at each end instead of {taper:g} m (choose with taper_m, or "
+            "drive it repeated with repeat=True: it then fades in once)",
+            parameters=("taper_m", "repeat"),
+        ),
+        stacklevel=3,
+    )
+    return short
+
+
+def _warn_steep(road):
+    """Warn of a slope steeper than a tire follows on a road driven with point contact."""
+    from .profile import STEEP_SLOPE
+
+    steep, where = road.steepest()
+    if steep > STEEP_SLOPE:
         warnings.warn(
             RoadWarning(
-                f"road '{road.name}' is {road.length:.4g} m long: faded in and out over "
-                f"{short:.4g} m at each end instead of {taper:g} m (choose with taper_m, or "
-                "drive it repeated with repeat=True: it then fades in once)",
-                parameters=("taper_m", "repeat"),
+                f"road '{road.name}': its slope reaches {steep:.3g} m per m at {where:.4g} "
+                "m (a step, a joint or an edge), steeper than a tire follows; point "
+                "contact passes it to the wheel as it is (contact=tandem-cam envelops it)",
+                parameters=("contact",),
             ),
-            stacklevel=2,
+            stacklevel=3,
         )
-        taper = short
-    return TaperedRoad(road, road.length, taper)
 
 
 def road_handling(road: dict) -> str:

@@ -14,7 +14,11 @@
   comma is read as a point) or white space, with their units in the header
   (``distance_m,elevation_mm``; also ``distance [m]`` or ``Distance (M)``, any case) or
   given as ``units="m,mm"``. A file without a header starts with its numbers and is
-  read in metres (distance and elevation) unless ``units`` says otherwise.
+  read in metres (distance and elevation) unless ``units`` says otherwise. A header with
+  the columns ``elevation_left`` and ``elevation_right`` (in one unit,
+  ``distance_m,elevation_left_mm,elevation_right_mm``) makes a two-track profile: each
+  track of a car with left and right wheels its own column (``side``), both columns
+  checked alike (as long as each other, numbers throughout).
   Lines starting with ``#`` or ``%`` are comments; a UTF-8 byte-order mark and CRLF
   line ends are read as a text editor reads them.
 * **ERD** (UMTRI's text format for profiles, as RoadRuf and ProVAL write it): a
@@ -64,6 +68,7 @@ from .profile import ProfileRoad
 
 __all__ = [
     "load_profile",
+    "TRACK_COLUMNS",
     "PROFILE_EXTENSIONS",
     "LENGTH_UNITS",
     "MAX_MEDIAN_SLOPE",
@@ -94,6 +99,7 @@ def load_profile(
     path,
     *,
     track_m: float = 0.0,
+    side: int = 0,
     units: Optional[str] = None,
     envelope: bool = False,
     channel: int = 1,
@@ -110,6 +116,12 @@ def load_profile(
         ``.crg``, ``.csv``, ``.txt`` or ``.erd`` file.
     track_m : float
         OpenCRG: lateral offset from the reference line, m (positive to the left).
+    side : int
+        CSV and text: the track of a two-track profile (columns ``elevation_left`` and
+        ``elevation_right`` beside ``distance``): 1 or 0 the left, -1 the right; a
+        one-track profile's elevation whatever the side. Both tracks are checked.
+        OpenCRG: ``track_m`` is the track; a side names it in the messages (the left or
+        right wheels of a car, at ``track_m`` plus or minus half its track width).
     units : str, optional
         CSV, text and ERD: ``"DIST,ELEV"`` units, e.g. ``"m,mm"``, when the file does not
         name them (a file that names other units is refused).
@@ -154,31 +166,12 @@ def load_profile(
         raise BodyvibError(f"road file '{path}' does not exist")
     ext = os.path.splitext(path)[1].lower()
     base = os.path.basename(path)
-    if ext == ".crg":
-        if units is not None:
-            raise BodyvibError(
-                f"road '{base}': an OpenCRG file is in metres; drop '{option}'",
-                parameters=(option,),
-            )
-        x, z, info = _read_crg(path, float(track_m))
-    elif ext in (".csv", ".txt", ".erd"):
-        if track_m:
-            raise BodyvibError(
-                f"road '{base}': a {ext} file holds one profile; track_m "
-                "applies to OpenCRG files only",
-                parameters=("track_m",),
-            )
-        read = _read_erd if ext == ".erd" else _read_columns
-        x, z, info = read(path, units, channel, option)
-    else:
-        raise BodyvibError(
-            f"road '{path}': unknown kind of file '{ext}'; give an OpenCRG "
-            ".crg, a .csv or .txt profile or an .erd file (or an ISO 8608 class A-H, "
-            "'bump' or 'sweep')"
-        )
+    x, z, info = _read_any(path, ext, track_m, side, units, channel, option)
     spacing = _uniform(x, z, base)
     _check_units(z, spacing, base, ext == ".crg", option)
     name = base + (f" at {track_m:g} m" if ext == ".crg" else "")
+    if "track" in info:
+        name += f", {info['track']} track"
     return ProfileRoad(
         z,
         spacing,
@@ -187,6 +180,33 @@ def load_profile(
         contact=_tire(contact, spacing),
         periodic=periodic,
         info=dict(info, file=os.path.abspath(path), start_m=float(x[0])),
+    )
+
+
+def _read_any(path, ext, track_m, side, units, channel, option):
+    """Distances and heights (m) of a road file of any kind, and what was read."""
+    base = os.path.basename(path)
+    if ext == ".crg":
+        if units is not None:
+            raise BodyvibError(
+                f"road '{base}': an OpenCRG file is in metres; drop '{option}'",
+                parameters=(option,),
+            )
+        return _read_crg(path, float(track_m), side)
+    if ext in (".csv", ".txt", ".erd"):
+        if track_m:
+            raise BodyvibError(
+                f"road '{base}': track_m applies to OpenCRG files only (a lateral offset "
+                f"on a scanned surface), not to a {ext} profile",
+                parameters=("track_m",),
+            )
+        if ext == ".erd":
+            return _read_erd(path, units, channel, option)
+        return _read_columns(path, units, option, side)
+    raise BodyvibError(
+        f"road '{path}': unknown kind of file '{ext}'; give an OpenCRG "
+        ".crg, a .csv or .txt profile or an .erd file (or an ISO 8608 class A-H, "
+        "'bump' or 'sweep')"
     )
 
 
@@ -378,7 +398,17 @@ def _splitter(line):
     return lambda ln: re.sub(r"\s+(?=[\[(])", "", ln).split()
 
 
-def _read_columns(path, units, channel, option):
+#: Header names of a two-track profile's elevation columns, left then right.
+TRACK_COLUMNS = ("elevation_left", "elevation_right")
+
+
+def _read_columns(path, units, option, side=0):
+    """Distance and elevation (m) of a CSV or text profile, and what was read.
+
+    A header naming :data:`TRACK_COLUMNS` makes it a two-track profile: ``side`` 1 (or 0)
+    reads ``elevation_left``, -1 ``elevation_right``; both columns are checked either way.
+    Any other file's second column is the elevation of both tracks.
+    """
     base = os.path.basename(path)
     lines = _text_lines(path)
     rows = [
@@ -405,8 +435,14 @@ def _read_columns(path, units, channel, option):
                 f"road '{base}': the header '{rows[0][1].strip()}' needs two columns, "
                 "distance and elevation"
             )
-    named = [split_unit(h)[1] for h in head[:2]] if head else [None, None]
-    text = f"'{','.join(head[:2])}'" if head else "(none)"
+    cols = _track_columns(head, base) if head else None
+    picked = [0, 1] if cols is None else [0, cols[1] if side < 0 else cols[0]]
+    named = (
+        [split_unit(head[i], None if cols is None else LENGTH_UNITS)[1] for i in picked]
+        if head
+        else [None, None]
+    )
+    text = f"'{','.join(head[i] for i in picked)}'" if head else "(none)"
     scales = _scales(
         base,
         units,
@@ -416,28 +452,79 @@ def _read_columns(path, units, channel, option):
         f"the header {text} names no units; name them (distance_m,elevation_mm)",
         option,
     )
-    x, z = [], []
+    values = _numbers(base, data, split, [0, 1] if cols is None else [0, *cols])
+    if cols is not None:
+        _check_tracks(base, head, cols, data, values)
+        if len({split_unit(head[i], LENGTH_UNITS)[1] for i in cols}) > 1:
+            raise BodyvibError(
+                f"road '{base}': {head[cols[0]]} and {head[cols[1]]} name different units; "
+                "give both tracks' elevations in one unit"
+            )
+    x, z = values[:, 0], values[:, 1 if cols is None or side >= 0 else 2]
+    kind = "csv" if path.lower().endswith(".csv") else "text"
+    info = {"format": kind, "units": text.strip("'") if all(named) else units}
+    if cols is not None:
+        info["track"] = "right" if side < 0 else "left"
+    return x * scales[0], z * scales[1], info
+
+
+def _track_columns(head, base):
+    """Indices of a header's ``elevation_left`` and ``elevation_right``, or None (one track)."""
+    names = [split_unit(h, LENGTH_UNITS)[0].strip().lower() for h in head]
+    found = [names.index(c) if c in names else None for c in TRACK_COLUMNS]
+    if found == [None, None]:
+        return None
+    if None in found:
+        has, lacks = TRACK_COLUMNS if found[0] is not None else TRACK_COLUMNS[::-1]
+        raise BodyvibError(
+            f"road '{base}': the header names {has} but no {lacks} column; a two-track "
+            f"profile needs both {TRACK_COLUMNS[0]} and {TRACK_COLUMNS[1]} (a single "
+            "elevation column drives both tracks)"
+        )
+    return found
+
+
+def _numbers(base, data, split, columns):
+    """The rows' values in ``columns`` as a (rows, columns) array: an empty field is NaN,
+    and so is a row's missing third column (a two-track row that ends early)."""
+    out = np.full((len(data), len(columns)), math.nan)
     for k, (lineno, ln) in enumerate(data):
         f = split(ln)
         if len(f) < 2:
             last = k == len(data) - 1
             raise BodyvibError(
-                f"road '{base}': line {lineno} has {len(f)} field(s), not 2"
+                f"road '{base}': line {lineno} has {len(f)} field(s), not {max(columns) + 1}"
                 + ("; the file looks truncated: write it again" if last else "; fix the line")
             )
         try:
-            x.append(float(f[0]) if f[0] else math.nan)
-            z.append(float(f[1]) if f[1] else math.nan)
+            out[k] = [float(f[c]) if c < len(f) and f[c] else math.nan for c in columns]
         except ValueError:
+            count = "two" if len(columns) == 2 else "three"
             raise BodyvibError(
-                f"road '{base}': line {lineno} '{ln.strip()}' is not two numbers; fix the line"
+                f"road '{base}': line {lineno} '{ln.strip()}' is not {count} numbers; fix the line"
             ) from None
-    kind = "csv" if path.lower().endswith(".csv") else "text"
-    return (
-        np.array(x) * scales[0],
-        np.array(z) * scales[1],
-        {"format": kind, "units": f"{head[0]},{head[1]}" if all(named) else units},
-    )
+    return out
+
+
+def _check_tracks(base, head, cols, data, values):
+    """Refuse a two-track profile whose tracks differ in length or hold a NaN."""
+    present = [np.flatnonzero(np.isfinite(values[:, j])) for j in (1, 2)]
+    ends = [p[-1] + 1 if p.size else 0 for p in present]
+    if ends[0] != ends[1]:
+        short, long_ = (0, 1) if ends[0] < ends[1] else (1, 0)
+        raise BodyvibError(
+            f"road '{base}': {head[cols[short]]} has {ends[short]} values and "
+            f"{head[cols[long_]]} {ends[long_]}; both tracks need a value at every distance"
+        )
+    for j in (1, 2):
+        bad = np.flatnonzero(~np.isfinite(values[:, j]))
+        if bad.size:
+            i = int(bad[0])
+            raise BodyvibError(
+                f"road '{base}': {head[cols[j - 1]]} is not a number at line {data[i][0]} "
+                f"(distance {values[i, 0]:g}); fill the gap in both tracks or cut the "
+                "profile there"
+            )
 
 
 def _is_number(text) -> bool:
@@ -696,7 +783,7 @@ def _check_crg_structure(path, base):
             )
 
 
-def _read_crg(path, track):
+def _read_crg(path, track, side=0):
     base = os.path.basename(path)
     _check_crg_structure(path, base)
     require("reading an OpenCRG file", "roads")
@@ -708,10 +795,16 @@ def _read_crg(path, track):
             g = ds.grid()
             u, v = np.asarray(g.u, dtype=float), np.asarray(g.v, dtype=float)
             if not (v.min() - 1e-9 <= track <= v.max() + 1e-9):
+                where = (
+                    f"the car's {'left' if side > 0 else 'right'} wheels run at {track:g} m "
+                    f"(track_m {'plus' if side > 0 else 'minus'} half the car's track width)"
+                    if side
+                    else f"track_m={track:g} m is"
+                )
                 raise BodyvibError(
-                    f"road '{base}': track_m={track:g} m is off the road "
-                    f"(it spans {v.min():g} to {v.max():g} m from the reference "
-                    "line); choose a track on it",
+                    f"road '{base}': {where} off the road (it spans {v.min():g} to "
+                    f"{v.max():g} m from the reference line); choose a track_m that keeps "
+                    + ("both of the car's tracks on it" if side else "the track on it"),
                     parameters=("track_m",),
                 )
             end = (ds.header.road or {}).get("reference_line_end_u")

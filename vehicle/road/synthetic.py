@@ -54,6 +54,7 @@ __all__ = [
     "two_track_road",
     "road_source",
     "axle_road_source",
+    "wheel_road_source",
     "road_table",
     "lead_in_period",
     "make_road",
@@ -975,9 +976,9 @@ def axle_road_source(
 
     Two profiles over the front wheel's distance: the road under the front wheel and the
     road under the rear wheel, ``wheelbase`` behind it (level before the road begins
-    under it). The rows are spaced so that the wheelbase is a whole number of rows and
-    the rear column is the front column moved down by that many rows: the rear signal is
-    the front signal's own interpolant, delayed, exactly.
+    under it): :func:`wheel_road_source` with one track and the wheels ``front`` and
+    ``rear``. The rear column is the front column moved down by the whole number of rows
+    in a wheelbase: the rear signal is the front signal's own interpolant, delayed, exactly.
 
     Parameters
     ----------
@@ -1012,42 +1013,108 @@ def axle_road_source(
     >>> bool((table.value[k:, 1] == table.value[:-k, 0]).all())
     True
     """
+    _check_positive(wheelbase, "wheelbase", "m")
+    return wheel_road_source(
+        {"front": (road, 0.0), "rear": (road, wheelbase)}, length, speed, spacing
+    )
+
+
+def wheel_road_source(wheels: dict, length: float, speed: float = 20.0, spacing: float = None):
+    """The source description and table of a road FMU with a road pair per wheel.
+
+    ``RoadFrontRear.fmu`` (a front and a rear wheel on one track) and ``RoadFourWheel.fmu``
+    (a full car's four wheels on a left and a right track). Every column is over the first
+    wheel's distance ``x``: wheel ``w`` sees its track at ``x - behind_w`` (level before
+    the track begins under it). The rows are spaced so that the largest distance behind
+    (the wheelbase) is a whole number of rows, and a wheel that many rows behind another on
+    the same track gets that wheel's column moved down by those rows: the rear signal is
+    the front signal's own interpolant, delayed, exactly.
+
+    Parameters
+    ----------
+    wheels : dict of str to (Road, float)
+        Wheel suffix (``front_left``, the FMU's outputs are ``road_displacement_<suffix>``
+        and ``road_velocity_<suffix>``) -> its track and its distance behind the first
+        wheel, m (``0`` for the first), in output order.
+    length : float
+        Table extent, m (extended to a whole number of rows).
+    speed : float
+        Default of the FMU's ``speed`` parameter, m/s.
+    spacing : float, optional
+        Largest row spacing, m (default :func:`table_spacing` of the first track).
+
+    Returns
+    -------
+    meta : dict
+        For :func:`bodyvib.fmu.pythonfmu.build_source_fmu`.
+    table : bodyvib.runtime.tabulated.HermiteTable
+        A column per wheel; not periodic (beyond the table every profile holds its end
+        value).
+
+    Raises
+    ------
+    BodyvibError
+        A length or spacing that is not a positive number, a negative distance behind.
+
+    Examples
+    --------
+    >>> bump = make_road("bump", 10.0, 4.0)
+    >>> meta, table = wheel_road_source({"a": (bump, 0.0), "b": (bump, 1.5)}, 40.0)
+    >>> [s["name"] for s in meta["signals"]]
+    ['road_displacement_a', 'road_displacement_b']
+    """
     from bodyvib.runtime.tabulated import HermiteTable
 
-    _check_positive(wheelbase, "wheelbase", "m")
     _check_positive(length, "road table length", "m")
-    largest = table_spacing(road) if spacing is None else spacing
+    tracks = [road for road, _ in wheels.values()]
+    largest = table_spacing(tracks[0]) if spacing is None else spacing
     _check_positive(largest, "road table spacing", "m")
-    per_wheelbase = int(math.ceil(wheelbase / largest - 1e-9))
-    dx = wheelbase / per_wheelbase  # a whole number of rows per wheelbase
+    behind = [float(b) for _, b in wheels.values()]
+    if any(not (math.isfinite(b) and b >= 0) for b in behind):
+        raise BodyvibError(
+            f"a wheel must be a non-negative distance behind the first, got {behind}"
+        )
+    wheelbase = max(behind)
+    dx = wheelbase / math.ceil(wheelbase / largest - 1e-9) if wheelbase > 0 else largest
     rows = int(math.ceil(length / dx - 1e-9)) + 1
     x = np.arange(rows) * dx
-    front, slope = road.displacement(x), road.slope(x)
-    rear, rear_slope = np.zeros(rows), np.zeros(rows)
-    rear[per_wheelbase:], rear_slope[per_wheelbase:] = (
-        front[:-per_wheelbase],
-        slope[:-per_wheelbase],
-    )
-    table = HermiteTable(x, np.column_stack([front, rear]), np.column_stack([slope, rear_slope]))
-    meta, _ = road_source(road, length, speed, spacing)
+    columns = {}  # (track, rows behind) -> (heights, slopes)
+    z, s = np.zeros((rows, len(wheels))), np.zeros((rows, len(wheels)))
+    for j, (road, b) in enumerate(wheels.values()):
+        k = int(round(b / dx))
+        if abs(k * dx - b) > 1e-9 * max(1.0, b):  # not a whole number of rows
+            ahead = x >= b
+            z[ahead, j], s[ahead, j] = road.displacement(x[ahead] - b), road.slope(x[ahead] - b)
+            continue
+        if id(road) not in columns:
+            columns[id(road)] = (road.displacement(x), road.slope(x))
+        zr, sr = columns[id(road)]
+        z[k:, j], s[k:, j] = zr[: rows - k], sr[: rows - k]
+    table = HermiteTable(x, z, s)
+    meta, _ = road_source(tracks[0], length, speed, spacing)
+    distinct = list({id(road): road for road in tracks}.values())
+    names = list(dict.fromkeys(road.name for road in distinct))
     meta["description"] = (
-        f"{road.name} under a front and a rear wheel {wheelbase:g} m behind it, "
-        f"{table.length:g} m tabulated every {dx:g} m (heights and exact slopes, cubic "
+        f"{' and '.join(names)} under the wheels "
+        + ", ".join(f"{w} {b:g} m behind the first" for w, b in zip(wheels, behind) if b)
+        + f"; {table.length:g} m tabulated every {dx:g} m (heights and exact slopes, cubic "
         "Hermite between rows); beyond the table the profiles hold their end values"
     )
     meta["signals"] = [
         {
-            "name": f"road_displacement_{axle}",
+            "name": f"road_displacement_{w}",
             "unit": "m",
-            "description": f"Road profile height under the {axle} wheel (z up)",
+            "description": f"Road profile height under the {w.replace('_', ' ')} wheel (z up)",
             "rate": {
-                "name": f"road_velocity_{axle}",
+                "name": f"road_velocity_{w}",
                 "unit": "m/s",
-                "description": f"Time derivative of road_displacement_{axle} (speed * "
+                "description": f"Time derivative of road_displacement_{w} (speed * "
                 "profile slope of the same interpolant)",
             },
         }
-        for axle in ("front", "rear")
+        for w in wheels
     ]
-    meta["provenance"] = dict(meta["provenance"], wheelbase_m=float(wheelbase))
+    meta["provenance"] = dict(meta["provenance"], wheelbase_m=wheelbase)
+    if len(distinct) > 1:
+        meta["provenance"]["tracks"] = [road.describe() for road in distinct]
     return meta, table
