@@ -65,6 +65,7 @@ from .description import (
     validate_fmu_file,
     write_model_description,
 )
+from .native_regimes import RegimeData, c_regime_lines, constant_stencils, regime_data
 
 __all__ = [
     "NATIVE_SOURCES",
@@ -96,6 +97,8 @@ NATIVE_SOURCES = (
     "bodyvib_linalg.h",
     "bodyvib_linalg.c",
     "bodyvib_instance.h",
+    "bodyvib_regimes.h",
+    "bodyvib_regimes.c",
     "bodyvib_assembly.c",
     "bodyvib_state.c",
     "bodyvib_core.c",
@@ -208,6 +211,14 @@ class NativeModel:
         derivative ``(A x + B U s)_i`` depends on.
     stop_time : float
         The DefaultExperiment's stop time, s.
+    regimes : RegimeData or None
+        A nonlinear network's regimes (:mod:`bodyvib.fmu.native_regimes`); None: linear.
+    out_flag : tuple of int
+        Per FMU output: the nonlinear element whose contact flag it is, or -1.
+    point_rows : tuple of tuple of int
+        Per nonlinear element: its points' position and velocity rows (``from.x``,
+        ``from.v``, ``to.x``, ``to.v``): an index into ``rows``, or ``-1 - i`` for
+        model input ``i`` (a base).
     """
 
     name: str
@@ -234,6 +245,9 @@ class NativeModel:
     output_state_deps: Tuple[Tuple[int, ...], ...] = ()
     derivative_deps: Tuple[Tuple[Tuple[int, ...], Tuple[int, ...]], ...] = ()
     stop_time: float = MODEL_STOP_TIME
+    regimes: Optional[RegimeData] = None
+    out_flag: Tuple[int, ...] = ()
+    point_rows: Tuple[Tuple[int, ...], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -434,17 +448,28 @@ def native_model(kind: str, network: Network, name: str, description: str = "") 
     iface = core.interface
     variables = list(core.variables)
     ni, no = len(iface.inputs), len(iface.outputs)
-    lm = descriptor_model(network).solve()
+    par_vrs = tuple(vr for vr, v in enumerate(variables) if v.causality == "parameter")
+    params = [variables[vr].name for vr in par_vrs]
+    rd = None
+    if network.nonlinear_elements:
+        rd = regime_data(network, params, descriptor_model(linearized(network)).states)
+    lm = descriptor_model(rd.network if rd else network).solve()
     derivative = [sig.startswith(RATE_PREFIX) for sig in iface.output_signals]
+    names = [el.name for el in network.nonlinear_elements]
+    # a contact's flag (<contact>.contact) is the regime's constant, on no row
+    flags = [
+        names.index(sig[: -len(".contact")]) if sig.endswith(".contact") else -1
+        for sig in iface.output_signals
+    ]
     signals = [
-        lm.output_index(sig[len(RATE_PREFIX) :] if d else sig)
-        for sig, d in zip(iface.output_signals, derivative)
+        0 if f >= 0 else lm.output_index(sig[len(RATE_PREFIX) :] if d else sig)
+        for sig, d, f in zip(iface.output_signals, derivative, flags)
     ]
     out_vrs = list(range(ni, ni + no))
-    rows = tuple(dict.fromkeys(signals))
+    probes = [p for pts in (rd.points if rd else ()) for p in pts if p not in lm.inputs]
+    rows = tuple(dict.fromkeys(signals + [lm.output_index(p) for p in probes]))
     kinds, index = [0] * len(variables), [0] * len(variables)
     in_vrs = tuple(range(ni))
-    par_vrs = tuple(vr for vr, v in enumerate(variables) if v.causality == "parameter")
     for i, vr in enumerate(in_vrs):
         kinds[vr], index[vr] = 0, i
     for i, vr in enumerate(out_vrs):
@@ -452,8 +477,9 @@ def native_model(kind: str, network: Network, name: str, description: str = "") 
     for i, vr in enumerate(par_vrs):
         kinds[vr], index[vr] = 2, i
     pairs = [(i, j, True) for i, j in iface.slope_fallback]
-    params = [variables[vr].name for vr in par_vrs]
-    stencils = _stencils(network, params, rows)
+    stencils = (
+        _stencils(network, params, rows) if rd is None else _regime_stencils(rd, params, rows)
+    )
     # direct dependencies (feedthrough): the core's, as the pythonfmu FMU declares them
     U = iface.input_map
     R = iface.rate_matrix()
@@ -492,7 +518,31 @@ def native_model(kind: str, network: Network, name: str, description: str = "") 
         states=tuple(lm.states),
         output_state_deps=tuple(tuple(int(j) for j in np.nonzero(row)[0]) for row in out_state),
         derivative_deps=der_deps,
+        regimes=rd,
+        out_flag=tuple(flags),
+        point_rows=tuple(
+            tuple(
+                -1 - lm.inputs.index(p) if p in lm.inputs else rows.index(lm.output_index(p))
+                for p in pts
+            )
+            for pts in (rd.points if rd else ())
+        ),
     )
+
+
+def _regime_stencils(rd: RegimeData, params: Sequence[str], rows: Sequence[int]) -> List[Stencil]:
+    """The stencils of a nonlinear network's regimes (:mod:`bodyvib.fmu.native_regimes`): in
+    the order the pseudo-parameters take, indexed as the core holds them (the FMU's
+    parameters, then three pseudo-parameters per nonlinear element)."""
+    col = {p: j for j, p in enumerate(params)}
+    col.update({p: len(params) + j for j, p in enumerate(rd.pseudo)})
+    raw = _stencils(rd.network, rd.order, rows)
+
+    def at(j: int) -> int:
+        return -1 if j < 0 else col[rd.order[j]]
+
+    out = [(at(a), at(b), at(c), k, r, q, v) for a, b, c, k, r, q, v in raw]
+    return out + constant_stencils(rd, rows, col)
 
 
 def _c_string(text: str) -> str:
@@ -554,8 +604,11 @@ def model_source(nm: NativeModel, token: str) -> str:
     lines += [
         f"    {{{j1}, {j2}, {j3}, {k}, {r}, {c}, {v!r}}}," for j1, j2, j3, k, r, c, v in nm.stencils
     ]
+    lines += ["};"]
+    if nm.regimes is not None:
+        inputs = descriptor_model(nm.regimes.network).inputs
+        lines += c_regime_lines(nm.regimes, nm.out_flag, nm.point_rows, inputs)
     lines += [
-        "};",
         "",
         "const bv_model bv_model_data = {",
         f"    {_c_string(nm.name)}, {_c_string(token)},",
@@ -564,6 +617,14 @@ def model_source(nm: NativeModel, token: str) -> str:
         "    vr_kind, vr_index, vr_name, param_unit, param_start, U, R,",
         f"    {len(nm.pairs)}, pairs, out_row, out_derivative,",
         f"    {len(nm.stencils)}, stencils,",
+    ]
+    if nm.regimes is not None:
+        lines += [
+            f"    {len(nm.regimes.elements)}, nl, grav, {len(nm.regimes.loads)}, loads, out_flag,"
+        ]
+    else:
+        lines += ["    0, 0, 0, 0, 0, 0,"]
+    lines += [
         "};",
         "",
     ]
@@ -802,8 +863,8 @@ def build_native_fmu(
     Path
         The FMU written, ``dest/<name>.fmu``: FMI ``fmi``.0, co-simulation and Model
         Exchange, binaries for ``platforms`` and its C sources. A model with contacts,
-        stops or asymmetric dampers is built linearized
-        (:func:`bodyvib.runtime.network.linearized`): the C core does not step regimes.
+        stops or asymmetric dampers steps its regimes with located events in
+        co-simulation (:mod:`bodyvib.fmu.native_regimes`).
 
     Raises
     ------
@@ -819,8 +880,6 @@ def build_native_fmu(
     ...                  "dist/native/fmi3", fmi=3, platforms=["linux64"])  # doctest: +SKIP
     PosixPath('dist/native/fmi3/HumanBody3DOF.fmu')
     """
-    # the C core steps linear models: a car's contacts and stops run linearized there
-    network = linearized(network)
     nm = native_model(kind, network, name, description)
     return package_native_fmu(
         nm, lambda token: model_source(nm, token), model_resources(network), dest, fmi, platforms

@@ -10,6 +10,7 @@
 
 #include "bodyvib_fsm.h"
 #include "bodyvib_linalg.h"
+#include "bodyvib_regimes.h"
 
 struct bv_instance {
     bv_common bc;       /* first (BV_STATE_IS): state, model, name, logger, time, flags */
@@ -39,6 +40,7 @@ struct bv_instance {
     /* scratch */
     double *zn, *work;
     int *piv;
+    struct bv_regimes *rg; /* a nonlinear model's regimes (bodyvib_regimes.c); else NULL */
 };
 
 /* The model on the hot path (bv_set, bv_step, bv_get): this binary's, bv_model_data, read
@@ -58,6 +60,11 @@ const char *bv_var_name(const bv_model *md, int kind, int index);
 /* Every parameter of p positive and finite; else 0, the reason in c->bc.init_error unless
  * quiet. */
 int bv_params_valid(const bv_instance *c, const double *p, int quiet);
+/* Assemble the model for the parameters pe (a nonlinear model's: np + 3 ne, the pseudo-
+ * parameters of a regime) into A, B, Yc (and af's constants if not NULL); 0 if E is singular
+ * or a matrix is not finite. */
+int bv_assemble(bv_instance *c, const double *pe, double *A, double *B, double *Yc,
+                bv_affine *af);
 /* Assemble the descriptor form for p, solve it, form the output rows; 0 if E is singular. */
 int bv_build(bv_instance *c, const double *p);
 /* The step matrices for h (Sc, Ms), cached by h rounded to 12 digits; 0 if not finite. */
