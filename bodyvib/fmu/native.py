@@ -135,9 +135,20 @@ PLATFORMS = {
 }
 #: Flags of every platform. ``-flto``: the FMI wrappers, the shared calls and the core inline
 #: into one function per FMI call, and the model's sizes are constants on the step's hot path
-#: (bodyvib_core.c reads them from the binary's own model). benchmarks/bench_native_step.py
+#: (bodyvib_core.c reads them from the binary's own model); ``-flto-partition=one`` keeps
+#: the whole FMU one unit for that (and spares mingw's note on serial LTRANS jobs).
+#: benchmarks/bench_native_step.py
 #: compiles its plain loop with the same code-generation flags.
-COMMON_FLAGS = ["-std=c99", "-O2", "-flto", "-shared", "-Wall", "-Wextra", "-Wno-unused-parameter"]
+COMMON_FLAGS = [
+    "-std=c99",
+    "-O2",
+    "-flto",
+    "-flto-partition=one",
+    "-shared",
+    "-Wall",
+    "-Wextra",
+    "-Wno-unused-parameter",
+]
 
 #: Output derivative orders fmi2GetRealOutputDerivatives / fmi3GetOutputDerivatives give
 #: (bodyvib_core.h, BV_MAX_OUTPUT_ORDER).
@@ -484,15 +495,23 @@ def native_model(kind: str, network: Network, name: str, description: str = "") 
     U = iface.input_map
     R = iface.rate_matrix()
     deps = [tuple(in_vrs[i] for i in d) for d in core.output_dependencies()]
-    # model exchange: outputs on the states, derivatives A x + B U s
-    out_state = [lm.C[r] @ lm.A if d else lm.C[r] for r, d in zip(signals, derivative)]
-    BU = lm.B @ U
+    # model exchange: outputs on the states, derivatives A x + B U s (of a nonlinear model,
+    # what any regime's depend on: every element engaged; a contact flag on nothing)
+    dm = lm
+    if rd is not None:
+        engaged = {p: 1.0 for p in rd.pseudo}
+        dm = descriptor_model(rd.network.with_parameters(**engaged)).solve()
+    out_state = [
+        0 * dm.C[0] if f >= 0 else dm.C[r] @ dm.A if d else dm.C[r]
+        for r, d, f in zip(signals, derivative, flags)
+    ]
+    BU = dm.B @ U
     der_deps = tuple(
         (
-            tuple(int(j) for j in np.nonzero(lm.A[i])[0]),
+            tuple(int(j) for j in np.nonzero(dm.A[i])[0]),
             tuple(in_vrs[j] for j in range(ni) if BU[i, j] != 0.0),
         )
-        for i in range(lm.A.shape[0])
+        for i in range(dm.A.shape[0])
     )
     return NativeModel(
         name=name,
@@ -748,6 +767,19 @@ def native_description(nm: NativeModel, token: str, fmi: int) -> ModelDescriptio
         states=nm.states,
         output_state_dependencies=nm.output_state_deps,
         derivative_dependencies=nm.derivative_deps,
+        event_indicators=_switches(nm),
+    )
+
+
+def _switches(nm: NativeModel) -> Tuple[str, ...]:
+    """The switching functions' names (``<element>.<side>``), in the core's order."""
+    if nm.network is None or nm.regimes is None:
+        return ()
+    sides = {"contact": ("contact",), "stop": ("compression", "rebound")}
+    return tuple(
+        f"{el.name}.{side}"
+        for el in nm.network.nonlinear_elements
+        for side in sides.get(el.kind, ("rate",))
     )
 
 

@@ -234,7 +234,8 @@ static int is_me_var(const bv_instance *c, unsigned int vr)
 {
     unsigned int first = (unsigned int)BV_STATE_VR(HOT, 0);
     (void)c;
-    return vr >= first && vr < first + 2u * (unsigned int)HOT->n;
+    return vr >= first && vr < first + 2u * (unsigned int)HOT->n +
+                                    (HOT->ne ? (unsigned int)c->rg->nsw : 0u);
 }
 
 #define check_vr(c, vr) bv_common_check_vr(&(c)->bc, (vr))
@@ -802,6 +803,8 @@ static int me_var_get(bv_instance *c, unsigned int vr, double *value)
         return -1;
     if (vr < first + (unsigned int)c->n) {
         *value = c->x[vr - first];
+    } else if (vr >= first + 2u * (unsigned int)c->n) { /* an event indicator */
+        *value = bv_rg_indicator(c, (int)(vr - first) - 2 * c->n);
     } else {
         follow_parameters(c);
         *value = derivative_value(c, (int)(vr - first) - c->n);
@@ -814,7 +817,8 @@ static int me_var_set(bv_instance *c, unsigned int vr, double value)
     const bv_model *md = c->bc.md;
     unsigned int first = (unsigned int)BV_STATE_VR(md, 0);
     if (vr >= first + (unsigned int)c->n) {
-        say(c, BV_ERROR, "%s: a state derivative (value reference %u) is calculated and cannot "
+        say(c, BV_ERROR, "%s: a state derivative or an event indicator (value reference %u) is "
+                         "calculated and cannot "
                          "be set (ignored)", c->bc.name, vr);
         return BV_ERROR;
     }
@@ -874,3 +878,14 @@ bv_status bv_directional(bv_instance *c, const unsigned int unknowns[], size_t n
     }
     return BV_OK;
 }
+
+/* ---------------------------------------------------------------- event indicators */
+
+void bv_me_event_indicators(bv_instance *c, double z[])
+{
+    int i;
+    for (i = 0; c->rg != NULL && i < c->rg->nsw; i++)
+        z[i] = bv_rg_indicator(c, i);
+}
+
+int bv_me_update_regime(bv_instance *c) { return c->rg != NULL && bv_rg_update(c); }

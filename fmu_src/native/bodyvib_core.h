@@ -203,6 +203,14 @@ bv_status bv_state_read(bv_instance *c, const unsigned char *buffer, size_t size
 #define BV_DER_VR(md, i) ((md)->nvars + 1 + (md)->n + (i))
 
 int bv_me_nstates(const bv_instance *c); /* the model's n (0 for a source) */
+/* Event indicators (a nonlinear model's switching functions, bodyvib_regimes.h; none for a
+ * linear model or a source): their number; their values at the current time, states and
+ * inputs; in Event Mode, the regime taken from their signs (1 if it changed). FMI 3.0 also
+ * declares them as variables, value references BV_EVENT_VR(md, i) after the derivatives. */
+int bv_me_nevents(const bv_instance *c);
+void bv_me_event_indicators(bv_instance *c, double z[]);
+int bv_me_update_regime(bv_instance *c);
+#define BV_EVENT_VR(md, i) ((md)->nvars + 1 + 2 * (md)->n + (i))
 void bv_me_set_time(bv_instance *c, double t);
 /* The continuous states and their derivatives, bv_me_nstates values each (the caller,
  * bodyvib_calls.c, checked the host's count). */

@@ -671,6 +671,36 @@ done:
     return BV_OK;
 }
 
+/* ---------------------------------------------------------------- model exchange */
+
+double bv_rg_indicator(const bv_instance *c, int i)
+{
+    const int w = c->n + c->ni;
+    return bv_dot(c->rg->Gz + (size_t)i * w, c->x, w) + c->rg->g0[i]; /* x, s contiguous */
+}
+
+int bv_rg_update(bv_instance *c)
+{
+    bv_regimes *rg = c->rg;
+    unsigned long mask = 0UL;
+    int i;
+    bv_matvec(rg->ub, c->bc.md->U, c->s, c->m, c->ni);
+    bv_matvec(rg->du, c->UR, c->s, c->m, c->ni);
+    for (i = 0; i < rg->nsw; i++) {
+        double g = bv_rg_indicator(c, i);
+        /* at a located root g is zero but for the solver's tolerance: its rate decides */
+        if (fabs(g) <= 1e-9 * fabs(rg->g0[i]))
+            g = g_rate(c, rg->cur, i, c->x, rg->ub);
+        if (g > 0.0)
+            mask |= 1UL << i;
+    }
+    if (mask == rg->mask)
+        return 0;
+    if (select_regime(c, mask) == NULL)
+        return 0;
+    return 1;
+}
+
 /* ---------------------------------------------------------------- serialized state */
 
 size_t bv_rg_state_doubles(const bv_instance *c) { return 1 + 2 * (size_t)c->rg->nsw; }

@@ -95,6 +95,10 @@ int bv_rg_discretize(bv_instance *c);
 /* After the step to z_new = [x | s] at t + h: the sign test, and the events if it fails.
  * BV_OK (z_new's x may be rewritten) or the refusal (the regime as it was). */
 bv_status bv_rg_finish(bv_instance *c, double t, double h, double *znew);
+/* Model exchange: switching function i at the current state and inputs; the regime of their
+ * signs taken (a function within rounding of 0 by the sign of its rate), 1 if it changed. */
+double bv_rg_indicator(const bv_instance *c, int i);
+int bv_rg_update(bv_instance *c);
 /* The serialized regime (mask, g at the last two steps): its size in doubles, written at q
  * (returns past it), checked, read (after the model is built: the regime assembled and
  * discretized). */
