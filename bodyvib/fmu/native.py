@@ -98,6 +98,7 @@ NATIVE_SOURCES = (
     "bodyvib_linalg.c",
     "bodyvib_instance.h",
     "bodyvib_regimes.h",
+    "bodyvib_regimes_hot.h",
     "bodyvib_regimes.c",
     "bodyvib_assembly.c",
     "bodyvib_state.c",

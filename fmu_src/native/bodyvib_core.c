@@ -502,6 +502,7 @@ BV_HOT_INLINE bv_status advance(bv_instance *c, double t, double h)
     int i;
     if (HOT->ne) { /* the regime in force: its step and its affine column */
         const bv_regime *r = c->rg->cur;
+        bv_rg_ahead(c, c->x); /* the switching functions at the step's end */
         bv_matvec(zn, r->S, c->x, n, w);
         if (r->affine)
             for (i = 0; i < n; i++)

@@ -49,6 +49,9 @@ struct bv_instance {
  * loops of a step are compiled for the model's sizes. bv_new accepts this model only. */
 #define HOT (&bv_model_data)
 
+/* The sign test of a nonlinear model's step (inline: it reads HOT). */
+#include "bodyvib_regimes_hot.h"
+
 /* Messages. */
 #define say(c, ...) bv_say(&(c)->bc, __VA_ARGS__)
 #define shortest bv_shortest

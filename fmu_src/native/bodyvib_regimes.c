@@ -28,8 +28,10 @@ static double *take(double **d, size_t k)
     return p;
 }
 
-static void regime_buffers(bv_regime *r, double **d, int n, int m, int ni, int no)
+static void regime_buffers(bv_regime *r, double **d, int n, int m, int ni, int no, int nsw)
 {
+    r->P = take(d, (size_t)nsw * (n + ni));
+    r->pb = take(d, (size_t)nsw);
     r->A = take(d, (size_t)n * n);
     r->B = take(d, (size_t)n * m);
     r->b = take(d, (size_t)n);
@@ -39,9 +41,9 @@ static void regime_buffers(bv_regime *r, double **d, int n, int m, int ni, int n
     r->gb = take(d, (size_t)n);
 }
 
-static size_t regime_doubles(int n, int m, int ni, int no)
+static size_t regime_doubles(int n, int m, int ni, int no, int nsw)
 {
-    return (size_t)n * n + (size_t)n * m + 2 * (size_t)n + (size_t)no * (n + ni) + no +
+    return (size_t)nsw * (n + ni + 1) + (size_t)n * n + (size_t)n * m + 2 * (size_t)n + (size_t)no * (n + ni) + no +
            (size_t)n * (n + ni);
 }
 
@@ -70,8 +72,8 @@ int bv_rg_new(bv_instance *c)
         return 0;
     }
     total = (size_t)c->np + 3 * (size_t)ne + 2 * (size_t)ne + 2 * (size_t)nsw * (wm + w) +
-            2 * (size_t)nsw + 4 * (size_t)ne * wm + n + 2 * (size_t)no + 3 * (size_t)nsw +
-            (BV_RG_CACHE + 1) * regime_doubles(n, m, ni, no) + 4 * (size_t)n + 4 * (size_t)m +
+            2 * (size_t)nsw + 4 * (size_t)ne * wm + n + 2 * (size_t)no + 4 * (size_t)nsw +
+            (BV_RG_CACHE + 1) * regime_doubles(n, m, ni, no, nsw) + 4 * (size_t)n + 4 * (size_t)m +
             5 * (size_t)nsw + (size_t)n * ni + (size_t)n * n + 2 * (size_t)n * m + n +
             11 * (size_t)N * N;
     rg = calloc(1, sizeof *rg);
@@ -104,9 +106,10 @@ int bv_rg_new(bv_instance *c)
     rg->lin_b = take(&d, n), rg->lin_y0 = take(&d, no);
     rg->lin_af.b = rg->lin_b, rg->lin_af.y0 = take(&d, no), rg->lin_af.probe = rg->probe;
     rg->g_prev = take(&d, nsw), rg->g_now = take(&d, nsw), rg->ge = take(&d, nsw);
+    rg->sign = take(&d, nsw);
     for (k = 0; k < BV_RG_CACHE; k++)
-        regime_buffers(&rg->cache[k], &d, n, m, ni, no);
-    regime_buffers(&rg->lin, &d, n, m, ni, no); /* unused: the linear regime aliases c's */
+        regime_buffers(&rg->cache[k], &d, n, m, ni, no, nsw);
+    regime_buffers(&rg->lin, &d, n, m, ni, no, nsw); /* its own P, pb; the rest aliases c's */
     scratch_buffers(rg, &d, n, m, ni, N);
     return 1;
 }
@@ -284,7 +287,8 @@ void bv_rg_built(bv_instance *c)
     memcpy(rg->lin_y0, rg->lin_af.y0, (size_t)c->no * sizeof(double));
     flags(c, rg->linear_mask, rg->lin_y0);
     rg->lin.A = c->A, rg->lin.B = c->B, rg->lin.b = rg->lin_b, rg->lin.gb = rg->lin_b;
-    rg->lin.Y = c->Yc, rg->lin.y0 = rg->lin_y0, rg->lin.S = c->Sc;
+    rg->lin.Y = c->Yc, rg->lin.y0 = rg->lin_y0, rg->lin.S = c->Sc, rg->lin.key = 0.0;
+    rg->lin.h = NAN;
     rg->lin.mask = rg->linear_mask, rg->lin.valid = 1, rg->lin.affine = 0;
     for (k = 0; k < BV_RG_CACHE; k++)
         rg->cache[k].valid = 0;
@@ -334,10 +338,12 @@ static bv_regime *select_regime(bv_instance *c, unsigned long mask)
         r->affine = 0;
         for (k = 0; k < c->n; k++)
             r->affine |= r->b[k] != 0.0;
-        r->mask = mask, r->key = 0.0, r->valid = 1;
+        r->mask = mask, r->key = 0.0, r->h = NAN, r->valid = 1;
     }
     rg->mask = mask;
     rg->cur = r;
+    for (k = 0; k < rg->nsw; k++)
+        rg->sign[k] = bit(mask, k) ? 1.0 : -1.0;
     return r;
 }
 
@@ -375,13 +381,39 @@ static int exact(bv_instance *c, const bv_regime *r, double tau)
     return 1;
 }
 
+/* P = Gx S + [0 | Gs Ms] and pb = Gx gb of regime r (the inputs' Ms: the step's h). */
+static void end_functions(bv_instance *c, bv_regime *r)
+{
+    const bv_regimes *rg = c->rg;
+    int n = c->n, ni = c->ni, w = n + ni, i, j, k;
+    for (i = 0; i < rg->nsw; i++) {
+        const double *g = rg->Gz + (size_t)i * w;
+        double *p = r->P + (size_t)i * w, v = 0.0;
+        for (j = 0; j < w; j++) {
+            double a = 0.0;
+            for (k = 0; k < n; k++)
+                a += g[k] * r->S[(size_t)k * w + j];
+            for (k = 0; j >= n && k < ni; k++)
+                a += g[n + k] * c->Ms[(size_t)k * ni + (j - n)];
+            p[j] = a;
+        }
+        for (k = 0; k < n; k++)
+            v += g[k] * (r->affine ? r->gb[k] : 0.0);
+        r->pb[i] = v;
+    }
+    r->h = c->h_raw;
+}
+
 int bv_rg_discretize(bv_instance *c)
 {
     bv_regimes *rg = c->rg;
     bv_regime *r = rg->cur;
     int n = c->n, m = c->m, ni = c->ni, w = n + ni, i, j;
-    if (r == &rg->lin || r->key == c->h_key)
+    if (r == &rg->lin || r->key == c->h_key) {
+        if (r->h != c->h_raw) /* the same matrices, a new h for the inputs' Ms */
+            end_functions(c, r);
         return 1;
+    }
     if (!exact(c, r, c->h_key))
         return 0;
     for (i = 0; i < n; i++)
@@ -398,52 +430,29 @@ int bv_rg_discretize(bv_instance *c)
         r->gb[i] = rg->gbt[i];
     }
     r->key = c->h_key;
+    end_functions(c, r);
     return 1;
 }
 
 /* ---------------------------------------------------------------- the sign test */
 
-/* Nothing switches in a step whose end has the functions' values ge: each keeps its sign,
- * and no parabola through its last three values dips across zero inside the step. */
-static int clear(const bv_regimes *rg)
+/* (The sign test itself is inline on the hot path: bodyvib_regimes_hot.h.) */
+
+static void accept(bv_regimes *rg) { bv_rg_accept(rg); }
+
+int bv_rg_clear_exact(const bv_regimes *rg)
 {
     int i;
     for (i = 0; i < rg->nsw; i++) {
-        double gm = rg->g_prev[i], g0 = rg->g_now[i], g1 = rg->ge[i], a;
-        if (!bit(rg->mask, i))
-            gm = -gm, g0 = -g0, g1 = -g1;
+        double sg = rg->sign[i];
+        double gm = sg * rg->g_prev[i], g0 = sg * rg->g_now[i], g1 = sg * rg->ge[i];
+        double a = 0.5 * (g1 + gm) - g0, d = gm - g1;
         if (g1 < 0.0)
             return 0;
-        a = 0.5 * (g1 + gm) - g0; /* p(s) = g0 + b s + a s^2 through s = -1, 0, 1 */
-        if (a > 0.0) {
-            double mid = 0.5 * (gm - g1) / (2.0 * a);
-            if (0.0 < mid && mid < 1.0 && g0 - a * mid * mid < 0.0)
-                return 0;
-        }
+        if (a > 0.0 && d > 0.0 && d < 4.0 * a && 16.0 * a * g0 < d * d)
+            return 0;
     }
     return 1;
-}
-
-static void accept(bv_regimes *rg)
-{
-    double *t = rg->g_prev;
-    rg->g_prev = rg->g_now, rg->g_now = rg->ge, rg->ge = t;
-}
-
-static bv_status events(bv_instance *c, double t, double h, double *znew) BV_COLD;
-
-bv_status bv_rg_finish(bv_instance *c, double t, double h, double *znew)
-{
-    bv_regimes *rg = c->rg;
-    const int w = HOT->n + HOT->ni;
-    int i;
-    for (i = 0; i < rg->nsw; i++)
-        rg->ge[i] = bv_dot(rg->Gz + (size_t)i * w, znew, w) + rg->g0[i];
-    if (BV_LIKELY(clear(rg))) {
-        accept(rg);
-        return BV_OK;
-    }
-    return events(c, t, h, znew);
 }
 
 /* ---------------------------------------------------------------- located events */
@@ -610,7 +619,7 @@ static double earliest(bv_instance *c, double H, double h, unsigned long fresh, 
 
 /* The step done again with located events, from c->x with inputs U s + U R s tau; the end
  * state into znew[0 .. n). */
-static bv_status events(bv_instance *c, double t, double h, double *znew)
+bv_status bv_rg_events(bv_instance *c, double t, double h, double *znew)
 {
     bv_regimes *rg = c->rg;
     int n = c->n, m = c->m, ni = c->ni, it, i, j;

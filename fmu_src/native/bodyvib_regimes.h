@@ -50,7 +50,11 @@ typedef struct {
     double *A, *B, *b;   /* x' = A x + B u + b */
     double *Y, *y0;      /* y = Y [x | s] + y0 */
     double *S, *gb;      /* [x | s] -> x over the step: S z + gb */
+    double *P, *pb;      /* the functions at the step's end from the start: P z + pb + g0
+                          * (P = Gx S + [0 | Gs Ms], pb = Gx gb): the sign test's values
+                          * need not wait for the step */
     double key;          /* rounded step the S is for; 0: none */
+    double h;            /* the step P is for (NaN: none) */
 } bv_regime;
 
 typedef struct bv_regimes {
@@ -68,6 +72,7 @@ typedef struct bv_regimes {
     unsigned long mask, initial, linear_mask;
     int linear_alias;        /* the linear regime is the linear model (no asymmetric damper) */
     double *g_prev, *g_now, *ge;
+    double *sign;            /* per function: +1 in force ("on"), -1 not (the mask's bits) */
     bv_regime lin, cache[BV_RG_CACHE];
     bv_regime *cur;
     int next;
@@ -92,13 +97,26 @@ void bv_rg_built(bv_instance *c);
 void bv_rg_restart(bv_instance *c);
 /* The regime in force's step matrices for the instance's step key; 0 if not finite. */
 int bv_rg_discretize(bv_instance *c);
-/* After the step to z_new = [x | s] at t + h: the sign test, and the events if it fails.
- * BV_OK (z_new's x may be rewritten) or the refusal (the regime as it was). */
-bv_status bv_rg_finish(bv_instance *c, double t, double h, double *znew);
+/* The step done again with located events, from the instance's x and inputs; the end state
+ * into z_new's x. BV_OK or the refusal (the regime as it was). The sign test that calls it:
+ * bv_rg_finish (bodyvib_regimes_hot.h, inline on the hot path). */
+bv_status bv_rg_events(bv_instance *c, double t, double h, double *znew) BV_COLD;
+/* The sign test in full (bodyvib_regimes_hot.h tries a cheaper sufficient test first): each
+ * function keeps its sign, and no parabola through its last three values (s = -1, 0, 1)
+ * has its minimum inside the step below zero: with a > 0 at m = (gm - g1) / (4 a), below
+ * zero where 16 a g0 < (gm - g1)^2. */
+int bv_rg_clear_exact(const bv_regimes *rg) BV_COLD;
 /* Model exchange: switching function i at the current state and inputs; the regime of their
  * signs taken (a function within rounding of 0 by the sign of its rate), 1 if it changed. */
 double bv_rg_indicator(const bv_instance *c, int i);
 int bv_rg_update(bv_instance *c);
+/* The values ge taken as the functions' at the end of the step (g_prev, g_now move on). */
+static inline void bv_rg_accept(bv_regimes *rg)
+{
+    double *t = rg->g_prev;
+    rg->g_prev = rg->g_now, rg->g_now = rg->ge, rg->ge = t;
+}
+
 /* The serialized regime (mask, g at the last two steps): its size in doubles, written at q
  * (returns past it), checked, read (after the model is built: the regime assembled and
  * discretized). */
