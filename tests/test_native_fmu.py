@@ -378,6 +378,9 @@ def test_iso_tolerance_is_needed_and_sufficient(native_fmus):
 
 @pytest.mark.parametrize("vary", [False, True], ids=["fixed", "varying"])
 def test_car_outputs_equal_the_library(native_fmus, vary):
+    """The 20 mm chirp lifts the wheel off the road: the native car's located events against
+    the library's (``simulate`` of the network, bodyvib.runtime.regimes), the same method
+    in C and numpy, within 1e-12 of each output's peak (measured 3e-14)."""
     t = grid(vary)
     z, zv = chirp(t, amp=0.02)
     F = 300 * np.sin(2 * np.pi * 3 * t)
@@ -386,14 +389,15 @@ def test_car_outputs_equal_the_library(native_fmus, vary):
         native_fmus["QuarterCar"],
         t,
         {"road_displacement": z, "road_velocity": zv, "seat_force": F, "seat_force_rate": Fr},
-        CAR_OUT,
+        CAR_OUT + ["tire_contact"],
     )
+    assert np.min(y[:, -1]) == 0.0  # the wheel leaves the road
     lm = linear_model(load_car())
     u = np.column_stack([z, zv, -F])
     du = np.column_stack([zv, np.zeros_like(z), -Fr])
-    _, ref = simulate(lm, t, u, du=du)
+    _, ref = simulate(load_car(), t, u, du=du)
     ref = ref[:, [lm.output_index(s) for s in CAR_SIG]]
-    err = relative_error(y, ref)
+    err = relative_error(y[:, :-1], ref)
     assert np.all(err <= TIGHT), err
 
 
