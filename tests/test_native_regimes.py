@@ -11,6 +11,7 @@ import pytest
 from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
 from test_regimes import H, bump_road, hand_written_solution
+from test_regimes_cosim import _study  # the reduced body on the car, 20 m/s, step H
 
 from bodyvib.fmu.native import build_native_fmu
 from bodyvib.models import load_model
@@ -22,15 +23,6 @@ from bodyvib.vehicle.study import run_study
 pytestmark = pytest.mark.integration
 
 CAR_OUT = ("seat_displacement", "sprung_acceleration", "tire_force", "tire_contact", "stop_force")
-
-
-def _study(fmus, road, duration):
-    return run_study(
-        {"b": fmus["HumanBody3DOF"]},
-        fmus["QuarterCar"],
-        RunSettings(road, 20.0, duration, H),
-        histories=True,
-    )
 
 
 def _nrmse(a, b):

@@ -229,23 +229,32 @@ static double round12(double h)
     return h;
 }
 
+int bv_expm_augmented(int n, int m, const double *A, const double *B, const double *b,
+                      double tau, int blocks, double *E, double *M, double *work, int *piv)
+{
+    int q = m + (b != NULL), N = n + blocks * q, i, j, k;
+    memset(M, 0, (size_t)N * N * sizeof *M);
+    for (i = 0; i < n; i++) {
+        for (j = 0; j < n; j++)
+            M[i * N + j] = A[i * n + j] * tau;
+        for (j = 0; j < m; j++)
+            M[i * N + n + j] = B[i * m + j] * tau;
+        if (b != NULL)
+            M[i * N + n + m] = b[i] * tau;
+    }
+    for (k = 1; k < blocks; k++)
+        for (j = 0; j < q; j++)
+            M[(n + (k - 1) * q + j) * N + n + k * q + j] = tau;
+    return bv_expm(E, M, N, work, piv);
+}
+
 /* exp of the augmented matrix with `blocks` input blocks ([[A, B, 0..], [0, 0, I, ..], ..] h),
  * as bodyvib.runtime.discretize (blocks 2: Phi, Gamma0, Gamma1; blocks 3: also Gamma2). */
 static int augmented(bv_instance *c, double key, int blocks, double *E)
 {
-    int n = c->n, m = c->m, N = n + blocks * m, i, j, b;
-    double *M = E + (size_t)N * N;
-    memset(M, 0, (size_t)N * N * sizeof *M);
-    for (i = 0; i < n; i++) {
-        for (j = 0; j < n; j++)
-            M[i * N + j] = c->A[i * n + j] * key;
-        for (j = 0; j < m; j++)
-            M[i * N + n + j] = c->B[i * m + j] * key;
-    }
-    for (b = 1; b < blocks; b++)
-        for (j = 0; j < m; j++)
-            M[(n + (b - 1) * m + j) * N + n + b * m + j] = key;
-    return bv_expm(E, M, N, M + (size_t)N * N, c->piv);
+    size_t NN = (size_t)(c->n + blocks * c->m) * (c->n + blocks * c->m);
+    return bv_expm_augmented(c->n, c->m, c->A, c->B, NULL, key, blocks, E, E + NN, E + 2 * NN,
+                             c->piv);
 }
 
 /* Step matrices for h (Sc, Ms). */

@@ -70,6 +70,11 @@ int bv_assemble(bv_instance *c, const double *pe, double *A, double *B, double *
                 bv_affine *af);
 /* Assemble the descriptor form for p, solve it, form the output rows; 0 if E is singular. */
 int bv_build(bv_instance *c, const double *p);
+/* E = exp of [[A, B, b, 0..], [0, 0, 0, I, ..], ..] tau with `blocks` input blocks of width
+ * q = m (+ 1 with the constant column b, as an input held at 1; b NULL: none), N = n +
+ * blocks q; M: N x N scratch, work: 9 N x N, piv: N. 0 if the Pade denominator is singular. */
+int bv_expm_augmented(int n, int m, const double *A, const double *B, const double *b,
+                      double tau, int blocks, double *E, double *M, double *work, int *piv);
 /* The step matrices for h (Sc, Ms), cached by h rounded to 12 digits; 0 if not finite. */
 int bv_discretize(bv_instance *c, double h);
 

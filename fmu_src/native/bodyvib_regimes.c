@@ -353,18 +353,8 @@ static int exact(bv_instance *c, const bv_regime *r, double tau)
 {
     bv_regimes *rg = c->rg;
     int n = c->n, m = c->m, mm = m + 1, N = n + 2 * mm, i, j;
-    double *M = rg->M, *E = rg->E;
-    memset(M, 0, (size_t)N * N * sizeof *M);
-    for (i = 0; i < n; i++) {
-        for (j = 0; j < n; j++)
-            M[i * N + j] = r->A[i * n + j] * tau;
-        for (j = 0; j < m; j++)
-            M[i * N + n + j] = r->B[i * m + j] * tau;
-        M[i * N + n + m] = r->b[i] * tau;
-    }
-    for (j = 0; j < mm; j++)
-        M[(n + j) * N + n + mm + j] = tau;
-    if (!bv_expm(E, M, N, rg->work, rg->piv))
+    double *E = rg->E;
+    if (!bv_expm_augmented(n, m, r->A, r->B, r->b, tau, 2, E, rg->M, rg->work, rg->piv))
         return 0;
     for (i = 0; i < n; i++) {
         for (j = 0; j < n; j++)
