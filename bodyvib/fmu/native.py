@@ -55,7 +55,13 @@ from ..process.outputs import atomic_write_bytes
 from ..runtime.contract import RATE_PREFIX, Variable
 from ..runtime.engine import FmuCore
 from ..runtime.errors import BodyvibError
-from ..runtime.network import Network, descriptor_model, linearized, split_position
+from ..runtime.network import (
+    LinearModel,
+    Network,
+    descriptor_model,
+    linearized,
+    split_position,
+)
 from .contents import model_resources, native_dir
 from .description import (
     MODEL_STOP_TIME,
@@ -496,23 +502,8 @@ def native_model(kind: str, network: Network, name: str, description: str = "") 
     U = iface.input_map
     R = iface.rate_matrix()
     deps = [tuple(in_vrs[i] for i in d) for d in core.output_dependencies()]
-    # model exchange: outputs on the states, derivatives A x + B U s (of a nonlinear model,
-    # what any regime's depend on: every element engaged; a contact flag on nothing)
-    dm = lm
-    if rd is not None:
-        engaged = {p: 1.0 for p in rd.pseudo}
-        dm = descriptor_model(rd.network.with_parameters(**engaged)).solve()
-    out_state = [
-        0 * dm.C[0] if f >= 0 else dm.C[r] @ dm.A if d else dm.C[r]
-        for r, d, f in zip(signals, derivative, flags)
-    ]
-    BU = dm.B @ U
-    der_deps = tuple(
-        (
-            tuple(int(j) for j in np.nonzero(dm.A[i])[0]),
-            tuple(in_vrs[j] for j in range(ni) if BU[i, j] != 0.0),
-        )
-        for i in range(dm.A.shape[0])
+    out_state, der_deps = _state_dependencies(
+        lm if rd is None else rd, (signals, derivative, flags), U
     )
     return NativeModel(
         name=name,
@@ -536,18 +527,50 @@ def native_model(kind: str, network: Network, name: str, description: str = "") 
         m=lm.B.shape[1],
         dependencies=tuple(deps),
         states=tuple(lm.states),
-        output_state_deps=tuple(tuple(int(j) for j in np.nonzero(row)[0]) for row in out_state),
+        output_state_deps=out_state,
         derivative_deps=der_deps,
         regimes=rd,
         out_flag=tuple(flags),
-        point_rows=tuple(
-            tuple(
-                -1 - lm.inputs.index(p) if p in lm.inputs else rows.index(lm.output_index(p))
-                for p in pts
-            )
-            for pts in (rd.points if rd else ())
-        ),
+        point_rows=_point_rows(rd, lm, rows),
     )
+
+
+def _point_rows(rd: Optional[RegimeData], lm: LinearModel, rows: Sequence[int]) -> tuple:
+    """Per nonlinear element, its points' rows: an index into ``rows``, or ``-1 - i`` for
+    model input ``i`` (a base)."""
+    return tuple(
+        tuple(
+            -1 - lm.inputs.index(p) if p in lm.inputs else list(rows).index(lm.output_index(p))
+            for p in pts
+        )
+        for pts in (rd.points if rd else ())
+    )
+
+
+def _state_dependencies(
+    model: Union[LinearModel, RegimeData], outputs: tuple, U: np.ndarray
+) -> Tuple[tuple, tuple]:
+    """Model exchange: the states each output depends on, and the states and input value
+    references each derivative ``A x + B U s`` depends on. Of a nonlinear model
+    (``RegimeData``), what any regime's depend on (every element engaged); a contact flag
+    depends on nothing. ``outputs`` is ``(rows, is_derivative, flag)`` per output."""
+    if isinstance(model, RegimeData):
+        engaged = {p: 1.0 for p in model.pseudo}
+        dm = descriptor_model(model.network.with_parameters(**engaged)).solve()
+    else:
+        dm = model
+    rows = [
+        0 * dm.C[0] if f >= 0 else dm.C[r] @ dm.A if d else dm.C[r] for r, d, f in zip(*outputs)
+    ]
+    BU = dm.B @ U
+    der_deps = tuple(
+        (
+            tuple(int(j) for j in np.nonzero(dm.A[i])[0]),
+            tuple(j for j in range(U.shape[1]) if BU[i, j] != 0.0),
+        )
+        for i in range(dm.A.shape[0])
+    )
+    return tuple(tuple(int(j) for j in np.nonzero(row)[0]) for row in rows), der_deps
 
 
 def _regime_stencils(rd: RegimeData, params: Sequence[str], rows: Sequence[int]) -> List[Stencil]:
