@@ -53,12 +53,6 @@ def _inputs_only(deps):
     }
 
 
-#: The outputs and parameters of the pythonfmu car's nonlinear elements (the native car,
-#: linearized until the native step locates events, has none of them).
-NONLINEAR_OUTPUTS = {"tire_contact", "stop_force"}
-NONLINEAR_PARAMETERS = {"k_stop", "c_stop", "gap_compression", "gap_rebound", "m_occupant"}
-
-
 def test_every_fmu_validates_and_both_kinds_declare_the_same_interface(native_dist, python_fmus):
     from fmpy.validation import validate_fmu
 
@@ -72,16 +66,7 @@ def test_every_fmu_validates_and_both_kinds_declare_the_same_interface(native_di
             md, outs, init = structure(fmus[label])
             # the native FMUs' model-exchange states are dependencies the pythonfmu ones
             # (co-simulation only) do not have: compare the rest
-            # the native car is the linearized one until the native step locates events:
-            # the pythonfmu car's contact flag and stop force are its only extra outputs
-            extra = set(ref_out) - set(_inputs_only(outs))
-            assert extra <= NONLINEAR_OUTPUTS, label
-            keep = lambda d: {  # noqa: E731
-                k: set(v) - NONLINEAR_PARAMETERS for k, v in d.items() if k not in extra
-            }
-            assert (_inputs_only(outs), _inputs_only(init)) == (keep(ref_out), keep(ref_init)), (
-                label
-            )
+            assert (_inputs_only(outs), _inputs_only(init)) == (ref_out, ref_init), label
             assert md.defaultExperiment.stopTime == ref_md.defaultExperiment.stopTime, label
             for v in md.modelVariables:
                 if v.name in ref:

@@ -321,6 +321,10 @@ class ModelDescription:
     booleans : tuple of (str, str, bool)
         FMI 2.0 Boolean parameters (name, description, start), value references 0, 1, ...
         of the Boolean type, after the real variables (the controller's ``semi_active``).
+    event_indicators : tuple of str
+        Model exchange: the switching functions of a nonlinear model (FMI 2.0:
+        ``numberOfEventIndicators``; FMI 3.0: also local variables after the derivatives,
+        :meth:`event_vr`, listed as ``EventIndicator`` in ``ModelStructure``).
     """
 
     fmi: int
@@ -340,6 +344,7 @@ class ModelDescription:
     derivative_dependencies: Tuple[Tuple[Tuple[int, ...], Tuple[int, ...]], ...] = ()
     step_size: float = 0.001
     booleans: Tuple[Tuple[str, str, bool], ...] = ()
+    event_indicators: Tuple[str, ...] = ()
 
     @property
     def outputs(self) -> Tuple[int, ...]:
@@ -358,6 +363,10 @@ class ModelDescription:
     def derivative_vr(self, i: int) -> int:
         """Value reference of the derivative of state ``i`` (after the states)."""
         return len(self.variables) + 1 + len(self.states) + i
+
+    def event_vr(self, i: int) -> int:
+        """Value reference of event indicator ``i`` (FMI 3.0, after the derivatives)."""
+        return len(self.variables) + 1 + 2 * len(self.states) + i
 
     def reference(self, vr: int) -> str:
         """How ModelStructure names a variable: FMI 2.0 by index (position + 1, no time
@@ -446,6 +455,20 @@ def _variables(root: ET.Element, md: ModelDescription) -> None:
             },
             {"unit": state_units(state)[1], "derivative": md.reference(md.state_vr(i))},
         )
+    for i, name in enumerate(md.event_indicators if md.fmi == 3 else ()):
+        _real(
+            mv,
+            md.fmi,
+            {
+                "name": f"event.{name}",
+                "valueReference": str(md.event_vr(i)),
+                "description": f"Event indicator: switching function of {name} (model exchange)",
+                "causality": "local",
+                "variability": "continuous",
+                "initial": "calculated",
+            },
+            {"unit": "1"},
+        )
     for vr, (name, text, start) in enumerate(md.booleans):  # FMI 2.0 (write_model_description)
         attrs = {"name": name, "valueReference": str(vr), "description": text}
         attrs.update(causality="parameter", variability="fixed", initial="exact")
@@ -505,6 +528,8 @@ def _structure(root: ET.Element, md: ModelDescription) -> None:
         ):
             for vr, deps in rows:
                 ET.SubElement(ms, tag, valueReference=str(vr), dependencies=deps)
+        for i in range(len(md.event_indicators)):
+            ET.SubElement(ms, "EventIndicator", valueReference=str(md.event_vr(i)))
 
 
 def write_model_description(md: ModelDescription) -> bytes:
@@ -550,7 +575,7 @@ def write_model_description(md: ModelDescription) -> bytes:
     )
     interfaces = sorted(md.interfaces, key=lambda i: _INTERFACE_ORDER.index(i.element))
     if md.fmi == 2 and interfaces[0].element == "ModelExchange":
-        root.set("numberOfEventIndicators", "0")
+        root.set("numberOfEventIndicators", str(len(md.event_indicators)))
     for interface in interfaces:
         element = ET.SubElement(
             root,
@@ -562,6 +587,7 @@ def write_model_description(md: ModelDescription) -> bytes:
             for s in interface.source_files:
                 ET.SubElement(files, "File", name=s)
     used = [v.unit for v in md.variables] + [u for s in md.states for u in state_units(s)]
+    used += ["1"] if md.event_indicators and md.fmi == 3 else []
     root.append(unit_definitions(list(dict.fromkeys((["s"] if md.fmi == 3 else []) + used))))
     if md.log_categories:
         cats = ET.SubElement(root, "LogCategories")

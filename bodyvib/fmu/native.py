@@ -55,7 +55,13 @@ from ..process.outputs import atomic_write_bytes
 from ..runtime.contract import RATE_PREFIX, Variable
 from ..runtime.engine import FmuCore
 from ..runtime.errors import BodyvibError
-from ..runtime.network import Network, descriptor_model, linearized, split_position
+from ..runtime.network import (
+    LinearModel,
+    Network,
+    descriptor_model,
+    linearized,
+    split_position,
+)
 from .contents import model_resources, native_dir
 from .description import (
     MODEL_STOP_TIME,
@@ -65,6 +71,7 @@ from .description import (
     validate_fmu_file,
     write_model_description,
 )
+from .native_regimes import RegimeData, c_regime_lines, constant_stencils, regime_data
 
 __all__ = [
     "NATIVE_SOURCES",
@@ -96,6 +103,9 @@ NATIVE_SOURCES = (
     "bodyvib_linalg.h",
     "bodyvib_linalg.c",
     "bodyvib_instance.h",
+    "bodyvib_regimes.h",
+    "bodyvib_regimes_hot.h",
+    "bodyvib_regimes.c",
     "bodyvib_assembly.c",
     "bodyvib_state.c",
     "bodyvib_core.c",
@@ -132,9 +142,20 @@ PLATFORMS = {
 }
 #: Flags of every platform. ``-flto``: the FMI wrappers, the shared calls and the core inline
 #: into one function per FMI call, and the model's sizes are constants on the step's hot path
-#: (bodyvib_core.c reads them from the binary's own model). benchmarks/bench_native_step.py
+#: (bodyvib_core.c reads them from the binary's own model); ``-flto-partition=one`` keeps
+#: the whole FMU one unit for that (and spares mingw's note on serial LTRANS jobs).
+#: benchmarks/bench_native_step.py
 #: compiles its plain loop with the same code-generation flags.
-COMMON_FLAGS = ["-std=c99", "-O2", "-flto", "-shared", "-Wall", "-Wextra", "-Wno-unused-parameter"]
+COMMON_FLAGS = [
+    "-std=c99",
+    "-O2",
+    "-flto",
+    "-flto-partition=one",
+    "-shared",
+    "-Wall",
+    "-Wextra",
+    "-Wno-unused-parameter",
+]
 
 #: Output derivative orders fmi2GetRealOutputDerivatives / fmi3GetOutputDerivatives give
 #: (bodyvib_core.h, BV_MAX_OUTPUT_ORDER).
@@ -208,6 +229,14 @@ class NativeModel:
         derivative ``(A x + B U s)_i`` depends on.
     stop_time : float
         The DefaultExperiment's stop time, s.
+    regimes : RegimeData or None
+        A nonlinear network's regimes (:mod:`bodyvib.fmu.native_regimes`); None: linear.
+    out_flag : tuple of int
+        Per FMU output: the nonlinear element whose contact flag it is, or -1.
+    point_rows : tuple of tuple of int
+        Per nonlinear element: its points' position and velocity rows (``from.x``,
+        ``from.v``, ``to.x``, ``to.v``): an index into ``rows``, or ``-1 - i`` for
+        model input ``i`` (a base).
     """
 
     name: str
@@ -234,6 +263,9 @@ class NativeModel:
     output_state_deps: Tuple[Tuple[int, ...], ...] = ()
     derivative_deps: Tuple[Tuple[Tuple[int, ...], Tuple[int, ...]], ...] = ()
     stop_time: float = MODEL_STOP_TIME
+    regimes: Optional[RegimeData] = None
+    out_flag: Tuple[int, ...] = ()
+    point_rows: Tuple[Tuple[int, ...], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -434,17 +466,28 @@ def native_model(kind: str, network: Network, name: str, description: str = "") 
     iface = core.interface
     variables = list(core.variables)
     ni, no = len(iface.inputs), len(iface.outputs)
-    lm = descriptor_model(network).solve()
+    par_vrs = tuple(vr for vr, v in enumerate(variables) if v.causality == "parameter")
+    params = [variables[vr].name for vr in par_vrs]
+    rd = None
+    if network.nonlinear_elements:
+        rd = regime_data(network, params, descriptor_model(linearized(network)).states)
+    lm = descriptor_model(rd.network if rd else network).solve()
     derivative = [sig.startswith(RATE_PREFIX) for sig in iface.output_signals]
+    names = [el.name for el in network.nonlinear_elements]
+    # a contact's flag (<contact>.contact) is the regime's constant, on no row
+    flags = [
+        names.index(sig[: -len(".contact")]) if sig.endswith(".contact") else -1
+        for sig in iface.output_signals
+    ]
     signals = [
-        lm.output_index(sig[len(RATE_PREFIX) :] if d else sig)
-        for sig, d in zip(iface.output_signals, derivative)
+        0 if f >= 0 else lm.output_index(sig[len(RATE_PREFIX) :] if d else sig)
+        for sig, d, f in zip(iface.output_signals, derivative, flags)
     ]
     out_vrs = list(range(ni, ni + no))
-    rows = tuple(dict.fromkeys(signals))
+    probes = [p for pts in (rd.points if rd else ()) for p in pts if p not in lm.inputs]
+    rows = tuple(dict.fromkeys(signals + [lm.output_index(p) for p in probes]))
     kinds, index = [0] * len(variables), [0] * len(variables)
     in_vrs = tuple(range(ni))
-    par_vrs = tuple(vr for vr, v in enumerate(variables) if v.causality == "parameter")
     for i, vr in enumerate(in_vrs):
         kinds[vr], index[vr] = 0, i
     for i, vr in enumerate(out_vrs):
@@ -452,21 +495,15 @@ def native_model(kind: str, network: Network, name: str, description: str = "") 
     for i, vr in enumerate(par_vrs):
         kinds[vr], index[vr] = 2, i
     pairs = [(i, j, True) for i, j in iface.slope_fallback]
-    params = [variables[vr].name for vr in par_vrs]
-    stencils = _stencils(network, params, rows)
+    stencils = (
+        _stencils(network, params, rows) if rd is None else _regime_stencils(rd, params, rows)
+    )
     # direct dependencies (feedthrough): the core's, as the pythonfmu FMU declares them
     U = iface.input_map
     R = iface.rate_matrix()
     deps = [tuple(in_vrs[i] for i in d) for d in core.output_dependencies()]
-    # model exchange: outputs on the states, derivatives A x + B U s
-    out_state = [lm.C[r] @ lm.A if d else lm.C[r] for r, d in zip(signals, derivative)]
-    BU = lm.B @ U
-    der_deps = tuple(
-        (
-            tuple(int(j) for j in np.nonzero(lm.A[i])[0]),
-            tuple(in_vrs[j] for j in range(ni) if BU[i, j] != 0.0),
-        )
-        for i in range(lm.A.shape[0])
+    out_state, der_deps = _state_dependencies(
+        lm if rd is None else rd, (signals, derivative, flags), U
     )
     return NativeModel(
         name=name,
@@ -490,9 +527,65 @@ def native_model(kind: str, network: Network, name: str, description: str = "") 
         m=lm.B.shape[1],
         dependencies=tuple(deps),
         states=tuple(lm.states),
-        output_state_deps=tuple(tuple(int(j) for j in np.nonzero(row)[0]) for row in out_state),
+        output_state_deps=out_state,
         derivative_deps=der_deps,
+        regimes=rd,
+        out_flag=tuple(flags),
+        point_rows=_point_rows(rd, lm, rows),
     )
+
+
+def _point_rows(rd: Optional[RegimeData], lm: LinearModel, rows: Sequence[int]) -> tuple:
+    """Per nonlinear element, its points' rows: an index into ``rows``, or ``-1 - i`` for
+    model input ``i`` (a base)."""
+    return tuple(
+        tuple(
+            -1 - lm.inputs.index(p) if p in lm.inputs else list(rows).index(lm.output_index(p))
+            for p in pts
+        )
+        for pts in (rd.points if rd else ())
+    )
+
+
+def _state_dependencies(
+    model: Union[LinearModel, RegimeData], outputs: tuple, U: np.ndarray
+) -> Tuple[tuple, tuple]:
+    """Model exchange: the states each output depends on, and the states and input value
+    references each derivative ``A x + B U s`` depends on. Of a nonlinear model
+    (``RegimeData``), what any regime's depend on (every element engaged); a contact flag
+    depends on nothing. ``outputs`` is ``(rows, is_derivative, flag)`` per output."""
+    if isinstance(model, RegimeData):
+        engaged = {p: 1.0 for p in model.pseudo}
+        dm = descriptor_model(model.network.with_parameters(**engaged)).solve()
+    else:
+        dm = model
+    rows = [
+        0 * dm.C[0] if f >= 0 else dm.C[r] @ dm.A if d else dm.C[r] for r, d, f in zip(*outputs)
+    ]
+    BU = dm.B @ U
+    der_deps = tuple(
+        (
+            tuple(int(j) for j in np.nonzero(dm.A[i])[0]),
+            tuple(j for j in range(U.shape[1]) if BU[i, j] != 0.0),
+        )
+        for i in range(dm.A.shape[0])
+    )
+    return tuple(tuple(int(j) for j in np.nonzero(row)[0]) for row in rows), der_deps
+
+
+def _regime_stencils(rd: RegimeData, params: Sequence[str], rows: Sequence[int]) -> List[Stencil]:
+    """The stencils of a nonlinear network's regimes (:mod:`bodyvib.fmu.native_regimes`): in
+    the order the pseudo-parameters take, indexed as the core holds them (the FMU's
+    parameters, then three pseudo-parameters per nonlinear element)."""
+    col = {p: j for j, p in enumerate(params)}
+    col.update({p: len(params) + j for j, p in enumerate(rd.pseudo)})
+    raw = _stencils(rd.network, rd.order, rows)
+
+    def at(j: int) -> int:
+        return -1 if j < 0 else col[rd.order[j]]
+
+    out = [(at(a), at(b), at(c), k, r, q, v) for a, b, c, k, r, q, v in raw]
+    return out + constant_stencils(rd, rows, col)
 
 
 def _c_string(text: str) -> str:
@@ -554,8 +647,11 @@ def model_source(nm: NativeModel, token: str) -> str:
     lines += [
         f"    {{{j1}, {j2}, {j3}, {k}, {r}, {c}, {v!r}}}," for j1, j2, j3, k, r, c, v in nm.stencils
     ]
+    lines += ["};"]
+    if nm.regimes is not None:
+        inputs = descriptor_model(nm.regimes.network).inputs
+        lines += c_regime_lines(nm.regimes, nm.out_flag, nm.point_rows, inputs)
     lines += [
-        "};",
         "",
         "const bv_model bv_model_data = {",
         f"    {_c_string(nm.name)}, {_c_string(token)},",
@@ -564,6 +660,14 @@ def model_source(nm: NativeModel, token: str) -> str:
         "    vr_kind, vr_index, vr_name, param_unit, param_start, U, R,",
         f"    {len(nm.pairs)}, pairs, out_row, out_derivative,",
         f"    {len(nm.stencils)}, stencils,",
+    ]
+    if nm.regimes is not None:
+        lines += [
+            f"    {len(nm.regimes.elements)}, nl, grav, {len(nm.regimes.loads)}, loads, out_flag,"
+        ]
+    else:
+        lines += ["    0, 0, 0, 0, 0, 0,"]
+    lines += [
         "};",
         "",
     ]
@@ -687,6 +791,19 @@ def native_description(nm: NativeModel, token: str, fmi: int) -> ModelDescriptio
         states=nm.states,
         output_state_dependencies=nm.output_state_deps,
         derivative_dependencies=nm.derivative_deps,
+        event_indicators=_switches(nm),
+    )
+
+
+def _switches(nm: NativeModel) -> Tuple[str, ...]:
+    """The switching functions' names (``<element>.<side>``), in the core's order."""
+    if nm.network is None or nm.regimes is None:
+        return ()
+    sides = {"contact": ("contact",), "stop": ("compression", "rebound")}
+    return tuple(
+        f"{el.name}.{side}"
+        for el in nm.network.nonlinear_elements
+        for side in sides.get(el.kind, ("rate",))
     )
 
 
@@ -802,8 +919,8 @@ def build_native_fmu(
     Path
         The FMU written, ``dest/<name>.fmu``: FMI ``fmi``.0, co-simulation and Model
         Exchange, binaries for ``platforms`` and its C sources. A model with contacts,
-        stops or asymmetric dampers is built linearized
-        (:func:`bodyvib.runtime.network.linearized`): the C core does not step regimes.
+        stops or asymmetric dampers steps its regimes with located events in
+        co-simulation (:mod:`bodyvib.fmu.native_regimes`).
 
     Raises
     ------
@@ -819,8 +936,6 @@ def build_native_fmu(
     ...                  "dist/native/fmi3", fmi=3, platforms=["linux64"])  # doctest: +SKIP
     PosixPath('dist/native/fmi3/HumanBody3DOF.fmu')
     """
-    # the C core steps linear models: a car's contacts and stops run linearized there
-    network = linearized(network)
     nm = native_model(kind, network, name, description)
     return package_native_fmu(
         nm, lambda token: model_source(nm, token), model_resources(network), dest, fmi, platforms

@@ -38,38 +38,110 @@ int bv_params_valid(const bv_instance *c, const double *p, int quiet)
     return 1;
 }
 
-/* Assemble the descriptor form for p, solve it, form the output rows; 0 if E is singular. */
-int bv_build(bv_instance *c, const double *p)
+/* Output row k of Yc on z = [x | s] from the carried row's solved form Cr, Dr (C_r = C + Cd A,
+ * D_r = D + Cd B); a rate output has d/dt (C_r x + D_r u) = (C_r A) x + (C_r B U + D_r U R) s. */
+static void output_row(const bv_instance *c, int k, const double *A, const double *B,
+                       const double *Cr, const double *Dr, double *scratch, double *row)
 {
     const bv_model *md = c->bc.md;
-    int n = c->n, m = c->m, ni = c->ni, no = c->no, R = md->rows, w = n + ni, k, i, j;
-    double *E = c->work, *AB = E + (size_t)n * n, *Cz = AB + (size_t)n * (n + m);
-    double *Cd = Cz + (size_t)R * n, *Dd = Cd + (size_t)R * n;
-    double *Cr = Dd + (size_t)R * m, *Dr = Cr + n, *CrB = Dr + m, *t1 = CrB + m, *t2 = t1 + ni;
-    double *A = c->A2, *B = c->B2, *Yc = c->Yc2, *swap;
-    size_t q;
+    int n = c->n, m = c->m, ni = c->ni, j;
+    double *CrB = scratch, *t1 = CrB + m, *t2 = t1 + ni;
+    if (md->out_derivative[k]) {
+        bv_mul(row, Cr, A, 1, n, n);
+        bv_mul(CrB, Cr, B, 1, n, m);
+        bv_mul(t1, CrB, md->U, 1, m, ni);
+        bv_mul(t2, Dr, c->UR, 1, m, ni);
+        for (j = 0; j < ni; j++)
+            row[n + j] = t1[j] + t2[j];
+    } else {
+        memcpy(row, Cr, (size_t)n * sizeof(double));
+        bv_mul(row + n, Dr, md->U, 1, m, ni);
+    }
+}
 
-    memset(c->work, 0, ((size_t)n * n + (size_t)n * (n + m) + 2 * (size_t)R * n + (size_t)R * m) *
-                           sizeof(double));
+/* The solved form of carried row r: Cr = C_r + Cd_r A, Dr = D_r + Cd_r B. */
+static void solved_row(int n, int m, int r, const double *Cz, const double *Cd, const double *Dd,
+                       const double *A, const double *B, double *Cr, double *Dr)
+{
+    int i, j;
+    for (j = 0; j < n; j++) {
+        double v = Cz[r * n + j];
+        for (i = 0; i < n; i++)
+            v += Cd[r * n + i] * A[i * n + j];
+        Cr[j] = v;
+    }
+    for (j = 0; j < m; j++) {
+        double v = Dd[r * m + j];
+        for (i = 0; i < n; i++)
+            v += Cd[r * n + i] * B[i * m + j];
+        Dr[j] = v;
+    }
+}
+
+/* The stencils summed for the parameters pe into the descriptor form (E, [A | B], C, Cd, D
+ * and, for a nonlinear model, the constant terms ec, dc). */
+static void sum_stencils(const bv_model *md, const double *pe, int n, int m, double *E,
+                         double *AB, double *Cz, double *Cd, double *Dd, double *ec, double *dc)
+{
+    int k;
     for (k = 0; k < md->nstencils; k++) {
         const bv_stencil *st = &md->stencils[k];
-        double v = st->coef * (st->param < 0 ? 1.0 : p[st->param]);
+        double v = st->coef * (st->param < 0 ? 1.0 : pe[st->param]);
         if (st->param2 >= 0)
-            v *= p[st->param2];
+            v *= pe[st->param2];
         if (st->param3 >= 0)
-            v *= p[st->param3];
+            v *= pe[st->param3];
         switch (st->mat) {
         case BV_E: E[st->row * n + st->col] += v; break;
         case BV_A: AB[st->row * (n + m) + st->col] += v; break;
         case BV_B: AB[st->row * (n + m) + n + st->col] += v; break;
         case BV_C: Cz[st->row * n + st->col] += v; break;
         case BV_CD: Cd[st->row * n + st->col] += v; break;
+        case BV_EC: ec[st->row] += v; break;
+        case BV_DC: dc[st->row] += v; break;
         default: Dd[st->row * m + st->col] += v; break;
         }
     }
+}
+
+/* The nonlinear elements' point rows on [x | u] (n + m each, 4 per element), linear model. */
+static void point_rows(const bv_instance *c, const double *Cz, const double *Cd, const double *Dd,
+                       const double *A, const double *B, double *probe)
+{
+    const bv_model *md = c->bc.md;
+    int n = c->n, m = c->m, e, q;
+    for (e = 0; e < md->ne; e++)
+        for (q = 0; q < 4; q++) {
+            int r = md->nl[e].row[q];
+            double *row = probe + (size_t)(4 * e + q) * (n + m);
+            memset(row, 0, (size_t)(n + m) * sizeof *row);
+            if (r < 0)
+                row[n + (-1 - r)] = 1.0;
+            else
+                solved_row(n, m, r, Cz, Cd, Dd, A, B, row, row + n);
+        }
+}
+
+int bv_assemble(bv_instance *c, const double *pe, double *A, double *B, double *Yc,
+                bv_affine *af)
+{
+    const bv_model *md = c->bc.md;
+    int n = c->n, m = c->m, ni = c->ni, no = c->no, R = md->rows, w = n + ni, k, i, j;
+    double *E = c->work, *AB = E + (size_t)n * n, *Cz = AB + (size_t)n * (n + m);
+    double *Cd = Cz + (size_t)R * n, *Dd = Cd + (size_t)R * n;
+    double *Cr = Dd + (size_t)R * m, *Dr = Cr + n, *scratch = Dr + m;
+    double *ec = scratch + m + 2 * (size_t)ni, *dc = ec + n;
+    size_t q;
+
+    memset(c->work, 0, ((size_t)n * n + (size_t)n * (n + m) + 2 * (size_t)R * n + (size_t)R * m) *
+                           sizeof(double));
+    memset(ec, 0, ((size_t)n + R) * sizeof(double));
+    sum_stencils(md, pe, n, m, E, AB, Cz, Cd, Dd, ec, dc);
     if (!bv_lu(E, c->piv, n))
         return 0;
     bv_lu_solve(E, c->piv, n, AB, n + m);
+    if (af != NULL)
+        bv_lu_solve(E, c->piv, n, ec, 1); /* b = E^-1 e */
     for (i = 0; i < n; i++) {
         for (j = 0; j < n; j++)
             A[i * n + j] = AB[i * (n + m) + j];
@@ -85,43 +157,48 @@ int bv_build(bv_instance *c, const double *p)
     for (k = 0; k < no; k++) {
         int r = md->out_row[k];
         double *row = Yc + (size_t)k * w;
-        /* row r with z' substituted: C_r = C + Cd A, D_r = D + Cd B */
-        for (j = 0; j < n; j++) {
-            double v = Cz[r * n + j];
+        solved_row(n, m, r, Cz, Cd, Dd, A, B, Cr, Dr);
+        output_row(c, k, A, B, Cr, Dr, scratch, row);
+        if (md->ne && md->out_flag[k] >= 0) /* a contact flag: the regime's constant only */
+            memset(row, 0, (size_t)w * sizeof *row);
+        if (af != NULL) {
+            double v = md->out_derivative[k] ? 0.0 : dc[r];
+            const double *cr = md->out_derivative[k] ? Cr : Cd + (size_t)r * n;
             for (i = 0; i < n; i++)
-                v += Cd[r * n + i] * A[i * n + j];
-            Cr[j] = v;
-        }
-        for (j = 0; j < m; j++) {
-            double v = Dd[r * m + j];
-            for (i = 0; i < n; i++)
-                v += Cd[r * n + i] * B[i * m + j];
-            Dr[j] = v;
-        }
-        if (md->out_derivative[k]) {
-            /* d/dt (C_r x + D_r u) = (C_r A) x + (C_r B U + D_r U R) s */
-            bv_mul(row, Cr, A, 1, n, n);
-            bv_mul(CrB, Cr, B, 1, n, m);
-            bv_mul(t1, CrB, md->U, 1, m, ni);
-            bv_mul(t2, Dr, c->UR, 1, m, ni);
-            for (j = 0; j < ni; j++)
-                row[n + j] = t1[j] + t2[j];
-        } else {
-            memcpy(row, Cr, (size_t)n * sizeof(double));
-            bv_mul(row + n, Dr, md->U, 1, m, ni);
+                v += cr[i] * ec[i];
+            af->y0[k] = md->out_flag[k] >= 0 ? 0.0 : v;
         }
     }
     for (q = 0; q < (size_t)no * w; q++)
         if (!isfinite(Yc[q]))
             return 0;
+    if (af != NULL) {
+        memcpy(af->b, ec, (size_t)n * sizeof(double));
+        if (af->probe != NULL)
+            point_rows(c, Cz, Cd, Dd, A, B, af->probe);
+    }
+    return 1;
+}
+
+/* Assemble the descriptor form for p, solve it, form the output rows; 0 if E is singular. */
+int bv_build(bv_instance *c, const double *p)
+{
+    double *swap;
+    const double *pe = HOT->ne ? bv_rg_linear_params(c, p) : p;
+    if (!bv_assemble(c, pe, c->A2, c->B2, c->Yc2, HOT->ne ? bv_rg_linear_affine(c) : NULL))
+        return 0;
+    if (HOT->ne && !bv_rg_prepare(c, c->A2, c->B2))
+        return 0;
     /* all finite: only now do they replace the instance's matrices (a refused parameter
      * set leaves the model the instance had) */
-    swap = c->A, c->A = A, c->A2 = swap;
-    swap = c->B, c->B = B, c->B2 = swap;
-    swap = c->Yc, c->Yc = Yc, c->Yc2 = swap;
+    swap = c->A, c->A = c->A2, c->A2 = swap;
+    swap = c->B, c->B = c->B2, c->B2 = swap;
+    swap = c->Yc, c->Yc = c->Yc2, c->Yc2 = swap;
     memcpy(c->p_built, p, (size_t)c->np * sizeof(double));
     c->h_key = 0.0;
     c->h_raw = NAN;
+    if (HOT->ne)
+        bv_rg_built(c);
     return 1;
 }
 
@@ -152,23 +229,32 @@ static double round12(double h)
     return h;
 }
 
+int bv_expm_augmented(int n, int m, const double *A, const double *B, const double *b,
+                      double tau, int blocks, double *E, double *M, double *work, int *piv)
+{
+    int q = m + (b != NULL), N = n + blocks * q, i, j, k;
+    memset(M, 0, (size_t)N * N * sizeof *M);
+    for (i = 0; i < n; i++) {
+        for (j = 0; j < n; j++)
+            M[i * N + j] = A[i * n + j] * tau;
+        for (j = 0; j < m; j++)
+            M[i * N + n + j] = B[i * m + j] * tau;
+        if (b != NULL)
+            M[i * N + n + m] = b[i] * tau;
+    }
+    for (k = 1; k < blocks; k++)
+        for (j = 0; j < q; j++)
+            M[(n + (k - 1) * q + j) * N + n + k * q + j] = tau;
+    return bv_expm(E, M, N, work, piv);
+}
+
 /* exp of the augmented matrix with `blocks` input blocks ([[A, B, 0..], [0, 0, I, ..], ..] h),
  * as bodyvib.runtime.discretize (blocks 2: Phi, Gamma0, Gamma1; blocks 3: also Gamma2). */
 static int augmented(bv_instance *c, double key, int blocks, double *E)
 {
-    int n = c->n, m = c->m, N = n + blocks * m, i, j, b;
-    double *M = E + (size_t)N * N;
-    memset(M, 0, (size_t)N * N * sizeof *M);
-    for (i = 0; i < n; i++) {
-        for (j = 0; j < n; j++)
-            M[i * N + j] = c->A[i * n + j] * key;
-        for (j = 0; j < m; j++)
-            M[i * N + n + j] = c->B[i * m + j] * key;
-    }
-    for (b = 1; b < blocks; b++)
-        for (j = 0; j < m; j++)
-            M[(n + (b - 1) * m + j) * N + n + b * m + j] = key;
-    return bv_expm(E, M, N, M + (size_t)N * N, c->piv);
+    size_t NN = (size_t)(c->n + blocks * c->m) * (c->n + blocks * c->m);
+    return bv_expm_augmented(c->n, c->m, c->A, c->B, NULL, key, blocks, E, E + NN, E + 2 * NN,
+                             c->piv);
 }
 
 /* Step matrices for h (Sc, Ms). */

@@ -296,11 +296,15 @@ bv_status bv_fmu_vector(bv_fmu *f, const char *function, bv_vector which, const 
     return BV_OK;
 }
 
-bv_status bv_fmu_event_indicators(bv_fmu *f, const char *function, size_t ni)
+bv_status bv_fmu_event_indicators(bv_fmu *f, const char *function, double z[], size_t ni)
 {
-    if (ni != 0) {
-        bv_fmu_say(f, BV_ERROR, "%s: the model has no event indicators", function);
+    size_t n = (size_t)bv_me_nevents(f->core);
+    if (ni != n) {
+        bv_fmu_say(f, BV_ERROR, "%s: the model has %u event indicators, not %u", function,
+                   (unsigned)n, (unsigned)ni);
         return BV_ERROR;
     }
+    if (n)
+        bv_me_event_indicators(f->core, z);
     return BV_OK;
 }

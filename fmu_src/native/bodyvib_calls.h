@@ -170,7 +170,8 @@ bv_status bv_fmu_vector(bv_fmu *f, const char *function, bv_vector which, const 
     BV_VECTOR_FUNCTION(Status, Instance, der, BV_ON_ME_GET, BV_DERIVATIVES, Real, NULL, x)  \
     BV_VECTOR_FUNCTION(Status, Instance, nom, BV_ON_NOMINALS, BV_NOMINALS, Real, NULL, x)
 
-/* No event indicators: ni must be 0 (else logged as `function`'s refusal). */
-bv_status bv_fmu_event_indicators(bv_fmu *f, const char *function, size_t ni);
+/* The event indicators into z: ni must be the model's number (else logged as `function`'s
+ * refusal). */
+bv_status bv_fmu_event_indicators(bv_fmu *f, const char *function, double z[], size_t ni);
 
 #endif

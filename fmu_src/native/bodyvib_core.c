@@ -107,7 +107,7 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
     /* work: the larger of the assembly (E, [A|B], C, Cd, D, a few rows) and the
      * discretization (E, M, expm's 9 matrices, two n x max(m, ni) blocks) */
     assembly = (size_t)n * n + (size_t)n * (n + m) + 2 * (size_t)R * n + (size_t)R * m + n +
-               2 * (size_t)m + 2 * (size_t)ni;
+               2 * (size_t)m + 2 * (size_t)ni + n + (size_t)R; /* + ec, dc */
     nw = (size_t)N * N * 11 + (size_t)n * m + (size_t)n * (m > ni ? m : ni);
     if (assembly > nw)
         nw = assembly;
@@ -164,6 +164,10 @@ bv_instance *bv_new(const bv_model *md, const char *name, bv_log_fn log, void *e
                 c->curved = 1;
         }
     clear_state(c);
+    if (md->ne && !bv_rg_new(c)) {
+        bv_free(c);
+        return NULL;
+    }
     if (!bv_build(c, c->p)) {
         say(c, BV_ERROR, "%s: the model with its default parameters cannot be assembled "
                          "(singular descriptor matrix)", c->bc.name);
@@ -177,6 +181,7 @@ void bv_free(bv_instance *c)
 {
     if (c == NULL)
         return;
+    bv_rg_free(c);
     free(c->p); /* the start of the one block of doubles */
     free(c->piv);
     free(c->has_prev);
@@ -188,6 +193,8 @@ void bv_reset(bv_instance *c)
     clear_state(c);
     if (memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0)
         bv_build(c, c->p); /* the defaults always build (checked at instantiation) */
+    if (HOT->ne)
+        bv_rg_restart(c);
 }
 
 bv_status bv_initialize(bv_instance *c)
@@ -203,8 +210,8 @@ bv_status bv_initialize(bv_instance *c)
         if (!bv_build(c, c->p)) {
             snprintf(c->bc.init_error, BV_MESSAGE,
                      "%s: the parameters give a singular or unusable model (a massless node "
-                     "without damping, or a parameter so small or large that the model's "
-                     "matrices are not finite); the instance refuses to step (reset and set "
+                     "without damping, a parameter so small or large that the model's "
+                     "matrices are not finite, or a contact that carries no static load); the instance refuses to step (reset and set "
                      "valid parameters)",
                      c->bc.name);
             return bv_common_failed(&c->bc);
@@ -227,7 +234,8 @@ static int is_me_var(const bv_instance *c, unsigned int vr)
 {
     unsigned int first = (unsigned int)BV_STATE_VR(HOT, 0);
     (void)c;
-    return vr >= first && vr < first + 2u * (unsigned int)HOT->n;
+    return vr >= first && vr < first + 2u * (unsigned int)HOT->n +
+                                    (HOT->ne ? (unsigned int)c->rg->nsw : 0u);
 }
 
 #define check_vr(c, vr) bv_common_check_vr(&(c)->bc, (vr))
@@ -312,6 +320,8 @@ static BV_COLD bv_status set_general(bv_instance *c, const unsigned int vr[], si
 BV_HOT_INLINE double output_value(const bv_instance *c, int idx)
 {
     const int w = HOT->n + HOT->ni;
+    if (HOT->ne) /* the regime in force's rows and constants */
+        return bv_dot(c->rg->cur->Y + (size_t)idx * w, c->x, w) + c->rg->cur->y0[idx];
     return bv_dot(c->Yc + (size_t)idx * w, c->x, w);
 }
 
@@ -490,7 +500,16 @@ BV_HOT_INLINE bv_status advance(bv_instance *c, double t, double h)
     const int n = HOT->n, ni = HOT->ni, w = n + ni;
     double *restrict zn = c->zn, zz = 0.0, zz2 = 0.0;
     int i;
-    bv_matvec(zn, c->Sc, c->x, n, w);
+    if (HOT->ne) { /* the regime in force: its step and its affine column */
+        const bv_regime *r = c->rg->cur;
+        bv_rg_ahead(c, c->x); /* the switching functions at the step's end */
+        bv_matvec(zn, r->S, c->x, n, w);
+        if (r->affine)
+            for (i = 0; i < n; i++)
+                zn[i] += r->gb[i];
+    } else {
+        bv_matvec(zn, c->Sc, c->x, n, w);
+    }
     ms_matvec(zn + n, c->Ms, c->s);
     BV_UNROLL
     for (i = 0; i < w; i++) {
@@ -502,6 +521,13 @@ BV_HOT_INLINE bv_status advance(bv_instance *c, double t, double h)
     zz += zz2;
     if (BV_UNLIKELY(!(zz < INFINITY))) /* NaN or inf */
         return refuse_step(c, t);
+    if (HOT->ne) { /* the sign test; events located where it fails */
+        bv_status st = bv_rg_finish(c, t, h, zn);
+        if (BV_UNLIKELY(st != BV_OK)) {
+            save_bookkeeping(c, 1);
+            return st;
+        }
+    }
     c->zn = c->x; /* zn is the new z: swap the buffers */
     c->x = zn;
     c->s = zn + n;
@@ -519,7 +545,7 @@ static BV_COLD bv_status step_prepare(bv_instance *c, double t, double h)
     save_bookkeeping(c, 0);
     if (HOT->npairs)
         slope_fallback(c, t, h);
-    if (!bv_discretize(c, h)) {
+    if (!bv_discretize(c, h) || (HOT->ne && !bv_rg_discretize(c))) {
         save_bookkeeping(c, 1);
         say(c, BV_ERROR, "%s: a step of %s s overflows the exact discretization (not "
                          "finite); step refused (discard), state unchanged (use shorter steps)",
@@ -621,8 +647,9 @@ bv_status bv_set_input_derivatives(bv_instance *c, const unsigned int vr[], size
     return BV_OK;
 }
 
-/* z' = [A x + B U s, R s] for z = [x | s] (the state equations and the in-step rates). */
-static void zdot(const bv_instance *c, const double *z, double *out)
+/* z' = [A x + B U s (+ b, affine), R s] for z = [x | s] (the state equations and the in-step
+ * rates; a nonlinear model's regime in force, its constant b for the state, not for a rate). */
+static void zdot(const bv_instance *c, const double *z, double *out, int affine)
 {
     const bv_model *md = c->bc.md;
     int n = c->n, m = c->m, ni = c->ni, i, j;
@@ -634,12 +661,13 @@ static void zdot(const bv_instance *c, const double *z, double *out)
             v += md->U[(size_t)i * ni + j] * z[n + j];
         u[i] = v;
     }
+    const double *A = md->ne ? c->rg->cur->A : c->A, *B = md->ne ? c->rg->cur->B : c->B;
     for (i = 0; i < n; i++) {
-        double v = 0.0;
+        double v = md->ne && affine ? c->rg->cur->b[i] : 0.0;
         for (j = 0; j < n; j++)
-            v += c->A[(size_t)i * n + j] * z[j];
+            v += A[(size_t)i * n + j] * z[j];
         for (j = 0; j < m; j++)
-            v += c->B[(size_t)i * m + j] * u[j];
+            v += B[(size_t)i * m + j] * u[j];
         out[i] = v;
     }
     for (i = 0; i < ni; i++) {
@@ -660,10 +688,11 @@ bv_status bv_get_output_derivatives(bv_instance *c, const unsigned int vr[], siz
     bv_status status = BV_OK;
     if (bv_common_check_output_orders(&c->bc, vr, nvr, order) != BV_OK)
         return BV_ERROR;
-    zdot(c, c->x, z1);  /* c->x, c->s contiguous: z */
-    zdot(c, z1, z2);
+    zdot(c, c->x, z1, 1);  /* c->x, c->s contiguous: z */
+    zdot(c, z1, z2, 0);
     for (i = 0; i < nvr; i++) {
-        const double *row = c->Yc + (size_t)md->vr_index[vr[i]] * w, *z = order[i] == 1 ? z1 : z2;
+        const double *Y = md->ne ? c->rg->cur->Y : c->Yc;
+        const double *row = Y + (size_t)md->vr_index[vr[i]] * w, *z = order[i] == 1 ? z1 : z2;
         double v = 0.0;
         int j;
         for (j = 0; j < w; j++)
@@ -763,7 +792,7 @@ void bv_me_derivatives(bv_instance *c, double dx[])
         me_unconnected_velocity(c);
     /* u = U s once for all rows (zd: n + ni out, m of scratch after; 3 (n + ni) >= that as
      * zdot's second use needs); same sums in the same order as derivative_value */
-    zdot(c, c->x, c->zd);
+    zdot(c, c->x, c->zd, 1);
     memcpy(dx, c->zd, (size_t)c->n * sizeof *dx);
 }
 
@@ -775,6 +804,8 @@ static int me_var_get(bv_instance *c, unsigned int vr, double *value)
         return -1;
     if (vr < first + (unsigned int)c->n) {
         *value = c->x[vr - first];
+    } else if (vr >= first + 2u * (unsigned int)c->n) { /* an event indicator */
+        *value = bv_rg_indicator(c, (int)(vr - first) - 2 * c->n);
     } else {
         follow_parameters(c);
         *value = derivative_value(c, (int)(vr - first) - c->n);
@@ -787,7 +818,8 @@ static int me_var_set(bv_instance *c, unsigned int vr, double value)
     const bv_model *md = c->bc.md;
     unsigned int first = (unsigned int)BV_STATE_VR(md, 0);
     if (vr >= first + (unsigned int)c->n) {
-        say(c, BV_ERROR, "%s: a state derivative (value reference %u) is calculated and cannot "
+        say(c, BV_ERROR, "%s: a state derivative or an event indicator (value reference %u) is "
+                         "calculated and cannot "
                          "be set (ignored)", c->bc.name, vr);
         return BV_ERROR;
     }
@@ -847,3 +879,14 @@ bv_status bv_directional(bv_instance *c, const unsigned int unknowns[], size_t n
     }
     return BV_OK;
 }
+
+/* ---------------------------------------------------------------- event indicators */
+
+void bv_me_event_indicators(bv_instance *c, double z[])
+{
+    int i;
+    for (i = 0; c->rg != NULL && i < c->rg->nsw; i++)
+        z[i] = bv_rg_indicator(c, i);
+}
+
+int bv_me_update_regime(bv_instance *c) { return c->rg != NULL && bv_rg_update(c); }

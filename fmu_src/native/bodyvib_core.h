@@ -38,8 +38,30 @@
 #define BV_HOT_INLINE static inline
 #endif
 
-/* Matrices of the descriptor form a stencil entry adds to. */
-enum { BV_E = 0, BV_A = 1, BV_B = 2, BV_C = 3, BV_CD = 4, BV_D = 5 };
+/* Matrices of the descriptor form a stencil entry adds to; BV_EC and BV_DC are the constant
+ * terms of a regime's equations and carried output rows (column 0), per newton of a
+ * nonlinear element's constant force (bodyvib_regimes.h). */
+enum { BV_E = 0, BV_A = 1, BV_B = 2, BV_C = 3, BV_CD = 4, BV_D = 5, BV_EC = 6, BV_DC = 7 };
+
+/* Kinds of a nonlinear element (bodyvib_regimes.h). */
+enum { BV_NL_CONTACT = 0, BV_NL_STOP = 1, BV_NL_ASYMMETRIC = 2 };
+
+/* A nonlinear element: its kind, the parameter indices of k, c, gap_compression, gap_rebound,
+ * c_compression, c_rebound (-1: none), and the rows of its points' positions and velocities
+ * (from.x, from.v, to.x, to.v): an index into the carried rows, or -1 - i for model input i
+ * (a base). Its pseudo-parameters k, c, f are the core's parameters np + 3 e + 0, 1, 2. */
+typedef struct {
+    int kind;
+    int k, c, gap_c, gap_r, c_comp, c_reb;
+    int row[4];
+} bv_nl_element;
+
+/* A static load: model input `input` carries -g times parameter `param` (or `value`, kg). */
+typedef struct {
+    int input;
+    int param;
+    double value;
+} bv_load;
 
 /* Kind of a variable (by value reference). */
 enum { BV_INPUT = 0, BV_OUTPUT = 1, BV_PARAMETER = 2 };
@@ -108,6 +130,13 @@ typedef struct {
     const int *out_derivative;   /* [no] 1: the output is the time derivative of its row */
     int nstencils;
     const bv_stencil *stencils;
+    /* nonlinear elements (0: a linear model, the rest unused) */
+    int ne;
+    const bv_nl_element *nl;     /* [ne] */
+    const double *grav;          /* [n] gravity on the state derivative */
+    int nloads;
+    const bv_load *loads;        /* [nloads] */
+    const int *out_flag;         /* [no] the element whose contact flag the output is, or -1 */
 } bv_model;
 
 typedef void (*bv_log_fn)(void *env, int status, const char *message);
@@ -174,6 +203,14 @@ bv_status bv_state_read(bv_instance *c, const unsigned char *buffer, size_t size
 #define BV_DER_VR(md, i) ((md)->nvars + 1 + (md)->n + (i))
 
 int bv_me_nstates(const bv_instance *c); /* the model's n (0 for a source) */
+/* Event indicators (a nonlinear model's switching functions, bodyvib_regimes.h; none for a
+ * linear model or a source): their number; their values at the current time, states and
+ * inputs; in Event Mode, the regime taken from their signs (1 if it changed). FMI 3.0 also
+ * declares them as variables, value references BV_EVENT_VR(md, i) after the derivatives. */
+int bv_me_nevents(const bv_instance *c);
+void bv_me_event_indicators(bv_instance *c, double z[]);
+int bv_me_update_regime(bv_instance *c);
+#define BV_EVENT_VR(md, i) ((md)->nvars + 1 + 2 * (md)->n + (i))
 void bv_me_set_time(bv_instance *c, double t);
 /* The continuous states and their derivatives, bv_me_nstates values each (the caller,
  * bodyvib_calls.c, checked the host's count). */

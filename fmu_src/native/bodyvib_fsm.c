@@ -64,6 +64,15 @@ void bv_me_set_time(bv_instance *c, double t) { BV_COMMON(c)->time = t; }
 
 int bv_me_nstates(const bv_instance *c) { return BV_COMMON(c)->md->n; }
 
+int bv_me_nevents(const bv_instance *c)
+{
+    const bv_model *md = BV_COMMON(c)->md;
+    int e, k = 0;
+    for (e = 0; e < md->ne; e++)
+        k += md->nl[e].kind == BV_NL_STOP ? 2 : 1;
+    return k;
+}
+
 static const char *mode_name(const bv_common *b, int mode)
 {
     switch (mode) {

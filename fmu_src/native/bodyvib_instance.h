@@ -10,6 +10,7 @@
 
 #include "bodyvib_fsm.h"
 #include "bodyvib_linalg.h"
+#include "bodyvib_regimes.h"
 
 struct bv_instance {
     bv_common bc;       /* first (BV_STATE_IS): state, model, name, logger, time, flags */
@@ -39,6 +40,7 @@ struct bv_instance {
     /* scratch */
     double *zn, *work;
     int *piv;
+    struct bv_regimes *rg; /* a nonlinear model's regimes (bodyvib_regimes.c); else NULL */
 };
 
 /* The model on the hot path (bv_set, bv_step, bv_get): this binary's, bv_model_data, read
@@ -46,6 +48,9 @@ struct bv_instance {
  * are linked with link-time optimization) its sizes and index tables are constants, and the
  * loops of a step are compiled for the model's sizes. bv_new accepts this model only. */
 #define HOT (&bv_model_data)
+
+/* The sign test of a nonlinear model's step (inline: it reads HOT). */
+#include "bodyvib_regimes_hot.h"
 
 /* Messages. */
 #define say(c, ...) bv_say(&(c)->bc, __VA_ARGS__)
@@ -58,8 +63,18 @@ const char *bv_var_name(const bv_model *md, int kind, int index);
 /* Every parameter of p positive and finite; else 0, the reason in c->bc.init_error unless
  * quiet. */
 int bv_params_valid(const bv_instance *c, const double *p, int quiet);
+/* Assemble the model for the parameters pe (a nonlinear model's: np + 3 ne, the pseudo-
+ * parameters of a regime) into A, B, Yc (and af's constants if not NULL); 0 if E is singular
+ * or a matrix is not finite. */
+int bv_assemble(bv_instance *c, const double *pe, double *A, double *B, double *Yc,
+                bv_affine *af);
 /* Assemble the descriptor form for p, solve it, form the output rows; 0 if E is singular. */
 int bv_build(bv_instance *c, const double *p);
+/* E = exp of [[A, B, b, 0..], [0, 0, 0, I, ..], ..] tau with `blocks` input blocks of width
+ * q = m (+ 1 with the constant column b, as an input held at 1; b NULL: none), N = n +
+ * blocks q; M: N x N scratch, work: 9 N x N, piv: N. 0 if the Pade denominator is singular. */
+int bv_expm_augmented(int n, int m, const double *A, const double *B, const double *b,
+                      double tau, int blocks, double *E, double *M, double *work, int *piv);
 /* The step matrices for h (Sc, Ms), cached by h rounded to 12 digits; 0 if not finite. */
 int bv_discretize(bv_instance *c, double h);
 

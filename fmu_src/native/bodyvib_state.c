@@ -11,10 +11,12 @@
 static const unsigned char MAGIC[8] = {'B', 'V', 'S', 'T', 'A', 'T', 'E', '2'};
 
 /* Payload: doubles time, initialized, init_failed, p[np], x[n], s[ni], then per fallback
- * pair x_prev, h_prev, has_prev, vel_set, slope_on, warned. */
+ * pair x_prev, h_prev, has_prev, vel_set, slope_on, warned; a nonlinear model's regime last
+ * (bv_rg_state_write). */
 static size_t payload_doubles(const bv_instance *c)
 {
-    return 3 + (size_t)c->np + (size_t)c->n + (size_t)c->ni + 6 * (size_t)c->bc.md->npairs;
+    return 3 + (size_t)c->np + (size_t)c->n + (size_t)c->ni + 6 * (size_t)c->bc.md->npairs +
+           (c->rg != NULL ? bv_rg_state_doubles(c) : 0);
 }
 
 size_t bv_state_size(const bv_instance *c)
@@ -50,6 +52,8 @@ void bv_state_write(const bv_instance *c, unsigned char *buf)
         pair[5] = c->warned[k];
         q = put(q, pair, 6);
     }
+    if (c->rg != NULL)
+        q = bv_rg_state_write(c, q);
     bv_common_snapshot_seal(buf, size);
 }
 
@@ -104,6 +108,13 @@ bv_status bv_state_check(const bv_instance *c, const unsigned char *buf, size_t 
             return BV_ERROR;
         }
     }
+    if (c->rg != NULL) {
+        if (!bv_rg_state_check(c, buf + off + 48 * (size_t)c->bc.md->npairs)) {
+            say(c, BV_ERROR, "%s: the FMU state is invalid (regime of the nonlinear elements); "
+                             "refused", c->bc.name);
+            return BV_ERROR;
+        }
+    }
     return BV_OK;
 }
 
@@ -117,6 +128,7 @@ bv_status bv_state_read(bv_instance *c, const unsigned char *buf, size_t size)
 {
     int k;
     double head[3], pair[6];
+    const unsigned char *regime;
     const unsigned char *q;
     if (bv_state_check(c, buf, size) != BV_OK)
         return BV_ERROR;
@@ -133,6 +145,7 @@ bv_status bv_state_read(bv_instance *c, const unsigned char *buf, size_t size)
         c->slope_on[k] = (unsigned char)(pair[4] != 0.0);
         c->warned[k] = (unsigned char)(pair[5] != 0.0);
     }
+    regime = c->rg != NULL ? q : NULL;
     /* the state machine follows the snapshot */
     bv_common_restored(&c->bc, head[0], head[1] != 0.0, head[2] != 0.0, "valid parameters");
     if (memcmp(c->p, c->p_built, (size_t)c->np * sizeof(double)) != 0 && bv_params_valid(c, c->p, 1))
@@ -141,5 +154,11 @@ bv_status bv_state_read(bv_instance *c, const unsigned char *buf, size_t size)
             say(c, BV_ERROR, "%s: the restored parameters give a singular model", c->bc.name);
             return BV_ERROR;
         }
+    if (regime != NULL) { /* after the model: the regime in force, its step matrices */
+        if (!bv_rg_state_read(c, regime)) {
+            say(c, BV_ERROR, "%s: the restored regime cannot be assembled", c->bc.name);
+            return BV_ERROR;
+        }
+    }
     return BV_OK;
 }

@@ -378,6 +378,10 @@ void bv_me_get_states(const bv_instance *c, double x[]) { (void)c, (void)x; }
 
 void bv_me_derivatives(bv_instance *c, double dx[]) { (void)c, (void)dx; }
 
+void bv_me_event_indicators(bv_instance *c, double z[]) { (void)c, (void)z; }
+
+int bv_me_update_regime(bv_instance *c) { (void)c; return 0; }
+
 /* No states and no inputs: no knowns to differentiate by (the model description says
  * providesDirectionalDerivative="false"). */
 bv_status bv_directional(bv_instance *c, const unsigned int unknowns[], size_t nu,

@@ -320,8 +320,9 @@ NO_STATUS(fmi2GetStringStatus, fmi2String)
  * x' = A x + B U s with the inputs s the host set for the current time: the velocity
  * inputs are taken as given (the host provides the input's derivative as its value),
  * rate-only inputs (seat_acceleration, seat_force_rate) enter only the outputs that are
- * exact time derivatives. No events: no event indicators, no discrete states, no time
- * events. The instance is in Event Mode after fmi2ExitInitializationMode and moves between it
+ * exact time derivatives. A nonlinear model's switching functions are its event
+ * indicators; fmi2NewDiscreteStates takes the regime of their signs (the continuous states
+ * do not jump). No time events. The instance is in Event Mode after fmi2ExitInitializationMode and moves between it
  * and Continuous-Time Mode as the host calls fmi2EnterContinuousTimeMode / fmi2EnterEventMode;
  * a call the other mode allows (fmi2SetContinuousStates, fmi2CompletedIntegratorStep in
  * Event Mode; fmi2NewDiscreteStates in Continuous-Time Mode) returns fmi2Error, logged. */
@@ -337,6 +338,7 @@ fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *eventInfo)
 {
     CHECKED(c, fmi2NewDiscreteStates, BV_ON_EVENT_MODE);
     NEED(eventInfo, 1);
+    bv_me_update_regime(f->core); /* the regime of the switching functions' signs */
     eventInfo->newDiscreteStatesNeeded = fmi2False;
     eventInfo->terminateSimulation = fmi2False;
     eventInfo->nominalsOfContinuousStatesChanged = fmi2False;
@@ -380,7 +382,7 @@ fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], s
 {
     CHECKED(c, fmi2GetEventIndicators, BV_ON_ME_GET);
     NEED(eventIndicators, ni);
-    return st(bv_fmu_event_indicators(f, "fmi2GetEventIndicators", ni));
+    return st(bv_fmu_event_indicators(f, "fmi2GetEventIndicators", eventIndicators, ni));
 }
 
 /* The continuous-state vectors: set, get, derivatives, nominals (bv_fmu_vector). */

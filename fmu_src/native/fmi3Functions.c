@@ -515,7 +515,8 @@ fmi3Status fmi3ActivateModelPartition(fmi3Instance instance, fmi3ValueReference 
 /* ------------------------------------------------------------------ model exchange
  *
  * x' = A x + B U s with the inputs s the host set for the current time (see
- * fmi2Functions.c): no events, no event indicators, no discrete states; Event Mode after
+ * fmi2Functions.c): a nonlinear model's switching functions as event indicators, the regime
+ * taken in fmi3UpdateDiscreteStates, no time events; Event Mode after
  * fmi3ExitInitializationMode, and each call checked against the mode the host put it in. */
 
 fmi3Status fmi3EnterEventMode(fmi3Instance instance)
@@ -538,6 +539,7 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *discrete
     NEED(valuesOfContinuousStatesChanged, 1);
     NEED(nextEventTimeDefined, 1);
     NEED(nextEventTime, 1);
+    bv_me_update_regime(f->core); /* the regime of the switching functions' signs */
     *discreteStatesNeedUpdate = fmi3False;
     *terminateSimulation = fmi3False;
     *nominalsOfContinuousStatesChanged = fmi3False;
@@ -582,7 +584,8 @@ fmi3Status fmi3GetEventIndicators(fmi3Instance instance, fmi3Float64 eventIndica
 {
     CHECKED(instance, fmi3GetEventIndicators, BV_ON_ME_GET);
     NEED(eventIndicators, nEventIndicators);
-    return st(bv_fmu_event_indicators(f, "fmi3GetEventIndicators", nEventIndicators));
+    return st(bv_fmu_event_indicators(f, "fmi3GetEventIndicators", eventIndicators,
+                                      nEventIndicators));
 }
 
 /* The continuous-state vectors: set, get, derivatives, nominals (bv_fmu_vector). */
@@ -594,7 +597,7 @@ fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance instance, size_t *nEventI
 {
     INSTANCE(instance);
     NEED(nEventIndicators, 1);
-    *nEventIndicators = 0;
+    *nEventIndicators = (size_t)bv_me_nevents(f->core);
     return fmi3OK;
 }
 
