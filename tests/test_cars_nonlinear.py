@@ -277,3 +277,68 @@ def test_cosim_half_car_over_the_bump(tmp_path):
         assert w["smallest_tire_load_ratio"] == 0.0
     assert doc["events"]["lift_offs"] == sum(e["lift_offs"] for e in doc["wheel_events"].values())
     assert "  rear lift-offs" in r.stdout and "  front stop contacts" in r.stdout
+
+
+# -- sweeps: the batched engine where nothing switches, events where a case would --------
+
+
+def _sweep(**spec):
+    from bodyvib.vehicle.sweep.engines import run_batched
+    from bodyvib.vehicle.sweep.spec import expand
+
+    return run_batched(expand({"body": "reduced-paper", "duration": 2, **spec}), record=True)
+
+
+def test_a_sweep_steps_on_the_batched_engine_where_nothing_switches():
+    """Class C at 20 m/s: the nonlinear cars stay batched, their figures the linear
+    spec's bit for bit; the smallest tire-load ratio is the reference's lowest total
+    tire force over its static load."""
+    cars = ["quarter-car", "half-car"]
+    rows, hist = _sweep(road="C", speed=20, car=cars)
+    lin, lin_hist = _sweep(road="C", speed=20, car=cars, linear=True)
+    for r, h, lr, lh, name in zip(rows, hist, lin, lin_hist, cars):
+        assert r["error"] is None and r["stepping"] == "batched"
+        assert lr["stepping"] == "linear" and np.isnan(lr["lift_offs"])
+        assert r["head_weighted_rms"] == lr["head_weighted_rms"]
+        assert np.array_equal(h["head_acceleration"], lh["head_acceleration"])
+        assert r["lift_offs"] == r["stop_contacts"] == 0
+        # the front (a quarter car's only) tire's total force over its static one
+        car = load_car(name)
+        run = reference_run(car, load_model("reduced-paper"), *_driven(name, "C", 20.0), H)
+        tire = next(e for e in static_preloads(car) if e.startswith("tire"))
+        front = 1.0 + np.min(run["tire_force"]) / static_preloads(car)[tire]
+        if name == "quarter-car":
+            assert r["smallest_tire_load_ratio"] == pytest.approx(front, abs=1e-12)
+        else:  # the lowest of the wheels
+            assert r["smallest_tire_load_ratio"] <= front + 1e-12
+        assert 0.1 < r["smallest_tire_load_ratio"] < 1.0
+
+
+def _driven(name, road, speed, duration=2.0):
+    """The road under each wheel of a car as a sweep case drives it."""
+    from bodyvib.vehicle.sweep.engines import case_wheel_inputs
+    from bodyvib.vehicle.sweep.spec import expand
+
+    case = expand({"road": road, "speed": speed, "duration": duration, "car": name})[0]
+    car = load_car(name)
+    return case_wheel_inputs(case, wheel_offsets(car))
+
+
+def test_a_case_that_would_switch_is_run_again_with_events():
+    """The 80 mm bump at 20 m/s lifts the wheels: the case runs with located events and
+    its row says what happened, as the car's monolithic reference counts it; over a
+    5 mm bump nothing switches and the case stays batched."""
+    h, l, at = BUMP
+    cars = ["quarter-car", "half-car"]
+    roads = [f"sine:h=0.005,l={l},at={at}", f"sine:h={h},l={l},at={at}"]
+    rows, _ = _sweep(road=roads, speed=20, car=cars)
+    small, fast = rows[:2], rows[2:]
+    assert [r["stepping"] for r in small] == ["batched", "batched"]
+    for r, name in zip(fast, cars):
+        assert r["error"] is None and r["stepping"] == "events"
+        stream = ReferenceStream(load_car(name), load_model("reduced-paper"), H)
+        stream.advance(*_driven(name, f"sine:h={h},l={l},at={at}", 20.0))
+        ev = stream.events().values()
+        assert r["lift_offs"] == sum(e.get("lift_offs", 0) for e in ev) >= 2
+        assert r["stop_contacts"] == sum(e.get("contacts", 0) for e in ev) >= 1
+        assert r["smallest_tire_load_ratio"] == 0.0 and r["time_in_air"] > 0.04

@@ -41,6 +41,15 @@ head_mtvv          head maximum transient vibration value (largest 1 s running
 neck_force_peak    largest magnitude of the body's neck force, N (NaN for
                    ``spectral`` and for a body that names no neck force)
 lumbar_force_peak  the same for the lumbar force, N
+lift_offs          a car with tire contacts: lift-offs, summed over the wheels (NaN:
+                   a linear run)
+time_in_air        time in the air, s, summed over the wheels
+stop_contacts      contacts with the bump and rebound stops, summed over the stops
+largest_stop_force the largest stop force, N
+smallest_tire_     the smallest total over static tire force of any wheel (0: in
+load_ratio         the air)
+stepping           ``linear``, ``batched`` (nothing switched) or ``events`` (run
+                   again with exact steps and located events)
 engine             ``batched``, ``spectral`` or ``cosim``
 engine_settings    the engine's settings (JSON)
 error              why the case failed (empty when it did not)

@@ -1,4 +1,5 @@
-"""A sweep's table in a few lines: what ran, what failed, the range of the head's comfort.
+"""A sweep's table in a few lines: what ran, what failed, how the cars were stepped, the
+range of the head's comfort.
 
 ``bodyvib sweep`` prints :func:`format_summary` at the end, so that a run read in a log
 says what it found without opening the table. :func:`summary_columns` reads only the
@@ -22,6 +23,7 @@ SUMMARY_COLUMNS = (
     "head_weighted_rms",
     "head_comfort",
     "engine",
+    "stepping",
     "error",
 )
 
@@ -59,7 +61,8 @@ def _case(row) -> str:
 
 def format_summary(df) -> str:
     """The summary of a sweep table: cases and failures, the head's Wk r.m.s. range with the
-    cases at its ends, the cases per ISO 2631-1 comfort band.
+    cases at its ends, the cases per ISO 2631-1 comfort band, and how many cases were
+    stepped linear, batched (a nonlinear car where nothing switched) or with events.
 
     Parameters
     ----------
@@ -77,13 +80,15 @@ def format_summary(df) -> str:
     >>> df = pd.DataFrame({"case_id": [0, 1], "road": ["C", "D"], "speed": [20.0, 20.0],
     ...     "body": ["reduced-paper"] * 2, "car": ["quarter-car"] * 2,
     ...     "head_weighted_rms": [1.1239, 2.2478], "engine": ["batched"] * 2,
-    ...     "head_comfort": ["uncomfortable", "extremely uncomfortable"], "error": ["", ""]})
+    ...     "head_comfort": ["uncomfortable", "extremely uncomfortable"], "error": ["", ""],
+    ...     "stepping": ["batched", "events"]})
     >>> print(format_summary(df))
     sweep: 2 cases, 2 computed, 0 failed (engine batched)
     head Wk r.m.s. [m/s2]: min 1.124, median 1.686, max 2.248
       min: road C, 20 m/s, body reduced-paper, car quarter-car (case 0)
       max: road D, 20 m/s, body reduced-paper, car quarter-car (case 1)
     comfort (ISO 2631-1 C): 1 uncomfortable, 1 extremely uncomfortable
+    stepping: 1 batched (nothing switched), 1 run with events
     """
     failed = df["error"].fillna("").astype(str) != ""
     ok = df[~failed & np.isfinite(df["head_weighted_rms"].astype(float))]
@@ -103,6 +108,14 @@ def format_summary(df) -> str:
         order = bands.min().sort_values().index  # the bands from the mildest
         bands = ", ".join(f"{bands.size()[b]} {b}" for b in order)
         lines.append(f"comfort (ISO 2631-1 C): {bands}")
+    if "stepping" in df:  # how many cases stayed batched, how many switched
+        ways = df.loc[~failed, "stepping"].fillna("").astype(str).value_counts()
+        words = {"batched": "batched (nothing switched)", "events": "run with events"}
+        counts = [
+            f"{ways[w]} {words.get(w, w)}" for w in ("linear", "batched", "events") if w in ways
+        ]
+        if counts:
+            lines.append(f"stepping: {', '.join(counts)}")
     if failed.any():
         first = df[failed].iloc[0]
         lines.append(f"first failure: {_case(first)}: {first['error']}")

@@ -76,11 +76,19 @@ FIGURE_UNITS = {
     "head_mtvv": "m/s2",
     "neck_force_peak": "N",
     "lumbar_force_peak": "N",
+    "lift_offs": "",
+    "time_in_air": "s",
+    "stop_contacts": "",
+    "largest_stop_force": "N",
+    "smallest_tire_load_ratio": "",
+    "stepping": "",
 }
 #: Columns after the figures.
 TRAILING_COLUMNS = ("engine", "engine_settings", "error", "bodyvib_version", "spec_hash", "run_id")
 _INTS = {"case_id", "seed", "body_sample"}
-_STRINGS = {"case_key", "road", "body", "body_model", "car", "head_comfort"} | set(TRAILING_COLUMNS)
+_STRINGS = {"case_key", "road", "body", "body_model", "car", "head_comfort", "stepping"} | set(
+    TRAILING_COLUMNS
+)
 WINDOW = 16384  # rows assembled at a time
 
 
