@@ -342,3 +342,44 @@ def test_a_case_that_would_switch_is_run_again_with_events():
         assert r["lift_offs"] == sum(e.get("lift_offs", 0) for e in ev) >= 2
         assert r["stop_contacts"] == sum(e.get("contacts", 0) for e in ev) >= 1
         assert r["smallest_tire_load_ratio"] == 0.0 and r["time_in_air"] > 0.04
+
+
+# -- the bump study: the speed from which each bump lifts the wheel -----------------------
+
+
+def test_the_bump_study_names_and_marks_the_speed_of_the_first_lift_off(tmp_path):
+    """The 80 mm, 1 m bump lifts the quarter car's wheel at 6 m/s and not at 4 m/s (as
+    the car's monolithic reference counts it); the summary and the plot say so."""
+    import pandas as pd
+
+    from bodyvib.vehicle.sweep.engines import run_batched
+    from bodyvib.vehicle.sweep.plot import BUMP_PANELS, plot_bump_study
+    from bodyvib.vehicle.sweep.spec import expand
+    from bodyvib.vehicle.sweep.summary import format_summary, lift_off_speeds
+
+    road = "sine:h=0.08,l=1,at=10"  # as the sweep names it
+    cases = expand({"road": road, "speed": [4, 6], "duration": 3, "body": "reduced-paper"})
+    for cs in cases:
+        stream = ReferenceStream(load_car(), load_model("reduced-paper"), H)
+        stream.advance(*_driven("quarter-car", road, cs.speed, 3.0))
+        assert (stream.events()["tire"]["lift_offs"] > 0) == (cs.speed == 6)
+    rows, _ = run_batched(cases)
+    df = pd.DataFrame(
+        [
+            {
+                **r,
+                "road": c.road,
+                "body": c.body,
+                "car": c.car,
+                "speed": c.speed,
+                "case_id": i,
+                "engine": "batched",
+            }
+            for i, (c, r) in enumerate(zip(cases, rows))
+        ]
+    )
+    assert lift_off_speeds(df) == {(road, "reduced-paper", "quarter-car"): 6.0}
+    assert f"{road} (reduced-paper, quarter-car): lift-off from 6 m/s" in format_summary(df)
+    svg = tmp_path / "bumps.svg"
+    plot_bump_study(df, str(svg))
+    assert svg.read_text().count("lift-off from 6 m/s") == len(BUMP_PANELS)  # each legend

@@ -11,7 +11,7 @@ import os
 
 import numpy as np
 
-__all__ = ["SUMMARY_COLUMNS", "format_summary", "summary_columns"]
+__all__ = ["SUMMARY_COLUMNS", "format_summary", "summary_columns", "lift_off_speeds"]
 
 #: The columns :func:`format_summary` reads.
 SUMMARY_COLUMNS = (
@@ -24,6 +24,7 @@ SUMMARY_COLUMNS = (
     "head_comfort",
     "engine",
     "stepping",
+    "lift_offs",
     "error",
 )
 
@@ -52,6 +53,53 @@ def summary_columns(path: str):
     return df.rename(columns=lambda c: c.split(" [")[0])[list(SUMMARY_COLUMNS)]
 
 
+def lift_off_speeds(df) -> dict:
+    """The speed at which each bump first lifts a wheel, per bump, body and car.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        A sweep table (its ``road``, ``body``, ``car``, ``speed``, ``lift_offs`` and
+        ``error`` columns).
+
+    Returns
+    -------
+    dict of (str, str, str) to float or None
+        ``(road, body, car)`` -> the lowest speed of the table at which a case of that
+        group lifts a wheel off the road (m/s), None where none does (a linear run
+        counts none: its ``lift_offs`` are NaN).
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> df = pd.DataFrame({"road": ["hump"] * 3, "body": ["b"] * 3, "car": ["c"] * 3,
+    ...     "speed": [4.0, 8.0, 6.0], "lift_offs": [0.0, 2.0, 1.0], "error": [None] * 3})
+    >>> lift_off_speeds(df)
+    {('hump', 'b', 'c'): 6.0}
+    """
+    ok = df[df["error"].fillna("").astype(str) == ""]
+    out = {}
+    for key, g in ok.groupby(["road", "body", "car"], sort=True):
+        lifted = g.loc[g["lift_offs"].astype(float) > 0, "speed"].astype(float)
+        out[tuple(key)] = float(lifted.min()) if len(lifted) else None
+    return out
+
+
+def _lift_off_lines(df) -> list:
+    """A bump study's lines: from which speed each bump lifts a wheel."""
+    from ..road.bumps import is_bump_spec
+
+    roads = set(df["road"].astype(str))
+    if "lift_offs" not in df or not roads or not all(is_bump_spec(r) for r in roads):
+        return []
+    top = df["speed"].astype(float).max()
+    lines = []
+    for (road, body, car), v in lift_off_speeds(df).items():
+        at = f"lift-off from {v:g} m/s" if v is not None else f"no lift-off up to {top:g} m/s"
+        lines.append(f"  {road} ({body}, {car}): {at}")
+    return ["wheel lift-off over the bumps:"] + lines if lines else []
+
+
 def _case(row) -> str:
     return (
         f"road {row['road']}, {row['speed']:g} m/s, body {row['body']}, car {row['car']} "
@@ -62,7 +110,8 @@ def _case(row) -> str:
 def format_summary(df) -> str:
     """The summary of a sweep table: cases and failures, the head's Wk r.m.s. range with the
     cases at its ends, the cases per ISO 2631-1 comfort band, and how many cases were
-    stepped linear, batched (a nonlinear car where nothing switched) or with events.
+    stepped linear, batched (a nonlinear car where nothing switched) or with events, and
+    in a bump study the speed from which each bump lifts a wheel (:func:`lift_off_speeds`).
 
     Parameters
     ----------
@@ -116,6 +165,7 @@ def format_summary(df) -> str:
         ]
         if counts:
             lines.append(f"stepping: {', '.join(counts)}")
+    lines += _lift_off_lines(df)
     if failed.any():
         first = df[failed].iloc[0]
         lines.append(f"first failure: {_case(first)}: {first['error']}")
