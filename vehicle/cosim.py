@@ -640,7 +640,7 @@ class Master:
         -------
         (m, len(columns)) ndarray
             The :data:`bodyvib.vehicle.signals.MASTER_SIGNALS` at those points (the car's, then
-            the body's), then a car's per-wheel signals (:attr:`columns`)
+            the body's), then a car's per-wheel signals (its ``columns``)
 
         Raises
         ------

@@ -750,7 +750,7 @@ class StudyCsv:
             One of the study's ``labels``.
         signals : dict of str to ndarray
             The block's :data:`bodyvib.vehicle.signals.MASTER_SIGNALS` (and a car's
-            per-wheel signals, :attr:`bodyvib.vehicle.cosim.Master.columns`).
+            per-wheel signals: the master's ``columns``).
         reference : dict of str to ndarray or None
             The reference's signals of the block.
         """
