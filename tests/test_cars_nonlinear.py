@@ -7,13 +7,13 @@ import json
 
 import numpy as np
 import pytest
-from helpers import run_cli
+from helpers import car_dict, reduced_body_on_seat, run_cli, solve_switching
 from test_regimes import BUMP, SPEED, H, bump_road
 
 from bodyvib.models import load_model
 from bodyvib.runtime.modelfile import network_from_dict
 from bodyvib.runtime.network import GRAVITY, linear_model, static_preloads
-from bodyvib.vehicle.quarter_car import CAR_DIR, load_car, wheel_offsets
+from bodyvib.vehicle.quarter_car import load_car, wheel_offsets
 from bodyvib.vehicle.reference import ReferenceStream, reference_run
 from bodyvib.vehicle.road.driven import RunSettings, driven_road, wheel_inputs
 from bodyvib.vehicle.signals import WHEEL_SIGNALS, car_wheels, wheel_columns
@@ -23,8 +23,7 @@ CARS = ("half-car", "full-car")
 
 def _linear_dict(name):
     """The car file with its tires as springs and no stops: the linear car by hand."""
-    with open(f"{CAR_DIR}/{name}.json", encoding="utf-8") as f:
-        data = json.load(f)
+    data = car_dict(name)
     data["elements"] = [
         {**e, "kind": "spring"} if e["kind"] == "contact" else e
         for e in data["elements"]
@@ -133,28 +132,15 @@ def hand_written_half_car(p, b):
     def rhs(t, q, mode):
         z, th, zf, zr, y, x2, x1, vz, om, vf, vr, v2, v1 = q
         tf, tr, bf, rbf, br, rbr = np.where(mode, switches(t, q), 0.0)
-        s = z + sx * th
-        yd = v2 + (b["ks"] * (s - y) + b["k2"] * (x2 - y)) / b["c2"]
+        yd, a2, a1, f_seat = reduced_body_on_seat(b, z + sx * th, y, x2, x1, v2, v1)
+        # suspension and stops on each wheel, + pushing it down (and the body up)
         f_front = p["ksf"] * (zf - z - lf * th) + p["csf"] * (vf - vz - lf * om) + bf - rbf
         f_rear = p["ksr"] * (zr - z + lr * th) + p["csr"] * (vr - vz + lr * om) + br - rbr
-        f_seat = b["ks"] * (y - s)
-        a1 = (b["k1"] * (x2 - x1) + b["c1"] * (v2 - v1)) / b["m1"]
-        a2 = (b["ks"] * (s - y) + b["k1"] * (x1 - x2) + b["c1"] * (v1 - v2)) / b["m2"]
-        return [
-            vz,
-            om,
-            vf,
-            vr,
-            yd,
-            v2,
-            v1,
-            (f_front + f_rear + f_seat) / ms,
-            (lf * f_front - lr * f_rear + sx * f_seat) / Iy,
-            (-f_front + tf - f0[0]) / p["muf"],
-            (-f_rear + tr - f0[1]) / p["mur"],
-            a2,
-            a1,
-        ]
+        az = (f_front + f_rear + f_seat) / ms
+        alpha = (lf * f_front - lr * f_rear + sx * f_seat) / Iy
+        af = (-f_front + tf - f0[0]) / p["muf"]  # the tires' total force less their static
+        ar = (-f_rear + tr - f0[1]) / p["mur"]
+        return [vz, om, vf, vr, yd, v2, v1, az, alpha, af, ar, a2, a1]
 
     return rhs, switches, f0
 
@@ -162,42 +148,10 @@ def hand_written_half_car(p, b):
 def half_car_solution(t_end):
     """The hand-written half car integrated by scipy with an event at each switching:
     the grid, the head acceleration on it, the events ``(t, index, on)``, the static loads."""
-    from scipy.integrate import solve_ivp
-
     rhs, switches, f0 = hand_written_half_car(
         load_car("half-car").parameters, load_model("reduced-paper").parameters
     )
-    t, q, mode = 0.0, np.zeros(13), np.array([True, True] + [False] * 4)
-    pieces, events = [], []
-    while t < t_end:
-        evs = []
-        for i in range(mode.size):
-
-            def ev(tt, qq, _mode, i=i):
-                return float(switches(tt, qq)[i])
-
-            ev.terminal = True
-            ev.direction = -1 if mode[i] else 1
-            evs.append(ev)
-        sol = solve_ivp(
-            rhs,
-            (t, t_end),
-            q,
-            method="DOP853",
-            rtol=1e-10,
-            atol=1e-13,
-            events=evs,
-            dense_output=True,
-            args=(mode.copy(),),
-            first_step=1e-6,
-            max_step=1e-3,
-        )
-        pieces.append((sol.sol, t, sol.t[-1], mode.copy()))
-        t, q = sol.t[-1], sol.y[:, -1]
-        if sol.status == 1:
-            i = next(i for i in range(mode.size) if sol.t_events[i].size)
-            mode[i] = not mode[i]
-            events.append((t, i, bool(mode[i])))
+    pieces, events = solve_switching(rhs, switches, np.zeros(13), [True, True] + [False] * 4, t_end)
     grid = np.arange(int(round(t_end / H)) + 1) * H
     head = np.empty(grid.size)
     for fn, a, b, m in pieces:
