@@ -589,7 +589,7 @@ class Master:
         # the table's order, then the wheels'
         body_cols = list(MASTER_SIGNALS[len(names) :])
         read = [n for n, h in zip(names, has) if h] + extra + lacks + body_cols
-        #: the recorded columns, in order: :data:`MASTER_SIGNALS` and the wheels'
+        #: the recorded columns, in order: the master signals and the wheels'
         self.columns: Tuple[str, ...] = MASTER_SIGNALS + tuple(extra)
         self._perm = None if read == list(self.columns) else [read.index(n) for n in self.columns]
         self._control = controller
