@@ -19,6 +19,12 @@ process, interleaved over ``--repeats`` rounds (medians):
   in the same lanes and vector loops as the engine's, nothing else.
 
 The ratio engine / minimal is the engine's cost over its arithmetic floor (target <= 2).
+
+The cases above run the quarter car linearized (``"linear": true``). Then the same cases
+at 10-18 m/s on the quarter car with its tire contact and stops (the engine watches the
+switching functions; no case of class C at these speeds switches, so none is run again
+with events: checked) against the same spec linear, interleaved round by round: the ratio nonlinear /
+linear is what watching for switchings costs a sweep where nothing switches.
 The load average and the process CPU time are printed beside the wall times: on a
 shared machine CPU time is the steadier guide. The first round compiles (numba cache)
 and is not counted.
@@ -48,6 +54,7 @@ def spec(body: str, cases: int, duration: float) -> dict:
         "seed": 0,
         "duration": duration,
         "step": 1e-3,
+        "linear": True,  # the linear car (the engine's floor); linear_ratio: the nonlinear
         "body": [
             {
                 "model": body,
@@ -223,6 +230,32 @@ def one_round(cases, stages: Stages):
     return eng, low, time.process_time() - c0, packed.M.shape
 
 
+def linear_ratio(body: str, cases: int, duration: float, repeats: int) -> None:
+    """Print the engine's time on the nonlinear quarter car over the linear one's."""
+    # 10-18 m/s: class C lifts the wheel at 30 m/s (and nearly at 25): here nothing switches
+    slow = {"speed": [10, 12, 14, 16, 18]}
+    runs = {
+        lin: expand({**spec(body, cases, duration), **slow, "linear": lin}) for lin in (False, True)
+    }
+    times = {False: [], True: []}
+    for r in range(repeats + 1):  # the first round compiles: not counted
+        for lin, cs in runs.items():
+            t0, c0 = time.perf_counter(), time.process_time()
+            rows = engines.run_engine("batched", cs)
+            if r:
+                times[lin].append((time.perf_counter() - t0, time.process_time() - c0))
+            ways = {row["stepping"] for row in rows}
+            if ways != {"linear" if lin else "batched"}:
+                raise SystemExit(f"{body}: cases stepped {sorted(ways)}; expected none to switch")
+    (nw, nc), (lw, lc) = (
+        tuple(statistics.median(x[i] for x in times[lin]) for i in (0, 1)) for lin in (False, True)
+    )
+    print(
+        f"{body}, contact and stops watched (nothing switched) / linear car: "
+        f"{nw / lw:.3f} wall, {nc / lc:.3f} CPU ({nw:.2f} s / {lw:.2f} s wall)"
+    )
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--cases", type=int, default=64, help="cases per body (default 64)")
@@ -270,6 +303,8 @@ def main(argv=None):
                 print(f"      {'of it, step':12s} {100 * mc / ec:5.1f} %")
                 print(f"      {'Wk + figures':12s} {100 * (share - mc / ec):5.1f} %")
         print(f"    {'other':14s} {100 * rest:5.1f} %  (step rows, grouping, figures, rows)")
+    for body in BODIES:
+        linear_ratio(body, args.cases, args.duration, args.repeats)
     print(f"load after: {os.getloadavg()[0]:.2f}")
     return 0
 

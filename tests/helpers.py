@@ -41,6 +41,7 @@ __all__ = [
     "cosim_changed_car",
     "nrmse_against_ode",
     "reduced_body_on_seat",
+    "solve_switching",
     "mount_tmpfs",
 ]
 
@@ -427,3 +428,44 @@ def mount_tmpfs(folder, size):
         yield True
     finally:
         subprocess.run(["umount", str(folder)], check=True)
+
+
+def solve_switching(rhs, switches, q, mode, t_end):
+    """``rhs(t, q, mode)`` integrated by scipy (DOP853, rtol 1e-10) from ``q`` at 0 to
+    ``t_end``, stopped at each sign change of a switching function ``switches(t, q)[i]``
+    (falling while ``mode[i]``, rising otherwise), ``mode[i]`` flipped there: the pieces
+    ``(dense solution, start, end, mode)`` and the events ``(t, i, mode[i] after)``."""
+    from scipy.integrate import solve_ivp
+
+    t, mode = 0.0, np.array(mode, dtype=bool)
+    pieces, events = [], []
+    while t < t_end:
+        evs = []
+        for i in range(mode.size):
+
+            def ev(tt, qq, _mode, i=i):  # solve_ivp passes args to events too
+                return float(switches(tt, qq)[i])
+
+            ev.terminal = True
+            ev.direction = -1 if mode[i] else 1
+            evs.append(ev)
+        sol = solve_ivp(
+            rhs,
+            (t, t_end),
+            q,
+            method="DOP853",
+            rtol=1e-10,
+            atol=1e-13,
+            events=evs,
+            dense_output=True,
+            args=(mode.copy(),),
+            first_step=1e-6,
+            max_step=1e-3,  # a bump of 50 ms: never stepped over
+        )
+        pieces.append((sol.sol, t, sol.t[-1], mode.copy()))
+        t, q = sol.t[-1], sol.y[:, -1]
+        if sol.status == 1:
+            i = next(i for i in range(mode.size) if sol.t_events[i].size)
+            mode[i] = not mode[i]
+            events.append((t, i, bool(mode[i])))
+    return pieces, events

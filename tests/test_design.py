@@ -184,9 +184,17 @@ def test_command_writes_the_front_and_car_files_others_read(tmp_path, capsys):
     assert row["head_weighted_rms"] == pytest.approx(pred["head_wk_rms"], rel=1e-4)
     assert ver["head_wk_rms"] == pytest.approx(pred["head_wk_rms"], rel=0.01)
     assert ver["tire_load_ratio"] == pytest.approx(pred["tire_load_ratio"], rel=0.03)
-    # the verification is the batched engine's run: same road, same exact step
+    # the verification is the batched engine's run of the linear car (the design's model):
+    # same road, same exact step
     case = expand(
-        {"road": "C", "speed": 20, "duration": 30, "body": "reduced-paper", "car": car_file}
+        {
+            "road": "C",
+            "speed": 20,
+            "duration": 30,
+            "body": "reduced-paper",
+            "car": car_file,
+            "linear": True,
+        }
     )
     assert run_batched(case)[0][0]["head_weighted_rms"] == pytest.approx(
         ver["head_wk_rms"], rel=1e-9

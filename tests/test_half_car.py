@@ -167,16 +167,20 @@ def test_refuses_a_body_with_one_point():
 
 def test_refuses_a_loose_body():
     def edit(d):
-        d["elements"] = [e for e in d["elements"] if not e["name"].startswith("suspension")]
+        d["elements"] = [
+            e for e in d["elements"] if not e["name"].startswith(("suspension", "stops"))
+        ]
 
     _refused(edit, "not connected to the road_front or road_rear")
 
 
 def test_point_positions_take_a_sign():
     data = half_car_dict()
-    data["bodies"]["body"]["points"]["rear"] = "lr"  # now ahead of the centre of mass
+    points = data["bodies"]["body"]["points"]
+    points["rear"], points["front"] = "lr", "-lf"  # the axles swapped: the car turned round
     flipped = network_from_dict(copy.deepcopy(data))
     assert flipped.body_points["rear"] == ("body", 1.5)
+    assert flipped.body_points["front"] == ("body", -1.3)
     assert load_car("half-car").body_points["rear"] == ("body", -1.5)
 
 

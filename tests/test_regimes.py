@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from helpers import solve_switching
 
 from bodyvib.models import load_model
 from bodyvib.runtime.discretize import simulate
@@ -261,8 +262,6 @@ def hand_written_solution(t_end):
     """The quarter car with tire contact and stops, carrying the reduced body, written
     out by hand (perturbations about static equilibrium, z up) and integrated by scipy
     with events at each switching (rtol 1e-10)."""
-    from scipy.integrate import solve_ivp
-
     ms, mu, ks, cs, kt = 290.0, 59.0, 16812.0, 1000.0, 190000.0
     k_stop, c_stop, gc, gr = 168120.0, 1400.0, 0.07, 0.09
     m1, m2, k1, k2, kb, c1, c2 = 4.88, 65.0, 6.18e4, 6.41e4, 8e5, 333.0, 2935.0
@@ -292,38 +291,8 @@ def hand_written_solution(t_end):
         au = (tire - f0 - susp - bump + rebound) / mu
         return [vs, as_, vu, au, v1, a1, v2, a2, yd]
 
-    t, q, mode = 0.0, np.zeros(9), np.array([True, False, False])
-    ts, qs, events = [], [], []
-    while t < t_end:
-        evs = []
-        for i in range(3):
-
-            def ev(tt, qq, _mode, i=i):  # solve_ivp passes args to events too
-                return float(switches(tt, qq)[i])
-
-            ev.terminal = True
-            ev.direction = -1 if mode[i] else 1
-            evs.append(ev)
-        sol = solve_ivp(
-            rhs,
-            (t, t_end),
-            q,
-            method="DOP853",
-            rtol=1e-10,
-            atol=1e-13,
-            events=evs,
-            dense_output=True,
-            args=(mode.copy(),),
-            first_step=1e-6,
-            max_step=1e-3,  # the bump lasts 50 ms: never step over it
-        )
-        ts.append(sol.t)
-        qs.append((sol.sol, t, sol.t[-1], mode.copy()))
-        t, q = sol.t[-1], sol.y[:, -1]
-        if sol.status == 1:
-            i = next(i for i in range(3) if sol.t_events[i].size)
-            mode[i] = not mode[i]
-            events.append((t, ["tire", "stops", "stops"][i], bool(mode[i])))
+    qs, found = solve_switching(rhs, switches, np.zeros(9), [True, False, False], t_end)
+    events = [(t, ["tire", "stops", "stops"][i], on) for t, i, on in found]
     grid = np.arange(0, int(round(t_end / H)) + 1) * H
     head = np.empty(grid.size)
     for sol_fn, a, b, m in qs:

@@ -41,7 +41,7 @@ import shutil
 import tempfile
 import time
 import zipfile
-from typing import Dict, Optional
+from typing import Dict, Optional, Tuple
 
 import numpy as np
 
@@ -64,8 +64,10 @@ from .signals import (
     OPTIONAL_SIGNALS,
     SIGNALS,
     car_variable,
+    car_wheels,
     corner_variable,
     header,
+    wheel_columns,
 )
 
 __all__ = [
@@ -579,10 +581,17 @@ class Master:
             raise BodyvibError(f"car FMU has no output(s) {', '.join(lacks)}")
         self._car_out = [car.vr[car_variable(s, car.vr)] for s, h in zip(CAR_SIGNALS, has) if h]
         self._car_pad = [CAR_DEFAULTS.get(n, math.nan) for n in lacks]
-        # read: the present signals, then the pads; recorded: the table's order
-        read = [n for n, h in zip(names, has) if h] + lacks
-        perm = [read.index(n) for n in names] + list(range(len(names), len(MASTER_SIGNALS)))
-        self._perm = None if read == names else perm
+        # a car with several wheels whose tires are contacts: each wheel's signals too
+        self.wheels = car_wheels(car.vr)
+        extra = list(wheel_columns(self.wheels))
+        self._car_out += [car.vr[c] for c in extra]
+        # read: the present signals, the wheels', then the pads and the body's; recorded:
+        # the table's order, then the wheels'
+        body_cols = list(MASTER_SIGNALS[len(names) :])
+        read = [n for n, h in zip(names, has) if h] + extra + lacks + body_cols
+        #: the recorded columns, in order: the master signals and the wheels'
+        self.columns: Tuple[str, ...] = MASTER_SIGNALS + tuple(extra)
+        self._perm = None if read == list(self.columns) else [read.index(n) for n in self.columns]
         self._control = controller
         self._act_vel, self._act_F = [], ([], [])
         if controller is not None:
@@ -629,9 +638,9 @@ class Master:
 
         Returns
         -------
-        (m, len(MASTER_SIGNALS)) ndarray
+        (m, len(columns)) ndarray
             The :data:`bodyvib.vehicle.signals.MASTER_SIGNALS` at those points (the car's, then
-            the body's).
+            the body's), then a car's per-wheel signals (its ``columns``)
 
         Raises
         ------
@@ -708,7 +717,7 @@ class Master:
             self.wall_s += time.perf_counter() - t0
         self._B, self._F_prev, self._act_F = B, F_prev, (Fa, Fa_prev)
         self.k += m
-        out = np.array(rows, dtype=float).reshape(m, len(MASTER_SIGNALS))
+        out = np.array(rows, dtype=float).reshape(m, len(self.columns))
         return out if self._perm is None else out[:, self._perm]
 
 
@@ -782,7 +791,7 @@ def cosimulate(
     front = (z, v) if z.ndim == 1 else (z[:, 0], v[:, 0])
     signals = {"time": np.arange(n) * master.h, "road_displacement": front[0]}
     signals["road_velocity"] = front[1]
-    signals.update(zip(MASTER_SIGNALS, out.T))
+    signals.update(zip(master.columns, out.T))
     return {s.name: signals[s.name] for s in SIGNALS}
 
 

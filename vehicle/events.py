@@ -5,7 +5,9 @@ each communication point, its contact flag (``tire_contact``), its stop force
 (``stop_force``) and its dynamic tire force (``tire_force``, the perturbation about the
 static wheel load). :class:`EventStream` reads them block by block and gives a run's
 :class:`RunEvents`: at the resolution of the communication step (the car FMU locates each
-event inside its step; the monolithic reference's own log has the located times).
+event inside its step; the monolithic reference's own log has the located times). A car
+with several wheels gives these per wheel (:func:`bodyvib.vehicle.signals.wheel_columns`):
+one :class:`RunEvents` per wheel, and :func:`combine_events` the car's.
 """
 
 from dataclasses import asdict, dataclass
@@ -21,6 +23,7 @@ __all__ = [
     "LinearRangeStream",
     "LinearRangeWarning",
     "linear_range",
+    "combine_events",
 ]
 
 
@@ -261,3 +264,38 @@ class LinearRangeStream:
                     f"the car would hit it; {_FIX}"
                 )
         return out
+
+
+def combine_events(wheels) -> RunEvents:
+    """The events of a car with several wheels from each wheel's.
+
+    Parameters
+    ----------
+    wheels : sequence of RunEvents
+        One per wheel.
+
+    Returns
+    -------
+    RunEvents
+        Lift-offs, stop contacts and the time in the air summed over the wheels (wheel
+        seconds: two wheels in the air for 10 ms count 20 ms); the longest flight, the
+        largest stop force and the smallest tire-load ratio over the wheels (the ratio None
+        if any wheel's static load is unknown).
+
+    Examples
+    --------
+    >>> a = RunEvents(1, 0.05, 0.05, 0, 0.0, 0.0)
+    >>> b = RunEvents(2, 0.03, 0.02, 1, 900.0, 0.0)
+    >>> e = combine_events([a, b])
+    >>> e.lift_offs, round(e.time_in_air_s, 3), e.longest_flight_s, e.largest_stop_force_n
+    (3, 0.08, 0.05, 900.0)
+    """
+    ratios = [e.smallest_tire_load_ratio for e in wheels]
+    return RunEvents(
+        lift_offs=sum(e.lift_offs for e in wheels),
+        time_in_air_s=sum(e.time_in_air_s for e in wheels),
+        longest_flight_s=max(e.longest_flight_s for e in wheels),
+        stop_contacts=sum(e.stop_contacts for e in wheels),
+        largest_stop_force_n=max(e.largest_stop_force_n for e in wheels),
+        smallest_tire_load_ratio=None if None in ratios else min(ratios),
+    )

@@ -131,6 +131,9 @@ def format_report(
         for b in bodies.values()
     ):
         lines += _event_rows(row)
+        wheels = {k: None for b in bodies.values() for k in getattr(b, "wheel_events", {})}
+        for wheel in wheels:  # a car with several wheels: each wheel's rows too
+            lines += _event_rows(row, wheel)
     lines.append(row("coupling NRMSE vs reference", lambda b: _pct(b.coupling_nrmse)))
     lines.append(row("real-time factor", lambda b: f"{b.real_time_factor:.1f}"))
     seat = bodies[labels[0]].seat_figures.weighted_rms
@@ -209,11 +212,12 @@ PEAK_HINT = (
 )
 
 
-def _event_rows(row):
-    """The rows of what the tire and the stops did (a car with a tire contact)."""
+def _event_rows(row, wheel=None):
+    """The rows of what the tire and the stops did (a car with a tire contact), over the
+    car or (``wheel``, a suffix of :data:`bodyvib.vehicle.signals.WHEELS`) of one wheel."""
 
     def cell(b, what):
-        e = b.events
+        e = b.events if wheel is None else b.wheel_events.get(wheel)
         if e is None or e.smallest_tire_load_ratio is None:
             return "n/a"
         if what == "lift":
@@ -222,11 +226,12 @@ def _event_rows(row):
             return f"{e.stop_contacts}, largest {e.largest_stop_force_n:.0f} N"
         return f"{e.smallest_tire_load_ratio:.3f}"
 
-    return [
-        row("lift-offs (air, longest)", lambda b: cell(b, "lift")),
-        row("stop contacts", lambda b: cell(b, "stop")),
-        row("smallest tire-load ratio", lambda b: cell(b, "ratio")),
-    ]
+    if wheel is not None:  # indented under the car's rows, named by the wheel
+        at = f"  {wheel.replace('_', ' ')}"
+        titles = (f"{at} lift-offs", f"{at} stop contacts", f"{at} min load ratio")
+    else:
+        titles = ("lift-offs (air, longest)", "stop contacts", "smallest tire-load ratio")
+    return [row(t, lambda b, k=k: cell(b, k)) for t, k in zip(titles, ("lift", "stop", "ratio"))]
 
 
 def _peak(p):

@@ -36,6 +36,10 @@ __all__ = [
     "axis_label",
     "car_variable",
     "corner_variable",
+    "WHEELS",
+    "WHEEL_SIGNALS",
+    "car_wheels",
+    "wheel_columns",
 ]
 
 
@@ -195,8 +199,19 @@ CAR_DEFAULTS: Dict[str, float] = {"tire_contact": 1.0, "stop_force": 0.0}
 #: no seat height): a run records them as NaN. They follow the car's other signals.
 OPTIONAL_CAR_SIGNALS: Tuple[str, ...] = ("seat_acceleration_x", "seat_acceleration_y")
 
-#: Unit of each signal by name.
+#: The wheels of a car with several, named as its FMU variables' suffixes: a half car's
+#: axles, a full car's corners.
+WHEELS: Tuple[str, ...] = ("front", "rear", "front_left", "front_right", "rear_left", "rear_right")
+
+#: The signals a car with several wheels gives per wheel, each as the column (and the car
+#: FMU output) ``<signal>_<wheel>``: ``tire_contact_front``, ``stop_force_rear_left``.
+#: The table's own ``tire_contact``, ``stop_force`` and ``tire_force`` are the front (left)
+#: wheel's there; a quarter car has no per-wheel columns.
+WHEEL_SIGNALS: Tuple[str, ...] = ("tire_contact", "stop_force", "tire_force")
+
+#: Unit of each signal by name (the per-wheel columns too).
 UNITS: Dict[str, str] = {s.name: s.unit for s in SIGNALS}
+UNITS.update({f"{name}_{w}": UNITS[name] for name in WHEEL_SIGNALS for w in WHEELS})
 
 #: The car's signals, in column order.
 CAR_SIGNALS: Tuple[Signal, ...] = tuple(s for s in SIGNALS if s.source == "car")
@@ -304,3 +319,47 @@ def axis_label(name: str) -> str:
     'head acceleration [m/s2]'
     """
     return f"{name.replace('_', ' ')} [{UNITS[name]}]"
+
+
+def car_wheels(variables) -> Tuple[str, ...]:
+    """The wheels (:data:`WHEELS`) of a car with several whose tires are contacts.
+
+    Parameters
+    ----------
+    variables : collection of str
+        The car FMU's variable names (or its parameter file's ``fmu_outputs`` names).
+
+    Returns
+    -------
+    tuple of str
+        Each wheel whose every :data:`WHEEL_SIGNALS` output the car has, in the order of
+        :data:`WHEELS`; ``()`` for a quarter car or a linear car (no contact flags).
+
+    Examples
+    --------
+    >>> names = {f"{s}_{w}" for s in WHEEL_SIGNALS for w in ("front", "rear")}
+    >>> car_wheels(names), car_wheels({"tire_contact", "stop_force", "tire_force"})
+    (('front', 'rear'), ())
+    """
+    return tuple(w for w in WHEELS if all(f"{s}_{w}" in variables for s in WHEEL_SIGNALS))
+
+
+def wheel_columns(wheels) -> Tuple[str, ...]:
+    """The per-wheel columns of a run, wheel by wheel: ``<signal>_<wheel>``.
+
+    Parameters
+    ----------
+    wheels : sequence of str
+        :func:`car_wheels` of the car.
+
+    Returns
+    -------
+    tuple of str
+        For each wheel its :data:`WHEEL_SIGNALS` columns.
+
+    Examples
+    --------
+    >>> wheel_columns(("rear",))
+    ('tire_contact_rear', 'stop_force_rear', 'tire_force_rear')
+    """
+    return tuple(f"{s}_{w}" for w in wheels for s in WHEEL_SIGNALS)

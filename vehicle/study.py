@@ -37,14 +37,14 @@ from bodyvib.runtime.renames import NOT, renamed_parameters
 
 from .control import controller_from_fmu, describe
 from .cosim import CsvStream, Master, check_fmu, model_from_fmu, open_controller, open_fmu
-from .events import EventStream, LinearRangeStream, RunEvents, linear_range
+from .events import EventStream, LinearRangeStream, RunEvents, combine_events, linear_range
 from .quarter_car import seated_system, track_width, wheel_offsets, wheel_sides
 from .reference import ReferenceStream
 from .road import roads_input, wheel_roads
 from .road.driven import RunSettings, driven_road
 from .road.synthetic import Road, road_input
 from .seat_motion import seat_axes, seat_height
-from .signals import BODY_SIGNALS, MASTER_SIGNALS, OPTIONAL_SIGNALS
+from .signals import BODY_SIGNALS, OPTIONAL_SIGNALS, corner_variable
 
 __all__ = [
     "BodyRun",
@@ -93,7 +93,13 @@ class BodyRun:
         ``"lumbar_force"``; only those the body FMU outputs), N and s.
     events : RunEvents or None
         Lift-offs, flights, stop contacts and the smallest tire-load ratio of the run, at
-        its communication points (:mod:`bodyvib.vehicle.events`).
+        its communication points (:mod:`bodyvib.vehicle.events`); a car with several
+        wheels whose tires are contacts: over all its wheels
+        (:func:`bodyvib.vehicle.events.combine_events`).
+    wheel_events : dict of str to RunEvents
+        The same per wheel (``"front"``, ``"rear_left"``, ...: the suffixes of
+        :data:`bodyvib.vehicle.signals.WHEELS`) of a car with several wheels whose tires
+        are contacts; empty otherwise.
     reference_events : dict
         The same from the monolithic reference, each event located inside its step:
         element name -> figures (:meth:`bodyvib.runtime.regimes.EventLog.summary`);
@@ -127,6 +133,7 @@ class BodyRun:
     reference_events: Dict[str, dict] = field(default_factory=dict)
     seat_axes: Optional[Dict[str, float]] = None
     model_transmissibility_peak: Optional[Peak] = None
+    wheel_events: Dict[str, RunEvents] = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """The body's entry of the JSON document (figures, no histories; docs/getting_started.md, "JSON output")."""
@@ -147,6 +154,11 @@ class BodyRun:
             **(self.seat_measures.to_dict() if self.seat_measures is not None else {}),
             **{name: f.to_dict() for name, f in self.forces.items()},
             **({"events": self.events.to_dict()} if self.events is not None else {}),
+            **(
+                {"wheel_events": {w: e.to_dict() for w, e in self.wheel_events.items()}}
+                if self.wheel_events
+                else {}
+            ),
             **({"reference_events": self.reference_events} if self.reference_events else {}),
             **(self.seat_axes or {}),
         }
@@ -646,14 +658,19 @@ class _BodyRecorder:
         self.kept_ref = [] if histories else None
         self.events, self.occupant = EventStream(step, None), None
         self.range: Optional[LinearRangeStream] = None  # a linear car's range (linear_of)
+        self.tire_loads, self.wheel_events = {}, {}
         self.seat_blocks = []  # the seat's x, y, z (a car that has x and y: half, full car)
         self.seat = None  # the seat's height and whether the body rolls (seat_height)
 
-    def watch_events(self, tire_load, occupant, linear_of=None):
-        """The tire's static load (N, or None) for the events, the car FMU's start
-        values that put this body's weight on its seat (None: the car's own), and the
-        nonlinear car whose linearization the car FMU is (None: watch no range)."""
-        self.events = EventStream(self.step, tire_load)
+    def watch_events(self, tire_loads, occupant, linear_of=None):
+        """The tires' static loads (N, by tire-force output: ``tire_force``,
+        ``tire_force_front``, ...) for the events, the car FMU's start values that put
+        this body's weight on its seat (None: the car's own), and the nonlinear car whose
+        linearization the car FMU is (None: watch no range)."""
+        self.tire_loads = tire_loads
+        self.events = EventStream(
+            self.step, tire_loads.get(corner_variable("tire_force", tire_loads))
+        )
         self.occupant = occupant
         if linear_of is not None:
             net = self.net or model_from_fmu(self.path)
@@ -679,11 +696,15 @@ class _BodyRecorder:
         if controller_fmu is not None:
             law = stack.enter_context(open_controller(controller_fmu, car))
         self.master = Master(car, body, self.step, n, extrapolate=extrapolate, controller=law)
+        self.wheel_events = {
+            w: EventStream(self.step, self.tire_loads.get(f"tire_force_{w}"))
+            for w in self.master.wheels
+        }
 
     def advance(self, a, size, wheels):
         """Run one block from point ``a``; its signals and the reference's (or None)."""
         rows = self.master.advance(*wheels)
-        sig = dict(zip(MASTER_SIGNALS, rows.T))
+        sig = dict(zip(self.master.columns, rows.T))
         head, seat = sig["head_acceleration"], sig["seat_acceleration"]
         self.comfort.update(np.vstack([head, seat]))
         self.measures.update(seat, sig["seat_force"], sig["seat_velocity"])
@@ -693,6 +714,8 @@ class _BodyRecorder:
         self.events.update(sig["tire_contact"], sig["stop_force"], sig["tire_force"])
         if self.range is not None:
             self.range.update(sig["tire_force"], sig["suspension_deflection"])
+        for w, stream in self.wheel_events.items():
+            stream.update(sig[f"tire_contact_{w}"], sig[f"stop_force_{w}"], sig[f"tire_force_{w}"])
         if not np.isnan(sig["seat_acceleration_x"][0]):  # a car that has them
             self.seat_blocks.append((sig["seat_acceleration_x"], sig["seat_acceleration_y"], seat))
         ref = None
@@ -718,7 +741,7 @@ class _BodyRecorder:
         return BodyRun(
             fmu=os.fspath(self.path),
             model=self.net.name if self.net is not None else None,
-            run=self._histories(road, self.kept, MASTER_SIGNALS),
+            run=self._histories(road, self.kept, self.master.columns),
             reference=self._histories(road, self.kept_ref, None),
             figures=figs.case(0),
             seat_figures=figs.case(1),
@@ -732,7 +755,12 @@ class _BodyRecorder:
                 for name, f in ((k, s.figures()) for k, s in self.forces.items())
                 if math.isfinite(f.rms)
             },
-            events=self.events.result(),
+            events=(
+                combine_events([e.result() for e in self.wheel_events.values()])
+                if self.wheel_events
+                else self.events.result()
+            ),
+            wheel_events={w: e.result() for w, e in self.wheel_events.items()},
             reference_events=self.ref.events() if self.ref is not None else {},
             seat_axes=_seat_axes(self.seat_blocks, 1.0 / self.step, self.seat),
             model_transmissibility_peak=model_peak(self.net or model_from_fmu(self.path)),
@@ -789,24 +817,30 @@ def _study(settings, opts, controller_fmu, road_and_wheels, window, pairs, bodie
 
 
 def _static_load(car, body_fmus, nets):
-    """Per body label, the tire's static load (N, or None) and the car FMU's start values
-    that put that body's weight on the seat (the car's static load at its seat point).
+    """Per body label, the tires' static loads and the car FMU's start values that put
+    that body's weight on the seat (the car's static load at its seat point).
 
-    The tire is the element of the car's ``tire_force`` output. A body FMU without its
-    model leaves the car's own value.
+    The loads are by tire-force output (``tire_force``, ``tire_force_front``, ...): the
+    static force of that output's element, N, or None where it is no contact. A body FMU
+    without its model leaves the car's own value.
     """
     loads, occupant = {}, {}
     if car is None:
-        return dict.fromkeys(body_fmus), occupant
+        return {label: {} for label in body_fmus}, occupant
     ref = car.static_loads.get(car.roles.get("seat", ""))
-    tire = {o["name"]: o["signal"] for o in car.fmu_outputs}.get("tire_force", "")
+    tires = {
+        o["name"]: o["signal"].rpartition(".")[0]
+        for o in car.fmu_outputs
+        if o["name"].startswith("tire_force")
+    }
     for label, path in body_fmus.items():
         body = nets.get(label) or model_from_fmu(path)
         seated = car
         if isinstance(ref, str) and body is not None:
             occupant[label] = {ref: body.total_mass()}
             seated = car.with_parameters(**occupant[label])
-        loads[label] = static_preloads(seated).get(tire.rpartition(".")[0])
+        pre = static_preloads(seated)
+        loads[label] = {name: pre.get(el) for name, el in tires.items()}
     return loads, occupant
 
 
@@ -893,7 +927,8 @@ class StudyCsv:
         label : str
             One of the study's ``labels``.
         signals : dict of str to ndarray
-            The block's :data:`bodyvib.vehicle.signals.MASTER_SIGNALS`.
+            The block's :data:`bodyvib.vehicle.signals.MASTER_SIGNALS` (and a car's
+            per-wheel signals: the master's ``columns``).
         reference : dict of str to ndarray or None
             The reference's signals of the block.
         """
@@ -911,7 +946,7 @@ class StudyCsv:
         cols = {"time": t, "road_displacement": z, "road_velocity": v}
         for label in self._labels:
             sig, ref = self._blocks[label]
-            for k in MASTER_SIGNALS:
+            for k in sig:  # the master's columns: a car's per-wheel ones too
                 if many and k not in self._BODY:
                     cols.setdefault(k, sig[k])
                 elif not many or k in self._BODY:

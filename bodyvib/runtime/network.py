@@ -1057,7 +1057,12 @@ def linearized(network: Network) -> Network:
             elements.append(el)
     refs = [r for el in elements for r in el.values.values()] + list(network.masses.values())
     for body in network.bodies.values():
-        refs += [body.mass, body.inertia] + [str(x).lstrip("-") for x in body.points.values()]
+        refs += [body.mass, body.inertia]
+        if body.roll_inertia is not None:
+            refs.append(body.roll_inertia)
+        for place in body.points.values():  # a position, or (x, y[, h]) of a rolling body
+            for x in place if isinstance(place, tuple) else (place,):
+                refs.append(split_position(x)[2] if isinstance(x, str) else x)
     used = {r for r in refs if isinstance(r, str)}
     stops = {el.name for el in network.elements if el.kind == "stop"}
     kept = tuple(

@@ -10,6 +10,18 @@
   weights the head and seat accelerations with the recursion of
   :class:`bodyvib.comfort.stream.WkFilter` and keeps the sums the figures of
   :class:`bodyvib.comfort.stream.ComfortStream` come from; no time history is kept.
+* A car with tire contacts and stops (unless the spec's ``linear``) runs on the batched
+  engine linearized, its switching functions watched
+  (:class:`bodyvib.runtime.regimes.PiecewiseModel`, each scaled so that it switches at
+  1: a tire's dynamic force over its static load, reversed; a stop side's force over
+  stiffness times gap) and their largest values kept by the same loop. A case whose
+  largest value reaches :data:`SWITCH_MARGIN` would switch: it is run again, alone,
+  with exact steps and located events (:class:`bodyvib.vehicle.reference.ReferenceStream`:
+  the seated car's monolithic reference, the car's events counted). A case that does
+  not switch is the nonlinear car's run bit for bit (the regime in force never
+  changes), so the batched figures are its figures. The row's ``stepping`` says which
+  (``linear``, ``batched``, ``events``) and the event columns (:data:`EVENTS`) say what
+  the tires and the stops did.
 * ``spectral`` -- for an ISO 8608 random road, the expected weighted mean
   square of a long run, ``a_w^2 = int |H(f)|^2 |Wk(f)|^2 S(f) df``, with
   ``H`` the road-to-head (or seat) acceleration response
@@ -20,10 +32,12 @@
   VDV, peak and crest factor depend on the particular record (NaN). It is the
   stationary road's expectation: the fade-in every road starts with (5 m of a run's
   hundreds) is a transient outside it, and a road file, not stationary, is refused.
+  It is the linearized car's expectation (no events: ``stepping`` ``linear``).
 * ``cosim`` -- real FMU co-simulations (:func:`bodyvib.vehicle.cosim.cosimulate`,
   extrapolating master): the FMUs are built once per task (into a temporary
   folder deleted with the task) and body and car parameters are set for each
-  case through the FMUs' parameter variables before initialization.
+  case through the FMUs' parameter variables before initialization. The car FMU is
+  the linearized car (``stepping`` ``linear``).
 
 Every case sees the road of ``bodyvib cosim`` with the same road, seed, speed,
 duration and road options, faded in from level: :func:`bodyvib.vehicle.road.driven.driven_road` and
@@ -35,7 +49,7 @@ case that fails carries its error instead of figures.
 import math
 import os
 import tempfile
-from typing import Dict, List, Optional, Sequence
+from typing import Dict, List, NamedTuple, Optional, Sequence
 
 import numpy as np
 
@@ -52,7 +66,8 @@ from bodyvib.frequency.response import frequency_response
 from bodyvib.models import load_model
 from bodyvib.runtime.discretize import Discretization
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib.runtime.network import linear_model
+from bodyvib.runtime.network import linear_model, linearized
+from bodyvib.runtime.regimes import PiecewiseModel
 
 from ..quarter_car import seated_system, track_width, wheel_offsets, wheel_sides
 from ..road import roads_input, wheel_roads
@@ -68,6 +83,8 @@ __all__ = [
     "ENGINE_SETTINGS",
     "FIGURES",
     "FORCES",
+    "EVENTS",
+    "SWITCH_MARGIN",
     "run_engine",
     "run_batched",
     "run_spectral",
@@ -80,22 +97,46 @@ __all__ = [
 
 #: Engine names.
 ENGINES = ("batched", "spectral", "cosim")
+#: What a car's tire contacts and stops did, in every row after the figures (NaN for a
+#: linear run): lift-offs and stop contacts (counts, summed over the wheels), time in
+#: the air (s, summed over the wheels), the largest stop force (N) and the smallest
+#: tire-load ratio (total over static tire force, the lowest wheel), and ``stepping``:
+#: ``linear`` (a linear car, ``linear`` in the spec, the spectral and cosim engines),
+#: ``batched`` (nothing switched: the batched engine's run) or ``events`` (run again
+#: with exact steps and located events).
+EVENTS = (
+    "lift_offs",
+    "time_in_air",
+    "stop_contacts",
+    "largest_stop_force",
+    "smallest_tire_load_ratio",
+    "stepping",
+)
 #: Figure columns every engine returns (NaN where it has none); ``head_comfort_method``
 #: is added to every engine's rows by :func:`run_engine` (:func:`comfort_method`).
 FIGURES = (
-    "head_weighted_rms",
-    "head_vdv",
-    "head_peak",
-    "head_crest_factor",
-    "head_comfort",
-    "head_comfort_method",
-    "seat_weighted_rms",
-    "head_mtvv",
-    "neck_force_peak",
-    "lumbar_force_peak",
-) + SEAT_FIGURES
+    (
+        "head_weighted_rms",
+        "head_vdv",
+        "head_peak",
+        "head_crest_factor",
+        "head_comfort",
+        "head_comfort_method",
+        "seat_weighted_rms",
+        "head_mtvv",
+        "neck_force_peak",
+        "lumbar_force_peak",
+    )
+    + SEAT_FIGURES
+    + EVENTS
+)
 #: The body's named forces a sweep reports, as outputs of the seated system.
 FORCES = ("neck_force", "lumbar_force")
+#: A watched switching function at this fraction of its switching sends the case to the
+#: event stepper (chosen: the functions are looked at only at the samples; between two
+#: samples 1 ms apart a 10 Hz wheel hop's force moves past its sampled peak by about
+#: (pi f h)^2 / 2 = 5e-4 of its amplitude, and 2 % covers that forty times over).
+SWITCH_MARGIN = 0.98
 #: Settings of each engine as stored in the table's ``engine_settings`` column (JSON).
 ENGINE_SETTINGS = {
     "batched": '{"method": "exact zero-order-hold-plus-slope step"}',
@@ -199,7 +240,7 @@ def _seat_columns(figures: Optional[Dict[str, float]]) -> Dict[str, float]:
 
 def _failed(exc) -> Dict[str, object]:
     row = {k: float("nan") for k in FIGURES}
-    row["head_comfort"] = None
+    row["head_comfort"] = row["stepping"] = None
     row["error"] = f"{type(exc).__name__}: {exc}" if not isinstance(exc, BodyvibError) else str(exc)
     return row
 
@@ -208,14 +249,15 @@ class _Seated:
     """The monolithic model of a case's body on its car, with its output rows."""
 
     def __init__(self, case: Case, cars: dict):
-        car = cars.get(case.car)
+        car = cars.get((case.car, case.linear))
         if car is None:
-            car = cars[case.car] = case.car_network()
+            car = cars[(case.car, case.linear)] = case.car_network()
         base = cars.get(("body", case.body_model))
         if base is None:  # the model file read once per task, not once per parameter set
             base = cars[("body", case.body_model)] = load_model(case.body_model)
         body = base.with_parameters(**dict(case.body_values)) if case.body_values else base
-        self.lm = linear_model(seated_system(car, body))
+        self.lm = linear_model(seated_system(linearized(car), body))
+        self.watch = _watched(seated_system(car, body), self.lm)
         # exact step matrices once per step size, for every case of this body on this car
         self.discretization = Discretization(self.lm)
         self.step_rows = {}  # step size -> the step rows of every case (_case_rows)
@@ -233,18 +275,47 @@ class _Seated:
             for f in FORCES
         ]
 
-    def rows(self, matrix):
-        """The output rows of ``matrix`` (C or D): head, seat, then each force (0 if none)."""
-        out = np.zeros((2 + len(FORCES),) + matrix.shape[1:])
+    def rows(self, matrix, watched):
+        """The output rows of ``matrix`` (C or D): head, seat, each force (0 if none), then
+        the ``watched`` rows (the switching functions' part on the states or the inputs)."""
+        out = np.zeros((2 + len(FORCES) + watched.shape[0],) + matrix.shape[1:])
         out[:2] = matrix[self.outputs]
         for r, i in enumerate(self.forces):
             if i is not None:
                 out[2 + r] = matrix[i]
+        out[2 + len(FORCES) :] = watched
         return out
 
 
+class _Watched(NamedTuple):
+    """A car's switching functions as output rows of the linear seated system, scaled to
+    switch at 1 (:func:`_watched`)."""
+
+    x: np.ndarray  # (w, n): on the states
+    u: np.ndarray  # (w, inputs): on the inputs
+    contact: np.ndarray  # (w,) bool: a tire's (its load ratio is 1 - the row)
+    always: bool  # a function that switches at any motion (an asymmetric damper)
+
+
+def _watched(seated, lm) -> _Watched:
+    """The switching functions of a seated car with contacts and stops on ``lm`` (the
+    linearized seated system's state space): ``g = G [x; u] + g0`` switches at
+    ``G [x; u] = -g0``, the row ``G / -g0`` at 1."""
+    n, ni = lm.A.shape[0], len(lm.inputs)
+    if not seated.nonlinear_elements:
+        return _Watched(np.zeros((0, n)), np.zeros((0, ni)), np.zeros(0, bool), False)
+    pw = PiecewiseModel(seated)
+    if pw.linear.states != lm.states or pw.linear.inputs != lm.inputs:
+        raise BodyvibError("the nonlinear car's states differ from its linearization's")
+    scale = np.where(pw.g0 != 0.0, -1.0 / np.where(pw.g0 != 0.0, pw.g0, 1.0), 0.0)
+    contact = np.array([side == "contact" for _, side in pw.switches])
+    return _Watched(
+        pw.Gx * scale[:, None], pw.Gu * scale[:, None], contact, bool(np.any(pw.g0 == 0.0))
+    )
+
+
 def _seated(case, models, cars):
-    key = (case.body_model, case.body_values, case.car)
+    key = (case.body_model, case.body_values, case.car, case.linear)
     m = models.get(key)
     if m is None:
         if len(models) > 256:
@@ -291,8 +362,8 @@ def _case_rows(s, step, m):
         )
     M = np.empty((m, n))
     M[:n] = Phi
-    M[n:] = s.rows(lm.C)
-    D = s.rows(lm.D)
+    M[n:] = s.rows(lm.C, s.watch.x)
+    D = s.rows(lm.D, s.watch.u)
     gz = np.zeros((len(s.bases), m))
     gv = np.zeros((len(s.bases), m))
     for j, base in enumerate(s.bases):
@@ -316,7 +387,8 @@ def _step_inputs(cases, sys, roads):
     c = len(cases)
     n = sys[0].lm.A.shape[0]
     step = cases[0].step
-    m = n + 2 + len(FORCES)  # states, then head and seat acceleration and the forces
+    # states, then head and seat acceleration, the forces and the watched functions
+    m = n + 2 + len(FORCES) + sys[0].watch.x.shape[0]
     P = max(len(s.bases) for s in sys)
     M = np.empty((c, m, n))
     gz = np.zeros((c, P, m))
@@ -414,10 +486,83 @@ def _batched_group(cases, models, cars, roads, record):
                     if i in axes
                     else None
                 ),
+                **_batched_events(sys[i].watch, sums[len(SUMS) :, i]),
                 "error": None,
             }
         )
     return rows, hist
+
+
+#: A linear run's event columns.
+_LINEAR = {**{k: math.nan for k in EVENTS}, "stepping": "linear"}
+
+
+def _batched_events(watch: _Watched, top: np.ndarray) -> dict:
+    """A batched case's event columns from its watched functions' largest values ``top``;
+    ``stepping`` None: the case would switch (run it again with events)."""
+    if not watch.contact.size:
+        return dict(_LINEAR)
+    if watch.always or np.any(top >= SWITCH_MARGIN):
+        return {**_LINEAR, "stepping": None}
+    ratio = 1.0 - float(np.max(top[watch.contact])) if np.any(watch.contact) else math.nan
+    return {
+        "lift_offs": 0.0,
+        "time_in_air": 0.0,
+        "stop_contacts": 0.0,
+        "largest_stop_force": 0.0,
+        "smallest_tire_load_ratio": ratio,
+        "stepping": "batched",
+    }
+
+
+def _event_case(cs: Case, record: bool):
+    """Figures, event columns (and histories) of one case of a car with contacts and
+    stops, with exact steps and located events (the seated car's monolithic reference)."""
+    from ..reference import ReferenceStream
+
+    car = cs.car_network()
+    z, v = _roads(cs, {}, wheel_offsets(car), wheel_sides(car), track_width(car))
+    ref = ReferenceStream(car, cs.body_network(), cs.step)
+    run = ref.advance(z, v)
+    contacts = [e for e in ref.events().values() if e["kind"] == "contact"]
+    stops = [e for e in ref.events().values() if e["kind"] == "stop"]
+    events = {
+        "lift_offs": float(sum(e["lift_offs"] for e in contacts)),
+        "time_in_air": float(sum(e["time_in_air_s"] for e in contacts)),
+        "stop_contacts": float(sum(e["contacts"] for e in stops)),
+        "largest_stop_force": max([e["largest_force_N"] for e in stops], default=0.0),
+        "smallest_tire_load_ratio": min([e["smallest_load_ratio"] for e in contacts]),
+        "stepping": "events",
+    }
+    return _run_row(run, cs.step, events, car), _histories(run, record)
+
+
+def _run_row(run: dict, step: float, events: dict, car) -> dict:
+    """A row of figures from a run's head and seat accelerations and forces, and the
+    seat's axes where ``car`` (the run's car) gives them."""
+    stream = ComfortStream(1.0 / step, 2)
+    stream.update(np.stack([run["head_acceleration"], run["seat_acceleration"]]))
+    fig = stream.figures()
+    return {
+        "head_weighted_rms": float(fig["weighted_rms"][0]),
+        "head_vdv": float(fig["vdv"][0]),
+        "head_peak": float(fig["peak"][0]),
+        "head_crest_factor": float(fig["crest_factor"][0]),
+        "head_comfort": fig["comfort"][0],
+        "seat_weighted_rms": float(fig["weighted_rms"][1]),
+        "head_mtvv": float(fig["mtvv"][0]),
+        **{f"{f}_peak": float(np.max(np.abs(run[f]))) for f in FORCES},
+        **_seat_columns(_run_seat_axes(run, step, car)),
+        **events,
+        "error": None,
+    }
+
+
+def _histories(run: dict, record: bool) -> Optional[dict]:
+    """The head and seat acceleration of a run (``record``), else None."""
+    if not record:
+        return None
+    return {k: run[k] for k in ("head_acceleration", "seat_acceleration")}
 
 
 def run_batched(cases: Sequence[Case], record: bool = False):
@@ -454,11 +599,12 @@ def run_batched(cases: Sequence[Case], record: bool = False):
     groups: Dict[tuple, List[int]] = {}
     for i, cs in enumerate(cases):
         try:
-            n = _seated(cs, models, cars).lm.A.shape[0]
+            s = _seated(cs, models, cars)
         except Exception as exc:  # a case that cannot be built is recorded, not fatal
             rows[i] = _failed(exc)
             continue
-        groups.setdefault((n, cs.steps, cs.step), []).append(i)
+        key = (s.lm.A.shape[0], s.watch.x.shape[0], cs.steps, cs.step)
+        groups.setdefault(key, []).append(i)
 
     def run(idx):
         r, h = _batched_group([cases[i] for i in idx], models, cars, roads, record)
@@ -482,6 +628,12 @@ def run_batched(cases: Sequence[Case], record: bool = False):
                     run([i])
                 except Exception as exc:
                     rows[i] = _failed(exc)
+    for i, row in enumerate(rows):  # a case that would switch: again, with events
+        if row is not None and row["error"] is None and row["stepping"] is None:
+            try:
+                rows[i], hist[i] = _event_case(cases[i], record)
+            except Exception as exc:
+                rows[i], hist[i] = _failed(exc), None
     return rows, (hist if record else None)
 
 
@@ -609,6 +761,7 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
                 "neck_force_peak": float("nan"),  # a peak needs a record
                 "lumbar_force_peak": float("nan"),
                 **_seat_columns(_seat_figures(seat, axes, s.height)),
+                **_LINEAR,
                 "error": None,
             }
     return rows
@@ -671,7 +824,7 @@ def _cosim_case(cs, folder, built, record, cosimulate, open_fmu):
     """Figures (and histories) of one case by co-simulation; a failure is recorded."""
     try:
         body = cs.body_network()
-        car = cs.car_network()
+        car = linearized(cs.car_network())  # the FMU's car (_fmu)
         body_fmu = _fmu("body", cs.body_model, folder, built)
         car_fmu = _fmu("car", cs.car, folder, built)
         z, v = _roads(cs, {}, wheel_offsets(car), wheel_sides(car), track_width(car))
@@ -680,29 +833,7 @@ def _cosim_case(cs, folder, built, record, cosimulate, open_fmu):
             open_fmu(body_fmu, "body", "body", start_values=_parameters(body)) as b,
         ):
             run = cosimulate(c, b, z, v, cs.step, extrapolate=True)
-        stream = ComfortStream(1.0 / cs.step, 2)
-        stream.update(np.stack([run["head_acceleration"], run["seat_acceleration"]]))
-        fig = stream.figures()
-        row = {
-            "head_weighted_rms": float(fig["weighted_rms"][0]),
-            "head_vdv": float(fig["vdv"][0]),
-            "head_peak": float(fig["peak"][0]),
-            "head_crest_factor": float(fig["crest_factor"][0]),
-            "head_comfort": fig["comfort"][0],
-            "seat_weighted_rms": float(fig["weighted_rms"][1]),
-            "head_mtvv": float(fig["mtvv"][0]),
-            **{f"{f}_peak": float(np.max(np.abs(run[f]))) for f in FORCES},
-            **_seat_columns(_run_seat_axes(run, cs.step, car)),
-            "error": None,
-        }
-        return row, (
-            {
-                "head_acceleration": run["head_acceleration"],
-                "seat_acceleration": run["seat_acceleration"],
-            }
-            if record
-            else None
-        )
+        return _run_row(run, cs.step, _LINEAR, car), _histories(run, record)
     except Exception as exc:
         return _failed(exc), None
 

@@ -13,7 +13,10 @@ For every case of a group and every sample ``k`` the loop computes
   (:class:`bodyvib.comfort.stream.WkFilter`'s recursion, evaluated sample by sample);
 * the running sums the figures come from: ``sum a_w^2``, ``sum a_w^4``,
   ``max |a_w|``, the largest 1 s sum of ``a_w^2`` (the MTVV), and the largest
-  ``|force|``.
+  ``|force|``;
+* the largest value of each *watched* output row after the forces (a car with tire
+  contacts and stops: its switching functions, scaled so that 1 is the switching,
+  :mod:`bodyvib.vehicle.sweep.engines`).
 
 No time history is written (unless asked for), so nothing is read back. The cases are
 laid out side by side in lanes, up to :data:`LANES` at a time: the inner loop runs
@@ -86,7 +89,8 @@ def _kernel():
         total = rows[:, WK_STATES + 1]  # the running window's sum of a_w^2
         wsum = rows[:, WK_STATES + 2 :]  # sum a_w^2, sum a_w^4, max |a_w|, window max
         ring = np.empty((2, window, L))
-        fsum = np.empty((3, LANES))  # the force peaks and the check sum, the same way
+        # the force peaks, the check sum and the watched rows' maxima, the same way
+        fsum = np.empty((m - n - 1, LANES))
         # the weighting's coefficients, one name each (tuples: they stay in registers)
         c0, c1, c2, c3, c4, c5, c6, c7 = wc
         for ch in range(chunks):
@@ -128,11 +132,17 @@ def _kernel():
                             for i in range(L):
                                 y[r, i] += out[n + r, i]
                 # the forces: largest magnitude; a non-finite value spoils the check sum
-                for f in range(m - n - 2):
+                for f in range(2):
                     for i in range(L):
                         yf = abs(y[2 + f, i])
                         fsum[2, i] += yf * 0.0
                         fsum[f, i] = yf if yf > fsum[f, i] else fsum[f, i]
+                # the watched rows (a nonlinear car's switching margins): largest value
+                for f in range(m - n - 4):
+                    for i in range(L):
+                        yf = y[4 + f, i]
+                        fsum[2, i] += yf * 0.0
+                        fsum[3 + f, i] = yf if yf > fsum[3 + f, i] else fsum[3 + f, i]
                 # Wk of head (s = 0) and seat (s = 1), then the figures' sums. A lane's
                 # weighting states are read once into registers and its rows written
                 # out (row r reads the states of its own and the earlier sections,
@@ -240,7 +250,7 @@ def _kernel():
                 for j in range(4):
                     for i in range(L):
                         sums[ch, 4 * s + j, i] = wsum[s, j, i]
-            for r in range(3):
+            for r in range(m - n - 1):
                 for i in range(L):
                     sums[ch, 8 + r, i] = fsum[r, i]
 
@@ -254,7 +264,7 @@ class KernelInputs:
 
     Attributes
     ----------
-    M : (chunks, n + 4, n, lanes) ndarray
+    M : (chunks, n + 4 + watched rows, n, lanes) ndarray
     gz, gv : (chunks, points, n + 4, lanes) ndarray
     road : (chunks, points, lanes) ndarray of int
     cases : int
@@ -368,11 +378,12 @@ def run(inputs: KernelInputs, z, v, wk, window: int, record: bool = False):
 
     Returns
     -------
-    sums : (len(SUMS), cases) ndarray
+    sums : (len(SUMS) + watched rows, cases) ndarray
         :data:`SUMS` of each case: ``sum a_w^2``, ``sum a_w^4``, ``max |a_w|``
         and the largest ``window``-sample sum of ``a_w^2`` of the head and the
-        seat, the two force peaks, and a check sum that is 0 unless a force
-        was not finite.
+        seat, the two force peaks, a check sum that is 0 unless a force
+        was not finite, then the largest value of each watched row (``M``'s rows
+        after ``n + 4``; the check sum covers them too).
     histories : (2, cases, samples) ndarray or None
         Head and seat acceleration, m/s2, with ``record``.
 
@@ -394,7 +405,8 @@ def run(inputs: KernelInputs, z, v, wk, window: int, record: bool = False):
     if width > LANES:  # the loop's rows of the weighting hold LANES lanes
         raise ValueError(f"at most {LANES} lanes, got {width}")
     N = z.shape[1]
-    sums = np.empty((chunks, len(SUMS), width))
+    rows = len(SUMS) + inputs.M.shape[1] - inputs.M.shape[2] - 4  # and the watched rows'
+    sums = np.empty((chunks, rows, width))
     hist = np.empty((chunks, 2, width, N if record else 0))
     _kernel()(
         inputs.M,
@@ -413,7 +425,7 @@ def run(inputs: KernelInputs, z, v, wk, window: int, record: bool = False):
         hist,
     )
     c = inputs.cases
-    sums = np.moveaxis(sums, 2, 1).reshape(chunks * width, len(SUMS))[:c].T
+    sums = np.moveaxis(sums, 2, 1).reshape(chunks * width, rows)[:c].T
     if not record:
         return sums, None
     return sums, np.moveaxis(hist, 1, 0).reshape(2, chunks * width, N)[:, :c]

@@ -124,12 +124,29 @@ def plot_sweep(df, path, title: Optional[str] = None) -> None:
         plot_comfort_maps(df, path, title=title)
 
 
+def _lift_offs(ok, others) -> dict:
+    """Per curve (road, then the ``others`` columns' values) the lowest speed at which
+    a case lifts a wheel (:func:`bodyvib.vehicle.sweep.summary.lift_off_speeds`)."""
+    from .summary import lift_off_speeds
+
+    if "lift_offs" not in ok:
+        return {}
+    out: dict = {}
+    for (road, body, car), v in lift_off_speeds(ok).items():
+        key = (road,) + tuple({"body": body, "car": car}[k] for k in others)
+        if v is not None:
+            out[key] = v if out.get(key) is None else min(out[key], v)
+    return out
+
+
 def plot_bump_study(df, path, title: Optional[str] = None) -> None:
     """A bump study: head peak, VDV and the neck and lumbar force peaks against speed.
 
     One panel per figure of :data:`BUMP_PANELS`, one curve per bump (a colour each) and,
     when the table has several, per body and car (a line style each); where a curve holds
-    several cases per speed (parameter sets), it is their median.
+    several cases per speed (parameter sets), it is their median. A vertical line in the
+    curve's colour and style marks the speed from which that bump lifts a wheel off the
+    road, named in the legend ("lift-off from 8 m/s").
 
     Parameters
     ----------
@@ -154,6 +171,7 @@ def plot_bump_study(df, path, title: Optional[str] = None) -> None:
     kinds = sorted(set(map(tuple, ok[others].to_numpy()))) if others else [()]
     colours = {r: f"C{i % 10}" for i, r in enumerate(roads)}  # a colour per bump
     styles = {k: ("-", "--", ":", "-.")[i % 4] for i, k in enumerate(kinds)}  # a line per body
+    lift = _lift_offs(ok, others)
     fig, axes = new_figure(2, 2, figsize=(10.4, 7.6), squeeze=False)
     for ax, (column, label) in zip(axes.flat, BUMP_PANELS):
         for group, g in ok.groupby(["road"] + others, sort=True):
@@ -161,15 +179,20 @@ def plot_bump_study(df, path, title: Optional[str] = None) -> None:
             y = g.groupby("speed")[column].median()
             if np.all(np.isnan(y.to_numpy(dtype=float))):
                 continue
+            colour, style = colours[group[0]], styles[tuple(group[1:])]
+            v = lift.get(group)
+            words = f", lift-off from {v:g} m/s" if v is not None else ""
             ax.plot(
                 y.index,
                 y.to_numpy(dtype=float),
                 marker="o",
                 ms=3,
-                color=colours[group[0]],
-                ls=styles[tuple(group[1:])],
-                label=", ".join(group),
+                color=colour,
+                ls=style,
+                label=", ".join(group) + words,
             )
+            if v is not None:  # the speed from which the bump lifts a wheel
+                ax.axvline(v, color=colour, ls=style, lw=0.8, alpha=0.6)
         ax.set_xlabel("speed [m/s]")
         ax.set_ylabel(label)
         ax.set_ylim(bottom=0)

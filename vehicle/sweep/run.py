@@ -21,42 +21,51 @@ The table, one row per case (:data:`BASE_COLUMNS`, with one ``body_<name>``
 and ``car_<name>`` column per parameter of every model after ``car``; units
 in the schema, see :mod:`bodyvib.vehicle.sweep.table`):
 
-=================== ===========================================================
-case_id, case_key   position in the spec; hash identifying the case
-road, seed          ISO 8608 class, ``bump``, ``sweep``, a bump shape with its
-                    dimensions or a road file; random-road seed
-speed               vehicle speed, m/s
-duration, step      run length and time step, s
-body, body_model    body entry name; shipped model name or parameter file
-body_sample         parameter-set number of a ``vary`` entry (-1: none)
-car                 car model name or file
-head_weighted_rms   head ISO 2631-1 Wk-weighted r.m.s., m/s2
-head_vdv            head vibration dose value, m/s^1.75 (NaN for ``spectral``)
-head_peak           head peak weighted acceleration, m/s2 (NaN for ``spectral``)
-head_crest_factor   peak / r.m.s. (NaN for ``spectral``)
-head_comfort        ISO 2631-1 Annex C words for the head's weighted r.m.s.
-head_comfort_method which ISO 2631-1 method governs (clause 6.3): ``basic``,
-                    ``vdv`` or ``mtvv`` (:func:`bodyvib.comfort.governing_method`);
-                    where it is not ``basic``, ``head_comfort`` names the r.m.s. only
-seat_weighted_rms   seat (the car's seat point) Wk-weighted r.m.s., m/s2
-head_mtvv           head maximum transient vibration value (largest 1 s running
-                    r.m.s.), m/s2 (NaN for ``spectral``)
-neck_force_peak     largest magnitude of the body's neck force, N (NaN for
-                    ``spectral`` and for a body that names no neck force)
-lumbar_force_peak   the same for the lumbar force, N
-seat_aw_x, _y, _z   the seat surface's ISO 2631-1 weighted r.m.s. fore-aft,
-                    sideways (Wd) and vertical (Wk), m/s2 (NaN: a car whose seat
-                    has no height above the body's centre, a quarter car)
-seat_av             their point vibration total value for comfort, m/s2
-seat_aw_rx, _ry     the seat's roll (a full car) and pitch accelerations, We, rad/s2
-seat_rotation_av    their point vibration total value for comfort, m/s2
-engine              ``batched``, ``spectral`` or ``cosim``
-engine_settings     the engine's settings (JSON)
-error               why the case failed (empty when it did not)
-bodyvib_version     version that computed the row
-spec_hash           hash of the spec and the files it names
-run_id              the invocation that computed the row
-=================== ===========================================================
+========================= ===========================================================
+case_id, case_key         position in the spec; hash identifying the case
+road, seed                ISO 8608 class, ``bump``, ``sweep``, a bump shape with its
+                          dimensions or a road file; random-road seed
+speed                     vehicle speed, m/s
+duration, step            run length and time step, s
+body, body_model          body entry name; shipped model name or parameter file
+body_sample               parameter-set number of a ``vary`` entry (-1: none)
+car                       car model name or file
+head_weighted_rms         head ISO 2631-1 Wk-weighted r.m.s., m/s2
+head_vdv                  head vibration dose value, m/s^1.75 (NaN for ``spectral``)
+head_peak                 head peak weighted acceleration, m/s2 (NaN for ``spectral``)
+head_crest_factor         peak / r.m.s. (NaN for ``spectral``)
+head_comfort              ISO 2631-1 Annex C words for the head's weighted r.m.s.
+head_comfort_method       which ISO 2631-1 method governs (clause 6.3): ``basic``,
+                          ``vdv`` or ``mtvv`` (:func:`bodyvib.comfort.governing_method`);
+                          where it is not ``basic``, ``head_comfort`` names the r.m.s. only
+seat_weighted_rms         seat (the car's seat point) Wk-weighted r.m.s., m/s2
+head_mtvv                 head maximum transient vibration value (largest 1 s running
+                          r.m.s.), m/s2 (NaN for ``spectral``)
+neck_force_peak           largest magnitude of the body's neck force, N (NaN for
+                          ``spectral`` and for a body that names no neck force)
+lumbar_force_peak         the same for the lumbar force, N
+seat_aw_x, _y, _z         the seat surface's ISO 2631-1 weighted r.m.s. fore-aft,
+                          sideways (Wd) and vertical (Wk), m/s2 (NaN: a car whose seat
+                          has no height above the body's centre, a quarter car)
+seat_av                   their point vibration total value for comfort, m/s2
+seat_aw_rx, _ry           the seat's roll (a full car) and pitch accelerations, We, rad/s2
+seat_rotation_av          their point vibration total value for comfort, m/s2
+lift_offs                 a car with tire contacts: lift-offs, summed over the wheels (NaN:
+                          a linear run)
+time_in_air               time in the air, s, summed over the wheels
+stop_contacts             contacts with the bump and rebound stops, summed over the stops
+largest_stop_force        the largest stop force, N
+smallest_tire_load_ratio  the smallest total over static tire force of any wheel (0: in
+                          the air)
+stepping                  ``linear``, ``batched`` (nothing switched) or ``events`` (run
+                          again with exact steps and located events)
+engine                    ``batched``, ``spectral`` or ``cosim``
+engine_settings           the engine's settings (JSON)
+error                     why the case failed (empty when it did not)
+bodyvib_version           version that computed the row
+spec_hash                 hash of the spec and the files it names
+run_id                    the invocation that computed the row
+========================= ===========================================================
 """
 
 import json

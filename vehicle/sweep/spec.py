@@ -18,12 +18,14 @@ the order road, seed, speed, duration, step, body, car)::
                {"model": "reduced-paper", "vary": {"k1": [0.8, 1.2], "c1": [0.5, 2]},
                 "samples": 400, "seed": 0, "method": "lhs", "name": "reduced-varied"}],
       "car": ["quarter-car", "quarter-car-cushion"],  shipped name or a parameter file
-      "seat": ["none", "cushion", "suspension"]      a seat on every car: "none", a shipped
+      "seat": ["none", "cushion", "suspension"],     a seat on every car: "none", a shipped
                                                      seat or a seat file (bodyvib.vehicle.seats)
+      "linear": false                      true: every car linearized (as cosim --linear)
     }
 
 Defaults: ``seed`` 0, ``duration`` 30, ``step`` 0.001, ``car`` ``quarter-car``, ``seat``
-``none`` (the car as its file gives it); every car is combined with every seat, and a case's
+``none`` (the car as its file gives it), ``linear`` false (cars with tire contacts and
+stops step them: :mod:`bodyvib.vehicle.sweep.engines`); every car is combined with every seat, and a case's
 ``car`` is then ``CAR+SEAT`` (:func:`bodyvib.vehicle.seats.car_with_seat`);
 ``road`` is required; ``speed`` defaults to cosim's speed (20 m/s), ``body`` to cosim's body
 (the paper's reduced model, ``reduced-paper``) and ``car`` to its car (``quarter-car``).
@@ -95,6 +97,7 @@ SPEC_KEYS = {
     "car": "quarter-car",
     "seat": NO_SEAT,
     "road_options": {},
+    "linear": False,
 }
 #: Keys of ``road_options``: the fields of :class:`bodyvib.vehicle.road.driven.RoadOptions`
 #: (``taper`` and ``track``, the old names of the first two, work for one release, warned).
@@ -132,6 +135,8 @@ class Case:
         Hash of everything that determines the result.
     road_options : tuple of (str, object)
         Fields of :class:`bodyvib.vehicle.road.driven.RoadOptions` that differ from the defaults.
+    linear : bool
+        Run the car linearized about static equilibrium (the spec's ``linear``).
     """
 
     case_id: int
@@ -147,6 +152,7 @@ class Case:
     car: str
     case_key: str = ""
     road_options: Tuple[Tuple[str, object], ...] = ()
+    linear: bool = False
 
     @property
     def steps(self) -> int:
@@ -178,8 +184,8 @@ class Case:
         return net.with_parameters(**dict(self.body_values)) if self.body_values else net
 
     def car_network(self):
-        """The car model, linearized: the sweep engines step linear cars."""
-        return load_car(self.car, linear=True)
+        """The car model: with its tire contacts and stops, or linearized (``linear``)."""
+        return load_car(self.car, linear=self.linear)
 
 
 def _list(value):
@@ -599,10 +605,14 @@ class _Prepared:
             for c in _list(spec["car"])
             for s in _list(spec["seat"])
         ]
-        linear_cars = {c: load_car(c, linear=True) for c in self.cars}
-        self.car_digests = {c: _digest(net) for c, net in linear_cars.items()}
+        linear = spec["linear"]
+        if not isinstance(linear, bool):
+            raise BodyvibError(f"spec: 'linear' must be true or false, not {linear!r}")
+        self.linear = linear
+        self.car_digests = {c: _digest(load_car(c, linear=linear)) for c in self.cars}
         base = {m: load_model(m) for m in dict.fromkeys(b[1] for b in self.bodies)}
-        for net in linear_cars.values():  # the figures' step, of each car and named body
+        # the figures' step, of each car (linearized: its modes) and named body
+        for net in (load_car(c, linear=True) for c in self.cars):
             check_study_step(max(steps), net, list(base.values()))
         self.body_digests = [
             _digest(base[m].with_parameters(**dict(v)) if v else base[m])
@@ -678,6 +688,7 @@ class _Prepared:
             car=car,
             case_key=key.hexdigest()[:20],
             road_options=self.road_options,
+            linear=self.linear,
         )
 
     def order(self, body_major: bool = False) -> Iterator[int]:

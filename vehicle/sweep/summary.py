@@ -1,4 +1,5 @@
-"""A sweep's table in a few lines: what ran, what failed, the range of the head's comfort.
+"""A sweep's table in a few lines: what ran, what failed, how the cars were stepped, the
+range of the head's comfort.
 
 ``bodyvib sweep`` prints :func:`format_summary` at the end, so that a run read in a log
 says what it found without opening the table. :func:`summary_columns` reads only the
@@ -10,7 +11,7 @@ import os
 
 import numpy as np
 
-__all__ = ["SUMMARY_COLUMNS", "format_summary", "summary_columns"]
+__all__ = ["SUMMARY_COLUMNS", "format_summary", "summary_columns", "lift_off_speeds"]
 
 #: The columns :func:`format_summary` reads.
 SUMMARY_COLUMNS = (
@@ -23,6 +24,8 @@ SUMMARY_COLUMNS = (
     "head_comfort",
     "head_comfort_method",
     "engine",
+    "stepping",
+    "lift_offs",
     "error",
 )
 
@@ -55,6 +58,53 @@ def summary_columns(path: str):
     return df[[c for c in SUMMARY_COLUMNS if c in df]]
 
 
+def lift_off_speeds(df) -> dict:
+    """The speed at which each bump first lifts a wheel, per bump, body and car.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        A sweep table (its ``road``, ``body``, ``car``, ``speed``, ``lift_offs`` and
+        ``error`` columns).
+
+    Returns
+    -------
+    dict of (str, str, str) to float or None
+        ``(road, body, car)`` -> the lowest speed of the table at which a case of that
+        group lifts a wheel off the road (m/s), None where none does (a linear run
+        counts none: its ``lift_offs`` are NaN).
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> df = pd.DataFrame({"road": ["hump"] * 3, "body": ["b"] * 3, "car": ["c"] * 3,
+    ...     "speed": [4.0, 8.0, 6.0], "lift_offs": [0.0, 2.0, 1.0], "error": [None] * 3})
+    >>> lift_off_speeds(df)
+    {('hump', 'b', 'c'): 6.0}
+    """
+    ok = df[df["error"].fillna("").astype(str) == ""]
+    out = {}
+    for key, g in ok.groupby(["road", "body", "car"], sort=True):
+        lifted = g.loc[g["lift_offs"].astype(float) > 0, "speed"].astype(float)
+        out[tuple(key)] = float(lifted.min()) if len(lifted) else None
+    return out
+
+
+def _lift_off_lines(df) -> list:
+    """A bump study's lines: from which speed each bump lifts a wheel."""
+    from ..road.bumps import is_bump_spec
+
+    roads = set(df["road"].astype(str))
+    if "lift_offs" not in df or not roads or not all(is_bump_spec(r) for r in roads):
+        return []
+    top = df["speed"].astype(float).max()
+    lines = []
+    for (road, body, car), v in lift_off_speeds(df).items():
+        at = f"lift-off from {v:g} m/s" if v is not None else f"no lift-off up to {top:g} m/s"
+        lines.append(f"  {road} ({body}, {car}): {at}")
+    return ["wheel lift-off over the bumps:"] + lines if lines else []
+
+
 def _case(row) -> str:
     return (
         f"road {row['road']}, {row['speed']:g} m/s, body {row['body']}, car {row['car']} "
@@ -65,7 +115,10 @@ def _case(row) -> str:
 def format_summary(df) -> str:
     """The summary of a sweep table: cases and failures, the head's Wk r.m.s. range with the
     cases at its ends, the cases where ISO 2631-1's basic method is not sufficient
-    (``head_comfort_method``, clause 6.3) ahead of the cases per comfort band.
+    (``head_comfort_method``, clause 6.3) ahead of the cases per comfort band, and how
+    many cases were stepped linear, batched (a nonlinear car where nothing switched) or
+    with events, and in a bump study the speed from which each bump lifts a wheel
+    (:func:`lift_off_speeds`).
 
     Parameters
     ----------
@@ -83,13 +136,15 @@ def format_summary(df) -> str:
     >>> df = pd.DataFrame({"case_id": [0, 1], "road": ["C", "D"], "speed": [20.0, 20.0],
     ...     "body": ["reduced-paper"] * 2, "car": ["quarter-car"] * 2,
     ...     "head_weighted_rms": [1.1239, 2.2478], "engine": ["batched"] * 2,
-    ...     "head_comfort": ["uncomfortable", "extremely uncomfortable"], "error": ["", ""]})
+    ...     "head_comfort": ["uncomfortable", "extremely uncomfortable"], "error": ["", ""],
+    ...     "stepping": ["batched", "events"]})
     >>> print(format_summary(df))
     sweep: 2 cases, 2 computed, 0 failed (engine batched)
     head Wk r.m.s. [m/s2]: min 1.124, median 1.686, max 2.248
       min: road C, 20 m/s, body reduced-paper, car quarter-car (case 0)
       max: road D, 20 m/s, body reduced-paper, car quarter-car (case 1)
     comfort (ISO 2631-1 C): 1 uncomfortable, 1 extremely uncomfortable
+    stepping: 1 batched (nothing switched), 1 run with events
     """
     failed = df["error"].fillna("").astype(str) != ""
     ok = df[~failed & np.isfinite(df["head_weighted_rms"].astype(float))]
@@ -110,6 +165,15 @@ def format_summary(df) -> str:
         order = bands.min().sort_values().index  # the bands from the mildest
         bands = ", ".join(f"{bands.size()[b]} {b}" for b in order)
         lines.append(f"comfort (ISO 2631-1 C): {bands}")
+    if "stepping" in df:  # how many cases stayed batched, how many switched
+        ways = df.loc[~failed, "stepping"].fillna("").astype(str).value_counts()
+        words = {"batched": "batched (nothing switched)", "events": "run with events"}
+        counts = [
+            f"{ways[w]} {words.get(w, w)}" for w in ("linear", "batched", "events") if w in ways
+        ]
+        if counts:
+            lines.append(f"stepping: {', '.join(counts)}")
+    lines += _lift_off_lines(df)
     if failed.any():
         first = df[failed].iloc[0]
         lines.append(f"first failure: {_case(first)}: {first['error']}")

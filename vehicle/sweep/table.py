@@ -84,6 +84,12 @@ FIGURE_UNITS = {
     "seat_aw_rx": "rad/s2",
     "seat_aw_ry": "rad/s2",
     "seat_rotation_av": "m/s2",
+    "lift_offs": "",
+    "time_in_air": "s",
+    "stop_contacts": "",
+    "largest_stop_force": "N",
+    "smallest_tire_load_ratio": "",
+    "stepping": "",
 }
 #: Columns after the figures.
 TRAILING_COLUMNS = ("engine", "engine_settings", "error", "bodyvib_version", "spec_hash", "run_id")
@@ -96,6 +102,7 @@ _STRINGS = {
     "car",
     "head_comfort",
     "head_comfort_method",
+    "stepping",
 } | set(TRAILING_COLUMNS)
 WINDOW = 16384  # rows assembled at a time
 
