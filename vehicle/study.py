@@ -464,16 +464,9 @@ def run_study(
     car_net = car_model if reference else None
     behind, roads = _wheels(car_fmu, car_net, settings, rd)
     window = _window(n, settings.step, opts.window_s)
-    bodies = {
-        label: _BodyRecorder(label, path, settings.step, n, window, opts.histories)
-        for label, path in body_fmus.items()
-    }
-    for rec in bodies.values():
-        rec.add_reference(car_net, reference, law)
-    tire_load, occupant = _static_load(car_model, body_fmus, {k: r.net for k, r in bodies.items()})
-    for label, rec in bodies.items():
-        rec.watch_events(tire_load[label], occupant.get(label), opts.linear_of)
-        rec.seat = seat_height(car_model)
+    bodies = _recorders(
+        body_fmus, car_model, (settings.step, n, window), opts, (car_net, reference, law)
+    )
     progress_lines(opts.progress)(_opening(body_fmus, rd, settings, bodies))
     pairs = {(a, b): [0.0, 0.0] for a in bodies for b in bodies if a != b}
     bar = progress_bar(n, opts.progress, "co-simulation")
@@ -503,6 +496,27 @@ def run_study(
     out = _study(settings, opts, controller_fmu, (rd, roads), window, pairs, bodies)
     out.warnings += validity + [w for rec in bodies.values() for w in rec.warnings()]
     return out
+
+
+def _recorders(body_fmus, car_model, points, opts, reference):
+    """A :class:`_BodyRecorder` per body label: the run's ``points`` (step, count and the
+    plot's window), its monolithic reference where ``reference`` (the car model or None,
+    whether to read the bodies' models and run it, the control law) asks, its tires'
+    static loads, the occupant's start values, the linear range it watches and the seat's
+    height."""
+    step, n, window = points
+    car_net, run_reference, law = reference
+    bodies = {
+        label: _BodyRecorder(label, path, step, n, window, opts.histories)
+        for label, path in body_fmus.items()
+    }
+    for rec in bodies.values():
+        rec.add_reference(car_net, run_reference, law)
+    tire_load, occupant = _static_load(car_model, body_fmus, {k: r.net for k, r in bodies.items()})
+    for label, rec in bodies.items():
+        rec.watch_events(tire_load[label], occupant.get(label), opts.linear_of)
+        rec.seat = seat_height(car_model)
+    return bodies
 
 
 #: Frequencies the model's own transmissibility peak is searched over, Hz: the run
