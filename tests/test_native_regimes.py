@@ -202,3 +202,72 @@ def test_model_exchange_event_indicators_match_cosimulation(native_fmus, fmi):
     for o in ME_OUT:
         assert errors[1e-8][o] <= 1e3 * 1e-8, (o, errors)
         assert errors[1e-8][o] * 30 <= errors[1e-6][o], (o, errors)
+
+
+def test_model_exchange_jacobian_is_the_regime_in_force(native_fmus, tmp_path):
+    """With the wheel in the air, the directional derivatives of the state derivatives are
+    those of the free regime: equal to central differences of the derivatives (exact for an
+    affine regime, up to rounding: 1e-6 of the Jacobian's largest entry) and not the
+    linear model's (the tire's stiffness is gone from the wheel's acceleration row). A
+    derivative read by value reference equals the derivatives vector bit for bit."""
+    import ctypes
+
+    from fmpy.fmi2 import FMU2Model
+
+    path = native_fmus["QuarterCar"]
+    md = read_model_description(path)
+    der = [d.variable.valueReference for d in md.derivatives]
+    states = [d.variable.derivative.valueReference for d in md.derivatives]
+    m = FMU2Model(
+        guid=md.guid,
+        unzipDirectory=extract(path, unzipdir=str(tmp_path / "me")),
+        modelIdentifier=md.modelExchange.modelIdentifier,
+        instanceName="me",
+    )
+    m.instantiate()
+    m.setupExperiment(startTime=0.0)
+    m.enterInitializationMode()
+    m.exitInitializationMode()
+    m.newDiscreteStates()
+    m.enterContinuousTimeMode()
+    n = len(states)
+
+    def set_states(values):
+        m.setContinuousStates((ctypes.c_double * n)(*values), n)
+
+    def derivatives():
+        dx = (ctypes.c_double * n)()
+        m.getDerivatives(dx, n)
+        return np.array(dx)
+
+    def jacobian():
+        return np.array(
+            [m.getDirectionalDerivative(der, states, list(np.eye(n)[j])) for j in range(n)]
+        ).T
+
+    linear = jacobian()
+    x = np.array(m.getReal(states))
+    names = [d.variable.derivative.name for d in md.derivatives]
+    x[names.index("state.unsprung.x")] += 0.2  # the wheel 0.2 m up: the tire can only push
+    set_states(x)
+    m.completedIntegratorStep()
+    m.enterEventMode()
+    m.newDiscreteStates()
+    m.enterContinuousTimeMode()
+    assert m.getReal([{v.name: v.valueReference for v in md.modelVariables}["tire_contact"]]) == [
+        0.0
+    ]
+    free = jacobian()
+    dx = derivatives()
+    assert list(dx) == m.getReal(der)
+    fd = np.empty((n, n))
+    for j in range(n):
+        e = np.eye(n)[j] * 1e-3
+        set_states(x + e)
+        up = derivatives()
+        set_states(x - e)
+        fd[:, j] = (up - derivatives()) / 2e-3
+    np.testing.assert_allclose(free, fd, rtol=0, atol=1e-6 * np.max(np.abs(free)))
+    assert np.max(np.abs(free - linear)) > 1e-3 * np.max(np.abs(linear))
+    m.terminate()
+    m.freeInstance()

@@ -647,6 +647,17 @@ bv_status bv_set_input_derivatives(bv_instance *c, const unsigned int vr[], size
     return BV_OK;
 }
 
+/* The model in force: a nonlinear model's regime, else the linear model. */
+static const double *model_A(const bv_instance *c)
+{
+    return c->bc.md->ne ? c->rg->cur->A : c->A;
+}
+
+static const double *model_B(const bv_instance *c)
+{
+    return c->bc.md->ne ? c->rg->cur->B : c->B;
+}
+
 /* z' = [A x + B U s (+ b, affine), R s] for z = [x | s] (the state equations and the in-step
  * rates; a nonlinear model's regime in force, its constant b for the state, not for a rate). */
 static void zdot(const bv_instance *c, const double *z, double *out, int affine)
@@ -661,7 +672,7 @@ static void zdot(const bv_instance *c, const double *z, double *out, int affine)
             v += md->U[(size_t)i * ni + j] * z[n + j];
         u[i] = v;
     }
-    const double *A = md->ne ? c->rg->cur->A : c->A, *B = md->ne ? c->rg->cur->B : c->B;
+    const double *A = model_A(c), *B = model_B(c);
     for (i = 0; i < n; i++) {
         double v = md->ne && affine ? c->rg->cur->b[i] : 0.0;
         for (j = 0; j < n; j++)
@@ -722,13 +733,14 @@ static BV_COLD void follow_parameters(bv_instance *c)
 static void derivative_row(const bv_instance *c, int i, double *row)
 {
     const bv_model *md = c->bc.md;
+    const double *A = model_A(c), *B = model_B(c);
     int n = c->n, m = c->m, ni = c->ni, j, l;
     for (j = 0; j < n; j++)
-        row[j] = c->A[(size_t)i * n + j];
+        row[j] = A[(size_t)i * n + j];
     for (j = 0; j < ni; j++) {
         double v = 0.0;
         for (l = 0; l < m; l++)
-            v += c->B[(size_t)i * m + l] * md->U[(size_t)l * ni + j];
+            v += B[(size_t)i * m + l] * md->U[(size_t)l * ni + j];
         row[n + j] = v;
     }
 }
@@ -736,15 +748,16 @@ static void derivative_row(const bv_instance *c, int i, double *row)
 static double derivative_value(const bv_instance *c, int i)
 {
     const bv_model *md = c->bc.md;
+    const double *A = model_A(c), *B = model_B(c);
     int n = c->n, m = c->m, ni = c->ni, j, l;
-    double v = 0.0;
+    double v = md->ne ? c->rg->cur->b[i] : 0.0;
     for (j = 0; j < n; j++)
-        v += c->A[(size_t)i * n + j] * c->x[j];
+        v += A[(size_t)i * n + j] * c->x[j];
     for (l = 0; l < m; l++) {
         double u = 0.0;
         for (j = 0; j < ni; j++)
             u += md->U[(size_t)l * ni + j] * c->s[j];
-        v += c->B[(size_t)i * m + l] * u;
+        v += B[(size_t)i * m + l] * u;
     }
     return v;
 }
@@ -867,7 +880,8 @@ bv_status bv_directional(bv_instance *c, const unsigned int unknowns[], size_t n
         if (vr >= first + (unsigned int)c->n && vr < first + 2u * (unsigned int)c->n) {
             derivative_row(c, (int)(vr - first) - c->n, row);
         } else if (vr < (unsigned int)md->nvars && md->vr_kind[vr] == BV_OUTPUT) {
-            memcpy(row, c->Yc + (size_t)md->vr_index[vr] * w, (size_t)w * sizeof *row);
+            const double *Y = md->ne ? c->rg->cur->Y : c->Yc;
+            memcpy(row, Y + (size_t)md->vr_index[vr] * w, (size_t)w * sizeof *row);
         } else {
             say(c, BV_ERROR, "%s: directional derivative: value reference %u is not an unknown "
                              "(a state derivative or an output)", c->bc.name, vr);
