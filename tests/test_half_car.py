@@ -297,7 +297,7 @@ def _check_seat_figures(body, run, h):
 
 
 def test_batched_sweep_engine_sums_the_wheels_as_the_reference_drives_them():
-    """The sweep's batched engine (one kernel row per road point, summed) gives the
+    """The sweep's batched engine (one state, each road point's input columns added) gives the
     monolithic reference's head acceleration of the half car driven at both wheels."""
     from bodyvib.models import load_model
     from bodyvib.vehicle.quarter_car import wheel_offsets

@@ -5,9 +5,9 @@ For every case of a group and every sample ``k`` the loop computes
 * the exact step of the seated system and its outputs,
   ``[x_{k+1}; y_k] = M x_k + g_z z_k + g_v v_k``, ``M = [Phi; C_out]``
   (``(n + 4) x n``); the outputs are the head and seat acceleration and the neck
-  and lumbar forces. A car driven at several road points (the wheels of a half car)
-  is linear: each point drives its own copy of the state through its own input
-  columns, and the outputs are the sum of the points' responses;
+  and lumbar forces. A car driven at several road points (the wheels of a half or a
+  full car) has one state: each point's road enters through its own input columns,
+  ``M x_k + sum_p (g_z z + g_v v)_p``, summed point by point after the state's terms;
 * the ISO 2631-1 Wk weighting of the head and the seat acceleration, the analog
   filter advanced exactly over the straight line between two samples
   (:class:`bodyvib.comfort.stream.WkFilter`'s recursion, evaluated sample by sample);
@@ -73,9 +73,8 @@ def _kernel():
         P = gz.shape[1]
         N = z.shape[0]
         record = hist.shape[3] > 0
-        x = np.empty((P, n, L))
+        x = np.empty((n, L))
         out = np.empty((m, L))
-        y = np.empty((m - n, L))
         zk = np.empty((P, L))
         vk = np.empty((P, L))
         # The weighting's per-lane rows of head and seat in one block, each row LANES
@@ -104,33 +103,25 @@ def _kernel():
                     for i in range(L):
                         zk[p, i] = z[k, road[ch, p, i]]
                         vk[p, i] = v[k, road[ch, p, i]]
-                # the exact step, one state per road point: C x + (g_z z + g_v v)
-                for p in range(P):
-                    for r in range(m):
-                        o = out[r]
+                # the exact step: M x + (g_z z + g_v v), each road point's in turn
+                for r in range(m):
+                    o = out[r]
+                    for i in range(L):
+                        o[i] = 0.0
+                    for q in range(n):
+                        Mq = M[ch, r, q]
+                        xq = x[q]
                         for i in range(L):
-                            o[i] = 0.0
-                        for q in range(n):
-                            Mq = M[ch, r, q]
-                            xq = x[p, q]
-                            for i in range(L):
-                                o[i] += Mq[i] * xq[i]
+                            o[i] += Mq[i] * xq[i]
+                    for p in range(P):
                         gzr = gz[ch, p, r]
                         gvr = gv[ch, p, r]
                         for i in range(L):
                             o[i] = o[i] + (gzr[i] * zk[p, i] + gvr[i] * vk[p, i])
-                    for q in range(n):
-                        for i in range(L):
-                            x[p, q, i] = out[q, i]
-                    # the outputs: the sum of the road points' responses (the car is linear)
-                    if p == 0:
-                        for r in range(m - n):
-                            for i in range(L):
-                                y[r, i] = out[n + r, i]
-                    else:
-                        for r in range(m - n):
-                            for i in range(L):
-                                y[r, i] += out[n + r, i]
+                for q in range(n):
+                    for i in range(L):
+                        x[q, i] = out[q, i]
+                y = out[n:]  # the outputs: head, seat, the forces
                 # the forces: largest magnitude; a non-finite value spoils the check sum
                 for f in range(2):
                     for i in range(L):
