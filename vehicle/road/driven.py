@@ -499,8 +499,9 @@ def wheel_inputs(
         # the road at those points only: they stay a uniform grid (the fast harmonic sum;
         # with the level points in, a 2000 s half-car run took minutes in the direct sum)
         z[:, j], v[:, j] = 0.0, 0.0
-        z[ahead, j] = road.displacement(x[ahead])
-        v[ahead, j] = speed * road.slope(x[ahead])
+        zj, sj = road.profile(x[ahead])  # height and slope from one call: shared work once
+        z[ahead, j] = zj
+        v[ahead, j] = speed * sj
     return z, v
 
 
