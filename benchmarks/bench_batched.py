@@ -42,13 +42,20 @@ import numpy as np
 from bodyvib.vehicle.sweep import engines, kernel
 from bodyvib.vehicle.sweep.spec import expand
 
-BODIES = ("reduced-paper", "iso7962")
+#: (body, car) of each measurement: both bodies on the quarter car, the reduced body on
+#: the full car (four road points on two tracks)
+SETUPS = (
+    ("reduced-paper", "quarter-car"),
+    ("iso7962", "quarter-car"),
+    ("reduced-paper", "full-car"),
+)
 
 
-def spec(body: str, cases: int, duration: float) -> dict:
+def spec(body: str, cases: int, duration: float, car: str = "quarter-car") -> dict:
     """``cases`` cases on 5 roads (speeds 10-30 m/s), the body's parameters varied."""
     per = max(1, cases // 5)
     return {
+        "car": car,
         "road": "C",
         "speed": [10, 15, 20, 25, 30],
         "seed": 0,
@@ -102,19 +109,22 @@ class Stages:
         saved = (
             kernel.run,
             engines.case_road_input,
+            engines.case_wheel_inputs,
             engines.Discretization.matrices,
             engines._seated,
         )
         kernel.run = self._timed("compiled loop", saved[0], capture=True)
         engines.case_road_input = self._timed("road", saved[1])
-        engines.Discretization.matrices = self._timed("matrices", saved[2])
-        engines._seated = self._timed("models", saved[3])  # each body on its car, assembled
+        engines.case_wheel_inputs = self._timed("road", saved[2])  # a car's several wheels
+        engines.Discretization.matrices = self._timed("matrices", saved[3])
+        engines._seated = self._timed("models", saved[4])  # each body on its car, assembled
         try:
             yield self
         finally:
             (
                 kernel.run,
                 engines.case_road_input,
+                engines.case_wheel_inputs,
                 engines.Discretization.matrices,
                 engines._seated,
             ) = saved
@@ -128,7 +138,9 @@ def minimal_kernel():
 
     The same layout and the same vector loops over the lanes as the engine's compiled
     loop, and nothing else: no Wk weighting, no figures, only the sum of squares of
-    the two outputs (so that the compiler keeps them).
+    the two outputs (so that the compiler keeps them). A car driven at several road
+    points (the full car's four wheels) has one state, each point's road entering
+    through its own input columns: ``x <- Phi x + sum_p (g_z z + g_v v)_p``.
     """
     global _minimal
     if _minimal is None:
@@ -137,18 +149,20 @@ def minimal_kernel():
         @njit(cache=True, nogil=True, boundscheck=False)
         def run(M, gz, gv, road, z, v):  # pragma: no cover (compiled)
             chunks, m, n, L = M.shape
+            P = gz.shape[1]
             N = z.shape[0]
             x = np.empty((n, L))
             out = np.empty((m, L))
-            zk = np.empty(L)
-            vk = np.empty(L)
+            zk = np.empty((P, L))
+            vk = np.empty((P, L))
             y = np.zeros((2, L))
             for ch in range(chunks):
                 x[:] = 0.0
                 for k in range(N):
-                    for i in range(L):
-                        zk[i] = z[k, road[ch, 0, i]]
-                        vk[i] = v[k, road[ch, 0, i]]
+                    for p in range(P):
+                        for i in range(L):
+                            zk[p, i] = z[k, road[ch, p, i]]
+                            vk[p, i] = v[k, road[ch, p, i]]
                     for r in range(m):
                         o = out[r]
                         for i in range(L):
@@ -158,10 +172,11 @@ def minimal_kernel():
                             xq = x[q]
                             for i in range(L):
                                 o[i] += Mq[i] * xq[i]
-                        gzr = gz[ch, 0, r]
-                        gvr = gv[ch, 0, r]
-                        for i in range(L):
-                            o[i] = o[i] + (gzr[i] * zk[i] + gvr[i] * vk[i])
+                        for p in range(P):
+                            gzr = gz[ch, p, r]
+                            gvr = gv[ch, p, r]
+                            for i in range(L):
+                                o[i] = o[i] + (gzr[i] * zk[p, i] + gvr[i] * vk[p, i])
                     for q in range(n):
                         for i in range(L):
                             x[q, i] = out[q, i]
@@ -178,7 +193,8 @@ _one_by_one = None
 
 
 def case_by_case_kernel():
-    """The exact step one case at a time, its state in registers (for comparison only)."""
+    """The exact step one case at a time, its state in registers (for comparison only):
+    ``(one road point, several)``."""
     global _one_by_one
     if _one_by_one is None:
         from numba import njit
@@ -207,7 +223,36 @@ def case_by_case_kernel():
                         y[1, ch, i] += out[n + 1] * out[n + 1]
             return y
 
-        _one_by_one = run
+        @njit(cache=True, nogil=True, boundscheck=False)
+        def run_points(M, gz, gv, road, z, v):  # pragma: no cover (compiled)
+            chunks, m, n, L = M.shape
+            P = gz.shape[1]
+            out = np.empty(m)
+            x = np.empty(n)
+            zk = np.empty(P)
+            vk = np.empty(P)
+            y = np.zeros((2, chunks, L))
+            for ch in range(chunks):
+                for i in range(L):
+                    x[:] = 0.0
+                    for k in range(z.shape[0]):
+                        for p in range(P):
+                            zk[p] = z[k, road[ch, p, i]]
+                            vk[p] = v[k, road[ch, p, i]]
+                        for r in range(m):
+                            acc = 0.0
+                            for q in range(n):
+                                acc += M[ch, r, q, i] * x[q]
+                            for p in range(P):
+                                acc = acc + (gz[ch, p, r, i] * zk[p] + gv[ch, p, r, i] * vk[p])
+                            out[r] = acc
+                        for q in range(n):
+                            x[q] = out[q]
+                        y[0, ch, i] += out[n] * out[n]
+                        y[1, ch, i] += out[n + 1] * out[n + 1]
+            return y
+
+        _one_by_one = (run, run_points)
     return _one_by_one
 
 
@@ -224,10 +269,10 @@ def one_round(cases, stages: Stages):
     t0, c0 = time.perf_counter(), time.process_time()
     run(packed.M, packed.gz, packed.gv, packed.road, z, v)
     low = (time.perf_counter() - t0, time.process_time() - c0)
-    one = case_by_case_kernel()
+    one = case_by_case_kernel()[packed.gz.shape[1] > 1]
     c0 = time.process_time()
     one(packed.M, packed.gz, packed.gv, packed.road, z, v)
-    return eng, low, time.process_time() - c0, packed.M.shape
+    return eng, low, time.process_time() - c0, packed.M.shape, packed.gz.shape[1]
 
 
 def linear_ratio(body: str, cases: int, duration: float, repeats: int) -> None:
@@ -263,14 +308,14 @@ def main(argv=None):
     p.add_argument("--repeats", type=int, default=3, help="rounds after a warm-up (default 3)")
     args = p.parse_args(argv)
     print(f"load: {os.getloadavg()[0]:.2f} (1 min) on {os.cpu_count()} cores")
-    for body in BODIES:
-        cases = expand(spec(body, args.cases, args.duration))
+    for body, car in SETUPS:
+        cases = expand(spec(body, args.cases, args.duration, car))
         steps = len(cases) * cases[0].steps
         one_round(cases[:2], Stages())  # compile (or load the numba cache)
         eng, low, shares, single = [], [], [], []
         for _ in range(args.repeats):
             st = Stages()
-            e, m, s1, shape = one_round(cases, st)
+            e, m, s1, shape, points = one_round(cases, st)
             eng.append(e)
             low.append(m)
             single.append(s1)
@@ -278,8 +323,8 @@ def main(argv=None):
         ew, ec = (statistics.median(x[i] for x in eng) for i in (0, 1))
         mw, mc = (statistics.median(x[i] for x in low) for i in (0, 1))
         print(
-            f"{body}: {len(cases)} cases x {cases[0].steps} steps, {shape[2]} states, {shape[3]} lanes "
-            f"(body on the quarter car), medians of {args.repeats}"
+            f"{body} on the {car}: {len(cases)} cases x {cases[0].steps} steps, {shape[2]} "
+            f"states, {shape[3]} lanes, {points} road points, medians of {args.repeats}"
         )
         print(
             f"  engine  {ew * 1e9 / steps:7.1f} ns per case-step wall, {ec * 1e9 / steps:7.1f} CPU"
