@@ -2,17 +2,19 @@
 
     python benchmarks/bench_native_step.py [--steps 1000000] [--repeats 7] [--processes 5]
                                            [--no-callgrind] [--realtime] [--fmus DIR]
+                                           [--only FMU ...]
 
 Builds the native FMUs (FMI 2.0 and 3.0: HumanBody3DOF, HumanBodyISO7962, QuarterCar,
-Road) unless ``--fmus`` names a folder of them (``bodyvib build --native``), compiles
-``benchmarks/native_step_host.c`` with the FMUs' own flags (``-O2 -flto``), once per model
+FullCar, Road; ``--only`` some of them) unless ``--fmus`` names a folder of them
+(``bodyvib build --native``), compiles ``benchmarks/native_step_host.c`` with the FMUs' own flags (``-O2 -flto``), once per model
 with the model's sizes and the pattern of its inputs' step matrix as constants (the FMU is
 compiled for its model's sizes and pattern too), and, per FMU, in ``--processes`` fresh
 host processes:
 
-* times, interleaved over ``--repeats`` rounds, ``--steps`` FMU steps (set two inputs,
-  doStep, get two outputs; inputs precomputed), the same number of steps of a plain C loop
-  on the same matrices: ``x <- Sc [x | s]``, ``s <- Ms s``, the two outputs ``Y [x | s]``,
+* times, interleaved over ``--repeats`` rounds, ``--steps`` FMU steps (set the inputs,
+  doStep, get the outputs of :data:`SIGNALS`: two and two, the full car's eight road inputs
+  and four seat outputs; inputs precomputed), the same number of steps of a plain C loop
+  on the same matrices: ``x <- Sc [x | s]``, ``s <- Ms s``, the outputs ``Y [x | s]``,
   summed as the FMU sums (two accumulators a row, Ms over the entries its pattern allows),
   with the matrices of :class:`bodyvib.runtime.engine.FmuCore` (the same exact
   discretization the FMU computes at initialization), and the same calls into functions
@@ -62,7 +64,7 @@ from pathlib import Path
 import numpy as np
 
 HOST = Path(__file__).resolve().parent / "native_step_host.c"
-FMUS = ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar", "Road")
+FMUS = ("HumanBody3DOF", "HumanBodyISO7962", "QuarterCar", "FullCar", "Road")
 #: (inputs set, outputs read) per FMU: what a co-simulation exchanges at every step
 SIGNALS = {
     "HumanBody3DOF": (["seat_displacement", "seat_velocity"], ["head_acceleration", "seat_force"]),
@@ -71,23 +73,32 @@ SIGNALS = {
         ["head_acceleration", "seat_force"],
     ),
     "QuarterCar": (["road_displacement", "road_velocity"], ["seat_displacement", "seat_velocity"]),
+    # the four corners' road pairs in; the seat's vertical motion (what the occupant takes)
+    # and its horizontal accelerations (what the comfort figures take) out
+    "FullCar": (
+        [
+            f"road_{q}_{corner}"
+            for corner in ("front_left", "front_right", "rear_left", "rear_right")
+            for q in ("displacement", "velocity")
+        ],
+        ["seat_displacement", "seat_velocity", "seat_acceleration_x", "seat_acceleration_y"],
+    ),
     "Road": ([], ["road_displacement", "road_velocity"]),
 }
-MODELS = {"HumanBody3DOF": "reduced-paper", "HumanBodyISO7962": "iso7962", "QuarterCar": "car"}
 H = 1e-3
 LOCKS = re.compile(r"pthread|mtx_|futex|sem_|lock", re.I)
 
 
-def build(dest: Path) -> dict:
+def build(dest: Path, names) -> dict:
     from bodyvib.vehicle.fmus import build_fmus
 
     print("building the native FMUs ...", file=sys.stderr, flush=True)
-    return build_fmus(dest, names=list(FMUS), native=True, fmi=(2, 3), platforms=["linux64"])
+    return build_fmus(dest, names=list(names), native=True, fmi=(2, 3), platforms=["linux64"])
 
 
-def find(folder: Path) -> dict:
+def find(folder: Path, names) -> dict:
     found = {}
-    for name in FMUS:
+    for name in names:
         for key, path in (
             (name, folder / f"{name}.fmu"),
             (f"fmi3/{name}", folder / "fmi3" / f"{name}.fmu"),
@@ -132,13 +143,11 @@ def plain_matrices(name: str, set_idx, get_idx, path: Path) -> tuple:
     """Write what the plain loop multiplies: the FMU's step matrices from the model; returns
     the sizes (n, ni, nset, nget) and where ``Ms`` can be non-zero (0/1 per entry): on its
     diagonal and where ``R`` or ``R^2`` is, as the FMU's compiled step knows it."""
-    from bodyvib.models import load_model
     from bodyvib.runtime.engine import FmuCore
-    from bodyvib.vehicle.quarter_car import load_car
+    from bodyvib.vehicle.fmus import FMUS as PROJECT_FMUS
+    from bodyvib.vehicle.fmus import load_fmu_model
 
-    kind = "car" if name == "QuarterCar" else "body"
-    net = load_car("quarter-car") if kind == "car" else load_model(MODELS[name])
-    core = FmuCore(kind, net, name)
+    core = FmuCore(PROJECT_FMUS[name][0], load_fmu_model(name), name)
     n, ni = core._n, core._ni
     M = core._step_matrix(H)
     Y = core._Y[[i - ni for i in get_idx]]
@@ -324,6 +333,14 @@ def main(argv=None):
         "next one's by a third on a virtual machine; the median over processes is steady",
     )
     p.add_argument("--fmus", type=Path, help="folder of built native FMUs (default: build them)")
+    p.add_argument(
+        "--only",
+        nargs="+",
+        choices=FMUS,
+        default=list(FMUS),
+        metavar="FMU",
+        help=f"the FMUs to measure (default all: {', '.join(FMUS)})",
+    )
     p.add_argument("--no-callgrind", action="store_true", help="skip the instruction counts")
     p.add_argument(
         "--realtime",
@@ -337,15 +354,16 @@ def main(argv=None):
     callgrind = not args.no_callgrind and shutil.which("valgrind") is not None
     with tempfile.TemporaryDirectory(prefix="bodyvib-bench-step-") as tmp:
         tmp = Path(tmp)
-        fmus = find(args.fmus) if args.fmus else build(tmp / "fmus")
+        names = [n for n in FMUS if n in args.only]
+        fmus = find(args.fmus, names) if args.fmus else build(tmp / "fmus", names)
         prefix = ()
         if args.realtime:
             prefix = ("chrt", "-f", "50", "taskset", "-c", str((os.cpu_count() or 1) - 1))
         print(
             f"load: {os.getloadavg()[0]:.2f} (1 min) on {os.cpu_count()} cores; {args.steps} steps "
             f"a loop, {args.repeats} interleaved rounds in each of {args.processes} processes "
-            "(medians; range: of the processes' ratios); one step = set 2 inputs + doStep + get "
-            "2 outputs, ns"
+            "(medians; range: of the processes' ratios); one step = set the inputs + doStep + get "
+            "the outputs (2 and 2; FullCar: 8 and 4), ns"
         )
         print(
             f"  {'FMU':17s} {'FMI':>3s} | {'best':>5s} {'plain':>5s} {'ratio':>5s} {'extra':>5s} "
@@ -355,7 +373,7 @@ def main(argv=None):
             f"{'instr: FMU':>10s} {'plain':>5s} {'ratio':>5s} | {'allocs':>6s} {'rel diff':>8s}"
         )
         notes, worst = [], []
-        for name in FMUS:
+        for name in names:
             sets, gets = SIGNALS[name]
             for fmi in (2, 3):
                 key = name if fmi == 2 else f"fmi3/{name}"

@@ -1,6 +1,6 @@
 /*
  * The C host of benchmarks/bench_native_step.py: one native FMU's step (set the inputs,
- * doStep, get two outputs) against a plain C loop of the same step on the same matrices.
+ * doStep, get the outputs, up to 16 each) against a plain C loop of the same step on the same matrices.
  *
  *     native_step_host MODE FMI BINARY TOKEN SET_VRS GET_VRS H STEPS REPEATS DATA
  *
@@ -35,8 +35,8 @@
  * "stolen MS" (this core's time the virtual machine's host took then, ms; -1 unknown),
  * "locked 0|1" (mlockall), "allocations N" (calls in the timed FMU steps), "check D" (a
  * pass of STEPS steps of both side by side after the rounds: the largest difference of an
- * output over its largest magnitude). The inputs are precomputed (a 1.7 Hz sine and its
- * derivatives), so a step costs only the FMU.
+ * output over its largest magnitude). The inputs are precomputed (a 1.7 Hz sine's
+ * displacement and velocity, a pair per road point), so a step costs only the FMU.
  */
 #define _GNU_SOURCE
 #include <math.h>
@@ -627,7 +627,8 @@ int main(int argc, char **argv)
     printf("locked %d\n", mlockall(MCL_CURRENT | MCL_FUTURE) == 0);
     open_fmu(&f, fmi, argv[3], argv[4]);
     open_empty(&e, fmi);
-    /* inputs: a 1.7 Hz, 10 mm sine (displacement, velocity, acceleration, ...) */
+    /* inputs: pairs of a 1.7 Hz, 10 mm sine's displacement and velocity, each pair (a road
+     * point: a full car's four corners) 0.4 rad behind the one before */
     /* buffers of one size for any STEPS up to 1e6: runs of different lengths make the same
      * system calls but for the steps' own (strace -c compares them) */
     cap = steps > 1000000 ? steps : 1000000;
@@ -636,7 +637,7 @@ int main(int argc, char **argv)
     for (k = 0; k < steps; k++) {
         double w = 2 * M_PI * 1.7, t = k * h;
         for (r = 0; r < ns; r++)
-            in[k * ns + r] = 0.01 * pow(w, r) * sin(w * t + r * M_PI / 2);
+            in[k * ns + r] = 0.01 * pow(w, r % 2) * sin(w * t + (r % 2) * M_PI / 2 + (r / 2) * 0.4);
     }
     if (strcmp(mode, "fmu") == 0)
         sink = fmu_loop(&f, sv, ns, in, h, gv, ng, steps);

@@ -14,16 +14,16 @@ import bench_native_step as bench  # noqa: E402
 
 @pytest.mark.integration
 @pytest.mark.parametrize("fmi", [2, 3])
-@pytest.mark.parametrize("name", ["HumanBody3DOF", "QuarterCar"])
+@pytest.mark.parametrize("name", ["HumanBody3DOF", "QuarterCar", "FullCar"])
 def test_a_step_allocates_nothing_and_is_the_plain_step(native_fmus, tmp_path, name, fmi):
-    """2000 steps of set (two inputs) + doStep + get (two outputs) in the host: no
-    malloc/calloc/realloc/free call while stepping (the host interposes them and counts),
-    and the outputs after the last step equal those of a plain loop x <- Sc z, s <- Ms s,
-    y = Y z on the library's own step matrices (bodyvib.runtime.engine.FmuCore, independent
-    of the C core's exponential) to 1e-9 relative: the two exponentials agree to about
-    1e-14, and 2000 steps of a stable 5-state recursion with modes of damping ratio
-    0.1-0.5 carry that to far below 1e-9; a step of the wrong matrices or inputs is off
-    by the response itself."""
+    """2000 steps of set (two inputs; the full car's eight, its four corners' road) + doStep
+    + get (two outputs; the full car's four) in the host: no malloc/calloc/realloc/free call
+    while stepping (the host interposes them and counts), and the outputs after the last
+    step equal those of a plain loop x <- Sc z, s <- Ms s, y = Y z on the library's own
+    step matrices (bodyvib.runtime.engine.FmuCore, independent of the C core's exponential)
+    to 1e-9 relative: the two exponentials agree to about 1e-14, and 2000 steps of a
+    stable recursion (4-14 states, modes of damping ratio 0.1-0.5) carry that to far below
+    1e-9; a step of the wrong matrices or inputs is off by the response itself."""
     exe = bench.compile_host(tmp_path / "host")
     key = name if fmi == 2 else f"fmi3/{name}"
     binary, token, vr, _ = bench.unpack(Path(native_fmus[key]), tmp_path / "fmu")
