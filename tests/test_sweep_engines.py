@@ -287,12 +287,18 @@ def test_compiled_figures_equal_the_streamed_figures_of_the_same_history():
     )
     rows, hist = run_batched(cases, record=True)
     for case, row, h in zip(cases, rows, hist):
-        head = stream_comfort_figures(h["head_acceleration"], 1 / case.step)
-        for k in ("weighted_rms", "vdv", "peak", "crest_factor", "mtvv"):
-            assert row[f"head_{k}"] == pytest.approx(getattr(head, k), rel=FUSED_RTOL, abs=0)
-        seat = stream_comfort_figures(h["seat_acceleration"], 1 / case.step)
-        assert row["seat_weighted_rms"] == pytest.approx(seat.weighted_rms, rel=FUSED_RTOL, abs=0)
-        assert row["head_comfort"] == head.comfort
+        _assert_streamed_figures(row, h, case.step)
+
+
+def _assert_streamed_figures(row, histories, step):
+    """A sweep row's head and seat figures are ComfortStream's of ``histories`` (head and
+    seat acceleration) to FUSED_RTOL."""
+    head = stream_comfort_figures(histories["head_acceleration"], 1 / step)
+    for k in ("weighted_rms", "vdv", "peak", "crest_factor", "mtvv"):
+        assert row[f"head_{k}"] == pytest.approx(getattr(head, k), rel=FUSED_RTOL, abs=0)
+    seat = stream_comfort_figures(histories["seat_acceleration"], 1 / step)
+    assert row["seat_weighted_rms"] == pytest.approx(seat.weighted_rms, rel=FUSED_RTOL, abs=0)
+    assert row["head_comfort"] == head.comfort
 
 
 @pytest.mark.integration
@@ -336,12 +342,7 @@ def test_batched_full_car_sweep_gives_the_figures_of_each_case_run_serially():
         car = case.car_network()
         z, v = case_wheel_inputs(case, wheel_offsets(car), wheel_sides(car), track_width(car))
         ref = reference_run(car, case.body_network(), z, v, case.step)
-        head = stream_comfort_figures(ref["head_acceleration"], 1 / case.step)
-        for k in ("weighted_rms", "vdv", "peak", "crest_factor", "mtvv"):
-            assert row[f"head_{k}"] == pytest.approx(getattr(head, k), rel=FUSED_RTOL, abs=0)
-        seat = stream_comfort_figures(ref["seat_acceleration"], 1 / case.step)
-        assert row["seat_weighted_rms"] == pytest.approx(seat.weighted_rms, rel=FUSED_RTOL, abs=0)
-        assert row["head_comfort"] == head.comfort
+        _assert_streamed_figures(row, ref, case.step)
     for case, (_, row) in list(zip(cases, table.iterrows()))[::5]:
         alone = run_batched([case])[0][0]
         assert all(alone[f] == row[f] for f in ("head_weighted_rms", "head_vdv", "head_mtvv"))
