@@ -313,7 +313,8 @@ def test_win64_binary_under_wine_matches_linux64(host, unpacked, tmp_path):
 def test_c_host_without_python_runs_the_full_car(host, native_fmus, tmp_path):
     """The native FullCar.fmu in the C host, its front left road pair driven by the host's
     chirp: the seat's vertical motion, sideways acceleration and the roll rate equal the
-    library's exact simulation of the full car to 1e-12 of each output's peak."""
+    library's exact simulation of the full car (its regimes stepped with located events) to
+    1e-12 of each output's peak."""
     from fmpy import read_model_description
 
     from bodyvib.runtime.discretize import simulate
@@ -334,10 +335,11 @@ def test_c_host_without_python_runs_the_full_car(host, native_fmus, tmp_path):
     assert lines[0] == "libpython absent" and lines[-1] == "ok", lines[:2]
     data = table(out.stdout)
     t, x, v, y = data[:, 1], data[:, 2], data[:, 3], data[:, 4:]
-    lm = linear_model(load_car("full-car"))
+    car = load_car("full-car")  # its contacts and stops: the library's located events
+    lm = linear_model(car)
     u = np.zeros((t.size, len(lm.inputs)))
     u[:, 0], u[:, 1] = x, v  # the front left road; the other corners level, no seat force
-    _, ref = simulate(lm, t, u)
+    _, ref = simulate(car, t, u)
     ref = ref[:, [lm.output_index(s) for s in ("seat.x", "seat.ay", "body.phi_rate")]]
     assert np.max(np.abs(ref[:, 2])) > 0  # one corner driven: the body rolls
     assert np.all(relative_error(y, ref) <= TIGHT), relative_error(y, ref)
