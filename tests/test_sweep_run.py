@@ -58,9 +58,9 @@ def test_table_columns_provenance_and_files(tmp_path):
     cols = list(BASE_COLUMNS)
     at = cols.index("car") + 1
     cols[at:at] = [f"body_{p}" for p in body_params] + [
-        # the sweep engines run the linear car (no stops): its parameters
+        # the cars as the cases run them: the quarter car with its stops
         f"car_{p}"
-        for p in dict.fromkeys([*load_car("quarter-car", linear=True).parameters, *car.parameters])
+        for p in dict.fromkeys([*load_car("quarter-car").parameters, *car.parameters])
     ]
     assert list(df.columns) == cols
     assert list(df["case_id"]) == list(range(64))

@@ -232,7 +232,7 @@ class _Rows:
 
         self.prep, self.engine, self.sh, self.run_id = prep, engine, sh, run_id
         self.base = {m: load_model(m) for m in dict.fromkeys(b[1] for b in prep.bodies)}
-        self.cars = {c: load_car(c, linear=True) for c in prep.cars}  # engines: linear cars
+        self.cars = {c: load_car(c, linear=prep.linear) for c in prep.cars}  # as the cases run
         body_units: Dict[str, str] = {}
         for net in self.base.values():
             for p in net.parameters:
