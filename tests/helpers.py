@@ -28,6 +28,7 @@ __all__ = [
     "handles_signal",
     "start_cli",
     "win64_host",
+    "fmi2_model_exchange",
     "fmpy_headers",
     "compile_c_host",
     "fmpy_compile_sources",
@@ -469,3 +470,23 @@ def solve_switching(rhs, switches, q, mode, t_end):
             mode[i] = not mode[i]
             events.append((t, i, bool(mode[i])))
     return pieces, events
+
+
+def fmi2_model_exchange(path, folder, name):
+    """An FMI 2.0 FMU's model-exchange instance, instantiated and initialized, and its
+    model description: ``(md, instance)`` (fmpy's ``FMU2Model``; the caller frees it)."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Model
+
+    md = read_model_description(path)
+    fmu = FMU2Model(
+        guid=md.guid,
+        unzipDirectory=extract(path, unzipdir=str(folder)),
+        modelIdentifier=md.modelExchange.modelIdentifier,
+        instanceName=name,
+    )
+    fmu.instantiate()
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    return md, fmu

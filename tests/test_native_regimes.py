@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
+from helpers import fmi2_model_exchange
 from test_regimes import H, bump_road, hand_written_solution
 from test_regimes_cosim import _study  # the reduced body on the car, 20 m/s, step H
 
@@ -212,22 +213,9 @@ def test_model_exchange_jacobian_is_the_regime_in_force(native_fmus, tmp_path):
     derivative read by value reference equals the derivatives vector bit for bit."""
     import ctypes
 
-    from fmpy.fmi2 import FMU2Model
-
-    path = native_fmus["QuarterCar"]
-    md = read_model_description(path)
+    md, m = fmi2_model_exchange(native_fmus["QuarterCar"], tmp_path / "me", "me")
     der = [d.variable.valueReference for d in md.derivatives]
     states = [d.variable.derivative.valueReference for d in md.derivatives]
-    m = FMU2Model(
-        guid=md.guid,
-        unzipDirectory=extract(path, unzipdir=str(tmp_path / "me")),
-        modelIdentifier=md.modelExchange.modelIdentifier,
-        instanceName="me",
-    )
-    m.instantiate()
-    m.setupExperiment(startTime=0.0)
-    m.enterInitializationMode()
-    m.exitInitializationMode()
     m.newDiscreteStates()
     m.enterContinuousTimeMode()
     n = len(states)

@@ -260,11 +260,10 @@ def test_road_is_the_library_interpolant_wherever_the_time_jumps(native_dist, ta
     reduction falls back to fmod), set in model exchange one after the other, the outputs
     are the library's interpolant bit for bit (the same operations in the same order: a
     reduction off by a period or by one rounding shows here)."""
-    from fmpy import extract, read_model_description
-    from fmpy.fmi2 import FMU2Model
+    from helpers import fmi2_model_exchange
 
     path = str(native_dist / "Road.fmu")
-    md = read_model_description(path)
+    md, fmu = fmi2_model_exchange(path, tmp_path / "fmu", "jumps")
     refs = {v.name: v.valueReference for v in md.modelVariables}
     vr = [refs[n] for n in OUTS]
     period = 601.0 / SPEED  # s: the table's length at the default speed
@@ -272,17 +271,7 @@ def test_road_is_the_library_interpolant_wherever_the_time_jumps(native_dist, ta
     times = [-1000.0, -period, -1e-9, 0.0, period, 2 * period, 1e-3, 3 * period - 1e-12]
     times += [4.4e12, 1e13, 1e17, 5.0, -7.3, 5.001, 1e6 * period]
     times += list(rng.uniform(-1e4, 1e4, 200)) + list(10.0 ** rng.uniform(-3, 16, 200))
-    fmu = FMU2Model(
-        guid=md.guid,
-        unzipDirectory=extract(path, unzipdir=str(tmp_path / "fmu")),
-        modelIdentifier=md.modelExchange.modelIdentifier,
-        instanceName="jumps",
-    )
-    fmu.instantiate()
     try:
-        fmu.setupExperiment(startTime=0.0)
-        fmu.enterInitializationMode()
-        fmu.exitInitializationMode()
         fmu.enterContinuousTimeMode()
         got = []
         for t in times:

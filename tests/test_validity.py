@@ -255,6 +255,31 @@ def test_cosim_over_a_hump_leads_with_the_governing_method(tmp_path, capsys):
     assert any(line.startswith("|T| peak estimated from run") for line in text.splitlines())
 
 
+@pytest.mark.integration
+def test_the_half_car_over_a_hump_says_which_seat_axes_leave_the_basic_method(tmp_path):
+    """Seat x, z and pitch over one hump (MTVV / a_w about 2): each is named, with its
+    MTVV, which ISO 2631-1's figures of the run's own seat signals (read back from its
+    CSV, weighted apart from the run) confirm to the printed digits."""
+    import json
+
+    from bodyvib.cli.main import main
+    from bodyvib.comfort import axis_figures
+
+    out, csv = tmp_path / "hump.json", tmp_path / "hump.csv"
+    argv = ["cosim", "--car", "half-car", "--road", "hump:h=0.075,l=3.7,at=10"]
+    argv += ["--speed", "5", "--duration", "6", "--json", str(out), "--csv", str(csv)]
+    assert main(argv + ["--quiet"]) == 0
+    warnings = json.loads(out.read_text())["warnings"]
+    data = np.genfromtxt(csv, delimiter=",", names=True)
+    names = {"x": "seat_acceleration_x_ms2", "z": "seat_acceleration_ms2"}
+    for axis, column in names.items():
+        f = axis_figures(data[column], 1000.0, f"seat_{axis}")
+        assert f.comfort_method == "mtvv"
+        line = next(w for w in warnings if f"seat {axis}: ISO 2631-1's basic method" in w)
+        assert line.endswith(f"the MTVV governs, {f.mtvv:.4f} m/s2"), line
+    assert any("seat ry:" in w for w in warnings)
+
+
 G = 9.80665  # m/s2, standard gravity (the models' g)
 
 

@@ -23,6 +23,7 @@ __all__ = [
     "LinearRangeStream",
     "LinearRangeWarning",
     "linear_range",
+    "seated_preloads",
     "combine_events",
 ]
 
@@ -154,6 +155,40 @@ class LinearRange:
     gap_rebound: Optional[float]
 
 
+def seated_preloads(car, occupant_mass: Optional[float] = None):
+    """The static forces of a car's contacts with an occupant's weight on its seat point.
+
+    Parameters
+    ----------
+    car : Network
+        The car with its nonlinear elements.
+    occupant_mass : float, optional
+        The occupant's mass, kg (the car's own ``static_loads`` value, e.g. ``m_occupant``,
+        if not given or if the car has no seat load).
+
+    Returns
+    -------
+    preloads : dict of str to float
+        Contact element -> static force, N (:func:`bodyvib.runtime.network.static_preloads`).
+    occupant : dict of str to float
+        The car's start values that put that weight on its seat (empty: the car's own).
+
+    Examples
+    --------
+    >>> from bodyvib.vehicle.quarter_car import load_car
+    >>> pre, occupant = seated_preloads(load_car(), 69.88)
+    >>> round(pre["tire"]), occupant
+    (4108, {'m_occupant': 69.88})
+    """
+    from bodyvib.runtime.network import static_preloads
+
+    ref = car.static_loads.get(car.roles.get("seat", ""))
+    occupant = {}
+    if isinstance(ref, str) and occupant_mass is not None:
+        occupant = {ref: float(occupant_mass)}
+    return static_preloads(car.with_parameters(**occupant) if occupant else car), occupant
+
+
 def linear_range(car, occupant_mass: Optional[float] = None) -> LinearRange:
     """The range of a car's linearization: the (front) tire's static load and stop gaps.
 
@@ -176,18 +211,12 @@ def linear_range(car, occupant_mass: Optional[float] = None) -> LinearRange:
     >>> round(r.static_load), r.gap_compression, r.gap_rebound
     (4108, 0.07, 0.09)
     """
-    from bodyvib.runtime.network import static_preloads
-
     from .signals import corner_variable
 
     outs = {o["name"]: o["signal"] for o in car.fmu_outputs}
     tire = outs.get(corner_variable("tire_force", outs), "").rpartition(".")[0]
     susp = outs.get(corner_variable("suspension_deflection", outs), "").rpartition(".")[0]
-    ref = car.static_loads.get(car.roles.get("seat", ""))
-    seated = car
-    if isinstance(ref, str) and occupant_mass is not None:
-        seated = car.with_parameters(**{ref: float(occupant_mass)})
-    load = static_preloads(seated).get(tire) if tire else None
+    load = seated_preloads(car, occupant_mass)[0].get(tire) if tire else None
     elements = {e.name: e for e in car.elements}
     gaps: tuple = (None, None)
     s = elements.get(susp)

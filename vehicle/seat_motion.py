@@ -11,13 +11,21 @@ weights them all (Wd, Wk, We) and sums them with the comfort factors of ISO 2631
 and a sweep's rows report them beside the head's figures.
 """
 
-from typing import Dict, Optional, Tuple
+from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
 from bodyvib.comfort.axes import vibration_totals
 
-__all__ = ["SEAT_FIGURES", "seat_axes", "seat_height", "seat_point"]
+__all__ = [
+    "SEAT_FIGURES",
+    "seat_axes",
+    "seat_totals",
+    "seat_figures",
+    "seat_method_warnings",
+    "seat_height",
+    "seat_point",
+]
 
 #: The seat's figures a run and a sweep row report (:func:`seat_axes`).
 SEAT_FIGURES = (
@@ -67,18 +75,85 @@ def seat_axes(x, y, z, fs: float, seat=None) -> Dict[str, float]:
     >>> round(f["seat_aw_x"], 3), round(f["seat_aw_ry"] / f["seat_aw_x"], 2)
     (0.071, 8.71)
     """
+    return seat_figures(seat_totals(x, y, z, fs, seat))
+
+
+def seat_figures(totals) -> Dict[str, float]:
+    """The figures :func:`seat_axes` reports, from the seat's :func:`seat_totals`."""
+    out = {f"seat_aw_{a[5:]}": f.weighted_rms for a, f in totals.axes.items()}
+    out["seat_av"] = totals.points["seat"]
+    if "seat_rotation" in totals.points:
+        out["seat_rotation_av"] = totals.points["seat_rotation"]
+    return out
+
+
+def seat_totals(x, y, z, fs: float, seat=None):
+    """:func:`bodyvib.comfort.vibration_totals` of the seat's axes and rotations.
+
+    Parameters
+    ----------
+    x, y, z, fs, seat
+        As :func:`seat_axes`.
+
+    Returns
+    -------
+    bodyvib.comfort.VibrationTotals
+    """
     signals = {"seat_x": x, "seat_y": y, "seat_z": z}
     if seat is not None:
         h, rolls = seat
         signals["seat_ry"] = -np.asarray(x) / h
         if rolls:
             signals["seat_rx"] = -np.asarray(y) / h
-    tot = vibration_totals(signals, fs)
-    out = {f"seat_aw_{a[5:]}": f.weighted_rms for a, f in tot.axes.items()}
-    out["seat_av"] = tot.points["seat"]
-    if "seat_rotation" in tot.points:
-        out["seat_rotation_av"] = tot.points["seat_rotation"]
-    return out
+    return vibration_totals(signals, fs)
+
+
+def seat_method_warnings(totals, duration: float) -> List[str]:
+    """A line for each seat axis where ISO 2631-1's basic method is not sufficient.
+
+    Clause 6.3 (:func:`bodyvib.comfort.governing_method`): above a crest factor of 9,
+    ``MTVV / a_w`` of 1.5 or ``VDV / (a_w T^1/4)`` of 1.75, the axis's weighted r.m.s.
+    understates it, and its VDV or MTVV governs.
+
+    Parameters
+    ----------
+    totals : bodyvib.comfort.VibrationTotals
+        The seat's :func:`seat_totals`.
+    duration : float
+        The record's duration, s.
+
+    Returns
+    -------
+    list of str
+        One line per such axis (none: every axis is within the basic method).
+
+    Examples
+    --------
+    >>> t = np.arange(100000) / 1000.0
+    >>> burst = np.where(t < 1.0, np.sin(2 * np.pi * t), 0.0)  # 1 s in 100 s
+    >>> totals = seat_totals(burst, 0 * t, np.sin(2 * np.pi * t), 1000.0)
+    >>> for line in seat_method_warnings(totals, 100.0):
+    ...     print(line)
+    seat x: ISO 2631-1's basic method is not sufficient (crest factor 15.7, ...): the MTVV governs, 0.6233 m/s2
+    """
+    lines = []
+    for axis, f in totals.axes.items():
+        if f.comfort_method == "basic":
+            continue
+        value = f.mtvv if f.comfort_method == "mtvv" else f.vdv
+        ratio = f.vdv / (f.weighted_rms * duration**0.25)
+        lines.append(
+            f"seat {axis[5:]}: ISO 2631-1's basic method is not sufficient (crest factor "
+            f"{f.crest_factor:.1f}, MTVV/a_w {f.mtvv / f.weighted_rms:.1f}, "
+            f"VDV/(a_w T^1/4) {ratio:.2f}): the {f.comfort_method.upper()} governs, "
+            f"{value:.4f} {f.unit if f.comfort_method == 'mtvv' else _vdv_unit(f.unit)}"
+        )
+    return lines
+
+
+def _vdv_unit(unit: str) -> str:
+    """The VDV's unit for an axis whose acceleration is in ``unit``."""
+    return "m/s1.75" if unit == "m/s2" else "rad/s1.75"
 
 
 def seat_point(car) -> str:

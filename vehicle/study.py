@@ -13,7 +13,7 @@ import contextlib
 import math
 import os
 from dataclasses import dataclass, field, fields, replace
-from typing import Any, Dict, List, Optional
+from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 
@@ -32,18 +32,24 @@ from bodyvib.process import interrupts
 from bodyvib.process.limits import require_memory
 from bodyvib.process.progress import Progress, progress_bar, progress_lines
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib.runtime.network import static_preloads
 from bodyvib.runtime.renames import NOT, renamed_parameters
 
 from .control import controller_from_fmu, describe
 from .cosim import CsvStream, Master, check_fmu, model_from_fmu, open_controller, open_fmu
-from .events import EventStream, LinearRangeStream, RunEvents, combine_events, linear_range
+from .events import (
+    EventStream,
+    LinearRangeStream,
+    RunEvents,
+    combine_events,
+    linear_range,
+    seated_preloads,
+)
 from .quarter_car import seated_system, track_width, wheel_offsets, wheel_sides
 from .reference import ReferenceStream
 from .road import roads_input, wheel_roads
 from .road.driven import RunSettings, driven_road
 from .road.synthetic import Road, road_input
-from .seat_motion import seat_axes, seat_height
+from .seat_motion import seat_figures, seat_height, seat_method_warnings, seat_totals
 from .signals import BODY_SIGNALS, OPTIONAL_SIGNALS, corner_variable
 
 __all__ = [
@@ -675,6 +681,7 @@ class _BodyRecorder:
         self.tire_loads, self.wheel_events = {}, {}
         self.seat_blocks = []  # the seat's x, y, z (a car that has x and y: half, full car)
         self.seat = None  # the seat's height and whether the body rolls (seat_height)
+        self.seat_warnings: List[str] = []  # the seat's axes beyond the basic method
 
     def watch_events(self, tire_loads, occupant, linear_of=None):
         """The tires' static loads (N, by tire-force output: ``tire_force``,
@@ -692,9 +699,11 @@ class _BodyRecorder:
             self.range = LinearRangeStream(self.step, linear_range(linear_of, mass))
 
     def warnings(self) -> List[str]:
-        """The run's lines beyond validity: its coupling error, a linear car's range."""
+        """The run's lines beyond validity: its coupling error, a linear car's range, the
+        seat's axes where the basic method is not sufficient (after :meth:`result`)."""
         lines = [coupling_warning(self._coupling(), self.step)]
         lines += self.range.warnings() if self.range is not None else []
+        lines += self.seat_warnings
         return [f"{self.label}: {w}" for w in lines if w is not None]
 
     def add_reference(self, car_net, reference, law):
@@ -752,6 +761,7 @@ class _BodyRecorder:
     def result(self, road, duration):
         """The body's :class:`BodyRun`; ``road`` holds the study's time and road columns."""
         figs = self.comfort.figures()
+        seat_axes, self.seat_warnings = _seat_axes(self.seat_blocks, 1.0 / self.step, self.seat)
         return BodyRun(
             fmu=os.fspath(self.path),
             model=self.net.name if self.net is not None else None,
@@ -776,7 +786,7 @@ class _BodyRecorder:
             ),
             wheel_events={w: e.result() for w, e in self.wheel_events.items()},
             reference_events=self.ref.events() if self.ref is not None else {},
-            seat_axes=_seat_axes(self.seat_blocks, 1.0 / self.step, self.seat),
+            seat_axes=seat_axes,
             model_transmissibility_peak=model_peak(self.net or model_from_fmu(self.path)),
         )
 
@@ -841,7 +851,6 @@ def _static_load(car, body_fmus, nets):
     loads, occupant = {}, {}
     if car is None:
         return {label: {} for label in body_fmus}, occupant
-    ref = car.static_loads.get(car.roles.get("seat", ""))
     tires = {
         o["name"]: o["signal"].rpartition(".")[0]
         for o in car.fmu_outputs
@@ -849,11 +858,9 @@ def _static_load(car, body_fmus, nets):
     }
     for label, path in body_fmus.items():
         body = nets.get(label) or model_from_fmu(path)
-        seated = car
-        if isinstance(ref, str) and body is not None:
-            occupant[label] = {ref: body.total_mass()}
-            seated = car.with_parameters(**occupant[label])
-        pre = static_preloads(seated)
+        pre, start = seated_preloads(car, body.total_mass() if body is not None else None)
+        if start:
+            occupant[label] = start
         loads[label] = {name: pre.get(el) for name, el in tires.items()}
     return loads, occupant
 
@@ -881,12 +888,14 @@ def _road_description(road, roads) -> dict:
     return out
 
 
-def _seat_axes(blocks, fs: float, seat) -> Optional[Dict[str, float]]:
-    """:func:`seat_axes` of the seat's recorded blocks (None: none were recorded)."""
+def _seat_axes(blocks, fs: float, seat) -> Tuple[Optional[Dict[str, float]], List[str]]:
+    """:func:`seat_figures` of the seat's recorded blocks (None: none were recorded), and
+    a line for each axis where ISO 2631-1's basic method is not sufficient."""
     if not blocks:
-        return None
+        return None, []
     x, y, z = (np.concatenate(b) for b in zip(*blocks))
-    return seat_axes(x, y, z, fs, seat)
+    totals = seat_totals(x, y, z, fs, seat)
+    return seat_figures(totals), seat_method_warnings(totals, x.size / fs)
 
 
 def _wheels(car_fmu, car_net, settings, road):

@@ -111,19 +111,21 @@ def format_axes(result) -> str:
     Returns
     -------
     str
-        One row per axis (weighting, comfort factor ``k``, weighted r.m.s., VDV, MTVV),
+        One row per axis (weighting, comfort factor ``k``, weighted r.m.s., VDV, MTVV and
+        the ISO 2631-1 method that governs it, clause 6.3),
         the point and overall vibration total values for comfort, and the seat's
         health value against the caution zone of Annex B.
     """
     tot, channels = result.axes, result.signal.channels
     lines = [
         "ISO 2631-1 per axis (m/s2; rotations rad/s2, k in m/rad):",
-        f"  {'axis':<11}{'weighting':>10}{'k':>6}{'a_w':>10}{'VDV':>10}{'MTVV':>10}  channel",
+        f"  {'axis':<11}{'weighting':>10}{'k':>6}{'a_w':>10}{'VDV':>10}{'MTVV':>10}"
+        f"{'method':>8}  channel",
     ]
     for axis, f in tot.axes.items():
         lines.append(
             f"  {axis:<11}{f.weighting:>10}{f.k_comfort:>6.2f}{f.weighted_rms:>10.4f}"
-            f"{f.vdv:>10.4f}{f.mtvv:>10.4f}  {channels.get(axis, '')}"
+            f"{f.vdv:>10.4f}{f.mtvv:>10.4f}{f.comfort_method:>8}  {channels.get(axis, '')}"
         )
     points = ", ".join(f"{p} {v:.4f}" for p, v in tot.points.items())
     lines.append(f"point vibration total values (comfort, m/s2): {points}")

@@ -37,6 +37,7 @@ from .figures import (
     weighting_response,
 )
 from .measures import WF_PARAMETERS
+from .validity import governing_method
 
 __all__ = [
     "WEIGHTINGS",
@@ -202,6 +203,10 @@ class AxisFigures:
         Multiplying factor for comfort (m/rad for a rotation).
     k_health : float or None
         Multiplying factor for health (seat translations only).
+    comfort_method : str
+        Which ISO 2631-1 method governs the axis (clause 6.3,
+        :func:`~bodyvib.comfort.validity.governing_method`): ``"basic"`` (the r.m.s.
+        suffices), ``"vdv"`` or ``"mtvv"``.
     """
 
     axis: str
@@ -214,6 +219,7 @@ class AxisFigures:
     crest_factor: float
     k_comfort: float
     k_health: Optional[float]
+    comfort_method: str = "basic"
 
 
 def axis_figures(acceleration, fs: float, axis: str) -> AxisFigures:
@@ -251,18 +257,20 @@ def axis_figures(acceleration, fs: float, axis: str) -> AxisFigures:
             f"unknown axis {axis!r}; the axes are {', '.join(SEATED_AXES)}"
         ) from None
     aw = weighted_axis(acceleration, fs, name)
-    rms, pk = _rms(aw), _peak(aw)
+    rms, pk, vdv, mtvv = _rms(aw), _peak(aw), _vdv(aw, fs), _mtvv(aw, fs)
+    crest = pk / rms if rms > 0 else float("nan")
     return AxisFigures(
         axis=axis,
         weighting=name,
         unit=unit,
         weighted_rms=rms,
-        vdv=_vdv(aw, fs),
-        mtvv=_mtvv(aw, fs),
+        vdv=vdv,
+        mtvv=mtvv,
         peak=pk,
-        crest_factor=pk / rms if rms > 0 else float("nan"),
+        crest_factor=crest,
         k_comfort=k_comfort,
         k_health=k_health,
+        comfort_method=governing_method(rms, crest, mtvv, vdv, aw.size / fs),
     )
 
 
