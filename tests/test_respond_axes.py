@@ -120,6 +120,26 @@ def test_exposure_moves_the_health_guidance(tmp_path, capsys):
     assert "at 0.5 h a day" in capsys.readouterr().out
 
 
+def test_the_csv_and_plot_carry_every_axis(tmp_path, capsys):
+    """--csv writes each axis in SI beside seat z (a column in g comes out times 9.80665, one
+    in deg/s2 times pi/180), and --plot gets a panel of the other axes' running r.m.s."""
+    path = tmp_path / "axes.csv"
+    _write_csv(path, _columns())
+    out, png = tmp_path / "out.csv", tmp_path / "out.png"
+    argv = ["respond", str(path), "--channels", MAPPING, "--models", "reduced-paper"]
+    assert main([*argv, "--csv", str(out), "--plot", str(png)]) == 0
+    capsys.readouterr()
+    header = out.read_text().splitlines()[0].split(",")
+    data = np.loadtxt(out, delimiter=",", skiprows=1)
+    columns = _columns()
+    for axis, column, scale, *_ in CASE:
+        unit = "rad/s2" if axis[-2] == "r" else "m/s2"
+        name = "seat_acceleration [m/s2]" if axis == "seat_z" else f"{axis} [{unit}]"
+        got = data[:, header.index(name)]
+        np.testing.assert_allclose(got, columns[column] * scale, rtol=1e-9, atol=1e-12)
+    assert png.stat().st_size > 10_000
+
+
 @pytest.mark.integration
 def test_an_mdf4_file_gives_the_figures_of_the_csv(tmp_path):
     pytest.importorskip("asammdf")

@@ -156,7 +156,8 @@ def plot_response(result, path) -> None:
     s = result.signal
     t = s.time - s.time[0]
     forces = any(b.forces for b in result.bodies.values())
-    fig, axes = new_figure(3 if forces else 2, 1, figsize=(9, 11 if forces else 8), sharex=True)
+    panels = 2 + bool(forces) + bool(s.axes)
+    fig, axes = new_figure(panels, 1, figsize=(9, 3 + 2.8 * panels), sharex=True)
     ax1, ax2 = axes[0], axes[1]
     series = [("seat", s.acceleration, result.seat_figures)] + [
         (f"head, {k}", b.head_acceleration, b.figures) for k, b in result.bodies.items()
@@ -176,8 +177,10 @@ def plot_response(result, path) -> None:
     ax2.set_ylabel("1 s running r.m.s. of a_w [m/s2]")
     ax2.legend(fontsize=8)
     ax2.grid(True, alpha=0.3)
+    if s.axes:
+        _plot_other_axes(axes[2], t, result)
     if forces:
-        ax3 = axes[2]
+        ax3 = axes[-1]
         for k, b in result.bodies.items():
             for name, f in b.forces.items():
                 peak = b.force_figures[name]
@@ -195,16 +198,40 @@ def plot_response(result, path) -> None:
     save_figure(fig, path)
 
 
+def _plot_other_axes(ax, t, result) -> None:
+    """The record's axes other than seat z: the 1 s running r.m.s. of each weighted with its
+    own weighting (ISO 2631-1), labelled with its a_w and MTVV."""
+    from bodyvib.comfort import running_rms, weighted_axis
+
+    s = result.signal
+    for name, a in s.axes.items():
+        f = result.axes.axes[name]
+        ax.plot(
+            t,
+            running_rms(weighted_axis(a, s.fs, f.weighting), s.fs),
+            lw=0.8,
+            label=f"{name} ({f.weighting}): a_w = {f.weighted_rms:.3f}, "
+            f"MTVV = {f.mtvv:.3f} {f.unit}",
+        )
+    ax.set_ylabel("1 s running r.m.s., other axes\n[m/s2; rad/s2 for rotations]")
+    ax.legend(fontsize=7, ncol=2, loc="best", framealpha=0.9)
+    ax.grid(True, alpha=0.3)
+
+
 def _csv_text(result) -> str:
+    from bodyvib.comfort import SEATED_AXES
+
     s = result.signal
     names = list(result.bodies)
-    cols = [s.time, s.acceleration] + [result.bodies[k].head_acceleration for k in names]
+    cols = [s.time, s.acceleration] + list(s.axes.values())
+    cols += [result.bodies[k].head_acceleration for k in names]
     forces = [(k, f) for k in names for f in result.bodies[k].forces]
     cols += [result.bodies[k].forces[f] for k, f in forces]
     buf = io.StringIO()
     buf.write(
         ",".join(
             ["time [s]", "seat_acceleration [m/s2]"]
+            + [f"{a} [{SEATED_AXES[a][3]}]" for a in s.axes]
             + [f"head_acceleration_{k} [m/s2]" for k in names]
             + [f"{f}_{k} [N]" for k, f in forces]
         )
@@ -284,7 +311,8 @@ def add_command(subparsers):
     add_output_options(
         p,
         plot="write accelerations and running r.m.s.",
-        csv="write time, seat and head accelerations, and the bodies' neck and lumbar forces",
+        csv="write time, seat and head accelerations, the record's other axes, and the bodies' "
+        "neck and lumbar forces",
         json="write the figures and checks as JSON",
     )
     p.set_defaults(func=_run)
