@@ -158,6 +158,24 @@ def test_two_track_profile_gives_each_track_its_column(tmp_path, kind):
     assert load_profile(path, side=-1).name == f"{name}, right track"
 
 
+def test_a_two_channel_erd_file_is_the_left_and_right_tracks(tmp_path):
+    """An ERD file of two channels (a profiler's left and right lines, in that order, as
+    ProVAL writes them): the wheels drive their channel, as a CSV file's columns; a channel
+    named in the call drives both sides."""
+    x = np.round(np.arange(0.0, LENGTH_M + 1e-9, 0.01), 2)
+    left, right = track_heights(x)
+    head = f"ERDFILEV2.00\n2, {x.size}, 1, -1, 1, 0.01, 0.0\nXUNITS, m\nYUNITS, mm, mm\nEND\n"
+    path = tmp_path / "road.erd"
+    path.write_text(head + "".join(f"{a:.12g} {b:.12g}\n" for a, b in zip(left, right)))
+    t, z = wheel_columns(str(path), 0.9, **EXACT)
+    k = np.rint(SPEED * t / 0.01).astype(int)
+    np.testing.assert_allclose(z[:, 0], without_grade(x, left)[k], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(z[:, 1], without_grade(x, right)[k], rtol=0, atol=1e-12)
+    assert load_profile(str(path), side=-1).name == "road.erd, right track"
+    both = load_profile(str(path), side=-1, channel=1)
+    np.testing.assert_array_equal(both.elevation, load_profile(str(path)).elevation)
+
+
 def test_one_track_profile_drives_both_tracks_alike(tmp_path):
     path = tmp_path / "one.csv"
     x = np.round(np.arange(0.0, LENGTH_M + 1e-9, 0.01), 2)

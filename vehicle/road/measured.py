@@ -30,7 +30,9 @@
   ``YUNITS``, ``UNITSNAM`` or ``UNITS`` (one per channel). Keyword lines are
   ``KEY, v1, v2`` or the fixed-column form, an 8-character key then the values
   (``XUNITS  m``, ``UNITSNAMmm      mm``). The first channel is read (``channel``
-  chooses another).
+  chooses another); a file of exactly two channels is a two-track profile, left then
+  right as ProVAL and RoadRuf write a profiler's two lines, and ``side`` chooses the
+  track as for a CSV file.
 
 Before pycrg reads an OpenCRG file, its structure is checked against what it
 declares: the ``$ROAD_CRG`` block (the road's extent and increment), the
@@ -102,7 +104,7 @@ def load_profile(
     side: int = 0,
     units: Optional[str] = None,
     envelope: bool = False,
-    channel: int = 1,
+    channel: Optional[int] = None,
     contact: str = "point",
     periodic: bool = False,
     option: str = "units",
@@ -119,7 +121,8 @@ def load_profile(
     side : int
         CSV and text: the track of a two-track profile (columns ``elevation_left`` and
         ``elevation_right`` beside ``distance``): 1 or 0 the left, -1 the right; a
-        one-track profile's elevation whatever the side. Both tracks are checked.
+        one-track profile's elevation whatever the side. ERD of two channels: the first
+        (1 or 0) or the second (-1). Both tracks are checked.
         OpenCRG: ``track_m`` is the track; a side names it in the messages (the left or
         right wheels of a car, at ``track_m`` plus or minus half its track width).
     units : str, optional
@@ -127,8 +130,9 @@ def load_profile(
         name them (a file that names other units is refused).
     envelope : bool
         Apply the IRI standard's 250 mm moving average.
-    channel : int
-        ERD: the channel (profile) to read, from 1.
+    channel : int, optional
+        ERD: the channel (profile) to read, from 1, for every side (default: the first,
+        or the side's track of a two-channel file).
     contact : {"point", "tandem-cam", "mfswift-205-60R15", "auto"}
         The tire contact (:mod:`bodyvib.vehicle.road.contact`): the profile as it is, the
         effective road of the shipped tire (default shape factors, or the enveloping set
@@ -201,7 +205,7 @@ def _read_any(path, ext, track_m, side, units, channel, option):
                 parameters=("track_m",),
             )
         if ext == ".erd":
-            return _read_erd(path, units, channel, option)
+            return _read_erd(path, units, channel, option, side)
         return _read_columns(path, units, option, side)
     raise BodyvibError(
         f"road '{path}': unknown kind of file '{ext}'; give an OpenCRG "
@@ -548,7 +552,7 @@ def _text_lines(path) -> List[str]:
 # -- ERD ------------------------------------------------------------------------------
 
 
-def _read_erd(path, units, channel, option):
+def _read_erd(path, units, channel, option, side=0):
     base = os.path.basename(path)
     lines = _text_lines(path)
     if not lines or not lines[0].strip().upper().startswith("ERDFILEV"):
@@ -597,6 +601,10 @@ def _read_erd(path, units, channel, option):
             f"road '{base}': the ERD header must give NCHAN, NSAMP and a positive "
             "DELTA (on its second line or as keyword lines)"
         )
+    track = None
+    if channel is None:  # two channels are a profiler's left and right lines
+        track = ("right" if side < 0 else "left") if nchan == 2 else None
+        channel = 2 if track == "right" else 1
     if not 1 <= channel <= nchan:
         raise BodyvibError(
             f"road '{base}' has {nchan} channel(s); channel {channel} does not exist"
@@ -642,6 +650,7 @@ def _read_erd(path, units, channel, option):
             "format": "erd",
             "channel": channel,
             "units": f"{(xu or [units])[0]},{(yu or [''])[0] if yu else units}",
+            **({"track": track} if track else {}),
         },
     )
 
