@@ -107,3 +107,30 @@ def test_readme_fmpy_snippet_runs_as_written(python_fmus, tmp_path, capfd, monke
     section = readme().split("**Drop the FMU into a host**", 1)[1]
     code = section.split("```python\n", 1)[1].split("```", 1)[0]
     check_fmpy_snippet(code, python_fmus["HumanBody3DOF"], tmp_path, capfd, monkeypatch)
+
+
+@pytest.mark.integration
+def test_readme_car_and_bump_figures_are_what_cosim_prints():
+    """The full car's seat axes and the bump's events, forces and VDV, as `bodyvib cosim`
+    prints them for the README's two commands (to the printed digit)."""
+    section = readme().split("**Cars, bumps and every axis**", 1)[1].split("\n**", 1)[0]
+    m = re.search(r"seat a_w y ([\d.]+) beside z ([\d.]+) m/s", section)
+    assert m, "README: the full car's seat sentence"
+    full = run_cli("cosim", "--car", "full-car", "--duration", "10")
+    assert full.returncode == 0, full.stderr
+    rows = {ln[:40].strip(): ln.split()[-1] for ln in full.stdout.splitlines() if ln.strip()}
+    assert (rows["seat a_w y (Wd) [m/s2]"], rows["seat a_w z (Wk) [m/s2]"]) == m.groups()
+    m = re.search(
+        r"twice \((\d+) ms in the air\), hits its\nbump stop with (\d+) N and the lumbar spine "
+        r"takes ([\d.]+) N; the head's VDV \(([\d.]+)\n",
+        section,
+    )
+    assert m, "README: the bump's sentence"
+    air, stop, lumbar, vdv = m.groups()
+    bump = run_cli("cosim", "--road", "sine:h=0.08,l=1.0,at=10", "--speed", "20", "--duration", "4")
+    assert bump.returncode == 0, bump.stderr
+    out = bump.stdout
+    assert re.search(rf"lift-offs \(air, longest\)\s+2 \({air} ms, ", out), out
+    assert re.search(rf"stop contacts\s+1, largest {stop} N", out), out
+    assert re.search(rf"lumbar force peak \[N\]\s+{lumbar} at", out), out
+    assert re.search(rf"VDV \[m/s\^1.75\]\s+{vdv}\n", out) and "m/s^1.75 governs" in out, out
