@@ -399,3 +399,26 @@ def test_refuses_a_rolling_body_with_every_point_on_its_centreline():
         points[name] = points[name][0]
     with pytest.raises(BodyvibError, match="roll is not held"):
         network_from_dict(data, source="full-car.json")
+
+
+def test_frequency_response_of_each_track_adds_to_both_and_anti_phase_rolls_alone():
+    """gains choose the bases a frequency response drives: the left wheels' response plus
+    the right wheels' is both tracks' together (superposition, to rounding), and tracks in
+    anti-phase (gains 1, -1) move neither bounce nor pitch, by the car's left-right
+    symmetry, while its roll moves."""
+    from bodyvib.frequency import frequency_response
+    from bodyvib.runtime.network import linearized
+
+    car = linearized(load_car("full-car"))
+    f = np.geomspace(0.3, 30.0, 40)
+    delays = [0.0, 0.0, 0.14, 0.14]  # the rear wheels 2.8 m behind at 20 m/s
+    names = ["body.x", "body.theta", "body.phi"]
+    both = frequency_response(car, f, names, delays=delays)
+    left = frequency_response(car, f, names, delays=delays, gains=[1, 0, 1, 0])
+    right = frequency_response(car, f, names, delays=delays, gains=[0, 1, 0, 1])
+    np.testing.assert_allclose(left + right, both, rtol=1e-12, atol=1e-12 * np.abs(both).max())
+    anti = frequency_response(car, f, names, delays=delays, gains=[1, -1, 1, -1])
+    assert np.max(np.abs(anti[:2])) <= 1e-12 * np.max(np.abs(both[:2]))
+    assert np.min(np.abs(anti[2])) > 0.0
+    with pytest.raises(BodyvibError, match="one gain per base"):
+        frequency_response(car, f, names, gains=[1.0, 0.0])

@@ -88,7 +88,7 @@ def to_statespace(model):
     )
 
 
-def frequency_response(model, frequencies_hz, output, delays=None) -> np.ndarray:
+def frequency_response(model, frequencies_hz, output, delays=None, gains=None) -> np.ndarray:
     """Complex response of one output (or several) per unit base displacement.
 
     Parameters
@@ -105,11 +105,15 @@ def frequency_response(model, frequencies_hz, output, delays=None) -> np.ndarray
         base's motion behind the first's, s, one per base (the rear wheel of a
         car at speed ``v``: wheelbase / ``v``). By default every base moves
         together.
+    gains : sequence of float, optional
+        The amplitude of each base's motion relative to the first's, one per base (0
+        leaves a base still: the left wheels of a car alone, for a cross-spectrum of its
+        two tracks). By default 1 for every base.
 
     Raises
     ------
     BodyvibError
-        ``delays`` not one number per base.
+        ``delays`` or ``gains`` not one number per base.
 
     Returns
     -------
@@ -135,14 +139,21 @@ def frequency_response(model, frequencies_hz, output, delays=None) -> np.ndarray
             f"delays: give one delay (s) per base point of '{lm.network.name}' "
             f"({', '.join(lm.network.bases)}), got {tau.size}"
         )
+    g = np.ones(nb) if gains is None else np.asarray(gains, dtype=float)
+    if g.shape != (nb,):
+        raise BodyvibError(
+            f"gains: give one gain per base point of '{lm.network.name}' "
+            f"({', '.join(lm.network.bases)}), got {g.size}"
+        )
     s = 2j * np.pi * f
     n = lm.A.shape[0]
     out = np.empty((len(idx), s.size), dtype=complex)
     for a in range(0, s.size, _CHUNK):  # (chunk, n, n) at a time: memory independent of nf
         interrupts.check()
         sc = s[a : a + _CHUNK]
-        # base j moves as the first, delayed by tau[j]: its inputs weighted by exp(-s tau[j])
-        lags = [np.exp(-sc * t)[:, None] if t else 1.0 for t in tau]
+        # base j moves as the first, delayed by tau[j] and scaled by g[j]: its inputs
+        # weighted by g[j] exp(-s tau[j])
+        lags = [gj * (np.exp(-sc * t)[:, None] if t else 1.0) for t, gj in zip(tau, g)]
         rhs = sum(
             lag * (lm.B[:, 2 * j][None, :] + sc[:, None] * lm.B[:, 2 * j + 1][None, :])
             for j, lag in enumerate(lags)
