@@ -906,8 +906,8 @@ def _cosim_case(cs, folder, built, record):
         ):
             master = Master(c, b, cs.step, z.shape[0], extrapolate=True)
             run = dict(zip(master.columns, master.advance(z, v).T))
-        columns = _cosim_events(run, master.wheels, loads.get("b", {}), cs.step)
-        return _run_row(run, cs.step, columns if events else _LINEAR, car), _histories(run, record)
+        columns = _cosim_events(run, master.wheels, loads["b"], cs.step) if events else _LINEAR
+        return _run_row(run, cs.step, columns, car), _histories(run, record)
     except Exception as exc:
         return _failed(exc), None
 
