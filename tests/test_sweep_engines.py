@@ -225,32 +225,19 @@ def test_cosim_engine_agrees_with_batched_within_the_coupling_error():
 
 
 @pytest.mark.integration
-def test_a_sweep_case_runs_on_the_road_of_bodyvib_cosim(tmp_path, capsys):
+@pytest.mark.parametrize("linear", [False, True])
+def test_a_sweep_case_runs_on_the_road_of_bodyvib_cosim(tmp_path, capsys, linear):
+    """Class D at 15 m/s, where the wheel lifts: the cosim engine's case is ``bodyvib
+    cosim``'s run (the car with contacts and stops), and with ``linear`` in the spec its
+    ``--linear`` run (the linearized car)."""
     from bodyvib.cli.main import main
 
     csv = tmp_path / "cosim.csv"
-    assert (
-        main(
-            [
-                "cosim",
-                "--road",
-                "D",
-                "--seed",
-                "3",
-                "--speed",
-                "15",
-                "--duration",
-                "2",
-                "--csv",
-                str(csv),
-                "--quiet",
-                "--linear",  # the car the sweep engines step
-            ]
-        )
-        == 0
-    )
+    args = ["cosim", "--road", "D", "--seed", "3", "--speed", "15", "--duration", "2"]
+    assert main(args + ["--csv", str(csv), "--quiet"] + (["--linear"] if linear else [])) == 0
     capsys.readouterr()
-    (case,) = expand({"road": "D", "seed": 3, "speed": 15, "duration": 2, "body": "reduced-paper"})
+    spec = {"road": "D", "seed": 3, "speed": 15, "duration": 2, "body": "reduced-paper"}
+    (case,) = expand(dict(spec, linear=linear))
     assert_csv_is_the_cosim_engine(csv, case)
 
 

@@ -32,12 +32,21 @@
   VDV, peak and crest factor depend on the particular record (NaN). It is the
   stationary road's expectation: the fade-in every road starts with (5 m of a run's
   hundreds) is a transient outside it, and a road file, not stationary, is refused.
-  It is the linearized car's expectation (no events: ``stepping`` ``linear``).
-* ``cosim`` -- real FMU co-simulations (:func:`bodyvib.vehicle.cosim.cosimulate`,
+  It is the linearized car's expectation (no events: ``stepping`` ``linear``); where
+  its car has tire contacts and stops, the row says how far that expectation is from
+  leaving the linear car's range (:data:`RANGE`: three standard deviations of the
+  dynamic tire force over the static load, of the suspension travel over the stop gap).
+* ``cosim`` -- real FMU co-simulations (:class:`bodyvib.vehicle.cosim.Master`,
   extrapolating master): the FMUs are built once per task (into a temporary
   folder deleted with the task) and body and car parameters are set for each
   case through the FMUs' parameter variables before initialization. The car FMU is
-  the linearized car (``stepping`` ``linear``).
+  the one ``bodyvib cosim`` builds: the car with its tire contacts and stops, which
+  locates its events inside each step, its tires loaded by the case's body (the
+  occupant start values of :func:`bodyvib.vehicle.study.run_study`); the event
+  columns are read from its contact flags, stop forces and tire forces at the
+  communication points as ``bodyvib cosim`` reads them
+  (:class:`bodyvib.vehicle.events.EventStream`; ``stepping`` ``events``). With the
+  spec's ``linear`` the car FMU is the linearized car (``stepping`` ``linear``).
 
 Every case sees the road of ``bodyvib cosim`` with the same road, seed, speed,
 duration and road options, faded in from level: :func:`bodyvib.vehicle.road.driven.driven_road` and
@@ -49,6 +58,7 @@ case that fails carries its error instead of figures.
 import math
 import os
 import tempfile
+from dataclasses import replace
 from typing import Dict, List, NamedTuple, Optional, Sequence
 
 import numpy as np
@@ -69,11 +79,13 @@ from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import linear_model, linearized
 from bodyvib.runtime.regimes import PiecewiseModel
 
+from ..events import EventStream, combine_events
 from ..quarter_car import seated_system, track_width, wheel_offsets, wheel_sides
 from ..road import roads_input, wheel_roads
 from ..road.driven import driven_road
 from ..road.synthetic import ISO8608_CLASSES, N_BAND, displacement_psd, road_input
 from ..seat_motion import SEAT_FIGURES, seat_axes, seat_height, seat_point
+from ..signals import WHEEL_SIGNALS, corner_variable
 from . import kernel
 from .kernel import SUMS
 from .spec import Case
@@ -84,6 +96,7 @@ __all__ = [
     "FIGURES",
     "FORCES",
     "EVENTS",
+    "RANGE",
     "SWITCH_MARGIN",
     "run_engine",
     "run_batched",
@@ -101,9 +114,10 @@ ENGINES = ("batched", "spectral", "cosim")
 #: linear run): lift-offs and stop contacts (counts, summed over the wheels), time in
 #: the air (s, summed over the wheels), the largest stop force (N) and the smallest
 #: tire-load ratio (total over static tire force, the lowest wheel), and ``stepping``:
-#: ``linear`` (a linear car, ``linear`` in the spec, the spectral and cosim engines),
-#: ``batched`` (nothing switched: the batched engine's run) or ``events`` (run again
-#: with exact steps and located events).
+#: ``linear`` (a linear car, ``linear`` in the spec, the spectral engine), ``batched``
+#: (nothing switched: the batched engine's run) or ``events`` (run again with exact
+#: steps and located events; the cosim engine's car FMU, which locates them inside each
+#: step, its columns counted at the communication points).
 EVENTS = (
     "lift_offs",
     "time_in_air",
@@ -112,6 +126,18 @@ EVENTS = (
     "smallest_tire_load_ratio",
     "stepping",
 )
+#: Where a spectral row's linear car stands against its range, three standard deviations
+#: of a stationary Gaussian response over the limit (NaN for the other engines, which
+#: have a record, and for a car without contacts or stops): ``tire_force_3sigma_ratio``,
+#: 3 r.m.s. dynamic tire force over the static tire load (the largest over the wheels),
+#: and ``stop_travel_3sigma_ratio``, 3 r.m.s. suspension travel over the stop gap (the
+#: largest over the stops). Above 1 the linear expectation is out of its range: the
+#: road is Gaussian, the linear response too, and the level ``-3 sigma`` is crossed
+#: downwards ``nu_0 exp(-9 / 2) = 0.011 nu_0`` times a second (Rice; ``nu_0`` the
+#: response's mean frequency, 11-15 Hz for the quarter car's tire force at 10-30 m/s,
+#: 3.4 Hz for its travel: at the ratio 1 about 4 lift-offs, or 1 stop contact, in a 30 s
+#: run, and more as it grows), which the linear car does not have.
+RANGE = ("tire_force_3sigma_ratio", "stop_travel_3sigma_ratio")
 #: Figure columns every engine returns (NaN where it has none); ``head_comfort_method``
 #: is added to every engine's rows by :func:`run_engine` (:func:`comfort_method`).
 FIGURES = (
@@ -129,6 +155,7 @@ FIGURES = (
     )
     + SEAT_FIGURES
     + EVENTS
+    + RANGE
 )
 #: The body's named forces a sweep reports, as outputs of the seated system.
 FORCES = ("neck_force", "lumbar_force")
@@ -711,7 +738,8 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
     density = (points - 1) / math.log(N_BAND[1] / N_BAND[0])  # points per unit of ln f
     for idx in groups.values():
         try:
-            s = _seated(cases[idx[0]], models, cars)
+            # the car with its contacts and stops: its linearization, and its range
+            s = _seated(replace(cases[idx[0]], linear=False), models, cars)
             if any(s.sides):
                 raise BodyvibError(
                     f"the spectral engine drives every wheel on one road track; car "
@@ -724,13 +752,16 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
             )
             f = np.exp(lnf)
             outputs, weights = _spectral_outputs(s, f)
-            H = frequency_response(s.lm, f, outputs)
+            lm, watched = _watched_outputs(s)
+            weights += [(len(outputs) + r, f) for r in range(len(watched))]  # unweighted
+            outputs += watched
+            H = frequency_response(lm, f, outputs)
             per_speed = {}
             for v in speeds:
                 # road PSD in time at speed v: S(f) = Gd(f / v) / v (class A here; scaled below)
                 S = displacement_psd(f / v, "A") / v
                 if len(s.behind) > 1:  # every wheel on the same road, later by its distance / v
-                    H = frequency_response(s.lm, f, outputs, delays=[d / v for d in s.behind])
+                    H = frequency_response(lm, f, outputs, delays=[d / v for d in s.behind])
                 per_speed[v] = [
                     _band_mean_square(np.abs(H[i]) ** 2 * w * S, lnf, N_BAND[0] * v, N_BAND[1] * v)
                     for i, w in weights
@@ -749,7 +780,9 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
                 rows[i] = _failed(BodyvibError(f"road '{cs.road}' is not an ISO 8608 class"))
                 continue
             scale = 4.0 ** ISO8608_CLASSES.index(cs.road)  # Gd(n0) of the class over class A's
-            head, seat, *axes = (math.sqrt(m * scale) for m in per_speed[cs.speed])
+            ms = per_speed[cs.speed]
+            split = len(ms) - len(watched)
+            head, seat, *axes = (math.sqrt(m * scale) for m in ms[:split])
             rows[i] = {
                 "head_weighted_rms": head,
                 "head_vdv": float("nan"),
@@ -762,32 +795,58 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
                 "lumbar_force_peak": float("nan"),
                 **_seat_columns(_seat_figures(seat, axes, s.height)),
                 **_LINEAR,
+                **_range_ratios(s.watch, ms[split:], scale),
                 "error": None,
             }
     return rows
 
 
+def _watched_outputs(s):
+    """The seated system's linear model with its car's switching functions as more
+    outputs (:func:`_watched`, each 1 where it switches), and their names."""
+    names = [f"switching_{i}" for i in range(s.watch.x.shape[0])]
+    lm = replace(
+        s.lm,
+        C=np.vstack([s.lm.C, s.watch.x]),
+        D=np.vstack([s.lm.D, s.watch.u]),
+        outputs=tuple(s.lm.outputs) + tuple(names),
+    )
+    return lm, names
+
+
+def _range_ratios(watch: _Watched, mean_squares, scale: float) -> Dict[str, float]:
+    """The :data:`RANGE` columns from the switching functions' mean squares (class A's,
+    times ``scale``): three standard deviations of each function (the dynamic tire force
+    over the static load, the travel over a stop's gap), the largest of each kind."""
+    sigma3 = 3.0 * np.sqrt(np.asarray(mean_squares, dtype=float) * scale)
+    out = {}
+    for name, rows in zip(RANGE, (watch.contact, ~watch.contact)):
+        out[name] = float(np.max(sigma3[rows])) if np.any(rows) else math.nan
+    return out
+
+
 # -- cosim -------------------------------------------------------------------
 
 
-def _fmu(kind: str, source: str, folder: str, built: Dict[tuple, str]) -> str:
-    """Path of an FMU for a body or car source, built once into ``folder``."""
+def _fmu(kind: str, source: str, folder: str, built: Dict[tuple, str], linear=False) -> str:
+    """Path of an FMU for a body or car source, built once into ``folder``: a car with its
+    tire contacts and stops (the FMU ``bodyvib cosim`` builds), or linearized (``linear``)."""
     from ..fmus import build_project_fmu, car_fmu_name, linear_car_file
 
-    key = (kind, os.path.abspath(source) if os.path.isfile(source) else source)
+    key = (kind, os.path.abspath(source) if os.path.isfile(source) else source, linear)
     path = built.get(key)
     if path is None:
-        if kind == "car":  # linearized, as the other engines step it
+        sub = os.path.join(folder, str(len(built)))
+        if kind == "car":
             name = car_fmu_name(source)
-            os.makedirs(os.path.join(folder, str(len(built))), exist_ok=True)
-            source = linear_car_file(source, os.path.join(folder, str(len(built))))
+            if linear:  # the car as a file of its linear model, as the command's
+                os.makedirs(sub, exist_ok=True)
+                source = linear_car_file(source, sub)
         elif source == "iso7962":
             name = "HumanBodyISO7962"
         else:
             name = "HumanBody3DOF"
-        path = built[key] = str(
-            build_project_fmu(name, os.path.join(folder, str(len(built))), source)
-        )
+        path = built[key] = str(build_project_fmu(name, sub, source))
     return path
 
 
@@ -797,6 +856,11 @@ def _parameters(net) -> Dict[str, float]:
 
 def run_cosim(cases: Sequence[Case], record: bool = False):
     """Figures of cases by FMU co-simulation (fmpy, extrapolating master).
+
+    The car FMU is the car with its tire contacts and stops, which locates its events
+    inside each step (``stepping`` ``events``, the event columns counted as ``bodyvib
+    cosim`` counts them), or the car linearized where the spec says ``linear``
+    (``stepping`` ``linear``).
 
     Parameters
     ----------
@@ -808,34 +872,70 @@ def run_cosim(cases: Sequence[Case], record: bool = False):
     rows, histories
         As :func:`run_batched`.
     """
-    from ..cosim import cosimulate, open_fmu
-
     rows, hist = [], []
     built: Dict[tuple, str] = {}
     with tempfile.TemporaryDirectory(prefix="bodyvib-sweep-fmus-") as folder:
         for cs in cases:
-            row, h = _cosim_case(cs, folder, built, record, cosimulate, open_fmu)
+            row, h = _cosim_case(cs, folder, built, record)
             rows.append(row)
             hist.append(h)
     return rows, (hist if record else None)
 
 
-def _cosim_case(cs, folder, built, record, cosimulate, open_fmu):
-    """Figures (and histories) of one case by co-simulation; a failure is recorded."""
+def _cosim_case(cs, folder, built, record):
+    """Figures (and histories) of one case by co-simulation; a failure is recorded.
+
+    The car FMU starts with the case's car parameters and, for a car with contacts, the
+    body's weight on its seat (the start values and the tires' static loads of ``bodyvib
+    cosim``: :func:`bodyvib.vehicle.study.run_study`)."""
+    from ..cosim import Master, open_fmu
+    from ..study import _static_load
+
     try:
         body = cs.body_network()
-        car = linearized(cs.car_network())  # the FMU's car (_fmu)
+        car = cs.car_network()  # with its contacts and stops, or linearized (the FMU's)
+        events = not cs.linear and bool(car.nonlinear_elements)
         body_fmu = _fmu("body", cs.body_model, folder, built)
-        car_fmu = _fmu("car", cs.car, folder, built)
+        car_fmu = _fmu("car", cs.car, folder, built, cs.linear)
+        loads, occupant = _static_load(car, {"b": body_fmu}, {"b": body}) if events else ({}, {})
+        start = {**_parameters(car), **occupant.get("b", {})}
         z, v = _roads(cs, {}, wheel_offsets(car), wheel_sides(car), track_width(car))
         with (
-            open_fmu(car_fmu, "car", "car", start_values=_parameters(car)) as c,
+            open_fmu(car_fmu, "car", "car", start_values=start) as c,
             open_fmu(body_fmu, "body", "body", start_values=_parameters(body)) as b,
         ):
-            run = cosimulate(c, b, z, v, cs.step, extrapolate=True)
-        return _run_row(run, cs.step, _LINEAR, car), _histories(run, record)
+            master = Master(c, b, cs.step, z.shape[0], extrapolate=True)
+            run = dict(zip(master.columns, master.advance(z, v).T))
+        columns = _cosim_events(run, master.wheels, loads["b"], cs.step) if events else _LINEAR
+        return _run_row(run, cs.step, columns, car), _histories(run, record)
     except Exception as exc:
         return _failed(exc), None
+
+
+def _cosim_events(run: dict, wheels, loads: dict, step: float) -> dict:
+    """The event columns of a co-simulated run: the car FMU's contact flags, stop forces
+    and tire forces at the communication points read by
+    :class:`bodyvib.vehicle.events.EventStream` as ``bodyvib cosim`` reads them (a car
+    with several wheels: each wheel's, :func:`bodyvib.vehicle.events.combine_events`);
+    ``loads`` are the tires' static loads by tire-force output."""
+    if wheels:
+        streams = [EventStream(step, loads.get(f"tire_force_{w}")) for w in wheels]
+        for w, stream in zip(wheels, streams):
+            stream.update(*(run[f"{k}_{w}"] for k in WHEEL_SIGNALS))
+        e = combine_events([stream.result() for stream in streams])
+    else:
+        stream = EventStream(step, loads.get(corner_variable("tire_force", loads)))
+        stream.update(run["tire_contact"], run["stop_force"], run["tire_force"])
+        e = stream.result()
+    ratio = e.smallest_tire_load_ratio
+    return {
+        "lift_offs": float(e.lift_offs),
+        "time_in_air": e.time_in_air_s,
+        "stop_contacts": float(e.stop_contacts),
+        "largest_stop_force": e.largest_stop_force_n,
+        "smallest_tire_load_ratio": math.nan if ratio is None else ratio,
+        "stepping": "events",
+    }
 
 
 def _run_seat_axes(run, step: float, car) -> Optional[Dict[str, float]]:
@@ -904,6 +1004,8 @@ def run_engine(engine: str, cases: Sequence[Case], blas_threads: Optional[int] =
             rows = run_cosim(cases)[0]
     for row, case in zip(rows, cases):
         row["head_comfort_method"] = comfort_method(row, case.duration)
+        for k in RANGE:  # a record's engines: the run says what happened (EVENTS)
+            row.setdefault(k, math.nan)
     return rows
 
 
