@@ -552,6 +552,36 @@ def _text_lines(path) -> List[str]:
 # -- ERD ------------------------------------------------------------------------------
 
 
+def _erd_layout(keys, layout, base):
+    """``(NCHAN, NSAMP, DELTA, START)`` of an ERD header, from its layout line or its
+    keyword lines (which win)."""
+    nchan = nsamp = delta = None
+    start = 0.0
+    try:
+        if layout is not None and len(layout) >= 6:
+            nchan, nsamp, delta = int(float(layout[0])), int(float(layout[1])), float(layout[5])
+        if "NCHAN" in keys:
+            nchan = int(float(keys["NCHAN"][0]))
+        if "NSAMP" in keys:
+            nsamp = int(float(keys["NSAMP"][0]))
+        if "DELTA" in keys:
+            delta = float(keys["DELTA"][0])
+        for k in ("START", "XSTART", "X0"):
+            if k in keys:
+                start = float(keys[k][0])
+    except (ValueError, IndexError):
+        raise BodyvibError(
+            f"road '{base}': the ERD header's layout (NCHAN, NSAMP, DELTA) is not "
+            "numbers; fix the header"
+        ) from None
+    if not nchan or not nsamp or not delta or nchan < 1 or nsamp < 1 or not delta > 0:
+        raise BodyvibError(
+            f"road '{base}': the ERD header must give NCHAN, NSAMP and a positive "
+            "DELTA (on its second line or as keyword lines)"
+        )
+    return nchan, nsamp, delta, start
+
+
 def _read_erd(path, units, channel, option, side=0):
     base = os.path.basename(path)
     lines = _text_lines(path)
@@ -577,30 +607,7 @@ def _read_erd(path, units, channel, option, side=0):
             layout = [p for p in f if p]
         elif f[0]:
             keys[f[0].upper()] = f[1:]
-    nchan = nsamp = delta = None
-    start = 0.0
-    try:
-        if layout is not None and len(layout) >= 6:
-            nchan, nsamp, delta = int(float(layout[0])), int(float(layout[1])), float(layout[5])
-        if "NCHAN" in keys:
-            nchan = int(float(keys["NCHAN"][0]))
-        if "NSAMP" in keys:
-            nsamp = int(float(keys["NSAMP"][0]))
-        if "DELTA" in keys:
-            delta = float(keys["DELTA"][0])
-        for k in ("START", "XSTART", "X0"):
-            if k in keys:
-                start = float(keys[k][0])
-    except (ValueError, IndexError):
-        raise BodyvibError(
-            f"road '{base}': the ERD header's layout (NCHAN, NSAMP, DELTA) is not "
-            "numbers; fix the header"
-        ) from None
-    if not nchan or not nsamp or not delta or nchan < 1 or nsamp < 1 or not delta > 0:
-        raise BodyvibError(
-            f"road '{base}': the ERD header must give NCHAN, NSAMP and a positive "
-            "DELTA (on its second line or as keyword lines)"
-        )
+    nchan, nsamp, delta, start = _erd_layout(keys, layout, base)
     track = None
     if channel is None:  # two channels are a profiler's left and right lines
         track = ("right" if side < 0 else "left") if nchan == 2 else None

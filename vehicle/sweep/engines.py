@@ -28,7 +28,9 @@
   (:func:`bodyvib.frequency.response.frequency_response`), ``Wk``
   (:func:`bodyvib.comfort.figures.wk_response`) and the road's time-domain PSD at the
   speed ``S(f) = Gd(f / V) / V`` (:func:`bodyvib.vehicle.road.synthetic.displacement_psd`)
-  over the band the road is synthesized in. It gives the weighted r.m.s. only:
+  over the band the road is synthesized in; a car with left and right wheels on the
+  road's two tracks, correlated as an isotropic surface (:func:`_output_power`). It
+  gives the weighted r.m.s. only:
   VDV, peak and crest factor depend on the particular record (NaN). It is the
   stationary road's expectation: the fade-in every road starts with (5 m of a run's
   hundreds) is a transient outside it, and a road file, not stationary, is refused.
@@ -83,7 +85,13 @@ from ..events import EventStream, combine_events
 from ..quarter_car import seated_system, track_width, wheel_offsets, wheel_sides
 from ..road import roads_input, wheel_roads
 from ..road.driven import driven_road
-from ..road.synthetic import ISO8608_CLASSES, N_BAND, displacement_psd, road_input
+from ..road.synthetic import (
+    ISO8608_CLASSES,
+    N_BAND,
+    displacement_psd,
+    road_input,
+    track_coherence,
+)
 from ..seat_motion import SEAT_FIGURES, seat_axes, seat_height, seat_point
 from ..signals import WHEEL_SIGNALS, corner_variable
 from . import kernel
@@ -740,11 +748,6 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
         try:
             # the car with its contacts and stops: its linearization, and its range
             s = _seated(replace(cases[idx[0]], linear=False), models, cars)
-            if any(s.sides):
-                raise BodyvibError(
-                    f"the spectral engine drives every wheel on one road track; car "
-                    f"'{cases[idx[0]].car}' has left and right wheels: use the batched engine"
-                )
             speeds = sorted({cases[i].speed for i in idx})
             lo, hi = N_BAND[0] * speeds[0], N_BAND[1] * speeds[-1]
             lnf = np.linspace(
@@ -755,15 +758,11 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
             lm, watched = _watched_outputs(s)
             weights += [(len(outputs) + r, f) for r in range(len(watched))]  # unweighted
             outputs += watched
-            H = frequency_response(lm, f, outputs)
             per_speed = {}
             for v in speeds:
-                # road PSD in time at speed v: S(f) = Gd(f / v) / v (class A here; scaled below)
-                S = displacement_psd(f / v, "A") / v
-                if len(s.behind) > 1:  # every wheel on the same road, later by its distance / v
-                    H = frequency_response(lm, f, outputs, delays=[d / v for d in s.behind])
+                power = _output_power(s, lm, f, outputs, v)
                 per_speed[v] = [
-                    _band_mean_square(np.abs(H[i]) ** 2 * w * S, lnf, N_BAND[0] * v, N_BAND[1] * v)
+                    _band_mean_square(power[i] * w, lnf, N_BAND[0] * v, N_BAND[1] * v)
                     for i, w in weights
                 ]
             if not np.all(np.isfinite(list(per_speed.values()))):
@@ -799,6 +798,29 @@ def run_spectral(cases: Sequence[Case], points: int = SPECTRAL_POINTS) -> List[d
                 "error": None,
             }
     return rows
+
+
+def _output_power(s, lm, f, outputs, v):
+    """Each output's PSD over class A's road at speed ``v`` (per Hz, at ``f``).
+
+    Every wheel follows the first a distance behind it, delayed by distance over speed.
+    A car with left and right wheels drives two tracks correlated as an isotropic
+    surface (the road of :func:`~bodyvib.vehicle.road.synthetic.two_track_road`): with
+    ``H_L`` and ``H_R`` the responses to the left and the right wheels and ``rho`` the
+    tracks' normalised cross-spectrum (:func:`~bodyvib.vehicle.road.synthetic.track_coherence`),
+    ``S_y = (|H_L|^2 + |H_R|^2 + 2 rho Re(H_L conj(H_R))) S``.
+    """
+    S = displacement_psd(f / v, "A") / v  # the road's PSD in time: S(f) = Gd(f / v) / v
+    delays = [d / v for d in s.behind]
+    if not any(s.sides):
+        return np.abs(frequency_response(lm, f, outputs, delays=delays)) ** 2 * S
+    left, right = (
+        frequency_response(lm, f, outputs, delays=delays, gains=[float(x == side) for x in s.sides])
+        for side in (1, -1)
+    )
+    rho = track_coherence(f / v, s.track)
+    cross = 2 * rho * np.real(left * np.conj(right))
+    return (np.abs(left) ** 2 + np.abs(right) ** 2 + cross) * S
 
 
 def _watched_outputs(s):
