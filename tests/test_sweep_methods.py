@@ -61,6 +61,24 @@ def test_spectral_rows_say_where_the_linear_tire_leaves_its_range():
     lin = run_spectral(expand({"road": ["B", "F"], "speed": 30, "linear": True}))
     for a, c in zip(rows, lin):
         assert a["tire_force_3sigma_ratio"] == c["tire_force_3sigma_ratio"]
+    # the sweep's summary says which cases leave the range
+    pd = pytest.importorskip("pandas")
+    from bodyvib.vehicle.sweep.summary import format_summary
+
+    df = pd.DataFrame(
+        [
+            {**r, "case_id": c.case_id, "road": c.road, "speed": c.speed, "body": c.body,
+             "car": c.car, "engine": "spectral", "error": ""}
+            for r, c in zip(rows, cases)
+        ]
+    )  # fmt: skip
+    text = format_summary(df)
+    f_travel = int(f["stop_travel_3sigma_ratio"] > 1)
+    assert (
+        "linear range: 1 of 2 cases leave it (3 sigma of the tire force beyond the static "
+        f"load in 1, of the travel beyond the stops in {f_travel}"
+    ) in text
+    assert "linear range" not in format_summary(df.iloc[:1])
 
 
 def test_spectral_range_is_nan_for_a_car_without_contacts():

@@ -26,6 +26,8 @@ SUMMARY_COLUMNS = (
     "engine",
     "stepping",
     "lift_offs",
+    "tire_force_3sigma_ratio",
+    "stop_travel_3sigma_ratio",
     "error",
 )
 
@@ -161,6 +163,7 @@ def format_summary(df) -> str:
         lines.append(f"  min: {_case(ok.loc[rms.idxmin()])}")
         lines.append(f"  max: {_case(ok.loc[rms.idxmax()])}")
         lines += _method_lines(ok)
+        lines += _range_lines(ok)
         bands = ok.groupby(ok["head_comfort"].astype(str))["head_weighted_rms"]
         order = bands.min().sort_values().index  # the bands from the mildest
         bands = ", ".join(f"{bands.size()[b]} {b}" for b in order)
@@ -193,4 +196,27 @@ def _method_lines(ok) -> list:
         f"ISO 2631-1 6.3: the basic method is not sufficient in {len(other)} of {len(ok)} "
         f"cases ({counts} governs: head_comfort_method); their comfort words name the "
         "r.m.s. only"
+    ]
+
+
+def _range_lines(ok) -> list:
+    """The line of the spectral cases whose linear car leaves its range (none: no line):
+    three standard deviations of the dynamic tire force beyond the static load, or of the
+    suspension travel beyond the stop gap (ratio above 1)."""
+    cols = [c for c in ("tire_force_3sigma_ratio", "stop_travel_3sigma_ratio") if c in ok]
+    if not cols:
+        return []
+    ratios = ok[cols].astype(float)
+    out = ratios.gt(1.0)
+    if not out.any(axis=None):
+        return []
+    tire, travel = (
+        int(out[c].sum()) if c in out else 0
+        for c in ("tire_force_3sigma_ratio", "stop_travel_3sigma_ratio")
+    )
+    return [
+        f"linear range: {int(out.any(axis=1).sum())} of {len(ok)} cases leave it (3 sigma of "
+        f"the tire force beyond the static load in {tire}, of the travel beyond the stops in "
+        f"{travel}: *_3sigma_ratio > 1); their wheels would lift or hit the stops: run them "
+        "with the batched engine"
     ]
