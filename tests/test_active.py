@@ -68,10 +68,13 @@ def test_actuator_is_the_fmu_input_with_the_stated_sign():
 
 
 def test_active_file_is_the_passive_car_with_the_actuator_idle():
-    """Same states, same road and seat columns: with no actuator force, the passive car."""
-    passive = load_car("quarter-car", linear=True)  # the active car is linear
-    active = load_car("quarter-car-active")
+    """Same values, elements (tire contact, stops), states, road and seat columns: with no
+    actuator force, the passive car; linearized, the linearized passive car."""
+    passive, active = load_car("quarter-car"), load_car("quarter-car-active")
     assert active.parameters == passive.parameters
+    assert active.elements == passive.elements and active.static_loads == passive.static_loads
+    lin = (load_car("quarter-car", linear=True), load_car("quarter-car-active", linear=True))
+    np.testing.assert_array_equal(linear_model(lin[0]).A, linear_model(lin[1]).A)
     lp, la = linear_model(passive), linear_model(active)
     assert lp.states == la.states and lp.outputs == la.outputs
     np.testing.assert_array_equal(lp.A, la.A)
