@@ -218,3 +218,31 @@ def test_the_controlled_lift_off_matches_hand_written_equations():
     assert len(mine) == len(theirs) >= 2
     assert all(abs(a - b) <= H for (a, _), b in zip(mine, theirs))
     assert np.min(out["tire_force"] + f0) >= -1e-9 * f0
+
+
+# -- the linear car's range at every wheel ----------------------------------------------
+
+
+def test_the_linear_half_car_warns_for_each_wheel_that_would_pull():
+    """Over the pothole at 20 m/s the linear half car's front and rear tires both pull: a
+    warning each, naming the wheel, with the pull against the static load by hand."""
+    car, body = load_car("half-car"), load_model("reduced-paper")
+    f0 = _seated_preload(car, body)
+    ranges = linear_ranges(car, body.total_mass())
+    assert [r.wheel for r in ranges] == ["front", "rear"]
+    for r in ranges:
+        assert r.static_load == pytest.approx(f0[f"tire_{r.wheel}"], rel=1e-12)
+        assert (r.gap_compression, r.gap_rebound) == (0.07, 0.09)
+    _, z, v = _road("pothole", car, 2.0)
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        reference_run(car, body, z, v, H, linear=True)
+    lines = [str(w.message) for w in rec if issubclass(w.category, LinearRangeWarning)]
+    extra = ("tire_force_front", "tire_force_rear")
+    run = ReferenceStream(car, body, H, linear=True, extra=extra).advance(z, v)
+    for wheel in ("front", "rear"):
+        pull = -(f0[f"tire_{wheel}"] + run[f"tire_force_{wheel}"].min())
+        assert pull > 0.0
+        words = f"the linear {wheel} tire pulls with up to {pull / 1e3:.1f} kN"
+        assert sum(words in line for line in lines) == 1, (words, lines)
+    assert len(lines) == 2  # no stop reached
