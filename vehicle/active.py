@@ -31,6 +31,7 @@ from .control import (
     closed_loop_model,
     parse_control,
 )
+from .events import LinearRangeStream, linear_ranges
 from .quarter_car import seated_system, wheel_offsets
 from .records import Record
 from .road.driven import RunSettings, driven_road, wheel_inputs
@@ -69,6 +70,9 @@ class LawFigures(Record):
     events : dict
         What the tires and stops did: element name -> figures
         (:meth:`bodyvib.runtime.regimes.EventLog.summary`); empty for a linear car.
+    warnings : tuple of str
+        The linearized car's run: where it leaves its range at each wheel
+        (:class:`bodyvib.vehicle.events.LinearRangeStream`); empty otherwise.
     """
 
     law: str
@@ -78,6 +82,7 @@ class LawFigures(Record):
     suspension_travel_rms: float
     actuator_force_rms: float
     events: dict = field(default_factory=dict)
+    warnings: Tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -173,6 +178,15 @@ def _controllers(laws: Sequence[str], car: Network) -> list:
                 parameters=("run_study",),
             )
     return controllers
+
+
+def _range(car: Network, body: Network, step: float, axles: int):
+    """The linear car's range at each axle (its wheels in the order of its actuators), or
+    None where the car's wheels are not its axles."""
+    ranges = linear_ranges(car, body.total_mass())
+    if len(ranges) != axles or any(r.static_load is None for r in ranges):
+        return None
+    return LinearRangeStream(step, ranges)
 
 
 def _law_models(seated: Network, car: Network, controllers):
@@ -311,6 +325,9 @@ def compare_laws(
         y, act, events = _run_law(model, forces, u, du, h, names)
         interrupts.check()
         a_head, tire, travel = y[:, 0], y[:, 1 : 1 + na], y[:, 1 + na :]
+        rng = _range(car, body, h, na) if linear else None
+        if rng is not None:  # where the linear car leaves its range, at each axle
+            rng.update(tire, travel)
         rows.append(
             LawFigures(
                 law=law,
@@ -320,6 +337,7 @@ def compare_laws(
                 suspension_travel_rms=_rms_over(travel),
                 actuator_force_rms=_rms_over(act) if act is not None else 0.0,
                 events=events,
+                warnings=tuple(rng.warnings()) if rng is not None else (),
             )
         )
         for trace, signal in zip(traces, (a_head, tire[:, 0], travel[:, 0])):
@@ -369,6 +387,7 @@ def format_comparison(comparison: ControlComparison) -> str:
             f"{f.tire_force_rms:>12.0f}{1e3 * f.suspension_travel_rms:>14.2f}"
             f"{f.actuator_force_rms:>10.0f}" + (f"{n_lift:>11d}{n_stop:>7d}" if events else "")
         )
+    lines += [f"warning: {f.law}: {w}" for f in comparison.laws for w in f.warnings]
     return "\n".join(lines)
 
 

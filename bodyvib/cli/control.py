@@ -10,6 +10,7 @@ force r.m.s. per law. ``bodyvib cosim --control LAW`` co-simulates one law with 
 from bodyvib.process.outputs import write_json
 from bodyvib.runtime.errors import BodyvibError
 
+from .flags import in_flags
 from .options import add_output_options, add_road_options, run_settings_from_args
 from .outputs import check_files, write_outputs
 
@@ -30,7 +31,7 @@ def _run(args):
     if not laws:
         raise BodyvibError("--laws is empty; give e.g. 'passive;skyhook;groundhook'")
     comparison = compare_laws(car, body, settings, laws, linear=args.linear)
-    print(format_comparison(comparison))
+    print(in_flags(format_comparison(comparison), ("linear",)))
     write_outputs(
         [
             (args.json, lambda path: write_json(path, _json(comparison))),
@@ -61,6 +62,7 @@ def _json(comparison):
                 "lift_offs": lift_offs(f)[0],
                 "stop_contacts": lift_offs(f)[1],
                 "events": f.events,
+                "warnings": list(f.warnings),
             }
             for f in comparison.laws
         ],
