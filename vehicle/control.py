@@ -20,7 +20,10 @@ damper's force opposes the relative velocity ``v_u - v_l``, so a demand with
 The ideal law is linear in the car's states, so the closed loop is again a linear
 model: substituting ``u_act = G C_v x`` into ``x' = A x + B u`` gives
 ``A + B G C_v`` (:func:`closed_loop_model`), discretized exactly like any other
-model; that is the monolithic reference of a controlled co-simulation.
+model; that is the monolithic reference of a controlled co-simulation. A car whose tires
+are contacts and whose suspensions have stops is linear within each regime of those
+elements (:mod:`bodyvib.runtime.regimes`): the law closes each regime's loop the same way
+(:class:`ClosedLoopPiecewise`), and the closed loop is stepped exactly with located events.
 """
 
 import math
@@ -30,7 +33,8 @@ from typing import Tuple
 import numpy as np
 
 from bodyvib.runtime.errors import BodyvibError
-from bodyvib.runtime.network import LinearModel, Network
+from bodyvib.runtime.network import LinearModel, Network, regime_model
+from bodyvib.runtime.regimes import PiecewiseModel, Regime
 
 __all__ = [
     "LAWS",
@@ -42,6 +46,7 @@ __all__ = [
     "default_gains",
     "actuator_gain_matrix",
     "closed_loop_model",
+    "ClosedLoopPiecewise",
     "check_coupling",
     "step_gain",
     "MAX_GAIN",
@@ -197,7 +202,7 @@ def default_gains(car: Network) -> Tuple[float, float]:
     wheels = {a["from"] for a in car.actuators}
     k_s = c_s = 0.0
     for el in car.elements:
-        if frozenset((el.a, el.b)) in pairs:
+        if el.kind != "stop" and frozenset((el.a, el.b)) in pairs:  # stops: 0 within the gaps
             k_s += car.value(el.values["k"]) if "k" in el.values else 0.0
             c_s += car.value(el.values["c"]) if "c" in el.values else 0.0
     if k_s <= 0.0 or c_s <= 0.0:
@@ -495,3 +500,75 @@ def closed_loop_model(
     Cv = model.C
     closed = replace(model, A=model.A + model.B @ G @ Cv, C=model.C + model.D @ G @ Cv)
     return closed, F @ Cv
+
+
+class ClosedLoopPiecewise(PiecewiseModel):
+    """A car with contacts and stops under a linear law: each regime's closed loop.
+
+    Within a regime the car is affine, ``x' = A x + B u + b``, ``y = C x + D u + d``, and
+    the law ``u_f = G y`` reads velocities, which are states: the regime's closed loop is
+    ``A + B G C``, ``C + D G C`` (:func:`closed_loop_model`) with the constants
+    ``b + B G d`` and ``d + D G d``. The switching functions are the open loop's (they
+    read displacements and velocities, which no force input reaches directly). Where
+    nothing switches the regime in force is static equilibrium's, whose closed loop is
+    that of the linearized car, matrix for matrix.
+
+    Parameters
+    ----------
+    network : Network
+        The seated car (or the car) with its nonlinear elements.
+    car : Network
+        The car (its ``actuators``).
+    controller : SkyhookController
+        A linear (not semi-active) controller.
+
+    Attributes
+    ----------
+    forces : dict of tuple of bool to ndarray
+        Per regime built: each actuator's force from the states, ``(F, f0)`` with
+        ``force = F x + f0``.
+
+    Raises
+    ------
+    BodyvibError
+        A semi-active controller, a car without actuators.
+
+    Examples
+    --------
+    >>> from bodyvib.runtime.regimes import EventStepper
+    >>> from bodyvib.vehicle.quarter_car import load_car
+    >>> car = load_car("quarter-car-active")
+    >>> model = ClosedLoopPiecewise(car, car, SkyhookController(c_sky=1000.0))
+    >>> reg = EventStepper(model).regime
+    >>> i = reg.model.states.index("sprung.v")
+    >>> round(float(reg.model.A[i, i] - model.linear.A[i, i]) * car.parameters["ms"], 6)
+    -1000.0
+    """
+
+    def __init__(self, network: Network, car: Network, controller: SkyhookController):
+        check_actuated(car)
+        if not controller.linear:
+            raise BodyvibError("the semi-active law is not linear: it has no closed-loop matrices")
+        super().__init__(network)
+        self.car, self.controller = car, controller
+        self.forces: dict = {}
+
+    def regime(self, state: Tuple[bool, ...]) -> Regime:
+        """The closed loop of a state of the switching functions (built once)."""
+        reg = self._regimes.get(state)
+        if reg is None:
+            lm, b, d = regime_model(self.network, self.modes(state), self.preloads)
+            closed, forces = closed_loop_model(lm, self.car, self.controller)
+            G, F = actuator_gain_matrix(lm, self.car, self.controller)
+            gd = G @ d
+            if np.any(gd):  # a constant the law reads (none where the velocities are states)
+                b, d = b + lm.B @ gd, d + lm.D @ gd
+            self.forces[state] = (forces, F @ d)
+            reg = self._regimes[state] = Regime(closed, b, d)
+        return reg
+
+    def force(self, state: Tuple[bool, ...], x: np.ndarray) -> np.ndarray:
+        """Each actuator's force at states ``x`` (rows) in regime ``state``, N."""
+        self.regime(state)
+        F, f0 = self.forces[state]
+        return x @ F.T + f0 if np.any(f0) else x @ F.T

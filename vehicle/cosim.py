@@ -41,7 +41,7 @@ import shutil
 import tempfile
 import time
 import zipfile
-from typing import Dict, Optional, Tuple
+from typing import Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -530,6 +530,10 @@ class Master:
         the previous step), with the in-step slope ``(2 F_k - 3 F_{k-1} + F_{k-2}) / h``:
         the chord to the quadratic extrapolation of the last three forces (a backward
         difference, the seat force's slope, nearly doubles the skyhook run's coupling error).
+    watch : sequence of str
+        More car outputs to record, after the wheels' columns (those the car has and the
+        columns lack): a linear car's per-wheel tire forces and deflections for its range
+        (:class:`bodyvib.vehicle.events.LinearRangeStream`).
 
     Attributes
     ----------
@@ -553,6 +557,7 @@ class Master:
         samples: int,
         extrapolate: bool = True,
         controller=None,
+        watch: Sequence[str] = (),
     ):
         check_step(step, "communication step")
         if int(samples) < 2:
@@ -584,6 +589,7 @@ class Master:
         # a car with several wheels whose tires are contacts: each wheel's signals too
         self.wheels = car_wheels(car.vr)
         extra = list(wheel_columns(self.wheels))
+        extra += [c for c in dict.fromkeys(watch) if c in car.vr and c not in names + extra]
         self._car_out += [car.vr[c] for c in extra]
         # read: the present signals, the wheels', then the pads and the body's; recorded:
         # the table's order, then the wheels'

@@ -11,7 +11,7 @@ one :class:`RunEvents` per wheel, and :func:`combine_events` the car's.
 """
 
 from dataclasses import asdict, dataclass
-from typing import Optional
+from typing import Optional, Tuple
 
 import numpy as np
 
@@ -23,6 +23,7 @@ __all__ = [
     "LinearRangeStream",
     "LinearRangeWarning",
     "linear_range",
+    "linear_ranges",
     "seated_preloads",
     "combine_events",
 ]
@@ -138,8 +139,8 @@ class LinearRangeWarning(UserWarning):
 
 @dataclass(frozen=True)
 class LinearRange:
-    """Where a car's linear model holds: its (front) tire's static load and its (front)
-    suspension's stop gaps, from the car with its nonlinear elements (:func:`linear_range`).
+    """Where a car's linear model holds at one wheel: its tire's static load and its
+    suspension's stop gaps, from the car with its nonlinear elements (:func:`linear_ranges`).
 
     Attributes
     ----------
@@ -148,11 +149,22 @@ class LinearRange:
     gap_compression, gap_rebound : float or None
         Suspension travel from static equilibrium to the bump (rebound) stop, m (None:
         no stops on that suspension).
+    wheel : str
+        The wheel (:data:`bodyvib.vehicle.signals.WHEELS`, e.g. ``"rear"``,
+        ``"front_left"``); ``""`` for a car with one (a quarter car). Its run's columns are
+        ``tire_force_<wheel>`` and ``suspension_deflection_<wheel>``.
     """
 
     static_load: Optional[float]
     gap_compression: Optional[float]
     gap_rebound: Optional[float]
+    wheel: str = ""
+
+    @property
+    def columns(self) -> Tuple[str, str]:
+        """The run's columns of this wheel's dynamic tire force and suspension deflection."""
+        tail = f"_{self.wheel}" if self.wheel else ""
+        return f"tire_force{tail}", f"suspension_deflection{tail}"
 
 
 def seated_preloads(car, occupant_mass: Optional[float] = None):
@@ -169,7 +181,8 @@ def seated_preloads(car, occupant_mass: Optional[float] = None):
     Returns
     -------
     preloads : dict of str to float
-        Contact element -> static force, N (:func:`bodyvib.runtime.network.static_preloads`).
+        Contact element -> static force, N (:func:`bodyvib.runtime.network.static_preloads`):
+        every tire's.
     occupant : dict of str to float
         The car's start values that put that weight on its seat (empty: the car's own).
 
@@ -179,6 +192,9 @@ def seated_preloads(car, occupant_mass: Optional[float] = None):
     >>> pre, occupant = seated_preloads(load_car(), 69.88)
     >>> round(pre["tire"]), occupant
     (4108, {'m_occupant': 69.88})
+    >>> pre, _ = seated_preloads(load_car("half-car"), 69.88)
+    >>> {k: round(v) for k, v in pre.items()}
+    {'tire_front': 4409, 'tire_rear': 3877}
     """
     from bodyvib.runtime.network import static_preloads
 
@@ -189,16 +205,60 @@ def seated_preloads(car, occupant_mass: Optional[float] = None):
     return static_preloads(car.with_parameters(**occupant) if occupant else car), occupant
 
 
-def linear_range(car, occupant_mass: Optional[float] = None) -> LinearRange:
-    """The range of a car's linearization: the (front) tire's static load and stop gaps.
+def linear_ranges(car, occupant_mass: Optional[float] = None) -> Tuple[LinearRange, ...]:
+    """The range of a car's linearization at each wheel: its tire's static load and its
+    suspension's stop gaps.
 
     Parameters
     ----------
     car : Network
         The car with its nonlinear elements (:func:`bodyvib.vehicle.quarter_car.load_car`).
     occupant_mass : float, optional
-        The occupant's mass, kg, on the car's seat point for the static load (the car's
+        The occupant's mass, kg, on the car's seat point for the static loads (the car's
         own ``static_loads`` value, e.g. ``m_occupant``, if not given).
+
+    Returns
+    -------
+    tuple of LinearRange
+        One per wheel whose tire force and suspension deflection the car outputs
+        (``tire_force_<wheel>``, ``suspension_deflection_<wheel>``), in the order of
+        :data:`bodyvib.vehicle.signals.WHEELS`; a quarter car's one (``wheel`` ``""``).
+
+    Examples
+    --------
+    >>> from bodyvib.vehicle.quarter_car import load_car
+    >>> [(r.wheel, round(r.static_load)) for r in linear_ranges(load_car("half-car"), 69.88)]
+    [('front', 4409), ('rear', 3877)]
+    """
+    from .signals import WHEELS
+
+    outs = {o["name"]: o["signal"] for o in car.fmu_outputs}
+    wheels = [w for w in WHEELS if {f"tire_force_{w}", f"suspension_deflection_{w}"} <= set(outs)]
+    preloads = seated_preloads(car, occupant_mass)[0]
+    elements = {e.name: e for e in car.elements}
+    out = []
+    for wheel in wheels or [""]:
+        probe = LinearRange(None, None, None, wheel)
+        tire, susp = (outs.get(c, "").rpartition(".")[0] for c in probe.columns)
+        gaps: tuple = (None, None)
+        s = elements.get(susp)
+        for e in car.elements:
+            if s is not None and e.kind == "stop" and {e.a, e.b} == {s.a, s.b}:
+                gaps = tuple(car.value(e.values[k]) for k in ("gap_compression", "gap_rebound"))
+        out.append(LinearRange(preloads.get(tire) if tire else None, *gaps, wheel=wheel))
+    return tuple(out)
+
+
+def linear_range(car, occupant_mass: Optional[float] = None) -> LinearRange:
+    """The range of a car's linearization at its (front, front left) wheel
+    (:func:`linear_ranges`' first).
+
+    Parameters
+    ----------
+    car : Network
+        The car with its nonlinear elements (:func:`bodyvib.vehicle.quarter_car.load_car`).
+    occupant_mass : float, optional
+        As :func:`linear_ranges`.
 
     Returns
     -------
@@ -211,19 +271,7 @@ def linear_range(car, occupant_mass: Optional[float] = None) -> LinearRange:
     >>> round(r.static_load), r.gap_compression, r.gap_rebound
     (4108, 0.07, 0.09)
     """
-    from .signals import corner_variable
-
-    outs = {o["name"]: o["signal"] for o in car.fmu_outputs}
-    tire = outs.get(corner_variable("tire_force", outs), "").rpartition(".")[0]
-    susp = outs.get(corner_variable("suspension_deflection", outs), "").rpartition(".")[0]
-    load = seated_preloads(car, occupant_mass)[0].get(tire) if tire else None
-    elements = {e.name: e for e in car.elements}
-    gaps: tuple = (None, None)
-    s = elements.get(susp)
-    for e in car.elements:
-        if s is not None and e.kind == "stop" and {e.a, e.b} == {s.a, s.b}:
-            gaps = tuple(car.value(e.values[k]) for k in ("gap_compression", "gap_rebound"))
-    return LinearRange(load, *gaps)
+    return linear_ranges(car, occupant_mass)[0]
 
 
 #: The fix each line of :class:`LinearRangeStream` ends with (the command line shows
@@ -231,15 +279,63 @@ def linear_range(car, occupant_mass: Optional[float] = None) -> LinearRange:
 _FIX = "run without 'linear'"
 
 
+class _WheelRange:
+    """The extremes of one wheel's dynamic tire force and suspension deflection so far."""
+
+    def __init__(self):
+        self.tire = (np.inf, 0)  # smallest dynamic tire force, N, and its point
+        self.low = (np.inf, 0)  # smallest deflection (compression), m, and its point
+        self.high = (-np.inf, 0)  # largest deflection (rebound), m, and its point
+
+    def update(self, f: np.ndarray, d: np.ndarray, k: int) -> None:
+        i, j, m = int(np.argmin(f)), int(np.argmin(d)), int(np.argmax(d))
+        if f[i] < self.tire[0]:
+            self.tire = (float(f[i]), k + i)
+        if d[j] < self.low[0]:
+            self.low = (float(d[j]), k + j)
+        if d[m] > self.high[0]:
+            self.high = (float(d[m]), k + m)
+
+    def warnings(self, lim: LinearRange, h: float) -> list:
+        where = f"{lim.wheel.replace('_', ' ')} " if lim.wheel else ""
+        out, f0 = [], lim.static_load
+        if f0 and self.tire[0] < -f0:
+            pull = -(f0 + self.tire[0])
+            out.append(
+                f"the linear {where}tire pulls with up to {pull / 1e3:.1f} kN ({pull / f0:.1f}x "
+                f"the static load) at t = {self.tire[1] * h:.2f} s: the wheel would leave the "
+                f"road; {_FIX}"
+            )
+        for (x, k), gap, sign, way, stop in (
+            (self.low, lim.gap_compression, -1.0, "compression", "bump"),
+            (self.high, lim.gap_rebound, 1.0, "rebound", "rebound"),
+        ):
+            if gap is not None and np.isfinite(x) and sign * x > gap:
+                out.append(
+                    f"the linear {where}suspension travels {1e3 * sign * x:.0f} mm in {way} at "
+                    f"t = {k * h:.2f} s, beyond the {stop} stop's gap of {1e3 * gap:.0f} mm: "
+                    f"the car would hit it; {_FIX}"
+                )
+        return out
+
+
 class LinearRangeStream:
-    """Where a run of a car's linear model leaves its range, fed block by block.
+    """Where a run of a car's linear model leaves its range, fed block by block, at every
+    wheel.
 
     Parameters
     ----------
     step : float
         Communication step, s.
-    limits : LinearRange
-        The nonlinear car's static tire load and stop gaps.
+    limits : LinearRange or sequence of LinearRange
+        The nonlinear car's static tire load and stop gaps, per wheel
+        (:func:`linear_ranges`).
+
+    Attributes
+    ----------
+    columns : tuple of str
+        The run's columns :meth:`update_columns` reads: each wheel's
+        (:attr:`LinearRange.columns`).
 
     Examples
     --------
@@ -248,51 +344,53 @@ class LinearRangeStream:
     >>> for line in s.warnings(): print(line)
     the linear tire pulls with up to 5.3 kN (1.3x the static load) at t = 0.01 s: the wheel would leave the road; run without 'linear'
     the linear suspension travels 100 mm in compression at t = 0.01 s, beyond the bump stop's gap of 70 mm: the car would hit it; run without 'linear'
+    >>> s = LinearRangeStream(0.01, [LinearRange(4400.0, 0.07, 0.09, "front"),
+    ...                              LinearRange(3900.0, 0.07, 0.09, "rear")])
+    >>> s.update_columns({"tire_force_front": np.zeros(2), "suspension_deflection_front":
+    ...                   np.zeros(2), "tire_force_rear": np.array([0.0, -5000.0]),
+    ...                   "suspension_deflection_rear": np.zeros(2)})
+    >>> s.warnings()[0][:48]
+    'the linear rear tire pulls with up to 1.1 kN (0.'
     """
 
-    def __init__(self, step: float, limits: LinearRange):
-        self._h, self.limits = float(step), limits
+    def __init__(self, step: float, limits):
+        self._h = float(step)
+        self.limits: Tuple[LinearRange, ...] = (
+            (limits,) if isinstance(limits, LinearRange) else tuple(limits)
+        )
         self._k = 0  # points seen
-        self.tire = (np.inf, 0)  # smallest dynamic tire force, N, and its point
-        self.low = (np.inf, 0)  # smallest deflection (compression), m, and its point
-        self.high = (-np.inf, 0)  # largest deflection (rebound), m, and its point
+        self._wheels = [_WheelRange() for _ in self.limits]
+        self.columns = tuple(c for lim in self.limits for c in lim.columns)
 
     def update(self, tire_force, deflection) -> None:
         """Take the next points' dynamic tire forces (N, + in compression) and suspension
-        deflections (m, + in extension)."""
+        deflections (m, + in extension): arrays of the points, or with a column per wheel
+        in the order of ``limits``."""
         f, d = np.asarray(tire_force, dtype=float), np.asarray(deflection, dtype=float)
-        if f.size:
-            i, j, m = int(np.argmin(f)), int(np.argmin(d)), int(np.argmax(d))
-            if f[i] < self.tire[0]:
-                self.tire = (float(f[i]), self._k + i)
-            if d[j] < self.low[0]:
-                self.low = (float(d[j]), self._k + j)
-            if d[m] > self.high[0]:
-                self.high = (float(d[m]), self._k + m)
-        self._k += f.size
+        f, d = f.reshape(f.shape[0], -1), d.reshape(d.shape[0], -1)
+        if f.shape[1] != len(self._wheels) or d.shape != f.shape:
+            raise ValueError(
+                f"{f.shape[1]} tire-force and {d.shape[1]} deflection columns for "
+                f"{len(self._wheels)} wheels"
+            )
+        if f.shape[0]:
+            for j, wheel in enumerate(self._wheels):
+                wheel.update(f[:, j], d[:, j], self._k)
+        self._k += f.shape[0]
+
+    def update_columns(self, signals) -> None:
+        """:meth:`update` from a block's signals by name (:attr:`columns`)."""
+        tire = np.column_stack([signals[lim.columns[0]] for lim in self.limits])
+        self.update(tire, np.column_stack([signals[lim.columns[1]] for lim in self.limits]))
 
     def warnings(self) -> list:
-        """One line for each way the run left the range (none: an empty list)."""
-        lim, out = self.limits, []
-        f0 = lim.static_load
-        if f0 and self.tire[0] < -f0:
-            pull = -(f0 + self.tire[0])
-            out.append(
-                f"the linear tire pulls with up to {pull / 1e3:.1f} kN ({pull / f0:.1f}x the "
-                f"static load) at t = {self.tire[1] * self._h:.2f} s: the wheel would leave "
-                f"the road; {_FIX}"
-            )
-        for (x, k), gap, sign, way, stop in (
-            (self.low, lim.gap_compression, -1.0, "compression", "bump"),
-            (self.high, lim.gap_rebound, 1.0, "rebound", "rebound"),
-        ):
-            if gap is not None and np.isfinite(x) and sign * x > gap:
-                out.append(
-                    f"the linear suspension travels {1e3 * sign * x:.0f} mm in {way} at t = "
-                    f"{k * self._h:.2f} s, beyond the {stop} stop's gap of {1e3 * gap:.0f} mm: "
-                    f"the car would hit it; {_FIX}"
-                )
-        return out
+        """One line for each way the run left the range at each wheel (none: an empty
+        list)."""
+        return [
+            line
+            for lim, wheel in zip(self.limits, self._wheels)
+            for line in wheel.warnings(lim, self._h)
+        ]
 
 
 def combine_events(wheels) -> RunEvents:

@@ -16,7 +16,7 @@ over all communication points, for the head acceleration.
 """
 
 import warnings
-from typing import Dict
+from typing import Dict, Sequence
 
 import numpy as np
 
@@ -27,8 +27,8 @@ from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import Network, linear_model, linearized
 from bodyvib.runtime.regimes import EventStepper
 
-from .control import closed_loop_model
-from .events import LinearRangeStream, LinearRangeWarning, linear_range
+from .control import ClosedLoopPiecewise, closed_loop_model
+from .events import LinearRangeStream, LinearRangeWarning, linear_ranges
 from .quarter_car import seated_system
 from .road.driven import road_columns
 from .signals import (
@@ -155,10 +155,11 @@ def reference_run(
         raise BodyvibError(
             "road displacement and velocity must be arrays of equal length (and shape), >= 2 samples"
         )
-    signals = ReferenceStream(car, body, step, controller, linear=linear).advance(z, v)
-    if linear:  # where the linear car leaves its range: a warning each
-        rng = LinearRangeStream(step, linear_range(car, body.total_mass()))
-        rng.update(signals["tire_force"], signals["suspension_deflection"])
+    rng = LinearRangeStream(step, linear_ranges(car, body.total_mass())) if linear else None
+    extra = rng.columns if rng is not None else ()  # each wheel's tire force and travel
+    signals = ReferenceStream(car, body, step, controller, linear=linear, extra=extra).advance(z, v)
+    if rng is not None:  # where the linear car leaves its range, at each wheel: a warning each
+        rng.update_columns(signals)
         for line in rng.warnings():
             warnings.warn(line, LinearRangeWarning, stacklevel=2)
     n = z.shape[0]
@@ -182,10 +183,15 @@ class ReferenceStream:
         Time step, s.
     controller : bodyvib.vehicle.control.SkyhookController, optional
         Drive the car's actuators by this (linear) law: the closed loop
-        (:func:`bodyvib.vehicle.control.closed_loop_model`); :meth:`advance` then also
+        (:func:`bodyvib.vehicle.control.closed_loop_model`; of each regime of a car with
+        contacts and stops, :class:`bodyvib.vehicle.control.ClosedLoopPiecewise`);
+        :meth:`advance` then also
         returns each actuator's force under its FMU input name (``actuator_force``).
     linear : bool
         Run the car linearized (:func:`reference_run`).
+    extra : sequence of str
+        More of the car's outputs to return, by their names in its ``fmu_outputs`` (e.g.
+        ``tire_force_rear``).
 
     Attributes
     ----------
@@ -197,11 +203,17 @@ class ReferenceStream:
     ------
     BodyvibError
         A body without head/torso roles, a step that is not a positive number, or a
-        controller on a car with nonlinear elements.
+        semi-active controller.
     """
 
     def __init__(
-        self, car: Network, body: Network, step: float, controller=None, linear: bool = False
+        self,
+        car: Network,
+        body: Network,
+        step: float,
+        controller=None,
+        linear: bool = False,
+        extra: Sequence[str] = (),
     ):
         for role in ("head", "torso"):
             if role not in body.roles:
@@ -209,21 +221,19 @@ class ReferenceStream:
         check_step(step)
         seated = seated_system(linearized(car) if linear else car, body)
         self.stepper = None
-        if seated.nonlinear_elements:
-            if controller is not None:
-                raise BodyvibError(
-                    f"car '{car.name}' has nonlinear elements; the closed-loop reference "
-                    "needs a linear car (linear=True)"
-                )
-            self.stepper = EventStepper(seated)
+        self._forces = {}
+        self._act = np.zeros((0, 0))  # a controlled car's actuator forces of the last block
+        names = [v[0] for v in actuator_variables(car)] if controller is not None else []
+        if seated.nonlinear_elements:  # each regime's (closed) loop, stepped with events
+            model = None if controller is None else ClosedLoopPiecewise(seated, car, controller)
+            self.stepper = EventStepper(seated if model is None else model)
             lm = self.stepper.regime.model
+            self._forces = {name: i for i, name in enumerate(names)}
         else:
             lm = linear_model(seated)
-        self._forces = {}
-        if controller is not None:
-            lm, forces = closed_loop_model(lm, car, controller)
-            names = [v[0] for v in actuator_variables(car)]
-            self._forces = dict(zip(names, forces, strict=True))
+            if controller is not None:
+                lm, forces = closed_loop_model(lm, car, controller)
+                self._forces = dict(zip(names, forces, strict=True))
         self._lm = lm
         self._disc = Discretization(lm)
         self._h = float(step)
@@ -251,6 +261,9 @@ class ReferenceStream:
                 self._rows[s.name] = lm.output_index(s.seated_output(seat))
             else:
                 self._rows[s.name] = seat_force_weights(lm, body, seat)
+        for name in extra:  # more of the car's outputs by their FMU names (per wheel)
+            if name not in self._rows:
+                self._rows[name] = lm.output_index(fmu_outputs[name])
 
     def advance(self, road_displacement, road_velocity) -> Dict[str, np.ndarray]:
         """The reference at the next samples of the road.
@@ -292,7 +305,10 @@ class ReferenceStream:
             y = x @ lm.C.T + u @ lm.D.T
         self._k += z.shape[0]
         out = {name: _row(y, i) for name, i in self._rows.items()}
-        out.update({name: x @ row for name, row in self._forces.items()})
+        if self.stepper is None:
+            out.update({name: x @ row for name, row in self._forces.items()})
+        elif self._forces:
+            out.update({name: self._act[:, i] for name, i in self._forces.items()})
         return out
 
     def _advance_regimes(self, x: np.ndarray, u: np.ndarray, du: np.ndarray) -> np.ndarray:
@@ -310,10 +326,16 @@ class ReferenceStream:
         self._x = xk
         lm = first.model
         y = x @ lm.C.T + u @ lm.D.T + first.d
+        closed = st.model if isinstance(st.model, ClosedLoopPiecewise) else None
+        if closed is not None:  # each actuator's force: the law in each sample's regime
+            F = closed.forces[nominal][0]  # no constant at static equilibrium
+            self._act = np.column_stack([x @ F[i] for i in range(F.shape[0])])
         for k, state in enumerate(states):
             if state != nominal:
                 reg = st.model.regime(state)
                 y[k] = reg.model.C @ x[k] + reg.model.D @ u[k] + reg.d
+                if closed is not None:
+                    self._act[k] = closed.force(state, x[k])
         return y
 
     def events(self) -> dict:

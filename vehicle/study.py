@@ -41,7 +41,7 @@ from .events import (
     LinearRangeStream,
     RunEvents,
     combine_events,
-    linear_range,
+    linear_ranges,
     seated_preloads,
 )
 from .quarter_car import seated_system, track_width, wheel_offsets, wheel_sides
@@ -696,7 +696,7 @@ class _BodyRecorder:
         if linear_of is not None:
             net = self.net or model_from_fmu(self.path)
             mass = net.total_mass() if net is not None else None
-            self.range = LinearRangeStream(self.step, linear_range(linear_of, mass))
+            self.range = LinearRangeStream(self.step, linear_ranges(linear_of, mass))
 
     def warnings(self) -> List[str]:
         """The run's lines beyond validity: its coupling error, a linear car's range, the
@@ -718,7 +718,10 @@ class _BodyRecorder:
         body = stack.enter_context(open_fmu(self.path, "body", self.label))
         if controller_fmu is not None:
             law = stack.enter_context(open_controller(controller_fmu, car))
-        self.master = Master(car, body, self.step, n, extrapolate=extrapolate, controller=law)
+        watch = self.range.columns if self.range is not None else ()  # a linear car's wheels
+        self.master = Master(
+            car, body, self.step, n, extrapolate=extrapolate, controller=law, watch=watch
+        )
         self.wheel_events = {
             w: EventStream(self.step, self.tire_loads.get(f"tire_force_{w}"))
             for w in self.master.wheels
@@ -736,7 +739,7 @@ class _BodyRecorder:
             stream.update(sig[name])
         self.events.update(sig["tire_contact"], sig["stop_force"], sig["tire_force"])
         if self.range is not None:
-            self.range.update(sig["tire_force"], sig["suspension_deflection"])
+            self.range.update_columns(sig)
         for w, stream in self.wheel_events.items():
             stream.update(sig[f"tire_contact_{w}"], sig[f"stop_force_{w}"], sig[f"tire_force_{w}"])
         if not np.isnan(sig["seat_acceleration_x"][0]):  # a car that has them

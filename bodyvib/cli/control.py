@@ -1,6 +1,8 @@
 """``bodyvib control``: the passive car against skyhook and groundhook control on one road.
 
-Each law runs as the seated car's exact closed loop (no FMUs, no coupling error); the
+Each law runs as the seated car's exact closed loop (no FMUs, no coupling error; a car
+whose tires are contacts with stops on its suspensions stepped with located events,
+``--linear`` linearized); the
 table gives head Wk r.m.s., tire-force r.m.s., suspension-travel r.m.s. and actuator
 force r.m.s. per law. ``bodyvib cosim --control LAW`` co-simulates one law with FMUs.
 """
@@ -8,6 +10,7 @@ force r.m.s. per law. ``bodyvib cosim --control LAW`` co-simulates one law with 
 from bodyvib.process.outputs import write_json
 from bodyvib.runtime.errors import BodyvibError
 
+from .flags import in_flags
 from .options import add_output_options, add_road_options, run_settings_from_args
 from .outputs import check_files, write_outputs
 
@@ -27,8 +30,8 @@ def _run(args):
     laws = [s.strip() for s in args.laws.split(";") if s.strip()]
     if not laws:
         raise BodyvibError("--laws is empty; give e.g. 'passive;skyhook;groundhook'")
-    comparison = compare_laws(car, body, settings, laws)
-    print(format_comparison(comparison))
+    comparison = compare_laws(car, body, settings, laws, linear=args.linear)
+    print(in_flags(format_comparison(comparison), ("linear",)))
     write_outputs(
         [
             (args.json, lambda path: write_json(path, _json(comparison))),
@@ -40,9 +43,12 @@ def _run(args):
 
 def _json(comparison):
     """The figures as JSON-ready data."""
+    from bodyvib.vehicle.active import lift_offs
+
     return {
         "car": comparison.car,
         "body": comparison.body,
+        "linear": comparison.linear,
         "settings": comparison.settings.to_dict(),
         "laws": [
             {
@@ -53,6 +59,10 @@ def _json(comparison):
                 "tire_force_rms_N": f.tire_force_rms,
                 "suspension_travel_rms_m": f.suspension_travel_rms,
                 "actuator_force_rms_N": f.actuator_force_rms,
+                "lift_offs": lift_offs(f)[0],
+                "stop_contacts": lift_offs(f)[1],
+                "events": f.events,
+                "warnings": list(f.warnings),
             }
             for f in comparison.laws
         ],
@@ -67,7 +77,7 @@ def add_command(subparsers):
         description="Drive a car with actuators (quarter-car-active, half-car-active) with "
         "the occupant over a road under each control law, as the exact closed loop; print "
         "head Wk r.m.s., tire-force r.m.s., suspension-travel r.m.s. and actuator-force "
-        "r.m.s. per law.",
+        "r.m.s. per law (and, unless --linear, each law's lift-offs and stop contacts).",
     )
     p.add_argument(
         "--car",
@@ -98,6 +108,12 @@ def add_command(subparsers):
     p.add_argument("--duration", type=float, default=30.0, help="simulated time, s (default 30)")
     p.add_argument("--step", type=float, default=1e-3, help="time step, s (default 0.001)")
     p.add_argument("--seed", type=int, default=0, help="random-road seed (default 0)")
+    p.add_argument(
+        "--linear",
+        action="store_true",
+        help="run the car linearized about static equilibrium: its tires never leave the "
+        "road and its suspensions have no stops (the linear active car of earlier releases)",
+    )
     add_output_options(
         p,
         plot="write the time traces of the laws side by side",
