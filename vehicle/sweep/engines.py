@@ -29,7 +29,8 @@
   (:func:`bodyvib.comfort.figures.wk_response`) and the road's time-domain PSD at the
   speed ``S(f) = Gd(f / V) / V`` (:func:`bodyvib.vehicle.road.synthetic.displacement_psd`)
   over the band the road is synthesized in; a car with left and right wheels on the
-  road's two tracks, correlated as an isotropic surface (:func:`_output_power`). It
+  road's two tracks, correlated as an isotropic surface (its cross-spectrum
+  ``rho(n) Gd(n)``, :func:`~bodyvib.vehicle.road.synthetic.track_coherence`). It
   gives the weighted r.m.s. only:
   VDV, peak and crest factor depend on the particular record (NaN). It is the
   stationary road's expectation: the fade-in every road starts with (5 m of a run's
