@@ -292,6 +292,7 @@ def controller_from_fmu(path) -> SkyhookController:
     Returns
     -------
     SkyhookController
+        The gains and the semi-active switch the FMU starts with.
 
     Raises
     ------

@@ -565,6 +565,7 @@ def load_spec(path, car: Optional[str] = None) -> DesignSpec:
     Returns
     -------
     DesignSpec
+        As :func:`parse_spec` returns it, with the car (and body) paths resolved.
 
     Raises
     ------

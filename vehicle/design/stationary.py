@@ -428,6 +428,7 @@ def static_output(lm: LinearModel, output: str) -> float:
     Returns
     -------
     float
+        In the output's own unit (a force in N, a displacement in m).
 
     Examples
     --------
