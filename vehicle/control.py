@@ -419,11 +419,8 @@ def check_coupling(controller: SkyhookController, car: Network, step: float) -> 
 
     Parameters
     ----------
-    controller : SkyhookController
-    car : Network
-        The car with actuators.
-    step : float
-        Communication step, s.
+    controller, car, step
+        As :func:`step_gain`.
 
     Raises
     ------

@@ -182,7 +182,7 @@ def track_width(car: Network) -> float:
     Parameters
     ----------
     car : Network
-        As :func:`wheel_offsets`.
+        As :func:`wheel_sides`.
 
     Returns
     -------
