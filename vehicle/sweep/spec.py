@@ -169,14 +169,7 @@ class Case:
         """The :class:`bodyvib.vehicle.road.driven.RunSettings` of this case's run."""
         from ..road.driven import RunSettings
 
-        return RunSettings(
-            road=self.road,
-            speed=self.speed,
-            duration=self.duration,
-            step=self.step,
-            seed=self.seed,
-            road_options=self.road_settings(),
-        )
+        return RunSettings.from_attributes(self, self.road_settings())
 
     def body_network(self):
         """The body model with this case's parameter values."""
