@@ -75,7 +75,7 @@ SAMPLES_PER_PERIOD = 3.0
 FIGURE_TOLERANCE = 0.01
 #: Coupling error (head-acceleration NRMSE against the monolithic reference, a fraction)
 #: above which a co-simulation's figures are flagged: the figures' tolerance.
-COUPLING_NRMSE_LIMIT = 0.01
+COUPLING_NRMSE_LIMIT = FIGURE_TOLERANCE
 
 
 @dataclass(frozen=True)
@@ -85,7 +85,7 @@ class StepLimit:
     Attributes
     ----------
     step : float
-        The largest valid step, s.
+        The largest valid step, s: the smaller of the two criteria's.
     reason : str
         The criterion that sets it, in words.
     highest_mode_hz : float or None
