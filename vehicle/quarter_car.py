@@ -182,7 +182,7 @@ def track_width(car: Network) -> float:
     Parameters
     ----------
     car : Network
-        As :func:`wheel_sides`.
+        As :func:`wheel_sides`; one without left and right wheels has no track width.
 
     Returns
     -------

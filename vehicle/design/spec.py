@@ -240,6 +240,7 @@ def objective(name: str) -> Objective:
     Parameters
     ----------
     name : str
+        A key of :data:`OBJECTIVES`, or ``rms:`` or ``wk_rms:`` and an output's name.
 
     Returns
     -------

@@ -288,6 +288,7 @@ class RandomResponse:
     Attributes
     ----------
     road_class : str
+        ISO 8608 class, ``A`` to ``H``.
     speed : float
         m/s.
     intensity : float
