@@ -47,19 +47,19 @@ from ..runtime.errors import BodyvibError
 from .figures import BASIC_METHOD_LIMITS, WK_PARAMETERS
 
 __all__ = [
-    "COUPLING_NRMSE_LIMIT",
-    "FIGURE_TOLERANCE",
+    "WK_BAND_HZ",
     "MODE_LIMIT_HZ",
     "SAMPLES_PER_PERIOD",
-    "WK_BAND_HZ",
+    "FIGURE_TOLERANCE",
+    "COUPLING_NRMSE_LIMIT",
     "StepLimit",
-    "check_step",
-    "comfort_verdict",
-    "comfort_words",
-    "coupling_warning",
-    "governing_method",
     "highest_mode_hz",
     "largest_valid_step",
+    "check_step",
+    "coupling_warning",
+    "governing_method",
+    "comfort_words",
+    "comfort_verdict",
 ]
 
 #: Upper limit of the frequency band ISO 2631-1 weights for comfort and health, Hz.
