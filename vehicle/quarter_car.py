@@ -163,7 +163,8 @@ def wheel_sides(car: Network) -> Tuple[int, ...]:
     Raises
     ------
     BodyvibError
-        As :func:`wheel_offsets`.
+        As :func:`wheel_offsets`: a base that does not lead to one body point, or one
+        ahead of the first.
 
     Examples
     --------

@@ -926,6 +926,9 @@ def build_native_fmu(
 ) -> Path:
     """Build one native FMU of a model (the counterpart of :func:`bodyvib.fmu.pythonfmu.build_fmu`).
 
+    The model goes into the binaries as C data (:func:`model_source`), compiled with
+    the model-independent core (:data:`NATIVE_SOURCES`) by :func:`package_native_fmu`.
+
     Parameters
     ----------
     network, kind, name, description, dest

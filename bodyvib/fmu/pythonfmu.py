@@ -176,6 +176,10 @@ def build_fmu(
 ) -> Path:
     """Build one pythonfmu FMU of a model.
 
+    The FMU carries a copy of :mod:`bodyvib.runtime` (:func:`write_runtime_package`), under
+    a name of its own, and the model's parameter file; its slave steps the model with
+    :class:`bodyvib.runtime.engine.FmuCore` in the host's Python.
+
     Parameters
     ----------
     network : Network

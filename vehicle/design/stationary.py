@@ -84,7 +84,7 @@ def road_velocity_intensity(road_class: str, speed: float) -> float:
     Raises
     ------
     BodyvibError
-        Unknown class or a speed that is not positive.
+        A class other than ``"A"`` to ``"H"``, or a speed that is not positive.
 
     Examples
     --------
