@@ -97,6 +97,9 @@ def write_runtime_package(
 ) -> Path:
     """Copy the run-time package :mod:`bodyvib.runtime` into ``dest/package/``.
 
+    Its modules as they are (they import each other relatively), and an ``__init__.py``
+    of its own that names the copy's version and ``owner``.
+
     Parameters
     ----------
     dest : str or path

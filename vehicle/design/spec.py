@@ -218,8 +218,11 @@ class DesignSpec:
     rattle_space : float or None
         m.
     search : SearchSettings
+        The spec's ``search`` (defaults where it has none).
     verify : VerifySettings
+        The spec's ``verify`` (defaults where it has none).
     description : str
+        The spec's own words for the design, empty if it gives none.
     """
 
     car: str
