@@ -476,17 +476,25 @@ def fmi2_model_exchange(path, folder, name):
     """An FMI 2.0 FMU's model-exchange instance, instantiated and initialized, and its
     model description: ``(md, instance)`` (fmpy's ``FMU2Model``; the caller frees it)."""
     from fmpy import extract, read_model_description
-    from fmpy.fmi2 import FMU2Model
 
     md = read_model_description(path)
-    fmu = FMU2Model(
+    return md, fmi2_initialized(md, extract(path, unzipdir=str(folder)), name)
+
+
+def fmi2_initialized(md, unzipped, name, slave=False):
+    """An FMI 2.0 instance of an extracted FMU, instantiated and initialized at ``t = 0``:
+    fmpy's ``FMU2Model``, or its ``FMU2Slave`` with ``slave`` (the caller frees it)."""
+    from fmpy.fmi2 import FMU2Model, FMU2Slave
+
+    cls, interface = (FMU2Slave, md.coSimulation) if slave else (FMU2Model, md.modelExchange)
+    fmu = cls(
         guid=md.guid,
-        unzipDirectory=extract(path, unzipdir=str(folder)),
-        modelIdentifier=md.modelExchange.modelIdentifier,
+        unzipDirectory=unzipped,
+        modelIdentifier=interface.modelIdentifier,
         instanceName=name,
     )
     fmu.instantiate()
     fmu.setupExperiment(startTime=0.0)
     fmu.enterInitializationMode()
     fmu.exitInitializationMode()
-    return md, fmu
+    return fmu

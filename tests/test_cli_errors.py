@@ -265,3 +265,17 @@ def test_road_data_files_are_not_listed_or_taken_as_cars(capsys, name):
 )
 def test_cosim_refuses_an_option_another_makes_moot(capsys, argv, words):
     _one_line(capsys, ["cosim", *argv], *words)
+
+
+def test_a_command_line_runs_its_own_settings():
+    """Each of the five run settings a command line parses reaches its RunSettings."""
+    import argparse
+
+    from bodyvib.cli.options import add_road_options, run_settings_from_args
+
+    p = argparse.ArgumentParser()
+    add_road_options(p)
+    args = p.parse_args([])
+    args.road, args.speed, args.duration, args.step, args.seed = "E", 12.5, 7.0, 5e-4, 9
+    s = run_settings_from_args(args)
+    assert (s.road, s.speed, s.duration, s.step, s.seed) == ("E", 12.5, 7.0, 5e-4, 9)

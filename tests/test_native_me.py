@@ -34,7 +34,7 @@ from xml.etree import ElementTree as ET
 import numpy as np
 import pytest
 import scipy.linalg
-from helpers import ROOT, compile_c_host, fmpy_headers, win64_host
+from helpers import ROOT, compile_c_host, fmi2_initialized, fmpy_headers, win64_host
 from test_native_fmu import _fmi2_callbacks
 
 from bodyvib.models import load_model
@@ -337,7 +337,7 @@ def test_model_description_offers_both_interfaces(native_fmus, fmi):
 def test_interface_functions_refuse_the_other_interface(native_fmus):
     """An ME call on a co-simulation instance and DoStep on an ME instance return Error."""
     from fmpy import extract, read_model_description
-    from fmpy.fmi2 import FMU2Slave, fmi2Error
+    from fmpy.fmi2 import fmi2Error
 
     path = _path(native_fmus, "HumanBody3DOF", 2)
     md = read_model_description(path)
@@ -349,14 +349,8 @@ def test_interface_functions_refuse_the_other_interface(native_fmus):
     finally:
         inst.close()
     folder = extract(path)
-    cs = FMU2Slave(
-        guid=md.guid, unzipDirectory=folder, modelIdentifier="HumanBody3DOF", instanceName="cs"
-    )
     try:
-        cs.instantiate()
-        cs.setupExperiment(startTime=0.0)
-        cs.enterInitializationMode()
-        cs.exitInitializationMode()
+        cs = fmi2_initialized(md, folder, "cs", slave=True)
         set_time = cs.dll.fmi2SetTime
         set_time.argtypes, set_time.restype = [c_void_p, c_double], c_int
         assert set_time(cs.component, 0.5) == fmi2Error

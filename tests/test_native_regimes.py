@@ -9,8 +9,7 @@ the native car built from the linearized model where nothing switches.
 import numpy as np
 import pytest
 from fmpy import extract, read_model_description, simulate_fmu
-from fmpy.fmi2 import FMU2Slave
-from helpers import fmi2_model_exchange
+from helpers import fmi2_initialized, fmi2_model_exchange
 from test_regimes import H, bump_road, hand_written_solution
 from test_regimes_cosim import _study  # the reduced body on the car, 20 m/s, step H
 
@@ -119,17 +118,7 @@ def test_serialized_state_holds_the_regime(native_fmus, tmp_path):
     unzipped = extract(path, unzipdir=str(tmp_path / "car"))
 
     def slave(name):
-        s = FMU2Slave(
-            guid=md.guid,
-            unzipDirectory=unzipped,
-            modelIdentifier=md.coSimulation.modelIdentifier,
-            instanceName=name,
-        )
-        s.instantiate()
-        s.setupExperiment(startTime=0.0)
-        s.enterInitializationMode()
-        s.exitInitializationMode()
-        return s
+        return fmi2_initialized(md, unzipped, name, slave=True)
 
     def step(s, k):
         z, v = bump_road(k * H)

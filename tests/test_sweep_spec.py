@@ -30,6 +30,15 @@ def test_product_order_and_defaults():
     assert len({c.case_key for c in cases}) == 16
 
 
+def test_a_case_runs_its_own_settings():
+    """Each of a case's five run settings reaches the run it makes, values typed here."""
+    spec = {"road": ["D"], "speed": [17.5], "seed": 4, "duration": [6.0], "step": [2e-3]}
+    spec["body"] = "reduced-paper"
+    (case,) = expand(spec)
+    run = case.run_settings()
+    assert (run.road, run.seed, run.speed, run.duration, run.step) == ("D", 4, 17.5, 6.0, 2e-3)
+
+
 def test_latin_hypercube_ranges_around_one_model():
     nominal = load_model("reduced-paper").parameters
     entry = {

@@ -297,6 +297,7 @@ def controller_from_fmu(path) -> SkyhookController:
     Returns
     -------
     SkyhookController
+        The gains and the semi-active switch the FMU starts with.
 
     Raises
     ------
@@ -423,11 +424,8 @@ def check_coupling(controller: SkyhookController, car: Network, step: float) -> 
 
     Parameters
     ----------
-    controller : SkyhookController
-    car : Network
-        The car with actuators.
-    step : float
-        Communication step, s.
+    controller, car, step
+        As :func:`step_gain`.
 
     Raises
     ------

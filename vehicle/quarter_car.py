@@ -163,7 +163,8 @@ def wheel_sides(car: Network) -> Tuple[int, ...]:
     Raises
     ------
     BodyvibError
-        As :func:`wheel_offsets`.
+        As :func:`wheel_offsets`: a base that does not lead to one body point, or one
+        ahead of the first.
 
     Examples
     --------
@@ -182,7 +183,7 @@ def track_width(car: Network) -> float:
     Parameters
     ----------
     car : Network
-        As :func:`wheel_offsets`.
+        As :func:`wheel_sides`; one without left and right wheels has no track width.
 
     Returns
     -------

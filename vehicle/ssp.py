@@ -33,7 +33,7 @@ Measured head-acceleration errors per host: docs/tutorials/fmu_hosts.md,
 import io
 import zipfile
 from pathlib import Path
-from typing import Dict, Optional
+from typing import Dict, Optional, Sequence, Tuple
 from xml.etree import ElementTree as ET
 
 import numpy as np
@@ -87,7 +87,10 @@ FULL_CAR_SSP_NAME = "FullCarWithOccupant"
 #: Component name -> FMU name of the full car's package.
 FULL_CAR_COMPONENTS = {"Road": "RoadFourWheel", "Car": "FullCar", "Body": "HumanBody3DOF"}
 
-#: (start element, start connector, end element, end connector).
+#: One connection: (start element, start connector, end element, end connector).
+Connection = Tuple[str, str, str, str]
+
+#: The quarter car's connections.
 CONNECTIONS = (
     ("Road", "road_displacement", "Car", "road_displacement"),
     ("Road", "road_velocity", "Car", "road_velocity"),
@@ -261,7 +264,7 @@ def system_structure(
     fmus: Dict[str, str],
     duration: float = 30.0,
     step: float = 1e-3,
-    connections=CONNECTIONS,
+    connections: Sequence[Connection] = CONNECTIONS,
     name: str = SSP_NAME,
 ) -> bytes:
     """``SystemStructure.ssd`` of the coupled system.
@@ -374,7 +377,7 @@ def write_ssp(
     fmus: Dict[str, str],
     duration: float = 30.0,
     step: float = 1e-3,
-    connections=None,
+    connections: Optional[Sequence[Connection]] = None,
     name: str = SSP_NAME,
 ) -> Path:
     """Write the SSP of the coupled system.

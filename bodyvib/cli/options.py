@@ -248,11 +248,4 @@ def run_settings_from_args(args) -> RunSettings:
     >>> run_settings_from_args(args).speed
     20.0
     """
-    return RunSettings(
-        road=args.road,
-        speed=args.speed,
-        duration=args.duration,
-        step=args.step,
-        seed=args.seed,
-        road_options=road_options_from_args(args),
-    )
+    return RunSettings.from_attributes(args, road_options_from_args(args))

@@ -28,6 +28,7 @@ def format_response(result) -> str:
     Parameters
     ----------
     result : bodyvib.seat.response.Response
+        What :func:`bodyvib.seat.response.respond` gives.
 
     Returns
     -------

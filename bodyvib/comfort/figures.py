@@ -386,6 +386,9 @@ def weighted_rms(acceleration, fs: float) -> float:
 def vdv(acceleration, fs: float) -> float:
     """ISO 2631-1 vibration dose value (Wk weighted) in m/s^1.75.
 
+    The fourth power vibration dose method (clause 6.3.2): more sensitive to shocks
+    than the r.m.s.
+
     %(record)s
 
     Returns

@@ -199,6 +199,7 @@ def injury_risk(
     Returns
     -------
     float
+        ``R``, dimensionless (:func:`injury_probability` turns it into a risk).
 
     Raises
     ------

@@ -47,19 +47,19 @@ from ..runtime.errors import BodyvibError
 from .figures import BASIC_METHOD_LIMITS, WK_PARAMETERS
 
 __all__ = [
-    "COUPLING_NRMSE_LIMIT",
-    "FIGURE_TOLERANCE",
+    "WK_BAND_HZ",
     "MODE_LIMIT_HZ",
     "SAMPLES_PER_PERIOD",
-    "WK_BAND_HZ",
+    "FIGURE_TOLERANCE",
+    "COUPLING_NRMSE_LIMIT",
     "StepLimit",
-    "check_step",
-    "comfort_verdict",
-    "comfort_words",
-    "coupling_warning",
-    "governing_method",
     "highest_mode_hz",
     "largest_valid_step",
+    "check_step",
+    "coupling_warning",
+    "governing_method",
+    "comfort_words",
+    "comfort_verdict",
 ]
 
 #: Upper limit of the frequency band ISO 2631-1 weights for comfort and health, Hz.
@@ -75,7 +75,7 @@ SAMPLES_PER_PERIOD = 3.0
 FIGURE_TOLERANCE = 0.01
 #: Coupling error (head-acceleration NRMSE against the monolithic reference, a fraction)
 #: above which a co-simulation's figures are flagged: the figures' tolerance.
-COUPLING_NRMSE_LIMIT = 0.01
+COUPLING_NRMSE_LIMIT = FIGURE_TOLERANCE
 
 
 @dataclass(frozen=True)
@@ -85,7 +85,7 @@ class StepLimit:
     Attributes
     ----------
     step : float
-        The largest valid step, s.
+        The largest valid step, s: the smaller of the two criteria's.
     reason : str
         The criterion that sets it, in words.
     highest_mode_hz : float or None

@@ -498,7 +498,7 @@ def log_bounds(cfg: FitConfig):
     Parameters
     ----------
     cfg : FitConfig
-        As :func:`load_config`.
+        As :func:`load_config` returns it; its ``bounds_per_kg_total_mass`` are used.
 
     Returns
     -------

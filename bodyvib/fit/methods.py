@@ -49,6 +49,7 @@ __all__ = [
     "COORDINATES",
     "SearchSpace",
     "SearchResult",
+    "CountedObjective",
     "search",
     "describe",
     "ga_search",
@@ -143,8 +144,18 @@ class SearchResult:
     stopped: str = ""
 
 
-class _Counted:
-    """The objective on search coordinates, counting evaluations and keeping the best."""
+class CountedObjective:
+    """The objective on a space's search coordinates, counting evaluations and keeping the best.
+
+    What every search method minimizes: :func:`search` wraps the objective once.
+
+    Parameters
+    ----------
+    objective : callable
+        ``objective(genes)`` with ``genes`` of shape ``(n, 6)`` returns ``n``
+        objective values (``inf`` or NaN where a model is not finite).
+    space : SearchSpace
+    """
 
     def __init__(self, objective, space):
         self.objective, self.space = objective, space
@@ -197,13 +208,12 @@ def _end_generation(best: float, history: list, on_generation, settings=None) ->
 
 
 def ga_search(
-    objective: Callable,
-    space: SearchSpace,
+    f: CountedObjective,
     settings,
     seed: int,
     on_generation: Optional[Callable[[float], None]] = None,
 ) -> SearchResult:
-    """Minimize ``objective`` by the real-coded genetic algorithm (DEAP's operators).
+    """Minimize ``f`` by the real-coded genetic algorithm (DEAP's operators).
 
     Each generation: ``population`` parents are drawn by tournaments of
     ``tournament_size``; consecutive pairs are crossed by bounded simulated
@@ -216,10 +226,8 @@ def ga_search(
 
     Parameters
     ----------
-    objective : callable
-        ``objective(genes)`` with ``genes`` of shape ``(n, 6)`` returns ``n``
-        objective values (``inf`` or NaN where a model is not finite).
-    space : SearchSpace
+    f : CountedObjective
+        The objective on the search space's coordinates.
     settings : bodyvib.fit.config.GaSettings
         ``population``, ``generations``, ``tournament_size``, ``elitism``,
         ``crossover_eta``, ``mutation_probability``, ``mutation_scale``,
@@ -237,7 +245,7 @@ def ga_search(
     from deap import tools
 
     Individual = _individual_type()
-    f = _Counted(objective, space)
+    space = f.space
     n, elite = int(settings.population), int(settings.elitism)
     low, up = list(space.zlo), list(space.zhi)
     eta = float(settings.crossover_eta)
@@ -301,13 +309,12 @@ def _individuals(X, J):
 
 
 def cmaes_search(
-    objective: Callable,
-    space: SearchSpace,
+    f: CountedObjective,
     settings,
     seed: int,
     on_generation: Optional[Callable[[float], None]] = None,
 ) -> SearchResult:
-    """Minimize ``objective`` by CMA-ES (``cma.CMAEvolutionStrategy``), a comparator.
+    """Minimize ``f`` by CMA-ES (``cma.CMAEvolutionStrategy``), a comparator.
 
     It searches the box scaled to ``[0, 1]^6`` (``cma``'s bound handling),
     from the centre of the box moved by up to 0.05 at random (``seed``),
@@ -316,7 +323,7 @@ def cmaes_search(
 
     Parameters
     ----------
-    objective, space, seed, on_generation
+    f, seed, on_generation
         As :func:`ga_search`.
     settings : bodyvib.fit.config.CmaesSettings
         ``sigma0`` (in the unit box), ``population`` (0: CMA-ES's default,
@@ -334,7 +341,7 @@ def cmaes_search(
     """
     import cma
 
-    f = _Counted(objective, space)
+    space = f.space
     span = space.zhi - space.zlo
     if len(span) == 1:
         return _scalar_search(f, space, settings, on_generation)
@@ -363,7 +370,9 @@ def cmaes_search(
     return f.result(gen, history, stopped or "cma: " + ", ".join(es.stop()))
 
 
-def _scalar_search(f: _Counted, space: SearchSpace, settings, on_generation) -> SearchResult:
+def _scalar_search(
+    f: CountedObjective, space: SearchSpace, settings, on_generation
+) -> SearchResult:
     """Minimize over one coordinate: the best of an even grid, refined by bounded Brent.
 
     The grid has ``population`` points (CMA-ES's default of 9 for 0; at least 3) spread
@@ -397,8 +406,7 @@ def _scalar_search(f: _Counted, space: SearchSpace, settings, on_generation) -> 
 
 
 def de_search(
-    objective: Callable,
-    space: SearchSpace,
+    f: CountedObjective,
     settings,
     seed: int,
     on_generation: Optional[Callable[[float], None]] = None,
@@ -410,7 +418,7 @@ def de_search(
 
     Parameters
     ----------
-    objective, space, seed, on_generation
+    f, seed, on_generation
         As :func:`ga_search`.
     settings : bodyvib.fit.config.DeSettings
         ``population_per_gene`` (scipy's ``popsize``), ``generations``
@@ -423,7 +431,7 @@ def de_search(
     """
     from scipy.optimize import differential_evolution
 
-    f = _Counted(objective, space)
+    space = f.space
     history = []
 
     def callback(*_args, **_kwargs):
@@ -499,7 +507,7 @@ def search(
     if method not in _SEARCH:
         raise BodyvibError(f"unknown search method '{method}'; methods are {', '.join(METHODS)}")
     space = SearchSpace(lo, hi, aligned=settings.coordinates == "aligned")
-    return _SEARCH[method](objective, space, settings, int(seed), on_generation)
+    return _SEARCH[method](CountedObjective(objective, space), settings, int(seed), on_generation)
 
 
 def nsga2_front(

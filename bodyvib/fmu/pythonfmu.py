@@ -97,6 +97,9 @@ def write_runtime_package(
 ) -> Path:
     """Copy the run-time package :mod:`bodyvib.runtime` into ``dest/package/``.
 
+    Its modules as they are (they import each other relatively), and an ``__init__.py``
+    of its own that names the copy's version and ``owner``.
+
     Parameters
     ----------
     dest : str or path
@@ -175,6 +178,10 @@ def build_fmu(
     dest: Union[str, os.PathLike] = "dist",
 ) -> Path:
     """Build one pythonfmu FMU of a model.
+
+    The FMU carries a copy of :mod:`bodyvib.runtime` (:func:`write_runtime_package`), under
+    a name of its own, and the model's parameter file; its slave steps the model with
+    :class:`bodyvib.runtime.engine.FmuCore` in the host's Python.
 
     Parameters
     ----------

@@ -162,6 +162,7 @@ def unit_scale(unit: str, units: Dict[str, float], what: str) -> float:
     Returns
     -------
     float
+        What a value in ``unit`` is multiplied by to give it in SI.
 
     Raises
     ------

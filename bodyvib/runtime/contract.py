@@ -152,6 +152,7 @@ class Variable:
     Attributes
     ----------
     name : str
+        Its name in the model description (``seat_displacement``, ``tire_force``).
     causality : str
         ``"input"``, ``"output"`` or ``"parameter"``.
     variability : str

@@ -227,6 +227,7 @@ class EventLog:
     Parameters
     ----------
     model : PiecewiseModel
+        The run's model: its ``switches`` name the elements the log counts.
 
     Attributes
     ----------

@@ -166,7 +166,7 @@ class BodyResponse:
     Attributes
     ----------
     model : str
-        Model name or file.
+        The body model's shipped name or parameter file, as given.
     head_acceleration : ndarray
         m/s2, at the record's sample times.
     figures : ComfortFigures

@@ -529,8 +529,8 @@ def read_mdf_signal(path, channel: Optional[str] = None, channels=None) -> SeatS
     Returns
     -------
     SeatSignal
-        The ``seat_z`` channel at its time stamps, named ``path:channel``, and the
-        other axes found in ``axes``.
+        The ``seat_z`` channel at its time stamps, named ``path:channel``; the other
+        axes the file has are in ``axes``, on the same time stamps.
 
     Raises
     ------

@@ -96,6 +96,7 @@ class DesignProblem:
     Parameters
     ----------
     spec : DesignSpec
+        As :func:`bodyvib.vehicle.design.spec.parse_spec` returns it.
 
     Attributes
     ----------

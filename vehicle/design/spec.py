@@ -218,8 +218,11 @@ class DesignSpec:
     rattle_space : float or None
         m.
     search : SearchSettings
+        The spec's ``search`` (defaults where it has none).
     verify : VerifySettings
+        The spec's ``verify`` (defaults where it has none).
     description : str
+        The spec's own words for the design, empty if it gives none.
     """
 
     car: str
@@ -240,6 +243,7 @@ def objective(name: str) -> Objective:
     Parameters
     ----------
     name : str
+        A key of :data:`OBJECTIVES`, or ``rms:`` or ``wk_rms:`` and an output's name.
 
     Returns
     -------
@@ -565,6 +569,7 @@ def load_spec(path, car: Optional[str] = None) -> DesignSpec:
     Returns
     -------
     DesignSpec
+        As :func:`parse_spec` returns it, with the car (and body) paths resolved.
 
     Raises
     ------

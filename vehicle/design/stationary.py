@@ -84,7 +84,7 @@ def road_velocity_intensity(road_class: str, speed: float) -> float:
     Raises
     ------
     BodyvibError
-        Unknown class or a speed that is not positive.
+        A class other than ``"A"`` to ``"H"``, or a speed that is not positive.
 
     Examples
     --------
@@ -288,6 +288,7 @@ class RandomResponse:
     Attributes
     ----------
     road_class : str
+        ISO 8608 class, ``A`` to ``H``.
     speed : float
         m/s.
     intensity : float
@@ -428,6 +429,7 @@ def static_output(lm: LinearModel, output: str) -> float:
     Returns
     -------
     float
+        In the output's own unit (a force in N, a displacement in m).
 
     Examples
     --------

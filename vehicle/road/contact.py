@@ -242,13 +242,9 @@ def effective_road(
 
     Parameters
     ----------
-    elevation : (n,) array_like
-        Heights at a uniform spacing, m.
-    spacing : float
-        m.
-    tire : TandemCam
-    periodic : bool
-        The profile repeats (:func:`basic_function`).
+    elevation, spacing, tire, periodic
+        As :func:`basic_function`: the profile's heights, their spacing, the tandem and
+        whether the profile repeats.
 
     Returns
     -------

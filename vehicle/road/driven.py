@@ -169,6 +169,33 @@ class RunSettings(Record):
     seed: int = 0
     road_options: RoadOptions = RoadOptions()
 
+    @classmethod
+    def from_attributes(cls, source, road_options: RoadOptions) -> "RunSettings":
+        """The settings an object holds in attributes of the fields' names.
+
+        Parameters
+        ----------
+        source : object
+            Has ``road``, ``speed``, ``duration``, ``step`` and ``seed`` (a parsed
+            command line, a sweep's case).
+        road_options : RoadOptions
+
+        Returns
+        -------
+        RunSettings
+
+        Examples
+        --------
+        >>> from types import SimpleNamespace
+        >>> s = SimpleNamespace(road="D", speed=15.0, duration=5.0, step=2e-3, seed=3)
+        >>> RunSettings.from_attributes(s, RoadOptions()).seed
+        3
+        """
+        return cls(
+            **{k: getattr(source, k) for k in ("road", "speed", "duration", "step", "seed")},
+            road_options=road_options,
+        )
+
 
 def is_road_file(spec) -> bool:
     """Whether a road spec names a file rather than a synthetic road.

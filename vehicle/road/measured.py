@@ -234,7 +234,7 @@ def median_slope(elevation, spacing: float, base: float = UNIT_BASE_M) -> float:
     elevation : (n,) array_like
         Heights at a uniform spacing, m.
     spacing : float
-        m.
+        Distance between the samples, m.
     base : float
         The step b, m (rounded to whole samples; the whole profile if it is shorter).
 

@@ -222,7 +222,7 @@ class ProfileRoad(Road):
 
     def describe(self) -> dict:
         return {
-            "name": self.name,
+            **super().describe(),
             "length_m": self.length,
             "spacing_m": self.spacing,
             "samples": int(self.elevation.size),

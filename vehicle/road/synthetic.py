@@ -214,7 +214,7 @@ class RandomRoad(Road):
         return self._sum(x, derivative=True)
 
     def describe(self) -> dict:
-        return {"name": self.name, "length_m": self.length, **self.info}
+        return {**super().describe(), "length_m": self.length, **self.info}
 
 
 # 16 set-ups of at most 2.6 MB each (16384 harmonics to 65536 points): a speed of a
@@ -534,7 +534,7 @@ class BumpRoad(Road):
 
     def describe(self) -> dict:
         return {
-            "name": self.name,
+            **super().describe(),
             "height_m": self.height,
             "length_m": self.bump_length,
             "start_m": self.start,
@@ -585,7 +585,7 @@ class SweepRoad(Road):
 
     def describe(self) -> dict:
         return {
-            "name": self.name,
+            **super().describe(),
             "amplitude_m": self.amplitude,
             "n_start_cycles_per_m": self.n_start,
             "n_stop_cycles_per_m": self.n_stop,

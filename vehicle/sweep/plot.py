@@ -42,6 +42,7 @@ def plot_comfort_maps(df, path, figure: str = "head_weighted_rms", title: Option
     figure : str
         Column plotted (``head_weighted_rms`` or ``seat_weighted_rms``).
     title : str, optional
+        The figure's title; by default ``ISO 2631-1 comfort map (<engines> engine)``.
 
     Raises
     ------
@@ -106,9 +107,8 @@ def plot_sweep(df, path, title: Optional[str] = None) -> None:
     ----------
     df : pandas.DataFrame
         A sweep table (:func:`bodyvib.vehicle.sweep.run.run_sweep`).
-    path : str
-        Plot file (.png, .pdf or .svg).
-    title : str, optional
+    path, title
+        As the chosen plot takes them.
 
     Raises
     ------
@@ -155,6 +155,7 @@ def plot_bump_study(df, path, title: Optional[str] = None) -> None:
     path : str
         Plot file (.png, .pdf or .svg).
     title : str, optional
+        The figure's title; by default ``bump study (<engines> engine)``.
 
     Raises
     ------

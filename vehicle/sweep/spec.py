@@ -169,14 +169,7 @@ class Case:
         """The :class:`bodyvib.vehicle.road.driven.RunSettings` of this case's run."""
         from ..road.driven import RunSettings
 
-        return RunSettings(
-            road=self.road,
-            speed=self.speed,
-            duration=self.duration,
-            step=self.step,
-            seed=self.seed,
-            road_options=self.road_settings(),
-        )
+        return RunSettings.from_attributes(self, self.road_settings())
 
     def body_network(self):
         """The body model with this case's parameter values."""
@@ -646,6 +639,9 @@ class _Prepared:
             * len(self.cars)
         )
 
+    #: The run settings the product varies, outermost first (the fields of :meth:`_axes`).
+    _AXIS_NAMES = ("road", "seed", "speed", "duration", "step")
+
     def _axes(self):
         return (self.roads, self.seeds, self.speeds, self.durations, self.steps)
 
@@ -662,25 +658,21 @@ class _Prepared:
             for a in reversed(self._axes()):
                 k, pos = divmod(k, len(a))
                 out.append(a[pos])
-            r, sd, v, d, h = out[::-1]
-            keyed = {"road": r, "seed": sd, "speed": v, "duration": d, "step": h}
+            run = dict(zip(self._AXIS_NAMES, out[::-1]))
+            keyed = dict(run)
             if self.road_options:
                 keyed["road_options"] = dict(self.road_options)
-            if r in self.road_digests:  # a road file is its content, not its name
-                keyed["road_file"] = self.road_digests[r]
-            got = heads[i] = (r, sd, v, d, h, json.dumps(keyed, sort_keys=True))
-        r, sd, v, d, h, head = got
+            if run["road"] in self.road_digests:  # a road file is its content, not its name
+                keyed["road_file"] = self.road_digests[run["road"]]
+            got = heads[i] = (run, json.dumps(keyed, sort_keys=True))
+        run, head = got
         b, c = divmod(j, len(self.cars))
         bname, model, sample, values = self.bodies[b]
         car = self.cars[c]
         key = hashlib.sha256((head + self.body_digests[b] + self.car_digests[car]).encode())
         return Case(
             case_id=int(case_id),
-            road=r,
-            seed=sd,
-            speed=v,
-            duration=d,
-            step=h,
+            **run,
             body=bname,
             body_model=model,
             body_sample=sample,
