@@ -330,6 +330,26 @@ def car_dict(name):
         return json.load(f)
 
 
+def linear_car_dict(name):
+    """The shipped car file ``name`` made linear by hand: its tire contacts as springs, no
+    stops, none of their outputs, parameters or static loads (what ``load_car(name,
+    linear=True)`` must give, matrix for matrix)."""
+    data = car_dict(name)
+    data["elements"] = [
+        {**e, "kind": "spring"} if e["kind"] == "contact" else e
+        for e in data["elements"]
+        if e["kind"] != "stop"
+    ]
+    data["fmu_outputs"] = [
+        o for o in data["fmu_outputs"] if not o["name"].startswith(("tire_contact", "stop_force"))
+    ]
+    del data["static_loads"]
+    stop = ("k_stop", "c_stop", "gap_compression", "gap_rebound", "m_occupant")
+    for key in ("parameters", "units"):
+        data[key] = {k: v for k, v in data[key].items() if not k.startswith(stop)}
+    return data
+
+
 def read_run_csv(path):
     """The columns of a ``bodyvib cosim --csv`` table by name (units dropped)."""
     import csv

@@ -3,12 +3,11 @@ wheel leaves the road over the pothole, the linear active car bit for bit where 
 switches, the lift-off against hand-written equations (solve_ivp with events, rtol 1e-10),
 and the linear car's range watched at every wheel."""
 
-import copy
 import warnings
 
 import numpy as np
 import pytest
-from helpers import car_dict, solve_switching
+from helpers import linear_car_dict, solve_switching
 
 from bodyvib.models import load_model
 from bodyvib.runtime.modelfile import network_from_dict
@@ -59,20 +58,7 @@ def test_the_active_files_are_the_passive_cars_with_actuators():
 def test_linear_option_is_the_active_car_with_tire_springs_and_no_stops(name):
     """``linear=True``: the car file with its contacts as springs and no stops, matrix for
     matrix, and the law comparison of that car bit for bit."""
-    data = car_dict(name)
-    data["elements"] = [
-        {**e, "kind": "spring"} if e["kind"] == "contact" else e
-        for e in data["elements"]
-        if e["kind"] != "stop"
-    ]
-    data["fmu_outputs"] = [
-        o for o in data["fmu_outputs"] if not o["name"].startswith(("tire_contact", "stop_force"))
-    ]
-    del data["static_loads"]
-    stop = ("k_stop", "c_stop", "gap_compression", "gap_rebound", "m_occupant")
-    for key in ("parameters", "units"):
-        data[key] = {k: v for k, v in data[key].items() if not k.startswith(stop)}
-    by_hand = network_from_dict(copy.deepcopy(data))
+    by_hand = network_from_dict(linear_car_dict(name))
     mine = load_car(name, linear=True)
     for m in "ABCD":
         assert np.array_equal(getattr(linear_model(mine), m), getattr(linear_model(by_hand), m))

@@ -2,12 +2,11 @@
 car bit for bit where nothing switches, the half car over the 80 mm bump against
 hand-written equations (solve_ivp with events, rtol 1e-10), events reported per wheel."""
 
-import copy
 import json
 
 import numpy as np
 import pytest
-from helpers import car_dict, reduced_body_on_seat, run_cli, solve_switching
+from helpers import linear_car_dict, reduced_body_on_seat, run_cli, solve_switching
 from test_regimes import BUMP, SPEED, H, bump_road
 
 from bodyvib.models import load_model
@@ -21,28 +20,9 @@ from bodyvib.vehicle.signals import WHEEL_SIGNALS, car_wheels, wheel_columns
 CARS = ("half-car", "full-car")
 
 
-def _linear_dict(name):
-    """The car file with its tires as springs and no stops: the linear car by hand."""
-    data = car_dict(name)
-    data["elements"] = [
-        {**e, "kind": "spring"} if e["kind"] == "contact" else e
-        for e in data["elements"]
-        if e["kind"] != "stop"
-    ]
-    return data
-
-
 @pytest.mark.parametrize("name", CARS)
 def test_linear_option_is_the_car_with_tire_springs_and_no_stops(name):
-    data = _linear_dict(name)
-    data["fmu_outputs"] = [
-        o for o in data["fmu_outputs"] if not o["name"].startswith(("tire_contact", "stop_force"))
-    ]
-    del data["static_loads"]
-    stop = ("k_stop", "c_stop", "gap_compression", "gap_rebound", "m_occupant")
-    for key in ("parameters", "units"):
-        data[key] = {k: v for k, v in data[key].items() if not k.startswith(stop)}
-    by_hand = linear_model(network_from_dict(copy.deepcopy(data)))
+    by_hand = linear_model(network_from_dict(linear_car_dict(name)))
     mine = linear_model(load_car(name, linear=True))
     for m in "ABCD":
         assert np.array_equal(getattr(mine, m), getattr(by_hand, m)), m

@@ -11,7 +11,12 @@ from bodyvib.process.outputs import write_json
 from bodyvib.runtime.errors import BodyvibError
 
 from .flags import in_flags
-from .options import add_output_options, add_road_options, run_settings_from_args
+from .options import (
+    add_output_options,
+    add_road_options,
+    add_run_options,
+    run_settings_from_args,
+)
 from .outputs import check_files, write_outputs
 
 __all__ = ["add_command"]
@@ -104,10 +109,7 @@ def add_command(subparsers):
         help="ISO 8608 class A-H, 'bump', 'sweep', a bump shape or a road file (default C)",
     )
     add_road_options(p)
-    p.add_argument("--speed", type=float, default=20.0, help="vehicle speed, m/s (default 20)")
-    p.add_argument("--duration", type=float, default=30.0, help="simulated time, s (default 30)")
-    p.add_argument("--step", type=float, default=1e-3, help="time step, s (default 0.001)")
-    p.add_argument("--seed", type=int, default=0, help="random-road seed (default 0)")
+    add_run_options(p, step="time step")
     p.add_argument(
         "--linear",
         action="store_true",

@@ -27,6 +27,7 @@ from .flags import in_flags
 from .options import (
     add_output_options,
     add_road_options,
+    add_run_options,
     add_seat_option,
     car_and_seat,
     run_settings_from_args,
@@ -298,10 +299,7 @@ def _common(p):
         ".erd (default C)",
     )
     add_road_options(p)
-    p.add_argument("--speed", type=float, default=20.0, help="vehicle speed, m/s (default 20)")
-    p.add_argument("--duration", type=float, default=30.0, help="simulated time, s (default 30)")
-    p.add_argument("--step", type=float, default=1e-3, help="communication step, s (default 0.001)")
-    p.add_argument("--seed", type=int, default=0, help="random-road seed (default 0)")
+    add_run_options(p)
     p.add_argument(
         "--body",
         metavar="FMU",

@@ -17,6 +17,7 @@ __all__ = [
     "car_and_seat",
     "ROAD_ARGUMENTS",
     "add_road_options",
+    "add_run_options",
     "road_options_from_args",
     "run_settings_from_args",
 ]
@@ -179,6 +180,24 @@ ROAD_ARGUMENTS = {
 
 #: The flag of each road option: ``--road-`` and the field without its unit (``--road-taper``).
 ROAD_FLAGS = {field: "--road-" + field.removesuffix("_m") for field in ROAD_ARGUMENTS}
+
+
+def add_run_options(p, step="communication step") -> None:
+    """``--speed``, ``--duration``, ``--step`` and ``--seed`` of a command that drives a
+    car over a road (cosim, check, control).
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The command's parser.
+    step : str
+        What the step is called in its help (``control``: the time step of its exact
+        closed loop).
+    """
+    p.add_argument("--speed", type=float, default=20.0, help="vehicle speed, m/s (default 20)")
+    p.add_argument("--duration", type=float, default=30.0, help="simulated time, s (default 30)")
+    p.add_argument("--step", type=float, default=1e-3, help=f"{step}, s (default 0.001)")
+    p.add_argument("--seed", type=int, default=0, help="random-road seed (default 0)")
 
 
 def add_road_options(p, taper_help=None) -> None:
