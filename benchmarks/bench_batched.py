@@ -13,10 +13,13 @@ process, interleaved over ``--repeats`` rounds (medians):
   functions while it runs (road: the road samples; models: each body on its car as a
   linear model; matrices: the exact step; compiled loop, and of it the minimal step's
   time; other: the rest);
-* the minimal step: a numba loop of ``x <- Phi x + g_z z + g_v v`` and the two outputs
+* the minimal step: a numba loop of ``x <- Phi x + g_z z + g_v v`` and the outputs
   ``C x + d_z z + d_v v`` per case and sample, on the very matrices and road samples the
-  engine built (captured from its call of the compiled loop), with the cases side by side
-  in the same lanes and vector loops as the engine's, nothing else.
+  engine built (captured from its call of the compiled loop), by the compiled loop's own
+  step function (the same lanes and vector loops), nothing else. The outputs are the
+  head, the seat, the forces and any watched rows: a car whose seat gives its x and y
+  (the full car) adds those two rows for the engine's weighting, and the floor leaves
+  them out.
 
 The ratio engine / minimal is the engine's cost over its arithmetic floor (target <= 2).
 

@@ -11,9 +11,11 @@ For every case of a group and every sample ``k`` the loop computes
 * the ISO 2631-1 Wk weighting of the head and the seat acceleration, the analog
   filter advanced exactly over the straight line between two samples
   (:class:`bodyvib.comfort.stream.WkFilter`'s recursion, evaluated sample by sample);
+  of a car whose seat gives them, the seat's x and y acceleration (``M``'s last two
+  rows) with two more weightings (Wd and We), in the same pass over the lanes;
 * the running sums the figures come from: ``sum a_w^2``, ``sum a_w^4``,
   ``max |a_w|``, the largest 1 s sum of ``a_w^2`` (the MTVV), and the largest
-  ``|force|``;
+  ``|force|``; of the seat's x and y, ``sum a_w^2``;
 * the largest value of each *watched* output row after the forces (a car with tire
   contacts and stops: its switching functions, scaled so that 1 is the switching,
   :mod:`bodyvib.vehicle.sweep.engines`).
@@ -195,17 +197,29 @@ def _functions():
                         total[s, i] = t
                         ring[s, pos, i] = w2
                         wsum[s, 3, i] = t if t > wsum[s, 3, i] else wsum[s, 3, i]
-                # the seat's x and y with each weighting of ``axes``: sum a_w^2 only
-                for s in range(2, C):
-                    wa = axes[0] if s < 4 else axes[1]
-                    w = (wa[1] if first else wa[0], wa[2], wa[3])
-                    xs = xw[s]
-                    ya = y[4 + watched + s % 2]
+                # the seat's x and y with each weighting of ``axes``: sum a_w^2 only,
+                # the four in one pass over the lanes
+                if A:
+                    d, e = axes
+                    wd = (d[1] if first else d[0], d[2], d[3])
+                    we = (e[1] if first else e[0], e[2], e[3])
+                    yx, yy = y[4 + watched], y[5 + watched]
+                    xdx, xdy, xex, xey = xw[2], xw[3], xw[4], xw[5]
                     for i in range(L):
-                        a = ya[i]
-                        wi = weigh(xs, i, w, aprev[s, i], a)
-                        aprev[s, i] = a
-                        wsum[s, 0, i] += wi * wi
+                        ax = yx[i]
+                        ay = yy[i]
+                        ux = aprev[2, i]
+                        uy = aprev[3, i]
+                        aprev[2, i] = ax
+                        aprev[3, i] = ay
+                        w0 = weigh(xdx, i, wd, ux, ax)
+                        w1 = weigh(xdy, i, wd, uy, ay)
+                        w2 = weigh(xex, i, we, ux, ax)
+                        w3 = weigh(xey, i, we, uy, ay)
+                        wsum[2, 0, i] += w0 * w0
+                        wsum[3, 0, i] += w1 * w1
+                        wsum[4, 0, i] += w2 * w2
+                        wsum[5, 0, i] += w3 * w3
                 if record:
                     for s in range(2):
                         for i in range(L):
@@ -241,8 +255,10 @@ class KernelInputs:
 
     Attributes
     ----------
-    M : (chunks, n + 4 + watched rows, n, lanes) ndarray
-    gz, gv : (chunks, points, n + 4, lanes) ndarray
+    M : (chunks, n + 4 + watched rows (+ 2), n, lanes) ndarray
+        ``[Phi; C_out]``; the outputs head, seat, the two forces, the watched rows
+        and, with the weightings of :func:`run`'s ``axes``, the seat's x and y.
+    gz, gv : (chunks, points, rows of M, lanes) ndarray
     road : (chunks, points, lanes) ndarray of int
     cases : int
         The cases in the lanes, in order; the lanes after the last are zero (their
@@ -263,9 +279,9 @@ def pack(M, gz, gv, road) -> KernelInputs:
 
     Parameters
     ----------
-    M : (cases, n + 4, n) ndarray
-        ``[Phi; C_out]`` of each case.
-    gz, gv : (cases, points, n + 4) ndarray
+    M : (cases, rows, n) ndarray
+        ``[Phi; C_out]`` of each case (the output rows of :class:`KernelInputs`).
+    gz, gv : (cases, points, rows) ndarray
         Input columns of each road point's displacement and velocity (with the
         in-step slope).
     road : (cases, points) ndarray of int
