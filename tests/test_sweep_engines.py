@@ -424,6 +424,9 @@ def test_kernel_weights_the_seats_x_and_y_rows_in_the_same_pass():
     g6 = gz[:, :, :6]
     alone, _ = run(pack(np.zeros((1, 6, 1)), g6, 0 * g6, road), z, 0 * z, wk, 50)
     np.testing.assert_array_equal(sums[: len(SUMS) + 1], alone)
+    eight = WeightingStep(np.eye(8), np.ones(8), np.ones(8), np.eye(8)[6], 0.0, [8] * 8)
+    with pytest.raises(ValueError, match="first six states"):
+        run(pack(np.zeros((1, 8, 1)), gz, 0 * gz, road), z, 0 * z, wk, 50, axes=[eight] * 2)
 
 
 def test_spectral_half_car_rows_carry_the_seats_axes():

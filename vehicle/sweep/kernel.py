@@ -105,29 +105,43 @@ def _functions():
         return acc
 
     @njit(inline="always")
-    def weigh(xs, i, w, u, a):  # pragma: no cover (compiled)
-        """Lane ``i``'s weighting states ``xs[:, i]`` advanced from sample ``u`` to ``a``
-        (``w``: the step's rows, ``g_prev``, ``g_next``, then ``c``, ``d``); the weighted
-        sample. The states are read once into registers and written once."""
-        (ph, gp, gn), c, d = w
-        s = (xs[0, i], xs[1, i], xs[2, i], xs[3, i], xs[4, i], xs[5, i], xs[6, i], xs[7, i])
+    def six(ph, gp, gn, s, u, a):  # pragma: no cover (compiled)
+        """The weighting's first six states after the step from ``s`` (the states before
+        it), the sample ``u`` to ``a``; rows ``0 .. 5`` read at most six states."""
         n0 = dot(ph[0], s) + (gp[0] * u + gn[0] * a)
         n1 = dot(ph[1], s) + (gp[1] * u + gn[1] * a)
         n2 = dot(ph[2], s) + (gp[2] * u + gn[2] * a)
         n3 = dot(ph[3], s) + (gp[3] * u + gn[3] * a)
         n4 = dot(ph[4], s) + (gp[4] * u + gn[4] * a)
         n5 = dot(ph[5], s) + (gp[5] * u + gn[5] * a)
-        n6 = dot(ph[6], s) + (gp[6] * u + gn[6] * a)
-        n7 = dot(ph[7], s) + (gp[7] * u + gn[7] * a)
-        xs[0, i] = n0
-        xs[1, i] = n1
-        xs[2, i] = n2
-        xs[3, i] = n3
-        xs[4, i] = n4
-        xs[5, i] = n5
-        xs[6, i] = n6
-        xs[7, i] = n7
-        return dot(c, (n0, n1, n2, n3, n4, n5, n6, n7)) + d * a
+        return (n0, n1, n2, n3, n4, n5)
+
+    @njit(inline="always")
+    def weigh(xs, i, w, u, a):  # pragma: no cover (compiled)
+        """Lane ``i``'s weighting states ``xs[:, i]`` advanced from sample ``u`` to ``a``
+        (``w``: the step's rows, ``g_prev``, ``g_next``, then ``c``, ``d``); the weighted
+        sample. The states are read once into registers and written once."""
+        (ph, gp, gn), c, d = w
+        s = (xs[0, i], xs[1, i], xs[2, i], xs[3, i], xs[4, i], xs[5, i], xs[6, i], xs[7, i])
+        n = six(ph, gp, gn, s, u, a) + (
+            dot(ph[6], s) + (gp[6] * u + gn[6] * a),
+            dot(ph[7], s) + (gp[7] * u + gn[7] * a),
+        )
+        for j in range(8):
+            xs[j, i] = n[j]
+        return dot(c, n) + d * a
+
+    @njit(inline="always")
+    def weigh6(xs, i, w, u, a):  # pragma: no cover (compiled)
+        """:func:`weigh` of a weighting whose output reads its first six states only
+        (``w`` of six entries: :func:`_weighting` with ``states=6``): the states after
+        them, which nothing read, are not stepped."""
+        (ph, gp, gn), c, d = w
+        s = (xs[0, i], xs[1, i], xs[2, i], xs[3, i], xs[4, i], xs[5, i])
+        n = six(ph, gp, gn, s, u, a)
+        for j in range(6):
+            xs[j, i] = n[j]
+        return dot(c, n) + d * a
 
     @njit(cache=True, nogil=True, boundscheck=False)
     def kernel(M, gz, gv, road, z, v, wk, A, axes, window, sums, hist):
@@ -212,10 +226,10 @@ def _functions():
                         uy = aprev[3, i]
                         aprev[2, i] = ax
                         aprev[3, i] = ay
-                        w0 = weigh(xdx, i, wd, ux, ax)
-                        w1 = weigh(xdy, i, wd, uy, ay)
-                        w2 = weigh(xex, i, we, ux, ax)
-                        w3 = weigh(xey, i, we, uy, ay)
+                        w0 = weigh6(xdx, i, wd, ux, ax)
+                        w1 = weigh6(xdy, i, wd, uy, ay)
+                        w2 = weigh6(xex, i, we, ux, ax)
+                        w3 = weigh6(xey, i, we, uy, ay)
                         wsum[2, 0, i] += w0 * w0
                         wsum[3, 0, i] += w1 * w1
                         wsum[4, 0, i] += w2 * w2
@@ -346,15 +360,19 @@ def _sections(wk, rest: bool = False) -> tuple:
     )
 
 
-def _weighting(wk) -> tuple:
+def _weighting(wk, states: int = WK_STATES) -> tuple:
     """The weighting as the loop reads it: ``(step, step from rest, c, d)``, ``c``
-    padded to :data:`WK_STATES` entries."""
-    return (
-        _sections(wk),
-        _sections(wk, rest=True),
-        _padded(np.asarray(wk.c, float)),
-        float(wk.d),
-    )
+    padded to :data:`WK_STATES` entries; of its first ``states`` states only."""
+    step, rest = (tuple(t[:states] for t in _sections(wk, rest=r)) for r in (False, True))
+    return (step, rest, _padded(np.asarray(wk.c, float))[:states], float(wk.d))
+
+
+def _axis_weighting(wk) -> tuple:
+    """:func:`_weighting` of one of :func:`run`'s ``axes``: its first six states, the
+    only ones its output may read."""
+    if np.any(np.asarray(wk.c, float)[6:] != 0):
+        raise ValueError("a weighting of the seat's x and y reads its first six states only")
+    return _weighting(wk, 6)
 
 
 def run(inputs: KernelInputs, z, v, wk, window: int, record: bool = False, axes=None):
@@ -377,6 +395,9 @@ def run(inputs: KernelInputs, z, v, wk, window: int, record: bool = False, axes=
     axes : (WeightingStep, WeightingStep), optional
         Two more weightings (of the shape of ``wk``'s) of ``M``'s last two rows, the
         seat's x and y acceleration, in the same pass: each row's ``sum a_w^2`` with each.
+        Their output reads their first six states only (Wd and We: the last section's
+        states, of a step factor with ``f5 = inf``, are not read), and only those are
+        stepped.
 
     Returns
     -------
@@ -393,7 +414,8 @@ def run(inputs: KernelInputs, z, v, wk, window: int, record: bool = False, axes=
     Raises
     ------
     ValueError
-        A packing wider than :data:`LANES` lanes, or a weighting that does not fit.
+        A packing wider than :data:`LANES` lanes, or a weighting that does not fit
+        (of ``axes``: whose output reads a state past the sixth).
 
     Examples
     --------
@@ -428,7 +450,7 @@ def run(inputs: KernelInputs, z, v, wk, window: int, record: bool = False, axes=
         np.ascontiguousarray(np.transpose(v), float),
         weighting,
         A,
-        (weighting, weighting) if axes is None else tuple(_weighting(w) for w in axes),
+        (_weighting(wk, 6),) * 2 if axes is None else tuple(_axis_weighting(w) for w in axes),
         int(window),
         sums,
         hist,
