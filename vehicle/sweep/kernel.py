@@ -133,8 +133,8 @@ def _functions():
 
     @njit(inline="always")
     def weigh6(xs, i, w, u, a):  # pragma: no cover (compiled)
-        """:func:`weigh` of a weighting whose output reads its first six states only
-        (``w`` of six entries: :func:`_weighting` with ``states=6``): the states after
+        """``weigh`` of a weighting whose output reads its first six states only
+        (``w`` of six entries: ``_weighting`` with ``states=6``): the states after
         them, which nothing read, are not stepped."""
         (ph, gp, gn), c, d = w
         s = (xs[0, i], xs[1, i], xs[2, i], xs[3, i], xs[4, i], xs[5, i])
