@@ -13,10 +13,13 @@ process, interleaved over ``--repeats`` rounds (medians):
   functions while it runs (road: the road samples; models: each body on its car as a
   linear model; matrices: the exact step; compiled loop, and of it the minimal step's
   time; other: the rest);
-* the minimal step: a numba loop of ``x <- Phi x + g_z z + g_v v`` and the two outputs
+* the minimal step: a numba loop of ``x <- Phi x + g_z z + g_v v`` and the outputs
   ``C x + d_z z + d_v v`` per case and sample, on the very matrices and road samples the
-  engine built (captured from its call of the compiled loop), with the cases side by side
-  in the same lanes and vector loops as the engine's, nothing else.
+  engine built (captured from its call of the compiled loop), by the compiled loop's own
+  step function (the same lanes and vector loops), nothing else. The outputs are the
+  head, the seat, the forces and any watched rows: a car whose seat gives its x and y
+  (the full car) adds those two rows for the engine's weighting, and the floor leaves
+  them out.
 
 The ratio engine / minimal is the engine's cost over its arithmetic floor (target <= 2).
 
@@ -94,6 +97,7 @@ class Stages:
     def __init__(self):
         self.seconds = {"road": 0.0, "models": 0.0, "matrices": 0.0, "compiled loop": 0.0}
         self.captured = None
+        self.axes = False
 
     def _timed(self, stage, fn, capture=False):
         def wrapper(*a, **k):
@@ -104,6 +108,8 @@ class Stages:
                 self.seconds[stage] += time.process_time() - t0
                 if capture:  # the packed matrices and roads of the (one) group
                     self.captured = a[:3]
+                    # the seat's x and y rows (M's last two, weighted in the same pass)
+                    self.axes = (a[6] if len(a) > 6 else k.get("axes")) is not None
 
         return wrapper
 
@@ -139,21 +145,23 @@ _minimal = None
 def minimal_kernel():
     """The floor: the exact step and two outputs of every case, cases side by side in lanes.
 
-    The same layout and the same vector loops over the lanes as the engine's compiled
-    loop, and nothing else: no Wk weighting, no figures, only the sum of squares of
-    the two outputs (so that the compiler keeps them). A car driven at several road
-    points (the full car's four wheels) has one state, each point's road entering
-    through its own input columns: ``x <- Phi x + sum_p (g_z z + g_v v)_p``.
+    The engine's compiled loop's own step (:mod:`bodyvib.vehicle.sweep.kernel`), the
+    same layout and vector loops over the lanes, and nothing else: no weighting, no
+    figures, only the sum of squares of the two outputs (so that the compiler keeps
+    them). A car driven at several road points (the full car's four wheels) has one
+    state, each point's road entering through its own input columns:
+    ``x <- Phi x + sum_p (g_z z + g_v v)_p``.
     """
     global _minimal
     if _minimal is None:
         from numba import njit
 
+        step = kernel._functions()[0]
+
         @njit(cache=True, nogil=True, boundscheck=False)
         def run(M, gz, gv, road, z, v):  # pragma: no cover (compiled)
             chunks, m, n, L = M.shape
             P = gz.shape[1]
-            N = z.shape[0]
             x = np.empty((n, L))
             out = np.empty((m, L))
             zk = np.empty((P, L))
@@ -161,28 +169,8 @@ def minimal_kernel():
             y = np.zeros((2, L))
             for ch in range(chunks):
                 x[:] = 0.0
-                for k in range(N):
-                    for p in range(P):
-                        for i in range(L):
-                            zk[p, i] = z[k, road[ch, p, i]]
-                            vk[p, i] = v[k, road[ch, p, i]]
-                    for r in range(m):
-                        o = out[r]
-                        for i in range(L):
-                            o[i] = 0.0
-                        for q in range(n):
-                            Mq = M[ch, r, q]
-                            xq = x[q]
-                            for i in range(L):
-                                o[i] += Mq[i] * xq[i]
-                        for p in range(P):
-                            gzr = gz[ch, p, r]
-                            gvr = gv[ch, p, r]
-                            for i in range(L):
-                                o[i] = o[i] + (gzr[i] * zk[p, i] + gvr[i] * vk[p, i])
-                    for q in range(n):
-                        for i in range(L):
-                            x[q, i] = out[q, i]
+                for k in range(z.shape[0]):
+                    step(M, gz, gv, road, z, v, ch, k, x, out, zk, vk)
                     for i in range(L):
                         y[0, i] += out[n, i] * out[n, i]
                         y[1, i] += out[n + 1, i] * out[n + 1, i]
@@ -268,13 +256,17 @@ def one_round(cases, stages: Stages):
         raise SystemExit(f"a case failed: {[r['error'] for r in rows if r.get('error')][:1]}")
     packed, z, v = stages.captured
     z, v = np.ascontiguousarray(z.T), np.ascontiguousarray(v.T)  # the engine's layout
+    # the floor steps the state and the outputs before the seat's x and y
+    m = packed.M.shape[1] - (2 if stages.axes else 0)
+    M = np.ascontiguousarray(packed.M[:, :m])
+    gz, gv = (np.ascontiguousarray(g[:, :, :m]) for g in (packed.gz, packed.gv))
     run = minimal_kernel()
     t0, c0 = time.perf_counter(), time.process_time()
-    run(packed.M, packed.gz, packed.gv, packed.road, z, v)
+    run(M, gz, gv, packed.road, z, v)
     low = (time.perf_counter() - t0, time.process_time() - c0)
     one = case_by_case_kernel()[packed.gz.shape[1] > 1]
     c0 = time.process_time()
-    one(packed.M, packed.gz, packed.gv, packed.road, z, v)
+    one(M, gz, gv, packed.road, z, v)
     return eng, low, time.process_time() - c0, packed.M.shape, packed.gz.shape[1]
 
 
@@ -344,6 +336,11 @@ def main(argv=None):
             f"{statistics.median(single) * 1e9 / steps:.1f} ns CPU)"
         )
         print(f"  ratio engine / minimal: {ew / mw:.2f} wall, {ec / mc:.2f} CPU (target <= 2)")
+        rw, rc = ([e[i] / m[i] for e, m in zip(eng, low)] for i in (0, 1))
+        print(
+            f"    range over the rounds: {min(rw):.2f}-{max(rw):.2f} wall, "
+            f"{min(rc):.2f}-{max(rc):.2f} CPU"
+        )
         rest = 1.0
         for k in shares[0]:
             share = statistics.median(s[k] for s in shares)

@@ -13,7 +13,7 @@ from bodyvib.vehicle.quarter_car import seated_system
 from bodyvib.vehicle.reference import nrmse, reference_run
 from bodyvib.vehicle.road.synthetic import N_BAND, displacement_psd
 from bodyvib.vehicle.sweep.engines import case_road_input, run_batched, run_cosim, run_spectral
-from bodyvib.vehicle.sweep.kernel import pack, run
+from bodyvib.vehicle.sweep.kernel import SUMS, pack, run
 from bodyvib.vehicle.sweep.spec import expand
 
 EPS = np.finfo(float).eps
@@ -382,6 +382,38 @@ def test_kernel_refuses_a_weighting_that_does_not_fit_its_rows():
     )
     with pytest.raises(ValueError, match="does not fit"):
         run(inputs, np.zeros((1, 10)), np.zeros((1, 10)), wk, 5)
+
+
+def test_kernel_weights_the_seats_x_and_y_rows_in_the_same_pass():
+    """``M``'s last two rows (the seat's x and y) weighted with two more weightings in
+    the step of the head's: each row's ``sum a_w^2`` against the numpy recursion, the
+    watched row before them and the head's sums as without them (tolerance: rounding
+    of sums over 400 samples)."""
+    rng = np.random.default_rng(11)
+    steps = []
+    for reads in ([1, 2, 3], [2, 2, 4, 4, 6, 6]):
+        n = len(reads)
+        Phi = rng.uniform(-0.3, 0.3, (n, n)) * (np.arange(n) < np.array(reads)[:, None])
+        g, c = rng.normal(size=(2, n)), rng.normal(size=n)
+        steps.append(WeightingStep(Phi, g[0], g[1], c, rng.normal(), reads))
+    wk = steps[0]
+    gz = np.zeros((1, 2, 8))  # one state; head, seat, forces, a watched row, then x and y
+    gz[0, 0, [1, 6]] = 1.0, 2.0  # road point 0: the head and x = 2 z0
+    gz[0, 1, [5, 7]] = 1.0, -1.0  # road point 1: the watched row z1 and y = -z1
+    z = rng.normal(size=(2, 400))
+    road = np.array([[0, 1]])
+    sums, _ = run(pack(np.zeros((1, 8, 1)), gz, 0 * gz, road), z, 0 * z, wk, 50, axes=steps)
+    for j, (w, a) in enumerate((w, a) for w in steps for a in (2 * z[0], -z[1])):
+        expected = _weighted_sums(w, a, 50)[0]
+        assert sums[-4 + j, 0] == pytest.approx(expected, rel=1e-12), j
+    np.testing.assert_allclose(sums[:4, 0], _weighted_sums(wk, z[0], 50), rtol=1e-12)
+    assert sums.shape[0] == len(SUMS) + 1 + 4 and sums[len(SUMS), 0] == z[1].max()
+    g6 = gz[:, :, :6]
+    alone, _ = run(pack(np.zeros((1, 6, 1)), g6, 0 * g6, road), z, 0 * z, wk, 50)
+    np.testing.assert_array_equal(sums[: len(SUMS) + 1], alone)
+    eight = WeightingStep(np.eye(8), np.ones(8), np.ones(8), np.eye(8)[6], 0.0, [8] * 8)
+    with pytest.raises(ValueError, match="first six states"):
+        run(pack(np.zeros((1, 8, 1)), gz, 0 * gz, road), z, 0 * z, wk, 50, axes=[eight] * 2)
 
 
 def test_spectral_half_car_rows_carry_the_seats_axes():

@@ -446,36 +446,38 @@ def _step_inputs(cases, sys, roads):
     return M, gz, gv, road, np.stack(zs, axis=1).T, np.stack(vs, axis=1).T
 
 
-def _batched_seat_axes(sys, inputs, step, window, samples) -> Dict[int, list]:
-    """The seat's x and y (Wd) and its roll and pitch (We) of the cases whose car gives
-    them (a seat with a height): case index -> ``[x, y, rx, ry]`` weighted r.m.s.
-
-    Two more passes of the kernel over the group's cases, each weighting the seat's
-    ``a_x`` and ``a_y`` in place of head and seat: with Wd, and with We divided by the
-    seat's height (the body's pitch and roll accelerations, ``-a_x / h``, ``-a_y / h``).
-    """
+def _with_seat_axes(sys, M, gz, gv):
+    """``M``, ``gz`` and ``gv`` with two more output rows, the seat's ``a_x`` and ``a_y``,
+    of the cases whose car gives them (a seat with a height; zero rows for the others);
+    None: no case's car gives them."""
     have = [i for i, s in enumerate(sys) if s.height is not None]
     if not have:
-        return {}
-    M, gz, gv, road, z, v = inputs
-    n = sys[0].lm.A.shape[0]
-    M2, gz2, gv2 = M.copy(), gz.copy(), gv.copy()
-    M2[:, n:], gz2[:, :, n:], gv2[:, :, n:] = 0.0, 0.0, 0.0
+        return None
+    c, P, m = gz.shape
+    M2 = np.concatenate([M, np.zeros((c, 2, M.shape[2]))], axis=1)
+    gz2 = np.concatenate([gz, np.zeros((c, P, 2))], axis=2)
+    gv2 = np.concatenate([gv, np.zeros((c, P, 2))], axis=2)
     for i in have:
         lm, floor = sys[i].lm, sys[i].floor
         rows = [lm.output_index(f"{floor}.ax"), lm.output_index(f"{floor}.ay")]
-        M2[i, n : n + 2] = lm.C[rows]
+        M2[i, m:] = lm.C[rows]
         for j, base in enumerate(sys[i].bases):
             iz, iv = lm.input_index(f"{base}_displacement"), lm.input_index(f"{base}_velocity")
-            gz2[i, j, n : n + 2], gv2[i, j, n : n + 2] = lm.D[rows, iz], lm.D[rows, iv]
-    packed = kernel.pack(M2, gz2, gv2, road)
-    rms = []
-    for name in ("Wd", "We"):
-        w = WkFilter(1.0 / step, 1, weighting_statespace(WEIGHTINGS[name]))
-        sums, _ = kernel.run(packed, z, v, w.step(), window, False)
-        rms.append([np.sqrt(sums[SUMS.index(f"{p}_s2")] / samples) for p in ("head", "seat")])
-    (x, y), (rx, ry) = rms
-    return {i: [x[i], y[i], ry[i] / sys[i].height[0], rx[i] / sys[i].height[0]] for i in have}
+            gz2[i, j, m:], gv2[i, j, m:] = lm.D[rows, iz], lm.D[rows, iv]
+    return M2, gz2, gv2
+
+
+def _seat_axes(sys, sums, samples) -> Dict[int, list]:
+    """The seat's x and y (Wd) and its roll and pitch (We) of the cases whose car gives
+    them (a seat with a height): case index -> ``[x, y, rx, ry]`` weighted r.m.s., from
+    the kernel's last rows ``sums`` (x and y with Wd, then with We). The body's pitch
+    and roll accelerations are ``-a_x / h``, ``-a_y / h``: We's r.m.s. over the height."""
+    x, y, rx, ry = (np.sqrt(s / samples) for s in sums)
+    return {
+        i: [x[i], y[i], ry[i] / s.height[0], rx[i] / s.height[0]]
+        for i, s in enumerate(sys)
+        if s.height is not None
+    }
 
 
 def _batched_group(cases, models, cars, roads, record):
@@ -485,7 +487,17 @@ def _batched_group(cases, models, cars, roads, record):
     step = cases[0].step
     M, gz, gv, road, z, v = _step_inputs(cases, sys, roads)
     wk = ComfortStream(1.0 / step, 1)  # the weighting and the MTVV window of the figures
-    sums, hist = kernel.run(kernel.pack(M, gz, gv, road), z, v, wk.filter.step(), wk.window, record)
+    # the seat's x and y (a car that gives them) weighted in the same pass: Wd, We
+    seated_axes = _with_seat_axes(sys, M, gz, gv)
+    weightings = None
+    if seated_axes is not None:
+        M, gz, gv = seated_axes
+        weightings = [
+            WkFilter(1.0 / step, 1, weighting_statespace(WEIGHTINGS[name])).step()
+            for name in ("Wd", "We")
+        ]
+    packed = kernel.pack(M, gz, gv, road)
+    sums, hist = kernel.run(packed, z, v, wk.filter.step(), wk.window, record, weightings)
     if not (np.all(np.isfinite(sums)) and np.all(sums[SUMS.index("check")] == 0)):
         raise BodyvibError("the response is not finite (parameters out of numerical range?)")
     fig = {
@@ -498,7 +510,10 @@ def _batched_group(cases, models, cars, roads, record):
         for part in ("head", "seat")
     }
     head, seat = fig["head"], fig["seat"]
-    axes = _batched_seat_axes(sys, (M, gz, gv, road, z, v), step, wk.window, cases[0].steps)
+    top = sums[len(SUMS) :]  # the watched rows' maxima (then the seat's x and y)
+    axes: Dict[int, list] = {}
+    if weightings is not None:
+        top, axes = top[:-4], _seat_axes(sys, sums[-4:], cases[0].steps)
     rows = []
     for i in range(c):
         peaks = {
@@ -522,7 +537,7 @@ def _batched_group(cases, models, cars, roads, record):
                     if i in axes
                     else None
                 ),
-                **_batched_events(sys[i].watch, sums[len(SUMS) :, i]),
+                **_batched_events(sys[i].watch, top[:, i]),
                 "error": None,
             }
         )

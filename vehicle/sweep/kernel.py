@@ -11,9 +11,11 @@ For every case of a group and every sample ``k`` the loop computes
 * the ISO 2631-1 Wk weighting of the head and the seat acceleration, the analog
   filter advanced exactly over the straight line between two samples
   (:class:`bodyvib.comfort.stream.WkFilter`'s recursion, evaluated sample by sample);
+  of a car whose seat gives them, the seat's x and y acceleration (``M``'s last two
+  rows) with two more weightings (Wd and We), in the same pass over the lanes;
 * the running sums the figures come from: ``sum a_w^2``, ``sum a_w^4``,
   ``max |a_w|``, the largest 1 s sum of ``a_w^2`` (the MTVV), and the largest
-  ``|force|``;
+  ``|force|``; of the seat's x and y, ``sum a_w^2``;
 * the largest value of each *watched* output row after the forces (a car with tire
   contacts and stops: its switching functions, scaled so that 1 is the switching,
   :mod:`bodyvib.vehicle.sweep.engines`).
@@ -59,69 +61,125 @@ WK_STATES = 8
 _compiled = None
 
 
-def _kernel():
+def _functions():
+    """The compiled pieces: ``(step, weigh, kernel)`` (compiled on first use, cached)."""
     global _compiled
     if _compiled is not None:
         return _compiled
     from numba import njit
 
+    @njit(inline="always")
+    def step(M, gz, gv, road, z, v, ch, k, x, out, zk, vk):  # pragma: no cover (compiled)
+        """Chunk ``ch``'s exact step at sample ``k``: ``out = M x + sum_p (g_z z + g_v v)_p``,
+        then ``x = out[:n]``; every innermost loop over the lanes."""
+        _, m, n, L = M.shape
+        P = gz.shape[1]
+        for p in range(P):
+            for i in range(L):
+                zk[p, i] = z[k, road[ch, p, i]]
+                vk[p, i] = v[k, road[ch, p, i]]
+        for r in range(m):
+            o = out[r]
+            for i in range(L):
+                o[i] = 0.0
+            for q in range(n):
+                Mq = M[ch, r, q]
+                xq = x[q]
+                for i in range(L):
+                    o[i] += Mq[i] * xq[i]
+            for p in range(P):
+                gzr = gz[ch, p, r]
+                gvr = gv[ch, p, r]
+                for i in range(L):
+                    o[i] = o[i] + (gzr[i] * zk[p, i] + gvr[i] * vk[p, i])
+        for q in range(n):
+            for i in range(L):
+                x[q, i] = out[q, i]
+
+    @njit(inline="always")
+    def dot(p, s):  # pragma: no cover (compiled)
+        """``p[0] s[0] + p[1] s[1] + ..`` over ``p``'s entries, summed left to right."""
+        acc = p[0] * s[0]
+        for j in range(1, len(p)):
+            acc += p[j] * s[j]
+        return acc
+
+    @njit(inline="always")
+    def six(ph, gp, gn, s, u, a):  # pragma: no cover (compiled)
+        """The weighting's first six states after the step from ``s`` (the states before
+        it), the sample ``u`` to ``a``; rows ``0 .. 5`` read at most six states."""
+        n0 = dot(ph[0], s) + (gp[0] * u + gn[0] * a)
+        n1 = dot(ph[1], s) + (gp[1] * u + gn[1] * a)
+        n2 = dot(ph[2], s) + (gp[2] * u + gn[2] * a)
+        n3 = dot(ph[3], s) + (gp[3] * u + gn[3] * a)
+        n4 = dot(ph[4], s) + (gp[4] * u + gn[4] * a)
+        n5 = dot(ph[5], s) + (gp[5] * u + gn[5] * a)
+        return (n0, n1, n2, n3, n4, n5)
+
+    @njit(inline="always")
+    def weigh(xs, i, w, u, a):  # pragma: no cover (compiled)
+        """Lane ``i``'s weighting states ``xs[:, i]`` advanced from sample ``u`` to ``a``
+        (``w``: the step's rows, ``g_prev``, ``g_next``, then ``c``, ``d``); the weighted
+        sample. The states are read once into registers and written once."""
+        (ph, gp, gn), c, d = w
+        s = (xs[0, i], xs[1, i], xs[2, i], xs[3, i], xs[4, i], xs[5, i], xs[6, i], xs[7, i])
+        n = six(ph, gp, gn, s, u, a) + (
+            dot(ph[6], s) + (gp[6] * u + gn[6] * a),
+            dot(ph[7], s) + (gp[7] * u + gn[7] * a),
+        )
+        for j in range(8):
+            xs[j, i] = n[j]
+        return dot(c, n) + d * a
+
+    @njit(inline="always")
+    def weigh6(xs, i, w, u, a):  # pragma: no cover (compiled)
+        """``weigh`` of a weighting whose output reads its first six states only
+        (``w`` of six entries: ``_weighting`` with ``states=6``): the states after
+        them, which nothing read, are not stepped."""
+        (ph, gp, gn), c, d = w
+        s = (xs[0, i], xs[1, i], xs[2, i], xs[3, i], xs[4, i], xs[5, i])
+        n = six(ph, gp, gn, s, u, a)
+        for j in range(6):
+            xs[j, i] = n[j]
+        return dot(c, n) + d * a
+
     @njit(cache=True, nogil=True, boundscheck=False)
-    def kernel(M, gz, gv, road, z, v, wstep, wrest, wc, wd, window, sums, hist):
+    def kernel(M, gz, gv, road, z, v, wk, A, axes, window, sums, hist):
         # pragma: no cover (compiled)
         # every innermost loop runs over the L lanes: the same operation for each case
         chunks, m, n, L = M.shape
         P = gz.shape[1]
         N = z.shape[0]
         record = hist.shape[3] > 0
+        watched = m - n - 4 - A
         x = np.empty((n, L))
         out = np.empty((m, L))
         zk = np.empty((P, L))
         vk = np.empty((P, L))
-        # The weighting's per-lane rows of head and seat in one block, each row LANES
+        # The weighting's per-lane rows of every channel in one block, each row LANES
         # long (a constant), not L: the compiler then knows any two rows a fixed
         # distance apart and vectorizes the weighting's lane loop as it is. Rows of L
         # lanes are an unknown distance apart, and the loop would first check every
         # pair of them for overlap, at every sample (more time than its arithmetic).
-        rows = np.empty((2, WK_STATES + 6, LANES))
+        # Channels: head and seat (Wk), then x and y with each weighting of ``axes``.
+        C = 2 + 2 * A
+        rows = np.empty((C, WK_STATES + 6, LANES))
         xw = rows[:, :WK_STATES]  # the filter's states
         aprev = rows[:, WK_STATES]  # the previous sample's acceleration
         total = rows[:, WK_STATES + 1]  # the running window's sum of a_w^2
         wsum = rows[:, WK_STATES + 2 :]  # sum a_w^2, sum a_w^4, max |a_w|, window max
         ring = np.empty((2, window, L))
         # the force peaks, the check sum and the watched rows' maxima, the same way
-        fsum = np.empty((m - n - 1, LANES))
-        # the weighting's coefficients, one name each (tuples: they stay in registers)
-        c0, c1, c2, c3, c4, c5, c6, c7 = wc
+        fsum = np.empty((3 + watched, LANES))
         for ch in range(chunks):
-            x[:] = 0.0
             rows[:] = 0.0
+            x[:] = 0.0
             ring[:] = 0.0
             fsum[:] = 0.0
             pos = 0
             for k in range(N):
-                for p in range(P):
-                    for i in range(L):
-                        zk[p, i] = z[k, road[ch, p, i]]
-                        vk[p, i] = v[k, road[ch, p, i]]
-                # the exact step: M x + (g_z z + g_v v), each road point's in turn
-                for r in range(m):
-                    o = out[r]
-                    for i in range(L):
-                        o[i] = 0.0
-                    for q in range(n):
-                        Mq = M[ch, r, q]
-                        xq = x[q]
-                        for i in range(L):
-                            o[i] += Mq[i] * xq[i]
-                    for p in range(P):
-                        gzr = gz[ch, p, r]
-                        gvr = gv[ch, p, r]
-                        for i in range(L):
-                            o[i] = o[i] + (gzr[i] * zk[p, i] + gvr[i] * vk[p, i])
-                for q in range(n):
-                    for i in range(L):
-                        x[q, i] = out[q, i]
-                y = out[n:]  # the outputs: head, seat, the forces
+                step(M, gz, gv, road, z, v, ch, k, x, out, zk, vk)
+                y = out[n:]  # the outputs: head, seat, the forces, watched, x and y
                 # the forces: largest magnitude; a non-finite value spoils the check sum
                 for f in range(2):
                     for i in range(L):
@@ -129,91 +187,21 @@ def _kernel():
                         fsum[2, i] += yf * 0.0
                         fsum[f, i] = yf if yf > fsum[f, i] else fsum[f, i]
                 # the watched rows (a nonlinear car's switching margins): largest value
-                for f in range(m - n - 4):
+                for f in range(watched):
                     for i in range(L):
                         yf = y[4 + f, i]
                         fsum[2, i] += yf * 0.0
                         fsum[3 + f, i] = yf if yf > fsum[3 + f, i] else fsum[3 + f, i]
-                # Wk of head (s = 0) and seat (s = 1), then the figures' sums. A lane's
-                # weighting states are read once into registers and its rows written
-                # out (row r reads the states of its own and the earlier sections,
-                # summed in the order q = 0, 1, ..): no memory traffic per coefficient.
+                # Wk of head (s = 0) and seat (s = 1), then the figures' sums.
                 # The first sample starts the filter from rest: a step of zeros
-                ph, gp, gn = wstep if k > 0 else wrest
-                p0, p1, p2, p3, p4, p5, p6, p7 = ph
-                g0, g1, g2, g3, g4, g5, g6, g7 = gp
-                h0, h1, h2, h3, h4, h5, h6, h7 = gn
+                first = k == 0
+                w = (wk[1] if first else wk[0], wk[2], wk[3])
                 for s in range(2):
+                    xs = xw[s]
                     for i in range(L):
                         a = y[s, i]
-                        u = aprev[s, i]
+                        wi = weigh(xs, i, w, aprev[s, i], a)
                         aprev[s, i] = a
-                        x0 = xw[s, 0, i]
-                        x1 = xw[s, 1, i]
-                        x2 = xw[s, 2, i]
-                        x3 = xw[s, 3, i]
-                        x4 = xw[s, 4, i]
-                        x5 = xw[s, 5, i]
-                        x6 = xw[s, 6, i]
-                        x7 = xw[s, 7, i]
-                        n0 = (p0[0] * x0 + p0[1] * x1) + (g0 * u + h0 * a)
-                        n1 = (p1[0] * x0 + p1[1] * x1) + (g1 * u + h1 * a)
-                        n2 = (p2[0] * x0 + p2[1] * x1 + p2[2] * x2 + p2[3] * x3) + (g2 * u + h2 * a)
-                        n3 = (p3[0] * x0 + p3[1] * x1 + p3[2] * x2 + p3[3] * x3) + (g3 * u + h3 * a)
-                        n4 = (
-                            p4[0] * x0
-                            + p4[1] * x1
-                            + p4[2] * x2
-                            + p4[3] * x3
-                            + p4[4] * x4
-                            + p4[5] * x5
-                        ) + (g4 * u + h4 * a)
-                        n5 = (
-                            p5[0] * x0
-                            + p5[1] * x1
-                            + p5[2] * x2
-                            + p5[3] * x3
-                            + p5[4] * x4
-                            + p5[5] * x5
-                        ) + (g5 * u + h5 * a)
-                        n6 = (
-                            p6[0] * x0
-                            + p6[1] * x1
-                            + p6[2] * x2
-                            + p6[3] * x3
-                            + p6[4] * x4
-                            + p6[5] * x5
-                            + p6[6] * x6
-                            + p6[7] * x7
-                        ) + (g6 * u + h6 * a)
-                        n7 = (
-                            p7[0] * x0
-                            + p7[1] * x1
-                            + p7[2] * x2
-                            + p7[3] * x3
-                            + p7[4] * x4
-                            + p7[5] * x5
-                            + p7[6] * x6
-                            + p7[7] * x7
-                        ) + (g7 * u + h7 * a)
-                        xw[s, 0, i] = n0
-                        xw[s, 1, i] = n1
-                        xw[s, 2, i] = n2
-                        xw[s, 3, i] = n3
-                        xw[s, 4, i] = n4
-                        xw[s, 5, i] = n5
-                        xw[s, 6, i] = n6
-                        xw[s, 7, i] = n7
-                        wi = (
-                            c0 * n0
-                            + c1 * n1
-                            + c2 * n2
-                            + c3 * n3
-                            + c4 * n4
-                            + c5 * n5
-                            + c6 * n6
-                            + c7 * n7
-                        ) + wd * a
                         w2 = wi * wi
                         wsum[s, 0, i] += w2
                         wsum[s, 1, i] += w2 * w2
@@ -223,6 +211,29 @@ def _kernel():
                         total[s, i] = t
                         ring[s, pos, i] = w2
                         wsum[s, 3, i] = t if t > wsum[s, 3, i] else wsum[s, 3, i]
+                # the seat's x and y with each weighting of ``axes``: sum a_w^2 only,
+                # the four in one pass over the lanes
+                if A:
+                    d, e = axes
+                    wd = (d[1] if first else d[0], d[2], d[3])
+                    we = (e[1] if first else e[0], e[2], e[3])
+                    yx, yy = y[4 + watched], y[5 + watched]
+                    xdx, xdy, xex, xey = xw[2], xw[3], xw[4], xw[5]
+                    for i in range(L):
+                        ax = yx[i]
+                        ay = yy[i]
+                        ux = aprev[2, i]
+                        uy = aprev[3, i]
+                        aprev[2, i] = ax
+                        aprev[3, i] = ay
+                        w0 = weigh6(xdx, i, wd, ux, ax)
+                        w1 = weigh6(xdy, i, wd, uy, ay)
+                        w2 = weigh6(xex, i, we, ux, ax)
+                        w3 = weigh6(xey, i, we, uy, ay)
+                        wsum[2, 0, i] += w0 * w0
+                        wsum[3, 0, i] += w1 * w1
+                        wsum[4, 0, i] += w2 * w2
+                        wsum[5, 0, i] += w3 * w3
                 if record:
                     for s in range(2):
                         for i in range(L):
@@ -236,17 +247,20 @@ def _kernel():
                         for j in range(window):
                             for i in range(L):
                                 total[s, i] += ring[s, j, i]
-            # in the order of SUMS: head, seat, forces and check
+            # in the order of SUMS: head, seat, forces and check, watched; then x and y
             for s in range(2):
                 for j in range(4):
                     for i in range(L):
                         sums[ch, 4 * s + j, i] = wsum[s, j, i]
-            for r in range(m - n - 1):
+            for r in range(3 + watched):
                 for i in range(L):
                     sums[ch, 8 + r, i] = fsum[r, i]
+            for s in range(2, C):
+                for i in range(L):
+                    sums[ch, 9 + watched + s, i] = wsum[s, 0, i]
 
-    _compiled = kernel
-    return kernel
+    _compiled = (step, weigh, kernel)
+    return _compiled
 
 
 @dataclass(frozen=True)
@@ -255,8 +269,10 @@ class KernelInputs:
 
     Attributes
     ----------
-    M : (chunks, n + 4 + watched rows, n, lanes) ndarray
-    gz, gv : (chunks, points, n + 4, lanes) ndarray
+    M : (chunks, n + 4 + watched rows (+ 2), n, lanes) ndarray
+        ``[Phi; C_out]``; the outputs head, seat, the two forces, the watched rows
+        and, with the weightings of :func:`run`'s ``axes``, the seat's x and y.
+    gz, gv : (chunks, points, rows of M, lanes) ndarray
     road : (chunks, points, lanes) ndarray of int
     cases : int
         The cases in the lanes, in order; the lanes after the last are zero (their
@@ -277,9 +293,9 @@ def pack(M, gz, gv, road) -> KernelInputs:
 
     Parameters
     ----------
-    M : (cases, n + 4, n) ndarray
-        ``[Phi; C_out]`` of each case.
-    gz, gv : (cases, points, n + 4) ndarray
+    M : (cases, rows, n) ndarray
+        ``[Phi; C_out]`` of each case (the output rows of :class:`KernelInputs`).
+    gz, gv : (cases, points, rows) ndarray
         Input columns of each road point's displacement and velocity (with the
         in-step slope).
     road : (cases, points) ndarray of int
@@ -344,12 +360,22 @@ def _sections(wk, rest: bool = False) -> tuple:
     )
 
 
-def _output(wk) -> tuple:
-    """The weighting's output row ``c`` padded to :data:`WK_STATES` entries."""
-    return _padded(np.asarray(wk.c, float))
+def _weighting(wk, states: int = WK_STATES) -> tuple:
+    """The weighting as the loop reads it: ``(step, step from rest, c, d)``, ``c``
+    padded to :data:`WK_STATES` entries; of its first ``states`` states only."""
+    step, rest = (tuple(t[:states] for t in _sections(wk, rest=r)) for r in (False, True))
+    return (step, rest, _padded(np.asarray(wk.c, float))[:states], float(wk.d))
 
 
-def run(inputs: KernelInputs, z, v, wk, window: int, record: bool = False):
+def _axis_weighting(wk) -> tuple:
+    """:func:`_weighting` of one of :func:`run`'s ``axes``: its first six states, the
+    only ones its output may read."""
+    if np.any(np.asarray(wk.c, float)[6:] != 0):
+        raise ValueError("a weighting of the seat's x and y reads its first six states only")
+    return _weighting(wk, 6)
+
+
+def run(inputs: KernelInputs, z, v, wk, window: int, record: bool = False, axes=None):
     """Step every case over all samples; the running sums (and histories).
 
     Parameters
@@ -366,17 +392,30 @@ def run(inputs: KernelInputs, z, v, wk, window: int, record: bool = False):
         Samples of the MTVV's running window.
     record : bool
         Also return the head and seat acceleration histories.
+    axes : (WeightingStep, WeightingStep), optional
+        Two more weightings (of the shape of ``wk``'s) of ``M``'s last two rows, the
+        seat's x and y acceleration, in the same pass: each row's ``sum a_w^2`` with each.
+        Their output reads their first six states only (Wd and We: the last section's
+        states, of a step factor with ``f5 = inf``, are not read), and only those are
+        stepped.
 
     Returns
     -------
-    sums : (len(SUMS) + watched rows, cases) ndarray
+    sums : (len(SUMS) + watched rows (+ 4), cases) ndarray
         :data:`SUMS` of each case: ``sum a_w^2``, ``sum a_w^4``, ``max |a_w|``
         and the largest ``window``-sample sum of ``a_w^2`` of the head and the
         seat, the two force peaks, a check sum that is 0 unless a force
         was not finite, then the largest value of each watched row (``M``'s rows
-        after ``n + 4``; the check sum covers them too).
+        after ``n + 4``, before the seat's x and y; the check sum covers them too);
+        with ``axes``, then ``sum a_w^2`` of x and y with ``axes[0]``, then with ``axes[1]``.
     histories : (2, cases, samples) ndarray or None
         Head and seat acceleration, m/s2, with ``record``.
+
+    Raises
+    ------
+    ValueError
+        A packing wider than :data:`LANES` lanes, or a weighting that does not fit
+        (of ``axes``: whose output reads a state past the sixth).
 
     Examples
     --------
@@ -396,10 +435,12 @@ def run(inputs: KernelInputs, z, v, wk, window: int, record: bool = False):
     if width > LANES:  # the loop's rows of the weighting hold LANES lanes
         raise ValueError(f"at most {LANES} lanes, got {width}")
     N = z.shape[1]
-    rows = len(SUMS) + inputs.M.shape[1] - inputs.M.shape[2] - 4  # and the watched rows'
+    A = 0 if axes is None else 2
+    rows = len(SUMS) + inputs.M.shape[1] - inputs.M.shape[2] - 4 + A  # watched, x and y
     sums = np.empty((chunks, rows, width))
     hist = np.empty((chunks, 2, width, N if record else 0))
-    _kernel()(
+    weighting = _weighting(wk)
+    _functions()[2](
         inputs.M,
         inputs.gz,
         inputs.gv,
@@ -407,10 +448,9 @@ def run(inputs: KernelInputs, z, v, wk, window: int, record: bool = False):
         # a sample of every road in one row: the lanes read them together
         np.ascontiguousarray(np.transpose(z), float),
         np.ascontiguousarray(np.transpose(v), float),
-        _sections(wk),
-        _sections(wk, rest=True),
-        _output(wk),
-        float(wk.d),
+        weighting,
+        A,
+        (_weighting(wk, 6),) * 2 if axes is None else tuple(_axis_weighting(w) for w in axes),
         int(window),
         sums,
         hist,
