@@ -379,7 +379,7 @@ class LinearRangeStream:
         self._k += f.shape[0]
 
     def update_columns(self, signals) -> None:
-        """:meth:`update` from a block's signals by name (:attr:`columns`)."""
+        """:meth:`update` from a block's signals by name (``columns``)."""
         tire = np.column_stack([signals[lim.columns[0]] for lim in self.limits])
         self.update(tire, np.column_stack([signals[lim.columns[1]] for lim in self.limits]))
 
