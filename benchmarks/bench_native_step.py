@@ -18,9 +18,19 @@ host processes:
   summed as the FMU sums (two accumulators a row, Ms over the entries its pattern allows),
   with the matrices of :class:`bodyvib.runtime.engine.FmuCore` (the same exact
   discretization the FMU computes at initialization), and the same calls into functions
-  that do nothing. For Road the plain loop evaluates the FMU's own table (its
-  ``sources/bodyvib_model.c``, compiled into the host) at ``speed * t``, the position
-  reduced as the FMU reduces it. Printed: the best round of each and their ratio (the
+  that do nothing. The plain loop does the same arithmetic as the FMU's step: for a model
+  with nonlinear elements (QuarterCar's tire contact and bump stop, FullCar's four tire
+  contacts and four stops) that includes the switching functions and their sign test,
+  so the floor evaluates them as the FMU does, in the simplest correct C: each function at
+  the step's end as one dot product of a row precomputed from the step matrix
+  (``P = G M``, times the function's sign in the regime at rest) with ``[x | s]`` at the
+  step's start (a stop's rebound side: its compression side's negated), plus its constant;
+  then the FMU's test, ``4 min(g0, g1) >= max(gm, g1)`` over the function's last three
+  values, combined without a branch, and the three values moved on. The steps where that
+  test fails (a function near zero, where the FMU tests in full) are counted and printed;
+  on the benchmark's road there are none. For Road the plain loop evaluates the FMU's
+  own table (its ``sources/bodyvib_model.c``, compiled into the host) at ``speed * t``,
+  the position reduced as the FMU reduces it. Printed: the best round of each and their ratio (the
   step's own cost: on a virtual machine another thread may share the physical core, and
   that only adds time), medians of wall-clock and thread-CPU ns per step with the range of
   the processes' ratios, and the largest relative difference of the outputs (the same
@@ -119,13 +129,17 @@ def host_flags() -> list:
 def compile_host(
     exe: Path, road_sources: Path = None, sizes: tuple = None, pattern: tuple = None
 ) -> Path:
-    """Compile the host with the FMUs' flags; ``sizes`` (n, ni, nset, nget) makes the plain
-    loop's sizes constants, as the FMU's are, and ``pattern`` (0/1 per entry of ``Ms``, row
-    by row) the entries of ``Ms`` it multiplies, as the FMU's are; ``road_sources`` compiles
-    a road's table in."""
+    """Compile the host with the FMUs' flags; ``sizes`` (n, ni, nset, nget, negated: 0/1 per
+    switching function) makes the plain loop's sizes constants, as the FMU's are, and
+    ``pattern`` (0/1 per entry of ``Ms``, row by row) the entries of ``Ms`` it multiplies, as
+    the FMU's are; ``road_sources`` compiles a road's table in."""
     cmd = ["gcc", *host_flags(), str(HOST), "-o", str(exe), "-ldl", "-lm"]
     if sizes is not None:
-        cmd[1:1] = [f"-DPLAIN_{k}={v}" for k, v in zip(("N", "NI", "NSET", "NGET"), sizes)]
+        *dims, negated = sizes
+        cmd[1:1] = [f"-DPLAIN_{k}={v}" for k, v in zip(("N", "NI", "NSET", "NGET"), dims)]
+        cmd[1:1] = [f"-DPLAIN_NSW={len(negated)}"]
+        if negated:
+            cmd[1:1] = ["-DPLAIN_NEGATED=" + ",".join(str(int(b)) for b in negated)]
     if pattern is not None:
         cmd[1:1] = ["-DPLAIN_MS_PATTERN=" + ",".join(str(int(b)) for b in pattern)]
     if road_sources is not None:
@@ -140,9 +154,14 @@ def compile_host(
 
 
 def plain_matrices(name: str, set_idx, get_idx, path: Path) -> tuple:
-    """Write what the plain loop multiplies: the FMU's step matrices from the model; returns
-    the sizes (n, ni, nset, nget) and where ``Ms`` can be non-zero (0/1 per entry): on its
-    diagonal and where ``R`` or ``R^2`` is, as the FMU's compiled step knows it."""
+    """Write what the plain loop multiplies: the FMU's step matrices from the model and, for
+    a model with nonlinear elements, its switching functions at the step's end from its
+    start, ``P = G M`` (``G`` on ``[x | s]``, ``M`` the step matrix) and ``q = g0``, each
+    times its sign at rest (+1 in force, -1 not; at rest the linear model's regime, with no
+    affine column); returns the sizes (n, ni, nset, nget, negated: per function, 1 where its
+    row is the previous one's negated, a stop's rebound side) and where ``Ms`` can be
+    non-zero (0/1 per entry): on its diagonal and where ``R`` or ``R^2`` is, as the FMU's
+    compiled step knows it."""
     from bodyvib.runtime.engine import FmuCore
     from bodyvib.vehicle.fmus import FMUS as PROJECT_FMUS
     from bodyvib.vehicle.fmus import load_fmu_model
@@ -151,14 +170,23 @@ def plain_matrices(name: str, set_idx, get_idx, path: Path) -> tuple:
     n, ni = core._n, core._ni
     M = core._step_matrix(H)
     Y = core._Y[[i - ni for i in get_idx]]
+    P, q, negated = np.zeros((0, n + ni)), np.zeros(0), ()
+    if core._stepper is not None:
+        pw = core._stepper.model
+        sign = np.where(pw.initial, 1.0, -1.0)
+        P, q = sign[:, None] * (core._Gz @ M), sign * pw.g0
+        negated = tuple(side == "rebound" for _, side in pw.switches)
     with open(path, "w") as f:
         f.write(f"{n} {ni} {len(set_idx)} {len(get_idx)}\n")
         f.write(" ".join(str(i) for i in set_idx) + "\n")
         for block in (M[:n], M[n:, n:], Y):
             f.write(" ".join(repr(float(v)) for v in block.ravel()) + "\n")
+        f.write(f"{len(q)}\n" + " ".join(str(int(b)) for b in negated) + "\n")
+        for block in (P, q):
+            f.write(" ".join(repr(float(v)) for v in block.ravel()) + "\n")
     R = core._R
     pattern = (np.eye(ni) + (R != 0) + ((R != 0).astype(int) @ (R != 0).astype(int))) != 0
-    return (n, ni, len(set_idx), len(get_idx)), tuple(pattern.ravel())
+    return (n, ni, len(set_idx), len(get_idx), negated), tuple(pattern.ravel())
 
 
 def unpack(fmu: Path, folder: Path):
@@ -203,7 +231,7 @@ def measure(exe, fmi, binary, token, sv, gv, data, steps, repeats, prefix=()) ->
             res[key] = tuple(map(int, vals))
         elif key == "latency_clock":
             res[key], res["resolution"] = map(float, vals)
-        elif key in ("allocations", "check", "locked", "stolen"):
+        elif key in ("allocations", "check", "locked", "stolen", "unclear"):
             res[key] = float(vals[0])
     return res
 
@@ -224,6 +252,7 @@ def measure_processes(count: int, args: tuple) -> dict:
     res["plain_max"] = max(r["plain_max"] for r in runs)
     res["allocations"] = max(r["allocations"] for r in runs)
     res["check"] = max(r["check"] for r in runs)
+    res["unclear"] = max(r.get("unclear", 0.0) for r in runs)
     res["ratio_range"] = (min(r["ratio"] for r in runs), max(r["ratio"] for r in runs))
     res["fmu_best"] = min(r["fmu_best"] for r in runs)
     res["plain_best"] = min(r["plain_best"] for r in runs)
@@ -413,6 +442,12 @@ def main(argv=None):
                     f"{r['check']:8.1e}"
                 )
                 worst.append((name, fmi, r))
+                if r["unclear"]:
+                    notes.append(
+                        f"{name} (FMI {fmi}.0): the plain loop's sign test failed in "
+                        f"{r['unclear']:.0f} steps (a switching function near zero): there the "
+                        "FMU did more than the floor"
+                    )
                 if fmi == 2 and shutil.which("strace"):
                     few, many = syscalls(
                         host, [str(fmi), str(binary), token, sv, gv, repr(H), data], folder

@@ -20,6 +20,11 @@
  *              Sc  n x (n + ni)   state at the step's end from [x | s]
  *              Ms  ni x ni        inputs at the step's end from s
  *              Y   nget x (n + ni) the outputs read, from [x | s]
+ *              nsw                the switching functions (0: a linear model)
+ *              negated (nsw ints) 1: the function's row is the previous one's negated
+ *              P   nsw x (n + ni) the functions at the step's end from [x | s] at its start,
+ *                                 each times its sign in the regime in force
+ *              q   nsw            their constants, times the same signs
  *          or "road:SPEED" for a source FMU, whose plain loop evaluates the table compiled
  *          into this host (-DBV_ROAD_TABLE with the FMU's own sources/bodyvib_model.c).
  *
@@ -269,11 +274,13 @@ static inline void fmu_step(const Fmu *f, const unsigned *sv, int ns, const doub
 #define P_NI PLAIN_NI
 #define P_NSET PLAIN_NSET
 #define P_NGET PLAIN_NGET
+#define P_NSW PLAIN_NSW
 #else
 #define P_N p->n
 #define P_NI p->ni
 #define P_NSET p->nset
 #define P_NGET p->nget
+#define P_NSW p->nsw
 #endif
 
 /* The FMU's loops over the model's sizes are unrolled; so are the plain loop's. */
@@ -289,10 +296,22 @@ static inline void fmu_step(const Fmu *f, const unsigned *sv, int ns, const doub
 static const unsigned char ms_pattern[] = {PLAIN_MS_PATTERN};
 #endif
 
+#ifdef PLAIN_NEGATED
+/* Which switching functions' rows are the previous one's negated (a stop's rebound side):
+ * the FMU knows them where its step is compiled, so the floor does too. */
+static const unsigned char negated[] = {PLAIN_NEGATED};
+#define NEGATED(i) negated[i]
+#else
+#define NEGATED(i) p->negated[i]
+#endif
+
 typedef struct {
-    int n, ni, nset, nget, road;
+    int n, ni, nset, nget, road, nsw;
     int *setpos;
+    unsigned char *negated;
     double *Sc, *Ms, *Y, *z, *zn, speed, t, periods;
+    double *P, *q, *gm, *g0, *g1; /* switching functions; their last three values */
+    long unclear;                 /* steps whose sign test did not pass */
 } Plain;
 
 static void read_plain(Plain *p, const char *path)
@@ -325,6 +344,31 @@ static void read_plain(Plain *p, const char *path)
     for (i = 0; i < p->n * k + p->ni * p->ni + p->nget * k; i++)
         if (fscanf(fp, "%lf", &p->Sc[i]) != 1)
             die("bad matrices");
+    if (fscanf(fp, "%d", &p->nsw) != 1 || p->nsw < 0)
+        die("bad number of switching functions");
+#ifdef PLAIN_N
+    if (p->nsw != PLAIN_NSW)
+        die("the plain loop was compiled for another number of switching functions");
+#endif
+    p->negated = __libc_calloc((size_t)p->nsw + 1, 1);
+    p->P = __libc_calloc((size_t)p->nsw * (k + 4) + 1, sizeof(double));
+    p->q = p->P + (size_t)p->nsw * k;
+    p->gm = p->q + p->nsw, p->g0 = p->gm + p->nsw, p->g1 = p->g0 + p->nsw;
+    for (i = 0; i < p->nsw; i++) {
+        if (fscanf(fp, "%d", &k) != 1)
+            die("bad negated rows");
+        p->negated[i] = (unsigned char)k;
+#ifdef PLAIN_NEGATED
+        if (p->negated[i] != negated[i])
+            die("the plain loop was compiled for other negated rows");
+#endif
+    }
+    k = p->n + p->ni;
+    for (i = 0; i < p->nsw * (k + 1); i++)
+        if (fscanf(fp, "%lf", &p->P[i]) != 1)
+            die("bad switching functions");
+    for (i = 0; i < p->nsw; i++) /* at rest, as the FMU starts: the constants */
+        p->gm[i] = p->g0[i] = p->q[i];
     fclose(fp);
 }
 
@@ -383,6 +427,40 @@ static inline void road_at(Plain *p, double pos, double *out)
 }
 #endif
 
+/* The switching functions at the step's end from z = [x | s] at its start, times their
+ * signs, and the sign test of the FMU's step: each stays >= 0 and no parabola through its
+ * last three values dips below zero inside the step, sufficient where 4 min(g0, g1) >=
+ * max(gm, g1) (bodyvib_regimes_hot.h); a step that fails it is counted (the FMU would test
+ * it in full, and locate an event if one is there). */
+static inline void plain_switching(Plain *p, const double *z, int k)
+{
+    double *t = p->gm, last = 0.0;
+    int i, ok = 1;
+    UNROLL
+    for (i = 0; i < P_NSW; i++) {
+        double v = NEGATED(i) ? -last : 0.0, g0 = p->g0[i], gm = p->gm[i], g1, lo, hi;
+        if (!NEGATED(i)) {
+            double a = 0.0, b = 0.0;
+            int j;
+            UNROLL
+            for (j = 0; j + 1 < k; j += 2) {
+                a += p->P[i * k + j] * z[j];
+                b += p->P[i * k + j + 1] * z[j + 1];
+            }
+            if (j < k)
+                a += p->P[i * k + j] * z[j];
+            v = a + b;
+        }
+        g1 = p->g1[i] = v + p->q[i];
+        lo = g0 < g1 ? g0 : g1, hi = gm > g1 ? gm : g1;
+        ok &= 4.0 * lo >= hi;
+        last = v;
+    }
+    if (!ok)
+        p->unclear++;
+    p->gm = p->g0, p->g0 = p->g1, p->g1 = t; /* g moves on a step */
+}
+
 static inline void plain_step(Plain *p, const double *in, double h, double *out)
 {
     int i, j, n = P_N, k = P_N + P_NI;
@@ -399,6 +477,8 @@ static inline void plain_step(Plain *p, const double *in, double h, double *out)
     UNROLL
     for (i = 0; i < P_NSET; i++)
         p->z[n + p->setpos[i]] = in[i];
+    if (P_NSW)
+        plain_switching(p, p->z, k);
     mv(p->zn, p->Sc, p->z, n, k);
     UNROLL
     for (i = 0; i < P_NI; i++) { /* s <- Ms s, over Ms's non-zero entries (as the FMU) */
@@ -756,6 +836,7 @@ int main(int argc, char **argv)
         }
         printf("allocations %ld\n", allocations);
         printf("check %.3g\n", diff);
+        printf("unclear %ld\n", p.unclear);
     }
     fprintf(stderr, "sink %g\n", sink);
     return 0;

@@ -127,13 +127,22 @@ def test_serialized_state_holds_the_regime(native_fmus, tmp_path):
         return s.getReal([vr[o] for o in CAR_OUT])
 
     a = slave("a")
-    k = 0
+    k, y = 0, None
     while True:
-        y = step(a, k)
+        last, y = y, step(a, k)
         k += 1
         if y[3] == 0.0:  # in the air
             break
     blob = a.serializeFMUstate(a.getFMUstate())
+    # the regime, last before the 8-byte checksum: its mask, then the switching functions
+    # (tire contact, the stop's compression and rebound sides) at the last two step ends,
+    # each positive where its bit is set. Engaged, the stop's compression function is its
+    # force; the tire's was positive a step ago, on the road
+    mask, g_prev, g_now = np.split(np.frombuffer(bytes(blob)[-8 - 8 * 7 : -8], "<f8"), [1, 4])
+    on = [(int(mask[0]) >> i) & 1 == 1 for i in range(3)]
+    assert not on[0] and list(g_now > 0.0) == on
+    assert last[3] == 1.0 and g_prev[0] > 0.0
+    assert on[1] and g_prev[1] == pytest.approx(last[4], rel=1e-9) and g_prev[1] > 0.0
     ahead = [step(a, k + j) for j in range(150)]
     b = slave("b")
     b.setFMUstate(b.deSerializeFMUstate(blob))

@@ -321,7 +321,7 @@ BV_HOT_INLINE double output_value(const bv_instance *c, int idx)
 {
     const int w = HOT->n + HOT->ni;
     if (HOT->ne) /* the regime in force's rows and constants */
-        return bv_dot(c->rg->cur->Y + (size_t)idx * w, c->x, w) + c->rg->cur->y0[idx];
+        return bv_dot(c->Yr + (size_t)idx * w, c->x, w) + c->y0r[idx];
     return bv_dot(c->Yc + (size_t)idx * w, c->x, w);
 }
 

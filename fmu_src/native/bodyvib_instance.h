@@ -41,6 +41,7 @@ struct bv_instance {
     double *zn, *work;
     int *piv;
     struct bv_regimes *rg; /* a nonlinear model's regimes (bodyvib_regimes.c); else NULL */
+    const double *Yr, *y0r; /* its regime in force's output rows and constants (y = Yr z + y0r) */
 };
 
 /* The model on the hot path (bv_set, bv_step, bv_get): this binary's, bv_model_data, read

@@ -31,7 +31,8 @@ static double *take(double **d, size_t k)
 static void regime_buffers(bv_regime *r, double **d, int n, int m, int ni, int no, int nsw)
 {
     r->P = take(d, (size_t)nsw * (n + ni));
-    r->pb = take(d, (size_t)nsw);
+    r->q = take(d, (size_t)nsw);
+    r->f = take(d, (size_t)nsw);
     r->A = take(d, (size_t)n * n);
     r->B = take(d, (size_t)n * m);
     r->b = take(d, (size_t)n);
@@ -43,7 +44,7 @@ static void regime_buffers(bv_regime *r, double **d, int n, int m, int ni, int n
 
 static size_t regime_doubles(int n, int m, int ni, int no, int nsw)
 {
-    return (size_t)nsw * (n + ni + 1) + (size_t)n * n + (size_t)n * m + 2 * (size_t)n + (size_t)no * (n + ni) + no +
+    return (size_t)nsw * (n + ni + 2) + (size_t)n * n + (size_t)n * m + 2 * (size_t)n + (size_t)no * (n + ni) + no +
            (size_t)n * (n + ni);
 }
 
@@ -109,7 +110,7 @@ int bv_rg_new(bv_instance *c)
     rg->sign = take(&d, nsw);
     for (k = 0; k < BV_RG_CACHE; k++)
         regime_buffers(&rg->cache[k], &d, n, m, ni, no, nsw);
-    regime_buffers(&rg->lin, &d, n, m, ni, no, nsw); /* its own P, pb; the rest aliases c's */
+    regime_buffers(&rg->lin, &d, n, m, ni, no, nsw); /* its own P, q, f; the rest c's */
     scratch_buffers(rg, &d, n, m, ni, N);
     return 1;
 }
@@ -266,6 +267,27 @@ static void flags(const bv_instance *c, unsigned long mask, double *y0)
 
 static bv_regime *select_regime(bv_instance *c, unsigned long mask);
 
+/* The functions' states `mask` taken: their signs, and the last two values kept times them
+ * (a function that changes state changes sign). */
+static void take_mask(bv_regimes *rg, unsigned long mask)
+{
+    int k;
+    for (k = 0; k < rg->nsw; k++) {
+        if (bit(mask ^ rg->mask, k))
+            rg->g_prev[k] = -rg->g_prev[k], rg->g_now[k] = -rg->g_now[k];
+        rg->sign[k] = bit(mask, k) ? 1.0 : -1.0;
+    }
+    rg->mask = mask;
+}
+
+/* Regime r (the functions' states `mask`) in force. */
+static void take_regime(bv_instance *c, bv_regime *r, unsigned long mask)
+{
+    c->rg->cur = r;
+    c->Yr = r->Y, c->y0r = r->y0;
+    take_mask(c->rg, mask);
+}
+
 void bv_rg_built(bv_instance *c)
 {
     bv_regimes *rg = c->rg;
@@ -302,10 +324,11 @@ void bv_rg_built(bv_instance *c)
 void bv_rg_restart(bv_instance *c)
 {
     bv_regimes *rg = c->rg;
-    memcpy(rg->g_prev, rg->g0, (size_t)rg->nsw * sizeof(double));
-    memcpy(rg->g_now, rg->g0, (size_t)rg->nsw * sizeof(double));
+    int i;
     if (select_regime(c, rg->initial) == NULL) /* only an unusable parameter set fails */
-        rg->cur = &rg->lin, rg->mask = rg->linear_mask;
+        take_regime(c, &rg->lin, rg->linear_mask);
+    for (i = 0; i < rg->nsw; i++)
+        rg->g_prev[i] = rg->g_now[i] = rg->sign[i] * rg->g0[i];
 }
 
 /* ---------------------------------------------------------------- a regime's matrices */
@@ -340,10 +363,7 @@ static bv_regime *select_regime(bv_instance *c, unsigned long mask)
             r->affine |= r->b[k] != 0.0;
         r->mask = mask, r->key = 0.0, r->h = NAN, r->valid = 1;
     }
-    rg->mask = mask;
-    rg->cur = r;
-    for (k = 0; k < rg->nsw; k++)
-        rg->sign[k] = bit(mask, k) ? 1.0 : -1.0;
+    take_regime(c, r, mask);
     return r;
 }
 
@@ -371,25 +391,28 @@ static int exact(bv_instance *c, const bv_regime *r, double tau)
     return 1;
 }
 
-/* P = Gx S + [0 | Gs Ms] and pb = Gx gb of regime r (the inputs' Ms: the step's h). */
+/* P = sign (Gx S + [0 | Gs Ms]), q = sign (Gx gb + g0) and f of regime r (the inputs' Ms:
+ * the step's h; sign: the regime's). */
 static void end_functions(bv_instance *c, bv_regime *r)
 {
     const bv_regimes *rg = c->rg;
     int n = c->n, ni = c->ni, w = n + ni, i, j, k;
     for (i = 0; i < rg->nsw; i++) {
         const double *g = rg->Gz + (size_t)i * w;
-        double *p = r->P + (size_t)i * w, v = 0.0;
+        double *p = r->P + (size_t)i * w, v = 0.0, sg = bit(r->mask, i) ? 1.0 : -1.0;
         for (j = 0; j < w; j++) {
             double a = 0.0;
             for (k = 0; k < n; k++)
                 a += g[k] * r->S[(size_t)k * w + j];
             for (k = 0; j >= n && k < ni; k++)
                 a += g[n + k] * c->Ms[(size_t)k * ni + (j - n)];
-            p[j] = a;
+            p[j] = sg * a;
         }
         for (k = 0; k < n; k++)
             v += g[k] * (r->affine ? r->gb[k] : 0.0);
-        r->pb[i] = v;
+        r->q[i] = sg * (v + rg->g0[i]);
+        /* a rebound side: its row is the compression side's (i - 1) negated */
+        r->f[i] = rg->sw_side[i] == 2 ? -sg * (bit(r->mask, i - 1) ? 1.0 : -1.0) : 0.0;
     }
     r->h = c->h_raw;
 }
@@ -434,8 +457,7 @@ int bv_rg_clear_exact(const bv_regimes *rg)
 {
     int i;
     for (i = 0; i < rg->nsw; i++) {
-        double sg = rg->sign[i];
-        double gm = sg * rg->g_prev[i], g0 = sg * rg->g_now[i], g1 = sg * rg->ge[i];
+        double gm = rg->g_prev[i], g0 = rg->g_now[i], g1 = rg->ge[i];
         double a = 0.5 * (g1 + gm) - g0, d = gm - g1;
         if (g1 < 0.0)
             return 0;
@@ -663,7 +685,7 @@ done:
     for (j = 0; j < m; j++)
         rg->ue[j] = rg->ub[j] + rg->du[j] * h;
     for (i = 0; i < rg->nsw; i++)
-        rg->ge[i] = g_at(c, i, rg->x, rg->ue);
+        rg->ge[i] = rg->sign[i] * g_at(c, i, rg->x, rg->ue);
     if (!bv_rg_discretize(c))
         goto fail;
     accept(rg);
@@ -707,12 +729,15 @@ size_t bv_rg_state_doubles(const bv_instance *c) { return 1 + 2 * (size_t)c->rg-
 unsigned char *bv_rg_state_write(const bv_instance *c, unsigned char *q)
 {
     const bv_regimes *rg = c->rg;
-    size_t k = (size_t)rg->nsw * sizeof(double);
-    double mask = (double)rg->mask;
+    double mask = (double)rg->mask, v;
+    int i;
     memcpy(q, &mask, sizeof mask);
-    memcpy(q + sizeof mask, rg->g_prev, k);
-    memcpy(q + sizeof mask + k, rg->g_now, k);
-    return q + sizeof mask + 2 * k;
+    q += sizeof mask;
+    for (i = 0; i < 2 * rg->nsw; i++, q += sizeof v) { /* the values themselves */
+        v = rg->sign[i % rg->nsw] * (i < rg->nsw ? rg->g_prev : rg->g_now)[i % rg->nsw];
+        memcpy(q, &v, sizeof v);
+    }
+    return q;
 }
 
 int bv_rg_state_check(const bv_instance *c, const unsigned char *in)
@@ -733,12 +758,13 @@ int bv_rg_state_check(const bv_instance *c, const unsigned char *in)
 int bv_rg_state_read(bv_instance *c, const unsigned char *in)
 {
     bv_regimes *rg = c->rg;
-    size_t k = (size_t)rg->nsw * sizeof(double);
-    double mask;
+    double mask, v;
+    int i, ok;
     memcpy(&mask, in, sizeof mask);
-    memcpy(rg->g_prev, in + sizeof mask, k);
-    memcpy(rg->g_now, in + sizeof mask + k, k);
-    if (select_regime(c, (unsigned long)mask) == NULL)
-        return 0;
-    return c->h_key == 0.0 || bv_rg_discretize(c);
+    ok = select_regime(c, (unsigned long)mask) != NULL;
+    for (i = 0; i < 2 * rg->nsw; i++) { /* the values, kept times the signs now in force */
+        memcpy(&v, in + sizeof mask + sizeof v * (size_t)i, sizeof v);
+        (i < rg->nsw ? rg->g_prev : rg->g_now)[i % rg->nsw] = rg->sign[i % rg->nsw] * v;
+    }
+    return ok && (c->h_key == 0.0 || bv_rg_discretize(c));
 }

@@ -50,9 +50,12 @@ typedef struct {
     double *A, *B, *b;   /* x' = A x + B u + b */
     double *Y, *y0;      /* y = Y [x | s] + y0 */
     double *S, *gb;      /* [x | s] -> x over the step: S z + gb */
-    double *P, *pb;      /* the functions at the step's end from the start: P z + pb + g0
-                          * (P = Gx S + [0 | Gs Ms], pb = Gx gb): the sign test's values
-                          * need not wait for the step */
+    double *P, *q, *f;   /* the functions at the step's end from the start, each times its
+                          * sign in this regime (+1 in force, -1 not): row i of P z + q, with
+                          * P = sign (Gx S + [0 | Gs Ms]) and q = sign (Gx gb + g0); a stop's
+                          * rebound side (bv_rg_negated) is f times its compression side's row
+                          * (f = -1 where both sides have the same sign). The sign test's values
+                          * need not wait for the step, and are tested as they come */
     double key;          /* rounded step the S is for; 0: none */
     double h;            /* the step P is for (NaN: none) */
 } bv_regime;
@@ -71,7 +74,7 @@ typedef struct bv_regimes {
     bv_affine lin_af;        /* where the linear assembly writes its constants and points */
     unsigned long mask, initial, linear_mask;
     int linear_alias;        /* the linear regime is the linear model (no asymmetric damper) */
-    double *g_prev, *g_now, *ge;
+    double *g_prev, *g_now, *ge; /* the functions at t - h, t, t + h, each times its sign */
     double *sign;            /* per function: +1 in force ("on"), -1 not (the mask's bits) */
     bv_regime lin, cache[BV_RG_CACHE];
     bv_regime *cur;

@@ -32,25 +32,31 @@ BV_HOT_INLINE int bv_rg_negated(int i)
 
 /* Nothing switches in a step whose end has the functions' values ge: each keeps its sign,
  * and no parabola through its last three values (s = -1, 0, 1) dips across zero inside the
- * step. On [0, 1] the parabola p(s) = (1 - s) g0 + s g1 - a s (1 - s), a = (g1 + gm) / 2 - g0,
- * stays above min(g0, g1) - a / 4: where that is >= 0 for every function (the steps of a run)
- * nothing dips, tested without a branch per function; else bv_rg_clear_exact decides. */
+ * step. The values are kept times their signs (bodyvib_regimes.h), so keeping the sign is
+ * staying >= 0. A sufficient test first, without a branch per function: 4 min(g0, g1) >=
+ * max(gm, g1). It holds only where g0, g1 >= 0 (were min(g0, g1) < 0, 4 min(g0, g1) would
+ * be below it and below g1); then a = (g1 + gm) / 2 - g0 <= max(gm, g1), and on [0, 1] the
+ * parabola p(s) = (1 - s) g0 + s g1 - a s (1 - s) stays above min(g0, g1) - max(a, 0) / 4
+ * >= 0. In a run it holds in every step but those near a function's zero (falling to a
+ * quarter of its last value, or rising from near zero), where bv_rg_clear_exact decides. */
 BV_HOT_INLINE int bv_rg_clear(const bv_regimes *rg)
 {
     const int nsw = bv_rg_count();
     int i, ok = 1;
     BV_UNROLL
     for (i = 0; i < nsw; i++) {
-        double sg = rg->sign[i];
-        double gm = sg * rg->g_prev[i], g0 = sg * rg->g_now[i], g1 = sg * rg->ge[i];
-        double a = 0.5 * (g1 + gm) - g0, lo = g0 < g1 ? g0 : g1;
-        ok &= (g1 >= 0.0) & (4.0 * lo >= a);
+        double gm = rg->g_prev[i], g0 = rg->g_now[i], g1 = rg->ge[i];
+        double lo = g0 < g1 ? g0 : g1, hi = gm > g1 ? gm : g1;
+        ok &= 4.0 * lo >= hi;
     }
-    return BV_LIKELY(ok) || bv_rg_clear_exact(rg);
+    if (BV_UNLIKELY(!ok))
+        return bv_rg_clear_exact(rg);
+    return 1;
 }
 
-/* The functions at the end of the step from z = [x | s] at its start, into ge: P z + pb + g0
- * (bodyvib_regimes.h: independent of the step's own arithmetic, so the two overlap). */
+/* The functions (times their signs) at the end of the step from z = [x | s] at its start,
+ * into ge: P z + q (bodyvib_regimes.h: independent of the step's own arithmetic, so the two
+ * overlap). */
 BV_HOT_INLINE void bv_rg_ahead(const bv_instance *c, const double *z)
 {
     const bv_regimes *rg = c->rg;
@@ -60,8 +66,8 @@ BV_HOT_INLINE void bv_rg_ahead(const bv_instance *c, const double *z)
     int i;
     BV_UNROLL
     for (i = 0; i < nsw; i++) {
-        double v = bv_rg_negated(i) ? -last : bv_dot(r->P + (size_t)i * w, z, w) + r->pb[i];
-        rg->ge[i] = v + rg->g0[i];
+        double v = bv_rg_negated(i) ? r->f[i] * last : bv_dot(r->P + (size_t)i * w, z, w);
+        rg->ge[i] = v + r->q[i];
         last = v;
     }
 }
