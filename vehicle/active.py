@@ -262,10 +262,9 @@ def compare_laws(
 ) -> ControlComparison:
     """Run the seated car on one road under each law; the comfort and handling figures.
 
-    A car with tire contacts and suspension stops runs each law's closed loop regime by
-    regime, stepped exactly with located events
-    (:class:`~bodyvib.vehicle.control.ClosedLoopPiecewise`): a wheel leaves the road, a
-    suspension meets its stops; ``linear`` runs the car linearized.
+    A car with tire contacts and stops runs each law's closed loop by regime, stepped
+    exactly with located events (:class:`~bodyvib.vehicle.control.ClosedLoopPiecewise`):
+    a wheel leaves the road, a suspension meets its stops; ``linear`` runs it linearized.
 
     Parameters
     ----------
