@@ -201,13 +201,13 @@ def test_quarter_car_model_exchange_with_cvode_in_fmusim(native_fmus, tmp_path, 
     """fmusim's CVode on the thrown car (nothing moving the road) against fmpy's
     co-simulation with located events: the same lift-off and landing, each located by
     CVode's root finding within the output step before the co-simulation's flag changes;
-    outputs within 5e-3 of each one's peak at rtol 1e-8.
+    outputs within 1e3 rtol of each one's peak at rtol 1e-8 (the bound fmpy's CVode meets
+    on this car; measured 1.6e2 rtol), the error falling with the tolerance (at least 10x
+    from rtol 1e-6 to 1e-8; measured 66x and more).
 
-    The bound is not 1e3 rtol (what fmpy's CVode meets on this car): fmusim restarts CVode
-    after an event only when the FMU reports changed state values, and a regime change
-    changes none, so BDF's history spans the kink of the switch; that error is not the
-    tolerance's to control (measured 1.4e-4 to 2.2e-3 at rtol 1e-8, 5e-4 to 9e-3 at 1e-6;
-    with a restart at every state event, 1.6e-6 and falling 60x and more)."""
+    fmusim restarts CVode after an event only when the FMU says its states' values changed:
+    at a regime change the FMU says so (the right-hand side switches), without which BDF's
+    history spans the switch and the error stays near 1e-3 whatever the tolerance."""
     fmu = native_fmus[fmi + "QuarterCar"]
     outputs = (*CAR_OUT, "tire_contact")
     cs = simulate_fmu(fmu, stop_time=0.3, step_size=H, output=outputs, start_values=THROW)
@@ -228,7 +228,8 @@ def test_quarter_car_model_exchange_with_cvode_in_fmusim(native_fmus, tmp_path, 
         )
     print("fmusim CVode, rtol 1e-6 and 1e-8:", errors)
     for o in CAR_OUT:
-        assert errors[1e-8][o] <= 5e-3, (o, errors)
+        assert errors[1e-8][o] <= 1e3 * 1e-8, (o, errors)
+        assert errors[1e-6][o] >= 10 * errors[1e-8][o], (o, errors)
 
 
 CORNERS = ("front_left", "front_right", "rear_left", "rear_right")

@@ -338,11 +338,14 @@ fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *eventInfo)
 {
     CHECKED(c, fmi2NewDiscreteStates, BV_ON_EVENT_MODE);
     NEED(eventInfo, 1);
-    bv_me_update_regime(f->core); /* the regime of the switching functions' signs */
+    /* The regime of the switching functions' signs. Where it changes the states keep their
+     * values but the right-hand side switches: the importer must restart its integrator (a
+     * multistep method's history spans the switch), which this flag asks of it. */
+    const int switched = bv_me_update_regime(f->core);
     eventInfo->newDiscreteStatesNeeded = fmi2False;
     eventInfo->terminateSimulation = fmi2False;
     eventInfo->nominalsOfContinuousStatesChanged = fmi2False;
-    eventInfo->valuesOfContinuousStatesChanged = fmi2False;
+    eventInfo->valuesOfContinuousStatesChanged = switched ? fmi2True : fmi2False;
     eventInfo->nextEventTimeDefined = fmi2False;
     eventInfo->nextEventTime = 0.0;
     return fmi2OK;

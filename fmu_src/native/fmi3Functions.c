@@ -539,11 +539,14 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *discrete
     NEED(valuesOfContinuousStatesChanged, 1);
     NEED(nextEventTimeDefined, 1);
     NEED(nextEventTime, 1);
-    bv_me_update_regime(f->core); /* the regime of the switching functions' signs */
+    /* The regime of the switching functions' signs. Where it changes the states keep their
+     * values but the right-hand side switches: the importer must restart its integrator (a
+     * multistep method's history spans the switch), which this flag asks of it. */
+    const int switched = bv_me_update_regime(f->core);
     *discreteStatesNeedUpdate = fmi3False;
     *terminateSimulation = fmi3False;
     *nominalsOfContinuousStatesChanged = fmi3False;
-    *valuesOfContinuousStatesChanged = fmi3False;
+    *valuesOfContinuousStatesChanged = switched ? fmi3True : fmi3False;
     *nextEventTimeDefined = fmi3False;
     *nextEventTime = 0.0;
     return fmi3OK;
