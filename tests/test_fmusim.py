@@ -38,7 +38,23 @@ import subprocess
 import numpy as np
 import pytest
 from fmpy import simulate_fmu
-from test_regimes import BUMP, SPEED, H
+from host_runs import (
+    CAR_OUT,
+    FULL_NAMES,
+    FULL_OUT,
+    ROAD_NAMES,
+    T_END,
+    H,
+    assert_first_order,
+    bump,
+    cosim,
+    euler_against_cosim,
+    flag_changes,
+    peak_errors,
+    road_samples,
+    two_track,
+    write_input,
+)
 
 FMUSIM = os.environ.get("FMUSIM") or shutil.which("fmusim")
 
@@ -50,48 +66,6 @@ pytestmark = [
         "modelica/Reference-FMUs, up to release v0.0.39: its release archives or its sources)",
     ),
 ]
-
-CAR_OUT = ("seat_displacement", "suspension_deflection", "tire_force", "stop_force")
-T_END = 1.0
-#: the Euler steps (fmusim's output interval is its Euler step): h and h / 2
-EULER_H = 1e-5
-
-
-def _bump(t, h=BUMP[0], length=BUMP[1], at=BUMP[2]):
-    """A 1 - cos bump of height h and length ``length`` starting ``at`` metres on, at SPEED."""
-    s = SPEED * np.asarray(t) - at
-    return np.where((s >= 0) & (s <= length), 0.5 * h * (1 - np.cos(2 * np.pi * s / length)), 0.0)
-
-
-def _road_samples(tracks):
-    """The road at the communication points (one column per track) and the chord slopes:
-    the co-simulation's in-step road is then the linear interpolation fmusim makes."""
-    t = np.arange(0.0, T_END + 1.5 * H, H)
-    z = np.column_stack([f(t) for f in tracks])
-    v = np.vstack([np.diff(z, axis=0) / H, np.zeros((1, z.shape[1]))])
-    return t[:-1], z[:-1], v[:-1]
-
-
-def _write_input(path, names, t, z, v, fine):
-    """The CSV fmusim reads: time, then each track's displacement and velocity column, the
-    seat force and its rate at 0; on a grid ``fine`` times finer than the samples (the
-    displacement interpolated, the velocity held over each communication step)."""
-    tf = np.arange(0.0, t[-1] + H / (2 * fine), H / fine)
-    k = np.minimum(np.floor(tf / H + 1e-9).astype(int), len(t) - 1)
-    cols, header = [tf], ["time"]
-    for j, (dn, vn) in enumerate(names):
-        cols += [np.interp(tf, t, z[:, j]), v[k, j]]
-        header += [dn, vn]
-    cols += [np.zeros_like(tf)] * 2
-    header += ["seat_force", "seat_force_rate"]
-    np.savetxt(
-        path,
-        np.column_stack(cols),
-        delimiter=",",
-        header=",".join(header),
-        comments="",
-        fmt="%.17g",
-    )
 
 
 def _fmusim(fmu, tmp_path, outputs, interface, *options, stop=T_END):
@@ -113,58 +87,10 @@ def _fmusim(fmu, tmp_path, outputs, interface, *options, stop=T_END):
     return run[keep]
 
 
-def _cosim(fmu, names, t, z, v, outputs, start_values=None):
-    """fmpy's co-simulation of ``fmu`` with the road samples and chord slopes as inputs."""
-    fields = [("time", float)] + [(n, float) for pair in names for n in pair]
-    fields += [("seat_force", float), ("seat_force_rate", float)]
-    rows = [(ti, *np.ravel(np.column_stack([zi, vi])), 0.0, 0.0) for ti, zi, vi in zip(t, z, v)]
-    return simulate_fmu(
-        str(fmu),
-        stop_time=T_END,
-        step_size=H,
-        output_interval=H,
-        input=np.array(rows, dtype=fields),
-        output=outputs,
-        start_values=start_values or {},
-    )
-
-
-def _errors(run, ref, outputs):
-    """Largest difference of each output on the reference's grid, over its peak."""
-    return {
-        o: float(
-            np.max(np.abs(np.interp(ref["time"], run["time"], run[o]) - ref[o]))
-            / np.max(np.abs(ref[o]))
-        )
-        for o in outputs
-    }
-
-
-def _changes(run, flag):
-    return run["time"][1:][np.diff(run[flag]) != 0]
-
-
-def _euler_against_cosim(fmu, tmp_path, names, tracks, outputs):
-    """fmusim's Euler at EULER_H and EULER_H / 2 on the road CSV and fmpy's co-simulation on
-    the same road: (errors at h, at h / 2, of the Richardson extrapolation, runs, cs)."""
-    t, z, v = _road_samples(tracks)
-    cs = _cosim(fmu, names, t, z, v, outputs)
-    csv = tmp_path / "in.csv"
-    _write_input(csv, names, t, z, v, fine=10)
-    runs = []
-    for h in (EULER_H, EULER_H / 2):
-        step = ("--solver", "euler", "--output-interval", f"{h!r}", "--input-file", str(csv))
-        runs.append(_fmusim(fmu, tmp_path, outputs, "me", *step))
-    coarse, fine = (_errors(r, cs, outputs) for r in runs)
-    on_grid = [{o: np.interp(cs["time"], r["time"], r[o]) for o in outputs} for r in runs]
-    richardson = {
-        o: float(np.max(np.abs(2 * on_grid[1][o] - on_grid[0][o] - cs[o])) / np.max(np.abs(cs[o])))
-        for o in outputs
-    }
-    return coarse, fine, richardson, runs, cs
-
-
-ROAD_NAMES = (("road_displacement", "road_velocity"),)
+def _fmusim_euler(fmu, tmp_path, outputs, h, csv):
+    """fmusim's forward Euler at step ``h`` on the input CSV ``csv``."""
+    step = ("--solver", "euler", "--output-interval", f"{h!r}", "--input-file", str(csv))
+    return _fmusim(fmu, tmp_path, outputs, "me", *step)
 
 
 @pytest.mark.parametrize("fmi", ["", "fmi3/"])
@@ -176,18 +102,15 @@ def test_quarter_car_model_exchange_over_the_bump_in_fmusim(native_fmus, tmp_pat
     and lands, each change within one communication step of the co-simulation's."""
     fmu = native_fmus[fmi + "QuarterCar"]
     outputs = (*CAR_OUT, "tire_contact")
-    coarse, fine, richardson, runs, cs = _euler_against_cosim(
-        fmu, tmp_path, ROAD_NAMES, [_bump], outputs
+    coarse, fine, richardson, runs, cs = euler_against_cosim(
+        fmu, tmp_path, ROAD_NAMES, [bump], outputs, _fmusim_euler
     )
     print("fmusim Euler, h and h/2 and extrapolated:", coarse, fine, richardson)
-    for o in CAR_OUT:
-        assert coarse[o] <= 5e-3, (o, coarse)
-        assert 1.6 <= coarse[o] / fine[o] <= 2.4, (o, coarse, fine)
-        assert richardson[o] <= fine[o] / 5, (o, fine, richardson)
-    cs_changes = _changes(cs, "tire_contact")
+    assert_first_order(coarse, fine, richardson, CAR_OUT)
+    cs_changes = flag_changes(cs, "tire_contact")
     assert cs_changes.size == 4  # two lift-offs, two landings
     for run in runs:
-        changes = _changes(run, "tire_contact")
+        changes = flag_changes(run, "tire_contact")
         assert changes.size == cs_changes.size
         assert np.all(np.abs(changes - cs_changes) <= H), (changes, cs_changes)
 
@@ -211,7 +134,7 @@ def test_quarter_car_model_exchange_with_cvode_in_fmusim(native_fmus, tmp_path, 
     fmu = native_fmus[fmi + "QuarterCar"]
     outputs = (*CAR_OUT, "tire_contact")
     cs = simulate_fmu(fmu, stop_time=0.3, step_size=H, output=outputs, start_values=THROW)
-    cs_changes = _changes(cs, "tire_contact")
+    cs_changes = flag_changes(cs, "tire_contact")
     assert cs_changes.size == 2 and np.max(np.abs(cs["stop_force"])) > 1000
     errors = {}
     for rtol in (1e-6, 1e-8):
@@ -219,8 +142,8 @@ def test_quarter_car_model_exchange_with_cvode_in_fmusim(native_fmus, tmp_path, 
         for name, value in THROW.items():
             options += ["--start-value", name, str(value)]
         me = _fmusim(fmu, tmp_path, outputs, "me", *options, stop=0.3)
-        errors[rtol] = _errors(me, cs, CAR_OUT)
-        changes = _changes(me, "tire_contact")
+        errors[rtol] = peak_errors(me, cs, CAR_OUT)
+        changes = flag_changes(me, "tire_contact")
         assert changes.size == 2
         assert np.all((cs_changes - changes >= 0) & (cs_changes - changes <= H)), (
             changes,
@@ -232,36 +155,20 @@ def test_quarter_car_model_exchange_with_cvode_in_fmusim(native_fmus, tmp_path, 
         assert errors[1e-6][o] >= 10 * errors[1e-8][o], (o, errors)
 
 
-CORNERS = ("front_left", "front_right", "rear_left", "rear_right")
-FULL_OUT = ("bounce", "pitch", "roll", *(f"tire_force_{c}" for c in CORNERS))
-
-
-def _two_track():
-    """Per corner: the left track's 80 mm bump at 10 m, the right track's 40 mm one at
-    10.5 m; the rear wheels meet them a wheelbase (lf + lr = 2.8 m) later."""
-    base = BUMP[2]
-    ats = (base, base + 0.5, base + 2.8, base + 3.3)
-    heights = (BUMP[0], BUMP[0] / 2, BUMP[0], BUMP[0] / 2)
-    return [lambda t, h=h, a=a: _bump(t, h=h, at=a) for h, a in zip(heights, ats)]
-
-
-FULL_NAMES = tuple((f"road_displacement_{c}", f"road_velocity_{c}") for c in CORNERS)
-
-
 @pytest.mark.parametrize("fmi", ["", "fmi3/"])
 def test_full_car_cosimulation_in_fmusim_equals_fmpy(native_fmus, tmp_path, fmi):
     """FullCar.fmu co-simulated by fmusim and by fmpy on the two-track bump, 1 ms steps, the
     same input values at the same communication points: equal to 1e-9 of each output's peak
     (rounding; the CSV carries 17 digits)."""
     fmu = native_fmus[fmi + "FullCar"]
-    t, z, v = _road_samples(_two_track())
-    cs = _cosim(fmu, FULL_NAMES, t, z, v, FULL_OUT)
+    t, z, v = road_samples(two_track())
+    cs = cosim(fmu, FULL_NAMES, t, z, v, FULL_OUT)
     csv = tmp_path / "in.csv"
-    _write_input(csv, FULL_NAMES, t, z, v, fine=1)
+    write_input(csv, FULL_NAMES, t, z, v, fine=1)
     run = _fmusim(
         fmu, tmp_path, FULL_OUT, "cs", "--output-interval", f"{H!r}", "--input-file", str(csv)
     )
-    errors = _errors(run, cs, FULL_OUT)
+    errors = peak_errors(run, cs, FULL_OUT)
     print("fmusim co-simulation against fmpy:", errors)
     assert np.max(np.abs(cs["roll"])) > 1e-3  # the tracks differ: the body rolls
     for o in FULL_OUT:
@@ -274,11 +181,8 @@ def test_full_car_model_exchange_in_fmusim(native_fmus, tmp_path, fmi):
     co-simulation on the same road: as the QuarterCar, first-order error (at most 5e-3 of
     each output's peak at h = 1e-5 s), halving with h, removed by extrapolation."""
     fmu = native_fmus[fmi + "FullCar"]
-    coarse, fine, richardson, _, _ = _euler_against_cosim(
-        fmu, tmp_path, FULL_NAMES, _two_track(), FULL_OUT
+    coarse, fine, richardson, _, _ = euler_against_cosim(
+        fmu, tmp_path, FULL_NAMES, two_track(), FULL_OUT, _fmusim_euler
     )
     print("fmusim Euler, h and h/2 and extrapolated:", coarse, fine, richardson)
-    for o in FULL_OUT:
-        assert coarse[o] <= 5e-3, (o, coarse)
-        assert 1.6 <= coarse[o] / fine[o] <= 2.4, (o, coarse, fine)
-        assert richardson[o] <= fine[o] / 5, (o, fine, richardson)
+    assert_first_order(coarse, fine, richardson, FULL_OUT)
