@@ -21,6 +21,7 @@ from bodyvib.vehicle.road.driven import RunSettings, driven_road, wheel_inputs
 
 H, SPEED = 1e-3, 20.0
 POTHOLE = (0.05, 0.6, 0.05, 10.0)  # the "pothole" road: depth, length, ramp, at (m)
+ACTIVE_CARS = ["quarter-car-active", "half-car-active", "full-car-active"]
 
 
 def _road(name, car, duration):
@@ -31,22 +32,41 @@ def _road(name, car, duration):
 
 def _seated_preload(car, body):
     """The tires' static loads with this occupant on the seat, by the lever rule (the
-    quarter car: all of it on its one tire)."""
+    quarter car: all of it on its one tire; the full car, on four corners, by the
+    stiffnesses: its body's static deflection)."""
     p, mb = car.parameters, body.total_mass()
     if "lf" not in p:
         return {"tire": (p["ms"] + p["mu"] + mb) * GRAVITY}
     lf, lr, sx = p["lf"], p["lr"], p["seat_x"]
     L = lf + lr
+    if "tf" not in p:
+        return {
+            "tire_front": GRAVITY * (p["muf"] + p["ms"] * lr / L + mb * (lr + sx) / L),
+            "tire_rear": GRAVITY * (p["mur"] + p["ms"] * lf / L + mb * (lf - sx) / L),
+        }
+    # four corners under a rigid body: statically indeterminate; each corner a spring of
+    # the suspension and tire in series, the body's (z, theta, phi) from K q = loads
+    corners = {
+        "front_left": (lf, p["tf"] / 2, "f"),
+        "front_right": (lf, -p["tf"] / 2, "f"),
+        "rear_left": (-lr, p["tr"] / 2, "r"),
+        "rear_right": (-lr, -p["tr"] / 2, "r"),
+    }
+    K, k = np.zeros((3, 3)), {}
+    for name, (x, y, a) in corners.items():
+        k[name] = 1.0 / (1.0 / p["ks" + a] + 1.0 / p["kt" + a])
+        K += k[name] * np.outer([1, x, y], [1, x, y])
+    q = np.linalg.solve(K, GRAVITY * np.array([p["ms"] + mb, mb * sx, mb * p["seat_y"]]))
     return {
-        "tire_front": GRAVITY * (p["muf"] + p["ms"] * lr / L + mb * (lr + sx) / L),
-        "tire_rear": GRAVITY * (p["mur"] + p["ms"] * lf / L + mb * (lf - sx) / L),
+        f"tire_{name}": k[name] * (q[0] + x * q[1] + y * q[2]) + GRAVITY * p["mu" + a]
+        for name, (x, y, a) in corners.items()
     }
 
 
 def test_the_active_files_are_the_passive_cars_with_actuators():
     """Same values, tire contacts and stops as the passive files: the actuators aside,
     the same network."""
-    for name in ("quarter-car", "half-car"):
+    for name in ("quarter-car", "half-car", "full-car"):
         passive, active = load_car(name), load_car(f"{name}-active")
         assert active.parameters == passive.parameters
         assert active.elements == passive.elements
@@ -54,7 +74,7 @@ def test_the_active_files_are_the_passive_cars_with_actuators():
         assert {o["name"] for o in passive.fmu_outputs} <= {o["name"] for o in active.fmu_outputs}
 
 
-@pytest.mark.parametrize("name", ["quarter-car-active", "half-car-active"])
+@pytest.mark.parametrize("name", ACTIVE_CARS)
 def test_linear_option_is_the_active_car_with_tire_springs_and_no_stops(name):
     """``linear=True``: the car file with its contacts as springs and no stops, matrix for
     matrix, and the law comparison of that car bit for bit."""
@@ -73,7 +93,7 @@ def test_linear_option_is_the_active_car_with_tire_springs_and_no_stops(name):
         assert np.array_equal(a.head[law], b.head[law])
 
 
-@pytest.mark.parametrize("name", ["quarter-car-active", "half-car-active"])
+@pytest.mark.parametrize("name", ACTIVE_CARS)
 def test_where_nothing_switches_the_controlled_car_is_the_linear_one_bit_for_bit(name):
     """Class C at 20 m/s for 5 s under the skyhook: no lift-off, no stop; every signal,
     the actuator forces too, equals the linear active car's. (The 2 s road of seed 0 lifts
@@ -97,7 +117,7 @@ def test_where_nothing_switches_the_controlled_car_is_the_linear_one_bit_for_bit
     assert c.laws[0].tire_force_rms == pytest.approx(c_lin.laws[0].tire_force_rms, rel=1e-12)
 
 
-@pytest.mark.parametrize("name", ["quarter-car-active", "half-car-active"])
+@pytest.mark.parametrize("name", ACTIVE_CARS)
 def test_the_controlled_wheel_leaves_the_road_over_the_pothole(name):
     """The 50 mm pothole at 20 m/s under the skyhook: the total tire force never below 0,
     the wheel in the air, the contact flag 0 exactly while the tire carries nothing."""
@@ -107,7 +127,7 @@ def test_the_controlled_wheel_leaves_the_road_over_the_pothole(name):
     stream = ReferenceStream(car, body, H, law)
     out = stream.advance(z, v)
     f0 = _seated_preload(car, body)
-    front = "tire" if "tire" in f0 else "tire_front"
+    front = next(iter(f0))  # the quarter car's tire, the front (left) one
     total = out["tire_force"] + f0[front]
     assert np.min(total) >= -1e-9 * f0[front]
     if name == "quarter-car-active":  # the table's contact flag: the quarter car's tire

@@ -246,6 +246,7 @@ def test_road_data_files_are_not_listed_or_taken_as_cars(capsys, name):
     listed = line.split("one of: ")[1].split(", ")
     assert listed == [
         "full-car",
+        "full-car-active",
         "half-car",
         "half-car-active",
         "quarter-car",

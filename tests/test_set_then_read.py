@@ -48,12 +48,12 @@ def test_every_package_runs_within_the_target_when_inputs_are_set_first(request,
 
 @pytest.fixture(scope="module")
 def python_active(tmp_path_factory):
-    """``bodyvib build --control skyhook [--car half-car-active]``: pythonfmu road, car and
-    body with the native controller, as a user builds them."""
+    """``bodyvib build --control skyhook [--car half-car-active|full-car-active]``:
+    pythonfmu road, car and body with the native controller, as a user builds them."""
     from bodyvib.cli.main import main
 
     dest = tmp_path_factory.mktemp("python_active")
-    for car in ("quarter-car-active", "half-car-active"):
+    for car in ("quarter-car-active", "half-car-active", "full-car-active"):
         argv = ["build", "--control", "skyhook", "--car", car, "--dest", str(dest / car)]
         assert main(argv) == 0
     return dest
@@ -64,6 +64,7 @@ def python_active(tmp_path_factory):
     [
         ("quarter-car-active", "ActiveQuarterCarWithOccupant"),
         ("half-car-active", "ActiveHalfCarWithOccupant"),
+        ("full-car-active", "ActiveFullCarWithOccupant"),
     ],
 )
 def test_active_pythonfmu_packages_run_within_the_target(python_active, car, package):

@@ -220,7 +220,8 @@ def check_actuated(car: Network) -> None:
     if not car.actuators:
         raise BodyvibError(
             f"car '{car.name}' has no actuators for the controller to drive; use a car "
-            "with 'actuators' in its parameter file (quarter-car-active, half-car-active)"
+            "with 'actuators' in its parameter file (quarter-car-active, half-car-active, "
+            "full-car-active)"
         )
 
 

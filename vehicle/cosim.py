@@ -229,7 +229,8 @@ def actuator_pairs(variables, path="car FMU"):
     if not out:
         raise BodyvibError(
             f"{path} has no actuator inputs (actuator_force): a controller needs a car "
-            "built from a file with 'actuators' (car=quarter-car-active or half-car-active)",
+            "built from a file with 'actuators' (car=quarter-car-active, half-car-active or "
+            "full-car-active)",
             parameters=("car",),
         )
     return out

@@ -58,6 +58,9 @@ __all__ = [
     "ACTIVE_CONNECTIONS",
     "ACTIVE_HALF_CAR_SSP_NAME",
     "ACTIVE_HALF_CAR_COMPONENTS",
+    "ACTIVE_FULL_CAR_SSP_NAME",
+    "ACTIVE_FULL_CAR_COMPONENTS",
+    "ACTIVE_FULL_CAR_CONNECTIONS",
     "ACTIVE_HALF_CAR_CONNECTIONS",
     "ACTIVE_PACKAGES",
     "build_active_ssp",
@@ -163,6 +166,18 @@ ACTIVE_HALF_CAR_COMPONENTS = dict(HALF_CAR_COMPONENTS, Controller="SkyhookContro
 #: The half car's connections, and the controller wired per axle as on the quarter car.
 ACTIVE_HALF_CAR_CONNECTIONS = HALF_CAR_CONNECTIONS + _controller_connections(("_front", "_rear"))
 
+#: The active full car's package: the full car with an actuator per corner.
+ACTIVE_FULL_CAR_SSP_NAME = "ActiveFullCarWithOccupant"
+
+#: Component name -> FMU name of the active full car's package (the car built from
+#: ``full-car-active``, the controller for the suffixes ``_front_left`` ... ``_rear_right``).
+ACTIVE_FULL_CAR_COMPONENTS = dict(FULL_CAR_COMPONENTS, Controller="SkyhookController")
+
+#: The full car's connections, and the controller wired per corner as on the quarter car.
+ACTIVE_FULL_CAR_CONNECTIONS = FULL_CAR_CONNECTIONS + _controller_connections(
+    ("_front_left", "_front_right", "_rear_left", "_rear_right")
+)
+
 #: Package name -> (components, connections, description of the system).
 PACKAGES = {
     SSP_NAME: (
@@ -197,10 +212,21 @@ PACKAGES = {
         "occupant; a skyhook/groundhook controller sets each actuator force from the "
         "body and wheel velocities at its axle",
     ),
+    ACTIVE_FULL_CAR_SSP_NAME: (
+        ACTIVE_FULL_CAR_COMPONENTS,
+        ACTIVE_FULL_CAR_CONNECTIONS,
+        "Full car with an actuator per corner on a two-track road under its four wheels with "
+        "a seated occupant; a skyhook/groundhook controller sets each actuator force from "
+        "the body and wheel velocities at its corner",
+    ),
 }
 
 #: Car FMU name (:func:`bodyvib.vehicle.fmus.car_fmu_name`) -> its active package's name.
-ACTIVE_PACKAGES = {"QuarterCar": ACTIVE_SSP_NAME, "HalfCar": ACTIVE_HALF_CAR_SSP_NAME}
+ACTIVE_PACKAGES = {
+    "QuarterCar": ACTIVE_SSP_NAME,
+    "HalfCar": ACTIVE_HALF_CAR_SSP_NAME,
+    "FullCar": ACTIVE_FULL_CAR_SSP_NAME,
+}
 
 _NS = {
     "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
@@ -486,7 +512,10 @@ def build_active_ssp(
     :data:`ACTIVE_CONNECTIONS` into ``ActiveQuarterCarWithOccupant.ssp``. For a half car
     (``half-car-active``): ``RoadFrontRear.fmu`` and ``HalfCar.fmu`` instead, the
     controller built for the car's actuator suffixes (``_front``, ``_rear``), wired by
-    :data:`ACTIVE_HALF_CAR_CONNECTIONS` into ``ActiveHalfCarWithOccupant.ssp``.
+    :data:`ACTIVE_HALF_CAR_CONNECTIONS` into ``ActiveHalfCarWithOccupant.ssp``. For a full
+    car (``full-car-active``): ``RoadFourWheel.fmu`` and ``FullCar.fmu``, a controller
+    channel per corner, wired by :data:`ACTIVE_FULL_CAR_CONNECTIONS` into
+    ``ActiveFullCarWithOccupant.ssp``.
 
     Parameters
     ----------

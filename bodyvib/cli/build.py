@@ -267,7 +267,8 @@ def add_command(subparsers):
         metavar="MODEL",
         help="with --control: the car with actuators, quarter-car-active (default), "
         "half-car-active (HalfCar and RoadFrontRear, a controller per axle, "
-        "ActiveHalfCarWithOccupant.ssp) or a parameter file",
+        "ActiveHalfCarWithOccupant.ssp), full-car-active (FullCar and RoadFourWheel, a "
+        "controller per corner, ActiveFullCarWithOccupant.ssp) or a parameter file",
     )
     p.add_argument(
         "--cross-check",

@@ -79,7 +79,8 @@ def add_command(subparsers):
     p = subparsers.add_parser(
         "control",
         help="passive against skyhook and groundhook control: comfort and road holding",
-        description="Drive a car with actuators (quarter-car-active, half-car-active) with "
+        description="Drive a car with actuators (quarter-car-active, half-car-active, "
+        "full-car-active) with "
         "the occupant over a road under each control law, as the exact closed loop; print "
         "head Wk r.m.s., tire-force r.m.s., suspension-travel r.m.s. and actuator-force "
         "r.m.s. per law (and, unless --linear, each law's lift-offs and stop contacts).",

@@ -331,7 +331,8 @@ def _common(p):
         "--control",
         metavar="LAW",
         help="drive the car's actuators (a car with actuators: quarter-car-active, "
-        "half-car-active): skyhook, groundhook or hybrid, with options after ':' "
+        "half-car-active, full-car-active): skyhook, groundhook or hybrid, with options "
+        "after ':' "
         "c=<N s/m> (skyhook gain; default the body's critical damping on the suspension "
         "springs), g=<N s/m> (groundhook gain; default the passive suspension damper's "
         "coefficient), semi (on-off semi-active clipping); e.g. skyhook:c=3000",
