@@ -731,15 +731,19 @@ def test_active_package_wires_each_actuator_to_its_controller_channel(car, packa
     assert components["Car"] == {"half-car-active": "HalfCar", "full-car-active": "FullCar"}[car]
 
 
-@pytest.fixture(scope="module")
-def active_half_ssp(tmp_path_factory):
-    """``bodyvib build --control skyhook --car half-car-active --native``."""
+def _build_active_ssp(tmp_path_factory, car, package):
+    """``bodyvib build --control skyhook --car CAR --native``: the package's path."""
     from bodyvib.cli.main import main
 
-    dest = tmp_path_factory.mktemp("active_half_ssp")
-    argv = ["build", "--control", "skyhook", "--car", "half-car-active", "--native"]
+    dest = tmp_path_factory.mktemp(package)
+    argv = ["build", "--control", "skyhook", "--car", car, "--native"]
     assert main(argv + ["--platforms", "linux64", "--dest", str(dest)]) == 0
-    return dest / "native" / "active" / "ActiveHalfCarWithOccupant.ssp"
+    return dest / "native" / "active" / f"{package}.ssp"
+
+
+@pytest.fixture(scope="module")
+def active_half_ssp(tmp_path_factory):
+    return _build_active_ssp(tmp_path_factory, "half-car-active", "ActiveHalfCarWithOccupant")
 
 
 @pytest.mark.integration
@@ -771,13 +775,7 @@ def test_active_half_car_ssp_runs_within_target_when_inputs_are_set_first(active
 
 @pytest.fixture(scope="module")
 def active_full_ssp(tmp_path_factory):
-    """``bodyvib build --control skyhook --car full-car-active --native``."""
-    from bodyvib.cli.main import main
-
-    dest = tmp_path_factory.mktemp("active_full_ssp")
-    argv = ["build", "--control", "skyhook", "--car", "full-car-active", "--native"]
-    assert main(argv + ["--platforms", "linux64", "--dest", str(dest)]) == 0
-    return dest / "native" / "active" / "ActiveFullCarWithOccupant.ssp"
+    return _build_active_ssp(tmp_path_factory, "full-car-active", "ActiveFullCarWithOccupant")
 
 
 @pytest.mark.integration

@@ -27,26 +27,10 @@ import shutil
 import subprocess
 import sysconfig
 
+import host_runs as hosts
 import numpy as np
 import pytest
 from conftest import FMU_NAMES
-from host_runs import (
-    CAR_OUT,
-    FULL_NAMES,
-    FULL_OUT,
-    ROAD_NAMES,
-    T_END,
-    H,
-    assert_first_order,
-    bump,
-    cosim,
-    euler_against_cosim,
-    flag_changes,
-    peak_errors,
-    road_samples,
-    two_track,
-    write_input,
-)
 
 CHECKER = os.environ.get("FMUCHECK") or shutil.which("fmuCheck.linux64")
 
@@ -71,7 +55,7 @@ def _check(path, mode, tmp_path, *options, env=None):
     default): (exit status, its log, the result CSV's rows)."""
     out = tmp_path / "result.csv"
     p = subprocess.run(
-        [CHECKER, "-k", mode, *(options or ("-h", "1e-3")), "-s", str(T_END), "-l", "4"]
+        [CHECKER, "-k", mode, *(options or ("-h", "1e-3")), "-s", str(hosts.T_END), "-l", "4"]
         + ["-o", str(out), path],
         capture_output=True,
         text=True,
@@ -137,7 +121,7 @@ def _checker_run(fmu, tmp_path, outputs, mode, *options):
 def _checker_euler(fmu, tmp_path, outputs, h, csv):
     """The checker's model exchange (forward Euler at step ``h``) on the input CSV, an output
     row about each millisecond."""
-    points = str(round(T_END / H))
+    points = str(round(hosts.T_END / hosts.H))
     return _checker_run(fmu, tmp_path, outputs, "me", "-h", repr(h), "-n", points, "-i", str(csv))
 
 
@@ -156,25 +140,25 @@ def test_quarter_car_model_exchange_over_the_bump_in_the_checker(native_fmus, tm
     leaves the road and lands twice, each change within one communication step of the
     co-simulation's (the checker detects a crossing at the end of the Euler step and writes
     the next output row on its own grid of Euler steps, within a step of the millisecond)."""
-    outputs = (*CAR_OUT, "tire_contact")
-    coarse, fine, richardson, runs, cs = euler_against_cosim(
-        native_fmus["QuarterCar"], tmp_path, ROAD_NAMES, [bump], outputs, _checker_euler
+    outputs = (*hosts.CAR_OUT, "tire_contact")
+    coarse, fine, richardson, runs, cs = hosts.euler_against_cosim(
+        native_fmus["QuarterCar"], tmp_path, hosts.ROAD_NAMES, [hosts.bump], outputs, _checker_euler
     )
     print("checker Euler, h and h/2 and extrapolated:", coarse, fine, richardson)
-    assert_first_order(coarse, fine, richardson, CAR_OUT, DISPLACEMENTS)
-    cs_changes = flag_changes(cs, "tire_contact")
+    hosts.assert_first_order(coarse, fine, richardson, hosts.CAR_OUT, DISPLACEMENTS)
+    cs_changes = hosts.flag_changes(cs, "tire_contact")
     assert cs_changes.size == 4
     for run in runs:
-        changes = flag_changes(run, "tire_contact")
+        changes = hosts.flag_changes(run, "tire_contact")
         assert changes.size == cs_changes.size
-        assert np.all(np.abs(changes - cs_changes) <= 1.05 * H), (changes, cs_changes)
+        assert np.all(np.abs(changes - cs_changes) <= 1.05 * hosts.H), (changes, cs_changes)
 
 
 @pytest.mark.parametrize(
     ("name", "names", "tracks", "outputs"),
     [
-        ("QuarterCar", ROAD_NAMES, [bump], (*CAR_OUT, "tire_contact")),
-        ("FullCar", FULL_NAMES, two_track(), FULL_OUT),
+        ("QuarterCar", hosts.ROAD_NAMES, [hosts.bump], (*hosts.CAR_OUT, "tire_contact")),
+        ("FullCar", hosts.FULL_NAMES, hosts.two_track(), hosts.FULL_OUT),
     ],
 )
 def test_cars_cosimulation_over_the_bump_in_the_checker_equals_fmpy(
@@ -184,15 +168,15 @@ def test_cars_cosimulation_over_the_bump_in_the_checker_equals_fmpy(
     by fmpy with the same inputs at the same 1 ms communication points: the checker reports
     nothing and the outputs agree to 1e-9 of each one's peak (rounding; the CSV carries 17
     digits), wheels leaving the road included."""
-    t, z, v = road_samples(tracks)
-    ref = cosim(native_fmus[name], names, t, z, v, outputs)
+    t, z, v = hosts.road_samples(tracks)
+    ref = hosts.cosim(native_fmus[name], names, t, z, v, outputs)
     csv = tmp_path / "in.csv"
-    write_input(csv, names, t, z, v, fine=1)
-    points = ("-n", str(round(T_END / H)))
+    hosts.write_input(csv, names, t, z, v, fine=1)
+    points = ("-n", str(round(hosts.T_END / hosts.H)))
     run = _checker_run(
-        native_fmus[name], tmp_path, outputs, "cs", "-h", repr(H), *points, "-i", str(csv)
+        native_fmus[name], tmp_path, outputs, "cs", "-h", repr(hosts.H), *points, "-i", str(csv)
     )
-    errors = peak_errors(run, ref, outputs)
+    errors = hosts.peak_errors(run, ref, outputs)
     print("checker co-simulation against fmpy:", errors)
     for o in outputs:
         assert errors[o] <= 1e-9, (o, errors)
@@ -203,8 +187,13 @@ def test_full_car_model_exchange_over_the_bump_in_the_checker(native_fmus, tmp_p
     reports nothing and its Euler result is first order against fmpy's co-simulation, the
     body's motion (bounce, pitch, roll) extrapolated to at most a fifth (measured 1e-6 to
     3e-6 of the peak)."""
-    coarse, fine, richardson, _, _ = euler_against_cosim(
-        native_fmus["FullCar"], tmp_path, FULL_NAMES, two_track(), FULL_OUT, _checker_euler
+    coarse, fine, richardson, _, _ = hosts.euler_against_cosim(
+        native_fmus["FullCar"],
+        tmp_path,
+        hosts.FULL_NAMES,
+        hosts.two_track(),
+        hosts.FULL_OUT,
+        _checker_euler,
     )
     print("checker Euler, h and h/2 and extrapolated:", coarse, fine, richardson)
-    assert_first_order(coarse, fine, richardson, FULL_OUT, FULL_OUT[:3])
+    hosts.assert_first_order(coarse, fine, richardson, hosts.FULL_OUT, hosts.FULL_OUT[:3])
