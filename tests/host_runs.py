@@ -6,9 +6,23 @@ forward Euler with it.
 Imported as ``from host_runs import ...`` by the tests of each host.
 """
 
+import os
+import shutil
+
 import numpy as np
+import pytest
 from fmpy import simulate_fmu
 from test_regimes import BUMP, SPEED, H
+
+
+def host_program(env: str, name: str, what: str, how: str):
+    """A C host the project does not build: its path (the ``env`` variable's, else ``name``
+    on ``PATH``; None: neither) and the marks of its tests (integration, skipped without
+    it with the reason ``no <what>: ...``, ``how`` saying where to get it)."""
+    path = os.environ.get(env) or shutil.which(name)
+    reason = f"no {what}: put {name} on PATH or set {env} ({how})"
+    return path, [pytest.mark.integration, pytest.mark.skipif(path is None, reason=reason)]
+
 
 CAR_OUT = ("seat_displacement", "suspension_deflection", "tire_force", "stop_force")
 T_END = 1.0

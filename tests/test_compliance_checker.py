@@ -23,7 +23,6 @@ or the ``FMUCHECK`` environment variable names it, and skip with that reason oth
 
 import os
 import re
-import shutil
 import subprocess
 import sysconfig
 
@@ -32,16 +31,12 @@ import numpy as np
 import pytest
 from conftest import FMU_NAMES
 
-CHECKER = os.environ.get("FMUCHECK") or shutil.which("fmuCheck.linux64")
-
-pytestmark = [
-    pytest.mark.integration,
-    pytest.mark.skipif(
-        CHECKER is None,
-        reason="no FMU Compliance Checker: put fmuCheck.linux64 on PATH or set FMUCHECK "
-        "(build modelica-tools/FMUComplianceChecker from source)",
-    ),
-]
+CHECKER, pytestmark = hosts.host_program(
+    "FMUCHECK",
+    "fmuCheck.linux64",
+    "FMU Compliance Checker",
+    "build modelica-tools/FMUComplianceChecker from source",
+)
 
 
 def _libpython():

@@ -31,8 +31,6 @@ The project does not build fmusim. The tests run when ``fmusim`` is on ``PATH`` 
 ``FMUSIM`` environment variable names it, and skip with that reason otherwise.
 """
 
-import os
-import shutil
 import subprocess
 
 import numpy as np
@@ -50,22 +48,20 @@ from host_runs import (
     cosim,
     euler_against_cosim,
     flag_changes,
+    host_program,
     peak_errors,
     road_samples,
     two_track,
     write_input,
 )
 
-FMUSIM = os.environ.get("FMUSIM") or shutil.which("fmusim")
-
-pytestmark = [
-    pytest.mark.integration,
-    pytest.mark.skipif(
-        FMUSIM is None,
-        reason="no fmusim: put fmusim on PATH or set FMUSIM (the C fmusim of "
-        "modelica/Reference-FMUs, up to release v0.0.39: its release archives or its sources)",
-    ),
-]
+FMUSIM, pytestmark = host_program(
+    "FMUSIM",
+    "fmusim",
+    "fmusim",
+    "the C fmusim of modelica/Reference-FMUs, up to release v0.0.39: its release archives "
+    "or its sources",
+)
 
 
 def _fmusim(fmu, tmp_path, outputs, interface, *options, stop=T_END):

@@ -18,6 +18,7 @@ import numpy as np
 __all__ = [
     "RunEvents",
     "EventStream",
+    "CarEventStream",
     "format_events",
     "LinearRange",
     "LinearRangeStream",
@@ -122,6 +123,63 @@ class EventStream:
             largest_stop_force_n=self.stop_max,
             smallest_tire_load_ratio=ratio,
         )
+
+
+class CarEventStream:
+    """The events of a car's run fed block by block from its signals: each wheel's
+    (:class:`EventStream` on ``tire_contact_<wheel>``, ``stop_force_<wheel>``,
+    ``tire_force_<wheel>``) and the car's (:func:`combine_events` of the wheels'; a car
+    without per-wheel columns, a quarter car: its ``tire_contact``, ``stop_force`` and
+    ``tire_force``).
+
+    Parameters
+    ----------
+    step : float
+        Communication step, s.
+    tire_loads : dict of str to float or None
+        The tires' static loads by tire-force output (``tire_force``,
+        ``tire_force_front``, ...), N, for the load ratios.
+    wheels : sequence of str
+        The wheels with their own columns (:data:`bodyvib.vehicle.signals.WHEELS`), empty
+        for a quarter car.
+
+    Examples
+    --------
+    >>> s = CarEventStream(0.001, {"tire_force_front": 4000.0, "tire_force_rear": 3000.0},
+    ...                    ["front", "rear"])
+    >>> off = {"tire_contact": np.array([1, 0, 1.0]), "stop_force": np.zeros(3),
+    ...        "tire_force": np.array([0, -4000, 0.0])}
+    >>> s.update({f"{k}_{w}": x for k, x in off.items() for w in ("front", "rear")})
+    >>> s.result().lift_offs, sorted(s.wheel_results())
+    (2, ['front', 'rear'])
+    """
+
+    def __init__(self, step: float, tire_loads, wheels=()):
+        from .signals import corner_variable
+
+        self.wheels = {w: EventStream(step, tire_loads.get(f"tire_force_{w}")) for w in wheels}
+        self._car = None
+        if not self.wheels:
+            self._car = EventStream(step, tire_loads.get(corner_variable("tire_force", tire_loads)))
+
+    def update(self, signals) -> None:
+        """Take the next communication points' signals, by name."""
+        from .signals import WHEEL_SIGNALS
+
+        if self._car is not None:
+            self._car.update(*(signals[k] for k in WHEEL_SIGNALS))
+        for w, stream in self.wheels.items():
+            stream.update(*(signals[f"{k}_{w}"] for k in WHEEL_SIGNALS))
+
+    def result(self) -> RunEvents:
+        """The car's events so far."""
+        if self._car is not None:
+            return self._car.result()
+        return combine_events([e.result() for e in self.wheels.values()])
+
+    def wheel_results(self) -> dict:
+        """Each wheel's events so far (empty for a quarter car)."""
+        return {w: e.result() for w, e in self.wheels.items()}
 
 
 def format_events(e: RunEvents) -> str:

@@ -37,10 +37,9 @@ from bodyvib.runtime.renames import NOT, renamed_parameters
 from .control import controller_from_fmu, describe
 from .cosim import CsvStream, Master, check_fmu, model_from_fmu, open_controller, open_fmu
 from .events import (
-    EventStream,
+    CarEventStream,
     LinearRangeStream,
     RunEvents,
-    combine_events,
     linear_ranges,
     seated_preloads,
 )
@@ -50,7 +49,7 @@ from .road import roads_input, wheel_roads
 from .road.driven import RunSettings, driven_road
 from .road.synthetic import Road, road_input
 from .seat_motion import seat_figures, seat_height, seat_method_warnings, seat_totals
-from .signals import BODY_SIGNALS, OPTIONAL_SIGNALS, corner_variable
+from .signals import BODY_SIGNALS, OPTIONAL_SIGNALS
 
 __all__ = [
     "BodyRun",
@@ -676,9 +675,9 @@ class _BodyRecorder:
         self.head_window = []
         self.kept = [] if histories else None
         self.kept_ref = [] if histories else None
-        self.events, self.occupant = EventStream(step, None), None
+        self.events, self.occupant = CarEventStream(step, {}), None
         self.range: Optional[LinearRangeStream] = None  # a linear car's range (linear_of)
-        self.tire_loads, self.wheel_events = {}, {}
+        self.tire_loads = {}
         self.seat_blocks = []  # the seat's x, y, z (a car that has x and y: half, full car)
         self.seat = None  # the seat's height and whether the body rolls (seat_height)
         self.seat_warnings: List[str] = []  # the seat's axes beyond the basic method
@@ -689,9 +688,6 @@ class _BodyRecorder:
         this body's weight on its seat (None: the car's own), and the nonlinear car whose
         linearization the car FMU is (None: watch no range)."""
         self.tire_loads = tire_loads
-        self.events = EventStream(
-            self.step, tire_loads.get(corner_variable("tire_force", tire_loads))
-        )
         self.occupant = occupant
         if linear_of is not None:
             net = self.net or model_from_fmu(self.path)
@@ -722,10 +718,7 @@ class _BodyRecorder:
         self.master = Master(
             car, body, self.step, n, extrapolate=extrapolate, controller=law, watch=watch
         )
-        self.wheel_events = {
-            w: EventStream(self.step, self.tire_loads.get(f"tire_force_{w}"))
-            for w in self.master.wheels
-        }
+        self.events = CarEventStream(self.step, self.tire_loads, self.master.wheels)
 
     def advance(self, a, size, wheels):
         """Run one block from point ``a``; its signals and the reference's (or None)."""
@@ -737,11 +730,9 @@ class _BodyRecorder:
         self.trans.update(seat, head)
         for name, stream in self.forces.items():
             stream.update(sig[name])
-        self.events.update(sig["tire_contact"], sig["stop_force"], sig["tire_force"])
+        self.events.update(sig)
         if self.range is not None:
             self.range.update_columns(sig)
-        for w, stream in self.wheel_events.items():
-            stream.update(sig[f"tire_contact_{w}"], sig[f"stop_force_{w}"], sig[f"tire_force_{w}"])
         if not np.isnan(sig["seat_acceleration_x"][0]):  # a car that has them
             self.seat_blocks.append((sig["seat_acceleration_x"], sig["seat_acceleration_y"], seat))
         ref = None
@@ -782,12 +773,8 @@ class _BodyRecorder:
                 for name, f in ((k, s.figures()) for k, s in self.forces.items())
                 if math.isfinite(f.rms)
             },
-            events=(
-                combine_events([e.result() for e in self.wheel_events.values()])
-                if self.wheel_events
-                else self.events.result()
-            ),
-            wheel_events={w: e.result() for w, e in self.wheel_events.items()},
+            events=self.events.result(),
+            wheel_events=self.events.wheel_results(),
             reference_events=self.ref.events() if self.ref is not None else {},
             seat_axes=seat_axes,
             model_transmissibility_peak=model_peak(self.net or model_from_fmu(self.path)),

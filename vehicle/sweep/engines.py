@@ -48,7 +48,7 @@
   occupant start values of :func:`bodyvib.vehicle.study.run_study`); the event
   columns are read from its contact flags, stop forces and tire forces at the
   communication points as ``bodyvib cosim`` reads them
-  (:class:`bodyvib.vehicle.events.EventStream`; ``stepping`` ``events``). With the
+  (:class:`bodyvib.vehicle.events.CarEventStream`; ``stepping`` ``events``). With the
   spec's ``linear`` the car FMU is the linearized car (``stepping`` ``linear``).
 
 Every case sees the road of ``bodyvib cosim`` with the same road, seed, speed,
@@ -82,7 +82,7 @@ from bodyvib.runtime.errors import BodyvibError
 from bodyvib.runtime.network import linear_model, linearized
 from bodyvib.runtime.regimes import PiecewiseModel
 
-from ..events import EventStream, combine_events
+from ..events import CarEventStream
 from ..quarter_car import seated_system, track_width, wheel_offsets, wheel_sides
 from ..road import roads_input, wheel_roads
 from ..road.driven import driven_road
@@ -94,7 +94,6 @@ from ..road.synthetic import (
     track_coherence,
 )
 from ..seat_motion import SEAT_FIGURES, seat_axes, seat_height, seat_point
-from ..signals import WHEEL_SIGNALS, corner_variable
 from . import kernel
 from .kernel import SUMS
 from .spec import Case
@@ -953,18 +952,11 @@ def _cosim_case(cs, folder, built, record):
 def _cosim_events(run: dict, wheels, loads: dict, step: float) -> dict:
     """The event columns of a co-simulated run: the car FMU's contact flags, stop forces
     and tire forces at the communication points read by
-    :class:`bodyvib.vehicle.events.EventStream` as ``bodyvib cosim`` reads them (a car
-    with several wheels: each wheel's, :func:`bodyvib.vehicle.events.combine_events`);
+    :class:`bodyvib.vehicle.events.CarEventStream` as ``bodyvib cosim`` reads them;
     ``loads`` are the tires' static loads by tire-force output."""
-    if wheels:
-        streams = [EventStream(step, loads.get(f"tire_force_{w}")) for w in wheels]
-        for w, stream in zip(wheels, streams):
-            stream.update(*(run[f"{k}_{w}"] for k in WHEEL_SIGNALS))
-        e = combine_events([stream.result() for stream in streams])
-    else:
-        stream = EventStream(step, loads.get(corner_variable("tire_force", loads)))
-        stream.update(run["tire_contact"], run["stop_force"], run["tire_force"])
-        e = stream.result()
+    stream = CarEventStream(step, loads, wheels)
+    stream.update(run)
+    e = stream.result()
     ratio = e.smallest_tire_load_ratio
     return {
         "lift_offs": float(e.lift_offs),
