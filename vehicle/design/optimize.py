@@ -451,9 +451,17 @@ def _wheel_load(lm, figure: Objective) -> float:
     return abs(static_output(lm, figure.output))
 
 
-def _simulate(lm, z, v, step):
-    """Every output of a model on road samples, by the exact step of the batched engine
-    (``z``, ``v``: one column per road point of the model)."""
+#: Samples of a verification run formed into outputs, or weighted, between two safe points
+#: (:func:`bodyvib.process.interrupts.check`): a few milliseconds of work each.
+_BLOCK = 1 << 16
+
+
+def _simulate(lm, z, v, step, C=None, D=None):
+    """Outputs ``y = C x + D u`` of a model on road samples (rows of ``C``, ``D``: an
+    output's rows of ``lm.C``, ``lm.D``, or a combination of them; every output by
+    default), by the exact step of
+    the batched engine (``z``, ``v``: one column per road point of the model); formed
+    block by block, a safe point between blocks."""
     u = np.zeros((len(z), len(lm.inputs)))
     zc, vc = np.reshape(z, (len(z), -1)), np.reshape(v, (len(v), -1))
     for j, (iz, iv) in enumerate(road_inputs(lm)):
@@ -461,7 +469,12 @@ def _simulate(lm, z, v, step):
     X = Discretization(lm).run(
         u, input_rates(lm, u), step, safe_point=interrupts.check
     )  # in-step road z_k + v_k tau
-    return X @ lm.C.T + u @ lm.D.T
+    C, D = (lm.C, lm.D) if C is None else (C, D)
+    Y = np.empty((len(X), C.shape[0]))
+    for a in range(0, len(X), _BLOCK):
+        interrupts.check()
+        Y[a : a + _BLOCK] = X[a : a + _BLOCK] @ C.T + u[a : a + _BLOCK] @ D.T
+    return Y
 
 
 def verify_design(spec: DesignSpec, values: Dict[str, float]) -> Dict[str, float]:
@@ -492,6 +505,12 @@ def verify_design(spec: DesignSpec, values: Dict[str, float]) -> Dict[str, float
         {f.output for f in figs} | ({"sprung.a"} if any(f.kind == "seat" for f in figs) else set())
     )
     rows = [lm.output_index(o) for o in outs]
+    C, D = lm.C[rows], lm.D[rows]
+    power = any(f.kind == "power" for f in figs)
+    if power:  # two more rows: the seat force and the seat velocity
+        force, sv = seat_force_weights(lm, body, seat), lm.output_index(f"{seat}.v")
+        C = np.vstack([C, force @ lm.C, lm.C[sv]])
+        D = np.vstack([D, force @ lm.D, lm.D[sv]])
     w = np.array([p.weight for p in spec.operating_points])
     w = w / w.sum()
     per_point = []
@@ -509,14 +528,14 @@ def verify_design(spec: DesignSpec, values: Dict[str, float]) -> Dict[str, float
             settings = RunSettings(p.road, p.speed, spec.verify.duration, st, seed=spec.verify.seed)
             roads = wheel_roads(settings, road, wheels[1], wheels[2])
             z, v = roads_input(roads, p.speed, t, wheels[0])
-        Y_all = _simulate(lm, z, v, st)
-        Y = Y_all[:, rows]
-        power = None
-        if any(f.kind == "power" for f in figs):  # seat force times seat velocity
-            force = Y_all @ seat_force_weights(lm, body, seat)
-            power = float(np.mean(force * Y_all[:, lm.output_index(f"{seat}.v")]))
+        Y_all = _simulate(lm, z, v, st, C, D)
+        Y = Y_all[:, : len(outs)]
+        # seat force times seat velocity
+        absorbed = float(np.mean(Y_all[:, -2] * Y_all[:, -1])) if power else None
         stream = ComfortStream(1.0 / st, len(outs))
-        stream.update(np.ascontiguousarray(Y.T))
+        for a in range(0, len(Y), _BLOCK):
+            interrupts.check()
+            stream.update(np.ascontiguousarray(Y[a : a + _BLOCK].T))
         wk = dict(zip(outs, stream.figures()["weighted_rms"]))
         rms = dict(zip(outs, np.sqrt(np.mean(Y**2, axis=0))))
         per_point.append(
@@ -529,7 +548,7 @@ def verify_design(spec: DesignSpec, values: Dict[str, float]) -> Dict[str, float
                             lm,
                             spec.rattle_space,
                             wk.get("sprung.a", 0.0),
-                            power,
+                            absorbed,
                             _wheel_load(lm, f),
                         ),
                     )
